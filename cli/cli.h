@@ -1,0 +1,46 @@
+/* cli/cli.h — shared pieces of the volmesh program's subcommands. */
+#ifndef VM_CLI_H
+#define VM_CLI_H
+
+#include <stdio.h>
+#include "volmesh/volmesh.h"
+
+/* Exit codes (DESIGN.md): 0 ok, 1 a requested check failed, 2 bad input or usage. */
+enum { VM_EXIT_OK = 0, VM_EXIT_CHECK = 1, VM_EXIT_INPUT = 2 };
+
+/* Prints "volmesh: MESSAGE" on stderr and returns VM_EXIT_INPUT. */
+int vm_cli_fail(const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 1, 2)))
+#endif
+    ;
+
+/* Prints err's message as "volmesh: ..." and returns VM_EXIT_INPUT. */
+int vm_cli_fail_err(const vm_error *err);
+
+/* 1 when argument a equals one of the given flag spellings. */
+int vm_cli_is(const char *a, const char *flag1, const char *flag2);
+
+/* Parses a number argument of option opt; on error prints and returns -1. */
+int vm_cli_double(const char *opt, const char *s, double *out);
+int vm_cli_int(const char *opt, const char *s, long lo, long hi, long *out);
+
+/* Progress callback drawing a bar on stderr when it is a terminal (user: quiet flag). */
+void vm_cli_progress(const char *stage, double done, double total, void *user);
+
+int vm_cmd_info(int argc, char **argv);
+int vm_cmd_mesh(int argc, char **argv);
+int vm_cmd_demo(int argc, char **argv);
+
+/* Reads a volume: a regular file by extension, or raw with the options already parsed. */
+int vm_cli_read_volume(const char *path, const vm_raw_options *raw, vm_volume *v);
+
+/* Parses the raw-file options (--raw-dims NXxNYxNZ --raw-type T --raw-endian big|little
+ * --raw-spacing SX,SY,SZ --raw-header N) at argv[*i]; returns 1 when consumed, 0 when the
+ * argument is not a raw option, -1 on error. */
+int vm_cli_raw_option(int argc, char **argv, int *i, vm_raw_options *raw, int *is_raw);
+
+/* Prints the volume summary (text or JSON) for `info` and `demo`. */
+void vm_cli_print_info(FILE *out, const char *path, const vm_volume *v, int json);
+
+#endif

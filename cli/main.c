@@ -1,0 +1,98 @@
+/* cli/main.c — the volmesh program: subcommand dispatch, shared option parsing, errors. */
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include "cli.h"
+
+static const char *usage =
+    "usage: volmesh COMMAND [options]\n"
+    "\n"
+    "Meshes 3-D images (CT, MRI, label maps, simulation fields) into finite-element meshes.\n"
+    "\n"
+    "commands:\n"
+    "  info FILE [--json]          describe a volume: dims, type, spacing, origin, direction,\n"
+    "                              min/max/mean and a histogram\n"
+    "  mesh FILE -o OUT.vtu ...    mesh the material {f >= iso} or {a <= f <= b} into tetrahedra\n"
+    "  demo [--size N]             mesh a built-in phantom and write the outputs here\n"
+    "\n"
+    "  volmesh COMMAND --help      options of one command\n"
+    "  volmesh --version           version\n"
+    "\n"
+    "exit status: 0 ok, 1 a requested check failed, 2 bad input or usage\n";
+
+int vm_cli_fail(const char *fmt, ...) {
+    va_list ap;
+    fputs("volmesh: ", stderr);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+    return VM_EXIT_INPUT;
+}
+
+int vm_cli_fail_err(const vm_error *err) {
+    return vm_cli_fail("%s", err->message[0] ? err->message : vm_status_string(err->status));
+}
+
+int vm_cli_is(const char *a, const char *flag1, const char *flag2) {
+    return (flag1 && strcmp(a, flag1) == 0) || (flag2 && strcmp(a, flag2) == 0);
+}
+
+int vm_cli_double(const char *opt, const char *s, double *out) {
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (end == s || *end || errno == ERANGE || !isfinite(v)) {
+        vm_cli_fail("%s: '%s' is not a number", opt, s);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+int vm_cli_int(const char *opt, const char *s, long lo, long hi, long *out) {
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (end == s || *end || errno == ERANGE || v < lo || v > hi) {
+        vm_cli_fail("%s: '%s' is not a whole number from %ld to %ld", opt, s, lo, hi);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+void vm_cli_progress(const char *stage, double done, double total, void *user) {
+    int quiet = user ? *(const int *)user : 0;
+    if (quiet || !isatty(2) || total <= 0) return;
+    int width = 30, fill = (int)(width * (done / total) + 0.5);
+    if (fill > width) fill = width;
+    fprintf(stderr, "\r%-12s [%.*s%*s] %3d%%", stage, fill, "##############################",
+            width - fill, "", (int)(100.0 * done / total + 0.5));
+    if (done >= total) fputs("\r\033[K", stderr);
+    fflush(stderr);
+}
+
+int main(int argc, char **argv) {
+    if (argc < 2) {
+        fputs(usage, stderr);
+        return VM_EXIT_INPUT;
+    }
+    const char *cmd = argv[1];
+    if (vm_cli_is(cmd, "--help", "-h") || strcmp(cmd, "help") == 0) {
+        fputs(usage, stdout);
+        return VM_EXIT_OK;
+    }
+    if (vm_cli_is(cmd, "--version", "-V")) {
+        printf("volmesh %s\n", vm_version());
+        return VM_EXIT_OK;
+    }
+    if (strcmp(cmd, "info") == 0) return vm_cmd_info(argc - 1, argv + 1);
+    if (strcmp(cmd, "mesh") == 0) return vm_cmd_mesh(argc - 1, argv + 1);
+    if (strcmp(cmd, "demo") == 0) return vm_cmd_demo(argc - 1, argv + 1);
+    vm_cli_fail("unknown command '%s' (try volmesh --help)", cmd);
+    return VM_EXIT_INPUT;
+}

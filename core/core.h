@@ -1,0 +1,28 @@
+/* core/core.h — private helpers shared by io/, mesher/ and quality/: checked sizes, the
+ * memory limit, growable arrays. Not part of the public API. */
+#ifndef VM_CORE_H
+#define VM_CORE_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "volmesh/error.h"
+
+/* a*b into *out; returns 0 on overflow. */
+int vm__mul_size(size_t a, size_t b, size_t *out);
+
+/* Largest number of bytes one allocation may take: VOLMESH_MAX_MEMORY (bytes, env) when
+ * set, else the machine's physical memory. */
+size_t vm__memory_limit(void);
+
+/* Checks dims (each >= 1, product * elem_size fits in size_t and within the memory limit).
+ * what names the file or argument in the message. On success *count = nx*ny*nz. */
+vm_status vm__check_dims(const int64_t dims[3], size_t elem_size, const char *what,
+                         size_t *count, vm_error *err);
+
+/* Grows *buf (elements of elem bytes) so that it holds at least need elements. */
+vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *err);
+
+/* Seconds from a monotonic clock. */
+double vm__now(void);
+
+#endif

@@ -1,0 +1,77 @@
+/* core/util.c — checked sizes, the memory limit, growable arrays, clock. */
+#define _POSIX_C_SOURCE 200809L
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+#include "core.h"
+
+int vm__mul_size(size_t a, size_t b, size_t *out) {
+    if (a != 0 && b > SIZE_MAX / a) return 0;
+    *out = a * b;
+    return 1;
+}
+
+size_t vm__memory_limit(void) {
+    const char *env = getenv("VOLMESH_MAX_MEMORY");
+    if (env && *env) {
+        char *end = NULL;
+        unsigned long long v = strtoull(env, &end, 10);
+        if (end != env && v > 0) return (size_t)v;
+    }
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages <= 0 || page <= 0) return (size_t)1 << 34;
+    size_t total;
+    if (!vm__mul_size((size_t)pages, (size_t)page, &total)) return SIZE_MAX;
+    return total;
+}
+
+vm_status vm__check_dims(const int64_t dims[3], size_t elem_size, const char *what,
+                         size_t *count, vm_error *err) {
+    size_t n = 1;
+    for (int a = 0; a < 3; a++) {
+        if (dims[a] < 1)
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: dimension %d is %lld (must be >= 1)",
+                                what, a, (long long)dims[a]);
+        if ((uint64_t)dims[a] > SIZE_MAX || !vm__mul_size(n, (size_t)dims[a], &n))
+            return vm_error_set(err, VM_ERR_NOMEM, "%s: dimensions %lldx%lldx%lld overflow",
+                                what, (long long)dims[0], (long long)dims[1],
+                                (long long)dims[2]);
+    }
+    size_t bytes;
+    if (!vm__mul_size(n, elem_size, &bytes) || bytes > vm__memory_limit())
+        return vm_error_set(err, VM_ERR_NOMEM,
+                            "%s: dimensions %lldx%lldx%lld need %.1f GiB, more than the "
+                            "memory limit of %.1f GiB",
+                            what, (long long)dims[0], (long long)dims[1], (long long)dims[2],
+                            (double)n * (double)elem_size / 1073741824.0,
+                            (double)vm__memory_limit() / 1073741824.0);
+    if (count) *count = n;
+    return VM_OK;
+}
+
+vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *err) {
+    if (need <= *cap) return VM_OK;
+    size_t ncap = *cap ? *cap : 16;
+    while (ncap < need) {
+        if (ncap > SIZE_MAX / 2) {
+            ncap = need;
+            break;
+        }
+        ncap *= 2;
+    }
+    size_t bytes;
+    if (!vm__mul_size(ncap, elem, &bytes))
+        return vm_error_set(err, VM_ERR_NOMEM, "array of %zu elements overflows", ncap);
+    void *p = realloc(*buf, bytes);
+    if (!p) return vm_error_set(err, VM_ERR_NOMEM, "out of memory (%zu bytes)", bytes);
+    *buf = p;
+    *cap = ncap;
+    return VM_OK;
+}
+
+double vm__now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}

@@ -1,0 +1,4 @@
+/* core/version.c — library version. */
+#include "volmesh/volmesh.h"
+
+const char *vm_version(void) { return VOLMESH_VERSION; }

@@ -1,0 +1,127 @@
+/* core/volume.c — vm_volume allocation, geometry and statistics. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include "core.h"
+#include "volmesh/volume.h"
+
+vm_status vm_volume_alloc(vm_volume *v, const int64_t dims[3], vm_error *err) {
+    size_t n;
+    memset(v, 0, sizeof *v);
+    vm_status st = vm__check_dims(dims, sizeof(float), "volume", &n, err);
+    if (st) return st;
+    v->data = malloc(n * sizeof(float));
+    if (!v->data)
+        return vm_error_set(err, VM_ERR_NOMEM, "volume: out of memory for %zu voxels", n);
+    for (int a = 0; a < 3; a++) {
+        v->dims[a] = dims[a];
+        v->spacing[a] = 1.0;
+        v->direction[a][a] = 1.0;
+    }
+    v->type = VM_SCALAR_FLOAT32;
+    return VM_OK;
+}
+
+void vm_volume_free(vm_volume *v) {
+    if (!v) return;
+    free(v->data);
+    memset(v, 0, sizeof *v);
+}
+
+size_t vm_volume_count(const vm_volume *v) {
+    return (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)v->dims[2];
+}
+
+void vm_volume_index_to_world(const vm_volume *v, const double ijk[3], double xyz[3]) {
+    for (int r = 0; r < 3; r++) {
+        double s = v->origin[r];
+        for (int c = 0; c < 3; c++) s += v->direction[r][c] * ijk[c] * v->spacing[c];
+        xyz[r] = s;
+    }
+}
+
+double vm_volume_frame_determinant(const vm_volume *v) {
+    double m[3][3];
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) m[r][c] = v->direction[r][c] * v->spacing[c];
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+           m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+size_t vm_volume_stats(const vm_volume *v, double *min, double *max, double *mean) {
+    size_t n = vm_volume_count(v), bad = 0, good = 0;
+    double lo = INFINITY, hi = -INFINITY, sum = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        float f = v->data[i];
+        if (!isfinite(f)) {
+            bad++;
+            continue;
+        }
+        if (f < lo) lo = f;
+        if (f > hi) hi = f;
+        sum += f;
+        good++;
+    }
+    if (min) *min = good ? lo : NAN;
+    if (max) *max = good ? hi : NAN;
+    if (mean) *mean = good ? sum / (double)good : NAN;
+    return bad;
+}
+
+static const struct {
+    vm_scalar_type t;
+    const char *name;
+    size_t size;
+} type_table[] = {
+    {VM_SCALAR_UINT8, "uint8", 1},    {VM_SCALAR_INT8, "int8", 1},
+    {VM_SCALAR_UINT16, "uint16", 2},  {VM_SCALAR_INT16, "int16", 2},
+    {VM_SCALAR_UINT32, "uint32", 4},  {VM_SCALAR_INT32, "int32", 4},
+    {VM_SCALAR_UINT64, "uint64", 8},  {VM_SCALAR_INT64, "int64", 8},
+    {VM_SCALAR_FLOAT32, "float32", 4}, {VM_SCALAR_FLOAT64, "float64", 8},
+};
+
+const char *vm_scalar_type_name(vm_scalar_type t) {
+    for (size_t i = 0; i < sizeof type_table / sizeof type_table[0]; i++)
+        if (type_table[i].t == t) return type_table[i].name;
+    return "unknown";
+}
+
+size_t vm_scalar_type_size(vm_scalar_type t) {
+    for (size_t i = 0; i < sizeof type_table / sizeof type_table[0]; i++)
+        if (type_table[i].t == t) return type_table[i].size;
+    return 0;
+}
+
+int vm_scalar_type_parse(const char *name, vm_scalar_type *t) {
+    static const struct {
+        const char *alias;
+        vm_scalar_type t;
+    } aliases[] = {
+        {"uint8", VM_SCALAR_UINT8},     {"uchar", VM_SCALAR_UINT8},
+        {"unsigned char", VM_SCALAR_UINT8}, {"uint8_t", VM_SCALAR_UINT8},
+        {"int8", VM_SCALAR_INT8},       {"char", VM_SCALAR_INT8},
+        {"signed char", VM_SCALAR_INT8}, {"int8_t", VM_SCALAR_INT8},
+        {"uint16", VM_SCALAR_UINT16},   {"ushort", VM_SCALAR_UINT16},
+        {"unsigned short", VM_SCALAR_UINT16}, {"uint16_t", VM_SCALAR_UINT16},
+        {"int16", VM_SCALAR_INT16},     {"short", VM_SCALAR_INT16},
+        {"int16_t", VM_SCALAR_INT16},
+        {"uint32", VM_SCALAR_UINT32},   {"uint", VM_SCALAR_UINT32},
+        {"unsigned int", VM_SCALAR_UINT32}, {"uint32_t", VM_SCALAR_UINT32},
+        {"int32", VM_SCALAR_INT32},     {"int", VM_SCALAR_INT32},
+        {"int32_t", VM_SCALAR_INT32},
+        {"uint64", VM_SCALAR_UINT64},   {"ulonglong", VM_SCALAR_UINT64},
+        {"uint64_t", VM_SCALAR_UINT64},
+        {"int64", VM_SCALAR_INT64},     {"longlong", VM_SCALAR_INT64},
+        {"int64_t", VM_SCALAR_INT64},
+        {"float32", VM_SCALAR_FLOAT32}, {"float", VM_SCALAR_FLOAT32},
+        {"float64", VM_SCALAR_FLOAT64}, {"double", VM_SCALAR_FLOAT64},
+    };
+    for (size_t i = 0; i < sizeof aliases / sizeof aliases[0]; i++)
+        if (strcasecmp(name, aliases[i].alias) == 0) {
+            *t = aliases[i].t;
+            return 0;
+        }
+    return -1;
+}

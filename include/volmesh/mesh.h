@@ -1,0 +1,82 @@
+/* volmesh/mesh.h — unstructured meshes: one element kind per mesh, VTK node order.
+ *
+ * Points are double; connectivity uses vm_index (32-bit, or 64-bit with VM_INDEX64).
+ * Every cell carries a region id (label, interval index, or 0). */
+#ifndef VOLMESH_MESH_H
+#define VOLMESH_MESH_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#ifdef VM_INDEX64
+typedef int64_t vm_index;
+#else
+typedef int32_t vm_index;
+#endif
+
+/* Element kinds, valued as VTK cell type ids. */
+typedef enum vm_cell_kind {
+    VM_TRI3 = 5,
+    VM_QUAD4 = 9,
+    VM_TET4 = 10,
+    VM_HEX8 = 12
+} vm_cell_kind;
+
+/* A named per-point or per-cell array of ncomp doubles per entry (owned by the mesh). */
+typedef struct vm_field {
+    char name[64];
+    int ncomp;
+    double *data;
+} vm_field;
+
+typedef struct vm_mesh {
+    vm_cell_kind kind;
+    size_t npoints, ncells;
+    double *points;          /* 3*npoints */
+    vm_index *cells;         /* vm_cell_nodes(kind)*ncells */
+    int32_t *region;         /* ncells */
+    size_t point_cap, cell_cap;
+    vm_field *point_fields;  /* npoint_fields entries, each npoints*ncomp */
+    size_t npoint_fields;
+    vm_field *cell_fields;   /* ncell_fields entries, each ncells*ncomp */
+    size_t ncell_fields;
+} vm_mesh;
+
+/* Nodes per element of kind (3, 4, 4, 8); 0 for an unknown kind. */
+int vm_cell_nodes(vm_cell_kind kind);
+
+/* Name of a kind ("tet4", "hex8", "tri3", "quad4"). */
+const char *vm_cell_kind_name(vm_cell_kind kind);
+
+/* Initialises an empty mesh of kind (no allocation). */
+void vm_mesh_init(vm_mesh *m, vm_cell_kind kind);
+
+/* Frees everything the mesh owns and re-initialises it empty. m may be NULL. */
+void vm_mesh_free(vm_mesh *m);
+
+/* Ensures room for npoints points and ncells cells in total. */
+vm_status vm_mesh_reserve(vm_mesh *m, size_t npoints, size_t ncells, vm_error *err);
+
+/* Appends a point; returns its index or -1 when out of memory (err filled). */
+vm_index vm_mesh_add_point(vm_mesh *m, const double xyz[3], vm_error *err);
+
+/* Appends a cell with vm_cell_nodes(kind) node indices and a region id. */
+vm_status vm_mesh_add_cell(vm_mesh *m, const vm_index *nodes, int32_t region, vm_error *err);
+
+/* Adds (or replaces) a per-point (on_cells == 0) or per-cell field, copying data
+ * (count*ncomp doubles, where count is npoints or ncells). */
+vm_status vm_mesh_set_field(vm_mesh *m, int on_cells, const char *name, int ncomp,
+                            const double *data, vm_error *err);
+
+/* Returns the field named name, or NULL. */
+const vm_field *vm_mesh_find_field(const vm_mesh *m, int on_cells, const char *name);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

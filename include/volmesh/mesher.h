@@ -1,0 +1,78 @@
+/* volmesh/mesher.h — volume to mesh: material selection, octree dual contouring, phantoms.
+ *
+ * The material is {x : lo <= f(x) <= hi} where either bound may be open. Meshes come out in
+ * the world coordinates of the volume (spacing, origin, direction applied). */
+#ifndef VOLMESH_MESHER_H
+#define VOLMESH_MESHER_H
+
+#include <stddef.h>
+#include "error.h"
+#include "mesh.h"
+#include "volume.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Progress callback: stage name, work done out of total. Called from the meshing thread. */
+typedef void (*vm_progress_fn)(const char *stage, double done, double total, void *user);
+
+typedef struct vm_mesh_options {
+    double lo, hi;          /* material bounds */
+    int has_lo, has_hi;     /* which bounds apply (at least one must) */
+    vm_cell_kind elements;  /* VM_TET4 */
+    int cell_size;          /* uniform cell size in voxels (>= 1) */
+    int adaptive;           /* coarse cells in the interior where the octree allows */
+    double error;           /* adaptive error tolerance (EDerror), in voxels */
+    int max_level;          /* adaptive: largest cell is 2^max_level voxels */
+    vm_progress_fn progress;
+    void *progress_user;
+} vm_mesh_options;
+
+/* Counters and timings of one meshing run. */
+typedef struct vm_mesh_stats {
+    size_t inside_voxels;
+    size_t boundary_cells, interior_cells, special_cells;
+    size_t surface_vertices;
+    size_t relaxed_vertices;   /* minimizers pulled back to keep every tet positive */
+    double seconds;
+} vm_mesh_stats;
+
+/* Defaults: material f >= 0, tets, cell size 1, uniform. */
+void vm_mesh_options_default(vm_mesh_options *o);
+
+/* Meshes the material of v. [out] mesh (initialised here; free with vm_mesh_free),
+ * [out] stats may be NULL. VM_ERR_EMPTY when no voxel is in the material. */
+vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *mesh,
+                         vm_mesh_stats *stats, vm_error *err);
+
+/* Analytic test shapes, as signed fields (positive inside, in voxel units, iso 0). */
+typedef enum vm_phantom_kind {
+    VM_PHANTOM_SPHERE,
+    VM_PHANTOM_TORUS,
+    VM_PHANTOM_GENUS3,
+    VM_PHANTOM_TWO_SPHERES,
+    VM_PHANTOM_PLATE,
+    VM_PHANTOM_CUT_SPHERE
+} vm_phantom_kind;
+
+/* Known answers for a phantom at resolution n. */
+typedef struct vm_phantom_info {
+    const char *name;
+    int euler;           /* Euler characteristic of the boundary surface */
+    int components;
+    double volume;       /* in voxel^3 (index space) */
+} vm_phantom_info;
+
+/* Makes an n^3 phantom; noise > 0 adds seeded Gaussian noise of that standard deviation.
+ * [out] v, [out] info may be NULL. */
+vm_status vm_phantom_make(vm_phantom_kind kind, int n, double noise, unsigned seed,
+                          vm_volume *v, vm_phantom_info *info, vm_error *err);
+
+/* Parses "sphere", "torus", "genus3", "two-spheres", "plate", "cut-sphere". 0 on success. */
+int vm_phantom_parse(const char *name, vm_phantom_kind *kind);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,17 @@
+/* volmesh/volmesh.h — the whole public API of libvolmesh. */
+#ifndef VOLMESH_H
+#define VOLMESH_H
+
+#define VOLMESH_VERSION "0.1.0"
+
+#include "error.h"
+#include "io.h"
+#include "mesh.h"
+#include "mesher.h"
+#include "quality.h"
+#include "volume.h"
+
+/* Version string of the linked library. */
+const char *vm_version(void);
+
+#endif

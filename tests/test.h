@@ -1,0 +1,88 @@
+/* tests/test.h — a small test harness: CHECK macros, a runner that prints
+ * "N passed, N failed", helpers for shared data, temp files and the CLI. */
+#ifndef VM_TEST_H
+#define VM_TEST_H
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include "volmesh/volmesh.h"
+
+extern int vm_test_failures; /* failures in the current test function */
+
+#define CHECK(cond)                                                                        \
+    do {                                                                                   \
+        if (!(cond)) {                                                                     \
+            fprintf(stderr, "  %s:%d: CHECK(%s) failed\n", __FILE__, __LINE__, #cond);     \
+            vm_test_failures++;                                                            \
+        }                                                                                  \
+    } while (0)
+
+#define CHECK_MSG(cond, ...)                                                               \
+    do {                                                                                   \
+        if (!(cond)) {                                                                     \
+            fprintf(stderr, "  %s:%d: CHECK(%s) failed: ", __FILE__, __LINE__, #cond);     \
+            fprintf(stderr, __VA_ARGS__);                                                  \
+            fputc('\n', stderr);                                                           \
+            vm_test_failures++;                                                            \
+        }                                                                                  \
+    } while (0)
+
+#define CHECK_NEAR(a, b, tol)                                                              \
+    do {                                                                                   \
+        double vm_a_ = (double)(a), vm_b_ = (double)(b), vm_t_ = (double)(tol);            \
+        if (!(fabs(vm_a_ - vm_b_) <= vm_t_)) {                                             \
+            fprintf(stderr, "  %s:%d: %s = %.10g, expected %s = %.10g (tol %g)\n", __FILE__, \
+                    __LINE__, #a, vm_a_, #b, vm_b_, vm_t_);                                \
+            vm_test_failures++;                                                            \
+        }                                                                                  \
+    } while (0)
+
+/* CHECK_OK(status expression): prints the error message on failure. */
+#define CHECK_OK(expr, errp)                                                               \
+    do {                                                                                   \
+        vm_status vm_s_ = (expr);                                                          \
+        if (vm_s_ != VM_OK) {                                                              \
+            fprintf(stderr, "  %s:%d: %s returned %d: %s\n", __FILE__, __LINE__, #expr,    \
+                    (int)vm_s_, (errp) ? (errp)->message : "");                            \
+            vm_test_failures++;                                                            \
+        }                                                                                  \
+    } while (0)
+
+typedef void (*vm_test_fn)(void);
+typedef struct {
+    const char *name;
+    vm_test_fn fn;
+} vm_test_case;
+
+/* Runs the cases, prints one line per case and "N passed, N failed[, N skipped]".
+ * Returns the process exit code (0, or 1 when any failed; 77 when all were skipped). */
+int vm_test_run(const vm_test_case *cases, size_t n);
+
+/* Marks the current test as skipped with a reason (call, then return from the test). */
+void vm_test_skip(const char *reason);
+
+/* Path of a file in ../shared/data, or NULL (after calling vm_test_skip) when absent. */
+const char *vm_test_shared(const char *name);
+
+/* Path of a scratch file in the test temp folder (static buffer, rotating 8 slots). */
+const char *vm_test_tmp(const char *name);
+
+/* Writes len bytes to path; returns 0 on success. */
+int vm_test_write_file(const char *path, const void *data, size_t len);
+
+/* Runs the volmesh CLI with the given argument string (shell-quoted by the caller),
+ * capturing stdout+stderr into *out (malloc'd, may be NULL). Returns the exit status. */
+int vm_test_cli(const char *args, char **out);
+
+/* 1 when a file exists at path. */
+int vm_test_exists(const char *path);
+
+#define TEST_MAIN(...)                                                                     \
+    int main(void) {                                                                       \
+        static const vm_test_case cases_[] = {__VA_ARGS__};                                \
+        return vm_test_run(cases_, sizeof cases_ / sizeof cases_[0]);                      \
+    }
+#define T(fn) {#fn, fn}
+
+#endif
