@@ -1,13 +1,723 @@
-/* io/nrrd.c — placeholder until the nrrd reader lands. */
+/* io/nrrd.c — NRRD volumes: reads attached (.nrrd) and detached (.nhdr + data file) volumes,
+ * writes attached float volumes. Follows the NRRD0001-0005 format definition
+ * (teem.sourceforge.net/nrrd/format.html); world coordinates are the file's NRRD space. */
+#define _POSIX_C_SOURCE 200809L
+#include <assert.h>
+#include <ctype.h>
+#include <errno.h>
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <zlib.h>
+#include "../core/core.h"
+#include "io_util.h"
 #include "volmesh/io.h"
 
+#define NRRD_DIM_MAX 16 /* teem's NRRD_DIM_MAX */
+
+/* Deflate cannot compress better than about 1032:1, so a compressed payload of n bytes
+ * cannot hold more than this many bytes; larger sizes mean the header lies. */
+#define GZIP_MAX_RATIO 1040u
+
+enum nrrd_encoding { ENC_RAW, ENC_GZIP, ENC_ASCII };
+
+/* Text of each header field the reader uses (pointers into the header buffer). */
+typedef struct nrrd_fields {
+    const char *dimension, *type, *encoding, *endian, *sizes, *spacings, *space,
+        *space_dimension, *space_directions, *space_origin, *byte_skip, *line_skip,
+        *data_file;
+} nrrd_fields;
+
+/* Field identifiers with spaces removed and lower-cased, so that "data file" and "datafile",
+ * "byte skip" and "byteskip" (both spellings appear in the spec's history) match alike. */
+static const struct {
+    const char *key;
+    size_t offset;
+} field_table[] = {
+    {"dimension", offsetof(nrrd_fields, dimension)},
+    {"type", offsetof(nrrd_fields, type)},
+    {"encoding", offsetof(nrrd_fields, encoding)},
+    {"endian", offsetof(nrrd_fields, endian)},
+    {"sizes", offsetof(nrrd_fields, sizes)},
+    {"spacings", offsetof(nrrd_fields, spacings)},
+    {"space", offsetof(nrrd_fields, space)},
+    {"spacedimension", offsetof(nrrd_fields, space_dimension)},
+    {"spacedirections", offsetof(nrrd_fields, space_directions)},
+    {"spaceorigin", offsetof(nrrd_fields, space_origin)},
+    {"byteskip", offsetof(nrrd_fields, byte_skip)},
+    {"lineskip", offsetof(nrrd_fields, line_skip)},
+    {"datafile", offsetof(nrrd_fields, data_file)},
+};
+
+/* The header, interpreted. */
+typedef struct nrrd_info {
+    int64_t dims[3];
+    vm_scalar_type type;
+    enum nrrd_encoding encoding;
+    int big_endian; /* -1 when absent */
+    double spacing[3], origin[3], direction[3][3];
+    long long byte_skip, line_skip;
+    char data_file[4096]; /* empty: attached */
+} nrrd_info;
+
+#if defined(__GNUC__)
+__attribute__((format(printf, 4, 5)))
+#endif
+static vm_status fail(vm_error *err, vm_status st, const char *path, const char *fmt, ...) {
+    char msg[448];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return vm_error_set(err, st, "%s: %s", path, msg);
+}
+
+/* Copy of file text fit for a one-line message: at most 40 characters, controls as '?'. */
+static const char *show(const char *s, char out[48]) {
+    size_t i = 0;
+    for (; s[i] && i < 40; i++) out[i] = isprint((unsigned char)s[i]) ? s[i] : '?';
+    if (s[i]) {
+        memcpy(out + i, "...", 3);
+        i += 3;
+    }
+    out[i] = 0;
+    return out;
+}
+
+static int parse_ll(const char *s, long long *out) {
+    char *end;
+    errno = 0;
+    long long x = strtoll(s, &end, 10);
+    if (end == s || errno == ERANGE) return -1;
+    while (isspace((unsigned char)*end)) end++;
+    if (*end) return -1;
+    *out = x;
+    return 0;
+}
+
+/* White-space separated integers; returns the count, or -1 when malformed or more than max. */
+static int parse_int_list(const char *s, int64_t *out, int max) {
+    int n = 0;
+    for (;;) {
+        while (isspace((unsigned char)*s)) s++;
+        if (!*s) return n;
+        if (n == max) return -1;
+        char *end;
+        errno = 0;
+        long long x = strtoll(s, &end, 10);
+        if (end == s || errno == ERANGE || (*end && !isspace((unsigned char)*end))) return -1;
+        out[n++] = x;
+        s = end;
+    }
+}
+
+/* White-space separated numbers (nan allowed); returns the count, or -1. */
+static int parse_double_list(const char *s, double *out, int max) {
+    int n = 0;
+    for (;;) {
+        while (isspace((unsigned char)*s)) s++;
+        if (!*s) return n;
+        if (n == max) return -1;
+        char *end;
+        double x = strtod(s, &end);
+        if (end == s || (*end && !isspace((unsigned char)*end))) return -1;
+        out[n++] = x;
+        s = end;
+    }
+}
+
+/* Splits a header into fields (in place: line ends become NULs). On success *data_at is the
+ * offset just past the blank line ending the header, or len when the header runs to the end
+ * of the file (*ended = 0). */
+static vm_status parse_header(const char *path, unsigned char *buf, size_t len,
+                              nrrd_fields *f, size_t *data_at, int *ended, vm_error *err) {
+    char tmp[48];
+    memset(f, 0, sizeof *f);
+    *ended = 0;
+    *data_at = len;
+    if (len == 0) return fail(err, VM_ERR_FORMAT, path, "file is empty");
+    if (len < 8 || memcmp(buf, "NRRD", 4) != 0)
+        return fail(err, VM_ERR_FORMAT, path,
+                    "not a NRRD file (the first line is not NRRD0001..NRRD0005)");
+    if (memcmp(buf, "NRRD000", 7) != 0 || buf[7] < '1' || buf[7] > '5' ||
+        (len > 8 && !isspace(buf[8])))
+        return fail(err, VM_ERR_UNSUPPORTED, path,
+                    "unsupported NRRD version (the first line must be NRRD0001..NRRD0005)");
+    unsigned char *nl = memchr(buf, '\n', len);
+    size_t pos = nl ? (size_t)(nl - buf) + 1 : len;
+    int lineno = 1;
+    while (pos < len) {
+        lineno++;
+        nl = memchr(buf + pos, '\n', len - pos);
+        size_t end = nl ? (size_t)(nl - buf) : len;
+        size_t next = nl ? end + 1 : len;
+        size_t e = end;
+        if (e > pos && buf[e - 1] == '\r') e--;
+        if (e == pos) {
+            *ended = 1;
+            *data_at = next;
+            return VM_OK;
+        }
+        buf[e] = 0; /* buf[len] is the NUL vm__read_file appends */
+        char *line = (char *)buf + pos;
+        pos = next;
+        if (line[0] == '#') continue;
+        char *field_sep = strstr(line, ": ");
+        char *kv_sep = strstr(line, ":=");
+        if (kv_sep && (!field_sep || kv_sep < field_sep)) continue; /* key:=value, unused */
+        size_t ll = strlen(line);
+        if (!field_sep && ll > 0 && line[ll - 1] == ':') field_sep = line + ll - 1;
+        if (!field_sep)
+            return fail(err, VM_ERR_FORMAT, path, "line %d ('%s') is not 'field: value'",
+                        lineno, show(line, tmp));
+        char key[40];
+        size_t k = 0;
+        for (const char *c = line; c < field_sep; c++) {
+            if (*c == ' ' || *c == '\t') continue;
+            if (k + 1 >= sizeof key) break;
+            key[k++] = (char)tolower((unsigned char)*c);
+        }
+        key[k] = 0;
+        char *value = vm__trim(field_sep + 1);
+        for (size_t i = 0; i < sizeof field_table / sizeof field_table[0]; i++) {
+            if (strcmp(key, field_table[i].key) != 0) continue;
+            const char **slot = (const char **)((char *)f + field_table[i].offset);
+            if (*slot)
+                return fail(err, VM_ERR_FORMAT, path, "line %d: field '%s' appears twice",
+                            lineno, field_table[i].key);
+            *slot = value;
+            break;
+        }
+    }
+    return VM_OK;
+}
+
+/* NRRD type spellings (format definition, "type"); vm_scalar_type_parse catches the rest. */
+static int parse_type(const char *s, vm_scalar_type *t) {
+    static const struct {
+        const char *name;
+        vm_scalar_type t;
+    } names[] = {
+        {"signed char", VM_SCALAR_INT8},
+        {"int8", VM_SCALAR_INT8},
+        {"int8_t", VM_SCALAR_INT8},
+        {"uchar", VM_SCALAR_UINT8},
+        {"unsigned char", VM_SCALAR_UINT8},
+        {"uint8", VM_SCALAR_UINT8},
+        {"uint8_t", VM_SCALAR_UINT8},
+        {"short", VM_SCALAR_INT16},
+        {"short int", VM_SCALAR_INT16},
+        {"signed short", VM_SCALAR_INT16},
+        {"signed short int", VM_SCALAR_INT16},
+        {"int16", VM_SCALAR_INT16},
+        {"int16_t", VM_SCALAR_INT16},
+        {"ushort", VM_SCALAR_UINT16},
+        {"unsigned short", VM_SCALAR_UINT16},
+        {"unsigned short int", VM_SCALAR_UINT16},
+        {"uint16", VM_SCALAR_UINT16},
+        {"uint16_t", VM_SCALAR_UINT16},
+        {"int", VM_SCALAR_INT32},
+        {"signed int", VM_SCALAR_INT32},
+        {"int32", VM_SCALAR_INT32},
+        {"int32_t", VM_SCALAR_INT32},
+        {"uint", VM_SCALAR_UINT32},
+        {"unsigned int", VM_SCALAR_UINT32},
+        {"uint32", VM_SCALAR_UINT32},
+        {"uint32_t", VM_SCALAR_UINT32},
+        {"longlong", VM_SCALAR_INT64},
+        {"long long", VM_SCALAR_INT64},
+        {"long long int", VM_SCALAR_INT64},
+        {"signed long long", VM_SCALAR_INT64},
+        {"signed long long int", VM_SCALAR_INT64},
+        {"int64", VM_SCALAR_INT64},
+        {"int64_t", VM_SCALAR_INT64},
+        {"ulonglong", VM_SCALAR_UINT64},
+        {"unsigned long long", VM_SCALAR_UINT64},
+        {"unsigned long long int", VM_SCALAR_UINT64},
+        {"uint64", VM_SCALAR_UINT64},
+        {"uint64_t", VM_SCALAR_UINT64},
+        {"float", VM_SCALAR_FLOAT32},
+        {"double", VM_SCALAR_FLOAT64},
+    };
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+        if (strcmp(s, names[i].name) == 0) {
+            *t = names[i].t;
+            return 0;
+        }
+    return vm_scalar_type_parse(s, t);
+}
+
+/* Dimension of a named space (format definition, "space"); 0 when unknown. */
+static int space_dimension_of(const char *s) {
+    static const char *const three[] = {
+        "right-anterior-superior", "RAS",         "left-anterior-superior", "LAS",
+        "left-posterior-superior", "LPS",         "scanner-xyz",            "3D-right-handed",
+        "3D-left-handed",
+    };
+    static const char *const four[] = {
+        "right-anterior-superior-time", "RAST", "left-anterior-superior-time", "LAST",
+        "left-posterior-superior-time", "LPST", "scanner-xyz-time", "3D-right-handed-time",
+        "3D-left-handed-time",
+    };
+    for (size_t i = 0; i < sizeof three / sizeof three[0]; i++)
+        if (strcasecmp(s, three[i]) == 0) return 3;
+    for (size_t i = 0; i < sizeof four / sizeof four[0]; i++)
+        if (strcasecmp(s, four[i]) == 0) return 4;
+    return 0;
+}
+
+/* One "(x,y,z)" vector of exactly n components starting at *s (after white space), or
+ * "none"; advances *s. Returns 1 for a vector, 0 for none, -1 when malformed. */
+static int parse_vector(const char **s, double *out, int n) {
+    const char *p = *s;
+    while (isspace((unsigned char)*p)) p++;
+    if (strncmp(p, "none", 4) == 0 && (p[4] == 0 || isspace((unsigned char)p[4]))) {
+        *s = p + 4;
+        return 0;
+    }
+    if (*p != '(') return -1;
+    const char *close = strchr(p, ')');
+    if (!close || close - p > 1000) return -1;
+    char inner[1024];
+    memcpy(inner, p + 1, (size_t)(close - p - 1));
+    inner[close - p - 1] = 0;
+    if (strchr(inner, '(')) return -1;
+    if (vm__parse_doubles(inner, out, n) != n) return -1;
+    for (int i = 0; i < n; i++)
+        if (!isfinite(out[i])) return -1;
+    *s = close + 1;
+    return 1;
+}
+
+static vm_status interpret(const char *path, const nrrd_fields *f, nrrd_info *h,
+                           vm_error *err) {
+    char tmp[48];
+    memset(h, 0, sizeof *h);
+    h->big_endian = -1;
+    for (int a = 0; a < 3; a++) {
+        h->spacing[a] = 1.0;
+        h->direction[a][a] = 1.0;
+    }
+    const char *missing = !f->dimension ? "dimension"
+                          : !f->type    ? "type"
+                          : !f->sizes   ? "sizes"
+                          : !f->encoding ? "encoding"
+                                         : NULL;
+    if (missing) return fail(err, VM_ERR_FORMAT, path, "missing '%s' field", missing);
+
+    long long dim;
+    if (parse_ll(f->dimension, &dim) != 0 || dim < 1 || dim > NRRD_DIM_MAX)
+        return fail(err, VM_ERR_FORMAT, path, "bad dimension '%s' (must be 1..%d)",
+                    show(f->dimension, tmp), NRRD_DIM_MAX);
+    int64_t sizes[NRRD_DIM_MAX];
+    int ns = parse_int_list(f->sizes, sizes, NRRD_DIM_MAX);
+    if (ns != dim)
+        return fail(err, VM_ERR_FORMAT, path, "sizes '%s' must be %lld integers",
+                    show(f->sizes, tmp), dim);
+    for (int a = 0; a < ns; a++)
+        if (sizes[a] < 1)
+            return fail(err, VM_ERR_FORMAT, path, "size %lld of axis %d must be >= 1",
+                        (long long)sizes[a], a);
+    /* Axes holding x, y, z: all three of a 3-D array; a leading axis of one sample is
+     * tolerated (a scalar stored as a 1-vector). */
+    int first = 0;
+    if (dim == 4 && sizes[0] == 1) {
+        first = 1;
+    } else if (dim == 4) {
+        return fail(err, VM_ERR_UNSUPPORTED, path,
+                    "dimension 4 with %lld samples on the first axis (vectors or time "
+                    "series) is not supported; volmesh reads scalar 3-D volumes",
+                    (long long)sizes[0]);
+    } else if (dim != 3) {
+        return fail(err, VM_ERR_UNSUPPORTED, path,
+                    "dimension %lld is not supported; volmesh reads 3-D volumes", dim);
+    }
+    for (int a = 0; a < 3; a++) h->dims[a] = sizes[first + a];
+
+    if (strcmp(f->type, "block") == 0)
+        return fail(err, VM_ERR_UNSUPPORTED, path, "type 'block' is not supported");
+    if (parse_type(f->type, &h->type) != 0)
+        return fail(err, VM_ERR_FORMAT, path, "unknown type '%s'", show(f->type, tmp));
+
+    const char *enc = f->encoding;
+    if (strcasecmp(enc, "raw") == 0)
+        h->encoding = ENC_RAW;
+    else if (strcasecmp(enc, "gzip") == 0 || strcasecmp(enc, "gz") == 0)
+        h->encoding = ENC_GZIP;
+    else if (strcasecmp(enc, "ascii") == 0 || strcasecmp(enc, "text") == 0 ||
+             strcasecmp(enc, "txt") == 0)
+        h->encoding = ENC_ASCII;
+    else if (strcasecmp(enc, "bzip2") == 0 || strcasecmp(enc, "bz2") == 0 ||
+             strcasecmp(enc, "hex") == 0)
+        return fail(err, VM_ERR_UNSUPPORTED, path,
+                    "encoding '%s' is not supported (use raw, gzip or ascii)", enc);
+    else
+        return fail(err, VM_ERR_FORMAT, path, "unknown encoding '%s'", show(enc, tmp));
+
+    if (f->endian) {
+        if (strcasecmp(f->endian, "little") == 0)
+            h->big_endian = 0;
+        else if (strcasecmp(f->endian, "big") == 0)
+            h->big_endian = 1;
+        else
+            return fail(err, VM_ERR_FORMAT, path, "endian '%s' must be little or big",
+                        show(f->endian, tmp));
+    } else if (vm_scalar_type_size(h->type) > 1 && h->encoding != ENC_ASCII) {
+        return fail(err, VM_ERR_FORMAT, path, "missing 'endian' field (needed for %s data)",
+                    vm_scalar_type_name(h->type));
+    }
+
+    if (f->byte_skip && (parse_ll(f->byte_skip, &h->byte_skip) != 0 || h->byte_skip < -1))
+        return fail(err, VM_ERR_FORMAT, path, "bad byte skip '%s' (must be -1 or >= 0)",
+                    show(f->byte_skip, tmp));
+    if (h->byte_skip == -1 && h->encoding != ENC_RAW)
+        return fail(err, VM_ERR_FORMAT, path, "byte skip -1 is only allowed with raw encoding");
+    if (f->line_skip && (parse_ll(f->line_skip, &h->line_skip) != 0 || h->line_skip < 0))
+        return fail(err, VM_ERR_FORMAT, path, "bad line skip '%s' (must be >= 0)",
+                    show(f->line_skip, tmp));
+
+    /* Geometry: space directions (with space or space dimension) or else spacings. */
+    int sdim = 0;
+    if (f->space) {
+        sdim = space_dimension_of(f->space);
+        if (!sdim)
+            return fail(err, VM_ERR_FORMAT, path, "unknown space '%s'", show(f->space, tmp));
+    }
+    if (f->space_dimension) {
+        long long sd;
+        if (parse_ll(f->space_dimension, &sd) != 0 || sd < 1 || sd > NRRD_DIM_MAX)
+            return fail(err, VM_ERR_FORMAT, path, "bad space dimension '%s'",
+                        show(f->space_dimension, tmp));
+        if (sdim && sd != sdim)
+            return fail(err, VM_ERR_FORMAT, path,
+                        "space dimension %lld contradicts space '%s'", sd,
+                        show(f->space, tmp));
+        sdim = (int)sd;
+    }
+    if (sdim && sdim != 3)
+        return fail(err, VM_ERR_UNSUPPORTED, path,
+                    "space dimension %d is not supported (volmesh needs 3)", sdim);
+    if ((f->space_directions || f->space_origin) && !sdim)
+        return fail(err, VM_ERR_FORMAT, path,
+                    "'space directions' and 'space origin' need a 'space' or 'space "
+                    "dimension' field");
+    if (f->space_directions) {
+        const char *s = f->space_directions;
+        for (int a = 0; a < dim; a++) {
+            double col[3];
+            int r = parse_vector(&s, col, 3);
+            if (r < 0)
+                return fail(err, VM_ERR_FORMAT, path,
+                            "space directions '%s': axis %d is not '(x,y,z)' or 'none'",
+                            show(f->space_directions, tmp), a);
+            if (a < first) continue;
+            if (r == 0)
+                return fail(err, VM_ERR_FORMAT, path,
+                            "space directions: spatial axis %d has no direction", a);
+            double norm = sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2]);
+            if (!(norm > 0.0) || !isfinite(norm))
+                return fail(err, VM_ERR_FORMAT, path,
+                            "space directions: axis %d has a zero-length direction", a);
+            h->spacing[a - first] = norm;
+            for (int i = 0; i < 3; i++) h->direction[i][a - first] = col[i] / norm;
+        }
+        while (isspace((unsigned char)*s)) s++;
+        if (*s)
+            return fail(err, VM_ERR_FORMAT, path,
+                        "space directions '%s' must have %lld entries",
+                        show(f->space_directions, tmp), dim);
+    } else if (f->spacings) {
+        double sp[NRRD_DIM_MAX];
+        if (parse_double_list(f->spacings, sp, NRRD_DIM_MAX) != dim)
+            return fail(err, VM_ERR_FORMAT, path, "spacings '%s' must be %lld numbers",
+                        show(f->spacings, tmp), dim);
+        for (int a = 0; a < 3; a++) {
+            double s = sp[first + a];
+            if (isnan(s)) continue; /* NaN: spacing unknown (format definition); keep 1 */
+            if (!isfinite(s) || s == 0.0)
+                return fail(err, VM_ERR_FORMAT, path,
+                            "spacing of axis %d must be a non-zero number", first + a);
+            /* A negative spacing flips the axis: keep spacing > 0 as vm_volume requires. */
+            h->spacing[a] = fabs(s);
+            h->direction[a][a] = s < 0 ? -1.0 : 1.0;
+        }
+    }
+    if (f->space_origin) {
+        const char *s = f->space_origin;
+        if (parse_vector(&s, h->origin, 3) != 1)
+            return fail(err, VM_ERR_FORMAT, path, "space origin '%s' is not '(x,y,z)'",
+                        show(f->space_origin, tmp));
+        while (isspace((unsigned char)*s)) s++;
+        if (*s)
+            return fail(err, VM_ERR_FORMAT, path, "space origin '%s' is not '(x,y,z)'",
+                        show(f->space_origin, tmp));
+    }
+
+    if (f->data_file) {
+        const char *df = f->data_file;
+        if (strcmp(df, "LIST") == 0 || strncmp(df, "LIST ", 5) == 0 ||
+            (strchr(df, '%') && strpbrk(df, " \t")))
+            return fail(err, VM_ERR_UNSUPPORTED, path,
+                        "multiple data files ('data file: %s') are not supported",
+                        show(df, tmp));
+        if (!*df) return fail(err, VM_ERR_FORMAT, path, "empty 'data file' field");
+        if (!vm__path_sibling(path, df, h->data_file, sizeof h->data_file))
+            return fail(err, VM_ERR_FORMAT, path, "data file path is too long");
+    }
+    return VM_OK;
+}
+
+/* Skips n lines of data text; returns 0, or -1 when the data ends first. */
+static int skip_lines(const unsigned char **p, const unsigned char *end, long long n) {
+    for (long long i = 0; i < n; i++) {
+        const unsigned char *nl = memchr(*p, '\n', (size_t)(end - *p));
+        if (!nl) return -1;
+        *p = nl + 1;
+    }
+    return 0;
+}
+
+/* ASCII samples separated by white space or commas (data must be NUL-terminated at end). */
+static vm_status read_ascii(const char *path, const unsigned char *p, const unsigned char *end,
+                            size_t count, float *out, vm_error *err) {
+    char tmp[48];
+    size_t got = 0;
+    const char *s = (const char *)p;
+    while (got < count) {
+        while ((const unsigned char *)s < end && (isspace((unsigned char)*s) || *s == ','))
+            s++;
+        if ((const unsigned char *)s >= end) break;
+        char *e;
+        double x = strtod(s, &e);
+        if (e == s || (const unsigned char *)e > end) {
+            char word[48];
+            size_t w = 0;
+            while (w < 20 && (const unsigned char *)s + w < end && s[w] &&
+                   !isspace((unsigned char)s[w]))
+                w++;
+            memcpy(word, s, w);
+            word[w] = 0;
+            return fail(err, VM_ERR_FORMAT, path, "ascii value %zu ('%s') is not a number",
+                        got, show(word, tmp));
+        }
+        if (x > FLT_MAX) x = INFINITY;
+        if (x < -FLT_MAX) x = -INFINITY;
+        out[got++] = (float)x;
+        s = e;
+    }
+    if (got < count)
+        return fail(err, VM_ERR_FORMAT, path, "data is truncated (%zu of %zu ascii values)",
+                    got, count);
+    return VM_OK;
+}
+
 vm_status vm_volume_read_nrrd(const char *path, vm_volume *v, vm_error *err) {
-    (void)v;
-    return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: nrrd reader not built yet", path);
+    memset(v, 0, sizeof *v);
+    unsigned char *buf = NULL, *dbuf = NULL, *inflated = NULL;
+    size_t len = 0, dlen = 0, data_at = 0;
+    int ended = 0;
+    nrrd_fields f;
+    nrrd_info h;
+    memset(&h, 0, sizeof h);
+    vm_status st = vm__read_file(path, vm__memory_limit(), &buf, &len, err);
+    if (st) return st;
+    st = parse_header(path, buf, len, &f, &data_at, &ended, err);
+    if (!st) st = interpret(path, &f, &h, err);
+    size_t count = 0, tsize = vm_scalar_type_size(h.type);
+    if (!st) st = vm__check_dims(h.dims, tsize + sizeof(float), path, &count, err);
+    if (st) goto done;
+    size_t need = count * tsize;
+
+    const unsigned char *p, *end;
+    if (h.data_file[0]) {
+        vm_error derr;
+        vm_error_clear(&derr);
+        st = vm__read_file(h.data_file, vm__memory_limit(), &dbuf, &dlen, &derr);
+        if (st) {
+            st = fail(err, st, path, "cannot read data file (%s)", derr.message);
+            goto done;
+        }
+        p = dbuf;
+        end = dbuf + dlen;
+    } else {
+        if (!ended) {
+            st = fail(err, VM_ERR_FORMAT, path,
+                      "no blank line ends the header, so no data is attached");
+            goto done;
+        }
+        p = buf + data_at;
+        end = buf + len;
+    }
+    if (skip_lines(&p, end, h.line_skip) != 0) {
+        st = fail(err, VM_ERR_FORMAT, path, "line skip %lld goes past the end of the data",
+                  h.line_skip);
+        goto done;
+    }
+    size_t avail = (size_t)(end - p);
+    const unsigned char *samples = NULL;
+    if (h.encoding == ENC_RAW || h.encoding == ENC_ASCII) {
+        if (h.byte_skip == -1) {
+            if (avail < need) {
+                st = fail(err, VM_ERR_FORMAT, path, "data is truncated (%zu of %zu bytes)",
+                          avail, need);
+                goto done;
+            }
+            p = end - need;
+        } else if ((unsigned long long)h.byte_skip > avail) {
+            st = fail(err, VM_ERR_FORMAT, path, "byte skip %lld goes past the end of the data",
+                      h.byte_skip);
+            goto done;
+        } else {
+            p += h.byte_skip;
+        }
+        avail = (size_t)(end - p);
+        if (h.encoding == ENC_RAW) {
+            if (avail < need) {
+                st = fail(err, VM_ERR_FORMAT, path, "data is truncated (%zu of %zu bytes)",
+                          avail, need);
+                goto done;
+            }
+            samples = p;
+        } else if (count > avail / 2 + 1) { /* each value takes a character and a separator */
+            st = fail(err, VM_ERR_FORMAT, path,
+                      "data is truncated (%zu bytes of text cannot hold %zu values)", avail,
+                      count);
+            goto done;
+        }
+    } else {
+        /* gzip: byte skip counts decompressed bytes. */
+        size_t total = need + (size_t)h.byte_skip;
+        if ((unsigned long long)h.byte_skip > SIZE_MAX - need || total > vm__memory_limit()) {
+            st = fail(err, VM_ERR_NOMEM, path, "byte skip %lld is too large", h.byte_skip);
+            goto done;
+        }
+        if (total / GZIP_MAX_RATIO > avail + 64) {
+            st = fail(err, VM_ERR_FORMAT, path,
+                      "compressed data is truncated (%zu bytes cannot hold %zu)", avail, total);
+            goto done;
+        }
+        inflated = malloc(total);
+        if (!inflated) {
+            st = fail(err, VM_ERR_NOMEM, path, "out of memory for %zu bytes", total);
+            goto done;
+        }
+        st = vm__inflate_exact(path, p, avail, inflated, total, err);
+        if (st) goto done;
+        samples = inflated + h.byte_skip;
+    }
+
+    v->data = malloc(count * sizeof(float));
+    if (!v->data) {
+        st = fail(err, VM_ERR_NOMEM, path, "out of memory for %zu voxels", count);
+        goto done;
+    }
+    if (h.encoding == ENC_ASCII) {
+        st = read_ascii(path, p, end, count, v->data, err);
+        if (st) goto done;
+    } else {
+        int swap = tsize > 1 && h.big_endian == vm__host_little_endian();
+        vm__samples_to_float(samples, h.type, swap, count, v->data);
+    }
+    memcpy(v->dims, h.dims, sizeof v->dims);
+    v->type = h.type;
+    memcpy(v->spacing, h.spacing, sizeof v->spacing);
+    memcpy(v->origin, h.origin, sizeof v->origin);
+    memcpy(v->direction, h.direction, sizeof v->direction);
+    snprintf(v->format, sizeof v->format, "nrrd");
+done:
+    free(buf);
+    free(dbuf);
+    free(inflated);
+    if (st) vm_volume_free(v);
+    return st;
+}
+
+/* Little-endian bytes of n floats. */
+static void floats_le(const float *src, size_t n, unsigned char *dst) {
+    int swap = !vm__host_little_endian();
+    for (size_t i = 0; i < n; i++) {
+        unsigned char b[4];
+        memcpy(b, &src[i], 4);
+        for (int k = 0; k < 4; k++) dst[4 * i + k] = swap ? b[3 - k] : b[k];
+    }
+}
+
+enum { CHUNK_FLOATS = 16384 };
+
+static int write_raw(FILE *fp, const float *data, size_t n) {
+    unsigned char stage[4 * CHUNK_FLOATS];
+    for (size_t i = 0; i < n; i += CHUNK_FLOATS) {
+        size_t m = n - i < CHUNK_FLOATS ? n - i : CHUNK_FLOATS;
+        floats_le(data + i, m, stage);
+        if (fwrite(stage, 4, m, fp) != m) return -1;
+    }
+    return 0;
+}
+
+/* gzip stream (deflate with a gzip wrapper: windowBits 15 + 16, zlib manual). */
+static int write_gzip(FILE *fp, const float *data, size_t n) {
+    z_stream zs;
+    memset(&zs, 0, sizeof zs);
+    if (deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) return -1;
+    unsigned char stage[4 * CHUNK_FLOATS], out[1 << 16];
+    size_t i = 0;
+    int r = Z_OK;
+    do {
+        size_t m = n - i < CHUNK_FLOATS ? n - i : CHUNK_FLOATS;
+        floats_le(data + i, m, stage);
+        i += m;
+        int flush = i == n ? Z_FINISH : Z_NO_FLUSH;
+        zs.next_in = stage;
+        zs.avail_in = (uInt)(4 * m);
+        do {
+            zs.next_out = out;
+            zs.avail_out = sizeof out;
+            r = deflate(&zs, flush);
+            if (r == Z_STREAM_ERROR) break;
+            size_t have = sizeof out - zs.avail_out;
+            if (have && fwrite(out, 1, have, fp) != have) r = Z_ERRNO;
+        } while (r != Z_ERRNO && zs.avail_out == 0);
+    } while (i < n && r != Z_ERRNO && r != Z_STREAM_ERROR);
+    deflateEnd(&zs);
+    return r == Z_STREAM_END ? 0 : -1;
 }
 
 vm_status vm_volume_write_nrrd(const char *path, const vm_volume *v, int gzip, vm_error *err) {
-    (void)v;
-    (void)gzip;
-    return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: nrrd writer not built yet", path);
+    assert(path && v && v->data);
+    size_t count;
+    vm_status st = vm__check_dims(v->dims, sizeof(float), path, &count, err);
+    if (st) return st;
+    vm_outfile o;
+    st = vm__out_open(&o, path, err);
+    if (st) return st;
+    fprintf(o.fp,
+            "NRRD0004\n"
+            "# Complete NRRD file format specification at:\n"
+            "# http://teem.sourceforge.net/nrrd/format.html\n"
+            "type: float\n"
+            "dimension: 3\n"
+            "space dimension: 3\n"
+            "sizes: %lld %lld %lld\n"
+            "space directions:",
+            (long long)v->dims[0], (long long)v->dims[1], (long long)v->dims[2]);
+    for (int c = 0; c < 3; c++)
+        fprintf(o.fp, " (%.17g,%.17g,%.17g)", v->direction[0][c] * v->spacing[c],
+                v->direction[1][c] * v->spacing[c], v->direction[2][c] * v->spacing[c]);
+    fprintf(o.fp,
+            "\nkinds: domain domain domain\n"
+            "endian: little\n"
+            "encoding: %s\n"
+            "space origin: (%.17g,%.17g,%.17g)\n\n",
+            gzip ? "gzip" : "raw", v->origin[0], v->origin[1], v->origin[2]);
+    int bad = gzip ? write_gzip(o.fp, v->data, count) : write_raw(o.fp, v->data, count);
+    if (bad || ferror(o.fp)) {
+        vm__out_abort(&o);
+        return fail(err, VM_ERR_IO, path, "write failed");
+    }
+    return vm__out_commit(&o, err);
 }

@@ -1,7 +1,53 @@
-/* io/raw.c — placeholder until the raw reader lands. */
+/* io/raw.c — headerless raw volumes: the caller describes dims, sample type, byte order,
+ * geometry and a header to skip (vm_raw_options); the file must hold at least that much. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../core/core.h"
+#include "io_util.h"
 #include "volmesh/io.h"
 
-vm_status vm_volume_read_raw(const char *path, const vm_raw_options *opt, vm_volume *v, vm_error *err) {
-    (void)opt; (void)v;
-    return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: raw reader not built yet", path);
+vm_status vm_volume_read_raw(const char *path, const vm_raw_options *opt, vm_volume *v,
+                             vm_error *err) {
+    memset(v, 0, sizeof *v);
+    size_t tsize = vm_scalar_type_size(opt->type);
+    if (tsize == 0) return vm_error_set(err, VM_ERR_ARG, "%s: unknown raw sample type", path);
+    for (int a = 0; a < 3; a++)
+        if (!isfinite(opt->spacing[a]) || opt->spacing[a] < 0.0 || !isfinite(opt->origin[a]))
+            return vm_error_set(err, VM_ERR_ARG,
+                                "%s: raw spacing must be > 0 (or 0 for 1) and origin finite",
+                                path);
+    size_t count;
+    vm_status st = vm__check_dims(opt->dims, tsize + sizeof(float), path, &count, err);
+    if (st) return st;
+    size_t need = count * tsize;
+
+    unsigned char *buf;
+    size_t len;
+    st = vm__read_file(path, vm__memory_limit(), &buf, &len, err);
+    if (st) return st;
+    size_t avail = opt->header_bytes >= len ? 0 : len - (size_t)opt->header_bytes;
+    if (avail < need) {
+        free(buf);
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: data is truncated (%zu of %zu bytes)",
+                            path, avail, need);
+    }
+    v->data = malloc(count * sizeof(float));
+    if (!v->data) {
+        free(buf);
+        return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu voxels", path, count);
+    }
+    int swap = tsize > 1 && (opt->big_endian != 0) == (vm__host_little_endian() != 0);
+    vm__samples_to_float(buf + opt->header_bytes, opt->type, swap, count, v->data);
+    free(buf);
+    for (int a = 0; a < 3; a++) {
+        v->dims[a] = opt->dims[a];
+        v->spacing[a] = opt->spacing[a] == 0.0 ? 1.0 : opt->spacing[a];
+        v->origin[a] = opt->origin[a];
+        v->direction[a][a] = 1.0;
+    }
+    v->type = opt->type;
+    snprintf(v->format, sizeof v->format, "raw");
+    return VM_OK;
 }
