@@ -1,7 +1,489 @@
-/* io/vtk_legacy.c — placeholder until the vtk reader lands. */
+/* io/vtk_legacy.c — reads VTK legacy STRUCTURED_POINTS files (ASCII or big-endian BINARY).
+ * Follows "VTK File Formats", section "Simple Legacy Formats" (dataset, attribute and field
+ * data sections; keywords are case-insensitive, binary data follows the line of its keyword). */
+#include <ctype.h>
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include "../core/core.h"
+#include "io_util.h"
 #include "volmesh/io.h"
 
+#define TOKEN_MAX 256
+
+typedef struct reader {
+    const char *path;
+    const unsigned char *buf;
+    size_t len, pos;
+    int binary;
+    vm_error *err;
+} reader;
+
+/* Next white-space separated word into tok; returns 0 at end of file. A word longer than
+ * TOKEN_MAX - 1 is an error (sets *bad). */
+static int next_token(reader *r, char tok[TOKEN_MAX], int *bad) {
+    *bad = 0;
+    while (r->pos < r->len && isspace(r->buf[r->pos])) r->pos++;
+    if (r->pos >= r->len) return 0;
+    size_t n = 0;
+    while (r->pos < r->len && !isspace(r->buf[r->pos])) {
+        if (n == TOKEN_MAX - 1) {
+            *bad = 1;
+            return 0;
+        }
+        unsigned char c = r->buf[r->pos++];
+        tok[n++] = c < 0x20 || c == 0x7f ? '?' : (char)c; /* messages quote tokens */
+    }
+    tok[n] = 0;
+    return 1;
+}
+
+/* Rest of the current line (without the newline) into line, truncated to cap - 1 chars;
+ * the position moves past the newline. */
+static void rest_of_line(reader *r, char *line, size_t cap) {
+    size_t n = 0;
+    while (r->pos < r->len && r->buf[r->pos] != '\n') {
+        if (n + 1 < cap) line[n++] = (char)r->buf[r->pos];
+        r->pos++;
+    }
+    if (r->pos < r->len) r->pos++;
+    if (cap) line[n] = 0;
+}
+
+/* Skips blanks on the current line and reports whether the next word is kw (without
+ * consuming anything when it is not). */
+static int peek_keyword(reader *r, const char *kw) {
+    size_t p = r->pos, k = strlen(kw);
+    while (p < r->len && isspace(r->buf[p])) p++;
+    if (r->len - p < k || strncasecmp((const char *)r->buf + p, kw, k) != 0) return 0;
+    return p + k == r->len || isspace(r->buf[p + k]);
+}
+
+static vm_status expect_token(reader *r, char tok[TOKEN_MAX], const char *what) {
+    int bad;
+    if (next_token(r, tok, &bad)) return VM_OK;
+    if (bad) return vm_error_set(r->err, VM_ERR_FORMAT, "%s: over-long word where %s was "
+                                 "expected", r->path, what);
+    return vm_error_set(r->err, VM_ERR_FORMAT, "%s: file ends where %s was expected", r->path,
+                        what);
+}
+
+static vm_status read_int64(reader *r, const char *what, int64_t lo, int64_t *out) {
+    char tok[TOKEN_MAX];
+    vm_status st = expect_token(r, tok, what);
+    if (st) return st;
+    char *end;
+    errno = 0;
+    long long v = strtoll(tok, &end, 10);
+    if (end == tok || *end || errno == ERANGE || v < lo)
+        return vm_error_set(r->err, VM_ERR_FORMAT, "%s: %s is '%s', not a whole number >= %lld",
+                            r->path, what, tok, (long long)lo);
+    *out = v;
+    return VM_OK;
+}
+
+static vm_status read_double3(reader *r, const char *what, double out[3]) {
+    for (int a = 0; a < 3; a++) {
+        char tok[TOKEN_MAX];
+        vm_status st = expect_token(r, tok, what);
+        if (st) return st;
+        char *end;
+        errno = 0;
+        out[a] = strtod(tok, &end);
+        if (end == tok || *end || errno == ERANGE || !(out[a] - out[a] == 0.0))
+            return vm_error_set(r->err, VM_ERR_FORMAT, "%s: %s value '%s' is not a finite "
+                                "number", r->path, what, tok);
+    }
+    return VM_OK;
+}
+
+/* Legacy type names (vtkDataReader spellings plus the vtktype* fixed-width names). long is
+ * read as 8 bytes, as written by VTK on LP64 machines. Returns 0 for an unknown name. */
+static int parse_type(const char *name, vm_scalar_type *t) {
+    static const struct {
+        const char *name;
+        vm_scalar_type type;
+    } names[] = {
+        {"unsigned_char", VM_SCALAR_UINT8},   {"char", VM_SCALAR_INT8},
+        {"signed_char", VM_SCALAR_INT8},      {"unsigned_short", VM_SCALAR_UINT16},
+        {"short", VM_SCALAR_INT16},           {"unsigned_int", VM_SCALAR_UINT32},
+        {"int", VM_SCALAR_INT32},             {"unsigned_long", VM_SCALAR_UINT64},
+        {"long", VM_SCALAR_INT64},            {"unsigned_long_long", VM_SCALAR_UINT64},
+        {"long_long", VM_SCALAR_INT64},       {"float", VM_SCALAR_FLOAT32},
+        {"double", VM_SCALAR_FLOAT64},        {"vtktypeint8", VM_SCALAR_INT8},
+        {"vtktypeuint8", VM_SCALAR_UINT8},    {"vtktypeint16", VM_SCALAR_INT16},
+        {"vtktypeuint16", VM_SCALAR_UINT16},  {"vtktypeint32", VM_SCALAR_INT32},
+        {"vtktypeuint32", VM_SCALAR_UINT32},  {"vtktypeint64", VM_SCALAR_INT64},
+        {"vtktypeuint64", VM_SCALAR_UINT64},  {"vtktypefloat32", VM_SCALAR_FLOAT32},
+        {"vtktypefloat64", VM_SCALAR_FLOAT64}, {"vtkidtype", VM_SCALAR_INT32},
+    };
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+        if (strcasecmp(name, names[i].name) == 0) {
+            *t = names[i].type;
+            return 1;
+        }
+    return 0;
+}
+
+/* Skips count values: ASCII words, or count*size bytes after the end of the current line. */
+static vm_status skip_values(reader *r, uint64_t count, size_t size, const char *what) {
+    if (r->binary) {
+        char line[8];
+        rest_of_line(r, line, sizeof line);
+        size_t bytes;
+        if (count > SIZE_MAX || !vm__mul_size((size_t)count, size, &bytes) ||
+            bytes > r->len - r->pos)
+            return vm_error_set(r->err, VM_ERR_FORMAT, "%s: %s data is truncated (needs %llu "
+                                "values of %zu bytes, %zu bytes left)", r->path, what,
+                                (unsigned long long)count, size, r->len - r->pos);
+        r->pos += bytes;
+        return VM_OK;
+    }
+    for (uint64_t i = 0; i < count; i++) {
+        char tok[TOKEN_MAX];
+        int bad;
+        if (!next_token(r, tok, &bad))
+            return vm_error_set(r->err, VM_ERR_FORMAT, "%s: %s data is truncated (got %llu of "
+                                "%llu values)", r->path, what, (unsigned long long)i,
+                                (unsigned long long)count);
+    }
+    return VM_OK;
+}
+
+static vm_status skip_typed(reader *r, uint64_t count, const char *type, const char *what) {
+    vm_scalar_type t;
+    if (strcasecmp(type, "bit") == 0) {
+        if (!r->binary) return skip_values(r, count, 1, what);
+        return skip_values(r, (count + 7) / 8, 1, what);
+    }
+    if (!parse_type(type, &t))
+        return vm_error_set(r->err, VM_ERR_UNSUPPORTED, "%s: %s has unknown data type '%s'",
+                            r->path, what, type);
+    return skip_values(r, count, vm_scalar_type_size(t), what);
+}
+
+static vm_status mul_count(reader *r, int64_t a, int64_t b, uint64_t *out) {
+    if (a < 0 || b < 0 || (a != 0 && (uint64_t)b > UINT64_MAX / (uint64_t)a))
+        return vm_error_set(r->err, VM_ERR_FORMAT, "%s: array size %lld x %lld overflows",
+                            r->path, (long long)a, (long long)b);
+    *out = (uint64_t)a * (uint64_t)b;
+    return VM_OK;
+}
+
+/* METADATA blocks (VTK >= 8) run to the next empty line. */
+static void skip_metadata(reader *r) {
+    char line[TOKEN_MAX];
+    rest_of_line(r, line, sizeof line);
+    while (r->pos < r->len) {
+        rest_of_line(r, line, sizeof line);
+        if (vm__trim(line)[0] == 0) break;
+    }
+}
+
+/* FIELD name nArrays, then per array: name nComponents nTuples type, data. */
+static vm_status skip_field(reader *r) {
+    char tok[TOKEN_MAX];
+    int64_t narrays;
+    vm_status st = expect_token(r, tok, "FIELD name");
+    if (!st) st = read_int64(r, "FIELD array count", 0, &narrays);
+    for (int64_t i = 0; !st && i < narrays; i++) {
+        int64_t ncomp, ntuples;
+        uint64_t count = 0;
+        char type[TOKEN_MAX];
+        st = expect_token(r, tok, "FIELD array name");
+        if (!st && strcasecmp(tok, "NULL_ARRAY") == 0) continue;
+        if (!st) st = read_int64(r, "FIELD array components", 0, &ncomp);
+        if (!st) st = read_int64(r, "FIELD array tuples", 0, &ntuples);
+        if (!st) st = expect_token(r, type, "FIELD array type");
+        if (!st) st = mul_count(r, ncomp, ntuples, &count);
+        if (!st) st = skip_typed(r, count, type, "FIELD array");
+        if (!st && peek_keyword(r, "METADATA")) {
+            int bad;
+            next_token(r, tok, &bad);
+            skip_metadata(r);
+        }
+    }
+    return st;
+}
+
+/* color: COLOR_SCALARS with one value per point, stored as unsigned char; VTK writes them
+ * as raw bytes in BINARY files and as fractions 0..1 (times 255) in ASCII files. */
+static vm_status read_samples(reader *r, vm_scalar_type t, int color, size_t n, vm_volume *v) {
+    if (r->binary) {
+        char line[8];
+        rest_of_line(r, line, sizeof line);
+        size_t size = vm_scalar_type_size(t), bytes = n * size; /* checked by vm__check_dims */
+        if (bytes > r->len - r->pos)
+            return vm_error_set(r->err, VM_ERR_FORMAT,
+                                "%s: data is truncated (got %zu of %zu bytes)", r->path,
+                                r->len - r->pos, bytes);
+        vm__samples_to_float(r->buf + r->pos, t, vm__host_little_endian(), n, v->data);
+        r->pos += bytes;
+        return VM_OK;
+    }
+    for (size_t i = 0; i < n; i++) {
+        char tok[TOKEN_MAX], *end;
+        int bad;
+        if (!next_token(r, tok, &bad)) {
+            if (bad) return vm_error_set(r->err, VM_ERR_FORMAT, "%s: sample %zu is not a "
+                                         "number (over-long word)", r->path, i);
+            return vm_error_set(r->err, VM_ERR_FORMAT,
+                                "%s: data is truncated (got %zu of %zu values)", r->path, i, n);
+        }
+        double d = strtod(tok, &end);
+        if (end == tok || *end)
+            return vm_error_set(r->err, VM_ERR_FORMAT, "%s: sample %zu ('%.40s') is not a "
+                                "number", r->path, i, tok);
+        if (color) {
+            d = d * 255.0 + 0.5;
+            d = d > 0 ? (d < 255 ? d : 255) : 0; /* also maps NaN to 0 */
+            d = (double)(int)d;
+        }
+        v->data[i] = (float)d;
+    }
+    return VM_OK;
+}
+
+/* Reads the selected point scalars (n values of type t) and sets the geometry. */
+static vm_status take_scalars(reader *r, vm_volume *v, const int64_t dims[3],
+                              int64_t point_count, const double spacing[3],
+                              const double origin[3], vm_scalar_type t, int color) {
+    vm_status st;
+    size_t n, esize = vm_scalar_type_size(t);
+    if ((st = vm__check_dims(dims, esize + sizeof(float), r->path, &n, r->err))) return st;
+    if ((uint64_t)point_count != (uint64_t)n)
+        return vm_error_set(r->err, VM_ERR_FORMAT, "%s: POINT_DATA %lld does not match "
+                            "DIMENSIONS %lldx%lldx%lld", r->path, (long long)point_count,
+                            (long long)dims[0], (long long)dims[1], (long long)dims[2]);
+    if ((st = vm_volume_alloc(v, dims, r->err))) {
+        /* vm_volume_alloc names "volume"; keep the path in the message. */
+        return vm_error_set(r->err, st, "%s: out of memory for %zu voxels", r->path, n);
+    }
+    st = read_samples(r, t, color, n, v);
+    if (st) {
+        vm_volume_free(v);
+        return st;
+    }
+    v->type = t;
+    for (int a = 0; a < 3; a++) {
+        /* A negative spacing flips the axis: keep spacing > 0, negate the column. */
+        if (spacing[a] == 0.0) {
+            vm_volume_free(v);
+            return vm_error_set(r->err, VM_ERR_FORMAT, "%s: SPACING %d is zero", r->path, a);
+        }
+        v->spacing[a] = spacing[a] < 0 ? -spacing[a] : spacing[a];
+        v->direction[a][a] = spacing[a] < 0 ? -1.0 : 1.0;
+        v->origin[a] = origin[a];
+    }
+    strcpy(v->format, "vtk");
+    return VM_OK;
+}
+
+/* After "SCALARS name type": optional numComp on the same line, optional LOOKUP_TABLE line.
+ * Leaves the position where the values start (ASCII) or on the line before them (BINARY). */
+static vm_status scalars_header(reader *r, int64_t *ncomp) {
+    char line[TOKEN_MAX];
+    size_t save = r->pos;
+    rest_of_line(r, line, sizeof line);
+    char *s = vm__trim(line);
+    for (char *c = s; *c; c++)
+        if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
+    *ncomp = 1;
+    if (*s) {
+        char *end;
+        errno = 0;
+        long long c = strtoll(s, &end, 10);
+        if (end == s || errno == ERANGE || *vm__trim(end) || c < 1)
+            return vm_error_set(r->err, VM_ERR_FORMAT, "%s: SCALARS component count '%s' is "
+                                "not a positive whole number", r->path, s);
+        *ncomp = c;
+    }
+    if (peek_keyword(r, "LOOKUP_TABLE")) {
+        char tok[TOKEN_MAX];
+        int bad;
+        next_token(r, tok, &bad);
+        /* Leave the position on the LOOKUP_TABLE line: binary data follows its newline. */
+        while (r->pos < r->len && r->buf[r->pos] != '\n') r->pos++;
+    } else if (r->binary) {
+        /* Position on the SCALARS line end so that read_samples skips just its newline. */
+        r->pos = save;
+        while (r->pos < r->len && r->buf[r->pos] != '\n') r->pos++;
+    }
+    return VM_OK;
+}
+
+static vm_status parse(reader *r, vm_volume *v) {
+    const char *path = r->path;
+    vm_error *err = r->err;
+    char line[TOKEN_MAX], tok[TOKEN_MAX];
+    if (r->len == 0) return vm_error_set(err, VM_ERR_FORMAT, "%s: file is empty", path);
+    rest_of_line(r, line, sizeof line);
+    if (strncasecmp(vm__trim(line), "# vtk DataFile Version", 22) != 0)
+        return vm_error_set(err, VM_ERR_FORMAT,
+                            "%s: not a VTK legacy file (first line is not '# vtk DataFile "
+                            "Version x.y')", path);
+    if (r->pos >= r->len)
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: file ends after the first line", path);
+    rest_of_line(r, line, sizeof line); /* title */
+    vm_status st = expect_token(r, tok, "ASCII or BINARY");
+    if (st) return st;
+    if (strcasecmp(tok, "ASCII") == 0)
+        r->binary = 0;
+    else if (strcasecmp(tok, "BINARY") == 0)
+        r->binary = 1;
+    else
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: file type is '%.40s', not ASCII or BINARY",
+                            path, tok);
+    st = expect_token(r, tok, "DATASET");
+    if (st) return st;
+    if (strcasecmp(tok, "DATASET") != 0) {
+        if (strcasecmp(tok, "POINT_DATA") == 0 || strcasecmp(tok, "CELL_DATA") == 0)
+            return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: file has attributes but no "
+                                "DATASET; only STRUCTURED_POINTS volumes are read", path);
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: expected DATASET, found '%.40s'", path,
+                            tok);
+    }
+    st = expect_token(r, tok, "dataset type");
+    if (st) return st;
+    if (strcasecmp(tok, "STRUCTURED_POINTS") != 0)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: dataset %.40s is not supported (only "
+                            "STRUCTURED_POINTS volumes are read)", path, tok);
+
+    int64_t dims[3] = {0, 0, 0};
+    double spacing[3] = {1, 1, 1}, origin[3] = {0, 0, 0};
+    int have_dims = 0;
+    int64_t point_count = -1, mode_count = 0;
+    int in_points = 0; /* which attribute section the loop is in */
+    int in_attributes = 0;
+    int bad;
+    for (;;) {
+        if (!next_token(r, tok, &bad)) {
+            if (bad)
+                return vm_error_set(err, VM_ERR_FORMAT, "%s: over-long word in the header",
+                                    path);
+            if (!have_dims)
+                return vm_error_set(err, VM_ERR_FORMAT, "%s: no DIMENSIONS line", path);
+            if (point_count < 0)
+                return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: no POINT_DATA section (cell "
+                                    "data alone is not a volume)", path);
+            return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                                "%s: POINT_DATA has no SCALARS array", path);
+        }
+        if (!in_attributes && strcasecmp(tok, "DIMENSIONS") == 0) {
+            for (int a = 0; a < 3 && !st; a++) st = read_int64(r, "DIMENSIONS", 1, &dims[a]);
+            if (st) return st;
+            have_dims = 1;
+        } else if (!in_attributes && (strcasecmp(tok, "SPACING") == 0 ||
+                                      strcasecmp(tok, "ASPECT_RATIO") == 0)) {
+            if ((st = read_double3(r, "SPACING", spacing))) return st;
+        } else if (!in_attributes && strcasecmp(tok, "ORIGIN") == 0) {
+            if ((st = read_double3(r, "ORIGIN", origin))) return st;
+        } else if (strcasecmp(tok, "FIELD") == 0) {
+            if ((st = skip_field(r))) return st;
+        } else if (strcasecmp(tok, "METADATA") == 0) {
+            skip_metadata(r);
+        } else if (strcasecmp(tok, "POINT_DATA") == 0 || strcasecmp(tok, "CELL_DATA") == 0) {
+            int pts = strcasecmp(tok, "POINT_DATA") == 0;
+            if (!have_dims)
+                return vm_error_set(err, VM_ERR_FORMAT, "%s: %s before DIMENSIONS", path, tok);
+            if ((st = read_int64(r, tok, 0, &mode_count))) return st;
+            if (pts) {
+                if (point_count >= 0)
+                    return vm_error_set(err, VM_ERR_FORMAT, "%s: two POINT_DATA sections",
+                                        path);
+                point_count = mode_count;
+            }
+            in_points = pts;
+            in_attributes = 1;
+        } else if (in_attributes && strcasecmp(tok, "SCALARS") == 0) {
+            char name[TOKEN_MAX], type[TOKEN_MAX];
+            int64_t ncomp;
+            vm_scalar_type t;
+            if ((st = expect_token(r, name, "SCALARS name"))) return st;
+            if ((st = expect_token(r, type, "SCALARS type"))) return st;
+            if ((st = scalars_header(r, &ncomp))) return st;
+            if (!in_points) {
+                uint64_t count = 0;
+                if ((st = mul_count(r, mode_count, ncomp, &count))) return st;
+                if ((st = skip_typed(r, count, type, "CELL_DATA SCALARS"))) return st;
+                continue;
+            }
+            if (!parse_type(type, &t))
+                return vm_error_set(err, strcasecmp(type, "bit") == 0 ? VM_ERR_UNSUPPORTED
+                                                                      : VM_ERR_FORMAT,
+                                    "%s: SCALARS %.60s has unsupported type '%.40s'", path,
+                                    name, type);
+            if (ncomp != 1)
+                return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: SCALARS %.60s has %lld "
+                                    "components (only 1 is supported)", path, name,
+                                    (long long)ncomp);
+            return take_scalars(r, v, dims, point_count, spacing, origin, t, 0);
+        } else if (in_attributes && strcasecmp(tok, "LOOKUP_TABLE") == 0) {
+            int64_t size;
+            if ((st = expect_token(r, tok, "LOOKUP_TABLE name"))) return st;
+            if ((st = read_int64(r, "LOOKUP_TABLE size", 0, &size))) return st;
+            uint64_t count = 0;
+            if ((st = mul_count(r, size, 4, &count))) return st;
+            if ((st = skip_values(r, count, 1, "LOOKUP_TABLE"))) return st;
+        } else if (in_attributes && (strcasecmp(tok, "VECTORS") == 0 ||
+                                     strcasecmp(tok, "NORMALS") == 0 ||
+                                     strcasecmp(tok, "TENSORS") == 0 ||
+                                     strcasecmp(tok, "TENSORS6") == 0 ||
+                                     strcasecmp(tok, "GLOBAL_IDS") == 0 ||
+                                     strcasecmp(tok, "PEDIGREE_IDS") == 0)) {
+            char what[TOKEN_MAX], type[TOKEN_MAX];
+            int64_t ncomp = strcasecmp(tok, "TENSORS") == 0    ? 9
+                            : strcasecmp(tok, "TENSORS6") == 0 ? 6
+                            : (strcasecmp(tok, "GLOBAL_IDS") == 0 ||
+                               strcasecmp(tok, "PEDIGREE_IDS") == 0)
+                                ? 1
+                                : 3;
+            uint64_t count = 0;
+            snprintf(what, sizeof what, "%s", tok);
+            if ((st = expect_token(r, tok, "array name"))) return st;
+            if ((st = expect_token(r, type, "array type"))) return st;
+            if ((st = mul_count(r, mode_count, ncomp, &count))) return st;
+            if ((st = skip_typed(r, count, type, what))) return st;
+        } else if (in_attributes && strcasecmp(tok, "TEXTURE_COORDINATES") == 0) {
+            char type[TOKEN_MAX];
+            int64_t dim;
+            uint64_t count = 0;
+            if ((st = expect_token(r, tok, "array name"))) return st;
+            if ((st = read_int64(r, "TEXTURE_COORDINATES dimension", 1, &dim))) return st;
+            if ((st = expect_token(r, type, "array type"))) return st;
+            if ((st = mul_count(r, mode_count, dim, &count))) return st;
+            if ((st = skip_typed(r, count, type, "TEXTURE_COORDINATES"))) return st;
+        } else if (in_attributes && strcasecmp(tok, "COLOR_SCALARS") == 0) {
+            int64_t nvalues;
+            uint64_t count = 0;
+            if ((st = expect_token(r, tok, "array name"))) return st;
+            if ((st = read_int64(r, "COLOR_SCALARS size", 1, &nvalues))) return st;
+            if (in_points && nvalues == 1) {
+                /* VTK writes unsigned char scalars this way; its reader takes them as the
+                 * point scalars. The values start after this line. */
+                return take_scalars(r, v, dims, point_count, spacing, origin, VM_SCALAR_UINT8,
+                                    1);
+            }
+            if ((st = mul_count(r, mode_count, nvalues, &count))) return st;
+            if ((st = skip_values(r, count, 1, "COLOR_SCALARS"))) return st;
+        } else {
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: unexpected keyword '%.40s'%s", path,
+                                tok, in_attributes ? " in the attribute data"
+                                                   : " in the STRUCTURED_POINTS header");
+        }
+    }
+}
+
 vm_status vm_volume_read_vtk(const char *path, vm_volume *v, vm_error *err) {
-    (void)v;
-    return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: vtk reader not built yet", path);
+    memset(v, 0, sizeof *v);
+    unsigned char *buf;
+    size_t len;
+    vm_status st = vm__read_file(path, vm__memory_limit(), &buf, &len, err);
+    if (st) return st;
+    reader r = {path, buf, len, 0, 0, err};
+    st = parse(&r, v);
+    free(buf);
+    if (st) vm_volume_free(v);
+    return st;
 }
