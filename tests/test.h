@@ -42,9 +42,10 @@ extern int vm_test_failures; /* failures in the current test function */
 #define CHECK_OK(expr, errp)                                                               \
     do {                                                                                   \
         vm_status vm_s_ = (expr);                                                          \
+        const vm_error *vm_e_ = (errp);                                                    \
         if (vm_s_ != VM_OK) {                                                              \
             fprintf(stderr, "  %s:%d: %s returned %d: %s\n", __FILE__, __LINE__, #expr,    \
-                    (int)vm_s_, (errp) ? (errp)->message : "");                            \
+                    (int)vm_s_, vm_e_ != NULL ? vm_e_->message : "");                      \
             vm_test_failures++;                                                            \
         }                                                                                  \
     } while (0)

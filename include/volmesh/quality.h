@@ -23,6 +23,20 @@ double vm_tet_signed_volume(const double p[4][3]);
 double vm_tet_min_dihedral(const double p[4][3]);
 double vm_tet_max_dihedral(const double p[4][3]);
 
+/* Scaled Jacobian of a tetrahedron: 6V*sqrt(2) / (largest product of the three edge lengths
+ * at a corner). Ideal 1 (regular tet); acceptable 0.2..1; full range -1..1; a tet with a
+ * zero-length edge gives 0. */
+double vm_tet_scaled_jacobian(const double p[4][3]);
+
+/* Minimum over the 8 corners (VTK hex node order) of the corner Jacobian normalised by the
+ * lengths of its three edges. Ideal 1 (a cube); acceptable 0.5..1; full range -1..1; a
+ * zero-length edge at a corner gives 0 for that corner. A hex is inverted when this is <= 0. */
+double vm_hex_min_scaled_jacobian(const double p[8][3]);
+
+/* Volume of the trilinear hexahedron (VTK node order), exact for non-planar faces; negative
+ * when inside out. */
+double vm_hex_volume(const double p[8][3]);
+
 /* Result of vm_mesh_check: the invariants every mesh test asserts. */
 typedef struct vm_mesh_report {
     size_t cells, points;
@@ -45,12 +59,20 @@ typedef struct vm_mesh_report {
 
 /* Runs all checks on a volume mesh (tet4 or hex8) or a surface mesh (tri3/quad4, where the
  * "boundary" is the surface itself and volume is the enclosed signed volume).
- * [out] r. Errors only on out-of-memory or an unknown kind. */
+ * A boundary vertex counts as non-manifold unless its faces close into exactly one cycle
+ * (a bow-tie of two fans and the open fan on a rim both count). For surfaces: components =
+ * boundary_components (edge-connected), degenerate counts faces of near-zero area, and
+ * inverted, overshared_faces, dihedrals and min_scaled_jacobian are 0. An empty mesh reports
+ * zeros. Time and memory O(cells): about 1 s and 200 MB for a million tets.
+ * [out] r. Errors on out-of-memory, an unknown kind, or a node index outside 0..npoints-1
+ * (VM_ERR_ARG). */
 vm_status vm_mesh_check(const vm_mesh *m, vm_mesh_report *r, vm_error *err);
 
 /* Extracts the boundary faces of a volume mesh as a surface mesh (tri3 for tets, quad4 for
  * hexes) with outward orientation, sharing no storage with m. [out] surf. Each face carries
- * the region of its cell. */
+ * the region of its cell. Only points used by boundary faces are kept, renumbered in their
+ * original order; point fields are carried over for them and cell fields from each face's
+ * cell. Faces are listed in cell order. A tri3/quad4 input is VM_ERR_UNSUPPORTED. */
 vm_status vm_mesh_boundary(const vm_mesh *m, vm_mesh *surf, vm_error *err);
 
 #ifdef __cplusplus

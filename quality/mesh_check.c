@@ -1,0 +1,570 @@
+/* quality/mesh_check.c — whole-mesh invariants: inverted cells, face conformity, boundary
+ * closedness and manifoldness, Euler characteristic, components, volume and element quality.
+ * Faces and edges are matched by hashing their sorted node tuples (open addressing with
+ * linear probing); connectivity uses union-find with path halving. Everything is O(n). */
+#include "../core/core.h"
+#include "volmesh/quality.h"
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Faces of each volume kind, ordered so that normals point out of a positive cell. */
+static const int tet_faces[4][4] = {{1, 2, 3, 0}, {0, 3, 2, 0}, {0, 1, 3, 0}, {0, 2, 1, 0}};
+static const int hex_faces[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
+                                    {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}};
+
+typedef struct faceset {
+    const vm_index *cells; /* cell nodes */
+    int nn;                /* nodes per cell */
+    int nf;                /* faces per cell */
+    int k;                 /* nodes per face */
+    const int (*faces)[4]; /* local face table */
+} faceset;
+
+static void face_nodes(const faceset *fs, uint64_t inst, int64_t out[4]) {
+    uint64_t c = inst / (uint64_t)fs->nf;
+    int lf = (int)(inst % (uint64_t)fs->nf);
+    const vm_index *cn = fs->cells + (size_t)c * (size_t)fs->nn;
+    for (int i = 0; i < fs->k; i++)
+        out[i] = cn[fs->faces[lf][i]];
+}
+
+static void sort_small(int64_t *a, int n) {
+    for (int i = 1; i < n; i++) {
+        int64_t v = a[i];
+        int j = i - 1;
+        while (j >= 0 && a[j] > v) {
+            a[j + 1] = a[j];
+            j--;
+        }
+        a[j + 1] = v;
+    }
+}
+
+static uint64_t hash_key(const int64_t *key, int n) {
+    uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (int i = 0; i < n; i++) {
+        h ^= (uint64_t)key[i];
+        h *= 0xFF51AFD7ED558CCDull;
+        h ^= h >> 32;
+    }
+    h ^= h >> 33;
+    h *= 0xC4CEB9FE1A85EC53ull;
+    h ^= h >> 29;
+    return h;
+}
+
+/* --- union-find ------------------------------------------------------------------------ */
+
+static size_t uf_find(size_t *parent, size_t x) {
+    while (parent[x] != x) {
+        parent[x] = parent[parent[x]];
+        x = parent[x];
+    }
+    return x;
+}
+
+static void uf_union(size_t *parent, size_t a, size_t b) {
+    a = uf_find(parent, a);
+    b = uf_find(parent, b);
+    if (a == b) return;
+    /* Smaller index becomes the root: deterministic and keeps trees shallow enough with
+     * path halving. */
+    if (a < b)
+        parent[b] = a;
+    else
+        parent[a] = b;
+}
+
+/* --- checked allocation ------------------------------------------------------------------ */
+
+static void *alloc_array(size_t n, size_t elem, int zeroed, const char *what, vm_status *st,
+                         vm_error *err) {
+    size_t bytes;
+    if (!vm__mul_size(n, elem, &bytes) || bytes > vm__memory_limit()) {
+        *st = vm_error_set(err, VM_ERR_NOMEM, "mesh check: %s of %zu entries is too large",
+                           what, n);
+        return NULL;
+    }
+    /* calloc: large zeroed blocks come straight from the kernel without a memset pass. */
+    void *p = zeroed ? calloc(bytes ? bytes : 1, 1) : malloc(bytes ? bytes : 1);
+    if (!p) *st = vm_error_set(err, VM_ERR_NOMEM, "mesh check: out of memory for %s", what);
+    return p;
+}
+
+/* Smallest power of two >= n*3/2 (at least 16), or 0 on overflow. */
+static size_t table_size(size_t n) {
+    size_t want = n + n / 2, cap = 16;
+    if (want < n) return 0;
+    while (cap < want) {
+        if (cap > SIZE_MAX / 2) return 0;
+        cap *= 2;
+    }
+    return cap;
+}
+
+/* --- cell faces: which are shared, which are on the boundary ----------------------------- */
+
+typedef struct face_slot {
+    uint64_t rep; /* first face instance + 1; 0 = empty */
+    uint32_t count;
+    uint32_t tag;
+} face_slot;
+
+/* Matches all cell faces. [out] *binst (malloc'd) lists the boundary face instances in cell
+ * order; *overshared counts faces used by more than two cells; when parent != NULL, cells
+ * sharing a face are united in it. */
+static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
+                             size_t *overshared, uint64_t **binst, size_t *nb, vm_error *err) {
+    vm_status st = VM_OK;
+    *binst = NULL;
+    *nb = 0;
+    *overshared = 0;
+    size_t ninst;
+    if (!vm__mul_size(ncells, (size_t)fs->nf, &ninst))
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh check: %zu cells overflow", ncells);
+    size_t cap = table_size(ninst);
+    if (!cap) return vm_error_set(err, VM_ERR_NOMEM, "mesh check: face table overflows");
+    face_slot *tab = alloc_array(cap, sizeof *tab, 1, "face table", &st, err);
+    if (!tab) return st;
+    size_t mask = cap - 1;
+    int k = fs->k;
+    for (size_t i = 0; i < ninst; i++) {
+        int64_t key[4], other[4];
+        face_nodes(fs, i, key);
+        sort_small(key, k);
+        uint64_t h = hash_key(key, k);
+        uint32_t tag = (uint32_t)(h >> 32);
+        size_t pos = (size_t)h & mask;
+        for (;;) {
+            face_slot *s = &tab[pos];
+            if (s->rep == 0) {
+                s->rep = (uint64_t)i + 1;
+                s->count = 1;
+                s->tag = tag;
+                break;
+            }
+            if (s->tag == tag) {
+                face_nodes(fs, s->rep - 1, other);
+                sort_small(other, k);
+                if (memcmp(key, other, (size_t)k * sizeof key[0]) == 0) {
+                    if (s->count < UINT32_MAX) s->count++;
+                    if (parent)
+                        uf_union(parent, (size_t)((s->rep - 1) / (uint64_t)fs->nf),
+                                 i / (size_t)fs->nf);
+                    break;
+                }
+            }
+            pos = (pos + 1) & mask;
+        }
+    }
+    /* Mark the boundary instances so they can be listed in cell order. */
+    unsigned char *mark = alloc_array(ninst, 1, 1, "face marks", &st, err);
+    if (!mark) {
+        free(tab);
+        return st;
+    }
+    size_t n = 0;
+    for (size_t s = 0; s < cap; s++) {
+        if (tab[s].rep == 0) continue;
+        if (tab[s].count == 1) {
+            mark[tab[s].rep - 1] = 1;
+            n++;
+        } else if (tab[s].count > 2) {
+            (*overshared)++;
+        }
+    }
+    free(tab);
+    uint64_t *list = alloc_array(n, sizeof *list, 0, "boundary faces", &st, err);
+    if (!list) {
+        free(mark);
+        return st;
+    }
+    size_t j = 0;
+    for (size_t i = 0; i < ninst; i++)
+        if (mark[i]) list[j++] = i;
+    free(mark);
+    *binst = list;
+    *nb = n;
+    return VM_OK;
+}
+
+/* --- surface analysis -------------------------------------------------------------------- */
+
+typedef struct edge_slot {
+    uint64_t c1, c2; /* first and second edge instance + 1 */
+    uint32_t count;
+    uint32_t tag;
+} edge_slot;
+
+/* Analyses a surface of nf faces with k nodes each (faces[f*k + j]): closedness, manifold
+ * edges and vertices, Euler characteristic and edge-connected components. */
+static vm_status analyse_surface(const vm_index *faces, size_t nf, int k, size_t npoints,
+                                 vm_mesh_report *r, vm_error *err) {
+    vm_status st = VM_OK;
+    size_t ninst;
+    if (!vm__mul_size(nf, (size_t)k, &ninst))
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh check: %zu faces overflow", nf);
+    size_t cap = table_size(ninst);
+    if (!cap) return vm_error_set(err, VM_ERR_NOMEM, "mesh check: edge table overflows");
+    edge_slot *tab = NULL;
+    size_t *fparent = NULL, *cparent = NULL, *first_root = NULL;
+    unsigned char *vflag = NULL; /* bit 1: used, bit 2: bad */
+    if (!(tab = alloc_array(cap, sizeof *tab, 1, "edge table", &st, err))) goto done;
+    if (!(fparent = alloc_array(nf, sizeof *fparent, 0, "face components", &st, err)))
+        goto done;
+    if (!(cparent = alloc_array(ninst, sizeof *cparent, 0, "face corners", &st, err)))
+        goto done;
+    if (!(first_root = alloc_array(npoints, sizeof *first_root, 0, "vertex fans", &st, err)))
+        goto done;
+    if (!(vflag = alloc_array(npoints, 1, 0, "vertex flags", &st, err))) goto done;
+    memset(vflag, 0, npoints);
+    for (size_t f = 0; f < nf; f++)
+        fparent[f] = f;
+    for (size_t c = 0; c < ninst; c++)
+        cparent[c] = c;
+    for (size_t v = 0; v < npoints; v++)
+        first_root[v] = SIZE_MAX;
+
+    size_t mask = cap - 1;
+    for (size_t i = 0; i < ninst; i++) {
+        size_t f = i / (size_t)k, j = i % (size_t)k;
+        int64_t a = faces[i], b = faces[f * (size_t)k + (j + 1) % (size_t)k];
+        vflag[a] |= 1;
+        int64_t key[2] = {a < b ? a : b, a < b ? b : a};
+        uint64_t h = hash_key(key, 2);
+        uint32_t tag = (uint32_t)(h >> 32);
+        size_t pos = (size_t)h & mask;
+        for (;;) {
+            edge_slot *s = &tab[pos];
+            if (s->c1 == 0) {
+                s->c1 = (uint64_t)i + 1;
+                s->count = 1;
+                s->tag = tag;
+                break;
+            }
+            if (s->tag == tag) {
+                size_t i1 = (size_t)(s->c1 - 1), f1 = i1 / (size_t)k, j1 = i1 % (size_t)k;
+                int64_t a1 = faces[i1], b1 = faces[f1 * (size_t)k + (j1 + 1) % (size_t)k];
+                if ((a1 < b1 ? a1 : b1) == key[0] && (a1 < b1 ? b1 : a1) == key[1]) {
+                    if (s->count == 1) s->c2 = (uint64_t)i + 1;
+                    if (s->count < UINT32_MAX) s->count++;
+                    uf_union(fparent, f1, f);
+                    break;
+                }
+            }
+            pos = (pos + 1) & mask;
+        }
+    }
+
+    size_t nedges = 0;
+    for (size_t s = 0; s < cap; s++) {
+        if (tab[s].c1 == 0) continue;
+        nedges++;
+        size_t i1 = (size_t)(tab[s].c1 - 1), f1 = i1 / (size_t)k, j1 = i1 % (size_t)k;
+        size_t i1n = f1 * (size_t)k + (j1 + 1) % (size_t)k;
+        int64_t a = faces[i1], b = faces[i1n];
+        if (tab[s].count != 2) {
+            if (tab[s].count == 1)
+                r->boundary_open_edges++;
+            else
+                r->boundary_nonmanifold_edges++;
+            vflag[a] |= 2;
+            vflag[b] |= 2;
+            continue;
+        }
+        /* Two faces meet here: join their corners at each end of the edge into one fan. */
+        size_t i2 = (size_t)(tab[s].c2 - 1), f2 = i2 / (size_t)k, j2 = i2 % (size_t)k;
+        size_t i2n = f2 * (size_t)k + (j2 + 1) % (size_t)k;
+        if (faces[i2] == a) {
+            uf_union(cparent, i1, i2);
+            uf_union(cparent, i1n, i2n);
+        } else {
+            uf_union(cparent, i1, i2n);
+            uf_union(cparent, i1n, i2);
+        }
+    }
+    /* A vertex is manifold when all its corners form one fan and none of its edges is open
+     * or non-manifold (a fan that closes into a single cycle). */
+    for (size_t c = 0; c < ninst; c++) {
+        size_t v = (size_t)faces[c], root = uf_find(cparent, c);
+        if (first_root[v] == SIZE_MAX)
+            first_root[v] = root;
+        else if (first_root[v] != root)
+            vflag[v] |= 2;
+    }
+    size_t nverts = 0;
+    for (size_t v = 0; v < npoints; v++) {
+        if (!(vflag[v] & 1)) continue;
+        nverts++;
+        if (vflag[v] & 2) r->boundary_nonmanifold_vertices++;
+    }
+    size_t ncomp = 0;
+    for (size_t f = 0; f < nf; f++)
+        if (uf_find(fparent, f) == f) ncomp++;
+    r->boundary_components = ncomp;
+    r->boundary_closed = r->boundary_open_edges == 0 && r->boundary_nonmanifold_edges == 0;
+    r->boundary_euler = (long)nverts - (long)nedges + (long)nf;
+done:
+    free(tab);
+    free(fparent);
+    free(cparent);
+    free(first_root);
+    free(vflag);
+    return st;
+}
+
+/* --- the checks -------------------------------------------------------------------------- */
+
+static vm_status check_indices(const vm_mesh *m, const char *what, vm_error *err) {
+    size_t n = m->ncells * (size_t)vm_cell_nodes(m->kind);
+    for (size_t i = 0; i < n; i++) {
+        vm_index v = m->cells[i];
+        if (v < 0 || (uint64_t)v >= (uint64_t)m->npoints)
+            return vm_error_set(err, VM_ERR_ARG, "%s: cell %zu uses node %lld, outside 0..%zu",
+                                what, i / (size_t)vm_cell_nodes(m->kind), (long long)v,
+                                m->npoints ? m->npoints - 1 : 0);
+    }
+    return VM_OK;
+}
+
+static void cell_points(const vm_mesh *m, size_t c, int nn, double p[8][3]) {
+    const vm_index *cn = m->cells + c * (size_t)nn;
+    for (int i = 0; i < nn; i++)
+        memcpy(p[i], m->points + 3 * (size_t)cn[i], sizeof p[i]);
+}
+
+static faceset faceset_of(const vm_mesh *m) {
+    faceset fs;
+    fs.cells = m->cells;
+    fs.nn = vm_cell_nodes(m->kind);
+    if (m->kind == VM_TET4) {
+        fs.nf = 4;
+        fs.k = 3;
+        fs.faces = tet_faces;
+    } else {
+        fs.nf = 6;
+        fs.k = 4;
+        fs.faces = hex_faces;
+    }
+    return fs;
+}
+
+/* Per-cell metrics of a volume mesh. */
+static vm_status cell_metrics(const vm_mesh *m, vm_mesh_report *r, vm_error *err) {
+    vm_status st = VM_OK;
+    double *vol = alloc_array(m->ncells, sizeof *vol, 0, "cell volumes", &st, err);
+    if (!vol) return st;
+    int nn = vm_cell_nodes(m->kind);
+    double sum_abs = 0.0, sj_min = 1.0, dmin = 180.0, dmax = 0.0;
+    for (size_t c = 0; c < m->ncells; c++) {
+        double p[8][3];
+        cell_points(m, c, nn, p);
+        double v, sj;
+        if (m->kind == VM_TET4) {
+            v = vm_tet_signed_volume((const double(*)[3])p);
+            sj = vm_tet_scaled_jacobian((const double(*)[3])p);
+            double a = vm_tet_min_dihedral((const double(*)[3])p);
+            double b = vm_tet_max_dihedral((const double(*)[3])p);
+            if (a < dmin) dmin = a;
+            if (b > dmax) dmax = b;
+            if (a < 5.0) r->slivers_5++;
+            if (a < 10.0) r->slivers_10++;
+            if (v <= 0.0) r->inverted++;
+        } else {
+            v = vm_hex_volume((const double(*)[3])p);
+            sj = vm_hex_min_scaled_jacobian((const double(*)[3])p);
+            if (sj <= 0.0) r->inverted++;
+        }
+        if (sj < sj_min) sj_min = sj;
+        vol[c] = v;
+        r->volume += v;
+        sum_abs += fabs(v);
+    }
+    double floor = m->ncells ? 1e-12 * sum_abs / (double)m->ncells : 0.0;
+    for (size_t c = 0; c < m->ncells; c++)
+        if (fabs(vol[c]) <= floor) r->degenerate++;
+    free(vol);
+    if (m->ncells) {
+        r->min_scaled_jacobian = sj_min;
+        if (m->kind == VM_TET4) {
+            r->min_dihedral = dmin;
+            r->max_dihedral = dmax;
+        }
+    }
+    return VM_OK;
+}
+
+static vm_status check_volume_mesh(const vm_mesh *m, vm_mesh_report *r, vm_error *err) {
+    vm_status st = cell_metrics(m, r, err);
+    if (st) return st;
+    faceset fs = faceset_of(m);
+    size_t *parent = alloc_array(m->ncells, sizeof *parent, 0, "cell components", &st, err);
+    if (!parent) return st;
+    for (size_t c = 0; c < m->ncells; c++)
+        parent[c] = c;
+    uint64_t *binst = NULL;
+    size_t nb = 0;
+    st = match_faces(&fs, m->ncells, parent, &r->overshared_faces, &binst, &nb, err);
+    if (st) {
+        free(parent);
+        return st;
+    }
+    for (size_t c = 0; c < m->ncells; c++)
+        if (uf_find(parent, c) == c) r->components++;
+    free(parent);
+    r->boundary_faces = nb;
+    size_t nidx;
+    vm_index *bf = NULL;
+    if (!vm__mul_size(nb, (size_t)fs.k, &nidx) ||
+        !(bf = alloc_array(nidx, sizeof *bf, 0, "boundary faces", &st, err))) {
+        free(binst);
+        return st ? st : vm_error_set(err, VM_ERR_NOMEM, "mesh check: boundary overflows");
+    }
+    for (size_t i = 0; i < nb; i++) {
+        int64_t fn[4];
+        face_nodes(&fs, binst[i], fn);
+        for (int j = 0; j < fs.k; j++)
+            bf[i * (size_t)fs.k + (size_t)j] = (vm_index)fn[j];
+    }
+    free(binst);
+    st = analyse_surface(bf, nb, fs.k, m->npoints, r, err);
+    free(bf);
+    return st;
+}
+
+static vm_status check_surface_mesh(const vm_mesh *m, vm_mesh_report *r, vm_error *err) {
+    int k = vm_cell_nodes(m->kind);
+    const double *o = m->npoints ? m->points : NULL;
+    double sum_area = 0.0;
+    vm_status st = VM_OK;
+    double *area = alloc_array(m->ncells, sizeof *area, 0, "face areas", &st, err);
+    if (!area) return st;
+    for (size_t c = 0; c < m->ncells; c++) {
+        double q[4][3], ctr[3] = {0, 0, 0};
+        for (int i = 0; i < k; i++) {
+            const double *p = m->points + 3 * (size_t)m->cells[c * (size_t)k + (size_t)i];
+            for (int d = 0; d < 3; d++) {
+                q[i][d] = p[d] - o[d];
+                ctr[d] += q[i][d] / k;
+            }
+        }
+        /* Fan around the vertex average: exact for triangles and bilinear quads. */
+        double vsum = 0.0, an[3] = {0, 0, 0};
+        for (int i = 0; i < k; i++) {
+            const double *a = q[i], *b = q[(i + 1) % k];
+            double ea[3] = {a[0] - ctr[0], a[1] - ctr[1], a[2] - ctr[2]};
+            double eb[3] = {b[0] - ctr[0], b[1] - ctr[1], b[2] - ctr[2]};
+            double x[3] = {ea[1] * eb[2] - ea[2] * eb[1], ea[2] * eb[0] - ea[0] * eb[2],
+                           ea[0] * eb[1] - ea[1] * eb[0]};
+            for (int d = 0; d < 3; d++)
+                an[d] += 0.5 * x[d];
+            vsum += ctr[0] * (a[1] * b[2] - a[2] * b[1]) +
+                    ctr[1] * (a[2] * b[0] - a[0] * b[2]) + ctr[2] * (a[0] * b[1] - a[1] * b[0]);
+        }
+        r->volume += vsum / 6.0;
+        area[c] = sqrt(an[0] * an[0] + an[1] * an[1] + an[2] * an[2]);
+        sum_area += area[c];
+    }
+    double floor = m->ncells ? 1e-12 * sum_area / (double)m->ncells : 0.0;
+    for (size_t c = 0; c < m->ncells; c++)
+        if (area[c] <= floor) r->degenerate++;
+    free(area);
+    if (!isfinite(r->volume)) r->volume = 0.0;
+    r->boundary_faces = m->ncells;
+    st = analyse_surface(m->cells, m->ncells, k, m->npoints, r, err);
+    r->components = r->boundary_components;
+    return st;
+}
+
+vm_status vm_mesh_check(const vm_mesh *m, vm_mesh_report *r, vm_error *err) {
+    memset(r, 0, sizeof *r);
+    r->cells = m->ncells;
+    r->points = m->npoints;
+    if (vm_cell_nodes(m->kind) == 0)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "mesh check: unknown cell kind %d",
+                            (int)m->kind);
+    vm_status st = check_indices(m, "mesh check", err);
+    if (st) return st;
+    if (m->kind == VM_TET4 || m->kind == VM_HEX8) return check_volume_mesh(m, r, err);
+    return check_surface_mesh(m, r, err);
+}
+
+vm_status vm_mesh_boundary(const vm_mesh *m, vm_mesh *surf, vm_error *err) {
+    vm_mesh_init(surf, m->kind == VM_HEX8 ? VM_QUAD4 : VM_TRI3);
+    if (m->kind != VM_TET4 && m->kind != VM_HEX8)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "mesh boundary: needs a tet4 or hex8 mesh, not %s",
+                            vm_cell_kind_name(m->kind));
+    vm_status st = check_indices(m, "mesh boundary", err);
+    if (st) return st;
+    faceset fs = faceset_of(m);
+    uint64_t *binst = NULL;
+    size_t nb = 0, dummy = 0;
+    st = match_faces(&fs, m->ncells, NULL, &dummy, &binst, &nb, err);
+    if (st) return st;
+    vm_index *map = alloc_array(m->npoints, sizeof *map, 0, "point map", &st, err);
+    if (!map) {
+        free(binst);
+        return st;
+    }
+    for (size_t v = 0; v < m->npoints; v++)
+        map[v] = -1;
+    for (size_t i = 0; i < nb; i++) {
+        int64_t fn[4];
+        face_nodes(&fs, binst[i], fn);
+        for (int j = 0; j < fs.k; j++)
+            map[fn[j]] = 0;
+    }
+    /* Kept points are numbered in their original order. */
+    size_t np = 0;
+    for (size_t v = 0; v < m->npoints; v++)
+        if (map[v] == 0) map[v] = (vm_index)np++;
+    st = vm_mesh_reserve(surf, np, nb, err);
+    if (st) goto fail;
+    for (size_t v = 0; v < m->npoints; v++)
+        if (map[v] >= 0)
+            memcpy(surf->points + 3 * (size_t)map[v], m->points + 3 * v, 3 * sizeof(double));
+    surf->npoints = np;
+    for (size_t i = 0; i < nb; i++) {
+        int64_t fn[4];
+        face_nodes(&fs, binst[i], fn);
+        for (int j = 0; j < fs.k; j++)
+            surf->cells[i * (size_t)fs.k + (size_t)j] = map[fn[j]];
+        surf->region[i] = m->region[binst[i] / (uint64_t)fs.nf];
+    }
+    surf->ncells = nb;
+    for (size_t f = 0; f < m->npoint_fields; f++) {
+        const vm_field *src = &m->point_fields[f];
+        size_t nc = (size_t)src->ncomp;
+        double *d = alloc_array(np ? np : 1, nc * sizeof(double), 0, "point field", &st, err);
+        if (!d) goto fail;
+        for (size_t v = 0; v < m->npoints; v++)
+            if (map[v] >= 0)
+                memcpy(d + (size_t)map[v] * nc, src->data + v * nc, nc * sizeof(double));
+        st = vm_mesh_set_field(surf, 0, src->name, src->ncomp, d, err);
+        free(d);
+        if (st) goto fail;
+    }
+    for (size_t f = 0; f < m->ncell_fields; f++) {
+        const vm_field *src = &m->cell_fields[f];
+        size_t nc = (size_t)src->ncomp;
+        double *d = alloc_array(nb ? nb : 1, nc * sizeof(double), 0, "cell field", &st, err);
+        if (!d) goto fail;
+        for (size_t i = 0; i < nb; i++)
+            memcpy(d + i * nc, src->data + (size_t)(binst[i] / (uint64_t)fs.nf) * nc,
+                   nc * sizeof(double));
+        st = vm_mesh_set_field(surf, 1, src->name, src->ncomp, d, err);
+        free(d);
+        if (st) goto fail;
+    }
+    free(map);
+    free(binst);
+    return VM_OK;
+fail:
+    free(map);
+    free(binst);
+    vm_mesh_free(surf);
+    return st;
+}
