@@ -1,0 +1,161 @@
+/* mesher/mesh_volume.c — vm_mesh_volume: checks the request, prepares the sampling grid,
+ * runs dual contouring and returns the mesh in world coordinates. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../core/core.h"
+#include "mesher_internal.h"
+#include "volmesh/mesher.h"
+
+void vm_mesh_options_default(vm_mesh_options *o) {
+    memset(o, 0, sizeof *o);
+    o->has_lo = 1;
+    o->lo = 0.0;
+    o->elements = VM_TET4;
+    o->cell_size = 1;
+    o->error = 0.5;
+    o->max_level = 4;
+}
+
+/* Trilinear sample of v at continuous index position (x, y, z) inside the volume. */
+static float sample(const vm_volume *v, double x, double y, double z) {
+    int64_t i = (int64_t)floor(x), j = (int64_t)floor(y), k = (int64_t)floor(z);
+    if (i > v->dims[0] - 2) i = v->dims[0] - 2;
+    if (j > v->dims[1] - 2) j = v->dims[1] - 2;
+    if (k > v->dims[2] - 2) k = v->dims[2] - 2;
+    double fx = x - (double)i, fy = y - (double)j, fz = z - (double)k, s = 0;
+    for (int c = 0; c < 8; c++) {
+        int dx = c & 1, dy = (c >> 1) & 1, dz = c >> 2;
+        double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) * (dz ? fz : 1 - fz);
+        if (w == 0) continue;
+        s += w * v->data[(i + dx) + v->dims[0] * ((j + dy) + v->dims[1] * (k + dz))];
+    }
+    return (float)s;
+}
+
+vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *mesh,
+                         vm_mesh_stats *stats, vm_error *err) {
+    double t0 = vm__now();
+    vm_mesh_stats st;
+    memset(&st, 0, sizeof st);
+    vm_mesh_init(mesh, VM_TET4);
+    if (!o->has_lo && !o->has_hi)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: no material bound given (--iso or --range)");
+    if (o->has_lo && o->has_hi && o->lo > o->hi)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: empty range %g:%g (lower bound above upper)",
+                            o->lo, o->hi);
+    if (o->elements != VM_TET4)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "mesh: only tetrahedra are built so far");
+    if (o->cell_size < 1)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: cell size %d must be >= 1", o->cell_size);
+    for (int a = 0; a < 3; a++)
+        if (v->dims[a] < 2)
+            return vm_error_set(err, VM_ERR_ARG,
+                                "mesh: the volume is %lld voxel(s) along axis %d; need at least 2",
+                                (long long)v->dims[a], a);
+    double lo, hi;
+    size_t nonfinite = vm_volume_stats(v, &lo, &hi, NULL);
+    if (nonfinite)
+        return vm_error_set(err, VM_ERR_FORMAT,
+                            "mesh: the volume has %zu non-finite values (NaN or infinity)",
+                            nonfinite);
+    if ((o->has_lo && o->lo > hi) || (o->has_hi && o->hi < lo)) {
+        if (o->has_lo && o->lo > hi)
+            return vm_error_set(err, VM_ERR_EMPTY,
+                                "mesh: no voxel >= %g (the data range is %g to %g): choose an "
+                                "isovalue below %g",
+                                o->lo, lo, hi, hi);
+        return vm_error_set(err, VM_ERR_EMPTY,
+                            "mesh: no voxel <= %g (the data range is %g to %g)", o->hi, lo, hi);
+    }
+
+    /* Sampling grid: the volume itself, or a trilinear resampling with cell size ~S. */
+    vm__grid g;
+    memset(&g, 0, sizeof g);
+    float *resampled = NULL;
+    double step[3] = {1, 1, 1};
+    if (o->cell_size == 1) {
+        for (int a = 0; a < 3; a++) g.n[a] = v->dims[a];
+        g.f = v->data;
+    } else {
+        int64_t m[3];
+        for (int a = 0; a < 3; a++) {
+            m[a] = (v->dims[a] - 1 + o->cell_size - 1) / o->cell_size + 1;
+            if (m[a] < 2) m[a] = 2;
+            step[a] = (double)(v->dims[a] - 1) / (double)(m[a] - 1);
+        }
+        size_t count;
+        vm_status s = vm__check_dims(m, sizeof(float), "mesh", &count, err);
+        if (s) return s;
+        resampled = malloc(count * sizeof(float));
+        if (!resampled) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        size_t idx = 0;
+        for (int64_t k = 0; k < m[2]; k++)
+            for (int64_t j = 0; j < m[1]; j++)
+                for (int64_t i = 0; i < m[0]; i++)
+                    resampled[idx++] = sample(v, i * step[0], j * step[1], k * step[2]);
+        for (int a = 0; a < 3; a++) g.n[a] = m[a];
+        g.f = resampled;
+    }
+    g.lo = o->lo;
+    g.hi = o->hi;
+    g.has_lo = o->has_lo;
+    g.has_hi = o->has_hi;
+    g.progress = o->progress;
+    g.progress_user = o->progress_user;
+
+    vm__tet_soup soup;
+    memset(&soup, 0, sizeof soup);
+    vm_status s = vm__dual_contour_tets(&g, &soup, &st, err);
+    free(resampled);
+    if (s == VM_ERR_EMPTY)
+        s = vm_error_set(err, VM_ERR_EMPTY, "mesh: no grid point is in the material");
+    if (s) return s;
+
+    /* Number the used vertices in order of first use; map to world coordinates. */
+    size_t nl = (size_t)soup.nlattice;
+    int32_t *map = malloc((nl + soup.nreps + 1) * sizeof(int32_t));
+    if (!map) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
+    }
+    for (size_t i = 0; i < nl + soup.nreps; i++) map[i] = -1;
+    size_t used = 0;
+    for (size_t t = 0; t < 4 * soup.ntets; t++)
+        if (map[soup.tets[t]] < 0) map[soup.tets[t]] = (int32_t)used++;
+    s = vm_mesh_reserve(mesh, used, soup.ntets, err);
+    if (s) goto done;
+    mesh->npoints = used;
+    for (size_t id = 0; id < nl + soup.nreps; id++) {
+        if (map[id] < 0) continue;
+        double ijk[3];
+        if (id < nl) {
+            ijk[0] = (double)(id % (size_t)g.n[0]) * step[0];
+            ijk[1] = (double)((id / (size_t)g.n[0]) % (size_t)g.n[1]) * step[1];
+            ijk[2] = (double)(id / (size_t)(g.n[0] * g.n[1])) * step[2];
+        } else {
+            for (int a = 0; a < 3; a++) ijk[a] = soup.rep_pos[3 * (id - nl) + a] * step[a];
+        }
+        vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)map[id]);
+    }
+    int flip = vm_volume_frame_determinant(v) < 0;
+    for (size_t t = 0; t < soup.ntets; t++) {
+        vm_index *c = mesh->cells + 4 * t;
+        for (int k = 0; k < 4; k++) c[k] = (vm_index)map[soup.tets[4 * t + k]];
+        if (flip) {
+            vm_index tmp = c[1];
+            c[1] = c[2];
+            c[2] = tmp;
+        }
+        mesh->region[t] = 1;
+    }
+    mesh->ncells = soup.ntets;
+    st.seconds = vm__now() - t0;
+    if (stats) *stats = st;
+done:
+    free(map);
+    free(soup.tets);
+    free(soup.rep_pos);
+    if (s) vm_mesh_free(mesh);
+    return s;
+}
