@@ -40,6 +40,9 @@ int vm_cli_read_volume(const char *path, const vm_raw_options *raw, vm_volume *v
  * argument is not a raw option, -1 on error. */
 int vm_cli_raw_option(int argc, char **argv, int *i, vm_raw_options *raw, int *is_raw);
 
+/* Checks a mesh and prints its one-line summary (or JSON); returns an exit code. */
+int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, const char *out);
+
 /* Prints the volume summary (text or JSON) for `info` and `demo`. */
 void vm_cli_print_info(FILE *out, const char *path, const vm_volume *v, int json);
 

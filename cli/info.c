@@ -8,7 +8,7 @@ static const char *info_help =
     "usage: volmesh info FILE [--json] [raw options]\n"
     "\n"
     "Prints format, dims, scalar type, spacing, origin, direction, min, max, mean and a\n"
-    "16-bin histogram of a volume (.nrrd .nhdr .nii .nii.gz .hdr .mha .mhd .vtk .vti).\n"
+    "16-bin histogram of a volume (.nrrd .nhdr .nii .nii.gz .hdr .img .mha .mhd .vtk .vti).\n"
     "\n"
     "  --json                  one JSON object (keys: file, format, dims, type, spacing,\n"
     "                          origin, direction, min, max, mean, histogram)\n"
@@ -68,7 +68,7 @@ int vm_cli_raw_option(int argc, char **argv, int *i, vm_raw_options *raw, int *i
         if (vm_cli_int(a, val, 0, 1L << 40, &n)) return -1;
         raw->header_bytes = (uint64_t)n;
     } else {
-        vm_cli_fail("unknown option %s", a);
+        vm_cli_fail("unknown raw option %s", a);
         return -1;
     }
     return 1;

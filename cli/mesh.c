@@ -1,8 +1,164 @@
-/* cli/mesh.c — placeholder until the mesher lands. */
+/* cli/mesh.c — `volmesh mesh`: volume in, tetrahedral mesh (and its surface) out. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
 #include "cli.h"
 
+static const char *mesh_help =
+    "usage: volmesh mesh FILE -o OUT.vtu (--iso V | --range A:B) [options]\n"
+    "\n"
+    "Fills the material with tetrahedra by dual contouring (LBIE): the material is\n"
+    "{f >= V} for --iso, or {A <= f <= B} for --range (either side may be left open:\n"
+    "A: or :B). Material touching the volume border is closed by flat faces on the box.\n"
+    "Coordinates are physical (spacing, origin and direction of the volume).\n"
+    "\n"
+    "  -o, --output OUT.vtu    mesh file (VTU, zlib-compressed, cell data 'region')\n"
+    "  --iso V                 material is f >= V\n"
+    "  --range A:B             material is A <= f <= B (interval volume)\n"
+    "  --invert                with --iso: material is f <= V instead\n"
+    "  --size S                cell size in voxels (default 1; S > 1 resamples coarser)\n"
+    "  --surface SURF.vtu      also write the boundary triangles\n"
+    "  --no-compress           write the VTU without zlib\n"
+    "  --json                  print the summary as one JSON object\n"
+    "  --quiet                 no progress bar\n"
+    "  raw input: --raw-dims NXxNYxNZ --raw-type T [--raw-endian E] [--raw-spacing S]\n"
+    "             [--raw-origin O] [--raw-header N]   (see volmesh info --help)\n"
+    "\n"
+    "Prints one summary line: tets, points, boundary Euler characteristic, volume,\n"
+    "min/max dihedral angle, slivers, time. Exit 0 ok, 2 bad input or empty selection.\n";
+
+static int parse_range(const char *s, vm_mesh_options *o) {
+    const char *colon = strchr(s, ':');
+    if (!colon) return vm_cli_fail("--range: '%s' is not A:B (either side may be empty)", s);
+    char a[128], b[128];
+    size_t la = (size_t)(colon - s);
+    if (la >= sizeof a || strlen(colon + 1) >= sizeof b)
+        return vm_cli_fail("--range: '%s' is too long", s);
+    memcpy(a, s, la);
+    a[la] = 0;
+    strcpy(b, colon + 1);
+    o->has_lo = a[0] != 0;
+    o->has_hi = b[0] != 0;
+    if (!o->has_lo && !o->has_hi) return vm_cli_fail("--range: give at least one bound (A: or :B)");
+    if (o->has_lo && vm_cli_double("--range", a, &o->lo)) return VM_EXIT_INPUT;
+    if (o->has_hi && vm_cli_double("--range", b, &o->hi)) return VM_EXIT_INPUT;
+    return 0;
+}
+
+int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, const char *out) {
+    vm_mesh_report r;
+    vm_error err;
+    vm_error_clear(&err);
+    if (vm_mesh_check(m, &r, &err)) return vm_cli_fail_err(&err);
+    if (json) {
+        printf("{\"output\": \"%s\", \"elements\": %zu, \"points\": %zu, \"inverted\": %zu, "
+               "\"boundary_faces\": %zu, \"boundary_closed\": %s, \"boundary_euler\": %ld, "
+               "\"components\": %zu, \"volume\": %.17g, \"min_dihedral\": %.6f, "
+               "\"max_dihedral\": %.6f, \"slivers_5\": %zu, \"slivers_10\": %zu, "
+               "\"seconds\": %.3f}\n",
+               out, m->ncells, m->npoints, r.inverted, r.boundary_faces,
+               r.boundary_closed ? "true" : "false", r.boundary_euler, r.components, r.volume,
+               r.min_dihedral, r.max_dihedral, r.slivers_5, r.slivers_10,
+               st ? st->seconds : 0.0);
+    } else {
+        printf("%s: %zu tets, %zu points, boundary %s (Euler %ld), %zu component%s, volume %.6g, "
+               "dihedral %.2f..%.2f deg, slivers <5deg %zu <10deg %zu, %.2f s\n",
+               out, m->ncells, m->npoints, r.boundary_closed ? "closed" : "OPEN",
+               r.boundary_euler, r.components, r.components == 1 ? "" : "s", r.volume,
+               r.min_dihedral, r.max_dihedral, r.slivers_5, r.slivers_10,
+               st ? st->seconds : 0.0);
+    }
+    return VM_EXIT_OK;
+}
+
 int vm_cmd_mesh(int argc, char **argv) {
-    (void)argc;
-    (void)argv;
-    return vm_cli_fail("mesh: not built yet");
+    const char *in = NULL, *out = NULL, *surface = NULL;
+    int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    vm_raw_options raw;
+    memset(&raw, 0, sizeof raw);
+    raw.type = VM_SCALAR_UINT8;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (vm_cli_is(a, "--help", "-h")) {
+            fputs(mesh_help, stdout);
+            return VM_EXIT_OK;
+        }
+        int needs = vm_cli_is(a, "-o", "--output") || vm_cli_is(a, "--iso", NULL) ||
+                    vm_cli_is(a, "--range", NULL) || vm_cli_is(a, "--size", NULL) ||
+                    vm_cli_is(a, "--surface", NULL);
+        if (needs && i + 1 >= argc) return vm_cli_fail("mesh: %s needs a value", a);
+        if (vm_cli_is(a, "-o", "--output")) {
+            out = argv[++i];
+        } else if (vm_cli_is(a, "--surface", NULL)) {
+            surface = argv[++i];
+        } else if (vm_cli_is(a, "--iso", NULL)) {
+            if (vm_cli_double(a, argv[++i], &o.lo)) return VM_EXIT_INPUT;
+            have_iso = 1;
+        } else if (vm_cli_is(a, "--range", NULL)) {
+            int rc = parse_range(argv[++i], &o);
+            if (rc) return rc;
+            have_range = 1;
+        } else if (vm_cli_is(a, "--size", NULL)) {
+            long s;
+            if (vm_cli_int(a, argv[++i], 1, 1024, &s)) return VM_EXIT_INPUT;
+            o.cell_size = (int)s;
+        } else if (vm_cli_is(a, "--invert", NULL)) {
+            invert = 1;
+        } else if (vm_cli_is(a, "--json", NULL)) {
+            json = 1;
+        } else if (vm_cli_is(a, "--quiet", "-q")) {
+            quiet = 1;
+        } else if (vm_cli_is(a, "--no-compress", NULL)) {
+            compress = 0;
+        } else {
+            int r = vm_cli_raw_option(argc, argv, &i, &raw, &is_raw);
+            if (r < 0) return VM_EXIT_INPUT;
+            if (r > 0) continue;
+            if (a[0] == '-' && a[1]) return vm_cli_fail("mesh: unknown option %s", a);
+            if (in) return vm_cli_fail("mesh: more than one input file ('%s', '%s')", in, a);
+            in = a;
+        }
+    }
+    if (!in) return vm_cli_fail("mesh: no input file (see volmesh mesh --help)");
+    if (!out) return vm_cli_fail("mesh: no output file (-o OUT.vtu)");
+    if (have_iso == have_range)
+        return vm_cli_fail("mesh: give exactly one of --iso V or --range A:B");
+    if (invert && !have_iso) return vm_cli_fail("mesh: --invert goes with --iso");
+    if (have_iso && invert) {
+        o.has_lo = 0;
+        o.has_hi = 1;
+        o.hi = o.lo;
+    }
+    if (is_raw && raw.dims[0] == 0) return vm_cli_fail("%s: raw input needs --raw-dims NXxNYxNZ", in);
+    vm_volume v;
+    int rc = vm_cli_read_volume(in, is_raw ? &raw : NULL, &v);
+    if (rc) return rc;
+    o.progress = vm_cli_progress;
+    o.progress_user = &quiet;
+    vm_mesh m;
+    vm_mesh_stats st;
+    vm_error err;
+    vm_error_clear(&err);
+    vm_status s = vm_mesh_volume(&v, &o, &m, &st, &err);
+    vm_volume_free(&v);
+    if (s) {
+        /* name the input, the library names the stage */
+        return vm_cli_fail("%s: %s", in, err.message);
+    }
+    s = vm_mesh_write_vtu(out, &m, compress, &err);
+    if (!s && surface) {
+        vm_mesh surf;
+        s = vm_mesh_boundary(&m, &surf, &err);
+        if (!s) s = vm_mesh_write(surface, &surf, &err);
+        vm_mesh_free(&surf);
+    }
+    if (s) {
+        vm_mesh_free(&m);
+        return vm_cli_fail_err(&err);
+    }
+    rc = vm_cli_report_mesh(&m, &st, json, out);
+    vm_mesh_free(&m);
+    return rc;
 }

@@ -16,7 +16,7 @@ vm_status vm_volume_read(const char *path, vm_volume *v, vm_error *err) {
     if (vm__ends_with(path, ".vtk")) return vm_volume_read_vtk(path, v, err);
     if (vm__ends_with(path, ".vti")) return vm_volume_read_vti(path, v, err);
     return vm_error_set(err, VM_ERR_UNSUPPORTED,
-                        "%s: unknown volume format (expected .nrrd .nhdr .nii .nii.gz .hdr "
-                        ".mha .mhd .vtk .vti, or raw with --raw)",
+                        "%s: unknown volume format (expected .nrrd .nhdr .nii .nii.gz .hdr .img "
+                        ".mha .mhd .vtk .vti, or a raw file with --raw-dims)",
                         path);
 }

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Installs what building and testing volmesh needs on Debian, when it is missing:
+# the compiler and CMake, zlib, and (for the tests' independent judges) Debian's python3 with
+# VTK, meshio and numpy. Usage: scripts/deps.sh [--tests]
+set -eu
+want_tests=0
+[ "${1:-}" = "--tests" ] && want_tests=1
+pkgs=()
+command -v cmake >/dev/null 2>&1 || pkgs+=(cmake)
+command -v cc >/dev/null 2>&1 || pkgs+=(gcc)
+command -v make >/dev/null 2>&1 || pkgs+=(make)
+dpkg -s zlib1g-dev >/dev/null 2>&1 || pkgs+=(zlib1g-dev)
+if [ "$want_tests" = 1 ]; then
+    /usr/bin/python3 -c 'import vtk' >/dev/null 2>&1 || pkgs+=(python3-vtk9)
+    /usr/bin/python3 -c 'import meshio' >/dev/null 2>&1 || pkgs+=(python3-meshio)
+    /usr/bin/python3 -c 'import numpy' >/dev/null 2>&1 || pkgs+=(python3-numpy)
+fi
+[ ${#pkgs[@]} -eq 0 ] && exit 0
+echo "volmesh: installing ${pkgs[*]}" >&2
+sudo=""
+[ "$(id -u)" = 0 ] || sudo="sudo"
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq "${pkgs[@]}" >/dev/null
