@@ -826,6 +826,7 @@ static void dc_free(dc *d) {
     free(d->mpos);
     free(d->lambda);
     free(d->rep_planes);
+    free(d->amb);
     free(d->centre);
     free(d->tets);
 }
