@@ -31,6 +31,10 @@ void vm_cli_progress(const char *stage, double done, double total, void *user);
 int vm_cmd_info(int argc, char **argv);
 int vm_cmd_mesh(int argc, char **argv);
 int vm_cmd_demo(int argc, char **argv);
+int vm_cmd_quality(int argc, char **argv);
+int vm_cmd_convert(int argc, char **argv);
+int vm_cmd_denoise(int argc, char **argv);
+int vm_cmd_spectrum(int argc, char **argv);
 
 /* Reads a volume: a regular file by extension, or raw with the options already parsed. */
 int vm_cli_read_volume(const char *path, const vm_raw_options *raw, vm_volume *v);

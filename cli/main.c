@@ -16,6 +16,10 @@ static const char *usage =
     "  info FILE [--json]          describe a volume: dims, type, spacing, origin, direction,\n"
     "                              min/max/mean and a histogram\n"
     "  mesh FILE -o OUT.vtu ...    fill the material {f >= V} or {A <= f <= B} with tetrahedra\n"
+    "  quality MESH [--json]       element quality and mesh checks of any mesh we read\n"
+    "  convert IN OUT              convert a mesh between formats\n"
+    "  denoise FILE -o OUT.nrrd    bilateral filter or anisotropic diffusion\n"
+    "  spectrum FILE               contour spectrum: area, volume, gradient per isovalue\n"
     "  demo [--size N] [--shape S] mesh a built-in phantom and write the outputs here\n"
     "\n"
     "  volmesh COMMAND --help      options of one command\n"
@@ -93,6 +97,10 @@ int main(int argc, char **argv) {
     if (strcmp(cmd, "info") == 0) return vm_cmd_info(argc - 1, argv + 1);
     if (strcmp(cmd, "mesh") == 0) return vm_cmd_mesh(argc - 1, argv + 1);
     if (strcmp(cmd, "demo") == 0) return vm_cmd_demo(argc - 1, argv + 1);
+    if (strcmp(cmd, "quality") == 0) return vm_cmd_quality(argc - 1, argv + 1);
+    if (strcmp(cmd, "convert") == 0) return vm_cmd_convert(argc - 1, argv + 1);
+    if (strcmp(cmd, "denoise") == 0) return vm_cmd_denoise(argc - 1, argv + 1);
+    if (strcmp(cmd, "spectrum") == 0) return vm_cmd_spectrum(argc - 1, argv + 1);
     vm_cli_fail("unknown command '%s' (try volmesh --help)", cmd);
     return VM_EXIT_INPUT;
 }

@@ -8,6 +8,7 @@
 #include "io.h"
 #include "mesh.h"
 #include "mesher.h"
+#include "preprocess.h"
 #include "quality.h"
 #include "volume.h"
 
