@@ -12,7 +12,8 @@ static const char *mesh_help =
     "A: or :B). Material touching the volume border is closed by flat faces on the box.\n"
     "Coordinates are physical (spacing, origin and direction of the volume).\n"
     "\n"
-    "  -o, --output OUT.vtu    mesh file (VTU, zlib-compressed, cell data 'region')\n"
+    "  -o, --output OUT        mesh file; format from the extension (.vtu: zlib-compressed\n"
+    "                          VTK XML with cell data 'region')\n"
     "  --iso V                 material is f >= V\n"
     "  --range A:B             material is A <= f <= B (interval volume)\n"
     "  --invert                with --iso: material is f <= V instead\n"
@@ -147,7 +148,8 @@ int vm_cmd_mesh(int argc, char **argv) {
         /* name the input, the library names the stage */
         return vm_cli_fail("%s: %s", in, err.message);
     }
-    s = vm_mesh_write_vtu(out, &m, compress, &err);
+    int is_vtu = strlen(out) >= 4 && strcmp(out + strlen(out) - 4, ".vtu") == 0;
+    s = is_vtu ? vm_mesh_write_vtu(out, &m, compress, &err) : vm_mesh_write(out, &m, &err);
     if (!s && surface) {
         vm_mesh surf;
         s = vm_mesh_boundary(&m, &surf, &err);

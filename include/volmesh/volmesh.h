@@ -5,6 +5,7 @@
 #define VOLMESH_VERSION "0.1.0"
 
 #include "error.h"
+#include "improve.h"
 #include "io.h"
 #include "mesh.h"
 #include "mesher.h"
