@@ -18,6 +18,9 @@ static const char *mesh_help =
     "  --range A:B             material is A <= f <= B (interval volume)\n"
     "  --invert                with --iso: material is f <= V instead\n"
     "  --size S                cell size in voxels (default 1; S > 1 resamples coarser)\n"
+    "  --adaptive              merge interior cells into an octree (2:1 balanced, conforming\n"
+    "                          by construction); boundary cells stay at the finest level\n"
+    "  --max-level L           adaptive: largest cell 2^L cells (default 4)\n"
     "  --surface SURF.vtu      also write the boundary triangles\n"
     "  --no-compress           write the VTU without zlib\n"
     "  --json                  print the summary as one JSON object\n"
@@ -88,7 +91,7 @@ int vm_cmd_mesh(int argc, char **argv) {
         }
         int needs = vm_cli_is(a, "-o", "--output") || vm_cli_is(a, "--iso", NULL) ||
                     vm_cli_is(a, "--range", NULL) || vm_cli_is(a, "--size", NULL) ||
-                    vm_cli_is(a, "--surface", NULL);
+                    vm_cli_is(a, "--surface", NULL) || vm_cli_is(a, "--max-level", NULL);
         if (needs && i + 1 >= argc) return vm_cli_fail("mesh: %s needs a value", a);
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
@@ -105,6 +108,12 @@ int vm_cmd_mesh(int argc, char **argv) {
             long s;
             if (vm_cli_int(a, argv[++i], 1, 1024, &s)) return VM_EXIT_INPUT;
             o.cell_size = (int)s;
+        } else if (vm_cli_is(a, "--adaptive", NULL)) {
+            o.adaptive = 1;
+        } else if (vm_cli_is(a, "--max-level", NULL)) {
+            long l;
+            if (vm_cli_int(a, argv[++i], 1, 10, &l)) return VM_EXIT_INPUT;
+            o.max_level = (int)l;
         } else if (vm_cli_is(a, "--invert", NULL)) {
             invert = 1;
         } else if (vm_cli_is(a, "--json", NULL)) {

@@ -60,6 +60,8 @@ typedef struct dc {
     uint8_t *rep_planes;          /* per rep: box planes it lies on (bit 2a+side) */
     double *centre;               /* positions of polygon centres (ids after the reps) */
     size_t ncentre, centre_cap;
+    vm__octree oct;               /* interior leaves (adaptive mode only) */
+    int adaptive;
     int64_t *tets;                /* 4 global ids per tet */
     size_t ntets, tet_cap;
 } dc;
@@ -692,30 +694,136 @@ static vm_status emit_faces(dc *d, vm_error *err) {
 }
 
 /* Interior cells: five tets, the central one on the four even-parity corners. */
+static vm_status emit_five(dc *d, int64_t i, int64_t j, int64_t k, vm_error *err) {
+    int64_t v[8];
+    int odd_first = (int)((i + j + k) & 1); /* corner 0 is odd */
+    for (int c = 0; c < 8; c++) {
+        int64_t p[3] = {i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)};
+        v[c] = lattice_id(d, p);
+    }
+    int ev[4], od[4], ne = 0, no = 0;
+    for (int c = 0; c < 8; c++) {
+        int par = ((c & 1) + ((c >> 1) & 1) + (c >> 2) + odd_first) & 1;
+        if (par)
+            od[no++] = c;
+        else
+            ev[ne++] = c;
+    }
+    vm_status s = emit_oriented(d, v[ev[0]], v[ev[1]], v[ev[2]], v[ev[3]], err);
+    for (int q = 0; q < 4 && !s; q++) {
+        int c = od[q];
+        s = emit_oriented(d, v[c], v[c ^ 1], v[c ^ 2], v[c ^ 4], err);
+    }
+    return s;
+}
+
+/* One face square of a coarse leaf (min corner q, size sz, normal axis a; the leaf lies on
+ * side `below` of the plane when below != 0): tets from the leaf centre over the face's
+ * triangles. The square splits into four when the leaf across it is finer; an unsplit
+ * square with grid vertices on its edges (corners of smaller leaves touching the edge) is
+ * fanned from its centre (a grid point no leaf uses as a corner), otherwise it is cut along
+ * its even-parity diagonal, as the leaf across does (LBIE §4.2.2, "decompose each face of
+ * the cube into triangles ... then insert a Steiner point at the cell center"). */
+static vm_status emit_coarse_face(dc *d, int64_t centre, int a, const int64_t q[3], int64_t sz,
+                                  int below, vm_error *err) {
+    int b = (a + 1) % 3, c = (a + 2) % 3;
+    int64_t across[3] = {q[0], q[1], q[2]}, org[3];
+    if (!below) across[a]--;
+    int lvl = vm__octree_leaf(&d->oct, across, org);
+    int across_size_ok = lvl == VM_LEAF_NONE || (lvl >= 0 && ((int64_t)1 << lvl) >= sz);
+    if (!across_size_ok && sz > 1) {
+        int64_t h = sz / 2;
+        for (int k = 0; k < 4; k++) {
+            int64_t r[3] = {q[0], q[1], q[2]};
+            r[b] += h * (k & 1);
+            r[c] += h * (k >> 1);
+            vm_status s = emit_coarse_face(d, centre, a, r, h, below, err);
+            if (s) return s;
+        }
+        return VM_OK;
+    }
+    static const int cyc[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    int64_t corner[4], ring_buf[64], *ring = ring_buf;
+    size_t nr = 0, ring_cap = 64, mids = 0;
+    int even0 = 0;
+    for (int k = 0; k < 4; k++) {
+        int64_t p[3] = {q[0], q[1], q[2]};
+        p[b] += sz * cyc[k][0];
+        p[c] += sz * cyc[k][1];
+        corner[k] = lattice_id(d, p);
+        if (k == 0) even0 = (((p[0] + p[1] + p[2]) / sz) & 1) == 0;
+        if (nr + (size_t)sz >= ring_cap) { /* room for this corner and its edge */
+            size_t ncap = 2 * (nr + (size_t)sz + 1);
+            int64_t *nb = malloc(ncap * sizeof *nb);
+            if (!nb) {
+                if (ring != ring_buf) free(ring);
+                return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+            }
+            memcpy(nb, ring, nr * sizeof *nb);
+            if (ring != ring_buf) free(ring);
+            ring = nb;
+            ring_cap = ncap;
+        }
+        ring[nr++] = corner[k];
+        /* grid points along the edge that corners of smaller leaves put there */
+        int db = cyc[(k + 1) & 3][0] - cyc[k][0], dc2 = cyc[(k + 1) & 3][1] - cyc[k][1];
+        for (int64_t t = 1; t < sz; t++) {
+            int64_t m[3] = {p[0], p[1], p[2]};
+            m[b] += t * db;
+            m[c] += t * dc2;
+            if (vm__octree_is_vertex(&d->oct, m)) {
+                ring[nr++] = lattice_id(d, m);
+                mids++;
+            }
+        }
+    }
+    if (mids) {
+        int64_t fc[3] = {q[0], q[1], q[2]};
+        fc[b] += sz / 2;
+        fc[c] += sz / 2;
+        int64_t f = lattice_id(d, fc);
+        vm_status s = VM_OK;
+        for (size_t k = 0; k < nr && !s; k++) s = emit_oriented(d, centre, f, ring[k], ring[(k + 1) % nr], err);
+        if (ring != ring_buf) free(ring);
+        return s;
+    }
+    if (ring != ring_buf) free(ring);
+    int o = even0 ? 0 : 1; /* diagonal corner[o] - corner[o+2] */
+    vm_status s = emit_oriented(d, centre, corner[o], corner[o + 1], corner[(o + 2) & 3], err);
+    if (!s) s = emit_oriented(d, centre, corner[o], corner[(o + 2) & 3], corner[(o + 3) & 3], err);
+    return s;
+}
+
+static vm_status emit_coarse_leaf(dc *d, const int64_t o[3], int l, vm_error *err) {
+    int64_t sz = (int64_t)1 << l, ctr[3] = {o[0] + sz / 2, o[1] + sz / 2, o[2] + sz / 2};
+    int64_t centre = lattice_id(d, ctr);
+    for (int f = 0; f < 6; f++) {
+        int a = f >> 1, side = f & 1;
+        int64_t q[3] = {o[0], o[1], o[2]};
+        q[a] += side ? sz : 0;
+        vm_status s = emit_coarse_face(d, centre, a, q, sz, side, err);
+        if (s) return s;
+    }
+    return VM_OK;
+}
+
 static vm_status emit_interior(dc *d, vm_error *err) {
     for (int64_t k = 0; k + 1 < d->n[2]; k++)
         for (int64_t j = 0; j + 1 < d->n[1]; j++)
             for (int64_t i = 0; i + 1 < d->n[0]; i++) {
                 if (d->cell_map[cidx(d, i, j, k)] != CELL_IN) continue;
-                int64_t v[8];
-                int odd_first = (i + j + k) & 1; /* corner 0 is odd */
-                for (int c = 0; c < 8; c++) {
-                    int64_t p[3] = {i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)};
-                    v[c] = lattice_id(d, p);
+                vm_status s = VM_OK;
+                if (d->adaptive) {
+                    int64_t c[3] = {i, j, k}, org[3];
+                    int l = vm__octree_leaf(&d->oct, c, org);
+                    if (l > 0) {
+                        if (org[0] == i && org[1] == j && org[2] == k)
+                            s = emit_coarse_leaf(d, org, l, err);
+                        if (s) return s;
+                        continue;
+                    }
                 }
-                int ev[4], od[4], ne = 0, no = 0;
-                for (int c = 0; c < 8; c++) {
-                    int par = ((c & 1) + ((c >> 1) & 1) + (c >> 2) + odd_first) & 1;
-                    if (par)
-                        od[no++] = c;
-                    else
-                        ev[ne++] = c;
-                }
-                vm_status s = emit_oriented(d, v[ev[0]], v[ev[1]], v[ev[2]], v[ev[3]], err);
-                for (int q = 0; q < 4 && !s; q++) {
-                    int c = od[q];
-                    s = emit_oriented(d, v[c], v[c ^ 1], v[c ^ 2], v[c ^ 4], err);
-                }
+                s = emit_five(d, i, j, k, err);
                 if (s) return s;
             }
     return VM_OK;
@@ -818,6 +926,28 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
     return VM_OK;
 }
 
+static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error *err) {
+    int64_t nc[3] = {d->n[0] - 1, d->n[1] - 1, d->n[2] - 1};
+    size_t n = (size_t)(nc[0] * nc[1] * nc[2]);
+    uint8_t *kind = malloc(n ? n : 1);
+    if (!kind) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+    size_t idx = 0;
+    for (int64_t k = 0; k < nc[2]; k++)
+        for (int64_t j = 0; j < nc[1]; j++)
+            for (int64_t i = 0; i < nc[0]; i++) {
+                int32_t code = d->cell_map[cidx(d, i, j, k)];
+                kind[idx++] = code == CELL_IN    ? VM_KIND_INTERIOR
+                              : code == CELL_OUT ? VM_KIND_EXTERIOR
+                                                 : VM_KIND_BOUNDARY;
+            }
+    size_t leaves = 0;
+    vm_status s = vm__octree_build(&d->oct, nc, kind, max_level, &leaves, err);
+    free(kind);
+    d->adaptive = s == VM_OK;
+    st->interior_cells = leaves;
+    return s;
+}
+
 static void dc_free(dc *d) {
     free(d->in);
     free(d->cell_map);
@@ -828,6 +958,7 @@ static void dc_free(dc *d) {
     free(d->rep_planes);
     free(d->amb);
     free(d->centre);
+    vm__octree_free(&d->oct);
     free(d->tets);
 }
 
@@ -847,6 +978,7 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     if (!s) s = classify(&d, st, err);
     if (!s && g->progress) g->progress("contour", 1, 4, g->progress_user);
     if (!s) s = find_cells(&d, st, err);
+    if (!s && g->max_level > 0) s = build_octree(&d, g->max_level, st, err);
     if (!s) s = place_reps(&d, err);
     if (!s && g->progress) g->progress("contour", 2, 4, g->progress_user);
     if (!s) s = emit_all(&d, err);

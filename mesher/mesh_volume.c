@@ -46,6 +46,9 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
                             o->lo, o->hi);
     if (o->elements != VM_TET4)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "mesh: only tetrahedra are built so far");
+    if (o->adaptive && (o->max_level < 1 || o->max_level > 10))
+        return vm_error_set(err, VM_ERR_ARG, "mesh: adaptive max level %d is outside 1..10",
+                            o->max_level);
     if (o->cell_size < 1)
         return vm_error_set(err, VM_ERR_ARG, "mesh: cell size %d must be >= 1", o->cell_size);
     for (int a = 0; a < 3; a++)
@@ -101,6 +104,7 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     g.hi = o->hi;
     g.has_lo = o->has_lo;
     g.has_hi = o->has_hi;
+    g.max_level = o->adaptive ? o->max_level : 0;
     g.progress = o->progress;
     g.progress_user = o->progress_user;
 

@@ -11,6 +11,7 @@ typedef struct vm__grid {
     const float *f;
     double lo, hi;
     int has_lo, has_hi;
+    int max_level;          /* 0: uniform; > 0: interior cells merged up to 2^max_level */
     vm_progress_fn progress;
     void *progress_user;
 } vm__grid;
@@ -25,6 +26,25 @@ typedef struct vm__tet_soup {
     size_t nreps;
     double *rep_pos;
 } vm__tet_soup;
+
+/* Octree of interior cells over the real grid cells (nc = n - 1 per axis). */
+enum { VM_KIND_EXTERIOR = 0, VM_KIND_BOUNDARY = 1, VM_KIND_INTERIOR = 2 };
+enum { VM_LEAF_BOUNDARY = -1, VM_LEAF_NONE = -2 };
+typedef struct vm__octree {
+    int64_t nc[3];
+    int8_t *lvl; /* per cell: level of its interior leaf, VM_LEAF_BOUNDARY or VM_LEAF_NONE */
+} vm__octree;
+
+/* kind: one VM_KIND_* per cell, x fastest. Neighbouring leaves differ by at most two
+ * levels; 2x2x2 leaves are returned to single cells. [out] leaves: interior leaves. */
+vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *kind,
+                           int max_level, size_t *leaves, vm_error *err);
+/* Level of the leaf holding cell c (>= 0 interior, VM_LEAF_BOUNDARY, VM_LEAF_NONE for
+ * exterior or out of range); [out] origin: its lowest cell. */
+int vm__octree_leaf(const vm__octree *o, const int64_t c[3], int64_t origin[3]);
+/* 1 when grid point p is a corner of a boundary cell or of an interior leaf. */
+int vm__octree_is_vertex(const vm__octree *o, const int64_t p[3]);
+void vm__octree_free(vm__octree *o);
 
 vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
                                 vm_error *err);

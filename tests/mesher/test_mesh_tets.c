@@ -635,10 +635,119 @@ static void sharedVolumesMeshWithTheTopologyOfTheirVoxels(void) {
     }
 }
 
+/* Adaptive mode: interior cells merged into octree leaves. Same boundary, same topology and
+ * volume, fewer tets; conforming across every change of leaf size. */
+static void adaptiveMeshOfEachPhantomKeepsTopologyAndVolumeWithFewerTets(void) {
+    static const int sizes[] = {64, 96};
+    for (size_t z = 0; z < 2; z++)
+        for (size_t t = 0; t < NPHANTOMS; t++) {
+            int n = sizes[z];
+            if (n == 96 && all_phantoms[t] != VM_PHANTOM_SPHERE &&
+                all_phantoms[t] != VM_PHANTOM_CUT_SPHERE)
+                continue;
+            vm_volume v;
+            vm_phantom_info info;
+            vm_error err;
+            vm_status s = vm_phantom_make(all_phantoms[t], n, 0.0, 0, &v, &info, &err);
+            CHECK_OK(s, &err);
+            if (s != VM_OK) continue;
+            vm_mesh_options o;
+            vm_mesh_options_default(&o);
+            vm_mesh uni, ada;
+            char label[64];
+            snprintf(label, sizeof label, "%s n=%d uniform", info.name, n);
+            int ok_u = mesh_case(label, &v, &o, &uni, NULL);
+            o.adaptive = 1;
+            o.max_level = 5;
+            snprintf(label, sizeof label, "%s n=%d adaptive", info.name, n);
+            if (mesh_case(label, &v, &o, &ada, NULL)) {
+                check_tet_mesh(&ada, info.euler, (size_t)info.components, info.volume, 0.01);
+                if (ok_u) {
+                    printf("    %zu tets adaptive vs %zu uniform (%.2fx fewer)\n", ada.ncells,
+                           uni.ncells, (double)uni.ncells / (double)ada.ncells);
+                    /* the plate and genus-3 tubes (radius 3.5) hold no 4x4x4 inside cube */
+                    CHECK(ada.ncells <= uni.ncells);
+                    if (all_phantoms[t] != VM_PHANTOM_PLATE && all_phantoms[t] != VM_PHANTOM_GENUS3)
+                        CHECK(ada.ncells < uni.ncells);
+                }
+                if (all_phantoms[t] == VM_PHANTOM_SPHERE) {
+                    double r = 0.35 * (n - 1), c[3] = {0.5 * (n - 1), 0.5 * (n - 1), 0.5 * (n - 1)};
+                    size_t on_x0;
+                    double max_r_x0;
+                    double worst = sphere_surface_distance(&ada, n, c, r, &on_x0, &max_r_x0);
+                    CHECK_MSG(worst <= 0.5, "a boundary vertex is %.3f voxel from the sphere", worst);
+                }
+            }
+            vm_mesh_free(&uni);
+            vm_mesh_free(&ada);
+            vm_volume_free(&v);
+        }
+}
+
+static void adaptiveNoisyPhantomsAndSharedVolumesMatchTheDigitalTopology(void) {
+    static const double noise[] = {0.3, 1.0};
+    for (size_t t = 0; t < NPHANTOMS; t++)
+        for (size_t q = 0; q < 2; q++) {
+            vm_volume v;
+            vm_phantom_info info;
+            vm_error err;
+            vm_status s = vm_phantom_make(all_phantoms[t], 64, noise[q], 99u + (unsigned)q, &v,
+                                          &info, &err);
+            CHECK_OK(s, &err);
+            if (s != VM_OK) continue;
+            vm_mesh_options o;
+            vm_mesh_options_default(&o);
+            o.adaptive = 1;
+            char label[96];
+            snprintf(label, sizeof label, "%s n=64 noise %.1f adaptive", info.name, noise[q]);
+            check_digital_case(label, &v, &o, 0);
+            vm_volume_free(&v);
+        }
+    static const struct {
+        const char *file;
+        double iso;
+    } cases[] = {{"ct_head_quarter.nrrd", 500}, {"ct_head_quarter.nrrd", 1150},
+                 {"HeadMRVolume.mhd", 50},      {"ironProt.vtk", 128},
+                 {"hydrogen.vti", 0.1},         {"avg152T1_RL_nifti.nii.gz", 100}};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        const char *path = vm_test_shared(cases[c].file);
+        if (!path) return;
+        vm_volume v;
+        vm_error err;
+        vm_status s = vm_volume_read(path, &v, &err);
+        CHECK_OK(s, &err);
+        if (s != VM_OK) continue;
+        vm_mesh_options o;
+        vm_mesh_options_default(&o);
+        o.lo = cases[c].iso;
+        o.adaptive = 1;
+        char label[128];
+        snprintf(label, sizeof label, "%s iso %g adaptive", cases[c].file, cases[c].iso);
+        check_digital_case(label, &v, &o, 0);
+        if (c == 0) { /* CT head skin: record the saving; the issue asks for 3x (not yet) */
+            vm_mesh uni, ada;
+            vm_mesh_options u = o;
+            u.adaptive = 0;
+            if (vm_mesh_volume(&v, &u, &uni, NULL, &err) == VM_OK &&
+                vm_mesh_volume(&v, &o, &ada, NULL, &err) == VM_OK) {
+                double ratio = (double)uni.ncells / (double)ada.ncells;
+                printf("    ct head iso 500: %zu tets uniform, %zu adaptive (%.2fx fewer)\n",
+                       uni.ncells, ada.ncells, ratio);
+                CHECK_MSG(ratio >= 1.7, "adaptive saving fell to %.2fx", ratio);
+                vm_mesh_free(&uni);
+                vm_mesh_free(&ada);
+            }
+        }
+        vm_volume_free(&v);
+    }
+}
+
 TEST_MAIN(T(meshOfEachPhantomHasItsKnownTopologyAndVolume),
           T(noisyPhantomsMatchTheDigitalTopologyOfTheirVoxels),
           T(randomVolumesMatchTheDigitalTopology),
           T(intervalVolumeOfASphericalShellHasTwoBoundaries),
           T(worldCoordinatesFollowSpacingOriginAndDirection),
           T(cellSizeTwoGivesACoarserValidMesh), T(emptySelectionAndNonFiniteValuesAreRefused),
-          T(sharedVolumesMeshWithTheTopologyOfTheirVoxels))
+          T(sharedVolumesMeshWithTheTopologyOfTheirVoxels),
+          T(adaptiveMeshOfEachPhantomKeepsTopologyAndVolumeWithFewerTets),
+          T(adaptiveNoisyPhantomsAndSharedVolumesMatchTheDigitalTopology))
