@@ -79,6 +79,12 @@ int vm_test_cli(const char *args, char **out);
 /* 1 when a file exists at path. */
 int vm_test_exists(const char *path);
 
+/* Body of a reader fuzz target: writes the bytes to a temp file ending in ext, reads it with
+ * read, touches every voxel of a result, and aborts when a refusal comes without a one-line
+ * message. Caps VOLMESH_MAX_MEMORY at 256 MiB unless set. Always returns 0. */
+int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
+                        vm_status (*read)(const char *path, vm_volume *v, vm_error *err));
+
 #define TEST_MAIN(...)                                                                     \
     int main(void) {                                                                       \
         static const vm_test_case cases_[] = {__VA_ARGS__};                                \
