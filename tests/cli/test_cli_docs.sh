@@ -1,0 +1,3 @@
+#!/usr/bin/env bash
+# docs/CLI.md quotes each command's --help verbatim; this fails when they drift apart.
+exec /usr/bin/python3 "${VM_SOURCE_DIR:?}/scripts/cli_docs.py" "${VM_CLI:?}" --check
