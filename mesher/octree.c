@@ -2,9 +2,9 @@
  * whose every grid point is in the material, taken as large as allowed and split until
  * neighbouring leaves (sharing a face, an edge or a corner) differ by at most two levels,
  * so element sizes grade (seed 001, LBIE §4.2; boundary cells stay at the finest level). */
+#include "mesher_internal.h"
 #include <stdlib.h>
 #include <string.h>
-#include "mesher_internal.h"
 
 static int64_t cell_index(const vm__octree *o, const int64_t c[3]) {
     return c[0] + o->nc[0] * (c[1] + o->nc[1] * c[2]);
@@ -23,7 +23,8 @@ int vm__octree_leaf(const vm__octree *o, const int64_t c[3], int64_t origin[3]) 
         memcpy(origin, c, 3 * sizeof(int64_t));
         return l;
     }
-    for (int a = 0; a < 3; a++) origin[a] = c[a] & ~(((int64_t)1 << l) - 1);
+    for (int a = 0; a < 3; a++)
+        origin[a] = c[a] & ~(((int64_t)1 << l) - 1);
     return l;
 }
 
@@ -65,7 +66,8 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
     }
     /* full[c] = largest l such that the aligned cube of 2^l cells at origin c is inside */
-    for (size_t i = 0; i < n; i++) full[i] = kind[i] == VM_KIND_INTERIOR ? 0 : -1;
+    for (size_t i = 0; i < n; i++)
+        full[i] = kind[i] == VM_KIND_INTERIOR ? 0 : -1;
     for (int l = 1; l <= max_level; l++) {
         int64_t s = (int64_t)1 << l, h = s / 2;
         for (int64_t z = 0; z + s <= nc[2]; z += s)
@@ -73,7 +75,8 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
                 for (int64_t x = 0; x + s <= nc[0]; x += s) {
                     int ok = 1;
                     for (int k = 0; k < 8 && ok; k++) {
-                        int64_t c[3] = {x + h * (k & 1), y + h * ((k >> 1) & 1), z + h * (k >> 2)};
+                        int64_t c[3] = {x + h * (k & 1), y + h * ((k >> 1) & 1),
+                                        z + h * (k >> 2)};
                         ok = full[cell_index(o, c)] >= l - 1;
                     }
                     if (ok) {

@@ -1,0 +1,95 @@
+/* mesher/dc_internal.h — state shared by the dual-contouring stages (private): grid
+ * classification, boundary cells with their patches and vertices, the interior octree. */
+#ifndef VM_DC_INTERNAL_H
+#define VM_DC_INTERNAL_H
+
+#include "mesher_internal.h"
+#include <stddef.h>
+#include <stdint.h>
+
+/* Cube corners c = x + 2y + 4z. Edge e = 4*a + u + 2*v runs along axis a from corner
+ * vm__dc_edge_c0[e]; u, v are its offsets along axes (a+1)%3 and (a+2)%3. Face f = 2*a + s
+ * holds the corners with bit a == s, in cyclic order. Filled by vm__dc_init_tables. */
+extern int vm__dc_edge_c0[12], vm__dc_edge_c1[12], vm__dc_edge_of[8][8];
+extern int vm__dc_face_corner[6][4];
+void vm__dc_init_tables(void);
+
+#define NONE 0xff /* no patch */
+
+typedef struct bcell {
+    int64_t cell; /* padded cell index */
+    int32_t base; /* first representative vertex */
+    uint8_t npatch, special;
+    uint8_t edge_patch[12];  /* patch of each crossing edge, NONE otherwise */
+    uint8_t corner_patch[8]; /* patch of each inside corner's component, NONE outside */
+} bcell;
+
+typedef struct dc {
+    const vm__grid *g;
+    int64_t n[3], P[3], C[3]; /* real points, padded points, padded cells per axis */
+    uint8_t *in;              /* padded inside flags */
+    int32_t *cell_map;        /* per padded cell: bcell index, CELL_OUT or CELL_IN */
+    bcell *bc;
+    size_t nbc, bc_cap;
+    size_t nreps;
+    int64_t *amb; /* keys (3*lower cell + axis) of ambiguous faces, sorted */
+    size_t namb, amb_cap;
+    size_t amb_base;              /* representative index of the first face vertex */
+    double *qpos, *mpos, *lambda; /* per rep: minimiser, mass point, blend factor */
+    uint8_t *rep_planes;          /* per rep: box planes it lies on (bit 2a+side) */
+    double *centre;               /* positions of polygon centres (ids after the reps) */
+    size_t ncentre, centre_cap;
+    vm__octree oct; /* interior leaves (adaptive mode only) */
+    int adaptive;
+    int64_t *tets; /* 4 global ids per tet */
+    size_t ntets, tet_cap;
+} dc;
+
+enum { CELL_OUT = -1, CELL_IN = -2 };
+
+static inline int64_t vm__dc_pidx(const dc *d, int64_t i, int64_t j, int64_t k) {
+    return (i + 1) + d->P[0] * ((j + 1) + d->P[1] * (k + 1));
+}
+static inline int64_t vm__dc_cidx(const dc *d, int64_t i, int64_t j, int64_t k) {
+    return (i + 1) + d->C[0] * ((j + 1) + d->C[1] * (k + 1));
+}
+static inline void vm__dc_cell_coords(const dc *d, int64_t c, int64_t out[3]) {
+    out[0] = c % d->C[0] - 1;
+    out[1] = (c / d->C[0]) % d->C[1] - 1;
+    out[2] = c / (d->C[0] * d->C[1]) - 1;
+}
+static inline float vm__dc_fval(const dc *d, int64_t i, int64_t j, int64_t k) {
+    return d->g->f[i + d->n[0] * (j + d->n[1] * k)];
+}
+static inline int vm__dc_real_point(const dc *d, const int64_t p[3]) {
+    for (int a = 0; a < 3; a++)
+        if (p[a] < 0 || p[a] >= d->n[a]) return 0;
+    return 1;
+}
+
+static inline int64_t vm__dc_npoints_real(const dc *d) {
+    return d->n[0] * d->n[1] * d->n[2];
+}
+
+static inline int64_t vm__dc_lattice_id(const dc *d, const int64_t p[3]) {
+    return p[0] + d->n[0] * (p[1] + d->n[1] * p[2]);
+}
+
+/* Classifies the grid, finds and analyses the boundary cells, builds the interior octree
+ * when g->max_level > 0, and places every patch vertex. [out] d (free with vm__dc_free). */
+vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *err);
+void vm__dc_free(dc *d);
+
+/* Vertex ids: grid points 0..N-1 (N = vm__dc_npoints_real), then N + representative index
+ * (patch vertices, cell centres of special cells, ambiguous-face vertices), then polygon
+ * centres made while emitting. reference != 0 gives the mass-point position. */
+void vm__dc_vertex_pos(const dc *d, int64_t id, int reference, double out[3]);
+/* Box planes (bit 2a + side) the vertex lies on. */
+uint8_t vm__dc_vertex_planes(const dc *d, int64_t id);
+/* Vertex of boundary cell b for its local edge e. */
+int64_t vm__dc_rep_for_edge(const dc *d, const bcell *b, int e);
+/* Vertex of the ambiguous face (lower cell lower_cm, normal axis a) on the segment cutting
+ * off inside corner v, or -1 when the face has none. */
+int64_t vm__dc_face_vertex(const dc *d, const int64_t lower_cm[3], int a, const int64_t v[3]);
+
+#endif

@@ -1,0 +1,566 @@
+/* mesher/dc_tets.c — tetrahedra filling the material by dual contouring: seed 001 (LBIE,
+ * Zhang–Bajaj–Sohn) §4.1.2 and §4.2.2, over the cells analysed in dual_contour.c. */
+#include "../core/core.h"
+#include "dc_internal.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static double orient(const double a[3], const double b[3], const double c[3],
+                     const double e[3]) {
+    double u[3], v[3], w[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = b[k] - a[k];
+        v[k] = c[k] - a[k];
+        w[k] = e[k] - a[k];
+    }
+    return (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
+            u[2] * (v[0] * w[1] - v[1] * w[0])) /
+           6.0;
+}
+
+static double tet_volume(const dc *d, const int64_t t[4], int reference) {
+    double p[4][3];
+    for (int k = 0; k < 4; k++)
+        vm__dc_vertex_pos(d, t[k], reference, p[k]);
+    return orient(p[0], p[1], p[2], p[3]);
+}
+
+static vm_status emit(dc *d, int64_t a, int64_t b, int64_t c, int64_t e, vm_error *err) {
+    /* Tets lying flat on one border plane are the closure of the padding: drop them. */
+    if (vm__dc_vertex_planes(d, a) & vm__dc_vertex_planes(d, b) & vm__dc_vertex_planes(d, c) &
+        vm__dc_vertex_planes(d, e))
+        return VM_OK;
+    vm_status s =
+        vm__grow((void **)&d->tets, &d->tet_cap, d->ntets + 1, 4 * sizeof(int64_t), err);
+    if (s) return s;
+    int64_t *t = d->tets + 4 * d->ntets++;
+    t[0] = a;
+    t[1] = b;
+    t[2] = c;
+    t[3] = e;
+    return VM_OK;
+}
+
+/* Emits a tet whose orientation is decided on the reference geometry (lattice points and
+ * mass points), for the few pieces whose order is not fixed by construction. */
+static vm_status emit_oriented(dc *d, int64_t a, int64_t b, int64_t c, int64_t e,
+                               vm_error *err) {
+    int64_t t[4] = {a, b, c, e};
+    if (tet_volume(d, t, 1) < 0) return emit(d, a, c, b, e, err);
+    return emit(d, a, b, c, e, err);
+}
+
+/* The four cells around the edge from p along axis a, counter-clockwise seen from +a,
+ * with the edge's local index in each. Returns their bcell (NULL for interior cells). */
+static void cells_around(const dc *d, const int64_t p[3], int a, const bcell *cb[4], int le[4],
+                         int32_t code[4], int64_t mins[4][3]) {
+    static const int off[4][2] = {{0, 0}, {-1, 0}, {-1, -1}, {0, -1}};
+    int b = (a + 1) % 3, c = (a + 2) % 3;
+    for (int q = 0; q < 4; q++) {
+        int64_t m[3] = {p[0], p[1], p[2]};
+        m[b] += off[q][0];
+        m[c] += off[q][1];
+        code[q] = d->cell_map[vm__dc_cidx(d, m[0], m[1], m[2])];
+        memcpy(mins[q], m, sizeof m);
+        cb[q] = code[q] >= 0 ? &d->bc[code[q]] : NULL;
+        le[q] = 4 * a + (-off[q][0]) + 2 * (-off[q][1]);
+    }
+}
+
+/* The element of a sign-change edge: a pyramid from its inside end over the polygon of
+ * the four cells' vertices (counter-clockwise around +a), with the vertex of an ambiguous
+ * face inserted between the two cells sharing it. The polygon is split as a fan from the
+ * root that gives the largest smallest volume. */
+static vm_status emit_pyramid(dc *d, int a, const int64_t apex_p[3], int apex_lower,
+                              const bcell *cb[4], const int le[4], int64_t mins[4][3],
+                              vm_error *err) {
+    /* lower cell of the face shared by cells q and q+1, and that face's normal axis */
+    static const int lower_of[4] = {1, 2, 2, 3};
+    int b = (a + 1) % 3, c = (a + 2) % 3;
+    const int axis_of[4] = {b, c, b, c};
+    int64_t poly[8];
+    int np = 0, inserted[8] = {0};
+    for (int q = 0; q < 4; q++) {
+        poly[np++] = vm__dc_rep_for_edge(d, cb[q], le[q]);
+        if (d->namb) {
+            int64_t fv = vm__dc_face_vertex(d, mins[lower_of[q]], axis_of[q], apex_p);
+            if (fv >= 0) {
+                inserted[np] = 1;
+                poly[np++] = fv;
+            }
+        }
+    }
+    int64_t apex = vm__dc_lattice_id(d, apex_p);
+    vm_status s = VM_OK;
+    if (np > 4) {
+        /* Fans from a neighbour of a face vertex would join the two cells it separates; try
+         * the other roots, and a fan from a new vertex at the polygon's centre. */
+        int best_root = -1;
+        double best = -INFINITY;
+        for (int root = 0; root < np; root++) {
+            if (inserted[(root + 1) % np] || inserted[(root + np - 1) % np]) continue;
+            double worst = INFINITY;
+            for (int i = 1; i + 1 < np; i++) {
+                int64_t t[4] = {apex, poly[root], poly[(root + i) % np],
+                                poly[(root + i + 1) % np]};
+                if (!apex_lower) t[1] = poly[(root + i + 1) % np], t[3] = poly[root];
+                worst = fmin(worst, tet_volume(d, t, 0));
+            }
+            if (worst > best) best = worst, best_root = root;
+        }
+        double cpos[3] = {0, 0, 0};
+        for (int i = 0; i < np; i++) {
+            double p[3];
+            vm__dc_vertex_pos(d, poly[i], 0, p);
+            for (int k = 0; k < 3; k++)
+                cpos[k] += p[k] / np;
+        }
+        /* The signs of the centre's tets depend only on its direction from the apex: try
+         * the centroid, then directions along the side triangles' normals. */
+        double ap[3], nrm[8][3], sum[3] = {0, 0, 0}, len = 0;
+        vm__dc_vertex_pos(d, apex, 0, ap);
+        for (int i = 0; i < np; i++) {
+            double x[3], y[3], u[3], w[3];
+            vm__dc_vertex_pos(d, poly[i], 0, x);
+            vm__dc_vertex_pos(d, poly[(i + 1) % np], 0, y);
+            for (int k = 0; k < 3; k++)
+                u[k] = x[k] - ap[k], w[k] = y[k] - ap[k];
+            double sgn = apex_lower ? 1.0 : -1.0;
+            nrm[i][0] = sgn * (u[1] * w[2] - u[2] * w[1]);
+            nrm[i][1] = sgn * (u[2] * w[0] - u[0] * w[2]);
+            nrm[i][2] = sgn * (u[0] * w[1] - u[1] * w[0]);
+            double nl =
+                sqrt(nrm[i][0] * nrm[i][0] + nrm[i][1] * nrm[i][1] + nrm[i][2] * nrm[i][2]);
+            for (int k = 0; k < 3; k++)
+                sum[k] += nl > 0 ? nrm[i][k] / nl : 0;
+        }
+        for (int k = 0; k < 3; k++)
+            len += (cpos[k] - ap[k]) * (cpos[k] - ap[k]);
+        len = sqrt(len);
+        double worst_c = -INFINITY, cand[10][3];
+        int ncand = 0;
+        for (int k = 0; k < 3; k++)
+            cand[ncand][k] = cpos[k] - ap[k];
+        ncand++;
+        memcpy(cand[ncand++], sum, sizeof sum);
+        for (int i = 0; i < np && ncand < 9; i++)
+            memcpy(cand[ncand++], nrm[i], sizeof nrm[i]);
+        { /* perceptron steps toward the worst side normal */
+            double w[3];
+            memcpy(w, sum, sizeof w);
+            for (int it = 0; it < 64; it++) {
+                int wi = -1;
+                double wv = INFINITY;
+                for (int i = 0; i < np; i++) {
+                    double nl = sqrt(nrm[i][0] * nrm[i][0] + nrm[i][1] * nrm[i][1] +
+                                     nrm[i][2] * nrm[i][2]);
+                    double dv =
+                        nl > 0 ? (w[0] * nrm[i][0] + w[1] * nrm[i][1] + w[2] * nrm[i][2]) / nl
+                               : 0;
+                    if (dv < wv) wv = dv, wi = i;
+                }
+                double wl = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+                if (wi < 0 || wv > 0.05 * wl) break;
+                double nl = sqrt(nrm[wi][0] * nrm[wi][0] + nrm[wi][1] * nrm[wi][1] +
+                                 nrm[wi][2] * nrm[wi][2]);
+                for (int k = 0; k < 3; k++)
+                    w[k] += (wl > 0 ? 0.5 * wl : 1.0) * nrm[wi][k] / (nl > 0 ? nl : 1);
+            }
+            memcpy(cand[ncand++], w, sizeof w);
+        }
+        for (int ci = 0; ci < ncand; ci++) {
+            double cl = sqrt(cand[ci][0] * cand[ci][0] + cand[ci][1] * cand[ci][1] +
+                             cand[ci][2] * cand[ci][2]);
+            if (!(cl > 0)) continue;
+            double worst = INFINITY;
+            for (int i = 0; i < np; i++)
+                worst = fmin(worst, (cand[ci][0] * nrm[i][0] + cand[ci][1] * nrm[i][1] +
+                                     cand[ci][2] * nrm[i][2]) *
+                                        len / cl / 6.0);
+            if (worst > worst_c * 1.000001 + 1e-12 || ci == 0) {
+                if (ci > 0 && worst_c > 1e-4 * len * len * len)
+                    break; /* the centroid is fine */
+                worst_c = worst;
+                for (int k = 0; k < 3; k++)
+                    cpos[k] = ap[k] + cand[ci][k] * len / cl;
+            }
+        }
+        if (best_root >= 0 && best >= worst_c) {
+            for (int i = 1; i + 1 < np && !s; i++) {
+                int64_t x = poly[best_root], y = poly[(best_root + i) % np];
+                int64_t z = poly[(best_root + i + 1) % np];
+                s = apex_lower ? emit(d, apex, x, y, z, err) : emit(d, apex, z, y, x, err);
+            }
+            return s;
+        }
+        s = vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + 1, 3 * sizeof(double),
+                     err);
+        if (s) return s;
+        memcpy(d->centre + 3 * d->ncentre, cpos, sizeof cpos);
+        int64_t cid = vm__dc_npoints_real(d) + (int64_t)(d->nreps + d->ncentre++);
+        for (int i = 0; i < np && !s; i++) {
+            int64_t x = poly[i], y = poly[(i + 1) % np];
+            s = apex_lower ? emit(d, apex, cid, x, y, err) : emit(d, apex, y, x, cid, err);
+        }
+        return s;
+    }
+    int64_t ta[2][4] = {{apex, poly[0], poly[1], poly[2]}, {apex, poly[0], poly[2], poly[3]}};
+    int64_t tb[2][4] = {{apex, poly[1], poly[2], poly[3]}, {apex, poly[1], poly[3], poly[0]}};
+    if (!apex_lower)
+        for (int t = 0; t < 2; t++) {
+            int64_t x = ta[t][1], y = tb[t][1];
+            ta[t][1] = ta[t][3], ta[t][3] = x;
+            tb[t][1] = tb[t][3], tb[t][3] = y;
+        }
+    double qa = fmin(tet_volume(d, ta[0], 0), tet_volume(d, ta[1], 0));
+    double qb = fmin(tet_volume(d, tb[0], 0), tet_volume(d, tb[1], 0));
+    int64_t(*best)[4] = qa >= qb ? ta : tb;
+    for (int t = 0; t < 2 && !s; t++)
+        s = emit(d, best[t][0], best[t][1], best[t][2], best[t][3], err);
+    return s;
+}
+
+static vm_status emit_edges(dc *d, vm_error *err) {
+    for (int a = 0; a < 3; a++)
+        for (int64_t k = 0; k < d->n[2]; k++)
+            for (int64_t j = 0; j < d->n[1]; j++)
+                for (int64_t i = 0; i < d->n[0]; i++) {
+                    int64_t p0[3] = {i, j, k}, p1[3] = {i, j, k};
+                    if (++p1[a] >= d->n[a]) continue;
+                    int in0 = d->in[vm__dc_pidx(d, i, j, k)],
+                        in1 = d->in[vm__dc_pidx(d, p1[0], p1[1], p1[2])];
+                    if (!in0 && !in1) continue;
+                    const bcell *cb[4];
+                    int le[4];
+                    int32_t code[4];
+                    int64_t mins[4][3];
+                    cells_around(d, p0, a, cb, le, code, mins);
+                    int64_t v0 = vm__dc_lattice_id(d, p0), v1 = vm__dc_lattice_id(d, p1);
+                    vm_status s = VM_OK;
+                    if (in0 != in1) { /* sign change: pyramid from the inside end */
+                        s = emit_pyramid(d, a, in0 ? p0 : p1, in0, cb, le, mins, err);
+                    } else { /* inside edge: one tet per pair of neighbouring boundary cells */
+                        for (int q = 0; q < 4 && !s; q++) {
+                            const bcell *x = cb[q], *y = cb[(q + 1) & 3];
+                            if (!x || !y) continue;
+                            s = emit(d, v0, v1, vm__dc_rep_for_edge(d, x, le[q]),
+                                     vm__dc_rep_for_edge(d, y, le[(q + 1) & 3]), err);
+                        }
+                    }
+                    if (s) return s;
+                }
+    return VM_OK;
+}
+
+/* Faces of boundary cells whose four corners are inside and whose neighbour is an interior
+ * cell: a pyramid to the cell's minimiser, split along the face's even-parity diagonal
+ * (the diagonal the neighbour's five-tet split uses). */
+static vm_status emit_faces(dc *d, vm_error *err) {
+    int64_t N = vm__dc_npoints_real(d);
+    for (size_t bi = 0; bi < d->nbc; bi++) {
+        const bcell *b = &d->bc[bi];
+        int64_t cm[3];
+        vm__dc_cell_coords(d, b->cell, cm);
+        for (int f = 0; f < 6; f++) {
+            int a = f >> 1, s = f & 1, all = 1;
+            for (int q = 0; q < 4; q++)
+                if (b->corner_patch[vm__dc_face_corner[f][q]] == NONE) all = 0;
+            if (!all) continue;
+            int64_t nb[3] = {cm[0], cm[1], cm[2]};
+            nb[a] += s ? 1 : -1;
+            if (d->cell_map[vm__dc_cidx(d, nb[0], nb[1], nb[2])] != CELL_IN) continue;
+            int64_t v[4];
+            int even0 = 0;
+            for (int q = 0; q < 4; q++) {
+                int c = vm__dc_face_corner[f][q];
+                int64_t p[3] = {cm[0] + (c & 1), cm[1] + ((c >> 1) & 1), cm[2] + (c >> 2)};
+                v[q] = vm__dc_lattice_id(d, p);
+                if (q == 0) even0 = ((p[0] + p[1] + p[2]) & 1) == 0;
+            }
+            int64_t apex = N + b->base + b->corner_patch[vm__dc_face_corner[f][0]];
+            int o = even0 ? 0 : 1; /* diagonal v[o] - v[o+2] */
+            vm_status st = emit_oriented(d, apex, v[o], v[o + 1], v[(o + 2) & 3], err);
+            if (!st) st = emit_oriented(d, apex, v[o], v[(o + 2) & 3], v[(o + 3) & 3], err);
+            if (st) return st;
+        }
+    }
+    return VM_OK;
+}
+
+/* Interior cells: five tets, the central one on the four even-parity corners. */
+static vm_status emit_five(dc *d, int64_t i, int64_t j, int64_t k, vm_error *err) {
+    int64_t v[8];
+    int odd_first = (int)((i + j + k) & 1); /* corner 0 is odd */
+    for (int c = 0; c < 8; c++) {
+        int64_t p[3] = {i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)};
+        v[c] = vm__dc_lattice_id(d, p);
+    }
+    int ev[4], od[4], ne = 0, no = 0;
+    for (int c = 0; c < 8; c++) {
+        int par = ((c & 1) + ((c >> 1) & 1) + (c >> 2) + odd_first) & 1;
+        if (par)
+            od[no++] = c;
+        else
+            ev[ne++] = c;
+    }
+    vm_status s = emit_oriented(d, v[ev[0]], v[ev[1]], v[ev[2]], v[ev[3]], err);
+    for (int q = 0; q < 4 && !s; q++) {
+        int c = od[q];
+        s = emit_oriented(d, v[c], v[c ^ 1], v[c ^ 2], v[c ^ 4], err);
+    }
+    return s;
+}
+
+/* One face square of a coarse leaf (min corner q, size sz, normal axis a; the leaf lies on
+ * side `below` of the plane when below != 0): tets from the leaf centre over the face's
+ * triangles. The square splits into four when the leaf across it is finer; an unsplit
+ * square with grid vertices on its edges (corners of smaller leaves touching the edge) is
+ * fanned from its centre (a grid point no leaf uses as a corner), otherwise it is cut along
+ * its even-parity diagonal, as the leaf across does (LBIE §4.2.2, "decompose each face of
+ * the cube into triangles ... then insert a Steiner point at the cell center"). */
+static vm_status emit_coarse_face(dc *d, int64_t centre, int a, const int64_t q[3], int64_t sz,
+                                  int below, vm_error *err) {
+    int b = (a + 1) % 3, c = (a + 2) % 3;
+    int64_t across[3] = {q[0], q[1], q[2]}, org[3];
+    if (!below) across[a]--;
+    int lvl = vm__octree_leaf(&d->oct, across, org);
+    int across_size_ok = lvl == VM_LEAF_NONE || (lvl >= 0 && ((int64_t)1 << lvl) >= sz);
+    if (!across_size_ok && sz > 1) {
+        int64_t h = sz / 2;
+        for (int k = 0; k < 4; k++) {
+            int64_t r[3] = {q[0], q[1], q[2]};
+            r[b] += h * (k & 1);
+            r[c] += h * (k >> 1);
+            vm_status s = emit_coarse_face(d, centre, a, r, h, below, err);
+            if (s) return s;
+        }
+        return VM_OK;
+    }
+    static const int cyc[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    int64_t corner[4], ring_buf[64], *ring = ring_buf;
+    size_t nr = 0, ring_cap = 64, mids = 0;
+    int even0 = 0;
+    for (int k = 0; k < 4; k++) {
+        int64_t p[3] = {q[0], q[1], q[2]};
+        p[b] += sz * cyc[k][0];
+        p[c] += sz * cyc[k][1];
+        corner[k] = vm__dc_lattice_id(d, p);
+        if (k == 0) even0 = (((p[0] + p[1] + p[2]) / sz) & 1) == 0;
+        if (nr + (size_t)sz >= ring_cap) { /* room for this corner and its edge */
+            size_t ncap = 2 * (nr + (size_t)sz + 1);
+            int64_t *nb = malloc(ncap * sizeof *nb);
+            if (!nb) {
+                if (ring != ring_buf) free(ring);
+                return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+            }
+            memcpy(nb, ring, nr * sizeof *nb);
+            if (ring != ring_buf) free(ring);
+            ring = nb;
+            ring_cap = ncap;
+        }
+        ring[nr++] = corner[k];
+        /* grid points along the edge that corners of smaller leaves put there */
+        int db = cyc[(k + 1) & 3][0] - cyc[k][0], dc2 = cyc[(k + 1) & 3][1] - cyc[k][1];
+        for (int64_t t = 1; t < sz; t++) {
+            int64_t m[3] = {p[0], p[1], p[2]};
+            m[b] += t * db;
+            m[c] += t * dc2;
+            if (vm__octree_is_vertex(&d->oct, m)) {
+                ring[nr++] = vm__dc_lattice_id(d, m);
+                mids++;
+            }
+        }
+    }
+    if (mids) {
+        int64_t fc[3] = {q[0], q[1], q[2]};
+        fc[b] += sz / 2;
+        fc[c] += sz / 2;
+        int64_t f = vm__dc_lattice_id(d, fc);
+        vm_status s = VM_OK;
+        for (size_t k = 0; k < nr && !s; k++)
+            s = emit_oriented(d, centre, f, ring[k], ring[(k + 1) % nr], err);
+        if (ring != ring_buf) free(ring);
+        return s;
+    }
+    if (ring != ring_buf) free(ring);
+    int o = even0 ? 0 : 1; /* diagonal corner[o] - corner[o+2] */
+    vm_status s = emit_oriented(d, centre, corner[o], corner[o + 1], corner[(o + 2) & 3], err);
+    if (!s)
+        s = emit_oriented(d, centre, corner[o], corner[(o + 2) & 3], corner[(o + 3) & 3], err);
+    return s;
+}
+
+static vm_status emit_coarse_leaf(dc *d, const int64_t o[3], int l, vm_error *err) {
+    int64_t sz = (int64_t)1 << l, ctr[3] = {o[0] + sz / 2, o[1] + sz / 2, o[2] + sz / 2};
+    int64_t centre = vm__dc_lattice_id(d, ctr);
+    for (int f = 0; f < 6; f++) {
+        int a = f >> 1, side = f & 1;
+        int64_t q[3] = {o[0], o[1], o[2]};
+        q[a] += side ? sz : 0;
+        vm_status s = emit_coarse_face(d, centre, a, q, sz, side, err);
+        if (s) return s;
+    }
+    return VM_OK;
+}
+
+static vm_status emit_interior(dc *d, vm_error *err) {
+    for (int64_t k = 0; k + 1 < d->n[2]; k++)
+        for (int64_t j = 0; j + 1 < d->n[1]; j++)
+            for (int64_t i = 0; i + 1 < d->n[0]; i++) {
+                if (d->cell_map[vm__dc_cidx(d, i, j, k)] != CELL_IN) continue;
+                vm_status s = VM_OK;
+                if (d->adaptive) {
+                    int64_t c[3] = {i, j, k}, org[3];
+                    int l = vm__octree_leaf(&d->oct, c, org);
+                    if (l > 0) {
+                        if (org[0] == i && org[1] == j && org[2] == k)
+                            s = emit_coarse_leaf(d, org, l, err);
+                        if (s) return s;
+                        continue;
+                    }
+                }
+                s = emit_five(d, i, j, k, err);
+                if (s) return s;
+            }
+    return VM_OK;
+}
+
+/* Around a special cell the elements of the two face edges at an inside corner use
+ * different vertices in one of the two cells; the gap between their triangles is filled
+ * with one tet, or two (a pyramid) when both cells differ. */
+static vm_status emit_gaps(dc *d, vm_error *err) {
+    for (size_t bi = 0; bi < d->nbc; bi++) {
+        const bcell *b = &d->bc[bi];
+        if (!b->special) continue;
+        int64_t cm[3];
+        vm__dc_cell_coords(d, b->cell, cm);
+        for (int f = 0; f < 6; f++) {
+            int a = f >> 1, s = f & 1;
+            int64_t nb[3] = {cm[0], cm[1], cm[2]};
+            nb[a] += s ? 1 : -1;
+            int32_t code = d->cell_map[vm__dc_cidx(d, nb[0], nb[1], nb[2])];
+            if (code < 0)
+                return vm_error_set(err, VM_ERR_INTERNAL,
+                                    "mesh: special cell next to a uniform cell");
+            const bcell *o = &d->bc[code];
+            if (o->special && (size_t)code < bi) continue; /* done from the other side */
+            for (int q = 0; q < 4; q++) {
+                int c = vm__dc_face_corner[f][q];
+                if (b->corner_patch[c] == NONE) continue;
+                int e1 = vm__dc_edge_of[c][vm__dc_face_corner[f][(q + 1) & 3]];
+                int e2 = vm__dc_edge_of[c][vm__dc_face_corner[f][(q + 3) & 3]];
+                /* the same edges seen from the neighbour: flip bit a of both corners */
+                int o1 = vm__dc_edge_of[vm__dc_edge_c0[e1] ^ (1 << a)]
+                                       [vm__dc_edge_c1[e1] ^ (1 << a)];
+                int o2 = vm__dc_edge_of[vm__dc_edge_c0[e2] ^ (1 << a)]
+                                       [vm__dc_edge_c1[e2] ^ (1 << a)];
+                int64_t x1 = vm__dc_rep_for_edge(d, b, e1), x2 = vm__dc_rep_for_edge(d, b, e2);
+                int64_t y1 = vm__dc_rep_for_edge(d, o, o1), y2 = vm__dc_rep_for_edge(d, o, o2);
+                int64_t p[3] = {cm[0] + (c & 1), cm[1] + ((c >> 1) & 1), cm[2] + (c >> 2)};
+                int64_t n = vm__dc_lattice_id(d, p);
+                vm_status st = VM_OK;
+                if (x1 != x2 && y1 == y2) {
+                    st = emit_oriented(d, n, x1, x2, y1, err);
+                } else if (x1 == x2 && y1 != y2) {
+                    st = emit_oriented(d, n, y1, y2, x1, err);
+                } else if (x1 != x2 && y1 != y2) {
+                    int64_t quad[4] = {x1, x2, y2, y1};
+                    int lo = 0;
+                    for (int k = 1; k < 4; k++)
+                        if (quad[k] < quad[lo]) lo = k;
+                    st = emit_oriented(d, n, quad[lo], quad[(lo + 1) & 3], quad[(lo + 2) & 3],
+                                       err);
+                    if (!st)
+                        st = emit_oriented(d, n, quad[lo], quad[(lo + 2) & 3],
+                                           quad[(lo + 3) & 3], err);
+                }
+                if (st) return st;
+            }
+        }
+    }
+    return VM_OK;
+}
+
+static vm_status emit_all(dc *d, vm_error *err) {
+    d->ntets = 0;
+    d->ncentre = 0;
+    vm_status s = emit_edges(d, err);
+    if (!s) s = emit_faces(d, err);
+    if (!s) s = emit_interior(d, err);
+    if (!s) s = emit_gaps(d, err);
+    return s;
+}
+
+/* Pulls the minimisers of every tet that is not clearly positive back toward their mass
+ * points, halving the step each round, then re-emits (the quad splits may change).
+ * Returns the number of tets still not positive. */
+static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_error *err) {
+    const double eps = 1e-9; /* index units: a 0.02-voxel tet is ~1e-6 */
+    int64_t N = vm__dc_npoints_real(d);
+    uint8_t *touched = calloc(d->nreps ? d->nreps : 1, 1);
+    if (!touched) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    size_t bad = 0;
+    for (int round = 0; round < 24; round++) {
+        bad = 0;
+        for (size_t t = 0; t < d->ntets; t++) {
+            const int64_t *v = d->tets + 4 * t;
+            if (tet_volume(d, v, 0) > eps) continue;
+            bad++;
+            for (int k = 0; k < 4; k++)
+                if (v[k] >= N && (size_t)(v[k] - N) < d->nreps) {
+                    size_t r = (size_t)(v[k] - N);
+                    d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * 0.5 : 0.0;
+                    touched[r] = 1;
+                }
+        }
+        if (!bad) break;
+        vm_status s = emit_all(d, err);
+        if (s) {
+            free(touched);
+            return s;
+        }
+    }
+    size_t nt = 0;
+    for (size_t r = 0; r < d->nreps; r++)
+        nt += touched[r];
+    free(touched);
+    *relaxed = nt;
+    *bad_left = bad;
+    return VM_OK;
+}
+
+vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
+                                vm_error *err) {
+    dc d;
+    vm_status s = vm__dc_setup(&d, g, st, err);
+    if (!s) s = emit_all(&d, err);
+    if (!s && g->progress) g->progress("contour", 3, 4, g->progress_user);
+    size_t bad = 0, relaxed = 0;
+    if (!s) s = make_positive(&d, &bad, &relaxed, err);
+    if (!s && bad)
+        s = vm_error_set(err, VM_ERR_INTERNAL,
+                         "mesh: %zu tetrahedra stay flat or inverted after relaxation", bad);
+    if (!s && g->progress) g->progress("contour", 4, 4, g->progress_user);
+    if (s) {
+        vm__dc_free(&d);
+        return s;
+    }
+    st->relaxed_vertices = relaxed;
+    st->surface_vertices = d.nreps;
+    /* Hand over tets and the positions of the vertices they use. */
+    out->ntets = d.ntets;
+    out->tets = d.tets;
+    d.tets = NULL;
+    out->nlattice = vm__dc_npoints_real(&d);
+    out->nreps = d.nreps + d.ncentre;
+    out->rep_pos = malloc(3 * (out->nreps ? out->nreps : 1) * sizeof(double));
+    if (!out->rep_pos) {
+        vm__dc_free(&d);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
+    for (size_t r = 0; r < out->nreps; r++)
+        vm__dc_vertex_pos(&d, out->nlattice + (int64_t)r, 0, out->rep_pos + 3 * r);
+    vm__dc_free(&d);
+    return VM_OK;
+}
