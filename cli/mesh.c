@@ -7,7 +7,7 @@
 static const char *mesh_help =
     "usage: volmesh mesh FILE -o OUT.vtu (--iso V | --range A:B) [options]\n"
     "\n"
-    "Fills the material with tetrahedra by dual contouring (LBIE): the material is\n"
+    "Fills the material with tetrahedra (or hexahedra) by dual contouring (LBIE): the material is\n"
     "{f >= V} for --iso, or {A <= f <= B} for --range (either side may be left open:\n"
     "A: or :B). Material touching the volume border is closed by flat faces on the box.\n"
     "Coordinates are physical (spacing, origin and direction of the volume).\n"
@@ -18,6 +18,8 @@ static const char *mesh_help =
     "  --range A:B             material is A <= f <= B (interval volume)\n"
     "  --invert                with --iso: material is f <= V instead\n"
     "  --size S                cell size in voxels (default 1; S > 1 resamples coarser)\n"
+    "  --elements tet|hex      tetrahedra (default) or hexahedra (one per inside voxel,\n"
+    "                          corners on the dual-contouring vertices; uniform only)\n"
     "  --adaptive              merge interior cells into an octree (2:1 balanced, conforming\n"
     "                          by construction); boundary cells stay at the finest level\n"
     "  --max-level L           adaptive: largest cell 2^L cells (default 4)\n"
@@ -59,11 +61,17 @@ int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, cons
                "\"boundary_faces\": %zu, \"boundary_closed\": %s, \"boundary_euler\": %ld, "
                "\"components\": %zu, \"volume\": %.17g, \"min_dihedral\": %.6f, "
                "\"max_dihedral\": %.6f, \"slivers_5\": %zu, \"slivers_10\": %zu, "
-               "\"seconds\": %.3f}\n",
+               "\"min_scaled_jacobian\": %.6f, \"repaired_points\": %zu, \"seconds\": %.3f}\n",
                out, m->ncells, m->npoints, r.inverted, r.boundary_faces,
                r.boundary_closed ? "true" : "false", r.boundary_euler, r.components, r.volume,
                r.min_dihedral, r.max_dihedral, r.slivers_5, r.slivers_10,
-               st ? st->seconds : 0.0);
+               r.min_scaled_jacobian, st ? st->repaired_points : 0, st ? st->seconds : 0.0);
+    } else if (m->kind == VM_HEX8) {
+        printf("%s: %zu hexes, %zu points, boundary %s (Euler %ld), %zu component%s, volume %.6g, "
+               "%zu inverted, min scaled Jacobian %.3f, %.2f s\n",
+               out, m->ncells, m->npoints, r.boundary_closed ? "closed" : "OPEN",
+               r.boundary_euler, r.components, r.components == 1 ? "" : "s", r.volume,
+               r.inverted, r.min_scaled_jacobian, st ? st->seconds : 0.0);
     } else {
         printf("%s: %zu tets, %zu points, boundary %s (Euler %ld), %zu component%s, volume %.6g, "
                "dihedral %.2f..%.2f deg, slivers <5deg %zu <10deg %zu, %.2f s\n",
@@ -91,7 +99,8 @@ int vm_cmd_mesh(int argc, char **argv) {
         }
         int needs = vm_cli_is(a, "-o", "--output") || vm_cli_is(a, "--iso", NULL) ||
                     vm_cli_is(a, "--range", NULL) || vm_cli_is(a, "--size", NULL) ||
-                    vm_cli_is(a, "--surface", NULL) || vm_cli_is(a, "--max-level", NULL);
+                    vm_cli_is(a, "--surface", NULL) || vm_cli_is(a, "--max-level", NULL) ||
+                    vm_cli_is(a, "--elements", NULL);
         if (needs && i + 1 >= argc) return vm_cli_fail("mesh: %s needs a value", a);
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
@@ -108,6 +117,14 @@ int vm_cmd_mesh(int argc, char **argv) {
             long s;
             if (vm_cli_int(a, argv[++i], 1, 1024, &s)) return VM_EXIT_INPUT;
             o.cell_size = (int)s;
+        } else if (vm_cli_is(a, "--elements", NULL)) {
+            const char *e = argv[++i];
+            if (strcmp(e, "tet") == 0)
+                o.elements = VM_TET4;
+            else if (strcmp(e, "hex") == 0)
+                o.elements = VM_HEX8;
+            else
+                return vm_cli_fail("--elements: '%s' is not tet or hex", e);
         } else if (vm_cli_is(a, "--adaptive", NULL)) {
             o.adaptive = 1;
         } else if (vm_cli_is(a, "--max-level", NULL)) {

@@ -36,6 +36,7 @@ typedef struct dc {
     size_t namb, amb_cap;
     size_t amb_base;              /* representative index of the first face vertex */
     double *qpos, *mpos, *lambda; /* per rep: minimiser, mass point, blend factor */
+    double *cpos, *mu; /* per rep: its cell's centre (NAN: none safe), blend toward it */
     uint8_t *rep_planes;          /* per rep: box planes it lies on (bit 2a+side) */
     double *centre;               /* positions of polygon centres (ids after the reps) */
     size_t ncentre, centre_cap;
@@ -79,6 +80,10 @@ static inline int64_t vm__dc_lattice_id(const dc *d, const int64_t p[3]) {
  * when g->max_level > 0, and places every patch vertex. [out] d (free with vm__dc_free). */
 vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *err);
 void vm__dc_free(dc *d);
+
+/* Hexahedra need every cell's inside components to meet one patch each and no face to join
+ * two cells twice: flips outside grid points inside until that holds. [out] *flipped. */
+vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_error *err);
 
 /* Vertex ids: grid points 0..N-1 (N = vm__dc_npoints_real), then N + representative index
  * (patch vertices, cell centres of special cells, ambiguous-face vertices), then polygon

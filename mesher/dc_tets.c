@@ -549,6 +549,7 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     st->relaxed_vertices = relaxed;
     st->surface_vertices = d.nreps;
     /* Hand over tets and the positions of the vertices they use. */
+    out->nodes = 4;
     out->ntets = d.ntets;
     out->tets = d.tets;
     d.tets = NULL;

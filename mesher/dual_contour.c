@@ -246,7 +246,9 @@ static vm_status place_reps(dc *d, vm_error *err) {
     d->mpos = malloc(3 * n * sizeof(double));
     d->lambda = malloc(n * sizeof(double));
     d->rep_planes = calloc(n, 1);
-    if (!d->qpos || !d->mpos || !d->lambda || !d->rep_planes)
+    d->cpos = malloc(3 * n * sizeof(double));
+    d->mu = malloc(n * sizeof(double));
+    if (!d->qpos || !d->mpos || !d->lambda || !d->rep_planes || !d->cpos || !d->mu)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for %zu vertices", n);
     for (size_t bi = 0; bi < d->nbc; bi++) {
         const bcell *b = &d->bc[bi];
@@ -299,6 +301,10 @@ static vm_status place_reps(dc *d, vm_error *err) {
             }
             d->lambda[r] = 1.0;
             d->rep_planes[r] = planes;
+            d->mu[r] = 1.0;
+            for (int a = 0; a < 3; a++)
+                d->cpos[3 * r + a] =
+                    b->npatch == 1 ? (double)cm[a] + (fixed[a] ? fixval[a] : 0.5) : NAN;
         }
         if (b->special) {
             size_t r = (size_t)b->base + b->npatch;
@@ -306,6 +312,8 @@ static vm_status place_reps(dc *d, vm_error *err) {
                 d->qpos[3 * r + a] = d->mpos[3 * r + a] = (double)cm[a] + 0.5;
             d->lambda[r] = 1.0;
             d->rep_planes[r] = 0;
+            d->mu[r] = 1.0;
+            d->cpos[3 * r] = d->cpos[3 * r + 1] = d->cpos[3 * r + 2] = NAN;
         }
     }
     /* Ambiguous faces: one vertex per boundary segment, midway between its two crossings. */
@@ -332,6 +340,8 @@ static vm_status place_reps(dc *d, vm_error *err) {
                     (double)pc[q][k] + 0.35 * (d->qpos[3 * r + k] - (double)pc[q][k]);
             }
             d->lambda[r] = 1.0;
+            d->mu[r] = 1.0;
+            d->cpos[3 * r] = d->cpos[3 * r + 1] = d->cpos[3 * r + 2] = NAN;
             uint8_t planes = 0;
             if (pc[0][a] == 0) planes |= (uint8_t)(1 << (2 * a));
             if (pc[0][a] == d->n[a] - 1) planes |= (uint8_t)(1 << (2 * a + 1));
@@ -379,10 +389,12 @@ void vm__dc_vertex_pos(const dc *d, int64_t id, int reference, double out[3]) {
         memcpy(out, d->centre + 3 * (r - d->nreps), 3 * sizeof(double));
         return;
     }
-    const double *m = d->mpos + 3 * r, *q = d->qpos + 3 * r;
-    double l = reference ? 0.0 : d->lambda[r];
-    for (int a = 0; a < 3; a++)
+    const double *m = d->mpos + 3 * r, *q = d->qpos + 3 * r, *c = d->cpos + 3 * r;
+    double l = reference ? 0.0 : d->lambda[r], u = reference ? 1.0 : d->mu[r];
+    for (int a = 0; a < 3; a++) {
         out[a] = m[a] + l * (q[a] - m[a]);
+        if (u < 1.0) out[a] = c[a] + u * (out[a] - c[a]);
+    }
 }
 
 uint8_t vm__dc_vertex_planes(const dc *d, int64_t id) {
@@ -435,10 +447,57 @@ void vm__dc_free(dc *d) {
     free(d->mpos);
     free(d->lambda);
     free(d->rep_planes);
+    free(d->cpos);
+    free(d->mu);
     free(d->amb);
     free(d->centre);
     vm__octree_free(&d->oct);
     free(d->tets);
+}
+
+vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_error *err) {
+    *flipped = 0;
+    for (int round = 0; round < 1000; round++) {
+        size_t flips = 0;
+        for (size_t bi = 0; bi < d->nbc; bi++) {
+            const bcell *b = &d->bc[bi];
+            if (!b->special) continue;
+            int64_t cm[3];
+            vm__dc_cell_coords(d, b->cell, cm);
+            for (int c = 0; c < 8; c++) {
+                int64_t p = vm__dc_pidx(d, cm[0] + (c & 1), cm[1] + ((c >> 1) & 1), cm[2] + (c >> 2));
+                if (!d->in[p]) { /* the first of the two antipodal outside corners */
+                    d->in[p] = 1;
+                    flips++;
+                    break;
+                }
+            }
+        }
+        for (size_t fi = 0; fi < d->namb; fi++) {
+            int64_t cm[3];
+            int a = (int)(d->amb[fi] % 3);
+            vm__dc_cell_coords(d, d->amb[fi] / 3, cm);
+            const int *fc = vm__dc_face_corner[2 * a + 1];
+            for (int q = 0; q < 4; q++) {
+                int64_t p = vm__dc_pidx(d, cm[0] + (fc[q] & 1), cm[1] + ((fc[q] >> 1) & 1),
+                                        cm[2] + (fc[q] >> 2));
+                if (!d->in[p]) {
+                    d->in[p] = 1;
+                    flips++;
+                    break;
+                }
+            }
+        }
+        if (!flips) return VM_OK;
+        *flipped += flips;
+        free(d->cell_map);
+        d->cell_map = NULL;
+        d->nbc = d->namb = 0;
+        st->special_cells = st->interior_cells = st->boundary_cells = 0;
+        vm_status s = find_cells(d, st, err);
+        if (s) return s;
+    }
+    return vm_error_set(err, VM_ERR_INTERNAL, "mesh: hexahedral repair did not settle");
 }
 
 vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *err) {
@@ -456,6 +515,7 @@ vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *er
     if (!s) s = classify(d, st, err);
     if (!s && g->progress) g->progress("contour", 1, 4, g->progress_user);
     if (!s) s = find_cells(d, st, err);
+    if (!s && g->hexes) s = vm__dc_repair_for_hexes(d, st, &st->repaired_points, err);
     if (!s && g->max_level > 0) s = build_octree(d, g->max_level, st, err);
     if (!s) s = place_reps(d, err);
     if (!s && g->progress) g->progress("contour", 2, 4, g->progress_user);

@@ -38,14 +38,17 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     double t0 = vm__now();
     vm_mesh_stats st;
     memset(&st, 0, sizeof st);
-    vm_mesh_init(mesh, VM_TET4);
+    vm_mesh_init(mesh, o->elements == VM_HEX8 ? VM_HEX8 : VM_TET4);
     if (!o->has_lo && !o->has_hi)
         return vm_error_set(err, VM_ERR_ARG, "mesh: no material bound given (--iso or --range)");
     if (o->has_lo && o->has_hi && o->lo > o->hi)
         return vm_error_set(err, VM_ERR_ARG, "mesh: empty range %g:%g (lower bound above upper)",
                             o->lo, o->hi);
-    if (o->elements != VM_TET4)
-        return vm_error_set(err, VM_ERR_UNSUPPORTED, "mesh: only tetrahedra are built so far");
+    if (o->elements != VM_TET4 && o->elements != VM_HEX8)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: elements must be tetrahedra or hexahedra");
+    if (o->elements == VM_HEX8 && o->adaptive)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "mesh: adaptive hexahedra are not built yet (use uniform --size)");
     if (o->adaptive && (o->max_level < 1 || o->max_level > 10))
         return vm_error_set(err, VM_ERR_ARG, "mesh: adaptive max level %d is outside 1..10",
                             o->max_level);
@@ -105,12 +108,14 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     g.has_lo = o->has_lo;
     g.has_hi = o->has_hi;
     g.max_level = o->adaptive ? o->max_level : 0;
+    g.hexes = o->elements == VM_HEX8;
     g.progress = o->progress;
     g.progress_user = o->progress_user;
 
     vm__tet_soup soup;
     memset(&soup, 0, sizeof soup);
-    vm_status s = vm__dual_contour_tets(&g, &soup, &st, err);
+    vm_status s = g.hexes ? vm__dual_contour_hexes(&g, &soup, &st, err)
+                          : vm__dual_contour_tets(&g, &soup, &st, err);
     free(resampled);
     if (s == VM_ERR_EMPTY)
         s = vm_error_set(err, VM_ERR_EMPTY, "mesh: no grid point is in the material");
@@ -124,8 +129,8 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
         goto done;
     }
     for (size_t i = 0; i < nl + soup.nreps; i++) map[i] = -1;
-    size_t used = 0;
-    for (size_t t = 0; t < 4 * soup.ntets; t++)
+    size_t used = 0, nn = (size_t)soup.nodes;
+    for (size_t t = 0; t < nn * soup.ntets; t++)
         if (map[soup.tets[t]] < 0) map[soup.tets[t]] = (int32_t)used++;
     s = vm_mesh_reserve(mesh, used, soup.ntets, err);
     if (s) goto done;
@@ -142,14 +147,20 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
         }
         vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)map[id]);
     }
+    /* A left-handed frame mirrors every element: swap nodes so volumes stay positive. */
     int flip = vm_volume_frame_determinant(v) < 0;
+    static const int tet_swap[][2] = {{1, 2}}, hex_swap[][2] = {{1, 3}, {5, 7}};
     for (size_t t = 0; t < soup.ntets; t++) {
-        vm_index *c = mesh->cells + 4 * t;
-        for (int k = 0; k < 4; k++) c[k] = (vm_index)map[soup.tets[4 * t + k]];
+        vm_index *c = mesh->cells + nn * t;
+        for (size_t k = 0; k < nn; k++) c[k] = (vm_index)map[soup.tets[nn * t + k]];
         if (flip) {
-            vm_index tmp = c[1];
-            c[1] = c[2];
-            c[2] = tmp;
+            const int(*sw)[2] = nn == 8 ? hex_swap : tet_swap;
+            int nsw = nn == 8 ? 2 : 1;
+            for (int q = 0; q < nsw; q++) {
+                vm_index tmp = c[sw[q][0]];
+                c[sw[q][0]] = c[sw[q][1]];
+                c[sw[q][1]] = tmp;
+            }
         }
         mesh->region[t] = 1;
     }

@@ -12,16 +12,19 @@ typedef struct vm__grid {
     double lo, hi;
     int has_lo, has_hi;
     int max_level;          /* 0: uniform; > 0: interior cells merged up to 2^max_level */
+    int hexes;              /* 1: the cells are prepared for hexahedra */
     vm_progress_fn progress;
     void *progress_user;
 } vm__grid;
 
-/* Tets over two kinds of vertices: ids below nlattice are grid points (i + nx*(j + ny*k)),
- * ids from nlattice on are surface/centre vertices with positions rep_pos (grid index
- * coordinates). Positive orientation in grid index space. */
+/* Cells (4 nodes: tets, 8: hexes in VTK order) over two kinds of vertices: ids below
+ * nlattice are grid points (i + nx*(j + ny*k)), ids from nlattice on are surface/centre
+ * vertices with positions rep_pos (grid index coordinates). Positive orientation in grid
+ * index space. */
 typedef struct vm__tet_soup {
     int64_t *tets;
     size_t ntets;
+    int nodes;
     int64_t nlattice;
     size_t nreps;
     double *rep_pos;
@@ -48,5 +51,7 @@ void vm__octree_free(vm__octree *o);
 
 vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
                                 vm_error *err);
+vm_status vm__dual_contour_hexes(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
+                                 vm_error *err);
 
 #endif

@@ -20,7 +20,7 @@ typedef void (*vm_progress_fn)(const char *stage, double done, double total, voi
 typedef struct vm_mesh_options {
     double lo, hi;          /* material bounds */
     int has_lo, has_hi;     /* which bounds apply (at least one must) */
-    vm_cell_kind elements;  /* VM_TET4 */
+    vm_cell_kind elements;  /* VM_TET4 or VM_HEX8 */
     int cell_size;          /* uniform cell size in voxels (>= 1) */
     int adaptive;           /* coarse cells in the interior where the octree allows */
     double error;           /* adaptive error tolerance (EDerror), in voxels */
@@ -34,7 +34,8 @@ typedef struct vm_mesh_stats {
     size_t inside_voxels;
     size_t boundary_cells, interior_cells, special_cells;
     size_t surface_vertices;
-    size_t relaxed_vertices;   /* minimizers pulled back to keep every tet positive */
+    size_t relaxed_vertices;   /* vertices pulled back to keep every element positive */
+    size_t repaired_points;    /* hexes: outside grid points taken in (see docs) */
     double seconds;
 } vm_mesh_stats;
 

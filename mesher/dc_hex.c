@@ -1,0 +1,162 @@
+/* mesher/dc_hex.c — hexahedra by dual contouring: seed 001 (LBIE) §4.3, "each vertex is
+ * shared by eight cells ... these eight minimizers can then be used to construct a
+ * hexahedron": one hex per inside grid point, its corners the vertices of the eight cells
+ * around it (the patch vertex of the point's component, or the centre of an interior cell). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../core/core.h"
+#include "dc_internal.h"
+
+/* For corner i of a VTK hexahedron, the three corners along its edges, ordered so that
+ * det(p[a]-p[i], p[b]-p[i], p[c]-p[i]) > 0 for a valid element. */
+static const int corner_nb[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
+                                    {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
+/* VTK corner offsets */
+static const int hex_off[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                  {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+
+typedef struct hexes {
+    int64_t *cells; /* 8 ids per hex */
+    size_t n, cap;
+    int32_t *centre_of; /* per padded cell: index of its centre vertex, -1 */
+    size_t ncentres;
+    int64_t *centre_cell;
+    size_t centre_cap;
+} hexes;
+
+static void hex_pos(const dc *d, const hexes *h, int64_t id, double out[3]) {
+    int64_t first = vm__dc_npoints_real(d) + (int64_t)d->nreps;
+    if (id < first) {
+        vm__dc_vertex_pos(d, id, 0, out);
+        return;
+    }
+    int64_t cm[3];
+    vm__dc_cell_coords(d, h->centre_cell[id - first], cm);
+    for (int a = 0; a < 3; a++) out[a] = (double)cm[a] + 0.5;
+}
+
+/* Smallest scaled corner Jacobian of hex c (1 for a cube, <= 0 when inverted). */
+static double hex_quality(const dc *d, const hexes *h, const int64_t *c) {
+    double p[8][3], worst = INFINITY;
+    for (int k = 0; k < 8; k++) hex_pos(d, h, c[k], p[k]);
+    for (int k = 0; k < 8; k++) {
+        double e[3][3], len = 1;
+        for (int j = 0; j < 3; j++) {
+            double l2 = 0;
+            for (int a = 0; a < 3; a++) {
+                e[j][a] = p[corner_nb[k][j]][a] - p[k][a];
+                l2 += e[j][a] * e[j][a];
+            }
+            len *= sqrt(l2);
+        }
+        double det = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
+                     e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+                     e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+        double q = len > 0 ? det / len : -1;
+        if (q < worst) worst = q;
+    }
+    return worst;
+}
+
+static vm_status build(dc *d, hexes *h, vm_error *err) {
+    size_t nc = (size_t)(d->C[0] * d->C[1] * d->C[2]);
+    h->centre_of = malloc(nc * sizeof *h->centre_of);
+    if (!h->centre_of) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    for (size_t i = 0; i < nc; i++) h->centre_of[i] = -1;
+    int64_t N = vm__dc_npoints_real(d);
+    for (int64_t k = 0; k < d->n[2]; k++)
+        for (int64_t j = 0; j < d->n[1]; j++)
+            for (int64_t i = 0; i < d->n[0]; i++) {
+                if (!d->in[vm__dc_pidx(d, i, j, k)]) continue;
+                vm_status s = vm__grow((void **)&h->cells, &h->cap, h->n + 1, 8 * sizeof(int64_t), err);
+                if (s) return s;
+                int64_t *c = h->cells + 8 * h->n++;
+                for (int q = 0; q < 8; q++) {
+                    /* the cell whose centre is corner q of the dual cube around (i,j,k) */
+                    int64_t m[3] = {i + hex_off[q][0] - 1, j + hex_off[q][1] - 1, k + hex_off[q][2] - 1};
+                    int64_t ci = vm__dc_cidx(d, m[0], m[1], m[2]);
+                    int32_t code = d->cell_map[ci];
+                    if (code >= 0) {
+                        const bcell *b = &d->bc[code];
+                        int local = (1 - hex_off[q][0]) | (1 - hex_off[q][1]) << 1 | (1 - hex_off[q][2]) << 2;
+                        c[q] = N + b->base + b->corner_patch[local];
+                    } else {
+                        if (h->centre_of[ci] < 0) {
+                            s = vm__grow((void **)&h->centre_cell, &h->centre_cap, h->ncentres + 1,
+                                         sizeof(int64_t), err);
+                            if (s) return s;
+                            h->centre_cell[h->ncentres] = ci;
+                            h->centre_of[ci] = (int32_t)h->ncentres++;
+                        }
+                        c[q] = N + (int64_t)d->nreps + h->centre_of[ci];
+                    }
+                }
+            }
+    return VM_OK;
+}
+
+/* Pulls the patch vertices of every hex that is not clearly valid toward their mass points,
+ * then toward their cell centres (where the hex becomes the voxel's cube). */
+static size_t make_valid(dc *d, const hexes *h, size_t *relaxed) {
+    const double eps = 1e-3;
+    int64_t N = vm__dc_npoints_real(d);
+    size_t bad = 0, moved = 0;
+    for (int round = 0; round < 40; round++) {
+        bad = 0;
+        for (size_t t = 0; t < h->n; t++) {
+            const int64_t *c = h->cells + 8 * t;
+            if (hex_quality(d, h, c) > eps) continue;
+            bad++;
+            for (int k = 0; k < 8; k++) {
+                if (c[k] < N || (size_t)(c[k] - N) >= d->nreps) continue;
+                size_t r = (size_t)(c[k] - N);
+                if (d->lambda[r] > 0) {
+                    d->lambda[r] = d->lambda[r] > 1.0 / 16 ? d->lambda[r] * 0.5 : 0.0;
+                    moved++;
+                } else if (!isnan(d->cpos[3 * r]) && d->mu[r] > 0) {
+                    d->mu[r] = d->mu[r] > 1.0 / 16 ? d->mu[r] * 0.5 : 0.0;
+                    moved++;
+                }
+            }
+        }
+        if (!bad) break;
+    }
+    *relaxed = moved;
+    return bad;
+}
+
+vm_status vm__dual_contour_hexes(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
+                                 vm_error *err) {
+    dc d;
+    hexes h;
+    memset(&h, 0, sizeof h);
+    vm_status s = vm__dc_setup(&d, g, st, err);
+    if (!s) s = build(&d, &h, err);
+    if (!s && g->progress) g->progress("contour", 3, 4, g->progress_user);
+    size_t relaxed = 0, bad = 0;
+    if (!s) bad = make_valid(&d, &h, &relaxed);
+    if (!s && bad)
+        s = vm_error_set(err, VM_ERR_INTERNAL, "mesh: %zu hexahedra stay inverted after relaxation",
+                         bad);
+    if (!s) {
+        out->nodes = 8;
+        out->ntets = h.n;
+        out->tets = h.cells;
+        h.cells = NULL;
+        out->nlattice = vm__dc_npoints_real(&d);
+        out->nreps = d.nreps + h.ncentres;
+        out->rep_pos = malloc(3 * (out->nreps ? out->nreps : 1) * sizeof(double));
+        if (!out->rep_pos) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        for (size_t r = 0; !s && r < out->nreps; r++)
+            hex_pos(&d, &h, out->nlattice + (int64_t)r, out->rep_pos + 3 * r);
+        st->relaxed_vertices = relaxed;
+        st->surface_vertices = d.nreps;
+    }
+    if (!s && g->progress) g->progress("contour", 4, 4, g->progress_user);
+    free(h.cells);
+    free(h.centre_of);
+    free(h.centre_cell);
+    vm__dc_free(&d);
+    return s;
+}
