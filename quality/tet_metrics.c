@@ -1,74 +1,58 @@
-/* quality/tet_metrics.c — tetrahedron and hexahedron element metrics.
- * Definitions from the Verdict manual (Stimpson et al., SAND2007-1751), sections on tet
- * volume, dihedral angles and scaled Jacobian, and hex scaled Jacobian. */
+/* quality/tet_metrics.c — tetrahedron metrics: volume, dihedral and face angles, scaled
+ * Jacobian, radius/aspect/edge ratios (Verdict manual SAND2007-1751 ch. 6) and the ABAQUS
+ * volume measure (ABAQUS/CAE "Verify Mesh" element check). */
 #include "volmesh/quality.h"
-#include <math.h>
-
-static void sub3(const double a[3], const double b[3], double out[3]) {
-    out[0] = a[0] - b[0];
-    out[1] = a[1] - b[1];
-    out[2] = a[2] - b[2];
-}
-
-static void cross3(const double a[3], const double b[3], double out[3]) {
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-static double dot3(const double a[3], const double b[3]) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static double triple(const double a[3], const double b[3], const double c[3]) {
-    double t[3];
-    cross3(b, c, t);
-    return dot3(a, t);
-}
+#include "vec3.h"
 
 double vm_tet_signed_volume(const double p[4][3]) {
     double a[3], b[3], c[3];
-    sub3(p[1], p[0], a);
-    sub3(p[2], p[0], b);
-    sub3(p[3], p[0], c);
-    double v = triple(a, b, c) / 6.0;
+    vm__sub3(p[1], p[0], a);
+    vm__sub3(p[2], p[0], b);
+    vm__sub3(p[3], p[0], c);
+    double v = vm__triple(a, b, c) / 6.0;
     return isfinite(v) ? v : 0.0;
 }
 
 /* Faces opposite node 0..3, ordered so their normals point out of a positive tet. */
 static const int tet_face[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+/* The six edges (i < j). */
+static const int tet_edge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+
+/* Squared edge lengths in tet_edge order; returns the largest. */
+static double edge_lengths2(const double p[4][3], double l2[6]) {
+    double lmax2 = 0.0;
+    for (int k = 0; k < 6; k++) {
+        double e[3];
+        vm__sub3(p[tet_edge[k][1]], p[tet_edge[k][0]], e);
+        l2[k] = vm__dot3(e, e);
+        if (l2[k] > lmax2) lmax2 = l2[k];
+    }
+    return lmax2;
+}
 
 /* Fills the six dihedral angles (degrees); returns 0 when the tet is degenerate (zero
  * volume relative to its size, or non-finite coordinates). */
 static int tet_dihedrals(const double p[4][3], double ang[6]) {
-    double n[4][3], len[4], lmax2 = 0.0;
-    for (int i = 0; i < 4; i++)
-        for (int j = i + 1; j < 4; j++) {
-            double e[3];
-            sub3(p[j], p[i], e);
-            double l2 = dot3(e, e);
-            if (l2 > lmax2) lmax2 = l2;
-        }
+    double n[4][3], l2[6];
+    double lmax2 = edge_lengths2(p, l2);
     double vol6 = 6.0 * vm_tet_signed_volume(p);
     /* Volume below round-off relative to edge length cubed means the points are coplanar. */
     if (!isfinite(lmax2) || lmax2 <= 0.0 || fabs(vol6) <= 1e-13 * lmax2 * sqrt(lmax2)) return 0;
     for (int f = 0; f < 4; f++) {
         double a[3], b[3];
-        sub3(p[tet_face[f][1]], p[tet_face[f][0]], a);
-        sub3(p[tet_face[f][2]], p[tet_face[f][0]], b);
-        cross3(a, b, n[f]);
-        len[f] = sqrt(dot3(n[f], n[f]));
-        if (!(len[f] > 0.0)) return 0;
+        vm__sub3(p[tet_face[f][1]], p[tet_face[f][0]], a);
+        vm__sub3(p[tet_face[f][2]], p[tet_face[f][0]], b);
+        vm__cross3(a, b, n[f]);
+        if (!(vm__norm3(n[f]) > 0.0)) return 0;
     }
     /* The dihedral angle at the edge shared by two faces is pi minus the angle between their
-     * outward normals; the sign of the volume flips every normal, so it cancels. */
+     * outward normals, i.e. the angle between one normal and the other reversed; the sign of
+     * the volume flips every normal, so it cancels. atan2 keeps slivers accurate. */
     int k = 0;
     for (int f = 0; f < 4; f++)
         for (int g = f + 1; g < 4; g++) {
-            double c = dot3(n[f], n[g]) / (len[f] * len[g]);
-            if (c > 1.0) c = 1.0;
-            if (c < -1.0) c = -1.0;
-            ang[k++] = 180.0 - acos(c) * (180.0 / 3.14159265358979323846);
+            double ng[3] = {-n[g][0], -n[g][1], -n[g][2]};
+            ang[k++] = vm__angle_deg(n[f], ng);
         }
     return 1;
 }
@@ -92,20 +76,13 @@ double vm_tet_max_dihedral(const double p[4][3]) {
 }
 
 double vm_tet_scaled_jacobian(const double p[4][3]) {
-    /* Verdict: 6V * sqrt(2) / max over the corners of the product of the three edge
-     * lengths meeting there. */
-    double e[6][3];
-    sub3(p[1], p[0], e[0]);
-    sub3(p[2], p[1], e[1]);
-    sub3(p[0], p[2], e[2]);
-    sub3(p[3], p[0], e[3]);
-    sub3(p[3], p[1], e[4]);
-    sub3(p[3], p[2], e[5]);
-    double l[6];
+    double l2[6], l[6];
+    edge_lengths2(p, l2);
     for (int i = 0; i < 6; i++)
-        l[i] = sqrt(dot3(e[i], e[i]));
-    double c[4] = {l[0] * l[2] * l[3], l[0] * l[1] * l[4], l[1] * l[2] * l[5],
-                   l[3] * l[4] * l[5]};
+        l[i] = sqrt(l2[i]);
+    /* Edges at each corner, in tet_edge numbering. */
+    double c[4] = {l[0] * l[1] * l[2], l[0] * l[3] * l[4], l[1] * l[3] * l[5],
+                   l[2] * l[4] * l[5]};
     double cmax = c[0];
     for (int i = 1; i < 4; i++)
         if (c[i] > cmax) cmax = c[i];
@@ -117,45 +94,104 @@ double vm_tet_scaled_jacobian(const double p[4][3]) {
     return sj;
 }
 
-/* For each VTK hex corner, its three neighbours in right-handed order. */
-static const int hex_corner[8][4] = {{0, 1, 3, 4}, {1, 2, 0, 5}, {2, 3, 1, 6}, {3, 0, 2, 7},
-                                     {4, 7, 5, 0}, {5, 4, 6, 1}, {6, 5, 7, 2}, {7, 6, 4, 3}};
-
-double vm_hex_min_scaled_jacobian(const double p[8][3]) {
-    double smin = 1.0;
-    for (int c = 0; c < 8; c++) {
-        double e[3][3], l[3];
-        for (int k = 0; k < 3; k++) {
-            sub3(p[hex_corner[c][k + 1]], p[hex_corner[c][0]], e[k]);
-            l[k] = sqrt(dot3(e[k], e[k]));
-        }
-        double denom = l[0] * l[1] * l[2];
-        double s = (denom > 0.0 && isfinite(denom)) ? triple(e[0], e[1], e[2]) / denom : 0.0;
-        if (!isfinite(s)) s = 0.0;
-        if (s < smin) smin = s;
+/* Sum of the four face areas. */
+static double face_area_sum(const double p[4][3]) {
+    double s = 0.0;
+    for (int f = 0; f < 4; f++) {
+        double a[3], b[3], n[3];
+        vm__sub3(p[tet_face[f][1]], p[tet_face[f][0]], a);
+        vm__sub3(p[tet_face[f][2]], p[tet_face[f][0]], b);
+        vm__cross3(a, b, n);
+        s += 0.5 * vm__norm3(n);
     }
-    if (smin < -1.0) smin = -1.0;
-    return smin;
+    return s;
 }
 
-double vm_hex_volume(const double p[8][3]) {
-    /* Divergence theorem over the six bilinear faces, each split into four triangles
-     * around its vertex average; exact for the trilinear hexahedron. Coordinates are
-     * taken relative to node 0 to limit round-off. */
-    static const int face[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
-                                   {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}};
-    double q[8][3];
-    for (int i = 0; i < 8; i++)
-        sub3(p[i], p[0], q[i]);
-    double v = 0.0;
-    for (int f = 0; f < 6; f++) {
-        double c[3] = {0, 0, 0};
-        for (int k = 0; k < 4; k++)
-            for (int d = 0; d < 3; d++)
-                c[d] += 0.25 * q[face[f][k]][d];
-        for (int k = 0; k < 4; k++)
-            v += triple(c, q[face[f][k]], q[face[f][(k + 1) % 4]]);
-    }
-    v /= 6.0;
-    return isfinite(v) ? v : 0.0;
+/* Circumradius times 12V: |a^2 (b x c) + b^2 (c x a) + c^2 (a x b)| with a, b, c the edges
+ * from node 0 (the circumcentre relative to node 0 is that vector over 12V). */
+static double circumradius_12v(const double p[4][3]) {
+    double a[3], b[3], c[3], bc[3], ca[3], ab[3], w[3];
+    vm__sub3(p[1], p[0], a);
+    vm__sub3(p[2], p[0], b);
+    vm__sub3(p[3], p[0], c);
+    vm__cross3(b, c, bc);
+    vm__cross3(c, a, ca);
+    vm__cross3(a, b, ab);
+    double la = vm__dot3(a, a), lb = vm__dot3(b, b), lc = vm__dot3(c, c);
+    for (int d = 0; d < 3; d++)
+        w[d] = la * bc[d] + lb * ca[d] + lc * ab[d];
+    return vm__norm3(w);
+}
+
+double vm_tet_radius_ratio(const double p[4][3]) {
+    /* R = N / (12 V) and r = 3 V / S, so R / (3 r) = N S / (108 V^2). */
+    double v = fabs(vm_tet_signed_volume(p));
+    double q = circumradius_12v(p) * face_area_sum(p) / (108.0 * v * v);
+    return vm__cap_ratio(q, VM_QUALITY_HUGE);
+}
+
+double vm_tet_aspect_ratio(const double p[4][3]) {
+    /* h_max / (2 sqrt(6) r) with r = 3 V / S. */
+    double l2[6];
+    double hmax = sqrt(edge_lengths2(p, l2));
+    double v = fabs(vm_tet_signed_volume(p));
+    double q = hmax * face_area_sum(p) / (6.0 * sqrt(6.0) * v);
+    return vm__cap_ratio(q, VM_QUALITY_HUGE);
+}
+
+double vm_tet_edge_ratio(const double p[4][3]) {
+    double l2[6];
+    double lmax2 = edge_lengths2(p, l2), lmin2 = l2[0];
+    for (int k = 1; k < 6; k++)
+        if (l2[k] < lmin2) lmin2 = l2[k];
+    return vm__cap_ratio(sqrt(lmax2 / lmin2), VM_QUALITY_HUGE);
+}
+
+/* The twelve face angles; returns 0 when an edge has zero length or a coordinate is not
+ * finite. */
+static int face_angles(const double p[4][3], double ang[12]) {
+    int k = 0;
+    for (int f = 0; f < 4; f++)
+        for (int i = 0; i < 3; i++) {
+            const double *o = p[tet_face[f][i]];
+            double a[3], b[3];
+            vm__sub3(p[tet_face[f][(i + 1) % 3]], o, a);
+            vm__sub3(p[tet_face[f][(i + 2) % 3]], o, b);
+            double la = vm__dot3(a, a), lb = vm__dot3(b, b);
+            if (!(la > 0.0) || !(lb > 0.0) || !isfinite(la) || !isfinite(lb)) return 0;
+            ang[k++] = vm__angle_deg(a, b);
+        }
+    return 1;
+}
+
+double vm_tet_min_face_angle(const double p[4][3]) {
+    double a[12];
+    if (!face_angles(p, a)) return 0.0;
+    double m = a[0];
+    for (int i = 1; i < 12; i++)
+        if (a[i] < m) m = a[i];
+    return m;
+}
+
+double vm_tet_max_face_angle(const double p[4][3]) {
+    double a[12];
+    if (!face_angles(p, a)) return 180.0;
+    double m = a[0];
+    for (int i = 1; i < 12; i++)
+        if (a[i] > m) m = a[i];
+    return m;
+}
+
+double vm_tet_volume_measure(const double p[4][3]) {
+    /* The equilateral tet with circumradius R has edge 4R/sqrt(6) and volume
+     * 8 R^3 / (9 sqrt(3)). A vanishing volume sends R to infinity and the ratio to 0. */
+    double v = vm_tet_signed_volume(p);
+    double n = circumradius_12v(p);
+    if (v == 0.0 || !(n > 0.0) || !isfinite(n)) return 0.0;
+    double r = n / (12.0 * fabs(v)); /* circumradius */
+    double q = v / (8.0 * r * r * r / (9.0 * sqrt(3.0)));
+    if (!isfinite(q)) return 0.0;
+    if (q > 1.0) q = 1.0;
+    if (q < -1.0) q = -1.0;
+    return q;
 }

@@ -93,3 +93,32 @@ int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
 #define T(fn) {#fn, fn}
 
 #endif
+
+/* ---- shared checks for the volume-reader tests (tests/io) ---- */
+#ifndef VM_TEST_READER_HELPERS_H
+#define VM_TEST_READER_HELPERS_H
+
+/* Stores x converted to scalar type t (a plain C cast) at dst in big-endian byte order when
+ * big_endian is non-zero, else little-endian. Returns the sample size in bytes (1..8). */
+size_t vm_test_put_sample(unsigned char *dst, vm_scalar_type t, int big_endian, double x);
+
+/* Checks that a reader refused path: it returned got == expected (an error, so < 0),
+ * err->status == got, err->message is one line that starts with "PATH: " and contains phrase
+ * (phrase NULL: any message), and v->data is NULL. Each failure is recorded with CHECK_MSG and
+ * names the calling file and line. */
+#define vm_test_expect_refusal(path, got, expected, err, phrase, v)                          \
+    vm_test_expect_refusal_at(__FILE__, __LINE__, path, got, expected, err, phrase, v)
+void vm_test_expect_refusal_at(const char *file, int line, const char *path, vm_status got,
+                               vm_status expected, const vm_error *err, const char *phrase,
+                               const vm_volume *v);
+
+/* Runs `volmesh ARGS` (args NULL: "info 'PATH'") and checks that it exits 2 and prints exactly
+ * one line, ending in a newline, that starts with "volmesh: PATH: "; when message is not NULL
+ * the line must be exactly "volmesh: PATH: MESSAGE\n". Failures are recorded with CHECK_MSG
+ * and name the calling file and line. */
+#define vm_test_expect_cli_error(args, path, message)                                      \
+    vm_test_expect_cli_error_at(__FILE__, __LINE__, args, path, message)
+void vm_test_expect_cli_error_at(const char *file, int line, const char *args, const char *path,
+                                 const char *message);
+
+#endif

@@ -128,3 +128,72 @@ int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
     remove(path);
     return 0;
 }
+
+/* ---- shared checks for the volume-reader tests (see tests/test.h) ---- */
+#include <stdint.h>
+#include "io/io_util.h"
+
+size_t vm_test_put_sample(unsigned char *dst, vm_scalar_type t, int big_endian, double x) {
+    unsigned char b[8];
+    size_t n = vm_scalar_type_size(t);
+    switch (t) {
+    case VM_SCALAR_UINT8: { uint8_t y = (uint8_t)x; memcpy(b, &y, n); } break;
+    case VM_SCALAR_INT8: { int8_t y = (int8_t)x; memcpy(b, &y, n); } break;
+    case VM_SCALAR_UINT16: { uint16_t y = (uint16_t)x; memcpy(b, &y, n); } break;
+    case VM_SCALAR_INT16: { int16_t y = (int16_t)x; memcpy(b, &y, n); } break;
+    case VM_SCALAR_UINT32: { uint32_t y = (uint32_t)x; memcpy(b, &y, n); } break;
+    case VM_SCALAR_INT32: { int32_t y = (int32_t)x; memcpy(b, &y, n); } break;
+    case VM_SCALAR_UINT64: { uint64_t y = (uint64_t)x; memcpy(b, &y, n); } break;
+    case VM_SCALAR_INT64: { int64_t y = (int64_t)x; memcpy(b, &y, n); } break;
+    case VM_SCALAR_FLOAT32: { float y = (float)x; memcpy(b, &y, n); } break;
+    case VM_SCALAR_FLOAT64: memcpy(b, &x, n); break;
+    }
+    int swap = n > 1 && (big_endian != 0) == (vm__host_little_endian() != 0);
+    for (size_t k = 0; k < n; k++) dst[k] = swap ? b[n - 1 - k] : b[k];
+    return n;
+}
+
+void vm_test_expect_refusal_at(const char *file, int line, const char *path, vm_status got,
+                               vm_status expected, const vm_error *err, const char *phrase,
+                               const vm_volume *v) {
+    const char *msg = err->message;
+    size_t n = strlen(path);
+    CHECK_MSG(got < 0, "[%s:%d] %s: read succeeded", file, line, path);
+    CHECK_MSG(got == expected, "[%s:%d] %s: status %d, expected %d (%s)", file, line, path,
+              (int)got, (int)expected, msg);
+    CHECK_MSG(err->status == got, "[%s:%d] %s: err.status %d, returned %d", file, line, path,
+              (int)err->status, (int)got);
+    CHECK_MSG(strncmp(msg, path, n) == 0 && msg[n] == ':' && msg[n + 1] == ' ',
+              "[%s:%d] message '%s' does not start with '%s: '", file, line, msg, path);
+    CHECK_MSG(strchr(msg, '\n') == NULL, "[%s:%d] message has a newline: %s", file, line, msg);
+    CHECK_MSG(!phrase || strstr(msg, phrase) != NULL, "[%s:%d] message '%s' lacks '%s'", file,
+              line, msg, phrase ? phrase : "");
+    CHECK_MSG(v->data == NULL, "[%s:%d] %s: a refused read returned data", file, line, path);
+}
+
+void vm_test_expect_cli_error_at(const char *file, int line, const char *args, const char *path,
+                                 const char *message) {
+    char info[4300], prefix[4300];
+    if (!args) {
+        snprintf(info, sizeof info, "info '%s'", path);
+        args = info;
+    }
+    snprintf(prefix, sizeof prefix, "volmesh: %s: ", path);
+    char *out = NULL;
+    int rc = vm_test_cli(args, &out);
+    const char *o = out ? out : "";
+    size_t len = strlen(o);
+    CHECK_MSG(rc == 2, "[%s:%d] volmesh %s exited %d: %s", file, line, args, rc, o);
+    CHECK_MSG(strncmp(o, prefix, strlen(prefix)) == 0,
+              "[%s:%d] volmesh %s printed '%s', not starting with '%s'", file, line, args, o,
+              prefix);
+    CHECK_MSG(len > 0 && strchr(o, '\n') == o + len - 1,
+              "[%s:%d] volmesh %s printed '%s', not exactly one line", file, line, args, o);
+    if (message) {
+        char want[4900];
+        snprintf(want, sizeof want, "%s%s\n", prefix, message);
+        CHECK_MSG(strcmp(o, want) == 0, "[%s:%d] volmesh %s printed '%s', expected '%s'", file,
+                  line, args, o, want);
+    }
+    free(out);
+}

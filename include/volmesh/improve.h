@@ -1,13 +1,88 @@
-/* volmesh/improve.h — the quality-improvement pass over tetrahedral meshes. */
+/* volmesh/improve.h — the quality-improvement pass over tetrahedral meshes.
+ *
+ * vm_mesh_improve raises the worst element quality of a tet4 mesh in place by edge
+ * contraction (seed 001 §6, with the ABAQUS thresholds), optimisation-based vertex smoothing,
+ * 2-3 / 3-2 flips of interior faces and edges, and a last sliver-removal pass of random vertex
+ * perturbations. Every accepted operation raises the worst quality of the tets it touches, so
+ * the worst quality of the mesh never goes down. It never changes the topology of the boundary
+ * (contractions obey the link condition of the mesh closed by a vertex at infinity), never
+ * flips a boundary face, keeps flat faces on the volume border on their plane, keeps the
+ * region of every tet and reports the elements it could not fix (a result, not an error).
+ * See docs/IMPROVE.md for the algorithms and the measured figures. */
 #ifndef VOLMESH_IMPROVE_H
 #define VOLMESH_IMPROVE_H
 
+#include <stddef.h>
 #include "error.h"
 #include "mesh.h"
+#include "volume.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+typedef struct vm_improve_options {
+    /* Material bounds of the mesh, as in vm_mesh_options (used only when a volume is given):
+     * boundary vertices are projected back onto {f = lo} or {f = hi}, whichever is nearer. */
+    double lo, hi;
+    int has_lo, has_hi;
+    /* Largest distance a boundary vertex may move from its original position, in voxels
+     * (index space) when a volume is given. Default 0.5. Without a volume, boundary vertices
+     * move only in their tangent plane and at most max_surface_move_free times the length of
+     * their shortest incident edge (default 0.1). */
+    double max_surface_move;
+    double max_surface_move_free;
+    /* What counts as "good": min dihedral >= target_min_dihedral (default 15 degrees), max
+     * dihedral <= target_max_dihedral (default 150) and ABAQUS volume measure >=
+     * target_volume_measure (default 0.03). Tets below these are worked on. */
+    double target_min_dihedral, target_max_dihedral, target_volume_measure;
+    int max_passes;          /* rounds of contract + flip + smooth; default 12 */
+    int contract, flip, smooth, perturb; /* enable each operation (all 1 by default) */
+    unsigned seed;           /* random perturbations are reproducible for a given seed */
+    /* 1: add a cell field "improve_unfixed" (1 for tets still failing the ABAQUS check or
+     * below 10 degrees, else 0). Default 0. */
+    int mark_unfixed;
+} vm_improve_options;
+
+/* Figures of one run; *_before are measured on the input, *_after on the output. */
+typedef struct vm_improve_report {
+    size_t tets_before, tets_after, points_before, points_after;
+    double min_dihedral_before, max_dihedral_before; /* degrees */
+    double min_dihedral_after, max_dihedral_after;
+    size_t slivers_5_before, slivers_10_before;      /* min dihedral below 5 / 10 degrees */
+    size_t slivers_5_after, slivers_10_after;
+    /* ABAQUS check (seed 001 §6): volume measure <= 0.02, or min dihedral <= 10, or max
+     * dihedral >= 160 degrees. */
+    size_t abaqus_before, abaqus_after;
+    size_t inverted_after;                           /* signed volume <= 0 (always 0) */
+    /* Tets that still fail the ABAQUS check or the bar (min dihedral < 10, max > 165). */
+    size_t unfixed;
+    double volume_before, volume_after;              /* sum of signed volumes */
+    /* Largest displacement of a vertex on the isosurface (voxels with a volume, world units
+     * without). Vertices on flat border faces slide within their plane and are not counted. */
+    double max_surface_move;
+    size_t collapses, flips23, flips32;
+    size_t edge_removals;     /* edges with 4..8 tets around them removed (4-4 and larger) */
+    size_t moves, perturbations;
+    int passes;
+    double seconds;
+} vm_improve_report;
+
+/* Defaults: bounds f >= 0 (has_lo), 0.5 voxel, 0.1 edge, targets 15 / 150 / 0.03, 12
+ * passes, every operation on, seed 1, no unfixed field. [out] o. */
+void vm_improve_options_default(vm_improve_options *o);
+
+/* Improves the tet4 mesh m in place. [in,out] m: points may move, points and cells may be
+ * removed or replaced (cells keep their region; cell fields of new cells are copied from
+ * the cell they replace; point fields follow their points). [in] v may be NULL: when given it
+ * must be the volume m was meshed from (same index-to-world mapping) and o->lo/hi/has_lo/
+ * has_hi its material bounds. [in] o may be NULL (defaults). [out] r may be NULL.
+ * Errors: VM_ERR_UNSUPPORTED for a kind other than tet4, VM_ERR_EMPTY for a mesh without
+ * cells, VM_ERR_ARG for a node index out of range or an inverted input tet (it cannot
+ * improve what it cannot orient), VM_ERR_NOMEM. On error m is unchanged.
+ * Time O(n log n) per pass; memory about 150 bytes per tet. */
+vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
+                          vm_improve_report *r, vm_error *err);
 
 #ifdef __cplusplus
 }

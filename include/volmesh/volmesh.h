@@ -11,6 +11,7 @@
 #include "mesher.h"
 #include "preprocess.h"
 #include "quality.h"
+#include "render.h"
 #include "volume.h"
 
 /* Version string of the linked library. */

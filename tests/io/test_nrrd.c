@@ -9,11 +9,6 @@
 #include <zlib.h>
 #include "test.h"
 
-/* &err through a call, so CHECK_OK's NULL test does not trip -Waddress. */
-static vm_error *errp(vm_error *e) {
-    return e;
-}
-
 static const int64_t DIMS[3] = {3, 4, 5};
 enum { NVOX = 60 };
 
@@ -36,38 +31,11 @@ static double sample_value(vm_scalar_type t, int i) {
     return 0;
 }
 
-static int host_little(void) {
-    const uint16_t one = 1;
-    unsigned char b;
-    memcpy(&b, &one, 1);
-    return b == 1;
-}
-
-/* Stores value x as type t in the given byte order at dst; returns the sample size. */
-static size_t put_sample(unsigned char *dst, vm_scalar_type t, int big, double x) {
-    unsigned char b[8];
-    size_t n = vm_scalar_type_size(t);
-    switch (t) {
-    case VM_SCALAR_UINT8: { uint8_t y = (uint8_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_INT8: { int8_t y = (int8_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_UINT16: { uint16_t y = (uint16_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_INT16: { int16_t y = (int16_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_UINT32: { uint32_t y = (uint32_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_INT32: { int32_t y = (int32_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_UINT64: { uint64_t y = (uint64_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_INT64: { int64_t y = (int64_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_FLOAT32: { float y = (float)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_FLOAT64: memcpy(b, &x, n); break;
-    }
-    int swap = n > 1 && big == host_little();
-    for (size_t k = 0; k < n; k++) dst[k] = swap ? b[n - 1 - k] : b[k];
-    return n;
-}
-
 /* The NVOX samples of type t in the byte order given; returns the byte count. */
 static size_t make_samples(unsigned char *dst, vm_scalar_type t, int big) {
     size_t at = 0;
-    for (int i = 0; i < NVOX; i++) at += put_sample(dst + at, t, big, sample_value(t, i));
+    for (int i = 0; i < NVOX; i++)
+        at += vm_test_put_sample(dst + at, t, big, sample_value(t, i));
     return at;
 }
 
@@ -110,7 +78,7 @@ static void nrrdReadsSharedCtHeadWithReferenceStatistics(void) {
     if (!path) return;
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), &err);
     if (!v.data) return;
     CHECK(v.dims[0] == 64 && v.dims[1] == 64 && v.dims[2] == 93);
     CHECK(v.type == VM_SCALAR_UINT16);
@@ -180,7 +148,7 @@ static void nrrdReadsEveryTypeSpellingEndianAndEncoding(void) {
                 CHECK(write_parts(path, header, ascii ? (void *)text : (void *)data, n, gz) == 0);
                 vm_volume v;
                 vm_error err;
-                vm_status st = vm_volume_read_nrrd(path, &v, errp(&err));
+                vm_status st = vm_volume_read_nrrd(path, &v, &err);
                 CHECK_MSG(st == VM_OK, "type '%s' %s %s: %s", spellings[s].spelling,
                           big ? "big" : "little", enc, err.message);
                 if (st) continue;
@@ -210,7 +178,7 @@ static void nrrdReadsZlibWrappedCompressedData(void) {
                       packed, plen, 0) == 0);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), &err);
     if (v.data) CHECK(expect_values(&v, VM_SCALAR_INT16));
     vm_volume_free(&v);
 }
@@ -231,7 +199,7 @@ static void nrrdReadsDetachedDataRelativeToTheHeaderFolder(void) {
                       "", 0, 0) == 0);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_nrrd(hdr, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(hdr, &v, &err), &err);
     if (v.data) CHECK(expect_values(&v, VM_SCALAR_FLOAT32));
     vm_volume_free(&v);
     /* the other spelling, gzip data, a blank line after the header, through vm_volume_read */
@@ -245,7 +213,7 @@ static void nrrdReadsDetachedDataRelativeToTheHeaderFolder(void) {
                       "NRRD0004\ntype: float\ndimension: 3\nsizes: 3 4 5\nendian: big\n"
                       "encoding: gzip\ndatafile: vol.raw.gz\n\n",
                       "", 0, 0) == 0);
-    CHECK_OK(vm_volume_read(hdr, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read(hdr, &v, &err), &err);
     if (v.data) CHECK(expect_values(&v, VM_SCALAR_FLOAT32));
     vm_volume_free(&v);
 }
@@ -263,7 +231,7 @@ static void nrrdHonoursByteSkipAndLineSkip(void) {
                       "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 3 4 5\nendian: little\n"
                       "encoding: raw\nline skip: 2\nbyte skip: 5\n\n",
                       buf, 23 + n, 0) == 0);
-    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), &err);
     if (v.data) CHECK(expect_values(&v, VM_SCALAR_UINT16));
     vm_volume_free(&v);
     /* byte skip -1: the samples are the last bytes of the data file */
@@ -276,7 +244,7 @@ static void nrrdHonoursByteSkipAndLineSkip(void) {
                       "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 3 4 5\nendian: little\n"
                       "encoding: raw\nbyte skip: -1\ndata file: nrrd_skip_tail.raw\n",
                       "", 0, 0) == 0);
-    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), &err);
     if (v.data) CHECK(expect_values(&v, VM_SCALAR_UINT16));
     vm_volume_free(&v);
     /* gzip: byte skip counts decompressed bytes */
@@ -287,7 +255,7 @@ static void nrrdHonoursByteSkipAndLineSkip(void) {
                       "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 3 4 5\nendian: little\n"
                       "encoding: gzip\nbyte skip: 7\n\n",
                       buf, 7 + n, 1) == 0);
-    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), &err);
     if (v.data) CHECK(expect_values(&v, VM_SCALAR_UINT16));
     vm_volume_free(&v);
 }
@@ -312,7 +280,7 @@ static void nrrdReadsSpaceDirectionsWithRotationAndOrigin(void) {
     CHECK(write_parts(path, header, data, NVOX, 0) == 0);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), &err);
     if (!v.data) return;
     for (int a = 0; a < 3; a++) CHECK_NEAR(v.spacing[a], sp[a], 1e-12);
     for (int r = 0; r < 3; r++)
@@ -338,7 +306,7 @@ static void nrrdReadsSpacingsWithoutSpaceFlippingNegativeAndUnitForNan(void) {
                       data, NVOX, 0) == 0);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), &err);
     if (!v.data) return;
     CHECK_NEAR(v.spacing[0], 0.25, 0);
     CHECK_NEAR(v.spacing[1], 2.0, 0);
@@ -353,7 +321,7 @@ static void nrrdReadsSpacingsWithoutSpaceFlippingNegativeAndUnitForNan(void) {
                       "NRRD0001\ntype: int8\ndimension: 3\nsizes: 3 4 5\n"
                       "spacings: nan 3 NaN\nencoding: raw\n\n",
                       data, NVOX, 0) == 0);
-    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), &err);
     if (!v.data) return;
     CHECK(v.spacing[0] == 1.0 && v.spacing[1] == 3.0 && v.spacing[2] == 1.0);
     vm_volume_free(&v);
@@ -370,7 +338,7 @@ static void nrrdAcceptsFourDimensionsWithALeadingAxisOfOne(void) {
                       data, n, 0) == 0);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), &err);
     if (!v.data) return;
     CHECK(v.dims[0] == 3 && v.dims[1] == 4 && v.dims[2] == 5);
     CHECK_NEAR(v.spacing[0], 2.0, 0);
@@ -391,7 +359,7 @@ static void nrrdIgnoresCommentsKeyValuesAndCrLfLineEnds(void) {
                       data, NVOX, 0) == 0);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_nrrd(path, &v, &err), &err);
     if (v.data) CHECK(expect_values(&v, VM_SCALAR_UINT8));
     vm_volume_free(&v);
 }
@@ -399,7 +367,7 @@ static void nrrdIgnoresCommentsKeyValuesAndCrLfLineEnds(void) {
 static void nrrdWriteReadRoundTripIsExact(void) {
     vm_volume v, w;
     vm_error err;
-    CHECK_OK(vm_volume_alloc(&v, DIMS, &err), errp(&err));
+    CHECK_OK(vm_volume_alloc(&v, DIMS, &err), &err);
     if (!v.data) return;
     for (int i = 0; i < NVOX; i++) v.data[i] = (float)((i - 20) * 0.1);
     v.data[0] = -0.0f;
@@ -417,8 +385,8 @@ static void nrrdWriteReadRoundTripIsExact(void) {
     v.origin[2] = 1e10;
     for (int gzip = 0; gzip < 2; gzip++) {
         const char *path = vm_test_tmp(gzip ? "nrrd_roundtrip_gz.nrrd" : "nrrd_roundtrip.nrrd");
-        CHECK_OK(vm_volume_write_nrrd(path, &v, gzip, &err), errp(&err));
-        CHECK_OK(vm_volume_read(path, &w, &err), errp(&err));
+        CHECK_OK(vm_volume_write_nrrd(path, &v, gzip, &err), &err);
+        CHECK_OK(vm_volume_read(path, &w, &err), &err);
         if (!w.data) continue;
         CHECK(w.type == VM_SCALAR_FLOAT32);
         CHECK(memcmp(w.dims, v.dims, sizeof v.dims) == 0);
@@ -448,12 +416,12 @@ static int count_with_prefix(const char *prefix) {
 static void nrrdWriterLeavesNoTempFileWhenItFails(void) {
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_alloc(&v, DIMS, &err), errp(&err));
+    CHECK_OK(vm_volume_alloc(&v, DIMS, &err), &err);
     if (!v.data) return;
     memset(v.data, 0, NVOX * sizeof(float));
     /* a missing folder: fails at once */
     const char *missing = vm_test_tmp("nrrd_no_such_dir/out.nrrd");
-    vm_status st = vm_volume_write_nrrd(missing, &v, 1, errp(&err));
+    vm_status st = vm_volume_write_nrrd(missing, &v, 1, &err);
     CHECK(st == VM_ERR_IO);
     CHECK_MSG(strncmp(err.message, missing, strlen(missing)) == 0, "%s", err.message);
     CHECK(!vm_test_exists(missing));
@@ -463,7 +431,7 @@ static void nrrdWriterLeavesNoTempFileWhenItFails(void) {
     char inside[4200];
     snprintf(inside, sizeof inside, "%s/keep", target);
     CHECK(vm_test_write_file(inside, "x", 1) == 0);
-    st = vm_volume_write_nrrd(target, &v, 0, errp(&err));
+    st = vm_volume_write_nrrd(target, &v, 0, &err);
     CHECK(st == VM_ERR_IO);
     CHECK_MSG(strncmp(err.message, target, strlen(target)) == 0, "%s", err.message);
     CHECK(count_with_prefix("nrrd_target_dir.nrrd.tmp") == 0);
@@ -586,39 +554,15 @@ static const struct {
      VM_ERR_UNSUPPORTED, "multiple data files"},
 };
 
-/* The message is one line starting "PATH: ". */
-static int names_path(const char *msg, const char *path) {
-    size_t n = strlen(path);
-    return strncmp(msg, path, n) == 0 && msg[n] == ':' && msg[n + 1] == ' ' &&
-           !strchr(msg, '\n');
-}
-
+/* The reader and `volmesh info` both refuse path with a one-line "PATH: ..." message. */
 static void check_bad(const char *path, vm_status want, const char *phrase) {
     vm_volume v;
     vm_error err;
     vm_error_clear(&err);
-    vm_status st = vm_volume_read_nrrd(path, &v, errp(&err));
-    CHECK_MSG(st == want, "%s: status %d, expected %d (%s)", path, (int)st, (int)want,
-              err.message);
-    CHECK_MSG(err.status == st, "%s", path);
-    CHECK_MSG(names_path(err.message, path), "message '%s' does not start with the path",
-              err.message);
-    CHECK_MSG(!phrase || strstr(err.message, phrase), "message '%s' lacks '%s'", err.message,
-              phrase);
-    CHECK(v.data == NULL);
+    vm_status st = vm_volume_read_nrrd(path, &v, &err);
+    vm_test_expect_refusal(path, st, want, &err, phrase, &v);
     vm_volume_free(&v);
-    /* the CLI: exit 2, one line "volmesh: PATH: ..." */
-    char args[4300], *out = NULL, prefix[4300];
-    snprintf(args, sizeof args, "info '%s'", path);
-    snprintf(prefix, sizeof prefix, "volmesh: %s: ", path);
-    int rc = vm_test_cli(args, &out);
-    CHECK_MSG(rc == 2, "volmesh %s exited %d", args, rc);
-    CHECK_MSG(out && strncmp(out, prefix, strlen(prefix)) == 0, "volmesh %s printed '%s'", args,
-              out ? out : "");
-    size_t len = out ? strlen(out) : 0;
-    CHECK_MSG(len > 0 && strchr(out, '\n') == out + len - 1, "volmesh %s printed '%s'", args,
-              out ? out : "");
-    free(out);
+    vm_test_expect_cli_error(NULL, path, NULL);
 }
 
 static void nrrdRejectsBadInputsWithThePathInAOneLineMessage(void) {

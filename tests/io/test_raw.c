@@ -6,11 +6,6 @@
 #include <sys/stat.h>
 #include "test.h"
 
-/* &err through a call, so CHECK_OK's NULL test does not trip -Waddress. */
-static vm_error *errp(vm_error *e) {
-    return e;
-}
-
 enum { NVOX = 24 };
 
 static const vm_scalar_type all_types[] = {
@@ -27,39 +22,13 @@ static double sample_value(vm_scalar_type t, int i) {
     return is_signed && i % 2 ? -x : x;
 }
 
-static int host_little(void) {
-    const uint16_t one = 1;
-    unsigned char b;
-    memcpy(&b, &one, 1);
-    return b == 1;
-}
-
-static size_t put_sample(unsigned char *dst, vm_scalar_type t, int big, double x) {
-    unsigned char b[8];
-    size_t n = vm_scalar_type_size(t);
-    switch (t) {
-    case VM_SCALAR_UINT8: { uint8_t y = (uint8_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_INT8: { int8_t y = (int8_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_UINT16: { uint16_t y = (uint16_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_INT16: { int16_t y = (int16_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_UINT32: { uint32_t y = (uint32_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_INT32: { int32_t y = (int32_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_UINT64: { uint64_t y = (uint64_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_INT64: { int64_t y = (int64_t)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_FLOAT32: { float y = (float)x; memcpy(b, &y, n); } break;
-    case VM_SCALAR_FLOAT64: memcpy(b, &x, n); break;
-    }
-    int swap = n > 1 && big == host_little();
-    for (size_t k = 0; k < n; k++) dst[k] = swap ? b[n - 1 - k] : b[k];
-    return n;
-}
-
 /* header bytes of 0xEE, then the samples; returns the file size. */
 static size_t write_raw(const char *path, vm_scalar_type t, int big, size_t header) {
     unsigned char buf[64 + NVOX * 8];
     memset(buf, 0xEE, header);
     size_t at = header;
-    for (int i = 0; i < NVOX; i++) at += put_sample(buf + at, t, big, sample_value(t, i));
+    for (int i = 0; i < NVOX; i++)
+        at += vm_test_put_sample(buf + at, t, big, sample_value(t, i));
     CHECK(vm_test_write_file(path, buf, at) == 0);
     return at;
 }
@@ -85,7 +54,7 @@ static void rawReadsEveryTypeInBothByteOrders(void) {
             vm_raw_options o = options(t, big, 0);
             vm_volume v;
             vm_error err;
-            CHECK_OK(vm_volume_read_raw(path, &o, &v, &err), errp(&err));
+            CHECK_OK(vm_volume_read_raw(path, &o, &v, &err), &err);
             if (!v.data) continue;
             CHECK(v.type == t);
             CHECK(strcmp(v.format, "raw") == 0);
@@ -105,14 +74,14 @@ static void rawSkipsHeaderBytesAndIgnoresTrailingBytes(void) {
     vm_raw_options o = options(VM_SCALAR_INT16, 1, 37);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_raw(path, &o, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_raw(path, &o, &v, &err), &err);
     if (v.data) {
         for (int i = 0; i < NVOX; i++) CHECK(v.data[i] == (float)sample_value(VM_SCALAR_INT16, i));
         vm_volume_free(&v);
     }
     /* fewer voxels than the file holds: the first ones are read */
     o.dims[2] = 2;
-    CHECK_OK(vm_volume_read_raw(path, &o, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_raw(path, &o, &v, &err), &err);
     if (v.data) {
         CHECK(v.data[11] == (float)sample_value(VM_SCALAR_INT16, 11));
         vm_volume_free(&v);
@@ -131,7 +100,7 @@ static void rawTakesGeometryFromTheOptionsWithZeroSpacingAsOne(void) {
     o.origin[2] = 0.125;
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_raw(path, &o, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_raw(path, &o, &v, &err), &err);
     if (!v.data) return;
     CHECK(v.spacing[0] == 0.5 && v.spacing[1] == 1.0 && v.spacing[2] == 2.5);
     CHECK(v.origin[0] == -10 && v.origin[1] == 20 && v.origin[2] == 0.125);
@@ -145,15 +114,8 @@ static void check_error(const char *path, const vm_raw_options *o, vm_status wan
     vm_volume v;
     vm_error err;
     vm_error_clear(&err);
-    vm_status st = vm_volume_read_raw(path, o, &v, errp(&err));
-    CHECK_MSG(st == want, "%s: status %d, expected %d (%s)", path, (int)st, (int)want,
-              err.message);
-    size_t n = strlen(path);
-    CHECK_MSG(strncmp(err.message, path, n) == 0 && err.message[n] == ':' &&
-                  !strchr(err.message, '\n'),
-              "message '%s' does not start with the path", err.message);
-    CHECK_MSG(strstr(err.message, phrase), "message '%s' lacks '%s'", err.message, phrase);
-    CHECK(v.data == NULL);
+    vm_status st = vm_volume_read_raw(path, o, &v, &err);
+    vm_test_expect_refusal(path, st, want, &err, phrase, &v);
 }
 
 static void rawRejectsTruncatedFilesWithByteCounts(void) {
@@ -165,7 +127,7 @@ static void rawRejectsTruncatedFilesWithByteCounts(void) {
     char want[4200];
     vm_volume v;
     vm_error err;
-    vm_volume_read_raw(path, &o, &v, errp(&err));
+    vm_volume_read_raw(path, &o, &v, &err);
     snprintf(want, sizeof want, "%s: data is truncated (96 of 120 bytes)", path);
     CHECK_MSG(strcmp(err.message, want) == 0, "%s", err.message);
     /* header skip past the end */
@@ -207,14 +169,8 @@ static void rawCliReadsWithOptionsAndReportsTruncation(void) {
     CHECK_MSG(rc == 0, "exit %d: %s", rc, out ? out : "");
     CHECK(out && strstr(out, "raw"));
     free(out);
-    out = NULL;
     snprintf(args, sizeof args, "info '%s' --raw-dims 2x3x5 --raw-type uint16", path);
-    rc = vm_test_cli(args, &out);
-    CHECK(rc == 2);
-    char want[4300];
-    snprintf(want, sizeof want, "volmesh: %s: data is truncated (48 of 60 bytes)\n", path);
-    CHECK_MSG(out && strcmp(out, want) == 0, "printed '%s'", out ? out : "");
-    free(out);
+    vm_test_expect_cli_error(args, path, "data is truncated (48 of 60 bytes)");
 }
 
 TEST_MAIN(T(rawReadsEveryTypeInBothByteOrders), T(rawSkipsHeaderBytesAndIgnoresTrailingBytes),

@@ -6,10 +6,8 @@
 #include <stdint.h>
 #include <string.h>
 #include <zlib.h>
+#include "io/io_util.h"
 #include "test.h"
-
-/* CHECK_OK tests its error pointer for NULL; passing &err directly trips -Waddress. */
-static vm_error *errp(vm_error *e) { return e; }
 
 /* ---- building files ---- */
 
@@ -52,8 +50,7 @@ static double put_sample(vm_scalar_type t, int i, int big, unsigned char *out, c
     default: memcpy(tmp, &d, 8); r = d; break;
     }
     if (t != VM_SCALAR_UINT64) snprintf(text, 32, "%.17g", r);
-    const uint16_t one = 1;
-    int little = *(const unsigned char *)&one == 1;
+    int little = vm__host_little_endian();
     for (size_t b = 0; b < n; b++) out[b] = (big == little) ? tmp[n - 1 - b] : tmp[b];
     return r;
 }
@@ -200,16 +197,7 @@ static void check_fails(const char *path, vm_status expected, const char *fragme
     vm_error err;
     vm_error_clear(&err);
     vm_status st = vm_volume_read_vti(path, &v, &err);
-    CHECK_MSG(st < 0, "%s: read succeeded", path);
-    if (expected) CHECK_MSG(st == expected, "%s: status %d, expected %d (%s)", path, st,
-                            expected, err.message);
-    size_t pl = strlen(path);
-    CHECK_MSG(strncmp(err.message, path, pl) == 0 && strncmp(err.message + pl, ": ", 2) == 0,
-              "message does not start with the path: %s", err.message);
-    CHECK_MSG(strchr(err.message, '\n') == NULL, "message has a newline: %s", err.message);
-    CHECK_MSG(strstr(err.message, fragment) != NULL, "message '%s' lacks '%s'", err.message,
-              fragment);
-    CHECK(v.data == NULL);
+    vm_test_expect_refusal(path, st, expected, &err, fragment, &v);
 }
 
 /* ---- tests ---- */
@@ -219,7 +207,7 @@ static void vtiReadsSharedHydrogenWithReferenceStatistics(void) {
     if (!path) return;
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_vti(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vti(path, &v, &err), &err);
     CHECK(v.dims[0] == 64 && v.dims[1] == 64 && v.dims[2] == 64);
     CHECK(v.type == VM_SCALAR_FLOAT32);
     for (int a = 0; a < 3; a++) {
@@ -299,7 +287,7 @@ static void vtiAppliesDirectionSpacingAndExtentStartToTheGeometry(void) {
     const char *path = write_vti("vti_geometry.vti", &s);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_vti(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vti(path, &v, &err), &err);
     if (!v.data) return;
     CHECK(v.dims[0] == 5 && v.dims[1] == 4 && v.dims[2] == 3);
     /* world = O + D * (e0*s): D*(1, -2, -40) = (2, 1, -40) */
@@ -340,7 +328,7 @@ static void vtiSelectsTheActiveScalarsElseTheFirstOneComponentArray(void) {
                  "format=\"ascii\">9</DataArray></CellData></Piece></ImageData></VTKFile>");
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_vti(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vti(path, &v, &err), &err);
     if (v.data) CHECK(v.type == VM_SCALAR_INT16 && v.data[0] == 3 && v.data[1] == 4);
     vm_volume_free(&v);
     path = write_text(
@@ -350,7 +338,7 @@ static void vtiSelectsTheActiveScalarsElseTheFirstOneComponentArray(void) {
                  "format=\"ascii\">1 2 3 4 5 6</DataArray>"
                  "<DataArray type=\"UInt8\" Name=\"b\" format=\"ascii\">7 8</DataArray>"
                  "</PointData></Piece></ImageData></VTKFile>");
-    CHECK_OK(vm_volume_read_vti(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vti(path, &v, &err), &err);
     if (v.data) CHECK(v.type == VM_SCALAR_UINT8 && v.data[0] == 7 && v.data[1] == 8);
     vm_volume_free(&v);
 }
@@ -377,7 +365,7 @@ static void vtiFindsAppendedArraysByTheirOffsetAfterTheUnderscore(void) {
         CHECK(vm_test_write_file(path, text, (size_t)n) == 0);
         vm_volume v;
         vm_error err;
-        CHECK_OK(vm_volume_read_vti(path, &v, &err), errp(&err));
+        CHECK_OK(vm_volume_read_vti(path, &v, &err), &err);
         if (v.data) CHECK_MSG(v.data[0] == 5 && v.data[1] == 6, "got %g %g", v.data[0], v.data[1]);
         vm_volume_free(&v);
     }
@@ -570,23 +558,13 @@ static void vtiCliInfoReportsABadFileOnOneLineAndExitsWith2(void) {
     const char *path = write_text("vti_cli_bad.vti", VTI_HEAD "<PointData><DataArray "
                                   "type=\"UInt8\" Name=\"a\" format=\"binary\">@@@@"
                                   "</DataArray></PointData></Piece></ImageData></VTKFile>");
-    char args[4200], prefix[4200], *out = NULL;
-    snprintf(args, sizeof args, "info '%s'", path);
-    snprintf(prefix, sizeof prefix, "volmesh: %s:", path);
-    int rc = vm_test_cli(args, &out);
-    CHECK_MSG(rc == 2, "exit %d", rc);
-    if (out) {
-        CHECK_MSG(strncmp(out, prefix, strlen(prefix)) == 0, "output: %s", out);
-        char *nl = strchr(out, '\n');
-        CHECK_MSG(nl && nl[1] == 0, "not one line: %s", out);
-        free(out);
-    }
+    vm_test_expect_cli_error(NULL, path, NULL);
     vti_spec s = base_spec();
     s.block = 100;
     const char *good = write_vti("vti_cli_good.vti", &s);
+    char args[4200], *out = NULL;
     snprintf(args, sizeof args, "info '%s' --json", good);
-    out = NULL;
-    rc = vm_test_cli(args, &out);
+    int rc = vm_test_cli(args, &out);
     CHECK_MSG(rc == 0, "exit %d: %s", rc, out ? out : "");
     if (out) {
         CHECK_MSG(strstr(out, "\"dims\": [5, 4, 3]") && strstr(out, "\"format\": \"vti\""),

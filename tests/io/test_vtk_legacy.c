@@ -2,37 +2,11 @@
  * volume against VTK's statistics, files written here (ASCII and big-endian binary, every
  * type), unsupported datasets, and every kind of bad input. */
 #define _POSIX_C_SOURCE 200809L
-#include <stdint.h>
 #include <string.h>
 #include <sys/stat.h>
 #include "test.h"
 
-/* CHECK_OK tests its error pointer for NULL; passing &err directly trips -Waddress. */
-static vm_error *errp(vm_error *e) { return e; }
-
 static const double values12[12] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 100};
-
-/* Stores value as type t, big endian. [out] out; returns the sample size. */
-static size_t put_be(vm_scalar_type t, double value, unsigned char *out) {
-    unsigned char tmp[8];
-    size_t n = vm_scalar_type_size(t);
-    switch (t) {
-    case VM_SCALAR_UINT8: { uint8_t x = (uint8_t)value; memcpy(tmp, &x, 1); } break;
-    case VM_SCALAR_INT8: { int8_t x = (int8_t)value; memcpy(tmp, &x, 1); } break;
-    case VM_SCALAR_UINT16: { uint16_t x = (uint16_t)value; memcpy(tmp, &x, 2); } break;
-    case VM_SCALAR_INT16: { int16_t x = (int16_t)value; memcpy(tmp, &x, 2); } break;
-    case VM_SCALAR_UINT32: { uint32_t x = (uint32_t)value; memcpy(tmp, &x, 4); } break;
-    case VM_SCALAR_INT32: { int32_t x = (int32_t)value; memcpy(tmp, &x, 4); } break;
-    case VM_SCALAR_UINT64: { uint64_t x = (uint64_t)value; memcpy(tmp, &x, 8); } break;
-    case VM_SCALAR_INT64: { int64_t x = (int64_t)value; memcpy(tmp, &x, 8); } break;
-    case VM_SCALAR_FLOAT32: { float x = (float)value; memcpy(tmp, &x, 4); } break;
-    case VM_SCALAR_FLOAT64: memcpy(tmp, &value, 8); break;
-    }
-    const uint16_t one = 1;
-    int little = *(const unsigned char *)&one == 1;
-    for (size_t i = 0; i < n; i++) out[i] = little ? tmp[n - 1 - i] : tmp[i];
-    return n;
-}
 
 /* Writes a 3x2x2 STRUCTURED_POINTS file: header text then (binary) samples of values12. */
 static const char *write_vtk(const char *name, const char *header, int binary,
@@ -44,7 +18,7 @@ static const char *write_vtk(const char *name, const char *header, int binary,
     unsigned char b[8];
     for (int i = 0; i < 12; i++) {
         if (binary)
-            fwrite(b, 1, put_be(t, values12[i], b), fp);
+            fwrite(b, 1, vm_test_put_sample(b, t, 1, values12[i]), fp);
         else
             fprintf(fp, "%g%c", values12[i], i % 5 == 4 ? '\n' : ' ');
     }
@@ -69,16 +43,7 @@ static void check_fails(const char *path, vm_status expected, const char *fragme
     vm_error err;
     vm_error_clear(&err);
     vm_status st = vm_volume_read_vtk(path, &v, &err);
-    CHECK_MSG(st < 0, "%s: read succeeded", path);
-    if (expected) CHECK_MSG(st == expected, "%s: status %d, expected %d (%s)", path, st,
-                            expected, err.message);
-    size_t pl = strlen(path);
-    CHECK_MSG(strncmp(err.message, path, pl) == 0 && strncmp(err.message + pl, ": ", 2) == 0,
-              "message does not start with the path: %s", err.message);
-    CHECK_MSG(strchr(err.message, '\n') == NULL, "message has a newline: %s", err.message);
-    CHECK_MSG(strstr(err.message, fragment) != NULL, "message '%s' lacks '%s'", err.message,
-              fragment);
-    CHECK(v.data == NULL);
+    vm_test_expect_refusal(path, st, expected, &err, fragment, &v);
 }
 
 static void vtkReadsSharedIronProtWithReferenceStatistics(void) {
@@ -86,7 +51,7 @@ static void vtkReadsSharedIronProtWithReferenceStatistics(void) {
     if (!path) return;
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_vtk(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vtk(path, &v, &err), &err);
     CHECK(v.dims[0] == 68 && v.dims[1] == 68 && v.dims[2] == 68);
     CHECK(v.type == VM_SCALAR_UINT8);
     CHECK(strcmp(v.format, "vtk") == 0);
@@ -156,7 +121,7 @@ static void vtkAcceptsKeywordsInAnyOrderAspectRatioAndNoLookupTable(void) {
                                  1, VM_SCALAR_INT16, NULL);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_vtk(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vtk(path, &v, &err), &err);
     CHECK_NEAR(v.spacing[1], 2, 0);
     CHECK_NEAR(v.origin[1], 2, 0);
     check_values12(&v, 1.0);
@@ -178,7 +143,7 @@ static void vtkSkipsFieldDataCellDataAndOtherAttributesBeforeTheScalars(void) {
         0, VM_SCALAR_FLOAT32, NULL);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_vtk(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vtk(path, &v, &err), &err);
     check_values12(&v, 1.0);
     vm_volume_free(&v);
 
@@ -192,15 +157,16 @@ static void vtkSkipsFieldDataCellDataAndOtherAttributesBeforeTheScalars(void) {
           "SCALARS c double 1\nLOOKUP_TABLE default\n",
           fp);
     unsigned char b[8];
-    fwrite(b, 1, put_be(VM_SCALAR_FLOAT64, 10.0, b), fp);
-    fwrite(b, 1, put_be(VM_SCALAR_FLOAT64, 20.0, b), fp);
+    fwrite(b, 1, vm_test_put_sample(b, VM_SCALAR_FLOAT64, 1, 10.0), fp);
+    fwrite(b, 1, vm_test_put_sample(b, VM_SCALAR_FLOAT64, 1, 20.0), fp);
     fputs("\nMETADATA\nINFORMATION 0\n\nPOINT_DATA 12\nSCALARS s unsigned_short 1\n"
           "LOOKUP_TABLE default\n",
           fp);
-    for (int i = 0; i < 12; i++) fwrite(b, 1, put_be(VM_SCALAR_UINT16, values12[i], b), fp);
+    for (int i = 0; i < 12; i++)
+        fwrite(b, 1, vm_test_put_sample(b, VM_SCALAR_UINT16, 1, values12[i]), fp);
     fputs("\n", fp);
     fclose(fp);
-    CHECK_OK(vm_volume_read_vtk(bpath, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vtk(bpath, &v, &err), &err);
     CHECK(v.type == VM_SCALAR_UINT16);
     check_values12(&v, 1.0);
     vm_volume_free(&v);
@@ -215,14 +181,14 @@ static void vtkReadsColorScalarsAsUnsignedCharLikeVtkDoes(void) {
                                        "POINT_DATA 3\nCOLOR_SCALARS c 1\n0 0.501961 1\n");
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_vtk(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vtk(path, &v, &err), &err);
     if (v.data) CHECK(v.type == VM_SCALAR_UINT8 && v.data[0] == 0 && v.data[1] == 128 &&
                       v.data[2] == 255);
     vm_volume_free(&v);
     path = write_text_file("legacy_color_binary.vtk",
                            "# vtk DataFile Version 5.1\nc\nBINARY\nDATASET STRUCTURED_POINTS\n"
                            "DIMENSIONS 3 1 1\nPOINT_DATA 3\nCOLOR_SCALARS c 1\n\x07\x80\xff\n");
-    CHECK_OK(vm_volume_read_vtk(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vtk(path, &v, &err), &err);
     if (v.data) CHECK(v.data[0] == 7 && v.data[1] == 128 && v.data[2] == 255);
     vm_volume_free(&v);
 }
@@ -236,7 +202,7 @@ static void vtkTurnsNegativeSpacingIntoAFlippedDirection(void) {
                                  0, VM_SCALAR_FLOAT32, NULL);
     vm_volume v;
     vm_error err;
-    CHECK_OK(vm_volume_read_vtk(path, &v, &err), errp(&err));
+    CHECK_OK(vm_volume_read_vtk(path, &v, &err), &err);
     CHECK_NEAR(v.spacing[1], 2, 0);
     CHECK_NEAR(v.direction[1][1], -1, 0);
     double ijk[3] = {0, 1, 0}, xyz[3];
@@ -353,26 +319,16 @@ static void vtkCliInfoReportsABadFileOnOneLineAndExitsWith2(void) {
                        "DIMENSIONS 4 4 4\nPOINT_DATA 64\nSCALARS s int\nLOOKUP_TABLE default\n"
                        "abc";
     CHECK(vm_test_write_file(path, text, strlen(text)) == 0);
-    char args[4200], prefix[4200], *out = NULL;
-    snprintf(args, sizeof args, "info '%s'", path);
-    snprintf(prefix, sizeof prefix, "volmesh: %s:", path);
-    int rc = vm_test_cli(args, &out);
-    CHECK_MSG(rc == 2, "exit %d", rc);
-    if (out) {
-        CHECK_MSG(strncmp(out, prefix, strlen(prefix)) == 0, "output: %s", out);
-        char *nl = strchr(out, '\n');
-        CHECK_MSG(nl && nl[1] == 0, "not one line: %s", out);
-        free(out);
-    }
+    vm_test_expect_cli_error(NULL, path, NULL);
     /* And a good file through the CLI reports its dims. */
     const char *good = write_vtk("legacy_cli_good.vtk",
                                  "# vtk DataFile Version 3.0\nx\nASCII\nDATASET STRUCTURED_POINTS\n"
                                  "DIMENSIONS 3 2 2\nPOINT_DATA 12\nSCALARS s float\n"
                                  "LOOKUP_TABLE default\n",
                                  0, VM_SCALAR_FLOAT32, NULL);
+    char args[4200], *out = NULL;
     snprintf(args, sizeof args, "info '%s' --json", good);
-    out = NULL;
-    rc = vm_test_cli(args, &out);
+    int rc = vm_test_cli(args, &out);
     CHECK_MSG(rc == 0, "exit %d: %s", rc, out ? out : "");
     if (out) {
         CHECK_MSG(strstr(out, "\"dims\": [3, 2, 2]") && strstr(out, "\"format\": \"vtk\""),

@@ -1,0 +1,566 @@
+/* mesher/improve.c — the quality-improvement pass: rounds of edge contraction (seed 001 §6),
+ * flips, optimisation-based smoothing and random perturbation over the tets below the targets
+ * (schedule after Klingner and Shewchuk 2007, "Aggressive tetrahedral mesh improvement"). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../core/core.h"
+#include "improve_internal.h"
+#include "volmesh/quality.h"
+
+void vm_improve_options_default(vm_improve_options *o) {
+    memset(o, 0, sizeof *o);
+    o->lo = 0.0;
+    o->hi = 0.0;
+    o->has_lo = 1;
+    o->has_hi = 0;
+    o->max_surface_move = 0.5;
+    o->max_surface_move_free = 0.1;
+    o->target_min_dihedral = 15.0;
+    o->target_max_dihedral = 150.0;
+    o->target_volume_measure = 0.03;
+    o->max_passes = 12;
+    o->contract = o->flip = o->smooth = o->perturb = 1;
+    o->seed = 1;
+    o->mark_unfixed = 0;
+}
+
+/* --- whole-mesh figures ------------------------------------------------------------------ */
+
+typedef struct figures {
+    double dmin, dmax, volume;
+    size_t s5, s10, abaqus, inverted, unfixed;
+} figures;
+
+/* 1 when the tet fails the ABAQUS check or the bar; *fail_abaqus tells which. */
+static int tet_figures(const double p[4][3], figures *f, int *abaqus) {
+    double lo = vm_tet_min_dihedral(p), hi = vm_tet_max_dihedral(p);
+    double vol = vm_tet_signed_volume(p), vm = vm__imp_volume_measure(p);
+    if (lo < f->dmin) f->dmin = lo;
+    if (hi > f->dmax) f->dmax = hi;
+    f->volume += vol;
+    f->s5 += lo < 5.0;
+    f->s10 += lo < 10.0;
+    f->inverted += !(vol > 0.0);
+    *abaqus = vm <= 0.02 || lo <= 10.0 || hi >= 160.0;
+    f->abaqus += (size_t)*abaqus;
+    int bad = *abaqus || lo < 10.0 || hi > 165.0 || !(vol > 0.0);
+    f->unfixed += (size_t)bad;
+    return bad;
+}
+
+static void mesh_figures(const double *pts, const vm_index *cells, size_t n, figures *f,
+                         double *unfixed_field) {
+    memset(f, 0, sizeof *f);
+    f->dmin = 180.0;
+    f->dmax = 0.0;
+    for (size_t t = 0; t < n; t++) {
+        double p[4][3];
+        for (int k = 0; k < 4; k++) memcpy(p[k], pts + 3 * (size_t)cells[4 * t + k], sizeof p[k]);
+        int ab;
+        int bad = tet_figures((const double(*)[3])p, f, &ab);
+        if (unfixed_field) unfixed_field[t] = bad;
+    }
+}
+
+/* --- setting up the working mesh --------------------------------------------------------- */
+
+static void imp_free(vm__imp *w) {
+    free(w->tet);
+    free(w->region);
+    free(w->parent);
+    free(w->q);
+    free(w->dead);
+    free(w->p);
+    free(w->p0);
+    free(w->cls);
+    free(w->planes);
+    free(w->iso_hi);
+    free(w->pdead);
+    free(w->nrm);
+    free(w->bound);
+    if (w->star)
+        for (size_t i = 0; i < w->npt; i++) free(w->star[i].t);
+    free(w->star);
+    free(w->buf);
+}
+
+static int invert3(double A[3][3], double B[3][3]) {
+    double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
+                 A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
+                 A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
+    if (!(fabs(det) > 0.0) || !isfinite(det)) return 0;
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) {
+            int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
+            B[r][c] = (A[r1][c1] * A[r2][c2] - A[r1][c2] * A[r2][c1]) / det;
+        }
+    return 1;
+}
+
+static double field_at(const vm_volume *v, const double ijk[3]) {
+    int64_t i[3];
+    for (int a = 0; a < 3; a++) {
+        double x = floor(ijk[a] + 0.5);
+        if (x < 0) x = 0;
+        if (x > (double)(v->dims[a] - 1)) x = (double)(v->dims[a] - 1);
+        i[a] = (int64_t)x;
+    }
+    return v->data[i[0] + v->dims[0] * (i[1] + v->dims[1] * i[2])];
+}
+
+static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
+                          const vm_improve_options *o, vm_error *err) {
+    size_t np = m->npoints, nt = m->ncells;
+    w->o = o;
+    w->v = v;
+    w->lo = o->lo;
+    w->hi = o->hi;
+    w->has_lo = o->has_lo;
+    w->has_hi = o->has_hi;
+    w->s_min = o->target_min_dihedral;
+    w->s_max = 180.0 - o->target_max_dihedral;
+    w->s_vm = o->target_volume_measure;
+    w->rng = o->seed ? o->seed : 1u;
+    w->npt = np;
+    w->tet_cap = nt + nt / 8 + 1024;
+    w->tet = malloc(4 * w->tet_cap * sizeof *w->tet);
+    w->region = malloc(w->tet_cap * sizeof *w->region);
+    w->parent = malloc(w->tet_cap * sizeof *w->parent);
+    w->q = malloc(w->tet_cap * sizeof *w->q);
+    w->dead = calloc(w->tet_cap, 1);
+    w->p = malloc(3 * np * sizeof *w->p);
+    w->p0 = malloc(3 * np * sizeof *w->p0);
+    w->cls = calloc(np, 1);
+    w->planes = calloc(np, 1);
+    w->iso_hi = calloc(np, 1);
+    w->pdead = calloc(np, 1);
+    w->nrm = calloc(3 * np, sizeof *w->nrm);
+    w->bound = calloc(np, sizeof *w->bound);
+    w->star = calloc(np, sizeof *w->star);
+    if (!w->tet || !w->region || !w->parent || !w->q || !w->dead || !w->p || !w->p0 ||
+        !w->cls || !w->planes || !w->iso_hi || !w->pdead || !w->nrm || !w->bound || !w->star)
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for %zu tets", nt);
+    memcpy(w->p, m->points, 3 * np * sizeof *w->p);
+    memcpy(w->p0, m->points, 3 * np * sizeof *w->p0);
+    memcpy(w->tet, m->cells, 4 * nt * sizeof *w->tet);
+    for (size_t t = 0; t < nt; t++) {
+        w->region[t] = m->region ? m->region[t] : 0;
+        w->parent[t] = (vm_index)t;
+    }
+    w->ntet = nt;
+    /* Stars, sized exactly. */
+    for (size_t t = 0; t < 4 * nt; t++) w->star[w->tet[t]].cap++;
+    for (size_t i = 0; i < np; i++) {
+        if (w->star[i].cap == 0) continue;
+        w->star[i].t = malloc((size_t)w->star[i].cap * sizeof *w->star[i].t);
+        if (!w->star[i].t)
+            return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the stars");
+    }
+    for (size_t t = 0; t < nt; t++)
+        for (int k = 0; k < 4; k++) {
+            vm__imp_star *s = &w->star[w->tet[4 * t + k]];
+            s->t[s->n++] = (vm_index)t;
+        }
+    for (size_t t = 0; t < nt; t++) w->q[t] = vm__imp_tet_q(w, t);
+    if (v) {
+        for (int r = 0; r < 3; r++) {
+            w->org[r] = v->origin[r];
+            for (int c = 0; c < 3; c++) w->A[r][c] = v->direction[r][c] * v->spacing[c];
+        }
+        if (!invert3(w->A, w->Ainv))
+            return vm_error_set(err, VM_ERR_ARG, "improve: the volume's index frame is singular");
+    }
+    /* Border planes: the grid's faces in index space, or the bounding box without a volume. */
+    double bmin[3] = {INFINITY, INFINITY, INFINITY}, bmax[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < np; i++)
+        for (int a = 0; a < 3; a++) {
+            double x = w->p[3 * i + a];
+            if (x < bmin[a]) bmin[a] = x;
+            if (x > bmax[a]) bmax[a] = x;
+        }
+    double ext = 0.0;
+    for (int a = 0; a < 3; a++)
+        if (bmax[a] - bmin[a] > ext) ext = bmax[a] - bmin[a];
+    for (size_t i = 0; i < np; i++) {
+        uint8_t bits = 0;
+        if (v) {
+            double ijk[3];
+            vm__imp_to_index(w, w->p + 3 * i, ijk);
+            for (int a = 0; a < 3; a++) {
+                if (fabs(ijk[a]) < 1e-6) bits |= (uint8_t)(1u << (2 * a));
+                if (fabs(ijk[a] - (double)(v->dims[a] - 1)) < 1e-6) bits |= (uint8_t)(2u << (2 * a));
+            }
+        } else {
+            for (int a = 0; a < 3; a++) {
+                if (w->p[3 * i + a] - bmin[a] <= 1e-9 * ext) bits |= (uint8_t)(1u << (2 * a));
+                if (bmax[a] - w->p[3 * i + a] <= 1e-9 * ext) bits |= (uint8_t)(2u << (2 * a));
+            }
+        }
+        w->planes[i] = bits;
+    }
+    /* Boundary faces: which vertices are on the boundary, their normals, and whether all
+     * their faces lie on one border plane. */
+    static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    uint8_t *bnd = calloc(np, 1), *nonbox = calloc(np, 1), *boxmask = calloc(np, 1);
+    if (!bnd || !nonbox || !boxmask) {
+        free(bnd);
+        free(nonbox);
+        free(boxmask);
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    for (size_t t = 0; t < nt; t++)
+        for (int f = 0; f < 4; f++) {
+            const vm_index *n = w->tet + 4 * t;
+            vm_index c[3] = {n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]};
+            if (vm__imp_face_other(w, t, c[0], c[1], c[2]) >= 0) continue;
+            const double *P = w->p + 3 * (size_t)c[0], *Q = w->p + 3 * (size_t)c[1],
+                         *R = w->p + 3 * (size_t)c[2];
+            double u[3], vv[3], nn[3];
+            for (int k = 0; k < 3; k++) {
+                u[k] = Q[k] - P[k];
+                vv[k] = R[k] - P[k];
+            }
+            nn[0] = u[1] * vv[2] - u[2] * vv[1];
+            nn[1] = u[2] * vv[0] - u[0] * vv[2];
+            nn[2] = u[0] * vv[1] - u[1] * vv[0];
+            uint8_t common = w->planes[c[0]] & w->planes[c[1]] & w->planes[c[2]];
+            for (int k = 0; k < 3; k++) {
+                bnd[c[k]] = 1;
+                if (common) boxmask[c[k]] |= common;
+                else nonbox[c[k]] = 1;
+                for (int j = 0; j < 3; j++) w->nrm[3 * (size_t)c[k] + j] += nn[j];
+            }
+        }
+    for (size_t i = 0; i < np; i++) {
+        double *nn = w->nrm + 3 * i;
+        double l = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
+        if (l > 0.0)
+            for (int k = 0; k < 3; k++) nn[k] /= l;
+        int regions_mixed = 0;
+        const vm__imp_star *s = &w->star[i];
+        for (int32_t j = 1; j < s->n; j++)
+            if (w->region[s->t[j]] != w->region[s->t[0]]) regions_mixed = 1;
+        int nplanes = __builtin_popcount(w->planes[i]);
+        if (s->n == 0) w->cls[i] = VM__IMP_FIXED;
+        else if (regions_mixed) w->cls[i] = VM__IMP_FIXED;
+        else if (!bnd[i]) w->cls[i] = VM__IMP_INTERIOR;
+        else if (w->planes[i] == 0) w->cls[i] = VM__IMP_SURF;
+        else if (!nonbox[i] && nplanes == 1 && boxmask[i] == w->planes[i])
+            w->cls[i] = VM__IMP_FLAT;
+        else w->cls[i] = VM__IMP_FIXED;
+        if (w->cls[i] == VM__IMP_SURF) {
+            if (v) {
+                double ijk[3];
+                vm__imp_to_index(w, w->p + 3 * i, ijk);
+                double f = field_at(v, ijk);
+                w->iso_hi[i] = w->has_hi && (!w->has_lo || fabs(f - w->hi) < fabs(f - w->lo));
+                w->bound[i] = o->max_surface_move;
+            } else {
+                double L = INFINITY;
+                for (int32_t j = 0; j < s->n; j++)
+                    for (int k = 0; k < 4; k++) {
+                        const double *pb = w->p + 3 * (size_t)w->tet[4 * (size_t)s->t[j] + k];
+                        const double *pa = w->p + 3 * i;
+                        double d = (pa[0] - pb[0]) * (pa[0] - pb[0]) +
+                                   (pa[1] - pb[1]) * (pa[1] - pb[1]) +
+                                   (pa[2] - pb[2]) * (pa[2] - pb[2]);
+                        if (d > 0.0 && d < L) L = d;
+                    }
+                w->bound[i] = isfinite(L) ? o->max_surface_move_free * sqrt(L) : 0.0;
+            }
+        }
+    }
+    free(bnd);
+    free(nonbox);
+    free(boxmask);
+    return VM_OK;
+}
+
+/* --- the rounds --------------------------------------------------------------------------- */
+
+typedef struct tq {
+    double q;
+    size_t t;
+} tq;
+
+static int tq_cmp(const void *pa, const void *pb) {
+    const tq *a = pa, *b = pb;
+    if (a->q != b->q) return a->q < b->q ? -1 : 1;
+    return a->t < b->t ? -1 : a->t > b->t;
+}
+
+/* Tets with q below 1 (the targets), worst first. */
+static tq *bad_list(const vm__imp *w, size_t *n) {
+    size_t c = 0;
+    for (size_t t = 0; t < w->ntet; t++) c += !w->dead[t] && w->q[t] < 1.0;
+    tq *l = malloc((c ? c : 1) * sizeof *l);
+    if (!l) return NULL;
+    c = 0;
+    for (size_t t = 0; t < w->ntet; t++)
+        if (!w->dead[t] && w->q[t] < 1.0) {
+            l[c].q = w->q[t];
+            l[c].t = t;
+            c++;
+        }
+    qsort(l, c, sizeof *l, tq_cmp);
+    *n = c;
+    return l;
+}
+
+/* Vertices of the still-bad tets of the list, each once (stamp marks). */
+static size_t bad_vertices(const vm__imp *w, const tq *l, size_t n, vm_index *out,
+                           uint32_t *stamp, uint32_t round) {
+    size_t c = 0;
+    for (size_t i = 0; i < n; i++) {
+        size_t t = l[i].t;
+        if (w->dead[t] || w->q[t] >= 1.0) continue;
+        for (int k = 0; k < 4; k++) {
+            vm_index a = w->tet[4 * t + k];
+            if (stamp[a] == round) continue;
+            stamp[a] = round;
+            out[c++] = a;
+        }
+    }
+    return c;
+}
+
+static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
+    size_t ops_total = 0;
+    uint32_t *stamp = calloc(w->npt, sizeof *stamp);
+    if (!stamp) {
+        w->nomem = 1;
+        return 0;
+    }
+    uint32_t round = 0;
+    int pass;
+    for (pass = 0; pass < o->max_passes && !w->nomem; pass++) {
+        size_t n, ops = 0;
+        tq *l = bad_list(w, &n);
+        if (!l) {
+            w->nomem = 1;
+            break;
+        }
+        if (n == 0) {
+            free(l);
+            break;
+        }
+        if (o->contract)
+            for (size_t i = 0; i < n && !w->nomem; i++)
+                if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_contract_tet(w, l[i].t);
+        if (o->flip)
+            for (size_t i = 0; i < n && !w->nomem; i++)
+                if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_flip_tet(w, l[i].t);
+        free(l);
+        l = bad_list(w, &n);
+        if (!l) {
+            w->nomem = 1;
+            break;
+        }
+        vm_index *vs = malloc((4 * n + 1) * sizeof *vs);
+        if (!vs) {
+            free(l);
+            w->nomem = 1;
+            break;
+        }
+        if (o->smooth) {
+            size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
+            for (size_t i = 0; i < nv; i++) ops += (size_t)vm__imp_smooth_vertex(w, vs[i], 6);
+        }
+        if (o->perturb && pass >= 1) {
+            size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
+            for (size_t i = 0; i < nv; i++) ops += (size_t)vm__imp_perturb_vertex(w, vs[i], 24);
+        }
+        free(vs);
+        free(l);
+        ops_total += ops;
+        if (ops == 0) break;
+    }
+    free(stamp);
+    *passes = pass;
+    return ops_total;
+}
+
+/* --- writing back ------------------------------------------------------------------------- */
+
+static vm_status write_back(vm__imp *w, vm_mesh *m, const vm_improve_options *o,
+                            vm_error *err) {
+    size_t nt = 0, np = 0;
+    vm_index *map = malloc((w->npt + 1) * sizeof *map);
+    if (!map) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    for (size_t i = 0; i < w->npt; i++) map[i] = -1;
+    for (size_t t = 0; t < w->ntet; t++) {
+        if (w->dead[t]) continue;
+        nt++;
+        for (int k = 0; k < 4; k++) {
+            vm_index a = w->tet[4 * t + k];
+            if (map[a] < 0) map[a] = 0;
+        }
+    }
+    /* Points keep their input order. */
+    for (size_t i = 0; i < w->npt; i++)
+        if (map[i] >= 0) map[i] = (vm_index)np++;
+    vm_index *par = malloc((nt + 1) * sizeof *par);
+    size_t npf = m->npoint_fields;
+    double **pf_new = calloc(npf + 1, sizeof *pf_new);
+    double **cf_new = calloc(m->ncell_fields + 1, sizeof *cf_new);
+    int fail = !par || !cf_new || !pf_new;
+    for (size_t f = 0; f < npf; f++) {
+        pf_new[f] = fail ? NULL : malloc((np + 1) * (size_t)m->point_fields[f].ncomp * sizeof(double));
+        if (!pf_new[f]) fail = 1;
+    }
+    for (size_t f = 0; !fail && f < m->ncell_fields; f++) {
+        cf_new[f] = malloc((nt + 1) * (size_t)m->cell_fields[f].ncomp * sizeof(double));
+        if (!cf_new[f]) fail = 1;
+    }
+    if (!fail && vm_mesh_reserve(m, np, nt, err) != VM_OK) fail = 2;
+    if (fail) {
+        if (pf_new)
+            for (size_t f = 0; f < npf; f++) free(pf_new[f]);
+        free(pf_new);
+        free(map);
+        free(par);
+        if (cf_new)
+            for (size_t f = 0; f < m->ncell_fields; f++) free(cf_new[f]);
+        free(cf_new);
+        return fail == 2 ? err->status
+                         : vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    for (size_t f = 0; f < npf; f++) {
+        int nc = m->point_fields[f].ncomp;
+        for (size_t i = 0; i < w->npt; i++)
+            if (map[i] >= 0)
+                memcpy(pf_new[f] + (size_t)map[i] * (size_t)nc,
+                       m->point_fields[f].data + i * (size_t)nc, (size_t)nc * sizeof(double));
+        free(m->point_fields[f].data);
+        m->point_fields[f].data = pf_new[f];
+    }
+    for (size_t i = 0; i < w->npt; i++)
+        if (map[i] >= 0) memcpy(m->points + 3 * (size_t)map[i], w->p + 3 * i, 3 * sizeof(double));
+    size_t c = 0;
+    for (size_t t = 0; t < w->ntet; t++) {
+        if (w->dead[t]) continue;
+        for (int k = 0; k < 4; k++) m->cells[4 * c + k] = map[w->tet[4 * t + k]];
+        m->region[c] = w->region[t];
+        par[c] = w->parent[t];
+        c++;
+    }
+    for (size_t f = 0; f < m->ncell_fields; f++) {
+        int nc = m->cell_fields[f].ncomp;
+        for (size_t i = 0; i < nt; i++)
+            memcpy(cf_new[f] + i * (size_t)nc, m->cell_fields[f].data + (size_t)par[i] * (size_t)nc,
+                   (size_t)nc * sizeof(double));
+        free(m->cell_fields[f].data);
+        m->cell_fields[f].data = cf_new[f];
+    }
+    m->npoints = np;
+    m->ncells = nt;
+    free(cf_new);
+    free(pf_new);
+    free(par);
+    free(map);
+    (void)o;
+    return VM_OK;
+}
+
+vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
+                          vm_improve_report *r, vm_error *err) {
+    double t0 = vm__now();
+    vm_improve_options def;
+    if (!o) {
+        vm_improve_options_default(&def);
+        o = &def;
+    }
+    if (m->kind != VM_TET4)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "improve: only tet4 meshes can be improved, not %s",
+                            vm_cell_kind_name(m->kind));
+    if (m->ncells == 0)
+        return vm_error_set(err, VM_ERR_EMPTY, "improve: the mesh has no cells");
+    if (!(o->target_min_dihedral > 0.0) || !(o->target_max_dihedral < 180.0) ||
+        !(o->target_volume_measure > 0.0) || !(o->max_surface_move >= 0.0) ||
+        !(o->max_surface_move_free >= 0.0))
+        return vm_error_set(err, VM_ERR_ARG, "improve: targets and bounds must be positive");
+    if (v && !o->has_lo && !o->has_hi)
+        return vm_error_set(err, VM_ERR_ARG, "improve: a volume needs lo or hi material bounds");
+    for (size_t i = 0; i < 4 * m->ncells; i++)
+        if (m->cells[i] < 0 || (size_t)m->cells[i] >= m->npoints)
+            return vm_error_set(err, VM_ERR_ARG, "improve: cell %zu has node %lld outside 0..%zu",
+                                i / 4, (long long)m->cells[i], m->npoints - 1);
+    figures fb;
+    mesh_figures(m->points, m->cells, m->ncells, &fb, NULL);
+    if (fb.inverted)
+        return vm_error_set(err, VM_ERR_ARG, "improve: %zu tets are inverted or flat",
+                            fb.inverted);
+    size_t nt0 = m->ncells, np0 = m->npoints;
+    vm__imp w;
+    memset(&w, 0, sizeof w);
+    vm_status s = imp_init(&w, m, v, o, err);
+    int passes = 0;
+    if (s == VM_OK) {
+        run_passes(&w, o, &passes);
+        if (w.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    double maxmove = 0.0;
+    if (s == VM_OK) {
+        for (size_t i = 0; i < w.npt; i++) {
+            if (w.pdead[i] || w.cls[i] != VM__IMP_SURF) continue;
+            double d[3], x0[3], x1[3];
+            if (v) {
+                vm__imp_to_index(&w, w.p0 + 3 * i, x0);
+                vm__imp_to_index(&w, w.p + 3 * i, x1);
+            } else {
+                memcpy(x0, w.p0 + 3 * i, sizeof x0);
+                memcpy(x1, w.p + 3 * i, sizeof x1);
+            }
+            for (int k = 0; k < 3; k++) d[k] = x1[k] - x0[k];
+            double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            if (l > maxmove) maxmove = l;
+        }
+        s = write_back(&w, m, o, err);
+    }
+    figures fa;
+    memset(&fa, 0, sizeof fa);
+    if (s == VM_OK) {
+        double *uf = NULL;
+        if (o->mark_unfixed) {
+            uf = malloc((m->ncells + 1) * sizeof *uf);
+            if (!uf) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        }
+        mesh_figures(m->points, m->cells, m->ncells, &fa, uf);
+        if (uf && s == VM_OK) s = vm_mesh_set_field(m, 1, "improve_unfixed", 1, uf, err);
+        free(uf);
+    }
+    if (r) {
+        memset(r, 0, sizeof *r);
+        r->tets_before = nt0;
+        r->points_before = np0;
+        r->min_dihedral_before = fb.dmin;
+        r->max_dihedral_before = fb.dmax;
+        r->slivers_5_before = fb.s5;
+        r->slivers_10_before = fb.s10;
+        r->abaqus_before = fb.abaqus;
+        r->volume_before = fb.volume;
+        r->min_dihedral_after = fa.dmin;
+        r->max_dihedral_after = fa.dmax;
+        r->slivers_5_after = fa.s5;
+        r->slivers_10_after = fa.s10;
+        r->abaqus_after = fa.abaqus;
+        r->inverted_after = fa.inverted;
+        r->unfixed = fa.unfixed;
+        r->volume_after = fa.volume;
+        r->max_surface_move = maxmove;
+        r->collapses = w.collapses;
+        r->flips23 = w.flips23;
+        r->flips32 = w.flips32;
+        r->edge_removals = w.edge_removals;
+        r->moves = w.moves;
+        r->perturbations = w.perturbations;
+        r->passes = passes;
+        r->tets_after = m->ncells;
+        r->points_after = m->npoints;
+        r->seconds = vm__now() - t0;
+    }
+    imp_free(&w);
+    return s;
+}

@@ -1,0 +1,104 @@
+/* mesher/improve_internal.h — the working mesh shared by the improvement operations
+ * (improve.c drives; improve_mesh.c holds the adjacency and queries; improve_contract.c,
+ * improve_flip.c and improve_smooth.c are one operation each). Private. */
+#ifndef VM_IMPROVE_INTERNAL_H
+#define VM_IMPROVE_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "volmesh/improve.h"
+
+/* Vertex classes: how a vertex may move. */
+enum {
+    VM__IMP_INTERIOR = 0, /* free */
+    VM__IMP_SURF = 1,     /* on the isosurface: moves along it */
+    VM__IMP_FLAT = 2,     /* on one border plane, all its boundary faces on it: moves in it */
+    VM__IMP_FIXED = 3     /* rim of a border plane, box edge or corner, region interface */
+};
+
+/* The tets around one vertex (unordered). */
+typedef struct vm__imp_star {
+    vm_index *t;
+    int32_t n, cap;
+} vm__imp_star;
+
+typedef struct vm__imp {
+    /* tets: 4 nodes each, positively oriented; dead tets keep their slot */
+    vm_index *tet;
+    int32_t *region;
+    vm_index *parent;   /* input cell each tet descends from (for cell fields) */
+    double *q;          /* cached quality (see vm__imp_quality) */
+    uint8_t *dead;
+    size_t ntet, tet_cap;
+    /* vertices */
+    double *p;          /* world positions */
+    double *p0;         /* input positions */
+    uint8_t *cls;       /* VM__IMP_* */
+    uint8_t *planes;    /* border planes the vertex lies on (bit 2*axis + side) */
+    uint8_t *iso_hi;    /* SURF with a volume: lies on {f = hi} rather than {f = lo} */
+    uint8_t *pdead;
+    double *nrm;        /* FLAT: plane normal; SURF without a volume: tangent-plane normal */
+    double *bound;      /* SURF/FLAT: largest displacement from p0 (voxels or world) */
+    vm__imp_star *star;
+    size_t npt;
+    /* the volume, when given: world = org + A * ijk */
+    const vm_volume *v;
+    double A[3][3], Ainv[3][3], org[3];
+    double lo, hi;
+    int has_lo, has_hi;
+    /* quality scales: q = min(min_dih/s_min, (180-max_dih)/s_max, vm/s_vm) */
+    double s_min, s_max, s_vm;
+    const vm_improve_options *o;
+    /* counters */
+    size_t collapses, flips23, flips32, edge_removals, moves, perturbations;
+    double max_move_seen;
+    unsigned rng;
+    /* scratch for local operations */
+    vm_index *buf;
+    size_t buf_cap;
+    int nomem;          /* sticky: an allocation inside an operation failed */
+} vm__imp;
+
+/* Normalised quality of a tet (>= 1 meets the targets, > 2/3 passes ABAQUS with the default
+ * targets); -1 when it is not clearly positive. */
+double vm__imp_quality(const vm__imp *w, const double p[4][3]);
+/* ABAQUS volume measure V / (volume of the regular tet with the same circumradius). */
+double vm__imp_volume_measure(const double p[4][3]);
+double vm__imp_tet_q(const vm__imp *w, size_t t);
+/* Quality of tet t with vertex a replaced by position x (a must be in t). */
+double vm__imp_tet_q_moved(const vm__imp *w, size_t t, vm_index a, const double x[3]);
+
+/* Appends a tet (nodes positively oriented) and links it; returns its id or -1 (nomem). */
+long vm__imp_add_tet(vm__imp *w, const vm_index n[4], int32_t region, vm_index parent);
+void vm__imp_kill_tet(vm__imp *w, size_t t);
+int vm__imp_star_add(vm__imp *w, vm_index v, vm_index t);
+void vm__imp_star_remove(vm__imp *w, vm_index v, vm_index t);
+/* 1 when tet t contains vertex a. */
+int vm__imp_has(const vm__imp *w, size_t t, vm_index a);
+/* The tet other than t containing a, b and c, or -1 (boundary face). */
+long vm__imp_face_other(const vm__imp *w, size_t t, vm_index a, vm_index b, vm_index c);
+/* Grows the scratch buffer to hold n indices; 0 on failure. */
+int vm__imp_scratch(vm__imp *w, size_t n);
+unsigned vm__imp_rand(vm__imp *w);
+double vm__imp_rand01(vm__imp *w);
+
+/* World <-> index space and the trilinear field (with a volume). */
+void vm__imp_to_index(const vm__imp *w, const double x[3], double ijk[3]);
+void vm__imp_to_world(const vm__imp *w, const double ijk[3], double x[3]);
+/* Moves x (world) onto the isosurface of vertex a; returns 0 when Newton fails or the
+ * result is farther than the bound from p0[a]. */
+int vm__imp_project(const vm__imp *w, vm_index a, double x[3]);
+/* 1 when moving vertex a to x keeps its constraints (plane, surface bound). Projects x when
+ * a is a surface vertex and a volume is given. */
+/* Unit normal of the constraint of boundary vertex a: the field gradient (world) for a
+ * surface vertex with a volume, else the stored plane normal. */
+void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]);
+int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]);
+
+/* The operations: each returns 1 when it changed the mesh. */
+int vm__imp_contract_tet(vm__imp *w, size_t t);
+int vm__imp_flip_tet(vm__imp *w, size_t t);
+int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters);
+int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries);
+
+#endif

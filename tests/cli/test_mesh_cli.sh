@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# `volmesh mesh` as a user runs it: the quality pass on by default, --no-improve, adaptive,
+# hexahedra, --quality-fields, --denoise, interval volumes, and bad options.
+set -u
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cd "$work"
+pass=0 fail=0
+ok() { pass=$((pass + 1)); }
+bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+json() { /usr/bin/python3 -c "import json,sys; print(json.load(sys.stdin)$1)"; }
+"$VM_CLI" demo --shape torus --size 40 >/dev/null || bad "demo"
+
+out=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o t.vtu --json) || bad "mesh default"
+[ "$(echo "$out" | json "['inverted']")" = 0 ] && ok || bad "inverted: $out"
+[ "$(echo "$out" | json "['boundary_euler']")" = 0 ] && ok || bad "torus Euler: $out"
+md=$(echo "$out" | json "['min_dihedral']")
+/usr/bin/python3 -c "import sys; sys.exit(0 if $md >= 15 else 1)" && ok || bad "improved min dihedral $md < 15"
+raw=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o r.vtu --json --no-improve | json "['min_dihedral']")
+/usr/bin/python3 -c "import sys; sys.exit(0 if $raw < $md else 1)" && ok || bad "--no-improve $raw not below $md"
+
+out=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o a.vtu --adaptive --json) || bad "adaptive"
+[ "$(echo "$out" | json "['boundary_euler']")" = 0 ] && ok || bad "adaptive Euler: $out"
+
+out=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o h.vtu --elements hex --json) || bad "hex"
+[ "$(echo "$out" | json "['inverted']")" = 0 ] && [ "$(echo "$out" | json "['boundary_euler']")" = 0 ] && ok || bad "hex: $out"
+
+"$VM_CLI" mesh phantom.nrrd --iso 0 -o q.vtu --quality-fields --quiet >/dev/null || bad "quality fields"
+/usr/bin/python3 - <<'PY' && ok || bad "quality fields missing in q.vtu"
+import vtk, sys
+r = vtk.vtkXMLUnstructuredGridReader(); r.SetFileName("q.vtu"); r.Update()
+cd = r.GetOutput().GetCellData()
+names = [cd.GetArrayName(i) for i in range(cd.GetNumberOfArrays())]
+sys.exit(0 if "min_dihedral" in names and "region" in names else 1)
+PY
+
+out=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o d.vtu --denoise bilateral --json) || bad "denoise"
+[ "$(echo "$out" | json "['boundary_euler']")" = 0 ] && ok || bad "denoised Euler: $out"
+
+out=$("$VM_CLI" mesh phantom.nrrd --range -2:2 -o s.vtu --json) || bad "range"
+[ "$(echo "$out" | json "['boundary_euler']")" = 0 ] && ok || bad "shell Euler: $out"
+
+for args in "--iso 0 -o x.vtu --denoise blur" "--iso 0 -o x.vtu --elements prism" "--iso 99 -o x.vtu" \
+            "--iso 0" "--iso 0 --range 1:2 -o x.vtu" "--iso 0 -o x.vtu --max-level 0 --adaptive"; do
+    err=$("$VM_CLI" mesh phantom.nrrd $args 2>&1 >/dev/null); rc=$?
+    lines=$(printf '%s\n' "$err" | wc -l)
+    if [ $rc = 2 ] && [ "$lines" = 1 ] && [ "${err#volmesh: }" != "$err" ] && [ ! -e x.vtu ]; then ok; else bad "mesh $args: rc $rc, '$err'"; fi
+done
+ls *.tmp-* >/dev/null 2>&1 && bad "temp files left" || ok
+echo "$pass passed, $fail failed"
+[ $fail = 0 ]

@@ -1,0 +1,387 @@
+/* tests/mesher/test_improve.c — the quality-improvement pass: on phantoms and the shared
+ * volumes it meets the issue-6 bar (min dihedral >= 10, max <= 165, no ABAQUS failure, none
+ * inverted) while keeping every mesh invariant and the boundary topology, keeps the surface
+ * within half a voxel of the isosurface, never makes a good mesh worse, and rejects bad input. */
+#include "test.h"
+#include <stdint.h>
+#include <string.h>
+#include "volmesh/improve.h"
+
+/* --- helpers -------------------------------------------------------------------------------- */
+
+static int checked(const vm_mesh *m, vm_mesh_report *r) {
+    vm_error err;
+    memset(r, 0, sizeof *r);
+    vm_status s = vm_mesh_check(m, r, &err);
+    CHECK_OK(s, &err);
+    return s == VM_OK;
+}
+
+/* The invariants that must hold after improvement, against the report before. */
+static void check_invariants(const char *label, const vm_mesh_report *b, const vm_mesh_report *a) {
+    CHECK_MSG(a->inverted == 0, "%s: %zu inverted", label, a->inverted);
+    CHECK_MSG(a->degenerate == 0, "%s: %zu degenerate", label, a->degenerate);
+    CHECK_MSG(a->overshared_faces == 0, "%s: %zu over-shared faces", label, a->overshared_faces);
+    CHECK_MSG(a->boundary_closed == 1 && a->boundary_open_edges == 0, "%s: boundary open", label);
+    CHECK_MSG(a->boundary_nonmanifold_edges == 0 && a->boundary_nonmanifold_vertices == 0,
+              "%s: non-manifold boundary (%zu edges, %zu vertices)", label,
+              a->boundary_nonmanifold_edges, a->boundary_nonmanifold_vertices);
+    CHECK_MSG(a->boundary_euler == b->boundary_euler, "%s: boundary Euler %ld, was %ld", label,
+              a->boundary_euler, b->boundary_euler);
+    CHECK_MSG(a->components == b->components, "%s: %zu components, was %zu", label,
+              a->components, b->components);
+    CHECK_MSG(a->boundary_components == b->boundary_components,
+              "%s: %zu boundary components, was %zu", label, a->boundary_components,
+              b->boundary_components);
+}
+
+static void print_report(const char *label, const vm_improve_report *r) {
+    printf("  %s: tets %zu -> %zu, dihedral %.2f..%.2f -> %.2f..%.2f, slivers<5 %zu -> %zu, "
+           "<10 %zu -> %zu, ABAQUS %zu -> %zu, unfixed %zu, volume %+.3f%%, surface move %.3f, "
+           "collapses %zu, flips 2-3 %zu 3-2 %zu, edge removals %zu, moves %zu, perturbations "
+           "%zu, %d passes, %.2f s\n",
+           label, r->tets_before, r->tets_after, r->min_dihedral_before, r->max_dihedral_before,
+           r->min_dihedral_after, r->max_dihedral_after, r->slivers_5_before, r->slivers_5_after,
+           r->slivers_10_before, r->slivers_10_after, r->abaqus_before, r->abaqus_after,
+           r->unfixed, 100.0 * (r->volume_after - r->volume_before) / r->volume_before,
+           r->max_surface_move, r->collapses, r->flips23, r->flips32, r->edge_removals, r->moves,
+           r->perturbations, r->passes, r->seconds);
+    fflush(stdout);
+}
+
+/* Meshes v at iso (f >= iso), improves with or without the volume, checks invariants and
+ * returns the report. [out] m (caller frees). 0 on failure. */
+static int mesh_and_improve(const char *label, const vm_volume *v, double iso, int use_volume,
+                            vm_mesh *m, vm_improve_report *ir) {
+    vm_error err;
+    vm_mesh_options mo;
+    vm_mesh_options_default(&mo);
+    mo.lo = iso;
+    vm_status s = vm_mesh_volume(v, &mo, m, NULL, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return 0;
+    vm_mesh_report before, after;
+    if (!checked(m, &before)) return 0;
+    vm_improve_options o;
+    vm_improve_options_default(&o);
+    o.lo = iso;
+    s = vm_mesh_improve(m, use_volume ? v : NULL, &o, ir, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return 0;
+    print_report(label, ir);
+    if (!checked(m, &after)) return 0;
+    check_invariants(label, &before, &after);
+    CHECK_NEAR(after.min_dihedral, ir->min_dihedral_after, 1e-9);
+    CHECK_NEAR(after.max_dihedral, ir->max_dihedral_after, 1e-9);
+    CHECK(after.slivers_10 == ir->slivers_10_after);
+    return 1;
+}
+
+static void check_bar(const char *label, const vm_improve_report *r) {
+    CHECK_MSG(r->min_dihedral_after >= 10.0, "%s: min dihedral %.2f", label,
+              r->min_dihedral_after);
+    CHECK_MSG(r->max_dihedral_after <= 165.0, "%s: max dihedral %.2f", label,
+              r->max_dihedral_after);
+    CHECK_MSG(r->abaqus_after == 0, "%s: %zu ABAQUS failures", label, r->abaqus_after);
+    CHECK_MSG(r->inverted_after == 0, "%s: %zu inverted", label, r->inverted_after);
+    CHECK_MSG(r->unfixed == 0, "%s: %zu unfixed", label, r->unfixed);
+}
+
+/* --- phantoms ------------------------------------------------------------------------------ */
+
+static void phantom_case(vm_phantom_kind kind, int n) {
+    vm_volume v;
+    vm_phantom_info info;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(kind, n, 0.0, 1, &v, &info, &err), &err);
+    char label[64];
+    snprintf(label, sizeof label, "%s %d", info.name, n);
+    vm_mesh m;
+    vm_improve_report r;
+    if (mesh_and_improve(label, &v, 0.0, 1, &m, &r)) {
+        check_bar(label, &r);
+        double dv = fabs(r.volume_after - r.volume_before) / r.volume_before;
+        CHECK_MSG(dv < 0.01, "%s: volume changed by %.3f%%", label, 100 * dv);
+        CHECK_MSG(r.max_surface_move <= 0.5 + 1e-9, "%s: surface moved %.3f voxels", label,
+                  r.max_surface_move);
+        CHECK(r.inverted_after == 0);
+    }
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
+static void phantomsMeetTheQualityBarAndKeepTheirTopology(void) {
+    phantom_case(VM_PHANTOM_SPHERE, 48);
+    phantom_case(VM_PHANTOM_TORUS, 64);
+    phantom_case(VM_PHANTOM_GENUS3, 64);
+    phantom_case(VM_PHANTOM_TWO_SPHERES, 56);
+    phantom_case(VM_PHANTOM_CUT_SPHERE, 64);
+    phantom_case(VM_PHANTOM_PLATE, 48);
+}
+
+/* Boundary vertices of a tet mesh (faces used once), as a 0/1 flag per point. */
+static int face_cmp(const void *pa, const void *pb) {
+    const vm_index *a = pa, *b = pb;
+    for (int k = 0; k < 3; k++)
+        if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
+    return 0;
+}
+
+static unsigned char *boundary_points(const vm_mesh *m) {
+    static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    vm_index *f = malloc(12 * m->ncells * sizeof *f);
+    unsigned char *on = calloc(m->npoints, 1);
+    if (!f || !on) {
+        free(f);
+        free(on);
+        return NULL;
+    }
+    for (size_t t = 0; t < m->ncells; t++)
+        for (int i = 0; i < 4; i++) {
+            vm_index *k = f + 3 * (4 * t + (size_t)i);
+            for (int j = 0; j < 3; j++) k[j] = m->cells[4 * t + (size_t)fo[i][j]];
+            for (int a = 0; a < 3; a++)
+                for (int b = a + 1; b < 3; b++)
+                    if (k[b] < k[a]) {
+                        vm_index x = k[a];
+                        k[a] = k[b];
+                        k[b] = x;
+                    }
+        }
+    size_t nf = 4 * m->ncells;
+    qsort(f, nf, 3 * sizeof *f, face_cmp);
+    for (size_t i = 0; i < nf;) {
+        size_t j = i + 1;
+        while (j < nf && face_cmp(f + 3 * j, f + 3 * i) == 0) j++;
+        if (j - i == 1)
+            for (int k = 0; k < 3; k++) on[f[3 * i + k]] = 1;
+        i = j;
+    }
+    free(f);
+    return on;
+}
+
+static void sphereSurfaceStaysWithinHalfAVoxelOfTheSphere(void) {
+    const int n = 64;
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_SPHERE, n, 0.0, 1, &v, NULL, &err), &err);
+    vm_mesh m;
+    vm_improve_report r;
+    if (mesh_and_improve("sphere 64 (surface distance)", &v, 0.0, 1, &m, &r)) {
+        unsigned char *on = boundary_points(&m);
+        CHECK(on != NULL);
+        double c = 0.5 * (n - 1), rad = 0.35 * (n - 1), worst = 0.0;
+        size_t nb = 0;
+        for (size_t i = 0; on && i < m.npoints; i++) {
+            if (!on[i]) continue;
+            const double *p = m.points + 3 * i;
+            double d = sqrt((p[0] - c) * (p[0] - c) + (p[1] - c) * (p[1] - c) +
+                            (p[2] - c) * (p[2] - c));
+            if (fabs(d - rad) > worst) worst = fabs(d - rad);
+            nb++;
+        }
+        printf("    %zu boundary points, largest | |p - c| - r | = %.3f voxel\n", nb, worst);
+        CHECK_MSG(worst <= 0.5, "boundary point %.3f voxel off the sphere", worst);
+        free(on);
+    }
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
+static void alreadyGoodMeshIsNotMadeWorse(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_TORUS, 48, 0.0, 1, &v, NULL, &err), &err);
+    vm_mesh m;
+    vm_improve_report r1, r2;
+    if (mesh_and_improve("torus 48 (first run)", &v, 0.0, 1, &m, &r1)) {
+        /* A second run starts from a mesh already meeting the targets. */
+        vm_mesh_report before, after;
+        checked(&m, &before);
+        vm_improve_options o;
+        vm_improve_options_default(&o);
+        CHECK_OK(vm_mesh_improve(&m, &v, &o, &r2, &err), &err);
+        print_report("torus 48 (second run)", &r2);
+        checked(&m, &after);
+        check_invariants("torus 48 (second run)", &before, &after);
+        CHECK(r2.min_dihedral_after >= r2.min_dihedral_before);
+        CHECK(r2.max_dihedral_after <= r2.max_dihedral_before);
+        CHECK(r2.abaqus_after <= r2.abaqus_before);
+        CHECK(r2.slivers_10_after <= r2.slivers_10_before);
+    }
+    vm_mesh_free(&m);
+    /* The plate mesh is good from the start (min dihedral above 30): nothing gets worse. */
+    vm_volume_free(&v);
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_PLATE, 48, 0.0, 1, &v, NULL, &err), &err);
+    if (mesh_and_improve("plate 48 (good input)", &v, 0.0, 1, &m, &r1)) {
+        CHECK(r1.min_dihedral_after >= r1.min_dihedral_before);
+        CHECK(r1.max_dihedral_after <= r1.max_dihedral_before);
+        CHECK_NEAR(r1.volume_after, r1.volume_before, 1e-9 * r1.volume_before);
+    }
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
+static void meshWithoutTheVolumeStillImproves(void) {
+    const vm_phantom_kind kinds[] = {VM_PHANTOM_SPHERE, VM_PHANTOM_TORUS, VM_PHANTOM_CUT_SPHERE};
+    for (size_t i = 0; i < sizeof kinds / sizeof kinds[0]; i++) {
+        vm_volume v;
+        vm_phantom_info info;
+        vm_error err;
+        CHECK_OK(vm_phantom_make(kinds[i], 48, 0.0, 1, &v, &info, &err), &err);
+        char label[64];
+        snprintf(label, sizeof label, "%s 48 without the volume", info.name);
+        vm_mesh m;
+        vm_improve_report r;
+        if (mesh_and_improve(label, &v, 0.0, 0, &m, &r)) {
+            /* Weaker bar: tangent-plane moves only, so surface slivers may stay. */
+            CHECK_MSG(r.min_dihedral_after >= 5.0, "%s: min dihedral %.2f", label,
+                      r.min_dihedral_after);
+            CHECK_MSG(r.max_dihedral_after <= 170.0, "%s: max dihedral %.2f", label,
+                      r.max_dihedral_after);
+            CHECK_MSG(r.abaqus_after * 20 <= r.abaqus_before, "%s: ABAQUS %zu -> %zu", label,
+                      r.abaqus_before, r.abaqus_after);
+            double dv = fabs(r.volume_after - r.volume_before) / r.volume_before;
+            CHECK_MSG(dv < 0.01, "%s: volume changed by %.3f%%", label, 100 * dv);
+        }
+        vm_mesh_free(&m);
+        vm_volume_free(&v);
+    }
+}
+
+/* --- shared volumes ------------------------------------------------------------------------- */
+
+/* max_unfixed_per_million: 0 means the full bar must hold. */
+static void shared_case(const char *name, double iso, double max_unfixed_per_million) {
+    const char *path = vm_test_shared(name);
+    if (!path) return;
+    vm_volume v;
+    vm_error err;
+    vm_status s = vm_volume_read(path, &v, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return;
+    vm_mesh m;
+    vm_improve_report r;
+    if (mesh_and_improve(name, &v, iso, 1, &m, &r)) {
+        if (max_unfixed_per_million == 0.0) {
+            check_bar(name, &r);
+        } else {
+            CHECK(r.inverted_after == 0);
+            CHECK_MSG((double)r.unfixed <= max_unfixed_per_million * 1e-6 * (double)r.tets_after,
+                      "%s: %zu unfixed", name, r.unfixed);
+        }
+        double dv = fabs(r.volume_after - r.volume_before) / r.volume_before;
+        CHECK_MSG(dv < 0.02, "%s: volume changed by %.3f%%", name, 100 * dv);
+        CHECK_MSG(r.max_surface_move <= 0.5 + 1e-9, "%s: surface moved %.3f voxels", name,
+                  r.max_surface_move);
+    }
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
+static void sharedVolumesMeetTheQualityBar(void) {
+    shared_case("hydrogen.vti", 0.1, 0);
+    shared_case("ironProt.vtk", 128, 0);
+}
+
+/* Known shortfall (docs/IMPROVE.md): a handful of tets whose four vertices all lie on the
+ * isosurface, in thin or few-voxel parts, cannot be fixed without moving the surface more than
+ * half a voxel; they are reported as unfixed. These bounds record where we are (about 1, 5
+ * and 32 tets) so that a regression shows. */
+static void largeVolumesKeepTheirInvariantsAndFixAlmostEverything(void) {
+    shared_case("ct_head_quarter.nrrd", 500, 5);
+    shared_case("avg152T1_RL_nifti.nii.gz", 100, 5);
+    shared_case("HeadMRVolume.mhd", 50, 250);
+}
+
+static void fieldsFollowTheirCellsAndPoints(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_TORUS, 32, 0.0, 1, &v, NULL, &err), &err);
+    vm_mesh_options mo;
+    vm_mesh_options_default(&mo);
+    vm_mesh m;
+    CHECK_OK(vm_mesh_volume(&v, &mo, &m, NULL, &err), &err);
+    double *cf = malloc(m.ncells * sizeof *cf), *pf = malloc(m.npoints * sizeof *pf);
+    CHECK(cf != NULL && pf != NULL);
+    if (cf && pf) {
+        for (size_t i = 0; i < m.ncells; i++) cf[i] = 3.0;
+        for (size_t i = 0; i < m.npoints; i++) pf[i] = (double)i;
+        CHECK_OK(vm_mesh_set_field(&m, 1, "c", 1, cf, &err), &err);
+        CHECK_OK(vm_mesh_set_field(&m, 0, "p", 1, pf, &err), &err);
+        vm_improve_report r;
+        CHECK_OK(vm_mesh_improve(&m, &v, NULL, &r, &err), &err);
+        CHECK(r.collapses > 0 && m.npoints < r.points_before);
+        const vm_field *c = vm_mesh_find_field(&m, 1, "c"), *p = vm_mesh_find_field(&m, 0, "p");
+        CHECK(c != NULL && p != NULL);
+        int ok = 1;
+        for (size_t i = 0; c && i < m.ncells; i++) ok &= c->data[i] == 3.0;
+        /* Points keep their input order: the old ids increase. */
+        for (size_t i = 1; p && i < m.npoints; i++) ok &= p->data[i] > p->data[i - 1];
+        CHECK(ok);
+    }
+    free(cf);
+    free(pf);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
+/* --- bad input ------------------------------------------------------------------------------ */
+
+static void badInputGivesACleanError(void) {
+    vm_error err;
+    vm_mesh m;
+    vm_improve_report r;
+    /* A hex mesh. */
+    vm_mesh_init(&m, VM_HEX8);
+    const double cube[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                               {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+    for (int i = 0; i < 8; i++) vm_mesh_add_point(&m, cube[i], &err);
+    const vm_index hex[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    CHECK_OK(vm_mesh_add_cell(&m, hex, 0, &err), &err);
+    CHECK(vm_mesh_improve(&m, NULL, NULL, &r, &err) == VM_ERR_UNSUPPORTED);
+    CHECK(strstr(err.message, "tet4") != NULL);
+    CHECK(m.ncells == 1 && m.npoints == 8);
+    vm_mesh_free(&m);
+    /* An empty tet mesh. */
+    vm_mesh_init(&m, VM_TET4);
+    CHECK(vm_mesh_improve(&m, NULL, NULL, &r, &err) == VM_ERR_EMPTY);
+    /* A node index out of range, then an inverted tet: the mesh stays as it was. */
+    for (int i = 0; i < 4; i++) vm_mesh_add_point(&m, cube[i == 3 ? 4 : i], &err);
+    const vm_index bad[4] = {0, 1, 2, 9}, inv[4] = {0, 2, 1, 3};
+    CHECK_OK(vm_mesh_add_cell(&m, bad, 0, &err), &err);
+    CHECK(vm_mesh_improve(&m, NULL, NULL, &r, &err) == VM_ERR_ARG);
+    memcpy(m.cells, inv, sizeof inv);
+    CHECK(vm_mesh_improve(&m, NULL, NULL, &r, &err) == VM_ERR_ARG);
+    CHECK(strstr(err.message, "inverted") != NULL);
+    CHECK(m.cells[1] == 2 && m.cells[2] == 1);
+    vm_mesh_free(&m);
+}
+
+static void singleTetIsReturnedUnchanged(void) {
+    vm_error err;
+    vm_mesh m;
+    vm_improve_report r;
+    vm_mesh_init(&m, VM_TET4);
+    const double p[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3, 0.3, 0.01}};
+    for (int i = 0; i < 4; i++) vm_mesh_add_point(&m, p[i], &err);
+    const vm_index t[4] = {0, 1, 2, 3};
+    CHECK_OK(vm_mesh_add_cell(&m, t, 7, &err), &err);
+    vm_improve_options o;
+    vm_improve_options_default(&o);
+    o.mark_unfixed = 1;
+    CHECK_OK(vm_mesh_improve(&m, NULL, &o, &r, &err), &err);
+    /* All four vertices are on the boundary and it cannot be fixed: it is reported. */
+    CHECK(m.ncells == 1 && m.npoints == 4 && m.region[0] == 7);
+    CHECK(r.unfixed == 1 && r.abaqus_after == 1);
+    const vm_field *f = vm_mesh_find_field(&m, 1, "improve_unfixed");
+    CHECK(f != NULL && f->ncomp == 1 && f->data[0] == 1.0);
+    vm_mesh_free(&m);
+}
+
+TEST_MAIN(T(phantomsMeetTheQualityBarAndKeepTheirTopology),
+          T(sphereSurfaceStaysWithinHalfAVoxelOfTheSphere), T(alreadyGoodMeshIsNotMadeWorse),
+          T(meshWithoutTheVolumeStillImproves), T(sharedVolumesMeetTheQualityBar),
+          T(largeVolumesKeepTheirInvariantsAndFixAlmostEverything), T(fieldsFollowTheirCellsAndPoints), T(badInputGivesACleanError),
+          T(singleTetIsReturnedUnchanged))

@@ -1,0 +1,343 @@
+/* tests/quality/test_report.c — vm_quality_report, its lookup keys and writers (text, JSON,
+ * SVG, per-cell CSV), and vm_mesh_add_quality_fields, on meshes with known answers: a cube
+ * cut into six Kuhn tets, the same with a sliver glued on, a hex block, a triangle fan, an
+ * empty mesh and a mesh with a bad node index. */
+#define _POSIX_C_SOURCE 200809L
+#include "test.h"
+#include <string.h>
+#include <unistd.h>
+
+/* --- builders ---------------------------------------------------------------------------- */
+
+static const double cube_pts[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                      {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+
+/* The unit cube as six Kuhn tets around the 0-6 diagonal, all positive. */
+static void kuhn_cube(vm_mesh *m) {
+    static const vm_index tets[6][4] = {{0, 1, 2, 6}, {0, 2, 3, 6}, {0, 3, 7, 6},
+                                        {0, 7, 4, 6}, {0, 4, 5, 6}, {0, 5, 1, 6}};
+    vm_mesh_init(m, VM_TET4);
+    for (int i = 0; i < 8; i++) CHECK(vm_mesh_add_point(m, cube_pts[i], NULL) == i);
+    for (int t = 0; t < 6; t++) {
+        vm_index n[4];
+        memcpy(n, tets[t], sizeof n);
+        double p[4][3];
+        for (int k = 0; k < 4; k++) memcpy(p[k], cube_pts[n[k]], sizeof p[k]);
+        if (vm_tet_signed_volume((const double(*)[3])p) < 0) {
+            vm_index s = n[1];
+            n[1] = n[2];
+            n[2] = s;
+        }
+        CHECK_OK(vm_mesh_add_cell(m, n, 1, NULL), NULL);
+    }
+}
+
+/* Adds a separate sliver (four nearly coplanar points: min dihedral under 1 degree, ABAQUS
+ * volume measure 0.013, face angles 45..90). */
+static void add_sliver(vm_mesh *m) {
+    const double s[4][3] = {{3, 0, 0}, {4, 0, 0}, {3.5, 0.5, 0.005}, {3.5, -0.5, 0.005}};
+    vm_index base = (vm_index)m->npoints;
+    for (int i = 0; i < 4; i++) vm_mesh_add_point(m, s[i], NULL);
+    vm_index n[4] = {base, base + 1, base + 2, base + 3};
+    if (vm_tet_signed_volume(s) < 0) {
+        n[1] = base + 2;
+        n[2] = base + 1;
+    }
+    CHECK_OK(vm_mesh_add_cell(m, n, 2, NULL), NULL);
+}
+
+static char *slurp(const char *path) {
+    FILE *fp = fopen(path, "rb");
+    if (!fp) return NULL;
+    fseek(fp, 0, SEEK_END);
+    long n = ftell(fp);
+    fseek(fp, 0, SEEK_SET);
+    char *s = malloc((size_t)n + 1);
+    size_t got = fread(s, 1, (size_t)n, fp);
+    s[got] = 0;
+    fclose(fp);
+    return s;
+}
+
+static size_t count_of(const char *s, const char *what) {
+    size_t n = 0;
+    for (const char *p = s; (p = strstr(p, what)) != NULL; p += strlen(what)) n++;
+    return n;
+}
+
+static const vm_metric_stats *stats_of(const vm_quality_summary *q, const char *name) {
+    for (size_t k = 0; k < q->nmetrics; k++)
+        if (strcmp(q->metrics[k].info->name, name) == 0) return &q->metrics[k];
+    return NULL;
+}
+
+/* --- the report -------------------------------------------------------------------------- */
+
+static void reportOfKuhnCubeHasExactStatistics(void) {
+    vm_mesh m;
+    kuhn_cube(&m);
+    vm_quality_summary q;
+    vm_error err;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+    CHECK(q.check.cells == 6 && q.check.inverted == 0 && q.check.boundary_closed);
+    CHECK(q.check.boundary_euler == 2 && q.check.components == 1);
+    CHECK_NEAR(q.check.volume, 1.0, 1e-14);
+    CHECK(q.nmetrics == 10 && q.has_abaqus);
+    /* Every Kuhn tet is congruent: dihedrals 45, 60 and 90 degrees, face angles 45..90. */
+    const vm_metric_stats *d = stats_of(&q, "min_dihedral");
+    CHECK(d != NULL);
+    if (d) {
+        CHECK_NEAR(d->min, 45.0, 1e-9);
+        CHECK_NEAR(d->mean, 45.0, 1e-9);
+        CHECK_NEAR(d->max, 45.0, 1e-9);
+        /* 45 deg lies in bin 11 of 0..80 (4 deg bins) and is below Verdict's 40? no: above,
+         * but 45 is inside 40..70.5, so nothing is unacceptable. */
+        CHECK(d->bins[11] == 6 && d->unacceptable == 0 && d->below == 0 && d->above == 0);
+    }
+    const vm_metric_stats *v = stats_of(&q, "volume");
+    CHECK(v != NULL);
+    if (v) {
+        CHECK_NEAR(v->mean, 1.0 / 6.0, 1e-15);
+        /* Auto range: all values equal, so the range is min..min+1 and all land in bin 0. */
+        CHECK(v->bins[0] == 6);
+    }
+    size_t total = 0;
+    for (size_t k = 0; k < q.nmetrics; k++) {
+        total = 0;
+        for (int b = 0; b < VM_QUALITY_BINS; b++) total += q.metrics[k].bins[b];
+        CHECK_MSG(total == 6, "%s histogram holds %zu cells", q.metrics[k].info->name, total);
+    }
+    CHECK(q.abaqus_failures == 0 && q.check.slivers_10 == 0);
+    double x;
+    CHECK(vm_quality_lookup(&q, "elements", &x) == 0 && x == 6);
+    CHECK(vm_quality_lookup(&q, "min_dihedral", &x) == 0 && fabs(x - 45.0) < 1e-9);
+    CHECK(vm_quality_lookup(&q, "radius_ratio.max", &x) == 0 && x > 1.0);
+    CHECK(vm_quality_lookup(&q, "abaqus_failures", &x) == 0 && x == 0);
+    CHECK(vm_quality_lookup(&q, "boundary_closed", &x) == 0 && x == 1);
+    CHECK(vm_quality_lookup(&q, "radius_ratio.median", &x) == -1);
+    CHECK(vm_quality_lookup(&q, "nonsense", &x) == -1);
+    CHECK(vm_quality_lookup(&q, "skew.max", &x) == -1);
+    vm_mesh_free(&m);
+}
+
+static void sliversAndAbaqusFailuresAreCounted(void) {
+    vm_mesh m;
+    kuhn_cube(&m);
+    add_sliver(&m);
+    vm_quality_summary q;
+    vm_error err;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+    CHECK(q.check.cells == 7 && q.check.components == 2);
+    CHECK(q.check.slivers_5 == 1 && q.check.slivers_10 == 1);
+    CHECK(q.abaqus_failures == 1 && q.abaqus_volume == 1);
+    CHECK(q.abaqus_small_angle == 0 && q.abaqus_large_angle == 0);
+    CHECK(q.abaqus_nlist == 1 && q.abaqus_list[0] == 6);
+    const vm_metric_stats *d = stats_of(&q, "min_dihedral");
+    CHECK(d && d->argmin == 6 && d->min < 5.0 && d->unacceptable == 1);
+    const vm_metric_stats *r = stats_of(&q, "radius_ratio");
+    CHECK(r && r->argmax == 6 && r->above == 1 && r->bins[VM_QUALITY_BINS - 1] >= 1);
+    double x;
+    CHECK(vm_quality_lookup(&q, "slivers_10", &x) == 0 && x == 1);
+    vm_mesh_free(&m);
+}
+
+static void hexReportHasNoDihedralsOrAbaqus(void) {
+    vm_mesh m;
+    vm_mesh_init(&m, VM_HEX8);
+    for (int i = 0; i < 8; i++) vm_mesh_add_point(&m, cube_pts[i], NULL);
+    const vm_index n[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    CHECK_OK(vm_mesh_add_cell(&m, n, 1, NULL), NULL);
+    vm_quality_summary q;
+    vm_error err;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+    CHECK(q.nmetrics == 6 && !q.has_abaqus);
+    double x;
+    CHECK(vm_quality_lookup(&q, "min_dihedral", &x) == -1);
+    CHECK(vm_quality_lookup(&q, "abaqus_failures", &x) == -1);
+    CHECK(vm_quality_lookup(&q, "skew.max", &x) == 0 && x == 0);
+    CHECK(vm_quality_lookup(&q, "min_scaled_jacobian", &x) == 0 && x == 1);
+    FILE *fp = fopen(vm_test_tmp("report_hex.json"), "w");
+    CHECK(fp && vm_quality_write_json(fp, "cube", &q) == 0);
+    if (fp) fclose(fp);
+    char *s = slurp(vm_test_tmp("report_hex.json"));
+    CHECK(s && strstr(s, "\"min_dihedral\": null") && strstr(s, "\"abaqus_failures\": null"));
+    CHECK(s && strstr(s, "\"kind\": \"hex8\""));
+    free(s);
+    vm_mesh_free(&m);
+}
+
+static void emptyMeshReportsZeros(void) {
+    vm_mesh m;
+    vm_mesh_init(&m, VM_TET4);
+    vm_quality_summary q;
+    vm_error err;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+    CHECK(q.check.cells == 0 && q.abaqus_failures == 0);
+    for (size_t k = 0; k < q.nmetrics; k++)
+        CHECK(q.metrics[k].min == 0 && q.metrics[k].max == 0 && q.metrics[k].mean == 0);
+    FILE *fp = fopen(vm_test_tmp("report_empty.txt"), "w");
+    CHECK(fp && vm_quality_write_text(fp, "empty", &q, 1) == 0);
+    if (fp) fclose(fp);
+    CHECK_OK(vm_quality_write_svg(vm_test_tmp("report_empty.svg"), "empty", &q, &err), &err);
+    vm_mesh_free(&m);
+}
+
+static void badNodeIndexIsAnError(void) {
+    vm_mesh m;
+    kuhn_cube(&m);
+    m.cells[5] = 99;
+    vm_quality_summary q;
+    vm_error err;
+    CHECK(vm_quality_report(&m, &q, &err) == VM_ERR_ARG);
+    CHECK(vm_mesh_add_quality_fields(&m, NULL, &err) == VM_ERR_ARG);
+    CHECK(strstr(err.message, "99") != NULL);
+    CHECK(vm_quality_write_cell_csv(vm_test_tmp("bad.csv"), &m, &err) == VM_ERR_ARG);
+    CHECK(!vm_test_exists(vm_test_tmp("bad.csv")));
+    vm_mesh_free(&m);
+}
+
+/* --- writers ----------------------------------------------------------------------------- */
+
+static void writersProduceTheDocumentedKeysAndFiles(void) {
+    vm_mesh m;
+    kuhn_cube(&m);
+    add_sliver(&m);
+    vm_quality_summary q;
+    vm_error err;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+
+    FILE *fp = fopen(vm_test_tmp("report.json"), "w");
+    CHECK(fp && vm_quality_write_json(fp, "a \"quoted\" name", &q) == 0);
+    if (fp) fclose(fp);
+    char *s = slurp(vm_test_tmp("report.json"));
+    static const char *keys[] = {"\"elements\": 7", "\"inverted\": 0", "\"min_dihedral\": ",
+                                 "\"max_dihedral\": ", "\"slivers_5\": 1", "\"slivers_10\": 1",
+                                 "\"abaqus_failures\": 1", "\"boundary_euler\": 4",
+                                 "\"volume\": ", "\"min_scaled_jacobian\": ",
+                                 "\"metrics\": {", "\"histogram\": {", "\"counts\": [",
+                                 "\"file\": \"a \\\"quoted\\\" name\""};
+    for (size_t i = 0; s && i < sizeof keys / sizeof keys[0]; i++)
+        CHECK_MSG(strstr(s, keys[i]) != NULL, "JSON lacks %s", keys[i]);
+    CHECK(s && !strstr(s, "nan") && !strstr(s, "inf"));
+    free(s);
+
+    fp = fopen(vm_test_tmp("report.txt"), "w");
+    CHECK(fp && vm_quality_write_text(fp, "mesh.vtu", &q, 1) == 0);
+    if (fp) fclose(fp);
+    s = slurp(vm_test_tmp("report.txt"));
+    CHECK(s && strstr(s, "slivers      1 below 5 deg, 1 below 10 deg"));
+    CHECK(s && strstr(s, "ABAQUS       1 tet fail"));
+    CHECK(s && strstr(s, "failing tets (first 1, 0-based): 6"));
+    for (size_t k = 0; s && k < q.nmetrics; k++) CHECK(strstr(s, q.metrics[k].info->name));
+    free(s);
+
+    const char *svg = vm_test_tmp("report.svg");
+    CHECK_OK(vm_quality_write_svg(svg, "m<&>.vtu", &q, &err), &err);
+    s = slurp(svg);
+    CHECK(s && strncmp(s, "<?xml", 5) == 0 && strstr(s, "</svg>"));
+    CHECK(s && count_of(s, "<g transform") == q.nmetrics);
+    CHECK(s && count_of(s, "acceptable range</title>") >= q.nmetrics - 1);
+    CHECK(s && strstr(s, "m&lt;&amp;&gt;.vtu") && !strstr(s, "m<&>"));
+    free(s);
+    CHECK(vm_quality_write_svg("/nonexistent-dir/x.svg", "m", &q, &err) == VM_ERR_IO);
+
+    const char *csv = vm_test_tmp("cells.csv");
+    CHECK_OK(vm_quality_write_cell_csv(csv, &m, &err), &err);
+    s = slurp(csv);
+    const char *head = "cell,region,min_dihedral,max_dihedral,";
+    CHECK(s && strncmp(s, head, strlen(head)) == 0);
+    CHECK(s && count_of(s, "\n") == 8);
+    CHECK(s && strstr(s, "\n6,2,"));
+    free(s);
+    vm_mesh_free(&m);
+}
+
+/* --- quality fields ---------------------------------------------------------------------- */
+
+static void qualityFieldsHoldEachCellsMetric(void) {
+    vm_mesh m;
+    kuhn_cube(&m);
+    add_sliver(&m);
+    vm_error err;
+    CHECK_OK(vm_mesh_add_quality_fields(&m, NULL, &err), &err);
+    CHECK(m.ncell_fields == 6);
+    static const char *names[] = {"min_dihedral", "max_dihedral", "radius_ratio",
+                                  "aspect_ratio", "scaled_jacobian", "volume_measure"};
+    for (int i = 0; i < 6; i++) {
+        const vm_field *f = vm_mesh_find_field(&m, 1, names[i]);
+        CHECK_MSG(f && f->ncomp == 1, "no field %s", names[i]);
+        if (!f) continue;
+        const vm_metric_info *mi = vm_quality_find_metric(VM_TET4, names[i]);
+        for (size_t c = 0; c < m.ncells; c++) {
+            double p[4][3];
+            for (int k = 0; k < 4; k++)
+                memcpy(p[k], m.points + 3 * (size_t)m.cells[4 * c + (size_t)k], sizeof p[k]);
+            CHECK(f->data[c] == mi->eval((const double(*)[3])p));
+        }
+    }
+    /* Again: replaced, not duplicated; a chosen list adds just those. */
+    CHECK_OK(vm_mesh_add_quality_fields(&m, NULL, &err), &err);
+    CHECK(m.ncell_fields == 6);
+    const char *const more[] = {"edge_ratio", "min_face_angle", NULL};
+    CHECK_OK(vm_mesh_add_quality_fields(&m, more, &err), &err);
+    CHECK(m.ncell_fields == 8 && vm_mesh_find_field(&m, 1, "edge_ratio"));
+    const char *const wrong[] = {"edge_ratio", "skew", NULL};
+    CHECK(vm_mesh_add_quality_fields(&m, wrong, &err) == VM_ERR_ARG);
+    CHECK(strstr(err.message, "skew") != NULL && m.ncell_fields == 8);
+    /* The fields survive a VTU round trip. */
+    const char *path = vm_test_tmp("fields.vtu");
+    CHECK_OK(vm_mesh_write(path, &m, &err), &err);
+    vm_mesh back;
+    CHECK_OK(vm_mesh_read(path, &back, &err), &err);
+    const vm_field *f = vm_mesh_find_field(&back, 1, "radius_ratio");
+    const vm_field *g = vm_mesh_find_field(&m, 1, "radius_ratio");
+    CHECK(f && g && back.ncells == m.ncells);
+    if (f && g)
+        for (size_t c = 0; c < m.ncells; c++) CHECK(f->data[c] == g->data[c]);
+    vm_mesh_free(&back);
+    vm_mesh_free(&m);
+
+    vm_mesh h;
+    vm_mesh_init(&h, VM_HEX8);
+    for (int i = 0; i < 8; i++) vm_mesh_add_point(&h, cube_pts[i], NULL);
+    const vm_index n[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    CHECK_OK(vm_mesh_add_cell(&h, n, 1, NULL), NULL);
+    CHECK_OK(vm_mesh_add_quality_fields(&h, NULL, &err), &err);
+    CHECK(h.ncell_fields == 5 && vm_mesh_find_field(&h, 1, "taper"));
+    vm_mesh_free(&h);
+}
+
+/* Under a tiny memory limit the fields are refused with VM_ERR_NOMEM and the mesh is
+ * left as it was. */
+static void qualityFieldsRespectTheMemoryLimit(void) {
+    vm_mesh m;
+    kuhn_cube(&m);
+    vm_error err;
+    setenv("VOLMESH_MAX_MEMORY", "16", 1);
+    CHECK(vm_mesh_add_quality_fields(&m, NULL, &err) == VM_ERR_NOMEM);
+    unsetenv("VOLMESH_MAX_MEMORY");
+    CHECK(m.ncell_fields == 0);
+    vm_mesh_free(&m);
+}
+
+/* A triangle surface: the boundary of the cube. */
+static void surfaceReportUsesTriangleMetrics(void) {
+    vm_mesh m, s;
+    kuhn_cube(&m);
+    vm_error err;
+    CHECK_OK(vm_mesh_boundary(&m, &s, &err), &err);
+    vm_quality_summary q;
+    CHECK_OK(vm_quality_report(&s, &q, &err), &err);
+    CHECK(q.kind == VM_TRI3 && q.nmetrics == 5 && !q.has_abaqus);
+    CHECK(q.check.cells == 12 && q.check.boundary_closed && q.check.boundary_euler == 2);
+    const vm_metric_stats *a = stats_of(&q, "max_angle");
+    CHECK(a && fabs(a->min - 90.0) < 1e-9 && fabs(a->max - 90.0) < 1e-9);
+    vm_mesh_free(&s);
+    vm_mesh_free(&m);
+}
+
+TEST_MAIN(T(reportOfKuhnCubeHasExactStatistics), T(sliversAndAbaqusFailuresAreCounted),
+          T(hexReportHasNoDihedralsOrAbaqus), T(emptyMeshReportsZeros),
+          T(badNodeIndexIsAnError), T(writersProduceTheDocumentedKeysAndFiles),
+          T(qualityFieldsHoldEachCellsMetric), T(qualityFieldsRespectTheMemoryLimit),
+          T(surfaceReportUsesTriangleMetrics))
