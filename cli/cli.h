@@ -31,6 +31,10 @@ void vm_cli_progress(const char *stage, double done, double total, void *user);
 int vm_cmd_info(int argc, char **argv);
 int vm_cmd_mesh(int argc, char **argv);
 int vm_cmd_demo(int argc, char **argv);
+int vm_cmd_report(int argc, char **argv);
+
+/* Writes the HTML quality report of m to path (name shown in it); returns an exit code. */
+int vm_cli_write_report(const char *path, const vm_mesh *m, const char *name);
 int vm_cmd_quality(int argc, char **argv);
 int vm_cmd_convert(int argc, char **argv);
 int vm_cmd_denoise(int argc, char **argv);

@@ -17,6 +17,7 @@ static const char *usage =
     "                              min/max/mean and a histogram\n"
     "  mesh FILE -o OUT.vtu ...    fill the material {f >= V} or {A <= f <= B} with tetrahedra\n"
     "  quality MESH [--json]       element quality and mesh checks of any mesh we read\n"
+    "  report MESH -o REPORT.html  quality report with pictures, one self-contained page\n"
     "  convert IN OUT              convert a mesh between formats\n"
     "  denoise FILE -o OUT.nrrd    bilateral filter or anisotropic diffusion\n"
     "  spectrum FILE               contour spectrum: area, volume, gradient per isovalue\n"
@@ -97,6 +98,7 @@ int main(int argc, char **argv) {
     if (strcmp(cmd, "info") == 0) return vm_cmd_info(argc - 1, argv + 1);
     if (strcmp(cmd, "mesh") == 0) return vm_cmd_mesh(argc - 1, argv + 1);
     if (strcmp(cmd, "demo") == 0) return vm_cmd_demo(argc - 1, argv + 1);
+    if (strcmp(cmd, "report") == 0) return vm_cmd_report(argc - 1, argv + 1);
     if (strcmp(cmd, "quality") == 0) return vm_cmd_quality(argc - 1, argv + 1);
     if (strcmp(cmd, "convert") == 0) return vm_cmd_convert(argc - 1, argv + 1);
     if (strcmp(cmd, "denoise") == 0) return vm_cmd_denoise(argc - 1, argv + 1);

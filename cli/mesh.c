@@ -28,6 +28,7 @@ static const char *mesh_help =
     "                          from the data; see volmesh denoise for control)\n"
     "  --no-improve            skip the quality pass (edge contraction, flips, smoothing)\n"
     "  --quality-fields        add per-cell quality arrays (min_dihedral, radius_ratio, ...)\n"
+    "  --report REPORT.html    also write the HTML quality report (see volmesh report)\n"
     "  --no-compress           write the VTU without zlib\n"
     "  --json                  print the summary as one JSON object\n"
     "  --quiet                 no progress bar\n"
@@ -93,7 +94,7 @@ int vm_cmd_mesh(int argc, char **argv) {
     const char *in = NULL, *out = NULL, *surface = NULL;
     int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
     int improve = 1, quality_fields = 0;
-    const char *denoise = NULL;
+    const char *denoise = NULL, *report = NULL;
     vm_mesh_options o;
     vm_mesh_options_default(&o);
     vm_raw_options raw;
@@ -108,7 +109,8 @@ int vm_cmd_mesh(int argc, char **argv) {
         int needs = vm_cli_is(a, "-o", "--output") || vm_cli_is(a, "--iso", NULL) ||
                     vm_cli_is(a, "--range", NULL) || vm_cli_is(a, "--size", NULL) ||
                     vm_cli_is(a, "--surface", NULL) || vm_cli_is(a, "--max-level", NULL) ||
-                    vm_cli_is(a, "--elements", NULL) || vm_cli_is(a, "--denoise", NULL);
+                    vm_cli_is(a, "--elements", NULL) || vm_cli_is(a, "--denoise", NULL) ||
+                    vm_cli_is(a, "--report", NULL);
         if (needs && i + 1 >= argc) return vm_cli_fail("mesh: %s needs a value", a);
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
@@ -143,6 +145,8 @@ int vm_cmd_mesh(int argc, char **argv) {
             denoise = argv[++i];
             if (strcmp(denoise, "bilateral") != 0 && strcmp(denoise, "diffusion") != 0)
                 return vm_cli_fail("--denoise: '%s' is not bilateral or diffusion", denoise);
+        } else if (vm_cli_is(a, "--report", NULL)) {
+            report = argv[++i];
         } else if (vm_cli_is(a, "--no-improve", NULL)) {
             improve = 0;
         } else if (vm_cli_is(a, "--quality-fields", NULL)) {
@@ -239,6 +243,7 @@ int vm_cmd_mesh(int argc, char **argv) {
         return vm_cli_fail_err(&err);
     }
     rc = vm_cli_report_mesh(&m, &st, json, out);
+    if (!rc && report) rc = vm_cli_write_report(report, &m, out);
     if (!rc && improved && !json && ir.unfixed)
         printf("quality pass: %zu tets still below the targets (min dihedral 15, max 150, "
                "ABAQUS); see volmesh quality\n", ir.unfixed);

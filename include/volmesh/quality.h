@@ -304,6 +304,14 @@ int vm_quality_write_json(FILE *out, const char *name, const vm_quality_summary 
 vm_status vm_quality_write_svg(const char *path, const char *name, const vm_quality_summary *q,
                                vm_error *err);
 
+/* Writes a self-contained HTML page (no network): the checks, the metric table, two
+ * pictures drawn by the built-in renderer (the boundary; a cut-away with the worst elements
+ * in red: tets below 10 degrees, hexes below scaled Jacobian 0.2) as inline PNG, and the
+ * histograms as inline SVG. q must be vm_quality_report(m). Written to a temp name and
+ * renamed. */
+vm_status vm_quality_write_html(const char *path, const vm_mesh *m, const char *name,
+                                const vm_quality_summary *q, vm_error *err);
+
 /* Writes every metric of every cell as CSV: a header "cell,region,NAME,..." then one line
  * per cell, values with 17 significant digits. Written to PATH.tmp-PID and renamed. */
 vm_status vm_quality_write_cell_csv(const char *path, const vm_mesh *m, vm_error *err);

@@ -1,0 +1,163 @@
+/* quality/report_html.c — the HTML quality report: one self-contained page (no network)
+ * with the mesh summary, the quality histograms (inline SVG) and pictures of the mesh drawn
+ * by the built-in renderer (inline PNG), the worst elements highlighted. */
+#define _POSIX_C_SOURCE 200809L
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include "../io/io_util.h"
+#include "volmesh/quality.h"
+#include "volmesh/render.h"
+
+static void put_escaped(FILE *fp, const char *s) {
+    for (; s && *s; s++) {
+        if (*s == '<') fputs("&lt;", fp);
+        else if (*s == '>') fputs("&gt;", fp);
+        else if (*s == '&') fputs("&amp;", fp);
+        else if (*s == '"') fputs("&quot;", fp);
+        else fputc(*s, fp);
+    }
+}
+
+static void put_base64(FILE *fp, const unsigned char *b, size_t n) {
+    static const char tab[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for (size_t i = 0; i < n; i += 3) {
+        unsigned v = (unsigned)b[i] << 16;
+        if (i + 1 < n) v |= (unsigned)b[i + 1] << 8;
+        if (i + 2 < n) v |= b[i + 2];
+        fputc(tab[(v >> 18) & 63], fp);
+        fputc(tab[(v >> 12) & 63], fp);
+        fputc(i + 1 < n ? tab[(v >> 6) & 63] : '=', fp);
+        fputc(i + 2 < n ? tab[v & 63] : '=', fp);
+    }
+}
+
+/* Renders one view and writes it as an <img> with a caption. */
+static vm_status put_picture(FILE *fp, const vm_mesh *m, const vm_render_options *o,
+                             const char *caption, vm_error *err) {
+    vm_image img;
+    vm_status s = vm_render_mesh(m, o, &img, err);
+    if (s) return s;
+    unsigned char *png = NULL;
+    size_t len = 0;
+    s = vm_image_encode_png(&img, &png, &len, err);
+    if (!s) {
+        fprintf(fp, "<figure><img alt=\"");
+        put_escaped(fp, caption);
+        fprintf(fp, "\" width=\"%d\" height=\"%d\" src=\"data:image/png;base64,", img.width,
+                img.height);
+        put_base64(fp, png, len);
+        fprintf(fp, "\"><figcaption>");
+        put_escaped(fp, caption);
+        fprintf(fp, "</figcaption></figure>\n");
+    }
+    free(png);
+    vm_image_free(&img);
+    return s;
+}
+
+/* The histogram SVG, written by vm_quality_write_svg, copied inline without its prolog. */
+static vm_status put_histograms(FILE *fp, const char *path, const char *name,
+                                const vm_quality_summary *q, vm_error *err) {
+    char tmp[4200];
+    snprintf(tmp, sizeof tmp, "%s.svg-%ld", path, (long)getpid());
+    vm_status s = vm_quality_write_svg(tmp, name, q, err);
+    if (s) return s;
+    unsigned char *buf = NULL;
+    size_t len = 0;
+    s = vm__read_file(tmp, (size_t)1 << 28, &buf, &len, err);
+    remove(tmp);
+    if (s) return s;
+    char *svg = strstr((char *)buf, "<svg");
+    if (svg) fputs(svg, fp);
+    free(buf);
+    return VM_OK;
+}
+
+static void row(FILE *fp, const char *key, const char *fmt, double v) {
+    fprintf(fp, "<tr><th>%s</th><td>", key);
+    fprintf(fp, fmt, v);
+    fprintf(fp, "</td></tr>\n");
+}
+
+vm_status vm_quality_write_html(const char *path, const vm_mesh *m, const char *name,
+                                const vm_quality_summary *q, vm_error *err) {
+    vm_outfile out;
+    vm_status s = vm__out_open(&out, path, err);
+    if (s) return s;
+    FILE *fp = out.fp;
+    const vm_mesh_report *r = &q->check;
+    int tets = m->kind == VM_TET4, hexes = m->kind == VM_HEX8;
+    fprintf(fp, "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
+                "<title>volmesh report: ");
+    put_escaped(fp, name);
+    fprintf(fp, "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;"
+                "color:#222}table{border-collapse:collapse}th,td{padding:.25em .8em;border-bottom:"
+                "1px solid #ddd;text-align:left}td{font-variant-numeric:tabular-nums}figure{"
+                "display:inline-block;margin:.5em}figcaption{color:#555;font-size:90%%}.ok{color:"
+                "#176c2d}.bad{color:#b3261e;font-weight:bold}</style></head><body>\n");
+    fprintf(fp, "<h1>Mesh quality: ");
+    put_escaped(fp, name);
+    fprintf(fp, "</h1>\n<p>%zu %s, %zu points. ", m->ncells, vm_cell_kind_name(m->kind),
+            m->npoints);
+    int valid = r->inverted == 0 && r->overshared_faces == 0 && r->boundary_closed;
+    fprintf(fp, "<span class=\"%s\">%s</span></p>\n", valid ? "ok" : "bad",
+            valid ? "Valid: no inverted elements, conforming, closed boundary."
+                  : "Not valid: see the checks below.");
+    fprintf(fp, "<h2>Checks</h2><table>\n");
+    row(fp, "inverted elements", "%.0f", (double)r->inverted);
+    row(fp, "faces shared by more than two elements", "%.0f", (double)r->overshared_faces);
+    fprintf(fp, "<tr><th>boundary</th><td>%s, %zu faces, Euler characteristic %ld, %zu "
+                "components</td></tr>\n",
+            r->boundary_closed ? "closed" : "OPEN", r->boundary_faces, r->boundary_euler,
+            r->boundary_components);
+    row(fp, "connected components", "%.0f", (double)r->components);
+    row(fp, "volume", "%.9g", r->volume);
+    if (tets) {
+        fprintf(fp, "<tr><th>dihedral angles</th><td>%.2f&deg; .. %.2f&deg;</td></tr>\n",
+                r->min_dihedral, r->max_dihedral);
+        fprintf(fp, "<tr><th>slivers</th><td>%zu below 5&deg;, %zu below 10&deg;</td></tr>\n",
+                r->slivers_5, r->slivers_10);
+    }
+    if (q->has_abaqus)
+        fprintf(fp, "<tr><th>ABAQUS element check</th><td class=\"%s\">%zu failures (volume "
+                    "measure &lt; 0.02: %zu, face angle &lt; 10&deg;: %zu, &gt; 160&deg;: "
+                    "%zu)</td></tr>\n",
+                q->abaqus_failures ? "bad" : "ok", q->abaqus_failures, q->abaqus_volume,
+                q->abaqus_small_angle, q->abaqus_large_angle);
+    if (hexes) row(fp, "min scaled Jacobian", "%.4f", r->min_scaled_jacobian);
+    fprintf(fp, "</table>\n<h2>Metrics</h2><table><tr><th>metric</th><th>min</th><th>mean"
+                "</th><th>max</th><th>outside the acceptable range</th></tr>\n");
+    for (size_t i = 0; i < q->nmetrics; i++) {
+        const vm_metric_stats *ms = &q->metrics[i];
+        fprintf(fp, "<tr><th>%s</th><td>%.6g</td><td>%.6g</td><td>%.6g</td><td>%zu</td></tr>\n",
+                ms->info->name, ms->min, ms->mean, ms->max, ms->unacceptable);
+    }
+    fprintf(fp, "</table>\n<h2>Pictures</h2>\n");
+    vm_render_options o;
+    vm_render_options_default(&o);
+    o.width = 640;
+    o.height = 480;
+    s = put_picture(fp, m, &o, "the boundary", err);
+    if (!s && (tets || hexes)) {
+        o.cut = VM_CUT_AUTO;
+        o.highlight = tets ? "min_dihedral" : "scaled_jacobian";
+        o.highlight_threshold = tets ? 10.0 : 0.2;
+        o.highlight_hidden = 1;
+        s = put_picture(fp, m, &o,
+                        tets ? "cut-away; red: tets with a dihedral angle below 10 degrees"
+                             : "cut-away; red: hexes with scaled Jacobian below 0.2",
+                        err);
+    }
+    if (!s) {
+        fprintf(fp, "<h2>Histograms</h2>\n");
+        s = put_histograms(fp, path, name, q, err);
+    }
+    if (!s) fprintf(fp, "\n<p><small>volmesh</small></p></body></html>\n");
+    if (s) {
+        vm__out_abort(&out);
+        return s;
+    }
+    return vm__out_commit(&out, err);
+}
