@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what building and testing volmesh needs on Debian, when it is missing:
 # the compiler and CMake, zlib, and (for the tests' independent judges) Debian's python3 with
-# VTK, meshio and numpy. Usage: scripts/deps.sh [--tests]
+# VTK, meshio and numpy, CalculiX (ccx), gmsh and libexodusii-dev. Usage: scripts/deps.sh [--tests]
 set -eu
 want_tests=0
 [ "${1:-}" = "--tests" ] && want_tests=1
@@ -14,6 +14,13 @@ if [ "$want_tests" = 1 ]; then
     /usr/bin/python3 -c 'import vtk' >/dev/null 2>&1 || pkgs+=(python3-vtk9)
     /usr/bin/python3 -c 'import meshio' >/dev/null 2>&1 || pkgs+=(python3-meshio)
     /usr/bin/python3 -c 'import numpy' >/dev/null 2>&1 || pkgs+=(python3-numpy)
+    # FE interop judges: CalculiX solves our .inp decks, gmsh reads our .msh files; the
+    # optional Exodus II writer is built when libexodusii-dev is present at configure time.
+    command -v ccx >/dev/null 2>&1 || pkgs+=(calculix-ccx)
+    command -v gmsh >/dev/null 2>&1 || pkgs+=(gmsh)
+    dpkg -s libexodusii-dev >/dev/null 2>&1 || pkgs+=(libexodusii-dev)
+    # the HTML report is checked in a real browser
+    command -v chromium >/dev/null 2>&1 || pkgs+=(chromium)
 fi
 [ ${#pkgs[@]} -eq 0 ] && exit 0
 echo "volmesh: installing ${pkgs[*]}" >&2
