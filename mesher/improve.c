@@ -42,7 +42,9 @@ static int tet_figures(const double p[4][3], figures *f, int *abaqus) {
     f->s5 += lo < 5.0;
     f->s10 += lo < 10.0;
     f->inverted += !(vol > 0.0);
-    *abaqus = vm <= 0.02 || lo <= 10.0 || hi >= 160.0;
+    /* ABAQUS's element check (as the quality report counts it): volume measure, and the
+     * angles of the faces */
+    *abaqus = vm < 0.02 || vm_tet_min_face_angle(p) < 10.0 || vm_tet_max_face_angle(p) > 160.0;
     f->abaqus += (size_t)*abaqus;
     int bad = *abaqus || lo < 10.0 || hi > 165.0 || !(vol > 0.0);
     f->unfixed += (size_t)bad;
@@ -121,6 +123,8 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
     w->s_min = o->target_min_dihedral;
     w->s_max = 180.0 - o->target_max_dihedral;
     w->s_vm = o->target_volume_measure;
+    w->s_fmin = 15.0; /* face angles: 10 and 160 degrees (ABAQUS) score 2/3, as the others */
+    w->s_fmax = 30.0;
     w->rng = o->seed ? o->seed : 1u;
     w->npt = np;
     w->tet_cap = nt + nt / 8 + 1024;

@@ -83,6 +83,21 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
     if (q2 < q) q = q2;
     double q3 = vm__imp_volume_measure(p) / w->s_vm;
     if (q3 < q) q = q3;
+    double fmin = 180.0, fmax = 0.0; /* angles of the four faces */
+    for (int f = 0; f < 4; f++)
+        for (int k = 0; k < 3; k++) {
+            double u[3], v[3];
+            sub3(p[face_of[f][(k + 1) % 3]], p[face_of[f][k]], u);
+            sub3(p[face_of[f][(k + 2) % 3]], p[face_of[f][k]], v);
+            double cr[3];
+            cross3(u, v, cr);
+            double ang = atan2(sqrt(dot3(cr, cr)), dot3(u, v)) * DEG;
+            if (ang < fmin) fmin = ang;
+            if (ang > fmax) fmax = ang;
+        }
+    double q4 = fmin / w->s_fmin, q5 = (180.0 - fmax) / w->s_fmax;
+    if (q4 < q) q = q4;
+    if (q5 < q) q = q5;
     return q;
 }
 

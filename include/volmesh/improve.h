@@ -51,8 +51,8 @@ typedef struct vm_improve_report {
     double min_dihedral_after, max_dihedral_after;
     size_t slivers_5_before, slivers_10_before;      /* min dihedral below 5 / 10 degrees */
     size_t slivers_5_after, slivers_10_after;
-    /* ABAQUS check (seed 001 §6): volume measure <= 0.02, or min dihedral <= 10, or max
-     * dihedral >= 160 degrees. */
+    /* ABAQUS element check, as volmesh quality counts it: volume measure < 0.02, or a face
+     * angle below 10 or above 160 degrees. */
     size_t abaqus_before, abaqus_after;
     size_t inverted_after;                           /* signed volume <= 0 (always 0) */
     /* Tets that still fail the ABAQUS check or the bar (min dihedral < 10, max > 165). */
