@@ -1,8 +1,93 @@
-/* cli/convert.c — placeholder until `volmesh convert` lands. */
+/* cli/convert.c — `volmesh convert IN OUT`: reads any mesh format volmesh reads and writes
+ * any it writes, with the FE deck options of the .inp writer. */
+#include <string.h>
 #include "cli.h"
 
+static const char *convert_help =
+    "usage: volmesh convert IN OUT [--format F] [--deck static] [--order 2] [--ascii]\n"
+    "\n"
+    "Converts a mesh between formats, chosen by the file extensions:\n"
+    "  read and write: .vtu .vtk (legacy) .inp (ABAQUS/CalculiX) .msh (Gmsh 4.1; reads 2.2)\n"
+    "                  .msh2 (Gmsh 2.2) .mesh (MEDIT) .stl .off .ply .obj\n"
+    "  write only:     .exo (Exodus II, when built with libexodusii)\n"
+    "Surface formats (stl, off, ply, obj) given a volume mesh write its boundary.\n"
+    "  --format F      output format regardless of OUT's extension: vtu, vtk, inp, msh,\n"
+    "                  msh2, mesh, stl, off, ply, obj, exo\n"
+    "  --in-format F   input format regardless of IN's extension\n"
+    "  --deck static   .inp: add a static step (lowest z slab fixed, top slab loaded in -z,\n"
+    "                  displacements and stresses requested)\n"
+    "  --order 2       .inp: second-order elements (C3D10 / C3D20, shared mid-edge nodes)\n"
+    "  --ascii         ASCII STL, PLY or legacy VTK instead of binary\n";
+
 int vm_cmd_convert(int argc, char **argv) {
-    (void)argc;
-    (void)argv;
-    return vm_cli_fail("convert: not built yet");
+    const char *in = NULL, *out = NULL;
+    vm_mesh_write_options o;
+    vm_mesh_write_options_init(&o);
+    vm_mesh_format in_fmt = VM_MESH_AUTO;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (vm_cli_is(a, "--help", "-h")) {
+            fputs(convert_help, stdout);
+            return VM_EXIT_OK;
+        }
+        int takes_value = strcmp(a, "--format") == 0 || strcmp(a, "--in-format") == 0 ||
+                          strcmp(a, "--deck") == 0 || strcmp(a, "--order") == 0;
+        if (takes_value && i + 1 >= argc) return vm_cli_fail("convert: %s needs a value", a);
+        if (strcmp(a, "--format") == 0 || strcmp(a, "--in-format") == 0) {
+            vm_mesh_format f = vm_mesh_format_parse(argv[++i]);
+            if (f == VM_MESH_AUTO)
+                return vm_cli_fail("%s: unknown format '%s' (vtu, vtk, inp, msh, msh2, mesh, "
+                                   "stl, off, ply, obj, exo)", a, argv[i]);
+            if (a[2] == 'f') o.format = f;
+            else in_fmt = f;
+        } else if (strcmp(a, "--deck") == 0) {
+            if (strcmp(argv[++i], "static") != 0)
+                return vm_cli_fail("--deck: unknown deck '%s' (static)", argv[i]);
+            o.deck = VM_DECK_STATIC;
+        } else if (strcmp(a, "--order") == 0) {
+            long v;
+            if (vm_cli_int(a, argv[++i], 1, 2, &v)) return VM_EXIT_INPUT;
+            o.order = (int)v;
+        } else if (strcmp(a, "--ascii") == 0) {
+            o.ascii = 1;
+        } else if (a[0] == '-' && a[1]) {
+            return vm_cli_fail("convert: unknown option %s (see volmesh convert --help)", a);
+        } else if (!in) {
+            in = a;
+        } else if (!out) {
+            out = a;
+        } else {
+            return vm_cli_fail("convert: one input and one output, not '%s' too", a);
+        }
+    }
+    if (!in || !out) return vm_cli_fail("convert: needs IN and OUT (see volmesh convert --help)");
+    vm_mesh_format of = o.format != VM_MESH_AUTO ? o.format : vm_mesh_format_of_path(out);
+    if (of == VM_MESH_AUTO)
+        return vm_cli_fail("%s: unknown output format (use a known extension or --format)", out);
+    if (in_fmt == VM_MESH_AUTO && vm_mesh_format_of_path(in) == VM_MESH_AUTO)
+        return vm_cli_fail("%s: unknown input format (use a known extension or --in-format)",
+                           in);
+    if (in_fmt == VM_MESH_EXODUS || (in_fmt == VM_MESH_AUTO &&
+                                     vm_mesh_format_of_path(in) == VM_MESH_EXODUS))
+        return vm_cli_fail("%s: volmesh writes Exodus II but does not read it", in);
+    /* Refuse option mismatches before reading a possibly large input. */
+    if (o.order == 2 && of != VM_MESH_INP)
+        return vm_cli_fail("--order 2: second-order elements are written to .inp only");
+    if (o.deck != VM_DECK_NONE && of != VM_MESH_INP)
+        return vm_cli_fail("--deck: an analysis deck needs an .inp output");
+    if (o.ascii && of != VM_MESH_STL && of != VM_MESH_PLY && of != VM_MESH_VTK)
+        return vm_cli_fail("--ascii applies to stl, ply and vtk output only");
+    vm_error err;
+    vm_error_clear(&err);
+    vm_mesh m;
+    if (vm_mesh_read_as(in, in_fmt, &m, &err)) return vm_cli_fail_err(&err);
+    vm_status s = vm_mesh_write_as(out, &m, &o, &err);
+    if (s) {
+        vm_mesh_free(&m);
+        return vm_cli_fail_err(&err);
+    }
+    printf("%s: %zu points, %zu %s cells -> %s (%s)\n", in, m.npoints, m.ncells,
+           vm_cell_kind_name(m.kind), out, vm_mesh_format_name(of));
+    vm_mesh_free(&m);
+    return VM_EXIT_OK;
 }

@@ -30,13 +30,136 @@ vm_status vm_volume_read_raw(const char *path, const vm_raw_options *opt, vm_vol
 /* Writes v as NRRD (attached data, float32 samples, little endian); gzip != 0 compresses. */
 vm_status vm_volume_write_nrrd(const char *path, const vm_volume *v, int gzip, vm_error *err);
 
-/* Mesh writing: format from the extension (.vtu; more formats as they land). */
+/* Mesh writing: format from the extension (.vtu .vtk .inp .msh .msh2 .mesh .stl .off .ply .obj
+ * .exo), with the default options of vm_mesh_write_as. */
 vm_status vm_mesh_write(const char *path, const vm_mesh *m, vm_error *err);
 vm_status vm_mesh_write_vtu(const char *path, const vm_mesh *m, int compress, vm_error *err);
 
 /* Mesh reading: format from the extension. [out] m, free with vm_mesh_free. */
 vm_status vm_mesh_read(const char *path, vm_mesh *m, vm_error *err);
 vm_status vm_mesh_read_vtu(const char *path, vm_mesh *m, vm_error *err);
+
+/* ---- Finite-element and surface mesh formats ------------------------------------------
+ *
+ * Every writer: node order converted to the format's own (positive volumes in its reader's
+ * convention), coordinates written losslessly (%.17g, or binary doubles; binary STL can only
+ * hold float32), output written to PATH.tmp-PID and renamed. Every reader: one-line errors
+ * "PATH: [line N: ]problem", sizes checked against the file before allocating; [out] m is a
+ * mesh to free with vm_mesh_free (left empty on error). Details per format in docs/FORMATS.md.
+ * Surface formats (STL, OFF, PLY, OBJ) given a tet4/hex8 mesh write its boundary
+ * (vm_mesh_boundary: outward faces, region of their cell). */
+
+typedef enum vm_mesh_format {
+    VM_MESH_AUTO = 0, /* from the file name */
+    VM_MESH_VTU,      /* .vtu  VTK XML UnstructuredGrid */
+    VM_MESH_VTK,      /* .vtk  legacy VTK UNSTRUCTURED_GRID */
+    VM_MESH_INP,      /* .inp  ABAQUS / CalculiX input deck */
+    VM_MESH_MSH,      /* .msh  Gmsh MSH 4.1 (ASCII) */
+    VM_MESH_MSH2,     /* .msh2 Gmsh MSH 2.2 (ASCII); reading .msh accepts either version */
+    VM_MESH_MEDIT,    /* .mesh MEDIT ASCII, MeshVersionFormatted 2 */
+    VM_MESH_STL,      /* .stl  triangles; binary by default */
+    VM_MESH_OFF,      /* .off  Geomview OFF */
+    VM_MESH_PLY,      /* .ply  binary little endian by default */
+    VM_MESH_OBJ,      /* .obj  Wavefront OBJ */
+    VM_MESH_EXODUS    /* .exo .e  Exodus II (write only; needs a build with libexodusii) */
+} vm_mesh_format;
+
+/* Analysis deck added to an .inp file. */
+typedef enum vm_deck_kind {
+    VM_DECK_NONE = 0,  /* mesh, sets, sections and material only */
+    VM_DECK_STATIC = 1 /* plus *STEP *STATIC: lowest z slab fixed, top slab loaded in -z */
+} vm_deck_kind;
+
+typedef struct vm_mesh_write_options {
+    vm_mesh_format format; /* VM_MESH_AUTO: from the extension */
+    int ascii;             /* 1: ASCII STL / PLY / VTK instead of binary (default 0) */
+    int order;             /* 1 (default) or 2: INP only, C3D10 (tet) / C3D20 (hex) with
+                              one shared mid-edge node per edge */
+    vm_deck_kind deck;     /* INP only (default VM_DECK_NONE) */
+    int compress;          /* VTU: zlib-compress arrays (default 1) */
+} vm_mesh_write_options;
+
+/* Fills o with the defaults above. [out] o. */
+void vm_mesh_write_options_init(vm_mesh_write_options *o);
+
+/* Format of a name as given to --format ("vtu", "vtk", "inp", "abaqus", "msh", "msh4",
+ * "msh2", "mesh", "medit", "stl", "off", "ply", "obj", "exo", "exodus"), or VM_MESH_AUTO
+ * when unknown. */
+vm_mesh_format vm_mesh_format_parse(const char *name);
+
+/* Format from the extension of path (case-insensitive), or VM_MESH_AUTO when unknown. */
+vm_mesh_format vm_mesh_format_of_path(const char *path);
+
+/* Short name of a format ("inp", "msh2", ...). Never NULL. */
+const char *vm_mesh_format_name(vm_mesh_format f);
+
+/* 1 when volmesh was built with Exodus II support. */
+int vm_exodus_available(void);
+
+/* Writes m in the format opt->format (or from the extension). opt may be NULL (defaults).
+ * An option that does not apply to the format (order 2 or a deck outside .inp) is
+ * VM_ERR_ARG. [in] m is not modified. */
+vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
+                           const vm_mesh_write_options *opt, vm_error *err);
+
+/* Reads path as format f (VM_MESH_AUTO: from the extension). */
+vm_status vm_mesh_read_as(const char *path, vm_mesh_format f, vm_mesh *m, vm_error *err);
+
+/* ABAQUS / CalculiX .inp. Writes *HEADING, *NODE, *ELEMENT (C3D4, C3D8, C3D10/C3D20 with
+ * order 2, S3, S4), per region r: *ELSET REGION_r, and for volume meshes *NSET NB_REGION_r
+ * (nodes of the region's boundary faces) and *SURFACE SURF_REGION_r, TYPE=ELEMENT (element,
+ * face S1..S6 in ABAQUS face numbering), a *SOLID SECTION (shells: *SHELL SECTION, thickness
+ * 1) with the placeholder material PLACEHOLDER_STEEL (E 210000, nu 0.3, density 7.85e-9);
+ * opt->deck adds the analysis step. opt may be NULL. Reading takes *NODE, *ELEMENT of types
+ * C3D4*, C3D8*, C3D10*, C3D20* (their corner nodes; nodes used only as mid-edge nodes are
+ * dropped), S3*, S4* (volume elements win over shells), region = r of the ELSET REGION_r
+ * holding the element, else the ordinal of the ELSET= named on its *ELEMENT line, else 0. */
+vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
+                            const vm_mesh_write_options *opt, vm_error *err);
+vm_status vm_mesh_read_inp(const char *path, vm_mesh *m, vm_error *err);
+
+/* Gmsh MSH, ASCII: version 41 (4.1) or 22 (2.2). One elementary entity and one physical
+ * group (named REGION_r) per region; physical tag = region when all regions are >= 1, else
+ * 1, 2, ... in region order. The reader takes versions 2.2, 4.0 and 4.1 ASCII: elements of
+ * the highest dimension present (tet4, hex8, tri3, quad4; lines and points are skipped),
+ * region from the physical name REGION_r, else the physical tag, else the entity tag. */
+vm_status vm_mesh_write_msh(const char *path, const vm_mesh *m, int version, vm_error *err);
+vm_status vm_mesh_read_msh(const char *path, vm_mesh *m, vm_error *err);
+
+/* MEDIT .mesh (ASCII): Vertices, then Tetrahedra / Hexahedra / Triangles / Quadrilaterals
+ * with reference = region. Reading also skips Edges, Corners, Ridges, Required* and normal
+ * sections; volume elements win over surface elements. */
+vm_status vm_mesh_write_medit(const char *path, const vm_mesh *m, vm_error *err);
+vm_status vm_mesh_read_medit(const char *path, vm_mesh *m, vm_error *err);
+
+/* Legacy VTK UNSTRUCTURED_GRID (.vtk), version 4.2 layout, ASCII or BINARY (big endian):
+ * POINTS double, CELLS, CELL_TYPES, CELL_DATA "region" (int) and the cell fields, POINT_DATA
+ * fields (FIELD arrays of doubles). The reader also takes the version 5.1 OFFSETS /
+ * CONNECTIVITY layout. */
+vm_status vm_mesh_write_vtk(const char *path, const vm_mesh *m, int ascii, vm_error *err);
+vm_status vm_mesh_read_vtk(const char *path, vm_mesh *m, vm_error *err);
+
+/* STL: binary (float32 coordinates; region in the 16-bit attribute when 0..65535) or ASCII
+ * (%.17g; one `solid REGION_r` per region). Quads are split in two triangles. The reader
+ * merges vertices with identical coordinates, in order of first appearance. */
+vm_status vm_mesh_write_stl(const char *path, const vm_mesh *m, int ascii, vm_error *err);
+vm_status vm_mesh_read_stl(const char *path, vm_mesh *m, vm_error *err);
+
+/* OFF: triangles and quads as polygons; no regions (the format has none: read as 0). */
+vm_status vm_mesh_write_off(const char *path, const vm_mesh *m, vm_error *err);
+vm_status vm_mesh_read_off(const char *path, vm_mesh *m, vm_error *err);
+
+/* PLY: binary_little_endian (double x y z; face list uchar int; int region) or ascii. */
+vm_status vm_mesh_write_ply(const char *path, const vm_mesh *m, int ascii, vm_error *err);
+vm_status vm_mesh_read_ply(const char *path, vm_mesh *m, vm_error *err);
+
+/* Wavefront OBJ: v and f lines, one `g REGION_r` group per region. */
+vm_status vm_mesh_write_obj(const char *path, const vm_mesh *m, vm_error *err);
+vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err);
+
+/* Exodus II (.exo): one element block per region (id = ordinal, name REGION_r), a side set
+ * of the boundary faces. VM_ERR_UNSUPPORTED when built without libexodusii. */
+vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err);
 
 #ifdef __cplusplus
 }

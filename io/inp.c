@@ -1,0 +1,878 @@
+/* io/inp.c — ABAQUS / CalculiX input decks (.inp): writer with element sets, boundary node
+ * sets and element-face surfaces per region, placeholder material and an optional static
+ * step; reader for the mesh part. Follows the Abaqus Keywords Reference (*NODE, *ELEMENT,
+ * *ELSET, *NSET, *SURFACE, *SOLID SECTION, *STEP, *STATIC, *BOUNDARY, *CLOAD) and the
+ * CalculiX CrunchiX User's Manual (element and face numbering as in Abaqus). */
+#include <ctype.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../core/core.h"
+#include "io_util.h"
+#include "mesh_util.h"
+#include "volmesh/volmesh.h"
+
+/* ======================================================================================= */
+/* Writer                                                                                   */
+/* ======================================================================================= */
+
+typedef struct edge_rec {
+    vm_index a, b; /* a < b */
+    uint64_t slot; /* cell * nedges + local edge */
+} edge_rec;
+
+static int cmp_edge(const void *x, const void *y) {
+    const edge_rec *p = x, *q = y;
+    if (p->a != q->a) return p->a < q->a ? -1 : 1;
+    if (p->b != q->b) return p->b < q->b ? -1 : 1;
+    return (p->slot > q->slot) - (p->slot < q->slot);
+}
+
+/* Mid-edge nodes for order 2: mid[cell*ne + e] = 0-based node number (after the corners);
+ * [out] *mid, *nmid (distinct edges). */
+static vm_status make_mid_nodes(const char *path, const vm_mesh *m, vm_index **mid,
+                                size_t *nmid, vm_error *err) {
+    int ne = m->kind == VM_TET4 ? 6 : 12;
+    const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
+    size_t nn = (size_t)vm_cell_nodes(m->kind), total, bytes;
+    *mid = NULL;
+    *nmid = 0;
+    if (!vm__mul_size(m->ncells, (size_t)ne, &total) ||
+        !vm__mul_size(total ? total : 1, sizeof(edge_rec), &bytes) ||
+        bytes > vm__memory_limit())
+        return vm_error_set(err, VM_ERR_NOMEM, "%s: too many edges", path);
+    edge_rec *e = malloc(bytes);
+    vm_index *out = malloc((total ? total : 1) * sizeof *out);
+    if (!e || !out) {
+        free(e);
+        free(out);
+        return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu edges", path, total);
+    }
+    for (size_t c = 0; c < m->ncells; c++)
+        for (int k = 0; k < ne; k++) {
+            vm_index a = m->cells[c * nn + (size_t)edges[k][0]];
+            vm_index b = m->cells[c * nn + (size_t)edges[k][1]];
+            edge_rec *r = &e[c * (size_t)ne + (size_t)k];
+            r->a = a < b ? a : b;
+            r->b = a < b ? b : a;
+            r->slot = (uint64_t)c * (uint64_t)ne + (uint64_t)k;
+        }
+    qsort(e, total, sizeof *e, cmp_edge);
+    size_t next = m->npoints;
+    for (size_t i = 0; i < total; i++) {
+        if (i > 0 && (e[i].a != e[i - 1].a || e[i].b != e[i - 1].b)) next++;
+        out[e[i].slot] = (vm_index)next;
+    }
+    *nmid = total ? next + 1 - m->npoints : 0;
+    free(e);
+    *mid = out;
+    return VM_OK;
+}
+
+/* Writes a list of ids, 16 per line (Abaqus data lines hold at most 16 entries). */
+static void write_id_list(FILE *fp, const int64_t *ids, size_t n) {
+    for (size_t i = 0; i < n; i++)
+        fprintf(fp, "%" PRId64 "%s", ids[i], (i % 16 == 15 || i + 1 == n) ? "\n" : ", ");
+}
+
+static int cmp_i64(const void *a, const void *b) {
+    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
+static size_t sort_unique(int64_t *v, size_t n) {
+    qsort(v, n, sizeof *v, cmp_i64);
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++)
+        if (k == 0 || v[k - 1] != v[i]) v[k++] = v[i];
+    return k;
+}
+
+/* Union-find over nodes, to treat each connected piece of the mesh in the static deck. */
+static size_t uf_find(size_t *parent, size_t x) {
+    while (parent[x] != x) {
+        parent[x] = parent[parent[x]];
+        x = parent[x];
+    }
+    return x;
+}
+
+typedef struct deck_sets {
+    int64_t *fixed, *loaded; /* node ids (1-based) */
+    size_t nfixed, nloaded;
+} deck_sets;
+
+/* Fixed set: nodes within 1% of the z extent above the lowest z. A piece of the mesh that
+ * does not reach that slab (or touches it at fewer than 3 nodes) gets its own lowest slab
+ * fixed instead, or all its nodes when even that has fewer than 3, so the system is never
+ * singular. Loaded set: nodes within 1% of the extent below the highest z. */
+static vm_status make_deck_sets(const char *path, const vm_mesh *m, const double *zs,
+                                const vm_index *mid, int nmid_per_cell, size_t nnodes,
+                                deck_sets *d, vm_error *err) {
+    size_t nn = (size_t)vm_cell_nodes(m->kind);
+    size_t *parent = malloc(nnodes * sizeof *parent);
+    unsigned char *used = calloc(nnodes, 1);
+    double *cmin = malloc(nnodes * sizeof *cmin);
+    size_t *cfix = calloc(nnodes, sizeof *cfix);
+    d->fixed = malloc(nnodes * sizeof *d->fixed);
+    d->loaded = malloc(nnodes * sizeof *d->loaded);
+    d->nfixed = d->nloaded = 0;
+    vm_status st = VM_OK;
+    if (!parent || !used || !cmin || !cfix || !d->fixed || !d->loaded) {
+        st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for the deck", path);
+        goto done;
+    }
+    for (size_t i = 0; i < nnodes; i++)
+        parent[i] = i;
+    for (size_t c = 0; c < m->ncells; c++) {
+        size_t r0 = uf_find(parent, (size_t)m->cells[c * nn]);
+        used[m->cells[c * nn]] = 1;
+        for (size_t k = 1; k < nn + (size_t)nmid_per_cell; k++) {
+            size_t v = k < nn ? (size_t)m->cells[c * nn + k]
+                              : (size_t)mid[c * (size_t)nmid_per_cell + (k - nn)];
+            used[v] = 1;
+            size_t r = uf_find(parent, v);
+            if (r != r0) parent[r] = r0;
+        }
+    }
+    double zmin = INFINITY, zmax = -INFINITY;
+    for (size_t i = 0; i < nnodes; i++)
+        if (used[i]) {
+            zmin = zs[i] < zmin ? zs[i] : zmin;
+            zmax = zs[i] > zmax ? zs[i] : zmax;
+        }
+    if (zmin > zmax) goto done; /* no cells */
+    double slab = 0.01 * (zmax - zmin);
+    for (size_t i = 0; i < nnodes; i++)
+        cmin[i] = INFINITY;
+    for (size_t i = 0; i < nnodes; i++)
+        if (used[i]) {
+            size_t r = uf_find(parent, i);
+            if (zs[i] < cmin[r]) cmin[r] = zs[i];
+            if (zs[i] <= zmin + slab) cfix[r]++;
+        }
+    /* cfix of a root: nodes in the global slab; pieces with < 3 use their own slab. */
+    for (size_t i = 0; i < nnodes; i++)
+        if (used[i]) {
+            size_t r = uf_find(parent, i);
+            if (cfix[r] >= 3 ? zs[i] <= zmin + slab : zs[i] <= cmin[r] + slab)
+                d->fixed[d->nfixed++] = (int64_t)i + 1;
+            if (zs[i] >= zmax - slab) d->loaded[d->nloaded++] = (int64_t)i + 1;
+        }
+    /* Pieces whose own slab still has < 3 nodes are clamped whole. */
+    for (size_t i = 0; i < nnodes; i++)
+        cfix[i] = 0;
+    for (size_t k = 0; k < d->nfixed; k++)
+        cfix[uf_find(parent, (size_t)(d->fixed[k] - 1))]++;
+    for (size_t i = 0; i < nnodes; i++)
+        if (used[i] && cfix[uf_find(parent, i)] < 3 && !(zs[i] <= zmin + slab) &&
+            !(zs[i] <= cmin[uf_find(parent, i)] + slab))
+            d->fixed[d->nfixed++] = (int64_t)i + 1;
+    d->nfixed = sort_unique(d->fixed, d->nfixed);
+done:
+    free(parent);
+    free(used);
+    free(cmin);
+    free(cfix);
+    return st;
+}
+
+vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
+                            const vm_mesh_write_options *opt, vm_error *err) {
+    vm_mesh_write_options def;
+    if (!opt) {
+        vm_mesh_write_options_init(&def);
+        opt = &def;
+    }
+    int volume = m->kind == VM_TET4 || m->kind == VM_HEX8;
+    int order2 = opt->order == 2;
+    if (vm_cell_nodes(m->kind) == 0)
+        return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
+                            (int)m->kind);
+    if (order2 && !volume)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "%s: second-order elements are written for tet4 and hex8 meshes, "
+                            "not %s", path, vm_cell_kind_name(m->kind));
+    vm_status st = vm__check_cells(path, m, err);
+    if (st) return st;
+    const char *etype = m->kind == VM_TET4   ? (order2 ? "C3D10" : "C3D4")
+                        : m->kind == VM_HEX8 ? (order2 ? "C3D20" : "C3D8")
+                        : m->kind == VM_TRI3 ? "S3"
+                                             : "S4";
+    size_t nn = (size_t)vm_cell_nodes(m->kind);
+    int ne = !order2 ? 0 : m->kind == VM_TET4 ? 6 : 12;
+    int nf = m->kind == VM_TET4 ? 4 : 6;
+    vm_index *mid = NULL;
+    size_t nmid = 0, nb = 0, nregions = 0;
+    uint64_t *bfaces = NULL;
+    int32_t *regions = NULL;
+    int64_t *ids = NULL;
+    double *zs = NULL;
+    deck_sets deck = {NULL, NULL, 0, 0};
+    vm_outfile o;
+    int opened = 0;
+    if (order2) {
+        st = make_mid_nodes(path, m, &mid, &nmid, err);
+        if (st) goto fail;
+    }
+    size_t nnodes = m->npoints + nmid;
+    if (volume) {
+        st = vm__boundary_faces(path, m, &bfaces, &nb, err);
+        if (st) goto fail;
+    }
+    st = vm__distinct_regions(path, m, &regions, &nregions, err);
+    if (st) goto fail;
+    /* room for every node once plus one face's ids (at most 8) before deduplicating */
+    size_t idcap = (m->ncells > nnodes ? m->ncells : nnodes) + 64;
+    ids = malloc((idcap ? idcap : 1) * sizeof *ids);
+    if (!ids) {
+        st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
+        goto fail;
+    }
+    if (opt->deck == VM_DECK_STATIC) {
+        zs = malloc((nnodes ? nnodes : 1) * sizeof *zs);
+        if (!zs) {
+            st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
+            goto fail;
+        }
+        for (size_t i = 0; i < m->npoints; i++)
+            zs[i] = m->points[3 * i + 2];
+        for (size_t c = 0; c < m->ncells && order2; c++)
+            for (int k = 0; k < ne; k++) {
+                const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
+                zs[mid[c * (size_t)ne + (size_t)k]] =
+                    0.5 * (m->points[3 * (size_t)m->cells[c * nn + (size_t)edges[k][0]] + 2] +
+                           m->points[3 * (size_t)m->cells[c * nn + (size_t)edges[k][1]] + 2]);
+            }
+        st = make_deck_sets(path, m, zs, mid, ne, nnodes, &deck, err);
+        if (st) goto fail;
+    }
+
+    st = vm__out_open(&o, path, err);
+    if (st) goto fail;
+    opened = 1;
+    FILE *fp = o.fp;
+    fprintf(fp, "*HEADING\nvolmesh %s mesh: %zu nodes, %zu %s elements, %zu regions\n",
+            vm_cell_kind_name(m->kind), nnodes, m->ncells, etype, nregions);
+    fprintf(fp, "** written by volmesh %s; node and element order as in the source mesh\n",
+            vm_version());
+    fprintf(fp, "*NODE, NSET=NALL\n");
+    for (size_t i = 0; i < m->npoints; i++) {
+        const double *p = m->points + 3 * i;
+        fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", i + 1, p[0], p[1], p[2]);
+    }
+    if (order2) {
+        /* Straight-sided: each mid-edge node at the middle of its edge, in id order. */
+        const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
+        size_t *slot_of = malloc((nmid ? nmid : 1) * sizeof *slot_of);
+        if (!slot_of) {
+            st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
+            goto fail;
+        }
+        for (size_t sl = 0; sl < m->ncells * (size_t)ne; sl++)
+            slot_of[(size_t)mid[sl] - m->npoints] = sl;
+        for (size_t i = 0; i < nmid; i++) {
+            size_t c = slot_of[i] / (size_t)ne;
+            int k = (int)(slot_of[i] % (size_t)ne);
+            const double *a = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][0]];
+            const double *b = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][1]];
+            fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", m->npoints + i + 1, 0.5 * (a[0] + b[0]),
+                    0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]));
+        }
+        free(slot_of);
+    }
+    /* The corner order of C3D4/C3D8/S3/S4 (and the edge order of C3D10/C3D20) is VTK's. */
+    fprintf(fp, "*ELEMENT, TYPE=%s, ELSET=EALL\n", etype);
+    for (size_t c = 0; c < m->ncells; c++) {
+        fprintf(fp, "%zu", c + 1);
+        for (size_t k = 0; k < nn; k++)
+            fprintf(fp, ", %lld", (long long)m->cells[c * nn + k] + 1);
+        for (int k = 0; k < ne; k++) {
+            /* C3D20 takes 15 entries on the first line, the rest on a continuation line. */
+            if (ne == 12 && k == 7) fprintf(fp, ",\n");
+            fprintf(fp, k == 7 && ne == 12 ? "%lld" : ", %lld",
+                    (long long)mid[c * (size_t)ne + (size_t)k] + 1);
+        }
+        fputc('\n', fp);
+    }
+    for (size_t r = 0; r < nregions; r++) {
+        char name[32];
+        vm__region_name(regions[r], name, sizeof name);
+        size_t n = 0;
+        for (size_t c = 0; c < m->ncells; c++)
+            if (m->region[c] == regions[r]) ids[n++] = (int64_t)c + 1;
+        fprintf(fp, "*ELSET, ELSET=%s\n", name);
+        write_id_list(fp, ids, n);
+    }
+    if (volume) {
+        int fk = m->kind == VM_TET4 ? 3 : 4;
+        for (size_t r = 0; r < nregions; r++) {
+            char name[32];
+            vm__region_name(regions[r], name, sizeof name);
+            size_t n = 0;
+            for (size_t i = 0; i < nb; i++) {
+                size_t c = (size_t)(bfaces[i] / (uint64_t)nf);
+                int f = (int)(bfaces[i] % (uint64_t)nf);
+                if (m->region[c] != regions[r]) continue;
+                if (n + 16 > idcap) n = sort_unique(ids, n);
+                for (int j = 0; j < fk; j++) {
+                    int a = fk == 3 ? vm__tet_faces[f][j] : vm__hex_faces[f][j];
+                    int b = fk == 3 ? vm__tet_faces[f][(j + 1) % 3] : vm__hex_faces[f][(j + 1) % 4];
+                    ids[n++] = (int64_t)m->cells[c * nn + (size_t)a] + 1;
+                    if (!order2) continue;
+                    const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
+                    for (int k = 0; k < ne; k++)
+                        if ((edges[k][0] == a && edges[k][1] == b) ||
+                            (edges[k][0] == b && edges[k][1] == a))
+                            ids[n++] = (int64_t)mid[c * (size_t)ne + (size_t)k] + 1;
+                }
+            }
+            n = sort_unique(ids, n);
+            if (n == 0) continue;
+            fprintf(fp, "*NSET, NSET=NB_%s\n", name);
+            write_id_list(fp, ids, n);
+        }
+        for (size_t r = 0; r < nregions; r++) {
+            char name[32];
+            vm__region_name(regions[r], name, sizeof name);
+            int any = 0;
+            for (size_t i = 0; i < nb; i++) {
+                size_t c = (size_t)(bfaces[i] / (uint64_t)nf);
+                if (m->region[c] != regions[r]) continue;
+                if (!any) fprintf(fp, "*SURFACE, NAME=SURF_%s, TYPE=ELEMENT\n", name);
+                any = 1;
+                fprintf(fp, "%zu, S%d\n", c + 1, (int)(bfaces[i] % (uint64_t)nf) + 1);
+            }
+        }
+    }
+    fprintf(fp, "** placeholder material (steel-like, units N, mm, t): replace with yours\n"
+                "*MATERIAL, NAME=PLACEHOLDER_STEEL\n*ELASTIC\n210000, 0.3\n"
+                "*DENSITY\n7.85e-09\n");
+    for (size_t r = 0; r < nregions; r++) {
+        char name[32];
+        vm__region_name(regions[r], name, sizeof name);
+        if (volume)
+            fprintf(fp, "*SOLID SECTION, ELSET=%s, MATERIAL=PLACEHOLDER_STEEL\n", name);
+        else
+            fprintf(fp, "*SHELL SECTION, ELSET=%s, MATERIAL=PLACEHOLDER_STEEL\n1.0\n", name);
+    }
+    if (opt->deck == VM_DECK_STATIC && deck.nfixed > 0 && deck.nloaded > 0) {
+        fprintf(fp, "** static deck: nodes of the lowest z slab (1%% of the z extent) fixed,\n"
+                    "** a total force of 100 in -z spread over the nodes of the top slab\n");
+        fprintf(fp, "*NSET, NSET=FIXED\n");
+        write_id_list(fp, deck.fixed, deck.nfixed);
+        fprintf(fp, "*NSET, NSET=LOADED\n");
+        write_id_list(fp, deck.loaded, deck.nloaded);
+        fprintf(fp, "*STEP\n*STATIC\n*BOUNDARY\nFIXED, 1, 3\n*CLOAD\nLOADED, 3, %.17g\n",
+                -100.0 / (double)deck.nloaded);
+        fprintf(fp, "*NODE FILE\nU\n*EL FILE\nS\n*NODE PRINT, NSET=LOADED\nU\n*END STEP\n");
+    } else if (opt->deck == VM_DECK_STATIC) {
+        vm__out_abort(&o);
+        opened = 0;
+        st = vm_error_set(err, VM_ERR_EMPTY, "%s: the mesh has no elements to load", path);
+        goto fail;
+    }
+    opened = 0;
+    st = vm__out_commit(&o, err);
+fail:
+    if (opened) vm__out_abort(&o);
+    free(mid);
+    free(bfaces);
+    free(regions);
+    free(ids);
+    free(zs);
+    free(deck.fixed);
+    free(deck.loaded);
+    return st;
+}
+
+/* ======================================================================================= */
+/* Reader                                                                                   */
+/* ======================================================================================= */
+
+enum { EK_NONE, EK_TET, EK_HEX, EK_TRI, EK_QUAD };
+
+typedef struct inp_elem {
+    int64_t id;
+    int kind;
+    int32_t ordinal; /* of the ELSET= named on its *ELEMENT line, 0 if none */
+    int64_t nodes[8];
+} inp_elem;
+
+typedef struct inp_reader {
+    vm__cursor c;
+    vm_mesh *m;
+    vm__idmap nodes;
+    inp_elem *el;
+    size_t nel, capel;
+    int64_t *mid; /* node ids used as mid-edge nodes */
+    size_t nmid, capmid;
+    vm__idmap regions; /* element id -> region, from ELSET REGION_r */
+    char (*elset_names)[81];
+    size_t nelset_names, capnames;
+} inp_reader;
+
+/* Parameter value of key in a keyword line ("*ELEMENT, TYPE=C3D4, ELSET=X"), copied to out
+ * (upper-cased, trimmed). Returns 1 when present. */
+static int kw_param(const char *line, size_t len, const char *key, char *out, size_t cap) {
+    size_t kl = strlen(key);
+    const char *p = memchr(line, ',', len), *end = line + len;
+    while (p && p < end) {
+        p++;
+        while (p < end && isspace((unsigned char)*p))
+            p++;
+        const char *q = p;
+        while (q < end && *q != ',' && *q != '=')
+            q++;
+        const char *ke = q;
+        while (ke > p && isspace((unsigned char)ke[-1]))
+            ke--;
+        if ((size_t)(ke - p) == kl && vm__tok_is(p, kl, key)) {
+            size_t n = 0;
+            if (q < end && *q == '=') {
+                q++;
+                while (q < end && isspace((unsigned char)*q))
+                    q++;
+                while (q < end && *q != ',' && n + 1 < cap)
+                    out[n++] = (char)toupper((unsigned char)*q++);
+                while (n > 0 && isspace((unsigned char)out[n - 1]))
+                    n--;
+            }
+            out[n] = 0;
+            return 1;
+        }
+        p = memchr(q, ',', (size_t)(end - q));
+    }
+    return 0;
+}
+
+/* The keyword of a line starting with '*': upper-cased, spaces removed, up to ','. */
+static void kw_name(const char *line, size_t len, char *out, size_t cap) {
+    size_t n = 0;
+    for (size_t i = 1; i < len && line[i] != ',' && n + 1 < cap; i++)
+        if (!isspace((unsigned char)line[i])) out[n++] = (char)toupper((unsigned char)line[i]);
+    out[n] = 0;
+}
+
+/* Splits a data line into comma-separated fields; numbers only. Returns the count, or -1
+ * when a field is not an integer (for id lists) — *bad points at it. */
+static int split_ints(const char *s, size_t len, int64_t *out, int max, const char **bad,
+                      size_t *badlen) {
+    int n = 0;
+    const char *p = s, *end = s + len;
+    while (p < end) {
+        const char *q = memchr(p, ',', (size_t)(end - p));
+        const char *fe = q ? q : end;
+        const char *a = p, *b = fe;
+        while (a < b && isspace((unsigned char)*a))
+            a++;
+        while (b > a && isspace((unsigned char)b[-1]))
+            b--;
+        if (a < b) {
+            if (n == max || !vm__parse_int_tok(a, (size_t)(b - a), &out[n])) {
+                *bad = a;
+                *badlen = (size_t)(b - a);
+                return -1;
+            }
+            n++;
+        }
+        p = q ? q + 1 : end;
+    }
+    return n;
+}
+
+static int elem_kind(const char *type, int *nodes, int *corners) {
+    /* C3D4, C3D4H, C3D10, C3D10M, C3D8R, C3D20R, S3, S3R, S4R, ... */
+    if (strncmp(type, "C3D", 3) == 0) {
+        const char *q = type + 3;
+        int n = 0;
+        while (isdigit((unsigned char)*q))
+            n = n * 10 + (*q++ - '0');
+        if (n == 4 || n == 10) {
+            *nodes = n;
+            *corners = 4;
+            return EK_TET;
+        }
+        if (n == 8 || n == 20) {
+            *nodes = n;
+            *corners = 8;
+            return EK_HEX;
+        }
+        return EK_NONE;
+    }
+    if (type[0] == 'S' && (type[1] == '3' || type[1] == '4') && !isdigit((unsigned char)type[2])) {
+        *nodes = *corners = type[1] - '0';
+        return type[1] == '3' ? EK_TRI : EK_QUAD;
+    }
+    if (strcmp(type, "STRI3") == 0) {
+        *nodes = *corners = 3;
+        return EK_TRI;
+    }
+    return EK_NONE;
+}
+
+static vm_status read_nodes(inp_reader *r) {
+    const char *s;
+    size_t len;
+    for (;;) {
+        const char *save = r->c.p;
+        if (!vm__cur_line(&r->c, &s, &len)) return VM_OK;
+        size_t k = 0;
+        while (k < len && isspace((unsigned char)s[k]))
+            k++;
+        if (k == len) continue;
+        if (s[k] == '*') {
+            if (k + 1 < len && s[k + 1] == '*') continue;
+            r->c.p = save;
+            return VM_OK;
+        }
+        /* id, x, y[, z] */
+        double v[4] = {0, 0, 0, 0};
+        int n = 0;
+        const char *p = s, *end = s + len;
+        int64_t id = 0;
+        while (p < end && n <= 4) {
+            const char *q = memchr(p, ',', (size_t)(end - p));
+            const char *a = p, *b = q ? q : end;
+            while (a < b && isspace((unsigned char)*a))
+                a++;
+            while (b > a && isspace((unsigned char)b[-1]))
+                b--;
+            int ok = n == 0 ? vm__parse_int_tok(a, (size_t)(b - a), &id)
+                            : vm__parse_double_tok(a, (size_t)(b - a), &v[n - 1]);
+            if (a < b || n == 0) {
+                if (!ok) {
+                    r->c.p = save;
+                    return vm__cur_fail(&r->c, VM_ERR_FORMAT, "bad node line \"%.*s\"",
+                                        (int)(len > 60 ? 60 : len), s);
+                }
+                n++;
+            }
+            p = q ? q + 1 : end;
+            if (n == 4) break;
+        }
+        if (n < 3) {
+            r->c.p = save;
+            return vm__cur_fail(&r->c, VM_ERR_FORMAT, "node line needs an id and coordinates");
+        }
+        vm_index ix = vm_mesh_add_point(r->m, v, r->c.err);
+        if (ix < 0) return vm__cur_fail(&r->c, VM_ERR_NOMEM, "out of memory for nodes");
+        vm_status st = vm__idmap_add(&r->nodes, id, ix, r->c.err);
+        if (st) return vm__cur_fail(&r->c, st, "out of memory for nodes");
+    }
+}
+
+static vm_status read_elements(inp_reader *r, int kind, int nodes, int corners, int32_t ordinal) {
+    int64_t vals[40];
+    int have = 0;
+    const char *s;
+    size_t len;
+    for (;;) {
+        const char *save = r->c.p;
+        if (!vm__cur_line(&r->c, &s, &len)) break;
+        size_t k = 0;
+        while (k < len && isspace((unsigned char)s[k]))
+            k++;
+        if (k == len) continue;
+        if (s[k] == '*') {
+            if (k + 1 < len && s[k + 1] == '*') continue;
+            r->c.p = save;
+            break;
+        }
+        const char *bad = NULL;
+        size_t badlen = 0;
+        int n = split_ints(s, len, vals + have, 40 - have, &bad, &badlen);
+        if (n < 0) {
+            r->c.p = save;
+            return vm__cur_fail(&r->c, VM_ERR_FORMAT, "bad element entry \"%.*s\"",
+                                (int)(badlen > 40 ? 40 : badlen), bad);
+        }
+        have += n;
+        if (have < nodes + 1) continue; /* continuation line follows */
+        if (have > nodes + 1) {
+            r->c.p = save;
+            return vm__cur_fail(&r->c, VM_ERR_FORMAT, "element has %d nodes, its type has %d",
+                                have - 1, nodes);
+        }
+        if (r->nel == r->capel) {
+            vm_status st = vm__grow((void **)&r->el, &r->capel, r->nel + 1, sizeof *r->el,
+                                    r->c.err);
+            if (st) return vm__cur_fail(&r->c, st, "out of memory for elements");
+        }
+        inp_elem *e = &r->el[r->nel++];
+        memset(e, 0, sizeof *e);
+        e->id = vals[0];
+        e->kind = kind;
+        e->ordinal = ordinal;
+        memcpy(e->nodes, vals + 1, (size_t)corners * sizeof(int64_t));
+        if (nodes > corners) {
+            vm_status st = vm__grow((void **)&r->mid, &r->capmid, r->nmid + (size_t)nodes,
+                                    sizeof(int64_t), r->c.err);
+            if (st) return vm__cur_fail(&r->c, st, "out of memory for elements");
+            memcpy(r->mid + r->nmid, vals + 1 + corners,
+                   (size_t)(nodes - corners) * sizeof(int64_t));
+            r->nmid += (size_t)(nodes - corners);
+        }
+        have = 0;
+    }
+    if (have)
+        return vm__cur_fail(&r->c, VM_ERR_FORMAT, "last element has %d of %d nodes", have - 1,
+                            nodes);
+    return VM_OK;
+}
+
+static vm_status read_elset(inp_reader *r, int32_t region, int is_region, int generate) {
+    const char *s;
+    size_t len;
+    for (;;) {
+        const char *save = r->c.p;
+        if (!vm__cur_line(&r->c, &s, &len)) return VM_OK;
+        size_t k = 0;
+        while (k < len && isspace((unsigned char)s[k]))
+            k++;
+        if (k == len) continue;
+        if (s[k] == '*') {
+            if (k + 1 < len && s[k + 1] == '*') continue;
+            r->c.p = save;
+            return VM_OK;
+        }
+        if (!is_region) continue;
+        int64_t v[16];
+        const char *bad = NULL;
+        size_t badlen = 0;
+        int n = split_ints(s, len, v, 16, &bad, &badlen);
+        if (n < 0) {
+            r->c.p = save;
+            return vm__cur_fail(&r->c, VM_ERR_UNSUPPORTED,
+                                "element set entry \"%.*s\" is not an element number",
+                                (int)(badlen > 40 ? 40 : badlen), bad);
+        }
+        if (generate) {
+            if (n < 2 || n > 3 || (n == 3 && v[2] <= 0) || v[1] < v[0] ||
+                (uint64_t)(v[1] - v[0]) / (uint64_t)(n == 3 ? v[2] : 1) > 100000000u) {
+                r->c.p = save;
+                return vm__cur_fail(&r->c, VM_ERR_FORMAT, "bad GENERATE range");
+            }
+            int64_t step = n == 3 ? v[2] : 1;
+            for (int64_t id = v[0]; id <= v[1]; id += step) {
+                vm_status st = vm__idmap_add(&r->regions, id, (vm_index)region, r->c.err);
+                if (st) return vm__cur_fail(&r->c, st, "out of memory for element sets");
+                if (id > INT64_MAX - step) break;
+            }
+            continue;
+        }
+        for (int i = 0; i < n; i++) {
+            vm_status st = vm__idmap_add(&r->regions, v[i], (vm_index)region, r->c.err);
+            if (st) return vm__cur_fail(&r->c, st, "out of memory for element sets");
+        }
+    }
+}
+
+static vm_status skip_data(inp_reader *r) {
+    const char *s;
+    size_t len;
+    for (;;) {
+        const char *save = r->c.p;
+        if (!vm__cur_line(&r->c, &s, &len)) return VM_OK;
+        size_t k = 0;
+        while (k < len && isspace((unsigned char)s[k]))
+            k++;
+        if (k < len && s[k] == '*' && !(k + 1 < len && s[k + 1] == '*')) {
+            r->c.p = save;
+            return VM_OK;
+        }
+    }
+}
+
+static int32_t elset_ordinal(inp_reader *r, const char *name, vm_status *st) {
+    for (size_t i = 0; i < r->nelset_names; i++)
+        if (strcmp(r->elset_names[i], name) == 0) return (int32_t)i + 1;
+    *st = vm__grow((void **)&r->elset_names, &r->capnames, r->nelset_names + 1,
+                   sizeof *r->elset_names, r->c.err);
+    if (*st) return 0;
+    snprintf(r->elset_names[r->nelset_names], sizeof r->elset_names[0], "%s", name);
+    return (int32_t)++r->nelset_names;
+}
+
+static vm_status build_mesh(inp_reader *r) {
+    const char *path = r->c.path;
+    vm_mesh *m = r->m;
+    int have[5] = {0, 0, 0, 0, 0};
+    for (size_t i = 0; i < r->nel; i++)
+        have[r->el[i].kind]++;
+    int kind = have[EK_TET] || have[EK_HEX] ? (have[EK_TET] ? EK_TET : EK_HEX)
+                                              : (have[EK_TRI] ? EK_TRI : EK_QUAD);
+    if (have[EK_TET] && have[EK_HEX])
+        return vm_error_set(r->c.err, VM_ERR_UNSUPPORTED,
+                            "%s: mixes tetrahedra and hexahedra (one element kind per mesh)",
+                            path);
+    if (r->nel == 0)
+        return vm_error_set(r->c.err, VM_ERR_FORMAT, "%s: no *ELEMENT of a supported type",
+                            path);
+    int64_t dup = 0;
+    if (!vm__idmap_finish(&r->nodes, &dup))
+        return vm_error_set(r->c.err, VM_ERR_FORMAT, "%s: node %" PRId64 " is defined twice",
+                            path, dup);
+    if (!vm__idmap_finish(&r->regions, &dup))
+        return vm_error_set(r->c.err, VM_ERR_FORMAT,
+                            "%s: element %" PRId64 " is in two REGION_ element sets", path, dup);
+    int shells_mixed = kind >= EK_TRI && have[EK_TRI] && have[EK_QUAD];
+    m->kind = kind == EK_TET ? VM_TET4 : kind == EK_HEX ? VM_HEX8
+              : kind == EK_TRI ? VM_TRI3 : VM_QUAD4;
+    int corners = kind == EK_TET || kind == EK_QUAD ? 4 : kind == EK_HEX ? 8 : 3;
+    vm__polys polys;
+    memset(&polys, 0, sizeof polys);
+    int use_regions = r->regions.n > 0;
+    for (size_t i = 0; i < r->nel; i++) {
+        const inp_elem *e = &r->el[i];
+        if (!(e->kind == kind || (shells_mixed && e->kind >= EK_TRI))) continue;
+        vm_index v[8];
+        int nc = shells_mixed ? (e->kind == EK_TRI ? 3 : 4) : corners;
+        for (int k = 0; k < nc; k++) {
+            v[k] = vm__idmap_find(&r->nodes, e->nodes[k]);
+            if (v[k] < 0) {
+                vm__polys_free(&polys);
+                return vm_error_set(r->c.err, VM_ERR_FORMAT,
+                                    "%s: element %" PRId64 " uses undefined node %" PRId64,
+                                    path, e->id, e->nodes[k]);
+            }
+        }
+        int32_t region = e->ordinal;
+        if (use_regions) {
+            /* Binary search by hand: -1 is a valid region id, not "absent". */
+            size_t lo = 0, hi = r->regions.n;
+            while (lo < hi) {
+                size_t md = lo + (hi - lo) / 2;
+                if (r->regions.ids[md] < e->id)
+                    lo = md + 1;
+                else
+                    hi = md;
+            }
+            region = lo < r->regions.n && r->regions.ids[lo] == e->id
+                         ? (int32_t)r->regions.index[lo] : 0;
+        }
+        vm_status st = shells_mixed ? vm__polys_add(&polys, v, nc, region, r->c.err)
+                                    : vm_mesh_add_cell(m, v, region, r->c.err);
+        if (st) {
+            vm__polys_free(&polys);
+            return vm_error_set(r->c.err, st, "%s: out of memory for elements", path);
+        }
+    }
+    if (shells_mixed) {
+        vm_status st = vm__polys_finish(path, &polys, m, r->c.err);
+        if (st) return st;
+    }
+    /* Drop nodes that serve only as mid-edge nodes of second-order elements. */
+    if (r->nmid) {
+        unsigned char *keep = calloc(m->npoints ? m->npoints : 1, 1);
+        vm_index *map = malloc((m->npoints ? m->npoints : 1) * sizeof *map);
+        if (!keep || !map) {
+            free(keep);
+            free(map);
+            return vm_error_set(r->c.err, VM_ERR_NOMEM, "%s: out of memory", path);
+        }
+        for (size_t i = 0; i < m->npoints; i++)
+            keep[i] = 1;
+        for (size_t i = 0; i < r->nmid; i++) {
+            vm_index ix = vm__idmap_find(&r->nodes, r->mid[i]);
+            if (ix >= 0) keep[ix] = 0;
+        }
+        size_t nn = (size_t)vm_cell_nodes(m->kind);
+        for (size_t i = 0; i < m->ncells * nn; i++)
+            keep[m->cells[i]] = 1;
+        size_t np = 0;
+        for (size_t i = 0; i < m->npoints; i++) {
+            map[i] = keep[i] ? (vm_index)np : -1;
+            if (keep[i]) {
+                memmove(m->points + 3 * np, m->points + 3 * i, 3 * sizeof(double));
+                np++;
+            }
+        }
+        m->npoints = np;
+        for (size_t i = 0; i < m->ncells * nn; i++)
+            m->cells[i] = map[m->cells[i]];
+        free(keep);
+        free(map);
+    }
+    return VM_OK;
+}
+
+vm_status vm_mesh_read_inp(const char *path, vm_mesh *m, vm_error *err) {
+    vm_mesh_init(m, VM_TET4);
+    unsigned char *buf = NULL;
+    size_t len = 0;
+    vm_status st = vm__read_file(path, VM__MESH_MAX_FILE, &buf, &len, err);
+    if (st) return st;
+    inp_reader r;
+    memset(&r, 0, sizeof r);
+    r.m = m;
+    vm__cur_init(&r.c, path, buf, len, 0, err);
+    int seen_keyword = 0;
+    const char *s;
+    size_t n;
+    while (!st) {
+        const char *save = r.c.p;
+        if (!vm__cur_line(&r.c, &s, &n)) break;
+        size_t k = 0;
+        while (k < n && isspace((unsigned char)s[k]))
+            k++;
+        if (k == n) continue;
+        s += k;
+        n -= k;
+        if (n >= 2 && s[0] == '*' && s[1] == '*') continue;
+        if (s[0] != '*') {
+            r.c.p = save;
+            st = vm__cur_fail(&r.c, VM_ERR_FORMAT, seen_keyword ? "data line outside a keyword"
+                                                                : "not an Abaqus input file "
+                                                                  "(no *keyword line first)");
+            break;
+        }
+        seen_keyword = 1;
+        char kw[40], val[96];
+        kw_name(s, n, kw, sizeof kw);
+        if (strcmp(kw, "NODE") == 0) {
+            if (kw_param(s, n, "SYSTEM", val, sizeof val) && strcmp(val, "R") != 0) {
+                r.c.p = save;
+                st = vm__cur_fail(&r.c, VM_ERR_UNSUPPORTED, "*NODE, SYSTEM=%s is not supported",
+                                  val);
+                break;
+            }
+            st = read_nodes(&r);
+        } else if (strcmp(kw, "ELEMENT") == 0) {
+            char type[40] = "";
+            kw_param(s, n, "TYPE", type, sizeof type);
+            int nodes = 0, corners = 0, ek = elem_kind(type, &nodes, &corners);
+            if (ek == EK_NONE) {
+                st = skip_data(&r); /* beams, springs, masses, ... are not mesh cells */
+                continue;
+            }
+            int32_t ordinal = 0;
+            if (kw_param(s, n, "ELSET", val, sizeof val)) {
+                ordinal = elset_ordinal(&r, val, &st);
+                if (st) break;
+            }
+            st = read_elements(&r, ek, nodes, corners, ordinal);
+        } else if (strcmp(kw, "ELSET") == 0) {
+            int32_t region = 0;
+            int is_region = kw_param(s, n, "ELSET", val, sizeof val) &&
+                            vm__region_parse(val, strlen(val), &region);
+            st = read_elset(&r, region, is_region, kw_param(s, n, "GENERATE", val, sizeof val));
+        } else if (strcmp(kw, "INCLUDE") == 0) {
+            r.c.p = save;
+            st = vm__cur_fail(&r.c, VM_ERR_UNSUPPORTED,
+                              "*INCLUDE is not supported (merge the included file first)");
+        } else {
+            st = skip_data(&r);
+        }
+    }
+    if (!st) st = build_mesh(&r);
+    vm__idmap_free(&r.nodes);
+    vm__idmap_free(&r.regions);
+    free(r.el);
+    free(r.mid);
+    free(r.elset_names);
+    free(buf);
+    if (st) vm_mesh_free(m);
+    return st;
+}

@@ -1,0 +1,596 @@
+/* io/mesh_util.c — shared pieces of the mesh format readers and writers: text cursor,
+ * id maps, exact point merging, boundary faces with element/face ids (ABAQUS face numbering,
+ * "Abaqus Analysis User's Guide", 28.1.4 three-dimensional solid element library). */
+#include "mesh_util.h"
+#include <ctype.h>
+#include <errno.h>
+#include <inttypes.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../core/core.h"
+#include "volmesh/quality.h"
+
+/* --- text cursor ------------------------------------------------------------------------- */
+
+void vm__cur_init(vm__cursor *c, const char *path, const void *buf, size_t len, char comment,
+                  vm_error *err) {
+    c->path = path;
+    c->start = c->p = (const char *)buf;
+    c->end = c->start + len;
+    c->comment = comment;
+    c->err = err;
+}
+
+vm_status vm__cur_fail(const vm__cursor *c, vm_status status, const char *fmt, ...) {
+    size_t line = 1;
+    for (const char *q = c->start; q < c->p && q < c->end; q++)
+        if (*q == '\n') line++;
+    char msg[400];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return vm_error_set(c->err, status, "%s: line %zu: %s", c->path, line, msg);
+}
+
+static int is_ws(int ch) {
+    return ch == ' ' || ch == '\t' || ch == '\n' || ch == '\r' || ch == '\f' || ch == '\v';
+}
+
+static void skip_ws(vm__cursor *c) {
+    while (c->p < c->end) {
+        if (is_ws((unsigned char)*c->p)) {
+            c->p++;
+        } else if (c->comment && *c->p == c->comment) {
+            while (c->p < c->end && *c->p != '\n')
+                c->p++;
+        } else {
+            break;
+        }
+    }
+}
+
+int vm__cur_more(vm__cursor *c) {
+    skip_ws(c);
+    return c->p < c->end;
+}
+
+size_t vm__cur_left(const vm__cursor *c) {
+    return (size_t)(c->end - c->p);
+}
+
+int vm__cur_token(vm__cursor *c, const char **tok, size_t *len) {
+    skip_ws(c);
+    if (c->p >= c->end) return 0;
+    const char *s = c->p;
+    while (c->p < c->end && !is_ws((unsigned char)*c->p) &&
+           !(c->comment && *c->p == c->comment))
+        c->p++;
+    *tok = s;
+    *len = (size_t)(c->p - s);
+    return 1;
+}
+
+int vm__cur_line(vm__cursor *c, const char **s, size_t *len) {
+    if (c->p >= c->end) return 0;
+    const char *b = c->p;
+    const char *nl = memchr(b, '\n', (size_t)(c->end - b));
+    const char *e = nl ? nl : c->end;
+    c->p = nl ? nl + 1 : c->end;
+    if (e > b && e[-1] == '\r') e--;
+    *s = b;
+    *len = (size_t)(e - b);
+    return 1;
+}
+
+int vm__tok_is(const char *tok, size_t len, const char *word) {
+    size_t n = strlen(word);
+    if (n != len) return 0;
+    for (size_t i = 0; i < n; i++)
+        if (tolower((unsigned char)tok[i]) != tolower((unsigned char)word[i])) return 0;
+    return 1;
+}
+
+int vm__parse_int_tok(const char *tok, size_t len, int64_t *v) {
+    char b[32];
+    if (len == 0 || len >= sizeof b) return 0;
+    memcpy(b, tok, len);
+    b[len] = 0;
+    const char *q = b;
+    if (*q == '+' || *q == '-') q++;
+    if (!isdigit((unsigned char)*q)) return 0;
+    char *e;
+    errno = 0;
+    long long x = strtoll(b, &e, 10);
+    if (errno || *e) return 0;
+    *v = (int64_t)x;
+    return 1;
+}
+
+int vm__parse_double_tok(const char *tok, size_t len, double *v) {
+    char b[80];
+    if (len == 0 || len >= sizeof b) return 0;
+    memcpy(b, tok, len);
+    b[len] = 0;
+    /* Fortran-style exponents (1.5D+02) appear in decks written by older codes. */
+    for (size_t i = 0; i < len; i++)
+        if (b[i] == 'd' || b[i] == 'D') b[i] = 'e';
+    char *e;
+    errno = 0;
+    double x = strtod(b, &e);
+    if (e == b || *e || errno == ERANGE || x != x || x > 1.7976931348623157e308 ||
+        x < -1.7976931348623157e308)
+        return 0;
+    *v = x;
+    return 1;
+}
+
+vm_status vm__cur_int(vm__cursor *c, int64_t lo, int64_t hi, const char *what, int64_t *v) {
+    const char *t;
+    size_t n;
+    if (!vm__cur_token(c, &t, &n))
+        return vm__cur_fail(c, VM_ERR_FORMAT, "file ends where %s was expected", what);
+    if (!vm__parse_int_tok(t, n, v) || *v < lo || *v > hi)
+        return vm__cur_fail(c, VM_ERR_FORMAT, "bad %s \"%.*s\"", what, (int)(n > 40 ? 40 : n),
+                            t);
+    return VM_OK;
+}
+
+vm_status vm__cur_double(vm__cursor *c, const char *what, double *v) {
+    const char *t;
+    size_t n;
+    if (!vm__cur_token(c, &t, &n))
+        return vm__cur_fail(c, VM_ERR_FORMAT, "file ends where %s was expected", what);
+    if (!vm__parse_double_tok(t, n, v))
+        return vm__cur_fail(c, VM_ERR_FORMAT, "bad %s \"%.*s\"", what, (int)(n > 40 ? 40 : n),
+                            t);
+    return VM_OK;
+}
+
+vm_status vm__check_count(const vm__cursor *c, uint64_t count, size_t min_bytes,
+                          const char *what) {
+    uint64_t left = vm__cur_left(c);
+    if (min_bytes && count > left / min_bytes + 1)
+        return vm__cur_fail(c, VM_ERR_FORMAT, "%" PRIu64 " %s do not fit in the %" PRIu64
+                            " bytes left", count, what, left);
+    if (count > (uint64_t)INT32_MAX && sizeof(vm_index) == 4)
+        return vm__cur_fail(c, VM_ERR_UNSUPPORTED, "%" PRIu64 " %s need 64-bit indices", count,
+                            what);
+    size_t bytes;
+    if (count > SIZE_MAX / 64 || !vm__mul_size((size_t)count, 64, &bytes) ||
+        bytes > vm__memory_limit())
+        return vm__cur_fail(c, VM_ERR_NOMEM, "%" PRIu64 " %s are more than memory allows",
+                            count, what);
+    return VM_OK;
+}
+
+/* --- ids ------------------------------------------------------------------------------- */
+
+vm_status vm__idmap_add(vm__idmap *m, int64_t id, vm_index index, vm_error *err) {
+    if (m->n == m->cap) {
+        size_t c1 = m->cap, c2 = m->cap;
+        vm_status st = vm__grow((void **)&m->ids, &c1, m->n + 1, sizeof(int64_t), err);
+        if (!st) st = vm__grow((void **)&m->index, &c2, c1, sizeof(vm_index), err);
+        if (st) return st;
+        m->cap = c1 < c2 ? c1 : c2;
+    }
+    m->ids[m->n] = id;
+    m->index[m->n] = index;
+    m->n++;
+    return VM_OK;
+}
+
+typedef struct id_pair {
+    int64_t id;
+    vm_index index;
+} id_pair;
+
+static int cmp_pair(const void *a, const void *b) {
+    int64_t x = ((const id_pair *)a)->id, y = ((const id_pair *)b)->id;
+    return (x > y) - (x < y);
+}
+
+int vm__idmap_finish(vm__idmap *m, int64_t *dup) {
+    int sorted = 1;
+    for (size_t i = 1; i < m->n && sorted; i++)
+        if (m->ids[i - 1] >= m->ids[i]) sorted = 0;
+    if (!sorted) {
+        id_pair *tmp = malloc((m->n ? m->n : 1) * sizeof *tmp);
+        if (tmp) {
+            for (size_t i = 0; i < m->n; i++) {
+                tmp[i].id = m->ids[i];
+                tmp[i].index = m->index[i];
+            }
+            qsort(tmp, m->n, sizeof *tmp, cmp_pair);
+            for (size_t i = 0; i < m->n; i++) {
+                m->ids[i] = tmp[i].id;
+                m->index[i] = tmp[i].index;
+            }
+            free(tmp);
+        } else {
+            /* Without scratch memory: insertion sort keeps this correct, if slow. */
+            for (size_t i = 1; i < m->n; i++) {
+                int64_t id = m->ids[i];
+                vm_index ix = m->index[i];
+                size_t j = i;
+                for (; j > 0 && m->ids[j - 1] > id; j--) {
+                    m->ids[j] = m->ids[j - 1];
+                    m->index[j] = m->index[j - 1];
+                }
+                m->ids[j] = id;
+                m->index[j] = ix;
+            }
+        }
+    }
+    for (size_t i = 1; i < m->n; i++)
+        if (m->ids[i - 1] == m->ids[i]) {
+            *dup = m->ids[i];
+            return 0;
+        }
+    return 1;
+}
+
+vm_index vm__idmap_find(const vm__idmap *m, int64_t id) {
+    size_t lo = 0, hi = m->n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (m->ids[mid] < id)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < m->n && m->ids[lo] == id ? m->index[lo] : -1;
+}
+
+void vm__idmap_free(vm__idmap *m) {
+    free(m->ids);
+    free(m->index);
+    memset(m, 0, sizeof *m);
+}
+
+/* --- point merging ------------------------------------------------------------------------ */
+
+static uint64_t hash_point(const double *p) {
+    uint64_t h = 0x9e3779b97f4a7c15ull;
+    for (int d = 0; d < 3; d++) {
+        double v = p[d] == 0 ? 0.0 : p[d]; /* -0 and +0 are the same point */
+        uint64_t u;
+        memcpy(&u, &v, 8);
+        h ^= u + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+        h *= 0xff51afd7ed558ccdull;
+    }
+    return h ^ (h >> 33);
+}
+
+static vm_status merge_rehash(vm__pointmerge *pm, const vm_mesh *m, size_t cap, vm_error *err) {
+    vm_index *s = malloc(cap * sizeof *s);
+    if (!s) return vm_error_set(err, VM_ERR_NOMEM, "out of memory merging points");
+    for (size_t i = 0; i < cap; i++)
+        s[i] = -1;
+    for (size_t i = 0; i < m->npoints; i++) {
+        size_t k = (size_t)hash_point(m->points + 3 * i) & (cap - 1);
+        while (s[k] >= 0)
+            k = (k + 1) & (cap - 1);
+        s[k] = (vm_index)i;
+    }
+    free(pm->slots);
+    pm->slots = s;
+    pm->cap = cap;
+    return VM_OK;
+}
+
+vm_index vm__pointmerge_add(vm__pointmerge *pm, vm_mesh *m, const double xyz[3], vm_error *err) {
+    if ((m->npoints + 1) * 2 > pm->cap) {
+        size_t cap = pm->cap ? pm->cap : 1024;
+        while ((m->npoints + 1) * 2 > cap)
+            cap *= 2;
+        if (merge_rehash(pm, m, cap, err)) return -1;
+    }
+    size_t k = (size_t)hash_point(xyz) & (pm->cap - 1);
+    while (pm->slots[k] >= 0) {
+        const double *q = m->points + 3 * (size_t)pm->slots[k];
+        if (q[0] == xyz[0] && q[1] == xyz[1] && q[2] == xyz[2]) return pm->slots[k];
+        k = (k + 1) & (pm->cap - 1);
+    }
+    vm_index i = vm_mesh_add_point(m, xyz, err);
+    if (i >= 0) pm->slots[k] = i;
+    return i;
+}
+
+void vm__pointmerge_free(vm__pointmerge *pm) {
+    free(pm->slots);
+    pm->slots = NULL;
+    pm->cap = 0;
+}
+
+/* --- faces ------------------------------------------------------------------------------ */
+
+const int vm__tet_faces[4][3] = {{0, 1, 2}, {0, 3, 1}, {1, 3, 2}, {2, 3, 0}};
+const int vm__hex_faces[6][4] = {{0, 1, 2, 3}, {4, 7, 6, 5}, {0, 4, 5, 1},
+                                 {1, 5, 6, 2}, {2, 6, 7, 3}, {3, 7, 4, 0}};
+const int vm__tet_edges[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
+const int vm__hex_edges[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
+                                  {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+
+typedef struct face_key {
+    vm_index v[4]; /* sorted, unused slots -1 */
+    uint64_t id;   /* cell * nfaces + face */
+} face_key;
+
+static int cmp_face(const void *a, const void *b) {
+    const face_key *x = a, *y = b;
+    for (int i = 0; i < 4; i++)
+        if (x->v[i] != y->v[i]) return x->v[i] < y->v[i] ? -1 : 1;
+    return (x->id > y->id) - (x->id < y->id);
+}
+
+static int cmp_u64(const void *a, const void *b) {
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+vm_status vm__boundary_faces(const char *path, const vm_mesh *m, uint64_t **faces, size_t *n,
+                             vm_error *err) {
+    *faces = NULL;
+    *n = 0;
+    int nf = m->kind == VM_TET4 ? 4 : m->kind == VM_HEX8 ? 6 : 0;
+    int fk = m->kind == VM_TET4 ? 3 : 4;
+    if (!nf)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: boundary faces need tet4 or hex8",
+                            path);
+    size_t total, bytes;
+    if (!vm__mul_size(m->ncells, (size_t)nf, &total) ||
+        !vm__mul_size(total ? total : 1, sizeof(face_key), &bytes) ||
+        bytes > vm__memory_limit())
+        return vm_error_set(err, VM_ERR_NOMEM, "%s: too many faces", path);
+    face_key *k = malloc(bytes);
+    uint64_t *out = malloc((total ? total : 1) * sizeof *out);
+    if (!k || !out) {
+        free(k);
+        free(out);
+        return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu faces", path, total);
+    }
+    size_t nn = (size_t)vm_cell_nodes(m->kind);
+    for (size_t c = 0; c < m->ncells; c++) {
+        const vm_index *cell = m->cells + c * nn;
+        for (int f = 0; f < nf; f++) {
+            face_key *e = &k[c * (size_t)nf + (size_t)f];
+            e->v[3] = -1;
+            for (int j = 0; j < fk; j++)
+                e->v[j] = cell[nf == 4 ? vm__tet_faces[f][j] : vm__hex_faces[f][j]];
+            for (int a = 1; a < fk; a++) /* insertion sort of 3 or 4 values */
+                for (int b = a; b > 0 && e->v[b - 1] > e->v[b]; b--) {
+                    vm_index t = e->v[b];
+                    e->v[b] = e->v[b - 1];
+                    e->v[b - 1] = t;
+                }
+            e->id = (uint64_t)c * (uint64_t)nf + (uint64_t)f;
+        }
+    }
+    qsort(k, total, sizeof *k, cmp_face);
+    size_t nb = 0;
+    for (size_t i = 0; i < total;) {
+        size_t j = i + 1;
+        while (j < total && memcmp(k[j].v, k[i].v, sizeof k[i].v) == 0)
+            j++;
+        if (j - i == 1) out[nb++] = k[i].id;
+        i = j;
+    }
+    free(k);
+    qsort(out, nb, sizeof *out, cmp_u64);
+    *faces = out;
+    *n = nb;
+    return VM_OK;
+}
+
+static int cmp_i32(const void *a, const void *b) {
+    int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+    return (x > y) - (x < y);
+}
+
+vm_status vm__distinct_regions(const char *path, const vm_mesh *m, int32_t **regions,
+                               size_t *n, vm_error *err) {
+    int32_t *r = malloc((m->ncells ? m->ncells : 1) * sizeof *r);
+    if (!r) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
+    if (m->ncells) memcpy(r, m->region, m->ncells * sizeof *r);
+    qsort(r, m->ncells, sizeof *r, cmp_i32);
+    size_t k = 0;
+    for (size_t i = 0; i < m->ncells; i++)
+        if (k == 0 || r[k - 1] != r[i]) r[k++] = r[i];
+    *regions = r;
+    *n = k;
+    return VM_OK;
+}
+
+long vm__region_slot(const int32_t *regions, size_t n, int32_t r) {
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (regions[mid] < r)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < n && regions[lo] == r ? (long)lo : -1;
+}
+
+vm_status vm__check_cells(const char *path, const vm_mesh *m, vm_error *err) {
+    size_t nn = (size_t)vm_cell_nodes(m->kind);
+    for (size_t i = 0; i < m->ncells * nn; i++)
+        if (m->cells[i] < 0 || (size_t)m->cells[i] >= m->npoints)
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: cell %zu uses node %lld of %zu", path,
+                                i / nn, (long long)m->cells[i], m->npoints);
+    return VM_OK;
+}
+
+void vm__region_name(int32_t r, char *out, size_t cap) {
+    if (r < 0)
+        snprintf(out, cap, "REGION_M%lld", -(long long)r);
+    else
+        snprintf(out, cap, "REGION_%ld", (long)r);
+}
+
+int vm__region_parse(const char *s, size_t len, int32_t *r) {
+    if (len < 8) return 0;
+    for (int i = 0; i < 7; i++)
+        if (toupper((unsigned char)s[i]) != "REGION_"[i]) return 0;
+    s += 7;
+    len -= 7;
+    int neg = 0;
+    if (toupper((unsigned char)*s) == 'M') {
+        neg = 1;
+        s++;
+        len--;
+    }
+    if (len == 0 || len > 10) return 0;
+    int64_t v = 0;
+    for (size_t i = 0; i < len; i++) {
+        if (!isdigit((unsigned char)s[i])) return 0;
+        v = v * 10 + (s[i] - '0');
+    }
+    if (neg) v = -v;
+    if (v < INT32_MIN || v > INT32_MAX) return 0;
+    *r = (int32_t)v;
+    return 1;
+}
+
+vm_status vm__surface_of(const char *path, const vm_mesh *m, vm_mesh *tmp,
+                         const vm_mesh **surf, vm_error *err) {
+    vm_mesh_init(tmp, VM_TRI3);
+    if (m->kind == VM_TRI3 || m->kind == VM_QUAD4) {
+        *surf = m;
+        return VM_OK;
+    }
+    (void)path;
+    vm_status st = vm_mesh_boundary(m, tmp, err);
+    if (st) return st;
+    *surf = tmp;
+    return VM_OK;
+}
+
+vm_status vm__polys_add(vm__polys *p, const vm_index *idx, int count, int32_t region,
+                        vm_error *err) {
+    if (p->nfaces == p->cap_f) {
+        size_t c1 = p->cap_f, c2 = p->cap_f;
+        vm_status st = vm__grow((void **)&p->count, &c1, p->nfaces + 1, 1, err);
+        if (!st) st = vm__grow((void **)&p->region, &c2, c1, sizeof(int32_t), err);
+        if (st) return st;
+        p->cap_f = c1 < c2 ? c1 : c2;
+    }
+    vm_status st = vm__grow((void **)&p->idx, &p->cap_i, p->nidx + 4, sizeof(vm_index), err);
+    if (st) return st;
+    memcpy(p->idx + p->nidx, idx, (size_t)count * sizeof(vm_index));
+    p->nidx += (size_t)count;
+    p->count[p->nfaces] = (uint8_t)count;
+    p->region[p->nfaces] = region;
+    p->nfaces++;
+    return VM_OK;
+}
+
+vm_status vm__polys_finish(const char *path, vm__polys *p, vm_mesh *m, vm_error *err) {
+    int all_quads = p->nfaces > 0;
+    size_t nquads = 0;
+    for (size_t i = 0; i < p->nfaces; i++) {
+        if (p->count[i] != 4) all_quads = 0;
+        else nquads++;
+    }
+    m->kind = all_quads ? VM_QUAD4 : VM_TRI3;
+    size_t ncells = all_quads ? p->nfaces : p->nfaces + nquads;
+    vm_status st = vm_mesh_reserve(m, m->npoints, ncells, err);
+    if (st) {
+        vm__polys_free(p);
+        return vm_error_set(err, st, "%s: out of memory for %zu faces", path, ncells);
+    }
+    size_t at = 0;
+    for (size_t i = 0; i < p->nfaces; i++) {
+        const vm_index *v = p->idx + at;
+        at += p->count[i];
+        if (all_quads || p->count[i] == 3) {
+            vm_mesh_add_cell(m, v, p->region[i], NULL);
+        } else {
+            vm_index a[3] = {v[0], v[1], v[2]}, b[3] = {v[0], v[2], v[3]};
+            vm_mesh_add_cell(m, a, p->region[i], NULL);
+            vm_mesh_add_cell(m, b, p->region[i], NULL);
+        }
+    }
+    vm__polys_free(p);
+    return vm__check_cells(path, m, err);
+}
+
+void vm__polys_free(vm__polys *p) {
+    free(p->idx);
+    free(p->count);
+    free(p->region);
+    memset(p, 0, sizeof *p);
+}
+
+/* --- byte order ---------------------------------------------------------------------------- */
+
+void vm__put_be32(unsigned char *b, uint32_t v) {
+    for (int i = 0; i < 4; i++)
+        b[i] = (unsigned char)(v >> (24 - 8 * i));
+}
+void vm__put_be64(unsigned char *b, uint64_t v) {
+    for (int i = 0; i < 8; i++)
+        b[i] = (unsigned char)(v >> (56 - 8 * i));
+}
+uint32_t vm__get_be32(const unsigned char *b) {
+    uint32_t v = 0;
+    for (int i = 0; i < 4; i++)
+        v = (v << 8) | b[i];
+    return v;
+}
+uint64_t vm__get_be64(const unsigned char *b) {
+    uint64_t v = 0;
+    for (int i = 0; i < 8; i++)
+        v = (v << 8) | b[i];
+    return v;
+}
+void vm__put_le16(unsigned char *b, uint16_t v) {
+    b[0] = (unsigned char)v;
+    b[1] = (unsigned char)(v >> 8);
+}
+void vm__put_le32(unsigned char *b, uint32_t v) {
+    for (int i = 0; i < 4; i++)
+        b[i] = (unsigned char)(v >> (8 * i));
+}
+void vm__put_le64(unsigned char *b, uint64_t v) {
+    for (int i = 0; i < 8; i++)
+        b[i] = (unsigned char)(v >> (8 * i));
+}
+uint16_t vm__get_le16(const unsigned char *b) {
+    return (uint16_t)(b[0] | (b[1] << 8));
+}
+uint32_t vm__get_le32(const unsigned char *b) {
+    uint32_t v = 0;
+    for (int i = 3; i >= 0; i--)
+        v = (v << 8) | b[i];
+    return v;
+}
+uint64_t vm__get_le64(const unsigned char *b) {
+    uint64_t v = 0;
+    for (int i = 7; i >= 0; i--)
+        v = (v << 8) | b[i];
+    return v;
+}
+double vm__bits_double(uint64_t u) {
+    double d;
+    memcpy(&d, &u, 8);
+    return d;
+}
+uint64_t vm__double_bits(double d) {
+    uint64_t u;
+    memcpy(&u, &d, 8);
+    return u;
+}
+float vm__bits_float(uint32_t u) {
+    float f;
+    memcpy(&f, &u, 4);
+    return f;
+}
+uint32_t vm__float_bits(float f) {
+    uint32_t u;
+    memcpy(&u, &f, 4);
+    return u;
+}

@@ -1,0 +1,157 @@
+/* io/mesh_util.h — private helpers of the finite-element and surface mesh formats: a text
+ * cursor with strict number parsing and "PATH: line N: problem" errors, id-to-index maps,
+ * exact point merging, boundary faces with their element and local face, region lists. */
+#ifndef VM_MESH_UTIL_H
+#define VM_MESH_UTIL_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include "volmesh/error.h"
+#include "volmesh/io.h"
+#include "volmesh/mesh.h"
+
+/* Largest file any mesh reader reads whole (bytes). */
+#define VM__MESH_MAX_FILE ((size_t)1 << 36)
+
+/* --- text cursor ------------------------------------------------------------------------- */
+
+typedef struct vm__cursor {
+    const char *path;
+    const char *start, *p, *end;
+    char comment; /* a character starting a comment that runs to the end of the line, or 0 */
+    vm_error *err;
+} vm__cursor;
+
+void vm__cur_init(vm__cursor *c, const char *path, const void *buf, size_t len, char comment,
+                  vm_error *err);
+
+/* Records "PATH: line N: MESSAGE" (N = line of the cursor) and returns status. */
+vm_status vm__cur_fail(const vm__cursor *c, vm_status status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+/* Next white-space separated token (comments skipped). Returns 0 at the end of the data. */
+int vm__cur_token(vm__cursor *c, const char **tok, size_t *len);
+
+/* Next token, which must be a number: a decimal integer in [lo, hi], or a finite double.
+ * On a missing or bad token fills the error ("expected WHAT") and returns its status. */
+vm_status vm__cur_int(vm__cursor *c, int64_t lo, int64_t hi, const char *what, int64_t *v);
+vm_status vm__cur_double(vm__cursor *c, const char *what, double *v);
+
+/* Rest of the current line (without the line break), then moves to the next line.
+ * Returns 0 at the end of the data. */
+int vm__cur_line(vm__cursor *c, const char **s, size_t *len);
+
+/* Skips white space and comments without consuming a token; 1 when data remain. */
+int vm__cur_more(vm__cursor *c);
+
+/* Bytes left after the cursor. */
+size_t vm__cur_left(const vm__cursor *c);
+
+/* Token equality, case-insensitive. */
+int vm__tok_is(const char *tok, size_t len, const char *word);
+
+/* Parses a whole token as an integer / finite double; 1 on success. */
+int vm__parse_int_tok(const char *tok, size_t len, int64_t *v);
+int vm__parse_double_tok(const char *tok, size_t len, double *v);
+
+/* Refuses a count that cannot fit in the remaining bytes (each item needs at least
+ * min_bytes) or in memory. */
+vm_status vm__check_count(const vm__cursor *c, uint64_t count, size_t min_bytes,
+                          const char *what);
+
+/* --- ids ------------------------------------------------------------------------------- */
+
+/* Maps file ids (any int64, unique) to 0-based indices. */
+typedef struct vm__idmap {
+    int64_t *ids;    /* sorted */
+    vm_index *index; /* index[k] belongs to ids[k] */
+    size_t n, cap;
+} vm__idmap;
+
+vm_status vm__idmap_add(vm__idmap *m, int64_t id, vm_index index, vm_error *err);
+/* Sorts the map; returns the first duplicated id through *dup (and 0) when ids repeat. */
+int vm__idmap_finish(vm__idmap *m, int64_t *dup);
+/* Index of id, or -1. */
+vm_index vm__idmap_find(const vm__idmap *m, int64_t id);
+void vm__idmap_free(vm__idmap *m);
+
+/* --- merging points by exact coordinates (STL) ------------------------------------------- */
+
+typedef struct vm__pointmerge {
+    vm_index *slots; /* open addressing over m->points; -1 empty */
+    size_t cap;
+} vm__pointmerge;
+
+/* Index of xyz in m, appending it when new. Returns -1 on out of memory (err filled). */
+vm_index vm__pointmerge_add(vm__pointmerge *pm, vm_mesh *m, const double xyz[3], vm_error *err);
+void vm__pointmerge_free(vm__pointmerge *pm);
+
+/* --- mesh helpers ----------------------------------------------------------------------- */
+
+/* Local faces in ABAQUS order (S1..S4 for tets, S1..S6 for hexes), as VTK node positions. */
+extern const int vm__tet_faces[4][3];
+extern const int vm__hex_faces[6][4];
+/* Edges in ABAQUS / VTK quadratic order (C3D10, C3D20). */
+extern const int vm__tet_edges[6][2];
+extern const int vm__hex_edges[12][2];
+
+/* Boundary faces of a tet4/hex8 mesh (faces used by exactly one cell), as cell*nfaces+face
+ * in increasing order. [out] *faces (malloc'd, free it), *n. */
+vm_status vm__boundary_faces(const char *path, const vm_mesh *m, uint64_t **faces, size_t *n,
+                             vm_error *err);
+
+/* Sorted distinct region ids of m. [out] *regions (malloc'd), *n. */
+vm_status vm__distinct_regions(const char *path, const vm_mesh *m, int32_t **regions,
+                               size_t *n, vm_error *err);
+
+/* Checks every node index of every cell lies in 0..npoints-1. */
+vm_status vm__check_cells(const char *path, const vm_mesh *m, vm_error *err);
+
+/* Index of r in the sorted list, or -1. */
+long vm__region_slot(const int32_t *regions, size_t n, int32_t r);
+
+/* Writes "REGION_<r>" (negative: "REGION_M<|r|>") into out. */
+void vm__region_name(int32_t r, char *out, size_t cap);
+/* Parses a region name as written by vm__region_name (case-insensitive); 1 on success. */
+int vm__region_parse(const char *s, size_t len, int32_t *r);
+
+/* The surface a surface format writes: m itself when tri3/quad4, else its boundary (owned by
+ * *tmp, free with vm_mesh_free). [out] *surf points to m or to tmp. */
+vm_status vm__surface_of(const char *path, const vm_mesh *m, vm_mesh *tmp,
+                         const vm_mesh **surf, vm_error *err);
+
+/* Builds a surface mesh from polygons given as (count, indices) with per-face regions:
+ * all quads give quad4, otherwise tri3 (quads split along 0-2). */
+typedef struct vm__polys {
+    vm_index *idx;   /* concatenated indices */
+    uint8_t *count;  /* 3 or 4 per face */
+    int32_t *region; /* per face */
+    size_t nfaces, nidx, cap_f, cap_i;
+} vm__polys;
+vm_status vm__polys_add(vm__polys *p, const vm_index *idx, int count, int32_t region,
+                        vm_error *err);
+/* Moves the faces into m (whose points are already set) and frees p. */
+vm_status vm__polys_finish(const char *path, vm__polys *p, vm_mesh *m, vm_error *err);
+void vm__polys_free(vm__polys *p);
+
+/* Big-endian and little-endian stores and loads. */
+void vm__put_be32(unsigned char *b, uint32_t v);
+void vm__put_be64(unsigned char *b, uint64_t v);
+uint32_t vm__get_be32(const unsigned char *b);
+uint64_t vm__get_be64(const unsigned char *b);
+void vm__put_le16(unsigned char *b, uint16_t v);
+void vm__put_le32(unsigned char *b, uint32_t v);
+void vm__put_le64(unsigned char *b, uint64_t v);
+uint16_t vm__get_le16(const unsigned char *b);
+uint32_t vm__get_le32(const unsigned char *b);
+uint64_t vm__get_le64(const unsigned char *b);
+double vm__bits_double(uint64_t u);
+uint64_t vm__double_bits(double d);
+float vm__bits_float(uint32_t u);
+uint32_t vm__float_bits(float f);
+
+#endif
