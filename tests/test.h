@@ -85,6 +85,10 @@ int vm_test_exists(const char *path);
 int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
                         vm_status (*read)(const char *path, vm_volume *v, vm_error *err));
 
+/* The same for a mesh reader: a result must have every node index in range (else abort). */
+int vm_test_fuzz_mesh(const unsigned char *data, size_t size, const char *ext,
+                      vm_status (*read)(const char *path, vm_mesh *m, vm_error *err));
+
 #define TEST_MAIN(...)                                                                     \
     int main(void) {                                                                       \
         static const vm_test_case cases_[] = {__VA_ARGS__};                                \

@@ -102,8 +102,8 @@ int vm_test_cli(const char *args, char **out) {
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
-                        vm_status (*read)(const char *path, vm_volume *v, vm_error *err)) {
+/* Writes the fuzz input to this process's scratch file ending in ext; returns its path. */
+static const char *fuzz_path(const unsigned char *data, size_t size, const char *ext) {
     static char path[4096];
     if (!path[0]) {
         /* keep a lying header from asking for more than a fuzzing run should allocate */
@@ -112,7 +112,20 @@ int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
         snprintf(unique, sizeof unique, "fuzz_%ld%s", (long)getpid(), ext);
         snprintf(path, sizeof path, "%s", vm_test_tmp(unique));
     }
-    if (vm_test_write_file(path, data, size) != 0) return 0;
+    return vm_test_write_file(path, data, size) == 0 ? path : NULL;
+}
+
+static void fuzz_refusal(const char *ext, vm_status st, const vm_error *err) {
+    if (err->message[0] == 0 || strchr(err->message, '\n')) {
+        fprintf(stderr, "fuzz %s: error %d without a one-line message\n", ext, (int)st);
+        abort();
+    }
+}
+
+int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
+                        vm_status (*read)(const char *path, vm_volume *v, vm_error *err)) {
+    const char *path = fuzz_path(data, size, ext);
+    if (!path) return 0;
     vm_volume v;
     vm_error err;
     vm_error_clear(&err);
@@ -121,9 +134,31 @@ int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
         double lo, hi, mean; /* touch every voxel so a short allocation shows under ASan */
         vm_volume_stats(&v, &lo, &hi, &mean);
         vm_volume_free(&v);
-    } else if (err.message[0] == 0 || strchr(err.message, '\n')) {
-        fprintf(stderr, "fuzz %s: error %d without a one-line message\n", ext, (int)st);
-        abort();
+    } else {
+        fuzz_refusal(ext, st, &err);
+    }
+    remove(path);
+    return 0;
+}
+
+int vm_test_fuzz_mesh(const unsigned char *data, size_t size, const char *ext,
+                      vm_status (*read)(const char *path, vm_mesh *m, vm_error *err)) {
+    const char *path = fuzz_path(data, size, ext);
+    if (!path) return 0;
+    vm_mesh m;
+    vm_error err;
+    vm_error_clear(&err);
+    vm_status st = read(path, &m, &err);
+    if (st == VM_OK) {
+        size_t nn = (size_t)vm_cell_nodes(m.kind);
+        for (size_t i = 0; i < m.ncells * nn; i++)
+            if (m.cells[i] < 0 || (size_t)m.cells[i] >= m.npoints) abort();
+        volatile double sum = 0; /* touch every point */
+        for (size_t i = 0; i < 3 * m.npoints; i++) sum += m.points[i];
+        (void)sum;
+        vm_mesh_free(&m);
+    } else {
+        fuzz_refusal(ext, st, &err);
     }
     remove(path);
     return 0;
