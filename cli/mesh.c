@@ -1,8 +1,23 @@
 /* cli/mesh.c — `volmesh mesh`: volume in, tetrahedral mesh (and its surface) out. */
+#define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include "cli.h"
+
+/* --verbose: one line per stage with its wall time, on stderr. */
+static double stage_clock(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void stage_done(int verbose, const char *stage, double *t) {
+    double now = stage_clock();
+    if (verbose) fprintf(stderr, "volmesh: %-8s %8.3f s\n", stage, now - *t);
+    *t = now;
+}
 
 static const char *mesh_help =
     "usage: volmesh mesh FILE -o OUT.vtu (--iso V | --range A:B) [options]\n"
@@ -32,6 +47,8 @@ static const char *mesh_help =
     "  --no-compress           write the VTU without zlib\n"
     "  --json                  print the summary as one JSON object\n"
     "  --quiet                 no progress bar\n"
+    "  --verbose               print the time of each stage (read, denoise, mesh, improve,\n"
+    "                          write) on stderr\n"
     "  raw input: --raw-dims NXxNYxNZ --raw-type T [--raw-endian E] [--raw-spacing S]\n"
     "             [--raw-origin O] [--raw-header N]   (see volmesh info --help)\n"
     "\n"
@@ -93,7 +110,7 @@ int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, cons
 int vm_cmd_mesh(int argc, char **argv) {
     const char *in = NULL, *out = NULL, *surface = NULL;
     int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
-    int improve = 1, quality_fields = 0;
+    int improve = 1, quality_fields = 0, verbose = 0;
     const char *denoise = NULL, *report = NULL;
     vm_mesh_options o;
     vm_mesh_options_default(&o);
@@ -147,6 +164,8 @@ int vm_cmd_mesh(int argc, char **argv) {
                 return vm_cli_fail("--denoise: '%s' is not bilateral or diffusion", denoise);
         } else if (vm_cli_is(a, "--report", NULL)) {
             report = argv[++i];
+        } else if (vm_cli_is(a, "--verbose", "-v")) {
+            verbose = 1;
         } else if (vm_cli_is(a, "--no-improve", NULL)) {
             improve = 0;
         } else if (vm_cli_is(a, "--quality-fields", NULL)) {
@@ -180,8 +199,10 @@ int vm_cmd_mesh(int argc, char **argv) {
     }
     if (is_raw && raw.dims[0] == 0) return vm_cli_fail("%s: raw input needs --raw-dims NXxNYxNZ", in);
     vm_volume v;
+    double t = stage_clock();
     int rc = vm_cli_read_volume(in, is_raw ? &raw : NULL, &v);
     if (rc) return rc;
+    stage_done(verbose, "read", &t);
     o.progress = vm_cli_progress;
     o.progress_user = &quiet;
     vm_mesh m;
@@ -200,8 +221,10 @@ int vm_cmd_mesh(int argc, char **argv) {
         }
         vm_volume_free(&v);
         v = den;
+        stage_done(verbose, "denoise", &t);
     }
     s = vm_mesh_volume(&v, &o, &m, &st, &err);
+    if (!s) stage_done(verbose, "mesh", &t);
     if (s) {
         vm_volume_free(&v);
         /* name the input, the library names the stage */
@@ -224,6 +247,7 @@ int vm_cmd_mesh(int argc, char **argv) {
         }
         improved = 1;
         st.seconds += ir.seconds;
+        stage_done(verbose, "improve", &t);
     }
     vm_volume_free(&v);
     if (quality_fields && (s = vm_mesh_add_quality_fields(&m, NULL, &err)) != VM_OK) {
@@ -242,6 +266,7 @@ int vm_cmd_mesh(int argc, char **argv) {
         vm_mesh_free(&m);
         return vm_cli_fail_err(&err);
     }
+    stage_done(verbose, "write", &t);
     rc = vm_cli_report_mesh(&m, &st, json, out);
     if (!rc && report) rc = vm_cli_write_report(report, &m, out);
     if (!rc && improved && !json && ir.unfixed)
