@@ -45,6 +45,9 @@ static const char *mesh_help =
     "  --quality-fields        add per-cell quality arrays (min_dihedral, radius_ratio, ...)\n"
     "  --report REPORT.html    also write the HTML quality report (see volmesh report)\n"
     "  --no-compress           write the VTU without zlib\n"
+    "  --deck static           with -o X.inp: a complete static step (bottom fixed, top\n"
+    "                          loaded) that CalculiX/ABAQUS solve as is\n"
+    "  --order 2               with -o X.inp: quadratic elements (C3D10)\n"
     "  --json                  print the summary as one JSON object\n"
     "  --quiet                 no progress bar\n"
     "  --verbose               print the time of each stage (read, denoise, mesh, improve,\n"
@@ -111,6 +114,8 @@ int vm_cmd_mesh(int argc, char **argv) {
     const char *in = NULL, *out = NULL, *surface = NULL;
     int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
     int improve = 1, quality_fields = 0, verbose = 0;
+    vm_mesh_write_options wo;
+    vm_mesh_write_options_init(&wo);
     const char *denoise = NULL, *report = NULL;
     vm_mesh_options o;
     vm_mesh_options_default(&o);
@@ -127,7 +132,8 @@ int vm_cmd_mesh(int argc, char **argv) {
                     vm_cli_is(a, "--range", NULL) || vm_cli_is(a, "--size", NULL) ||
                     vm_cli_is(a, "--surface", NULL) || vm_cli_is(a, "--max-level", NULL) ||
                     vm_cli_is(a, "--elements", NULL) || vm_cli_is(a, "--denoise", NULL) ||
-                    vm_cli_is(a, "--report", NULL);
+                    vm_cli_is(a, "--report", NULL) || vm_cli_is(a, "--deck", NULL) ||
+                    vm_cli_is(a, "--order", NULL);
         if (needs && i + 1 >= argc) return vm_cli_fail("mesh: %s needs a value", a);
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
@@ -164,6 +170,14 @@ int vm_cmd_mesh(int argc, char **argv) {
                 return vm_cli_fail("--denoise: '%s' is not bilateral or diffusion", denoise);
         } else if (vm_cli_is(a, "--report", NULL)) {
             report = argv[++i];
+        } else if (vm_cli_is(a, "--deck", NULL)) {
+            if (strcmp(argv[++i], "static") != 0)
+                return vm_cli_fail("--deck: '%s' is not static", argv[i]);
+            wo.deck = VM_DECK_STATIC;
+        } else if (vm_cli_is(a, "--order", NULL)) {
+            long ord;
+            if (vm_cli_int(a, argv[++i], 1, 2, &ord)) return VM_EXIT_INPUT;
+            wo.order = (int)ord;
         } else if (vm_cli_is(a, "--verbose", "-v")) {
             verbose = 1;
         } else if (vm_cli_is(a, "--no-improve", NULL)) {
@@ -254,8 +268,8 @@ int vm_cmd_mesh(int argc, char **argv) {
         vm_mesh_free(&m);
         return vm_cli_fail_err(&err);
     }
-    int is_vtu = strlen(out) >= 4 && strcmp(out + strlen(out) - 4, ".vtu") == 0;
-    s = is_vtu ? vm_mesh_write_vtu(out, &m, compress, &err) : vm_mesh_write(out, &m, &err);
+    wo.compress = compress;
+    s = vm_mesh_write_as(out, &m, &wo, &err);
     if (!s && surface) {
         vm_mesh surf;
         s = vm_mesh_boundary(&m, &surf, &err);
