@@ -50,6 +50,16 @@ static vm_status begin_surface(const char *path, const vm_mesh *m, vm_mesh *tmp,
     return vm__surface_of(path, m, tmp, s, err);
 }
 
+/* begin_surface, then the output file opened (the surface freed again if that fails). */
+static vm_status begin_surface_file(const char *path, const vm_mesh *m, vm_mesh *tmp,
+                                    const vm_mesh **s, vm_outfile *o, vm_error *err) {
+    vm_status st = begin_surface(path, m, tmp, s, err);
+    if (st) return st;
+    st = vm__out_open(o, path, err);
+    if (st) vm_mesh_free(tmp);
+    return st;
+}
+
 /* ======================================================================================= */
 /* STL                                                                                      */
 /* ======================================================================================= */
@@ -264,14 +274,9 @@ vm_status vm_mesh_read_stl(const char *path, vm_mesh *m, vm_error *err) {
 vm_status vm_mesh_write_off(const char *path, const vm_mesh *m, vm_error *err) {
     vm_mesh tmp;
     const vm_mesh *s = NULL;
-    vm_status st = begin_surface(path, m, &tmp, &s, err);
-    if (st) return st;
     vm_outfile o;
-    st = vm__out_open(&o, path, err);
-    if (st) {
-        vm_mesh_free(&tmp);
-        return st;
-    }
+    vm_status st = begin_surface_file(path, m, &tmp, &s, &o, err);
+    if (st) return st;
     FILE *fp = o.fp;
     size_t nn = (size_t)vm_cell_nodes(s->kind);
     fprintf(fp, "OFF\n# volmesh %s surface\n%zu %zu 0\n", vm_cell_kind_name(s->kind),
@@ -364,14 +369,9 @@ done:
 vm_status vm_mesh_write_ply(const char *path, const vm_mesh *m, int ascii, vm_error *err) {
     vm_mesh tmp;
     const vm_mesh *s = NULL;
-    vm_status st = begin_surface(path, m, &tmp, &s, err);
-    if (st) return st;
     vm_outfile o;
-    st = vm__out_open(&o, path, err);
-    if (st) {
-        vm_mesh_free(&tmp);
-        return st;
-    }
+    vm_status st = begin_surface_file(path, m, &tmp, &s, &o, err);
+    if (st) return st;
     FILE *fp = o.fp;
     size_t nn = (size_t)vm_cell_nodes(s->kind);
     fprintf(fp, "ply\nformat %s 1.0\ncomment volmesh %s surface\nelement vertex %zu\n"
@@ -636,14 +636,9 @@ done:
 vm_status vm_mesh_write_obj(const char *path, const vm_mesh *m, vm_error *err) {
     vm_mesh tmp;
     const vm_mesh *s = NULL;
-    vm_status st = begin_surface(path, m, &tmp, &s, err);
-    if (st) return st;
     vm_outfile o;
-    st = vm__out_open(&o, path, err);
-    if (st) {
-        vm_mesh_free(&tmp);
-        return st;
-    }
+    vm_status st = begin_surface_file(path, m, &tmp, &s, &o, err);
+    if (st) return st;
     FILE *fp = o.fp;
     size_t nn = (size_t)vm_cell_nodes(s->kind);
     fprintf(fp, "# volmesh %s surface: %zu vertices, %zu faces; g REGION_r groups\n",
