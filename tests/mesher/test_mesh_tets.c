@@ -609,15 +609,18 @@ static void emptySelectionAndNonFiniteValuesAreRefused(void) {
     }
 }
 
+/* The shared volumes and their isovalues, as listed in ../shared/data/README.md. */
+static const struct {
+    const char *file;
+    double iso;
+} shared_cases[] = {{"ct_head_quarter.nrrd", 500}, {"ct_head_quarter.nrrd", 1150},
+                    {"HeadMRVolume.mhd", 50},      {"ironProt.vtk", 128},
+                    {"hydrogen.vti", 0.1},         {"avg152T1_RL_nifti.nii.gz", 100}};
+#define NSHARED (sizeof shared_cases / sizeof shared_cases[0])
+
 static void sharedVolumesMeshWithTheTopologyOfTheirVoxels(void) {
-    static const struct {
-        const char *file;
-        double iso;
-    } cases[] = {{"ct_head_quarter.nrrd", 500}, {"ct_head_quarter.nrrd", 1150},
-                 {"HeadMRVolume.mhd", 50},      {"ironProt.vtk", 128},
-                 {"hydrogen.vti", 0.1},         {"avg152T1_RL_nifti.nii.gz", 100}};
-    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        const char *path = vm_test_shared(cases[c].file);
+    for (size_t c = 0; c < NSHARED; c++) {
+        const char *path = vm_test_shared(shared_cases[c].file);
         if (!path) return;
         vm_volume v;
         vm_error err;
@@ -626,10 +629,11 @@ static void sharedVolumesMeshWithTheTopologyOfTheirVoxels(void) {
         if (s != VM_OK) continue;
         vm_mesh_options o;
         vm_mesh_options_default(&o);
-        o.lo = cases[c].iso;
+        o.lo = shared_cases[c].iso;
         char label[128];
-        snprintf(label, sizeof label, "%s iso %g (%lldx%lldx%lld)", cases[c].file, cases[c].iso,
-                 (long long)v.dims[0], (long long)v.dims[1], (long long)v.dims[2]);
+        snprintf(label, sizeof label, "%s iso %g (%lldx%lldx%lld)", shared_cases[c].file,
+                 shared_cases[c].iso, (long long)v.dims[0], (long long)v.dims[1],
+                 (long long)v.dims[2]);
         check_digital_case(label, &v, &o, 0);
         vm_volume_free(&v);
     }
@@ -667,15 +671,18 @@ static void adaptiveMeshOfEachPhantomKeepsTopologyAndVolumeWithFewerTets(void) {
                            uni.ncells, (double)uni.ncells / (double)ada.ncells);
                     /* the plate and genus-3 tubes (radius 3.5) hold no 4x4x4 inside cube */
                     CHECK(ada.ncells <= uni.ncells);
-                    if (all_phantoms[t] != VM_PHANTOM_PLATE && all_phantoms[t] != VM_PHANTOM_GENUS3)
+                    if (all_phantoms[t] != VM_PHANTOM_PLATE &&
+                        all_phantoms[t] != VM_PHANTOM_GENUS3)
                         CHECK(ada.ncells < uni.ncells);
                 }
                 if (all_phantoms[t] == VM_PHANTOM_SPHERE) {
-                    double r = 0.35 * (n - 1), c[3] = {0.5 * (n - 1), 0.5 * (n - 1), 0.5 * (n - 1)};
+                    double r = 0.35 * (n - 1),
+                           c[3] = {0.5 * (n - 1), 0.5 * (n - 1), 0.5 * (n - 1)};
                     size_t on_x0;
                     double max_r_x0;
                     double worst = sphere_surface_distance(&ada, n, c, r, &on_x0, &max_r_x0);
-                    CHECK_MSG(worst <= 0.5, "a boundary vertex is %.3f voxel from the sphere", worst);
+                    CHECK_MSG(worst <= 0.5, "a boundary vertex is %.3f voxel from the sphere",
+                              worst);
                 }
             }
             vm_mesh_free(&uni);
@@ -703,14 +710,8 @@ static void adaptiveNoisyPhantomsAndSharedVolumesMatchTheDigitalTopology(void) {
             check_digital_case(label, &v, &o, 0);
             vm_volume_free(&v);
         }
-    static const struct {
-        const char *file;
-        double iso;
-    } cases[] = {{"ct_head_quarter.nrrd", 500}, {"ct_head_quarter.nrrd", 1150},
-                 {"HeadMRVolume.mhd", 50},      {"ironProt.vtk", 128},
-                 {"hydrogen.vti", 0.1},         {"avg152T1_RL_nifti.nii.gz", 100}};
-    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        const char *path = vm_test_shared(cases[c].file);
+    for (size_t c = 0; c < NSHARED; c++) {
+        const char *path = vm_test_shared(shared_cases[c].file);
         if (!path) return;
         vm_volume v;
         vm_error err;
@@ -719,10 +720,11 @@ static void adaptiveNoisyPhantomsAndSharedVolumesMatchTheDigitalTopology(void) {
         if (s != VM_OK) continue;
         vm_mesh_options o;
         vm_mesh_options_default(&o);
-        o.lo = cases[c].iso;
+        o.lo = shared_cases[c].iso;
         o.adaptive = 1;
         char label[128];
-        snprintf(label, sizeof label, "%s iso %g adaptive", cases[c].file, cases[c].iso);
+        snprintf(label, sizeof label, "%s iso %g adaptive", shared_cases[c].file,
+                 shared_cases[c].iso);
         check_digital_case(label, &v, &o, 0);
         if (c == 0) { /* CT head skin: record the saving; the issue asks for 3x (not yet) */
             vm_mesh uni, ada;
