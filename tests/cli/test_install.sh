@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs volmesh into a scratch prefix, builds examples/ against it with find_package and
-# with pkg-config, and runs the example on a phantom the CLI writes.
+# with pkg-config, and runs the examples on phantoms (mesh_file, mesh_quality, phantom_pipeline).
 set -u
 src=${VM_SOURCE_DIR:?}
 build=$(cd "$(dirname "$VM_CLI")" && pwd)
@@ -22,5 +22,11 @@ fi
 out=$("$work/ex/mesh_file" "$work/phantom.nrrd" 0 "$work/ex.vtu") || { echo "example failed: $out"; fail=$((fail+1)); }
 case "$out" in *" 0 inverted, boundary Euler 0,"*) ;; *) echo "unexpected example output: $out"; fail=$((fail+1));; esac
 [ -s "$work/ex.vtu" ] || { echo "example wrote no mesh"; fail=$((fail+1)); }
+out=$("$work/ex/mesh_quality" "$work/ex.vtu") || { echo "mesh_quality failed: $out"; fail=$((fail+1)); }
+case "$out" in *" 0 inverted, boundary closed, Euler 0, 1 components"*) ;; *) echo "unexpected mesh_quality output: $out"; fail=$((fail+1));; esac
+out=$("$work/ex/phantom_pipeline" "$work/deck.inp" 32) || { echo "phantom_pipeline failed: $out"; fail=$((fail+1)); }
+case "$out" in *"boundary Euler 0 (expected 0)"*"ABAQUS failures "*" -> 0"*) ;; *) echo "unexpected phantom_pipeline output: $out"; fail=$((fail+1));; esac
+grep -q '^\*STATIC' "$work/deck.inp" || { echo "phantom_pipeline deck has no *STATIC step"; fail=$((fail+1)); }
+out=$("$work/ex/mesh_quality" "$work/nonexistent.vtu" 2>&1) && { echo "mesh_quality accepted a missing file"; fail=$((fail+1)); }
 echo "$((fail == 0 ? 1 : 0)) passed, $fail failed"
 [ "$fail" = 0 ]
