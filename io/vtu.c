@@ -104,7 +104,7 @@ static vm_status compress_array(const char *path, out_array *a, vm_error *err) {
         size_t first = b * per, n = a->count - first < per ? a->count - first : per;
         fill_values(a, first, n, raw);
         uLongf zlen = bound;
-        if (compress2(z, &zlen, raw, (uLong)(n * a->esize), Z_DEFAULT_COMPRESSION) != Z_OK) {
+        if (compress2(z, &zlen, raw, (uLong)(n * a->esize), Z_BEST_SPEED) != Z_OK) {
             st = vm_error_set(err, VM_ERR_INTERNAL, "%s: zlib compression failed", path);
             goto done;
         }
