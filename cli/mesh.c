@@ -48,6 +48,8 @@ static const char *mesh_help =
     "  --deck static           with -o X.inp: a complete static step (bottom fixed, top\n"
     "                          loaded) that CalculiX/ABAQUS solve as is\n"
     "  --order 2               with -o X.inp: quadratic elements (C3D10)\n"
+    "  --max-memory SIZE       refuse (exit 2) before reading or meshing when the run would\n"
+    "                          need more than SIZE bytes (suffix K, M, G, T: powers of 1024)\n"
     "  --json                  print the summary as one JSON object\n"
     "  --quiet                 no progress bar\n"
     "  --verbose               print the time of each stage (read, denoise, mesh, improve,\n"
@@ -110,6 +112,51 @@ int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, cons
     return VM_EXIT_OK;
 }
 
+/* Parses a byte count with an optional K, M, G or T suffix (powers of 1024, "iB"/"B" allowed
+ * after it): "4G", "512MiB", "1000000". 0 on success. */
+static int parse_bytes(const char *s, double *bytes) {
+    char *end = NULL;
+    double v = strtod(s, &end);
+    if (end == s || !isfinite(v) || v <= 0) return -1;
+    double unit = 1;
+    switch (*end) {
+    case 'K': case 'k': unit = 1024.0; end++; break;
+    case 'M': case 'm': unit = 1048576.0; end++; break;
+    case 'G': case 'g': unit = 1073741824.0; end++; break;
+    case 'T': case 't': unit = 1099511627776.0; end++; break;
+    default: break;
+    }
+    if (strcmp(end, "iB") == 0 || strcmp(end, "B") == 0) end += strlen(end);
+    if (*end) return -1;
+    *bytes = v * unit;
+    return 0;
+}
+
+/* Peak memory of a run beyond the volume, per inside voxel at cell size 1: measured about
+ * 1010 bytes for tets (5.3 tets of ~190 bytes each, quality pass included) and 245 bytes for
+ * hexes on a 128^3 sphere (docs/BENCHMARKS.md); these are rounded up. Adaptive runs make
+ * fewer elements, so for them this is an upper bound. */
+#define MEM_PER_INSIDE_TET 1100.0
+#define MEM_PER_INSIDE_HEX 300.0
+
+/* --max-memory: estimates the peak of meshing v and refuses when it exceeds limit. */
+static int check_memory(const char *in, const vm_volume *v, const vm_mesh_options *o,
+                        int denoise, double limit) {
+    size_t n = vm_volume_count(v), inside = 0;
+    for (size_t i = 0; i < n; i++) {
+        float f = v->data[i];
+        inside += (!o->has_lo || f >= o->lo) && (!o->has_hi || f <= o->hi);
+    }
+    double cells = (double)inside / ((double)o->cell_size * o->cell_size * o->cell_size);
+    double per = o->elements == VM_HEX8 ? MEM_PER_INSIDE_HEX : MEM_PER_INSIDE_TET;
+    double need = (denoise ? 2.0 : 1.0) * 4.0 * (double)n + per * cells;
+    if (need <= limit) return 0;
+    return vm_cli_fail("%s: meshing needs about %.2f GiB (%zu voxels in the material), more "
+                       "than --max-memory %.2f GiB: try --size %d (about 8x less)%s",
+                       in, need / 1073741824.0, inside, limit / 1073741824.0,
+                       2 * o->cell_size, o->adaptive ? "" : " or --adaptive");
+}
+
 int vm_cmd_mesh(int argc, char **argv) {
     const char *in = NULL, *out = NULL, *surface = NULL;
     int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
@@ -117,6 +164,7 @@ int vm_cmd_mesh(int argc, char **argv) {
     vm_mesh_write_options wo;
     vm_mesh_write_options_init(&wo);
     const char *denoise = NULL, *report = NULL;
+    double max_memory = 0;
     vm_mesh_options o;
     vm_mesh_options_default(&o);
     vm_raw_options raw;
@@ -133,7 +181,7 @@ int vm_cmd_mesh(int argc, char **argv) {
                     vm_cli_is(a, "--surface", NULL) || vm_cli_is(a, "--max-level", NULL) ||
                     vm_cli_is(a, "--elements", NULL) || vm_cli_is(a, "--denoise", NULL) ||
                     vm_cli_is(a, "--report", NULL) || vm_cli_is(a, "--deck", NULL) ||
-                    vm_cli_is(a, "--order", NULL);
+                    vm_cli_is(a, "--order", NULL) || vm_cli_is(a, "--max-memory", NULL);
         if (needs && i + 1 >= argc) return vm_cli_fail("mesh: %s needs a value", a);
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
@@ -178,6 +226,10 @@ int vm_cmd_mesh(int argc, char **argv) {
             long ord;
             if (vm_cli_int(a, argv[++i], 1, 2, &ord)) return VM_EXIT_INPUT;
             wo.order = (int)ord;
+        } else if (vm_cli_is(a, "--max-memory", NULL)) {
+            if (parse_bytes(argv[++i], &max_memory) || max_memory < 1048576.0)
+                return vm_cli_fail("--max-memory: '%s' is not a size of at least 1M (e.g. 4G)",
+                                   argv[i]);
         } else if (vm_cli_is(a, "--verbose", "-v")) {
             verbose = 1;
         } else if (vm_cli_is(a, "--no-improve", NULL)) {
@@ -212,11 +264,22 @@ int vm_cmd_mesh(int argc, char **argv) {
         o.hi = o.lo;
     }
     if (is_raw && raw.dims[0] == 0) return vm_cli_fail("%s: raw input needs --raw-dims NXxNYxNZ", in);
+    if (max_memory > 0) {
+        /* Every large allocation (the volume while reading, the mesher's arrays) checks this
+         * limit too, so a run the estimate lets through still stops cleanly. */
+        char lim[32];
+        snprintf(lim, sizeof lim, "%.0f", max_memory);
+        setenv("VOLMESH_MAX_MEMORY", lim, 1);
+    }
     vm_volume v;
     double t = stage_clock();
     int rc = vm_cli_read_volume(in, is_raw ? &raw : NULL, &v);
     if (rc) return rc;
     stage_done(verbose, "read", &t);
+    if (max_memory > 0 && (rc = check_memory(in, &v, &o, denoise != NULL, max_memory)) != 0) {
+        vm_volume_free(&v);
+        return rc;
+    }
     o.progress = vm_cli_progress;
     o.progress_user = &quiet;
     vm_mesh m;

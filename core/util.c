@@ -39,13 +39,17 @@ vm_status vm__check_dims(const int64_t dims[3], size_t elem_size, const char *wh
                                 (long long)dims[2]);
     }
     size_t bytes;
-    if (!vm__mul_size(n, elem_size, &bytes) || bytes > vm__memory_limit())
+    if (!vm__mul_size(n, elem_size, &bytes) || bytes > vm__memory_limit()) {
+        /* MiB below a GiB, so that a small limit does not read "0.0 GiB, more than 0.0" */
+        double need = (double)n * (double)elem_size, lim = (double)vm__memory_limit();
+        int gib = lim >= 1073741824.0;
+        double unit = gib ? 1073741824.0 : 1048576.0;
         return vm_error_set(err, VM_ERR_NOMEM,
-                            "%s: dimensions %lldx%lldx%lld need %.1f GiB, more than the "
-                            "memory limit of %.1f GiB",
+                            "%s: dimensions %lldx%lldx%lld need %.1f %s, more than the "
+                            "memory limit of %.1f %s",
                             what, (long long)dims[0], (long long)dims[1], (long long)dims[2],
-                            (double)n * (double)elem_size / 1073741824.0,
-                            (double)vm__memory_limit() / 1073741824.0);
+                            need / unit, gib ? "GiB" : "MiB", lim / unit, gib ? "GiB" : "MiB");
+    }
     if (count) *count = n;
     return VM_OK;
 }

@@ -6,8 +6,8 @@ set -eu
 VOLMESH=${1:-volmesh}
 say() { printf '\n## %s\n' "$*"; }
 
-say "a volume to work on: a 48^3 torus (signed field, material f >= 0)"
-"$VOLMESH" demo --size 48 --shape torus >/dev/null   # also writes demo.vtu and a report
+say "a volume to work on: a 32^3 torus (signed field, material f >= 0)"
+"$VOLMESH" demo --size 32 --shape torus >/dev/null   # also writes demo.vtu and a report
 
 say "look at the volume: size, spacing, value range, histogram"
 "$VOLMESH" info phantom.nrrd
