@@ -16,6 +16,7 @@ void vm_improve_options_default(vm_improve_options *o) {
     o->has_hi = 0;
     o->max_surface_move = 0.5;
     o->max_surface_move_free = 0.1;
+    o->surface_band = 0.25;
     o->target_min_dihedral = 15.0;
     o->target_max_dihedral = 150.0;
     o->target_volume_measure = 0.03;
@@ -340,6 +341,7 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     int pass;
     for (pass = 0; pass < o->max_passes && !w->nomem; pass++) {
         size_t n, ops = 0;
+        w->deep = pass >= 1;
         tq *l = bad_list(w, &n);
         if (!l) {
             w->nomem = 1;
@@ -355,6 +357,9 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         if (o->flip)
             for (size_t i = 0; i < n && !w->nomem; i++)
                 if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_flip_tet(w, l[i].t);
+        if (w->deep)
+            for (size_t i = 0; i < n && !w->nomem; i++)
+                if (!w->dead[l[i].t] && w->q[l[i].t] < 2.0 / 3.0) ops += (size_t)vm__imp_peel_tet(w, l[i].t);
         free(l);
         l = bad_list(w, &n);
         if (!l) {
@@ -483,7 +488,7 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
         return vm_error_set(err, VM_ERR_EMPTY, "improve: the mesh has no cells");
     if (!(o->target_min_dihedral > 0.0) || !(o->target_max_dihedral < 180.0) ||
         !(o->target_volume_measure > 0.0) || !(o->max_surface_move >= 0.0) ||
-        !(o->max_surface_move_free >= 0.0))
+        !(o->max_surface_move_free >= 0.0) || !(o->surface_band >= 0.0))
         return vm_error_set(err, VM_ERR_ARG, "improve: targets and bounds must be positive");
     if (v && !o->has_lo && !o->has_hi)
         return vm_error_set(err, VM_ERR_ARG, "improve: a volume needs lo or hi material bounds");
@@ -560,6 +565,7 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
         r->edge_removals = w.edge_removals;
         r->moves = w.moves;
         r->perturbations = w.perturbations;
+        r->peels = w.peels;
         r->passes = passes;
         r->tets_after = m->ncells;
         r->points_after = m->npoints;

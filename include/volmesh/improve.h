@@ -32,6 +32,10 @@ typedef struct vm_improve_options {
      * their shortest incident edge (default 0.1). */
     double max_surface_move;
     double max_surface_move_free;
+    /* With a volume: isosurface vertices may also leave the isosurface by up to this many
+     * voxels (first-order distance |f - iso| / |grad f|, index space), so that sheets
+     * thinner than a voxel can thicken; 0 keeps them on it. Default 0.25. */
+    double surface_band;
     /* What counts as "good": min dihedral >= target_min_dihedral (default 15 degrees), max
      * dihedral <= target_max_dihedral (default 150) and ABAQUS volume measure >=
      * target_volume_measure (default 0.03). Tets below these are worked on. */
@@ -64,11 +68,12 @@ typedef struct vm_improve_report {
     size_t collapses, flips23, flips32;
     size_t edge_removals;     /* edges with 4..8 tets around them removed (4-4 and larger) */
     size_t moves, perturbations;
+    size_t peels;             /* bad tets with 2 or 3 boundary faces removed (surface 2-2 flips) */
     int passes;
     double seconds;
 } vm_improve_report;
 
-/* Defaults: bounds f >= 0 (has_lo), 0.5 voxel, 0.1 edge, targets 15 / 150 / 0.03, 12
+/* Defaults: bounds f >= 0 (has_lo), 0.5 voxel, 0.1 edge, band 0.25 voxel, targets 15 / 150 / 0.03, 12
  * passes, every operation on, seed 1, no unfixed field. [out] o. */
 void vm_improve_options_default(vm_improve_options *o);
 
