@@ -566,6 +566,7 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
         r->moves = w.moves;
         r->perturbations = w.perturbations;
         r->peels = w.peels;
+        r->boundary_flips = w.boundary_flips;
         r->passes = passes;
         r->tets_after = m->ncells;
         r->points_after = m->npoints;

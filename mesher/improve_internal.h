@@ -51,7 +51,8 @@ typedef struct vm__imp {
     double s_fmin, s_fmax; /* and min(face angle)/s_fmin, (180-max face angle)/s_fmax */
     const vm_improve_options *o;
     /* counters */
-    size_t collapses, flips23, flips32, edge_removals, moves, perturbations, peels;
+    size_t collapses, flips23, flips32, edge_removals, moves, perturbations, peels,
+        boundary_flips;
     double max_move_seen;
     unsigned rng;
     /* scratch for local operations */

@@ -69,6 +69,7 @@ typedef struct vm_improve_report {
     size_t edge_removals;     /* edges with 4..8 tets around them removed (4-4 and larger) */
     size_t moves, perturbations;
     size_t peels;             /* bad tets with 2 or 3 boundary faces removed (surface 2-2 flips) */
+    size_t boundary_flips;    /* boundary edges removed (surface edge flips, 2-2 and larger) */
     int passes;
     double seconds;
 } vm_improve_report;
