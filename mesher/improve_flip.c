@@ -124,7 +124,7 @@ static int boundary_flip_ok(const vm__imp *w, vm_index d, vm_index e, vm_index a
     double x[4][3];
     const vm_index v4[4] = {d, e, a0, an};
     if (w->v) {
-        bound = w->o->max_surface_move - w->o->surface_band;
+        bound = w->o->surface_tolerance - w->o->surface_band;
         for (int k = 0; k < 4; k++) vm__imp_to_index(w, w->p + 3 * (size_t)v4[k], x[k]);
     } else {
         double de[3];

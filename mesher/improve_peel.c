@@ -38,10 +38,11 @@ static void measure_pos(const vm__imp *w, vm_index a, double x[3]) {
     else memcpy(x, w->p + 3 * (size_t)a, 3 * sizeof *x);
 }
 
-/* Largest surface change allowed for tet t: the bound of a surface vertex with a volume,
- * else the free bound times the tet's longest edge. */
+/* Largest surface change allowed for tet t: with a volume, the bound of a surface vertex less
+ * the band its vertices may already be off the isosurface; else the free bound times the
+ * tet's longest edge. */
 static double peel_bound(const vm__imp *w, size_t t) {
-    if (w->v) return w->o->max_surface_move;
+    if (w->v) return w->o->surface_tolerance - w->o->surface_band;
     double L = 0.0;
     for (int i = 0; i < 4; i++)
         for (int j = i + 1; j < 4; j++) {

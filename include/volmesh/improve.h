@@ -27,14 +27,18 @@ typedef struct vm_improve_options {
     double lo, hi;
     int has_lo, has_hi;
     /* Largest distance a boundary vertex may move from its original position, in voxels
-     * (index space) when a volume is given. Default 0.5. Without a volume, boundary vertices
-     * move only in their tangent plane and at most max_surface_move_free times the length of
-     * their shortest incident edge (default 0.1). */
+     * (index space) when a volume is given: it slides along the isosurface, so this bounds
+     * how far the mesh drifts along the surface, not how far the surface moves. Default 0.8.
+     * Without a volume, boundary vertices move only in their tangent plane and at most
+     * max_surface_move_free times the length of their shortest incident edge (default 0.1). */
     double max_surface_move;
     double max_surface_move_free;
-    /* With a volume: isosurface vertices may also leave the isosurface by up to this many
-     * voxels (first-order distance |f - iso| / |grad f|, index space), so that sheets
-     * thinner than a voxel can thicken; 0 keeps them on it. Default 0.25. */
+    /* With a volume: the boundary stays within surface_tolerance voxels of the isosurface
+     * (default 0.5). Isosurface vertices may leave the isosurface by up to surface_band
+     * voxels (first-order distance |f - iso| / |grad f|, index space; default 0.3), so that
+     * sheets thinner than a voxel can thicken (0 keeps them on it); surface edge flips and
+     * peeled tets may move the surface by the rest, surface_tolerance - surface_band. */
+    double surface_tolerance;
     double surface_band;
     /* What counts as "good": min dihedral >= target_min_dihedral (default 15 degrees), max
      * dihedral <= target_max_dihedral (default 150) and ABAQUS volume measure >=
@@ -74,8 +78,8 @@ typedef struct vm_improve_report {
     double seconds;
 } vm_improve_report;
 
-/* Defaults: bounds f >= 0 (has_lo), 0.5 voxel, 0.1 edge, band 0.25 voxel, targets 15 / 150 / 0.03, 12
- * passes, every operation on, seed 1, no unfixed field. [out] o. */
+/* Defaults: bounds f >= 0 (has_lo), 0.8 voxel, 0.1 edge, tolerance 0.5 and band 0.3 voxel,
+ * targets 15 / 150 / 0.03, 12 passes, every operation on, seed 1, no unfixed field. [out] o. */
 void vm_improve_options_default(vm_improve_options *o);
 
 /* Improves the tet4 mesh m in place. [in,out] m: points may move, points and cells may be
