@@ -2,12 +2,14 @@
  *
  * vm_mesh_improve raises the worst element quality of a tet4 mesh in place by edge
  * contraction (seed 001 §6, with the ABAQUS thresholds), optimisation-based vertex smoothing,
- * 2-3 / 3-2 flips of interior faces and edges, and a last sliver-removal pass of random vertex
- * perturbations. Every accepted operation raises the worst quality of the tets it touches, so
- * the worst quality of the mesh never goes down. It never changes the topology of the boundary
- * (contractions obey the link condition of the mesh closed by a vertex at infinity), never
- * flips a boundary face, keeps flat faces on the volume border on their plane, keeps the
- * region of every tet and reports the elements it could not fix (a result, not an error).
+ * 2-3 / 3-2 / 4-4 flips of interior faces and edges, flips of boundary edges and peeling of
+ * bad tets with two or three boundary faces, and random vertex perturbations. Every accepted
+ * operation raises the worst quality of the tets it touches, so the worst quality of the mesh
+ * never goes down. It never changes the topology of the boundary (link condition of the mesh
+ * closed by a vertex at infinity for contractions; new surface edges must be new, no fold, for
+ * flips and peels), keeps the boundary within surface_tolerance of the isosurface, keeps flat
+ * faces on the volume border on their plane, keeps the region of every tet and reports the
+ * elements it could not fix (a result, not an error).
  * See docs/IMPROVE.md for the algorithms and the measured figures. */
 #ifndef VOLMESH_IMPROVE_H
 #define VOLMESH_IMPROVE_H
