@@ -58,9 +58,9 @@ static const char *mesh_help =
     "             [--raw-origin O] [--raw-header N]   (see volmesh info --help)\n"
     "\n"
     "After meshing, a quality pass (edge contraction, flips, optimising smoothing; the\n"
-    "boundary stays on the isosurface) raises the worst tets. Prints one summary line:\n"
-    "elements, points, boundary Euler characteristic, volume, min/max dihedral angle,\n"
-    "slivers, time. Exit 0 ok, 2 bad input or empty selection.\n";
+    "boundary stays within half a voxel of the isosurface) raises the worst tets. Prints\n"
+    "one summary line: elements, points, boundary Euler characteristic, volume, min/max\n"
+    "dihedral angle, slivers, time. Exit 0 ok, 2 bad input or empty selection.\n";
 
 static int parse_range(const char *s, vm_mesh_options *o) {
     const char *colon = strchr(s, ':');

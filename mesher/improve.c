@@ -14,8 +14,10 @@ void vm_improve_options_default(vm_improve_options *o) {
     o->hi = 0.0;
     o->has_lo = 1;
     o->has_hi = 0;
-    o->max_surface_move = 0.5;
+    o->max_surface_move = 0.8;
     o->max_surface_move_free = 0.1;
+    o->surface_tolerance = 0.5;
+    o->surface_band = 0.3;
     o->target_min_dihedral = 15.0;
     o->target_max_dihedral = 150.0;
     o->target_volume_measure = 0.03;
@@ -340,6 +342,7 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     int pass;
     for (pass = 0; pass < o->max_passes && !w->nomem; pass++) {
         size_t n, ops = 0;
+        w->deep = pass >= 1;
         tq *l = bad_list(w, &n);
         if (!l) {
             w->nomem = 1;
@@ -355,6 +358,9 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         if (o->flip)
             for (size_t i = 0; i < n && !w->nomem; i++)
                 if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_flip_tet(w, l[i].t);
+        if (w->deep)
+            for (size_t i = 0; i < n && !w->nomem; i++)
+                if (!w->dead[l[i].t] && w->q[l[i].t] < 2.0 / 3.0) ops += (size_t)vm__imp_peel_tet(w, l[i].t);
         free(l);
         l = bad_list(w, &n);
         if (!l) {
@@ -376,6 +382,39 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
             for (size_t i = 0; i < nv; i++) ops += (size_t)vm__imp_perturb_vertex(w, vs[i], 24);
         }
         free(vs);
+        free(l);
+        ops_total += ops;
+        if (ops == 0) break;
+    }
+    /* Last rounds for the few tets still failing ABAQUS's check: long searches around them,
+     * their vertices and their neighbours' vertices. */
+    w->deep = 1;
+    for (int extra = 0; extra < 4 && !w->nomem; extra++) {
+        size_t n, ops = 0;
+        tq *l = bad_list(w, &n);
+        if (!l) {
+            w->nomem = 1;
+            break;
+        }
+        for (size_t i = 0; i < n && !w->nomem; i++) {
+            size_t t = l[i].t;
+            if (w->dead[t] || w->q[t] >= 2.0 / 3.0) continue;
+            if (vm__imp_contract_tet(w, t) || vm__imp_flip_tet(w, t) || vm__imp_peel_tet(w, t)) {
+                ops++;
+                continue;
+            }
+            vm_index vs[4];
+            memcpy(vs, w->tet + 4 * t, sizeof vs);
+            for (int k = 0; k < 4; k++) {
+                const vm__imp_star *st = &w->star[vs[k]];
+                for (int32_t j = 0; j < st->n && j < 64; j++)
+                    for (int c = 0; c < 4; c++) {
+                        vm_index u = w->tet[4 * (size_t)st->t[j] + c];
+                        ops += (size_t)vm__imp_smooth_vertex(w, u, 4);
+                    }
+                ops += (size_t)vm__imp_perturb_vertex(w, vs[k], 200);
+            }
+        }
         free(l);
         ops_total += ops;
         if (ops == 0) break;
@@ -483,7 +522,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
         return vm_error_set(err, VM_ERR_EMPTY, "improve: the mesh has no cells");
     if (!(o->target_min_dihedral > 0.0) || !(o->target_max_dihedral < 180.0) ||
         !(o->target_volume_measure > 0.0) || !(o->max_surface_move >= 0.0) ||
-        !(o->max_surface_move_free >= 0.0))
+        !(o->max_surface_move_free >= 0.0) || !(o->surface_band >= 0.0) ||
+        !(o->surface_tolerance >= o->surface_band))
         return vm_error_set(err, VM_ERR_ARG, "improve: targets and bounds must be positive");
     if (v && !o->has_lo && !o->has_hi)
         return vm_error_set(err, VM_ERR_ARG, "improve: a volume needs lo or hi material bounds");
@@ -560,6 +600,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
         r->edge_removals = w.edge_removals;
         r->moves = w.moves;
         r->perturbations = w.perturbations;
+        r->peels = w.peels;
+        r->boundary_flips = w.boundary_flips;
         r->passes = passes;
         r->tets_after = m->ncells;
         r->points_after = m->npoints;

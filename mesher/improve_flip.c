@@ -1,6 +1,6 @@
 /* mesher/improve_flip.c — 2-3 and 3-2 flips of interior faces and edges around bad tets,
  * accepted when they raise the worst quality of the tets they replace (Freitag and
- * Ollivier-Gooch 1997, §3; Klingner and Shewchuk 2007, §3). Boundary faces never flip. */
+ * Ollivier-Gooch 1997, §3; Klingner and Shewchuk 2007, §3); in later rounds also boundary edges. */
 #include <math.h>
 #include <string.h>
 #include "improve_internal.h"
@@ -71,10 +71,92 @@ static int flip23(vm__imp *w, size_t t, int i) {
 
 #define RING_MAX 8
 
+static void sub3(const double a[3], const double b[3], double o[3]) {
+    for (int k = 0; k < 3; k++) o[k] = a[k] - b[k];
+}
+static void cross3(const double a[3], const double b[3], double o[3]) {
+    o[0] = a[1] * b[2] - a[2] * b[1];
+    o[1] = a[2] * b[0] - a[0] * b[2];
+    o[2] = a[0] * b[1] - a[1] * b[0];
+}
+static double dot3(const double a[3], const double b[3]) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* Outward normal (unnormalised) of face (f0, f1, f2) of the positive tet with fourth node o. */
+static void outward(const vm__imp *w, vm_index f0, vm_index f1, vm_index f2, vm_index o,
+                    double n[3]) {
+    const double *p0 = w->p + 3 * (size_t)f0, *p1 = w->p + 3 * (size_t)f1,
+                 *p2 = w->p + 3 * (size_t)f2, *po = w->p + 3 * (size_t)o;
+    double u[3], v[3], c[3];
+    sub3(p1, p0, u);
+    sub3(p2, p0, v);
+    cross3(u, v, n);
+    sub3(po, p0, c);
+    if (dot3(n, c) > 0.0)
+        for (int k = 0; k < 3; k++) n[k] = -n[k];
+}
+
+/* Number of boundary faces around vertex v. */
+static int boundary_valence(const vm__imp *w, vm_index v) {
+    static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    const vm__imp_star *s = &w->star[v];
+    int c = 0;
+    for (int32_t i = 0; i < s->n; i++) {
+        size_t u = (size_t)s->t[i];
+        const vm_index *nd = w->tet + 4 * u;
+        for (int f = 0; f < 4; f++) {
+            if (nd[f] == v) continue;
+            if (vm__imp_face_other(w, u, nd[fo[f][0]], nd[fo[f][1]], nd[fo[f][2]]) < 0) c++;
+        }
+    }
+    return c;
+}
+
+/* A flip of boundary edge de to the new surface edge a0-an (the ends of the open ring):
+ * allowed when the old surface faces are not on a border plane, the surface moves by at most
+ * the slack left by the surface band (the distance between lines de and a0-an) and the new
+ * boundary faces face the way the old ones did (no fold). */
+static int boundary_flip_ok(const vm__imp *w, vm_index d, vm_index e, vm_index a0, vm_index an,
+                            vm_index o0, vm_index on, vm_index ak) {
+    if ((w->planes[d] & w->planes[e] & (w->planes[a0] | w->planes[an])) != 0) return 0;
+    double bound;
+    double x[4][3];
+    const vm_index v4[4] = {d, e, a0, an};
+    if (w->v) {
+        bound = w->o->surface_tolerance - w->o->surface_band;
+        for (int k = 0; k < 4; k++) vm__imp_to_index(w, w->p + 3 * (size_t)v4[k], x[k]);
+    } else {
+        double de[3];
+        sub3(w->p + 3 * (size_t)e, w->p + 3 * (size_t)d, de);
+        bound = w->o->max_surface_move_free * sqrt(dot3(de, de));
+        for (int k = 0; k < 4; k++) memcpy(x[k], w->p + 3 * (size_t)v4[k], sizeof x[k]);
+    }
+    double u[3], v[3], m[3], c[3];
+    sub3(x[1], x[0], u);
+    sub3(x[3], x[2], v);
+    sub3(x[2], x[0], c);
+    cross3(u, v, m);
+    double ml = sqrt(dot3(m, m));
+    if (!(ml > 0.0) || fabs(dot3(c, m)) / ml > bound) return 0;
+    /* Old faces (a0, d, e) and (an, d, e) with inner nodes o0 and on; new faces (a0, an, d)
+     * and (a0, an, e), both with inner node ak (the apex over a0-an). */
+    double n1[3], n2[3], m1[3], m2[3], sum[3];
+    outward(w, a0, d, e, o0, n1);
+    outward(w, an, d, e, on, n2);
+    outward(w, a0, an, d, ak, m1);
+    outward(w, a0, an, e, ak, m2);
+    for (int k = 0; k < 3; k++) sum[k] = n1[k] + n2[k];
+    return dot3(m1, sum) > 0.0 && dot3(m2, sum) > 0.0 && dot3(m1, n1) > 0.0 &&
+           dot3(m1, n2) > 0.0 && dot3(m2, n1) > 0.0 && dot3(m2, n2) > 0.0;
+}
+
 /* Edge removal (Shewchuk 2002, "Two discrete optimization algorithms for the topological
  * improvement of tetrahedral meshes"): the n tets around interior edge de (3 <= n <= 8) are
  * replaced by 2(n-2) tets over the best triangulation of their ring, found by dynamic
- * programming over the ring's polygon; n = 3 is the 3-2 flip, n = 4 the 4-4 flip. */
+ * programming over the ring's polygon; n = 3 is the 3-2 flip, n = 4 the 4-4 flip. In later
+ * rounds a boundary edge de too (open ring a0..an, 2 <= n <= 7): its polygon is closed by the
+ * new surface edge a0-an and the n tets become 2(n-1); n = 2 is the surface 2-2 flip. */
 static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
     size_t ring[RING_MAX];
     int n = 0;
@@ -85,7 +167,7 @@ static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
         if (n == RING_MAX) return 0;
         ring[n++] = u;
     }
-    if (n < 3) return 0;
+    if (n < 2) return 0;
     vm_index x[RING_MAX], y[RING_MAX];
     double old = INFINITY;
     for (int r = 0; r < n; r++) {
@@ -102,32 +184,49 @@ static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
         x[r] = same ? o[0] : o[1];
         y[r] = same ? o[1] : o[0];
     }
-    /* Chain the ring a[0] -> a[1] -> ... -> a[0]; an open chain means a boundary edge. */
-    vm_index a[RING_MAX];
+    /* Chain the ring a[0] -> a[1] -> ...: closed around an interior edge; open around a
+     * boundary edge, from the tet whose x is no tet's y. */
+    int r0 = 0, open = 0;
+    for (int r = 0; r < n && !open; r++) {
+        int found = 0;
+        for (int q = 0; q < n; q++) found |= y[q] == x[r];
+        if (!found) {
+            r0 = r;
+            open = 1;
+        }
+    }
+    if (open ? !w->deep || n > RING_MAX - 1 : n < 3) return 0;
+    int np = open ? n + 1 : n; /* polygon vertices */
+    vm_index a[RING_MAX + 1];
     int used[RING_MAX] = {0};
-    a[0] = x[0];
-    a[1] = y[0];
-    used[0] = 1;
+    a[0] = x[r0];
+    a[1] = y[r0];
+    used[r0] = 1;
     for (int i = 2; i <= n; i++) {
         int r;
         for (r = 0; r < n; r++)
             if (!used[r] && x[r] == a[i - 1]) break;
         if (r == n) return 0;
         used[r] = 1;
-        if (i == n) {
+        if (i == n && !open) {
             if (y[r] != a[0]) return 0;
         } else {
             a[i] = y[r];
         }
     }
-    for (int i = 0; i < n; i++)
-        for (int j = i + 1; j < n; j++)
+    for (int i = 0; i < np; i++)
+        for (int j = i + 1; j < np; j++)
             if (a[i] == a[j]) return 0;
+    if (open) {
+        /* The new surface edge must be new, and the surface may move only a little. */
+        if (adjacent(w, a[0], a[n])) return 0;
+        if (boundary_valence(w, d) < 4 || boundary_valence(w, e) < 4) return 0;
+    }
     /* best[i][j]: best worst quality triangulating the sub-polygon a[i..j]; cut[i][j] the apex. */
-    double best[RING_MAX][RING_MAX];
-    int cut[RING_MAX][RING_MAX];
-    for (int len = 2; len < n; len++)
-        for (int i = 0; i + len < n; i++) {
+    double best[RING_MAX + 1][RING_MAX + 1];
+    int cut[RING_MAX + 1][RING_MAX + 1];
+    for (int len = 2; len < np; len++)
+        for (int i = 0; i + len < np; i++) {
             int j = i + len;
             best[i][j] = -INFINITY;
             cut[i][j] = -1;
@@ -148,18 +247,20 @@ static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
                 }
             }
         }
-    if (!(best[0][n - 1] > old + 1e-9)) return 0;
+    if (!(best[0][np - 1] > old + 1e-9)) return 0;
+    if (open && !boundary_flip_ok(w, d, e, a[0], a[n], a[1], a[n - 1], a[cut[0][n]]))
+        return 0;
     /* Collect the triangles; chords must not be edges of the mesh already. */
     vm_index nw[2 * RING_MAX][4];
-    int nn = 0, stack[RING_MAX][2], sp = 0;
+    int nn = 0, stack[RING_MAX + 1][2], sp = 0;
     stack[sp][0] = 0;
-    stack[sp][1] = n - 1;
+    stack[sp][1] = np - 1;
     sp++;
     while (sp > 0) {
         sp--;
         int i = stack[sp][0], j = stack[sp][1], k = cut[i][j];
         if (k < 0) return 0;
-        if (j - i >= 2 && (i != 0 || j != n - 1) && adjacent(w, a[i], a[j])) return 0;
+        if (j - i >= 2 && (i != 0 || j != np - 1) && adjacent(w, a[i], a[j])) return 0;
         vm_index t1[4] = {a[i], a[k], a[j], d}, t2[4] = {a[k], a[i], a[j], e};
         memcpy(nw[nn++], t1, sizeof t1);
         memcpy(nw[nn++], t2, sizeof t2);
@@ -175,7 +276,8 @@ static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
         }
     }
     if (!replace(w, ring, n, nw, nn)) return 0;
-    if (n == 3) w->flips32++;
+    if (open) w->boundary_flips++;
+    else if (n == 3) w->flips32++;
     else w->edge_removals++;
     return 1;
 }

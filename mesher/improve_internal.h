@@ -51,12 +51,14 @@ typedef struct vm__imp {
     double s_fmin, s_fmax; /* and min(face angle)/s_fmin, (180-max face angle)/s_fmax */
     const vm_improve_options *o;
     /* counters */
-    size_t collapses, flips23, flips32, edge_removals, moves, perturbations;
+    size_t collapses, flips23, flips32, edge_removals, moves, perturbations, peels,
+        boundary_flips;
     double max_move_seen;
     unsigned rng;
     /* scratch for local operations */
     vm_index *buf;
     size_t buf_cap;
+    int deep;           /* later rounds: also peel bad tets off the boundary */
     int nomem;          /* sticky: an allocation inside an operation failed */
 } vm__imp;
 
@@ -101,5 +103,6 @@ int vm__imp_contract_tet(vm__imp *w, size_t t);
 int vm__imp_flip_tet(vm__imp *w, size_t t);
 int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters);
 int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries);
+int vm__imp_peel_tet(vm__imp *w, size_t t);
 
 #endif

@@ -299,6 +299,25 @@ int vm__imp_project(const vm__imp *w, vm_index a, double x[3]) {
     return 1;
 }
 
+/* With a surface band: x is kept as it is when it lies within the band around the
+ * isosurface of a (first-order distance |f - iso| / |grad f|, index space) and within a's
+ * bound; otherwise it goes back onto the isosurface. */
+static int band_constrain(const vm__imp *w, vm_index a, double x[3]) {
+    double band = w->o->surface_band;
+    if (band > 0.0) {
+        double ijk[3], ijk0[3], g[3], d[3];
+        vm__imp_to_index(w, x, ijk);
+        double f = field(w->v, ijk, g) - (w->iso_hi[a] ? w->hi : w->lo);
+        double gl = sqrt(dot3(g, g));
+        if (gl > 1e-12 && isfinite(f) && fabs(f) <= band * gl) {
+            vm__imp_to_index(w, w->p0 + 3 * (size_t)a, ijk0);
+            sub3(ijk, ijk0, d);
+            return dot3(d, d) <= w->bound[a] * w->bound[a];
+        }
+    }
+    return vm__imp_project(w, a, x);
+}
+
 int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]) {
     const double *p0 = w->p0 + 3 * (size_t)a, *n = w->nrm + 3 * (size_t)a;
     double d[3];
@@ -313,7 +332,7 @@ int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]) {
         }
         return 1;
     case VM__IMP_SURF:
-        if (w->v) return vm__imp_project(w, a, x);
+        if (w->v) return band_constrain(w, a, x);
         sub3(x, p0, d);
         {
             double s = dot3(d, n);

@@ -37,6 +37,8 @@ static double shortest_edge(const vm__imp *w, vm_index a) {
 /* Removes from g its component along the constraint normal of a (tangent moves only). */
 static void tangent(const vm__imp *w, vm_index a, double g[3]) {
     if (w->cls[a] == VM__IMP_INTERIOR) return;
+    /* Surface vertices with a volume and a band may leave the isosurface a little. */
+    if (w->cls[a] == VM__IMP_SURF && w->v && w->o->surface_band > 0.0) return;
     double n[3];
     vm__imp_normal(w, a, n);
     double s = g[0] * n[0] + g[1] * n[1] + g[2] * n[2];

@@ -2,12 +2,14 @@
  *
  * vm_mesh_improve raises the worst element quality of a tet4 mesh in place by edge
  * contraction (seed 001 §6, with the ABAQUS thresholds), optimisation-based vertex smoothing,
- * 2-3 / 3-2 flips of interior faces and edges, and a last sliver-removal pass of random vertex
- * perturbations. Every accepted operation raises the worst quality of the tets it touches, so
- * the worst quality of the mesh never goes down. It never changes the topology of the boundary
- * (contractions obey the link condition of the mesh closed by a vertex at infinity), never
- * flips a boundary face, keeps flat faces on the volume border on their plane, keeps the
- * region of every tet and reports the elements it could not fix (a result, not an error).
+ * 2-3 / 3-2 / 4-4 flips of interior faces and edges, flips of boundary edges and peeling of
+ * bad tets with two or three boundary faces, and random vertex perturbations. Every accepted
+ * operation raises the worst quality of the tets it touches, so the worst quality of the mesh
+ * never goes down. It never changes the topology of the boundary (link condition of the mesh
+ * closed by a vertex at infinity for contractions; new surface edges must be new, no fold, for
+ * flips and peels), keeps the boundary within surface_tolerance of the isosurface, keeps flat
+ * faces on the volume border on their plane, keeps the region of every tet and reports the
+ * elements it could not fix (a result, not an error).
  * See docs/IMPROVE.md for the algorithms and the measured figures. */
 #ifndef VOLMESH_IMPROVE_H
 #define VOLMESH_IMPROVE_H
@@ -27,11 +29,19 @@ typedef struct vm_improve_options {
     double lo, hi;
     int has_lo, has_hi;
     /* Largest distance a boundary vertex may move from its original position, in voxels
-     * (index space) when a volume is given. Default 0.5. Without a volume, boundary vertices
-     * move only in their tangent plane and at most max_surface_move_free times the length of
-     * their shortest incident edge (default 0.1). */
+     * (index space) when a volume is given: it slides along the isosurface, so this bounds
+     * how far the mesh drifts along the surface, not how far the surface moves. Default 0.8.
+     * Without a volume, boundary vertices move only in their tangent plane and at most
+     * max_surface_move_free times the length of their shortest incident edge (default 0.1). */
     double max_surface_move;
     double max_surface_move_free;
+    /* With a volume: the boundary stays within surface_tolerance voxels of the isosurface
+     * (default 0.5). Isosurface vertices may leave the isosurface by up to surface_band
+     * voxels (first-order distance |f - iso| / |grad f|, index space; default 0.3), so that
+     * sheets thinner than a voxel can thicken (0 keeps them on it); surface edge flips and
+     * peeled tets may move the surface by the rest, surface_tolerance - surface_band. */
+    double surface_tolerance;
+    double surface_band;
     /* What counts as "good": min dihedral >= target_min_dihedral (default 15 degrees), max
      * dihedral <= target_max_dihedral (default 150) and ABAQUS volume measure >=
      * target_volume_measure (default 0.03). Tets below these are worked on. */
@@ -64,12 +74,14 @@ typedef struct vm_improve_report {
     size_t collapses, flips23, flips32;
     size_t edge_removals;     /* edges with 4..8 tets around them removed (4-4 and larger) */
     size_t moves, perturbations;
+    size_t peels;             /* bad tets with 2 or 3 boundary faces removed (surface 2-2 flips) */
+    size_t boundary_flips;    /* boundary edges removed (surface edge flips, 2-2 and larger) */
     int passes;
     double seconds;
 } vm_improve_report;
 
-/* Defaults: bounds f >= 0 (has_lo), 0.5 voxel, 0.1 edge, targets 15 / 150 / 0.03, 12
- * passes, every operation on, seed 1, no unfixed field. [out] o. */
+/* Defaults: bounds f >= 0 (has_lo), 0.8 voxel, 0.1 edge, tolerance 0.5 and band 0.3 voxel,
+ * targets 15 / 150 / 0.03, 12 passes, every operation on, seed 1, no unfixed field. [out] o. */
 void vm_improve_options_default(vm_improve_options *o);
 
 /* Improves the tet4 mesh m in place. [in,out] m: points may move, points and cells may be
