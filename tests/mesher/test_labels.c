@@ -249,6 +249,65 @@ static void absentLabelAndNonLabelVolumesAreRefusedClearly(void) {
     vm_volume_free(&v);
 }
 
+/* Histogram of regions 0..7 of m into h. */
+static void region_counts(const vm_mesh *m, size_t h[8]) {
+    memset(h, 0, 8 * sizeof h[0]);
+    for (size_t c = 0; c < m->ncells; c++)
+        if (m->region[c] >= 0 && m->region[c] < 8) h[m->region[c]]++;
+}
+
+static void everyWriterCarriesTheLabels(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_label_phantom_make(2, 16, &v, &err), &err);
+    for (int hex = 0; hex < 2; hex++) {
+        vm_label_options o;
+        vm_label_options_default(&o);
+        o.elements = hex ? VM_HEX8 : VM_TET4;
+        vm_mesh m;
+        vm_label_stats st;
+        CHECK_OK(vm_mesh_labels(&v, &o, &m, &st, &err), &err);
+        static const expect ex[] = {{1, 2}, {2, 2}, {3, 2}};
+        size_t iface = check_labels("writers", &m, &st, 2, ex, 3, 0.03);
+        size_t want[8];
+        region_counts(&m, want);
+        static const char *files[] = {"labels.vtu", "labels.inp", "labels.msh", "labels.mesh"};
+        for (size_t f = 0; f < 4; f++) {
+            const char *path = vm_test_tmp(files[f]);
+            CHECK_OK(vm_mesh_write(path, &m, &err), &err);
+            vm_mesh back;
+            CHECK_OK(vm_mesh_read(path, &back, &err), &err);
+            size_t got[8];
+            region_counts(&back, got);
+            CHECK_MSG(memcmp(got, want, sizeof got) == 0 && back.ncells == m.ncells,
+                      "%s: regions differ after the round trip", files[f]);
+            vm_mesh_free(&back);
+        }
+        /* INP: one ELSET per label and one surface per touching pair, with every face */
+        FILE *fp = fopen(vm_test_tmp("labels.inp"), "r");
+        CHECK(fp != NULL);
+        char line[256];
+        size_t faces = 0, surfaces = 0, elsets = 0;
+        int in_iface = 0;
+        while (fp && fgets(line, sizeof line, fp)) {
+            if (line[0] == '*') {
+                in_iface = strncmp(line, "*SURFACE, NAME=IFACE_REGION_", 28) == 0;
+                surfaces += (size_t)in_iface;
+                elsets += strncmp(line, "*ELSET, ELSET=REGION_", 21) == 0;
+                continue;
+            }
+            faces += (size_t)in_iface;
+        }
+        if (fp) fclose(fp);
+        CHECK(elsets == 3);
+        CHECK_MSG(surfaces == 3, "%zu interface surfaces, expected 1|2, 1|3, 2|3", surfaces);
+        CHECK_MSG(faces == iface, "%zu interface faces in the deck, %zu in the mesh", faces, iface);
+        vm_label_stats_free(&st);
+        vm_mesh_free(&m);
+    }
+    vm_volume_free(&v);
+}
+
 static void frogKeepsAllTwentyFiveTissues(void) {
     const char *path = vm_test_shared("frogtissue.mhd");
     if (!path) return;
@@ -290,4 +349,5 @@ TEST_MAIN(T(labelPhantomsGiveConformingMeshesWithManifoldMaterials),
           T(chosenLabelsOnlyAreMeshedAndTheRestIsBackground),
           T(leftHandedAnisotropicFrameKeepsElementsPositive),
           T(coarseSizeAndIslandFloorKeepTheMeshValid),
-          T(absentLabelAndNonLabelVolumesAreRefusedClearly), T(frogKeepsAllTwentyFiveTissues))
+          T(absentLabelAndNonLabelVolumesAreRefusedClearly), T(everyWriterCarriesTheLabels),
+          T(frogKeepsAllTwentyFiveTissues))
