@@ -125,6 +125,7 @@ typedef struct lgrid {
     int64_t m[3];
     uint16_t *code;
     int K;
+    int *rank; /* per code: who wins a topology repair (lower wins) */
 } lgrid;
 
 static size_t gidx(const lgrid *g, int64_t i, int64_t j, int64_t k) {
@@ -137,9 +138,38 @@ static int is_pad(const lgrid *g, size_t p) {
     return i == 0 || j == 0 || k == 0 || i == g->m[0] - 1 || j == g->m[1] - 1 || k == g->m[2] - 1;
 }
 
-/* Background ranks last, so repairs fill gaps with material rather than erode it. */
+/* Smaller labels rank first, so repairs grow thin and small tissues rather than erode them;
+ * background ranks last, so gaps fill with material. */
 static int rank_of(const lgrid *g, int code) {
-    return code ? code : g->K + 1;
+    return g->rank[code];
+}
+
+typedef struct code_count {
+    size_t count;
+    int code;
+} code_count;
+
+static int cmp_code_count(const void *a, const void *b) {
+    const code_count *x = a, *y = b;
+    if (x->count != y->count) return x->count < y->count ? -1 : 1;
+    return (x->code > y->code) - (x->code < y->code);
+}
+
+static vm_status make_ranks(lgrid *g, vm_error *err) {
+    size_t total = (size_t)(g->m[0] * g->m[1] * g->m[2]), K = (size_t)g->K;
+    code_count *cc = calloc(K + 1, sizeof *cc);
+    g->rank = malloc((K + 1) * sizeof *g->rank);
+    if (!cc || !g->rank) {
+        free(cc);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
+    for (size_t c = 0; c <= K; c++) cc[c].code = (int)c;
+    for (size_t p = 0; p < total; p++) cc[g->code[p]].count++;
+    qsort(cc + 1, K, sizeof *cc, cmp_code_count);
+    for (size_t c = 1; c <= K; c++) g->rank[cc[c].code] = (int)c;
+    g->rank[0] = g->K + 1;
+    free(cc);
+    return VM_OK;
 }
 
 static vm_status build_grid(const vm_volume *v, const int32_t *chosen, int K, int S, lgrid *g,
@@ -709,6 +739,7 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
     if (o->progress) o->progress("labels", 0, 4, o->progress_user);
     st = build_grid(v, chosen, (int)K, S, &g, err);
     if (!st && o->min_island > 1) st = remove_islands(&g, o->min_island, &islands, err);
+    if (!st) st = make_ranks(&g, err);
     if (!st) st = make_well_composed(&g, &topo, err);
     if (st) goto done;
     if (o->progress) o->progress("labels", 1, 4, o->progress_user);
@@ -812,6 +843,7 @@ done:
     free(present.count);
     free(chosen);
     free(g.code);
+    free(g.rank);
     free(lm.vid);
     free(lm.vcell);
     free(lm.target);
