@@ -464,6 +464,7 @@ typedef struct lmesh {
     uint16_t *hcode;     /* per hex */
     size_t nh, hcap;
     int kuhn[6][4];      /* bit-indexed corners of the 6 positive tets of a cube */
+    double scale[3];     /* world length of one coarse voxel per axis (quality is judged there) */
 } lmesh;
 
 static void vertex_pos(const lmesh *lm, size_t v, double out[3]) {
@@ -571,15 +572,23 @@ static int bit_to_vtk(int b) {
     return 0;
 }
 
+/* Smallest scaled Jacobian (world frame) an element may keep; below it its vertices move
+ * back toward the staircase, where a hex is a box (1) and a Kuhn tet has about 0.7. */
+#define VM_LABEL_MIN_HEX_SJ 0.2
+#define VM_LABEL_MIN_TET_SJ 0.2
+
 /* 1 when hex h (or its six tets) is clearly valid at the current positions. */
 static int hex_ok(const lmesh *lm, size_t h, int tets) {
     double p[8][3];
-    for (int q = 0; q < 8; q++) vertex_pos(lm, (size_t)lm->hex[8 * h + q], p[q]);
-    if (!tets) return vm_hex_min_scaled_jacobian((const double(*)[3])p) > 0.05;
+    for (int q = 0; q < 8; q++) {
+        vertex_pos(lm, (size_t)lm->hex[8 * h + q], p[q]);
+        for (int d = 0; d < 3; d++) p[q][d] *= lm->scale[d];
+    }
+    if (!tets) return vm_hex_min_scaled_jacobian((const double(*)[3])p) > VM_LABEL_MIN_HEX_SJ;
     for (int t = 0; t < 6; t++) {
         double x[4][3];
         for (int v = 0; v < 4; v++) memcpy(x[v], p[bit_to_vtk(lm->kuhn[t][v])], sizeof x[v]);
-        if (vm_tet_scaled_jacobian((const double(*)[3])x) <= 0.05) return 0;
+        if (vm_tet_scaled_jacobian((const double(*)[3])x) <= VM_LABEL_MIN_TET_SJ) return 0;
     }
     return 1;
 }
@@ -745,6 +754,7 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
     if (o->progress) o->progress("labels", 1, 4, o->progress_user);
     lm.g = &g;
     kuhn_table(lm.kuhn);
+    for (int d = 0; d < 3; d++) lm.scale[d] = (double)S * v->spacing[d];
     st = build_hexes(&lm, o->smooth, err);
     if (st) goto done;
     if (lm.nh == 0) {
