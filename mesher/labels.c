@@ -459,10 +459,10 @@ typedef struct lmesh {
     size_t *vcell;       /* per vertex: its dual cell */
     double *target;      /* per vertex: smooth position (coarse index space) */
     double *lambda;      /* per vertex: 1 at target, 0 at the cell centre */
-    size_t nv, vcap;
+    size_t nv, vcap, tcap, lcap; /* capacities of vcell, target, lambda */
     int32_t *hex;        /* 8 vertex ids per labelled voxel, VTK order */
     uint16_t *hcode;     /* per hex */
-    size_t nh, hcap;
+    size_t nh, hcap, ccap; /* capacities of hex (ids), hcode */
     int kuhn[6][4];      /* bit-indexed corners of the 6 positive tets of a cube */
     double scale[3];     /* world length of one coarse voxel per axis (quality is judged there) */
 } lmesh;
@@ -504,9 +504,8 @@ static vm_status add_vertex(lmesh *lm, size_t cell, int smooth, int32_t *id, vm_
     }
     if (lm->nv >= (size_t)INT32_MAX)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: more than 2^31 vertices");
-    size_t c1 = lm->vcap, c2 = lm->vcap;
-    vm_status st = vm__grow((void **)&lm->target, &c1, 3 * (lm->nv + 1), sizeof(double), err);
-    if (!st) st = vm__grow((void **)&lm->lambda, &c2, lm->nv + 1, sizeof(double), err);
+    vm_status st = vm__grow((void **)&lm->target, &lm->tcap, 3 * (lm->nv + 1), sizeof(double), err);
+    if (!st) st = vm__grow((void **)&lm->lambda, &lm->lcap, lm->nv + 1, sizeof(double), err);
     if (!st) st = vm__grow((void **)&lm->vcell, &lm->vcap, lm->nv + 1, sizeof(size_t), err);
     if (st) return st;
     size_t a[3] = {cell % lm->cm[0], (cell / lm->cm[0]) % lm->cm[1], cell / (lm->cm[0] * lm->cm[1])};
@@ -530,9 +529,8 @@ static vm_status build_hexes(lmesh *lm, int smooth, vm_error *err) {
             for (int64_t i = 1; i < g->m[0] - 1; i++) {
                 uint16_t c = g->code[gidx(g, i, j, k)];
                 if (!c) continue;
-                size_t cap2 = lm->hcap;
-                vm_status st = vm__grow((void **)&lm->hex, &cap2, 8 * (lm->nh + 1), sizeof(int32_t), err);
-                if (!st) st = vm__grow((void **)&lm->hcode, &lm->hcap, lm->nh + 1, sizeof(uint16_t), err);
+                vm_status st = vm__grow((void **)&lm->hex, &lm->hcap, 8 * (lm->nh + 1), sizeof(int32_t), err);
+                if (!st) st = vm__grow((void **)&lm->hcode, &lm->ccap, lm->nh + 1, sizeof(uint16_t), err);
                 if (st) return st;
                 for (int q = 0; q < 8; q++) {
                     int b = vtk_bit[q];
