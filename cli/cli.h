@@ -51,6 +51,16 @@ int vm_cli_raw_option(int argc, char **argv, int *i, vm_raw_options *raw, int *i
 /* Checks a mesh and prints its one-line summary (or JSON); returns an exit code. */
 int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, const char *out);
 
+/* --labels: "all" gives *labels NULL and *n 0, else the listed labels ("1,3,7", "2-5");
+ * [out] *labels malloc'd. Returns 0, or prints and returns VM_EXIT_INPUT. */
+int vm_cli_parse_labels(const char *s, int32_t **labels, size_t *n);
+
+/* Meshes the labels of v, writes out (and surface, the HTML report html, when not NULL) and
+ * prints the summary with one line per label; in names the input in messages. Exit code. */
+int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, const char *surface,
+                       const vm_label_options *lo, const vm_mesh_write_options *wo, int json,
+                       int quality_fields, const char *html);
+
 /* Prints the volume summary (text or JSON) for `info` and `demo`. */
 void vm_cli_print_info(FILE *out, const char *path, const vm_volume *v, int json);
 

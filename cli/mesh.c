@@ -1,4 +1,5 @@
-/* cli/mesh.c — `volmesh mesh`: volume in, tetrahedral mesh (and its surface) out. */
+/* cli/mesh.c — `volmesh mesh`: volume in, tetrahedral mesh (and its surface) out; with
+ * --labels a segmentation in, one multi-material mesh out (cli/mesh_labels.c). */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdlib.h>
@@ -20,7 +21,7 @@ static void stage_done(int verbose, const char *stage, double *t) {
 }
 
 static const char *mesh_help =
-    "usage: volmesh mesh FILE -o OUT.vtu (--iso V | --range A:B) [options]\n"
+    "usage: volmesh mesh FILE -o OUT.vtu (--iso V | --range A:B | --labels L) [options]\n"
     "\n"
     "Fills the material with tetrahedra (or hexahedra) by dual contouring (LBIE): the material is\n"
     "{f >= V} for --iso, or {A <= f <= B} for --range (either side may be left open:\n"
@@ -32,7 +33,16 @@ static const char *mesh_help =
     "  --iso V                 material is f >= V\n"
     "  --range A:B             material is A <= f <= B (interval volume)\n"
     "  --invert                with --iso: material is f <= V instead\n"
-    "  --size S                cell size in voxels (default 1; S > 1 resamples coarser)\n"
+    "  --labels all|1,3,7      FILE is a label volume (segmentation): one conforming mesh of\n"
+    "                          the chosen labels (all: every non-zero label; ranges 2-5\n"
+    "                          allowed), each element's region = its label; other labels\n"
+    "                          and 0 are background. Materials meet on shared faces. See\n"
+    "                          docs/LABELS.md\n"
+    "  --min-island N          with --labels: pieces of a label smaller than N voxels (after\n"
+    "                          --size) join their most common neighbour (default 1: keep all)\n"
+    "  --no-smooth             with --labels: keep the voxel staircase (exact volumes)\n"
+    "  --size S                cell size in voxels (default 1; S > 1 resamples coarser;\n"
+    "                          with --labels: the most frequent label of each S^3 block)\n"
     "  --elements tet|hex      tetrahedra (default) or hexahedra (one per inside voxel,\n"
     "                          corners on the dual-contouring vertices; uniform only)\n"
     "  --adaptive              merge interior cells into an octree (2:1 balanced, conforming\n"
@@ -60,7 +70,9 @@ static const char *mesh_help =
     "After meshing, a quality pass (edge contraction, flips, optimising smoothing; the\n"
     "boundary stays within half a voxel of the isosurface) raises the worst tets. Prints\n"
     "one summary line: elements, points, boundary Euler characteristic, volume, min/max\n"
-    "dihedral angle, slivers, time. Exit 0 ok, 2 bad input or empty selection.\n";
+    "dihedral angle, slivers, time (with --labels: no quality pass, and one more line per\n"
+    "label with its element count and volume against its voxels). Exit 0 ok, 2 bad input\n"
+    "or empty selection (such as a --labels label absent from the volume).\n";
 
 static int parse_range(const char *s, vm_mesh_options *o) {
     const char *colon = strchr(s, ':');
@@ -160,7 +172,10 @@ static int check_memory(const char *in, const vm_volume *v, const vm_mesh_option
 int vm_cmd_mesh(int argc, char **argv) {
     const char *in = NULL, *out = NULL, *surface = NULL;
     int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
-    int improve = 1, quality_fields = 0, verbose = 0;
+    int improve = 1, quality_fields = 0, verbose = 0, have_labels = 0;
+    const char *labels_arg = NULL;
+    vm_label_options lo;
+    vm_label_options_default(&lo);
     vm_mesh_write_options wo;
     vm_mesh_write_options_init(&wo);
     const char *denoise = NULL, *report = NULL;
@@ -181,7 +196,8 @@ int vm_cmd_mesh(int argc, char **argv) {
                     vm_cli_is(a, "--surface", NULL) || vm_cli_is(a, "--max-level", NULL) ||
                     vm_cli_is(a, "--elements", NULL) || vm_cli_is(a, "--denoise", NULL) ||
                     vm_cli_is(a, "--report", NULL) || vm_cli_is(a, "--deck", NULL) ||
-                    vm_cli_is(a, "--order", NULL) || vm_cli_is(a, "--max-memory", NULL);
+                    vm_cli_is(a, "--order", NULL) || vm_cli_is(a, "--labels", NULL) ||
+                    vm_cli_is(a, "--min-island", NULL) || vm_cli_is(a, "--max-memory", NULL);
         if (needs && i + 1 >= argc) return vm_cli_fail("mesh: %s needs a value", a);
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
@@ -206,6 +222,15 @@ int vm_cmd_mesh(int argc, char **argv) {
                 o.elements = VM_HEX8;
             else
                 return vm_cli_fail("--elements: '%s' is not tet or hex", e);
+        } else if (vm_cli_is(a, "--labels", NULL)) {
+            labels_arg = argv[++i];
+            have_labels = 1;
+        } else if (vm_cli_is(a, "--min-island", NULL)) {
+            long n;
+            if (vm_cli_int(a, argv[++i], 1, 2147483647L, &n)) return VM_EXIT_INPUT;
+            lo.min_island = (size_t)n;
+        } else if (vm_cli_is(a, "--no-smooth", NULL)) {
+            lo.smooth = 0;
         } else if (vm_cli_is(a, "--adaptive", NULL)) {
             o.adaptive = 1;
         } else if (vm_cli_is(a, "--max-level", NULL)) {
@@ -255,8 +280,12 @@ int vm_cmd_mesh(int argc, char **argv) {
     }
     if (!in) return vm_cli_fail("mesh: no input file (see volmesh mesh --help)");
     if (!out) return vm_cli_fail("mesh: no output file (-o OUT.vtu)");
-    if (have_iso == have_range)
-        return vm_cli_fail("mesh: give exactly one of --iso V or --range A:B");
+    if (have_iso + have_range + have_labels != 1)
+        return vm_cli_fail("mesh: give exactly one of --iso V, --range A:B or --labels L");
+    if (have_labels && (o.adaptive || denoise))
+        return vm_cli_fail("mesh: --labels meshes at one size (no --adaptive, no --denoise)");
+    if (!have_labels && (lo.min_island != 1 || !lo.smooth))
+        return vm_cli_fail("mesh: --min-island and --no-smooth go with --labels");
     if (invert && !have_iso) return vm_cli_fail("mesh: --invert goes with --iso");
     if (have_iso && invert) {
         o.has_lo = 0;
@@ -271,11 +300,31 @@ int vm_cmd_mesh(int argc, char **argv) {
         snprintf(lim, sizeof lim, "%.0f", max_memory);
         setenv("VOLMESH_MAX_MEMORY", lim, 1);
     }
+    int32_t *labels = NULL;
+    if (have_labels) {
+        int lrc = vm_cli_parse_labels(labels_arg, &labels, &lo.nlabels);
+        if (lrc) return lrc;
+        lo.labels = labels;
+        lo.elements = o.elements;
+        lo.cell_size = o.cell_size;
+    }
     vm_volume v;
     double t = stage_clock();
     int rc = vm_cli_read_volume(in, is_raw ? &raw : NULL, &v);
-    if (rc) return rc;
+    if (rc) {
+        free(labels);
+        return rc;
+    }
     stage_done(verbose, "read", &t);
+    if (have_labels) {
+        lo.progress = vm_cli_progress;
+        lo.progress_user = &quiet;
+        wo.compress = compress;
+        rc = vm_cli_mesh_labels(&v, in, out, surface, &lo, &wo, json, quality_fields, report);
+        free(labels);
+        vm_volume_free(&v);
+        return rc;
+    }
     if (max_memory > 0 && (rc = check_memory(in, &v, &o, denoise != NULL, max_memory)) != 0) {
         vm_volume_free(&v);
         return rc;

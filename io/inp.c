@@ -1,8 +1,9 @@
 /* io/inp.c — ABAQUS / CalculiX input decks (.inp): writer with element sets, boundary node
- * sets and element-face surfaces per region, placeholder material and an optional static
- * step; reader for the mesh part. Follows the Abaqus Keywords Reference (*NODE, *ELEMENT,
- * *ELSET, *NSET, *SURFACE, *SOLID SECTION, *STEP, *STATIC, *BOUNDARY, *CLOAD) and the
- * CalculiX CrunchiX User's Manual (element and face numbering as in Abaqus). */
+ * sets and element-face surfaces per region and per interface between two regions,
+ * placeholder material and an optional static step; reader for the mesh part. Follows the
+ * Abaqus Keywords Reference (*NODE, *ELEMENT, *ELSET, *NSET, *SURFACE, *SOLID SECTION,
+ * *STEP, *STATIC, *BOUNDARY, *CLOAD) and the CalculiX CrunchiX User's Manual (element and
+ * face numbering as in Abaqus). */
 #include <ctype.h>
 #include <inttypes.h>
 #include <math.h>
@@ -206,6 +207,8 @@ vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
     vm_index *mid = NULL;
     size_t nmid = 0, nb = 0, nregions = 0;
     uint64_t *bfaces = NULL;
+    vm__iface *ifaces = NULL;
+    size_t nif = 0;
     int32_t *regions = NULL;
     int64_t *ids = NULL;
     double *zs = NULL;
@@ -223,6 +226,10 @@ vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
     }
     st = vm__distinct_regions(path, m, &regions, &nregions, err);
     if (st) goto fail;
+    if (volume && nregions > 1) {
+        st = vm__interface_faces(path, m, &ifaces, &nif, err);
+        if (st) goto fail;
+    }
     /* room for every node once plus one face's ids (at most 8) before deduplicating */
     size_t idcap = (m->ncells > nnodes ? m->ncells : nnodes) + 64;
     ids = malloc((idcap ? idcap : 1) * sizeof *ids);
@@ -345,6 +352,18 @@ vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
                 fprintf(fp, "%zu, S%d\n", c + 1, (int)(bfaces[i] % (uint64_t)nf) + 1);
             }
         }
+        /* between materials: one surface per touching pair, on the lower region's side */
+        for (size_t i = 0; i < nif; i++) {
+            if (i == 0 || ifaces[i].region != ifaces[i - 1].region ||
+                ifaces[i].other != ifaces[i - 1].other) {
+                char a[32], b[32];
+                vm__region_name(ifaces[i].region, a, sizeof a);
+                vm__region_name(ifaces[i].other, b, sizeof b);
+                fprintf(fp, "*SURFACE, NAME=IFACE_%s_%s, TYPE=ELEMENT\n", a, b);
+            }
+            fprintf(fp, "%zu, S%d\n", (size_t)(ifaces[i].face / (uint64_t)nf) + 1,
+                    (int)(ifaces[i].face % (uint64_t)nf) + 1);
+        }
     }
     fprintf(fp, "** placeholder material (steel-like, units N, mm, t): replace with yours\n"
                 "*MATERIAL, NAME=PLACEHOLDER_STEEL\n*ELASTIC\n210000, 0.3\n"
@@ -379,6 +398,7 @@ fail:
     if (opened) vm__out_abort(&o);
     free(mid);
     free(bfaces);
+    free(ifaces);
     free(regions);
     free(ids);
     free(zs);

@@ -330,27 +330,24 @@ static int cmp_u64(const void *a, const void *b) {
     return (x > y) - (x < y);
 }
 
-vm_status vm__boundary_faces(const char *path, const vm_mesh *m, uint64_t **faces, size_t *n,
-                             vm_error *err) {
-    *faces = NULL;
-    *n = 0;
+/* Every face of every cell with its nodes sorted, sorted by nodes (equal faces adjacent).
+ * [out] *keys (malloc'd), *total = ncells * nfaces. */
+static vm_status face_keys(const char *path, const vm_mesh *m, face_key **keys, size_t *total,
+                           vm_error *err) {
+    *keys = NULL;
     int nf = m->kind == VM_TET4 ? 4 : m->kind == VM_HEX8 ? 6 : 0;
     int fk = m->kind == VM_TET4 ? 3 : 4;
     if (!nf)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: boundary faces need tet4 or hex8",
                             path);
-    size_t total, bytes;
-    if (!vm__mul_size(m->ncells, (size_t)nf, &total) ||
-        !vm__mul_size(total ? total : 1, sizeof(face_key), &bytes) ||
+    size_t bytes;
+    if (!vm__mul_size(m->ncells, (size_t)nf, total) ||
+        !vm__mul_size(*total ? *total : 1, sizeof(face_key), &bytes) ||
         bytes > vm__memory_limit())
         return vm_error_set(err, VM_ERR_NOMEM, "%s: too many faces", path);
     face_key *k = malloc(bytes);
-    uint64_t *out = malloc((total ? total : 1) * sizeof *out);
-    if (!k || !out) {
-        free(k);
-        free(out);
-        return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu faces", path, total);
-    }
+    if (!k)
+        return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu faces", path, *total);
     size_t nn = (size_t)vm_cell_nodes(m->kind);
     for (size_t c = 0; c < m->ncells; c++) {
         const vm_index *cell = m->cells + c * nn;
@@ -368,7 +365,24 @@ vm_status vm__boundary_faces(const char *path, const vm_mesh *m, uint64_t **face
             e->id = (uint64_t)c * (uint64_t)nf + (uint64_t)f;
         }
     }
-    qsort(k, total, sizeof *k, cmp_face);
+    qsort(k, *total, sizeof *k, cmp_face);
+    *keys = k;
+    return VM_OK;
+}
+
+vm_status vm__boundary_faces(const char *path, const vm_mesh *m, uint64_t **faces, size_t *n,
+                             vm_error *err) {
+    *faces = NULL;
+    *n = 0;
+    face_key *k;
+    size_t total;
+    vm_status st = face_keys(path, m, &k, &total, err);
+    if (st) return st;
+    uint64_t *out = malloc((total ? total : 1) * sizeof *out);
+    if (!out) {
+        free(k);
+        return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu faces", path, total);
+    }
     size_t nb = 0;
     for (size_t i = 0; i < total;) {
         size_t j = i + 1;
@@ -381,6 +395,52 @@ vm_status vm__boundary_faces(const char *path, const vm_mesh *m, uint64_t **face
     qsort(out, nb, sizeof *out, cmp_u64);
     *faces = out;
     *n = nb;
+    return VM_OK;
+}
+
+static int cmp_iface(const void *a, const void *b) {
+    const vm__iface *x = a, *y = b;
+    if (x->region != y->region) return x->region < y->region ? -1 : 1;
+    if (x->other != y->other) return x->other < y->other ? -1 : 1;
+    return (x->face > y->face) - (x->face < y->face);
+}
+
+vm_status vm__interface_faces(const char *path, const vm_mesh *m, vm__iface **faces, size_t *n,
+                              vm_error *err) {
+    *faces = NULL;
+    *n = 0;
+    face_key *k;
+    size_t total;
+    vm_status st = face_keys(path, m, &k, &total, err);
+    if (st) return st;
+    uint64_t nf = m->kind == VM_TET4 ? 4 : 6;
+    vm__iface *out = NULL;
+    size_t cap = 0, ni = 0;
+    for (size_t i = 0; i + 1 < total && !st;) {
+        size_t j = i + 1;
+        while (j < total && memcmp(k[j].v, k[i].v, sizeof k[i].v) == 0)
+            j++;
+        if (j - i == 2) {
+            int32_t ra = m->region[k[i].id / nf], rb = m->region[k[i + 1].id / nf];
+            if (ra != rb) {
+                st = vm__grow((void **)&out, &cap, ni + 1, sizeof *out, err);
+                if (st) break;
+                out[ni].face = ra < rb ? k[i].id : k[i + 1].id;
+                out[ni].region = ra < rb ? ra : rb;
+                out[ni].other = ra < rb ? rb : ra;
+                ni++;
+            }
+        }
+        i = j;
+    }
+    free(k);
+    if (st) {
+        free(out);
+        return st;
+    }
+    if (ni) qsort(out, ni, sizeof *out, cmp_iface);
+    *faces = out;
+    *n = ni;
     return VM_OK;
 }
 

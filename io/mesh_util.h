@@ -104,6 +104,18 @@ extern const int vm__hex_edges[12][2];
 vm_status vm__boundary_faces(const char *path, const vm_mesh *m, uint64_t **faces, size_t *n,
                              vm_error *err);
 
+/* A face between two cells of different regions, named from the side of the lower region:
+ * face = cell*nfaces+face of that cell, region = its region, other = the region across. */
+typedef struct vm__iface {
+    uint64_t face;
+    int32_t region, other;
+} vm__iface;
+
+/* Interface faces of a tet4/hex8 mesh, sorted by (region, other, face). [out] *faces
+ * (malloc'd, NULL when none), *n. */
+vm_status vm__interface_faces(const char *path, const vm_mesh *m, vm__iface **faces, size_t *n,
+                              vm_error *err);
+
 /* Sorted distinct region ids of m. [out] *regions (malloc'd), *n. */
 vm_status vm__distinct_regions(const char *path, const vm_mesh *m, int32_t **regions,
                                size_t *n, vm_error *err);

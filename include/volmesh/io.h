@@ -108,7 +108,8 @@ vm_status vm_mesh_read_as(const char *path, vm_mesh_format f, vm_mesh *m, vm_err
 /* ABAQUS / CalculiX .inp. Writes *HEADING, *NODE, *ELEMENT (C3D4, C3D8, C3D10/C3D20 with
  * order 2, S3, S4), per region r: *ELSET REGION_r, and for volume meshes *NSET NB_REGION_r
  * (nodes of the region's boundary faces) and *SURFACE SURF_REGION_r, TYPE=ELEMENT (element,
- * face S1..S6 in ABAQUS face numbering), a *SOLID SECTION (shells: *SHELL SECTION, thickness
+ * face S1..S6 in ABAQUS face numbering), for each pair of regions r < q that share faces
+ * *SURFACE IFACE_REGION_r_REGION_q (those faces, from the side of r), a *SOLID SECTION (shells: *SHELL SECTION, thickness
  * 1) with the placeholder material PLACEHOLDER_STEEL (E 210000, nu 0.3, density 7.85e-9);
  * opt->deck adds the analysis step. opt may be NULL. Reading takes *NODE, *ELEMENT of types
  * C3D4*, C3D8*, C3D10*, C3D20* (their corner nodes; nodes used only as mid-edge nodes are

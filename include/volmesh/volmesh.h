@@ -7,6 +7,7 @@
 #include "error.h"
 #include "improve.h"
 #include "io.h"
+#include "labels.h"
 #include "mesh.h"
 #include "mesher.h"
 #include "preprocess.h"

@@ -58,7 +58,7 @@ static int cmp_key(const void *a, const void *b) {
     return memcmp(a, b, 4 * sizeof(long));
 }
 
-/* Every "elem, Sk" line of every *SURFACE names a boundary face, and together they are
+/* Every "elem, Sk" line of every *SURFACE SURF_* names a boundary face, and together they are
  * exactly the faces vm_mesh_boundary finds (compared by sorted original node numbers). */
 static void check_surfaces(const vm_mesh *m, const char *path) {
     static const int tf[4][3] = {{0, 1, 2}, {0, 3, 1}, {1, 3, 2}, {2, 3, 0}};
@@ -82,7 +82,9 @@ static void check_surfaces(const vm_mesh *m, const char *path) {
     }
     char *text = slurp(path);
     size_t ng = 0;
-    for (char *s = strstr(text, "*SURFACE"); s; s = strstr(s + 1, "*SURFACE")) {
+    /* the region boundaries (interfaces between regions are IFACE_ surfaces) */
+    for (char *s = strstr(text, "*SURFACE, NAME=SURF_"); s;
+         s = strstr(s + 1, "*SURFACE, NAME=SURF_")) {
         char *line = strchr(s, '\n') + 1;
         long e;
         int f;

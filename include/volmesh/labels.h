@@ -1,0 +1,82 @@
+/* volmesh/labels.h — multi-material meshing of a label volume (a segmentation): one
+ * conforming mesh of all chosen labels, each element's region = its label.
+ *
+ * Every voxel of a chosen label becomes one hexahedron (or 6 tetrahedra); the corners are
+ * the vertices of the dual cells between voxel centres, shared by all materials, so two
+ * materials meet on exactly matching faces. Interface vertices sit at the mean of the
+ * label-change edge midpoints of their cell (smooth interfaces), pulled back toward the cell
+ * centre wherever that would invert an element. Before meshing, the labels are made
+ * well-composed (no two voxels of one label touching only along an edge or at a corner) by
+ * relabelling a few voxels, so that each label's boundary is a closed 2-manifold. See
+ * docs/LABELS.md. */
+#ifndef VOLMESH_LABELS_H
+#define VOLMESH_LABELS_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "error.h"
+#include "mesh.h"
+#include "mesher.h"
+#include "volume.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vm_label_options {
+    const int32_t *labels;  /* labels to mesh (not owned); NULL: every non-zero label present */
+    size_t nlabels;         /* entries of labels (0 with labels NULL) */
+    vm_cell_kind elements;  /* VM_TET4 (default) or VM_HEX8 */
+    int cell_size;          /* >= 1: element size in voxels; S > 1 takes the most frequent
+                               label of each S^3 block */
+    size_t min_island;      /* face-connected pieces of one label smaller than this many
+                               (coarse) voxels go to their most common neighbour; 1: keep all */
+    int smooth;             /* 1 (default): smooth interfaces; 0: voxel staircase */
+    vm_progress_fn progress;
+    void *progress_user;
+} vm_label_options;
+
+/* What happened to one chosen label. Volumes are in world units. */
+typedef struct vm_label_info {
+    int32_t label;
+    size_t input_voxels;   /* voxels of the label in the volume */
+    size_t meshed_voxels;  /* (coarse) voxels meshed as this label after islands, topology */
+    size_t elements;       /* cells of the mesh with region == label */
+    double voxel_volume;   /* meshed_voxels * S^3 * voxel volume */
+    double mesh_volume;    /* sum of the signed volumes of its cells */
+} vm_label_info;
+
+typedef struct vm_label_stats {
+    size_t nlabels;
+    vm_label_info *labels;     /* nlabels entries, ascending label; free with vm_label_stats_free */
+    size_t island_voxels;      /* voxels relabelled by the island floor */
+    size_t topology_voxels;    /* voxels relabelled to make every label well-composed */
+    size_t smoothed_vertices;  /* vertices off their cell centre in the result */
+    size_t relaxed_vertices;   /* vertices pulled back toward the centre to avoid inversion */
+    double seconds;
+} vm_label_stats;
+
+/* Defaults: all non-zero labels, tets, cell size 1, min island 1, smooth. */
+void vm_label_options_default(vm_label_options *o);
+
+/* Meshes the labels of v (values must be integers; 0 or any label not chosen is background).
+ * [out] mesh (initialised here; free with vm_mesh_free); [out] stats may be NULL, else free it
+ * with vm_label_stats_free. Errors: VM_ERR_FORMAT for a non-integer or out-of-range value,
+ * VM_ERR_EMPTY when a requested label is absent or nothing is left to mesh, VM_ERR_ARG for
+ * bad options, VM_ERR_NOMEM. The message is one line. */
+vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh *mesh,
+                         vm_label_stats *stats, vm_error *err);
+
+/* Frees stats->labels and zeroes stats. stats may be NULL. */
+void vm_label_stats_free(vm_label_stats *stats);
+
+/* Makes an n^3 label phantom (n >= 16) for tests and demos: kind 0 three concentric balls
+ * (labels 1 inside, 2, 3 outside), 1 two blocks sharing a face (1, 2), 2 three blocks meeting
+ * along one line (1, 2, 3), 3 two cubes of label 1 touching only along an edge plus a cube of
+ * label 2 touching one of them only at a corner. [out] v. */
+vm_status vm_label_phantom_make(int kind, int n, vm_volume *v, vm_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
