@@ -27,6 +27,7 @@ typedef struct hx {
     int32_t *region;
     size_t *vs, *vi; /* incidences of point i: vi[vs[i] .. vs[i+1]) = 8 * hex + corner */
     uint8_t *cls, *planes;
+    double *nrm; /* unit outward normal of each boundary point (world) */
     const vm_volume *v;
     double A[3][3], Ainv[3][3], org[3];
     double lo, hi;
@@ -40,7 +41,7 @@ void vm_hex_improve_options_default(vm_hex_improve_options *o) {
     o->target = 0.5;
     o->max_surface_move = 1.0;
     o->pillow = 1;
-    o->max_sweeps = 15;
+    o->max_sweeps = 8;
 }
 
 /* ---- geometry ---- */
@@ -164,31 +165,63 @@ static double iso_for(const hx *w, double f) {
     return w->has_lo ? w->lo : w->hi;
 }
 
-/* Estimated distance of index position x from the isosurface, in voxels. */
+/* Distance of index position x from the isosurface, in voxels: the first crossing on the
+ * gradient line toward it (within 2 voxels), else the first-order estimate |f - iso| / |g|. */
 static double iso_distance(const hx *w, const double x[3]) {
-    double g[3];
+    double g[3], g2[3];
     double f = field(w->v, x, g);
+    double iso = iso_for(w, f);
+    double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    double d = fabs(f - iso);
+    double est = gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
+    if (est < 0.05 || !(gn > 0.0)) return est;
+    double sgn = f > iso ? -1.0 : 1.0;
+    for (double t = 0.02; t <= 2.0; t += 0.02) {
+        double y[3];
+        for (int a = 0; a < 3; a++) y[a] = x[a] + sgn * t * g[a] / gn;
+        double fy = field(w->v, y, g2);
+        if ((fy - iso) * (f - iso) <= 0.0) return t;
+    }
+    return est;
+}
+
+/* First-order distance |f - iso| / |grad f| of index position y from the isosurface. */
+static double iso_estimate(const hx *w, const double y[3]) {
+    double g[3];
+    double f = field(w->v, y, g);
     double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
     double d = fabs(f - iso_for(w, f));
     return gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
 }
 
-/* Moves a trial position x of point i onto its constraint: the isosurface (Newton steps along
- * the gradient) or its box plane(s); 0 when that fails or takes it too far from p0. loose:
- * a surface point may stay anywhere within 0.4 voxel of the isosurface instead (untangling
- * needs the room; smoothing puts it back on the surface where that keeps the hexes valid). */
-static int constrain(const hx *w, size_t i, double x[3], int loose) {
+enum { MOVE_TANGENT, MOVE_LOOSE, MOVE_PROJECT };
+
+/* Moves a trial position x of point i onto its constraint; 0 when that fails or takes it more
+ * than the allowed distance from p0 (where the mesher put it). Box-plane points stay in their
+ * plane(s). Surface points: MOVE_TANGENT keeps them in the tangent plane at p0 and within 0.45
+ * voxel of the isosurface (smoothing: the mesher's points sit on sharp features, which the
+ * smooth trilinear isosurface rounds off, so sliding on it would shave volume); MOVE_LOOSE
+ * lets them anywhere within 0.4 voxel of it (untangling needs the room); MOVE_PROJECT puts
+ * them on it (Newton steps along the gradient). */
+static int constrain(const hx *w, size_t i, double x[3], int mode) {
     if (w->cls[i] == CLS_FREE) return 1;
     if (w->cls[i] == CLS_FIXED) return 0;
     double y[3], y0[3];
-    to_index(w, x, y);
     to_index(w, w->p0 + 3 * i, y0);
     double limit = w->max_move;
+    if (w->cls[i] == CLS_ISO && mode == MOVE_TANGENT) {
+        const double *n = w->nrm + 3 * i, *x0 = w->p0 + 3 * i;
+        double dn = (x[0] - x0[0]) * n[0] + (x[1] - x0[1]) * n[1] + (x[2] - x0[2]) * n[2];
+        for (int a = 0; a < 3; a++) x[a] -= dn * n[a];
+    }
+    to_index(w, x, y);
     if (w->cls[i] == CLS_PLANE) {
         for (int a = 0; a < 3; a++)
             if (w->planes[i] & (3u << (2 * a))) y[a] = y0[a];
         limit = fmin(limit, 0.5);
-    } else if (loose) {
+    } else if (mode == MOVE_TANGENT) {
+        if (!(iso_estimate(w, y) <= fmax(0.45, iso_estimate(w, y0) + 0.01))) return 0;
+    } else if (mode == MOVE_LOOSE) {
         if (!(iso_distance(w, y) <= 0.4)) return 0;
     } else {
         int ok = 0;
@@ -293,10 +326,36 @@ static vm_status classify(hx *w, vm_error *err) {
         free(bf);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
-    for (size_t u = 0; u < nb; u++)
-        for (int j = 0; j < 4; j++)
-            w->cls[w->h[8 * (bf[u] / 6) + (size_t)face_tab[bf[u] % 6][j]]] = CLS_ISO;
+    free(w->nrm);
+    w->nrm = calloc(3 * w->np + 1, sizeof *w->nrm);
+    if (!w->nrm) {
+        free(bf);
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    for (size_t u = 0; u < nb; u++) {
+        const vm_index *c = w->h + 8 * (bf[u] / 6);
+        const int *fc = face_tab[bf[u] % 6];
+        const double *P0 = w->p + 3 * (size_t)c[fc[0]], *P1 = w->p + 3 * (size_t)c[fc[1]],
+                     *P2 = w->p + 3 * (size_t)c[fc[2]], *P3 = w->p + 3 * (size_t)c[fc[3]];
+        double d1[3], d2[3], n[3];
+        for (int a = 0; a < 3; a++) {
+            d1[a] = P2[a] - P0[a];
+            d2[a] = P3[a] - P1[a];
+        }
+        n[0] = d1[1] * d2[2] - d1[2] * d2[1];
+        n[1] = d1[2] * d2[0] - d1[0] * d2[2];
+        n[2] = d1[0] * d2[1] - d1[1] * d2[0];
+        for (int j = 0; j < 4; j++) {
+            size_t i = (size_t)c[fc[j]];
+            w->cls[i] = CLS_ISO;
+            for (int a = 0; a < 3; a++) w->nrm[3 * i + a] += n[a];
+        }
+    }
     free(bf);
+    for (size_t i = 0; i < w->np; i++) {
+        double *n = w->nrm + 3 * i, l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        for (int a = 0; a < 3; a++) n[a] = l > 0.0 ? n[a] / l : 0.0;
+    }
     for (size_t i = 0; i < w->np; i++) {
         if (w->cls[i] == CLS_FREE) continue;
         if (!w->v) {
@@ -453,19 +512,6 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
     memcpy(x, w->p + 3 * i, sizeof x);
     local_q(w, i, x, &cur);
     int moved = 0;
-    if (w->cls[i] != CLS_FREE && !untangle) {
-        double y[3] = {x[0], x[1], x[2]};
-        lq n;
-        if (constrain(w, i, y, 0)) {
-            local_q(w, i, y, &n);
-            if (n.min >= fmin(cur.min, floor) &&
-                (y[0] != x[0] || y[1] != x[1] || y[2] != x[2])) {
-                memcpy(x, y, sizeof x);
-                cur = n;
-                moved = 1;
-            }
-        }
-    }
     double L = edge_scale(w, i);
     for (double h = 0.25 * L; h > 0.01 * L; h *= 0.5) {
         for (int rep = 0; rep < 4; rep++) {
@@ -476,7 +522,7 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
                 double y[3];
                 lq n;
                 for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
-                if (!constrain(w, i, y, untangle)) continue;
+                if (!constrain(w, i, y, untangle ? MOVE_LOOSE : MOVE_TANGENT)) continue;
                 local_q(w, i, y, &n);
                 if (better(&n, &bq, floor, untangle)) {
                     best = d;
@@ -619,6 +665,78 @@ static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o,
     return VM_OK;
 }
 
+/* Brings surface points that are more than 0.45 voxel off the isosurface (the mesher's
+ * relaxation can leave them up to a cell's half-diagonal away) the smallest part of the way
+ * to it that puts them within 0.45, where the hexes around allow (their worst corner kept at
+ * or above floor, or where it was). Points nearer stay: the mesher's points sit on sharp
+ * features, which the smooth trilinear isosurface rounds off. */
+static void final_snap(hx *w, double floor) {
+    for (size_t i = 0; i < w->np; i++) {
+        if (w->cls[i] != CLS_ISO) continue;
+        double y[3], x[3];
+        to_index(w, w->p + 3 * i, y);
+        if (iso_distance(w, y) <= 0.45) continue;
+        memcpy(x, w->p + 3 * i, sizeof x);
+        double target[3] = {x[0], x[1], x[2]};
+        if (!constrain(w, i, target, MOVE_PROJECT)) continue;
+        lq cur, n;
+        local_q(w, i, x, &cur);
+        for (double frac = 0.25; frac < 1.01; frac += 0.25) {
+            double z[3], zi[3];
+            for (int a = 0; a < 3; a++) z[a] = x[a] + frac * (target[a] - x[a]);
+            to_index(w, z, zi);
+            if (iso_distance(w, zi) > 0.45) continue;
+            local_q(w, i, z, &n);
+            if (n.min >= fmin(cur.min, floor)) memcpy(w->p + 3 * i, z, sizeof z);
+            break;
+        }
+    }
+}
+
+static void hx_free(hx *w) {
+    free(w->p);
+    free(w->p0);
+    free(w->h);
+    free(w->region);
+    free(w->vs);
+    free(w->vi);
+    free(w->cls);
+    free(w->planes);
+    free(w->nrm);
+    w->nrm = NULL;
+    w->p = w->p0 = NULL;
+    w->h = NULL;
+    w->region = NULL;
+    w->vs = w->vi = NULL;
+    w->cls = w->planes = NULL;
+}
+
+/* The whole pass on a copy of m, with or without the pillow layer. [out] f: its figures. */
+static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, int with_pillow,
+                     size_t *added, size_t *moves, int *sweeps, figs *f, vm_error *err) {
+    double *q = NULL;
+    uint8_t *active = NULL;
+    vm_status s = start(w, m, o, with_pillow, &q, &active, added, moves, sweeps, err);
+    if (!s && with_pillow) {
+        /* a layer still tangled after untangling will not come right: stop here */
+        measure(w, f, NULL);
+        if (f->inverted) {
+            free(q);
+            free(active);
+            return VM_OK;
+        }
+    }
+    if (!s) {
+        smooth(w, o, 1, q, active, moves, sweeps);
+        measure(w, f, NULL);
+        if (w->v) final_snap(w, fmax(f->min_sj, 0.2));
+        measure(w, f, NULL);
+    }
+    free(q);
+    free(active);
+    return s;
+}
+
 vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_improve_options *o,
                                 vm_hex_improve_report *r, vm_error *err) {
     double t0 = vm__now();
@@ -666,36 +784,40 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
     figs before, after;
     size_t added = 0, moves = 0;
     int sweeps = 0, undone = 0;
-    double *q = NULL;
-    uint8_t *active = NULL;
+    hx base = w;
     s = load(&w, m, err);
     if (s) goto done;
     measure(&w, &before, NULL);
-    s = start(&w, m, o, o->pillow, &q, &active, &added, &moves, &sweeps, err);
-    if (!s) smooth(&w, o, 1, q, active, &moves, &sweeps);
-    if (!s && added) {
+    s = run(&w, m, o, o->pillow && before.min_sj < o->target, &added, &moves, &sweeps, &after,
+            err);
+    if (!s && added && (after.inverted || after.min_sj < before.min_sj)) {
         /* Where the boundary folds (thin noisy features) some pillow corners have no valid
-         * position; then the layer goes and the hexes are untangled without it. */
-        figs f;
-        measure(&w, &f, NULL);
-        if (f.inverted) {
+         * position: then the pass runs again without the layer and keeps the better mesh. */
+        hx w2 = base;
+        figs f2;
+        size_t added2 = 0;
+        s = run(&w2, m, o, 0, &added2, &moves, &sweeps, &f2, err);
+        if (!s && (f2.inverted < after.inverted ||
+                   (f2.inverted == after.inverted && f2.min_sj > after.min_sj))) {
+            hx_free(&w);
+            w = w2;
+            after = f2;
+            added = 0;
             undone = 1;
-            s = start(&w, m, o, 0, &q, &active, &added, &moves, &sweeps, err);
-            if (!s) smooth(&w, o, 1, q, active, &moves, &sweeps);
+        } else {
+            hx_free(&w2);
         }
     }
-    free(q);
-    free(active);
     if (s) goto done;
-    measure(&w, &after, NULL);
-    double maxd = 0.0;
+    double maxd = 0.0, maxd0 = 0.0;
     if (v)
         for (size_t i = 0; i < w.np; i++) {
             if (w.cls[i] != CLS_ISO) continue;
             double y[3];
             to_index(&w, w.p + 3 * i, y);
-            double d = iso_distance(&w, y);
-            if (d > maxd) maxd = d;
+            maxd = fmax(maxd, iso_distance(&w, y));
+            to_index(&w, w.p0 + 3 * i, y);
+            maxd0 = fmax(maxd0, iso_distance(&w, y));
         }
     s = vm_mesh_reserve(m, w.np, w.nh, err);
     if (s) goto done;
@@ -719,6 +841,7 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
         r->volume_before = before.volume;
         r->volume_after = after.volume;
         r->max_surface_distance = maxd;
+        r->max_surface_distance_before = maxd0;
         r->moves = moves;
         r->sweeps = sweeps;
     }
@@ -726,13 +849,6 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
     m->ncells = w.nh;
     if (r) r->seconds = vm__now() - t0;
 done:
-    free(w.p);
-    free(w.p0);
-    free(w.h);
-    free(w.region);
-    free(w.vs);
-    free(w.vi);
-    free(w.cls);
-    free(w.planes);
+    hx_free(&w);
     return s;
 }

@@ -101,7 +101,7 @@ typedef struct vm_hex_improve_options {
      * (index space). Default 1.0. Without a volume, boundary vertices stay fixed. */
     double max_surface_move;
     int pillow;         /* 1 (default): insert the boundary layer first */
-    int max_sweeps;     /* most rounds over the points of poor hexes per stage; 15 */
+    int max_sweeps;     /* most rounds over the points of poor hexes per stage; 8 */
 } vm_hex_improve_options;
 
 typedef struct vm_hex_improve_report {
@@ -115,12 +115,13 @@ typedef struct vm_hex_improve_report {
     /* Largest estimated distance |f - iso| / |grad f| of a boundary vertex from the
      * isosurface after the pass, in voxels (0 without a volume; box-face vertices skipped). */
     double max_surface_distance;
+    double max_surface_distance_before; /* the same for the points as the mesher put them */
     size_t moves;
     int sweeps;
     double seconds;
 } vm_hex_improve_report;
 
-/* Defaults: f >= 0 (has_lo), target 0.5, 1 voxel, pillow on, 15 sweeps. [out] o. */
+/* Defaults: f >= 0 (has_lo), target 0.5, 1 voxel, pillow on, 8 sweeps. [out] o. */
 void vm_hex_improve_options_default(vm_hex_improve_options *o);
 
 /* Improves the hex8 mesh m in place. [in,out] m: points move; with o->pillow, points and
