@@ -51,7 +51,8 @@ static const char *mesh_help =
     "  --surface SURF.vtu      also write the boundary triangles\n"
     "  --denoise M             smooth the volume first: bilateral or diffusion (parameters\n"
     "                          from the data; see volmesh denoise for control)\n"
-    "  --no-improve            skip the quality pass (edge contraction, flips, smoothing)\n"
+    "  --no-improve            skip the quality pass (tets: edge contraction, flips, smoothing;\n"
+    "                          hexes: boundary pillow layer, untangling, smoothing)\n"
     "  --quality-fields        add per-cell quality arrays (min_dihedral, radius_ratio, ...)\n"
     "  --report REPORT.html    also write the HTML quality report (see volmesh report)\n"
     "  --no-compress           write the VTU without zlib\n"
@@ -375,6 +376,25 @@ int vm_cmd_mesh(int argc, char **argv) {
         st.seconds += ir.seconds;
         stage_done(verbose, "improve", &t);
     }
+    vm_hex_improve_report hr;
+    int hex_improved = 0;
+    if (improve && m.kind == VM_HEX8) {
+        vm_hex_improve_options ho;
+        vm_hex_improve_options_default(&ho);
+        ho.lo = o.lo;
+        ho.hi = o.hi;
+        ho.has_lo = o.has_lo;
+        ho.has_hi = o.has_hi;
+        s = vm_mesh_improve_hexes(&m, &v, &ho, &hr, &err);
+        if (s) {
+            vm_volume_free(&v);
+            vm_mesh_free(&m);
+            return vm_cli_fail("%s: %s", in, err.message);
+        }
+        hex_improved = 1;
+        st.seconds += hr.seconds;
+        stage_done(verbose, "improve", &t);
+    }
     vm_volume_free(&v);
     if (quality_fields && (s = vm_mesh_add_quality_fields(&m, NULL, &err)) != VM_OK) {
         vm_mesh_free(&m);
@@ -398,6 +418,9 @@ int vm_cmd_mesh(int argc, char **argv) {
     if (!rc && improved && !json && ir.unfixed)
         printf("quality pass: %zu tets still below the targets (min dihedral 15, max 150, "
                "ABAQUS); see volmesh quality\n", ir.unfixed);
+    if (!rc && hex_improved && !json && hr.below_02_after)
+        printf("quality pass: %zu hexes still below scaled Jacobian 0.2 (worst %.3f); see "
+               "volmesh quality\n", hr.below_02_after, hr.min_sj_after);
     vm_mesh_free(&m);
     return rc;
 }

@@ -136,9 +136,8 @@ vm_status vm__dual_contour_hexes(const vm__grid *g, vm__tet_soup *out, vm_mesh_s
     if (!s && g->progress) g->progress("contour", 3, 4, g->progress_user);
     size_t relaxed = 0, bad = 0;
     if (!s) bad = make_valid(&d, &h, &relaxed);
-    if (!s && bad)
-        s = vm_error_set(err, VM_ERR_INTERNAL, "mesh: %zu hexahedra stay inverted after relaxation",
-                         bad);
+    /* What relaxation leaves inverted is untangled by vm_mesh_improve_hexes. */
+    st->inverted_cells = bad;
     if (!s) {
         out->nodes = 8;
         out->ntets = h.n;

@@ -96,6 +96,57 @@ void vm_improve_options_default(vm_improve_options *o);
 vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                           vm_improve_report *r, vm_error *err);
 
+/* Hexahedral meshes (hex8): vm_mesh_improve_hexes first inserts a pillow layer (one hex on
+ * every boundary quad, between the boundary and an inner copy of it), so that no hex keeps
+ * two faces on the smooth boundary, then untangles and smooths by moving one vertex at a time
+ * to raise the smallest corner scaled Jacobian of the hexes around it (compass search on the
+ * max-min objective). Interior vertices move freely; boundary vertices slide on the
+ * isosurface (re-projected onto the trilinear field of the volume) or, on a face of the
+ * volume's box, within that plane. A move is kept only when the worst corner around the
+ * vertex does not get worse, so the worst scaled Jacobian of the mesh never goes down.
+ * See docs/IMPROVE.md. */
+typedef struct vm_hex_improve_options {
+    double lo, hi;      /* material bounds, as in vm_mesh_options (used with a volume) */
+    int has_lo, has_hi;
+    double target;      /* hexes with a min scaled Jacobian below this are worked on; 0.5 */
+    /* Largest distance a boundary vertex may slide from where the mesher put it, in voxels
+     * (index space). Default 1.0. Without a volume, boundary vertices stay fixed. */
+    double max_surface_move;
+    int pillow;         /* 1 (default): insert the boundary layer first */
+    int max_sweeps;     /* most rounds over the points of poor hexes per stage; 8 */
+} vm_hex_improve_options;
+
+typedef struct vm_hex_improve_report {
+    size_t hexes_before, hexes_after, points_before, points_after;
+    size_t pillow_hexes;                  /* hexes added by the boundary layer */
+    int pillow_undone; /* 1: the layer left inverted hexes, so the pass ran without it */
+    double min_sj_before, min_sj_after;   /* smallest corner scaled Jacobian (-1..1) */
+    size_t inverted_before, inverted_after; /* hexes with a corner scaled Jacobian <= 0 */
+    size_t below_02_before, below_02_after; /* hexes with a min scaled Jacobian below 0.2 */
+    double volume_before, volume_after;   /* sum of trilinear hex volumes (world units) */
+    /* Largest estimated distance |f - iso| / |grad f| of a boundary vertex from the
+     * isosurface after the pass, in voxels (0 without a volume; box-face vertices skipped). */
+    double max_surface_distance;
+    double max_surface_distance_before; /* the same for the points as the mesher put them */
+    size_t moves;
+    int sweeps;
+    double seconds;
+} vm_hex_improve_report;
+
+/* Defaults: f >= 0 (has_lo), target 0.5, 1 voxel, pillow on, 8 sweeps. [out] o. */
+void vm_hex_improve_options_default(vm_hex_improve_options *o);
+
+/* Improves the hex8 mesh m in place. [in,out] m: points move; with o->pillow, points and
+ * cells are appended (the new cells take the region of the hex they border). [in] v may be
+ * NULL (boundary vertices then stay fixed); when given it must be the volume m was meshed
+ * from, with o->lo/hi/has_lo/has_hi its material bounds. [in] o may be NULL (defaults).
+ * [out] r may be NULL. Errors: VM_ERR_UNSUPPORTED for a kind other than hex8 or a mesh with
+ * point or cell fields (pillowing would have to extend them), VM_ERR_EMPTY without cells,
+ * VM_ERR_ARG for a node out of range, VM_ERR_NOMEM. Inverted input hexes are allowed (the
+ * pass untangles them); report what stays inverted in r->inverted_after. */
+vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_improve_options *o,
+                                vm_hex_improve_report *r, vm_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -36,6 +36,7 @@ typedef struct vm_mesh_stats {
     size_t surface_vertices;
     size_t relaxed_vertices;   /* vertices pulled back to keep every element positive */
     size_t repaired_points;    /* hexes: outside grid points taken in (see docs) */
+    size_t inverted_cells;     /* hexes left inverted (vm_mesh_improve_hexes untangles them) */
     double seconds;
 } vm_mesh_stats;
 
