@@ -637,8 +637,9 @@ done:
 
 /* Where the boundary cuts itself, pulls the representatives at the corners of the crossing
  * triangles toward their mass points, then toward their cell centres, by a quarter of the
- * remaining step each round (gentler than halving: fewer vertices end far from their
- * minimisers, which leaves the quality pass more to work with), keeping every tet positive.
+ * remaining step the first time (gentler than halving: fewer vertices end far from their
+ * minimisers, which leaves the quality pass more to work with), half and then three
+ * quarters when they keep crossing, keeping every tet positive.
  * The crossings come from QEF minimisers far from their patch's crossing points (often
  * clamped to a face of the cell): their triangles fold over the neighbouring patches while
  * every tet stays positive. [out] *left: pairs still crossing (as last counted); *bad: tets
@@ -659,14 +660,16 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
         size_t step = 0;
         for (size_t r = 0; r < d->nreps; r++) {
             if (!mark[r]) continue;
+            /* a quarter of the way at first; vertices that keep crossing go faster */
+            double keep = ever[r] == 0 ? 0.75 : ever[r] == 1 ? 0.5 : 0.25;
             if (d->lambda[r] > 0) {
-                d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * 0.75 : 0.0;
+                d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * keep : 0.0;
             } else if (d->mu[r] > 0 && !isnan(d->cpos[3 * r])) {
-                d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * 0.75 : 0.0;
+                d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * keep : 0.0;
             } else {
                 continue;
             }
-            ever[r] = 1;
+            if (ever[r] < 255) ever[r]++;
             step++;
         }
         if (!step) break;
@@ -676,7 +679,7 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
     }
     *moved = 0;
     for (size_t r = 0; r < d->nreps; r++)
-        *moved += ever[r];
+        *moved += ever[r] != 0;
 done:
     free(mark);
     free(ever);
