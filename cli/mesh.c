@@ -101,13 +101,15 @@ int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, cons
     if (json) {
         printf("{\"output\": \"%s\", \"elements\": %zu, \"points\": %zu, \"inverted\": %zu, "
                "\"boundary_faces\": %zu, \"boundary_closed\": %s, \"boundary_euler\": %ld, "
-               "\"components\": %zu, \"volume\": %.17g, \"min_dihedral\": %.6f, "
-               "\"max_dihedral\": %.6f, \"slivers_5\": %zu, \"slivers_10\": %zu, "
-               "\"min_scaled_jacobian\": %.6f, \"repaired_points\": %zu, \"seconds\": %.3f}\n",
+               "\"boundary_self_intersections\": %zu, \"components\": %zu, "
+               "\"volume\": %.17g, \"min_dihedral\": %.6f, \"max_dihedral\": %.6f, "
+               "\"slivers_5\": %zu, \"slivers_10\": %zu, \"min_scaled_jacobian\": %.6f, "
+               "\"repaired_points\": %zu, \"seconds\": %.3f}\n",
                out, m->ncells, m->npoints, r.inverted, r.boundary_faces,
-               r.boundary_closed ? "true" : "false", r.boundary_euler, r.components, r.volume,
-               r.min_dihedral, r.max_dihedral, r.slivers_5, r.slivers_10,
-               r.min_scaled_jacobian, st ? st->repaired_points : 0, st ? st->seconds : 0.0);
+               r.boundary_closed ? "true" : "false", r.boundary_euler,
+               r.boundary_self_intersections, r.components, r.volume, r.min_dihedral,
+               r.max_dihedral, r.slivers_5, r.slivers_10, r.min_scaled_jacobian,
+               st ? st->repaired_points : 0, st ? st->seconds : 0.0);
     } else if (m->kind == VM_HEX8) {
         printf("%s: %zu hexes, %zu points, boundary %s (Euler %ld), %zu component%s, volume %.6g, "
                "%zu inverted, min scaled Jacobian %.3f, %.2f s\n",

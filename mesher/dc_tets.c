@@ -2,6 +2,7 @@
  * Zhang–Bajaj–Sohn) §4.1.2 and §4.2.2, over the cells analysed in dual_contour.c. */
 #include "../core/core.h"
 #include "dc_internal.h"
+#include "../quality/self_intersect.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -530,6 +531,162 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
     return VM_OK;
 }
 
+/* A boundary candidate: a tet face, its sorted corners (key) and its outward order (v). */
+typedef struct bface {
+    int64_t key[3], v[3];
+} bface;
+
+static int bface_cmp(const void *x, const void *y) {
+    const int64_t *a = ((const bface *)x)->key, *b = ((const bface *)y)->key;
+    for (int k = 0; k < 3; k++)
+        if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
+    return 0;
+}
+
+static int id_cmp(const void *x, const void *y) {
+    int64_t a = *(const int64_t *)x, b = *(const int64_t *)y;
+    return a < b ? -1 : a > b;
+}
+
+/* Counts the intersecting pairs of boundary triangles of the current tets (index space)
+ * and marks the representatives at the corners of those triangles in mark[]. A grid point
+ * off the box border is surrounded by tets, so only faces without such a corner are
+ * candidates; of those, the ones used by a single tet are the boundary. */
+static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, vm_error *err) {
+    static const int tf[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    int64_t N = vm__dc_npoints_real(d);
+    bface *f = NULL;
+    int64_t *ids = NULL;
+    vm_index *tri = NULL;
+    double *pos = NULL;
+    uint8_t *flag = NULL;
+    size_t nf = 0, cap = 0, nb = 0;
+    vm_status s = VM_OK;
+    *pairs = 0;
+    for (size_t t = 0; t < d->ntets; t++) {
+        const int64_t *v = d->tets + 4 * t;
+        int surf[4];
+        for (int k = 0; k < 4; k++)
+            surf[k] = v[k] >= N || vm__dc_vertex_planes(d, v[k]) != 0;
+        for (int q = 0; q < 4; q++) {
+            if (!surf[tf[q][0]] || !surf[tf[q][1]] || !surf[tf[q][2]]) continue;
+            if ((s = vm__grow((void **)&f, &cap, nf + 1, sizeof *f, err))) goto done;
+            bface *b = &f[nf++];
+            for (int k = 0; k < 3; k++)
+                b->v[k] = b->key[k] = v[tf[q][k]];
+            for (int i = 1; i < 3; i++) /* sort the key */
+                for (int j = i; j > 0 && b->key[j - 1] > b->key[j]; j--) {
+                    int64_t x = b->key[j];
+                    b->key[j] = b->key[j - 1];
+                    b->key[j - 1] = x;
+                }
+        }
+    }
+    if (nf) qsort(f, nf, sizeof *f, bface_cmp);
+    for (size_t i = 0; i < nf;) { /* keep the faces that occur once, in place */
+        size_t j = i + 1;
+        while (j < nf && bface_cmp(&f[i], &f[j]) == 0)
+            j++;
+        if (j == i + 1) f[nb++] = f[i];
+        i = j;
+    }
+    if (nb < 2) goto done;
+    ids = malloc(3 * nb * sizeof *ids);
+    tri = malloc(3 * nb * sizeof *tri);
+    flag = malloc(nb);
+    if (!ids || !tri || !flag) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
+        goto done;
+    }
+    for (size_t i = 0; i < nb; i++)
+        for (int k = 0; k < 3; k++)
+            ids[3 * i + (size_t)k] = f[i].v[k];
+    qsort(ids, 3 * nb, sizeof *ids, id_cmp);
+    size_t nv = 0;
+    for (size_t i = 0; i < 3 * nb; i++)
+        if (nv == 0 || ids[nv - 1] != ids[i]) ids[nv++] = ids[i];
+    pos = malloc(3 * nv * sizeof *pos);
+    if (!pos) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
+        goto done;
+    }
+    for (size_t i = 0; i < nv; i++)
+        vm__dc_vertex_pos(d, ids[i], 0, pos + 3 * i);
+    for (size_t i = 0; i < nb; i++)
+        for (int k = 0; k < 3; k++) {
+            const int64_t *hit = bsearch(&f[i].v[k], ids, nv, sizeof *ids, id_cmp);
+            tri[3 * i + (size_t)k] = (vm_index)(hit - ids);
+        }
+    s = vm__self_intersections(pos, tri, nb, pairs, flag, err);
+    if (s || !*pairs) goto done;
+    for (size_t i = 0; i < nb; i++) {
+        if (!flag[i]) continue;
+        for (int k = 0; k < 3; k++) {
+            int64_t id = f[i].v[k];
+            if (id >= N && (size_t)(id - N) < d->nreps) mark[id - N] = 1;
+        }
+    }
+done:
+    free(f);
+    free(ids);
+    free(tri);
+    free(pos);
+    free(flag);
+    return s;
+}
+
+/* Where the boundary cuts itself, pulls the representatives at the corners of the crossing
+ * triangles toward their mass points, then toward their cell centres, by a quarter of the
+ * remaining step the first time (gentler than halving: fewer vertices end far from their
+ * minimisers, which leaves the quality pass more to work with), half and then three
+ * quarters when they keep crossing, keeping every tet positive.
+ * The crossings come from QEF minimisers far from their patch's crossing points (often
+ * clamped to a face of the cell): their triangles fold over the neighbouring patches while
+ * every tet stays positive. [out] *left: pairs still crossing (as last counted); *bad: tets
+ * not positive (0 unless relaxation failed); *moved: representatives moved. */
+static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_error *err) {
+    size_t nr = d->nreps ? d->nreps : 1;
+    uint8_t *mark = calloc(nr, 1), *ever = calloc(nr, 1);
+    vm_status s = VM_OK;
+    size_t pairs = 0;
+    *bad = 0;
+    if (!mark || !ever) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
+    }
+    for (int round = 0; round < 40; round++) {
+        memset(mark, 0, nr);
+        if ((s = boundary_crossings(d, mark, &pairs, err)) || !pairs) break;
+        size_t step = 0;
+        for (size_t r = 0; r < d->nreps; r++) {
+            if (!mark[r]) continue;
+            /* a quarter of the way at first; vertices that keep crossing go faster */
+            double keep = ever[r] == 0 ? 0.75 : ever[r] == 1 ? 0.5 : 0.25;
+            if (d->lambda[r] > 0) {
+                d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * keep : 0.0;
+            } else if (d->mu[r] > 0 && !isnan(d->cpos[3 * r])) {
+                d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * keep : 0.0;
+            } else {
+                continue;
+            }
+            if (ever[r] < 255) ever[r]++;
+            step++;
+        }
+        if (!step) break;
+        size_t touched = 0;
+        if ((s = emit_all(d, err)) || (s = make_positive(d, bad, &touched, err)) || *bad)
+            break;
+    }
+    *moved = 0;
+    for (size_t r = 0; r < d->nreps; r++)
+        *moved += ever[r] != 0;
+done:
+    free(mark);
+    free(ever);
+    *left = pairs;
+    return s;
+}
+
 vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
                                 vm_error *err) {
     dc d;
@@ -538,6 +695,8 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     if (!s && g->progress) g->progress("contour", 3, 4, g->progress_user);
     size_t bad = 0, relaxed = 0;
     if (!s) s = make_positive(&d, &bad, &relaxed, err);
+    size_t crossing = 0, untangled = 0;
+    if (!s && !bad) s = untangle(&d, &crossing, &bad, &untangled, err);
     if (!s && bad)
         s = vm_error_set(err, VM_ERR_INTERNAL,
                          "mesh: %zu tetrahedra stay flat or inverted after relaxation", bad);
@@ -547,6 +706,8 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
         return s;
     }
     st->relaxed_vertices = relaxed;
+    st->untangled_vertices = untangled;
+    st->boundary_crossings = crossing;
     st->surface_vertices = d.nreps;
     /* Hand over tets and the positions of the vertices they use. */
     out->nodes = 4;

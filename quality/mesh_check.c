@@ -4,6 +4,7 @@
  * linear probing); connectivity uses union-find with path halving. Everything is O(n). */
 #include "../core/core.h"
 #include "volmesh/quality.h"
+#include "self_intersect.h"
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -430,6 +431,9 @@ static vm_status check_volume_mesh(const vm_mesh *m, vm_mesh_report *r, vm_error
     }
     free(binst);
     st = analyse_surface(bf, nb, fs.k, m->npoints, r, err);
+    if (!st && fs.k == 3)
+        st = vm__self_intersections(m->points, bf, nb, &r->boundary_self_intersections, NULL,
+                                    err);
     free(bf);
     return st;
 }
@@ -474,6 +478,9 @@ static vm_status check_surface_mesh(const vm_mesh *m, vm_mesh_report *r, vm_erro
     if (!isfinite(r->volume)) r->volume = 0.0;
     r->boundary_faces = m->ncells;
     st = analyse_surface(m->cells, m->ncells, k, m->npoints, r, err);
+    if (!st && k == 3)
+        st = vm__self_intersections(m->points, m->cells, m->ncells,
+                                    &r->boundary_self_intersections, NULL, err);
     r->components = r->boundary_components;
     return st;
 }

@@ -265,6 +265,7 @@ int vm_quality_lookup(const vm_quality_summary *q, const char *key, double *valu
         {"boundary_euler", (double)r->boundary_euler, 1},
         {"components", (double)r->components, 1},
         {"boundary_components", (double)r->boundary_components, 1},
+        {"boundary_self_intersections", (double)r->boundary_self_intersections, 1},
         {"volume", r->volume, 1},
         {"min_dihedral", r->min_dihedral, q->kind == VM_TET4},
         {"max_dihedral", r->max_dihedral, q->kind == VM_TET4},
@@ -344,6 +345,9 @@ int vm_quality_write_text(FILE *out, const char *name, const vm_quality_summary 
             r->boundary_components, r->boundary_components == 1 ? "" : "s",
             r->boundary_open_edges, r->boundary_nonmanifold_edges,
             r->boundary_nonmanifold_vertices);
+    fprintf(out, "self-cut     %zu pairs of boundary triangles intersect%s\n",
+            r->boundary_self_intersections,
+            q->kind == VM_TET4 || q->kind == VM_TRI3 ? "" : " (not checked for this kind)");
     fprintf(out, "components   %zu\n", r->components);
     fprintf(out, "volume       %.10g\n", r->volume);
     if (q->kind == VM_TET4) {
@@ -437,12 +441,12 @@ int vm_quality_write_json(FILE *out, const char *name, const vm_quality_summary 
                  "\"boundary_closed\": %s, \"boundary_open_edges\": %zu, "
                  "\"boundary_nonmanifold_edges\": %zu, \"boundary_nonmanifold_vertices\": %zu, "
                  "\"boundary_euler\": %ld, \"components\": %zu, \"boundary_components\": %zu, "
-                 "\"volume\": ",
+                 "\"boundary_self_intersections\": %zu, \"volume\": ",
             vm_cell_kind_name(q->kind), r->cells, r->points, r->inverted, r->degenerate,
             r->overshared_faces, r->boundary_faces, r->boundary_closed ? "true" : "false",
             r->boundary_open_edges, r->boundary_nonmanifold_edges,
             r->boundary_nonmanifold_vertices, r->boundary_euler, r->components,
-            r->boundary_components);
+            r->boundary_components, r->boundary_self_intersections);
     json_num(out, r->volume);
     fputs(", \"min_dihedral\": ", out);
     json_num(out, tet ? r->min_dihedral : NAN);

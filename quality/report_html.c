@@ -112,6 +112,8 @@ vm_status vm_quality_write_html(const char *path, const vm_mesh *m, const char *
                 "components</td></tr>\n",
             r->boundary_closed ? "closed" : "OPEN", r->boundary_faces, r->boundary_euler,
             r->boundary_components);
+    row(fp, "boundary self-intersections (triangle pairs)", "%.0f",
+        (double)r->boundary_self_intersections);
     row(fp, "connected components", "%.0f", (double)r->components);
     row(fp, "volume", "%.9g", r->volume);
     if (tets) {

@@ -35,6 +35,9 @@ typedef struct vm_mesh_stats {
     size_t boundary_cells, interior_cells, special_cells;
     size_t surface_vertices;
     size_t relaxed_vertices;   /* vertices pulled back to keep every element positive */
+    size_t untangled_vertices; /* tets: vertices pulled back where the boundary crossed itself */
+    size_t boundary_crossings; /* tets: pairs of boundary triangles still crossing after that
+                                  (0 on every volume tested; see vm_mesh_check) */
     size_t repaired_points;    /* hexes: outside grid points taken in (see docs) */
     size_t inverted_cells;     /* hexes left inverted (vm_mesh_improve_hexes untangles them) */
     double seconds;

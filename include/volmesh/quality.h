@@ -214,6 +214,9 @@ typedef struct vm_mesh_report {
     long boundary_euler;        /* V - E + F of the boundary surface */
     size_t components;          /* face-connected components of cells */
     size_t boundary_components; /* edge-connected components of the boundary surface */
+    size_t boundary_self_intersections; /* pairs of boundary triangles that intersect other
+                                           than along their common vertex or edge (tets and
+                                           triangle surfaces; 0 for hexes and quads) */
     double volume;              /* sum of signed cell volumes */
     double min_dihedral, max_dihedral; /* tets only, degrees (0 and 0 for other kinds) */
     size_t slivers_5, slivers_10;      /* tets with min dihedral below 5 and 10 degrees */
@@ -226,7 +229,12 @@ typedef struct vm_mesh_report {
  * (a bow-tie of two fans and the open fan on a rim both count). For surfaces: components =
  * boundary_components (edge-connected), degenerate counts faces of near-zero area, and
  * inverted, overshared_faces, dihedrals and min_scaled_jacobian are 0. An empty mesh reports
- * zeros. Time and memory O(cells): about 1 s and 200 MB for a million tets.
+ * zeros. Self-intersections: triangles without a common vertex count when they have any
+ * point in common (touching included); with one common vertex, when the edge opposite it
+ * in either meets the other; with a common edge, only when they are coplanar and fold onto
+ * the same side. Predicates are filtered doubles with a long-double fallback. Time and
+ * memory O(cells) (the pair search is a uniform grid over the boundary triangles): about
+ * 1 s and 200 MB for a million tets.
  * [out] r. Errors on out-of-memory, an unknown kind, or a node index outside 0..npoints-1
  * (VM_ERR_ARG). */
 vm_status vm_mesh_check(const vm_mesh *m, vm_mesh_report *r, vm_error *err);
@@ -282,8 +290,8 @@ vm_status vm_quality_report(const vm_mesh *m, vm_quality_summary *q, vm_error *e
 /* The value of a report key for --require style checks. Keys: the top-level numeric keys
  * of vm_quality_write_json (elements, points, inverted, degenerate, overshared_faces,
  * boundary_faces, boundary_closed (0/1), boundary_euler, components, boundary_components,
- * volume, min_dihedral, max_dihedral, slivers_5, slivers_10, min_scaled_jacobian,
- * abaqus_failures) and METRIC.min, METRIC.mean, METRIC.max, METRIC.unacceptable for each
+ * boundary_self_intersections, volume, min_dihedral, max_dihedral, slivers_5, slivers_10,
+ * min_scaled_jacobian, abaqus_failures) and METRIC.min, METRIC.mean, METRIC.max, METRIC.unacceptable for each
  * metric of the kind. Returns 0 and sets *value, or -1 when the key is unknown for this
  * mesh (e.g. min_dihedral or abaqus_failures of a hex mesh). */
 int vm_quality_lookup(const vm_quality_summary *q, const char *key, double *value);

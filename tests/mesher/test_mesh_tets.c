@@ -36,6 +36,8 @@ static void check_tet_mesh(const vm_mesh *m, long euler, size_t components, doub
               r.boundary_nonmanifold_vertices);
     CHECK_MSG(r.boundary_euler == euler, "boundary Euler %ld, expected %ld", r.boundary_euler,
               euler);
+    CHECK_MSG(r.boundary_self_intersections == 0, "%zu pairs of boundary triangles intersect",
+              r.boundary_self_intersections);
     CHECK_MSG(r.components == components, "%zu components, expected %zu", r.components,
               components);
     double rel = volume > 0 ? (r.volume - volume) / volume : 0.0;
@@ -43,8 +45,10 @@ static void check_tet_mesh(const vm_mesh *m, long euler, size_t components, doub
         CHECK_MSG(fabs(r.volume - volume) <= vol_tol_rel * volume,
                   "volume %.6g, expected %.6g (relative error %.4f%%, bound %.2f%%)", r.volume,
                   volume, 100 * rel, 100 * vol_tol_rel);
-    printf("    tets %zu points %zu min dihedral %.2f slivers<5 %zu slivers<10 %zu", r.cells,
-           r.points, r.min_dihedral, r.slivers_5, r.slivers_10);
+    printf("    tets %zu points %zu min dihedral %.2f slivers<5 %zu slivers<10 %zu "
+           "self-intersections %zu",
+           r.cells, r.points, r.min_dihedral, r.slivers_5, r.slivers_10,
+           r.boundary_self_intersections);
     if (volume > 0)
         printf(" volume error %+.3f%%\n", 100 * rel);
     else
@@ -166,15 +170,15 @@ static void check_digital_case(const char *label, const vm_volume *v, const vm_m
                  r.overshared_faces == 0 && r.boundary_closed == 1 &&
                  r.boundary_open_edges == 0 && r.boundary_nonmanifold_edges == 0 &&
                  r.boundary_nonmanifold_vertices == 0 && r.boundary_euler == euler &&
-                 r.components == comps;
+                 r.components == comps && r.boundary_self_intersections == 0;
         CHECK_MSG(ok,
                   "%s: inverted %zu degenerate %zu overshared %zu closed %d open %zu "
                   "nm-edges %zu nm-vertices %zu euler %ld (expected %ld) components %zu "
-                  "(expected %zu)",
+                  "(expected %zu) self-intersections %zu",
                   label, r.inverted, r.degenerate, r.overshared_faces, r.boundary_closed,
                   r.boundary_open_edges, r.boundary_nonmanifold_edges,
                   r.boundary_nonmanifold_vertices, r.boundary_euler, euler, r.components,
-                  comps);
+                  comps, r.boundary_self_intersections);
         vm_mesh_free(&m);
         return;
     }

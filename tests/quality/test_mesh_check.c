@@ -511,6 +511,121 @@ static void a_voxel_block_with_a_hole_has_two_boundary_components(void) {
     }
 }
 
+/* --- boundary self-intersections -------------------------------------------------------- */
+
+/* One case: up to 8 points and up to 4 triangles of a tri3 surface, and the expected number
+ * of intersecting pairs. */
+typedef struct pair_case {
+    const char *name;
+    int npts;
+    double p[8][3];
+    int ntri;
+    vm_index t[4][3];
+    size_t pairs;
+} pair_case;
+
+static const pair_case pair_cases[] = {
+    {"two triangles crossing", 6,
+     {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0.5, 0.5, -1}, {0.5, 0.5, 1}, {3, 3, 0}},
+     2, {{0, 1, 2}, {3, 4, 5}}, 1},
+    {"two triangles apart", 6,
+     {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0, 0, 1}, {2, 0, 1}, {0, 2, 1}},
+     2, {{0, 1, 2}, {3, 4, 5}}, 0},
+    {"a corner touching the other's inside", 6,
+     {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0.5, 0.5, 0}, {0.5, 0.5, 1}, {1.5, 0.5, 1}},
+     2, {{0, 1, 2}, {3, 4, 5}}, 1},
+    {"coplanar, one inside the other", 6,
+     {{0, 0, 0}, {4, 0, 0}, {0, 4, 0}, {0.5, 0.5, 0}, {1, 0.5, 0}, {0.5, 1, 0}},
+     2, {{0, 1, 2}, {3, 4, 5}}, 1},
+    {"hinge: common edge, bent", 4,
+     {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0.3}},
+     2, {{0, 1, 2}, {1, 0, 3}}, 0},
+    {"flat neighbours: common edge, coplanar", 4,
+     {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.5, -1, 0}},
+     2, {{0, 1, 2}, {1, 0, 3}}, 0},
+    {"fold: common edge, coplanar on one side", 4,
+     {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.6, 0.8, 0}},
+     2, {{0, 1, 2}, {1, 0, 3}}, 1},
+    {"fan: common vertex, apart", 5,
+     {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 0.2}, {0, -1, 0.5}},
+     2, {{0, 1, 2}, {0, 3, 4}}, 0},
+    {"common vertex, the far edge pierces", 5,
+     {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0.5, 0.5, -1}, {0.5, 0.5, 1}},
+     2, {{0, 1, 2}, {0, 3, 4}}, 1},
+    {"common vertex, coplanar wedges overlapping", 5,
+     {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {2, 1, 0}, {1, 2, 0}},
+     2, {{0, 1, 2}, {0, 3, 4}}, 1},
+    {"closed tetrahedron", 4,
+     {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}},
+     4, {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}}, 0},
+    {"inside-out tetrahedron (no crossing)", 4,
+     {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.6, 0.6, -0.5}},
+     4, {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}}, 0},
+};
+
+static void boundary_self_intersections_count_crossing_not_touching_neighbours(void) {
+    for (size_t c = 0; c < sizeof pair_cases / sizeof pair_cases[0]; c++) {
+        const pair_case *pc = &pair_cases[c];
+        vm_mesh m;
+        vm_mesh_report r;
+        vm_error err;
+        vm_mesh_init(&m, VM_TRI3);
+        for (int i = 0; i < pc->npts; i++)
+            add_pt(&m, pc->p[i][0], pc->p[i][1], pc->p[i][2]);
+        for (int i = 0; i < pc->ntri; i++)
+            add_cell(&m, pc->t[i]);
+        CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
+        CHECK_MSG(r.boundary_self_intersections == pc->pairs, "%s: %zu pairs, expected %zu",
+                  pc->name, r.boundary_self_intersections, pc->pairs);
+        /* the answer does not depend on the order of the triangles or of their corners */
+        for (size_t i = 0; i < m.ncells / 2; i++)
+            for (int k = 0; k < 3; k++) {
+                vm_index x = m.cells[3 * i + (size_t)k];
+                m.cells[3 * i + (size_t)k] = m.cells[3 * (m.ncells - 1 - i) + (size_t)k];
+                m.cells[3 * (m.ncells - 1 - i) + (size_t)k] = x;
+            }
+        for (size_t i = 0; i < m.ncells; i++) {
+            vm_index x = m.cells[3 * i];
+            m.cells[3 * i] = m.cells[3 * i + 1];
+            m.cells[3 * i + 1] = m.cells[3 * i + 2];
+            m.cells[3 * i + 2] = x;
+        }
+        CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
+        CHECK_MSG(r.boundary_self_intersections == pc->pairs,
+                  "%s, reordered: %zu pairs, expected %zu", pc->name,
+                  r.boundary_self_intersections, pc->pairs);
+        vm_mesh_free(&m);
+    }
+}
+
+static void a_tet_block_has_no_self_intersection_and_two_overlapping_tets_have(void) {
+    static const char block[4][4][4] = {{{1, 1, 1}, {1, 1, 1}}, {{1, 1, 1}, {1, 0, 1}}};
+    vm_mesh m;
+    vm_mesh_report r;
+    vm_error err;
+    build_cubes(&m, block, 0);
+    CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
+    CHECK(r.inverted == 0 && r.boundary_closed == 1);
+    CHECK_MSG(r.boundary_self_intersections == 0, "%zu pairs", r.boundary_self_intersections);
+    vm_mesh_free(&m);
+
+    /* Two positive tets sharing a face, the second folded back over the first: valid
+     * elements and a closed manifold boundary, yet the boundary crosses itself. */
+    vm_mesh_init(&m, VM_TET4);
+    add_pt(&m, 0, 0, 0);
+    add_pt(&m, 4, 0, 0);
+    add_pt(&m, 0, 4, 0);
+    add_pt(&m, 1, 1, 3);
+    add_pt(&m, 3, 3, 1); /* above the common face too, and outside the first tet */
+    add_tet_pos(&m, 0, 1, 2, 3);
+    add_tet_pos(&m, 0, 1, 2, 4);
+    CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
+    CHECK(r.inverted == 0 && r.boundary_closed == 1);
+    CHECK_MSG(r.boundary_self_intersections > 0, "folded pair: %zu",
+              r.boundary_self_intersections);
+    vm_mesh_free(&m);
+}
+
 TEST_MAIN(T(every_golden_mesh_gets_its_known_report),
           T(tet_metrics_match_verdict_on_regular_flat_and_degenerate_tets),
           T(hex_scaled_jacobian_is_one_for_a_box_and_falls_for_a_sheared_hex),
@@ -518,4 +633,6 @@ TEST_MAIN(T(every_golden_mesh_gets_its_known_report),
           T(boundary_of_a_hex_block_is_quads_pointing_outward),
           T(boundary_of_a_surface_mesh_is_refused),
           T(out_of_range_nodes_are_an_error_not_a_crash), T(an_empty_mesh_reports_zeros),
-          T(a_voxel_block_with_a_hole_has_two_boundary_components))
+          T(a_voxel_block_with_a_hole_has_two_boundary_components),
+          T(boundary_self_intersections_count_crossing_not_touching_neighbours),
+          T(a_tet_block_has_no_self_intersection_and_two_overlapping_tets_have))
