@@ -72,7 +72,8 @@ static const char *mesh_help =
     "boundary stays within half a voxel of the isosurface) raises the worst tets. Prints\n"
     "one summary line: elements, points, boundary Euler characteristic, volume, min/max\n"
     "dihedral angle, slivers, time (with --labels: no quality pass, and one more line per\n"
-    "label with its element count and volume against its voxels). Exit 0 ok, 2 bad input\n"
+    "label with its element count and volume against its voxels). Exit 0 ok, 1 the mesh\n"
+    "was written but has inverted elements (only possible with --no-improve), 2 bad input\n"
     "or empty selection (such as a --labels label absent from the volume).\n";
 
 static int parse_range(const char *s, vm_mesh_options *o) {
@@ -123,6 +124,13 @@ int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, cons
                r.boundary_euler, r.components, r.components == 1 ? "" : "s", r.volume,
                r.min_dihedral, r.max_dihedral, r.slivers_5, r.slivers_10,
                st ? st->seconds : 0.0);
+    }
+    if (r.inverted) {
+        /* Written so it can be inspected, but not fit for a solver: say so and exit 1. */
+        fprintf(stderr, "volmesh: %s: warning: %zu inverted element%s (without --no-improve "
+                "the quality pass untangles them)\n", out, r.inverted,
+                r.inverted == 1 ? "" : "s");
+        return VM_EXIT_CHECK;
     }
     return VM_EXIT_OK;
 }
