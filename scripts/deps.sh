@@ -14,6 +14,10 @@ if [ "$want_tests" = 1 ]; then
     /usr/bin/python3 -c 'import vtk' >/dev/null 2>&1 || pkgs+=(python3-vtk9)
     /usr/bin/python3 -c 'import meshio' >/dev/null 2>&1 || pkgs+=(python3-meshio)
     /usr/bin/python3 -c 'import numpy' >/dev/null 2>&1 || pkgs+=(python3-numpy)
+    # tests/reference: the reference meshers (TetGen run as a program; CGAL headers + g++)
+    command -v tetgen >/dev/null 2>&1 || pkgs+=(tetgen)
+    dpkg -s libcgal-dev >/dev/null 2>&1 || pkgs+=(libcgal-dev)
+    command -v g++ >/dev/null 2>&1 || pkgs+=(g++)
     # FE interop judges: CalculiX solves our .inp decks, gmsh reads our .msh files; the
     # optional Exodus II writer is built when libexodusii-dev is present at configure time.
     command -v ccx >/dev/null 2>&1 || pkgs+=(calculix-ccx)
