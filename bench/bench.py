@@ -219,6 +219,9 @@ def main():
                                   stdout=subprocess.PIPE, text=True).stdout.strip(),
             "volmesh": subprocess.run([args.cli, "--version"], stdout=subprocess.PIPE,
                                       text=True).stdout.strip(),
+            "commit": subprocess.run(["git", "-C", HERE, "describe", "--always", "--dirty"],
+                                     stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                     text=True).stdout.strip(),
             "reps": args.reps, "date": time.strftime("%Y-%m-%d")}
     if args.json:
         R.dump(args.json, {"meta": meta, "results": results})
@@ -245,7 +248,8 @@ def write_markdown(path, results, meta):
                      f"{m.get('CPU(s)', '?')} CPUs, {m.get('Thread(s) per core', '?')} thread(s) "
                      f"per core, L3 {m.get('L3 cache', '?')}; nproc {m['nproc']}",
                      f"- memory: {m.get('memory', '?')}; Linux {m['kernel']}",
-                     f"- volmesh: {meta['volmesh']} (Release build)",
+                     f"- volmesh: {meta['volmesh']} (Release build, commit "
+                     f"{meta.get('commit') or 'not recorded'})",
                      f"- TetGen: {meta['tetgen'] or 'not installed'}",
                      f"- CGAL: {meta['cgal'] or 'not installed'} (cgal_mesh3.cpp, g++ -O2, "
                      "sequential)",
@@ -308,8 +312,8 @@ def write_markdown(path, results, meta):
     if cg:
         where.append(f"- volmesh's tets/s is {min(cg):.1f}× to {max(cg):.1f}× CGAL Mesh_3's "
                      f"(median {statistics.median(cg):.1f}×) against the 100× target; its min "
-                     f"dihedral is not better than CGAL's on {worse} of {len(cg)} inputs (raw "
-                     "dual-contouring tets, no quality pass yet).")
+                     f"dihedral is not better than CGAL's on {worse} of {len(cg)} inputs (with the "
+                     "quality pass of the version measured).")
     if fe_ratio:
         where.append(f"- volmesh's whole meshing (surface and tets) runs at {min(fe_ratio):.2f}× "
                      f"to {max(fe_ratio):.2f}× flying edges' speed per voxel (median "
