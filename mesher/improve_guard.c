@@ -2,8 +2,8 @@
  * moves a boundary vertex or changes boundary faces, its new boundary triangles are tested
  * against each other and against the boundary triangles near them (vm__tri_pair_intersects),
  * and the operation is refused when a pair crosses. The boundary vertices sit in a hashed
- * uniform grid (cell = mean boundary edge); a triangle crossing a query triangle has a vertex
- * within the longest boundary edge of the query's bounding box, so the grid cells of that box
+ * uniform grid (cell = the longest boundary edge); a triangle crossing a query triangle has
+ * a vertex within the longest boundary edge of the query's bounding box, so the grid cells of that box
  * grown by the longest edge hold all candidates. Each vertex's boundary faces are cached and
  * recomputed after a tet around it is added or removed. */
 #include <math.h>
@@ -89,6 +89,12 @@ void vm__imp_guard_touch(vm__imp *w, vm_index v) {
     if (g->bucket[v] == NOB) g_insert(w, v);
 }
 
+static int pair_cmp(const void *pa, const void *pb) {
+    const vm_index *a = pa, *b = pb;
+    if (a[0] != b[0]) return a[0] < b[0] ? -1 : 1;
+    return a[1] < b[1] ? -1 : a[1] > b[1];
+}
+
 int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e) {
     struct vm__imp_guard *g = w->g;
     bflist *l = &g->bf[a];
@@ -117,13 +123,13 @@ int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e) {
                 c++;
             }
         }
+        if (c > 1) qsort(g->tmp, c, 2 * sizeof *g->tmp, pair_cmp);
         l->n = 0;
         for (size_t i = 0; i < c; i++) {
-            int seen = 0;
-            for (size_t j = 0; j < c && !seen; j++)
-                seen = j != i && g->tmp[2 * j] == g->tmp[2 * i] &&
-                       g->tmp[2 * j + 1] == g->tmp[2 * i + 1];
-            if (seen) continue;
+            const vm_index *q = g->tmp + 2 * i;
+            if ((i > 0 && q[-2] == q[0] && q[-1] == q[1]) ||
+                (i + 1 < c && q[2] == q[0] && q[3] == q[1]))
+                continue;
             if (l->n == l->cap) {
                 int32_t cap = l->cap ? 2 * l->cap : 8;
                 vm_index *ne = realloc(l->e, 2 * (size_t)cap * sizeof *ne);
@@ -262,6 +268,11 @@ int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
             w->nomem = 1;
             return 0;
         }
+        if (nf == 0) {
+            /* Not on the boundary (now): out of the grid until a tet around it changes. */
+            g_remove(w, v);
+            continue;
+        }
         for (int f = 0; f < nf; f++) {
             vm_index tri[3] = {v, e[2 * f], e[2 * f + 1]};
             if ((g->stamp[tri[1]] == inc && tri[1] < v) || (g->stamp[tri[2]] == inc && tri[2] < v))
@@ -387,7 +398,8 @@ int vm__imp_guard_init(vm__imp *w) {
             }
         }
     }
-    g->h = ne && sum > 0.0 ? sum / (double)ne : 1.0;
+    /* Cells as large as the longest edge: a query then visits a few cells only. */
+    g->h = ne && lmax > 0.0 ? lmax : ne && sum > 0.0 ? sum / (double)ne : 1.0;
     g->lmax = lmax;
     size_t nb = 1024;
     while (nb < 2 * nbv) nb *= 2;
