@@ -87,6 +87,7 @@ static void imp_free(vm__imp *w) {
         for (size_t i = 0; i < w->npt; i++) free(w->star[i].t);
     free(w->star);
     free(w->buf);
+    vm__imp_guard_free(w);
 }
 
 static int invert3(double A[3][3], double B[3][3]) {
@@ -540,6 +541,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
     vm__imp w;
     memset(&w, 0, sizeof w);
     vm_status s = imp_init(&w, m, v, o, err);
+    if (s == VM_OK && !vm__imp_guard_init(&w))
+        s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the boundary guard");
     int passes = 0;
     if (s == VM_OK) {
         run_passes(&w, o, &passes);

@@ -245,6 +245,65 @@ static double merged_min(const vm__imp *w, vm_index a, vm_index b, const double 
     return qmin;
 }
 
+/* 1 when merging gone into keep at x (edge ab = {keep, gone}) makes no boundary triangles
+ * cross: the boundary faces around the merged vertex, found among the tets that survive,
+ * against each other and the boundary near them. */
+static int contract_guard_ok(vm__imp *w, vm_index a, vm_index b, vm_index keep, vm_index gone,
+                             const double x[3]) {
+    static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    const vm_index *e;
+    int fa = vm__imp_guard_faces(w, a, &e), fb = vm__imp_guard_faces(w, b, &e);
+    if (fa < 0 || fb < 0) {
+        w->nomem = 1;
+        return 0;
+    }
+    if (fa == 0 && fb == 0) return 1; /* no boundary face moves or changes */
+    size_t ns = (size_t)w->star[a].n + (size_t)w->star[b].n;
+    vm_index(*s)[4] = malloc((ns + 1) * sizeof *s);
+    vm_index(*nt)[3] = malloc((4 * ns + 1) * sizeof *nt);
+    if (!s || !nt) {
+        free(s);
+        free(nt);
+        w->nomem = 1;
+        return 0;
+    }
+    size_t n = 0;
+    for (int side = 0; side < 2; side++) {
+        vm_index u = side ? b : a, other = side ? a : b;
+        const vm__imp_star *st = &w->star[u];
+        for (int32_t i = 0; i < st->n; i++) {
+            size_t t = (size_t)st->t[i];
+            if (vm__imp_has(w, t, other)) continue;
+            for (int k = 0; k < 4; k++) {
+                vm_index v = w->tet[4 * t + k];
+                s[n][k] = v == gone ? keep : v;
+            }
+            n++;
+        }
+    }
+    int nn = 0;
+    for (size_t i = 0; i < n; i++)
+        for (int f = 0; f < 4; f++) {
+            vm_index c[3] = {s[i][fo[f][0]], s[i][fo[f][1]], s[i][fo[f][2]]};
+            if (c[0] != keep && c[1] != keep && c[2] != keep) continue;
+            int shared = 0;
+            for (size_t j = 0; j < n && !shared; j++) {
+                if (j == i) continue;
+                int h = 0;
+                for (int k = 0; k < 4; k++)
+                    h += s[j][k] == c[0] || s[j][k] == c[1] || s[j][k] == c[2];
+                shared = h == 3;
+            }
+            if (shared) continue;
+            memcpy(nt[nn++], c, sizeof c);
+        }
+    vm_index exv[2] = {a, b};
+    int ok = vm__imp_guard_ok(w, (const vm_index(*)[3])nt, nn, keep, x, exv, 2, NULL, 0);
+    free(s);
+    free(nt);
+    return ok;
+}
+
 /* Tries to contract edge ab; returns 1 when done. */
 static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     int keep_a = may_merge(w, a, b), keep_b = may_merge(w, b, a);
@@ -286,6 +345,7 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
             continue;
         if (opt != 0 && w->cls[a] != VM__IMP_INTERIOR && !boundary_keeps_normals(w, a, b, x))
             continue;
+        if (!contract_guard_ok(w, a, b, opt == 1 ? b : a, opt == 1 ? a : b, x)) continue;
         best = q;
         choice = opt;
         memcpy(bx, x, sizeof bx);
@@ -323,8 +383,12 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     w->star[gone].n = 0;
     w->pdead[gone] = 1;
     memcpy(w->p + 3 * (size_t)keep, bx, sizeof bx);
+    vm__imp_guard_moved(w, keep);
     const vm__imp_star *sk = &w->star[keep];
-    for (int32_t i = 0; i < sk->n; i++) w->q[sk->t[i]] = vm__imp_tet_q(w, (size_t)sk->t[i]);
+    for (int32_t i = 0; i < sk->n; i++) {
+        w->q[sk->t[i]] = vm__imp_tet_q(w, (size_t)sk->t[i]);
+        for (int k = 0; k < 4; k++) vm__imp_guard_touch(w, w->tet[4 * (size_t)sk->t[i] + k]);
+    }
     w->collapses++;
     return 1;
 }

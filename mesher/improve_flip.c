@@ -250,6 +250,14 @@ static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
     if (!(best[0][np - 1] > old + 1e-9)) return 0;
     if (open && !boundary_flip_ok(w, d, e, a[0], a[n], a[1], a[n - 1], a[cut[0][n]]))
         return 0;
+    if (open) {
+        /* Faces a0-an-d and a0-an-e replace a0-d-e and an-d-e. */
+        vm_index nf[2][3] = {{a[0], a[n], d}, {a[0], a[n], e}};
+        vm_index rf[2][3] = {{a[0], d, e}, {a[n], d, e}};
+        if (!vm__imp_guard_ok(w, (const vm_index(*)[3])nf, 2, -1, NULL, NULL, 0,
+                              (const vm_index(*)[3])rf, 2))
+            return 0;
+    }
     /* Collect the triangles; chords must not be edges of the mesh already. */
     vm_index nw[2 * RING_MAX][4];
     int nn = 0, stack[RING_MAX + 1][2], sp = 0;

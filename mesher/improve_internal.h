@@ -60,6 +60,9 @@ typedef struct vm__imp {
     size_t buf_cap;
     int deep;           /* later rounds: also peel bad tets off the boundary */
     int nomem;          /* sticky: an allocation inside an operation failed */
+    /* the boundary guard (improve_guard.c): boundary vertices in a hashed uniform grid and
+     * each vertex's boundary faces, cached until a tet around it is added or removed */
+    struct vm__imp_guard *g;
 } vm__imp;
 
 /* Normalised quality of a tet (>= 1 meets the targets, > 2/3 passes ABAQUS with the default
@@ -97,6 +100,24 @@ int vm__imp_project(const vm__imp *w, vm_index a, double x[3]);
  * surface vertex with a volume, else the stored plane normal. */
 void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]);
 int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]);
+
+/* The boundary guard: no operation may make two boundary triangles cross. */
+int vm__imp_guard_init(vm__imp *w);           /* 0 on out-of-memory */
+void vm__imp_guard_free(vm__imp *w);
+/* Vertex a has moved (keeps the grid current). */
+void vm__imp_guard_moved(vm__imp *w, vm_index a);
+/* The boundary faces around v may have changed (a tet with v was added or removed). */
+void vm__imp_guard_touch(vm__imp *w, vm_index v);
+/* 1 when the triangles nt[0..nn) (vertex ids; vertex mv, when >= 0, taken at x) cross
+ * neither each other nor a current boundary face that stays: the faces with a vertex in
+ * exv[0..nexv) and the faces rem[0..nrem) are the ones the operation removes. */
+int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
+                     const double x[3], const vm_index *exv, int nexv,
+                     const vm_index (*rem)[3], int nrem);
+/* 1 when moving vertex a to x makes no boundary triangles cross. */
+int vm__imp_guard_move_ok(vm__imp *w, vm_index a, const double x[3]);
+/* The boundary faces (a, e[2i], e[2i+1]) around vertex a, i < return value; -1 on nomem. */
+int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e);
 
 /* The operations: each returns 1 when it changed the mesh. */
 int vm__imp_contract_tet(vm__imp *w, size_t t);

@@ -176,12 +176,16 @@ long vm__imp_add_tet(vm__imp *w, const vm_index n[4], int32_t region, vm_index p
     w->dead[t] = 0;
     w->ntet++;
     w->q[t] = vm__imp_tet_q(w, t);
+    for (int k = 0; k < 4; k++) vm__imp_guard_touch(w, n[k]);
     return (long)t;
 }
 
 void vm__imp_kill_tet(vm__imp *w, size_t t) {
     if (w->dead[t]) return;
-    for (int k = 0; k < 4; k++) vm__imp_star_remove(w, w->tet[4 * t + k], (vm_index)t);
+    for (int k = 0; k < 4; k++) {
+        vm__imp_star_remove(w, w->tet[4 * t + k], (vm_index)t);
+        vm__imp_guard_touch(w, w->tet[4 * t + k]);
+    }
     w->dead[t] = 1;
 }
 

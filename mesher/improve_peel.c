@@ -103,6 +103,10 @@ int vm__imp_peel_tet(vm__imp *w, size_t t) {
         sub3(x[i], x[face_of[i][0]], e);
         double area2 = sqrt(dot3(nn, nn));
         if (!(area2 > 0.0) || fabs(dot3(e, nn)) / area2 > bound) return 0;
+        /* The interior face becomes the boundary in place of the three around d. */
+        vm_index nf[1][3] = {{n[face_of[i][0]], n[face_of[i][1]], n[face_of[i][2]]}};
+        if (!vm__imp_guard_ok(w, (const vm_index(*)[3])nf, 1, -1, NULL, &d, 1, NULL, 0))
+            return 0;
         vm__imp_kill_tet(w, t);
         w->pdead[d] = 1;
         w->peels++;
@@ -149,6 +153,11 @@ int vm__imp_peel_tet(vm__imp *w, size_t t) {
     if (!(-dot3(f1, old) > 0.0) || !(-dot3(f2, old) > 0.0)) return 0;
     if (!(-dot3(f1, o1) > 0.0) || !(-dot3(f1, o2) > 0.0)) return 0;
     if (!(-dot3(f2, o1) > 0.0) || !(-dot3(f2, o2) > 0.0)) return 0;
+    /* Faces bcd and acd replace abd and abc. */
+    vm_index nf[2][3] = {{b, c, d}, {a, c, d}}, rf[2][3] = {{a, b, d}, {a, b, c}};
+    if (!vm__imp_guard_ok(w, (const vm_index(*)[3])nf, 2, -1, NULL, NULL, 0,
+                          (const vm_index(*)[3])rf, 2))
+        return 0;
     vm__imp_kill_tet(w, t);
     w->peels++;
     return 1;

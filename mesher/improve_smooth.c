@@ -90,8 +90,9 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
                 for (int k = 0; k < 3; k++) x[k] = pa[k] + step * d[k] / gl;
                 if (!vm__imp_constrain(w, a, x)) continue;
                 double m = star_min(w, ids, n, a, x, cur + 1e-7);
-                if (m > cur + 1e-7) {
+                if (m > cur + 1e-7 && vm__imp_guard_move_ok(w, a, x)) {
                     memcpy(pa, x, sizeof x);
+                    vm__imp_guard_moved(w, a);
                     for (int32_t i = 0; i < n; i++) w->q[ids[i]] = vm__imp_tet_q(w, (size_t)ids[i]);
                     cur = m;
                     accepted = 1;
@@ -129,8 +130,9 @@ int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries) {
         for (int c = 0; c < 3; c++) x[c] = pa[c] + r * d[c] / dl;
         if (!vm__imp_constrain(w, a, x)) continue;
         double m = star_min(w, ids, n, a, x, cur + 1e-7);
-        if (m > cur + 1e-7) {
+        if (m > cur + 1e-7 && vm__imp_guard_move_ok(w, a, x)) {
             memcpy(pa, x, sizeof x);
+            vm__imp_guard_moved(w, a);
             for (int32_t i = 0; i < n; i++) w->q[ids[i]] = vm__imp_tet_q(w, (size_t)ids[i]);
             cur = m;
             moved = 1;

@@ -259,6 +259,14 @@ static int mesh_and_improve(const char *label, const vm_volume *v, double iso, i
               label, crossings, crossings_before);
     if (crossings_before) printf("    %zu crossing boundary triangle pairs before, %zu after\n", crossings_before, crossings);
     if (!checked(m, &after)) return 0;
+    /* Exactly: a boundary free of self-intersections (vm_mesh_check's count, pairs with a
+     * common vertex included) stays free of them. */
+    CHECK_MSG(before.boundary_self_intersections != 0 || after.boundary_self_intersections == 0,
+              "%s: %zu self-intersecting boundary triangle pairs after the pass, 0 before", label,
+              after.boundary_self_intersections);
+    CHECK_MSG(after.boundary_self_intersections <= before.boundary_self_intersections,
+              "%s: %zu self-intersecting boundary triangle pairs, %zu before", label,
+              after.boundary_self_intersections, before.boundary_self_intersections);
     check_invariants(label, &before, &after);
     CHECK_NEAR(after.min_dihedral, ir->min_dihedral_after, 1e-9);
     CHECK_NEAR(after.max_dihedral, ir->max_dihedral_after, 1e-9);
