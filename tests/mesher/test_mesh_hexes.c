@@ -3,6 +3,7 @@
  * closed manifold boundary with the known Euler characteristic, and the volume; after the
  * quality pass (vm_mesh_improve_hexes, issue #5) the same, a worst scaled Jacobian that never
  * went down and reaches 0.2, and a boundary on the isosurface. */
+#include <stdlib.h>
 #include <string.h>
 #include "volmesh/improve.h"
 #include "test.h"
@@ -155,13 +156,20 @@ static void hexQualityPassOnSharedVolumesUntanglesAndReachesTheBar(void) {
     static const struct {
         const char *file;
         double iso, floor;
-    } cases[] = {{"ironProt.vtk", 128, 0.08},            /* measured 0.099 */
-                 {"hydrogen.vti", 0.1, 0.2},             /* 0.500 */
-                 {"ct_head_quarter.nrrd", 500, 0.025},   /* 0.035 */
-                 {"ct_head_quarter.nrrd", 1150, 0.1},    /* 0.129 */
-                 {"HeadMRVolume.mhd", 50, 0.12},         /* 0.151 */
-                 {"avg152T1_RL_nifti.nii.gz", 100, 0.035}}; /* 0.047 */
+        int big; /* minutes under the sanitizers: left to the Release run there */
+    } cases[] = {{"ironProt.vtk", 128, 0.08, 0},            /* measured 0.099 */
+                 {"hydrogen.vti", 0.1, 0.2, 0},             /* 0.500 */
+                 {"ct_head_quarter.nrrd", 500, 0.025, 1},   /* 0.035 */
+                 {"ct_head_quarter.nrrd", 1150, 0.1, 0},    /* 0.129 */
+                 {"HeadMRVolume.mhd", 50, 0.12, 0},         /* 0.151 */
+                 {"avg152T1_RL_nifti.nii.gz", 100, 0.035, 1}}; /* 0.047 */
+    const char *sanitized = getenv("VM_SANITIZED");
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        if (cases[c].big && sanitized && strcmp(sanitized, "1") == 0) {
+            printf("  %s iso %g: left to the Release run (sanitizer build)\n", cases[c].file,
+                   cases[c].iso);
+            continue;
+        }
         const char *path = vm_test_shared(cases[c].file);
         if (!path) return;
         vm_volume v;
