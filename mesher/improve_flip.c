@@ -4,6 +4,7 @@
 #include <math.h>
 #include <string.h>
 #include "improve_internal.h"
+#include "../quality/vec3.h"
 
 /* 1 when (s0, s1, s2, s3), a permutation of tet t's nodes, has t's (positive) orientation. */
 static int same_orientation(const vm__imp *w, size_t t, const vm_index s[4]) {
@@ -71,29 +72,17 @@ static int flip23(vm__imp *w, size_t t, int i) {
 
 #define RING_MAX 8
 
-static void sub3(const double a[3], const double b[3], double o[3]) {
-    for (int k = 0; k < 3; k++) o[k] = a[k] - b[k];
-}
-static void cross3(const double a[3], const double b[3], double o[3]) {
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
-static double dot3(const double a[3], const double b[3]) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
 /* Outward normal (unnormalised) of face (f0, f1, f2) of the positive tet with fourth node o. */
 static void outward(const vm__imp *w, vm_index f0, vm_index f1, vm_index f2, vm_index o,
                     double n[3]) {
     const double *p0 = w->p + 3 * (size_t)f0, *p1 = w->p + 3 * (size_t)f1,
                  *p2 = w->p + 3 * (size_t)f2, *po = w->p + 3 * (size_t)o;
     double u[3], v[3], c[3];
-    sub3(p1, p0, u);
-    sub3(p2, p0, v);
-    cross3(u, v, n);
-    sub3(po, p0, c);
-    if (dot3(n, c) > 0.0)
+    vm__sub3(p1, p0, u);
+    vm__sub3(p2, p0, v);
+    vm__cross3(u, v, n);
+    vm__sub3(po, p0, c);
+    if (vm__dot3(n, c) > 0.0)
         for (int k = 0; k < 3; k++) n[k] = -n[k];
 }
 
@@ -128,17 +117,17 @@ static int boundary_flip_ok(const vm__imp *w, vm_index d, vm_index e, vm_index a
         for (int k = 0; k < 4; k++) vm__imp_to_index(w, w->p + 3 * (size_t)v4[k], x[k]);
     } else {
         double de[3];
-        sub3(w->p + 3 * (size_t)e, w->p + 3 * (size_t)d, de);
-        bound = w->o->max_surface_move_free * sqrt(dot3(de, de));
+        vm__sub3(w->p + 3 * (size_t)e, w->p + 3 * (size_t)d, de);
+        bound = w->o->max_surface_move_free * sqrt(vm__dot3(de, de));
         for (int k = 0; k < 4; k++) memcpy(x[k], w->p + 3 * (size_t)v4[k], sizeof x[k]);
     }
     double u[3], v[3], m[3], c[3];
-    sub3(x[1], x[0], u);
-    sub3(x[3], x[2], v);
-    sub3(x[2], x[0], c);
-    cross3(u, v, m);
-    double ml = sqrt(dot3(m, m));
-    if (!(ml > 0.0) || fabs(dot3(c, m)) / ml > bound) return 0;
+    vm__sub3(x[1], x[0], u);
+    vm__sub3(x[3], x[2], v);
+    vm__sub3(x[2], x[0], c);
+    vm__cross3(u, v, m);
+    double ml = sqrt(vm__dot3(m, m));
+    if (!(ml > 0.0) || fabs(vm__dot3(c, m)) / ml > bound) return 0;
     /* Old faces (a0, d, e) and (an, d, e) with inner nodes o0 and on; new faces (a0, an, d)
      * and (a0, an, e), both with inner node ak (the apex over a0-an). */
     double n1[3], n2[3], m1[3], m2[3], sum[3];
@@ -147,8 +136,8 @@ static int boundary_flip_ok(const vm__imp *w, vm_index d, vm_index e, vm_index a
     outward(w, a0, an, d, ak, m1);
     outward(w, a0, an, e, ak, m2);
     for (int k = 0; k < 3; k++) sum[k] = n1[k] + n2[k];
-    return dot3(m1, sum) > 0.0 && dot3(m2, sum) > 0.0 && dot3(m1, n1) > 0.0 &&
-           dot3(m1, n2) > 0.0 && dot3(m2, n1) > 0.0 && dot3(m2, n2) > 0.0;
+    return vm__dot3(m1, sum) > 0.0 && vm__dot3(m2, sum) > 0.0 && vm__dot3(m1, n1) > 0.0 &&
+           vm__dot3(m1, n2) > 0.0 && vm__dot3(m2, n1) > 0.0 && vm__dot3(m2, n2) > 0.0;
 }
 
 /* Edge removal (Shewchuk 2002, "Two discrete optimization algorithms for the topological

@@ -5,39 +5,26 @@
 #include <stdlib.h>
 #include <string.h>
 #include "improve_internal.h"
+#include "../quality/vec3.h"
 
 #define DEG (180.0 / 3.14159265358979323846)
-
-static void sub3(const double a[3], const double b[3], double o[3]) {
-    o[0] = a[0] - b[0];
-    o[1] = a[1] - b[1];
-    o[2] = a[2] - b[2];
-}
-static void cross3(const double a[3], const double b[3], double o[3]) {
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
-static double dot3(const double a[3], const double b[3]) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
 /* Faces opposite node i with outward normals for a positive tet. */
 static const int face_of[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 
 double vm__imp_volume_measure(const double p[4][3]) {
     double a[3], b[3], c[3], bc[3], ca[3], ab[3];
-    sub3(p[1], p[0], a);
-    sub3(p[2], p[0], b);
-    sub3(p[3], p[0], c);
-    cross3(b, c, bc);
-    cross3(c, a, ca);
-    cross3(a, b, ab);
-    double vol6 = dot3(a, bc);
+    vm__sub3(p[1], p[0], a);
+    vm__sub3(p[2], p[0], b);
+    vm__sub3(p[3], p[0], c);
+    vm__cross3(b, c, bc);
+    vm__cross3(c, a, ca);
+    vm__cross3(a, b, ab);
+    double vol6 = vm__dot3(a, bc);
     if (!(vol6 > 0.0) || !isfinite(vol6)) return 0.0;
-    double la = dot3(a, a), lb = dot3(b, b), lc = dot3(c, c), o[3];
+    double la = vm__dot3(a, a), lb = vm__dot3(b, b), lc = vm__dot3(c, c), o[3];
     for (int k = 0; k < 3; k++) o[k] = (la * bc[k] + lb * ca[k] + lc * ab[k]) / (2.0 * vol6);
-    double R = sqrt(dot3(o, o));
+    double R = sqrt(vm__dot3(o, o));
     if (!(R > 0.0)) return 0.0;
     /* Regular tet of circumradius R: volume 8 R^3 / (9 sqrt 3). */
     double r = (vol6 / 6.0) * 9.0 * sqrt(3.0) / (8.0 * R * R * R);
@@ -49,30 +36,30 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
     for (int i = 0; i < 4; i++)
         for (int j = i + 1; j < 4; j++) {
             double e[3];
-            sub3(p[j], p[i], e);
-            double l2 = dot3(e, e);
+            vm__sub3(p[j], p[i], e);
+            double l2 = vm__dot3(e, e);
             if (l2 > lmax2) lmax2 = l2;
         }
     double a[3], b[3], c[3], t[3];
-    sub3(p[1], p[0], a);
-    sub3(p[2], p[0], b);
-    sub3(p[3], p[0], c);
-    cross3(b, c, t);
-    double vol6 = dot3(a, t);
+    vm__sub3(p[1], p[0], a);
+    vm__sub3(p[2], p[0], b);
+    vm__sub3(p[3], p[0], c);
+    vm__cross3(b, c, t);
+    double vol6 = vm__dot3(a, t);
     if (!isfinite(vol6) || !(vol6 > 1e-12 * lmax2 * sqrt(lmax2))) return -1.0;
     double n[4][3], len[4];
     for (int f = 0; f < 4; f++) {
         double u[3], v[3];
-        sub3(p[face_of[f][1]], p[face_of[f][0]], u);
-        sub3(p[face_of[f][2]], p[face_of[f][0]], v);
-        cross3(u, v, n[f]);
-        len[f] = sqrt(dot3(n[f], n[f]));
+        vm__sub3(p[face_of[f][1]], p[face_of[f][0]], u);
+        vm__sub3(p[face_of[f][2]], p[face_of[f][0]], v);
+        vm__cross3(u, v, n[f]);
+        len[f] = sqrt(vm__dot3(n[f], n[f]));
         if (!(len[f] > 0.0)) return -1.0;
     }
     double cmax = -2.0, cmin = 2.0;
     for (int f = 0; f < 4; f++)
         for (int g = f + 1; g < 4; g++) {
-            double cs = -dot3(n[f], n[g]) / (len[f] * len[g]);
+            double cs = -vm__dot3(n[f], n[g]) / (len[f] * len[g]);
             if (cs > cmax) cmax = cs;
             if (cs < cmin) cmin = cs;
         }
@@ -87,11 +74,11 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
     for (int f = 0; f < 4; f++)
         for (int k = 0; k < 3; k++) {
             double u[3], v[3];
-            sub3(p[face_of[f][(k + 1) % 3]], p[face_of[f][k]], u);
-            sub3(p[face_of[f][(k + 2) % 3]], p[face_of[f][k]], v);
+            vm__sub3(p[face_of[f][(k + 1) % 3]], p[face_of[f][k]], u);
+            vm__sub3(p[face_of[f][(k + 2) % 3]], p[face_of[f][k]], v);
             double cr[3];
-            cross3(u, v, cr);
-            double ang = atan2(sqrt(dot3(cr, cr)), dot3(u, v)) * DEG;
+            vm__cross3(u, v, cr);
+            double ang = atan2(sqrt(vm__dot3(cr, cr)), vm__dot3(u, v)) * DEG;
             if (ang < fmin) fmin = ang;
             if (ang > fmax) fmax = ang;
         }
@@ -234,12 +221,12 @@ double vm__imp_rand01(vm__imp *w) { return (vm__imp_rand(w) >> 8) * (1.0 / 16777
 
 void vm__imp_to_index(const vm__imp *w, const double x[3], double ijk[3]) {
     double d[3];
-    sub3(x, w->org, d);
-    for (int r = 0; r < 3; r++) ijk[r] = dot3(w->Ainv[r], d);
+    vm__sub3(x, w->org, d);
+    for (int r = 0; r < 3; r++) ijk[r] = vm__dot3(w->Ainv[r], d);
 }
 
 void vm__imp_to_world(const vm__imp *w, const double ijk[3], double x[3]) {
-    for (int r = 0; r < 3; r++) x[r] = w->org[r] + dot3(w->A[r], ijk);
+    for (int r = 0; r < 3; r++) x[r] = w->org[r] + vm__dot3(w->A[r], ijk);
 }
 
 /* Trilinear value and index-space gradient of the volume at ijk (clamped to the grid). */
@@ -285,7 +272,7 @@ int vm__imp_project(const vm__imp *w, vm_index a, double x[3]) {
     int ok = 0;
     for (int it = 0; it < 10; it++) {
         double f = field(w->v, ijk, g) - iso;
-        double g2 = dot3(g, g);
+        double g2 = vm__dot3(g, g);
         if (!(g2 > 1e-30) || !isfinite(f)) return 0;
         double step = f / g2, len = fabs(f) / sqrt(g2);
         if (len < 1e-6) {
@@ -297,8 +284,8 @@ int vm__imp_project(const vm__imp *w, vm_index a, double x[3]) {
     }
     if (!ok) return 0;
     double d[3];
-    sub3(ijk, ijk0, d);
-    if (dot3(d, d) > w->bound[a] * w->bound[a]) return 0;
+    vm__sub3(ijk, ijk0, d);
+    if (vm__dot3(d, d) > w->bound[a] * w->bound[a]) return 0;
     vm__imp_to_world(w, ijk, x);
     return 1;
 }
@@ -312,11 +299,11 @@ static int band_constrain(const vm__imp *w, vm_index a, double x[3]) {
         double ijk[3], ijk0[3], g[3], d[3];
         vm__imp_to_index(w, x, ijk);
         double f = field(w->v, ijk, g) - (w->iso_hi[a] ? w->hi : w->lo);
-        double gl = sqrt(dot3(g, g));
+        double gl = sqrt(vm__dot3(g, g));
         if (gl > 1e-12 && isfinite(f) && fabs(f) <= band * gl) {
             vm__imp_to_index(w, w->p0 + 3 * (size_t)a, ijk0);
-            sub3(ijk, ijk0, d);
-            return dot3(d, d) <= w->bound[a] * w->bound[a];
+            vm__sub3(ijk, ijk0, d);
+            return vm__dot3(d, d) <= w->bound[a] * w->bound[a];
         }
     }
     return vm__imp_project(w, a, x);
@@ -329,23 +316,23 @@ int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]) {
     case VM__IMP_INTERIOR:
         return 1;
     case VM__IMP_FLAT:
-        sub3(x, p0, d);
+        vm__sub3(x, p0, d);
         {
-            double s = dot3(d, n);
+            double s = vm__dot3(d, n);
             for (int k = 0; k < 3; k++) x[k] -= s * n[k];
         }
         return 1;
     case VM__IMP_SURF:
         if (w->v) return band_constrain(w, a, x);
-        sub3(x, p0, d);
+        vm__sub3(x, p0, d);
         {
-            double s = dot3(d, n);
+            double s = vm__dot3(d, n);
             for (int k = 0; k < 3; k++) {
                 x[k] -= s * n[k];
                 d[k] -= s * n[k];
             }
         }
-        return dot3(d, d) <= w->bound[a] * w->bound[a];
+        return vm__dot3(d, d) <= w->bound[a] * w->bound[a];
     default:
         return 0;
     }
@@ -359,7 +346,7 @@ void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]) {
     field(w->v, ijk, g);
     /* d f / d x = Ainv^T d f / d ijk */
     for (int c = 0; c < 3; c++) x[c] = w->Ainv[0][c] * g[0] + w->Ainv[1][c] * g[1] + w->Ainv[2][c] * g[2];
-    double l = sqrt(dot3(x, x));
+    double l = sqrt(vm__dot3(x, x));
     if (l > 0.0 && isfinite(l))
         for (int c = 0; c < 3; c++) n[c] = x[c] / l;
 }

@@ -5,21 +5,10 @@
 #include <math.h>
 #include <string.h>
 #include "improve_internal.h"
+#include "../quality/vec3.h"
 
 /* Faces opposite node i with outward normals for a positive tet. */
 static const int face_of[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-
-static void sub3(const double a[3], const double b[3], double o[3]) {
-    for (int k = 0; k < 3; k++) o[k] = a[k] - b[k];
-}
-static void cross3(const double a[3], const double b[3], double o[3]) {
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
-static double dot3(const double a[3], const double b[3]) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
 /* Unnormalised outward normal of the face of t opposite its node i. */
 static void face_normal(const vm__imp *w, size_t t, int i, double n[3]) {
@@ -27,9 +16,9 @@ static void face_normal(const vm__imp *w, size_t t, int i, double n[3]) {
     const double *p = w->p + 3 * (size_t)v[face_of[i][0]], *q = w->p + 3 * (size_t)v[face_of[i][1]],
                  *r = w->p + 3 * (size_t)v[face_of[i][2]];
     double u[3], s[3];
-    sub3(q, p, u);
-    sub3(r, p, s);
-    cross3(u, s, n);
+    vm__sub3(q, p, u);
+    vm__sub3(r, p, s);
+    vm__cross3(u, s, n);
 }
 
 /* Position of vertex a where the surface bound is measured: index space with a volume. */
@@ -47,8 +36,8 @@ static double peel_bound(const vm__imp *w, size_t t) {
     for (int i = 0; i < 4; i++)
         for (int j = i + 1; j < 4; j++) {
             double d[3];
-            sub3(w->p + 3 * (size_t)w->tet[4 * t + i], w->p + 3 * (size_t)w->tet[4 * t + j], d);
-            double l = sqrt(dot3(d, d));
+            vm__sub3(w->p + 3 * (size_t)w->tet[4 * t + i], w->p + 3 * (size_t)w->tet[4 * t + j], d);
+            double l = sqrt(vm__dot3(d, d));
             if (l > L) L = l;
         }
     return w->o->max_surface_move_free * L;
@@ -97,12 +86,12 @@ int vm__imp_peel_tet(vm__imp *w, size_t t) {
         double x[4][3];
         for (int k = 0; k < 4; k++) measure_pos(w, n[k], x[k]);
         double u[3], s[3], nn[3], e[3];
-        sub3(x[face_of[i][1]], x[face_of[i][0]], u);
-        sub3(x[face_of[i][2]], x[face_of[i][0]], s);
-        cross3(u, s, nn);
-        sub3(x[i], x[face_of[i][0]], e);
-        double area2 = sqrt(dot3(nn, nn));
-        if (!(area2 > 0.0) || fabs(dot3(e, nn)) / area2 > bound) return 0;
+        vm__sub3(x[face_of[i][1]], x[face_of[i][0]], u);
+        vm__sub3(x[face_of[i][2]], x[face_of[i][0]], s);
+        vm__cross3(u, s, nn);
+        vm__sub3(x[i], x[face_of[i][0]], e);
+        double area2 = sqrt(vm__dot3(nn, nn));
+        if (!(area2 > 0.0) || fabs(vm__dot3(e, nn)) / area2 > bound) return 0;
         /* The interior face becomes the boundary in place of the three around d. */
         vm_index nf[1][3] = {{n[face_of[i][0]], n[face_of[i][1]], n[face_of[i][2]]}};
         if (!vm__imp_guard_ok(w, (const vm_index(*)[3])nf, 1, -1, NULL, &d, 1, NULL, 0))
@@ -136,12 +125,12 @@ int vm__imp_peel_tet(vm__imp *w, size_t t) {
     double x[4][3];
     for (int k = 0; k < 4; k++) measure_pos(w, n[k], x[k]);
     double ab[3], cd[3], ac[3], m[3];
-    sub3(x[kb], x[ka], ab);
-    sub3(x[j], x[i], cd);
-    sub3(x[i], x[ka], ac);
-    cross3(ab, cd, m);
-    double ml = sqrt(dot3(m, m));
-    if (!(ml > 0.0) || fabs(dot3(ac, m)) / ml > bound) return 0;
+    vm__sub3(x[kb], x[ka], ab);
+    vm__sub3(x[j], x[i], cd);
+    vm__sub3(x[i], x[ka], ac);
+    vm__cross3(ab, cd, m);
+    double ml = sqrt(vm__dot3(m, m));
+    if (!(ml > 0.0) || fabs(vm__dot3(ac, m)) / ml > bound) return 0;
     /* No fold: the new boundary faces (faces of t opposite a and b, seen from outside the
      * remaining mesh, so reversed) face the way the old ones did. */
     double o1[3], o2[3], f1[3], f2[3], old[3];
@@ -150,9 +139,9 @@ int vm__imp_peel_tet(vm__imp *w, size_t t) {
     face_normal(w, t, ka, f1);
     face_normal(w, t, kb, f2);
     for (int k = 0; k < 3; k++) old[k] = o1[k] + o2[k];
-    if (!(-dot3(f1, old) > 0.0) || !(-dot3(f2, old) > 0.0)) return 0;
-    if (!(-dot3(f1, o1) > 0.0) || !(-dot3(f1, o2) > 0.0)) return 0;
-    if (!(-dot3(f2, o1) > 0.0) || !(-dot3(f2, o2) > 0.0)) return 0;
+    if (!(-vm__dot3(f1, old) > 0.0) || !(-vm__dot3(f2, old) > 0.0)) return 0;
+    if (!(-vm__dot3(f1, o1) > 0.0) || !(-vm__dot3(f1, o2) > 0.0)) return 0;
+    if (!(-vm__dot3(f2, o1) > 0.0) || !(-vm__dot3(f2, o2) > 0.0)) return 0;
     /* Faces bcd and acd replace abd and abc. */
     vm_index nf[2][3] = {{b, c, d}, {a, c, d}}, rf[2][3] = {{a, b, d}, {a, b, c}};
     if (!vm__imp_guard_ok(w, (const vm_index(*)[3])nf, 2, -1, NULL, NULL, 0,
