@@ -33,17 +33,76 @@ static float sample(const vm_volume *v, double x, double y, double z) {
     return (float)s;
 }
 
+vm_status vm__material_check(const vm_volume *v, int has_lo, double lo, int has_hi, double hi,
+                             int cell_size, const char *what, vm_error *err) {
+    if (!has_lo && !has_hi)
+        return vm_error_set(err, VM_ERR_ARG, "%s: no material bound given (--iso or --range)",
+                            what);
+    if (has_lo && has_hi && lo > hi)
+        return vm_error_set(err, VM_ERR_ARG, "%s: empty range %g:%g (lower bound above upper)",
+                            what, lo, hi);
+    if (cell_size < 1)
+        return vm_error_set(err, VM_ERR_ARG, "%s: cell size %d must be >= 1", what, cell_size);
+    for (int a = 0; a < 3; a++)
+        if (v->dims[a] < 2)
+            return vm_error_set(err, VM_ERR_ARG,
+                                "%s: the volume is %lld voxel(s) along axis %d; need at least 2",
+                                what, (long long)v->dims[a], a);
+    double vmin, vmax;
+    size_t nonfinite = vm_volume_stats(v, &vmin, &vmax, NULL);
+    if (nonfinite)
+        return vm_error_set(err, VM_ERR_FORMAT,
+                            "%s: the volume has %zu non-finite values (NaN or infinity)", what,
+                            nonfinite);
+    if (has_lo && lo > vmax)
+        return vm_error_set(err, VM_ERR_EMPTY,
+                            "%s: no voxel >= %g (the data range is %g to %g): choose an "
+                            "isovalue below %g",
+                            what, lo, vmin, vmax, vmax);
+    if (has_hi && hi < vmin)
+        return vm_error_set(err, VM_ERR_EMPTY, "%s: no voxel <= %g (the data range is %g to %g)",
+                            what, hi, vmin, vmax);
+    return VM_OK;
+}
+
+vm_status vm__sampling_grid(const vm_volume *v, int cell_size, const char *what, int64_t n[3],
+                            const float **f, float **owned, double step[3], vm_error *err) {
+    *owned = NULL;
+    for (int a = 0; a < 3; a++) step[a] = 1;
+    if (cell_size == 1) {
+        for (int a = 0; a < 3; a++) n[a] = v->dims[a];
+        *f = v->data;
+        return VM_OK;
+    }
+    int64_t m[3];
+    for (int a = 0; a < 3; a++) {
+        m[a] = (v->dims[a] - 1 + cell_size - 1) / cell_size + 1;
+        if (m[a] < 2) m[a] = 2;
+        step[a] = (double)(v->dims[a] - 1) / (double)(m[a] - 1);
+    }
+    size_t count;
+    vm_status s = vm__check_dims(m, sizeof(float), what, &count, err);
+    if (s) return s;
+    float *r = malloc(count * sizeof(float));
+    if (!r) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", what);
+    size_t idx = 0;
+    for (int64_t k = 0; k < m[2]; k++)
+        for (int64_t j = 0; j < m[1]; j++)
+            for (int64_t i = 0; i < m[0]; i++)
+                r[idx++] = sample(v, (double)i * step[0], (double)j * step[1],
+                                  (double)k * step[2]);
+    for (int a = 0; a < 3; a++) n[a] = m[a];
+    *f = r;
+    *owned = r;
+    return VM_OK;
+}
+
 vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *mesh,
                          vm_mesh_stats *stats, vm_error *err) {
     double t0 = vm__now();
     vm_mesh_stats st;
     memset(&st, 0, sizeof st);
     vm_mesh_init(mesh, o->elements == VM_HEX8 ? VM_HEX8 : VM_TET4);
-    if (!o->has_lo && !o->has_hi)
-        return vm_error_set(err, VM_ERR_ARG, "mesh: no material bound given (--iso or --range)");
-    if (o->has_lo && o->has_hi && o->lo > o->hi)
-        return vm_error_set(err, VM_ERR_ARG, "mesh: empty range %g:%g (lower bound above upper)",
-                            o->lo, o->hi);
     if (o->elements != VM_TET4 && o->elements != VM_HEX8)
         return vm_error_set(err, VM_ERR_ARG, "mesh: elements must be tetrahedra or hexahedra");
     if (o->elements == VM_HEX8 && o->adaptive)
@@ -52,57 +111,17 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     if (o->adaptive && (o->max_level < 1 || o->max_level > 10))
         return vm_error_set(err, VM_ERR_ARG, "mesh: adaptive max level %d is outside 1..10",
                             o->max_level);
-    if (o->cell_size < 1)
-        return vm_error_set(err, VM_ERR_ARG, "mesh: cell size %d must be >= 1", o->cell_size);
-    for (int a = 0; a < 3; a++)
-        if (v->dims[a] < 2)
-            return vm_error_set(err, VM_ERR_ARG,
-                                "mesh: the volume is %lld voxel(s) along axis %d; need at least 2",
-                                (long long)v->dims[a], a);
-    double lo, hi;
-    size_t nonfinite = vm_volume_stats(v, &lo, &hi, NULL);
-    if (nonfinite)
-        return vm_error_set(err, VM_ERR_FORMAT,
-                            "mesh: the volume has %zu non-finite values (NaN or infinity)",
-                            nonfinite);
-    if ((o->has_lo && o->lo > hi) || (o->has_hi && o->hi < lo)) {
-        if (o->has_lo && o->lo > hi)
-            return vm_error_set(err, VM_ERR_EMPTY,
-                                "mesh: no voxel >= %g (the data range is %g to %g): choose an "
-                                "isovalue below %g",
-                                o->lo, lo, hi, hi);
-        return vm_error_set(err, VM_ERR_EMPTY,
-                            "mesh: no voxel <= %g (the data range is %g to %g)", o->hi, lo, hi);
-    }
+    vm_status s = vm__material_check(v, o->has_lo, o->lo, o->has_hi, o->hi, o->cell_size,
+                                     "mesh", err);
+    if (s) return s;
 
     /* Sampling grid: the volume itself, or a trilinear resampling with cell size ~S. */
     vm__grid g;
     memset(&g, 0, sizeof g);
     float *resampled = NULL;
-    double step[3] = {1, 1, 1};
-    if (o->cell_size == 1) {
-        for (int a = 0; a < 3; a++) g.n[a] = v->dims[a];
-        g.f = v->data;
-    } else {
-        int64_t m[3];
-        for (int a = 0; a < 3; a++) {
-            m[a] = (v->dims[a] - 1 + o->cell_size - 1) / o->cell_size + 1;
-            if (m[a] < 2) m[a] = 2;
-            step[a] = (double)(v->dims[a] - 1) / (double)(m[a] - 1);
-        }
-        size_t count;
-        vm_status s = vm__check_dims(m, sizeof(float), "mesh", &count, err);
-        if (s) return s;
-        resampled = malloc(count * sizeof(float));
-        if (!resampled) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-        size_t idx = 0;
-        for (int64_t k = 0; k < m[2]; k++)
-            for (int64_t j = 0; j < m[1]; j++)
-                for (int64_t i = 0; i < m[0]; i++)
-                    resampled[idx++] = sample(v, i * step[0], j * step[1], k * step[2]);
-        for (int a = 0; a < 3; a++) g.n[a] = m[a];
-        g.f = resampled;
-    }
+    double step[3];
+    s = vm__sampling_grid(v, o->cell_size, "mesh", g.n, &g.f, &resampled, step, err);
+    if (s) return s;
     g.lo = o->lo;
     g.hi = o->hi;
     g.has_lo = o->has_lo;
@@ -114,8 +133,8 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
 
     vm__tet_soup soup;
     memset(&soup, 0, sizeof soup);
-    vm_status s = g.hexes ? vm__dual_contour_hexes(&g, &soup, &st, err)
-                          : vm__dual_contour_tets(&g, &soup, &st, err);
+    s = g.hexes ? vm__dual_contour_hexes(&g, &soup, &st, err)
+                : vm__dual_contour_tets(&g, &soup, &st, err);
     free(resampled);
     if (s == VM_ERR_EMPTY)
         s = vm_error_set(err, VM_ERR_EMPTY, "mesh: no grid point is in the material");

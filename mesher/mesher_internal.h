@@ -49,6 +49,17 @@ int vm__octree_leaf(const vm__octree *o, const int64_t c[3], int64_t origin[3]);
 int vm__octree_is_vertex(const vm__octree *o, const int64_t p[3]);
 void vm__octree_free(vm__octree *o);
 
+/* Checks a material request against v (bounds given and ordered, cell size >= 1, dims >= 2,
+ * finite values, some voxel in range); messages start with what. */
+vm_status vm__material_check(const vm_volume *v, int has_lo, double lo, int has_hi, double hi,
+                             int cell_size, const char *what, vm_error *err);
+
+/* The sampling grid of cell size S: v's own samples for S == 1 (*owned = NULL), else a
+ * trilinear resampling (*owned, free it) with index step[a] voxels between samples.
+ * [out] n, f, owned, step. */
+vm_status vm__sampling_grid(const vm_volume *v, int cell_size, const char *what, int64_t n[3],
+                            const float **f, float **owned, double step[3], vm_error *err);
+
 vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
                                 vm_error *err);
 vm_status vm__dual_contour_hexes(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
