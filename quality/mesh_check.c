@@ -1,10 +1,12 @@
 /* quality/mesh_check.c — whole-mesh invariants: inverted cells, face conformity, boundary
  * closedness and manifoldness, Euler characteristic, components, volume and element quality.
- * Faces and edges are matched by hashing their sorted node tuples (open addressing with
- * linear probing); connectivity uses union-find with path halving. Everything is O(n). */
+ * Faces are matched within buckets of their smallest node (a counting sort), edges by hashing
+ * their sorted node pairs (open addressing with linear probing); connectivity uses
+ * union-find with path halving. Everything is O(n). */
 #include "../core/core.h"
 #include "volmesh/quality.h"
 #include "self_intersect.h"
+#include "tet_internal.h"
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -21,6 +23,7 @@ typedef struct faceset {
     int nf;                /* faces per cell */
     int k;                 /* nodes per face */
     const int (*faces)[4]; /* local face table */
+    size_t npoints;        /* node indices are below this */
 } faceset;
 
 static void face_nodes(const faceset *fs, uint64_t inst, int64_t out[4]) {
@@ -107,15 +110,37 @@ static size_t table_size(size_t n) {
 
 /* --- cell faces: which are shared, which are on the boundary ----------------------------- */
 
-typedef struct face_slot {
-    uint64_t rep; /* first face instance + 1; 0 = empty */
-    uint32_t count;
-    uint32_t tag;
-} face_slot;
+/* One face instance of a bucket: the nodes other than the smallest, sorted, and the
+ * instance number (cell * faces per cell + local face). */
+typedef struct bucket_face {
+    int64_t key[3];
+    uint64_t inst;
+} bucket_face;
 
-/* Matches all cell faces. [out] *binst (malloc'd) lists the boundary face instances in cell
- * order; *overshared counts faces used by more than two cells; when parent != NULL, cells
- * sharing a face are united in it. */
+static int bucket_less(const bucket_face *a, const bucket_face *b, int n) {
+    for (int i = 0; i < n; i++)
+        if (a->key[i] != b->key[i]) return a->key[i] < b->key[i];
+    return a->inst < b->inst;
+}
+
+/* Stable order by key then instance: insertion sort (buckets hold a dozen faces or so). */
+static void sort_bucket(bucket_face *f, size_t n, int nk) {
+    for (size_t i = 1; i < n; i++) {
+        bucket_face v = f[i];
+        size_t j = i;
+        while (j > 0 && bucket_less(&v, &f[j - 1], nk)) {
+            f[j] = f[j - 1];
+            j--;
+        }
+        f[j] = v;
+    }
+}
+
+/* Matches all cell faces. Faces are grouped by their smallest node (a counting sort over
+ * the points, so memory is read nearly in order) and matched within each group by their
+ * other nodes. [out] *binst (malloc'd) lists the boundary face instances in cell order;
+ * *overshared counts faces used by more than two cells; when parent != NULL, cells sharing
+ * a face are united in it. */
 static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
                              size_t *overshared, uint64_t **binst, size_t *nb, vm_error *err) {
     vm_status st = VM_OK;
@@ -125,70 +150,86 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
     size_t ninst;
     if (!vm__mul_size(ncells, (size_t)fs->nf, &ninst))
         return vm_error_set(err, VM_ERR_NOMEM, "mesh check: %zu cells overflow", ncells);
-    size_t cap = table_size(ninst);
-    if (!cap) return vm_error_set(err, VM_ERR_NOMEM, "mesh check: face table overflows");
-    face_slot *tab = alloc_array(cap, sizeof *tab, 1, "face table", &st, err);
-    if (!tab) return st;
-    size_t mask = cap - 1;
     int k = fs->k;
+    size_t np = fs->npoints;
+    size_t *start = alloc_array(np + 1, sizeof *start, 1, "face buckets", &st, err);
+    if (!start) return st;
     for (size_t i = 0; i < ninst; i++) {
-        int64_t key[4], other[4];
+        int64_t key[4];
         face_nodes(fs, i, key);
-        sort_small(key, k);
-        uint64_t h = hash_key(key, k);
-        uint32_t tag = (uint32_t)(h >> 32);
-        size_t pos = (size_t)h & mask;
-        for (;;) {
-            face_slot *s = &tab[pos];
-            if (s->rep == 0) {
-                s->rep = (uint64_t)i + 1;
-                s->count = 1;
-                s->tag = tag;
-                break;
-            }
-            if (s->tag == tag) {
-                face_nodes(fs, s->rep - 1, other);
-                sort_small(other, k);
-                if (memcmp(key, other, (size_t)k * sizeof key[0]) == 0) {
-                    if (s->count < UINT32_MAX) s->count++;
-                    if (parent)
-                        uf_union(parent, (size_t)((s->rep - 1) / (uint64_t)fs->nf),
-                                 i / (size_t)fs->nf);
-                    break;
-                }
-            }
-            pos = (pos + 1) & mask;
-        }
+        int64_t lo = key[0];
+        for (int j = 1; j < k; j++)
+            if (key[j] < lo) lo = key[j];
+        start[lo + 1]++;
     }
-    /* Mark the boundary instances so they can be listed in cell order. */
+    for (size_t v = 0; v < np; v++) start[v + 1] += start[v];
+    uint64_t *order = alloc_array(ninst, sizeof *order, 0, "face order", &st, err);
+    size_t *fill = alloc_array(np, sizeof *fill, 0, "face buckets", &st, err);
     unsigned char *mark = alloc_array(ninst, 1, 1, "face marks", &st, err);
-    if (!mark) {
-        free(tab);
-        return st;
+    size_t cap = 64;
+    bucket_face *bf = alloc_array(cap, sizeof *bf, 0, "face bucket", &st, err);
+    if (!order || !fill || !mark || !bf) goto done;
+    memcpy(fill, start, np * sizeof *fill);
+    for (size_t i = 0; i < ninst; i++) {
+        int64_t key[4];
+        face_nodes(fs, i, key);
+        int64_t lo = key[0];
+        for (int j = 1; j < k; j++)
+            if (key[j] < lo) lo = key[j];
+        order[fill[lo]++] = i;
     }
+    free(fill);
+    fill = NULL;
     size_t n = 0;
-    for (size_t s = 0; s < cap; s++) {
-        if (tab[s].rep == 0) continue;
-        if (tab[s].count == 1) {
-            mark[tab[s].rep - 1] = 1;
-            n++;
-        } else if (tab[s].count > 2) {
-            (*overshared)++;
+    for (size_t v = 0; v < np; v++) {
+        size_t b = start[v + 1] - start[v];
+        if (b == 0) continue;
+        if (b > cap) {
+            free(bf);
+            cap = b;
+            bf = alloc_array(cap, sizeof *bf, 0, "face bucket", &st, err);
+            if (!bf) goto done;
+        }
+        for (size_t q = 0; q < b; q++) {
+            int64_t key[4];
+            uint64_t inst = order[start[v] + q];
+            face_nodes(fs, inst, key);
+            sort_small(key, k);
+            memcpy(bf[q].key, key + 1, (size_t)(k - 1) * sizeof key[0]);
+            bf[q].inst = inst;
+        }
+        sort_bucket(bf, b, k - 1);
+        for (size_t q = 0; q < b;) {
+            size_t e = q + 1;
+            while (e < b && memcmp(bf[e].key, bf[q].key, (size_t)(k - 1) * sizeof(int64_t)) == 0)
+                e++;
+            if (e - q == 1) {
+                mark[bf[q].inst] = 1;
+                n++;
+            } else if (e - q > 2) {
+                (*overshared)++;
+            }
+            if (parent)
+                for (size_t r = q + 1; r < e; r++)
+                    uf_union(parent, (size_t)(bf[q].inst / (uint64_t)fs->nf),
+                             (size_t)(bf[r].inst / (uint64_t)fs->nf));
+            q = e;
         }
     }
-    free(tab);
     uint64_t *list = alloc_array(n, sizeof *list, 0, "boundary faces", &st, err);
-    if (!list) {
-        free(mark);
-        return st;
-    }
+    if (!list) goto done;
     size_t j = 0;
     for (size_t i = 0; i < ninst; i++)
         if (mark[i]) list[j++] = i;
-    free(mark);
     *binst = list;
     *nb = n;
-    return VM_OK;
+done:
+    free(start);
+    free(order);
+    free(fill);
+    free(mark);
+    free(bf);
+    return st;
 }
 
 /* --- surface analysis -------------------------------------------------------------------- */
@@ -340,6 +381,7 @@ static faceset faceset_of(const vm_mesh *m) {
     faceset fs;
     fs.cells = m->cells;
     fs.nn = vm_cell_nodes(m->kind);
+    fs.npoints = m->npoints;
     if (m->kind == VM_TET4) {
         fs.nf = 4;
         fs.k = 3;
@@ -366,8 +408,8 @@ static vm_status cell_metrics(const vm_mesh *m, vm_mesh_report *r, vm_error *err
         if (m->kind == VM_TET4) {
             v = vm_tet_signed_volume((const double(*)[3])p);
             sj = vm_tet_scaled_jacobian((const double(*)[3])p);
-            double a = vm_tet_min_dihedral((const double(*)[3])p);
-            double b = vm_tet_max_dihedral((const double(*)[3])p);
+            double a, b;
+            vm__tet_dihedral_range((const double(*)[3])p, &a, &b);
             if (a < dmin) dmin = a;
             if (b > dmax) dmax = b;
             if (a < 5.0) r->slivers_5++;

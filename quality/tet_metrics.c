@@ -2,6 +2,7 @@
  * Jacobian, radius/aspect/edge ratios (Verdict manual SAND2007-1751 ch. 6) and the ABAQUS
  * volume measure (ABAQUS/CAE "Verify Mesh" element check). */
 #include "volmesh/quality.h"
+#include "tet_internal.h"
 #include "vec3.h"
 
 double vm_tet_signed_volume(const double p[4][3]) {
@@ -55,6 +56,22 @@ static int tet_dihedrals(const double p[4][3], double ang[6]) {
             ang[k++] = vm__angle_deg(n[f], ng);
         }
     return 1;
+}
+
+void vm__tet_dihedral_range(const double p[4][3], double *min_deg, double *max_deg) {
+    double a[6];
+    if (!tet_dihedrals(p, a)) {
+        *min_deg = 0.0;
+        *max_deg = 180.0;
+        return;
+    }
+    double lo = a[0], hi = a[0];
+    for (int i = 1; i < 6; i++) {
+        if (a[i] < lo) lo = a[i];
+        if (a[i] > hi) hi = a[i];
+    }
+    *min_deg = lo;
+    *max_deg = hi;
 }
 
 double vm_tet_min_dihedral(const double p[4][3]) {

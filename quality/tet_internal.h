@@ -1,0 +1,10 @@
+/* quality/tet_internal.h — tet metrics shared inside quality/ (private). */
+#ifndef VM_TET_INTERNAL_H
+#define VM_TET_INTERNAL_H
+
+/* Smallest and largest dihedral angle of a tet in degrees, from one evaluation of the six
+ * angles: the values of vm_tet_min_dihedral and vm_tet_max_dihedral (0 and 180 for a
+ * degenerate tet). */
+void vm__tet_dihedral_range(const double p[4][3], double *min_deg, double *max_deg);
+
+#endif
