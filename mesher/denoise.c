@@ -145,6 +145,41 @@ typedef struct {
     float w;
 } tap;
 
+/* One z slab of the bilateral filter: out = c + sum w (f_q - c) / sum w over the taps
+ * (exact on constant regions); non-finite samples pass through and are skipped as taps. */
+static void bilateral_slab(const vm_volume *in, const tap *taps, size_t ntap, const int rad[3],
+                           float rscale, int64_t k, float *out) {
+    const int64_t nx = in->dims[0], ny = in->dims[1], nz = in->dims[2];
+    const float *f = in->data;
+    for (int64_t j = 0; j < ny; j++) {
+        int inner_jk = j >= rad[1] && j < ny - rad[1] && k >= rad[2] && k < nz - rad[2];
+        for (int64_t i = 0; i < nx; i++) {
+            int64_t p = i + nx * (j + ny * k);
+            float c = f[p];
+            if (!isfinite(c)) {
+                out[p] = c;
+                continue;
+            }
+            int inner = inner_jk && i >= rad[0] && i < nx - rad[0];
+            double sw = 1.0, swd = 0.0;
+            for (size_t t = 0; t < ntap; t++) {
+                if (!inner) {
+                    int64_t ii = i + taps[t].di, jj = j + taps[t].dj, kk = k + taps[t].dk;
+                    if (ii < 0 || ii >= nx || jj < 0 || jj >= ny || kk < 0 || kk >= nz)
+                        continue;
+                }
+                float q = f[p + taps[t].off];
+                float d = q - c;
+                if (!isfinite(d)) continue;
+                float w = taps[t].w * expf(d * d * rscale);
+                sw += w;
+                swd += (double)w * d;
+            }
+            out[p] = (float)(c + swd / sw);
+        }
+    }
+}
+
 vm_status vm_denoise_bilateral(const vm_volume *in, double sigma_space, double sigma_range,
                                vm_volume *out, vm_progress_fn progress, void *user,
                                vm_error *err) {
@@ -202,38 +237,17 @@ vm_status vm_denoise_bilateral(const vm_volume *in, double sigma_space, double s
         free(taps);
         return st;
     }
-    const float *f = in->data;
     const float rscale = (float)(-1.0 / (2.0 * sigma_range * sigma_range));
-    for (int64_t k = 0; k < nz; k++) {
-        for (int64_t j = 0; j < ny; j++) {
-            int inner_jk = j >= rad[1] && j < ny - rad[1] && k >= rad[2] && k < nz - rad[2];
-            for (int64_t i = 0; i < nx; i++) {
-                int64_t p = i + nx * (j + ny * k);
-                float c = f[p];
-                if (!isfinite(c)) {
-                    res.data[p] = c;
-                    continue;
-                }
-                int inner = inner_jk && i >= rad[0] && i < nx - rad[0];
-                /* out = c + sum w (f_q - c) / sum w: exact on constant regions. */
-                double sw = 1.0, swd = 0.0;
-                for (size_t t = 0; t < ntap; t++) {
-                    if (!inner) {
-                        int64_t ii = i + taps[t].di, jj = j + taps[t].dj, kk = k + taps[t].dk;
-                        if (ii < 0 || ii >= nx || jj < 0 || jj >= ny || kk < 0 || kk >= nz)
-                            continue;
-                    }
-                    float q = f[p + taps[t].off];
-                    float d = q - c;
-                    if (!isfinite(d)) continue;
-                    float w = taps[t].w * expf(d * d * rscale);
-                    sw += w;
-                    swd += (double)w * d;
-                }
-                res.data[p] = (float)(c + swd / sw);
-            }
-        }
-        if (progress) progress("bilateral", (double)(k + 1), (double)nz, user);
+    /* Slabs in parallel, a block of them between progress reports (from this thread only);
+     * every voxel is computed the same way whatever the thread count. */
+    const int64_t block = 8;
+    for (int64_t k0 = 0; k0 < nz; k0 += block) {
+        int64_t k1 = k0 + block < nz ? k0 + block : nz;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+        for (int64_t k = k0; k < k1; k++) bilateral_slab(in, taps, ntap, rad, rscale, k, res.data);
+        if (progress) progress("bilateral", (double)k1, (double)nz, user);
     }
     free(taps);
     *out = res;
@@ -243,6 +257,9 @@ vm_status vm_denoise_bilateral(const vm_volume *in, double sigma_space, double s
 /* Central differences (one-sided on the border, 0 next to non-finite samples) / spacing. */
 static void gradients(const float *f, const int64_t n[3], const double h[3], float *g[3]) {
     const int64_t stride[3] = {1, n[0], n[0] * n[1]};
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
     for (int64_t k = 0; k < n[2]; k++)
         for (int64_t j = 0; j < n[1]; j++)
             for (int64_t i = 0; i < n[0]; i++) {
@@ -257,6 +274,24 @@ static void gradients(const float *f, const int64_t n[3], const double h[3], flo
                                                         : 0.0f;
                 }
             }
+}
+
+/* Flux through the face between voxel p and its a-neighbour q = p + e_a: Perona-Malik
+ * conductance 1 / (1 + |grad|^2 / kappa^2), with the normal derivative across the face and
+ * the tangential ones averaged from both sides. 0 when either value is not finite. */
+static double face_flux(const float *cur, float *const g[3], int64_t p, int64_t q, int a,
+                        const double coef[3], double inv_k2, const double h[3]) {
+    float fp = cur[p];
+    if (!isfinite(fp)) return 0.0;
+    float d = cur[q] - fp;
+    if (d == 0.0f || !isfinite(d)) return 0.0;
+    double gn = d / h[a], s2 = gn * gn;
+    for (int b = 0; b < 3; b++) {
+        if (b == a) continue;
+        double gt = 0.5 * ((double)g[b][p] + g[b][q]);
+        s2 += gt * gt;
+    }
+    return coef[a] * d / (1.0 + s2 * inv_k2);
 }
 
 vm_status vm_denoise_diffusion(const vm_volume *in, double kappa, double dt, int iterations,
@@ -303,30 +338,30 @@ vm_status vm_denoise_diffusion(const vm_volume *in, double kappa, double dt, int
     memcpy(cur, in->data, count * sizeof *cur);
     for (int it = 0; it < iterations; it++) {
         gradients(cur, n, h, g);
-        memcpy(next, cur, count * sizeof *next);
-        /* Each face (p, p + e_a) moves the same amount out of one voxel and into the other. */
+        /* Each face (p, p + e_a) moves the same amount out of one voxel and into the other;
+         * every voxel gathers its six faces in the order a sequential sweep would add them
+         * (lower neighbours z, y, x, then its own faces x, y, z), so slabs run in parallel
+         * with the same result. */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
         for (int64_t k = 0; k < n[2]; k++)
             for (int64_t j = 0; j < n[1]; j++)
                 for (int64_t i = 0; i < n[0]; i++) {
                     const int64_t idx[3] = {i, j, k};
                     int64_t p = i + n[0] * (j + n[1] * k);
-                    float fp = cur[p];
-                    if (!isfinite(fp)) continue;
-                    for (int a = 0; a < 3; a++) {
-                        if (idx[a] >= n[a] - 1) continue;
-                        int64_t q = p + stride[a];
-                        float d = cur[q] - fp;
-                        if (d == 0.0f || !isfinite(d)) continue;
-                        double gn = d / h[a], s2 = gn * gn;
-                        for (int b = 0; b < 3; b++) {
-                            if (b == a) continue;
-                            double gt = 0.5 * ((double)g[b][p] + g[b][q]);
-                            s2 += gt * gt;
-                        }
-                        double flux = coef[a] * d / (1.0 + s2 * inv_k2);
-                        next[p] += (float)flux;
-                        next[q] -= (float)flux;
+                    float v = cur[p];
+                    if (!isfinite(v)) {
+                        next[p] = v;
+                        continue;
                     }
+                    for (int a = 2; a >= 0; a--)
+                        if (idx[a] > 0)
+                            v -= (float)face_flux(cur, g, p - stride[a], p, a, coef, inv_k2, h);
+                    for (int a = 0; a < 3; a++)
+                        if (idx[a] < n[a] - 1)
+                            v += (float)face_flux(cur, g, p, p + stride[a], a, coef, inv_k2, h);
+                    next[p] = v;
                 }
         float *t = cur;
         cur = next;

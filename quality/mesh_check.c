@@ -399,31 +399,44 @@ static vm_status cell_metrics(const vm_mesh *m, vm_mesh_report *r, vm_error *err
     vm_status st = VM_OK;
     double *vol = alloc_array(m->ncells, sizeof *vol, 0, "cell volumes", &st, err);
     if (!vol) return st;
-    int nn = vm_cell_nodes(m->kind);
+    int nn = vm_cell_nodes(m->kind), tets = m->kind == VM_TET4;
     double sum_abs = 0.0, sj_min = 1.0, dmin = 180.0, dmax = 0.0;
-    for (size_t c = 0; c < m->ncells; c++) {
+    size_t s5 = 0, s10 = 0, inv = 0;
+    /* Cells in parallel; min, max and counts do not depend on the order, and the volumes are
+     * summed afterwards in cell order, so the report is the same for any thread count. */
+    const ptrdiff_t nc = (ptrdiff_t)m->ncells;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static) reduction(min : sj_min, dmin) \
+    reduction(max : dmax) reduction(+ : s5, s10, inv)
+#endif
+    for (ptrdiff_t c = 0; c < nc; c++) {
         double p[8][3];
-        cell_points(m, c, nn, p);
+        cell_points(m, (size_t)c, nn, p);
         double v, sj;
-        if (m->kind == VM_TET4) {
+        if (tets) {
             v = vm_tet_signed_volume((const double(*)[3])p);
             sj = vm_tet_scaled_jacobian((const double(*)[3])p);
-            double a, b;
-            vm__tet_dihedral_range((const double(*)[3])p, &a, &b);
-            if (a < dmin) dmin = a;
-            if (b > dmax) dmax = b;
-            if (a < 5.0) r->slivers_5++;
-            if (a < 10.0) r->slivers_10++;
-            if (v <= 0.0) r->inverted++;
+            double lo, hi;
+            vm__tet_dihedral_range((const double(*)[3])p, &lo, &hi);
+            if (lo < dmin) dmin = lo;
+            if (hi > dmax) dmax = hi;
+            if (lo < 5.0) s5++;
+            if (lo < 10.0) s10++;
+            if (v <= 0.0) inv++;
         } else {
             v = vm_hex_volume((const double(*)[3])p);
             sj = vm_hex_min_scaled_jacobian((const double(*)[3])p);
-            if (sj <= 0.0) r->inverted++;
+            if (sj <= 0.0) inv++;
         }
         if (sj < sj_min) sj_min = sj;
         vol[c] = v;
-        r->volume += v;
-        sum_abs += fabs(v);
+    }
+    r->slivers_5 += s5;
+    r->slivers_10 += s10;
+    r->inverted += inv;
+    for (size_t c = 0; c < m->ncells; c++) {
+        r->volume += vol[c];
+        sum_abs += fabs(vol[c]);
     }
     double floor = m->ncells ? 1e-12 * sum_abs / (double)m->ncells : 0.0;
     for (size_t c = 0; c < m->ncells; c++)

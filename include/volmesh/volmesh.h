@@ -16,6 +16,15 @@
 #include "surface.h"
 #include "volume.h"
 
+/* Threads for the stages that run in parallel (denoising, VTU compression, mesh checks):
+ * n > 0 uses n, n <= 0 all processors. Results are identical for any count. Without OpenMP
+ * at build time everything runs on one thread and this does nothing. Returns the count in
+ * force before the call (OpenMP's default: OMP_NUM_THREADS, else one per processor). */
+int vm_set_threads(int n);
+
+/* Threads the parallel stages use now (1 without OpenMP). */
+int vm_threads(void);
+
 /* Version string of the linked library. */
 const char *vm_version(void);
 

@@ -1,0 +1,99 @@
+/* tests/mesher/test_threads.c — the parallel stages give the same bytes for any thread count:
+ * denoising (bilateral, diffusion), VTU compression and the mesh checks. */
+#include <string.h>
+#include "test.h"
+
+static unsigned char *slurp(const char *path, size_t *len) {
+    FILE *fp = fopen(path, "rb");
+    if (!fp) return NULL;
+    fseek(fp, 0, SEEK_END);
+    long n = ftell(fp);
+    fseek(fp, 0, SEEK_SET);
+    unsigned char *buf = malloc(n > 0 ? (size_t)n : 1);
+    *len = buf ? fread(buf, 1, (size_t)n, fp) : 0;
+    fclose(fp);
+    return buf;
+}
+
+static const int counts[] = {1, 2, 3};
+
+static void denoising_is_the_same_for_one_two_and_three_threads(void) {
+    vm_volume v, ref[2];
+    vm_error err;
+    int before = vm_set_threads(1);
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_GENUS3, 40, 0.4, 7, &v, NULL, &err), &err);
+    for (size_t t = 0; t < sizeof counts / sizeof counts[0]; t++) {
+        vm_set_threads(counts[t]);
+        vm_volume b, d;
+        CHECK_OK(vm_denoise_bilateral(&v, 1.5, 0.5, &b, NULL, NULL, &err), &err);
+        CHECK_OK(vm_denoise_diffusion(&v, 0.5, 0, 6, &d, NULL, NULL, &err), &err);
+        size_t bytes = vm_volume_count(&v) * sizeof(float);
+        if (t == 0) {
+            ref[0] = b;
+            ref[1] = d;
+            continue;
+        }
+        CHECK_MSG(memcmp(b.data, ref[0].data, bytes) == 0, "bilateral differs at %d threads",
+                  counts[t]);
+        CHECK_MSG(memcmp(d.data, ref[1].data, bytes) == 0, "diffusion differs at %d threads",
+                  counts[t]);
+        vm_volume_free(&b);
+        vm_volume_free(&d);
+    }
+    vm_volume_free(&ref[0]);
+    vm_volume_free(&ref[1]);
+    vm_volume_free(&v);
+    vm_set_threads(before);
+}
+
+static void vtu_bytes_and_mesh_checks_are_the_same_for_any_thread_count(void) {
+    vm_volume v;
+    vm_mesh m;
+    vm_error err;
+    vm_mesh_options o;
+    int before = vm_set_threads(1);
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_TORUS, 40, 0.0, 1, &v, NULL, &err), &err);
+    vm_mesh_options_default(&o);
+    CHECK_OK(vm_mesh_volume(&v, &o, &m, NULL, &err), &err);
+    unsigned char *ref = NULL;
+    size_t ref_len = 0;
+    vm_mesh_report ref_r;
+    for (size_t t = 0; t < sizeof counts / sizeof counts[0]; t++) {
+        vm_set_threads(counts[t]);
+        const char *path = vm_test_tmp("threads.vtu");
+        CHECK_OK(vm_mesh_write_vtu(path, &m, 1, &err), &err);
+        size_t len = 0;
+        unsigned char *bytes = slurp(path, &len);
+        vm_mesh_report r;
+        CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
+        CHECK(bytes != NULL && len > 1000);
+        if (t == 0) {
+            ref = bytes;
+            ref_len = len;
+            ref_r = r;
+            CHECK(r.inverted == 0 && r.boundary_closed && r.boundary_euler == 0);
+            continue;
+        }
+        CHECK_MSG(len == ref_len && memcmp(bytes, ref, len) == 0,
+                  "VTU bytes differ at %d threads", counts[t]);
+        CHECK_MSG(memcmp(&r, &ref_r, sizeof r) == 0, "mesh check differs at %d threads",
+                  counts[t]);
+        free(bytes);
+    }
+    free(ref);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+    vm_set_threads(before);
+}
+
+static void thread_count_is_set_and_restored(void) {
+    int before = vm_set_threads(2);
+    int now = vm_threads();
+    CHECK(now == 2 || now == 1); /* 1: built without OpenMP */
+    vm_set_threads(before);
+    CHECK(vm_threads() == before);
+}
+
+TEST_MAIN(T(denoising_is_the_same_for_one_two_and_three_threads),
+          T(vtu_bytes_and_mesh_checks_are_the_same_for_any_thread_count),
+          T(thread_count_is_set_and_restored))
