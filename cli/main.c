@@ -25,6 +25,9 @@ static const char *usage =
     "\n"
     "  volmesh COMMAND --help      options of one command\n"
     "  volmesh --version           version\n"
+    "  volmesh --threads N COMMAND ...   run the parallel stages (denoising, VTU compression,\n"
+    "                              mesh checks) on N threads (default: OMP_NUM_THREADS, else\n"
+    "                              one per processor); results are the same for any N\n"
     "\n"
     "exit status: 0 ok, 1 a requested check failed, 2 bad input or usage\n";
 
@@ -85,6 +88,15 @@ int main(int argc, char **argv) {
     if (argc < 2) {
         fputs(usage, stderr);
         return VM_EXIT_INPUT;
+    }
+    if (strcmp(argv[1], "--threads") == 0) {
+        long n;
+        if (argc < 3) return vm_cli_fail("--threads: give a number of threads");
+        if (vm_cli_int("--threads", argv[2], 1, 1024, &n)) return VM_EXIT_INPUT;
+        vm_set_threads((int)n);
+        argc -= 2;
+        argv += 2;
+        if (argc < 2) return vm_cli_fail("--threads %ld: give a command after it", n);
     }
     const char *cmd = argv[1];
     if (vm_cli_is(cmd, "--help", "-h") || strcmp(cmd, "help") == 0) {

@@ -226,6 +226,20 @@ else
         "stderr: $(head -n 2 "$ERR")"
 fi
 
+# --threads N before the command: bad counts are usage errors; any count gives the same bytes.
+expect_input_error "--threads 0" "--threads" "$CLI" --threads 0 info a.nrrd
+expect_input_error "--threads junk" "--threads" "$CLI" --threads many info a.nrrd
+expect_input_error "--threads without a command" "--threads" "$CLI" --threads 2
+mkdir "$WORK/threads" && cd "$WORK/threads" || exit 1
+"$CLI" --threads 1 demo --size 24 >/dev/null 2>&1 && mv demo.vtu one.vtu &&
+    "$CLI" --threads 2 demo --size 24 >/dev/null 2>&1 && mv demo.vtu two.vtu
+if [ -s one.vtu ] && cmp -s one.vtu two.vtu; then
+    pass
+else
+    fail "--threads 1 and --threads 2 demo meshes differ (or were not written)"
+fi
+cd "$WORK" || exit 1
+
 # ---- demo in a fresh folder, read back -----------------------------------------------------
 DEMO=$WORK/demo
 mkdir "$DEMO" && cd "$DEMO" || exit 1
