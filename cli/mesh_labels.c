@@ -112,11 +112,11 @@ static int report(const vm_mesh *m, const vm_label_stats *st, int json, const ch
                "\"boundary_euler\": %ld, \"components\": %zu, \"volume\": %.17g, "
                "\"min_scaled_jacobian\": %.6f, \"island_voxels\": %zu, "
                "\"topology_voxels\": %zu, \"relaxed_vertices\": %zu, \"seconds\": %.3f, "
-               "\"labels\": [",
+               "\"cell_size\": %.6g, \"coarse_cells\": %zu, ",
                out, m->ncells, m->npoints, r.inverted, r.overshared_faces, r.boundary_faces,
                r.boundary_closed ? "true" : "false", r.boundary_euler, r.components, r.volume,
                r.min_scaled_jacobian, st->island_voxels, st->topology_voxels,
-               st->relaxed_vertices, st->seconds);
+               st->relaxed_vertices, st->seconds, st->cell_size, st->coarse_cells);
         if (ir)
             printf("\"improve\": {\"min_dihedral_before\": %.4f, \"max_dihedral_before\": %.4f, "
                    "\"min_dihedral_after\": %.4f, \"max_dihedral_after\": %.4f, "
@@ -125,12 +125,14 @@ static int report(const vm_mesh *m, const vm_label_stats *st, int json, const ch
                    ir->min_dihedral_before, ir->max_dihedral_before, ir->min_dihedral_after,
                    ir->max_dihedral_after, ir->abaqus_before, ir->abaqus_after,
                    ir->max_interface_move, ir->seconds);
+        printf("\"labels\": [");
         for (size_t i = 0; i < st->nlabels; i++) {
             const vm_label_info *l = &st->labels[i];
             printf("%s{\"label\": %ld, \"elements\": %zu, \"volume\": %.17g, "
-                   "\"voxel_volume\": %.17g, \"input_voxels\": %zu, \"meshed_voxels\": %zu}",
+                   "\"voxel_volume\": %.17g, \"input_voxels\": %zu, \"meshed_voxels\": %zu, "
+                   "\"size\": %.6g}",
                    i ? ", " : "", (long)l->label, l->elements, l->mesh_volume, l->voxel_volume,
-                   l->input_voxels, l->meshed_voxels);
+                   l->input_voxels, l->meshed_voxels, l->size);
         }
         printf("]}\n");
         return VM_EXIT_OK;
