@@ -41,6 +41,7 @@ static const char *mesh_help =
     "  --min-island N          with --labels: pieces of a label smaller than N voxels (after\n"
     "                          --size) join their most common neighbour (default 1: keep all)\n"
     "  --no-smooth             with --labels: keep the voxel staircase (exact volumes)\n"
+    "  --size-per-label L:S,.. with --labels, tets: cells of S voxels inside label L\n"
     "  --size S                cell size in voxels (default 1; S > 1 resamples coarser;\n"
     "                          with --labels: the most frequent label of each S^3 block)\n"
     "  --elements tet|hex      tetrahedra (default) or hexahedra (one per inside voxel,\n"
@@ -71,7 +72,7 @@ static const char *mesh_help =
     "After meshing, a quality pass (edge contraction, flips, optimising smoothing; the\n"
     "boundary stays within half a voxel of the isosurface) raises the worst tets. Prints\n"
     "one summary line: elements, points, boundary Euler characteristic, volume, min/max\n"
-    "dihedral angle, slivers, time (with --labels: no quality pass, and one more line per\n"
+    "dihedral angle, slivers, time (with --labels: interfaces kept, and one more line per\n"
     "label with its element count and volume against its voxels). Exit 0 ok, 1 the mesh\n"
     "was written but has inverted elements (only possible with --no-improve), 2 bad input\n"
     "or empty selection (such as a --labels label absent from the volume).\n";
