@@ -1,8 +1,10 @@
 /* tests/mesher/test_labels.c — multi-material meshes of label volumes: on phantoms with
  * nested, face-sharing, junction and diagonal-contact materials, the whole mesh is valid and
  * conforming, each label's boundary (its faces against anything else) is a closed manifold
- * with the known Euler characteristic, and each label keeps its volume; the frog
- * segmentation keeps all 25 tissues. */
+ * with the known Euler characteristic, and each label keeps its volume, also with per-label
+ * sizes and --adaptive (conforming across the size changes) and after the per-material
+ * quality pass (interface faces unchanged, junctions fixed); the frog segmentation keeps all
+ * 25 tissues. */
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
