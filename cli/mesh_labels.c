@@ -151,7 +151,8 @@ static int report(const vm_mesh *m, const vm_label_stats *st, int json, const ch
                l->input_voxels, l->meshed_voxels);
     }
     if (st->coarse_cells || st->cell_size != 1.0)
-        printf("cells: size %.4g voxels along interfaces and boundary, %zu larger leaves inside\n",
+        printf("cells: %.4g voxels along interfaces and boundary, %zu larger leaves within "
+               "materials\n",
                st->cell_size, st->coarse_cells);
     if (ir)
         printf("quality pass: dihedral %.1f..%.1f -> %.1f..%.1f degrees, ABAQUS failures %zu "

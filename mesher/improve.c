@@ -179,8 +179,8 @@ static int interface_plane(vm__imp *w, size_t i) {
     if (nf < 3 || !(l > 0.0)) return 0;
     for (int k = 0; k < 3; k++) sum[k] /= l;
     for (int f = 0; f < nf; f++)
-        if (fn[f][0] * sum[0] + fn[f][1] * sum[1] + fn[f][2] * sum[2] < 0.90630778703665) /* cos 25 degrees */
-            return 0;
+        if (fn[f][0] * sum[0] + fn[f][1] * sum[1] + fn[f][2] * sum[2] < 0.90630778703665)
+            return 0; /* more than 25 degrees off (cos 25 degrees) */
     memcpy(w->nrm + 3 * i, sum, sizeof sum);
     return 1;
 }
@@ -330,7 +330,8 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
         else if (!nonbox[i] && nplanes == 1 && boxmask[i] == w->planes[i])
             w->cls[i] = VM__IMP_FLAT;
         else w->cls[i] = VM__IMP_FIXED;
-        if (w->cls[i] == VM__IMP_IFACE) w->bound[i] = o->max_interface_move * shortest_edge(w, i);
+        if (w->cls[i] == VM__IMP_IFACE)
+            w->bound[i] = o->max_interface_move * shortest_edge(w, i);
         if (w->cls[i] == VM__IMP_SURF) {
             if (v) {
                 double ijk[3];

@@ -705,8 +705,10 @@ static vm_status leaf_tet(lmesh *lm, const int64_t pts[4][3], uint16_t code, vm_
         n[1] = n[2];
         n[2] = sw;
     }
-    vm_status st = vm__grow((void **)&lm->ct, &lm->ctcap, 4 * (lm->nct + 1), sizeof(int32_t), err);
-    if (!st) st = vm__grow((void **)&lm->ctcode, &lm->ctccap, lm->nct + 1, sizeof(uint16_t), err);
+    vm_status st =
+        vm__grow((void **)&lm->ct, &lm->ctcap, 4 * (lm->nct + 1), sizeof(int32_t), err);
+    if (!st)
+        st = vm__grow((void **)&lm->ctcode, &lm->ctccap, lm->nct + 1, sizeof(uint16_t), err);
     if (st) return st;
     memcpy(lm->ct + 4 * lm->nct, n, sizeof n);
     lm->ctcode[lm->nct++] = code;
@@ -724,7 +726,8 @@ static vm_status leaf_square(lmesh *lm, int a, int64_t pa, int64_t u0, int64_t v
                              const int64_t cpos[3], uint16_t code, vm_error *err) {
     int u = (a + 1) % 3, v = (a + 2) % 3;
     /* boundary walk: corner, midpoint, corner, ... counterclockwise in (u, v) */
-    static const int ring[8][2] = {{0, 0}, {1, 0}, {2, 0}, {2, 1}, {2, 2}, {1, 2}, {0, 2}, {0, 1}};
+    static const int ring[8][2] = {{0, 0}, {1, 0}, {2, 0}, {2, 1},
+                                   {2, 2}, {1, 2}, {0, 2}, {0, 1}};
     int64_t pt[8][3], mid[3];
     int have[8], nmid = 0;
     int64_t h = sz / 2;
@@ -1001,7 +1004,8 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
         goto done;
     }
     if (o->nsizes && !o->sizes) {
-        st = vm_error_set(err, VM_ERR_ARG, "mesh: %zu label sizes given without a list", o->nsizes);
+        st = vm_error_set(err, VM_ERR_ARG, "mesh: %zu label sizes given without a list",
+                          o->nsizes);
         goto done;
     }
     lsize = malloc((K + 1) * sizeof *lsize);
@@ -1039,8 +1043,8 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
     if (hmin < 1) {
         U = (int)ceil(1.0 / hmin - 1e-9);
         if (U > 8) {
-            st = vm_error_set(err, VM_ERR_ARG, "mesh: sizes below 1/8 voxel (%g) are not supported",
-                              hmin);
+            st = vm_error_set(err, VM_ERR_ARG,
+                              "mesh: sizes below 1/8 voxel (%g) are not supported", hmin);
             goto done;
         }
         S = 1;

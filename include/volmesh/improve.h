@@ -90,8 +90,9 @@ typedef struct vm_improve_report {
     double seconds;
 } vm_improve_report;
 
-/* Defaults: bounds f >= 0 (has_lo), 0.8 voxel, 0.1 edge (surface and interface), tolerance 0.5 and band 0.3 voxel,
- * targets 15 / 150 / 0.03, 12 passes, every operation on, seed 1, no unfixed field. [out] o. */
+/* Defaults: bounds f >= 0 (has_lo), 0.8 voxel, 0.1 edge (surface and interface), tolerance
+ * 0.5 and band 0.3 voxel, targets 15 / 150 / 0.03, 12 passes, every operation on, seed 1, no
+ * unfixed field. [out] o. */
 void vm_improve_options_default(vm_improve_options *o);
 
 /* Improves the tet4 mesh m in place. [in,out] m: points may move, points and cells may be
