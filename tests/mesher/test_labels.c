@@ -179,15 +179,24 @@ static void leftHandedAnisotropicFrameKeepsElementsPositive(void) {
     v.spacing[0] = 0.5;
     v.spacing[2] = 2.0;
     v.direction[0][0] = -1;
-    for (int hex = 0; hex < 2; hex++) {
+    /* hexes, tets, and tets with coarse leaves and a refined label */
+    for (int hex = 0; hex < 3; hex++) {
         vm_label_options o;
         vm_label_options_default(&o);
-        o.elements = hex ? VM_HEX8 : VM_TET4;
+        o.elements = hex == 1 ? VM_HEX8 : VM_TET4;
+        vm_label_size sz[] = {{1, 0.5}};
+        if (hex == 2) {
+            o.adaptive = 1;
+            o.sizes = sz;
+            o.nsizes = 1;
+        }
         vm_mesh m;
         vm_label_stats st;
         CHECK_OK(vm_mesh_labels(&v, &o, &m, &st, &err), &err);
         static const expect ex[] = {{1, 2}, {2, 2}, {3, 2}};
-        check_labels(hex ? "mirrored/hex" : "mirrored/tet", &m, &st, 2, ex, 3, 0.03);
+        check_labels(hex == 1 ? "mirrored/hex" : hex ? "mirrored/sized" : "mirrored/tet", &m,
+                     &st, 2, ex, 3, 0.03);
+        if (hex == 2) CHECK(st.coarse_cells > 0);
         vm_label_stats_free(&st);
         vm_mesh_free(&m);
     }
