@@ -8,8 +8,9 @@
  * never goes down. It never changes the topology of the boundary (link condition of the mesh
  * closed by a vertex at infinity for contractions; new surface edges must be new, no fold, for
  * flips and peels), keeps the boundary within surface_tolerance of the isosurface, keeps flat
- * faces on the volume border on their plane, keeps the region of every tet and reports the
- * elements it could not fix (a result, not an error).
+ * faces on the volume border on their plane, keeps the region of every tet (faces between two
+ * regions are constrained surfaces, see max_interface_move) and reports the elements it could
+ * not fix (a result, not an error).
  * See docs/IMPROVE.md for the algorithms and the measured figures. */
 #ifndef VOLMESH_IMPROVE_H
 #define VOLMESH_IMPROVE_H
