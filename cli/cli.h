@@ -55,11 +55,16 @@ int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, cons
  * [out] *labels malloc'd. Returns 0, or prints and returns VM_EXIT_INPUT. */
 int vm_cli_parse_labels(const char *s, int32_t **labels, size_t *n);
 
-/* Meshes the labels of v, writes out (and surface, the HTML report html, when not NULL) and
- * prints the summary with one line per label; in names the input in messages. Exit code. */
+/* --size-per-label "3:0.5,7:2": [out] *sizes malloc'd (free it), *n entries. Returns 0, or
+ * prints and returns VM_EXIT_INPUT (malformed list, size not positive). */
+int vm_cli_parse_label_sizes(const char *s, vm_label_size **sizes, size_t *n);
+
+/* Meshes the labels of v, runs the per-material quality pass on tets when improve, writes
+ * out (and surface, the HTML report html, when not NULL) and prints the summary with one line
+ * per label; in names the input in messages; verbose: stage times on stderr. Exit code. */
 int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, const char *surface,
                        const vm_label_options *lo, const vm_mesh_write_options *wo, int json,
-                       int quality_fields, const char *html);
+                       int quality_fields, const char *html, int improve, int verbose);
 
 /* Prints the volume summary (text or JSON) for `info` and `demo`. */
 void vm_cli_print_info(FILE *out, const char *path, const vm_volume *v, int json);

@@ -41,6 +41,7 @@ static const char *mesh_help =
     "  --min-island N          with --labels: pieces of a label smaller than N voxels (after\n"
     "                          --size) join their most common neighbour (default 1: keep all)\n"
     "  --no-smooth             with --labels: keep the voxel staircase (exact volumes)\n"
+    "  --size-per-label L:S,.. with --labels, tets: cells of S voxels inside label L\n"
     "  --size S                cell size in voxels (default 1; S > 1 resamples coarser;\n"
     "                          with --labels: the most frequent label of each S^3 block)\n"
     "  --elements tet|hex      tetrahedra (default) or hexahedra (one per inside voxel,\n"
@@ -71,7 +72,7 @@ static const char *mesh_help =
     "After meshing, a quality pass (edge contraction, flips, optimising smoothing; the\n"
     "boundary stays within half a voxel of the isosurface) raises the worst tets. Prints\n"
     "one summary line: elements, points, boundary Euler characteristic, volume, min/max\n"
-    "dihedral angle, slivers, time (with --labels: no quality pass, and one more line per\n"
+    "dihedral angle, slivers, time (with --labels: interfaces kept, and one more line per\n"
     "label with its element count and volume against its voxels). Exit 0 ok, 1 the mesh\n"
     "was written but has inverted elements (only possible with --no-improve), 2 bad input\n"
     "or empty selection (such as a --labels label absent from the volume).\n";
@@ -185,6 +186,7 @@ int vm_cmd_mesh(int argc, char **argv) {
     int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
     int improve = 1, quality_fields = 0, verbose = 0, have_labels = 0;
     const char *labels_arg = NULL;
+    vm_label_size *label_sizes = NULL;
     vm_label_options lo;
     vm_label_options_default(&lo);
     vm_mesh_write_options wo;
@@ -208,7 +210,8 @@ int vm_cmd_mesh(int argc, char **argv) {
                     vm_cli_is(a, "--elements", NULL) || vm_cli_is(a, "--denoise", NULL) ||
                     vm_cli_is(a, "--report", NULL) || vm_cli_is(a, "--deck", NULL) ||
                     vm_cli_is(a, "--order", NULL) || vm_cli_is(a, "--labels", NULL) ||
-                    vm_cli_is(a, "--min-island", NULL) || vm_cli_is(a, "--max-memory", NULL);
+                    vm_cli_is(a, "--min-island", NULL) || vm_cli_is(a, "--max-memory", NULL) ||
+                    vm_cli_is(a, "--size-per-label", NULL);
         if (needs && i + 1 >= argc) return vm_cli_fail("mesh: %s needs a value", a);
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
@@ -240,6 +243,11 @@ int vm_cmd_mesh(int argc, char **argv) {
             long n;
             if (vm_cli_int(a, argv[++i], 1, 2147483647L, &n)) return VM_EXIT_INPUT;
             lo.min_island = (size_t)n;
+        } else if (vm_cli_is(a, "--size-per-label", NULL)) {
+            free(label_sizes);
+            if (vm_cli_parse_label_sizes(argv[++i], &label_sizes, &lo.nsizes))
+                return VM_EXIT_INPUT;
+            lo.sizes = label_sizes;
         } else if (vm_cli_is(a, "--no-smooth", NULL)) {
             lo.smooth = 0;
         } else if (vm_cli_is(a, "--adaptive", NULL)) {
@@ -293,10 +301,14 @@ int vm_cmd_mesh(int argc, char **argv) {
     if (!out) return vm_cli_fail("mesh: no output file (-o OUT.vtu)");
     if (have_iso + have_range + have_labels != 1)
         return vm_cli_fail("mesh: give exactly one of --iso V, --range A:B or --labels L");
-    if (have_labels && (o.adaptive || denoise))
-        return vm_cli_fail("mesh: --labels meshes at one size (no --adaptive, no --denoise)");
-    if (!have_labels && (lo.min_island != 1 || !lo.smooth))
-        return vm_cli_fail("mesh: --min-island and --no-smooth go with --labels");
+    if (have_labels && denoise) {
+        free(label_sizes);
+        return vm_cli_fail("mesh: --denoise does not go with --labels");
+    }
+    if (!have_labels && (lo.min_island != 1 || !lo.smooth || lo.nsizes)) {
+        free(label_sizes);
+        return vm_cli_fail("mesh: --min-island, --no-smooth and --size-per-label go with --labels");
+    }
     if (invert && !have_iso) return vm_cli_fail("mesh: --invert goes with --iso");
     if (have_iso && invert) {
         o.has_lo = 0;
@@ -318,6 +330,8 @@ int vm_cmd_mesh(int argc, char **argv) {
         lo.labels = labels;
         lo.elements = o.elements;
         lo.cell_size = o.cell_size;
+        lo.adaptive = o.adaptive;
+        lo.max_level = o.max_level;
     }
     vm_volume v;
     double t = stage_clock();
@@ -331,8 +345,10 @@ int vm_cmd_mesh(int argc, char **argv) {
         lo.progress = vm_cli_progress;
         lo.progress_user = &quiet;
         wo.compress = compress;
-        rc = vm_cli_mesh_labels(&v, in, out, surface, &lo, &wo, json, quality_fields, report);
+        rc = vm_cli_mesh_labels(&v, in, out, surface, &lo, &wo, json, quality_fields, report,
+                                improve, verbose);
         free(labels);
+        free(label_sizes);
         vm_volume_free(&v);
         return rc;
     }

@@ -1,9 +1,18 @@
 /* cli/mesh_labels.c — `volmesh mesh --labels`: a label volume (segmentation) in, one
  * conforming multi-material mesh out, with a summary line per label. */
+#define _POSIX_C_SOURCE 200809L
 #include <errno.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include "cli.h"
+
+static double cli_clock(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 int vm_cli_parse_labels(const char *s, int32_t **labels, size_t *n) {
     *labels = NULL;
@@ -46,7 +55,52 @@ bad:
     return vm_cli_fail("--labels: '%s' is not all or a list such as 1,3,7 or 2-5", s);
 }
 
-static int report(const vm_mesh *m, const vm_label_stats *st, int json, const char *out) {
+int vm_cli_parse_label_sizes(const char *s, vm_label_size **sizes, size_t *n) {
+    *sizes = NULL;
+    *n = 0;
+    size_t cap = 0;
+    const char *p = s;
+    for (;;) {
+        char *end;
+        errno = 0;
+        long l = strtol(p, &end, 10);
+        if (end == p || errno || l < INT32_MIN || l > INT32_MAX || *end != ':') goto bad;
+        const char *q = end + 1;
+        double x = strtod(q, &end);
+        if (end == q || errno || (*end != 0 && *end != ',')) goto bad;
+        if (!(x > 0) || !isfinite(x)) {
+            free(*sizes);
+            *sizes = NULL;
+            *n = 0;
+            return vm_cli_fail("--size-per-label: size '%.*s' of label %ld is not a positive "
+                               "number of voxels",
+                               (int)(end - q), q, l);
+        }
+        if (*n == cap) {
+            cap = cap ? 2 * cap : 8;
+            vm_label_size *t = realloc(*sizes, cap * sizeof *t);
+            if (!t) {
+                free(*sizes);
+                *sizes = NULL;
+                *n = 0;
+                return vm_cli_fail("--size-per-label: out of memory");
+            }
+            *sizes = t;
+        }
+        (*sizes)[*n].label = (int32_t)l;
+        (*sizes)[(*n)++].size = x;
+        if (*end == 0) return 0;
+        p = end + 1;
+    }
+bad:
+    free(*sizes);
+    *sizes = NULL;
+    *n = 0;
+    return vm_cli_fail("--size-per-label: '%s' is not a list of LABEL:SIZE such as 3:0.5,7:2", s);
+}
+
+static int report(const vm_mesh *m, const vm_label_stats *st, int json, const char *out,
+                  const vm_improve_report *ir) {
     vm_mesh_report r;
     vm_error err;
     vm_error_clear(&err);
@@ -58,17 +112,27 @@ static int report(const vm_mesh *m, const vm_label_stats *st, int json, const ch
                "\"boundary_euler\": %ld, \"components\": %zu, \"volume\": %.17g, "
                "\"min_scaled_jacobian\": %.6f, \"island_voxels\": %zu, "
                "\"topology_voxels\": %zu, \"relaxed_vertices\": %zu, \"seconds\": %.3f, "
-               "\"labels\": [",
+               "\"cell_size\": %.6g, \"coarse_cells\": %zu, ",
                out, m->ncells, m->npoints, r.inverted, r.overshared_faces, r.boundary_faces,
                r.boundary_closed ? "true" : "false", r.boundary_euler, r.components, r.volume,
                r.min_scaled_jacobian, st->island_voxels, st->topology_voxels,
-               st->relaxed_vertices, st->seconds);
+               st->relaxed_vertices, st->seconds, st->cell_size, st->coarse_cells);
+        if (ir)
+            printf("\"improve\": {\"min_dihedral_before\": %.4f, \"max_dihedral_before\": %.4f, "
+                   "\"min_dihedral_after\": %.4f, \"max_dihedral_after\": %.4f, "
+                   "\"abaqus_before\": %zu, \"abaqus_after\": %zu, "
+                   "\"max_interface_move\": %.6g, \"seconds\": %.3f}, ",
+                   ir->min_dihedral_before, ir->max_dihedral_before, ir->min_dihedral_after,
+                   ir->max_dihedral_after, ir->abaqus_before, ir->abaqus_after,
+                   ir->max_interface_move, ir->seconds);
+        printf("\"labels\": [");
         for (size_t i = 0; i < st->nlabels; i++) {
             const vm_label_info *l = &st->labels[i];
             printf("%s{\"label\": %ld, \"elements\": %zu, \"volume\": %.17g, "
-                   "\"voxel_volume\": %.17g, \"input_voxels\": %zu, \"meshed_voxels\": %zu}",
+                   "\"voxel_volume\": %.17g, \"input_voxels\": %zu, \"meshed_voxels\": %zu, "
+                   "\"size\": %.6g}",
                    i ? ", " : "", (long)l->label, l->elements, l->mesh_volume, l->voxel_volume,
-                   l->input_voxels, l->meshed_voxels);
+                   l->input_voxels, l->meshed_voxels, l->size);
         }
         printf("]}\n");
         return VM_EXIT_OK;
@@ -86,6 +150,16 @@ static int report(const vm_mesh *m, const vm_label_stats *st, int json, const ch
                (long)l->label, l->elements, kind, l->mesh_volume, l->voxel_volume, rel,
                l->input_voxels, l->meshed_voxels);
     }
+    if (st->coarse_cells || st->cell_size != 1.0)
+        printf("cells: %.4g voxels along interfaces and boundary, %zu larger leaves within "
+               "materials\n",
+               st->cell_size, st->coarse_cells);
+    if (ir)
+        printf("quality pass: dihedral %.1f..%.1f -> %.1f..%.1f degrees, ABAQUS failures %zu "
+               "-> %zu, interface vertices moved at most %.3g\n",
+               ir->min_dihedral_before, ir->max_dihedral_before, ir->min_dihedral_after,
+               ir->max_dihedral_after, ir->abaqus_before, ir->abaqus_after,
+               ir->max_interface_move);
     if (st->island_voxels || st->topology_voxels)
         printf("relabelled voxels: %zu by --min-island, %zu to keep each label's boundary a "
                "manifold\n",
@@ -93,15 +167,63 @@ static int report(const vm_mesh *m, const vm_label_stats *st, int json, const ch
     return VM_EXIT_OK;
 }
 
+/* --verbose: one line per stage on stderr, as cli/mesh.c prints them. */
+static void stage_line(int verbose, const char *stage, double seconds) {
+    if (verbose) fprintf(stderr, "volmesh: %-8s %8.3f s\n", stage, seconds);
+}
+
+/* Element counts and volumes per label, measured again after the quality pass. */
+static void recount(const vm_mesh *m, vm_label_stats *st) {
+    for (size_t i = 0; i < st->nlabels; i++) {
+        st->labels[i].elements = 0;
+        st->labels[i].mesh_volume = 0;
+    }
+    for (size_t c = 0; c < m->ncells; c++) {
+        size_t lo = 0, hi = st->nlabels;
+        while (lo < hi) {
+            size_t md = (lo + hi) / 2;
+            if (st->labels[md].label < m->region[c])
+                lo = md + 1;
+            else
+                hi = md;
+        }
+        if (lo == st->nlabels || st->labels[lo].label != m->region[c]) continue;
+        double p[4][3];
+        for (int k = 0; k < 4; k++)
+            memcpy(p[k], m->points + 3 * (size_t)m->cells[4 * c + k], sizeof p[k]);
+        st->labels[lo].elements++;
+        st->labels[lo].mesh_volume += vm_tet_signed_volume((const double(*)[3])p);
+    }
+}
+
 int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, const char *surface,
                        const vm_label_options *lo, const vm_mesh_write_options *wo, int json,
-                       int quality_fields, const char *html) {
+                       int quality_fields, const char *html, int improve, int verbose) {
     vm_mesh m;
     vm_label_stats st;
     vm_error err;
     vm_error_clear(&err);
     if (vm_mesh_labels(v, lo, &m, &st, &err)) return vm_cli_fail("%s: %s", in, err.message);
+    stage_line(verbose, "labels", st.seconds_grid);
+    stage_line(verbose, "repair", st.seconds_repair);
+    stage_line(verbose, "mesh", st.seconds_mesh);
     vm_status s = VM_OK;
+    vm_improve_report ir;
+    int improved = 0;
+    if (improve && m.kind == VM_TET4) {
+        /* per material: interfaces are constrained surfaces (see docs/LABELS.md) */
+        s = vm_mesh_improve(&m, NULL, NULL, &ir, &err);
+        if (s) {
+            vm_label_stats_free(&st);
+            vm_mesh_free(&m);
+            return vm_cli_fail("%s: %s", in, err.message);
+        }
+        improved = 1;
+        st.seconds += ir.seconds;
+        recount(&m, &st);
+        stage_line(verbose, "improve", ir.seconds);
+    }
+    double t = cli_clock();
     if (quality_fields) s = vm_mesh_add_quality_fields(&m, NULL, &err);
     if (!s) s = vm_mesh_write_as(out, &m, wo, &err);
     if (!s && surface) {
@@ -110,7 +232,8 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
         if (!s) s = vm_mesh_write(surface, &surf, &err);
         vm_mesh_free(&surf);
     }
-    int rc = s ? vm_cli_fail_err(&err) : report(&m, &st, json, out);
+    if (!s) stage_line(verbose, "write", cli_clock() - t);
+    int rc = s ? vm_cli_fail_err(&err) : report(&m, &st, json, out, improved ? &ir : NULL);
     if (!rc && html) rc = vm_cli_write_report(html, &m, out);
     vm_label_stats_free(&st);
     vm_mesh_free(&m);

@@ -16,6 +16,7 @@ void vm_improve_options_default(vm_improve_options *o) {
     o->has_hi = 0;
     o->max_surface_move = 0.8;
     o->max_surface_move_free = 0.1;
+    o->max_interface_move = 0.1;
     o->surface_tolerance = 0.5;
     o->surface_band = 0.3;
     o->target_min_dihedral = 15.0;
@@ -112,6 +113,76 @@ static double field_at(const vm_volume *v, const double ijk[3]) {
         i[a] = (int64_t)x;
     }
     return v->data[i[0] + v->dims[0] * (i[1] + v->dims[1] * i[2])];
+}
+
+static double shortest_edge(const vm__imp *w, size_t i) {
+    const vm__imp_star *s = &w->star[i];
+    const double *pa = w->p + 3 * i;
+    double L = INFINITY;
+    for (int32_t j = 0; j < s->n; j++)
+        for (int k = 0; k < 4; k++) {
+            const double *pb = w->p + 3 * (size_t)w->tet[4 * (size_t)s->t[j] + k];
+            double d = (pa[0] - pb[0]) * (pa[0] - pb[0]) + (pa[1] - pb[1]) * (pa[1] - pb[1]) +
+                       (pa[2] - pb[2]) * (pa[2] - pb[2]);
+            if (d > 0.0 && d < L) L = d;
+        }
+    return isfinite(L) ? sqrt(L) : 0.0;
+}
+
+/* For vertex i inside the mesh with tets of several regions: 1 when exactly two regions meet
+ * there and their interface faces around i are nearly coplanar (unit normals, oriented from
+ * the lower region to the higher, within 25 degrees of their mean); the mean normal goes to
+ * w->nrm. */
+static int interface_plane(vm__imp *w, size_t i) {
+    static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    const vm__imp_star *s = &w->star[i];
+    int32_t ra = w->region[s->t[0]], rb = ra;
+    for (int32_t j = 1; j < s->n; j++) {
+        int32_t r = w->region[s->t[j]];
+        if (r == ra || r == rb) continue;
+        if (ra != rb) return 0; /* a third region: a junction */
+        rb = r;
+    }
+    int32_t lo = ra < rb ? ra : rb;
+    double sum[3] = {0, 0, 0}, fn[64][3];
+    int nf = 0;
+    for (int32_t j = 0; j < s->n; j++) {
+        size_t t = (size_t)s->t[j];
+        if (w->region[t] != lo) continue;
+        const vm_index *n = w->tet + 4 * t;
+        for (int f = 0; f < 4; f++) {
+            vm_index c[3] = {n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]};
+            if (n[f] == (vm_index)i) continue; /* the face must contain i */
+            long u = vm__imp_face_other(w, t, c[0], c[1], c[2]);
+            if (u < 0 || w->region[u] == lo) continue;
+            if (nf == 64) return 0;
+            const double *P = w->p + 3 * (size_t)c[0], *Q = w->p + 3 * (size_t)c[1],
+                         *R = w->p + 3 * (size_t)c[2];
+            double a[3], b[3], *m = fn[nf];
+            for (int k = 0; k < 3; k++) {
+                a[k] = Q[k] - P[k];
+                b[k] = R[k] - P[k];
+            }
+            m[0] = a[1] * b[2] - a[2] * b[1];
+            m[1] = a[2] * b[0] - a[0] * b[2];
+            m[2] = a[0] * b[1] - a[1] * b[0];
+            double l = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+            if (!(l > 0.0)) return 0;
+            for (int k = 0; k < 3; k++) {
+                m[k] /= l;
+                sum[k] += m[k];
+            }
+            nf++;
+        }
+    }
+    double l = sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
+    if (nf < 3 || !(l > 0.0)) return 0;
+    for (int k = 0; k < 3; k++) sum[k] /= l;
+    for (int f = 0; f < nf; f++)
+        if (fn[f][0] * sum[0] + fn[f][1] * sum[1] + fn[f][2] * sum[2] < 0.90630778703665)
+            return 0; /* more than 25 degrees off (cos 25 degrees) */
+    memcpy(w->nrm + 3 * i, sum, sizeof sum);
+    return 1;
 }
 
 static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
@@ -250,12 +321,17 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
             if (w->region[s->t[j]] != w->region[s->t[0]]) regions_mixed = 1;
         int nplanes = __builtin_popcount(w->planes[i]);
         if (s->n == 0) w->cls[i] = VM__IMP_FIXED;
-        else if (regions_mixed) w->cls[i] = VM__IMP_FIXED;
+        else if (regions_mixed)
+            w->cls[i] = !bnd[i] && o->max_interface_move > 0.0 && interface_plane(w, i)
+                            ? VM__IMP_IFACE
+                            : VM__IMP_FIXED;
         else if (!bnd[i]) w->cls[i] = VM__IMP_INTERIOR;
         else if (w->planes[i] == 0) w->cls[i] = VM__IMP_SURF;
         else if (!nonbox[i] && nplanes == 1 && boxmask[i] == w->planes[i])
             w->cls[i] = VM__IMP_FLAT;
         else w->cls[i] = VM__IMP_FIXED;
+        if (w->cls[i] == VM__IMP_IFACE)
+            w->bound[i] = o->max_interface_move * shortest_edge(w, i);
         if (w->cls[i] == VM__IMP_SURF) {
             if (v) {
                 double ijk[3];
@@ -523,7 +599,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
         return vm_error_set(err, VM_ERR_EMPTY, "improve: the mesh has no cells");
     if (!(o->target_min_dihedral > 0.0) || !(o->target_max_dihedral < 180.0) ||
         !(o->target_volume_measure > 0.0) || !(o->max_surface_move >= 0.0) ||
-        !(o->max_surface_move_free >= 0.0) || !(o->surface_band >= 0.0) ||
+        !(o->max_surface_move_free >= 0.0) || !(o->max_interface_move >= 0.0) ||
+        !(o->surface_band >= 0.0) ||
         !(o->surface_tolerance >= o->surface_band))
         return vm_error_set(err, VM_ERR_ARG, "improve: targets and bounds must be positive");
     if (v && !o->has_lo && !o->has_hi)
@@ -548,9 +625,15 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
         run_passes(&w, o, &passes);
         if (w.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
-    double maxmove = 0.0;
+    double maxmove = 0.0, maxiface = 0.0;
     if (s == VM_OK) {
         for (size_t i = 0; i < w.npt; i++) {
+            if (!w.pdead[i] && w.cls[i] == VM__IMP_IFACE) {
+                double d[3];
+                for (int k = 0; k < 3; k++) d[k] = w.p[3 * i + k] - w.p0[3 * i + k];
+                double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                if (l > maxiface) maxiface = l;
+            }
             if (w.pdead[i] || w.cls[i] != VM__IMP_SURF) continue;
             double d[3], x0[3], x1[3];
             if (v) {
@@ -597,6 +680,7 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
         r->unfixed = fa.unfixed;
         r->volume_after = fa.volume;
         r->max_surface_move = maxmove;
+        r->max_interface_move = maxiface;
         r->collapses = w.collapses;
         r->flips23 = w.flips23;
         r->flips32 = w.flips32;

@@ -13,7 +13,9 @@ enum {
     VM__IMP_INTERIOR = 0, /* free */
     VM__IMP_SURF = 1,     /* on the isosurface: moves along it */
     VM__IMP_FLAT = 2,     /* on one border plane, all its boundary faces on it: moves in it */
-    VM__IMP_FIXED = 3     /* rim of a border plane, box edge or corner, region interface */
+    VM__IMP_FIXED = 3,    /* rim of a border plane, box edge or corner, junction, crease */
+    VM__IMP_IFACE = 4     /* inside, between exactly two regions, on a nearly flat piece of
+                             their interface: moves in its tangent plane, bounded */
 };
 
 /* The tets around one vertex (unordered). */
@@ -37,8 +39,9 @@ typedef struct vm__imp {
     uint8_t *planes;    /* border planes the vertex lies on (bit 2*axis + side) */
     uint8_t *iso_hi;    /* SURF with a volume: lies on {f = hi} rather than {f = lo} */
     uint8_t *pdead;
-    double *nrm;        /* FLAT: plane normal; SURF without a volume: tangent-plane normal */
-    double *bound;      /* SURF/FLAT: largest displacement from p0 (voxels or world) */
+    double *nrm;        /* FLAT: plane normal; SURF without a volume and IFACE: tangent-plane
+                           normal */
+    double *bound;      /* SURF/FLAT/IFACE: largest displacement from p0 (voxels or world) */
     vm__imp_star *star;
     size_t npt;
     /* the volume, when given: world = org + A * ijk */

@@ -323,7 +323,8 @@ int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]) {
         }
         return 1;
     case VM__IMP_SURF:
-        if (w->v) return band_constrain(w, a, x);
+    case VM__IMP_IFACE:
+        if (w->v && w->cls[a] == VM__IMP_SURF) return band_constrain(w, a, x);
         vm__sub3(x, p0, d);
         {
             double s = vm__dot3(d, n);

@@ -63,9 +63,21 @@ static int edge_on_boundary(const vm__imp *w, size_t t, vm_index c, vm_index d) 
     return 0;
 }
 
+/* 1 when the tets around vertex a belong to more than one region (a material interface). */
+static int on_interface(const vm__imp *w, vm_index a) {
+    const vm__imp_star *s = &w->star[a];
+    for (int32_t j = 1; j < s->n; j++)
+        if (w->region[s->t[j]] != w->region[s->t[0]]) return 1;
+    return 0;
+}
+
 int vm__imp_peel_tet(vm__imp *w, size_t t) {
     const vm_index *n = w->tet + 4 * t;
     int bnd[4], nb = 0;
+    /* Peeling next to another material would turn interface faces into boundary faces or
+     * give a surface edge that is an interface edge already: only inside one material. */
+    for (int i = 0; i < 4; i++)
+        if (on_interface(w, n[i])) return 0;
     for (int i = 0; i < 4; i++) {
         bnd[i] = vm__imp_face_other(w, t, n[face_of[i][0]], n[face_of[i][1]],
                                     n[face_of[i][2]]) < 0;

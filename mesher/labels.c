@@ -16,6 +16,7 @@
 
 void vm_label_options_default(vm_label_options *o) {
     memset(o, 0, sizeof *o);
+    o->max_level = 4;
     o->elements = VM_TET4;
     o->cell_size = 1;
     o->min_island = 1;
@@ -172,11 +173,12 @@ static vm_status make_ranks(lgrid *g, vm_error *err) {
     return VM_OK;
 }
 
-static vm_status build_grid(const vm_volume *v, const int32_t *chosen, int K, int S, lgrid *g,
-                            vm_error *err) {
+/* S >= 1: each S^3 block votes; U > 1 (with S == 1): each voxel becomes U^3 cells. */
+static vm_status build_grid(const vm_volume *v, const int32_t *chosen, int K, int S, int U,
+                            lgrid *g, vm_error *err) {
     int64_t c[3];
     for (int a = 0; a < 3; a++) {
-        c[a] = (v->dims[a] + S - 1) / S;
+        c[a] = U > 1 ? v->dims[a] * U : (v->dims[a] + S - 1) / S;
         g->m[a] = c[a] + 2;
     }
     g->K = K;
@@ -195,6 +197,22 @@ static vm_status build_grid(const vm_volume *v, const int32_t *chosen, int K, in
     int32_t last_value = 0;
     uint16_t last_code = 0;
     int have_last = 0;
+    if (U > 1) {
+        for (int64_t K2 = 0; K2 < c[2]; K2++)
+            for (int64_t J = 0; J < c[1]; J++)
+                for (int64_t I = 0; I < c[0]; I++) {
+                    int32_t x = (int32_t)v->data[I / U + n[0] * (J / U + n[1] * (K2 / U))];
+                    if (!have_last || x != last_value) {
+                        last_code = (uint16_t)(find_label(chosen, (size_t)K, x) + 1);
+                        last_value = x;
+                        have_last = 1;
+                    }
+                    g->code[gidx(g, I + 1, J + 1, K2 + 1)] = last_code;
+                }
+        free(votes);
+        free(touched);
+        return VM_OK;
+    }
     for (int64_t K2 = 0; K2 < c[2]; K2++)
         for (int64_t J = 0; J < c[1]; J++)
             for (int64_t I = 0; I < c[0]; I++) {
@@ -463,6 +481,10 @@ typedef struct lmesh {
     int32_t *hex;        /* 8 vertex ids per labelled voxel, VTK order */
     uint16_t *hcode;     /* per hex */
     size_t nh, hcap, ccap; /* capacities of hex (ids), hcode */
+    const int8_t *lvl;   /* per padded cell: octree level (see build_leaves); NULL: all 0 */
+    int32_t *ct;         /* 4 vertex ids per tet of a coarse leaf */
+    uint16_t *ctcode;    /* per coarse tet */
+    size_t nct, ctcap, ctccap;
     int kuhn[6][4];      /* bit-indexed corners of the 6 positive tets of a cube */
     double scale[3];     /* world length of one coarse voxel per axis (quality is judged there) */
 } lmesh;
@@ -528,7 +550,7 @@ static vm_status build_hexes(lmesh *lm, int smooth, vm_error *err) {
         for (int64_t j = 1; j < g->m[1] - 1; j++)
             for (int64_t i = 1; i < g->m[0] - 1; i++) {
                 uint16_t c = g->code[gidx(g, i, j, k)];
-                if (!c) continue;
+                if (!c || (lm->lvl && lm->lvl[gidx(g, i, j, k)] > 0)) continue;
                 vm_status st = vm__grow((void **)&lm->hex, &lm->hcap, 8 * (lm->nh + 1), sizeof(int32_t), err);
                 if (!st) st = vm__grow((void **)&lm->hcode, &lm->ccap, lm->nh + 1, sizeof(uint16_t), err);
                 if (st) return st;
@@ -541,6 +563,237 @@ static vm_status build_hexes(lmesh *lm, int smooth, vm_error *err) {
                     if (st) return st;
                 }
                 lm->hcode[lm->nh++] = c;
+            }
+    return VM_OK;
+}
+
+/* ---- per-label sizes: an octree of interior leaves ---------------------------------- */
+
+/* Level of the leaf of every padded cell: -1 background, 0 a cell of size h, l > 0 a leaf of
+ * 2^l cells per axis. A cell may join a leaf only when it and its 26 neighbours hold its label
+ * and lmax of the label allows, so every point of a leaf, on its faces too, is a dual vertex
+ * away from the smoothed interfaces (at its lattice position). Leaves are aligned and grown
+ * bottom-up, then split until leaves touching at a face, edge or corner differ by at most one
+ * level (2:1). [out] *out (free it), *nleaves: leaves of level > 0. */
+static vm_status build_leaves(const lgrid *g, const int *lmax, int8_t **out, size_t *nleaves,
+                              vm_error *err) {
+    const int64_t *m = g->m;
+    size_t total = (size_t)(m[0] * m[1] * m[2]);
+    int64_t c[3] = {m[0] - 2, m[1] - 2, m[2] - 2};
+    int maxl = 0;
+    for (int q = 1; q <= g->K; q++)
+        if (lmax[q] > maxl) maxl = lmax[q];
+    int8_t *lv = malloc(total);
+    uint8_t *safe = calloc(total, 1);
+    if (!lv || !safe) {
+        free(lv);
+        free(safe);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the label octree");
+    }
+    for (size_t p = 0; p < total; p++) lv[p] = g->code[p] ? 0 : -1;
+    *nleaves = 0;
+    for (int64_t k = 1; k <= c[2] && maxl > 0; k++)
+        for (int64_t j = 1; j <= c[1]; j++)
+            for (int64_t i = 1; i <= c[0]; i++) {
+                size_t p = gidx(g, i, j, k);
+                uint16_t x = g->code[p];
+                if (!x || lmax[x] < 1) continue;
+                int ok = 1;
+                for (int d = 0; d < 27 && ok; d++)
+                    ok = g->code[gidx(g, i + d % 3 - 1, j + (d / 3) % 3 - 1, k + d / 9 - 1)] == x;
+                safe[p] = (uint8_t)ok;
+            }
+    for (int l = 1; l <= maxl; l++) {
+        int64_t sz = (int64_t)1 << l;
+        for (int64_t bz = 0; (bz + 1) * sz <= c[2]; bz++)
+            for (int64_t by = 0; (by + 1) * sz <= c[1]; by++)
+                for (int64_t bx = 0; (bx + 1) * sz <= c[0]; bx++) {
+                    int64_t o[3] = {bx * sz + 1, by * sz + 1, bz * sz + 1};
+                    uint16_t x = g->code[gidx(g, o[0], o[1], o[2])];
+                    if (!x || lmax[x] < l) continue;
+                    int ok = 1;
+                    for (int64_t k = 0; k < sz && ok; k++)
+                        for (int64_t j = 0; j < sz && ok; j++)
+                            for (int64_t i = 0; i < sz && ok; i++) {
+                                size_t p = gidx(g, o[0] + i, o[1] + j, o[2] + k);
+                                ok = g->code[p] == x && (l == 1 ? safe[p] : lv[p] == l - 1);
+                            }
+                    if (!ok) continue;
+                    for (int64_t k = 0; k < sz; k++)
+                        for (int64_t j = 0; j < sz; j++)
+                            for (int64_t i = 0; i < sz; i++)
+                                lv[gidx(g, o[0] + i, o[1] + j, o[2] + k)] = (int8_t)l;
+                }
+    }
+    free(safe);
+    /* 2:1 balance: split every leaf with a neighbour two or more levels finer */
+    for (int changed = maxl > 1; changed;) {
+        changed = 0;
+        for (int64_t k = 1; k <= c[2]; k++)
+            for (int64_t j = 1; j <= c[1]; j++)
+                for (int64_t i = 1; i <= c[0]; i++) {
+                    int l = lv[gidx(g, i, j, k)];
+                    int64_t sz = (int64_t)1 << (l > 0 ? l : 0);
+                    if (l < 2 || (i - 1) % sz || (j - 1) % sz || (k - 1) % sz) continue;
+                    int split = 0;
+                    for (int64_t z = -1; z <= sz && !split; z++)
+                        for (int64_t y = -1; y <= sz && !split; y++)
+                            for (int64_t x = -1; x <= sz && !split; x++) {
+                                if (x >= 0 && x < sz && y >= 0 && y < sz && z >= 0 && z < sz)
+                                    x = sz - 1; /* skip the inside of the leaf */
+                                else {
+                                    int q = lv[gidx(g, i + x, j + y, k + z)];
+                                    split = q >= 0 && q < l - 1;
+                                }
+                            }
+                    if (!split) continue;
+                    for (int64_t z = 0; z < sz; z++)
+                        for (int64_t y = 0; y < sz; y++)
+                            for (int64_t x = 0; x < sz; x++)
+                                lv[gidx(g, i + x, j + y, k + z)] = (int8_t)(l - 1);
+                    changed = 1;
+                }
+    }
+    for (int64_t k = 1; k <= c[2]; k++)
+        for (int64_t j = 1; j <= c[1]; j++)
+            for (int64_t i = 1; i <= c[0]; i++) {
+                int l = lv[gidx(g, i, j, k)];
+                int64_t sz = (int64_t)1 << (l > 0 ? l : 0);
+                if (l > 0 && (i - 1) % sz == 0 && (j - 1) % sz == 0 && (k - 1) % sz == 0)
+                    (*nleaves)++;
+            }
+    *out = lv;
+    return VM_OK;
+}
+
+/* 1 when dual point p (unpadded point coordinates: the corner between cells p - 1 and p) is a
+ * corner of some leaf. */
+static int is_leaf_corner(const lmesh *lm, const int64_t p[3]) {
+    const lgrid *g = lm->g;
+    for (int q = 0; q < 8; q++) {
+        int64_t cc[3] = {p[0] + (q & 1), p[1] + ((q >> 1) & 1), p[2] + (q >> 2)}; /* padded */
+        if (cc[0] >= g->m[0] || cc[1] >= g->m[1] || cc[2] >= g->m[2]) continue;
+        int l = lm->lvl[gidx(g, cc[0], cc[1], cc[2])];
+        if (l < 0) continue;
+        if (l == 0) return 1;
+        int64_t sz = (int64_t)1 << l;
+        int corner = 1;
+        for (int a = 0; a < 3 && corner; a++) {
+            int64_t u = cc[a] - 1, o = u - u % sz;
+            corner = p[a] == o || p[a] == o + sz;
+        }
+        if (corner) return 1;
+    }
+    return 0;
+}
+
+static vm_status point_vertex(lmesh *lm, const int64_t p[3], int32_t *id, vm_error *err) {
+    size_t cell = (size_t)p[0] + lm->cm[0] * ((size_t)p[1] + lm->cm[1] * (size_t)p[2]);
+    return add_vertex(lm, cell, 0, id, err);
+}
+
+static vm_status leaf_tet(lmesh *lm, const int64_t pts[4][3], uint16_t code, vm_error *err) {
+    int32_t n[4];
+    double x[4][3];
+    for (int q = 0; q < 4; q++) {
+        vm_status st = point_vertex(lm, pts[q], &n[q], err);
+        if (st) return st;
+        for (int d = 0; d < 3; d++) x[q][d] = (double)pts[q][d];
+    }
+    if (vm_tet_signed_volume((const double(*)[3])x) < 0) {
+        int32_t sw = n[1];
+        n[1] = n[2];
+        n[2] = sw;
+    }
+    vm_status st =
+        vm__grow((void **)&lm->ct, &lm->ctcap, 4 * (lm->nct + 1), sizeof(int32_t), err);
+    if (!st)
+        st = vm__grow((void **)&lm->ctcode, &lm->ctccap, lm->nct + 1, sizeof(uint16_t), err);
+    if (st) return st;
+    memcpy(lm->ct + 4 * lm->nct, n, sizeof n);
+    lm->ctcode[lm->nct++] = code;
+    return VM_OK;
+}
+
+/* The face square of a leaf in plane p[a] = pa from (u0, v0) (axes a+1, a+2) with side sz,
+ * coned to the leaf centre cpos. Its triangulation depends only on which points of the
+ * square are leaf corners, so the leaves on both sides cut it alike: with a corner at its
+ * centre (a finer neighbour: then its edge midpoints are corners too) it is four squares;
+ * with corners at some edge midpoints only, a fan from its centre (a new point inside the
+ * face, which no other face sees) over its corners and those midpoints; else the diagonal
+ * from its lowest corner (the diagonal a Kuhn cube cuts its faces along). */
+static vm_status leaf_square(lmesh *lm, int a, int64_t pa, int64_t u0, int64_t v0, int64_t sz,
+                             const int64_t cpos[3], uint16_t code, vm_error *err) {
+    int u = (a + 1) % 3, v = (a + 2) % 3;
+    /* boundary walk: corner, midpoint, corner, ... counterclockwise in (u, v) */
+    static const int ring[8][2] = {{0, 0}, {1, 0}, {2, 0}, {2, 1},
+                                   {2, 2}, {1, 2}, {0, 2}, {0, 1}};
+    int64_t pt[8][3], mid[3];
+    int have[8], nmid = 0;
+    int64_t h = sz / 2;
+    for (int q = 0; q < 8; q++) {
+        pt[q][a] = pa;
+        pt[q][u] = u0 + ring[q][0] * sz / 2; /* corners exact for sz = 1 too */
+        pt[q][v] = v0 + ring[q][1] * sz / 2;
+        have[q] = (q & 1) == 0 || (sz >= 2 && is_leaf_corner(lm, pt[q]));
+        nmid += (q & 1) && have[q];
+    }
+    mid[a] = pa;
+    mid[u] = u0 + h;
+    mid[v] = v0 + h;
+    if (sz >= 2 && is_leaf_corner(lm, mid)) {
+        for (int q = 0; q < 4; q++) {
+            vm_status st = leaf_square(lm, a, pa, u0 + (q & 1) * h, v0 + (q >> 1) * h, h, cpos,
+                                       code, err);
+            if (st) return st;
+        }
+        return VM_OK;
+    }
+    int64_t t[4][3];
+    memcpy(t[0], cpos, sizeof t[0]);
+    if (nmid == 0) {
+        static const int tri[2][2] = {{2, 4}, {4, 6}}; /* with ring[0]: diagonal 0-4 */
+        for (int k = 0; k < 2; k++) {
+            memcpy(t[1], pt[0], sizeof t[1]);
+            memcpy(t[2], pt[tri[k][0]], sizeof t[2]);
+            memcpy(t[3], pt[tri[k][1]], sizeof t[3]);
+            vm_status st = leaf_tet(lm, (const int64_t(*)[3])t, code, err);
+            if (st) return st;
+        }
+        return VM_OK;
+    }
+    memcpy(t[1], mid, sizeof t[1]);
+    for (int q = 0; q < 8; q++) {
+        if (!have[q]) continue;
+        int r = (q + 1) % 8;
+        if (!have[r]) r = (r + 1) % 8;
+        memcpy(t[2], pt[q], sizeof t[2]);
+        memcpy(t[3], pt[r], sizeof t[3]);
+        vm_status st = leaf_tet(lm, (const int64_t(*)[3])t, code, err);
+        if (st) return st;
+    }
+    return VM_OK;
+}
+
+/* Tets of every leaf of level > 0: its six faces (conforming with the neighbours' cuts) coned
+ * to its centre. All their points are at their lattice positions, so no tet is inverted. */
+static vm_status build_leaf_tets(lmesh *lm, vm_error *err) {
+    const lgrid *g = lm->g;
+    for (int64_t k = 1; k < g->m[2] - 1; k++)
+        for (int64_t j = 1; j < g->m[1] - 1; j++)
+            for (int64_t i = 1; i < g->m[0] - 1; i++) {
+                int l = lm->lvl[gidx(g, i, j, k)];
+                if (l <= 0) continue;
+                int64_t sz = (int64_t)1 << l, o[3] = {i - 1, j - 1, k - 1};
+                if (o[0] % sz || o[1] % sz || o[2] % sz) continue;
+                int64_t cpos[3] = {o[0] + sz / 2, o[1] + sz / 2, o[2] + sz / 2};
+                vm_status st = VM_OK;
+                uint16_t code = g->code[gidx(g, i, j, k)];
+                for (int a = 0; a < 3 && !st; a++)
+                    for (int side = 0; side < 2 && !st; side++)
+                        st = leaf_square(lm, a, o[a] + side * sz, o[(a + 1) % 3], o[(a + 2) % 3],
+                                         sz, cpos, code, err);
+                if (st) return st;
             }
     return VM_OK;
 }
@@ -702,7 +955,10 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
     lmesh lm;
     memset(&lm, 0, sizeof lm);
     vm_label_info *info = NULL;
-    size_t K = 0, islands = 0, topo = 0;
+    size_t K = 0, islands = 0, topo = 0, nleaves = 0;
+    double *lsize = NULL;
+    int *lmax = NULL;
+    int8_t *lvl = NULL;
     vm_status st = collect_labels(v, &present, err);
     if (st) goto done;
     if (o->labels) {
@@ -742,20 +998,94 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
         st = vm_error_set(err, VM_ERR_UNSUPPORTED, "mesh: %zu labels chosen; at most 65534", K);
         goto done;
     }
-    int S = o->cell_size;
+    /* sizes: the finest h, and the octree level each label may reach */
+    if (o->adaptive && (o->max_level < 1 || o->max_level > 10)) {
+        st = vm_error_set(err, VM_ERR_ARG, "mesh: max level %d is outside 1..10", o->max_level);
+        goto done;
+    }
+    if (o->nsizes && !o->sizes) {
+        st = vm_error_set(err, VM_ERR_ARG, "mesh: %zu label sizes given without a list",
+                          o->nsizes);
+        goto done;
+    }
+    lsize = malloc((K + 1) * sizeof *lsize);
+    lmax = calloc(K + 1, sizeof *lmax);
+    if (!lsize || !lmax) {
+        st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
+    }
+    for (size_t c = 0; c <= K; c++) lsize[c] = -1;
+    double hmin = o->cell_size;
+    for (size_t i = 0; i < o->nsizes; i++) {
+        const vm_label_size *ls = &o->sizes[i];
+        long f = find_label(chosen, K, ls->label);
+        if (f < 0) {
+            st = vm_error_set(err, VM_ERR_ARG,
+                              "mesh: a size is given for label %ld, which is not meshed (not in "
+                              "the volume or not chosen)",
+                              (long)ls->label);
+            goto done;
+        }
+        if (!(ls->size > 0) || !isfinite(ls->size) || ls->size > 1024) {
+            st = vm_error_set(err, VM_ERR_ARG, "mesh: size %g of label %ld is not in (0, 1024]",
+                              ls->size, (long)ls->label);
+            goto done;
+        }
+        if (lsize[f + 1] > 0) {
+            st = vm_error_set(err, VM_ERR_ARG, "mesh: label %ld has two sizes", (long)ls->label);
+            goto done;
+        }
+        lsize[f + 1] = ls->size;
+        if (ls->size < hmin) hmin = ls->size;
+    }
+    int S = o->cell_size, U = 1;
+    double h = S;
+    if (hmin < 1) {
+        U = (int)ceil(1.0 / hmin - 1e-9);
+        if (U > 8) {
+            st = vm_error_set(err, VM_ERR_ARG,
+                              "mesh: sizes below 1/8 voxel (%g) are not supported", hmin);
+            goto done;
+        }
+        S = 1;
+        h = 1.0 / U;
+    } else if (hmin < S) {
+        S = (int)floor(hmin + 1e-9);
+        h = S;
+    }
+    int coarse = 0;
+    for (size_t c = 1; c <= K; c++) {
+        if (lsize[c] < 0)
+            lsize[c] = o->adaptive ? h * (double)(1 << o->max_level) : (double)o->cell_size;
+        int l = (int)floor(log2(lsize[c] / h) + 1e-9);
+        lmax[c] = l < 0 ? 0 : l > 10 ? 10 : l;
+        coarse |= lmax[c] > 0;
+    }
+    if (coarse && !tets) {
+        st = vm_error_set(err, VM_ERR_UNSUPPORTED,
+                          "mesh: labels with cells coarser than the finest (per-label sizes, "
+                          "adaptive) need tets, not hexes");
+        goto done;
+    }
     if (o->progress) o->progress("labels", 0, 4, o->progress_user);
-    st = build_grid(v, chosen, (int)K, S, &g, err);
+    st = build_grid(v, chosen, (int)K, S, U, &g, err);
     if (!st && o->min_island > 1) st = remove_islands(&g, o->min_island, &islands, err);
+    double t1 = vm__now();
     if (!st) st = make_ranks(&g, err);
     if (!st) st = make_well_composed(&g, &topo, err);
     if (st) goto done;
+    if (coarse) st = build_leaves(&g, lmax, &lvl, &nleaves, err);
+    if (st) goto done;
+    double t2 = vm__now();
     if (o->progress) o->progress("labels", 1, 4, o->progress_user);
     lm.g = &g;
     kuhn_table(lm.kuhn);
-    for (int d = 0; d < 3; d++) lm.scale[d] = (double)S * v->spacing[d];
+    lm.lvl = lvl;
+    for (int d = 0; d < 3; d++) lm.scale[d] = h * v->spacing[d];
     st = build_hexes(&lm, o->smooth, err);
+    if (!st && lvl) st = build_leaf_tets(&lm, err);
     if (st) goto done;
-    if (lm.nh == 0) {
+    if (lm.nh == 0 && lm.nct == 0) {
         st = vm_error_set(err, VM_ERR_EMPTY,
                           "mesh: no voxel of the chosen labels is left (--size or --min-island "
                           "removed them all)");
@@ -768,7 +1098,7 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
     if (o->progress) o->progress("labels", 3, 4, o->progress_user);
 
     /* the mesh in world coordinates */
-    size_t ncells = tets ? 6 * lm.nh : lm.nh;
+    size_t ncells = tets ? 6 * lm.nh + lm.nct : lm.nh;
     st = vm_mesh_reserve(mesh, lm.nv, ncells, err);
     if (st) goto done;
     size_t smoothed = 0;
@@ -784,7 +1114,7 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
                     break;
                 }
         }
-        for (int d = 0; d < 3; d++) ijk[d] = (double)S * x[d] + 0.5 * (double)(S - 1);
+        for (int d = 0; d < 3; d++) ijk[d] = h * x[d] + 0.5 * (h - 1);
         vm_volume_index_to_world(v, ijk, mesh->points + 3 * i);
     }
     mesh->npoints = lm.nv;
@@ -794,11 +1124,10 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
         st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
         goto done;
     }
-    for (size_t h = 0; h < lm.nh; h++) {
-        const int32_t *c = lm.hex + 8 * h;
-        int32_t region = chosen[lm.hcode[h] - 1];
-        vm_label_info *li = &info[lm.hcode[h] - 1];
-        li->meshed_voxels++;
+    for (size_t e = 0; e < lm.nh; e++) {
+        const int32_t *c = lm.hex + 8 * e;
+        int32_t region = chosen[lm.hcode[e] - 1];
+        vm_label_info *li = &info[lm.hcode[e] - 1];
         for (int t = 0; t < (tets ? 6 : 1); t++) {
             vm_index *dst = mesh->cells + (size_t)vm_cell_nodes(mesh->kind) * mesh->ncells;
             double p[8][3];
@@ -828,13 +1157,31 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
             li->elements++;
         }
     }
+    for (size_t e = 0; e < lm.nct; e++) {
+        vm_index *dst = mesh->cells + 4 * mesh->ncells;
+        for (int q = 0; q < 4; q++) dst[q] = lm.ct[4 * e + q];
+        if (flip) {
+            vm_index sw = dst[1];
+            dst[1] = dst[2];
+            dst[2] = sw;
+        }
+        double p[4][3];
+        for (int q = 0; q < 4; q++) memcpy(p[q], mesh->points + 3 * (size_t)dst[q], sizeof p[q]);
+        vm_label_info *li = &info[lm.ctcode[e] - 1];
+        li->mesh_volume += vm_tet_signed_volume((const double(*)[3])p);
+        mesh->region[mesh->ncells++] = chosen[lm.ctcode[e] - 1];
+        li->elements++;
+    }
+    for (size_t p = 0; p < (size_t)(g.m[0] * g.m[1] * g.m[2]); p++)
+        if (g.code[p]) info[g.code[p] - 1].meshed_voxels++;
     if (stats) {
-        double vox = fabs(vm_volume_frame_determinant(v)) * (double)S * S * S;
+        double vox = fabs(vm_volume_frame_determinant(v)) * h * h * h;
         for (size_t i = 0; i < K; i++) {
             info[i].label = chosen[i];
             long f = find_label(present.val, present.n, chosen[i]);
             info[i].input_voxels = f >= 0 ? present.count[f] : 0;
             info[i].voxel_volume = (double)info[i].meshed_voxels * vox;
+            info[i].size = lsize[i + 1];
         }
         stats->nlabels = K;
         stats->labels = info;
@@ -843,7 +1190,12 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
         stats->topology_voxels = topo;
         stats->smoothed_vertices = smoothed;
         stats->relaxed_vertices = relaxed;
+        stats->cell_size = h;
+        stats->coarse_cells = nleaves;
         stats->seconds = vm__now() - t0;
+        stats->seconds_grid = t1 - t0;
+        stats->seconds_repair = t2 - t1;
+        stats->seconds_mesh = stats->seconds - (t2 - t0);
     }
     if (o->progress) o->progress("labels", 4, 4, o->progress_user);
 done:
@@ -858,6 +1210,11 @@ done:
     free(lm.lambda);
     free(lm.hex);
     free(lm.hcode);
+    free(lm.ct);
+    free(lm.ctcode);
+    free(lvl);
+    free(lsize);
+    free(lmax);
     free(info);
     if (st) vm_mesh_free(mesh);
     return st;

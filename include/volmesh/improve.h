@@ -8,8 +8,9 @@
  * never goes down. It never changes the topology of the boundary (link condition of the mesh
  * closed by a vertex at infinity for contractions; new surface edges must be new, no fold, for
  * flips and peels), keeps the boundary within surface_tolerance of the isosurface, keeps flat
- * faces on the volume border on their plane, keeps the region of every tet and reports the
- * elements it could not fix (a result, not an error).
+ * faces on the volume border on their plane, keeps the region of every tet (faces between two
+ * regions are constrained surfaces, see max_interface_move) and reports the elements it could
+ * not fix (a result, not an error).
  * See docs/IMPROVE.md for the algorithms and the measured figures. */
 #ifndef VOLMESH_IMPROVE_H
 #define VOLMESH_IMPROVE_H
@@ -35,6 +36,14 @@ typedef struct vm_improve_options {
      * max_surface_move_free times the length of their shortest incident edge (default 0.1). */
     double max_surface_move;
     double max_surface_move_free;
+    /* Multi-material meshes (cells of several regions): faces between two regions are
+     * constrained like the boundary. No operation changes the region of the space around an
+     * interface; a vertex where three or more regions meet (or an interface meets the
+     * boundary) stays fixed, as does one on a crease of its interface (face normals more than
+     * 25 degrees apart); any other interface vertex slides in the tangent plane of its
+     * interface by at most max_interface_move times its shortest incident edge at the start
+     * (default 0.1; 0 keeps every interface vertex fixed). */
+    double max_interface_move;
     /* With a volume: the boundary stays within surface_tolerance voxels of the isosurface
      * (default 0.5). Isosurface vertices may leave the isosurface by up to surface_band
      * voxels (first-order distance |f - iso| / |grad f|, index space; default 0.3), so that
@@ -71,6 +80,8 @@ typedef struct vm_improve_report {
     /* Largest displacement of a vertex on the isosurface (voxels with a volume, world units
      * without). Vertices on flat border faces slide within their plane and are not counted. */
     double max_surface_move;
+    /* Largest displacement of an interface vertex (world units). */
+    double max_interface_move;
     size_t collapses, flips23, flips32;
     size_t edge_removals;     /* edges with 4..8 tets around them removed (4-4 and larger) */
     size_t moves, perturbations;
@@ -80,8 +91,9 @@ typedef struct vm_improve_report {
     double seconds;
 } vm_improve_report;
 
-/* Defaults: bounds f >= 0 (has_lo), 0.8 voxel, 0.1 edge, tolerance 0.5 and band 0.3 voxel,
- * targets 15 / 150 / 0.03, 12 passes, every operation on, seed 1, no unfixed field. [out] o. */
+/* Defaults: bounds f >= 0 (has_lo), 0.8 voxel, 0.1 edge (surface and interface), tolerance
+ * 0.5 and band 0.3 voxel, targets 15 / 150 / 0.03, 12 passes, every operation on, seed 1, no
+ * unfixed field. [out] o. */
 void vm_improve_options_default(vm_improve_options *o);
 
 /* Improves the tet4 mesh m in place. [in,out] m: points may move, points and cells may be

@@ -23,6 +23,12 @@
 extern "C" {
 #endif
 
+/* A cell size for one label (--size-per-label 3:0.5,7:2). */
+typedef struct vm_label_size {
+    int32_t label;
+    double size; /* voxels; > 0 */
+} vm_label_size;
+
 typedef struct vm_label_options {
     const int32_t *labels;  /* labels to mesh (not owned); NULL: every non-zero label present */
     size_t nlabels;         /* entries of labels (0 with labels NULL) */
@@ -32,6 +38,17 @@ typedef struct vm_label_options {
     size_t min_island;      /* face-connected pieces of one label smaller than this many
                                (coarse) voxels go to their most common neighbour; 1: keep all */
     int smooth;             /* 1 (default): smooth interfaces; 0: voxel staircase */
+    /* Per-label sizes (not owned; labels must be chosen, each at most once). The grid is
+     * built at the finest size h asked for (cell_size and every size here: h < 1 is rounded
+     * to 1/n, refining every voxel into n^3 cells by nearest upsampling); a label of size S
+     * gets cells of h * 2^floor(log2(S / h)) in its interior, one fine layer along its
+     * interfaces, 2:1 balanced and conforming (tets only). */
+    const vm_label_size *sizes;
+    size_t nsizes;
+    /* 1: every label without a size of its own gets interior cells up to 2^max_level * h
+     * (tets only); max_level 1..10, default 4. */
+    int adaptive;
+    int max_level;
     vm_progress_fn progress;
     void *progress_user;
 } vm_label_options;
@@ -40,9 +57,10 @@ typedef struct vm_label_options {
 typedef struct vm_label_info {
     int32_t label;
     size_t input_voxels;   /* voxels of the label in the volume */
-    size_t meshed_voxels;  /* (coarse) voxels meshed as this label after islands, topology */
+    size_t meshed_voxels;  /* cells of size h meshed as this label after islands, topology */
+    double size;           /* the cell size asked for this label (voxels) */
     size_t elements;       /* cells of the mesh with region == label */
-    double voxel_volume;   /* meshed_voxels * S^3 * voxel volume */
+    double voxel_volume;   /* meshed_voxels * h^3 * voxel volume */
     double mesh_volume;    /* sum of the signed volumes of its cells */
 } vm_label_info;
 
@@ -52,8 +70,13 @@ typedef struct vm_label_stats {
     size_t island_voxels;      /* voxels relabelled by the island floor */
     size_t topology_voxels;    /* voxels relabelled to make every label well-composed */
     size_t smoothed_vertices;  /* vertices off their cell centre in the result */
+    double cell_size;          /* h: the size of the finest cells, in voxels */
+    size_t coarse_cells;       /* octree leaves larger than h (sizes, adaptive) */
     size_t relaxed_vertices;   /* vertices pulled back toward the centre to avoid inversion */
     double seconds;
+    /* the stages of seconds: the label grid (reading the labels, --size, --min-island), the
+     * topology repair, and the mesh (vertices, elements, smoothing, volume guard) */
+    double seconds_grid, seconds_repair, seconds_mesh;
 } vm_label_stats;
 
 /* Defaults: all non-zero labels, tets, cell size 1, min island 1, smooth. */

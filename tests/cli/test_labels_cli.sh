@@ -50,8 +50,30 @@ out=$("$VM_CLI" quality d.mesh --json 2>&1) && [ "$(echo "$out" | json "d['inver
 out=$("$VM_CLI" mesh seg.raw $raw --labels all --size 2 --no-smooth -o e.vtu --json) || bad "size 2"
 echo "$out" | json "abs(d['volume'] - sum(l['voxel_volume'] for l in d['labels'])) < 1e-6" | grep -q True && ok || bad "staircase volume: $out"
 
+# per-label sizes: label 1 refined to half a voxel, label 3 coarse inside; conforming, volumes kept
+out=$("$VM_CLI" mesh seg.raw $raw --labels all --size-per-label 1:0.5,3:4 -o s.vtu --json) || bad "size-per-label: $out"
+[ "$(echo "$out" | json "d['inverted'], d['overshared_faces'], d['boundary_closed'], d['cell_size']")" = "0 0 True 0.5" ] && ok || bad "size-per-label valid: $out"
+echo "$out" | json "all(abs(l['volume'] - l['voxel_volume']) <= 0.02 * l['voxel_volume'] for l in d['labels']) and [l['size'] for l in d['labels']] == [0.5, 1, 4, 1]" | grep -q True && ok || bad "size-per-label volumes: $out"
+base=$("$VM_CLI" mesh seg.raw $raw --labels all -o t.vtu --json --no-improve)
+co=$("$VM_CLI" mesh seg.raw $raw --labels all --size-per-label 3:4 -o t.vtu --json --no-improve)
+[ "$(echo "$co" | json "d['labels'][2]['elements'] < $(echo "$base" | json "d['labels'][2]['elements']") and d['coarse_cells'] > 0")" = True ] && ok || bad "coarse label has fewer tets: $co"
+out=$("$VM_CLI" mesh seg.raw $raw --labels all --adaptive -o u.vtu --json) || bad "adaptive: $out"
+[ "$(echo "$out" | json "d['inverted'], d['boundary_closed'], d['elements'] < $(echo "$base" | json "d['elements']")")" = "0 True True" ] && ok || bad "adaptive: $out"
+# the quality pass runs by default, per material, and --verbose times every stage
+err=$("$VM_CLI" mesh seg.raw $raw --labels all -o v.vtu --verbose 2>&1 >v.txt) || bad "verbose: $err"
+for stage in read labels repair mesh improve write; do
+    printf '%s\n' "$err" | grep -q "^volmesh: $stage  *[0-9.]* s$" && ok || bad "no $stage time: $err"
+done
+grep -q "^quality pass: dihedral" v.txt && ok || bad "no quality pass line: $(cat v.txt)"
+out=$("$VM_CLI" mesh seg.raw $raw --labels all -o w.vtu --json --no-improve)
+echo "$out" | json "'improve' in d" | grep -q False && ok || bad "--no-improve ran the pass: $out"
+
 for args in "--labels 99 -o x.vtu" "--labels 1,x -o x.vtu" "--labels all --iso 0 -o x.vtu" \
-            "--iso 0 --min-island 3 -o x.vtu" "--labels all --adaptive -o x.vtu" "--labels 2,99 -o x.inp"; do
+            "--iso 0 --min-island 3 -o x.vtu" "--labels 2,99 -o x.inp" \
+            "--labels all --size-per-label 99:2 -o x.vtu" "--labels all --size-per-label 1:0 -o x.vtu" \
+            "--labels all --size-per-label 1:-2 -o x.vtu" "--labels all --size-per-label 1:x -o x.vtu" \
+            "--labels all --size-per-label 1 -o x.vtu" "--labels all --size-per-label 1:2,,3:1 -o x.vtu" \
+            "--labels all --size-per-label 3:4 --elements hex -o x.vtu" "--iso 0 --size-per-label 1:2 -o x.vtu"; do
     err=$("$VM_CLI" mesh seg.raw $raw $args 2>&1 >/dev/null); rc=$?
     lines=$(printf '%s\n' "$err" | wc -l)
     if [ $rc = 2 ] && [ "$lines" = 1 ] && [ "${err#volmesh: }" != "$err" ] && [ ! -e x.vtu ] && [ ! -e x.inp ]; then ok; else bad "mesh $args: rc $rc, '$err'"; fi
