@@ -46,6 +46,8 @@ typedef struct vm_surface_options {
 typedef struct vm_surface_stats {
     size_t faces, points;
     size_t cells_visited;    /* grid cells or boxes the method examined */
+    size_t centre_vertices;  /* mc: vertices added inside cubes (tunnels, and polygons no
+                                triangulation of which avoids chords in a cube face) */
     double seconds;
 } vm_surface_stats;
 
