@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "surface_internal.h"
+#include "../quality/self_intersect.h"
 
 /* Crossings are kept this far (in cells) from the grid points, so no triangle is flat. */
 #define MC_EDGE_MARGIN 1e-4
@@ -221,13 +222,22 @@ static vm_status fan_around_centre(mc *m, const vm_index *v, int n) {
     return VM_OK;
 }
 
+static double tri_area(const double *a, const double *b, const double *c) {
+    double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    double x = e1[1] * e2[2] - e1[2] * e2[1], y = e1[2] * e2[0] - e1[0] * e2[2],
+           z = e1[0] * e2[1] - e1[1] * e2[0];
+    return 0.5 * sqrt(x * x + y * y + z * z);
+}
+
 /* Annulus between loops u (nu) and w (nw), both oriented as the boundary of the piece: a
  * band of nu + nw triangles whose rungs join u[i] to w[j]; u is walked forward and w
- * backward. Chooses the start rung and the order maximising the smallest angle, with no
- * rung joining two vertices of one cube face. Returns 1, 0 (no such band) or -1. */
+ * backward. Chooses the start rung and the order of smallest area (the least twisted
+ * tube), with no flat triangle and no rung joining two vertices of one cube face.
+ * Returns 1, 0 (no such band) or -1. */
 static int triangulate_band(mc *m, const vm_index *u, const int *fu, int nu,
                             const vm_index *w, const int *fw, int nw) {
-    double best_q = 0;
+    double best_cost = INFINITY;
     int best_i0 = -1, best_j0 = -1;
     unsigned char best_path[2 * MC_MAXPOLY];
     double q[MC_MAXPOLY + 1][MC_MAXPOLY + 1];
@@ -235,39 +245,45 @@ static int triangulate_band(mc *m, const vm_index *u, const int *fu, int nu,
     for (int i0 = 0; i0 < nu; i0++)
         for (int j0 = 0; j0 < nw; j0++) {
             /* state (a, b): rung u[i0 + a], w[j0 - b]; from (0,0) to (nu, nw), the first step
-             * along u, the last along w, never through (nu, 0): no rung is used twice. */
+             * along u, the last along w, never through (nu, 0): no rung is used twice.
+             * q: smallest area of a band up to the state (INFINITY: unreachable). */
             for (int a = 0; a <= nu; a++)
                 for (int b = 0; b <= nw; b++) {
                     int iu = (i0 + a) % nu, iw = ((j0 - b) % nw + nw) % nw;
-                    q[a][b] = -1;
+                    q[a][b] = INFINITY;
                     from[a][b] = 0;
                     if (fu[iu] & fw[iw]) continue;
                     if (a == 0 && b == 0) {
-                        q[a][b] = INFINITY;
+                        q[a][b] = 0;
                         continue;
                     }
                     if (a == 0 || (a == nu && b == 0)) continue;
-                    if (q[a - 1][b] > 0 && !(a == nu && b == nw)) {
-                        int pu = (i0 + a - 1) % nu;
-                        double t = tri_min_angle(pos(m, u[pu]), pos(m, u[iu]), pos(m, w[iw]));
-                        double c = fmin(q[a - 1][b], t);
-                        if (c > q[a][b]) {
-                            q[a][b] = c;
-                            from[a][b] = 1;
+                    if (q[a - 1][b] < INFINITY && !(a == nu && b == nw)) {
+                        const double *p0 = pos(m, u[(i0 + a - 1) % nu]), *p1 = pos(m, u[iu]),
+                                     *p2 = pos(m, w[iw]);
+                        if (tri_min_angle(p0, p1, p2) > 0) {
+                            double c = q[a - 1][b] + tri_area(p0, p1, p2);
+                            if (c < q[a][b]) {
+                                q[a][b] = c;
+                                from[a][b] = 1;
+                            }
                         }
                     }
-                    if (b > 0 && q[a][b - 1] > 0) {
-                        int pw = ((j0 - b + 1) % nw + nw) % nw;
-                        double t = tri_min_angle(pos(m, w[iw]), pos(m, w[pw]), pos(m, u[iu]));
-                        double c = fmin(q[a][b - 1], t);
-                        if (c > q[a][b]) {
-                            q[a][b] = c;
-                            from[a][b] = 2;
+                    if (b > 0 && q[a][b - 1] < INFINITY) {
+                        const double *p0 = pos(m, w[iw]),
+                                     *p1 = pos(m, w[((j0 - b + 1) % nw + nw) % nw]),
+                                     *p2 = pos(m, u[iu]);
+                        if (tri_min_angle(p0, p1, p2) > 0) {
+                            double c = q[a][b - 1] + tri_area(p0, p1, p2);
+                            if (c < q[a][b]) {
+                                q[a][b] = c;
+                                from[a][b] = 2;
+                            }
                         }
                     }
                 }
-            if (q[nu][nw] > best_q) {
-                best_q = q[nu][nw];
+            if (q[nu][nw] < best_cost) {
+                best_cost = q[nu][nw];
                 best_i0 = i0;
                 best_j0 = j0;
                 int a = nu, b = nw, s = 0;
@@ -295,6 +311,34 @@ static int triangulate_band(mc *m, const vm_index *u, const int *fu, int nu,
         if (st) return -1;
     }
     return 1;
+}
+
+/* Annulus between loops u and w when no band joins them directly (every rung would lie in
+ * a cube face): a ring of new vertices inside the cube, w shrunk halfway toward the mean of
+ * both loops, a collar of 2 nw triangles from w to the ring, and a band from u to the ring
+ * (whose rungs are free). Returns 1 or -1. */
+static int triangulate_tube_ring(mc *m, const vm_index *u, const int *fu, int nu,
+                                 const vm_index *w, int nw) {
+    double c[3] = {0, 0, 0};
+    for (int i = 0; i < nu; i++)
+        for (int a = 0; a < 3; a++) c[a] += pos(m, u[i])[a] / (nu + nw);
+    for (int i = 0; i < nw; i++)
+        for (int a = 0; a < 3; a++) c[a] += pos(m, w[i])[a] / (nu + nw);
+    vm_index ring[MC_MAXPOLY];
+    int free_fm[MC_MAXPOLY] = {0};
+    for (int i = 0; i < nw; i++) {
+        double p[3];
+        for (int a = 0; a < 3; a++) p[a] = 0.5 * (pos(m, w[i])[a] + c[a]);
+        ring[i] = vm_mesh_add_point(m->surf, p, m->err);
+        if (ring[i] < 0) return -1;
+        m->centres++;
+    }
+    for (int i = 0; i < nw; i++) {
+        int i1 = (i + 1) % nw;
+        if (emit(m, w[i], w[i1], ring[i1]) || emit(m, w[i], ring[i1], ring[i])) return -1;
+    }
+    int r = triangulate_band(m, u, fu, nu, ring, free_fm, nw);
+    return r == 0 ? -1 : r;
 }
 
 /* A sphere with k >= 2 holes around one new centre vertex c: the loops are opened at one
@@ -453,6 +497,19 @@ static void interior_joins(const double s[8], int *parent) {
         }
 }
 
+/* 1 when two of the triangles from first on cross (in the sense of vm_mesh_check). */
+static int cube_crosses_itself(const mc *m, size_t first) {
+    const vm_mesh *s = m->surf;
+    for (size_t a = first; a < s->ncells; a++)
+        for (size_t b = a + 1; b < s->ncells; b++) {
+            const vm_index *ia = s->cells + 3 * a, *ib = s->cells + 3 * b;
+            const double *pa[3] = {pos(m, ia[0]), pos(m, ia[1]), pos(m, ia[2])};
+            const double *pb[3] = {pos(m, ib[0]), pos(m, ib[1]), pos(m, ib[2])};
+            if (vm__tri_pair_intersects(pa, ia, pb, ib)) return 1;
+        }
+    return 0;
+}
+
 static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
     const cube_geom *cg = &m->cg;
     double s[8];
@@ -532,33 +589,51 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
         if (vid[e] < 0) return fail(m);
     }
 
-    /* Pieces: the loops between the same inside and outside region of the cube. */
-    int done = 0;
-    for (int l = 0; l < nloops; l++) {
-        if (done & (1 << l)) continue;
-        vm_index v[4][12];
-        int fm[4][12], len[4], np = 0;
-        for (int l2 = l; l2 < nloops; l2++) {
-            if ((done & (1 << l2)) || loop_key[l2] != loop_key[l]) continue;
-            done |= 1 << l2;
-            if (np == 4) return vm_error_set(m->err, VM_ERR_INTERNAL, "surface mc: pieces");
-            for (int q = 0; q < loop_n[l2]; q++) {
-                v[np][q] = vid[loop_e[l2][q]];
-                fm[np][q] = cg->edge_faces[loop_e[l2][q]];
+    /* Pieces: the loops between the same inside and outside region of the cube. A tunnel
+     * is first tried as a plain band between its loops; when the cube's triangles then
+     * cross each other (a thin, twisted tunnel), it is made again through a ring of
+     * vertices inside the cube. */
+    size_t cell_mark = m->surf->ncells, point_mark = m->surf->npoints, centre_mark = m->centres;
+    for (int ring_mode = 0; ring_mode < 2; ring_mode++) {
+        int done = 0, tunnels = 0;
+        for (int l = 0; l < nloops; l++) {
+            if (done & (1 << l)) continue;
+            vm_index v[4][12];
+            int fm[4][12], len[4], np = 0;
+            for (int l2 = l; l2 < nloops; l2++) {
+                if ((done & (1 << l2)) || loop_key[l2] != loop_key[l]) continue;
+                done |= 1 << l2;
+                if (np == 4) return vm_error_set(m->err, VM_ERR_INTERNAL, "surface mc: pieces");
+                for (int q = 0; q < loop_n[l2]; q++) {
+                    v[np][q] = vid[loop_e[l2][q]];
+                    fm[np][q] = cg->edge_faces[loop_e[l2][q]];
+                }
+                len[np++] = loop_n[l2];
             }
-            len[np++] = loop_n[l2];
+            vm_status st = VM_OK;
+            if (np == 1) {
+                st = piece_disk(m, v[0], fm[0], len[0]);
+            } else {
+                tunnels++;
+                int r = 0;
+                if (np == 2 && !ring_mode)
+                    r = triangulate_band(m, v[0], fm[0], len[0], v[1], fm[1], len[1]);
+                if (r == 0 && np == 2) {
+                    int big = len[0] >= len[1] ? 0 : 1;
+                    r = triangulate_tube_ring(m, v[big], fm[big], len[big], v[1 - big],
+                                              len[1 - big]);
+                }
+                if (r < 0) return fail(m);
+                if (r == 0)
+                    st = triangulate_around_centre(m, np, (const vm_index(*)[12])v,
+                                                   (const int(*)[12])fm, len);
+            }
+            if (st) return st;
         }
-        vm_status st = VM_OK;
-        if (np == 1) {
-            st = piece_disk(m, v[0], fm[0], len[0]);
-        } else {
-            int r = np == 2 ? triangulate_band(m, v[0], fm[0], len[0], v[1], fm[1], len[1]) : 0;
-            if (r < 0) return fail(m);
-            if (r == 0)
-                st = triangulate_around_centre(m, np, (const vm_index(*)[12])v,
-                                               (const int(*)[12])fm, len);
-        }
-        if (st) return st;
+        if (!tunnels || ring_mode || !cube_crosses_itself(m, cell_mark)) break;
+        m->surf->ncells = cell_mark;
+        m->surf->npoints = point_mark;
+        m->centres = centre_mark;
     }
     return VM_OK;
 }
