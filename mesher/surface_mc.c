@@ -592,9 +592,9 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
     /* Pieces: the loops between the same inside and outside region of the cube. A tunnel
      * is first tried as a plain band between its loops; when the cube's triangles then
      * cross each other (a thin, twisted tunnel), it is made again through a ring of
-     * vertices inside the cube. */
+     * vertices inside the cube, and then around one centre vertex. */
     size_t cell_mark = m->surf->ncells, point_mark = m->surf->npoints, centre_mark = m->centres;
-    for (int ring_mode = 0; ring_mode < 2; ring_mode++) {
+    for (int mode = 0; mode < 3; mode++) { /* 0: bands, 1: rings, 2: centre fans */
         int done = 0, tunnels = 0;
         for (int l = 0; l < nloops; l++) {
             if (done & (1 << l)) continue;
@@ -616,9 +616,9 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
             } else {
                 tunnels++;
                 int r = 0;
-                if (np == 2 && !ring_mode)
+                if (np == 2 && mode == 0)
                     r = triangulate_band(m, v[0], fm[0], len[0], v[1], fm[1], len[1]);
-                if (r == 0 && np == 2) {
+                if (r == 0 && np == 2 && mode < 2) {
                     int big = len[0] >= len[1] ? 0 : 1;
                     r = triangulate_tube_ring(m, v[big], fm[big], len[big], v[1 - big],
                                               len[1 - big]);
@@ -630,7 +630,7 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
             }
             if (st) return st;
         }
-        if (!tunnels || ring_mode || !cube_crosses_itself(m, cell_mark)) break;
+        if (!tunnels || mode == 2 || !cube_crosses_itself(m, cell_mark)) break;
         m->surf->ncells = cell_mark;
         m->surf->npoints = point_mark;
         m->centres = centre_mark;
