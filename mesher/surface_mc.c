@@ -12,6 +12,8 @@
 #include <string.h>
 #include "surface_internal.h"
 #include "../quality/self_intersect.h"
+#include "../quality/vec3.h"
+#include "volmesh/quality.h"
 
 /* Crossings are kept this far (in cells) from the grid points, so no triangle is flat. */
 #define MC_EDGE_MARGIN 1e-4
@@ -125,28 +127,15 @@ static vm_index point_vertex(mc *m, int64_t i, int64_t j, int64_t k) {
 
 static const double *pos(const mc *m, vm_index v) { return m->surf->points + 3 * (size_t)v; }
 
-/* Smallest angle of triangle (a, b, c), in radians; 0 when degenerate. */
+/* Smallest angle of triangle (a, b, c) in degrees; 0 when degenerate or flat. */
 static double tri_min_angle(const double *a, const double *b, const double *c) {
-    const double *p[3] = {a, b, c};
-    double best = INFINITY;
-    for (int i = 0; i < 3; i++) {
-        const double *o = p[i], *u = p[(i + 1) % 3], *w = p[(i + 2) % 3];
-        double e1[3], e2[3], d = 0, l1 = 0, l2 = 0;
-        for (int x = 0; x < 3; x++) {
-            e1[x] = u[x] - o[x];
-            e2[x] = w[x] - o[x];
-            d += e1[x] * e2[x];
-            l1 += e1[x] * e1[x];
-            l2 += e2[x] * e2[x];
-        }
-        double cr[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-                        e1[0] * e2[1] - e1[1] * e2[0]};
-        double s = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
-        if (!(l1 > 0 && l2 > 0) || !(s > 0)) return 0;
-        double ang = atan2(s, d);
-        if (ang < best) best = ang;
+    double p[3][3];
+    for (int x = 0; x < 3; x++) {
+        p[0][x] = a[x];
+        p[1][x] = b[x];
+        p[2][x] = c[x];
     }
-    return best;
+    return vm_tri_min_angle((const double(*)[3])p);
 }
 
 static vm_status emit(mc *m, vm_index a, vm_index b, vm_index c) {
@@ -223,11 +212,11 @@ static vm_status fan_around_centre(mc *m, const vm_index *v, int n) {
 }
 
 static double tri_area(const double *a, const double *b, const double *c) {
-    double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-    double e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    double x = e1[1] * e2[2] - e1[2] * e2[1], y = e1[2] * e2[0] - e1[0] * e2[2],
-           z = e1[0] * e2[1] - e1[1] * e2[0];
-    return 0.5 * sqrt(x * x + y * y + z * z);
+    double e1[3], e2[3], n[3];
+    vm__sub3(b, a, e1);
+    vm__sub3(c, a, e2);
+    vm__cross3(e1, e2, n);
+    return 0.5 * vm__norm3(n);
 }
 
 /* Annulus between loops u (nu) and w (nw), both oriented as the boundary of the piece: a
