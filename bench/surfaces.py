@@ -129,6 +129,8 @@ def fmt(v, digits=2):
         return "–"
     if isinstance(v, str):
         return v
+    if abs(v) >= 1e29:  # Verdict's cap: a triangle of zero area
+        return "∞ (flat)"
     if abs(v) >= 100:
         return f"{v:.0f}"
     return f"{v:.{digits}f}"
@@ -195,11 +197,13 @@ def main():
     if args.no_docs:
         return
     doc = os.path.join(ROOT, "docs", "SURFACES.md")
-    body = open(doc).read()
+    with open(doc, encoding="utf-8") as fh:
+        body = fh.read()
     a, b = body.index(BEGIN) + len(BEGIN), body.index(END)
     stamp = (f"\nMeasured by `/usr/bin/python3 bench/surfaces.py` on {time.strftime('%Y-%m-%d')}, "
              f"{os.cpu_count()} cores, VTK {vtk.vtkVersion.GetVTKVersion()}.\n\n")
-    open(doc, "w").write(body[:a] + stamp + text + "\n" + body[b:])
+    with open(doc, "w", encoding="utf-8") as fh:
+        fh.write(body[:a] + stamp + text + "\n" + body[b:])
 
 
 if __name__ == "__main__":
