@@ -1,7 +1,7 @@
 /* cli/mesh_surface.c — `volmesh mesh --elements tri|quad`: a volume in, the boundary surface
  * of its material out (dual contouring, marching cubes, ...), with its checks on one line. */
-#include <string.h>
 #include "cli.h"
+#include <string.h>
 
 int vm_cli_mesh_surface(const vm_volume *v, const char *in, const char *out,
                         const vm_surface_options *so, const vm_mesh_write_options *wo, int json,
@@ -41,9 +41,8 @@ int vm_cli_mesh_surface(const vm_volume *v, const char *in, const char *out,
                out, method, so->elements == VM_QUAD4 ? "quad4" : "tri3", r->cells, r->points,
                r->boundary_closed ? "true" : "false", r->boundary_open_edges,
                r->boundary_nonmanifold_edges, r->boundary_nonmanifold_vertices,
-               r->boundary_euler, r->components, r->boundary_self_intersections,
-               r->degenerate, r->volume, min_angle, worst_aspect, st.centre_vertices,
-               st.seconds);
+               r->boundary_euler, r->components, r->boundary_self_intersections, r->degenerate,
+               r->volume, min_angle, worst_aspect, st.centre_vertices, st.seconds);
     } else {
         printf("%s: %s %zu %s, %zu points, %s (Euler %ld), %zu component%s, "
                "%zu self-intersection%s, min angle %.2f deg, worst aspect ratio %.3g, "

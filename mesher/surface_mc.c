@@ -7,13 +7,13 @@
  * triangulated on the spot. One vertex per crossed grid edge, so the surface is watertight;
  * material on the volume border is closed by flat faces on the box (marching squares on the
  * border faces, with the same decider). */
+#include "../quality/self_intersect.h"
+#include "../quality/vec3.h"
+#include "surface_internal.h"
+#include "volmesh/quality.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include "surface_internal.h"
-#include "../quality/self_intersect.h"
-#include "../quality/vec3.h"
-#include "volmesh/quality.h"
 
 /* Crossings are kept this far (in cells) from the grid points, so no triangle is flat. */
 #define MC_EDGE_MARGIN 1e-4
@@ -24,7 +24,7 @@
  * Corner c sits at (c & 1, (c >> 1) & 1, c >> 2). Edge e runs from its lower corner along
  * one axis; face f = 2 * axis + side. */
 typedef struct cube_geom {
-    int edge_c[12][2];  /* lower corner, upper corner */
+    int edge_c[12][2]; /* lower corner, upper corner */
     int edge_axis[12];
     int edge_faces[12]; /* bit f set for the two faces holding the edge */
     int face_c[6][4];   /* corners counter-clockwise seen from outside the cube */
@@ -80,11 +80,11 @@ typedef struct mc {
     vm_error *err;
     cube_geom cg;
     int64_t nx, ny, nz;
-    int64_t k0;                 /* z of layer slot 0 */
-    vm_index *ex[2], *ey[2];    /* vertex ids of x and y edges of layers k0, k0 + 1 */
-    vm_index *pv[2];            /* vertex ids of border grid points of those layers */
-    vm_index *ez;               /* vertex ids of z edges between them */
-    size_t centres;             /* vertices added inside cubes */
+    int64_t k0;              /* z of layer slot 0 */
+    vm_index *ex[2], *ey[2]; /* vertex ids of x and y edges of layers k0, k0 + 1 */
+    vm_index *pv[2];         /* vertex ids of border grid points of those layers */
+    vm_index *ez;            /* vertex ids of z edges between them */
+    size_t centres;          /* vertices added inside cubes */
 } mc;
 
 static double value(const mc *m, int64_t i, int64_t j, int64_t k) {
@@ -125,7 +125,9 @@ static vm_index point_vertex(mc *m, int64_t i, int64_t j, int64_t k) {
     return *slot;
 }
 
-static const double *pos(const mc *m, vm_index v) { return m->surf->points + 3 * (size_t)v; }
+static const double *pos(const mc *m, vm_index v) {
+    return m->surf->points + 3 * (size_t)v;
+}
 
 /* Smallest angle of triangle (a, b, c) in degrees; 0 when degenerate or flat. */
 static double tri_min_angle(const double *a, const double *b, const double *c) {
@@ -143,7 +145,9 @@ static vm_status emit(mc *m, vm_index a, vm_index b, vm_index c) {
     return vm_mesh_add_cell(m->surf, t, 1, m->err);
 }
 
-static vm_status fail(const mc *m) { return m->err ? m->err->status : VM_ERR_NOMEM; }
+static vm_status fail(const mc *m) {
+    return m->err ? m->err->status : VM_ERR_NOMEM;
+}
 
 /* ---- triangulating the pieces ---------------------------------------------------------- */
 
@@ -202,7 +206,8 @@ static double triangulate_polygon(mc *m, const vm_index *v, const int *fm, int n
 static vm_status fan_around_centre(mc *m, const vm_index *v, int n) {
     double c[3] = {0, 0, 0};
     for (int i = 0; i < n; i++)
-        for (int a = 0; a < 3; a++) c[a] += pos(m, v[i])[a] / n;
+        for (int a = 0; a < 3; a++)
+            c[a] += pos(m, v[i])[a] / n;
     vm_index ci = vm_mesh_add_point(m->surf, c, m->err);
     if (ci < 0) return fail(m);
     m->centres++;
@@ -224,8 +229,8 @@ static double tri_area(const double *a, const double *b, const double *c) {
  * backward. Chooses the start rung and the order of smallest area (the least twisted
  * tube), with no flat triangle and no rung joining two vertices of one cube face.
  * Returns 1, 0 (no such band) or -1. */
-static int triangulate_band(mc *m, const vm_index *u, const int *fu, int nu,
-                            const vm_index *w, const int *fw, int nw) {
+static int triangulate_band(mc *m, const vm_index *u, const int *fu, int nu, const vm_index *w,
+                            const int *fw, int nw) {
     double best_cost = INFINITY;
     int best_i0 = -1, best_j0 = -1;
     unsigned char best_path[2 * MC_MAXPOLY];
@@ -310,14 +315,17 @@ static int triangulate_tube_ring(mc *m, const vm_index *u, const int *fu, int nu
                                  const vm_index *w, int nw) {
     double c[3] = {0, 0, 0};
     for (int i = 0; i < nu; i++)
-        for (int a = 0; a < 3; a++) c[a] += pos(m, u[i])[a] / (nu + nw);
+        for (int a = 0; a < 3; a++)
+            c[a] += pos(m, u[i])[a] / (nu + nw);
     for (int i = 0; i < nw; i++)
-        for (int a = 0; a < 3; a++) c[a] += pos(m, w[i])[a] / (nu + nw);
+        for (int a = 0; a < 3; a++)
+            c[a] += pos(m, w[i])[a] / (nu + nw);
     vm_index ring[MC_MAXPOLY];
     int free_fm[MC_MAXPOLY] = {0};
     for (int i = 0; i < nw; i++) {
         double p[3];
-        for (int a = 0; a < 3; a++) p[a] = 0.5 * (pos(m, w[i])[a] + c[a]);
+        for (int a = 0; a < 3; a++)
+            p[a] = 0.5 * (pos(m, w[i])[a] + c[a]);
         ring[i] = vm_mesh_add_point(m->surf, p, m->err);
         if (ring[i] < 0) return -1;
         m->centres++;
@@ -340,13 +348,16 @@ static vm_status triangulate_around_centre(mc *m, int k, const vm_index loops[][
     int rot[4] = {0, 0, 0, 0}, best_rot[4] = {0, 0, 0, 0};
     double best_q = 0;
     int best_poly = 0, combos = 1;
-    for (int i = 0; i < k; i++) combos *= len[i];
+    for (int i = 0; i < k; i++)
+        combos *= len[i];
     double cpos[3] = {0, 0, 0};
     int nall = 0;
     for (int i = 0; i < k; i++)
         for (int j = 0; j < len[i]; j++, nall++)
-            for (int a = 0; a < 3; a++) cpos[a] += pos(m, loops[i][j])[a];
-    for (int a = 0; a < 3; a++) cpos[a] /= nall;
+            for (int a = 0; a < 3; a++)
+                cpos[a] += pos(m, loops[i][j])[a];
+    for (int a = 0; a < 3; a++)
+        cpos[a] /= nall;
     vm_index c = vm_mesh_add_point(m->surf, cpos, m->err);
     if (c < 0) return fail(m);
     m->centres++;
@@ -368,8 +379,8 @@ static vm_status triangulate_around_centre(mc *m, int k, const vm_index loops[][
             for (int j = 0; j + 1 < n && ok; j++)
                 qmin = fmin(qmin, tri_min_angle(pos(m, c), pos(m, loops[i][(r + j) % n]),
                                                 pos(m, loops[i][(r + j + 1) % n])));
-            qmin = fmin(qmin, tri_min_angle(pos(m, c), pos(m, loops[i][last]),
-                                            pos(m, loops[nx][r1])));
+            qmin = fmin(
+                qmin, tri_min_angle(pos(m, c), pos(m, loops[i][last]), pos(m, loops[nx][r1])));
         }
         if (!ok || !(qmin > 0)) continue;
         /* the remaining polygon: last_1, first_1, last_k, first_k, ..., last_2, first_2 */
@@ -424,10 +435,12 @@ static vm_status piece_disk(mc *m, const vm_index *v, const int *fm, int n) {
     return fan_around_centre(m, v, n);
 }
 
-/* ---- one cube ----------------------------------------------------------------------------- */
+/* ---- one cube -----------------------------------------------------------------------------
+ */
 
 static int uf_find(int *p, int x) {
-    while (p[x] != x) x = p[x] = p[p[x]];
+    while (p[x] != x)
+        x = p[x] = p[p[x]];
     return x;
 }
 
@@ -511,7 +524,8 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
     if (mask == 0 || mask == 255) return VM_OK;
 
     int parent[8];
-    for (int c = 0; c < 8; c++) parent[c] = c;
+    for (int c = 0; c < 8; c++)
+        parent[c] = c;
     for (int e = 0; e < 12; e++)
         if (in[cg->edge_c[e][0]] == in[cg->edge_c[e][1]])
             uf_union(parent, cg->edge_c[e][0], cg->edge_c[e][1]);
@@ -520,7 +534,8 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
      * from an outside to an inside corner is an entry; the segment keeps the inside on its
      * right, as the boundary of a piece of surface whose normal points outside. */
     int next[12];
-    for (int e = 0; e < 12; e++) next[e] = -1;
+    for (int e = 0; e < 12; e++)
+        next[e] = -1;
     for (int f = 0; f < 6; f++) {
         const int *fc = cg->face_c[f], *fe = cg->face_e[f];
         int entry[4], ncross = 0;
@@ -573,8 +588,8 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
     for (int e = 0; e < 12; e++) {
         if (next[e] < 0) continue;
         int c0 = cg->edge_c[e][0];
-        vid[e] = edge_vertex(m, cg->edge_axis[e], i + (c0 & 1), j + ((c0 >> 1) & 1),
-                             k + (c0 >> 2));
+        vid[e] =
+            edge_vertex(m, cg->edge_axis[e], i + (c0 & 1), j + ((c0 >> 1) & 1), k + (c0 >> 2));
         if (vid[e] < 0) return fail(m);
     }
 
@@ -679,7 +694,8 @@ static vm_status do_border_square(mc *m, const int64_t p[4][3]) {
             poly[n++] = cross[(c + 3) % 4]; /* the exit */
             if (!joined) break;
             q = c; /* corner c is outside: on to the next entry */
-            while (!(!in[q] && in[(q + 1) % 4])) q = (q + 1) % 4;
+            while (!(!in[q] && in[(q + 1) % 4]))
+                q = (q + 1) % 4;
         } while (q != q0);
         vm_status st = piece_disk(m, poly, none, n);
         if (st) return st;
@@ -726,16 +742,18 @@ static vm_status do_border_layer(mc *m, int64_t k) {
 static vm_status alloc_ids(vm_index **p, size_t n, vm_error *err) {
     *p = malloc((n ? n : 1) * sizeof **p);
     if (!*p) return vm_error_set(err, VM_ERR_NOMEM, "surface mc: out of memory");
-    for (size_t i = 0; i < n; i++) (*p)[i] = -1;
+    for (size_t i = 0; i < n; i++)
+        (*p)[i] = -1;
     return VM_OK;
 }
 
 static void reset_ids(vm_index *p, size_t n) {
-    for (size_t i = 0; i < n; i++) p[i] = -1;
+    for (size_t i = 0; i < n; i++)
+        p[i] = -1;
 }
 
-vm_status vm__surface_mc(const vm__surface_grid *g, const vm_surface_options *o,
-                         vm_mesh *surf, vm_surface_stats *st, vm_error *err) {
+vm_status vm__surface_mc(const vm__surface_grid *g, const vm_surface_options *o, vm_mesh *surf,
+                         vm_surface_stats *st, vm_error *err) {
     mc m;
     memset(&m, 0, sizeof m);
     m.g = g;
@@ -757,7 +775,8 @@ vm_status vm__surface_mc(const vm__surface_grid *g, const vm_surface_options *o,
     for (int64_t k = 0; k + 1 < m.nz && !s; k++) {
         m.k0 = k;
         for (int64_t j = 0; j + 1 < m.ny && !s; j++)
-            for (int64_t i = 0; i + 1 < m.nx && !s; i++) s = do_cube(&m, i, j, k);
+            for (int64_t i = 0; i + 1 < m.nx && !s; i++)
+                s = do_cube(&m, i, j, k);
         if (!s) s = do_border_layer(&m, k);
         /* layer k + 1 becomes the lower one */
         vm_index *t;
@@ -769,7 +788,8 @@ vm_status vm__surface_mc(const vm__surface_grid *g, const vm_surface_options *o,
         reset_ids(m.pv[1], nxy);
         reset_ids(m.ez, nxy);
         if (o->progress)
-            o->progress("marching cubes", (double)(k + 1), (double)(m.nz - 1), o->progress_user);
+            o->progress("marching cubes", (double)(k + 1), (double)(m.nz - 1),
+                        o->progress_user);
     }
     if (st) {
         st->cells_visited = (size_t)((m.nx - 1) * (m.ny - 1) * (m.nz - 1));

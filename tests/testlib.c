@@ -270,7 +270,8 @@ void vm_test_digital_topology(const vm_volume *v, int has_lo, double lo, int has
         for (int64_t j = 0; j < v->dims[1]; j++)
             for (int64_t i = 0; i < v->dims[0]; i++) {
                 float f = v->data[i + v->dims[0] * (j + v->dims[1] * k)];
-                in[(i + 1) + P0 * ((j + 1) + P1 * (k + 1))] = (uint8_t)in_material(f, has_lo, lo, has_hi, hi);
+                in[(i + 1) + P0 * ((j + 1) + P1 * (k + 1))] =
+                    (uint8_t)in_material(f, has_lo, lo, has_hi, hi);
             }
     const size_t step[3] = {1, (size_t)P0, (size_t)(P0 * P1)};
     long V = 0, E = 0, F = 0, C = 0, S = 0;
@@ -297,7 +298,8 @@ void vm_test_digital_topology(const vm_volume *v, int has_lo, double lo, int has
                 for (int a = 0; a < 3; a++) {
                     if (c[1 << a]) {
                         E++;
-                        size_t ra = digital_uf_find(parent, p), rb = digital_uf_find(parent, p + step[a]);
+                        size_t ra = digital_uf_find(parent, p);
+                        size_t rb = digital_uf_find(parent, p + step[a]);
                         if (ra != rb) parent[ra] = rb;
                     }
                     int b = (a + 1) % 3;

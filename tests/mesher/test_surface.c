@@ -4,10 +4,10 @@
  * and volume, its vertices near the analytic surface; on noisy phantoms the topology of the
  * method's own reference (the thresholded voxels for dc, the trilinear interpolant for mc,
  * counted independently here by Morse theory); and a left-handed, anisotropic frame. */
+#include "test.h"
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
-#include "test.h"
 
 /* ---- the analytic surfaces of the phantoms (mesher/phantom.c), in voxel units ---------- */
 
@@ -98,7 +98,8 @@ static long trilinear_euler(const vm_volume *v, double iso, size_t *degenerate) 
                             if (a / 2 != b / 2) ne += up[a] && up[b];
                     for (int x = 0; x < 2; x++)
                         for (int y = 2; y < 4; y++)
-                            for (int z = 4; z < 6; z++) nf += up[x] && up[y] && up[z];
+                            for (int z = 4; z < 6; z++)
+                                nf += up[x] && up[y] && up[z];
                     chi += 1 - (nv - ne + nf);
                 }
                 /* faces with lowest corner p, normal axis a */
@@ -150,7 +151,8 @@ static long trilinear_euler(const vm_volume *v, double iso, size_t *degenerate) 
                 double crit[2][3], sgn[2];
                 int ncrit = 0;
                 if (a7 != 0) {
-                    double pp = a1 - a4 * a5 / a7, qq = a2 - a4 * a6 / a7, rr = a3 - a5 * a6 / a7;
+                    double pp = a1 - a4 * a5 / a7, qq = a2 - a4 * a6 / a7,
+                           rr = a3 - a5 * a6 / a7;
                     double w2 = -pp * qq * rr / (a7 * a7 * a7);
                     if (pp == 0 || qq == 0 || rr == 0 || w2 == 0) {
                         (*degenerate)++;
@@ -206,7 +208,8 @@ static size_t misoriented_edges(const vm_mesh *m) {
             e[c * k + i].b = m->cells[c * k + (i + 1) % k];
         }
     qsort(e, ne, sizeof *e, dedge_cmp);
-    for (size_t i = 1; i < ne; i++) bad += e[i].a == e[i - 1].a && e[i].b == e[i - 1].b;
+    for (size_t i = 1; i < ne; i++)
+        bad += e[i].a == e[i - 1].a && e[i].b == e[i - 1].b;
     free(e);
     return bad;
 }
@@ -266,7 +269,9 @@ static const vm_phantom_kind phantoms[] = {VM_PHANTOM_SPHERE, VM_PHANTOM_TORUS,
                                            VM_PHANTOM_CUT_SPHERE};
 #define N_PHANTOMS (sizeof phantoms / sizeof phantoms[0])
 
-static int sanitized(void) { return getenv("VM_SANITIZED") != NULL; }
+static int sanitized(void) {
+    return getenv("VM_SANITIZED") != NULL;
+}
 
 static vm_status extract(const method_row *row, const vm_volume *v, vm_mesh *m,
                          vm_surface_stats *st, vm_error *err) {
@@ -406,8 +411,9 @@ static void marchingCubesMatchesTheTrilinearTopologyOnRandomVolumes(void) {
                 CHECK_OK(s, &err);
                 vm_mesh_report r;
                 char label[64];
-                snprintf(label, sizeof label, "random %lldx%lldx%lld #%d", (long long)sizes[sz][0],
-                         (long long)sizes[sz][1], (long long)sizes[sz][2], it);
+                snprintf(label, sizeof label, "random %lldx%lldx%lld #%d",
+                         (long long)sizes[sz][0], (long long)sizes[sz][1],
+                         (long long)sizes[sz][2], it);
                 if (s == VM_OK) {
                     check_closed_surface(label, &m, euler, -1, 1, &r);
                     crossing += r.boundary_self_intersections > 0;
@@ -423,9 +429,10 @@ static void marchingCubesMatchesTheTrilinearTopologyOnRandomVolumes(void) {
      * no band, ring or centre fan inside one cube embeds still crosses itself in a few
      * (measured: 5 of the 23429 volumes tested, 2 of them single cubes). */
     printf("  %zu random volumes checked, %zu empty or degenerate, %zu with crossing "
-           "triangles\n", tested, skipped, crossing);
-    CHECK_MSG(crossing * 2000 <= tested, "%zu of %zu random volumes cross themselves",
-              crossing, tested);
+           "triangles\n",
+           tested, skipped, crossing);
+    CHECK_MSG(crossing * 2000 <= tested, "%zu of %zu random volumes cross themselves", crossing,
+              tested);
 }
 
 /* Spacing and direction apply, and a left-handed frame still gives outward faces. */
@@ -435,9 +442,9 @@ static void everyMethodHandlesALeftHandedAnisotropicFrame(void) {
         vm_volume v;
         vm_phantom_info info;
         vm_error err;
-        CHECK_OK(vm_phantom_make(VM_PHANTOM_TORUS, sanitized() ? 24 : 40, 0.0, 0, &v, &info,
-                                 &err),
-                 &err);
+        CHECK_OK(
+            vm_phantom_make(VM_PHANTOM_TORUS, sanitized() ? 24 : 40, 0.0, 0, &v, &info, &err),
+            &err);
         const double sp[3] = {1.0, 1.5, 0.75};
         for (int a = 0; a < 3; a++) {
             v.spacing[a] = sp[a];
