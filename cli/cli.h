@@ -66,6 +66,12 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
                        const vm_label_options *lo, const vm_mesh_write_options *wo, int json,
                        int quality_fields, const char *html, int improve, int verbose);
 
+/* --elements tri|quad: extracts the surface of v's material with so, writes it to out with
+ * wo and prints the summary line (or JSON); in names the input in messages. Exit code. */
+int vm_cli_mesh_surface(const vm_volume *v, const char *in, const char *out,
+                        const vm_surface_options *so, const vm_mesh_write_options *wo, int json,
+                        int quality_fields);
+
 /* Prints the volume summary (text or JSON) for `info` and `demo`. */
 void vm_cli_print_info(FILE *out, const char *path, const vm_volume *v, int json);
 

@@ -1,5 +1,6 @@
 /* cli/mesh.c — `volmesh mesh`: volume in, tetrahedral mesh (and its surface) out; with
- * --labels a segmentation in, one multi-material mesh out (cli/mesh_labels.c). */
+ * --labels a segmentation in, one multi-material mesh out (cli/mesh_labels.c); with
+ * --elements tri|quad the surface alone, by one of four methods (cli/mesh_surface.c). */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdlib.h>
@@ -44,16 +45,27 @@ static const char *mesh_help =
     "  --size-per-label L:S,.. with --labels, tets: cells of S voxels inside label L\n"
     "  --size S                cell size in voxels (default 1; S > 1 resamples coarser;\n"
     "                          with --labels: the most frequent label of each S^3 block)\n"
-    "  --elements tet|hex      tetrahedra (default) or hexahedra (one per inside voxel,\n"
-    "                          corners on the dual-contouring vertices; uniform only)\n"
+    "  --elements tet|hex|tri|quad\n"
+    "                          tetrahedra (default) or hexahedra (one per inside voxel,\n"
+    "                          corners on the dual-contouring vertices; uniform only); tri\n"
+    "                          or quad: only the boundary surface, closed and oriented\n"
+    "                          outward (see docs/SURFACES.md); -o X.vtu|.stl|.off|.ply|.obj\n"
+    "  --method dc|mc|asc|cover  with tri/quad: dc (default) the boundary of the dual-\n"
+    "                          contouring mesh (quads: of the hex mesh); mc marching cubes\n"
+    "                          with the topology of the trilinear interpolant; asc adaptive\n"
+    "                          skeleton climbing; cover disk covering (quad: dc only)\n"
+    "  --error E               asc, cover: allowed geometric error in voxels (default 0.5)\n"
     "  --adaptive              merge interior cells into an octree (2:1 balanced, conforming\n"
     "                          by construction); boundary cells stay at the finest level\n"
-    "  --max-level L           adaptive: largest cell 2^L cells (default 4)\n"
+    "  --max-level L           adaptive: largest cell 2^L cells (default 4); asc: largest\n"
+    "                          box 2^L cells\n"
     "  --surface SURF.vtu      also write the boundary triangles\n"
     "  --denoise M             smooth the volume first: bilateral or diffusion (parameters\n"
     "                          from the data; see volmesh denoise for control)\n"
     "  --no-improve            skip the quality pass (tets: edge contraction, flips, smoothing;\n"
     "                          hexes: boundary pillow layer, untangling, smoothing)\n"
+    ;
+static const char *mesh_help2 =
     "  --quality-fields        add per-cell quality arrays (min_dihedral, radius_ratio, ...)\n"
     "  --report REPORT.html    also write the HTML quality report (see volmesh report)\n"
     "  --no-compress           write the VTU without zlib\n"
@@ -75,7 +87,10 @@ static const char *mesh_help =
     "dihedral angle, slivers, time (with --labels: interfaces kept, and one more line per\n"
     "label with its element count and volume against its voxels). Exit 0 ok, 1 the mesh\n"
     "was written but has inverted elements (only possible with --no-improve), 2 bad input\n"
-    "or empty selection (such as a --labels label absent from the volume).\n";
+    "or empty selection (such as a --labels label absent from the volume).\n"
+    "With --elements tri|quad the summary line gives faces, points, closed, Euler\n"
+    "characteristic, components, self-intersections, min angle, worst aspect ratio, volume\n"
+    "and time.\n";
 
 static int parse_range(const char *s, vm_mesh_options *o) {
     const char *colon = strchr(s, ':');
@@ -185,6 +200,9 @@ int vm_cmd_mesh(int argc, char **argv) {
     const char *in = NULL, *out = NULL, *surface = NULL;
     int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
     int improve = 1, quality_fields = 0, verbose = 0, have_labels = 0;
+    int surface_elements = 0, have_method = 0, have_error = 0;
+    vm_surface_options so;
+    vm_surface_options_default(&so);
     const char *labels_arg = NULL;
     vm_label_size *label_sizes = NULL;
     vm_label_options lo;
@@ -202,6 +220,7 @@ int vm_cmd_mesh(int argc, char **argv) {
         const char *a = argv[i];
         if (vm_cli_is(a, "--help", "-h")) {
             fputs(mesh_help, stdout);
+            fputs(mesh_help2, stdout);
             return VM_EXIT_OK;
         }
         int needs = vm_cli_is(a, "-o", "--output") || vm_cli_is(a, "--iso", NULL) ||
@@ -211,7 +230,8 @@ int vm_cmd_mesh(int argc, char **argv) {
                     vm_cli_is(a, "--report", NULL) || vm_cli_is(a, "--deck", NULL) ||
                     vm_cli_is(a, "--order", NULL) || vm_cli_is(a, "--labels", NULL) ||
                     vm_cli_is(a, "--min-island", NULL) || vm_cli_is(a, "--max-memory", NULL) ||
-                    vm_cli_is(a, "--size-per-label", NULL);
+                    vm_cli_is(a, "--size-per-label", NULL) || vm_cli_is(a, "--method", NULL) ||
+                    vm_cli_is(a, "--error", NULL);
         if (needs && i + 1 >= argc) return vm_cli_fail("mesh: %s needs a value", a);
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
@@ -234,8 +254,20 @@ int vm_cmd_mesh(int argc, char **argv) {
                 o.elements = VM_TET4;
             else if (strcmp(e, "hex") == 0)
                 o.elements = VM_HEX8;
+            else if (strcmp(e, "tri") == 0)
+                surface_elements = VM_TRI3;
+            else if (strcmp(e, "quad") == 0)
+                surface_elements = VM_QUAD4;
             else
-                return vm_cli_fail("--elements: '%s' is not tet or hex", e);
+                return vm_cli_fail("--elements: '%s' is not tet, hex, tri or quad", e);
+        } else if (vm_cli_is(a, "--method", NULL)) {
+            if (vm_surface_method_parse(argv[++i], &so.method))
+                return vm_cli_fail("--method: '%s' is not dc, mc, asc or cover", argv[i]);
+            have_method = 1;
+        } else if (vm_cli_is(a, "--error", NULL)) {
+            if (vm_cli_double(a, argv[++i], &so.error)) return VM_EXIT_INPUT;
+            if (!(so.error > 0)) return vm_cli_fail("--error: %s must be > 0", argv[i]);
+            have_error = 1;
         } else if (vm_cli_is(a, "--labels", NULL)) {
             labels_arg = argv[++i];
             have_labels = 1;
@@ -256,6 +288,7 @@ int vm_cmd_mesh(int argc, char **argv) {
             long l;
             if (vm_cli_int(a, argv[++i], 1, 10, &l)) return VM_EXIT_INPUT;
             o.max_level = (int)l;
+            so.max_level = (int)l;
         } else if (vm_cli_is(a, "--denoise", NULL)) {
             denoise = argv[++i];
             if (strcmp(denoise, "bilateral") != 0 && strcmp(denoise, "diffusion") != 0)
@@ -309,7 +342,18 @@ int vm_cmd_mesh(int argc, char **argv) {
         free(label_sizes);
         return vm_cli_fail("mesh: --min-island, --no-smooth and --size-per-label go with --labels");
     }
+    if ((invert && !have_iso) || (!surface_elements && (have_method || have_error)) ||
+        (surface_elements &&
+         (have_labels || o.adaptive || surface || report || wo.deck || wo.order != 1)))
+        free(label_sizes);
     if (invert && !have_iso) return vm_cli_fail("mesh: --invert goes with --iso");
+    if (!surface_elements && (have_method || have_error))
+        return vm_cli_fail("mesh: --method and --error go with --elements tri or quad");
+    if (surface_elements && (have_labels || o.adaptive || surface || report || wo.deck ||
+                             wo.order != 1))
+        return vm_cli_fail("mesh: --elements %s writes a surface: no --labels, --adaptive, "
+                           "--surface, --report, --deck or --order",
+                           surface_elements == VM_QUAD4 ? "quad" : "tri");
     if (have_iso && invert) {
         o.has_lo = 0;
         o.has_hi = 1;
@@ -375,6 +419,22 @@ int vm_cmd_mesh(int argc, char **argv) {
         vm_volume_free(&v);
         v = den;
         stage_done(verbose, "denoise", &t);
+    }
+    if (surface_elements) {
+        so.lo = o.lo;
+        so.hi = o.hi;
+        so.has_lo = o.has_lo;
+        so.has_hi = o.has_hi;
+        so.elements = (vm_cell_kind)surface_elements;
+        so.cell_size = o.cell_size;
+        so.improve = improve;
+        so.progress = vm_cli_progress;
+        so.progress_user = &quiet;
+        wo.compress = compress;
+        rc = vm_cli_mesh_surface(&v, in, out, &so, &wo, json, quality_fields);
+        vm_volume_free(&v);
+        if (!rc) stage_done(verbose, "surface", &t);
+        return rc;
     }
     s = vm_mesh_volume(&v, &o, &m, &st, &err);
     if (!s) stage_done(verbose, "mesh", &t);

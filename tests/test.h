@@ -89,6 +89,14 @@ int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
 int vm_test_fuzz_mesh(const unsigned char *data, size_t size, const char *ext,
                       vm_status (*read)(const char *path, vm_mesh *m, vm_error *err));
 
+/* Euler characteristic of the boundary and 6-connected components that a mesh of the
+ * thresholded voxels {lo <= f <= hi} (either bound open) must have: the cubical complex of
+ * the inside grid points, padded by outside points, where a cube with exactly its two
+ * antipodal corners outside is filled to a ball (as dual contouring does); the boundary
+ * of a 3-manifold has twice its Euler characteristic. CHECK-fails on out of memory. */
+void vm_test_digital_topology(const vm_volume *v, int has_lo, double lo, int has_hi, double hi,
+                              long *euler, size_t *components);
+
 #define TEST_MAIN(...)                                                                     \
     int main(void) {                                                                       \
         static const vm_test_case cases_[] = {__VA_ARGS__};                                \

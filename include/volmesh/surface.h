@@ -21,8 +21,10 @@ extern "C" {
 typedef enum vm_surface_method {
     VM_SURFACE_DC = 0,    /* dual contouring: the boundary of the volume mesher's output
                              (tri3 from the tet mesh, quad4 from the hex mesh) */
-    VM_SURFACE_MC = 1,    /* marching cubes, ambiguities resolved by the asymptotic decider
-                             so the surface has the topology of the trilinear interpolant */
+    VM_SURFACE_MC = 1,    /* marching cubes with the topology of the trilinear interpolant:
+                             faces by the asymptotic decider, tunnels inside a cube by a
+                             plane sweep (docs/ALGORITHMS.md); one vertex per crossed grid
+                             edge; slivers where crossings fall near grid points */
     VM_SURFACE_ASC = 2,   /* adaptive skeleton climbing (Poston, Wong, Heng) */
     VM_SURFACE_COVER = 3  /* disk covering with guaranteed genus and triangle aspect ratio
                              (Gavriliu, Carranza, Breen, Barr) */
@@ -46,6 +48,8 @@ typedef struct vm_surface_options {
 typedef struct vm_surface_stats {
     size_t faces, points;
     size_t cells_visited;    /* grid cells or boxes the method examined */
+    size_t centre_vertices;  /* mc: vertices added inside cubes (tunnels, and polygons no
+                                triangulation of which avoids chords in a cube face) */
     double seconds;
 } vm_surface_stats;
 

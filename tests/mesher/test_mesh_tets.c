@@ -72,82 +72,9 @@ static int mesh_case(const char *label, const vm_volume *v, const vm_mesh_option
 
 /* --- the independent topology answer on the grid ------------------------------------------ */
 
-static int in_material(float f, const vm_mesh_options *o) {
-    return (!o->has_lo || f >= o->lo) && (!o->has_hi || f <= o->hi);
-}
-
-static size_t uf_find(size_t *parent, size_t x) {
-    while (parent[x] != x) {
-        parent[x] = parent[parent[x]];
-        x = parent[x];
-    }
-    return x;
-}
-
-/* Euler characteristic of the mesh boundary and number of components predicted from the grid:
- * X = grid points in the material, padded by a layer of outside points. The solid is the
- * cubical complex of X (6-adjacent edges, full squares, full cubes) plus, for every cube with
- * exactly its two antipodal corners outside, the filling that makes it a ball; the boundary
- * of a 3-manifold has twice its Euler characteristic. Components: 6-connected parts of X. */
 static void digital_topology(const vm_volume *v, const vm_mesh_options *o, long *euler,
                              size_t *components) {
-    const int64_t P0 = v->dims[0] + 2, P1 = v->dims[1] + 2, P2 = v->dims[2] + 2;
-    const size_t np = (size_t)(P0 * P1 * P2);
-    uint8_t *in = calloc(np, 1);
-    size_t *parent = malloc(np * sizeof *parent);
-    CHECK(in != NULL && parent != NULL);
-    if (!in || !parent) {
-        free(in);
-        free(parent);
-        *euler = -999999;
-        *components = 0;
-        return;
-    }
-    for (int64_t k = 0; k < v->dims[2]; k++)
-        for (int64_t j = 0; j < v->dims[1]; j++)
-            for (int64_t i = 0; i < v->dims[0]; i++) {
-                float f = v->data[i + v->dims[0] * (j + v->dims[1] * k)];
-                in[(i + 1) + P0 * ((j + 1) + P1 * (k + 1))] = (uint8_t)in_material(f, o);
-            }
-    const size_t step[3] = {1, (size_t)P0, (size_t)(P0 * P1)};
-    long V = 0, E = 0, F = 0, C = 0, S = 0;
-    for (size_t p = 0; p < np; p++)
-        parent[p] = p;
-    /* Every cube has its lowest corner in [0, P-2]^3; the last layer is padding (outside). */
-    for (int64_t k = 0; k + 1 < P2; k++)
-        for (int64_t j = 0; j + 1 < P1; j++)
-            for (int64_t i = 0; i + 1 < P0; i++) {
-                size_t p = (size_t)(i + P0 * (j + P1 * k));
-                uint8_t c[8];
-                int count = 0;
-                for (int q = 0; q < 8; q++) {
-                    c[q] = in[p + (q & 1) * step[0] + ((q >> 1) & 1) * step[1] +
-                              (q >> 2) * step[2]];
-                    count += c[q];
-                }
-                if (count == 8) C++;
-                if (count == 6)
-                    for (int q = 0; q < 4; q++)
-                        if (!c[q] && !c[7 - q]) S++;
-                if (!c[0]) continue;
-                V++;
-                for (int a = 0; a < 3; a++) {
-                    if (c[1 << a]) {
-                        E++;
-                        size_t ra = uf_find(parent, p), rb = uf_find(parent, p + step[a]);
-                        if (ra != rb) parent[ra] = rb;
-                    }
-                    int b = (a + 1) % 3;
-                    if (c[1 << a] && c[1 << b] && c[(1 << a) | (1 << b)]) F++;
-                }
-            }
-    size_t comps = 0;
-    for (size_t p = 0; p < np; p++)
-        if (in[p] && uf_find(parent, p) == p) comps++;
-    free(in);
-    free(parent);
-    *euler = 2 * (V - E + F - C + S);
-    *components = comps;
+    vm_test_digital_topology(v, o->has_lo, o->lo, o->has_hi, o->hi, euler, components);
 }
 
 /* Meshes v with o and checks the mesh against the digital topology of v; volume not checked. */
