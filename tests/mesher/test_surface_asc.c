@@ -252,8 +252,117 @@ static void ct_head_skin_is_closed_and_coarser(void) {
     shared_case("ct_head_quarter.nrrd", 500, 2.5);
 }
 
+/* Random smoothed fields: at every max level the surface is closed, manifold, outward and
+ * free of self-intersections, with the Euler characteristic and components of level 0
+ * (climbing to larger boxes never changes the topology of the unit-cell surface). */
+static void random_fields_keep_the_unit_cell_topology_at_every_level(void) {
+    int cases = sanitized() ? 6 : 40;
+    unsigned seed = 12345;
+    for (int c = 0; c < cases; c++) {
+        int64_t dims[3] = {20, 18, 22};
+        vm_volume v;
+        vm_error err;
+        CHECK_OK(vm_volume_alloc(&v, dims, &err), &err);
+        size_t n = vm_volume_count(&v);
+        float *tmp = malloc(n * sizeof *tmp);
+        for (size_t i = 0; i < n; i++) {
+            seed = seed * 1103515245u + 12345u;
+            v.data[i] = (float)((seed >> 8) & 0xffff) / 65535.0f - 0.5f;
+        }
+        /* box smoothing, c % 4 passes: from white noise to blobs */
+        for (int pass = 0; pass < c % 4; pass++) {
+            for (int64_t k = 0; k < dims[2]; k++)
+                for (int64_t j = 0; j < dims[1]; j++)
+                    for (int64_t i = 0; i < dims[0]; i++) {
+                        double sum = 0;
+                        int cnt = 0;
+                        for (int dk = -1; dk <= 1; dk++)
+                            for (int dj = -1; dj <= 1; dj++)
+                                for (int di = -1; di <= 1; di++) {
+                                    int64_t a = i + di, b = j + dj, d = k + dk;
+                                    if (a < 0 || b < 0 || d < 0 || a >= dims[0] || b >= dims[1] ||
+                                        d >= dims[2])
+                                        continue;
+                                    sum += v.data[a + dims[0] * (b + dims[1] * d)];
+                                    cnt++;
+                                }
+                        tmp[i + dims[0] * (j + dims[1] * k)] = (float)(sum / cnt);
+                    }
+            memcpy(v.data, tmp, n * sizeof *tmp);
+        }
+        free(tmp);
+        asc_result r0;
+        memset(&r0, 0, sizeof r0);
+        for (int level = 0; level <= 4; level++) {
+            vm_mesh m;
+            asc_result r;
+            memset(&r, 0, sizeof r);
+            vm_status s = extract(&v, level, 0.0, &m, NULL, &err);
+            if (s == VM_ERR_EMPTY) break;
+            CHECK_OK(s, &err);
+            if (s) break;
+            int fails = vm_test_failures;
+            check_surface(&m, level ? r0.euler : -10000, r0.components, &r);
+            if (vm_test_failures != fails)
+                printf("    case %d (smoothing %d) level %d: %zu triangles\n", c, c % 4, level,
+                       r.tris);
+            if (level == 0) r0 = r;
+            vm_mesh_free(&m);
+        }
+        vm_volume_free(&v);
+    }
+}
+
+/* Bad options are refused with a one-line message naming the option. */
+static void bad_options_are_refused_with_a_message(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_SPHERE, 16, 0, 1, &v, NULL, &err), &err);
+    vm_surface_options o;
+    vm_surface_options_default(&o);
+    o.method = VM_SURFACE_ASC;
+    vm_mesh m;
+    o.error = 0;
+    CHECK(vm_surface_extract(&v, &o, &m, NULL, &err) == VM_ERR_ARG);
+    CHECK(strstr(err.message, "error") != NULL && strchr(err.message, '\n') == NULL);
+    o.error = 0.5;
+    o.max_level = 11;
+    CHECK(vm_surface_extract(&v, &o, &m, NULL, &err) == VM_ERR_ARG);
+    CHECK(strstr(err.message, "max level") != NULL && strchr(err.message, '\n') == NULL);
+    o.max_level = 4;
+    o.lo = 1e9; /* nothing is in the material */
+    CHECK(vm_surface_extract(&v, &o, &m, NULL, &err) == VM_ERR_EMPTY);
+    vm_volume_free(&v);
+}
+
+/* Larger boxes give fewer triangles on a smooth shape: counts fall with max level. */
+static void triangles_fall_as_the_boxes_grow(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_SPHERE, 64, 0, 1, &v, NULL, &err), &err);
+    size_t prev = 0;
+    printf("    sphere 64:");
+    for (int level = 0; level <= 6; level++) {
+        vm_mesh m;
+        vm_status s = extract(&v, level, 0.0, &m, NULL, &err);
+        CHECK_OK(s, &err);
+        if (s) break;
+        printf(" L%d %zu", level, m.ncells);
+        /* strictly fewer up to 8-cell boxes; 16-cell boxes are too curved at error 0.5 */
+        if (level > 0 && level <= 3)
+            CHECK_MSG(m.ncells < prev, "level %d: %zu >= %zu", level, m.ncells, prev);
+        if (level > 3) CHECK_MSG(m.ncells <= prev, "level %d: %zu > %zu", level, m.ncells, prev);
+        prev = m.ncells;
+        vm_mesh_free(&m);
+    }
+    printf("\n");
+    vm_volume_free(&v);
+}
+
 TEST_MAIN(T(sphere_is_closed_with_euler_2_and_fewer_triangles), T(torus_is_closed_with_euler_0),
           T(genus3_is_closed_with_euler_minus_4), T(two_spheres_are_two_closed_components),
           T(cut_sphere_is_closed_at_the_border), T(noisy_phantoms_stay_closed_manifold_outward),
           T(iron_protein_keeps_every_component), T(hydrogen_is_closed_and_coarser),
-          T(ct_head_skin_is_closed_and_coarser))
+          T(ct_head_skin_is_closed_and_coarser),
+          T(random_fields_keep_the_unit_cell_topology_at_every_level),
+          T(bad_options_are_refused_with_a_message), T(triangles_fall_as_the_boxes_grow))
