@@ -91,16 +91,24 @@ static int box_check(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int *
     size_t npts = 0;
     double grad[3] = {0, 0, 0};
     int unit = sz[0] == 1 && sz[1] == 1 && sz[2] == 1;
+    /* samples outside the padded grid are outside like its padding layer, so no line
+     * changes sign there: scan only the part of the box within the grid */
+    int64_t b0[3], b1[3];
+    for (int a = 0; a < 3; a++) {
+        b0[a] = lo[a] > 0 ? lo[a] : 0;
+        b1[a] = (int64_t)lo[a] + sz[a] < c->n[a] - 1 ? (int64_t)lo[a] + sz[a] : c->n[a] - 1;
+        if (b0[a] > b1[a]) return 1;
+    }
     for (int a = 0; a < 3; a++) {
         int b = (a + 1) % 3, d = (a + 2) % 3;
-        for (int32_t y = lo[b]; y <= lo[b] + sz[b]; y++)
-            for (int32_t z = lo[d]; z <= lo[d] + sz[d]; z++) {
+        for (int64_t y = b0[b]; y <= b1[b]; y++)
+            for (int64_t z = b0[d]; z <= b1[d]; z++) {
                 int64_t p[3];
-                p[a] = lo[a];
+                p[a] = b0[a];
                 p[b] = y;
                 p[d] = z;
                 int prev = inside_at(c, p[0], p[1], p[2]), flips = 0;
-                for (int32_t x = lo[a] + 1; x <= lo[a] + sz[a]; x++) {
+                for (int64_t x = b0[a] + 1; x <= b1[a]; x++) {
                     p[a] = x;
                     int s = inside_at(c, p[0], p[1], p[2]);
                     if (s == prev) continue;

@@ -342,7 +342,7 @@ static void triangles_fall_as_the_boxes_grow(void) {
     CHECK_OK(vm_phantom_make(VM_PHANTOM_SPHERE, 64, 0, 1, &v, NULL, &err), &err);
     size_t prev = 0;
     printf("    sphere 64:");
-    for (int level = 0; level <= 6; level++) {
+    for (int level = 0; level <= 10; level++) {
         vm_mesh m;
         vm_status s = extract(&v, level, 0.0, &m, NULL, &err);
         CHECK_OK(s, &err);
