@@ -91,6 +91,13 @@ static int box_check(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int *
     size_t npts = 0;
     double grad[3] = {0, 0, 0};
     int unit = sz[0] == 1 && sz[1] == 1 && sz[2] == 1;
+    if (unit) { /* a unit cell is always simple: it is active when its corners differ */
+        int n_in = 0;
+        for (int k = 0; k < 8; k++)
+            n_in += inside_at(c, lo[0] + (k & 1), lo[1] + ((k >> 1) & 1), lo[2] + (k >> 2));
+        *active = n_in != 0 && n_in != 8;
+        return 1;
+    }
     /* samples outside the padded grid are outside like its padding layer, so no line
      * changes sign there: scan only the part of the box within the grid */
     int64_t b0[3], b1[3];
@@ -115,7 +122,6 @@ static int box_check(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int *
                     if (++flips > 1) return 0;
                     *active = 1;
                     prev = s;
-                    if (unit) continue;
                     grad[a] += s ? 1.0 : -1.0;
                     if (vm__grow((void **)&c->pts, &c->pts_cap, 3 * (npts + 1), sizeof(double),
                                  NULL))
@@ -131,7 +137,7 @@ static int box_check(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int *
                 }
             }
     }
-    if (unit || npts == 0) return 1;
+    if (npts == 0) return 1;
     double gl = sqrt(grad[0] * grad[0] + grad[1] * grad[1] + grad[2] * grad[2]);
     if (gl < 1e-9) return 0;
     double cen[3] = {0, 0, 0};
@@ -558,7 +564,7 @@ static double project_inside(const asc_ctx *c, const asc_box *b, double x[3], co
         if (t2 < tmax) tmax = t2;
     }
     double y[3];
-    enum { STEPS = 16 };
+    enum { STEPS = 8 };
     double best = NAN;
     double tp = 0, fp = field_at(c, x);
     if (fp == 0) return 0;
@@ -572,7 +578,7 @@ static double project_inside(const asc_ctx *c, const asc_box *b, double x[3], co
             double f = field_at(c, y);
             if ((f >= 0) != (prev_f >= 0)) {
                 double lo_t = prev_t, hi_t = t, lo_f = prev_f;
-                for (int it = 0; it < 30; it++) {
+                for (int it = 0; it < 24; it++) {
                     double m = 0.5 * (lo_t + hi_t);
                     for (int a = 0; a < 3; a++) y[a] = x[a] + m * d[a];
                     double fm = field_at(c, y);
