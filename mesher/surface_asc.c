@@ -566,7 +566,7 @@ static double project_inside(const asc_ctx *c, const asc_box *b, double x[3], co
     double y[3];
     enum { STEPS = 8 };
     double best = NAN;
-    double tp = 0, fp = field_at(c, x);
+    double fp = field_at(c, x);
     if (fp == 0) return 0;
     /* march outward from t = 0 in both directions, nearest sign change first */
     for (int side = 0; side < 2; side++) {
@@ -597,7 +597,6 @@ static double project_inside(const asc_ctx *c, const asc_box *b, double x[3], co
             prev_f = f;
         }
     }
-    (void)tp;
     if (isnan(best)) return NAN;
     for (int a = 0; a < 3; a++) x[a] += best * d[a];
     return best;

@@ -359,10 +359,36 @@ static void triangles_fall_as_the_boxes_grow(void) {
     vm_volume_free(&v);
 }
 
+/* Small grids: one inside sample is closed by the padding into an octahedron (8 triangles,
+ * Euler 2); one inside slice into a flat closed slab; at every level. */
+static void single_sample_and_single_slice_are_closed(void) {
+    int64_t dims[3] = {7, 5, 2};
+    vm_volume v;
+    vm_error err;
+    for (int c = 0; c < 2; c++) {
+        CHECK_OK(vm_volume_alloc(&v, dims, &err), &err);
+        for (size_t i = 0; i < vm_volume_count(&v); i++)
+            v.data[i] = c == 0 ? (i == 8 ? 1.0f : 0.0f) : (i < 35 ? 1.0f : 0.0f);
+        for (int level = 0; level <= 4; level += 2) {
+            vm_mesh m;
+            asc_result r;
+            memset(&r, 0, sizeof r);
+            vm_status s = extract(&v, level, 0.5, &m, NULL, &err);
+            CHECK_OK(s, &err);
+            if (s) continue;
+            check_surface(&m, 2, 1, &r);
+            if (c == 0) CHECK_MSG(m.ncells == 8, "%zu triangles for one sample", m.ncells);
+            vm_mesh_free(&m);
+        }
+        vm_volume_free(&v);
+    }
+}
+
 TEST_MAIN(T(sphere_is_closed_with_euler_2_and_fewer_triangles), T(torus_is_closed_with_euler_0),
           T(genus3_is_closed_with_euler_minus_4), T(two_spheres_are_two_closed_components),
           T(cut_sphere_is_closed_at_the_border), T(noisy_phantoms_stay_closed_manifold_outward),
           T(iron_protein_keeps_every_component), T(hydrogen_is_closed_and_coarser),
           T(ct_head_skin_is_closed_and_coarser),
           T(random_fields_keep_the_unit_cell_topology_at_every_level),
-          T(bad_options_are_refused_with_a_message), T(triangles_fall_as_the_boxes_grow))
+          T(bad_options_are_refused_with_a_message), T(triangles_fall_as_the_boxes_grow),
+          T(single_sample_and_single_slice_are_closed))
