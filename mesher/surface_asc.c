@@ -153,6 +153,30 @@ static int box_check(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int *
         if (dist > dmax) dmax = dist;
         if (dmax - dmin > c->error) return 0;
     }
+    /* A unit square inside the box with diagonal corners is a choice the unit cells make
+     * (asymptotic decider) and the box's loops cannot see: such a box could join or split
+     * what the unit cells do not, so it is not simple. */
+    for (int w = 0; w < 3; w++) {
+        int u = (w + 1) % 3, v = (w + 2) % 3;
+        int64_t p[3];
+        for (int64_t x = b0[w] + 1; x < b1[w] && x < (int64_t)lo[w] + sz[w]; x++)
+            for (int64_t y = b0[u]; y < b1[u]; y++)
+                for (int64_t z = b0[v]; z < b1[v]; z++) {
+                    p[w] = x;
+                    p[u] = y;
+                    p[v] = z;
+                    int s00 = inside_at(c, p[0], p[1], p[2]);
+                    p[u] = y + 1;
+                    int s10 = inside_at(c, p[0], p[1], p[2]);
+                    if (s10 == s00) continue;
+                    p[v] = z + 1;
+                    int s11 = inside_at(c, p[0], p[1], p[2]);
+                    if (s11 != s00) continue;
+                    p[u] = y;
+                    int s01 = inside_at(c, p[0], p[1], p[2]);
+                    if (s01 == s10) return 0;
+                }
+    }
     return 1;
 }
 

@@ -252,14 +252,16 @@ static void ct_head_skin_is_closed_and_coarser(void) {
     shared_case("ct_head_quarter.nrrd", 500, 2.5);
 }
 
-/* Random smoothed fields: at every max level the surface is closed, manifold, outward and
- * free of self-intersections, with the Euler characteristic and components of level 0
- * (climbing to larger boxes never changes the topology of the unit-cell surface). */
+/* Random smoothed fields, several isovalues and errors: at every max level the surface is
+ * closed, manifold, outward and free of self-intersections, with the Euler characteristic
+ * and components of level 0 (climbing to larger boxes never changes the topology of the
+ * unit-cell surface). Error 2 caught boxes with a diagonal unit square inside, which the
+ * boxes now refuse. */
 static void random_fields_keep_the_unit_cell_topology_at_every_level(void) {
-    int cases = sanitized() ? 6 : 40;
-    unsigned seed = 12345;
+    int cases = sanitized() ? 16 : 40; /* case 14 has such a diagonal square */
+    unsigned seed = 99;
     for (int c = 0; c < cases; c++) {
-        int64_t dims[3] = {20, 18, 22};
+        int64_t dims[3] = {24 + c % 7, 20 + c % 5, 22 + c % 3};
         vm_volume v;
         vm_error err;
         CHECK_OK(vm_volume_alloc(&v, dims, &err), &err);
@@ -269,8 +271,8 @@ static void random_fields_keep_the_unit_cell_topology_at_every_level(void) {
             seed = seed * 1103515245u + 12345u;
             v.data[i] = (float)((seed >> 8) & 0xffff) / 65535.0f - 0.5f;
         }
-        /* box smoothing, c % 4 passes: from white noise to blobs */
-        for (int pass = 0; pass < c % 4; pass++) {
+        /* box smoothing, 1 + c % 6 passes: from rough noise to blobs */
+        for (int pass = 0; pass < 1 + c % 6; pass++) {
             for (int64_t k = 0; k < dims[2]; k++)
                 for (int64_t j = 0; j < dims[1]; j++)
                     for (int64_t i = 0; i < dims[0]; i++) {
@@ -293,18 +295,24 @@ static void random_fields_keep_the_unit_cell_topology_at_every_level(void) {
         free(tmp);
         asc_result r0;
         memset(&r0, 0, sizeof r0);
-        for (int level = 0; level <= 4; level++) {
+        for (int level = 0; level <= 5; level++) {
             vm_mesh m;
             asc_result r;
             memset(&r, 0, sizeof r);
-            vm_status s = extract(&v, level, 0.0, &m, NULL, &err);
+            vm_surface_options o;
+            vm_surface_options_default(&o);
+            o.method = VM_SURFACE_ASC;
+            o.max_level = level;
+            o.lo = ((c * 37) % 11 - 5) * 0.01;
+            o.error = c % 3 == 0 ? 0.25 : c % 3 == 1 ? 0.5 : 2.0; /* 2: many large boxes */
+            vm_status s = vm_surface_extract(&v, &o, &m, NULL, &err);
             if (s == VM_ERR_EMPTY) break;
             CHECK_OK(s, &err);
             if (s) break;
             int fails = vm_test_failures;
             check_surface(&m, level ? r0.euler : -10000, r0.components, &r);
             if (vm_test_failures != fails)
-                printf("    case %d (smoothing %d) level %d: %zu triangles\n", c, c % 4, level,
+                printf("    case %d (smoothing %d) level %d: %zu triangles\n", c, 1 + c % 6, level,
                        r.tris);
             if (level == 0) r0 = r;
             vm_mesh_free(&m);
