@@ -7,9 +7,10 @@
  *    once: box_check counts the sign changes of every grid line of a box;
  *  - simple boxes (all dikes simple, sides on the binary tree, at most 2^max_level cells a
  *    side) are found per block of 2^max_level cells by climbing a k-d tree of binary boxes
- *    (build): a box is kept when it is simple and its iso points lie within o->error voxels
- *    of one plane, otherwise it is split in halves along one axis (preferring a split whose
- *    two halves are already simple, so boxes stay as large as the geometry allows);
+ *    (build): a box is kept when it is simple, its iso points lie in a slab o->error voxels
+ *    thick and no unit square inside it is ambiguous, otherwise it is split in halves along
+ *    one axis (preferring a split whose two halves are already simple, so boxes stay as
+ *    large as the geometry allows);
  *  - information sharing: on every plane that carries box faces, the faces of the boxes on
  *    both sides are overlaid and their intersections are the padis (simple rectangles) that
  *    both boxes use, so a face between a large and a small box carries the same iso line on
@@ -20,8 +21,10 @@
  *    squares), the same answer for both boxes;
  *  - triangulation: the iso lines on a box's faces close into edge loops, and each loop is
  *    cut into triangles by removing ears (the paper's vertex removal), choosing the ear with
- *    the largest smallest angle, in the projection on the loop's mean plane; a loop whose
- *    ears run out is fanned from a point inside the box instead.
+ *    the largest smallest angle, in the projection on the loop's mean plane; where the
+ *    surface bulges more than o->error/4 away from a loop of a large box, the loop is fanned
+ *    from the surface point inside the box instead (not in the paper: it halves the volume
+ *    lost to chords), and a loop whose ears run out is fanned from its centroid.
  * Material outside the grid is outside (value -1), so the surface is closed at the border:
  * the grid is padded by one sample on every side. */
 #include <math.h>
