@@ -27,18 +27,18 @@
  *    lost to chords), and a loop whose ears run out is fanned from its centroid.
  * Material outside the grid is outside (value -1), so the surface is closed at the border:
  * the grid is padded by one sample on every side. */
+#include "../core/core.h"
+#include "surface_internal.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include "../core/core.h"
-#include "surface_internal.h"
 
 /* Padded grid: sample p (padded) is sample p-1 of g; everything outside g is outside. */
 typedef struct asc_ctx {
     const vm__surface_grid *g;
-    int64_t n[3];      /* padded samples per axis (g->n + 2) */
-    int64_t dom[3];    /* cells per axis covered by blocks (multiple of the block size) */
-    uint8_t *in;       /* n[0]*n[1]*n[2] flags: 1 inside */
+    int64_t n[3];   /* padded samples per axis (g->n + 2) */
+    int64_t dom[3]; /* cells per axis covered by blocks (multiple of the block size) */
+    uint8_t *in;    /* n[0]*n[1]*n[2] flags: 1 inside */
     double error;
     size_t visited;
     /* scratch for box_check */
@@ -86,8 +86,8 @@ static double crossing_t(const asc_ctx *c, const int64_t p[3], int a) {
  * every axis changes sign at most once (all dikes simple); and, for boxes larger than one
  * cell, the iso points on its unit edges lie in a slab of thickness c->error normal to
  * their mean gradient. The slab is convex, so the box's triangles, whose corners are some
- * of these iso points, lie in it too, and the surface is within about c->error of them. Returns 1 when simple; *active = 1 when the
- * surface crosses the box. Returns -1 on out of memory. */
+ * of these iso points, lie in it too, and the surface is within about c->error of them. Returns
+ * 1 when simple; *active = 1 when the surface crosses the box. Returns -1 on out of memory. */
 static int box_check(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int *active) {
     c->visited++;
     *active = 0;
@@ -145,12 +145,15 @@ static int box_check(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int *
     if (gl < 1e-9) return 0;
     double cen[3] = {0, 0, 0};
     for (size_t i = 0; i < npts; i++)
-        for (int a = 0; a < 3; a++) cen[a] += c->pts[3 * i + a];
-    for (int a = 0; a < 3; a++) cen[a] /= (double)npts;
+        for (int a = 0; a < 3; a++)
+            cen[a] += c->pts[3 * i + a];
+    for (int a = 0; a < 3; a++)
+        cen[a] /= (double)npts;
     double dmin = 0, dmax = 0;
     for (size_t i = 0; i < npts; i++) {
         double dist = 0;
-        for (int a = 0; a < 3; a++) dist += (c->pts[3 * i + a] - cen[a]) * grad[a];
+        for (int a = 0; a < 3; a++)
+            dist += (c->pts[3 * i + a] - cen[a]) * grad[a];
         dist /= gl;
         if (dist < dmin) dmin = dist;
         if (dist > dmax) dmax = dist;
@@ -190,8 +193,8 @@ typedef struct asc_boxes {
 
 /* Climbs the k-d tree of binary boxes below (lo, sz): keeps simple boxes, splits the
  * others. known: -1 unknown, else the result of box_check for this box (with *act). */
-static vm_status build(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int known,
-                       int act, asc_boxes *out, vm_error *err) {
+static vm_status build(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int known, int act,
+                       asc_boxes *out, vm_error *err) {
     int ok = known, active = act;
     if (ok < 0) ok = box_check(c, lo, sz, &active);
     if (ok < 0) return vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
@@ -226,7 +229,8 @@ static vm_status build(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int
         int x1, x2;
         int k1 = box_check(c, L1, S, &x1);
         int k2 = k1 > 0 ? box_check(c, L2, S, &x2) : 0;
-        if (k1 < 0 || k2 < 0) return vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
+        if (k1 < 0 || k2 < 0)
+            return vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
         if (k1 > 0 && k2 > 0) {
             pick = a;
             r1 = r2 = 1;
@@ -251,7 +255,7 @@ typedef struct asc_points {
     uint64_t *keys; /* edge key + 1, 0 = empty */
     int32_t *ids;
     size_t cap, count;
-    double *xyz;    /* padded coordinates, 3 per point */
+    double *xyz; /* padded coordinates, 3 per point */
     size_t xyz_cap, n;
 } asc_points;
 
@@ -289,7 +293,8 @@ static vm_status edge_point(asc_ctx *c, asc_points *P, const int64_t p[3], int a
         for (size_t i = 0; i < P->cap; i++) {
             if (!P->keys[i]) continue;
             size_t h = hash64(P->keys[i]) & (ncap - 1);
-            while (nk[h]) h = (h + 1) & (ncap - 1);
+            while (nk[h])
+                h = (h + 1) & (ncap - 1);
             nk[h] = P->keys[i];
             ni[h] = P->ids[i];
         }
@@ -342,8 +347,8 @@ static int padi_joined(asc_ctx *c, int w, int32_t cw, int32_t u0, int32_t v0, in
             f[k] = value_at(c, p);
         }
         double den = f[0] + f[2] - f[1] - f[3];
-        double saddle = den != 0 ? (f[0] * f[2] - f[1] * f[3]) / den
-                                 : 0.25 * (f[0] + f[1] + f[2] + f[3]);
+        double saddle =
+            den != 0 ? (f[0] * f[2] - f[1] * f[3]) / den : 0.25 * (f[0] + f[1] + f[2] + f[3]);
         return saddle >= 0;
     }
     size_t W = (size_t)su + 1, H = (size_t)sv + 1, N = W * H;
@@ -378,7 +383,8 @@ static int padi_joined(asc_ctx *c, int w, int32_t cw, int32_t u0, int32_t v0, in
                 if (dx && dy) {
                     /* across the unit square: only when the other diagonal is outside
                      * and the decider joins */
-                    if ((m[(size_t)nx + W * (size_t)y] & 1) || (m[(size_t)x + W * (size_t)ny] & 1))
+                    if ((m[(size_t)nx + W * (size_t)y] & 1) ||
+                        (m[(size_t)x + W * (size_t)ny] & 1))
                         continue; /* reached by a 4-step anyway */
                     int32_t qu = (int32_t)(u0 + (dx < 0 ? nx : x)),
                             qv = (int32_t)(v0 + (dy < 0 ? ny : y));
@@ -463,14 +469,15 @@ static vm_status padi_lines(asc_ctx *c, asc_points *P, asc_segs *S, asc_scratch 
     int joined = 1;
     if (n_in == 2 && sgn[0] == sgn[2]) {
         int fail = 0;
-        joined = padi_joined(c, w, cw, u0, v0, su, sv, sgn[0] ? 0 : 1, &sc->m, &sc->mcap, &sc->q,
-                             &sc->qcap, &fail);
+        joined = padi_joined(c, w, cw, u0, v0, su, sv, sgn[0] ? 0 : 1, &sc->m, &sc->mcap,
+                             &sc->q, &sc->qcap, &fail);
         if (fail) return vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
     }
     for (int k = 0; k < 4; k++) {
         if (kind[k] != 1) continue;
         int o = k;
-        do o = joined ? (o + 1) & 3 : (o + 3) & 3;
+        do
+            o = joined ? (o + 1) & 3 : (o + 3) & 3;
         while (kind[o] != 2);
         vm_status s = VM_OK;
         if (up >= 0) s = push_seg(S, up, id[k], id[o], err);
@@ -601,13 +608,15 @@ static double project_inside(const asc_ctx *c, const asc_box *b, double x[3], co
         double prev_t = 0, prev_f = fp;
         for (int k = 1; k <= STEPS; k++) {
             double t = lim * k / STEPS;
-            for (int a = 0; a < 3; a++) y[a] = x[a] + t * d[a];
+            for (int a = 0; a < 3; a++)
+                y[a] = x[a] + t * d[a];
             double f = field_at(c, y);
             if ((f >= 0) != (prev_f >= 0)) {
                 double lo_t = prev_t, hi_t = t, lo_f = prev_f;
                 for (int it = 0; it < 24; it++) {
                     double m = 0.5 * (lo_t + hi_t);
-                    for (int a = 0; a < 3; a++) y[a] = x[a] + m * d[a];
+                    for (int a = 0; a < 3; a++)
+                        y[a] = x[a] + m * d[a];
                     double fm = field_at(c, y);
                     if ((fm >= 0) == (lo_f >= 0)) {
                         lo_t = m;
@@ -625,14 +634,16 @@ static double project_inside(const asc_ctx *c, const asc_box *b, double x[3], co
         }
     }
     if (isnan(best)) return NAN;
-    for (int a = 0; a < 3; a++) x[a] += best * d[a];
+    for (int a = 0; a < 3; a++)
+        x[a] += best * d[a];
     return best;
 }
 
 /* Triangulates loop ids[0..n) (counter-clockwise seen from outside the material) inside
  * box b: ears in the projection on the loop's Newell plane, or a fan from the centroid. */
-static vm_status triangulate(const asc_ctx *c, asc_points *P, const asc_box *b, const int32_t *ids, size_t n,
-                             asc_loopbuf *lb, asc_tris *T, vm_error *err) {
+static vm_status triangulate(const asc_ctx *c, asc_points *P, const asc_box *b,
+                             const int32_t *ids, size_t n, asc_loopbuf *lb, asc_tris *T,
+                             vm_error *err) {
     if (n < 3) return vm_error_set(err, VM_ERR_INTERNAL, "surface asc: loop of %zu points", n);
     int unit = b->sz[0] == 1 && b->sz[1] == 1 && b->sz[2] == 1;
     if (n == 3 && unit) return push_tri(T, ids[0], ids[1], ids[2], err);
@@ -642,15 +653,18 @@ static vm_status triangulate(const asc_ctx *c, asc_points *P, const asc_box *b, 
         nrm[0] += (p[1] - q[1]) * (p[2] + q[2]);
         nrm[1] += (p[2] - q[2]) * (p[0] + q[0]);
         nrm[2] += (p[0] - q[0]) * (p[1] + q[1]);
-        for (int a = 0; a < 3; a++) cen[a] += p[a];
+        for (int a = 0; a < 3; a++)
+            cen[a] += p[a];
     }
-    for (int a = 0; a < 3; a++) cen[a] /= (double)n;
+    for (int a = 0; a < 3; a++)
+        cen[a] /= (double)n;
     double nl = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
     size_t t0 = T->n;
     int ok = nl > 1e-12;
     if (ok) {
         /* an orthonormal frame (e1, e2, nrm) */
-        for (int a = 0; a < 3; a++) nrm[a] /= nl;
+        for (int a = 0; a < 3; a++)
+            nrm[a] /= nl;
         double e1[3], e2[3];
         int m = fabs(nrm[0]) < fabs(nrm[1]) ? (fabs(nrm[0]) < fabs(nrm[2]) ? 0 : 2)
                                             : (fabs(nrm[1]) < fabs(nrm[2]) ? 1 : 2);
@@ -660,7 +674,8 @@ static vm_status triangulate(const asc_ctx *c, asc_points *P, const asc_box *b, 
         e1[1] = ax[2] * nrm[0] - ax[0] * nrm[2];
         e1[2] = ax[0] * nrm[1] - ax[1] * nrm[0];
         double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-        for (int a = 0; a < 3; a++) e1[a] /= l1;
+        for (int a = 0; a < 3; a++)
+            e1[a] /= l1;
         e2[0] = nrm[1] * e1[2] - nrm[2] * e1[1];
         e2[1] = nrm[2] * e1[0] - nrm[0] * e1[2];
         e2[2] = nrm[0] * e1[1] - nrm[1] * e1[0];
@@ -733,7 +748,8 @@ static vm_status triangulate(const asc_ctx *c, asc_points *P, const asc_box *b, 
                          lb->uv + 2 * lb->live[2]) <= 1e-12)
             ok = 0;
         if (ok) {
-            vm_status s = push_tri(T, ids[lb->live[0]], ids[lb->live[1]], ids[lb->live[2]], err);
+            vm_status s =
+                push_tri(T, ids[lb->live[0]], ids[lb->live[1]], ids[lb->live[2]], err);
             if (s) return s;
         }
     }
@@ -742,14 +758,15 @@ static vm_status triangulate(const asc_ctx *c, asc_points *P, const asc_box *b, 
     T->n = t0;
     int32_t cid = -1;
     vm_status s = add_xyz(P, cen, &cid, err);
-    for (size_t i = 0; !s && i < n; i++) s = push_tri(T, cid, ids[i], ids[(i + 1) % n], err);
+    for (size_t i = 0; !s && i < n; i++)
+        s = push_tri(T, cid, ids[i], ids[(i + 1) % n], err);
     return s;
 }
 
 /* ---- the driver ------------------------------------------------------------------------ */
 
-vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o,
-                          vm_mesh *surf, vm_surface_stats *st, vm_error *err) {
+vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o, vm_mesh *surf,
+                          vm_surface_stats *st, vm_error *err) {
     asc_ctx c;
     memset(&c, 0, sizeof c);
     c.g = g;
@@ -769,7 +786,8 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
     for (int64_t k = 0; k < c.n[2]; k++)
         for (int64_t j = 0; j < c.n[1]; j++)
             for (int64_t i = 0; i < c.n[0]; i++)
-                c.in[i + c.n[0] * (j + c.n[1] * k)] = vm__surface_at(g, i - 1, j - 1, k - 1) >= 0;
+                c.in[i + c.n[0] * (j + c.n[1] * k)] =
+                    vm__surface_at(g, i - 1, j - 1, k - 1) >= 0;
 
     asc_boxes boxes = {0};
     asc_points P;
@@ -824,14 +842,17 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
     if (!s) {
         mapA = malloc((size_t)mapn * sizeof *mapA);
         mapB = malloc((size_t)mapn * sizeof *mapB);
-        if (!mapA || !mapB) s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
+        if (!mapA || !mapB)
+            s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
         else {
-            for (int64_t i = 0; i < mapn; i++) mapA[i] = mapB[i] = -1;
+            for (int64_t i = 0; i < mapn; i++)
+                mapA[i] = mapB[i] = -1;
         }
     }
     for (size_t f0 = 0; !s && f0 < nf;) {
         size_t f1 = f0;
-        while (f1 < nf && faces[f1].w == faces[f0].w && faces[f1].c == faces[f0].c) f1++;
+        while (f1 < nf && faces[f1].w == faces[f0].w && faces[f1].c == faces[f0].c)
+            f1++;
         int w = faces[f0].w;
         int64_t du = c.dom[(w + 1) % 3];
         for (size_t f = f0; f < f1; f++) {
@@ -853,10 +874,10 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
                     int32_t pu = fa->u0 > fb->u0 ? fa->u0 : fb->u0;
                     int32_t pv = fa->v0 > fb->v0 ? fa->v0 : fb->v0;
                     if (fa->u0 + u != pu || fa->v0 + v != pv) continue;
-                    int32_t eu = fa->u0 + fa->su < fb->u0 + fb->su ? fa->u0 + fa->su
-                                                                   : fb->u0 + fb->su;
-                    int32_t ev = fa->v0 + fa->sv < fb->v0 + fb->sv ? fa->v0 + fa->sv
-                                                                   : fb->v0 + fb->sv;
+                    int32_t eu =
+                        fa->u0 + fa->su < fb->u0 + fb->su ? fa->u0 + fa->su : fb->u0 + fb->su;
+                    int32_t ev =
+                        fa->v0 + fa->sv < fb->v0 + fb->sv ? fa->v0 + fa->sv : fb->v0 + fb->sv;
                     s = padi_lines(&c, &P, &S, &sc, w, fa->c, pu, pv, eu - pu, ev - pv, fa->box,
                                    fb->box, err);
                 }
@@ -884,23 +905,29 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
         if (!sorted) s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
     }
     if (!s) {
-        for (size_t i = 0; i < S.n; i++) start[S.v[i].box + 1]++;
-        for (size_t i = 0; i < boxes.n; i++) start[i + 1] += start[i];
+        for (size_t i = 0; i < S.n; i++)
+            start[S.v[i].box + 1]++;
+        for (size_t i = 0; i < boxes.n; i++)
+            start[i + 1] += start[i];
         int32_t *fill = malloc((boxes.n + 1) * sizeof *fill);
-        if (!fill) s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
+        if (!fill)
+            s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
         else {
             memcpy(fill, start, (boxes.n + 1) * sizeof *fill);
-            for (size_t i = 0; i < S.n; i++) sorted[fill[S.v[i].box]++] = S.v[i];
+            for (size_t i = 0; i < S.n; i++)
+                sorted[fill[S.v[i].box]++] = S.v[i];
             free(fill);
         }
-        for (size_t i = 0; i < P.n; i++) next[i] = -1;
+        for (size_t i = 0; i < P.n; i++)
+            next[i] = -1;
     }
     for (size_t bi = 0; !s && bi < boxes.n; bi++) {
         int32_t s0 = start[bi], s1 = start[bi + 1];
         if (s0 == s1) continue;
         for (int32_t i = s0; i < s1 && !s; i++) {
             if (next[sorted[i].a] >= 0)
-                s = vm_error_set(err, VM_ERR_INTERNAL, "surface asc: two iso lines leave a point");
+                s = vm_error_set(err, VM_ERR_INTERNAL,
+                                 "surface asc: two iso lines leave a point");
             next[sorted[i].a] = sorted[i].b;
         }
         for (int32_t i = s0; i < s1 && !s; i++) {
@@ -925,7 +952,8 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
             }
             s = triangulate(&c, &P, boxes.v + bi, lb.ids, m, &lb, &T, err);
         }
-        for (int32_t i = s0; i < s1; i++) next[sorted[i].a] = -1;
+        for (int32_t i = s0; i < s1; i++)
+            next[sorted[i].a] = -1;
     }
     free(sorted);
 
@@ -938,7 +966,8 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
     }
     for (size_t t = 0; !s && t < T.n; t++) {
         vm_index f[3];
-        for (int k = 0; k < 3; k++) f[k] = (vm_index)(base + (size_t)T.v[3 * t + k]);
+        for (int k = 0; k < 3; k++)
+            f[k] = (vm_index)(base + (size_t)T.v[3 * t + k]);
         s = vm_mesh_add_cell(surf, f, 1, err);
     }
     if (st) st->cells_visited = c.visited;

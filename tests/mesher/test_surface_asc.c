@@ -3,8 +3,8 @@
  * and volume, near the analytic surface, and with far fewer triangles at max level 4 than
  * with unit cells (max level 0) on the same isovalue. */
 #include "test.h"
-#include <string.h>
 #include "volmesh/surface.h"
+#include <string.h>
 
 typedef struct asc_result {
     size_t tris, points;
@@ -92,7 +92,8 @@ static double hausdorff_estimate(const vm_mesh *m, const vm_volume *f) {
     double h = 0;
     for (size_t c = 0; c < m->ncells; c++) {
         const double *p[3];
-        for (int k = 0; k < 3; k++) p[k] = m->points + 3 * (size_t)m->cells[3 * c + k];
+        for (int k = 0; k < 3; k++)
+            p[k] = m->points + 3 * (size_t)m->cells[3 * c + k];
         double q[7][3];
         for (int a = 0; a < 3; a++) {
             q[0][a] = p[0][a];
@@ -127,12 +128,14 @@ static vm_status extract(const vm_volume *v, int level, double iso, vm_mesh *s,
     return vm_surface_extract(v, &o, s, st, err);
 }
 
-static int sanitized(void) { return getenv("VM_SANITIZED") != NULL; }
+static int sanitized(void) {
+    return getenv("VM_SANITIZED") != NULL;
+}
 
 /* One phantom at max levels 0 and 4: invariants at both, the volume within vol_tol of the
  * analytic one, distance bound, and the triangle ratio. */
-static void phantom_case(vm_phantom_kind kind, int n, double noise, double vol_tol,
-                         double hd0, double hd4, double min_ratio) {
+static void phantom_case(vm_phantom_kind kind, int n, double noise, double vol_tol, double hd0,
+                         double hd4, double min_ratio) {
     vm_volume v, clean;
     vm_phantom_info info;
     vm_error err;
@@ -148,23 +151,25 @@ static void phantom_case(vm_phantom_kind kind, int n, double noise, double vol_t
         CHECK_OK(s, &err);
         if (s) continue;
         /* the noisy fields have their own topology: only closed, manifold, outward */
-        int ok = check_surface(&m, noise > 0 ? -10000 : info.euler, (size_t)info.components,
-                               &r[li]);
+        int ok =
+            check_surface(&m, noise > 0 ? -10000 : info.euler, (size_t)info.components, &r[li]);
         r[li].seconds = st.seconds;
         if (ok && noise == 0) {
             double rel = (r[li].volume - info.volume) / info.volume;
-            CHECK_MSG(fabs(rel) <= vol_tol, "volume %.6g, analytic %.6g (%+.3f%%, bound %.1f%%)",
-                      r[li].volume, info.volume, 100 * rel, 100 * vol_tol);
+            CHECK_MSG(fabs(rel) <= vol_tol,
+                      "volume %.6g, analytic %.6g (%+.3f%%, bound %.1f%%)", r[li].volume,
+                      info.volume, 100 * rel, 100 * vol_tol);
             r[li].hausdorff = hausdorff_estimate(&m, &clean);
             double hd_bound = li ? hd4 : hd0;
             CHECK_MSG(r[li].hausdorff <= hd_bound, "distance to the surface %.3f > %.3f",
                       r[li].hausdorff, hd_bound);
         }
-        printf("    %s n=%d noise=%g level %d: triangles %zu points %zu Euler %ld components %zu "
-               "volume %+.3f%% min angle %.2f distance %.3f (%.3f s)\n",
-               info.name, n, noise, levels[li], r[li].tris, r[li].points, r[li].euler,
-               r[li].components, 100 * (r[li].volume - info.volume) / info.volume,
-               r[li].min_angle, r[li].hausdorff, r[li].seconds);
+        printf(
+            "    %s n=%d noise=%g level %d: triangles %zu points %zu Euler %ld components %zu "
+            "volume %+.3f%% min angle %.2f distance %.3f (%.3f s)\n",
+            info.name, n, noise, levels[li], r[li].tris, r[li].points, r[li].euler,
+            r[li].components, 100 * (r[li].volume - info.volume) / info.volume, r[li].min_angle,
+            r[li].hausdorff, r[li].seconds);
         vm_mesh_free(&m);
     }
     if (r[1].tris > 0) {
@@ -177,7 +182,9 @@ static void phantom_case(vm_phantom_kind kind, int n, double noise, double vol_t
     vm_volume_free(&clean);
 }
 
-static int size_n(void) { return 64; }
+static int size_n(void) {
+    return 64;
+}
 
 /* Bounds: the distance at level 0 is that of the unit-edge interpolation of a signed
  * distance field (< 0.1 voxel); at level 4 the iso points of a box lie in a slab of
@@ -238,16 +245,20 @@ static void shared_case(const char *name, double iso, double min_ratio) {
     if (r[1].tris > 0) {
         double ratio = (double)r[0].tris / (double)r[1].tris;
         double dv = (r[1].volume - r[0].volume) / r[0].volume;
-        printf("    %s: level 0 / level 4 triangles = %.2f, volume change %+.3f%%\n", name, ratio,
-               100 * dv);
+        printf("    %s: level 0 / level 4 triangles = %.2f, volume change %+.3f%%\n", name,
+               ratio, 100 * dv);
         CHECK_MSG(ratio >= min_ratio, "reduction %.2f below %.2f", ratio, min_ratio);
     }
     fflush(stdout);
     vm_volume_free(&v);
 }
 
-static void iron_protein_keeps_every_component(void) { shared_case("ironProt.vtk", 128, 1.75); }
-static void hydrogen_is_closed_and_coarser(void) { shared_case("hydrogen.vti", 0.1, 3.3); }
+static void iron_protein_keeps_every_component(void) {
+    shared_case("ironProt.vtk", 128, 1.75);
+}
+static void hydrogen_is_closed_and_coarser(void) {
+    shared_case("hydrogen.vti", 0.1, 3.3);
+}
 static void ct_head_skin_is_closed_and_coarser(void) {
     shared_case("ct_head_quarter.nrrd", 500, 2.5);
 }
@@ -282,8 +293,8 @@ static void random_fields_keep_the_unit_cell_topology_at_every_level(void) {
                             for (int dj = -1; dj <= 1; dj++)
                                 for (int di = -1; di <= 1; di++) {
                                     int64_t a = i + di, b = j + dj, d = k + dk;
-                                    if (a < 0 || b < 0 || d < 0 || a >= dims[0] || b >= dims[1] ||
-                                        d >= dims[2])
+                                    if (a < 0 || b < 0 || d < 0 || a >= dims[0] ||
+                                        b >= dims[1] || d >= dims[2])
                                         continue;
                                     sum += v.data[a + dims[0] * (b + dims[1] * d)];
                                     cnt++;
@@ -312,8 +323,8 @@ static void random_fields_keep_the_unit_cell_topology_at_every_level(void) {
             int fails = vm_test_failures;
             check_surface(&m, level ? r0.euler : -10000, r0.components, &r);
             if (vm_test_failures != fails)
-                printf("    case %d (smoothing %d) level %d: %zu triangles\n", c, 1 + c % 6, level,
-                       r.tris);
+                printf("    case %d (smoothing %d) level %d: %zu triangles\n", c, 1 + c % 6,
+                       level, r.tris);
             if (level == 0) r0 = r;
             vm_mesh_free(&m);
         }
@@ -359,7 +370,8 @@ static void triangles_fall_as_the_boxes_grow(void) {
         /* strictly fewer up to 8-cell boxes; 16-cell boxes are too curved at error 0.5 */
         if (level > 0 && level <= 3)
             CHECK_MSG(m.ncells < prev, "level %d: %zu >= %zu", level, m.ncells, prev);
-        if (level > 3) CHECK_MSG(m.ncells <= prev, "level %d: %zu > %zu", level, m.ncells, prev);
+        if (level > 3)
+            CHECK_MSG(m.ncells <= prev, "level %d: %zu > %zu", level, m.ncells, prev);
         prev = m.ncells;
         vm_mesh_free(&m);
     }

@@ -3,8 +3,8 @@
  * test_surface_asc_vtk.py to compare with VTK's marching cubes: asc_NAME.nrrd (the volume),
  * asc_NAME_L0.vtu and asc_NAME_L4.vtu (the surfaces), and asc_cases.txt (NAME ISO per line). */
 #include "test.h"
-#include <string.h>
 #include "volmesh/surface.h"
+#include <string.h>
 
 static FILE *cases_file;
 
