@@ -44,6 +44,10 @@ typedef struct asc_ctx {
     /* scratch for box_check */
     double *pts;
     size_t pts_cap;
+    uint8_t *mark; /* scratch for one_piece */
+    size_t mark_cap;
+    int64_t *queue;
+    size_t queue_cap;
 } asc_ctx;
 
 typedef struct asc_box {
@@ -80,6 +84,48 @@ static double crossing_t(const asc_ctx *c, const int64_t p[3], int a) {
     if (!(t >= 0.01)) t = 0.01;
     if (t > 0.99) t = 0.99;
     return t;
+}
+
+/* 1 when the inside samples of the grid part [b0, b1] of a box are one 6-connected piece
+ * and so are the outside samples: one sheet through the box (two sheets would give two
+ * loops, whose triangles nothing keeps apart). -1 on out of memory. */
+static int one_piece(asc_ctx *c, const int64_t b0[3], const int64_t b1[3]) {
+    int64_t d[3] = {b1[0] - b0[0] + 1, b1[1] - b0[1] + 1, b1[2] - b0[2] + 1};
+    size_t n = (size_t)d[0] * (size_t)d[1] * (size_t)d[2];
+    if (vm__grow((void **)&c->mark, &c->mark_cap, n, 1, NULL) ||
+        vm__grow((void **)&c->queue, &c->queue_cap, n, sizeof(int64_t), NULL))
+        return -1;
+    uint8_t *m = c->mark;
+    for (int64_t z = 0; z < d[2]; z++)
+        for (int64_t y = 0; y < d[1]; y++)
+            for (int64_t x = 0; x < d[0]; x++)
+                m[x + d[0] * (y + d[1] * z)] =
+                    (uint8_t)inside_at(c, b0[0] + x, b0[1] + y, b0[2] + z);
+    int pieces[2] = {0, 0};
+    for (size_t i = 0; i < n; i++) {
+        if (m[i] & 2) continue;
+        int side = m[i] & 1;
+        if (++pieces[side] > 1) return 0;
+        size_t qh = 0, qt = 0;
+        c->queue[qt++] = (int64_t)i;
+        m[i] |= 2;
+        while (qh < qt) {
+            int64_t at = c->queue[qh++];
+            int64_t x = at % d[0], y = (at / d[0]) % d[1], z = at / (d[0] * d[1]);
+            int64_t nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
+                                {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+            for (int k = 0; k < 6; k++) {
+                if (nb[k][0] < 0 || nb[k][1] < 0 || nb[k][2] < 0 || nb[k][0] >= d[0] ||
+                    nb[k][1] >= d[1] || nb[k][2] >= d[2])
+                    continue;
+                int64_t j = nb[k][0] + d[0] * (nb[k][1] + d[1] * nb[k][2]);
+                if (m[j] != side) continue;
+                m[j] |= 2;
+                c->queue[qt++] = j;
+            }
+        }
+    }
+    return 1;
 }
 
 /* The simplicity test of a box (lo, sz in padded cells): every grid line of the box along
@@ -183,7 +229,7 @@ static int box_check(asc_ctx *c, const int32_t lo[3], const int32_t sz[3], int *
                     if (s01 == s10) return 0;
                 }
     }
-    return 1;
+    return one_piece(c, b0, b1);
 }
 
 typedef struct asc_boxes {
@@ -974,6 +1020,8 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
 
     free(c.in);
     free(c.pts);
+    free(c.mark);
+    free(c.queue);
     free(boxes.v);
     free(P.keys);
     free(P.ids);
