@@ -10,8 +10,10 @@ for the phantoms that their volumes (vtkMassProperties) agree with marching cube
 Exit 0 pass, 1 fail, 77 when vtk cannot be imported or the exporter is not built.
 """
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 
 try:
     import numpy as np
@@ -96,7 +98,16 @@ def main():
     if not os.path.exists(EXPORTER):
         print(f"skipped: {EXPORTER} is not built")
         return 77
-    env = dict(os.environ)
+    # A folder of its own: ctest may run the exporter as its own test at the same time.
+    work = tempfile.mkdtemp(prefix="asc_vtk.", dir=TMP)
+    env = dict(os.environ, VM_TEST_TMP=work)
+    try:
+        return judge(work, env)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def judge(TMP, env):
     res = subprocess.run([EXPORTER], cwd=TMP, env=env, capture_output=True, text=True)
     if res.returncode != 0:
         print(res.stdout + res.stderr)
