@@ -952,9 +952,10 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
     measure(&w, &before, NULL);
     s = run(&w, m, o, o->pillow && before.min_sj < o->target, &added, &moves, &sweeps, &after,
             err);
-    if (!s && added && (after.inverted || after.min_sj < o->target)) {
+    if (!s && added && (after.inverted || after.min_sj < fmin(0.2, o->target))) {
         /* Where the boundary folds (thin noisy features) some pillow corners have no valid
-         * position: then the pass runs again without the layer and keeps the better mesh. */
+         * position, or the layer smooths worse than none: when it stays tangled or below the
+         * bar (0.2), the pass runs again without the layer and keeps the better mesh. */
         hx w2 = base;
         figs f2;
         size_t added2 = 0;
