@@ -33,6 +33,7 @@ typedef struct hx {
     double lo, hi;
     int has_lo, has_hi;
     double max_move;
+    int pillowed; /* the mesh has the pillow layer: untangling by the penalty */
 } hx;
 
 void vm_hex_improve_options_default(vm_hex_improve_options *o) {
@@ -80,23 +81,55 @@ static double hex_q(const hx *w, size_t t) {
  * sum of them, and the worst determinant. The determinant is affine in x at every corner, so
  * its minimum is concave in x: the untangling objective (Knupp 2001) without local optima. */
 typedef struct lq {
-    double min, sum, det;
+    double min, sum, det, pen;
 } lq;
 
-static void local_q(const hx *w, size_t i, const double x[3], lq *r) {
+/* Corners whose normalised determinant is below this are penalised while untangling. */
+#define UNTANGLE_BETA 0.1
+
+/* With norm (one edge-length product per corner around i, in the order visited here, taken
+ * before the move): also the untangling penalty, the sum over those corners of
+ * max(0, beta - det / norm). Each det is affine in x, so the penalty is convex in x (Knupp
+ * 2001's untangling function, normalised so that small and large hexes count alike). */
+static void local_q(const hx *w, size_t i, const double x[3], const double *norm, lq *r) {
     r->min = r->det = INFINITY;
-    r->sum = 0.0;
+    r->sum = r->pen = 0.0;
+    size_t c = 0;
     for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
         size_t t = w->vi[u] / 8;
         int k = (int)(w->vi[u] % 8);
         double p[8][3];
         hex_points(w, t, p);
         memcpy(p[k], x, sizeof p[k]);
-        for (int j = 0; j < 4; j++) {
+        for (int j = 0; j < 4; j++, c++) {
             double det, q = corner_sj((const double(*)[3])p, j == 0 ? k : corner_tab[k][j], &det);
             if (q < r->min) r->min = q;
             if (det < r->det) r->det = det;
             r->sum += q;
+            if (norm) r->pen += fmax(0.0, UNTANGLE_BETA - det / norm[c]);
+        }
+    }
+}
+
+/* The edge-length products of the corners around point i, in local_q's order. [out] norm:
+ * 4 per incidence of i. */
+static void corner_norms(const hx *w, size_t i, double *norm) {
+    size_t c = 0;
+    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
+        size_t t = w->vi[u] / 8;
+        int k = (int)(w->vi[u] % 8);
+        double p[8][3];
+        hex_points(w, t, p);
+        for (int j = 0; j < 4; j++, c++) {
+            const int *ct = corner_tab[j == 0 ? k : corner_tab[k][j]];
+            double len = 1.0;
+            for (int e = 1; e < 4; e++) {
+                double l2 = 0.0;
+                for (int a = 0; a < 3; a++)
+                    l2 += (p[ct[e]][a] - p[ct[0]][a]) * (p[ct[e]][a] - p[ct[0]][a]);
+                len *= sqrt(l2);
+            }
+            norm[c] = len > 1e-300 ? len : 1e-300;
         }
     }
 }
@@ -278,26 +311,30 @@ static int cmp_face(const void *a, const void *b) {
     return 0;
 }
 
-/* The boundary faces (used by one hex), as 6 * hex + face. [out] *out (free it), *nout. */
-static vm_status boundary_faces(const hx *w, size_t **out, size_t *nout, vm_error *err) {
-    size_t nf = 6 * w->nh;
-    face_rec *f = malloc((nf + 1) * sizeof *f);
-    size_t *b = malloc((nf + 1) * sizeof *b);
+/* The boundary faces of the hexes t with in[t] (all hexes when in is NULL): the faces used
+ * by one of them, as 6 * hex + face. [out] *out (free it), *nout. */
+static vm_status boundary_faces(const hx *w, const uint8_t *in, size_t **out, size_t *nout,
+                                vm_error *err) {
+    size_t nf = 0;
+    face_rec *f = malloc((6 * w->nh + 1) * sizeof *f);
+    size_t *b = malloc((6 * w->nh + 1) * sizeof *b);
     if (!f || !b) {
         free(f);
         free(b);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
-    for (size_t u = 0; u < nf; u++) {
+    for (size_t hf = 0; hf < 6 * w->nh; hf++) {
+        if (in && !in[hf / 6]) continue;
+        size_t u = nf++;
         vm_index *k = f[u].key;
-        for (int j = 0; j < 4; j++) k[j] = w->h[8 * (u / 6) + (size_t)face_tab[u % 6][j]];
+        for (int j = 0; j < 4; j++) k[j] = w->h[8 * (hf / 6) + (size_t)face_tab[hf % 6][j]];
         for (int a = 1; a < 4; a++) /* insertion sort of four */
             for (int c = a; c > 0 && k[c - 1] > k[c]; c--) {
                 vm_index tmp = k[c];
                 k[c] = k[c - 1];
                 k[c - 1] = tmp;
             }
-        f[u].hf = u;
+        f[u].hf = hf;
     }
     qsort(f, nf, sizeof *f, cmp_face);
     size_t n = 0;
@@ -316,7 +353,7 @@ static vm_status boundary_faces(const hx *w, size_t **out, size_t *nout, vm_erro
 /* Which points are on the boundary, and how each may move. */
 static vm_status classify(hx *w, vm_error *err) {
     size_t *bf = NULL, nb = 0;
-    vm_status s = boundary_faces(w, &bf, &nb, err);
+    vm_status s = boundary_faces(w, NULL, &bf, &nb, err);
     if (s) return s;
     free(w->cls);
     free(w->planes);
@@ -377,13 +414,98 @@ static vm_status classify(hx *w, vm_error *err) {
 
 /* ---- pillowing ---- */
 
-/* Copies every boundary point inward, gives the old hexes the copies and puts one new hex
- * between each boundary quad and its copy: afterwards every hex touching the boundary has
- * exactly one face on it, and the boundary itself (points, quads) is unchanged. */
-static vm_status pillow(hx *w, size_t *added, vm_error *err) {
+/* Where the boundary of the shrink set (the sheet) is not a manifold surface: a vertex with
+ * a sheet edge not in exactly two sheet faces, or with its sheet faces in more than one fan.
+ * The hexes of the set at such vertices leave it (in[t] = 0). Returns the number of such
+ * vertices. [in] bf, nb: the sheet faces, as 6 * hex + face. */
+static size_t sheet_defects(const hx *w, const size_t *bf, size_t nb, uint8_t *in) {
+    size_t *start = calloc(w->np + 2, sizeof *start), *list = malloc((4 * nb + 1) * sizeof *list);
+    uint8_t *bad = calloc(w->np + 1, 1);
+    size_t nbad = 0;
+    if (!start || !list || !bad) {
+        free(start);
+        free(list);
+        free(bad);
+        for (size_t t = 0; t < w->nh; t++) in[t] = 0; /* out of memory: no layer */
+        return 1;
+    }
+    for (size_t u = 0; u < nb; u++)
+        for (int j = 0; j < 4; j++)
+            start[(size_t)w->h[8 * (bf[u] / 6) + (size_t)face_tab[bf[u] % 6][j]] + 2]++;
+    for (size_t i = 0; i < w->np; i++) start[i + 2] += start[i + 1];
+    for (size_t u = 0; u < nb; u++)
+        for (int j = 0; j < 4; j++)
+            list[start[(size_t)w->h[8 * (bf[u] / 6) + (size_t)face_tab[bf[u] % 6][j]] + 1]++] = u;
+    for (size_t v = 0; v < w->np; v++) {
+        size_t k = start[v + 1] - start[v];
+        if (!k) continue;
+        if (k > 64) {
+            bad[v] = 1;
+            continue;
+        }
+        vm_index q[64][4];
+        int at[64], par[64];
+        for (size_t a = 0; a < k; a++) {
+            size_t u = list[start[v] + a];
+            for (int j = 0; j < 4; j++) {
+                q[a][j] = w->h[8 * (bf[u] / 6) + (size_t)face_tab[bf[u] % 6][j]];
+                if ((size_t)q[a][j] == v) at[a] = j;
+            }
+            par[a] = (int)a;
+        }
+        int ok = 1;
+        for (size_t a = 0; a < k && ok; a++)
+            for (int side = 1; side <= 3; side += 2) {
+                vm_index nbr = q[a][(at[a] + side) % 4];
+                int count = 0;
+                for (size_t b = 0; b < k; b++) {
+                    if (q[b][(at[b] + 1) % 4] != nbr && q[b][(at[b] + 3) % 4] != nbr) continue;
+                    count++;
+                    int x = (int)a, y = (int)b;
+                    while (par[x] != x) x = par[x];
+                    while (par[y] != y) y = par[y];
+                    par[x] = y;
+                }
+                if (count != 2) ok = 0;
+            }
+        int roots = 0;
+        for (size_t a = 0; a < k; a++) roots += par[a] == (int)a;
+        if (!ok || roots != 1) bad[v] = 1;
+    }
+    for (size_t v = 0; v < w->np; v++) nbad += bad[v];
+    if (nbad)
+        for (size_t t = 0; t < w->nh; t++)
+            for (int c = 0; c < 8; c++)
+                if (bad[w->h[8 * t + (size_t)c]]) in[t] = 0;
+    free(start);
+    free(list);
+    free(bad);
+    return nbad;
+}
+
+/* Pillowing (Mitchell and Tautges 1995) of the shrink set: the hexes t with in[t], all when
+ * in is NULL. Every point on the set's boundary (the sheet: its faces on the mesh boundary
+ * and those it shares with hexes outside it) gets an inner copy, the set's hexes take the
+ * copies, and one new hex joins each sheet face to its copy. With the whole mesh as the set,
+ * every hex touching the boundary afterwards has exactly one face on it, and the boundary
+ * itself (points, quads) is unchanged; with a smaller set, the sheet leaves the boundary and
+ * goes round the hexes outside the set, which keep their points (the mesh stays conforming).
+ * in is shrunk where its sheet would not be a manifold surface. */
+static vm_status pillow(hx *w, uint8_t *in, size_t *added, vm_error *err) {
     size_t *bf = NULL, nb = 0;
-    vm_status s = boundary_faces(w, &bf, &nb, err);
-    if (s) return s;
+    vm_status s = VM_OK;
+    for (int round = 0;; round++) {
+        free(bf);
+        bf = NULL;
+        s = boundary_faces(w, in, &bf, &nb, err);
+        if (s) return s;
+        if (!in || !sheet_defects(w, bf, nb, in)) break;
+        if (round == 50) {
+            free(bf);
+            *added = 0;
+            return VM_OK; /* no clean sheet: no layer */
+        }
+    }
     size_t np = w->np;
     vm_index *copy = malloc((np + 1) * sizeof *copy);
     double *ctr = calloc(3 * np + 1, sizeof *ctr);
@@ -416,6 +538,7 @@ static vm_status pillow(hx *w, size_t *added, vm_error *err) {
      * around it: inside the material even where it is one cell thick, unlike a step along
      * the normal. */
     for (size_t t = 0; t < nh; t++) {
+        if (in && !in[t]) continue;
         double c[3] = {0, 0, 0};
         for (int k = 0; k < 8; k++)
             for (int a = 0; a < 3; a++) c[a] += 0.125 * w->p[3 * (size_t)w->h[8 * t + k] + a];
@@ -434,7 +557,7 @@ static vm_status pillow(hx *w, size_t *added, vm_error *err) {
         memcpy(w->p0 + 3 * (size_t)copy[i], q, 3 * sizeof *q);
     }
     for (size_t u = 0; u < 8 * nh; u++)
-        if (copy[w->h[u]] >= 0) w->h[u] = copy[w->h[u]];
+        if (copy[w->h[u]] >= 0 && (!in || in[u / 8])) w->h[u] = copy[w->h[u]];
     for (size_t u = 0; u < nb; u++) {
         size_t t = bf[u] / 6;
         const int *fc = face_tab[bf[u] % 6];
@@ -471,11 +594,17 @@ done:
 /* ---- vertex moves ---- */
 
 #define R3 0.57735026918962576 /* 1 / sqrt(3) */
-/* 6 axis and 8 diagonal directions (unit length). */
-static const double dirs[14][3] = {
+#define R2 0.70710678118654752 /* 1 / sqrt(2) */
+/* 6 axis and 8 diagonal directions (unit length), then 12 face diagonals: smoothing uses the
+ * first 14, untangling all 26 (its penalty is piecewise linear, and a descent direction
+ * at a kink can lie in a narrow cone). */
+static const double dirs[26][3] = {
     {1, 0, 0},     {-1, 0, 0},     {0, 1, 0},      {0, -1, 0},      {0, 0, 1},
     {0, 0, -1},    {R3, R3, R3},   {-R3, R3, R3},  {R3, -R3, R3},   {-R3, -R3, R3},
-    {R3, R3, -R3}, {-R3, R3, -R3}, {R3, -R3, -R3}, {-R3, -R3, -R3}};
+    {R3, R3, -R3}, {-R3, R3, -R3}, {R3, -R3, -R3}, {-R3, -R3, -R3}, {R2, R2, 0},
+    {-R2, R2, 0},  {R2, -R2, 0},   {-R2, -R2, 0},  {R2, 0, R2},     {-R2, 0, R2},
+    {R2, 0, -R2},  {-R2, 0, -R2},  {0, R2, R2},    {0, -R2, R2},    {0, R2, -R2},
+    {0, -R2, -R2}};
 
 /* Mean length of the edges at point i. */
 static double edge_scale(const hx *w, size_t i) {
@@ -495,10 +624,16 @@ static double edge_scale(const hx *w, size_t i) {
     return n ? sum / (double)n : 0.0;
 }
 
-/* Untangling: a higher worst determinant, the worst scaled Jacobian kept above floor (or
- * where it was). Smoothing: a higher worst scaled Jacobian, or the same and a higher sum. */
+/* Untangling without the layer (1): a higher worst determinant, the worst scaled Jacobian
+ * kept above floor (or where it was). Untangling the pillowed mesh (2): a lower penalty, or
+ * the same and a higher worst scaled Jacobian (the max-min determinant stalls there just
+ * below zero: several points share the worst corner). Smoothing (0): a higher worst scaled
+ * Jacobian, or the same and a higher sum. */
 static int better(const lq *n, const lq *o, double floor, int untangle) {
-    if (untangle) return n->det > o->det + 1e-12 * fabs(o->det) && n->min >= fmin(o->min, floor);
+    if (untangle == 1)
+        return n->det > o->det + 1e-12 * fabs(o->det) && n->min >= fmin(o->min, floor);
+    if (untangle == 2)
+        return n->pen < o->pen - 1e-9 || (n->pen <= o->pen && n->min > o->min + 1e-6);
     return n->min > o->min + 1e-6 || (n->min >= o->min && n->sum > o->sum + 1e-4);
 }
 
@@ -507,10 +642,16 @@ static int better(const lq *n, const lq *o, double floor, int untangle) {
  * moved. */
 static int optimise(hx *w, size_t i, double floor, int untangle) {
     if (w->cls[i] == CLS_FIXED || w->vs[i] == w->vs[i + 1]) return 0;
-    double x[3];
+    double x[3], buf[256], *norm = NULL;
+    size_t nc = 4 * (w->vs[i + 1] - w->vs[i]);
+    if (untangle == 2) {
+        norm = nc <= 256 ? buf : malloc(nc * sizeof *norm);
+        if (!norm) return 0;
+        corner_norms(w, i, norm);
+    }
     lq cur;
     memcpy(x, w->p + 3 * i, sizeof x);
-    local_q(w, i, x, &cur);
+    local_q(w, i, x, norm, &cur);
     int moved = 0;
     double L = edge_scale(w, i);
     for (double h = 0.25 * L; h > 0.01 * L; h *= 0.5) {
@@ -518,12 +659,12 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
             int best = -1;
             double bx[3];
             lq bq = cur;
-            for (int d = 0; d < 14; d++) {
+            for (int d = 0; d < (untangle == 2 ? 26 : 14); d++) {
                 double y[3];
                 lq n;
                 for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
                 if (!constrain(w, i, y, untangle ? MOVE_LOOSE : MOVE_TANGENT)) continue;
-                local_q(w, i, y, &n);
+                local_q(w, i, y, norm, &n);
                 if (better(&n, &bq, floor, untangle)) {
                     best = d;
                     bq = n;
@@ -537,6 +678,7 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
         }
     }
     if (moved) memcpy(w->p + 3 * i, x, sizeof x);
+    if (norm != buf) free(norm);
     return moved;
 }
 
@@ -609,14 +751,26 @@ static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int 
     }
 }
 
-/* Stage 0 untangles (the points of inverted hexes, by the concave determinant objective) and
- * smooths to 0.2; stage 1 raises the bar a step at a time from 0.3 to the target: moves made for a high
- * target too early lock poor hexes into worse local optima. */
+/* Stage 0 untangles (the points of inverted hexes: by the concave max-min determinant, or on
+ * the pillowed mesh by the convex penalty, with more rounds and a second go after smoothing)
+ * and smooths to 0.2; stage 1 raises the bar a step at a time from 0.3 to the target: moves
+ * made for a high target too early lock poor hexes into worse local optima. */
 static void smooth(hx *w, const vm_hex_improve_options *o, int stage, double *q,
                    uint8_t *active, size_t *moves, int *sweeps) {
     if (stage == 0) {
-        sweep_stage(w, 0.02, 1, o->max_sweeps, 0, q, active, moves, sweeps);
+        if (!w->pillowed) {
+            sweep_stage(w, 0.02, 1, o->max_sweeps, 0, q, active, moves, sweeps);
+            sweep_stage(w, fmin(0.2, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
+            return;
+        }
+        sweep_stage(w, 0.02, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
         sweep_stage(w, fmin(0.2, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
+        figs f;
+        measure(w, &f, q);
+        if (f.inverted) { /* the smoothing can free what the penalty could not reach */
+            sweep_stage(w, 0.02, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
+            sweep_stage(w, fmin(0.2, o->target), 0, o->max_sweeps, 0, q, active, moves, sweeps);
+        }
         return;
     }
     for (double t = 0.3; t < o->target + 0.1 - 1e-9; t += 0.1)
@@ -644,8 +798,9 @@ static vm_status load(hx *w, const vm_mesh *m, vm_error *err) {
     return VM_OK;
 }
 
-/* Loads m, pillowed or not, and runs stage 0 of the smoothing. [out] *q, *active (free them). */
-static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, int with_pillow,
+/* Loads m, pillowed (shrink set in) or not (in NULL), and runs stage 0 of the smoothing.
+ * [out] *q, *active (free them). */
+static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, uint8_t *in,
                        double **q, uint8_t **active, size_t *added, size_t *moves, int *sweeps,
                        vm_error *err) {
     free(*q);
@@ -654,7 +809,8 @@ static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o,
     *active = NULL;
     *added = 0;
     vm_status s = load(w, m, err);
-    if (!s && with_pillow) s = pillow(w, added, err);
+    if (!s && in) s = pillow(w, in, added, err);
+    w->pillowed = *added > 0;
     if (!s) s = build_incidence(w, err);
     if (!s) s = classify(w, err);
     if (s) return s;
@@ -680,13 +836,13 @@ static void final_snap(hx *w, double floor) {
         double target[3] = {x[0], x[1], x[2]};
         if (!constrain(w, i, target, MOVE_PROJECT)) continue;
         lq cur, n;
-        local_q(w, i, x, &cur);
+        local_q(w, i, x, NULL, &cur);
         for (double frac = 0.25; frac < 1.01; frac += 0.25) {
             double z[3], zi[3];
             for (int a = 0; a < 3; a++) z[a] = x[a] + frac * (target[a] - x[a]);
             to_index(w, z, zi);
             if (iso_distance(w, zi) > 0.45) continue;
-            local_q(w, i, z, &n);
+            local_q(w, i, z, NULL, &n);
             if (n.min >= fmin(cur.min, floor)) memcpy(w->p + 3 * i, z, sizeof z);
             break;
         }
@@ -715,9 +871,15 @@ static void hx_free(hx *w) {
 static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, int with_pillow,
                      size_t *added, size_t *moves, int *sweeps, figs *f, vm_error *err) {
     double *q = NULL;
-    uint8_t *active = NULL;
-    vm_status s = start(w, m, o, with_pillow, &q, &active, added, moves, sweeps, err);
-    if (!s && with_pillow) {
+    uint8_t *active = NULL, *in = NULL;
+    if (with_pillow) {
+        in = malloc(m->ncells + 1);
+        if (!in) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        memset(in, 1, m->ncells);
+    }
+    vm_status s = start(w, m, o, in, &q, &active, added, moves, sweeps, err);
+    free(in);
+    if (!s && *added) {
         /* a layer still tangled after untangling will not come right: stop here */
         measure(w, f, NULL);
         if (f->inverted) {
@@ -790,9 +952,10 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
     measure(&w, &before, NULL);
     s = run(&w, m, o, o->pillow && before.min_sj < o->target, &added, &moves, &sweeps, &after,
             err);
-    if (!s && added && (after.inverted || after.min_sj < before.min_sj)) {
+    if (!s && added && (after.inverted || after.min_sj < fmin(0.2, o->target))) {
         /* Where the boundary folds (thin noisy features) some pillow corners have no valid
-         * position: then the pass runs again without the layer and keeps the better mesh. */
+         * position, or the layer smooths worse than none: when it stays tangled or below the
+         * bar (0.2), the pass runs again without the layer and keeps the better mesh. */
         hx w2 = base;
         figs f2;
         size_t added2 = 0;

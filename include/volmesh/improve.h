@@ -110,7 +110,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
 
 /* Hexahedral meshes (hex8): vm_mesh_improve_hexes first inserts a pillow layer (one hex on
  * every boundary quad, between the boundary and an inner copy of it), so that no hex keeps
- * two faces on the smooth boundary, then untangles and smooths by moving one vertex at a time
+ * two faces on the smooth boundary, then untangles (compass search on a convex penalty of
+ * the normalised corner Jacobian determinants) and smooths by moving one vertex at a time
  * to raise the smallest corner scaled Jacobian of the hexes around it (compass search on the
  * max-min objective). Interior vertices move freely; boundary vertices slide on the
  * isosurface (re-projected onto the trilinear field of the volume) or, on a face of the

@@ -151,15 +151,16 @@ static void hexQualityPassOnEachPhantomReachesTheBar(void) {
 
 /* Every shared volume, the CT and MR heads included (where relaxation alone leaves 28 to 110
  * inverted hexes). floor is the bar, 0.2, except where the pass is measured short of it
- * (issue #5, still open there: the pillow layer tangles on their folded boundaries and falls
- * back to none, so hexes with two faces on the boundary remain); those floors are the
- * measured minimum less a margin, to catch regressions. */
+ * (issue #5, still open on the heads: the pillow layer tangles on their folded boundaries or
+ * smooths worse than none, so the pass keeps the mesh without it, where hexes with two faces
+ * on the boundary remain); those floors are the measured minimum less a margin, to catch
+ * regressions. ironProt reaches the bar since the pillowed mesh is untangled by a penalty. */
 static void hexQualityPassOnSharedVolumesUntanglesAndReachesTheBar(void) {
     static const struct {
         const char *file;
         double iso, floor;
         int big; /* minutes under the sanitizers: left to the Release run there */
-    } cases[] = {{"ironProt.vtk", 128, 0.08, 0},            /* measured 0.099 */
+    } cases[] = {{"ironProt.vtk", 128, 0.2, 0},             /* measured 0.28 */
                  {"hydrogen.vti", 0.1, 0.2, 0},             /* 0.500 */
                  {"ct_head_quarter.nrrd", 500, 0.025, 1},   /* 0.035 */
                  {"ct_head_quarter.nrrd", 1150, 0.1, 0},    /* 0.129 */
