@@ -4,6 +4,7 @@
  * R_g / 2^i (sec. 3.3, Figs. 3-7), its graph Voronoi neighbourhoods and their dual triangles,
  * refined by the maximum-distance metric (sec. 3.4-3.5, Fig. 8). See docs/SURFACE_COVER.md. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "../core/core.h"
@@ -12,6 +13,7 @@
 #define LEVELS 48      /* radii R_g / 2^l, l = 0 .. LEVELS-1 */
 #define FORCED 255     /* level of a forced seed (a vertex of the fine surface kept as is) */
 #define MAX_PASSES 120 /* covering passes before the fine surface itself is returned */
+#define ASPECT 0.32    /* refine triangles whose shortest / longest edge is below this */
 
 typedef struct {
     double d;
@@ -92,7 +94,17 @@ static hitem heap_pop(cover *c) {
     return top;
 }
 
-/* Graph geodesics from src, up to (not including) limit: the disk neighbourhood. */
+static double euclid(const vm__cover_fine *m, int32_t a, int32_t b) {
+    const double *p = m->x + 3 * (size_t)a, *q = m->x + 3 * (size_t)b;
+    return sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                (p[2] - q[2]) * (p[2] - q[2]));
+}
+
+/* The disk neighbourhood of src: the vertices reached from src along the candidate graph
+ * without leaving the ball of radius limit, each with its distance to src. The paper
+ * measures the graph geodesic; we measure the straight distance within the connected piece
+ * of the surface in the ball, which never exceeds the geodesic, agrees with it to second
+ * order on small disks, and does not zigzag with the grid (see docs/SURFACE_COVER.md). */
 static vm_status dijkstra(cover *c, int32_t src, double limit, vm_error *err) {
     const vm__cover_fine *m = c->m;
     for (size_t t = 0; t < c->ntouched; t++) c->dist[c->touched[t]] = INFINITY;
@@ -106,7 +118,7 @@ static vm_status dijkstra(cover *c, int32_t src, double limit, vm_error *err) {
         if (it.d > c->dist[it.v]) continue;
         for (size_t h = m->off[it.v]; h < m->off[it.v + 1]; h++) {
             int32_t y = m->nbr[h];
-            double nd = it.d + m->len[h];
+            double nd = euclid(m, y, src);
             if (nd < limit && nd < c->dist[y]) {
                 if (c->dist[y] == INFINITY) c->touched[c->ntouched++] = y;
                 c->dist[y] = nd;
@@ -298,7 +310,9 @@ static vm_status covering(cover *c, vm_error *err) {
     return s;
 }
 
-/* Graph Voronoi neighbourhoods of the seeds: every vertex takes the nearest seed. */
+/* Voronoi neighbourhoods of the seeds, grown along the candidate graph: a vertex takes the
+ * label of a neighbour when that neighbour's seed is nearer than its own. Every
+ * neighbourhood is connected and holds its seed. */
 static vm_status voronoi(cover *c, vm_error *err) {
     const vm__cover_fine *m = c->m;
     for (size_t v = 0; v < m->nv; v++) c->dist[v] = INFINITY;
@@ -313,9 +327,10 @@ static vm_status voronoi(cover *c, vm_error *err) {
     while (!s && c->nheap > 0) {
         hitem it = heap_pop(c);
         if (it.d > c->dist[it.v]) continue;
+        int32_t src = c->seeds[c->label[it.v]];
         for (size_t h = m->off[it.v]; h < m->off[it.v + 1]; h++) {
             int32_t y = m->nbr[h];
-            double nd = it.d + m->len[h];
+            double nd = euclid(m, y, src);
             if (nd < c->dist[y]) {
                 c->dist[y] = nd;
                 c->label[y] = c->label[it.v];
@@ -528,6 +543,76 @@ static void refine(cover *c) {
         }
         if (best > c->eps) c->bad[s] = 1;
     }
+    /* The other side of the Hausdorff distance: points of each triangle (centroid, edge
+     * midpoints, and halfway from the centroid to the corners) farther than eps from the
+     * fine faces of the three neighbourhoods refine the triangle's seeds. */
+    size_t ns = c->nseeds;
+    size_t *foff = calloc(ns + 2, sizeof *foff);
+    int32_t *flist = malloc((m->nf + 1) * sizeof *flist);
+    if (foff && flist) {
+        for (size_t f = 0; f < m->nf; f++) foff[c->label[m->f[3 * f]] + 1]++;
+        for (size_t i = 0; i < ns; i++) foff[i + 1] += foff[i];
+        for (size_t f = 0; f < m->nf; f++) flist[foff[c->label[m->f[3 * f]]]++] = (int32_t)f;
+        for (size_t i = ns; i > 0; i--) foff[i] = foff[i - 1];
+        foff[0] = 0;
+        for (size_t t = 0; t < c->ntri; t++) {
+            const int32_t *v = c->tri + 3 * t;
+            if (c->bad[v[0]] && c->bad[v[1]] && c->bad[v[2]]) continue;
+            const double *p[3];
+            for (int e = 0; e < 3; e++) p[e] = m->x + 3 * (size_t)c->seeds[v[e]];
+            static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3}, {.5, .5, 0}, {0, .5, .5},
+                                              {.5, 0, .5}, {2. / 3, 1. / 6, 1. / 6},
+                                              {1. / 6, 2. / 3, 1. / 6}, {1. / 6, 1. / 6, 2. / 3}};
+            int far = 0;
+            for (int b = 0; b < 7 && !far; b++) {
+                double q[3], best = INFINITY;
+                for (int k = 0; k < 3; k++)
+                    q[k] = bary[b][0] * p[0][k] + bary[b][1] * p[1][k] + bary[b][2] * p[2][k];
+                for (int e = 0; e < 3 && best > c->eps; e++)
+                    for (size_t r = foff[v[e]]; r < foff[v[e] + 1] && best > c->eps; r++) {
+                        const int32_t *g = m->f + 3 * (size_t)flist[r];
+                        double d = point_tri(q, m->x + 3 * (size_t)g[0], m->x + 3 * (size_t)g[1],
+                                             m->x + 3 * (size_t)g[2]);
+                        if (d < best) best = d;
+                    }
+                if (best > c->eps) far = 1;
+            }
+            if (far) c->bad[v[0]] = c->bad[v[1]] = c->bad[v[2]] = 1;
+        }
+    } else {
+        for (size_t i = 0; i < ns; i++) c->bad[i] = 1; /* out of memory: refine everything */
+    }
+    free(foff);
+    free(flist);
+    /* Sec. 3.7: the radius constraints bound the geodesic edge ratio of a triangle by 1/3;
+     * the Euclidean ratio converges to it under refinement, so a triangle whose shortest /
+     * longest edge is below ASPECT refines the seeds at its longest edge. */
+    for (size_t t = 0; t < c->ntri; t++) {
+        const int32_t *v = c->tri + 3 * t;
+        double l[3];
+        for (int e = 0; e < 3; e++) {
+            const double *a = m->x + 3 * (size_t)c->seeds[v[e]];
+            const double *b = m->x + 3 * (size_t)c->seeds[v[(e + 1) % 3]];
+            l[e] = sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                        (a[2] - b[2]) * (a[2] - b[2]));
+        }
+        int emax = l[0] >= l[1] && l[0] >= l[2] ? 0 : l[1] >= l[2] ? 1 : 2;
+        double lmin = fmin(l[0], fmin(l[1], l[2]));
+        if (lmin < ASPECT * l[emax]) {
+            if (getenv("VM_COVER_DEBUG") && lmin < 0.3 * l[emax])
+                fprintf(stderr, "bad tri %.3f levels %d/%d %d/%d %d/%d lens %.2f %.2f %.2f\n",
+                        lmin / l[emax], c->seedlev[c->seeds[v[0]]], c->lmax[c->seeds[v[0]]],
+                        c->seedlev[c->seeds[v[1]]], c->lmax[c->seeds[v[1]]],
+                        c->seedlev[c->seeds[v[2]]], c->lmax[c->seeds[v[2]]], l[0], l[1], l[2]);
+            c->bad[v[emax]] = c->bad[v[(emax + 1) % 3]] = 1;
+        }
+    }
+    /* Fig. 7 for interacting neighbours: Voronoi neighbours differ by at most one level */
+    for (size_t h = 0; h < 3 * c->ntri; h++) {
+        int32_t a = (int32_t)(c->half[h] >> 32), b = (int32_t)(uint32_t)c->half[h];
+        int la = c->seedlev[c->seeds[a]], lb = c->seedlev[c->seeds[b]];
+        if (la != FORCED && lb != FORCED && la + 1 < lb) c->bad[a] = 1;
+    }
     for (size_t i = 0; i < c->nseeds; i++) {
         int32_t w = c->seeds[i];
         int l = c->seedlev[w];
@@ -673,6 +758,18 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
             c.prev[c.nprev] = w;
             c.prevlev[c.nprev++] = (uint8_t)c.seedlev[w];
         }
+    }
+    if (getenv("VM_COVER_DEBUG")) {
+        size_t nl[LEVELS + 1] = {0};
+        for (size_t i = 0; i < c.nseeds; i++) {
+            int l = c.seedlev[c.seeds[i]];
+            nl[l == FORCED ? LEVELS : l]++;
+        }
+        fprintf(stderr, "cover: %zu fine v, %zu passes, %zu repairs, %zu forced, done %d, rg %g:", m.nv,
+                c.passes, c.repairs, c.forced_cells, done, c.rg);
+        for (int l = 0; l <= LEVELS; l++)
+            if (nl[l]) fprintf(stderr, " L%d:%zu", l, nl[l]);
+        fprintf(stderr, "\n");
     }
     if (!s) {
         if (best_tri)
