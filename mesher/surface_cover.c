@@ -525,6 +525,50 @@ static double point_tri(const double *p, const double *a, const double *b, const
     return sqrt(d2s);
 }
 
+/* Fine faces of every Voronoi neighbourhood (by the label of their first corner):
+ * faces of seed i are (*flist)[(*foff)[i] .. (*foff)[i+1]-1]. 0 when out of memory. */
+static int cell_faces(const vm__cover_fine *m, const int32_t *label, size_t ns, size_t **foff_out,
+                      int32_t **flist_out) {
+    size_t *foff = calloc(ns + 2, sizeof *foff);
+    int32_t *flist = malloc((m->nf + 1) * sizeof *flist);
+    if (!foff || !flist) {
+        free(foff);
+        free(flist);
+        return 0;
+    }
+    for (size_t f = 0; f < m->nf; f++) foff[label[m->f[3 * f]] + 1]++;
+    for (size_t i = 0; i < ns; i++) foff[i + 1] += foff[i];
+    for (size_t f = 0; f < m->nf; f++) flist[foff[label[m->f[3 * f]]]++] = (int32_t)f;
+    for (size_t i = ns; i > 0; i--) foff[i] = foff[i - 1];
+    foff[0] = 0;
+    *foff_out = foff;
+    *flist_out = flist;
+    return 1;
+}
+
+/* 1 when a point of triangle p (centroid, edge midpoints, halfway from the centroid to the
+ * corners) is farther than eps from the fine faces of the neighbourhoods cells[0..ncells-1]. */
+static int tri_far(const vm__cover_fine *m, const size_t *foff, const int32_t *flist,
+                   const double *const p[3], const int32_t *cells, int ncells, double eps) {
+    static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3}, {.5, .5, 0}, {0, .5, .5},
+                                      {.5, 0, .5}, {2. / 3, 1. / 6, 1. / 6},
+                                      {1. / 6, 2. / 3, 1. / 6}, {1. / 6, 1. / 6, 2. / 3}};
+    for (int b = 0; b < 7; b++) {
+        double q[3], best = INFINITY;
+        for (int k = 0; k < 3; k++)
+            q[k] = bary[b][0] * p[0][k] + bary[b][1] * p[1][k] + bary[b][2] * p[2][k];
+        for (int e = 0; e < ncells && best > eps; e++)
+            for (size_t r = foff[cells[e]]; r < foff[cells[e] + 1] && best > eps; r++) {
+                const int32_t *g = m->f + 3 * (size_t)flist[r];
+                double d = point_tri(q, m->x + 3 * (size_t)g[0], m->x + 3 * (size_t)g[1],
+                                     m->x + 3 * (size_t)g[2]);
+                if (d < best) best = d;
+            }
+        if (best > eps) return 1;
+    }
+    return 0;
+}
+
 /* The maximum-distance metric (sec. 3.5): a seed needs refining when a fine vertex of its
  * Voronoi neighbourhood lies farther than eps from the triangles at the seed. */
 static void refine(cover *c) {
@@ -546,37 +590,15 @@ static void refine(cover *c) {
     /* The other side of the Hausdorff distance: points of each triangle (centroid, edge
      * midpoints, and halfway from the centroid to the corners) farther than eps from the
      * fine faces of the three neighbourhoods refine the triangle's seeds. */
-    size_t ns = c->nseeds;
-    size_t *foff = calloc(ns + 2, sizeof *foff);
-    int32_t *flist = malloc((m->nf + 1) * sizeof *flist);
-    if (foff && flist) {
-        for (size_t f = 0; f < m->nf; f++) foff[c->label[m->f[3 * f]] + 1]++;
-        for (size_t i = 0; i < ns; i++) foff[i + 1] += foff[i];
-        for (size_t f = 0; f < m->nf; f++) flist[foff[c->label[m->f[3 * f]]]++] = (int32_t)f;
-        for (size_t i = ns; i > 0; i--) foff[i] = foff[i - 1];
-        foff[0] = 0;
+    size_t ns = c->nseeds, *foff = NULL;
+    int32_t *flist = NULL;
+    if (cell_faces(m, c->label, ns, &foff, &flist)) {
         for (size_t t = 0; t < c->ntri; t++) {
             const int32_t *v = c->tri + 3 * t;
             if (c->bad[v[0]] && c->bad[v[1]] && c->bad[v[2]]) continue;
             const double *p[3];
             for (int e = 0; e < 3; e++) p[e] = m->x + 3 * (size_t)c->seeds[v[e]];
-            static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3}, {.5, .5, 0}, {0, .5, .5},
-                                              {.5, 0, .5}, {2. / 3, 1. / 6, 1. / 6},
-                                              {1. / 6, 2. / 3, 1. / 6}, {1. / 6, 1. / 6, 2. / 3}};
-            int far = 0;
-            for (int b = 0; b < 7 && !far; b++) {
-                double q[3], best = INFINITY;
-                for (int k = 0; k < 3; k++)
-                    q[k] = bary[b][0] * p[0][k] + bary[b][1] * p[1][k] + bary[b][2] * p[2][k];
-                for (int e = 0; e < 3 && best > c->eps; e++)
-                    for (size_t r = foff[v[e]]; r < foff[v[e] + 1] && best > c->eps; r++) {
-                        const int32_t *g = m->f + 3 * (size_t)flist[r];
-                        double d = point_tri(q, m->x + 3 * (size_t)g[0], m->x + 3 * (size_t)g[1],
-                                             m->x + 3 * (size_t)g[2]);
-                        if (d < best) best = d;
-                    }
-                if (best > c->eps) far = 1;
-            }
+            int far = tri_far(m, foff, flist, p, v, 3, c->eps);
             if (far) c->bad[v[0]] = c->bad[v[1]] = c->bad[v[2]] = 1;
         }
     } else {
@@ -621,6 +643,139 @@ static void refine(cover *c) {
             c->changed = 1;
         }
     }
+}
+
+/* -- the final edge flips ---------------------------------------------------------------- */
+
+/* Quality of a triangle for the flips: min(shortest / longest edge / 0.33, smallest angle /
+ * 20 deg); 1 and above is good on both counts. */
+static double tri_quality(const double *a, const double *b, const double *c) {
+    double l[3], l2[3];
+    const double *p[3] = {a, b, c};
+    for (int e = 0; e < 3; e++) {
+        const double *u = p[e], *w = p[(e + 1) % 3];
+        l2[e] = (u[0] - w[0]) * (u[0] - w[0]) + (u[1] - w[1]) * (u[1] - w[1]) +
+                (u[2] - w[2]) * (u[2] - w[2]);
+        l[e] = sqrt(l2[e]);
+    }
+    double lmax = fmax(l[0], fmax(l[1], l[2])), lmin = fmin(l[0], fmin(l[1], l[2]));
+    if (!(lmin > 0)) return 0;
+    double amin = INFINITY;
+    for (int e = 0; e < 3; e++) { /* the angle opposite edge e */
+        double x = l[(e + 1) % 3], y = l[(e + 2) % 3];
+        double cs = (x * x + y * y - l2[e]) / (2 * x * y);
+        if (cs > 1) cs = 1;
+        if (cs < -1) cs = -1;
+        amin = fmin(amin, acos(cs) * 180.0 / 3.14159265358979323846);
+    }
+    return fmin(lmin / lmax / 0.33, amin / 20.0);
+}
+
+static void unit_normal(const double *a, const double *b, const double *c, double n[3]) {
+    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    n[0] = u[1] * w[2] - u[2] * w[1];
+    n[1] = u[2] * w[0] - u[0] * w[2];
+    n[2] = u[0] * w[1] - u[1] * w[0];
+    double l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    for (int k = 0; k < 3; k++) n[k] = l > 0 ? n[k] / l : 0;
+}
+
+typedef struct {
+    uint64_t key;
+    int32_t he; /* 3 t + e */
+} hedge;
+
+static int cmp_hedge(const void *a, const void *b) {
+    uint64_t x = ((const hedge *)a)->key, y = ((const hedge *)b)->key;
+    return x < y ? -1 : x > y;
+}
+
+static long find_hedge(const hedge *h, size_t n, uint64_t k) {
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (h[mid].key < k) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo < n && h[lo].key == k ? (long)lo : -1;
+}
+
+/* Flips edges of the dual whose two triangles have a poor quality, when the flipped pair is
+ * better, bends no more than the old pair (or less than 30 degrees), creates no edge that
+ * exists, and stays within eps of the fine faces of the four neighbourhoods. Flips keep the
+ * surface a closed oriented manifold with the same vertices. Returns the number of flips. */
+static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, size_t ns, int32_t *tri,
+                         size_t nt, const int32_t *label, double eps) {
+    size_t *foff = NULL;
+    int32_t *flist = NULL;
+    hedge *h = malloc((3 * nt + 1) * sizeof *h);
+    uint8_t *touched = malloc(ns + 1);
+    size_t flips = 0;
+    if (!h || !touched || !cell_faces(m, label, ns, &foff, &flist)) {
+        free(h);
+        free(touched);
+        return 0;
+    }
+    const double cos30 = 0.86602540378443865;
+    for (int round = 0; round < 20; round++) {
+        for (size_t t = 0; t < nt; t++)
+            for (int e = 0; e < 3; e++) {
+                h[3 * t + e].key = hkey(tri[3 * t + e], tri[3 * t + (e + 1) % 3]);
+                h[3 * t + e].he = (int32_t)(3 * t + (size_t)e);
+            }
+        qsort(h, 3 * nt, sizeof *h, cmp_hedge);
+        memset(touched, 0, ns);
+        size_t nflip = 0;
+        for (size_t t = 0; t < nt; t++)
+            for (int e = 0; e < 3; e++) {
+                int32_t a = tri[3 * t + e], b = tri[3 * t + (e + 1) % 3];
+                int32_t c = tri[3 * t + (e + 2) % 3];
+                if (a > b || touched[a] || touched[b] || touched[c]) continue;
+                long tw = find_hedge(h, 3 * nt, hkey(b, a));
+                if (tw < 0) continue;
+                size_t t2 = (size_t)h[tw].he / 3;
+                int e2 = h[tw].he % 3;
+                int32_t d = tri[3 * t2 + (e2 + 2) % 3];
+                if (t2 == t || d == c || touched[d]) continue;
+                if (find_hedge(h, 3 * nt, hkey(c, d)) >= 0 || find_hedge(h, 3 * nt, hkey(d, c)) >= 0)
+                    continue;
+                const double *pa = m->x + 3 * (size_t)seeds[a], *pb = m->x + 3 * (size_t)seeds[b];
+                const double *pc = m->x + 3 * (size_t)seeds[c], *pd = m->x + 3 * (size_t)seeds[d];
+                double qold = fmin(tri_quality(pa, pb, pc), tri_quality(pb, pa, pd));
+                if (qold >= 1.0) continue;
+                double qnew = fmin(tri_quality(pa, pd, pc), tri_quality(pd, pb, pc));
+                if (qnew <= qold + 1e-9) continue;
+                double n1[3], n2[3], n3[3], n4[3];
+                unit_normal(pa, pb, pc, n1);
+                unit_normal(pb, pa, pd, n2);
+                unit_normal(pa, pd, pc, n3);
+                unit_normal(pd, pb, pc, n4);
+#define DOT3(u, v) ((u)[0] * (v)[0] + (u)[1] * (v)[1] + (u)[2] * (v)[2])
+                double bend_old = DOT3(n1, n2), bend_new = DOT3(n3, n4);
+                if (bend_new < fmin(bend_old, cos30)) continue;
+                if (DOT3(n3, n1) <= 0 || DOT3(n3, n2) <= 0 || DOT3(n4, n1) <= 0 ||
+                    DOT3(n4, n2) <= 0)
+                    continue;
+#undef DOT3
+                int32_t cells[4] = {a, b, c, d};
+                const double *p1[3] = {pa, pd, pc}, *p2[3] = {pd, pb, pc};
+                if (tri_far(m, foff, flist, p1, cells, 4, eps) ||
+                    tri_far(m, foff, flist, p2, cells, 4, eps))
+                    continue;
+                tri[3 * t] = a, tri[3 * t + 1] = d, tri[3 * t + 2] = c;
+                tri[3 * t2] = d, tri[3 * t2 + 1] = b, tri[3 * t2 + 2] = c;
+                touched[a] = touched[b] = touched[c] = touched[d] = 1;
+                nflip++;
+            }
+        flips += nflip;
+        if (nflip == 0) break;
+    }
+    free(h);
+    free(touched);
+    free(foff);
+    free(flist);
+    return flips;
 }
 
 /* Repairs the bad seeds of a failed dual: halve their disks, or, at the finest radius,
@@ -720,7 +875,8 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
         c.lmax[v] = (uint8_t)l;
     }
     /* the last valid dual */
-    int32_t *best_seeds = NULL, *best_tri = NULL;
+    int32_t *best_seeds = NULL, *best_tri = NULL, *best_label = malloc((nv + 1) * sizeof(int32_t));
+    if (!best_label) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
     size_t best_ns = 0, best_nt = 0;
     int done = 0;
     for (size_t pass = 0; !s && pass < MAX_PASSES && !done; pass++) {
@@ -745,6 +901,7 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
             }
             memcpy(best_seeds, c.seeds, c.nseeds * sizeof *best_seeds);
             memcpy(best_tri, c.tri, 3 * c.ntri * sizeof *best_tri);
+            memcpy(best_label, c.label, nv * sizeof *best_label);
             best_ns = c.nseeds;
             best_nt = c.ntri;
             refine(&c);
@@ -759,6 +916,9 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
             c.prevlev[c.nprev++] = (uint8_t)c.seedlev[w];
         }
     }
+    size_t flips = 0;
+    if (!s && best_tri)
+        flips = flip_edges(&m, best_seeds, best_ns, best_tri, best_nt, best_label, c.eps);
     if (getenv("VM_COVER_DEBUG")) {
         size_t nl[LEVELS + 1] = {0};
         for (size_t i = 0; i < c.nseeds; i++) {
@@ -767,6 +927,7 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
         }
         fprintf(stderr, "cover: %zu fine v, %zu passes, %zu repairs, %zu forced, done %d, rg %g:", m.nv,
                 c.passes, c.repairs, c.forced_cells, done, c.rg);
+        fprintf(stderr, " flips %zu", flips);
         for (int l = 0; l <= LEVELS; l++)
             if (nl[l]) fprintf(stderr, " L%d:%zu", l, nl[l]);
         fprintf(stderr, "\n");
@@ -779,6 +940,7 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
     }
     free(best_seeds);
     free(best_tri);
+    free(best_label);
     cover_free(&c);
     vm__cover_fine_free(&m);
     return s;
