@@ -13,6 +13,7 @@
 #define LEVELS 48      /* radii R_g / 2^l, l = 0 .. LEVELS-1 */
 #define FORCED 255     /* level of a forced seed (a vertex of the fine surface kept as is) */
 #define MAX_PASSES 120 /* covering passes before the fine surface itself is returned */
+#define REPAIRS 6      /* failed duals of a component before its fine surface is kept */
 #define ASPECT 0.32    /* refine triangles whose shortest / longest edge is below this */
 
 typedef struct {
@@ -27,11 +28,15 @@ typedef struct {
     double *dist;
     int32_t *touched;
     size_t ntouched;
+    int32_t *order; /* the touched vertices by increasing distance (the Dijkstra pops) */
+    size_t norder;
     hitem *heap;
     size_t nheap, heapcap;
     /* per vertex */
     uint8_t *lmax;    /* finest level whose disk still holds the whole 1-ring (sec. 3.9) */
     uint8_t *cap;     /* coarsest level allowed here (raised by refinement and repairs) */
+    uint8_t *hint;    /* one level coarser than the neighbourhood of the last pass: where a
+                         new disk starts (it could not grow larger next to that seed) */
     uint8_t *forced;  /* kept as a seed of its own */
     uint8_t *forb;    /* inside a disk of the covering (forbidden as a centre) */
     int16_t *binl;    /* bin of the vertex, -1 unclassified */
@@ -57,7 +62,8 @@ typedef struct {
     size_t *toff;     /* nseeds + 1: triangles at each seed */
     int32_t *tlist;
     uint8_t *bad;
-    size_t passes, repairs, forced_cells;
+    size_t passes, repairs, forced_cells, pops, places;
+    uint8_t *comp_fails; /* per fine component: failed duals so far */
 } cover;
 
 static double radius(const cover *c, int l) { return ldexp(c->rg, -l); }
@@ -109,6 +115,7 @@ static vm_status dijkstra(cover *c, int32_t src, double limit, vm_error *err) {
     const vm__cover_fine *m = c->m;
     for (size_t t = 0; t < c->ntouched; t++) c->dist[c->touched[t]] = INFINITY;
     c->ntouched = 0;
+    c->norder = 0;
     c->nheap = 0;
     c->dist[src] = 0;
     c->touched[c->ntouched++] = src;
@@ -116,6 +123,7 @@ static vm_status dijkstra(cover *c, int32_t src, double limit, vm_error *err) {
     while (!s && c->nheap > 0) {
         hitem it = heap_pop(c);
         if (it.d > c->dist[it.v]) continue;
+        c->order[c->norder++] = it.v;
         for (size_t h = m->off[it.v]; h < m->off[it.v + 1]; h++) {
             int32_t y = m->nbr[h];
             double nd = euclid(m, y, src);
@@ -146,11 +154,11 @@ static int disk_simple(cover *c, double r) {
     size_t nreg = 0, nf = 0, nb = 0, nvf = 0;
     int ok = 1;
     int32_t first = -1;
-    for (size_t t = 0; t < c->ntouched; t++)
-        if (c->dist[c->touched[t]] < r) c->bcnt[c->touched[t]] = 0, nreg++;
-    for (size_t t = 0; t < c->ntouched; t++) {
-        int32_t v = c->touched[t];
-        if (c->dist[v] >= r) continue;
+    size_t n = 0; /* the disk: the first n vertices by distance */
+    while (n < c->norder && c->dist[c->order[n]] < r) c->bcnt[c->order[n++]] = 0;
+    nreg = n;
+    for (size_t t = 0; t < n; t++) {
+        int32_t v = c->order[t];
         int has = 0;
         for (size_t h = m->off[v]; h < m->off[v + 1]; h++) {
             int32_t f = m->hface[h];
@@ -170,9 +178,9 @@ static int disk_simple(cover *c, double r) {
         nvf += has;
     }
     if (nvf != nreg || nb < 3 || first < 0) ok = 0;
-    for (size_t t = 0; ok && t < c->ntouched; t++) {
-        int32_t v = c->touched[t];
-        if (c->dist[v] < r && c->bcnt[v] != 0 && c->bcnt[v] != 2) ok = 0;
+    for (size_t t = 0; ok && t < n; t++) {
+        int32_t v = c->order[t];
+        if (c->bcnt[v] != 0 && c->bcnt[v] != 2) ok = 0;
     }
     if (ok) {
         long euler = (long)nvf - (long)(3 * nf + nb) / 2 + (long)nf;
@@ -191,8 +199,8 @@ static int disk_simple(cover *c, double r) {
         }
         if (tail != nf) ok = 0;
     }
-    for (size_t t = 0; t < c->ntouched; t++) {
-        int32_t v = c->touched[t];
+    for (size_t t = 0; t < n; t++) {
+        int32_t v = c->order[t];
         for (size_t h = m->off[v]; h < m->off[v + 1]; h++) c->fmark[m->hface[h]] = 0;
     }
     return ok;
@@ -235,9 +243,12 @@ static vm_status classify(cover *c, int32_t w, int l, vm_error *err) {
 static vm_status place(cover *c, int32_t w, int l0, vm_error *err) {
     int lm = c->lmax[w];
     int l = l0 > c->cap[w] ? l0 : c->cap[w];
+    if (l < c->hint[w]) l = c->hint[w];
     if (l > lm) l = lm;
     vm_status s = dijkstra(c, w, 3 * radius(c, l), err);
     if (s) return s;
+    c->pops += c->norder;
+    c->places++;
     for (;;) {
         while (l < lm && !disk_simple(c, radius(c, l))) l++;
         int bump = 0;
@@ -576,7 +587,6 @@ static void refine(cover *c) {
     memset(c->bad, 0, c->nseeds);
     for (size_t x = 0; x < m->nv; x++) {
         int32_t s = c->label[x];
-        if (c->bad[s]) continue;
         double best = INFINITY;
         for (size_t q = c->toff[s]; q < c->toff[s + 1] && best > c->eps; q++) {
             const int32_t *t = c->tri + 3 * (size_t)c->tlist[q];
@@ -585,7 +595,13 @@ static void refine(cover *c) {
                                  m->x + 3 * (size_t)c->seeds[t[2]]);
             if (d < best) best = d;
         }
-        if (best > c->eps) c->bad[s] = 1;
+        if (best > c->eps) {
+            /* a chord's sagitta grows as the square of its length: halve the radius
+             * log4(error / eps) times at once */
+            int jump = (int)ceil(0.5 * log2(best / c->eps));
+            jump = jump < 1 ? 1 : jump > 4 ? 4 : jump;
+            if (c->bad[s] < jump) c->bad[s] = (uint8_t)jump;
+        }
     }
     /* The other side of the Hausdorff distance: points of each triangle (centroid, edge
      * midpoints, and halfway from the centroid to the corners) farther than eps from the
@@ -599,7 +615,8 @@ static void refine(cover *c) {
             const double *p[3];
             for (int e = 0; e < 3; e++) p[e] = m->x + 3 * (size_t)c->seeds[v[e]];
             int far = tri_far(m, foff, flist, p, v, 3, c->eps);
-            if (far) c->bad[v[0]] = c->bad[v[1]] = c->bad[v[2]] = 1;
+            if (far)
+                for (int e = 0; e < 3; e++) c->bad[v[e]] = c->bad[v[e]] ? c->bad[v[e]] : 1;
         }
     } else {
         for (size_t i = 0; i < ns; i++) c->bad[i] = 1; /* out of memory: refine everything */
@@ -626,20 +643,25 @@ static void refine(cover *c) {
                         lmin / l[emax], c->seedlev[c->seeds[v[0]]], c->lmax[c->seeds[v[0]]],
                         c->seedlev[c->seeds[v[1]]], c->lmax[c->seeds[v[1]]],
                         c->seedlev[c->seeds[v[2]]], c->lmax[c->seeds[v[2]]], l[0], l[1], l[2]);
-            c->bad[v[emax]] = c->bad[v[(emax + 1) % 3]] = 1;
+            for (int e = 0; e < 2; e++) {
+                int32_t q = v[(emax + e) % 3];
+                c->bad[q] = c->bad[q] ? c->bad[q] : 1;
+            }
         }
     }
     /* Fig. 7 for interacting neighbours: Voronoi neighbours differ by at most one level */
     for (size_t h = 0; h < 3 * c->ntri; h++) {
         int32_t a = (int32_t)(c->half[h] >> 32), b = (int32_t)(uint32_t)c->half[h];
         int la = c->seedlev[c->seeds[a]], lb = c->seedlev[c->seeds[b]];
-        if (la != FORCED && lb != FORCED && la + 1 < lb) c->bad[a] = 1;
+        if (la != FORCED && lb != FORCED && la + 1 < lb) c->bad[a] = c->bad[a] ? c->bad[a] : 1;
     }
     for (size_t i = 0; i < c->nseeds; i++) {
         int32_t w = c->seeds[i];
         int l = c->seedlev[w];
-        if (c->bad[i] && l != FORCED && l < c->lmax[w] && c->cap[w] < l + 1) {
-            c->cap[w] = (uint8_t)(l + 1);
+        int want = l + c->bad[i];
+        if (want > c->lmax[w]) want = c->lmax[w];
+        if (c->bad[i] && l != FORCED && c->cap[w] < want) {
+            c->cap[w] = (uint8_t)want;
             c->changed = 1;
         }
     }
@@ -705,8 +727,8 @@ static long find_hedge(const hedge *h, size_t n, uint64_t k) {
  * better, bends no more than the old pair (or less than 30 degrees), creates no edge that
  * exists, and stays within eps of the fine faces of the four neighbourhoods. Flips keep the
  * surface a closed oriented manifold with the same vertices. Returns the number of flips. */
-static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, size_t ns, int32_t *tri,
-                         size_t nt, const int32_t *label, double eps) {
+static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, const uint8_t *forced,
+                         size_t ns, int32_t *tri, size_t nt, const int32_t *label, double eps) {
     size_t *foff = NULL;
     int32_t *flist = NULL;
     hedge *h = malloc((3 * nt + 1) * sizeof *h);
@@ -738,6 +760,9 @@ static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, size_t n
                 int e2 = h[tw].he % 3;
                 int32_t d = tri[3 * t2 + (e2 + 2) % 3];
                 if (t2 == t || d == c || touched[d]) continue;
+                /* the fine surface kept as is stays as is */
+                if (forced[seeds[a]] || forced[seeds[b]] || forced[seeds[c]] || forced[seeds[d]])
+                    continue;
                 if (find_hedge(h, 3 * nt, hkey(c, d)) >= 0 || find_hedge(h, 3 * nt, hkey(d, c)) >= 0)
                     continue;
                 const double *pa = m->x + 3 * (size_t)seeds[a], *pb = m->x + 3 * (size_t)seeds[b];
@@ -779,32 +804,52 @@ static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, size_t n
 }
 
 /* Repairs the bad seeds of a failed dual: halve their disks, or, at the finest radius,
- * keep every fine vertex of their neighbourhoods (and the 1-ring around) as a seed. */
+ * keep every fine vertex of their component as a seed. */
 static void repair(cover *c) {
     const vm__cover_fine *m = c->m;
     int any_force = 0;
+    /* count the failures of each component once per pass */
+    uint8_t *seen = calloc(m->ncomp + 1, 1);
+    for (size_t i = 0; seen && i < c->nseeds; i++) {
+        int32_t k = m->comp[c->seeds[i]];
+        if (c->bad[i] && !seen[k]) {
+            seen[k] = 1;
+            if (c->comp_fails[k] < 255) c->comp_fails[k]++;
+        }
+    }
+    free(seen);
     for (size_t i = 0; i < c->nseeds; i++) {
         if (!c->bad[i]) continue;
         int32_t w = c->seeds[i];
         int l = c->seedlev[w];
         if (l != FORCED && l < c->lmax[w]) {
             if (c->cap[w] < l + 1) c->cap[w] = (uint8_t)(l + 1);
-        } else {
+        } else if (c->comp_fails[m->comp[w]] >= REPAIRS) {
             c->bad[i] = 2;
             any_force = 1;
             c->forced_cells++;
         }
     }
     if (!any_force) return;
+    /* A neighbourhood that cannot shrink further (the paper's case for supersampling, sec.
+     * 3.9) keeps its whole component of the fine surface: a mix of fine and coarse
+     * triangles could cross at the seam. */
+    uint8_t *comp_forced = calloc(m->ncomp + 1, 1);
+    if (!comp_forced) { /* out of memory: keep just the cells */
+        for (size_t x = 0; x < m->nv; x++)
+            if (c->bad[c->label[x]] == 2) c->forced[x] = 1;
+        return;
+    }
     for (size_t x = 0; x < m->nv; x++)
-        if (c->bad[c->label[x]] == 2) {
-            c->forced[x] = 1;
-            for (size_t h = m->off[x]; h < m->off[x + 1]; h++) c->forced[m->nbr[h]] = 1;
-        }
+        if (c->bad[c->label[x]] == 2) comp_forced[m->comp[x]] = 1;
+    for (size_t x = 0; x < m->nv; x++)
+        if (comp_forced[m->comp[x]]) c->forced[x] = 1;
+    free(comp_forced);
 }
 
 static void cover_free(cover *c) {
-    free(c->dist), free(c->touched), free(c->heap), free(c->lmax), free(c->cap);
+    free(c->dist), free(c->touched), free(c->order), free(c->heap), free(c->lmax), free(c->cap), free(c->hint);
+    free(c->comp_fails);
     free(c->forced), free(c->forb), free(c->binl), free(c->seedlev), free(c->bcnt);
     free(c->fmark), free(c->fqueue), free(c->label), free(c->seeds), free(c->prev);
     free(c->prevlev), free(c->tri), free(c->half), free(c->toff), free(c->tlist), free(c->bad);
@@ -812,13 +857,15 @@ static void cover_free(cover *c) {
 }
 
 /* Appends triangles (seed indices into seeds) to surf. */
-static vm_status emit(const vm__cover_fine *m, const int32_t *seeds, size_t ns,
-                      const int32_t *tri, size_t ntri, vm_mesh *surf, vm_error *err) {
+static vm_status emit(const vm__cover_fine *m, const double *scale, const int32_t *seeds,
+                      size_t ns, const int32_t *tri, size_t ntri, vm_mesh *surf, vm_error *err) {
     vm_status s = vm_mesh_reserve(surf, surf->npoints + ns, surf->ncells + ntri, err);
     size_t base = surf->npoints;
-    for (size_t i = 0; !s && i < ns; i++)
-        if (vm_mesh_add_point(surf, m->x + 3 * (size_t)(seeds ? seeds[i] : (int32_t)i), err) < 0)
-            s = VM_ERR_NOMEM;
+    for (size_t i = 0; !s && i < ns; i++) {
+        const double *x = m->x + 3 * (size_t)(seeds ? seeds[i] : (int32_t)i);
+        double q[3] = {x[0] / scale[0], x[1] / scale[1], x[2] / scale[2]};
+        if (vm_mesh_add_point(surf, q, err) < 0) s = VM_ERR_NOMEM;
+    }
     for (size_t t = 0; !s && t < ntri; t++) {
         vm_index nodes[3];
         for (int e = 0; e < 3; e++) nodes[e] = (vm_index)(base + (size_t)tri[3 * t + e]);
@@ -829,8 +876,23 @@ static vm_status emit(const vm__cover_fine *m, const int32_t *seeds, size_t ns,
 
 vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options *o,
                             vm_mesh *surf, vm_surface_stats *st, vm_error *err) {
+    static const double unit[3] = {1, 1, 1};
+    return vm__surface_cover_scaled(g, o, unit, surf, st, err);
+}
+
+vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_options *o,
+                                   const double scale_in[3], vm_mesh *surf, vm_surface_stats *st,
+                                   vm_error *err) {
+    double scale[3], smin = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        if (!(fabs(scale_in[a]) > 0) || !isfinite(scale_in[a]))
+            return vm_error_set(err, VM_ERR_ARG, "surface cover: axis %d step %g must be finite and "
+                                "non-zero", a, scale_in[a]);
+        smin = fmin(smin, fabs(scale_in[a]));
+    }
+    for (int a = 0; a < 3; a++) scale[a] = fabs(scale_in[a]) / smin;
     vm__cover_fine m;
-    vm_status s = vm__cover_fine_build(g, &m, err);
+    vm_status s = vm__cover_fine_build(g, scale, &m, err);
     if (s) return s;
     st->cells_visited = m.cells_visited;
     if (m.nf == 0) {
@@ -841,14 +903,17 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
     memset(&c, 0, sizeof c);
     c.m = &m;
     c.eps = o->error;
-    int64_t nmax = g->n[0] > g->n[1] ? g->n[0] : g->n[1];
-    if (g->n[2] > nmax) nmax = g->n[2];
-    c.rg = 0.5 * (double)nmax + 1.0;
+    double nmax = 0;
+    for (int a = 0; a < 3; a++) nmax = fmax(nmax, (double)g->n[a] * scale[a]);
+    c.rg = 0.5 * nmax + 1.0; /* R_g: half the volume, the first disk may cover it all */
     size_t nv = m.nv;
     c.dist = malloc(nv * sizeof *c.dist);
     c.touched = malloc(nv * sizeof *c.touched);
+    c.order = malloc(nv * sizeof *c.order);
     c.lmax = malloc(nv);
     c.cap = calloc(nv, 1);
+    c.hint = calloc(nv, 1);
+    c.comp_fails = calloc(m.ncomp + 1, 1);
     c.forced = calloc(nv, 1);
     c.forb = malloc(nv);
     c.binl = malloc(nv * sizeof *c.binl);
@@ -861,7 +926,7 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
     c.prev = malloc(nv * sizeof *c.prev);
     c.prevlev = malloc(nv);
     c.bad = malloc(nv);
-    if (!c.dist || !c.touched || !c.lmax || !c.cap || !c.forced || !c.forb || !c.binl ||
+    if (!c.dist || !c.touched || !c.order || !c.lmax || !c.cap || !c.hint || !c.comp_fails || !c.forced || !c.forb || !c.binl ||
         !c.seedlev || !c.bcnt || !c.fmark || !c.fqueue || !c.label || !c.seeds || !c.prev ||
         !c.prevlev || !c.bad)
         s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (%zu vertices)", nv);
@@ -876,7 +941,9 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
     }
     /* the last valid dual */
     int32_t *best_seeds = NULL, *best_tri = NULL, *best_label = malloc((nv + 1) * sizeof(int32_t));
-    if (!best_label) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    uint8_t *best_forced = malloc(nv + 1);
+    if (!best_label || !best_forced)
+        s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
     size_t best_ns = 0, best_nt = 0;
     int done = 0;
     for (size_t pass = 0; !s && pass < MAX_PASSES && !done; pass++) {
@@ -902,12 +969,17 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
             memcpy(best_seeds, c.seeds, c.nseeds * sizeof *best_seeds);
             memcpy(best_tri, c.tri, 3 * c.ntri * sizeof *best_tri);
             memcpy(best_label, c.label, nv * sizeof *best_label);
+            memcpy(best_forced, c.forced, nv);
             best_ns = c.nseeds;
             best_nt = c.ntri;
             refine(&c);
             if (!c.changed) done = 1;
         }
         /* the next pass starts from these seeds */
+        for (size_t v = 0; v < nv; v++) {
+            int l = c.seedlev[c.seeds[c.label[v]]];
+            c.hint[v] = (uint8_t)(l == FORCED || l < 1 ? 0 : l - 1);
+        }
         c.nprev = 0;
         for (size_t i = 0; i < c.nseeds; i++) {
             int32_t w = c.seeds[i];
@@ -918,7 +990,8 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
     }
     size_t flips = 0;
     if (!s && best_tri)
-        flips = flip_edges(&m, best_seeds, best_ns, best_tri, best_nt, best_label, c.eps);
+        flips = flip_edges(&m, best_seeds, best_forced, best_ns, best_tri, best_nt, best_label,
+                           c.eps);
     if (getenv("VM_COVER_DEBUG")) {
         size_t nl[LEVELS + 1] = {0};
         for (size_t i = 0; i < c.nseeds; i++) {
@@ -927,20 +1000,21 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
         }
         fprintf(stderr, "cover: %zu fine v, %zu passes, %zu repairs, %zu forced, done %d, rg %g:", m.nv,
                 c.passes, c.repairs, c.forced_cells, done, c.rg);
-        fprintf(stderr, " flips %zu", flips);
+        fprintf(stderr, " flips %zu pops %zu places %zu", flips, c.pops, c.places);
         for (int l = 0; l <= LEVELS; l++)
             if (nl[l]) fprintf(stderr, " L%d:%zu", l, nl[l]);
         fprintf(stderr, "\n");
     }
     if (!s) {
         if (best_tri)
-            s = emit(&m, best_seeds, best_ns, best_tri, best_nt, surf, err);
+            s = emit(&m, scale, best_seeds, best_ns, best_tri, best_nt, surf, err);
         else /* no valid covering: the fine surface itself, which is one */
-            s = emit(&m, NULL, m.nv, m.f, m.nf, surf, err);
+            s = emit(&m, scale, NULL, m.nv, m.f, m.nf, surf, err);
     }
     free(best_seeds);
     free(best_tri);
     free(best_label);
+    free(best_forced);
     cover_free(&c);
     vm__cover_fine_free(&m);
     return s;

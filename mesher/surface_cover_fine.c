@@ -42,7 +42,12 @@ static vm_status edge_vertex(builder *b, int64_t i, int64_t j, int64_t k, int d,
     }
     int64_t q[3] = {i + (d & 1), j + ((d >> 1) & 1), k + ((d >> 2) & 1)};
     double sa = sval(b, i, j, k), sb = sval(b, q[0], q[1], q[2]);
-    double t = sa / (sa - sb); /* the two ends have opposite signs */
+    /* The two ends have opposite signs. A sample exactly on the level (integer data at an
+     * integer iso) counts as inside; the crossing stays 1/100 of the edge away from either
+     * end so that the vertices of the edges around such a sample stay apart. */
+    double t = sa / (sa - sb);
+    if (t < 0.01) t = 0.01;
+    if (t > 0.99) t = 0.99;
     if (b->nv >= INT32_MAX)
         return vm_error_set(err, VM_ERR_NOMEM, "surface cover: more than 2^31 fine vertices");
     vm_status s = vm__grow((void **)&b->x, &b->xcap, 3 * (b->nv + 1), sizeof(double), err);
@@ -259,15 +264,16 @@ static vm_status adjacency(vm__cover_fine *m, vm_error *err) {
     return VM_OK;
 }
 
-vm_status vm__cover_fine_build(const vm__surface_grid *g, vm__cover_fine *m, vm_error *err) {
+vm_status vm__cover_fine_build(const vm__surface_grid *g, const double *scale, vm__cover_fine *m,
+                               vm_error *err) {
     memset(m, 0, sizeof *m);
     builder b;
     memset(&b, 0, sizeof b);
     b.g = g;
     for (int a = 0; a < 3; a++) b.p[a] = g->n[a] + 2;
     /* The padding is outside by far more than any sample is inside, so the crossing on an
-     * edge to it sits within 1e-3 voxel of the border sample: the material is closed by
-     * flat faces on the box. */
+     * edge to it sits 1/100 of the edge from the border sample: the material is closed by
+     * flat faces on the box, 0.01 voxel outside it. */
     double amax = 0;
     size_t count = (size_t)(g->n[0] * g->n[1] * g->n[2]);
     for (size_t q = 0; q < count; q++) {
@@ -291,6 +297,9 @@ vm_status vm__cover_fine_build(const vm__surface_grid *g, vm__cover_fine *m, vm_
     }
     free(b.eid[0]);
     free(b.eid[1]);
+    if (scale)
+        for (size_t v = 0; v < b.nv; v++)
+            for (int a = 0; a < 3; a++) b.x[3 * v + a] *= scale[a];
     m->x = b.x;
     m->f = b.f;
     m->nv = b.nv;

@@ -27,8 +27,18 @@ typedef struct vm__cover_fine {
 } vm__cover_fine;
 
 /* Builds the fine surface of g; the border is closed by a padding layer far outside
- * (see surface_cover_fine.c). */
-vm_status vm__cover_fine_build(const vm__surface_grid *g, vm__cover_fine *m, vm_error *err);
+ * (see surface_cover_fine.c). Points are in grid index coordinates times scale[a] per axis
+ * (NULL: 1, 1, 1). */
+vm_status vm__cover_fine_build(const vm__surface_grid *g, const double *scale, vm__cover_fine *m,
+                               vm_error *err);
+
+/* vm__surface_cover measuring lengths (disk radii, edge ratios, the error) with index steps
+ * of length scale[a] / min(scale) voxels along axis a, for volumes with anisotropic
+ * spacing: pass |spacing[a]| * step[a]. vm__surface_cover is this with scale 1, 1, 1. The
+ * output is in grid index coordinates, as for every method. */
+vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_options *o,
+                                   const double scale[3], vm_mesh *surf, vm_surface_stats *st,
+                                   vm_error *err);
 void vm__cover_fine_free(vm__cover_fine *m);
 
 #endif
