@@ -4,16 +4,18 @@
  * R_g / 2^i (sec. 3.3, Figs. 3-7), its graph Voronoi neighbourhoods and their dual triangles,
  * refined by the maximum-distance metric (sec. 3.4-3.5, Fig. 8). See docs/SURFACE_COVER.md. */
 #include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "../core/core.h"
 #include "surface_cover_internal.h"
+#include "../quality/self_intersect.h"
 
 #define LEVELS 48      /* radii R_g / 2^l, l = 0 .. LEVELS-1 */
 #define FORCED 255     /* level of a forced seed (a vertex of the fine surface kept as is) */
 #define MAX_PASSES 120 /* covering passes before the fine surface itself is returned */
 #define REPAIRS 6      /* failed duals of a component before its fine surface is kept */
+#define EXTRA 0        /* levels below the 1-ring rule a topological repair may go (the aspect
+                          bound holds only with 0) */
 #define ASPECT 0.32    /* refine triangles whose shortest / longest edge is below this */
 
 typedef struct {
@@ -35,6 +37,7 @@ typedef struct {
     /* per vertex */
     uint8_t *lmax;    /* finest level whose disk still holds the whole 1-ring (sec. 3.9) */
     uint8_t *cap;     /* coarsest level allowed here (raised by refinement and repairs) */
+    uint8_t *lfloor;  /* lmax as the 1-ring rule sets it */
     uint8_t *hint;    /* one level coarser than the neighbourhood of the last pass: where a
                          new disk starts (it could not grow larger next to that seed) */
     uint8_t *forced;  /* kept as a seed of its own */
@@ -62,7 +65,7 @@ typedef struct {
     size_t *toff;     /* nseeds + 1: triangles at each seed */
     int32_t *tlist;
     uint8_t *bad;
-    size_t passes, repairs, forced_cells, pops, places;
+    size_t passes, repairs, forced_cells, pops, places, untangles;
     uint8_t *comp_fails; /* per fine component: failed duals so far */
 } cover;
 
@@ -457,7 +460,29 @@ static vm_status dual(cover *c, size_t *nbad, vm_error *err) {
         } while (t != t0 && steps <= deg);
         if (t != t0 || steps != deg) c->bad[a] = 1;
     }
-    /* Euler characteristic and connectedness per component of the fine surface */
+    /* The closed-ball property: every Voronoi neighbourhood is a disk, Euler characteristic 1
+     * (V - E + F of the fine vertices, edges and faces inside it). A neighbourhood wrapped
+     * around a small handle (0) or holding a small component (2) hides topology from the
+     * dual. */
+    {
+        long *cchi = calloc(ns + 1, sizeof *cchi);
+        if (!cchi) return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+        for (size_t x = 0; x < m->nv; x++) {
+            int32_t a = c->label[x];
+            cchi[a] += 1;
+            for (size_t h = m->off[x]; h < m->off[x + 1]; h++)
+                if ((size_t)m->nbr[h] > x && c->label[m->nbr[h]] == a) cchi[a] -= 1;
+        }
+        for (size_t f = 0; f < m->nf; f++) {
+            int32_t a = c->label[m->f[3 * f]];
+            if (c->label[m->f[3 * f + 1]] == a && c->label[m->f[3 * f + 2]] == a) cchi[a] += 1;
+        }
+        for (size_t i = 0; i < ns; i++)
+            if (cchi[i] != 1) c->bad[i] = 1;
+        free(cchi);
+    }
+    /* Euler characteristic and connectedness per component of the fine surface; when they
+     * fail with no local defect found, every seed of the component is refined */
     size_t nc = m->ncomp;
     long *chi = calloc(nc + 1, sizeof *chi);
     int32_t *uf = malloc((ns + 1) * sizeof *uf);
@@ -489,8 +514,16 @@ static vm_status dual(cover *c, size_t *nbad, vm_error *err) {
         if (croot[k] < 0) croot[k] = a;
         else if (croot[k] != a) cbad[k] = 1;
     }
+    uint8_t *clocal = calloc(nc + 1, 1);
+    if (!clocal) {
+        free(chi), free(uf), free(croot), free(cbad);
+        return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    }
     for (size_t i = 0; i < ns; i++)
-        if (cbad[m->comp[c->seeds[i]]]) c->bad[i] = 1;
+        if (c->bad[i]) clocal[m->comp[c->seeds[i]]] = 1;
+    for (size_t i = 0; i < ns; i++)
+        if (cbad[m->comp[c->seeds[i]]] && !clocal[m->comp[c->seeds[i]]]) c->bad[i] = 1;
+    free(clocal);
     free(chi), free(uf), free(croot), free(cbad);
     size_t n = 0;
     for (size_t i = 0; i < ns; i++) n += c->bad[i];
@@ -638,13 +671,16 @@ static void refine(cover *c) {
         int emax = l[0] >= l[1] && l[0] >= l[2] ? 0 : l[1] >= l[2] ? 1 : 2;
         double lmin = fmin(l[0], fmin(l[1], l[2]));
         if (lmin < ASPECT * l[emax]) {
-            if (getenv("VM_COVER_DEBUG") && lmin < 0.3 * l[emax])
-                fprintf(stderr, "bad tri %.3f levels %d/%d %d/%d %d/%d lens %.2f %.2f %.2f\n",
-                        lmin / l[emax], c->seedlev[c->seeds[v[0]]], c->lmax[c->seeds[v[0]]],
-                        c->seedlev[c->seeds[v[1]]], c->lmax[c->seeds[v[1]]],
-                        c->seedlev[c->seeds[v[2]]], c->lmax[c->seeds[v[2]]], l[0], l[1], l[2]);
+            /* the seeds of the longest edge, or the third when those are at their finest */
+            int any = 0;
             for (int e = 0; e < 2; e++) {
                 int32_t q = v[(emax + e) % 3];
+                int lq = c->seedlev[c->seeds[q]];
+                if (lq != FORCED && lq < c->lmax[c->seeds[q]]) any = 1;
+                c->bad[q] = c->bad[q] ? c->bad[q] : 1;
+            }
+            if (!any) {
+                int32_t q = v[(emax + 2) % 3];
                 c->bad[q] = c->bad[q] ? c->bad[q] : 1;
             }
         }
@@ -824,6 +860,11 @@ static void repair(cover *c) {
         int l = c->seedlev[w];
         if (l != FORCED && l < c->lmax[w]) {
             if (c->cap[w] < l + 1) c->cap[w] = (uint8_t)(l + 1);
+        } else if (l != FORCED && c->lmax[w] < c->lfloor[w] + EXTRA && l + 1 < LEVELS) {
+            /* below the 1-ring rule, at most EXTRA levels: resolves a small feature at the
+             * price of the aspect bound there (sec. 3.9's trade-off) */
+            c->lmax[w]++;
+            c->cap[w] = (uint8_t)(l + 1);
         } else if (c->comp_fails[m->comp[w]] >= REPAIRS) {
             c->bad[i] = 2;
             any_force = 1;
@@ -832,23 +873,48 @@ static void repair(cover *c) {
     }
     if (!any_force) return;
     /* A neighbourhood that cannot shrink further (the paper's case for supersampling, sec.
-     * 3.9) keeps its whole component of the fine surface: a mix of fine and coarse
-     * triangles could cross at the seam. */
-    uint8_t *comp_forced = calloc(m->ncomp + 1, 1);
-    if (!comp_forced) { /* out of memory: keep just the cells */
-        for (size_t x = 0; x < m->nv; x++)
-            if (c->bad[c->label[x]] == 2) c->forced[x] = 1;
-        return;
+     * 3.9) keeps its whole component of the fine surface: a seam between fine and coarse
+     * triangles tends to cross itself. */
+    uint8_t *cf = calloc(m->ncomp + 1, 1);
+    for (size_t x = 0; x < m->nv; x++)
+        if (c->bad[c->label[x]] == 2) {
+            c->forced[x] = 1;
+            if (cf) cf[m->comp[x]] = 1;
+        }
+    for (size_t x = 0; cf && x < m->nv; x++)
+        if (cf[m->comp[x]]) c->forced[x] = 1;
+    free(cf);
+}
+
+/* Self-intersections of the dual (the paper leaves them to refinement, sec. 3.8; we look):
+ * every component of the fine surface holding an intersecting triangle keeps its fine
+ * surface. Returns the number of intersecting pairs. */
+static vm_status untangle(cover *c, const int32_t *tri, size_t nt, size_t *pairs, vm_error *err) {
+    const vm__cover_fine *m = c->m;
+    vm_index *t = malloc((3 * nt + 1) * sizeof *t);
+    uint8_t *flags = malloc(nt + 1);
+    double *pts = malloc((3 * c->nseeds + 1) * sizeof *pts);
+    uint8_t *cf = calloc(m->ncomp + 1, 1);
+    vm_status s = VM_OK;
+    if (!t || !flags || !pts || !cf) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    if (!s) {
+        for (size_t i = 0; i < 3 * nt; i++) t[i] = (vm_index)tri[i];
+        for (size_t i = 0; i < c->nseeds; i++)
+            memcpy(pts + 3 * i, m->x + 3 * (size_t)c->seeds[i], 3 * sizeof *pts);
+        s = vm__self_intersections(pts, t, nt, pairs, flags, err);
     }
-    for (size_t x = 0; x < m->nv; x++)
-        if (c->bad[c->label[x]] == 2) comp_forced[m->comp[x]] = 1;
-    for (size_t x = 0; x < m->nv; x++)
-        if (comp_forced[m->comp[x]]) c->forced[x] = 1;
-    free(comp_forced);
+    if (!s && *pairs > 0) {
+        for (size_t i = 0; i < nt; i++)
+            if (flags[i]) cf[m->comp[c->seeds[tri[3 * i]]]] = 1;
+        for (size_t x = 0; x < m->nv; x++)
+            if (cf[m->comp[x]]) c->forced[x] = 1;
+    }
+    free(t), free(flags), free(pts), free(cf);
+    return s;
 }
 
 static void cover_free(cover *c) {
-    free(c->dist), free(c->touched), free(c->order), free(c->heap), free(c->lmax), free(c->cap), free(c->hint);
+    free(c->dist), free(c->touched), free(c->order), free(c->heap), free(c->lmax), free(c->cap), free(c->hint), free(c->lfloor);
     free(c->comp_fails);
     free(c->forced), free(c->forb), free(c->binl), free(c->seedlev), free(c->bcnt);
     free(c->fmark), free(c->fqueue), free(c->label), free(c->seeds), free(c->prev);
@@ -858,7 +924,8 @@ static void cover_free(cover *c) {
 
 /* Appends triangles (seed indices into seeds) to surf. */
 static vm_status emit(const vm__cover_fine *m, const double *scale, const int32_t *seeds,
-                      size_t ns, const int32_t *tri, size_t ntri, vm_mesh *surf, vm_error *err) {
+                      const uint8_t *forced, size_t ns, const int32_t *tri, size_t ntri,
+                      vm_mesh *surf, vm_error *err) {
     vm_status s = vm_mesh_reserve(surf, surf->npoints + ns, surf->ncells + ntri, err);
     size_t base = surf->npoints;
     for (size_t i = 0; !s && i < ns; i++) {
@@ -871,6 +938,23 @@ static vm_status emit(const vm__cover_fine *m, const double *scale, const int32_
         for (int e = 0; e < 3; e++) nodes[e] = (vm_index)(base + (size_t)tri[3 * t + e]);
         s = vm_mesh_add_cell(surf, nodes, 1, err);
     }
+    /* cell field cover_fine: 1 on triangles kept from the fine surface or at its seam (a
+     * corner is a forced seed), where the aspect bound does not hold */
+    double *kept = s ? NULL : malloc((surf->ncells + 1) * sizeof *kept);
+    if (!s && !kept) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    if (!s) {
+        for (size_t t = 0; t < surf->ncells; t++) kept[t] = 0;
+        for (size_t t = 0; t < ntri; t++) {
+            int any = 0;
+            for (int e = 0; e < 3; e++) {
+                size_t q = (size_t)tri[3 * t + e];
+                if (forced[seeds ? (size_t)seeds[q] : q]) any = 1;
+            }
+            kept[surf->ncells - ntri + t] = any;
+        }
+        s = vm_mesh_set_field(surf, 1, "cover_fine", 1, kept, err);
+    }
+    free(kept);
     return s;
 }
 
@@ -913,6 +997,7 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
     c.lmax = malloc(nv);
     c.cap = calloc(nv, 1);
     c.hint = calloc(nv, 1);
+    c.lfloor = malloc(nv + 1);
     c.comp_fails = calloc(m.ncomp + 1, 1);
     c.forced = calloc(nv, 1);
     c.forb = malloc(nv);
@@ -926,7 +1011,7 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
     c.prev = malloc(nv * sizeof *c.prev);
     c.prevlev = malloc(nv);
     c.bad = malloc(nv);
-    if (!c.dist || !c.touched || !c.order || !c.lmax || !c.cap || !c.hint || !c.comp_fails || !c.forced || !c.forb || !c.binl ||
+    if (!c.dist || !c.touched || !c.order || !c.lmax || !c.cap || !c.hint || !c.lfloor || !c.comp_fails || !c.forced || !c.forb || !c.binl ||
         !c.seedlev || !c.bcnt || !c.fmark || !c.fqueue || !c.label || !c.seeds || !c.prev ||
         !c.prevlev || !c.bad)
         s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (%zu vertices)", nv);
@@ -937,7 +1022,7 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
             if (m.len[h] > emax) emax = m.len[h];
         int l = 0;
         while (l + 1 < LEVELS && radius(&c, l + 1) > emax * (1 + 1e-9)) l++;
-        c.lmax[v] = (uint8_t)l;
+        c.lmax[v] = c.lfloor[v] = (uint8_t)l;
     }
     /* the last valid dual */
     int32_t *best_seeds = NULL, *best_tri = NULL, *best_label = malloc((nv + 1) * sizeof(int32_t));
@@ -946,6 +1031,8 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
         s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
     size_t best_ns = 0, best_nt = 0;
     int done = 0;
+    size_t flips = 0;
+    uint8_t *all_forced = NULL;
     for (size_t pass = 0; !s && pass < MAX_PASSES && !done; pass++) {
         c.changed = 0;
         c.passes++;
@@ -973,7 +1060,15 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
             best_ns = c.nseeds;
             best_nt = c.ntri;
             refine(&c);
-            if (!c.changed) done = 1;
+            if (!c.changed) {
+                size_t pairs = 0;
+                flips += flip_edges(&m, best_seeds, best_forced, best_ns, best_tri, best_nt,
+                                    best_label, c.eps);
+                s = untangle(&c, best_tri, best_nt, &pairs, err);
+                if (s) break;
+                if (pairs == 0) done = 1;
+                else c.untangles++;
+            }
         }
         /* the next pass starts from these seeds */
         for (size_t v = 0; v < nv; v++) {
@@ -988,33 +1083,21 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
             c.prevlev[c.nprev++] = (uint8_t)c.seedlev[w];
         }
     }
-    size_t flips = 0;
-    if (!s && best_tri)
-        flips = flip_edges(&m, best_seeds, best_forced, best_ns, best_tri, best_nt, best_label,
-                           c.eps);
-    if (getenv("VM_COVER_DEBUG")) {
-        size_t nl[LEVELS + 1] = {0};
-        for (size_t i = 0; i < c.nseeds; i++) {
-            int l = c.seedlev[c.seeds[i]];
-            nl[l == FORCED ? LEVELS : l]++;
-        }
-        fprintf(stderr, "cover: %zu fine v, %zu passes, %zu repairs, %zu forced, done %d, rg %g:", m.nv,
-                c.passes, c.repairs, c.forced_cells, done, c.rg);
-        fprintf(stderr, " flips %zu pops %zu places %zu", flips, c.pops, c.places);
-        for (int l = 0; l <= LEVELS; l++)
-            if (nl[l]) fprintf(stderr, " L%d:%zu", l, nl[l]);
-        fprintf(stderr, "\n");
-    }
     if (!s) {
         if (best_tri)
-            s = emit(&m, scale, best_seeds, best_ns, best_tri, best_nt, surf, err);
-        else /* no valid covering: the fine surface itself, which is one */
-            s = emit(&m, scale, NULL, m.nv, m.f, m.nf, surf, err);
+            s = emit(&m, scale, best_seeds, best_forced, best_ns, best_tri, best_nt, surf, err);
+        else if (!(all_forced = malloc(nv + 1)))
+            s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+        else { /* no valid covering: the fine surface itself, which is one */
+            memset(all_forced, 1, nv);
+            s = emit(&m, scale, NULL, all_forced, m.nv, m.f, m.nf, surf, err);
+        }
     }
     free(best_seeds);
     free(best_tri);
     free(best_label);
     free(best_forced);
+    free(all_forced);
     cover_free(&c);
     vm__cover_fine_free(&m);
     return s;
