@@ -1,11 +1,13 @@
 /* mesher/surface.c — vm_surface_extract: checks the request, runs one surface method
  * (dual contouring, marching cubes, adaptive skeleton climbing, disk covering) and returns
  * the surface in world coordinates. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include "../core/core.h"
 #include "mesher_internal.h"
 #include "surface_internal.h"
+#include "surface_cover_internal.h"
 #include "volmesh/improve.h"
 #include "volmesh/quality.h"
 
@@ -76,6 +78,17 @@ static vm_status surface_dc(const vm_volume *v, const vm_surface_options *o, vm_
     return s;
 }
 
+/* cover measures disk radii and edge ratios along the grid; with anisotropic spacing an
+ * index step along axis a is |spacing[a]| * step[a] long in the world (the direction
+ * columns are unit vectors), so its aspect bound holds for the world-space triangles. */
+static vm_status cover_world(const vm_volume *v, const vm__surface_grid *g,
+                             const vm_surface_options *o, const double step[3], vm_mesh *surf,
+                             vm_surface_stats *st, vm_error *err) {
+    double scale[3];
+    for (int a = 0; a < 3; a++) scale[a] = fabs(v->spacing[a]) * step[a];
+    return vm__surface_cover_scaled(g, o, scale, surf, st, err);
+}
+
 vm_status vm_surface_extract(const vm_volume *v, const vm_surface_options *o, vm_mesh *surf,
                              vm_surface_stats *stats, vm_error *err) {
     double t0 = vm__now();
@@ -114,7 +127,7 @@ vm_status vm_surface_extract(const vm_volume *v, const vm_surface_options *o, vm
         g.has_hi = o->has_hi;
         s = o->method == VM_SURFACE_MC    ? vm__surface_mc(&g, o, surf, &st, err)
             : o->method == VM_SURFACE_ASC ? vm__surface_asc(&g, o, surf, &st, err)
-                                          : vm__surface_cover(&g, o, surf, &st, err);
+                                          : cover_world(v, &g, o, step, surf, &st, err);
         free(resampled);
         if (!s && surf->ncells == 0)
             s = vm_error_set(err, VM_ERR_EMPTY, "surface: no grid point is in the material");

@@ -247,20 +247,32 @@ typedef struct method_row {
     int n, n_noisy;
     double hausdorff;
     int reference;
+    double volume_tol; /* relative volume error allowed at n >= 64 (0: 2 %, 3 % below) */
 } method_row;
 
 static const method_row methods[] = {
     /* dc tri: the tet quality pass keeps the boundary within half a voxel of the
      * isosurface; measured 0.31-0.33 at n = 32..40 */
-    {"dc tri", VM_SURFACE_DC, VM_TRI3, 32, 32, 0.5, REF_VOXELS},
+    {"dc tri", VM_SURFACE_DC, VM_TRI3, 32, 32, 0.5, REF_VOXELS, 0},
     /* dc quad: the hex pass (pillow layer, untangling) moves boundary points further on
      * the thin tubes; measured up to 0.63 (torus n = 40). On noisy volumes it also takes
      * outside grid points in (vm_mesh_stats.repaired_points), so the voxels' topology is
      * no reference there: only closed, manifold and oriented are checked. */
-    {"dc quad", VM_SURFACE_DC, VM_QUAD4, 40, 32, 0.75, REF_NONE},
+    {"dc quad", VM_SURFACE_DC, VM_QUAD4, 40, 32, 0.75, REF_NONE, 0},
     /* mc: linear interpolation of a signed distance along grid edges, exact on planes;
      * measured 0.005 (sphere) to 0.067 (genus-3 tubes, radius 3.5 voxels, at n = 64) */
-    {"mc", VM_SURFACE_MC, VM_TRI3, 64, 48, 0.1, REF_TRILINEAR},
+    {"mc", VM_SURFACE_MC, VM_TRI3, 64, 48, 0.1, REF_TRILINEAR, 0},
+    /* asc (max level 4, error 0.5): a box's triangles stay in its error slab, measured
+     * 0.30-0.42; but the cut sphere's closing disk lies between the last sample and the
+     * outside pad, up to a voxel beyond the box (measured 0.93). Flat chords across convex
+     * boxes lose volume: -1 % (sphere) to -3.2 % (genus-3 tubes, radius 3.5 voxels). */
+    {"asc", VM_SURFACE_ASC, VM_TRI3, 64, 48, 1.0, REF_TRILINEAR, 0.04},
+    /* cover (error 0.5): vertices lie on the marching-tetrahedra surface of the samples;
+     * chords of disks up to the error deep cut inside convex parts: volume -1.3 % (cut
+     * sphere) to -7 % (genus-3 tubes). Its topology is that of the piecewise-linear
+     * interpolant on the 6-tet split of each cell, neither the voxels' nor the trilinear
+     * one, so noisy volumes are checked for closed, manifold and oriented only. */
+    {"cover", VM_SURFACE_COVER, VM_TRI3, 64, 40, 0.5, REF_NONE, 0.08},
 };
 #define N_METHODS (sizeof methods / sizeof methods[0])
 
@@ -309,7 +321,7 @@ static void everyMethodGivesEachPhantomItsTopologyVolumeAndShape(void) {
                 double worst = 0;
                 for (size_t p = 0; p < m.npoints; p++)
                     worst = fmax(worst, phantom_distance(phantoms[t], n, m.points + 3 * p));
-                double tol = n >= 64 ? 0.02 : 0.03;
+                double tol = row->volume_tol > 0 ? row->volume_tol : n >= 64 ? 0.02 : 0.03;
                 printf("  %s: %zu faces, volume %.1f (%.1f), vertices within %.3f voxel, "
                        "%.3f s\n",
                        label, m.ncells, rep.volume, info.volume, worst, st.seconds);
@@ -466,7 +478,8 @@ static void everyMethodHandlesALeftHandedAnisotropicFrame(void) {
             check_closed_surface(label, &m, 0, 1, 0, &rep);
             double want = info.volume * sp[0] * sp[1] * sp[2];
             printf("  %s: volume %.1f (%.1f)\n", label, rep.volume, want);
-            CHECK_MSG(rep.volume > 0 && fabs(rep.volume - want) <= 0.03 * want,
+            double tol = row->volume_tol > 0.03 ? row->volume_tol : 0.03;
+            CHECK_MSG(rep.volume > 0 && fabs(rep.volume - want) <= tol * want,
                       "%s: volume %.1f, expected %.1f", label, rep.volume, want);
             double lo = INFINITY, hi = -INFINITY; /* x is mirrored: all x <= origin */
             for (size_t p = 0; p < m.npoints; p++) {
