@@ -45,8 +45,8 @@ static const char *mesh_help =
     "                          with --labels: the most frequent label of each S^3 block)\n"
     "  --elements tet|hex      tetrahedra (default) or hexahedra (one per inside voxel,\n"
     "                          corners on the dual-contouring vertices; uniform only)\n"
-    "  --adaptive              merge interior cells into an octree (2:1 balanced, conforming\n"
-    "                          by construction); boundary cells stay at the finest level\n"
+    "  --adaptive              octree cells: large inside, 2x2x2 on simple flat boundary\n"
+    "  --error E               adaptive: boundary error in voxels (default 0.5)\n"
     "  --max-level L           adaptive: largest cell 2^L cells (default 4)\n"
     "  --surface SURF.vtu      also write the boundary triangles\n"
     "  --denoise M             smooth the volume first: bilateral or diffusion (parameters\n"
@@ -205,7 +205,7 @@ int vm_cmd_mesh(int argc, char **argv) {
         int needs = vm_cli_is(a, "-o", "--output") || vm_cli_is(a, "--iso", NULL) ||
                     vm_cli_is(a, "--range", NULL) || vm_cli_is(a, "--size", NULL) ||
                     vm_cli_is(a, "--surface", NULL) || vm_cli_is(a, "--max-level", NULL) ||
-                    vm_cli_is(a, "--elements", NULL) || vm_cli_is(a, "--denoise", NULL) ||
+                    vm_cli_is(a, "--error", NULL) || vm_cli_is(a, "--elements", NULL) || vm_cli_is(a, "--denoise", NULL) ||
                     vm_cli_is(a, "--report", NULL) || vm_cli_is(a, "--deck", NULL) ||
                     vm_cli_is(a, "--order", NULL) || vm_cli_is(a, "--labels", NULL) ||
                     vm_cli_is(a, "--min-island", NULL) || vm_cli_is(a, "--max-memory", NULL);
@@ -248,6 +248,9 @@ int vm_cmd_mesh(int argc, char **argv) {
             long l;
             if (vm_cli_int(a, argv[++i], 1, 10, &l)) return VM_EXIT_INPUT;
             o.max_level = (int)l;
+        } else if (vm_cli_is(a, "--error", NULL)) {
+            if (vm_cli_double(a, argv[++i], &o.error)) return VM_EXIT_INPUT;
+            if (!(o.error >= 0)) return vm_cli_fail("--error: %g must be >= 0 (voxels)", o.error);
         } else if (vm_cli_is(a, "--denoise", NULL)) {
             denoise = argv[++i];
             if (strcmp(denoise, "bilateral") != 0 && strcmp(denoise, "diffusion") != 0)

@@ -42,6 +42,12 @@ typedef struct dc {
     size_t ncentre, centre_cap;
     vm__octree oct; /* interior leaves (adaptive mode only) */
     int adaptive;
+    /* Coarse boundary leaves (adaptive mode): aligned 2x2x2 blocks of cells with one surface
+     * patch, one representative each (index coarse_base + leaf). */
+    int64_t *coarse_org; /* 3 per leaf: lowest cell */
+    size_t ncoarse, coarse_cap, coarse_base;
+    int32_t *coarse_of; /* per padded cell: its coarse leaf, or -1 (NULL: none) */
+    double error;       /* merge tolerance, voxels */
     int64_t *tets; /* 4 global ids per tet */
     size_t ntets, tet_cap;
 } dc;
@@ -66,6 +72,10 @@ static inline int vm__dc_real_point(const dc *d, const int64_t p[3]) {
     for (int a = 0; a < 3; a++)
         if (p[a] < 0 || p[a] >= d->n[a]) return 0;
     return 1;
+}
+
+static inline int32_t vm__dc_coarse(const dc *d, int64_t ci) {
+    return d->coarse_of ? d->coarse_of[ci] : -1;
 }
 
 static inline int64_t vm__dc_npoints_real(const dc *d) {
