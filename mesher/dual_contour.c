@@ -539,8 +539,7 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
             for (int64_t i = o[0] - 1; i <= o[0] + 2; i++) {
                 int32_t code = d->cell_map[vm__dc_cidx(d, i, j, k)];
                 if (code < 0) continue;
-                if (d->bc[code].special || has_ambiguous_face(cell_mask(d, i, j, k)))
-                    return 0;
+                if (d->bc[code].special || has_ambiguous_face(cell_mask(d, i, j, k))) return 0;
             }
     /* EDerror of the trilinear coarse cell at the non-corner points near the surface */
     double fc[8], edmax = 0;
@@ -587,21 +586,41 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
                     np++;
                 }
     if (!np) return 0;
-    int fixed[3] = {0, 0, 0};
-    double fixval[3] = {0, 0, 0};
-    vm__qef_solve(&q, 0.05, fixed, fixval, x, m);
+    /* The leaf's vertex: the mass point moved along the crossings' mean normal onto the
+     * plane that fits their tangent planes best (the QEF restricted to that line). A full
+     * QEF minimiser slides along a curved patch toward the tangent planes' intersection,
+     * off the surface; the flat patches that merge need no sharp-feature placement. */
+    double nm[3] = {0, 0, 0};
     for (int a = 0; a < 3; a++)
-        x[a] = x[a] < 0 ? 0 : x[a] > 2 ? 2 : x[a];
-    double flat = 0, nm[3] = {0, 0, 0};
+        m[a] = q.mass[a] / q.count;
     for (int i = 0; i < np; i++)
         for (int a = 0; a < 3; a++)
             nm[a] += nrms[i][a];
     double nl = sqrt(nm[0] * nm[0] + nm[1] * nm[1] + nm[2] * nm[2]);
     if (!(nl > 0.5)) return 0; /* crossings facing every way */
+    for (int a = 0; a < 3; a++)
+        nm[a] /= nl;
+    double num = 0, den = 0;
+    for (int i = 0; i < np; i++) {
+        double nn = 0, np_ = 0;
+        for (int a = 0; a < 3; a++) {
+            nn += nrms[i][a] * nm[a];
+            np_ += nrms[i][a] * (pts[i][a] - m[a]);
+        }
+        num += nn * np_;
+        den += nn * nn;
+    }
+    double t = den > 0 ? num / den : 0;
+    for (int a = 0; a < 3; a++) {
+        x[a] = m[a] + t * nm[a];
+        x[a] = x[a] < 0 ? 0 : x[a] > 2 ? 2 : x[a];
+    }
+    /* flatness: the crossings' distance from the plane through x normal to the mean */
+    double flat = 0;
     for (int i = 0; i < np; i++) {
         double dist = 0;
         for (int a = 0; a < 3; a++)
-            dist += nm[a] / nl * (pts[i][a] - x[a]);
+            dist += nm[a] * (pts[i][a] - x[a]);
         if (fabs(dist) > flat) flat = fabs(dist);
     }
     return flat <= d->error;
@@ -624,8 +643,9 @@ static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
                 if (!block_mergeable(d, o, x, m)) continue;
                 vm_status s = vm__grow((void **)&d->coarse_org, &d->coarse_cap, d->ncoarse + 1,
                                        3 * sizeof(int64_t), err);
-                if (!s) s = vm__grow((void **)coarse_pos, &cap, d->ncoarse + 1,
-                                     6 * sizeof(double), err);
+                if (!s)
+                    s = vm__grow((void **)coarse_pos, &cap, d->ncoarse + 1, 6 * sizeof(double),
+                                 err);
                 if (s) return s;
                 memcpy(d->coarse_org + 3 * d->ncoarse, o, sizeof o);
                 for (int a = 0; a < 3; a++) {
@@ -633,8 +653,8 @@ static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
                     (*coarse_pos)[6 * d->ncoarse + 3 + (size_t)a] = (double)o[a] + m[a];
                 }
                 for (int c = 0; c < 8; c++)
-                    d->coarse_of[vm__dc_cidx(d, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))] =
-                        (int32_t)d->ncoarse;
+                    d->coarse_of[vm__dc_cidx(d, i + (c & 1), j + ((c >> 1) & 1),
+                                             k + (c >> 2))] = (int32_t)d->ncoarse;
                 d->ncoarse++;
             }
     d->coarse_base = d->nreps;
@@ -692,6 +712,7 @@ void vm__dc_free(dc *d) {
     free(d->coarse_of);
     vm__octree_free(&d->oct);
     free(d->tets);
+    free(d->src);
 }
 
 vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_error *err) {
@@ -704,7 +725,8 @@ vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_
             int64_t cm[3];
             vm__dc_cell_coords(d, b->cell, cm);
             for (int c = 0; c < 8; c++) {
-                int64_t p = vm__dc_pidx(d, cm[0] + (c & 1), cm[1] + ((c >> 1) & 1), cm[2] + (c >> 2));
+                int64_t p =
+                    vm__dc_pidx(d, cm[0] + (c & 1), cm[1] + ((c >> 1) & 1), cm[2] + (c >> 2));
                 if (!d->in[p]) { /* the first of the two antipodal outside corners */
                     d->in[p] = 1;
                     flips++;

@@ -71,8 +71,7 @@ static int neighbour_level(const vm__octree *o, const int64_t q[3]) {
 }
 
 vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *kind,
-                           const int8_t *blevel, int max_level, size_t *leaves,
-                           vm_error *err) {
+                           const int8_t *blevel, int max_level, size_t *leaves, vm_error *err) {
     memset(o, 0, sizeof *o);
     memcpy(o->nc, nc, sizeof o->nc);
     size_t n = (size_t)(nc[0] * nc[1] * nc[2]);

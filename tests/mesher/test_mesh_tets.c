@@ -3,8 +3,8 @@
  * of its voxels (Euler characteristic and components counted independently on the grid) and
  * the volume of the analytic shape it samples. */
 #include "test.h"
-#include <stdlib.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define PI 3.14159265358979323846
@@ -178,8 +178,8 @@ static void check_digital_case(const char *label, const vm_volume *v, const vm_m
                   "(expected %zu) self-intersections %zu",
                   label, r.inverted, r.degenerate, r.overshared_faces, r.boundary_closed,
                   r.boundary_open_edges, r.boundary_nonmanifold_edges,
-                  r.boundary_nonmanifold_vertices, r.boundary_euler, euler, r.components,
-                  comps, r.boundary_self_intersections);
+                  r.boundary_nonmanifold_vertices, r.boundary_euler, euler, r.components, comps,
+                  r.boundary_self_intersections);
         vm_mesh_free(&m);
         return;
     }
@@ -255,6 +255,37 @@ static double sphere_surface_distance(const vm_mesh *m, int n, const double c[3]
     }
     vm_mesh_free(&surf);
     return worst;
+}
+
+/* Area of the boundary of m (index space for the phantoms). */
+static double boundary_area(const vm_mesh *m) {
+    vm_mesh surf;
+    vm_error err;
+    if (vm_mesh_boundary(m, &surf, &err) != VM_OK) return 0;
+    double area = 0;
+    for (size_t t = 0; t < surf.ncells; t++) {
+        const double *p[3];
+        for (int k = 0; k < 3; k++)
+            p[k] = surf.points + 3 * (size_t)surf.cells[3 * t + (size_t)k];
+        double u[3], w[3];
+        for (int a = 0; a < 3; a++)
+            u[a] = p[1][a] - p[0][a], w[a] = p[2][a] - p[0][a];
+        double c[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                       u[0] * w[1] - u[1] * w[0]};
+        area += 0.5 * sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    }
+    vm_mesh_free(&surf);
+    return area;
+}
+
+/* Volume bound of an adaptive mesh with coarse boundary leaves: 1%, or a mean inward shift
+ * of 0.1 voxel over the boundary where that is larger. The leaves' fans are chords of the
+ * surface over 2-voxel cells (inside a convex surface by up to a quarter voxel on a tube of
+ * radius 3.5); on the thin tubes of genus3 (radius 3.5, area/volume 0.57 per voxel) that
+ * is 5.7%, on the 64^3 sphere 1.4%. */
+static double adaptive_volume_tolerance(const vm_mesh *m, double volume) {
+    double t = 0.1 * boundary_area(m) / volume;
+    return t > 0.01 ? t : 0.01;
 }
 
 static void meshOfEachPhantomHasItsKnownTopologyAndVolume(void) {
@@ -644,8 +675,9 @@ static void sharedVolumesMeshWithTheTopologyOfTheirVoxels(void) {
     }
 }
 
-/* Adaptive mode: interior cells merged into octree leaves. Same boundary, same topology and
- * volume, fewer tets; conforming across every change of leaf size. */
+/* Adaptive mode: interior cells merged into octree leaves, boundary cells into 2x2x2 leaves
+ * where the surface is simple and flat. Same topology, the volume within
+ * adaptive_volume_tolerance, fewer tets; conforming across every change of leaf size. */
 static void adaptiveMeshOfEachPhantomKeepsTopologyAndVolumeWithFewerTets(void) {
     static const int sizes[] = {64, 96};
     for (size_t z = 0; z < 2; z++)
@@ -670,7 +702,8 @@ static void adaptiveMeshOfEachPhantomKeepsTopologyAndVolumeWithFewerTets(void) {
             o.max_level = 5;
             snprintf(label, sizeof label, "%s n=%d adaptive", info.name, n);
             if (mesh_case(label, &v, &o, &ada, NULL)) {
-                check_tet_mesh(&ada, info.euler, (size_t)info.components, info.volume, 0.01);
+                check_tet_mesh(&ada, info.euler, (size_t)info.components, info.volume,
+                               adaptive_volume_tolerance(&ada, info.volume));
                 if (ok_u) {
                     printf("    %zu tets adaptive vs %zu uniform (%.2fx fewer)\n", ada.ncells,
                            uni.ncells, (double)uni.ncells / (double)ada.ncells);
@@ -686,8 +719,10 @@ static void adaptiveMeshOfEachPhantomKeepsTopologyAndVolumeWithFewerTets(void) {
                     size_t on_x0;
                     double max_r_x0;
                     double worst = sphere_surface_distance(&ada, n, c, r, &on_x0, &max_r_x0);
-                    CHECK_MSG(worst <= 0.5, "a boundary vertex is %.3f voxel from the sphere",
-                              worst);
+                    /* fine vertices: half a voxel; a coarse leaf's vertex: its crossings'
+                     * plane is within the error, the crossings within half a voxel */
+                    CHECK_MSG(worst <= 0.5 + o.error,
+                              "a boundary vertex is %.3f voxel from the sphere", worst);
                 }
             }
             vm_mesh_free(&uni);
@@ -780,7 +815,8 @@ static double sphere_centroid_distance(const vm_mesh *m, int n, const double c[3
 
 /* Adaptive mode merges 2x2x2 blocks of boundary cells where the surface is simple and flat
  * to within --error: a larger error merges more (fewer tets), and at every error the mesh
- * keeps every invariant, the phantom's topology and (1% at 64^3, as uniform) its volume. */
+ * keeps every invariant, the phantom's topology, its volume (adaptive_volume_tolerance) and
+ * a boundary within half a voxel plus the error of the sphere. */
 static void largerErrorMergesMoreBoundaryCellsKeepingEveryInvariant(void) {
     static const vm_phantom_kind kinds[] = {VM_PHANTOM_SPHERE, VM_PHANTOM_TORUS,
                                             VM_PHANTOM_GENUS3, VM_PHANTOM_TWO_SPHERES};
@@ -804,7 +840,8 @@ static void largerErrorMergesMoreBoundaryCellsKeepingEveryInvariant(void) {
             snprintf(label, sizeof label, "%s n=%d adaptive error %.2f", info.name, n,
                      errors[e]);
             if (!mesh_case(label, &v, &o, &m, NULL)) continue;
-            check_tet_mesh(&m, info.euler, (size_t)info.components, info.volume, 0.01);
+            check_tet_mesh(&m, info.euler, (size_t)info.components, info.volume,
+                           adaptive_volume_tolerance(&m, info.volume));
             tets[e] = m.ncells;
             if (kinds[t] == VM_PHANTOM_SPHERE) {
                 double r = 0.35 * (n - 1), c[3] = {0.5 * (n - 1), 0.5 * (n - 1), 0.5 * (n - 1)};
@@ -812,12 +849,14 @@ static void largerErrorMergesMoreBoundaryCellsKeepingEveryInvariant(void) {
                 double max_r_x0;
                 double worst = sphere_surface_distance(&m, n, c, r, &on_x0, &max_r_x0);
                 double chord = sphere_centroid_distance(&m, n, c, r);
-                printf("    sphere: vertices within %.3f, triangle centroids within %.3f voxel\n",
-                       worst, chord);
-                CHECK_MSG(worst <= 0.5, "a boundary vertex is %.3f voxel from the sphere", worst);
+                printf(
+                    "    sphere: vertices within %.3f, triangle centroids within %.3f voxel\n",
+                    worst, chord);
+                CHECK_MSG(worst <= 0.5 + errors[e],
+                          "a boundary vertex is %.3f voxel from the sphere", worst);
                 CHECK_MSG(chord <= 0.5 + errors[e],
-                          "a boundary triangle is %.3f voxel from the sphere (error %.2f)", chord,
-                          errors[e]);
+                          "a boundary triangle is %.3f voxel from the sphere (error %.2f)",
+                          chord, errors[e]);
             }
             vm_mesh_free(&m);
         }
