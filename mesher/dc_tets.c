@@ -299,6 +299,19 @@ static vm_status emit_edge_mixed(dc *d, int a, const int64_t p0[3], int64_t mins
     if (!vm__octree_is_vertex(&d->oct, p0)) return VM_OK;
     int64_t p1[3] = {p0[0], p0[1], p0[2]};
     p1[a]++;
+    if (!d->in[vm__dc_pidx(d, p0[0], p0[1], p0[2])] &&
+        !d->in[vm__dc_pidx(d, p1[0], p1[1], p1[2])]) {
+        /* outside at both ends: only the lower half of an undivided edge of a coarse leaf
+         * (one that touches the edge in one quadrant) can make elements */
+        int on_edge = 0;
+        for (int q = 0; q < 4; q++) {
+            int count = 0;
+            for (int r = 0; r < 4; r++)
+                count += all[r].kind == 2 && all[r].id == all[q].id;
+            if (all[q].kind == 2 && count == 1) on_edge = 1;
+        }
+        if (!on_edge || vm__octree_is_vertex(&d->oct, p1)) return VM_OK;
+    }
     if (!vm__octree_is_vertex(&d->oct, p1)) p1[a]++;
     int in0 = d->in[vm__dc_pidx(d, p0[0], p0[1], p0[2])];
     int in1 = d->in[vm__dc_pidx(d, p1[0], p1[1], p1[2])];
