@@ -54,9 +54,9 @@ static const char *mesh_help =
     "                          contouring mesh (quads: of the hex mesh); mc marching cubes\n"
     "                          with the topology of the trilinear interpolant; asc adaptive\n"
     "                          skeleton climbing; cover disk covering (quad: dc only)\n"
-    "  --error E               asc, cover: allowed geometric error in voxels (default 0.5)\n"
-    "  --adaptive              merge interior cells into an octree (2:1 balanced, conforming\n"
-    "                          by construction); boundary cells stay at the finest level\n"
+    "  --adaptive              octree cells: large inside, 2x2x2 on simple flat boundary\n"
+    "  --error E               adaptive: boundary error in voxels (>= 0, default 0.5);\n"
+    "                          asc, cover: allowed geometric error in voxels (> 0, 0.5)\n"
     "  --max-level L           adaptive: largest cell 2^L cells (default 4); asc: largest\n"
     "                          box 2^L cells\n"
     "  --surface SURF.vtu      also write the boundary triangles\n"
@@ -266,7 +266,7 @@ int vm_cmd_mesh(int argc, char **argv) {
             have_method = 1;
         } else if (vm_cli_is(a, "--error", NULL)) {
             if (vm_cli_double(a, argv[++i], &so.error)) return VM_EXIT_INPUT;
-            if (!(so.error > 0)) return vm_cli_fail("--error: %s must be > 0", argv[i]);
+            o.error = so.error; /* checked below, once the kind of output is known */
             have_error = 1;
         } else if (vm_cli_is(a, "--labels", NULL)) {
             labels_arg = argv[++i];
@@ -342,18 +342,28 @@ int vm_cmd_mesh(int argc, char **argv) {
         free(label_sizes);
         return vm_cli_fail("mesh: --min-island, --no-smooth and --size-per-label go with --labels");
     }
-    if ((invert && !have_iso) || (!surface_elements && (have_method || have_error)) ||
-        (surface_elements &&
-         (have_labels || o.adaptive || surface || report || wo.deck || wo.order != 1)))
+    char problem[200] = "";
+    if (invert && !have_iso)
+        snprintf(problem, sizeof problem, "mesh: --invert goes with --iso");
+    else if (!surface_elements && have_method)
+        snprintf(problem, sizeof problem, "mesh: --method goes with --elements tri or quad");
+    else if (have_error && !surface_elements && !o.adaptive)
+        snprintf(problem, sizeof problem,
+                 "mesh: --error goes with --adaptive or --elements tri|quad");
+    else if (have_error && surface_elements && !(so.error > 0))
+        snprintf(problem, sizeof problem, "--error: %g must be > 0 (voxels)", so.error);
+    else if (have_error && !surface_elements && !(o.error >= 0))
+        snprintf(problem, sizeof problem, "--error: %g must be >= 0 (voxels)", o.error);
+    else if (surface_elements && (have_labels || o.adaptive || surface || report || wo.deck ||
+                                  wo.order != 1))
+        snprintf(problem, sizeof problem,
+                 "mesh: --elements %s writes a surface: no --labels, --adaptive, --surface, "
+                 "--report, --deck or --order",
+                 surface_elements == VM_QUAD4 ? "quad" : "tri");
+    if (problem[0]) {
         free(label_sizes);
-    if (invert && !have_iso) return vm_cli_fail("mesh: --invert goes with --iso");
-    if (!surface_elements && (have_method || have_error))
-        return vm_cli_fail("mesh: --method and --error go with --elements tri or quad");
-    if (surface_elements && (have_labels || o.adaptive || surface || report || wo.deck ||
-                             wo.order != 1))
-        return vm_cli_fail("mesh: --elements %s writes a surface: no --labels, --adaptive, "
-                           "--surface, --report, --deck or --order",
-                           surface_elements == VM_QUAD4 ? "quad" : "tri");
+        return vm_cli_fail("%s", problem);
+    }
     if (have_iso && invert) {
         o.has_lo = 0;
         o.has_hi = 1;

@@ -36,14 +36,23 @@ typedef struct dc {
     size_t namb, amb_cap;
     size_t amb_base;              /* representative index of the first face vertex */
     double *qpos, *mpos, *lambda; /* per rep: minimiser, mass point, blend factor */
-    double *cpos, *mu; /* per rep: its cell's centre (NAN: none safe), blend toward it */
-    uint8_t *rep_planes;          /* per rep: box planes it lies on (bit 2a+side) */
-    double *centre;               /* positions of polygon centres (ids after the reps) */
+    double *cpos, *mu;   /* per rep: its cell's centre (NAN: none safe), blend toward it */
+    uint8_t *rep_planes; /* per rep: box planes it lies on (bit 2a+side) */
+    double *centre;      /* positions of polygon centres (ids after the reps) */
     size_t ncentre, centre_cap;
     vm__octree oct; /* interior leaves (adaptive mode only) */
     int adaptive;
-    int64_t *tets; /* 4 global ids per tet */
+    /* Coarse boundary leaves (adaptive mode): aligned 2x2x2 blocks of cells with one surface
+     * patch, one representative each (index coarse_base + leaf). */
+    int64_t *coarse_org; /* 3 per leaf: lowest cell */
+    size_t ncoarse, coarse_cap, coarse_base;
+    int32_t *coarse_of; /* per padded cell: its coarse leaf, or -1 (NULL: none) */
+    double error;       /* merge tolerance, voxels */
+    int64_t *tets;      /* 4 global ids per tet */
     size_t ntets, tet_cap;
+    int64_t *src; /* per tet: the element that made it (see dc_tets.c), for re-emission */
+    size_t src_cap;
+    int64_t cur_src; /* element being emitted */
 } dc;
 
 enum { CELL_OUT = -1, CELL_IN = -2 };
@@ -66,6 +75,10 @@ static inline int vm__dc_real_point(const dc *d, const int64_t p[3]) {
     for (int a = 0; a < 3; a++)
         if (p[a] < 0 || p[a] >= d->n[a]) return 0;
     return 1;
+}
+
+static inline int32_t vm__dc_coarse(const dc *d, int64_t ci) {
+    return d->coarse_of ? d->coarse_of[ci] : -1;
 }
 
 static inline int64_t vm__dc_npoints_real(const dc *d) {

@@ -1,8 +1,8 @@
 /* mesher/dc_tets.c — tetrahedra filling the material by dual contouring: seed 001 (LBIE,
  * Zhang–Bajaj–Sohn) §4.1.2 and §4.2.2, over the cells analysed in dual_contour.c. */
 #include "../core/core.h"
-#include "dc_internal.h"
 #include "../quality/self_intersect.h"
+#include "dc_internal.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -27,6 +27,18 @@ static double tet_volume(const dc *d, const int64_t t[4], int reference) {
     return orient(p[0], p[1], p[2], p[3]);
 }
 
+/* Elements that use surface vertices, as recorded per tet in d->src so that moving a vertex
+ * re-emits only the elements around it: kind << 58 | payload. */
+enum { SRC_NONE = 0, SRC_EDGE = 1, SRC_FACES = 2, SRC_COARSE = 3, SRC_GAPS = 4 };
+#define SRC(kind, payload) (((int64_t)(kind) << 58) | (int64_t)(payload))
+#define SRC_KIND(s) ((int)((s) >> 58))
+#define SRC_PAYLOAD(s) ((s) & (((int64_t)1 << 58) - 1))
+
+static int id_cmp(const void *x, const void *y) {
+    int64_t a = *(const int64_t *)x, b = *(const int64_t *)y;
+    return a < b ? -1 : a > b;
+}
+
 static vm_status emit(dc *d, int64_t a, int64_t b, int64_t c, int64_t e, vm_error *err) {
     /* Tets lying flat on one border plane are the closure of the padding: drop them. */
     if (vm__dc_vertex_planes(d, a) & vm__dc_vertex_planes(d, b) & vm__dc_vertex_planes(d, c) &
@@ -34,7 +46,9 @@ static vm_status emit(dc *d, int64_t a, int64_t b, int64_t c, int64_t e, vm_erro
         return VM_OK;
     vm_status s =
         vm__grow((void **)&d->tets, &d->tet_cap, d->ntets + 1, 4 * sizeof(int64_t), err);
+    if (!s) s = vm__grow((void **)&d->src, &d->src_cap, d->ntets + 1, sizeof(int64_t), err);
     if (s) return s;
+    d->src[d->ntets] = d->cur_src;
     int64_t *t = d->tets + 4 * d->ntets++;
     t[0] = a;
     t[1] = b;
@@ -73,6 +87,9 @@ static void cells_around(const dc *d, const int64_t p[3], int a, const bcell *cb
  * the four cells' vertices (counter-clockwise around +a), with the vertex of an ambiguous
  * face inserted between the two cells sharing it. The polygon is split as a fan from the
  * root that gives the largest smallest volume. */
+static vm_status emit_polygon(dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                              const int *inserted, int np, vm_error *err);
+
 static vm_status emit_pyramid(dc *d, int a, const int64_t apex_p[3], int apex_lower,
                               const bcell *cb[4], const int le[4], int64_t mins[4][3],
                               vm_error *err) {
@@ -92,8 +109,18 @@ static vm_status emit_pyramid(dc *d, int a, const int64_t apex_p[3], int apex_lo
             }
         }
     }
-    int64_t apex = vm__dc_lattice_id(d, apex_p);
+    return emit_polygon(d, vm__dc_lattice_id(d, apex_p), apex_lower, poly, inserted, np, err);
+}
+
+/* The pyramid from apex over the polygon poly (counter-clockwise around the edge's axis;
+ * inserted[i]: poly[i] is the vertex of an ambiguous face), split as a fan from the root
+ * that gives the largest smallest volume, or from a new centre vertex. */
+static vm_status emit_polygon(dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                              const int *inserted, int np, vm_error *err) {
     vm_status s = VM_OK;
+    if (np == 3)
+        return apex_lower ? emit(d, apex, poly[0], poly[1], poly[2], err)
+                          : emit(d, apex, poly[2], poly[1], poly[0], err);
     if (np > 4) {
         /* Fans from a neighbour of a face vertex would join the two cells it separates; try
          * the other roots, and a fan from a new vertex at the polygon's centre. */
@@ -222,21 +249,130 @@ static vm_status emit_pyramid(dc *d, int a, const int64_t apex_p[3], int apex_lo
     return s;
 }
 
-static vm_status emit_edges(dc *d, vm_error *err) {
-    for (int a = 0; a < 3; a++)
-        for (int64_t k = 0; k < d->n[2]; k++)
-            for (int64_t j = 0; j < d->n[1]; j++)
-                for (int64_t i = 0; i < d->n[0]; i++) {
+/* A leaf seen from a position around an edge: 0 exterior cell, 1 fine boundary cell, 2 coarse
+ * boundary leaf, 3 interior leaf; id tells leaves of one kind apart; rep is the vertex a
+ * boundary leaf gives the edge (local edge le of a fine cell). */
+typedef struct leafref {
+    int kind;
+    int64_t id, rep;
+} leafref;
+
+static leafref leaf_at(const dc *d, const int64_t m[3], int le) {
+    leafref r = {0, 0, -1};
+    int64_t ci = vm__dc_cidx(d, m[0], m[1], m[2]);
+    int32_t cl = vm__dc_coarse(d, ci), code = d->cell_map[ci];
+    if (cl >= 0) {
+        r.kind = 2;
+        r.id = cl;
+        r.rep = vm__dc_npoints_real(d) + (int64_t)(d->coarse_base + (size_t)cl);
+    } else if (code >= 0) {
+        r.kind = 1;
+        r.id = ci;
+        r.rep = vm__dc_rep_for_edge(d, &d->bc[code], le);
+    } else if (code == CELL_IN) {
+        int64_t org[3];
+        vm__octree_leaf(&d->oct, m, org);
+        r.kind = 3;
+        r.id = vm__dc_cidx(d, org[0], org[1], org[2]);
+    } else {
+        r.id = ci;
+    }
+    return r;
+}
+
+/* A grid edge next to a coarse boundary leaf (LBIE §4.2.2: only minimal edges count). The
+ * distinct leaves around it, in order, are its neighbours; with fewer than three it lies
+ * inside a leaf face and is no leaf edge. An end that no leaf has as a corner is the
+ * midpoint of an undivided coarse edge: that edge is handled once, from its lower half.
+ * A sign-change edge gives the pyramid from its inside end over its leaves' vertices (a
+ * triangle or a quad), an inside edge one tet per pair of neighbouring boundary leaves. */
+static vm_status emit_edge_mixed(dc *d, int a, const int64_t p0[3], int64_t mins[4][3],
+                                 const int le[4], vm_error *err) {
+    leafref all[4], l[4];
+    int n = 0;
+    for (int q = 0; q < 4; q++)
+        all[q] = leaf_at(d, mins[q], le[q]);
+    for (int q = 0; q < 4; q++)
+        if (n == 0 || all[q].kind != l[n - 1].kind || all[q].id != l[n - 1].id) l[n++] = all[q];
+    if (n > 1 && l[n - 1].kind == l[0].kind && l[n - 1].id == l[0].id) n--;
+    if (n < 3) return VM_OK;
+    if (!vm__octree_is_vertex(&d->oct, p0)) return VM_OK;
+    int64_t p1[3] = {p0[0], p0[1], p0[2]};
+    p1[a]++;
+    if (!d->in[vm__dc_pidx(d, p0[0], p0[1], p0[2])] &&
+        !d->in[vm__dc_pidx(d, p1[0], p1[1], p1[2])]) {
+        /* outside at both ends: only the lower half of an undivided edge of a coarse leaf
+         * (one that touches the edge in one quadrant) can make elements */
+        int on_edge = 0;
+        for (int q = 0; q < 4; q++) {
+            int count = 0;
+            for (int r = 0; r < 4; r++)
+                count += all[r].kind == 2 && all[r].id == all[q].id;
+            if (all[q].kind == 2 && count == 1) on_edge = 1;
+        }
+        if (!on_edge || vm__octree_is_vertex(&d->oct, p1)) return VM_OK;
+    }
+    if (!vm__octree_is_vertex(&d->oct, p1)) p1[a]++;
+    int in0 = d->in[vm__dc_pidx(d, p0[0], p0[1], p0[2])];
+    int in1 = d->in[vm__dc_pidx(d, p1[0], p1[1], p1[2])];
+    if (!in0 && !in1) return VM_OK;
+    int64_t v0 = vm__dc_lattice_id(d, p0), v1 = vm__dc_lattice_id(d, p1);
+    if (in0 && in1) {
+        for (int i = 0; i < n; i++) {
+            const leafref *x = &l[i], *y = &l[(i + 1) % n];
+            if ((x->kind != 1 && x->kind != 2) || (y->kind != 1 && y->kind != 2)) continue;
+            vm_status s = emit(d, v0, v1, x->rep, y->rep, err);
+            if (s) return s;
+        }
+        return VM_OK;
+    }
+    int64_t poly[4];
+    int inserted[4] = {0, 0, 0, 0};
+    for (int i = 0; i < n; i++) {
+        if (l[i].kind != 1 && l[i].kind != 2)
+            return vm_error_set(err, VM_ERR_INTERNAL,
+                                "mesh: a crossing edge next to a coarse boundary leaf has a "
+                                "non-boundary neighbour");
+        poly[i] = l[i].rep;
+    }
+    return emit_polygon(d, in0 ? v0 : v1, in0, poly, inserted, n, err);
+}
+
+/* The elements of every grid edge, or (only != NULL) of the edge {axis, i, j, k}. */
+static vm_status emit_edges(dc *d, const int64_t *only, vm_error *err) {
+    int64_t lo[4] = {0, 0, 0, 0}, hi[4] = {3, d->n[0], d->n[1], d->n[2]};
+    if (only)
+        for (int q = 0; q < 4; q++)
+            lo[q] = only[q], hi[q] = only[q] + 1;
+    for (int a = (int)lo[0]; a < (int)hi[0]; a++)
+        for (int64_t k = lo[3]; k < hi[3]; k++)
+            for (int64_t j = lo[2]; j < hi[2]; j++)
+                for (int64_t i = lo[1]; i < hi[1]; i++) {
                     int64_t p0[3] = {i, j, k}, p1[3] = {i, j, k};
                     if (++p1[a] >= d->n[a]) continue;
+                    d->cur_src = SRC(SRC_EDGE, a + 3 * vm__dc_lattice_id(d, p0));
                     int in0 = d->in[vm__dc_pidx(d, i, j, k)],
                         in1 = d->in[vm__dc_pidx(d, p1[0], p1[1], p1[2])];
-                    if (!in0 && !in1) continue;
+                    /* an edge next to a coarse leaf may be the lower half of a longer edge
+                     * whose upper end is inside */
+                    if (!in0 && !in1 && !d->coarse_of) continue;
                     const bcell *cb[4];
                     int le[4];
                     int32_t code[4];
                     int64_t mins[4][3];
                     cells_around(d, p0, a, cb, le, code, mins);
+                    if (d->coarse_of) {
+                        int mixed = 0;
+                        for (int q = 0; q < 4; q++)
+                            mixed |= vm__dc_coarse(d, vm__dc_cidx(d, mins[q][0], mins[q][1],
+                                                                  mins[q][2])) >= 0;
+                        if (mixed) {
+                            vm_status s = emit_edge_mixed(d, a, p0, mins, le, err);
+                            if (s) return s;
+                            continue;
+                        }
+                    }
+                    if (!in0 && !in1) continue;
                     int64_t v0 = vm__dc_lattice_id(d, p0), v1 = vm__dc_lattice_id(d, p1);
                     vm_status s = VM_OK;
                     if (in0 != in1) { /* sign change: pyramid from the inside end */
@@ -257,10 +393,12 @@ static vm_status emit_edges(dc *d, vm_error *err) {
 /* Faces of boundary cells whose four corners are inside and whose neighbour is an interior
  * cell: a pyramid to the cell's minimiser, split along the face's even-parity diagonal
  * (the diagonal the neighbour's five-tet split uses). */
-static vm_status emit_faces(dc *d, vm_error *err) {
+static vm_status emit_faces(dc *d, size_t first, size_t end, vm_error *err) {
     int64_t N = vm__dc_npoints_real(d);
-    for (size_t bi = 0; bi < d->nbc; bi++) {
+    for (size_t bi = first; bi < end; bi++) {
         const bcell *b = &d->bc[bi];
+        d->cur_src = SRC(SRC_FACES, bi);
+        if (vm__dc_coarse(d, b->cell) >= 0) continue;
         int64_t cm[3];
         vm__dc_cell_coords(d, b->cell, cm);
         for (int f = 0; f < 6; f++) {
@@ -270,7 +408,8 @@ static vm_status emit_faces(dc *d, vm_error *err) {
             if (!all) continue;
             int64_t nb[3] = {cm[0], cm[1], cm[2]};
             nb[a] += s ? 1 : -1;
-            if (d->cell_map[vm__dc_cidx(d, nb[0], nb[1], nb[2])] != CELL_IN) continue;
+            int64_t nci = vm__dc_cidx(d, nb[0], nb[1], nb[2]);
+            if (d->cell_map[nci] != CELL_IN || vm__dc_coarse(d, nci) >= 0) continue;
             int64_t v[4];
             int even0 = 0;
             for (int q = 0; q < 4; q++) {
@@ -323,10 +462,10 @@ static vm_status emit_five(dc *d, int64_t i, int64_t j, int64_t k, vm_error *err
 static vm_status emit_coarse_face(dc *d, int64_t centre, int a, const int64_t q[3], int64_t sz,
                                   int below, vm_error *err) {
     int b = (a + 1) % 3, c = (a + 2) % 3;
-    int64_t across[3] = {q[0], q[1], q[2]}, org[3];
+    int64_t across[3] = {q[0], q[1], q[2]};
     if (!below) across[a]--;
-    int lvl = vm__octree_leaf(&d->oct, across, org);
-    int across_size_ok = lvl == VM_LEAF_NONE || (lvl >= 0 && ((int64_t)1 << lvl) >= sz);
+    int64_t asz = vm__octree_size(&d->oct, across);
+    int across_size_ok = asz == 0 || asz >= sz;
     if (!across_size_ok && sz > 1) {
         int64_t h = sz / 2;
         for (int k = 0; k < 4; k++) {
@@ -409,7 +548,8 @@ static vm_status emit_interior(dc *d, vm_error *err) {
     for (int64_t k = 0; k + 1 < d->n[2]; k++)
         for (int64_t j = 0; j + 1 < d->n[1]; j++)
             for (int64_t i = 0; i + 1 < d->n[0]; i++) {
-                if (d->cell_map[vm__dc_cidx(d, i, j, k)] != CELL_IN) continue;
+                int64_t ci = vm__dc_cidx(d, i, j, k);
+                if (d->cell_map[ci] != CELL_IN || vm__dc_coarse(d, ci) >= 0) continue;
                 vm_status s = VM_OK;
                 if (d->adaptive) {
                     int64_t c[3] = {i, j, k}, org[3];
@@ -427,13 +567,50 @@ static vm_status emit_interior(dc *d, vm_error *err) {
     return VM_OK;
 }
 
+/* Faces of coarse boundary leaves toward interior leaves: the face (or each quarter of it
+ * next to an interior cell) triangulated as the interior side does, with the leaf's
+ * vertex as apex (LBIE §4.2.2, 3: "identify all middle points on the four edges"). */
+static vm_status emit_coarse_boundary(dc *d, size_t first, size_t end, vm_error *err) {
+    for (size_t l = first; l < end; l++) {
+        const int64_t *o = d->coarse_org + 3 * l;
+        d->cur_src = SRC(SRC_COARSE, l);
+        int64_t rep = vm__dc_npoints_real(d) + (int64_t)(d->coarse_base + l);
+        for (int f = 0; f < 6; f++) {
+            int a = f >> 1, side = f & 1, b = (a + 1) % 3, c = (a + 2) % 3;
+            int64_t q[3] = {o[0], o[1], o[2]}, ac[3];
+            q[a] += side ? 2 : 0;
+            memcpy(ac, q, sizeof ac);
+            if (!side) ac[a]--;
+            int64_t aci = vm__dc_cidx(d, ac[0], ac[1], ac[2]);
+            if (vm__dc_coarse(d, aci) >= 0) continue;
+            vm_status s = VM_OK;
+            if (d->cell_map[aci] == CELL_IN && vm__octree_size(&d->oct, ac) >= 2) {
+                s = emit_coarse_face(d, rep, a, q, 2, side, err);
+            } else {
+                for (int k = 0; k < 4 && !s; k++) {
+                    int64_t sq[3] = {q[0], q[1], q[2]}, sc[3] = {ac[0], ac[1], ac[2]};
+                    sq[b] += k & 1;
+                    sq[c] += k >> 1;
+                    sc[b] += k & 1;
+                    sc[c] += k >> 1;
+                    if (d->cell_map[vm__dc_cidx(d, sc[0], sc[1], sc[2])] == CELL_IN)
+                        s = emit_coarse_face(d, rep, a, sq, 1, side, err);
+                }
+            }
+            if (s) return s;
+        }
+    }
+    return VM_OK;
+}
+
 /* Around a special cell the elements of the two face edges at an inside corner use
  * different vertices in one of the two cells; the gap between their triangles is filled
  * with one tet, or two (a pyramid) when both cells differ. */
-static vm_status emit_gaps(dc *d, vm_error *err) {
-    for (size_t bi = 0; bi < d->nbc; bi++) {
+static vm_status emit_gaps(dc *d, size_t first, size_t end, vm_error *err) {
+    for (size_t bi = first; bi < end; bi++) {
         const bcell *b = &d->bc[bi];
         if (!b->special) continue;
+        d->cur_src = SRC(SRC_GAPS, bi);
         int64_t cm[3];
         vm__dc_cell_coords(d, b->cell, cm);
         for (int f = 0; f < 6; f++) {
@@ -486,10 +663,67 @@ static vm_status emit_gaps(dc *d, vm_error *err) {
 static vm_status emit_all(dc *d, vm_error *err) {
     d->ntets = 0;
     d->ncentre = 0;
-    vm_status s = emit_edges(d, err);
-    if (!s) s = emit_faces(d, err);
+    vm_status s = emit_edges(d, NULL, err);
+    if (!s) s = emit_faces(d, 0, d->nbc, err);
+    d->cur_src = SRC(SRC_NONE, 0);
     if (!s) s = emit_interior(d, err);
-    if (!s) s = emit_gaps(d, err);
+    if (!s) s = emit_coarse_boundary(d, 0, d->ncoarse, err);
+    if (!s) s = emit_gaps(d, 0, d->nbc, err);
+    return s;
+}
+
+/* Re-emits only the elements with a tet on a representative flagged in moved[]: their tets
+ * are removed and they are emitted again at the end of the list (their splits may change).
+ * Interior elements use no representative and stay. */
+static vm_status emit_local(dc *d, const uint8_t *moved, vm_error *err) {
+    int64_t N = vm__dc_npoints_real(d);
+    int64_t *redo = NULL;
+    size_t nredo = 0, cap = 0;
+    vm_status s = VM_OK;
+    for (size_t t = 0; t < d->ntets && !s; t++) {
+        const int64_t *v = d->tets + 4 * t;
+        int hit = 0;
+        for (int k = 0; k < 4; k++)
+            if (v[k] >= N && (size_t)(v[k] - N) < d->nreps && moved[v[k] - N]) hit = 1;
+        if (!hit || SRC_KIND(d->src[t]) == SRC_NONE) continue;
+        if (nredo && redo[nredo - 1] == d->src[t]) continue;
+        s = vm__grow((void **)&redo, &cap, nredo + 1, sizeof *redo, err);
+        if (!s) redo[nredo++] = d->src[t];
+    }
+    if (s || !nredo) {
+        free(redo);
+        return s;
+    }
+    qsort(redo, nredo, sizeof *redo, id_cmp);
+    size_t u = 0;
+    for (size_t i = 0; i < nredo; i++)
+        if (u == 0 || redo[u - 1] != redo[i]) redo[u++] = redo[i];
+    nredo = u;
+    size_t kept = 0;
+    for (size_t t = 0; t < d->ntets; t++) {
+        if (SRC_KIND(d->src[t]) != SRC_NONE &&
+            bsearch(&d->src[t], redo, nredo, sizeof *redo, id_cmp))
+            continue;
+        memmove(d->tets + 4 * kept, d->tets + 4 * t, 4 * sizeof(int64_t));
+        d->src[kept++] = d->src[t];
+    }
+    d->ntets = kept;
+    for (size_t i = 0; i < nredo && !s; i++) {
+        int64_t pl = SRC_PAYLOAD(redo[i]);
+        switch (SRC_KIND(redo[i])) {
+        case SRC_EDGE: {
+            int64_t id = pl / 3;
+            int64_t only[4] = {pl % 3, id % d->n[0], (id / d->n[0]) % d->n[1],
+                               id / (d->n[0] * d->n[1])};
+            s = emit_edges(d, only, err);
+            break;
+        }
+        case SRC_FACES: s = emit_faces(d, (size_t)pl, (size_t)pl + 1, err); break;
+        case SRC_COARSE: s = emit_coarse_boundary(d, (size_t)pl, (size_t)pl + 1, err); break;
+        default: s = emit_gaps(d, (size_t)pl, (size_t)pl + 1, err); break;
+        }
+    }
+    free(redo);
     return s;
 }
 
@@ -500,10 +734,16 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
     const double eps = 1e-9; /* index units: a 0.02-voxel tet is ~1e-6 */
     int64_t N = vm__dc_npoints_real(d);
     uint8_t *touched = calloc(d->nreps ? d->nreps : 1, 1);
-    if (!touched) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    uint8_t *now = calloc(d->nreps ? d->nreps : 1, 1);
+    if (!touched || !now) {
+        free(touched);
+        free(now);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
     size_t bad = 0;
     for (int round = 0; round < 24; round++) {
         bad = 0;
+        memset(now, 0, d->nreps);
         for (size_t t = 0; t < d->ntets; t++) {
             const int64_t *v = d->tets + 4 * t;
             if (tet_volume(d, v, 0) > eps) continue;
@@ -512,13 +752,19 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
                 if (v[k] >= N && (size_t)(v[k] - N) < d->nreps) {
                     size_t r = (size_t)(v[k] - N);
                     d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * 0.5 : 0.0;
-                    touched[r] = 1;
+                    /* A coarse leaf's vertex also moves toward the block centre: its mass
+                     * point may lie outside the wedge that the grid edges on its faces
+                     * leave it (the centre lies inside every one of them). */
+                    if (d->ncoarse && r >= d->coarse_base)
+                        d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * 0.5 : 0.0;
+                    touched[r] = now[r] = 1;
                 }
         }
         if (!bad) break;
-        vm_status s = emit_all(d, err);
+        vm_status s = emit_local(d, now, err);
         if (s) {
             free(touched);
+            free(now);
             return s;
         }
     }
@@ -526,6 +772,7 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
     for (size_t r = 0; r < d->nreps; r++)
         nt += touched[r];
     free(touched);
+    free(now);
     *relaxed = nt;
     *bad_left = bad;
     return VM_OK;
@@ -541,11 +788,6 @@ static int bface_cmp(const void *x, const void *y) {
     for (int k = 0; k < 3; k++)
         if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
     return 0;
-}
-
-static int id_cmp(const void *x, const void *y) {
-    int64_t a = *(const int64_t *)x, b = *(const int64_t *)y;
-    return a < b ? -1 : a > b;
 }
 
 /* Counts the intersecting pairs of boundary triangles of the current tets (index space)
@@ -674,7 +916,8 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
         }
         if (!step) break;
         size_t touched = 0;
-        if ((s = emit_all(d, err)) || (s = make_positive(d, bad, &touched, err)) || *bad)
+        if ((s = emit_local(d, mark, err)) || (s = make_positive(d, bad, &touched, err)) ||
+            *bad)
             break;
     }
     *moved = 0;

@@ -240,7 +240,7 @@ static void edge_crossing(const dc *d, const int64_t p0[3], const int64_t p1[3],
 /* Places the minimiser and mass point of every patch (index coordinates). Cells reaching
  * into the padding pin the padded axes to the border plane and use only crossings between
  * real points, so the border faces are the 2-D dual contour of the material's section. */
-static vm_status place_reps(dc *d, vm_error *err) {
+static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
     size_t n = d->nreps ? d->nreps : 1;
     d->qpos = malloc(3 * n * sizeof(double));
     d->mpos = malloc(3 * n * sizeof(double));
@@ -348,6 +348,17 @@ static vm_status place_reps(dc *d, vm_error *err) {
             d->rep_planes[r] = planes;
         }
     }
+    for (size_t l = 0; l < d->ncoarse; l++) { /* coarse boundary leaves: one patch each */
+        size_t r = d->coarse_base + l;
+        for (int a = 0; a < 3; a++) {
+            d->qpos[3 * r + (size_t)a] = coarse_pos[6 * l + (size_t)a];
+            d->mpos[3 * r + (size_t)a] = coarse_pos[6 * l + 3 + (size_t)a];
+            d->cpos[3 * r + (size_t)a] = (double)d->coarse_org[3 * l + (size_t)a] + 1.0;
+        }
+        d->lambda[r] = 1.0;
+        d->mu[r] = 1.0;
+        d->rep_planes[r] = 0;
+    }
     return VM_OK;
 }
 
@@ -417,23 +428,269 @@ int64_t vm__dc_rep_for_edge(const dc *d, const bcell *b, int e) {
     return N + b->base + b->corner_patch[vm__dc_edge_c0[e]];
 }
 
+static int cell_mask(const dc *d, int64_t i, int64_t j, int64_t k) {
+    int mask = 0;
+    for (int c = 0; c < 8; c++)
+        mask |= d->in[vm__dc_pidx(d, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))] << c;
+    return mask;
+}
+
+static int has_ambiguous_face(int mask) {
+    for (int f = 0; f < 6; f++) {
+        const int *fc = vm__dc_face_corner[f];
+        int q0 = (mask >> fc[0]) & 1, q1 = (mask >> fc[1]) & 1;
+        int q2 = (mask >> fc[2]) & 1, q3 = (mask >> fc[3]) & 1;
+        if (q0 == q2 && q1 == q3 && q0 != q1) return 1;
+    }
+    return 0;
+}
+
+static int in_material(const dc *d, double f) {
+    return (!d->g->has_lo || f >= d->g->lo) && (!d->g->has_hi || f <= d->g->hi);
+}
+
+/* Whether the aligned 2x2x2 block of cells at o (its 3x3x3 grid points s) can be one
+ * boundary leaf without changing the topology of the boundary, and the coarse leaf's
+ * QEF minimiser and mass point (relative to o) when it can. The criterion, on the signs:
+ *  - the eight corners mix; the coarse cell has one patch, is not special and has no
+ *    ambiguous face;
+ *  - every coarse edge crosses at most once (a midpoint differs from its ends only when
+ *    the ends differ);
+ *  - on a coarse face whose corners agree all nine points agree; otherwise the face centre
+ *    agrees with one of the face's edge midpoints (so each side of the one crossing curve
+ *    is 4-connected and the face carries the same curve as the coarse face);
+ *  - the block centre agrees with one of the face centres (no bubble);
+ *  - no cell of the block or around it (the 4x4x4 cells) is special or has an ambiguous
+ *    face, so only one-patch cells and plain faces meet the coarse leaf.
+ * Then the inside points on the block's surface form one disk and the outside points the
+ * other, the fine surface inside the block is one disk with the same boundary curve as the
+ * coarse leaf's fan, and dropping the block's inner points keeps the topology.
+ * The error (voxels) is the larger of two distances, and the block merges when it is at
+ * most d->error:
+ *  - the seed's EDerror terms |f - f_tri| / |grad f| (f_tri: the coarse cell's trilinear
+ *    interpolant) at those of the 19 non-corner points that f_tri puts on the other side
+ *    of the material bound: features (thin plates, tips) the coarse cell would cut off.
+ *    Elsewhere the coarse leaf keeps the fine crossings (its vertex is their QEF
+ *    minimiser), so EDerror there measures the trilinear cell, not the mesh;
+ *  - the flatness (a curvature measure): the largest distance of a fine crossing from the
+ *    plane through the minimiser normal to the crossings' mean normal, which bounds how
+ *    far the fine surface lies from the leaf's fan. */
+static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double m[3]) {
+    int s[3][3][3];
+    for (int k = 0; k < 3; k++)
+        for (int j = 0; j < 3; j++)
+            for (int i = 0; i < 3; i++)
+                s[i][j][k] = d->in[vm__dc_pidx(d, o[0] + i, o[1] + j, o[2] + k)];
+    int mask = 0;
+    for (int c = 0; c < 8; c++)
+        mask |= s[2 * (c & 1)][2 * ((c >> 1) & 1)][2 * (c >> 2)] << c;
+    if (mask == 0 || mask == 0xff || has_ambiguous_face(mask)) return 0;
+    bcell cb;
+    analyse_cell(mask, &cb);
+    if (cb.npatch != 1 || cb.special) return 0;
+    for (int a = 0; a < 3; a++) { /* coarse edges */
+        int b = (a + 1) % 3, c = (a + 2) % 3;
+        for (int u = 0; u <= 2; u += 2)
+            for (int v = 0; v <= 2; v += 2) {
+                int p[3][3];
+                for (int t = 0; t < 3; t++) {
+                    p[t][a] = t;
+                    p[t][b] = u;
+                    p[t][c] = v;
+                }
+                int s0 = s[p[0][0]][p[0][1]][p[0][2]], s1 = s[p[1][0]][p[1][1]][p[1][2]];
+                int s2 = s[p[2][0]][p[2][1]][p[2][2]];
+                if (s0 == s2 && s1 != s0) return 0;
+            }
+    }
+    int face_centre[6];
+    for (int a = 0; a < 3; a++) { /* coarse faces */
+        int b = (a + 1) % 3, c = (a + 2) % 3;
+        for (int side = 0; side < 2; side++) {
+            int pts[3][3], all = 1;
+            for (int v = 0; v < 3; v++)
+                for (int u = 0; u < 3; u++) {
+                    int p[3];
+                    p[a] = 2 * side;
+                    p[b] = u;
+                    p[c] = v;
+                    pts[u][v] = s[p[0]][p[1]][p[2]];
+                }
+            int c0 = pts[0][0];
+            if (pts[2][0] != c0 || pts[0][2] != c0 || pts[2][2] != c0) all = 0;
+            int ctr = pts[1][1];
+            face_centre[2 * a + side] = ctr;
+            if (all) {
+                for (int v = 0; v < 3; v++)
+                    for (int u = 0; u < 3; u++)
+                        if (pts[u][v] != c0) return 0;
+            } else if (pts[1][0] != ctr && pts[0][1] != ctr && pts[2][1] != ctr &&
+                       pts[1][2] != ctr) {
+                return 0;
+            }
+        }
+    }
+    int ok = 0;
+    for (int f = 0; f < 6; f++)
+        ok |= face_centre[f] == s[1][1][1];
+    if (!ok) return 0;
+    for (int64_t k = o[2] - 1; k <= o[2] + 2; k++) /* the cells of the block and around it */
+        for (int64_t j = o[1] - 1; j <= o[1] + 2; j++)
+            for (int64_t i = o[0] - 1; i <= o[0] + 2; i++) {
+                int32_t code = d->cell_map[vm__dc_cidx(d, i, j, k)];
+                if (code < 0) continue;
+                if (d->bc[code].special || has_ambiguous_face(cell_mask(d, i, j, k))) return 0;
+            }
+    /* EDerror of the trilinear coarse cell at the non-corner points near the surface */
+    double fc[8], edmax = 0;
+    for (int c = 0; c < 8; c++)
+        fc[c] =
+            vm__dc_fval(d, o[0] + 2 * (c & 1), o[1] + 2 * ((c >> 1) & 1), o[2] + 2 * (c >> 2));
+    for (int k = 0; k < 3; k++)
+        for (int j = 0; j < 3; j++)
+            for (int i = 0; i < 3; i++) {
+                if (!(i & 1) && !(j & 1) && !(k & 1)) continue;
+                double tx = i / 2.0, ty = j / 2.0, tz = k / 2.0, ft = 0;
+                for (int c = 0; c < 8; c++)
+                    ft += fc[c] * ((c & 1) ? tx : 1 - tx) * ((c >> 1) & 1 ? ty : 1 - ty) *
+                          ((c >> 2) ? tz : 1 - tz);
+                int64_t p[3] = {o[0] + i, o[1] + j, o[2] + k};
+                double gr[3], f = vm__dc_fval(d, p[0], p[1], p[2]);
+                gradient(d, p, gr);
+                double gn = sqrt(gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]);
+                if (!(gn > 1e-12)) gn = 1e-12;
+                if (in_material(d, f) == in_material(d, ft)) continue;
+                if (fabs(f - ft) / gn > edmax) edmax = fabs(f - ft) / gn;
+            }
+    if (edmax > d->error) return 0;
+    /* the coarse QEF over every fine crossing of the block, and its flatness */
+    vm_qef q;
+    vm__qef_init(&q);
+    double pts[54][3], nrms[54][3];
+    int np = 0;
+    for (int a = 0; a < 3; a++)
+        for (int k = 0; k < 3; k++)
+            for (int j = 0; j < 3; j++)
+                for (int i = 0; i < 3; i++) {
+                    int64_t p0[3] = {o[0] + i, o[1] + j, o[2] + k}, p1[3];
+                    int r[3] = {i, j, k};
+                    if (r[a] == 2) continue;
+                    memcpy(p1, p0, sizeof p1);
+                    p1[a]++;
+                    r[a]++;
+                    if (s[i][j][k] == s[r[0]][r[1]][r[2]]) continue;
+                    edge_crossing(d, p0, p1, pts[np], nrms[np]);
+                    for (int t = 0; t < 3; t++)
+                        pts[np][t] -= (double)o[t];
+                    vm__qef_add(&q, pts[np], nrms[np]);
+                    np++;
+                }
+    if (!np) return 0;
+    /* The leaf's vertex: the mass point moved along the crossings' mean normal onto the
+     * plane that fits their tangent planes best (the QEF restricted to that line). A full
+     * QEF minimiser slides along a curved patch toward the tangent planes' intersection,
+     * off the surface; the flat patches that merge need no sharp-feature placement. */
+    double nm[3] = {0, 0, 0};
+    for (int a = 0; a < 3; a++)
+        m[a] = q.mass[a] / q.count;
+    for (int i = 0; i < np; i++)
+        for (int a = 0; a < 3; a++)
+            nm[a] += nrms[i][a];
+    double nl = sqrt(nm[0] * nm[0] + nm[1] * nm[1] + nm[2] * nm[2]);
+    if (!(nl > 0.5)) return 0; /* crossings facing every way */
+    for (int a = 0; a < 3; a++)
+        nm[a] /= nl;
+    double num = 0, den = 0;
+    for (int i = 0; i < np; i++) {
+        double nn = 0, np_ = 0;
+        for (int a = 0; a < 3; a++) {
+            nn += nrms[i][a] * nm[a];
+            np_ += nrms[i][a] * (pts[i][a] - m[a]);
+        }
+        num += nn * np_;
+        den += nn * nn;
+    }
+    double t = den > 0 ? num / den : 0;
+    for (int a = 0; a < 3; a++) {
+        x[a] = m[a] + t * nm[a];
+        x[a] = x[a] < 0 ? 0 : x[a] > 2 ? 2 : x[a];
+    }
+    /* flatness: the crossings' distance from the plane through x normal to the mean */
+    double flat = 0;
+    for (int i = 0; i < np; i++) {
+        double dist = 0;
+        for (int a = 0; a < 3; a++)
+            dist += nm[a] * (pts[i][a] - x[a]);
+        if (fabs(dist) > flat) flat = fabs(dist);
+    }
+    return flat <= d->error;
+}
+
+/* Adaptive mode: merges aligned 2x2x2 blocks of boundary cells into coarse boundary leaves
+ * where block_mergeable allows. Blocks keep one cell away from the padding. */
+static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
+    size_t nc = (size_t)(d->C[0] * d->C[1] * d->C[2]);
+    d->coarse_of = malloc(nc * sizeof *d->coarse_of);
+    if (!d->coarse_of) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    for (size_t i = 0; i < nc; i++)
+        d->coarse_of[i] = -1;
+    size_t cap = 0;
+    for (int64_t k = 2; k + 4 <= d->n[2]; k += 2)
+        for (int64_t j = 2; j + 4 <= d->n[1]; j += 2)
+            for (int64_t i = 2; i + 4 <= d->n[0]; i += 2) {
+                int64_t o[3] = {i, j, k};
+                double x[3], m[3];
+                if (!block_mergeable(d, o, x, m)) continue;
+                vm_status s = vm__grow((void **)&d->coarse_org, &d->coarse_cap, d->ncoarse + 1,
+                                       3 * sizeof(int64_t), err);
+                if (!s)
+                    s = vm__grow((void **)coarse_pos, &cap, d->ncoarse + 1, 6 * sizeof(double),
+                                 err);
+                if (s) return s;
+                memcpy(d->coarse_org + 3 * d->ncoarse, o, sizeof o);
+                for (int a = 0; a < 3; a++) {
+                    (*coarse_pos)[6 * d->ncoarse + (size_t)a] = (double)o[a] + x[a];
+                    (*coarse_pos)[6 * d->ncoarse + 3 + (size_t)a] = (double)o[a] + m[a];
+                }
+                for (int c = 0; c < 8; c++)
+                    d->coarse_of[vm__dc_cidx(d, i + (c & 1), j + ((c >> 1) & 1),
+                                             k + (c >> 2))] = (int32_t)d->ncoarse;
+                d->ncoarse++;
+            }
+    d->coarse_base = d->nreps;
+    d->nreps += d->ncoarse;
+
+    return VM_OK;
+}
+
 static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error *err) {
     int64_t nc[3] = {d->n[0] - 1, d->n[1] - 1, d->n[2] - 1};
     size_t n = (size_t)(nc[0] * nc[1] * nc[2]);
     uint8_t *kind = malloc(n ? n : 1);
-    if (!kind) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+    int8_t *blevel = malloc(n ? n : 1);
+    if (!kind || !blevel) {
+        free(kind);
+        free(blevel);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+    }
     size_t idx = 0;
     for (int64_t k = 0; k < nc[2]; k++)
         for (int64_t j = 0; j < nc[1]; j++)
             for (int64_t i = 0; i < nc[0]; i++) {
-                int32_t code = d->cell_map[vm__dc_cidx(d, i, j, k)];
-                kind[idx++] = code == CELL_IN    ? VM_KIND_INTERIOR
+                int64_t ci = vm__dc_cidx(d, i, j, k);
+                int32_t code = d->cell_map[ci];
+                int coarse = vm__dc_coarse(d, ci) >= 0;
+                blevel[idx] = (int8_t)coarse;
+                kind[idx++] = coarse             ? VM_KIND_BOUNDARY
+                              : code == CELL_IN  ? VM_KIND_INTERIOR
                               : code == CELL_OUT ? VM_KIND_EXTERIOR
                                                  : VM_KIND_BOUNDARY;
             }
     size_t leaves = 0;
-    vm_status s = vm__octree_build(&d->oct, nc, kind, max_level, &leaves, err);
+    vm_status s = vm__octree_build(&d->oct, nc, kind, d->ncoarse ? blevel : NULL, max_level,
+                                   &leaves, err);
     free(kind);
+    free(blevel);
     d->adaptive = s == VM_OK;
     st->interior_cells = leaves;
     return s;
@@ -451,8 +708,11 @@ void vm__dc_free(dc *d) {
     free(d->mu);
     free(d->amb);
     free(d->centre);
+    free(d->coarse_org);
+    free(d->coarse_of);
     vm__octree_free(&d->oct);
     free(d->tets);
+    free(d->src);
 }
 
 vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_error *err) {
@@ -465,7 +725,8 @@ vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_
             int64_t cm[3];
             vm__dc_cell_coords(d, b->cell, cm);
             for (int c = 0; c < 8; c++) {
-                int64_t p = vm__dc_pidx(d, cm[0] + (c & 1), cm[1] + ((c >> 1) & 1), cm[2] + (c >> 2));
+                int64_t p =
+                    vm__dc_pidx(d, cm[0] + (c & 1), cm[1] + ((c >> 1) & 1), cm[2] + (c >> 2));
                 if (!d->in[p]) { /* the first of the two antipodal outside corners */
                     d->in[p] = 1;
                     flips++;
@@ -516,8 +777,12 @@ vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *er
     if (!s && g->progress) g->progress("contour", 1, 4, g->progress_user);
     if (!s) s = find_cells(d, st, err);
     if (!s && g->hexes) s = vm__dc_repair_for_hexes(d, st, &st->repaired_points, err);
+    double *coarse_pos = NULL;
+    d->error = g->error;
+    if (!s && g->max_level > 0 && !g->hexes) s = merge_boundary(d, &coarse_pos, err);
     if (!s && g->max_level > 0) s = build_octree(d, g->max_level, st, err);
-    if (!s) s = place_reps(d, err);
+    if (!s) s = place_reps(d, coarse_pos, err);
+    free(coarse_pos);
     if (!s && g->progress) g->progress("contour", 2, 4, g->progress_user);
     return s;
 }

@@ -111,6 +111,9 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     if (o->adaptive && (o->max_level < 1 || o->max_level > 10))
         return vm_error_set(err, VM_ERR_ARG, "mesh: adaptive max level %d is outside 1..10",
                             o->max_level);
+    if (o->adaptive && !(o->error >= 0 && o->error < 1e30))
+        return vm_error_set(err, VM_ERR_ARG, "mesh: adaptive error %g must be >= 0 (voxels)",
+                            o->error);
     vm_status s = vm__material_check(v, o->has_lo, o->lo, o->has_hi, o->hi, o->cell_size,
                                      "mesh", err);
     if (s) return s;
@@ -128,6 +131,7 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     g.has_hi = o->has_hi;
     g.max_level = o->adaptive ? o->max_level : 0;
     g.hexes = o->elements == VM_HEX8;
+    g.error = o->error;
     g.progress = o->progress;
     g.progress_user = o->progress_user;
 

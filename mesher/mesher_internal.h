@@ -13,6 +13,7 @@ typedef struct vm__grid {
     int has_lo, has_hi;
     int max_level;          /* 0: uniform; > 0: interior cells merged up to 2^max_level */
     int hexes;              /* 1: the cells are prepared for hexahedra */
+    double error;           /* adaptive: boundary cells merge below this error (voxels) */
     vm_progress_fn progress;
     void *progress_user;
 } vm__grid;
@@ -35,13 +36,19 @@ enum { VM_KIND_EXTERIOR = 0, VM_KIND_BOUNDARY = 1, VM_KIND_INTERIOR = 2 };
 enum { VM_LEAF_BOUNDARY = -1, VM_LEAF_NONE = -2 };
 typedef struct vm__octree {
     int64_t nc[3];
-    int8_t *lvl; /* per cell: level of its interior leaf, VM_LEAF_BOUNDARY or VM_LEAF_NONE */
+    int8_t *lvl;  /* per cell: level of its interior leaf, VM_LEAF_BOUNDARY or VM_LEAF_NONE */
+    int8_t *blvl; /* per cell: level of its boundary leaf (0 or 1; NULL: all 0) */
 } vm__octree;
 
-/* kind: one VM_KIND_* per cell, x fastest. Neighbouring leaves differ by at most two
- * levels; 2x2x2 leaves are returned to single cells. [out] leaves: interior leaves. */
+/* kind: one VM_KIND_* per cell, x fastest; blevel (NULL: all 0): per boundary cell the
+ * level of its boundary leaf (1: an aligned 2x2x2 block), copied. Neighbouring leaves
+ * differ by at most two levels; 2x2x2 interior leaves are returned to single cells.
+ * [out] leaves: interior leaves. */
 vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *kind,
-                           int max_level, size_t *leaves, vm_error *err);
+                           const int8_t *blevel, int max_level, size_t *leaves, vm_error *err);
+/* Edge length in cells of the leaf holding cell c (interior or boundary), 0 for exterior
+ * cells and cells out of range. */
+int64_t vm__octree_size(const vm__octree *o, const int64_t c[3]);
 /* Level of the leaf holding cell c (>= 0 interior, VM_LEAF_BOUNDARY, VM_LEAF_NONE for
  * exterior or out of range); [out] origin: its lowest cell. */
 int vm__octree_leaf(const vm__octree *o, const int64_t c[3], int64_t origin[3]);

@@ -1,7 +1,8 @@
 /* mesher/octree.c — the adaptive octree of interior cells: aligned cubes of 2^l grid cells
  * whose every grid point is in the material, taken as large as allowed and split until
  * neighbouring leaves (sharing a face, an edge or a corner) differ by at most two levels,
- * so element sizes grade (seed 001, LBIE §4.2; boundary cells stay at the finest level). */
+ * so element sizes grade (seed 001, LBIE §4.2). Boundary leaves are single cells or the
+ * aligned 2x2x2 blocks dual_contour.c merged (their level comes in with the kinds). */
 #include "mesher_internal.h"
 #include <stdlib.h>
 #include <string.h>
@@ -28,11 +29,27 @@ int vm__octree_leaf(const vm__octree *o, const int64_t c[3], int64_t origin[3]) 
     return l;
 }
 
+static int boundary_level(const vm__octree *o, const int64_t c[3]) {
+    return o->blvl ? o->blvl[cell_index(o, c)] : 0;
+}
+
+int64_t vm__octree_size(const vm__octree *o, const int64_t c[3]) {
+    int64_t org[3];
+    int l = vm__octree_leaf(o, c, org);
+    if (l == VM_LEAF_BOUNDARY) return (int64_t)1 << boundary_level(o, c);
+    return l >= 0 ? (int64_t)1 << l : 0;
+}
+
 int vm__octree_is_vertex(const vm__octree *o, const int64_t p[3]) {
     for (int k = 0; k < 8; k++) {
         int64_t c[3] = {p[0] - (k & 1), p[1] - ((k >> 1) & 1), p[2] - (k >> 2)}, org[3];
         int l = vm__octree_leaf(o, c, org);
-        if (l == VM_LEAF_BOUNDARY) return 1;
+        if (l == VM_LEAF_BOUNDARY) {
+            l = boundary_level(o, c);
+            if (l == 0) return 1;
+            for (int a = 0; a < 3; a++)
+                org[a] = c[a] & ~(((int64_t)1 << l) - 1);
+        }
         if (l < 0) continue;
         int64_t s = (int64_t)1 << l;
         int corner = 1;
@@ -48,19 +65,23 @@ int vm__octree_is_vertex(const vm__octree *o, const int64_t p[3]) {
 static int neighbour_level(const vm__octree *o, const int64_t q[3]) {
     if (!in_range(o, q)) return 99;
     int l = o->lvl[cell_index(o, q)];
-    if (l == VM_LEAF_BOUNDARY) return 0;
+    if (l == VM_LEAF_BOUNDARY) return boundary_level(o, q);
     if (l < 0) return 99;
     return l;
 }
 
 vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *kind,
-                           int max_level, size_t *leaves, vm_error *err) {
+                           const int8_t *blevel, int max_level, size_t *leaves, vm_error *err) {
     memset(o, 0, sizeof *o);
     memcpy(o->nc, nc, sizeof o->nc);
     size_t n = (size_t)(nc[0] * nc[1] * nc[2]);
     o->lvl = malloc(n ? n : 1);
     int8_t *full = malloc(n ? n : 1);
-    if (!o->lvl || !full) {
+    if (blevel) {
+        o->blvl = malloc(n ? n : 1);
+        if (o->blvl) memcpy(o->blvl, blevel, n);
+    }
+    if (!o->lvl || !full || (blevel && !o->blvl)) {
         free(full);
         vm__octree_free(o);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
@@ -138,11 +159,38 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
                     changed = 1;
                 }
     }
-    /* A leaf of 2x2x2 cells with finer neighbours costs more tets (48) than its eight cells
-     * (40): keep those as cells. The faces of coarse leaves accept any finer neighbour, so
-     * this keeps the mesh conforming. */
-    for (size_t i = 0; i < n; i++)
-        if (o->lvl[i] == 1) o->lvl[i] = 0;
+    /* A leaf of 2x2x2 cells costs 8 tets on a face next to single cells and 2-4 on a face
+     * next to a leaf of its size or larger; its eight cells cost 40. Leaves that would cost
+     * more (mostly those with finer neighbours) return to cells. The faces of coarse leaves
+     * accept any finer neighbour, so this keeps the mesh conforming. */
+    int8_t *keep = malloc(n ? n : 1);
+    if (!keep) {
+        vm__octree_free(o);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+    }
+    for (int64_t z = 0; z < nc[2]; z++)
+        for (int64_t y = 0; y < nc[1]; y++)
+            for (int64_t x = 0; x < nc[0]; x++) {
+                size_t ci = (size_t)cell_index(o, (int64_t[3]){x, y, z});
+                keep[ci] = 1;
+                if (o->lvl[ci] != 1 || (x & 1) || (y & 1) || (z & 1)) continue;
+                int cost = 0;
+                for (int f = 0; f < 6; f++) {
+                    int64_t q[3] = {x, y, z};
+                    q[f >> 1] += (f & 1) ? 2 : -1;
+                    int64_t sz = vm__octree_size(o, q);
+                    cost += sz == 1 ? 8 : 3;
+                }
+                keep[ci] = cost < 40;
+            }
+    for (int64_t z = 0; z < nc[2]; z++)
+        for (int64_t y = 0; y < nc[1]; y++)
+            for (int64_t x = 0; x < nc[0]; x++) {
+                size_t ci = (size_t)cell_index(o, (int64_t[3]){x, y, z});
+                if (o->lvl[ci] != 1) continue;
+                if (!keep[cell_index(o, (int64_t[3]){x & ~1, y & ~1, z & ~1})]) o->lvl[ci] = 0;
+            }
+    free(keep);
     size_t count = 0;
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
@@ -158,5 +206,7 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
 void vm__octree_free(vm__octree *o) {
     if (!o) return;
     free(o->lvl);
+    free(o->blvl);
     o->lvl = NULL;
+    o->blvl = NULL;
 }

@@ -4,6 +4,7 @@
  * the volume of the analytic shape it samples. */
 #include "test.h"
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define PI 3.14159265358979323846
@@ -104,8 +105,8 @@ static void check_digital_case(const char *label, const vm_volume *v, const vm_m
                   "(expected %zu) self-intersections %zu",
                   label, r.inverted, r.degenerate, r.overshared_faces, r.boundary_closed,
                   r.boundary_open_edges, r.boundary_nonmanifold_edges,
-                  r.boundary_nonmanifold_vertices, r.boundary_euler, euler, r.components,
-                  comps, r.boundary_self_intersections);
+                  r.boundary_nonmanifold_vertices, r.boundary_euler, euler, r.components, comps,
+                  r.boundary_self_intersections);
         vm_mesh_free(&m);
         return;
     }
@@ -181,6 +182,37 @@ static double sphere_surface_distance(const vm_mesh *m, int n, const double c[3]
     }
     vm_mesh_free(&surf);
     return worst;
+}
+
+/* Area of the boundary of m (index space for the phantoms). */
+static double boundary_area(const vm_mesh *m) {
+    vm_mesh surf;
+    vm_error err;
+    if (vm_mesh_boundary(m, &surf, &err) != VM_OK) return 0;
+    double area = 0;
+    for (size_t t = 0; t < surf.ncells; t++) {
+        const double *p[3];
+        for (int k = 0; k < 3; k++)
+            p[k] = surf.points + 3 * (size_t)surf.cells[3 * t + (size_t)k];
+        double u[3], w[3];
+        for (int a = 0; a < 3; a++)
+            u[a] = p[1][a] - p[0][a], w[a] = p[2][a] - p[0][a];
+        double c[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                       u[0] * w[1] - u[1] * w[0]};
+        area += 0.5 * sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    }
+    vm_mesh_free(&surf);
+    return area;
+}
+
+/* Volume bound of an adaptive mesh with coarse boundary leaves: 1%, or a mean inward shift
+ * of 0.1 voxel over the boundary where that is larger. The leaves' fans are chords of the
+ * surface over 2-voxel cells (inside a convex surface by up to a quarter voxel on a tube of
+ * radius 3.5); on the thin tubes of genus3 (radius 3.5, area/volume 0.57 per voxel) that
+ * is 5.7%, on the 64^3 sphere 1.4%. */
+static double adaptive_volume_tolerance(const vm_mesh *m, double volume) {
+    double t = 0.1 * boundary_area(m) / volume;
+    return t > 0.01 ? t : 0.01;
 }
 
 static void meshOfEachPhantomHasItsKnownTopologyAndVolume(void) {
@@ -570,8 +602,9 @@ static void sharedVolumesMeshWithTheTopologyOfTheirVoxels(void) {
     }
 }
 
-/* Adaptive mode: interior cells merged into octree leaves. Same boundary, same topology and
- * volume, fewer tets; conforming across every change of leaf size. */
+/* Adaptive mode: interior cells merged into octree leaves, boundary cells into 2x2x2 leaves
+ * where the surface is simple and flat. Same topology, the volume within
+ * adaptive_volume_tolerance, fewer tets; conforming across every change of leaf size. */
 static void adaptiveMeshOfEachPhantomKeepsTopologyAndVolumeWithFewerTets(void) {
     static const int sizes[] = {64, 96};
     for (size_t z = 0; z < 2; z++)
@@ -596,7 +629,8 @@ static void adaptiveMeshOfEachPhantomKeepsTopologyAndVolumeWithFewerTets(void) {
             o.max_level = 5;
             snprintf(label, sizeof label, "%s n=%d adaptive", info.name, n);
             if (mesh_case(label, &v, &o, &ada, NULL)) {
-                check_tet_mesh(&ada, info.euler, (size_t)info.components, info.volume, 0.01);
+                check_tet_mesh(&ada, info.euler, (size_t)info.components, info.volume,
+                               adaptive_volume_tolerance(&ada, info.volume));
                 if (ok_u) {
                     printf("    %zu tets adaptive vs %zu uniform (%.2fx fewer)\n", ada.ncells,
                            uni.ncells, (double)uni.ncells / (double)ada.ncells);
@@ -612,8 +646,10 @@ static void adaptiveMeshOfEachPhantomKeepsTopologyAndVolumeWithFewerTets(void) {
                     size_t on_x0;
                     double max_r_x0;
                     double worst = sphere_surface_distance(&ada, n, c, r, &on_x0, &max_r_x0);
-                    CHECK_MSG(worst <= 0.5, "a boundary vertex is %.3f voxel from the sphere",
-                              worst);
+                    /* fine vertices: half a voxel; a coarse leaf's vertex: its crossings'
+                     * plane is within the error, the crossings within half a voxel */
+                    CHECK_MSG(worst <= 0.5 + o.error,
+                              "a boundary vertex is %.3f voxel from the sphere", worst);
                 }
             }
             vm_mesh_free(&uni);
@@ -657,7 +693,7 @@ static void adaptiveNoisyPhantomsAndSharedVolumesMatchTheDigitalTopology(void) {
         snprintf(label, sizeof label, "%s iso %g adaptive", shared_cases[c].file,
                  shared_cases[c].iso);
         check_digital_case(label, &v, &o, 0);
-        if (c == 0) { /* CT head skin: record the saving; the issue asks for 3x (not yet) */
+        if (c == 0) { /* CT head skin: the raw saving (3x after the quality pass: below) */
             vm_mesh uni, ada;
             vm_mesh_options u = o;
             u.adaptive = 0;
@@ -666,13 +702,165 @@ static void adaptiveNoisyPhantomsAndSharedVolumesMatchTheDigitalTopology(void) {
                 double ratio = (double)uni.ncells / (double)ada.ncells;
                 printf("    ct head iso 500: %zu tets uniform, %zu adaptive (%.2fx fewer)\n",
                        uni.ncells, ada.ncells, ratio);
-                CHECK_MSG(ratio >= 1.7, "adaptive saving fell to %.2fx", ratio);
+                CHECK_MSG(ratio >= 2.5, "adaptive saving fell to %.2fx", ratio);
                 vm_mesh_free(&uni);
                 vm_mesh_free(&ada);
             }
         }
         vm_volume_free(&v);
     }
+}
+
+/* Boundary of a mesh of the sphere phantom: the largest distance of a triangle centroid (off
+ * the box border) from the sphere, in index space. Coarse boundary leaves make larger
+ * triangles, so their chords are checked, not only their corners. */
+static double sphere_centroid_distance(const vm_mesh *m, int n, const double c[3], double r) {
+    vm_mesh surf;
+    vm_error err;
+    double worst = 0;
+    vm_status s = vm_mesh_boundary(m, &surf, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return 1e300;
+    for (size_t t = 0; t < surf.ncells; t++) {
+        double g[3] = {0, 0, 0};
+        int border = 0;
+        for (int k = 0; k < 3; k++) {
+            const double *p = surf.points + 3 * (size_t)surf.cells[3 * t + (size_t)k];
+            for (int a = 0; a < 3; a++) {
+                g[a] += p[a] / 3;
+                if (fabs(p[a]) < 1e-9 || fabs(p[a] - (n - 1)) < 1e-9) border = 1;
+            }
+        }
+        if (border) continue;
+        double d = sqrt((g[0] - c[0]) * (g[0] - c[0]) + (g[1] - c[1]) * (g[1] - c[1]) +
+                        (g[2] - c[2]) * (g[2] - c[2]));
+        if (fabs(d - r) > worst) worst = fabs(d - r);
+    }
+    vm_mesh_free(&surf);
+    return worst;
+}
+
+/* Adaptive mode merges 2x2x2 blocks of boundary cells where the surface is simple and flat
+ * to within --error: a larger error merges more (fewer tets), and at every error the mesh
+ * keeps every invariant, the phantom's topology, its volume (adaptive_volume_tolerance) and
+ * a boundary within half a voxel plus the error of the sphere. */
+static void largerErrorMergesMoreBoundaryCellsKeepingEveryInvariant(void) {
+    static const vm_phantom_kind kinds[] = {VM_PHANTOM_SPHERE, VM_PHANTOM_TORUS,
+                                            VM_PHANTOM_GENUS3, VM_PHANTOM_TWO_SPHERES};
+    static const double errors[] = {0.0, 0.25, 0.5, 2.0};
+    const int n = getenv("VM_SANITIZED") ? 48 : 64;
+    for (size_t t = 0; t < sizeof kinds / sizeof kinds[0]; t++) {
+        vm_volume v;
+        vm_phantom_info info;
+        vm_error err;
+        vm_status s = vm_phantom_make(kinds[t], n, 0.0, 0, &v, &info, &err);
+        CHECK_OK(s, &err);
+        if (s != VM_OK) continue;
+        size_t tets[4] = {0, 0, 0, 0};
+        for (size_t e = 0; e < 4; e++) {
+            vm_mesh_options o;
+            vm_mesh_options_default(&o);
+            o.adaptive = 1;
+            o.error = errors[e];
+            vm_mesh m;
+            char label[96];
+            snprintf(label, sizeof label, "%s n=%d adaptive error %.2f", info.name, n,
+                     errors[e]);
+            if (!mesh_case(label, &v, &o, &m, NULL)) continue;
+            check_tet_mesh(&m, info.euler, (size_t)info.components, info.volume,
+                           adaptive_volume_tolerance(&m, info.volume));
+            tets[e] = m.ncells;
+            if (kinds[t] == VM_PHANTOM_SPHERE) {
+                double r = 0.35 * (n - 1), c[3] = {0.5 * (n - 1), 0.5 * (n - 1), 0.5 * (n - 1)};
+                size_t on_x0;
+                double max_r_x0;
+                double worst = sphere_surface_distance(&m, n, c, r, &on_x0, &max_r_x0);
+                double chord = sphere_centroid_distance(&m, n, c, r);
+                printf(
+                    "    sphere: vertices within %.3f, triangle centroids within %.3f voxel\n",
+                    worst, chord);
+                CHECK_MSG(worst <= 0.5 + errors[e],
+                          "a boundary vertex is %.3f voxel from the sphere", worst);
+                CHECK_MSG(chord <= 0.5 + errors[e],
+                          "a boundary triangle is %.3f voxel from the sphere (error %.2f)",
+                          chord, errors[e]);
+            }
+            vm_mesh_free(&m);
+        }
+        for (size_t e = 1; e < 4; e++)
+            CHECK_MSG(tets[e] <= tets[e - 1], "%s: error %.2f gives %zu tets, error %.2f %zu",
+                      info.name, errors[e], tets[e], errors[e - 1], tets[e - 1]);
+        CHECK_MSG(tets[2] < tets[0], "%s: error 0.5 merges nothing (%zu tets)", info.name,
+                  tets[2]);
+        vm_volume_free(&v);
+    }
+}
+
+static void improve_like_the_cli(vm_mesh *m, const vm_volume *v, const vm_mesh_options *o) {
+    vm_improve_options io;
+    vm_improve_options_default(&io);
+    io.lo = o->lo;
+    io.hi = o->hi;
+    io.has_lo = o->has_lo;
+    io.has_hi = o->has_hi;
+    vm_improve_report ir;
+    vm_error err;
+    CHECK_OK(vm_mesh_improve(m, v, &io, &ir, &err), &err);
+}
+
+/* Issue #4: on the CT head at iso 500, `volmesh mesh --adaptive` (mesh, then the quality
+ * pass) gives at least 3x fewer tets than uniform, with the same boundary topology, no
+ * inverted tets and no self-intersections. Under the sanitizers only the raw meshes. */
+static void adaptiveCtHeadSkinHasThreeTimesFewerTetsThanUniform(void) {
+    const char *path = vm_test_shared("ct_head_quarter.nrrd");
+    if (!path) return;
+    vm_volume v;
+    vm_error err;
+    vm_status s = vm_volume_read(path, &v, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return;
+    int sanitized = getenv("VM_SANITIZED") != NULL;
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.lo = 500;
+    vm_mesh uni, ada;
+    if (mesh_case("ct head iso 500 uniform", &v, &o, &uni, NULL)) {
+        if (!sanitized) improve_like_the_cli(&uni, &v, &o);
+        check_tet_mesh(&uni, -12, 8, 0.0, 0.0);
+    }
+    o.adaptive = 1;
+    if (mesh_case("ct head iso 500 adaptive", &v, &o, &ada, NULL)) {
+        if (!sanitized) improve_like_the_cli(&ada, &v, &o);
+        check_tet_mesh(&ada, -12, 8, 0.0, 0.0);
+    }
+    if (uni.ncells && ada.ncells) {
+        double ratio = (double)uni.ncells / (double)ada.ncells;
+        printf("    %s: %zu tets uniform, %zu adaptive (%.2fx fewer)\n",
+               sanitized ? "raw" : "after the quality pass", uni.ncells, ada.ncells, ratio);
+        CHECK_MSG(ratio >= (sanitized ? 2.5 : 3.0), "adaptive saving is %.2fx", ratio);
+    }
+    vm_mesh_free(&uni);
+    vm_mesh_free(&ada);
+    vm_volume_free(&v);
+}
+
+static void negativeAdaptiveErrorIsRefused(void) {
+    vm_volume v;
+    vm_error err;
+    vm_status s = vm_phantom_make(VM_PHANTOM_SPHERE, 16, 0.0, 0, &v, NULL, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return;
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.adaptive = 1;
+    o.error = -0.5;
+    vm_mesh m;
+    s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK(s == VM_ERR_ARG);
+    CHECK(m.ncells == 0);
+    CHECK(strstr(err.message, "error") != NULL);
+    printf("  error -0.5: %s\n", err.message);
+    vm_volume_free(&v);
 }
 
 TEST_MAIN(T(meshOfEachPhantomHasItsKnownTopologyAndVolume),
@@ -683,4 +871,7 @@ TEST_MAIN(T(meshOfEachPhantomHasItsKnownTopologyAndVolume),
           T(cellSizeTwoGivesACoarserValidMesh), T(emptySelectionAndNonFiniteValuesAreRefused),
           T(sharedVolumesMeshWithTheTopologyOfTheirVoxels),
           T(adaptiveMeshOfEachPhantomKeepsTopologyAndVolumeWithFewerTets),
-          T(adaptiveNoisyPhantomsAndSharedVolumesMatchTheDigitalTopology))
+          T(adaptiveNoisyPhantomsAndSharedVolumesMatchTheDigitalTopology),
+          T(largerErrorMergesMoreBoundaryCellsKeepingEveryInvariant),
+          T(adaptiveCtHeadSkinHasThreeTimesFewerTetsThanUniform),
+          T(negativeAdaptiveErrorIsRefused))
