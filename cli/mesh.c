@@ -462,6 +462,8 @@ int vm_cmd_mesh(int argc, char **argv) {
         io.hi = o.hi;
         io.has_lo = o.has_lo;
         io.has_hi = o.has_hi;
+        io.progress = vm_cli_progress;
+        io.progress_user = &quiet;
         s = vm_mesh_improve(&m, &v, &io, &ir, &err);
         if (s) {
             vm_volume_free(&v);

@@ -212,7 +212,11 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
     int improved = 0;
     if (improve && m.kind == VM_TET4) {
         /* per material: interfaces are constrained surfaces (see docs/LABELS.md) */
-        s = vm_mesh_improve(&m, NULL, NULL, &ir, &err);
+        vm_improve_options io;
+        vm_improve_options_default(&io);
+        io.progress = lo->progress;
+        io.progress_user = lo->progress_user;
+        s = vm_mesh_improve(&m, NULL, &io, &ir, &err);
         if (s) {
             vm_label_stats_free(&st);
             vm_mesh_free(&m);

@@ -461,6 +461,7 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         free(vs);
         free(l);
         ops_total += ops;
+        if (o->progress) o->progress("improve", pass + 1.0, o->max_passes + 4.0, o->progress_user);
         if (ops == 0) break;
     }
     /* Last rounds for the few tets still failing ABAQUS's check: long searches around them,
@@ -497,6 +498,8 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         if (ops == 0) break;
     }
     free(stamp);
+    if (o->progress)
+        o->progress("improve", o->max_passes + 4.0, o->max_passes + 4.0, o->progress_user);
     *passes = pass;
     return ops_total;
 }

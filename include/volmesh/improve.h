@@ -18,6 +18,7 @@
 #include <stddef.h>
 #include "error.h"
 #include "mesh.h"
+#include "mesher.h"
 #include "volume.h"
 
 #ifdef __cplusplus
@@ -61,6 +62,10 @@ typedef struct vm_improve_options {
     /* 1: add a cell field "improve_unfixed" (1 for tets still failing the ABAQUS check or
      * below 10 degrees, else 0). Default 0. */
     int mark_unfixed;
+    /* Called after each round ("improve", rounds done, most rounds) and once at the end with
+     * done == total; NULL (default) for none. */
+    vm_progress_fn progress;
+    void *progress_user;
 } vm_improve_options;
 
 /* Figures of one run; *_before are measured on the input, *_after on the output. */

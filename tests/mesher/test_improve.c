@@ -591,10 +591,42 @@ static void boundaryCrossingCheckSeesCrossingTets(void) {
     vm_mesh_free(&m);
 }
 
+static int prog_calls, prog_backwards, prog_ended;
+static double prog_last;
+static void count_progress(const char *stage, double done, double total, void *user) {
+    (void)user;
+    if (strcmp(stage, "improve") != 0 || done > total) return;
+    prog_calls++;
+    if (done < prog_last) prog_backwards++;
+    prog_last = done;
+    prog_ended = done == total;
+}
+
+/* The pass reports its rounds in order and ends with done == total (the CLI's bar). */
+static void progressIsReportedRoundByRound(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_TORUS, 24, 0.0, 0, &v, NULL, &err), &err);
+    vm_mesh_options mo;
+    vm_mesh_options_default(&mo);
+    vm_mesh m;
+    CHECK_OK(vm_mesh_volume(&v, &mo, &m, NULL, &err), &err);
+    vm_improve_options o;
+    vm_improve_options_default(&o);
+    o.progress = count_progress;
+    prog_calls = prog_backwards = prog_ended = 0;
+    prog_last = 0;
+    vm_improve_report r;
+    CHECK_OK(vm_mesh_improve(&m, &v, &o, &r, &err), &err);
+    CHECK(prog_calls >= 2 && prog_backwards == 0 && prog_ended);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
 TEST_MAIN(T(boundaryCrossingCheckSeesCrossingTets),
           T(phantomsMeetTheQualityBarAndKeepTheirTopology),
           T(sphereSurfaceStaysWithinHalfAVoxelOfTheSphere), T(alreadyGoodMeshIsNotMadeWorse),
           T(meshWithoutTheVolumeStillImproves),
           T(sharedVolumesMeetTheQualityBarUniformAndAdaptive), T(fieldsFollowTheirCellsAndPoints),
           T(badInputGivesACleanError),
-          T(singleTetIsReturnedUnchanged))
+          T(singleTetIsReturnedUnchanged), T(progressIsReportedRoundByRound))
