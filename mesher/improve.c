@@ -408,6 +408,15 @@ static size_t bad_vertices(const vm__imp *w, const tq *l, size_t n, vm_index *ou
     return c;
 }
 
+/* Progress within a round: phase 0..3 (contract, flip, peel, smooth), item i of n. Rounds
+ * shrink fast (the first does most of the work), so round r + x shows as 1 - 2^-(r + x) of
+ * the bar; the end of the pass reports 1 of 1. */
+static void report(const vm_improve_options *o, int pass, int phase, size_t i, size_t n) {
+    if (!o->progress || (i & 1023) != 0 || n == 0) return;
+    double x = pass + (phase + (double)i / (double)n) / 4.0;
+    o->progress("improve", 1.0 - pow(0.5, x), 1.0, o->progress_user);
+}
+
 static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     size_t ops_total = 0;
     uint32_t *stamp = calloc(w->npt, sizeof *stamp);
@@ -430,14 +439,20 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
             break;
         }
         if (o->contract)
-            for (size_t i = 0; i < n && !w->nomem; i++)
+            for (size_t i = 0; i < n && !w->nomem; i++) {
+                report(o, pass, 0, i, n);
                 if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_contract_tet(w, l[i].t);
+            }
         if (o->flip)
-            for (size_t i = 0; i < n && !w->nomem; i++)
+            for (size_t i = 0; i < n && !w->nomem; i++) {
+                report(o, pass, 1, i, n);
                 if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_flip_tet(w, l[i].t);
+            }
         if (w->deep)
-            for (size_t i = 0; i < n && !w->nomem; i++)
+            for (size_t i = 0; i < n && !w->nomem; i++) {
+                report(o, pass, 2, i, n);
                 if (!w->dead[l[i].t] && w->q[l[i].t] < 2.0 / 3.0) ops += (size_t)vm__imp_peel_tet(w, l[i].t);
+            }
         free(l);
         l = bad_list(w, &n);
         if (!l) {
@@ -452,7 +467,10 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         }
         if (o->smooth) {
             size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
-            for (size_t i = 0; i < nv; i++) ops += (size_t)vm__imp_smooth_vertex(w, vs[i], 6);
+            for (size_t i = 0; i < nv; i++) {
+                report(o, pass, 3, i, nv);
+                ops += (size_t)vm__imp_smooth_vertex(w, vs[i], 6);
+            }
         }
         if (o->perturb && pass >= 1) {
             size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
@@ -461,7 +479,7 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         free(vs);
         free(l);
         ops_total += ops;
-        if (o->progress) o->progress("improve", pass + 1.0, o->max_passes + 4.0, o->progress_user);
+        if (o->progress) o->progress("improve", 1.0 - pow(0.5, pass + 1.0), 1.0, o->progress_user);
         if (ops == 0) break;
     }
     /* Last rounds for the few tets still failing ABAQUS's check: long searches around them,
@@ -498,8 +516,7 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         if (ops == 0) break;
     }
     free(stamp);
-    if (o->progress)
-        o->progress("improve", o->max_passes + 4.0, o->max_passes + 4.0, o->progress_user);
+    if (o->progress) o->progress("improve", 1.0, 1.0, o->progress_user);
     *passes = pass;
     return ops_total;
 }

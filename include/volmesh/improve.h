@@ -62,8 +62,8 @@ typedef struct vm_improve_options {
     /* 1: add a cell field "improve_unfixed" (1 for tets still failing the ABAQUS check or
      * below 10 degrees, else 0). Default 0. */
     int mark_unfixed;
-    /* Called after each round ("improve", rounds done, most rounds) and once at the end with
-     * done == total; NULL (default) for none. */
+    /* Called during the rounds ("improve", done, 1.0; done grows, the first round taking the
+     * first half) and once at the end with done == total == 1; NULL (default) for none. */
     vm_progress_fn progress;
     void *progress_user;
 } vm_improve_options;
