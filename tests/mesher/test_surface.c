@@ -265,8 +265,11 @@ static const method_row methods[] = {
     /* asc (max level 4, error 0.5): a box's triangles stay in its error slab, measured
      * 0.30-0.42; but the cut sphere's closing disk lies between the last sample and the
      * outside pad, up to a voxel beyond the box (measured 0.93). Flat chords across convex
-     * boxes lose volume: -1 % (sphere) to -3.2 % (genus-3 tubes, radius 3.5 voxels). */
-    {"asc", VM_SURFACE_ASC, VM_TRI3, 64, 48, 1.0, REF_TRILINEAR, 0.04},
+     * boxes lose volume: -1 % (sphere) to -3.2 % (genus-3 tubes, radius 3.5 voxels). Its
+     * unit cells resolve faces by the asymptotic decider but not tunnels inside a cube, so a
+     * noisy volume can differ from the trilinear interpolant (seen at 24^3: Euler 6 for 4);
+     * test_surface_asc checks that climbing keeps the topology of its level 0 there. */
+    {"asc", VM_SURFACE_ASC, VM_TRI3, 64, 48, 1.0, REF_NONE, 0.04},
     /* cover (error 0.5): vertices lie on the marching-tetrahedra surface of the samples;
      * chords of disks up to the error deep cut inside convex parts: volume -1.3 % (cut
      * sphere) to -7 % (genus-3 tubes). Its topology is that of the piecewise-linear
@@ -455,7 +458,8 @@ static void everyMethodHandlesALeftHandedAnisotropicFrame(void) {
         vm_phantom_info info;
         vm_error err;
         CHECK_OK(
-            vm_phantom_make(VM_PHANTOM_TORUS, sanitized() ? 24 : 40, 0.0, 0, &v, &info, &err),
+            vm_phantom_make(VM_PHANTOM_TORUS, sanitized() && row->method == VM_SURFACE_DC ? 24 : 40,
+                            0.0, 0, &v, &info, &err),
             &err);
         const double sp[3] = {1.0, 1.5, 0.75};
         for (int a = 0; a < 3; a++) {
