@@ -38,15 +38,21 @@ const char *vm_surface_method_name(vm_surface_method method) {
     return (unsigned)method < 4 ? method_names[method] : "?";
 }
 
+/* The material bounds of the surface request, given to a mesher or quality-pass option set. */
+#define COPY_BOUNDS(dst, src)                                                              \
+    do {                                                                                   \
+        (dst).lo = (src)->lo;                                                              \
+        (dst).hi = (src)->hi;                                                              \
+        (dst).has_lo = (src)->has_lo;                                                      \
+        (dst).has_hi = (src)->has_hi;                                                      \
+    } while (0)
+
 /* dc: the volume mesher, then its boundary (tets give triangles, hexes quads). */
 static vm_status surface_dc(const vm_volume *v, const vm_surface_options *o, vm_mesh *surf,
                             vm_error *err) {
     vm_mesh_options mo;
     vm_mesh_options_default(&mo);
-    mo.lo = o->lo;
-    mo.hi = o->hi;
-    mo.has_lo = o->has_lo;
-    mo.has_hi = o->has_hi;
+    COPY_BOUNDS(mo, o);
     mo.cell_size = o->cell_size;
     mo.elements = o->elements == VM_QUAD4 ? VM_HEX8 : VM_TET4;
     mo.progress = o->progress;
@@ -57,18 +63,12 @@ static vm_status surface_dc(const vm_volume *v, const vm_surface_options *o, vm_
     if (o->improve && mo.elements == VM_HEX8) {
         vm_hex_improve_options ho;
         vm_hex_improve_options_default(&ho);
-        ho.lo = o->lo;
-        ho.hi = o->hi;
-        ho.has_lo = o->has_lo;
-        ho.has_hi = o->has_hi;
+        COPY_BOUNDS(ho, o);
         s = vm_mesh_improve_hexes(&vol, v, &ho, NULL, err);
     } else if (o->improve) {
         vm_improve_options io;
         vm_improve_options_default(&io);
-        io.lo = o->lo;
-        io.hi = o->hi;
-        io.has_lo = o->has_lo;
-        io.has_hi = o->has_hi;
+        COPY_BOUNDS(io, o);
         s = vm_mesh_improve(&vol, v, &io, NULL, err);
     }
     if (!s) s = vm_mesh_boundary(&vol, surf, err);
