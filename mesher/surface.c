@@ -121,10 +121,7 @@ vm_status vm_surface_extract(const vm_volume *v, const vm_surface_options *o, vm
         double step[3];
         s = vm__sampling_grid(v, o->cell_size, "surface", g.n, &g.f, &resampled, step, err);
         if (s) return s;
-        g.lo = o->lo;
-        g.hi = o->hi;
-        g.has_lo = o->has_lo;
-        g.has_hi = o->has_hi;
+        COPY_BOUNDS(g, o);
         s = o->method == VM_SURFACE_MC    ? vm__surface_mc(&g, o, surf, &st, err)
             : o->method == VM_SURFACE_ASC ? vm__surface_asc(&g, o, surf, &st, err)
                                           : cover_world(v, &g, o, step, surf, &st, err);
