@@ -21,6 +21,12 @@ int vm_cli_fail_err(const vm_error *err);
 /* 1 when argument a equals one of the given flag spellings. */
 int vm_cli_is(const char *a, const char *flag1, const char *flag2);
 
+/* 0 when option argv[i] of command cmd has a value after it. Otherwise prints
+ * "volmesh: CMD: OPT needs a value" (naming the option that stands where the value should,
+ * e.g. "--labels -o x.vtu") and returns VM_EXIT_INPUT. A value may start with '-' when a digit
+ * or '.' follows (negative numbers) or when it is "-" alone. */
+int vm_cli_need_value(const char *cmd, int i, int argc, char **argv);
+
 /* Parses a number argument of option opt; on error prints and returns -1. */
 int vm_cli_double(const char *opt, const char *s, double *out);
 int vm_cli_int(const char *opt, const char *s, long lo, long hi, long *out);

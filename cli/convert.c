@@ -32,7 +32,7 @@ int vm_cmd_convert(int argc, char **argv) {
         }
         int takes_value = strcmp(a, "--format") == 0 || strcmp(a, "--in-format") == 0 ||
                           strcmp(a, "--deck") == 0 || strcmp(a, "--order") == 0;
-        if (takes_value && i + 1 >= argc) return vm_cli_fail("convert: %s needs a value", a);
+        if (takes_value && vm_cli_need_value("convert", i, argc, argv)) return VM_EXIT_INPUT;
         if (strcmp(a, "--format") == 0 || strcmp(a, "--in-format") == 0) {
             vm_mesh_format f = vm_mesh_format_parse(argv[++i]);
             if (f == VM_MESH_AUTO)

@@ -21,8 +21,9 @@ int vm_cmd_demo(int argc, char **argv) {
             fputs(demo_help, stdout);
             return VM_EXIT_OK;
         }
-        if ((strcmp(a, "--size") == 0 || strcmp(a, "--shape") == 0) && i + 1 >= argc)
-            return vm_cli_fail("demo: %s needs a value", a);
+        if ((strcmp(a, "--size") == 0 || strcmp(a, "--shape") == 0) &&
+            vm_cli_need_value("demo", i, argc, argv))
+            return VM_EXIT_INPUT;
         if (strcmp(a, "--size") == 0) {
             if (vm_cli_int(a, argv[++i], 8, 512, &n)) return VM_EXIT_INPUT;
         } else if (strcmp(a, "--shape") == 0) {

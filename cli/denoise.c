@@ -72,7 +72,7 @@ int vm_cmd_denoise(int argc, char **argv) {
                           strcmp(a, "--kappa") == 0 || strcmp(a, "--dt") == 0 ||
                           strcmp(a, "--iterations") == 0;
         if (takes_value) {
-            if (i + 1 >= argc) return vm_cli_fail("denoise: %s needs a value", a);
+            if (vm_cli_need_value("denoise", i, argc, argv)) return VM_EXIT_INPUT;
             const char *val = argv[++i];
             if (vm_cli_is(a, "-o", "--output")) {
                 out_path = val;

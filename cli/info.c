@@ -23,10 +23,7 @@ static const char *info_help =
 int vm_cli_raw_option(int argc, char **argv, int *i, vm_raw_options *raw, int *is_raw) {
     const char *a = argv[*i];
     if (strncmp(a, "--raw-", 6) != 0) return 0;
-    if (*i + 1 >= argc) {
-        vm_cli_fail("%s needs a value", a);
-        return -1;
-    }
+    if (vm_cli_need_value("raw input", *i, argc, argv)) return -1;
     const char *val = argv[++*i];
     *is_raw = 1;
     if (strcmp(a, "--raw-dims") == 0) {

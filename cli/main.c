@@ -1,4 +1,5 @@
 /* cli/main.c — the volmesh program: subcommand dispatch, shared option parsing, errors. */
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -70,6 +71,16 @@ int vm_cli_int(const char *opt, const char *s, long lo, long hi, long *out) {
         return -1;
     }
     *out = v;
+    return 0;
+}
+
+int vm_cli_need_value(const char *cmd, int i, int argc, char **argv) {
+    const char *opt = argv[i];
+    if (i + 1 >= argc) return vm_cli_fail("%s: %s needs a value", cmd, opt);
+    const char *v = argv[i + 1];
+    int looks_like_option = v[0] == '-' && v[1] != 0 && !isdigit((unsigned char)v[1]) && v[1] != '.';
+    if (looks_like_option)
+        return vm_cli_fail("%s: %s needs a value (found the option '%s' in its place)", cmd, opt, v);
     return 0;
 }
 

@@ -232,7 +232,7 @@ int vm_cmd_mesh(int argc, char **argv) {
                     vm_cli_is(a, "--min-island", NULL) || vm_cli_is(a, "--max-memory", NULL) ||
                     vm_cli_is(a, "--size-per-label", NULL) || vm_cli_is(a, "--method", NULL) ||
                     vm_cli_is(a, "--error", NULL);
-        if (needs && i + 1 >= argc) return vm_cli_fail("mesh: %s needs a value", a);
+        if (needs && vm_cli_need_value("mesh", i, argc, argv)) return VM_EXIT_INPUT;
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
         } else if (vm_cli_is(a, "--surface", NULL)) {

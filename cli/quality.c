@@ -102,7 +102,7 @@ int vm_cmd_quality(int argc, char **argv) {
         }
         int needs = vm_cli_is(a, "--svg", NULL) || vm_cli_is(a, "--require", NULL) ||
                     vm_cli_is(a, "--per-cell-csv", NULL);
-        if (needs && i + 1 >= argc) return vm_cli_fail("quality: %s needs a value", a);
+        if (needs && vm_cli_need_value("quality", i, argc, argv)) return VM_EXIT_INPUT;
         if (vm_cli_is(a, "--json", NULL)) {
             json = 1;
         } else if (vm_cli_is(a, "--abaqus", NULL)) {

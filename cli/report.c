@@ -29,7 +29,7 @@ int vm_cmd_report(int argc, char **argv) {
             return VM_EXIT_OK;
         }
         if (vm_cli_is(a, "-o", "--output")) {
-            if (i + 1 >= argc) return vm_cli_fail("report: %s needs a value", a);
+            if (vm_cli_need_value("report", i, argc, argv)) return VM_EXIT_INPUT;
             out = argv[++i];
         } else if (a[0] == '-' && a[1]) {
             return vm_cli_fail("report: unknown option %s", a);

@@ -375,7 +375,7 @@ int vm_cmd_spectrum(int argc, char **argv) {
         if (r > 0) continue;
         if (strcmp(a, "--n") == 0 || strcmp(a, "--range") == 0 || strcmp(a, "--csv") == 0 ||
             strcmp(a, "--svg") == 0) {
-            if (i + 1 >= argc) return vm_cli_fail("spectrum: %s needs a value", a);
+            if (vm_cli_need_value("spectrum", i, argc, argv)) return VM_EXIT_INPUT;
             const char *val = argv[++i];
             if (strcmp(a, "--n") == 0) {
                 if (vm_cli_int(a, val, 2, 1000000, &n)) return VM_EXIT_INPUT;

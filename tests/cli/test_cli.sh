@@ -228,6 +228,23 @@ fi
 
 # --threads N before the command: bad counts are usage errors; any count gives the same bytes.
 expect_input_error "--threads 0" "--threads" "$CLI" --threads 0 info a.nrrd
+# An option whose value is missing names the option that stands in its place, in every
+# command (a negative number is a value, not an option).
+expect_input_error "--labels before -o" "'-o' in its place" "$CLI" mesh a.nrrd --labels -o x.vtu
+expect_input_error "--iso before --adaptive" "--iso needs a value" "$CLI" mesh a.nrrd --iso --adaptive
+expect_input_error "spectrum --n before --csv" "--n needs" "$CLI" spectrum a.nrrd --n --csv s.csv
+expect_input_error "denoise --sigma-space before -o" "--sigma-space needs" \
+    "$CLI" denoise a.nrrd --sigma-space -o b.nrrd
+expect_input_error "quality --require before --json" "--require needs" "$CLI" quality m.vtu --require --json
+expect_input_error "report -o before a flag" "-o needs" "$CLI" report m.vtu -o --quiet
+expect_input_error "convert --format before a flag" "--format needs" "$CLI" convert a.vtu b.inp --format --quiet
+expect_input_error "--raw-dims before a flag" "--raw-dims needs" "$CLI" info a.raw --raw-dims --json
+run "$CLI" mesh no-such.nrrd --iso -5 -o x.vtu
+if [ "$rc" -eq 2 ] && grep -q "no-such.nrrd" "$ERR" && ! grep -q "needs a value" "$ERR"; then
+    pass
+else
+    fail "--iso -5 is a value" "exit $rc" "stderr: $(head -n 2 "$ERR")"
+fi
 expect_input_error "--threads junk" "--threads" "$CLI" --threads many info a.nrrd
 expect_input_error "--threads without a command" "--threads" "$CLI" --threads 2
 mkdir "$WORK/threads" && cd "$WORK/threads" || exit 1
