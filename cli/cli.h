@@ -18,6 +18,11 @@ int vm_cli_fail(const char *fmt, ...)
 /* Prints err's message as "volmesh: ..." and returns VM_EXIT_INPUT. */
 int vm_cli_fail_err(const vm_error *err);
 
+/* For a mesh that could not be read from path: when path is an image volume (a volume
+ * extension, or legacy VTK image data), says so and how to mesh it; otherwise prints err.
+ * Returns VM_EXIT_INPUT. */
+int vm_cli_fail_mesh_read(const char *path, const vm_error *err);
+
 /* 1 when argument a equals one of the given flag spellings. */
 int vm_cli_is(const char *a, const char *flag1, const char *flag2);
 

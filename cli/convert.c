@@ -64,9 +64,12 @@ int vm_cmd_convert(int argc, char **argv) {
     vm_mesh_format of = o.format != VM_MESH_AUTO ? o.format : vm_mesh_format_of_path(out);
     if (of == VM_MESH_AUTO)
         return vm_cli_fail("%s: unknown output format (use a known extension or --format)", out);
-    if (in_fmt == VM_MESH_AUTO && vm_mesh_format_of_path(in) == VM_MESH_AUTO)
-        return vm_cli_fail("%s: unknown input format (use a known extension or --in-format)",
-                           in);
+    if (in_fmt == VM_MESH_AUTO && vm_mesh_format_of_path(in) == VM_MESH_AUTO) {
+        vm_error unknown;
+        vm_error_set(&unknown, VM_ERR_FORMAT,
+                     "%s: unknown input format (use a known extension or --in-format)", in);
+        return vm_cli_fail_mesh_read(in, &unknown);
+    }
     if (in_fmt == VM_MESH_EXODUS || (in_fmt == VM_MESH_AUTO &&
                                      vm_mesh_format_of_path(in) == VM_MESH_EXODUS))
         return vm_cli_fail("%s: volmesh writes Exodus II but does not read it", in);
@@ -80,7 +83,7 @@ int vm_cmd_convert(int argc, char **argv) {
     vm_error err;
     vm_error_clear(&err);
     vm_mesh m;
-    if (vm_mesh_read_as(in, in_fmt, &m, &err)) return vm_cli_fail_err(&err);
+    if (vm_mesh_read_as(in, in_fmt, &m, &err)) return vm_cli_fail_mesh_read(in, &err);
     vm_status s = vm_mesh_write_as(out, &m, &o, &err);
     if (s) {
         vm_mesh_free(&m);

@@ -74,6 +74,26 @@ int vm_cli_int(const char *opt, const char *s, long lo, long hi, long *out) {
     return 0;
 }
 
+static int ends_with(const char *s, const char *tail) {
+    size_t n = strlen(s), t = strlen(tail);
+    if (n < t) return 0;
+    for (size_t i = 0; i < t; i++)
+        if (tolower((unsigned char)s[n - t + i]) != tail[i]) return 0;
+    return 1;
+}
+
+int vm_cli_fail_mesh_read(const char *path, const vm_error *err) {
+    static const char *const volume_tails[] = {".nrrd", ".nhdr", ".nii", ".nii.gz", ".hdr",
+                                               ".img",  ".mha",  ".mhd", ".vti",    ".raw"};
+    int volume = strstr(err->message, "STRUCTURED_POINTS") != NULL;
+    for (size_t i = 0; i < sizeof volume_tails / sizeof volume_tails[0]; i++)
+        volume |= ends_with(path, volume_tails[i]);
+    if (!volume) return vm_cli_fail_err(err);
+    return vm_cli_fail("%s: this is an image volume, not a mesh: mesh it first "
+                       "(volmesh mesh %s --iso V -o OUT.vtu)",
+                       path, path);
+}
+
 int vm_cli_need_value(const char *cmd, int i, int argc, char **argv) {
     const char *opt = argv[i];
     if (i + 1 >= argc) return vm_cli_fail("%s: %s needs a value", cmd, opt);

@@ -127,7 +127,7 @@ int vm_cmd_quality(int argc, char **argv) {
     vm_mesh m;
     vm_error err;
     vm_error_clear(&err);
-    if (vm_mesh_read(path, &m, &err)) return vm_cli_fail_err(&err);
+    if (vm_mesh_read(path, &m, &err)) return vm_cli_fail_mesh_read(path, &err);
     vm_quality_summary q;
     vm_status st = vm_quality_report(&m, &q, &err);
     if (st) {

@@ -44,7 +44,7 @@ int vm_cmd_report(int argc, char **argv) {
     vm_mesh m;
     vm_error err;
     vm_error_clear(&err);
-    if (vm_mesh_read(in, &m, &err)) return vm_cli_fail_err(&err);
+    if (vm_mesh_read(in, &m, &err)) return vm_cli_fail_mesh_read(in, &err);
     int rc = vm_cli_write_report(out, &m, in);
     vm_mesh_free(&m);
     if (!rc) printf("wrote %s\n", out);

@@ -239,6 +239,15 @@ expect_input_error "quality --require before --json" "--require needs" "$CLI" qu
 expect_input_error "report -o before a flag" "-o needs" "$CLI" report m.vtu -o --quiet
 expect_input_error "convert --format before a flag" "--format needs" "$CLI" convert a.vtu b.inp --format --quiet
 expect_input_error "--raw-dims before a flag" "--raw-dims needs" "$CLI" info a.raw --raw-dims --json
+# A volume given where a mesh is expected says so and how to mesh it (before opening it).
+for cmd in "quality v.nrrd" "report v.nii.gz -o r.html" "convert v.mhd m.vtu"; do
+    # shellcheck disable=SC2086
+    expect_input_error "volume to $cmd" "image volume, not a mesh" "$CLI" $cmd
+done
+if [ -n "$DATA" ] && [ -f "$DATA/ironProt.vtk" ]; then
+    expect_input_error "legacy VTK image to quality" "image volume, not a mesh" \
+        "$CLI" quality "$DATA/ironProt.vtk"
+fi
 run "$CLI" mesh no-such.nrrd --iso -5 -o x.vtu
 if [ "$rc" -eq 2 ] && grep -q "no-such.nrrd" "$ERR" && ! grep -q "needs a value" "$ERR"; then
     pass
