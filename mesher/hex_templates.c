@@ -33,7 +33,8 @@ double vm__hex_template_min_sj(double p[8][3]) {
 
 /* Symmetry s = 8 * permutation + flips: image coordinate a is source coordinate perm[a],
  * mirrored (9 - x) when flip bit a is set. */
-static const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+static const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2},
+                                {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
 
 static void sym_point(int s, const int in[3], int out[3]) {
     const int *p = perms[s / 8];
@@ -122,8 +123,10 @@ static size_t face_hexes(int out[][8][3]) {
                 /* bilinear point of Q at (u, w = r[1] / 9); w is 0, 1/3 or 1, so every
                  * coordinate stays an integer */
                 int w9 = r[1];
-                int x0 = Q[0][0] * (9 - w9) + Q[3][0] * w9, z0 = Q[0][1] * (9 - w9) + Q[3][1] * w9;
-                int x1 = Q[1][0] * (9 - w9) + Q[2][0] * w9, z1 = Q[1][1] * (9 - w9) + Q[2][1] * w9;
+                int x0 = Q[0][0] * (9 - w9) + Q[3][0] * w9,
+                    z0 = Q[0][1] * (9 - w9) + Q[3][1] * w9;
+                int x1 = Q[1][0] * (9 - w9) + Q[2][0] * w9,
+                    z1 = Q[1][1] * (9 - w9) + Q[2][1] * w9;
                 out[n][k][0] = (u ? x1 : x0) / 9;
                 out[n][k][1] = r[0];
                 out[n][k][2] = (u ? z1 : z0) / 9;
@@ -145,11 +148,8 @@ static size_t canonical(vm__hex_template t, int out[][8][3]) {
             out[0][k][2] = (k >= 4) * VM_HT_SIDE;
         }
         return 1;
-    case VM_HT_EDGE:
-        memcpy(out, edge_hexes, sizeof edge_hexes);
-        return 5;
-    case VM_HT_FACE:
-        return face_hexes(out);
+    case VM_HT_EDGE: memcpy(out, edge_hexes, sizeof edge_hexes); return 5;
+    case VM_HT_FACE: return face_hexes(out);
     case VM_HT_FULL:
         for (int z = 0; z < 3; z++)
             for (int y = 0; y < 3; y++)
@@ -161,8 +161,7 @@ static size_t canonical(vm__hex_template t, int out[][8][3]) {
                         out[n][k][2] = 3 * (z + (k >= 4));
                     }
         return n;
-    default:
-        return 0;
+    default: return 0;
     }
 }
 
@@ -173,7 +172,8 @@ size_t vm__hex_template_hexes(vm__hex_template t, int sym, int out[][8][3]) {
         double p[8][3];
         for (int k = 0; k < 8; k++) {
             sym_point(sym, canon[h][k], out[h][k]);
-            for (int a = 0; a < 3; a++) p[k][a] = out[h][k][a];
+            for (int a = 0; a < 3; a++)
+                p[k][a] = out[h][k][a];
         }
         /* mirror images and the hand-written tables may be left-handed: swap to VTK's */
         if (vm__hex_template_min_sj(p) < 0) {

@@ -3,10 +3,10 @@
  * valid hexes, and blocks classified from shared corner marks meet conformingly around a
  * refined box (no hanging node, closed boundary, exact volume). The adaptive hex mesher
  * itself is not built yet (docs/ALGORITHMS.md, "Adaptive hexahedra"). */
-#include <stdlib.h>
-#include <string.h>
 #include "../../mesher/hex_templates.h"
 #include "test.h"
+#include <stdlib.h>
+#include <string.h>
 
 static double hex_volume(int c[8][3]) {
     /* six tetrahedra through the diagonal 0-6: exact for planar faces, and the blocks'
@@ -21,7 +21,8 @@ static double hex_volume(int c[8][3]) {
                 e[j][a] = c[tets[t][j + 1]][a] - c[tets[t][0]][a];
         v += (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
               e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
-              e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0])) / 6.0;
+              e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0])) /
+             6.0;
     }
     return v;
 }
@@ -68,10 +69,11 @@ static void hexTemplatesFillTheirBlockWithValidHexes(void) {
     int sym;
     for (unsigned c = 0; c < 8; c++)
         for (unsigned b = 1; b < 8; b <<= 1)
-            if (!(c & b)) CHECK(vm__hex_template_classify(1u << c | 1u << (c | b), &sym) ==
-                                VM_HT_EDGE);
+            if (!(c & b))
+                CHECK(vm__hex_template_classify(1u << c | 1u << (c | b), &sym) == VM_HT_EDGE);
     static const unsigned faces[6] = {0x55, 0xaa, 0x33, 0xcc, 0x0f, 0xf0};
-    for (int f = 0; f < 6; f++) CHECK(vm__hex_template_classify(faces[f], &sym) == VM_HT_FACE);
+    for (int f = 0; f < 6; f++)
+        CHECK(vm__hex_template_classify(faces[f], &sym) == VM_HT_FACE);
     /* isolated marks split nothing */
     CHECK(vm__hex_template_classify(0x81, &sym) == VM_HT_PLAIN);
     CHECK(vm__hex_template_classify(0x06, &sym) == VM_HT_PLAIN);
@@ -100,15 +102,17 @@ static void refinedBoxInCoarseGrid(int B, const int lo[3], const int hi[3], size
     int32_t *id = malloc(ng * sizeof *id);
     CHECK(id != NULL);
     if (!id) return;
-    for (size_t i = 0; i < ng; i++) id[i] = -1;
+    for (size_t i = 0; i < ng; i++)
+        id[i] = -1;
     vm_mesh m;
     vm_error err;
     vm_mesh_init(&m, VM_HEX8);
     size_t cap_cells = (size_t)B * (size_t)B * (size_t)B * VM_HT_MAX_HEXES;
-    CHECK_OK(vm_mesh_reserve(&m, ng < 8 * cap_cells ? ng : 8 * cap_cells, cap_cells, &err), &err);
+    CHECK_OK(vm_mesh_reserve(&m, ng < 8 * cap_cells ? ng : 8 * cap_cells, cap_cells, &err),
+             &err);
     size_t np = 0, nc = 0, unsupported = 0;
-#define REFINED(x, y, z)                                                                     \
-    ((x) >= lo[0] && (x) <= hi[0] && (y) >= lo[1] && (y) <= hi[1] && (z) >= lo[2] &&         \
+#define REFINED(x, y, z)                                                                       \
+    ((x) >= lo[0] && (x) <= hi[0] && (y) >= lo[1] && (y) <= hi[1] && (z) >= lo[2] &&           \
      (z) <= hi[2])
     int hexes[VM_HT_MAX_HEXES][8][3];
     for (int z = 0; z < B; z++)
@@ -116,7 +120,8 @@ static void refinedBoxInCoarseGrid(int B, const int lo[3], const int hi[3], size
             for (int x = 0; x < B; x++) {
                 unsigned marks = 0;
                 for (unsigned c = 0; c < 8; c++) {
-                    int nx = x + (int)(c & 1), ny = y + (int)(c >> 1 & 1), nz = z + (int)(c >> 2);
+                    int nx = x + (int)(c & 1), ny = y + (int)(c >> 1 & 1),
+                        nz = z + (int)(c >> 2);
                     for (int q = 0; q < 8; q++)
                         if (REFINED(nx - (q & 1), ny - (q >> 1 & 1), nz - (q >> 2)))
                             marks |= 1u << c;
@@ -128,12 +133,15 @@ static void refinedBoxInCoarseGrid(int B, const int lo[3], const int hi[3], size
                 size_t n = vm__hex_template_hexes(t, sym, hexes);
                 for (size_t h = 0; h < n; h++, nc++)
                     for (int k = 0; k < 8; k++) {
-                        int g[3] = {x * VM_HT_SIDE + hexes[h][k][0], y * VM_HT_SIDE + hexes[h][k][1],
+                        int g[3] = {x * VM_HT_SIDE + hexes[h][k][0],
+                                    y * VM_HT_SIDE + hexes[h][k][1],
                                     z * VM_HT_SIDE + hexes[h][k][2]};
-                        size_t gi = (size_t)g[0] + (size_t)G * ((size_t)g[1] + (size_t)G * (size_t)g[2]);
+                        size_t gi = (size_t)g[0] +
+                                    (size_t)G * ((size_t)g[1] + (size_t)G * (size_t)g[2]);
                         if (id[gi] < 0) {
                             id[gi] = (int32_t)np;
-                            for (int a = 0; a < 3; a++) m.points[3 * np + (size_t)a] = g[a] / 3.0;
+                            for (int a = 0; a < 3; a++)
+                                m.points[3 * np + (size_t)a] = g[a] / 3.0;
                             np++;
                         }
                         m.cells[8 * nc + (size_t)k] = (vm_index)id[gi];
@@ -142,15 +150,17 @@ static void refinedBoxInCoarseGrid(int B, const int lo[3], const int hi[3], size
 #undef REFINED
     m.npoints = np;
     m.ncells = nc;
-    for (size_t c = 0; c < nc; c++) m.region[c] = 1;
+    for (size_t c = 0; c < nc; c++)
+        m.region[c] = 1;
     CHECK(unsupported == 0);
     vm_mesh_report r;
     CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
     double side = B * 3.0;
-    printf("  %d^3 blocks, refined %d..%d x %d..%d x %d..%d: %zu hexes (uniform %d), min scaled "
-           "Jacobian %.4f, volume %.3f\n",
-           B, lo[0], hi[0], lo[1], hi[1], lo[2], hi[2], nc, 27 * B * B * B,
-           r.min_scaled_jacobian, r.volume);
+    printf(
+        "  %d^3 blocks, refined %d..%d x %d..%d x %d..%d: %zu hexes (uniform %d), min scaled "
+        "Jacobian %.4f, volume %.3f\n",
+        B, lo[0], hi[0], lo[1], hi[1], lo[2], hi[2], nc, 27 * B * B * B, r.min_scaled_jacobian,
+        r.volume);
     if (expect) CHECK(nc == expect);
     CHECK(r.inverted == 0);
     CHECK(r.overshared_faces == 0);
