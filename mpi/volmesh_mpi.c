@@ -10,6 +10,7 @@
  * centroids are computed from the same doubles on both sides of a cut, so every tet is kept
  * by exactly one rank and the pieces meet on identical shared vertices. */
 #include <math.h>
+#include <stdint.h>
 #include <mpi.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -39,11 +40,15 @@ static const char *help =
     "  --max-level L           adaptive: largest cell 2^L cells (default 4)\n"
     "  --ghost G               ghost band in cells on each side of a slab (default 6, or\n"
     "                          2*2^L + 6 when adaptive)\n"
+    "  --improve               run the quality pass on each rank, with the vertices its\n"
+    "                          slab shares with the neighbouring slabs held fixed (the\n"
+    "                          pieces still conform; the union is no longer tet for tet\n"
+    "                          the single-process mesh)\n"
     "  --no-compress           write the pieces without zlib\n"
     "  --quiet                 no summary line\n"
     "\n"
-    "No quality pass runs (it would move the vertices the pieces share). Prints one line on\n"
-    "rank 0: ranks, elements per rank, time. Exit 0 ok, 2 bad input (nothing is written).\n";
+    "Without --improve no quality pass runs. Prints one line on rank 0: ranks, elements per\n"
+    "rank, time of the slowest rank. Exit 0 ok, 2 bad input (nothing is written).\n";
 
 typedef struct args {
     const char *in, *out;
@@ -53,7 +58,7 @@ typedef struct args {
     vm_mesh_options mo;
     int have_bound;
     long ghost;
-    int compress, quiet, help;
+    int compress, quiet, help, improve;
 } args;
 
 /* Messages come from rank 0 only: every rank parses the same arguments and reads the same
@@ -161,6 +166,8 @@ static int parse_args(int argc, char **argv, args *A) {
             if (colon && parse_long("--phantom", colon + 1, 8, 1024, &A->phantom_n))
                 return EXIT_INPUT;
             A->phantom = 1;
+        } else if (!strcmp(a, "--improve")) {
+            A->improve = 1;
         } else if (!strcmp(a, "--no-compress")) {
             A->compress = 0;
         } else if (!strcmp(a, "--quiet")) {
@@ -267,10 +274,20 @@ static int write_pvtu(const char *out, const unsigned long long *tets, int n) {
     return 0;
 }
 
-/* Keeps the tets of m (index space) whose centroid z is in [z0, z1), with their points in
- * world coordinates of frame; [out] piece. */
-static vm_status own_tets(const vm_mesh *m, double z0, double z1, const vm_volume *frame,
-                          vm_mesh *piece, vm_error *err) {
+/* 1 when the centroid z of tet t of m (index space) is in [z0, z1): the tets this rank
+ * owns. Both ranks at a cut add the same four doubles in the same order. */
+static int owned(const vm_mesh *m, size_t t, double z0, double z1) {
+    const vm_index *c = m->cells + 4 * t;
+    const double *p = m->points;
+    double cz =
+        ((p[3 * c[0] + 2] + p[3 * c[1] + 2]) + (p[3 * c[2] + 2] + p[3 * c[3] + 2])) * 0.25;
+    return cz >= z0 && cz < z1;
+}
+
+/* Keeps the tets of m (index space) of odd region (this rank's; even ones belong to other
+ * ranks), with their points in world coordinates of frame, as region 1; [out] piece. */
+static vm_status own_tets(const vm_mesh *m, const vm_volume *frame, vm_mesh *piece,
+                          vm_error *err) {
     vm_mesh_init(piece, VM_TET4);
     vm_index *map = malloc((m->npoints ? m->npoints : 1) * sizeof *map);
     if (!map) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
@@ -280,9 +297,7 @@ static vm_status own_tets(const vm_mesh *m, double z0, double z1, const vm_volum
     for (size_t t = 0; t < m->ncells && !s; t++) {
         const vm_index *c = m->cells + 4 * t;
         const double *p = m->points;
-        double cz = ((p[3 * c[0] + 2] + p[3 * c[1] + 2]) + (p[3 * c[2] + 2] + p[3 * c[3] + 2])) *
-                    0.25;
-        if (!(cz >= z0 && cz < z1)) continue;
+        if (m->region[t] % 2 != 1) continue;
         vm_index nodes[4];
         for (int k = 0; k < 4 && !s; k++) {
             if (map[c[k]] < 0) {
@@ -299,32 +314,286 @@ static vm_status own_tets(const vm_mesh *m, double z0, double z1, const vm_volum
             nodes[1] = nodes[2];
             nodes[2] = x;
         }
-        s = vm_mesh_add_cell(piece, nodes, m->region[t], err);
+        s = vm_mesh_add_cell(piece, nodes, 1, err);
     }
     free(map);
     if (s) vm_mesh_free(piece);
     return s;
 }
 
-/* This rank's work: mesh its slab and write its piece. [out] ntets, seconds; returns a
- * status, VM_ERR_EMPTY meaning no tets here (not an error unless every rank says so). */
-static vm_status mesh_slab(const args *A, vm_volume *v, const char *piece_file, size_t *ntets,
+/* Drops the tets of other slabs (region != 1) without a vertex of an owned tet, and gives
+ * each remaining one a region of its own: the quality pass then sees the owned tets and one
+ * ring of the neighbours' around them, each ring vertex has tets of two or more regions
+ * around it, so it stays fixed, and no operation touches a ring tet (they all need one
+ * region; even ids: not this rank's). Points stay (unused ones are left out at the end). */
+static vm_status keep_ring(vm_mesh *m, vm_error *err) {
+    uint8_t *mine = calloc(m->npoints ? m->npoints : 1, 1);
+    if (!mine) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    for (size_t t = 0; t < m->ncells; t++)
+        if (m->region[t] == 1)
+            for (int k = 0; k < 4; k++) mine[m->cells[4 * t + (size_t)k]] = 1;
+    size_t kept = 0;
+    for (size_t t = 0; t < m->ncells; t++) {
+        const vm_index *c = m->cells + 4 * t;
+        if (m->region[t] != 1 && !mine[c[0]] && !mine[c[1]] && !mine[c[2]] && !mine[c[3]])
+            continue;
+        memmove(m->cells + 4 * kept, c, 4 * sizeof *c);
+        m->region[kept] = m->region[t] == 1 ? 1 : (int32_t)(2 + 2 * kept);
+        kept++;
+    }
+    m->ncells = kept;
+    free(mine);
+    return VM_OK;
+}
+
+/* The quality pass on m (index space, v its masked volume) with every vertex between two
+ * regions fixed. */
+static vm_status improve(const args *A, const vm_volume *v, vm_mesh *m, vm_error *err) {
+    if (!m->ncells) return VM_OK;
+    vm_improve_options io;
+    vm_improve_options_default(&io);
+    io.lo = A->mo.lo;
+    io.hi = A->mo.hi;
+    io.has_lo = A->mo.has_lo;
+    io.has_hi = A->mo.has_hi;
+    io.max_interface_move = 0;
+    return vm_mesh_improve(m, v, &io, NULL, err);
+}
+
+/* Exact-coordinate lookup of points (open addressing over the bits of x, y, z). */
+typedef struct pmap {
+    size_t cap;
+    vm_index *slot; /* -1: empty */
+    const vm_mesh *m;
+} pmap;
+
+static size_t pmap_hash(const double p[3]) {
+    uint64_t h = 1469598103934665603ull;
+    for (int a = 0; a < 3; a++) {
+        uint64_t b;
+        double x = p[a] == 0 ? 0.0 : p[a]; /* -0 and +0 alike */
+        memcpy(&b, &x, sizeof b);
+        h = (h ^ b) * 1099511628211ull;
+        h ^= h >> 29;
+    }
+    return (size_t)h;
+}
+
+static vm_index pmap_find(const pmap *pm, const double p[3], size_t *at) {
+    size_t i = pmap_hash(p) & (pm->cap - 1);
+    while (pm->slot[i] >= 0) {
+        const double *q = pm->m->points + 3 * (size_t)pm->slot[i];
+        if (q[0] == p[0] && q[1] == p[1] && q[2] == p[2]) return pm->slot[i];
+        i = (i + 1) & (pm->cap - 1);
+    }
+    *at = i;
+    return -1;
+}
+
+enum { TET_DOUBLES = 13 }; /* 4 corners, then 1 (improve it) or 0 (context) */
+
+/* The second quality pass, across the cuts (collective: every rank calls it once). The
+ * first pass left the tets at each cut as the mesher made them, their shared vertices
+ * fixed. Now each rank r > 0 sends rank r - 1 its "band" (owned tets within two vertex
+ * rings of the lower cut) and one ring of context around it, and stops owning the band;
+ * rank r - 1 takes the band into its mesh beside its own band at its upper cut, holds
+ * everything else fixed (every other tet is a material of its own) and improves the two
+ * bands as one material. The context's vertices on the band's rim stay fixed, so the band
+ * meets the sender's remaining tets exactly. [in,out] m: this rank's tets (odd region: kept,
+ * even: dropped at the end). */
+static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, double z0,
+                              int *secondary, vm_error *err) {
+    size_t np = m->npoints, nc = m->ncells;
+    uint8_t *pf = calloc(np ? np : 1, 1), *tf = calloc(nc ? nc : 1, 1);
+    double *sendbuf = NULL, *recvbuf = NULL;
+    unsigned long long nsend = 0, nrecv = 0;
+    vm_mesh m2;
+    vm_mesh_init(&m2, VM_TET4);
+    int local_ok = pf && tf;
+    enum { P_OWN = 1, P_LO = 2, P_HI = 4, P_S1LO = 8, P_S1HI = 16, P_SENT = 32 };
+    enum { T_BANDLO = 1, T_BANDHI = 2, T_CTXLO = 4, T_RING_LO = 8, T_RING_HI = 16 };
+    if (local_ok) {
+        for (size_t t = 0; t < nc; t++) {
+            const vm_index *c = m->cells + 4 * t;
+            uint8_t bit = P_OWN;
+            if (m->region[t] != 1) {
+                int lower = owned(m, t, -INFINITY, z0);
+                tf[t] = lower ? T_RING_LO : T_RING_HI;
+                bit = lower ? P_LO : P_HI;
+            }
+            for (int k = 0; k < 4; k++) pf[c[k]] |= bit;
+        }
+        /* S1: the shared vertices of a cut and their neighbours over owned tets */
+        for (int side = 0; side < 2; side++) {
+            uint8_t ring = side ? P_HI : P_LO, s1 = side ? P_S1HI : P_S1LO;
+            for (size_t t = 0; t < nc; t++) {
+                const vm_index *c = m->cells + 4 * t;
+                if (m->region[t] != 1) continue;
+                int touch = 0;
+                for (int k = 0; k < 4; k++)
+                    touch |= (pf[c[k]] & P_OWN) && (pf[c[k]] & ring);
+                if (touch)
+                    for (int k = 0; k < 4; k++) pf[c[k]] |= s1;
+            }
+            for (size_t t = 0; t < nc; t++) {
+                const vm_index *c = m->cells + 4 * t;
+                if (m->region[t] != 1) continue;
+                for (int k = 0; k < 4; k++)
+                    if (pf[c[k]] & s1) tf[t] |= side ? T_BANDHI : T_BANDLO;
+            }
+        }
+        /* context of the lower band: owned tets touching it; all that goes down is P_SENT */
+        for (size_t t = 0; t < nc; t++)
+            if (tf[t] & T_BANDLO)
+                for (int k = 0; k < 4; k++) pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
+        for (size_t t = 0; t < nc; t++) {
+            const vm_index *c = m->cells + 4 * t;
+            if (m->region[t] != 1 || (tf[t] & T_BANDLO)) continue;
+            int touch = 0;
+            for (int k = 0; k < 4; k++) touch |= pf[c[k]] & P_SENT ? 1 : 0;
+            if (touch) tf[t] |= T_CTXLO;
+        }
+        for (size_t t = 0; t < nc; t++)
+            if (tf[t] & (T_BANDLO | T_CTXLO)) nsend++;
+    }
+    /* A slab too thin for the two bands to stay apart cannot be improved this way. */
+    int thin = 0;
+    if (local_ok) {
+        for (size_t t = 0; t < nc; t++)
+            if (tf[t] & T_BANDLO)
+                for (int k = 0; k < 4; k++) pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
+        for (size_t t = 0; t < nc; t++)
+            if (tf[t] & T_CTXLO)
+                for (int k = 0; k < 4; k++) pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
+        for (size_t t = 0; t < nc && !thin; t++)
+            if (tf[t] & T_BANDHI)
+                for (int k = 0; k < 4; k++) thin |= pf[m->cells[4 * t + (size_t)k]] & P_SENT;
+        if (nsend > (unsigned long long)(INT32_MAX / TET_DOUBLES)) local_ok = 0;
+    }
+    if (local_ok && !thin && nsend) {
+        sendbuf = malloc((size_t)nsend * TET_DOUBLES * sizeof *sendbuf);
+        if (!sendbuf) local_ok = 0;
+    }
+    if (local_ok && sendbuf) {
+        size_t k = 0;
+        for (size_t t = 0; t < nc; t++) {
+            if (!(tf[t] & (T_BANDLO | T_CTXLO))) continue;
+            double *b = sendbuf + TET_DOUBLES * k++;
+            for (int q = 0; q < 4; q++)
+                memcpy(b + 3 * q, m->points + 3 * (size_t)m->cells[4 * t + (size_t)q],
+                       3 * sizeof(double));
+            b[12] = (tf[t] & T_BANDLO) ? 1 : 0;
+        }
+    }
+    int flags[2] = {local_ok ? 0 : 1, thin}, any[2];
+    MPI_Allreduce(flags, any, 2, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    vm_status s = VM_OK;
+    if (any[0] || any[1]) {
+        if (!local_ok)
+            s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
+        else if (thin)
+            s = vm_error_set(err, VM_ERR_ARG,
+                             "--improve: the slab of rank %d is too thin for the quality pass "
+                             "across its cuts (use fewer ranks)",
+                             rank_);
+        else
+            *secondary = 1, s = VM_ERR_INTERNAL;
+        goto done;
+    }
+    int down = rank_ > 0 ? rank_ - 1 : MPI_PROC_NULL;
+    int up = rank_ < nranks_ - 1 ? rank_ + 1 : MPI_PROC_NULL;
+    MPI_Sendrecv(&nsend, 1, MPI_UNSIGNED_LONG_LONG, down, 1, &nrecv, 1, MPI_UNSIGNED_LONG_LONG,
+                 up, 1, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    if (up == MPI_PROC_NULL) nrecv = 0;
+    recvbuf = malloc(((size_t)nrecv * TET_DOUBLES + 1) * sizeof *recvbuf);
+    /* the sizes are sent either way; a rank out of memory fails after the exchange */
+    MPI_Sendrecv(sendbuf, (int)(nsend * TET_DOUBLES), MPI_DOUBLE, down, 2,
+                 recvbuf ? recvbuf : NULL, recvbuf ? (int)(nrecv * TET_DOUBLES) : 0,
+                 MPI_DOUBLE, up, 2, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    if (!recvbuf) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
+        goto done;
+    }
+    /* The phase-2 mesh: this rank's points, its tets but the copies of the upper neighbour's
+     * (the received tets replace them), then the received ones. Regions: 1 improved; every
+     * other tet its own, odd when this rank keeps it, even when not. */
+    s = vm_mesh_reserve(&m2, np + 4 * (size_t)nrecv, nc + (size_t)nrecv, err);
+    if (s) goto done;
+    memcpy(m2.points, m->points, 3 * np * sizeof(double));
+    m2.npoints = np;
+    int32_t next = 2;
+    for (size_t t = 0; t < nc && !s; t++) {
+        if (tf[t] & T_RING_HI) continue;
+        int32_t r;
+        if (tf[t] & T_RING_LO) r = next;               /* the lower neighbour's: context */
+        else if (tf[t] & T_BANDLO) r = next;           /* now the lower neighbour's */
+        else if (tf[t] & T_BANDHI) r = 1;              /* improved here */
+        else r = next + 1;                             /* kept as it is */
+        if (r != 1) next += 2;
+        s = vm_mesh_add_cell(&m2, m->cells + 4 * t, r, err);
+    }
+    pmap pm = {1, NULL, &m2};
+    while (pm.cap < 2 * (m2.npoints + 4 * (size_t)nrecv) + 16) pm.cap <<= 1;
+    if (!s) {
+        pm.slot = malloc(pm.cap * sizeof *pm.slot);
+        if (!pm.slot) s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    if (!s) {
+        for (size_t i = 0; i < pm.cap; i++) pm.slot[i] = -1;
+        for (size_t i = 0; i < m2.npoints; i++) {
+            size_t at;
+            if (pmap_find(&pm, m2.points + 3 * i, &at) < 0) pm.slot[at] = (vm_index)i;
+        }
+    }
+    for (size_t t = 0; t < (size_t)nrecv && !s; t++) {
+        const double *b = recvbuf + TET_DOUBLES * t;
+        vm_index n[4];
+        for (int q = 0; q < 4 && !s; q++) {
+            size_t at;
+            n[q] = pmap_find(&pm, b + 3 * q, &at);
+            if (n[q] < 0) {
+                n[q] = vm_mesh_add_point(&m2, b + 3 * q, err);
+                if (n[q] < 0) s = VM_ERR_NOMEM;
+                else pm.slot[at] = n[q];
+            }
+        }
+        int32_t r = b[12] != 0 ? 1 : next;
+        if (r != 1) next += 2;
+        if (!s) s = vm_mesh_add_cell(&m2, n, r, err);
+    }
+    free(pm.slot);
+    if (!s) s = improve(A, v, &m2, err);
+    if (!s) {
+        vm_mesh_free(m);
+        *m = m2;
+        vm_mesh_init(&m2, VM_TET4);
+    }
+done:
+    vm_mesh_free(&m2);
+    free(pf);
+    free(tf);
+    free(sendbuf);
+    free(recvbuf);
+    return s;
+}
+
+/* This rank's slab: the masked volume meshed in index space, each tet marked 1 (owned) or 2
+ * (another slab's); with --improve, the first quality pass over the owned tets with the
+ * vertices they share with other slabs fixed. [out] m (empty on error), z0, z1: the slab's
+ * z range (index space), seconds. VM_ERR_EMPTY: no tets here. */
+static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, double *z1,
                            double *seconds, vm_error *err) {
-    *ntets = 0;
-    *seconds = 0;
-    int64_t m;
+    vm_mesh_init(m, VM_TET4);
+    int64_t nz;
     double step;
-    sampling_z(v->dims[2], A->mo.cell_size, &m, &step);
-    int64_t cells = m - 1, B = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
+    sampling_z(v->dims[2], A->mo.cell_size, &nz, &step);
+    int64_t cells = nz - 1, B = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
     int64_t blocks = (cells + B - 1) / B;
     int64_t b0 = blocks * rank_ / nranks_, b1 = blocks * (rank_ + 1) / nranks_;
     int64_t c0 = b0 * B, c1 = b1 * B < cells ? b1 * B : cells;
+    *z0 = rank_ == 0 ? -INFINITY : (double)c0 * step;
+    *z1 = rank_ == nranks_ - 1 ? INFINITY : (double)c1 * step;
     if (c1 <= c0) return VM_ERR_EMPTY; /* more ranks than blocks */
-    double z0 = rank_ == 0 ? -INFINITY : (double)c0 * step;
-    double z1 = rank_ == nranks_ - 1 ? INFINITY : (double)c1 * step;
-
-    vm_volume frame = *v; /* keeps the index-to-world mapping; v meshes in index space */
-    frame.data = NULL;
     if (nranks_ > 1) {
         /* Sample points c0 - ghost .. c1 + ghost keep their voxels (and the one beyond, for
          * the trilinear resampling); every other voxel goes outside the material. */
@@ -342,13 +611,30 @@ static vm_status mesh_slab(const args *A, vm_volume *v, const char *piece_file, 
         for (int b = 0; b < 3; b++) v->direction[a][b] = a == b;
     }
     double t0 = MPI_Wtime();
-    vm_mesh mesh, piece;
-    vm_status s = vm_mesh_volume(v, &A->mo, &mesh, NULL, err);
+    vm_status s = vm_mesh_volume(v, &A->mo, m, NULL, err);
     if (s) return s;
-    s = own_tets(&mesh, z0, z1, &frame, &piece, err);
-    vm_mesh_free(&mesh);
-    if (s) return s;
+    for (size_t t = 0; t < m->ncells; t++) m->region[t] = owned(m, t, *z0, *z1) ? 1 : 2;
+    if (A->improve && nranks_ > 1) {
+        /* The other slabs' tets are other materials: a vertex with tets of two around it
+         * stays where it is (max_interface_move 0) and no operation mixes materials, so the
+         * faces and vertices at the cut stay those the neighbour has. */
+        s = keep_ring(m, err);
+        if (!s) s = improve(A, v, m, err);
+    } else if (A->improve) {
+        s = improve(A, v, m, err);
+    }
     *seconds = MPI_Wtime() - t0;
+    if (s) vm_mesh_free(m);
+    return s;
+}
+
+/* Writes the kept tets of m (odd regions) in world coordinates of frame to piece_file with
+ * a cell field "rank". [out] ntets; VM_ERR_EMPTY when there are none (nothing written). */
+static vm_status write_piece(const args *A, const vm_mesh *m, const vm_volume *frame,
+                             const char *piece_file, size_t *ntets, vm_error *err) {
+    vm_mesh piece;
+    vm_status s = own_tets(m, frame, &piece, err);
+    if (s) return s;
     *ntets = piece.ncells;
     if (!piece.ncells) {
         vm_mesh_free(&piece);
@@ -364,6 +650,7 @@ static vm_status mesh_slab(const args *A, vm_volume *v, const char *piece_file, 
     free(rk);
     if (!s) s = vm_mesh_write_vtu(piece_file, &piece, A->compress, err);
     vm_mesh_free(&piece);
+    if (s) *ntets = 0;
     return s;
 }
 
@@ -391,13 +678,32 @@ int main(int argc, char **argv) {
     char piece_file[4096];
     piece_path(A.out, rank_, piece_file, sizeof piece_file);
     size_t ntets = 0;
-    double secs = 0;
-    if (!s) s = mesh_slab(&A, &v, piece_file, &ntets, &secs, &err);
+    double secs = 0, z0 = 0, z1 = 0;
+    vm_volume frame = v; /* the index-to-world mapping; v itself is meshed in index space */
+    frame.data = NULL;
+    vm_mesh m;
+    vm_mesh_init(&m, VM_TET4);
+    int secondary = 0;
+    if (!s) s = slab_mesh(&A, &v, &m, &z0, &z1, &secs, &err);
+    if (A.improve && nranks_ > 1) {
+        /* collective: every rank goes through it, whatever happened so far */
+        int bad = s && s != VM_ERR_EMPTY, anybad;
+        MPI_Allreduce(&bad, &anybad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+        if (anybad && !bad) secondary = 1, s = VM_ERR_INTERNAL;
+        if (!anybad) {
+            double t0 = MPI_Wtime();
+            vm_status s2 = improve_cuts(&A, &v, &m, z0, &secondary, &err);
+            if (s2) s = s2;
+            secs += MPI_Wtime() - t0;
+        }
+    }
+    if (!s) s = write_piece(&A, &m, &frame, piece_file, &ntets, &err);
+    vm_mesh_free(&m);
     vm_volume_free(&v);
 
     /* Outcome: the first rank with a real error speaks for all; empty slabs are fine as long
      * as some rank has tets. */
-    int mine = (s && s != VM_ERR_EMPTY) ? rank_ : nranks_, first;
+    int mine = (s && s != VM_ERR_EMPTY && !secondary) ? rank_ : nranks_, first;
     MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
     unsigned long long nt = ntets, *all = malloc((size_t)nranks_ * sizeof *all);
     double tmax = 0;
@@ -407,13 +713,14 @@ int main(int argc, char **argv) {
                   MPI_COMM_WORLD);
     unsigned long long total = 0;
     for (int r = 0; r < nranks_; r++) total += all[r];
+    if (first == nranks_ && secondary) first = nranks_ + 1; /* cannot happen: someone failed */
     if (first == nranks_ && total == 0) {
         first = 0; /* every slab empty: the material is empty */
         if (rank_ == 0 && !err.message[0])
             snprintf(err.message, sizeof err.message, "%s: no grid point is in the material",
                      A.phantom ? "--phantom" : A.in);
     }
-    if (first < nranks_) {
+    if (first != nranks_) {
         if (ntets) remove(piece_file); /* leave nothing behind */
         if (rank_ == first) fprintf(stderr, "volmesh_mpi: %s\n", err.message);
         free(all);
