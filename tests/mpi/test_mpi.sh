@@ -18,7 +18,14 @@ command -v "$mpiexec" >/dev/null 2>&1 || { echo "skip: no $mpiexec"; exit 77; }
 export OMPI_MCA_btl_vader_single_copy_mechanism=none OMPI_MCA_btl=self,vader
 export OMPI_MCA_rmaps_base_oversubscribe=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMP_NUM_THREADS=1
-run() { "$mpiexec" --allow-run-as-root --oversubscribe -np "$@"; }
+# Under LeakSanitizer, Open MPI's own start-up allocations (kept until exit) are suppressed;
+# they are found by full stacks only.
+supp="${VM_SOURCE_DIR}/tests/mpi/lsan.supp"
+run() {
+    ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}fast_unwind_on_malloc=0" \
+        LSAN_OPTIONS="${LSAN_OPTIONS:+$LSAN_OPTIONS:}suppressions=$supp:fast_unwind_on_malloc=0" \
+        "$mpiexec" --allow-run-as-root --oversubscribe -np "$@"
+}
 check="/usr/bin/python3 ${VM_SOURCE_DIR}/tests/mpi/check_pvtu.py"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -27,8 +34,10 @@ pass=0 fail=0
 ok() { pass=$((pass + 1)); }
 bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 
-n=40
-[ -n "${VM_SANITIZED:-}" ] && n=28
+# Under the sanitizers: 28^3 and the cases marked "full" left out (each mpirun start costs
+# seconds there).
+n=40 full=1
+[ -n "${VM_SANITIZED:-}" ] && n=28 full=0
 torus_volume=$(/usr/bin/python3 -c "import math; m=$n-1; print(2*math.pi**2*0.28*m*(0.12*m)**2)")
 sphere_volume=$(/usr/bin/python3 -c "import math; m=$n-1; print(4/3*math.pi*(0.35*m)**3)")
 
@@ -55,9 +64,9 @@ one() {
 # every cut must cross the material: the torus and genus-3 lie flat around z = n/2, the
 # sphere reaches through three slabs; adaptive cuts fall on multiples of 2^L cells
 one torus 0 2 2
-one torus 0 2 2 --size 2
-one torus 0 2 2 --adaptive --max-level 3
-one genus3 -4 2 2 --adaptive --max-level 2
+[ $full = 1 ] && one torus 0 2 2 --size 2
+[ $full = 1 ] && one torus 0 2 2 --adaptive --max-level 3
+[ $full = 1 ] && one genus3 -4 2 2 --adaptive --max-level 1
 one sphere 2 3 3
 one sphere 2 2 2 --adaptive
 
@@ -76,14 +85,19 @@ improved() {
 improved sphere 2 3
 
 # --phantom gives the same volume as `volmesh demo`
+[ $full = 1 ] && {
 "$VM_CLI" mesh torus.nrrd --iso 0 --no-improve -o single.vtu --quiet >/dev/null
 rm -f out*
 res=$(run 2 "$VM_MPI" --phantom torus:$n -o out.pvtu 2>&1) &&
     $check out.pvtu single.vtu --pieces 2 --euler 0 --components 1 >/dev/null && ok ||
     bad "--phantom torus: $res"
+}
 
 # The judge can fail: the pieces against a different single-process mesh, and a pvtu whose
 # second piece is gone (the boundary opens at the cut).
+rm -f out*
+run 2 "$VM_MPI" torus.nrrd --iso 0 -o out.pvtu --quiet || bad "torus for the judge"
+"$VM_CLI" mesh torus.nrrd --iso 0 --no-improve -o single.vtu --quiet >/dev/null
 "$VM_CLI" mesh torus.nrrd --iso 0.5 --no-improve -o other.vtu --quiet >/dev/null
 $check out.pvtu other.vtu --pieces 2 --euler 0 --components 1 >/dev/null && bad "judge accepted another mesh" || ok
 sed '/out_1.vtu/d' out.pvtu > half.pvtu
@@ -127,9 +141,11 @@ expect2() {
 expect2 "missing file" missing.nrrd --iso 0 -o out.pvtu
 expect2 "not .pvtu" torus.nrrd --iso 0 -o out.vtu
 expect2 "iso above the data" torus.nrrd --iso 1e9 -o out.pvtu
-expect2 "no bound" torus.nrrd -o out.pvtu
-expect2 "bad option" torus.nrrd --iso 0 --bogus -o out.pvtu
-expect2 "bad phantom" --phantom teapot -o out.pvtu
+if [ $full = 1 ]; then
+    expect2 "no bound" torus.nrrd -o out.pvtu
+    expect2 "bad option" torus.nrrd --iso 0 --bogus -o out.pvtu
+    expect2 "bad phantom" --phantom teapot -o out.pvtu
+fi
 echo "junk" > junk.nrrd
 expect2 "malformed volume" junk.nrrd --iso 0 -o out.pvtu
 
