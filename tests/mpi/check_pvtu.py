@@ -12,8 +12,9 @@ import argparse
 import sys
 
 import numpy as np
-import vtk
-from vtk.util.numpy_support import vtk_to_numpy
+# the two readers alone: `import vtk` loads every VTK module and takes seconds
+from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.vtkIOXML import vtkXMLPUnstructuredGridReader, vtkXMLUnstructuredGridReader
 
 
 def fail(msg):
@@ -86,7 +87,7 @@ def main():
                          "volumes within 1%%")
     a = ap.parse_args()
 
-    r, g, pts, tets = read(vtk.vtkXMLPUnstructuredGridReader, a.pvtu)
+    r, g, pts, tets = read(vtkXMLPUnstructuredGridReader, a.pvtu)
     if r.GetNumberOfPieces() != a.pieces:
         fail(f"{a.pvtu}: {r.GetNumberOfPieces()} pieces, expected {a.pieces}")
     rank = g.GetCellData().GetArray("rank")
@@ -171,7 +172,7 @@ def main():
         fail(f"{comps} components, expected {a.components}")
 
     # the single-process mesh: same tets, same volume
-    _, _, spts, stets = read(vtk.vtkXMLUnstructuredGridReader, a.single)
+    _, _, spts, stets = read(vtkXMLUnstructuredGridReader, a.single)
     both, (im, isg) = merge([upts, spts])
     k1 = np.sort(im[mt], axis=1)
     k2 = np.sort(isg[stets], axis=1)
