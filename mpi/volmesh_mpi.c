@@ -40,15 +40,18 @@ static const char *help =
     "  --max-level L           adaptive: largest cell 2^L cells (default 4)\n"
     "  --ghost G               ghost band in cells on each side of a slab (default 6, or\n"
     "                          2*2^L + 6 when adaptive)\n"
-    "  --improve               run the quality pass on each rank, with the vertices its\n"
-    "                          slab shares with the neighbouring slabs held fixed (the\n"
-    "                          pieces still conform; the union is no longer tet for tet\n"
-    "                          the single-process mesh)\n"
+    "  --improve               the quality pass: on each slab with the vertices it shares\n"
+    "                          held fixed, then across each cut on the lower rank; the\n"
+    "                          pieces still conform, but are not tet for tet what the\n"
+    "                          single-process pass makes (needs a slab per rank and slabs\n"
+    "                          a few cells thick)\n"
     "  --no-compress           write the pieces without zlib\n"
     "  --quiet                 no summary line\n"
     "\n"
     "Without --improve no quality pass runs. Prints one line on rank 0: ranks, elements per\n"
-    "rank, time of the slowest rank. Exit 0 ok, 2 bad input (nothing is written).\n";
+    "rank, time of the slowest rank. Exit 0 ok, 2 bad input or a failure on any rank: one\n"
+    "line volmesh_mpi: ... from the lowest failing rank (mpirun adds its own notice), and\n"
+    "no file is left.\n";
 
 typedef struct args {
     const char *in, *out;
@@ -593,6 +596,11 @@ static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, 
     int64_t c0 = b0 * B, c1 = b1 * B < cells ? b1 * B : cells;
     *z0 = rank_ == 0 ? -INFINITY : (double)c0 * step;
     *z1 = rank_ == nranks_ - 1 ? INFINITY : (double)c1 * step;
+    if (A->improve && nranks_ > 1 && blocks < nranks_) /* the same answer on every rank */
+        return vm_error_set(err, VM_ERR_ARG,
+                            "--improve: %d ranks but only %lld slabs of %lld cells along z (use "
+                            "at most %lld ranks)",
+                            nranks_, (long long)blocks, (long long)B, (long long)blocks);
     if (c1 <= c0) return VM_ERR_EMPTY; /* more ranks than blocks */
     if (nranks_ > 1) {
         /* Sample points c0 - ghost .. c1 + ghost keep their voxels (and the one beyond, for

@@ -145,6 +145,7 @@ if [ $full = 1 ]; then
     expect2 "no bound" torus.nrrd -o out.pvtu
     expect2 "bad option" torus.nrrd --iso 0 --bogus -o out.pvtu
     expect2 "bad phantom" --phantom teapot -o out.pvtu
+    expect2 "--improve, more ranks than slabs" --phantom sphere:12 --adaptive --improve -o out.pvtu
 fi
 echo "junk" > junk.nrrd
 expect2 "malformed volume" junk.nrrd --iso 0 -o out.pvtu
