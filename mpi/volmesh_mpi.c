@@ -9,13 +9,13 @@
  * single-process mesh. Each rank keeps the tets whose centroid lies in its slab; the
  * centroids are computed from the same doubles on both sides of a cut, so every tet is kept
  * by exactly one rank and the pieces meet on identical shared vertices. */
+#include "volmesh/volmesh.h"
 #include <math.h>
-#include <stdint.h>
 #include <mpi.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "volmesh/volmesh.h"
 
 enum { EXIT_OK = 0, EXIT_INPUT = 2 };
 
@@ -26,7 +26,8 @@ static const char *help =
     "Meshes the material of a volume with tetrahedra on N MPI ranks: the cells are split into\n"
     "N slabs along z, each rank meshes its slab (plus a ghost band it throws away) and writes\n"
     "OUT_RANK.vtu; rank 0 writes OUT.pvtu naming the pieces. The union of the pieces is the\n"
-    "mesh `volmesh mesh --no-improve` makes of the same volume, tet for tet (see docs/MPI.md).\n"
+    "mesh `volmesh mesh --no-improve` makes of the same volume, tet for tet (see "
+    "docs/MPI.md).\n"
     "\n"
     "  FILE                    volume file, format from the extension (as volmesh mesh)\n"
     "  --phantom NAME[:SIZE]   a built-in phantom instead (sphere, torus, genus3,\n"
@@ -183,8 +184,10 @@ static int parse_args(int argc, char **argv, args *A) {
             return fail("one input only ('%s' and '%s')", A->in, a);
         }
     }
-    if (!A->in && !A->phantom) return fail("no input volume (FILE or --phantom NAME)%s%s", "", NULL);
-    if (A->in && A->phantom) return fail("give FILE or --phantom, not both ('%s')%s", A->in, NULL);
+    if (!A->in && !A->phantom)
+        return fail("no input volume (FILE or --phantom NAME)%s%s", "", NULL);
+    if (A->in && A->phantom)
+        return fail("give FILE or --phantom, not both ('%s')%s", A->in, NULL);
     if (!A->out) return fail("no output: give -o OUT.pvtu%s%s", "", NULL);
     size_t lo = strlen(A->out);
     if (lo < 6 || strcmp(A->out + lo - 5, ".pvtu") != 0)
@@ -194,7 +197,8 @@ static int parse_args(int argc, char **argv, args *A) {
         A->mo.lo = 0;
         A->have_bound = 1;
     }
-    if (!A->have_bound) return fail("no material bound: give --iso V or --range A:B%s%s", "", NULL);
+    if (!A->have_bound)
+        return fail("no material bound: give --iso V or --range A:B%s%s", "", NULL);
     if (A->ghost < 0) A->ghost = 6 + (A->mo.adaptive ? 2L << A->mo.max_level : 0);
     return 0;
 }
@@ -294,7 +298,8 @@ static vm_status own_tets(const vm_mesh *m, const vm_volume *frame, vm_mesh *pie
     vm_mesh_init(piece, VM_TET4);
     vm_index *map = malloc((m->npoints ? m->npoints : 1) * sizeof *map);
     if (!map) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
-    for (size_t i = 0; i < m->npoints; i++) map[i] = -1;
+    for (size_t i = 0; i < m->npoints; i++)
+        map[i] = -1;
     int flip = vm_volume_frame_determinant(frame) < 0;
     vm_status s = VM_OK;
     for (size_t t = 0; t < m->ncells && !s; t++) {
@@ -334,7 +339,8 @@ static vm_status keep_ring(vm_mesh *m, vm_error *err) {
     if (!mine) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
     for (size_t t = 0; t < m->ncells; t++)
         if (m->region[t] == 1)
-            for (int k = 0; k < 4; k++) mine[m->cells[4 * t + (size_t)k]] = 1;
+            for (int k = 0; k < 4; k++)
+                mine[m->cells[4 * t + (size_t)k]] = 1;
     size_t kept = 0;
     for (size_t t = 0; t < m->ncells; t++) {
         const vm_index *c = m->cells + 4 * t;
@@ -424,7 +430,8 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
                 tf[t] = lower ? T_RING_LO : T_RING_HI;
                 bit = lower ? P_LO : P_HI;
             }
-            for (int k = 0; k < 4; k++) pf[c[k]] |= bit;
+            for (int k = 0; k < 4; k++)
+                pf[c[k]] |= bit;
         }
         /* S1: the shared vertices of a cut and their neighbours over owned tets */
         for (int side = 0; side < 2; side++) {
@@ -436,7 +443,8 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
                 for (int k = 0; k < 4; k++)
                     touch |= (pf[c[k]] & P_OWN) && (pf[c[k]] & ring);
                 if (touch)
-                    for (int k = 0; k < 4; k++) pf[c[k]] |= s1;
+                    for (int k = 0; k < 4; k++)
+                        pf[c[k]] |= s1;
             }
             for (size_t t = 0; t < nc; t++) {
                 const vm_index *c = m->cells + 4 * t;
@@ -448,12 +456,14 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
         /* context of the lower band: owned tets touching it; all that goes down is P_SENT */
         for (size_t t = 0; t < nc; t++)
             if (tf[t] & T_BANDLO)
-                for (int k = 0; k < 4; k++) pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
+                for (int k = 0; k < 4; k++)
+                    pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
         for (size_t t = 0; t < nc; t++) {
             const vm_index *c = m->cells + 4 * t;
             if (m->region[t] != 1 || (tf[t] & T_BANDLO)) continue;
             int touch = 0;
-            for (int k = 0; k < 4; k++) touch |= pf[c[k]] & P_SENT ? 1 : 0;
+            for (int k = 0; k < 4; k++)
+                touch |= pf[c[k]] & P_SENT ? 1 : 0;
             if (touch) tf[t] |= T_CTXLO;
         }
         for (size_t t = 0; t < nc; t++)
@@ -464,13 +474,16 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
     if (local_ok) {
         for (size_t t = 0; t < nc; t++)
             if (tf[t] & T_BANDLO)
-                for (int k = 0; k < 4; k++) pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
+                for (int k = 0; k < 4; k++)
+                    pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
         for (size_t t = 0; t < nc; t++)
             if (tf[t] & T_CTXLO)
-                for (int k = 0; k < 4; k++) pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
+                for (int k = 0; k < 4; k++)
+                    pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
         for (size_t t = 0; t < nc && !thin; t++)
             if (tf[t] & T_BANDHI)
-                for (int k = 0; k < 4; k++) thin |= pf[m->cells[4 * t + (size_t)k]] & P_SENT;
+                for (int k = 0; k < 4; k++)
+                    thin |= pf[m->cells[4 * t + (size_t)k]] & P_SENT;
         if (nsend > (unsigned long long)(INT32_MAX / TET_DOUBLES)) local_ok = 0;
     }
     if (local_ok && !thin && nsend) {
@@ -511,8 +524,8 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
     recvbuf = malloc(((size_t)nrecv * TET_DOUBLES + 1) * sizeof *recvbuf);
     /* the sizes are sent either way; a rank out of memory fails after the exchange */
     MPI_Sendrecv(sendbuf, (int)(nsend * TET_DOUBLES), MPI_DOUBLE, down, 2,
-                 recvbuf ? recvbuf : NULL, recvbuf ? (int)(nrecv * TET_DOUBLES) : 0,
-                 MPI_DOUBLE, up, 2, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+                 recvbuf ? recvbuf : NULL, recvbuf ? (int)(nrecv * TET_DOUBLES) : 0, MPI_DOUBLE,
+                 up, 2, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
     if (!recvbuf) {
         s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
         goto done;
@@ -528,21 +541,27 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
     for (size_t t = 0; t < nc && !s; t++) {
         if (tf[t] & T_RING_HI) continue;
         int32_t r;
-        if (tf[t] & T_RING_LO) r = next;               /* the lower neighbour's: context */
-        else if (tf[t] & T_BANDLO) r = next;           /* now the lower neighbour's */
-        else if (tf[t] & T_BANDHI) r = 1;              /* improved here */
-        else r = next + 1;                             /* kept as it is */
+        if (tf[t] & T_RING_LO)
+            r = next; /* the lower neighbour's: context */
+        else if (tf[t] & T_BANDLO)
+            r = next; /* now the lower neighbour's */
+        else if (tf[t] & T_BANDHI)
+            r = 1; /* improved here */
+        else
+            r = next + 1; /* kept as it is */
         if (r != 1) next += 2;
         s = vm_mesh_add_cell(&m2, m->cells + 4 * t, r, err);
     }
     pmap pm = {1, NULL, &m2};
-    while (pm.cap < 2 * (m2.npoints + 4 * (size_t)nrecv) + 16) pm.cap <<= 1;
+    while (pm.cap < 2 * (m2.npoints + 4 * (size_t)nrecv) + 16)
+        pm.cap <<= 1;
     if (!s) {
         pm.slot = malloc(pm.cap * sizeof *pm.slot);
         if (!pm.slot) s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
     }
     if (!s) {
-        for (size_t i = 0; i < pm.cap; i++) pm.slot[i] = -1;
+        for (size_t i = 0; i < pm.cap; i++)
+            pm.slot[i] = -1;
         for (size_t i = 0; i < m2.npoints; i++) {
             size_t at;
             if (pmap_find(&pm, m2.points + 3 * i, &at) < 0) pm.slot[at] = (vm_index)i;
@@ -556,8 +575,10 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
             n[q] = pmap_find(&pm, b + 3 * q, &at);
             if (n[q] < 0) {
                 n[q] = vm_mesh_add_point(&m2, b + 3 * q, err);
-                if (n[q] < 0) s = VM_ERR_NOMEM;
-                else pm.slot[at] = n[q];
+                if (n[q] < 0)
+                    s = VM_ERR_NOMEM;
+                else
+                    pm.slot[at] = n[q];
             }
         }
         int32_t r = b[12] != 0 ? 1 : next;
@@ -597,10 +618,11 @@ static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, 
     *z0 = rank_ == 0 ? -INFINITY : (double)c0 * step;
     *z1 = rank_ == nranks_ - 1 ? INFINITY : (double)c1 * step;
     if (A->improve && nranks_ > 1 && blocks < nranks_) /* the same answer on every rank */
-        return vm_error_set(err, VM_ERR_ARG,
-                            "--improve: %d ranks but only %lld slabs of %lld cells along z (use "
-                            "at most %lld ranks)",
-                            nranks_, (long long)blocks, (long long)B, (long long)blocks);
+        return vm_error_set(
+            err, VM_ERR_ARG,
+            "--improve: %d ranks but only %lld slabs of %lld cells along z (use "
+            "at most %lld ranks)",
+            nranks_, (long long)blocks, (long long)B, (long long)blocks);
     if (c1 <= c0) return VM_ERR_EMPTY; /* more ranks than blocks */
     if (nranks_ > 1) {
         /* Sample points c0 - ghost .. c1 + ghost keep their voxels (and the one beyond, for
@@ -611,17 +633,20 @@ static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, 
         size_t plane = (size_t)v->dims[0] * (size_t)v->dims[1];
         for (int64_t k = 0; k < v->dims[2]; k++)
             if ((double)k < lo || (double)k > hi)
-                for (size_t i = 0; i < plane; i++) v->data[(size_t)k * plane + i] = fill;
+                for (size_t i = 0; i < plane; i++)
+                    v->data[(size_t)k * plane + i] = fill;
     }
     for (int a = 0; a < 3; a++) {
         v->origin[a] = 0;
         v->spacing[a] = 1;
-        for (int b = 0; b < 3; b++) v->direction[a][b] = a == b;
+        for (int b = 0; b < 3; b++)
+            v->direction[a][b] = a == b;
     }
     double t0 = MPI_Wtime();
     vm_status s = vm_mesh_volume(v, &A->mo, m, NULL, err);
     if (s) return s;
-    for (size_t t = 0; t < m->ncells; t++) m->region[t] = owned(m, t, *z0, *z1) ? 1 : 2;
+    for (size_t t = 0; t < m->ncells; t++)
+        m->region[t] = owned(m, t, *z0, *z1) ? 1 : 2;
     if (A->improve && nranks_ > 1) {
         /* The other slabs' tets are other materials: a vertex with tets of two around it
          * stays where it is (max_interface_move 0) and no operation mixes materials, so the
@@ -653,7 +678,8 @@ static vm_status write_piece(const args *A, const vm_mesh *m, const vm_volume *f
         vm_mesh_free(&piece);
         return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
     }
-    for (size_t t = 0; t < piece.ncells; t++) rk[t] = rank_;
+    for (size_t t = 0; t < piece.ncells; t++)
+        rk[t] = rank_;
     s = vm_mesh_set_field(&piece, 1, "rank", 1, rk, err);
     free(rk);
     if (!s) s = vm_mesh_write_vtu(piece_file, &piece, A->compress, err);
@@ -720,7 +746,8 @@ int main(int argc, char **argv) {
     MPI_Allgather(&nt, 1, MPI_UNSIGNED_LONG_LONG, all, 1, MPI_UNSIGNED_LONG_LONG,
                   MPI_COMM_WORLD);
     unsigned long long total = 0;
-    for (int r = 0; r < nranks_; r++) total += all[r];
+    for (int r = 0; r < nranks_; r++)
+        total += all[r];
     if (first == nranks_ && secondary) first = nranks_ + 1; /* cannot happen: someone failed */
     if (first == nranks_ && total == 0) {
         first = 0; /* every slab empty: the material is empty */
@@ -742,7 +769,8 @@ int main(int argc, char **argv) {
         if (ntets) remove(piece_file);
     } else if (rank_ == 0 && !A.quiet) {
         printf("%s: %d ranks, %llu tets (", A.out, nranks_, total);
-        for (int r = 0; r < nranks_; r++) printf("%s%llu", r ? " + " : "", all[r]);
+        for (int r = 0; r < nranks_; r++)
+            printf("%s%llu", r ? " + " : "", all[r]);
         printf("), slowest rank %.3f s\n", tmax);
     }
     free(all);
