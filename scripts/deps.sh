@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what building and testing volmesh needs on Debian, when it is missing:
 # the compiler and CMake, zlib, and (for the tests' independent judges) Debian's python3 with
-# VTK, meshio and numpy, CalculiX (ccx), gmsh and libexodusii-dev. Usage: scripts/deps.sh [--tests]
+# VTK, meshio and numpy, CalculiX (ccx), gmsh, libexodusii-dev and Open MPI (libopenmpi-dev,
+# openmpi-bin). Usage: scripts/deps.sh [--tests]
 set -eu
 want_tests=0
 [ "${1:-}" = "--tests" ] && want_tests=1
@@ -23,6 +24,9 @@ if [ "$want_tests" = 1 ]; then
     command -v ccx >/dev/null 2>&1 || pkgs+=(calculix-ccx)
     command -v gmsh >/dev/null 2>&1 || pkgs+=(gmsh)
     dpkg -s libexodusii-dev >/dev/null 2>&1 || pkgs+=(libexodusii-dev)
+    # volmesh_mpi (docs/MPI.md) is built against Open MPI and run by tests/mpi under mpirun
+    dpkg -s libopenmpi-dev >/dev/null 2>&1 || pkgs+=(libopenmpi-dev)
+    command -v mpirun >/dev/null 2>&1 || pkgs+=(openmpi-bin)
     # the HTML report is checked in a real browser
     command -v chromium >/dev/null 2>&1 || pkgs+=(chromium)
 fi

@@ -1,0 +1,779 @@
+/* mpi/volmesh_mpi.c — `volmesh_mpi`: one tetrahedral mesh over several MPI ranks, written as
+ * a partitioned VTK XML grid (.pvtu + one .vtu piece per rank). Design: docs/MPI.md.
+ *
+ * Every rank reads the whole volume, keeps the samples of its slab of cells along z plus a
+ * ghost band, replaces the rest by a value outside the material and meshes the result with
+ * the ordinary mesher in the volume's global index frame. The mesher's decisions are local
+ * (a cell's vertices, splits and octree leaf depend only on samples a few cells away), so
+ * away from the ghost band's far edge the rank's tets are bit for bit those of the
+ * single-process mesh. Each rank keeps the tets whose centroid lies in its slab; the
+ * centroids are computed from the same doubles on both sides of a cut, so every tet is kept
+ * by exactly one rank and the pieces meet on identical shared vertices. */
+#include "volmesh/volmesh.h"
+#include <math.h>
+#include <mpi.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { EXIT_OK = 0, EXIT_INPUT = 2 };
+
+static const char *help =
+    "usage: mpirun -np N volmesh_mpi (FILE | --phantom NAME[:SIZE]) -o OUT.pvtu\n"
+    "                  (--iso V | --range A:B) [options]\n"
+    "\n"
+    "Meshes the material of a volume with tetrahedra on N MPI ranks: the cells are split into\n"
+    "N slabs along z, each rank meshes its slab (plus a ghost band it throws away) and writes\n"
+    "OUT_RANK.vtu; rank 0 writes OUT.pvtu naming the pieces. The union of the pieces is the\n"
+    "mesh `volmesh mesh --no-improve` makes of the same volume, tet for tet (see "
+    "docs/MPI.md).\n"
+    "\n"
+    "  FILE                    volume file, format from the extension (as volmesh mesh)\n"
+    "  --phantom NAME[:SIZE]   a built-in phantom instead (sphere, torus, genus3,\n"
+    "                          two-spheres, plate, cut-sphere; SIZE^3, default 48), iso 0\n"
+    "  -o, --output OUT.pvtu   partitioned output (the pieces go beside it)\n"
+    "  --iso V                 material is f >= V\n"
+    "  --range A:B             material is A <= f <= B (either side may be left open)\n"
+    "  --size S                cell size in voxels (default 1)\n"
+    "  --adaptive              octree cells (slab cuts fall on the coarsest block size)\n"
+    "  --error E               adaptive: boundary error in voxels (default 0.5)\n"
+    "  --max-level L           adaptive: largest cell 2^L cells (default 4)\n"
+    "  --ghost G               ghost band in cells on each side of a slab (default 6, or\n"
+    "                          2*2^L + 6 when adaptive)\n"
+    "  --improve               the quality pass: on each slab with the vertices it shares\n"
+    "                          held fixed, then across each cut on the lower rank; the\n"
+    "                          pieces still conform, but are not tet for tet what the\n"
+    "                          single-process pass makes (needs a slab per rank and slabs\n"
+    "                          a few cells thick)\n"
+    "  --no-compress           write the pieces without zlib\n"
+    "  --quiet                 no summary line\n"
+    "\n"
+    "Without --improve no quality pass runs. Prints one line on rank 0: ranks, elements per\n"
+    "rank, time of the slowest rank. Exit 0 ok, 2 bad input or a failure on any rank: one\n"
+    "line volmesh_mpi: ... from the lowest failing rank (mpirun adds its own notice), and\n"
+    "no file is left.\n";
+
+typedef struct args {
+    const char *in, *out;
+    int phantom;
+    vm_phantom_kind kind;
+    long phantom_n;
+    vm_mesh_options mo;
+    int have_bound;
+    long ghost;
+    int compress, quiet, help, improve;
+} args;
+
+/* Messages come from rank 0 only: every rank parses the same arguments and reads the same
+ * file, so they fail alike. */
+static int rank_, nranks_;
+
+static int fail(const char *fmt, const char *a, const char *b) {
+    if (rank_ == 0) {
+        fputs("volmesh_mpi: ", stderr);
+        fprintf(stderr, fmt, a, b ? b : "");
+        fputc('\n', stderr);
+    }
+    return EXIT_INPUT;
+}
+
+static int parse_double(const char *opt, const char *s, double *out) {
+    char *end;
+    double x = strtod(s, &end);
+    if (end == s || *end || !isfinite(x)) return fail("%s: '%s' is not a number", opt, s);
+    *out = x;
+    return 0;
+}
+
+static int parse_long(const char *opt, const char *s, long lo, long hi, long *out) {
+    char *end;
+    long x = strtol(s, &end, 10);
+    if (end == s || *end || x < lo || x > hi) {
+        char range[64];
+        snprintf(range, sizeof range, "%ld..%ld", lo, hi);
+        if (rank_ == 0)
+            fprintf(stderr, "volmesh_mpi: %s: '%s' is not an integer in %s\n", opt, s, range);
+        return EXIT_INPUT;
+    }
+    *out = x;
+    return 0;
+}
+
+static int parse_range(const char *s, vm_mesh_options *o) {
+    const char *colon = strchr(s, ':');
+    if (!colon) return fail("--range: '%s' is not A:B%s", s, NULL);
+    char a[128], b[128];
+    size_t la = (size_t)(colon - s);
+    if (la >= sizeof a || strlen(colon + 1) >= sizeof b)
+        return fail("--range: '%s' is too long%s", s, NULL);
+    memcpy(a, s, la);
+    a[la] = 0;
+    strcpy(b, colon + 1);
+    o->has_lo = a[0] != 0;
+    o->has_hi = b[0] != 0;
+    if (!o->has_lo && !o->has_hi) return fail("--range: give at least one bound%s%s", "", NULL);
+    if (o->has_lo && parse_double("--range", a, &o->lo)) return EXIT_INPUT;
+    if (o->has_hi && parse_double("--range", b, &o->hi)) return EXIT_INPUT;
+    return 0;
+}
+
+static int parse_args(int argc, char **argv, args *A) {
+    memset(A, 0, sizeof *A);
+    vm_mesh_options_default(&A->mo);
+    A->ghost = -1;
+    A->compress = 1;
+    A->phantom_n = 48;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            A->help = 1;
+            return 0;
+        }
+        int takes = !strcmp(a, "-o") || !strcmp(a, "--output") || !strcmp(a, "--iso") ||
+                    !strcmp(a, "--range") || !strcmp(a, "--size") || !strcmp(a, "--error") ||
+                    !strcmp(a, "--max-level") || !strcmp(a, "--ghost") ||
+                    !strcmp(a, "--phantom");
+        if (takes && i + 1 >= argc) return fail("%s needs a value%s", a, NULL);
+        long l;
+        if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
+            A->out = argv[++i];
+        } else if (!strcmp(a, "--iso")) {
+            if (parse_double(a, argv[++i], &A->mo.lo)) return EXIT_INPUT;
+            A->mo.has_lo = 1;
+            A->mo.has_hi = 0;
+            A->have_bound = 1;
+        } else if (!strcmp(a, "--range")) {
+            if (parse_range(argv[++i], &A->mo)) return EXIT_INPUT;
+            A->have_bound = 1;
+        } else if (!strcmp(a, "--size")) {
+            if (parse_long(a, argv[++i], 1, 64, &l)) return EXIT_INPUT;
+            A->mo.cell_size = (int)l;
+        } else if (!strcmp(a, "--adaptive")) {
+            A->mo.adaptive = 1;
+        } else if (!strcmp(a, "--error")) {
+            if (parse_double(a, argv[++i], &A->mo.error)) return EXIT_INPUT;
+        } else if (!strcmp(a, "--max-level")) {
+            if (parse_long(a, argv[++i], 1, 10, &l)) return EXIT_INPUT;
+            A->mo.max_level = (int)l;
+        } else if (!strcmp(a, "--ghost")) {
+            if (parse_long(a, argv[++i], 1, 1 << 20, &A->ghost)) return EXIT_INPUT;
+        } else if (!strcmp(a, "--phantom")) {
+            char name[64];
+            const char *s = argv[++i], *colon = strchr(s, ':');
+            size_t ln = colon ? (size_t)(colon - s) : strlen(s);
+            if (ln >= sizeof name) return fail("--phantom: unknown phantom '%s'%s", s, NULL);
+            memcpy(name, s, ln);
+            name[ln] = 0;
+            if (vm_phantom_parse(name, &A->kind))
+                return fail("--phantom: unknown phantom '%s'%s", name, NULL);
+            if (colon && parse_long("--phantom", colon + 1, 8, 1024, &A->phantom_n))
+                return EXIT_INPUT;
+            A->phantom = 1;
+        } else if (!strcmp(a, "--improve")) {
+            A->improve = 1;
+        } else if (!strcmp(a, "--no-compress")) {
+            A->compress = 0;
+        } else if (!strcmp(a, "--quiet")) {
+            A->quiet = 1;
+        } else if (a[0] == '-' && a[1]) {
+            return fail("unknown option %s (see volmesh_mpi --help)%s", a, NULL);
+        } else if (!A->in) {
+            A->in = a;
+        } else {
+            return fail("one input only ('%s' and '%s')", A->in, a);
+        }
+    }
+    if (!A->in && !A->phantom)
+        return fail("no input volume (FILE or --phantom NAME)%s%s", "", NULL);
+    if (A->in && A->phantom)
+        return fail("give FILE or --phantom, not both ('%s')%s", A->in, NULL);
+    if (!A->out) return fail("no output: give -o OUT.pvtu%s%s", "", NULL);
+    size_t lo = strlen(A->out);
+    if (lo < 6 || strcmp(A->out + lo - 5, ".pvtu") != 0)
+        return fail("-o %s: the output must end in .pvtu%s", A->out, NULL);
+    if (A->phantom && !A->have_bound) {
+        A->mo.has_lo = 1;
+        A->mo.lo = 0;
+        A->have_bound = 1;
+    }
+    if (!A->have_bound)
+        return fail("no material bound: give --iso V or --range A:B%s%s", "", NULL);
+    if (A->ghost < 0) A->ghost = 6 + (A->mo.adaptive ? 2L << A->mo.max_level : 0);
+    return 0;
+}
+
+/* The sampling grid along z, as vm_mesh_volume makes it: m points, step voxels apart. */
+static void sampling_z(int64_t nz, int S, int64_t *m, double *step) {
+    if (S == 1) {
+        *m = nz;
+        *step = 1;
+        return;
+    }
+    *m = (nz - 1 + S - 1) / S + 1;
+    if (*m < 2) *m = 2;
+    *step = (double)(nz - 1) / (double)(*m - 1);
+}
+
+/* A value outside the material: below the lower bound (or above the upper one). */
+static float outside_value(const vm_volume *v, const vm_mesh_options *o) {
+    double vmin, vmax;
+    vm_volume_stats(v, &vmin, &vmax, NULL);
+    if (o->has_lo) {
+        double span = vmax - o->lo > 1 ? vmax - o->lo : 1;
+        return (float)(fmin(vmin, o->lo) - span);
+    }
+    double span = o->hi - vmin > 1 ? o->hi - vmin : 1;
+    return (float)(fmax(vmax, o->hi) + span);
+}
+
+/* The piece name of rank r beside OUT.pvtu: OUT_r.vtu. [out] path (size n). */
+static void piece_path(const char *out, int r, char *path, size_t n) {
+    size_t base = strlen(out) - 5;
+    snprintf(path, n, "%.*s_%d.vtu", (int)base, out, r);
+}
+
+static const char *base_name(const char *p) {
+    const char *s = strrchr(p, '/');
+    return s ? s + 1 : p;
+}
+
+/* Rank 0: OUT.pvtu listing the non-empty pieces (written to a temporary name, renamed). */
+static int write_pvtu(const char *out, const unsigned long long *tets, int n) {
+    size_t len = strlen(out) + 16;
+    char *tmp = malloc(len), piece[4096];
+    if (!tmp) return fail("%s: out of memory%s", out, NULL);
+    snprintf(tmp, len, "%s.tmp", out);
+    FILE *fp = fopen(tmp, "w");
+    if (!fp) {
+        free(tmp);
+        return fail("%s: cannot write the file%s", out, NULL);
+    }
+    unsigned one = 1;
+    int little = *(unsigned char *)&one == 1;
+    fprintf(fp,
+            "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" "
+            "byte_order=\"%s\" header_type=\"UInt64\">\n"
+            "  <PUnstructuredGrid GhostLevel=\"0\">\n"
+            "    <PPointData>\n    </PPointData>\n"
+            "    <PCellData>\n"
+            "      <PDataArray type=\"Int32\" Name=\"region\"/>\n"
+            "      <PDataArray type=\"Float64\" Name=\"rank\"/>\n"
+            "    </PCellData>\n"
+            "    <PPoints>\n"
+            "      <PDataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"/>\n"
+            "    </PPoints>\n",
+            little ? "LittleEndian" : "BigEndian");
+    for (int r = 0; r < n; r++) {
+        if (!tets[r]) continue;
+        piece_path(base_name(out), r, piece, sizeof piece);
+        fprintf(fp, "    <Piece Source=\"%s\"/>\n", piece);
+    }
+    fprintf(fp, "  </PUnstructuredGrid>\n</VTKFile>\n");
+    int bad = ferror(fp) != 0;
+    bad |= fclose(fp) != 0;
+    if (bad || rename(tmp, out) != 0) {
+        remove(tmp);
+        free(tmp);
+        return fail("%s: cannot write the file%s", out, NULL);
+    }
+    free(tmp);
+    return 0;
+}
+
+/* 1 when the centroid z of tet t of m (index space) is in [z0, z1): the tets this rank
+ * owns. Both ranks at a cut add the same four doubles in the same order. */
+static int owned(const vm_mesh *m, size_t t, double z0, double z1) {
+    const vm_index *c = m->cells + 4 * t;
+    const double *p = m->points;
+    double cz =
+        ((p[3 * c[0] + 2] + p[3 * c[1] + 2]) + (p[3 * c[2] + 2] + p[3 * c[3] + 2])) * 0.25;
+    return cz >= z0 && cz < z1;
+}
+
+/* Keeps the tets of m (index space) of odd region (this rank's; even ones belong to other
+ * ranks), with their points in world coordinates of frame, as region 1; [out] piece. */
+static vm_status own_tets(const vm_mesh *m, const vm_volume *frame, vm_mesh *piece,
+                          vm_error *err) {
+    vm_mesh_init(piece, VM_TET4);
+    vm_index *map = malloc((m->npoints ? m->npoints : 1) * sizeof *map);
+    if (!map) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    for (size_t i = 0; i < m->npoints; i++)
+        map[i] = -1;
+    int flip = vm_volume_frame_determinant(frame) < 0;
+    vm_status s = VM_OK;
+    for (size_t t = 0; t < m->ncells && !s; t++) {
+        const vm_index *c = m->cells + 4 * t;
+        const double *p = m->points;
+        if (m->region[t] % 2 != 1) continue;
+        vm_index nodes[4];
+        for (int k = 0; k < 4 && !s; k++) {
+            if (map[c[k]] < 0) {
+                double w[3];
+                vm_volume_index_to_world(frame, p + 3 * (size_t)c[k], w);
+                map[c[k]] = vm_mesh_add_point(piece, w, err);
+                if (map[c[k]] < 0) s = VM_ERR_NOMEM;
+            }
+            nodes[k] = map[c[k]];
+        }
+        if (s) break;
+        if (flip) { /* a left-handed frame mirrors the tets (as vm_mesh_volume does) */
+            vm_index x = nodes[1];
+            nodes[1] = nodes[2];
+            nodes[2] = x;
+        }
+        s = vm_mesh_add_cell(piece, nodes, 1, err);
+    }
+    free(map);
+    if (s) vm_mesh_free(piece);
+    return s;
+}
+
+/* Drops the tets of other slabs (region != 1) without a vertex of an owned tet, and gives
+ * each remaining one a region of its own: the quality pass then sees the owned tets and one
+ * ring of the neighbours' around them, each ring vertex has tets of two or more regions
+ * around it, so it stays fixed, and no operation touches a ring tet (they all need one
+ * region; even ids: not this rank's). Points stay (unused ones are left out at the end). */
+static vm_status keep_ring(vm_mesh *m, vm_error *err) {
+    uint8_t *mine = calloc(m->npoints ? m->npoints : 1, 1);
+    if (!mine) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    for (size_t t = 0; t < m->ncells; t++)
+        if (m->region[t] == 1)
+            for (int k = 0; k < 4; k++)
+                mine[m->cells[4 * t + (size_t)k]] = 1;
+    size_t kept = 0;
+    for (size_t t = 0; t < m->ncells; t++) {
+        const vm_index *c = m->cells + 4 * t;
+        if (m->region[t] != 1 && !mine[c[0]] && !mine[c[1]] && !mine[c[2]] && !mine[c[3]])
+            continue;
+        memmove(m->cells + 4 * kept, c, 4 * sizeof *c);
+        m->region[kept] = m->region[t] == 1 ? 1 : (int32_t)(2 + 2 * kept);
+        kept++;
+    }
+    m->ncells = kept;
+    free(mine);
+    return VM_OK;
+}
+
+/* The quality pass on m (index space, v its masked volume) with every vertex between two
+ * regions fixed. */
+static vm_status improve(const args *A, const vm_volume *v, vm_mesh *m, vm_error *err) {
+    if (!m->ncells) return VM_OK;
+    vm_improve_options io;
+    vm_improve_options_default(&io);
+    io.lo = A->mo.lo;
+    io.hi = A->mo.hi;
+    io.has_lo = A->mo.has_lo;
+    io.has_hi = A->mo.has_hi;
+    io.max_interface_move = 0;
+    return vm_mesh_improve(m, v, &io, NULL, err);
+}
+
+/* Exact-coordinate lookup of points (open addressing over the bits of x, y, z). */
+typedef struct pmap {
+    size_t cap;
+    vm_index *slot; /* -1: empty */
+    const vm_mesh *m;
+} pmap;
+
+static size_t pmap_hash(const double p[3]) {
+    uint64_t h = 1469598103934665603ull;
+    for (int a = 0; a < 3; a++) {
+        uint64_t b;
+        double x = p[a] == 0 ? 0.0 : p[a]; /* -0 and +0 alike */
+        memcpy(&b, &x, sizeof b);
+        h = (h ^ b) * 1099511628211ull;
+        h ^= h >> 29;
+    }
+    return (size_t)h;
+}
+
+static vm_index pmap_find(const pmap *pm, const double p[3], size_t *at) {
+    size_t i = pmap_hash(p) & (pm->cap - 1);
+    while (pm->slot[i] >= 0) {
+        const double *q = pm->m->points + 3 * (size_t)pm->slot[i];
+        if (q[0] == p[0] && q[1] == p[1] && q[2] == p[2]) return pm->slot[i];
+        i = (i + 1) & (pm->cap - 1);
+    }
+    *at = i;
+    return -1;
+}
+
+enum { TET_DOUBLES = 13 }; /* 4 corners, then 1 (improve it) or 0 (context) */
+
+/* The second quality pass, across the cuts (collective: every rank calls it once). The
+ * first pass left the tets at each cut as the mesher made them, their shared vertices
+ * fixed. Now each rank r > 0 sends rank r - 1 its "band" (owned tets within two vertex
+ * rings of the lower cut) and one ring of context around it, and stops owning the band;
+ * rank r - 1 takes the band into its mesh beside its own band at its upper cut, holds
+ * everything else fixed (every other tet is a material of its own) and improves the two
+ * bands as one material. The context's vertices on the band's rim stay fixed, so the band
+ * meets the sender's remaining tets exactly. [in,out] m: this rank's tets (odd region: kept,
+ * even: dropped at the end). */
+static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, double z0,
+                              int *secondary, vm_error *err) {
+    size_t np = m->npoints, nc = m->ncells;
+    uint8_t *pf = calloc(np ? np : 1, 1), *tf = calloc(nc ? nc : 1, 1);
+    double *sendbuf = NULL, *recvbuf = NULL;
+    unsigned long long nsend = 0, nrecv = 0;
+    vm_mesh m2;
+    vm_mesh_init(&m2, VM_TET4);
+    int local_ok = pf && tf;
+    enum { P_OWN = 1, P_LO = 2, P_HI = 4, P_S1LO = 8, P_S1HI = 16, P_SENT = 32 };
+    enum { T_BANDLO = 1, T_BANDHI = 2, T_CTXLO = 4, T_RING_LO = 8, T_RING_HI = 16 };
+    if (local_ok) {
+        for (size_t t = 0; t < nc; t++) {
+            const vm_index *c = m->cells + 4 * t;
+            uint8_t bit = P_OWN;
+            if (m->region[t] != 1) {
+                int lower = owned(m, t, -INFINITY, z0);
+                tf[t] = lower ? T_RING_LO : T_RING_HI;
+                bit = lower ? P_LO : P_HI;
+            }
+            for (int k = 0; k < 4; k++)
+                pf[c[k]] |= bit;
+        }
+        /* S1: the shared vertices of a cut and their neighbours over owned tets */
+        for (int side = 0; side < 2; side++) {
+            uint8_t ring = side ? P_HI : P_LO, s1 = side ? P_S1HI : P_S1LO;
+            for (size_t t = 0; t < nc; t++) {
+                const vm_index *c = m->cells + 4 * t;
+                if (m->region[t] != 1) continue;
+                int touch = 0;
+                for (int k = 0; k < 4; k++)
+                    touch |= (pf[c[k]] & P_OWN) && (pf[c[k]] & ring);
+                if (touch)
+                    for (int k = 0; k < 4; k++)
+                        pf[c[k]] |= s1;
+            }
+            for (size_t t = 0; t < nc; t++) {
+                const vm_index *c = m->cells + 4 * t;
+                if (m->region[t] != 1) continue;
+                for (int k = 0; k < 4; k++)
+                    if (pf[c[k]] & s1) tf[t] |= side ? T_BANDHI : T_BANDLO;
+            }
+        }
+        /* context of the lower band: owned tets touching it; all that goes down is P_SENT */
+        for (size_t t = 0; t < nc; t++)
+            if (tf[t] & T_BANDLO)
+                for (int k = 0; k < 4; k++)
+                    pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
+        for (size_t t = 0; t < nc; t++) {
+            const vm_index *c = m->cells + 4 * t;
+            if (m->region[t] != 1 || (tf[t] & T_BANDLO)) continue;
+            int touch = 0;
+            for (int k = 0; k < 4; k++)
+                touch |= pf[c[k]] & P_SENT ? 1 : 0;
+            if (touch) tf[t] |= T_CTXLO;
+        }
+        for (size_t t = 0; t < nc; t++)
+            if (tf[t] & (T_BANDLO | T_CTXLO)) nsend++;
+    }
+    /* A slab too thin for the two bands to stay apart cannot be improved this way. */
+    int thin = 0;
+    if (local_ok) {
+        for (size_t t = 0; t < nc; t++)
+            if (tf[t] & T_BANDLO)
+                for (int k = 0; k < 4; k++)
+                    pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
+        for (size_t t = 0; t < nc; t++)
+            if (tf[t] & T_CTXLO)
+                for (int k = 0; k < 4; k++)
+                    pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
+        for (size_t t = 0; t < nc && !thin; t++)
+            if (tf[t] & T_BANDHI)
+                for (int k = 0; k < 4; k++)
+                    thin |= pf[m->cells[4 * t + (size_t)k]] & P_SENT;
+        if (nsend > (unsigned long long)(INT32_MAX / TET_DOUBLES)) local_ok = 0;
+    }
+    if (local_ok && !thin && nsend) {
+        sendbuf = malloc((size_t)nsend * TET_DOUBLES * sizeof *sendbuf);
+        if (!sendbuf) local_ok = 0;
+    }
+    if (local_ok && sendbuf) {
+        size_t k = 0;
+        for (size_t t = 0; t < nc; t++) {
+            if (!(tf[t] & (T_BANDLO | T_CTXLO))) continue;
+            double *b = sendbuf + TET_DOUBLES * k++;
+            for (int q = 0; q < 4; q++)
+                memcpy(b + 3 * q, m->points + 3 * (size_t)m->cells[4 * t + (size_t)q],
+                       3 * sizeof(double));
+            b[12] = (tf[t] & T_BANDLO) ? 1 : 0;
+        }
+    }
+    int flags[2] = {local_ok ? 0 : 1, thin}, any[2];
+    MPI_Allreduce(flags, any, 2, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    vm_status s = VM_OK;
+    if (any[0] || any[1]) {
+        if (!local_ok)
+            s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
+        else if (thin)
+            s = vm_error_set(err, VM_ERR_ARG,
+                             "--improve: the slab of rank %d is too thin for the quality pass "
+                             "across its cuts (use fewer ranks)",
+                             rank_);
+        else
+            *secondary = 1, s = VM_ERR_INTERNAL;
+        goto done;
+    }
+    int down = rank_ > 0 ? rank_ - 1 : MPI_PROC_NULL;
+    int up = rank_ < nranks_ - 1 ? rank_ + 1 : MPI_PROC_NULL;
+    MPI_Sendrecv(&nsend, 1, MPI_UNSIGNED_LONG_LONG, down, 1, &nrecv, 1, MPI_UNSIGNED_LONG_LONG,
+                 up, 1, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    if (up == MPI_PROC_NULL) nrecv = 0;
+    recvbuf = malloc(((size_t)nrecv * TET_DOUBLES + 1) * sizeof *recvbuf);
+    /* the sizes are sent either way; a rank out of memory fails after the exchange */
+    MPI_Sendrecv(sendbuf, (int)(nsend * TET_DOUBLES), MPI_DOUBLE, down, 2,
+                 recvbuf ? recvbuf : NULL, recvbuf ? (int)(nrecv * TET_DOUBLES) : 0, MPI_DOUBLE,
+                 up, 2, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    if (!recvbuf) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
+        goto done;
+    }
+    /* The phase-2 mesh: this rank's points, its tets but the copies of the upper neighbour's
+     * (the received tets replace them), then the received ones. Regions: 1 improved; every
+     * other tet its own, odd when this rank keeps it, even when not. */
+    s = vm_mesh_reserve(&m2, np + 4 * (size_t)nrecv, nc + (size_t)nrecv, err);
+    if (s) goto done;
+    memcpy(m2.points, m->points, 3 * np * sizeof(double));
+    m2.npoints = np;
+    int32_t next = 2;
+    for (size_t t = 0; t < nc && !s; t++) {
+        if (tf[t] & T_RING_HI) continue;
+        int32_t r;
+        if (tf[t] & T_RING_LO)
+            r = next; /* the lower neighbour's: context */
+        else if (tf[t] & T_BANDLO)
+            r = next; /* now the lower neighbour's */
+        else if (tf[t] & T_BANDHI)
+            r = 1; /* improved here */
+        else
+            r = next + 1; /* kept as it is */
+        if (r != 1) next += 2;
+        s = vm_mesh_add_cell(&m2, m->cells + 4 * t, r, err);
+    }
+    pmap pm = {1, NULL, &m2};
+    while (pm.cap < 2 * (m2.npoints + 4 * (size_t)nrecv) + 16)
+        pm.cap <<= 1;
+    if (!s) {
+        pm.slot = malloc(pm.cap * sizeof *pm.slot);
+        if (!pm.slot) s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    if (!s) {
+        for (size_t i = 0; i < pm.cap; i++)
+            pm.slot[i] = -1;
+        for (size_t i = 0; i < m2.npoints; i++) {
+            size_t at;
+            if (pmap_find(&pm, m2.points + 3 * i, &at) < 0) pm.slot[at] = (vm_index)i;
+        }
+    }
+    for (size_t t = 0; t < (size_t)nrecv && !s; t++) {
+        const double *b = recvbuf + TET_DOUBLES * t;
+        vm_index n[4];
+        for (int q = 0; q < 4 && !s; q++) {
+            size_t at;
+            n[q] = pmap_find(&pm, b + 3 * q, &at);
+            if (n[q] < 0) {
+                n[q] = vm_mesh_add_point(&m2, b + 3 * q, err);
+                if (n[q] < 0)
+                    s = VM_ERR_NOMEM;
+                else
+                    pm.slot[at] = n[q];
+            }
+        }
+        int32_t r = b[12] != 0 ? 1 : next;
+        if (r != 1) next += 2;
+        if (!s) s = vm_mesh_add_cell(&m2, n, r, err);
+    }
+    free(pm.slot);
+    if (!s) s = improve(A, v, &m2, err);
+    if (!s) {
+        vm_mesh_free(m);
+        *m = m2;
+        vm_mesh_init(&m2, VM_TET4);
+    }
+done:
+    vm_mesh_free(&m2);
+    free(pf);
+    free(tf);
+    free(sendbuf);
+    free(recvbuf);
+    return s;
+}
+
+/* This rank's slab: the masked volume meshed in index space, each tet marked 1 (owned) or 2
+ * (another slab's); with --improve, the first quality pass over the owned tets with the
+ * vertices they share with other slabs fixed. [out] m (empty on error), z0, z1: the slab's
+ * z range (index space), seconds. VM_ERR_EMPTY: no tets here. */
+static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, double *z1,
+                           double *seconds, vm_error *err) {
+    vm_mesh_init(m, VM_TET4);
+    int64_t nz;
+    double step;
+    sampling_z(v->dims[2], A->mo.cell_size, &nz, &step);
+    int64_t cells = nz - 1, B = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
+    int64_t blocks = (cells + B - 1) / B;
+    int64_t b0 = blocks * rank_ / nranks_, b1 = blocks * (rank_ + 1) / nranks_;
+    int64_t c0 = b0 * B, c1 = b1 * B < cells ? b1 * B : cells;
+    *z0 = rank_ == 0 ? -INFINITY : (double)c0 * step;
+    *z1 = rank_ == nranks_ - 1 ? INFINITY : (double)c1 * step;
+    if (A->improve && nranks_ > 1 && blocks < nranks_) /* the same answer on every rank */
+        return vm_error_set(
+            err, VM_ERR_ARG,
+            "--improve: %d ranks but only %lld slabs of %lld cells along z (use "
+            "at most %lld ranks)",
+            nranks_, (long long)blocks, (long long)B, (long long)blocks);
+    if (c1 <= c0) return VM_ERR_EMPTY; /* more ranks than blocks */
+    if (nranks_ > 1) {
+        /* Sample points c0 - ghost .. c1 + ghost keep their voxels (and the one beyond, for
+         * the trilinear resampling); every other voxel goes outside the material. */
+        float fill = outside_value(v, &A->mo);
+        double lo = floor((double)(c0 - A->ghost) * step) - 1;
+        double hi = ceil((double)(c1 + A->ghost) * step) + 1;
+        size_t plane = (size_t)v->dims[0] * (size_t)v->dims[1];
+        for (int64_t k = 0; k < v->dims[2]; k++)
+            if ((double)k < lo || (double)k > hi)
+                for (size_t i = 0; i < plane; i++)
+                    v->data[(size_t)k * plane + i] = fill;
+    }
+    for (int a = 0; a < 3; a++) {
+        v->origin[a] = 0;
+        v->spacing[a] = 1;
+        for (int b = 0; b < 3; b++)
+            v->direction[a][b] = a == b;
+    }
+    double t0 = MPI_Wtime();
+    vm_status s = vm_mesh_volume(v, &A->mo, m, NULL, err);
+    if (s) return s;
+    for (size_t t = 0; t < m->ncells; t++)
+        m->region[t] = owned(m, t, *z0, *z1) ? 1 : 2;
+    if (A->improve && nranks_ > 1) {
+        /* The other slabs' tets are other materials: a vertex with tets of two around it
+         * stays where it is (max_interface_move 0) and no operation mixes materials, so the
+         * faces and vertices at the cut stay those the neighbour has. */
+        s = keep_ring(m, err);
+        if (!s) s = improve(A, v, m, err);
+    } else if (A->improve) {
+        s = improve(A, v, m, err);
+    }
+    *seconds = MPI_Wtime() - t0;
+    if (s) vm_mesh_free(m);
+    return s;
+}
+
+/* Writes the kept tets of m (odd regions) in world coordinates of frame to piece_file with
+ * a cell field "rank". [out] ntets; VM_ERR_EMPTY when there are none (nothing written). */
+static vm_status write_piece(const args *A, const vm_mesh *m, const vm_volume *frame,
+                             const char *piece_file, size_t *ntets, vm_error *err) {
+    vm_mesh piece;
+    vm_status s = own_tets(m, frame, &piece, err);
+    if (s) return s;
+    *ntets = piece.ncells;
+    if (!piece.ncells) {
+        vm_mesh_free(&piece);
+        return VM_ERR_EMPTY;
+    }
+    double *rk = malloc(piece.ncells * sizeof *rk);
+    if (!rk) {
+        vm_mesh_free(&piece);
+        return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    for (size_t t = 0; t < piece.ncells; t++)
+        rk[t] = rank_;
+    s = vm_mesh_set_field(&piece, 1, "rank", 1, rk, err);
+    free(rk);
+    if (!s) s = vm_mesh_write_vtu(piece_file, &piece, A->compress, err);
+    vm_mesh_free(&piece);
+    if (s) *ntets = 0;
+    return s;
+}
+
+int main(int argc, char **argv) {
+    MPI_Init(&argc, &argv);
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+    MPI_Comm_size(MPI_COMM_WORLD, &nranks_);
+    args A;
+    int rc = parse_args(argc, argv, &A);
+    if (!rc && A.help) {
+        if (rank_ == 0) fputs(help, stdout);
+        MPI_Finalize();
+        return EXIT_OK;
+    }
+    if (rc) {
+        MPI_Finalize();
+        return rc;
+    }
+    vm_error err;
+    vm_error_clear(&err);
+    vm_volume v;
+    memset(&v, 0, sizeof v);
+    vm_status s = A.phantom ? vm_phantom_make(A.kind, (int)A.phantom_n, 0.0, 1, &v, NULL, &err)
+                            : vm_volume_read(A.in, &v, &err);
+    char piece_file[4096];
+    piece_path(A.out, rank_, piece_file, sizeof piece_file);
+    size_t ntets = 0;
+    double secs = 0, z0 = 0, z1 = 0;
+    vm_volume frame = v; /* the index-to-world mapping; v itself is meshed in index space */
+    frame.data = NULL;
+    vm_mesh m;
+    vm_mesh_init(&m, VM_TET4);
+    int secondary = 0;
+    if (!s) s = slab_mesh(&A, &v, &m, &z0, &z1, &secs, &err);
+    if (A.improve && nranks_ > 1) {
+        /* collective: every rank goes through it, whatever happened so far */
+        int bad = s && s != VM_ERR_EMPTY, anybad;
+        MPI_Allreduce(&bad, &anybad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+        if (anybad && !bad) secondary = 1, s = VM_ERR_INTERNAL;
+        if (!anybad) {
+            double t0 = MPI_Wtime();
+            vm_status s2 = improve_cuts(&A, &v, &m, z0, &secondary, &err);
+            if (s2) s = s2;
+            secs += MPI_Wtime() - t0;
+        }
+    }
+    if (!s) s = write_piece(&A, &m, &frame, piece_file, &ntets, &err);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+
+    /* Outcome: the first rank with a real error speaks for all; empty slabs are fine as long
+     * as some rank has tets. */
+    int mine = (s && s != VM_ERR_EMPTY && !secondary) ? rank_ : nranks_, first;
+    MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    unsigned long long nt = ntets, *all = malloc((size_t)nranks_ * sizeof *all);
+    double tmax = 0;
+    MPI_Allreduce(&secs, &tmax, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    if (!all) MPI_Abort(MPI_COMM_WORLD, EXIT_INPUT);
+    MPI_Allgather(&nt, 1, MPI_UNSIGNED_LONG_LONG, all, 1, MPI_UNSIGNED_LONG_LONG,
+                  MPI_COMM_WORLD);
+    unsigned long long total = 0;
+    for (int r = 0; r < nranks_; r++)
+        total += all[r];
+    if (first == nranks_ && secondary) first = nranks_ + 1; /* cannot happen: someone failed */
+    if (first == nranks_ && total == 0) {
+        first = 0; /* every slab empty: the material is empty */
+        if (rank_ == 0 && !err.message[0])
+            snprintf(err.message, sizeof err.message, "%s: no grid point is in the material",
+                     A.phantom ? "--phantom" : A.in);
+    }
+    if (first != nranks_) {
+        if (ntets) remove(piece_file); /* leave nothing behind */
+        if (rank_ == first) fprintf(stderr, "volmesh_mpi: %s\n", err.message);
+        free(all);
+        MPI_Finalize();
+        return EXIT_INPUT;
+    }
+    rc = 0;
+    if (rank_ == 0) rc = write_pvtu(A.out, all, nranks_);
+    MPI_Bcast(&rc, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    if (rc) {
+        if (ntets) remove(piece_file);
+    } else if (rank_ == 0 && !A.quiet) {
+        printf("%s: %d ranks, %llu tets (", A.out, nranks_, total);
+        for (int r = 0; r < nranks_; r++)
+            printf("%s%llu", r ? " + " : "", all[r]);
+        printf("), slowest rank %.3f s\n", tmax);
+    }
+    free(all);
+    MPI_Finalize();
+    return rc;
+}
