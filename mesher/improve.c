@@ -7,6 +7,7 @@
 #include "../core/core.h"
 #include "improve_internal.h"
 #include "volmesh/quality.h"
+#include "../quality/vec3.h"
 
 void vm_improve_options_default(vm_improve_options *o) {
     memset(o, 0, sizeof *o);
@@ -54,18 +55,137 @@ static int tet_figures(const double p[4][3], figures *f, int *abaqus) {
     return bad;
 }
 
-static void mesh_figures(const double *pts, const vm_index *cells, size_t n, figures *f,
-                         double *unfixed_field) {
+/* The cosines of the thresholds above; a cosine this close to one takes the exact path. */
+#define COS5 0.9961946980917455
+#define COS10 0.984807753012208
+#define COS160 (-0.9396926207859083)
+#define COS165 (-0.9659258262890682)
+#define FIG_EPS 1e-9
+#define FIG_DEG (180.0 / 3.14159265358979323846)
+
+static int near_cos(double c, double ref) { return fabs(c - ref) < FIG_EPS; }
+
+/* The figures of tets [t0, t1): the same counts and extremes as tet_figures over each of them,
+ * but the thresholds compared on cosines (no atan2) wherever a cosine is clearly on one side;
+ * the extremes are measured exactly only for the tets that may hold them. */
+static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, size_t t1,
+                          figures *f, double *unfixed_field) {
+    static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
     memset(f, 0, sizeof *f);
     f->dmin = 180.0;
     f->dmax = 0.0;
-    for (size_t t = 0; t < n; t++) {
+    double cdmin = -1.0, cdmax = 1.0; /* cosines of f->dmin and f->dmax */
+    for (size_t t = t0; t < t1; t++) {
         double p[4][3];
         for (int k = 0; k < 4; k++) memcpy(p[k], pts + 3 * (size_t)cells[4 * t + k], sizeof p[k]);
-        int ab;
-        int bad = tet_figures((const double(*)[3])p, f, &ab);
+        const double(*cp)[3] = (const double(*)[3])p;
+        double vol = vm_tet_signed_volume(cp), el[4][4], lmax2 = 0.0;
+        for (int i = 0; i < 4; i++)
+            for (int j = i + 1; j < 4; j++) {
+                double e[3] = {p[j][0] - p[i][0], p[j][1] - p[i][1], p[j][2] - p[i][2]};
+                double l2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+                if (l2 > lmax2) lmax2 = l2;
+                el[i][j] = el[j][i] = sqrt(l2);
+            }
+        int exact = !isfinite(vol) || !isfinite(lmax2) ||
+                    !(6.0 * vol > 1e-11 * lmax2 * sqrt(lmax2));
+        double cmax = -2.0, cmin = 2.0, fcmax = -2.0, fcmin = 2.0, n[4][3], dc[6];
+        if (!exact) {
+            double len[4];
+            for (int g = 0; g < 4; g++) {
+                double u[3], w[3];
+                vm__sub3(p[fo[g][1]], p[fo[g][0]], u);
+                vm__sub3(p[fo[g][2]], p[fo[g][0]], w);
+                vm__cross3(u, w, n[g]);
+                len[g] = sqrt(vm__dot3(n[g], n[g]));
+                for (int k = 0; k < 3; k++) {
+                    int o = fo[g][k], i = fo[g][(k + 1) % 3], j = fo[g][(k + 2) % 3];
+                    vm__sub3(p[i], p[o], u);
+                    vm__sub3(p[j], p[o], w);
+                    double cs = vm__dot3(u, w) / (el[o][i] * el[o][j]);
+                    if (cs > fcmax) fcmax = cs;
+                    if (cs < fcmin) fcmin = cs;
+                }
+            }
+            for (int g = 0, k = 0; g < 4; g++)
+                for (int h = g + 1; h < 4; h++, k++) {
+                    double cs = -vm__dot3(n[g], n[h]) / (len[g] * len[h]);
+                    dc[k] = cs;
+                    if (cs > cmax) cmax = cs;
+                    if (cs < cmin) cmin = cs;
+                }
+            exact = !isfinite(cmax) || !isfinite(cmin) || !isfinite(fcmax) ||
+                    !isfinite(fcmin) || near_cos(cmax, COS5) || near_cos(cmax, COS10) ||
+                    near_cos(cmin, COS165) || near_cos(fcmax, COS10) || near_cos(fcmin, COS160);
+        }
+        int bad;
+        if (exact) {
+            int ab;
+            bad = tet_figures(cp, f, &ab);
+            cdmin = cos(f->dmin / FIG_DEG);
+            cdmax = cos(f->dmax / FIG_DEG);
+        } else {
+            /* here vol > 0 */
+            f->volume += vol;
+            f->s5 += cmax > COS5;
+            f->s10 += cmax > COS10;
+            int ab = vm__imp_volume_measure(cp) < 0.02 || fcmax > COS10 || fcmin < COS160;
+            f->abaqus += (size_t)ab;
+            bad = ab || cmax > COS10 || cmin < COS165;
+            f->unfixed += (size_t)bad;
+            /* Only the dihedrals that may be the chunk's extremes, measured as
+             * vm_tet_min_dihedral and vm_tet_max_dihedral measure them. */
+            if (cmax > cdmin - FIG_EPS || cmin < cdmax + FIG_EPS)
+                for (int g = 0, k = 0; g < 4; g++)
+                    for (int h = g + 1; h < 4; h++, k++) {
+                        if (!(dc[k] > cdmin - FIG_EPS) && !(dc[k] < cdmax + FIG_EPS)) continue;
+                        double ng[3] = {-n[h][0], -n[h][1], -n[h][2]};
+                        double a = vm__angle_deg(n[g], ng);
+                        if (a < f->dmin) {
+                            f->dmin = a;
+                            cdmin = cos(a / FIG_DEG);
+                        }
+                        if (a > f->dmax) {
+                            f->dmax = a;
+                            cdmax = cos(a / FIG_DEG);
+                        }
+                    }
+        }
         if (unfixed_field) unfixed_field[t] = bad;
     }
+}
+
+/* Fixed chunks summed in their order: the same figures for any thread count. */
+#define FIG_CHUNK ((size_t)1 << 15)
+
+static int mesh_figures(const double *pts, const vm_index *cells, size_t n, figures *f,
+                        double *unfixed_field) {
+    size_t nc = (n + FIG_CHUNK - 1) / FIG_CHUNK;
+    figures *part = malloc((nc ? nc : 1) * sizeof *part);
+    if (!part) return 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+    for (size_t c = 0; c < nc; c++) {
+        size_t t1 = (c + 1) * FIG_CHUNK < n ? (c + 1) * FIG_CHUNK : n;
+        chunk_figures(pts, cells, c * FIG_CHUNK, t1, &part[c], unfixed_field);
+    }
+    memset(f, 0, sizeof *f);
+    f->dmin = 180.0;
+    f->dmax = 0.0;
+    for (size_t c = 0; c < nc; c++) {
+        const figures *g = &part[c];
+        if (g->dmin < f->dmin) f->dmin = g->dmin;
+        if (g->dmax > f->dmax) f->dmax = g->dmax;
+        f->volume += g->volume;
+        f->s5 += g->s5;
+        f->s10 += g->s10;
+        f->abaqus += g->abaqus;
+        f->inverted += g->inverted;
+        f->unfixed += g->unfixed;
+    }
+    free(part);
+    return 1;
 }
 
 /* --- setting up the working mesh --------------------------------------------------------- */
@@ -240,6 +360,10 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
             vm__imp_star *s = &w->star[w->tet[4 * t + k]];
             s->t[s->n++] = (vm_index)t;
         }
+    /* Each tet's quality on its own: any thread count gives the same values. */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
     for (size_t t = 0; t < nt; t++) w->q[t] = vm__imp_tet_q(w, t);
     if (v) {
         for (int r = 0; r < 3; r++) {
@@ -630,7 +754,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
             return vm_error_set(err, VM_ERR_ARG, "improve: cell %zu has node %lld outside 0..%zu",
                                 i / 4, (long long)m->cells[i], m->npoints - 1);
     figures fb;
-    mesh_figures(m->points, m->cells, m->ncells, &fb, NULL);
+    if (!mesh_figures(m->points, m->cells, m->ncells, &fb, NULL))
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     if (fb.inverted)
         return vm_error_set(err, VM_ERR_ARG, "improve: %zu tets are inverted or flat",
                             fb.inverted);
@@ -677,7 +802,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
             uf = malloc((m->ncells + 1) * sizeof *uf);
             if (!uf) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
         }
-        mesh_figures(m->points, m->cells, m->ncells, &fa, uf);
+        if (s == VM_OK && !mesh_figures(m->points, m->cells, m->ncells, &fa, uf))
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
         if (uf && s == VM_OK) s = vm_mesh_set_field(m, 1, "improve_unfixed", 1, uf, err);
         free(uf);
     }

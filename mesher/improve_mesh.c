@@ -31,6 +31,16 @@ double vm__imp_volume_measure(const double p[4][3]) {
     return isfinite(r) ? r : 0.0;
 }
 
+/* The angle (degrees) at corner k % 3 of face k / 3, exactly as atan2 gives it. */
+static double corner_angle(const double p[4][3], int k) {
+    int f = k / 3, c = k % 3;
+    double u[3], v[3], cr[3];
+    vm__sub3(p[face_of[f][(c + 1) % 3]], p[face_of[f][c]], u);
+    vm__sub3(p[face_of[f][(c + 2) % 3]], p[face_of[f][c]], v);
+    vm__cross3(u, v, cr);
+    return atan2(sqrt(vm__dot3(cr, cr)), vm__dot3(u, v)) * DEG;
+}
+
 double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
     double lmax2 = 0.0;
     for (int i = 0; i < 4; i++)
@@ -70,18 +80,34 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
     if (q2 < q) q = q2;
     double q3 = vm__imp_volume_measure(p) / w->s_vm;
     if (q3 < q) q = q3;
-    double fmin = 180.0, fmax = 0.0; /* angles of the four faces */
+    /* Face angles: the smallest and the largest of the twelve found by their cosines (one
+     * square root per edge), then only those two measured exactly with atan2. */
+    double el[4][4];
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++) {
+            double e[3];
+            vm__sub3(p[j], p[i], e);
+            el[i][j] = el[j][i] = sqrt(vm__dot3(e, e));
+        }
+    double cfmax = -2.0, cfmin = 2.0;
+    int kmin = 0, kmax = 0;
     for (int f = 0; f < 4; f++)
         for (int k = 0; k < 3; k++) {
+            int o = face_of[f][k], i = face_of[f][(k + 1) % 3], j = face_of[f][(k + 2) % 3];
             double u[3], v[3];
-            vm__sub3(p[face_of[f][(k + 1) % 3]], p[face_of[f][k]], u);
-            vm__sub3(p[face_of[f][(k + 2) % 3]], p[face_of[f][k]], v);
-            double cr[3];
-            vm__cross3(u, v, cr);
-            double ang = atan2(sqrt(vm__dot3(cr, cr)), vm__dot3(u, v)) * DEG;
-            if (ang < fmin) fmin = ang;
-            if (ang > fmax) fmax = ang;
+            vm__sub3(p[i], p[o], u);
+            vm__sub3(p[j], p[o], v);
+            double cs = vm__dot3(u, v) / (el[o][i] * el[o][j]);
+            if (cs > cfmax) {
+                cfmax = cs;
+                kmin = 3 * f + k;
+            }
+            if (cs < cfmin) {
+                cfmin = cs;
+                kmax = 3 * f + k;
+            }
         }
+    double fmin = corner_angle(p, kmin), fmax = corner_angle(p, kmax);
     double q4 = fmin / w->s_fmin, q5 = (180.0 - fmax) / w->s_fmax;
     if (q4 < q) q = q4;
     if (q5 < q) q = q5;
