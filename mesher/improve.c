@@ -208,6 +208,7 @@ static void imp_free(vm__imp *w) {
         for (size_t i = 0; i < w->npt; i++) free(w->star[i].t);
     free(w->star);
     free(w->buf);
+    free(w->touched);
     vm__imp_guard_free(w);
 }
 
@@ -497,22 +498,54 @@ static int tq_cmp(const void *pa, const void *pb) {
     return a->t < b->t ? -1 : a->t > b->t;
 }
 
-/* Tets with q below 1 (the targets), worst first. */
-static tq *bad_list(const vm__imp *w, size_t *n) {
+/* Tets with q below 1 (the targets), worst first. The first list scans the mesh; later ones
+ * take the previous list and the tets touched since (every other tet kept its quality, at
+ * or above 1), so a round costs what it changes, not the mesh size. The list is the same
+ * either way: the tets below 1 in (q, id) order. */
+static tq *bad_list(vm__imp *w, const tq *prev, size_t nprev, size_t *n) {
     size_t c = 0;
-    for (size_t t = 0; t < w->ntet; t++) c += !w->dead[t] && w->q[t] < 1.0;
-    tq *l = malloc((c ? c : 1) * sizeof *l);
-    if (!l) return NULL;
-    c = 0;
-    for (size_t t = 0; t < w->ntet; t++)
-        if (!w->dead[t] && w->q[t] < 1.0) {
+    tq *l;
+    if (!prev) {
+        for (size_t t = 0; t < w->ntet; t++) c += !w->dead[t] && w->q[t] < 1.0;
+        l = malloc((c ? c : 1) * sizeof *l);
+        if (!l) return NULL;
+        c = 0;
+        for (size_t t = 0; t < w->ntet; t++)
+            if (!w->dead[t] && w->q[t] < 1.0) {
+                l[c].q = w->q[t];
+                l[c].t = t;
+                c++;
+            }
+    } else {
+        l = malloc((nprev + w->ntouched + 1) * sizeof *l);
+        if (!l) return NULL;
+        for (size_t i = 0; i < nprev + w->ntouched; i++) {
+            size_t t = i < nprev ? prev[i].t : (size_t)w->touched[i - nprev];
+            if (w->dead[t] || !(w->q[t] < 1.0)) continue;
             l[c].q = w->q[t];
             l[c].t = t;
             c++;
         }
+    }
+    w->ntouched = 0;
     qsort(l, c, sizeof *l, tq_cmp);
-    *n = c;
+    /* a tet listed twice sorts next to itself */
+    size_t u = 0;
+    for (size_t i = 0; i < c; i++)
+        if (u == 0 || l[i].t != l[u - 1].t) l[u++] = l[i];
+    *n = u;
     return l;
+}
+
+/* Replaces *l (n entries) by the current bad list; 0 on out-of-memory (*l freed). */
+static int next_bad_list(vm__imp *w, tq **l, size_t *n) {
+    size_t m = 0;
+    tq *nl = bad_list(w, *l, *n, &m);
+    free(*l);
+    *l = nl;
+    *n = nl ? m : 0;
+    if (!nl) w->nomem = 1;
+    return nl != NULL;
 }
 
 /* Vertices of the still-bad tets of the list, each once (stamp marks). */
@@ -550,18 +583,12 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     }
     uint32_t round = 0;
     int pass;
+    tq *l = NULL;
+    size_t n = 0;
     for (pass = 0; pass < o->max_passes && !w->nomem; pass++) {
-        size_t n, ops = 0;
+        size_t ops = 0;
         w->deep = pass >= 1;
-        tq *l = bad_list(w, &n);
-        if (!l) {
-            w->nomem = 1;
-            break;
-        }
-        if (n == 0) {
-            free(l);
-            break;
-        }
+        if (!next_bad_list(w, &l, &n) || n == 0) break;
         if (o->contract)
             for (size_t i = 0; i < n && !w->nomem; i++) {
                 report(o, pass, 0, i, n);
@@ -577,15 +604,9 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
                 report(o, pass, 2, i, n);
                 if (!w->dead[l[i].t] && w->q[l[i].t] < 2.0 / 3.0) ops += (size_t)vm__imp_peel_tet(w, l[i].t);
             }
-        free(l);
-        l = bad_list(w, &n);
-        if (!l) {
-            w->nomem = 1;
-            break;
-        }
+        if (!next_bad_list(w, &l, &n)) break;
         vm_index *vs = malloc((4 * n + 1) * sizeof *vs);
         if (!vs) {
-            free(l);
             w->nomem = 1;
             break;
         }
@@ -601,7 +622,6 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
             for (size_t i = 0; i < nv; i++) ops += (size_t)vm__imp_perturb_vertex(w, vs[i], 24);
         }
         free(vs);
-        free(l);
         ops_total += ops;
         if (o->progress) o->progress("improve", 1.0 - pow(0.5, pass + 1.0), 1.0, o->progress_user);
         if (ops == 0) break;
@@ -610,12 +630,8 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
      * their vertices and their neighbours' vertices. */
     w->deep = 1;
     for (int extra = 0; extra < 4 && !w->nomem; extra++) {
-        size_t n, ops = 0;
-        tq *l = bad_list(w, &n);
-        if (!l) {
-            w->nomem = 1;
-            break;
-        }
+        size_t ops = 0;
+        if (!next_bad_list(w, &l, &n)) break;
         for (size_t i = 0; i < n && !w->nomem; i++) {
             size_t t = l[i].t;
             if (w->dead[t] || w->q[t] >= 2.0 / 3.0) continue;
@@ -635,10 +651,10 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
                 ops += (size_t)vm__imp_perturb_vertex(w, vs[k], 200);
             }
         }
-        free(l);
         ops_total += ops;
         if (ops == 0) break;
     }
+    free(l);
     free(stamp);
     if (o->progress) o->progress("improve", 1.0, 1.0, o->progress_user);
     *passes = pass;
