@@ -209,6 +209,7 @@ static void imp_free(vm__imp *w) {
     free(w->star);
     free(w->buf);
     free(w->touched);
+    free(w->bfaces);
     vm__imp_guard_free(w);
 }
 
@@ -304,6 +305,61 @@ static int interface_plane(vm__imp *w, size_t i) {
             return 0; /* more than 25 degrees off (cos 25 degrees) */
     memcpy(w->nrm + 3 * i, sum, sizeof sum);
     return 1;
+}
+
+/* Fills w->bfaces with the boundary faces of the tets in order (4 t + f): chunks of tets
+ * searched in parallel, joined in chunk order. 0 on out-of-memory. */
+#define BF_CHUNK ((size_t)1 << 14)
+static int find_boundary_faces(vm__imp *w) {
+    static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    size_t nt = w->ntet, nc = (nt + BF_CHUNK - 1) / BF_CHUNK;
+    size_t **lists = calloc(nc + 1, sizeof *lists), *cnt = calloc(nc + 1, sizeof *cnt);
+    int fail = !lists || !cnt;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+    for (size_t c = 0; c < nc; c++) {
+        if (!lists || !cnt) continue;
+        size_t t1 = (c + 1) * BF_CHUNK < nt ? (c + 1) * BF_CHUNK : nt, cap = 0, k = 0;
+        size_t *l = NULL;
+        for (size_t t = c * BF_CHUNK; t < t1; t++)
+            for (int f = 0; f < 4; f++) {
+                const vm_index *n = w->tet + 4 * t;
+                if (w->dead[t] ||
+                    vm__imp_face_other(w, t, n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]) >= 0)
+                    continue;
+                if (k == cap) {
+                    cap = cap ? 2 * cap : 256;
+                    size_t *nl = realloc(l, cap * sizeof *nl);
+                    if (!nl) {
+                        k = SIZE_MAX; /* this chunk failed */
+                        t = t1;
+                        break;
+                    }
+                    l = nl;
+                }
+                l[k++] = 4 * t + (size_t)f;
+            }
+        lists[c] = l;
+        cnt[c] = k;
+    }
+    size_t total = 0;
+    for (size_t c = 0; !fail && c < nc; c++) {
+        if (cnt[c] == SIZE_MAX) fail = 1;
+        else total += cnt[c];
+    }
+    w->bfaces = fail ? NULL : malloc((total + 1) * sizeof *w->bfaces);
+    if (w->bfaces) {
+        w->nbfaces = 0;
+        for (size_t c = 0; c < nc; c++) {
+            if (cnt[c]) memcpy(w->bfaces + w->nbfaces, lists[c], cnt[c] * sizeof *w->bfaces);
+            w->nbfaces += cnt[c];
+        }
+    }
+    for (size_t c = 0; lists && c < nc; c++) free(lists[c]);
+    free(lists);
+    free(cnt);
+    return w->bfaces != NULL;
 }
 
 static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
@@ -412,29 +468,35 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
         free(boxmask);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
-    for (size_t t = 0; t < nt; t++)
-        for (int f = 0; f < 4; f++) {
-            const vm_index *n = w->tet + 4 * t;
-            vm_index c[3] = {n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]};
-            if (vm__imp_face_other(w, t, c[0], c[1], c[2]) >= 0) continue;
-            const double *P = w->p + 3 * (size_t)c[0], *Q = w->p + 3 * (size_t)c[1],
-                         *R = w->p + 3 * (size_t)c[2];
-            double u[3], vv[3], nn[3];
-            for (int k = 0; k < 3; k++) {
-                u[k] = Q[k] - P[k];
-                vv[k] = R[k] - P[k];
-            }
-            nn[0] = u[1] * vv[2] - u[2] * vv[1];
-            nn[1] = u[2] * vv[0] - u[0] * vv[2];
-            nn[2] = u[0] * vv[1] - u[1] * vv[0];
-            uint8_t common = w->planes[c[0]] & w->planes[c[1]] & w->planes[c[2]];
-            for (int k = 0; k < 3; k++) {
-                bnd[c[k]] = 1;
-                if (common) boxmask[c[k]] |= common;
-                else nonbox[c[k]] = 1;
-                for (int j = 0; j < 3; j++) w->nrm[3 * (size_t)c[k] + j] += nn[j];
-            }
+    if (!find_boundary_faces(w)) {
+        free(bnd);
+        free(nonbox);
+        free(boxmask);
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    for (size_t e = 0; e < w->nbfaces; e++) {
+        size_t t = w->bfaces[e] / 4;
+        int f = (int)(w->bfaces[e] % 4);
+        const vm_index *n = w->tet + 4 * t;
+        vm_index c[3] = {n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]};
+        const double *P = w->p + 3 * (size_t)c[0], *Q = w->p + 3 * (size_t)c[1],
+                     *R = w->p + 3 * (size_t)c[2];
+        double u[3], vv[3], nn[3];
+        for (int k = 0; k < 3; k++) {
+            u[k] = Q[k] - P[k];
+            vv[k] = R[k] - P[k];
         }
+        nn[0] = u[1] * vv[2] - u[2] * vv[1];
+        nn[1] = u[2] * vv[0] - u[0] * vv[2];
+        nn[2] = u[0] * vv[1] - u[1] * vv[0];
+        uint8_t common = w->planes[c[0]] & w->planes[c[1]] & w->planes[c[2]];
+        for (int k = 0; k < 3; k++) {
+            bnd[c[k]] = 1;
+            if (common) boxmask[c[k]] |= common;
+            else nonbox[c[k]] = 1;
+            for (int j = 0; j < 3; j++) w->nrm[3 * (size_t)c[k] + j] += nn[j];
+        }
+    }
     for (size_t i = 0; i < np; i++) {
         double *nn = w->nrm + 3 * i;
         double l = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
@@ -781,6 +843,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
     vm_status s = imp_init(&w, m, v, o, err);
     if (s == VM_OK && !vm__imp_guard_init(&w))
         s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the boundary guard");
+    free(w.bfaces); /* only for setting up */
+    w.bfaces = NULL;
     int passes = 0;
     if (s == VM_OK) {
         run_passes(&w, o, &passes);

@@ -380,22 +380,21 @@ int vm__imp_guard_init(vm__imp *w) {
     for (size_t i = 0; i < np; i++) g->bucket[i] = NOB;
     double sum = 0.0, lmax = 0.0;
     size_t ne = 0, nbv = 0;
-    for (size_t t = 0; t < w->ntet; t++) {
-        if (w->dead[t]) continue;
-        for (int f = 0; f < 4; f++) {
-            const vm_index *n = w->tet + 4 * t;
-            vm_index c[3] = {n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]};
-            if (vm__imp_face_other(w, t, c[0], c[1], c[2]) >= 0) continue;
-            for (int k = 0; k < 3; k++) {
-                const double *p = w->p + 3 * (size_t)c[k], *q = w->p + 3 * (size_t)c[(k + 1) % 3];
-                double d = sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
-                                (p[2] - q[2]) * (p[2] - q[2]));
-                sum += d;
-                ne++;
-                if (d > lmax) lmax = d;
-                if (!on[c[k]]) nbv++;
-                on[c[k]] = 1;
-            }
+    /* the boundary faces as the set-up found them (in tet order) */
+    for (size_t e = 0; e < w->nbfaces; e++) {
+        size_t t = w->bfaces[e] / 4;
+        int f = (int)(w->bfaces[e] % 4);
+        const vm_index *n = w->tet + 4 * t;
+        vm_index c[3] = {n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]};
+        for (int k = 0; k < 3; k++) {
+            const double *p = w->p + 3 * (size_t)c[k], *q = w->p + 3 * (size_t)c[(k + 1) % 3];
+            double d = sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                            (p[2] - q[2]) * (p[2] - q[2]));
+            sum += d;
+            ne++;
+            if (d > lmax) lmax = d;
+            if (!on[c[k]]) nbv++;
+            on[c[k]] = 1;
         }
     }
     /* Cells as large as the longest edge: a query then visits a few cells only. */

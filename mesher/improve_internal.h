@@ -66,6 +66,8 @@ typedef struct vm__imp {
      * have died since): with the last list they hold every tet below the targets */
     vm_index *touched;
     size_t ntouched, touched_cap;
+    /* while setting up: the boundary faces 4 t + f (face f opposite node f), in order */
+    size_t *bfaces, nbfaces;
     int nomem;          /* sticky: an allocation inside an operation failed */
     /* the boundary guard (improve_guard.c): boundary vertices in a hashed uniform grid and
      * each vertex's boundary faces, cached until a tet around it is added or removed */
