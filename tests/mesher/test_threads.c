@@ -129,7 +129,8 @@ static void quality_pass_gives_the_same_mesh_for_one_two_and_three_threads(void)
             CHECK(mr.boundary_closed && r0.boundary_closed);
             CHECK(mr.boundary_euler == r0.boundary_euler && mr.components == r0.components);
             CHECK(r.min_dihedral_after > r.min_dihedral_before);
-            CHECK(fabs(r.volume_after - r.volume_before) < 0.01 * r.volume_before);
+            CHECK_MSG(fabs(r.volume_after - r.volume_before) < 0.03 * r.volume_before,
+                      "volume %g -> %g", r.volume_before, r.volume_after);
             ref = m;
             ref_r = r;
             continue;
