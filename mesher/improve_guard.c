@@ -14,6 +14,7 @@
 #include "improve_internal.h"
 
 #define NOB SIZE_MAX
+#define GLEV 4 /* levels of the grid: hs, 2 hs, 4 hs, then the longest edge */
 
 typedef struct bflist {
     vm_index *e; /* pairs (c, d): faces (v, c, d) */
@@ -23,17 +24,16 @@ typedef struct bflist {
 struct vm__imp_guard {
     double h, lmax;
     size_t mask;
-    vm_index *head, *next, *prev;
-    /* Two levels: a vertex whose boundary edges are all at most hs long (lv <= hs: lv bounds
-     * the longest edge of every boundary triangle at the vertex, ever proposed) sits in the
-     * fine grid (cell hs, searched hs around a query), the others in the coarse grid (cell h,
-     * searched lmax around). A crossing triangle has every vertex within its own longest
-     * edge of the query, and that edge is at most the lv of each of its vertices, so one of
-     * the two searches finds a vertex of it. */
+    vm_index *next, *prev;
+    /* Levels: lv[v] bounds the longest edge of every boundary triangle at v ever proposed;
+     * v sits in the first level l < GLEV - 1 with lv <= hs 2^l (cell and search radius
+     * hs 2^l), else in the last (cell h, radius lmax). A crossing triangle has every vertex
+     * within its own longest edge of the query, and that edge is at most the lv of each of
+     * its vertices, so the search of its vertices' level finds one of them. */
     double hs;
-    vm_index *head2;   /* the coarse grid; head is the fine one */
+    vm_index *head[GLEV];
     double *lv;
-    uint8_t *big;      /* 1: in the coarse grid (lv > hs); never goes back */
+    uint8_t *lev;      /* level of each vertex; it only rises */
     size_t *bucket;   /* per vertex, NOB when not in the grid */
     uint8_t *valid;   /* per vertex: bf is current */
     bflist *bf;
@@ -60,15 +60,26 @@ static int64_t cell_of(double x, double h) {
     return (int64_t)c;
 }
 
-static size_t bucket_at(const struct vm__imp_guard *g, const double *p, int big) {
-    double h = big ? g->h : g->hs;
+/* Cell size (and search radius, but for the last level) of level l. */
+static double level_h(const struct vm__imp_guard *g, int l) {
+    return l == GLEV - 1 ? g->h : g->hs * (double)(1 << l);
+}
+
+static int level_of(const struct vm__imp_guard *g, double lv) {
+    int l = 0;
+    while (l < GLEV - 1 && !(lv <= g->hs * (double)(1 << l))) l++;
+    return l;
+}
+
+static size_t bucket_at(const struct vm__imp_guard *g, const double *p, int l) {
+    double h = level_h(g, l);
     return hash3(cell_of(p[0], h), cell_of(p[1], h), cell_of(p[2], h), g->mask);
 }
 
 static void g_insert(vm__imp *w, vm_index v) {
     struct vm__imp_guard *g = w->g;
-    vm_index *head = g->big[v] ? g->head2 : g->head;
-    size_t b = bucket_at(g, w->p + 3 * (size_t)v, g->big[v]);
+    vm_index *head = g->head[g->lev[v]];
+    size_t b = bucket_at(g, w->p + 3 * (size_t)v, g->lev[v]);
     g->next[v] = head[b];
     g->prev[v] = -1;
     if (head[b] >= 0) g->prev[head[b]] = v;
@@ -81,7 +92,7 @@ static void g_remove(vm__imp *w, vm_index v) {
     size_t b = g->bucket[v];
     if (b == NOB) return;
     if (g->prev[v] >= 0) g->next[g->prev[v]] = g->next[v];
-    else (g->big[v] ? g->head2 : g->head)[b] = g->next[v];
+    else g->head[g->lev[v]][b] = g->next[v];
     if (g->next[v] >= 0) g->prev[g->next[v]] = g->prev[v];
     g->bucket[v] = NOB;
 }
@@ -89,7 +100,7 @@ static void g_remove(vm__imp *w, vm_index v) {
 void vm__imp_guard_moved(vm__imp *w, vm_index a) {
     struct vm__imp_guard *g = w->g;
     if (!g || g->bucket[a] == NOB) return;
-    if (bucket_at(g, w->p + 3 * (size_t)a, g->big[a]) == g->bucket[a]) return;
+    if (bucket_at(g, w->p + 3 * (size_t)a, g->lev[a]) == g->bucket[a]) return;
     g_remove(w, a);
     g_insert(w, a);
 }
@@ -191,15 +202,17 @@ static const double *pos(const vm__imp *w, vm_index v, vm_index mv, const double
     return v == mv ? x : w->p + 3 * (size_t)v;
 }
 
-/* A boundary triangle with longest edge d at v is proposed: v's bound grows to d, and v goes to
- * the coarse grid once that passes hs. */
+/* A boundary triangle with longest edge d at v is proposed: v's bound grows to d, and v goes
+ * up to the level that bound needs. */
 static void raise_lv(vm__imp *w, vm_index v, double d) {
     struct vm__imp_guard *g = w->g;
-    if (!(d <= g->lv[v])) g->lv[v] = d;
-    if (g->big[v] || g->lv[v] <= g->hs) return;
+    if (d <= g->lv[v]) return;
+    g->lv[v] = d;
+    int l = level_of(g, d);
+    if (l <= g->lev[v]) return;
     int in = g->bucket[v] != NOB;
     if (in) g_remove(w, v);
-    g->big[v] = 1;
+    g->lev[v] = (uint8_t)l;
     if (in) g_insert(w, v);
 }
 
@@ -243,9 +256,9 @@ int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
     g->round++;
     uint32_t inc = 2 * g->round, seen = 2 * g->round + 1;
     g->ncand = 0;
-    for (int level = 0; level < 2; level++) {
-        double L = level ? g->lmax : g->hs, h = level ? g->h : g->hs, glo[3], ghi[3];
-        vm_index *head = level ? g->head2 : g->head;
+    for (int level = 0; level < GLEV; level++) {
+        double h = level_h(g, level), L = level == GLEV - 1 ? g->lmax : h, glo[3], ghi[3];
+        vm_index *head = g->head[level];
         int64_t c0[3], c1[3];
         double ncell = 1.0;
         for (int k = 0; k < 3; k++) {
@@ -377,10 +390,9 @@ void vm__imp_guard_free(vm__imp *w) {
     if (g->bf)
         for (size_t i = 0; i < w->npt; i++) free(g->bf[i].e);
     free(g->bf);
-    free(g->head);
-    free(g->head2);
+    for (int l = 0; l < GLEV; l++) free(g->head[l]);
     free(g->lv);
-    free(g->big);
+    free(g->lev);
     free(g->next);
     free(g->prev);
     free(g->bucket);
@@ -406,10 +418,10 @@ int vm__imp_guard_init(vm__imp *w) {
     g->bf = calloc(np + 1, sizeof *g->bf);
     g->stamp = calloc(np + 1, sizeof *g->stamp);
     g->lv = calloc(np + 1, sizeof *g->lv);
-    g->big = calloc(np + 1, 1);
+    g->lev = calloc(np + 1, 1);
     uint8_t *on = calloc(np + 1, 1);
     if (!g->next || !g->prev || !g->bucket || !g->valid || !g->bf || !g->stamp || !g->lv ||
-        !g->big || !on) {
+        !g->lev || !on) {
         free(on);
         vm__imp_guard_free(w);
         return 0;
@@ -441,22 +453,27 @@ int vm__imp_guard_init(vm__imp *w) {
     /* Cells as large as the longest edge: a query then visits a few cells only. */
     g->h = ne && lmax > 0.0 ? lmax : ne && sum > 0.0 ? sum / (double)ne : 1.0;
     g->lmax = lmax;
-    /* The fine level: twice the mean boundary edge (all of it on a uniform mesh, where that is
-     * about the longest edge; the skin of an adaptive one, whose border faces are long). */
+    /* The first level: twice the mean boundary edge (all of the boundary of a uniform mesh,
+     * where that is about the longest edge; the skin of an adaptive one, whose faces on the
+     * volume border are long, while those go up the levels). */
     g->hs = ne && sum > 0.0 ? 2.0 * sum / (double)ne : g->h;
     if (g->hs > g->h) g->hs = g->h;
-    for (size_t i = 0; i < np; i++) g->big[i] = on[i] && g->lv[i] > g->hs;
+    for (size_t i = 0; i < np; i++) g->lev[i] = (uint8_t)(on[i] ? level_of(g, g->lv[i]) : 0);
     size_t nb = 1024;
     while (nb < 2 * nbv) nb *= 2;
     g->mask = nb - 1;
-    g->head = malloc(nb * sizeof *g->head);
-    g->head2 = malloc(nb * sizeof *g->head2);
-    if (!g->head || !g->head2) {
+    int hfail = 0;
+    for (int l = 0; l < GLEV; l++) {
+        g->head[l] = malloc(nb * sizeof *g->head[l]);
+        hfail |= !g->head[l];
+    }
+    if (hfail) {
         free(on);
         vm__imp_guard_free(w);
         return 0;
     }
-    for (size_t b = 0; b < nb; b++) g->head[b] = g->head2[b] = -1;
+    for (int l = 0; l < GLEV; l++)
+        for (size_t b = 0; b < nb; b++) g->head[l][b] = -1;
     for (size_t i = 0; i < np; i++)
         if (on[i]) g_insert(w, (vm_index)i);
     free(on);
