@@ -7,6 +7,7 @@
 #include "../core/core.h"
 #include "improve_internal.h"
 #include "volmesh/quality.h"
+#include "../quality/vec3.h"
 
 void vm_improve_options_default(vm_improve_options *o) {
     memset(o, 0, sizeof *o);
@@ -54,18 +55,137 @@ static int tet_figures(const double p[4][3], figures *f, int *abaqus) {
     return bad;
 }
 
-static void mesh_figures(const double *pts, const vm_index *cells, size_t n, figures *f,
-                         double *unfixed_field) {
+/* The cosines of the thresholds above; a cosine this close to one takes the exact path. */
+#define COS5 0.9961946980917455
+#define COS10 0.984807753012208
+#define COS160 (-0.9396926207859083)
+#define COS165 (-0.9659258262890682)
+#define FIG_EPS 1e-9
+#define FIG_DEG (180.0 / 3.14159265358979323846)
+
+static int near_cos(double c, double ref) { return fabs(c - ref) < FIG_EPS; }
+
+/* The figures of tets [t0, t1): the same counts and extremes as tet_figures over each of them,
+ * but the thresholds compared on cosines (no atan2) wherever a cosine is clearly on one side;
+ * the extremes are measured exactly only for the tets that may hold them. */
+static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, size_t t1,
+                          figures *f, double *unfixed_field) {
+    static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
     memset(f, 0, sizeof *f);
     f->dmin = 180.0;
     f->dmax = 0.0;
-    for (size_t t = 0; t < n; t++) {
+    double cdmin = -1.0, cdmax = 1.0; /* cosines of f->dmin and f->dmax */
+    for (size_t t = t0; t < t1; t++) {
         double p[4][3];
         for (int k = 0; k < 4; k++) memcpy(p[k], pts + 3 * (size_t)cells[4 * t + k], sizeof p[k]);
-        int ab;
-        int bad = tet_figures((const double(*)[3])p, f, &ab);
+        const double(*cp)[3] = (const double(*)[3])p;
+        double vol = vm_tet_signed_volume(cp), el[4][4], lmax2 = 0.0;
+        for (int i = 0; i < 4; i++)
+            for (int j = i + 1; j < 4; j++) {
+                double e[3] = {p[j][0] - p[i][0], p[j][1] - p[i][1], p[j][2] - p[i][2]};
+                double l2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+                if (l2 > lmax2) lmax2 = l2;
+                el[i][j] = el[j][i] = sqrt(l2);
+            }
+        int exact = !isfinite(vol) || !isfinite(lmax2) ||
+                    !(6.0 * vol > 1e-11 * lmax2 * sqrt(lmax2));
+        double cmax = -2.0, cmin = 2.0, fcmax = -2.0, fcmin = 2.0, n[4][3], dc[6];
+        if (!exact) {
+            double len[4];
+            for (int g = 0; g < 4; g++) {
+                double u[3], w[3];
+                vm__sub3(p[fo[g][1]], p[fo[g][0]], u);
+                vm__sub3(p[fo[g][2]], p[fo[g][0]], w);
+                vm__cross3(u, w, n[g]);
+                len[g] = sqrt(vm__dot3(n[g], n[g]));
+                for (int k = 0; k < 3; k++) {
+                    int o = fo[g][k], i = fo[g][(k + 1) % 3], j = fo[g][(k + 2) % 3];
+                    vm__sub3(p[i], p[o], u);
+                    vm__sub3(p[j], p[o], w);
+                    double cs = vm__dot3(u, w) / (el[o][i] * el[o][j]);
+                    if (cs > fcmax) fcmax = cs;
+                    if (cs < fcmin) fcmin = cs;
+                }
+            }
+            for (int g = 0, k = 0; g < 4; g++)
+                for (int h = g + 1; h < 4; h++, k++) {
+                    double cs = -vm__dot3(n[g], n[h]) / (len[g] * len[h]);
+                    dc[k] = cs;
+                    if (cs > cmax) cmax = cs;
+                    if (cs < cmin) cmin = cs;
+                }
+            exact = !isfinite(cmax) || !isfinite(cmin) || !isfinite(fcmax) ||
+                    !isfinite(fcmin) || near_cos(cmax, COS5) || near_cos(cmax, COS10) ||
+                    near_cos(cmin, COS165) || near_cos(fcmax, COS10) || near_cos(fcmin, COS160);
+        }
+        int bad;
+        if (exact) {
+            int ab;
+            bad = tet_figures(cp, f, &ab);
+            cdmin = cos(f->dmin / FIG_DEG);
+            cdmax = cos(f->dmax / FIG_DEG);
+        } else {
+            /* here vol > 0 */
+            f->volume += vol;
+            f->s5 += cmax > COS5;
+            f->s10 += cmax > COS10;
+            int ab = vm__imp_volume_measure(cp) < 0.02 || fcmax > COS10 || fcmin < COS160;
+            f->abaqus += (size_t)ab;
+            bad = ab || cmax > COS10 || cmin < COS165;
+            f->unfixed += (size_t)bad;
+            /* Only the dihedrals that may be the chunk's extremes, measured as
+             * vm_tet_min_dihedral and vm_tet_max_dihedral measure them. */
+            if (cmax > cdmin - FIG_EPS || cmin < cdmax + FIG_EPS)
+                for (int g = 0, k = 0; g < 4; g++)
+                    for (int h = g + 1; h < 4; h++, k++) {
+                        if (!(dc[k] > cdmin - FIG_EPS) && !(dc[k] < cdmax + FIG_EPS)) continue;
+                        double ng[3] = {-n[h][0], -n[h][1], -n[h][2]};
+                        double a = vm__angle_deg(n[g], ng);
+                        if (a < f->dmin) {
+                            f->dmin = a;
+                            cdmin = cos(a / FIG_DEG);
+                        }
+                        if (a > f->dmax) {
+                            f->dmax = a;
+                            cdmax = cos(a / FIG_DEG);
+                        }
+                    }
+        }
         if (unfixed_field) unfixed_field[t] = bad;
     }
+}
+
+/* Fixed chunks summed in their order: the same figures for any thread count. */
+#define FIG_CHUNK ((size_t)1 << 15)
+
+static int mesh_figures(const double *pts, const vm_index *cells, size_t n, figures *f,
+                        double *unfixed_field) {
+    size_t nc = (n + FIG_CHUNK - 1) / FIG_CHUNK;
+    figures *part = malloc((nc ? nc : 1) * sizeof *part);
+    if (!part) return 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+    for (size_t c = 0; c < nc; c++) {
+        size_t t1 = (c + 1) * FIG_CHUNK < n ? (c + 1) * FIG_CHUNK : n;
+        chunk_figures(pts, cells, c * FIG_CHUNK, t1, &part[c], unfixed_field);
+    }
+    memset(f, 0, sizeof *f);
+    f->dmin = 180.0;
+    f->dmax = 0.0;
+    for (size_t c = 0; c < nc; c++) {
+        const figures *g = &part[c];
+        if (g->dmin < f->dmin) f->dmin = g->dmin;
+        if (g->dmax > f->dmax) f->dmax = g->dmax;
+        f->volume += g->volume;
+        f->s5 += g->s5;
+        f->s10 += g->s10;
+        f->abaqus += g->abaqus;
+        f->inverted += g->inverted;
+        f->unfixed += g->unfixed;
+    }
+    free(part);
+    return 1;
 }
 
 /* --- setting up the working mesh --------------------------------------------------------- */
@@ -88,6 +208,8 @@ static void imp_free(vm__imp *w) {
         for (size_t i = 0; i < w->npt; i++) free(w->star[i].t);
     free(w->star);
     free(w->buf);
+    free(w->touched);
+    free(w->bfaces);
     vm__imp_guard_free(w);
 }
 
@@ -185,6 +307,61 @@ static int interface_plane(vm__imp *w, size_t i) {
     return 1;
 }
 
+/* Fills w->bfaces with the boundary faces of the tets in order (4 t + f): chunks of tets
+ * searched in parallel, joined in chunk order. 0 on out-of-memory. */
+#define BF_CHUNK ((size_t)1 << 14)
+static int find_boundary_faces(vm__imp *w) {
+    static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    size_t nt = w->ntet, nc = (nt + BF_CHUNK - 1) / BF_CHUNK;
+    size_t **lists = calloc(nc + 1, sizeof *lists), *cnt = calloc(nc + 1, sizeof *cnt);
+    int fail = !lists || !cnt;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+    for (size_t c = 0; c < nc; c++) {
+        if (!lists || !cnt) continue;
+        size_t t1 = (c + 1) * BF_CHUNK < nt ? (c + 1) * BF_CHUNK : nt, cap = 0, k = 0;
+        size_t *l = NULL;
+        for (size_t t = c * BF_CHUNK; t < t1; t++)
+            for (int f = 0; f < 4; f++) {
+                const vm_index *n = w->tet + 4 * t;
+                if (w->dead[t] ||
+                    vm__imp_face_other(w, t, n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]) >= 0)
+                    continue;
+                if (k == cap) {
+                    cap = cap ? 2 * cap : 256;
+                    size_t *nl = realloc(l, cap * sizeof *nl);
+                    if (!nl) {
+                        k = SIZE_MAX; /* this chunk failed */
+                        t = t1;
+                        break;
+                    }
+                    l = nl;
+                }
+                l[k++] = 4 * t + (size_t)f;
+            }
+        lists[c] = l;
+        cnt[c] = k;
+    }
+    size_t total = 0;
+    for (size_t c = 0; !fail && c < nc; c++) {
+        if (cnt[c] == SIZE_MAX) fail = 1;
+        else total += cnt[c];
+    }
+    w->bfaces = fail ? NULL : malloc((total + 1) * sizeof *w->bfaces);
+    if (w->bfaces) {
+        w->nbfaces = 0;
+        for (size_t c = 0; c < nc; c++) {
+            if (cnt[c]) memcpy(w->bfaces + w->nbfaces, lists[c], cnt[c] * sizeof *w->bfaces);
+            w->nbfaces += cnt[c];
+        }
+    }
+    for (size_t c = 0; lists && c < nc; c++) free(lists[c]);
+    free(lists);
+    free(cnt);
+    return w->bfaces != NULL;
+}
+
 static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
                           const vm_improve_options *o, vm_error *err) {
     size_t np = m->npoints, nt = m->ncells;
@@ -240,6 +417,10 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
             vm__imp_star *s = &w->star[w->tet[4 * t + k]];
             s->t[s->n++] = (vm_index)t;
         }
+    /* Each tet's quality on its own: any thread count gives the same values. */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
     for (size_t t = 0; t < nt; t++) w->q[t] = vm__imp_tet_q(w, t);
     if (v) {
         for (int r = 0; r < 3; r++) {
@@ -287,29 +468,35 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
         free(boxmask);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
-    for (size_t t = 0; t < nt; t++)
-        for (int f = 0; f < 4; f++) {
-            const vm_index *n = w->tet + 4 * t;
-            vm_index c[3] = {n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]};
-            if (vm__imp_face_other(w, t, c[0], c[1], c[2]) >= 0) continue;
-            const double *P = w->p + 3 * (size_t)c[0], *Q = w->p + 3 * (size_t)c[1],
-                         *R = w->p + 3 * (size_t)c[2];
-            double u[3], vv[3], nn[3];
-            for (int k = 0; k < 3; k++) {
-                u[k] = Q[k] - P[k];
-                vv[k] = R[k] - P[k];
-            }
-            nn[0] = u[1] * vv[2] - u[2] * vv[1];
-            nn[1] = u[2] * vv[0] - u[0] * vv[2];
-            nn[2] = u[0] * vv[1] - u[1] * vv[0];
-            uint8_t common = w->planes[c[0]] & w->planes[c[1]] & w->planes[c[2]];
-            for (int k = 0; k < 3; k++) {
-                bnd[c[k]] = 1;
-                if (common) boxmask[c[k]] |= common;
-                else nonbox[c[k]] = 1;
-                for (int j = 0; j < 3; j++) w->nrm[3 * (size_t)c[k] + j] += nn[j];
-            }
+    if (!find_boundary_faces(w)) {
+        free(bnd);
+        free(nonbox);
+        free(boxmask);
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    for (size_t e = 0; e < w->nbfaces; e++) {
+        size_t t = w->bfaces[e] / 4;
+        int f = (int)(w->bfaces[e] % 4);
+        const vm_index *n = w->tet + 4 * t;
+        vm_index c[3] = {n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]};
+        const double *P = w->p + 3 * (size_t)c[0], *Q = w->p + 3 * (size_t)c[1],
+                     *R = w->p + 3 * (size_t)c[2];
+        double u[3], vv[3], nn[3];
+        for (int k = 0; k < 3; k++) {
+            u[k] = Q[k] - P[k];
+            vv[k] = R[k] - P[k];
         }
+        nn[0] = u[1] * vv[2] - u[2] * vv[1];
+        nn[1] = u[2] * vv[0] - u[0] * vv[2];
+        nn[2] = u[0] * vv[1] - u[1] * vv[0];
+        uint8_t common = w->planes[c[0]] & w->planes[c[1]] & w->planes[c[2]];
+        for (int k = 0; k < 3; k++) {
+            bnd[c[k]] = 1;
+            if (common) boxmask[c[k]] |= common;
+            else nonbox[c[k]] = 1;
+            for (int j = 0; j < 3; j++) w->nrm[3 * (size_t)c[k] + j] += nn[j];
+        }
+    }
     for (size_t i = 0; i < np; i++) {
         double *nn = w->nrm + 3 * i;
         double l = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
@@ -373,22 +560,54 @@ static int tq_cmp(const void *pa, const void *pb) {
     return a->t < b->t ? -1 : a->t > b->t;
 }
 
-/* Tets with q below 1 (the targets), worst first. */
-static tq *bad_list(const vm__imp *w, size_t *n) {
+/* Tets with q below 1 (the targets), worst first. The first list scans the mesh; later ones
+ * take the previous list and the tets touched since (every other tet kept its quality, at
+ * or above 1), so a round costs what it changes, not the mesh size. The list is the same
+ * either way: the tets below 1 in (q, id) order. */
+static tq *bad_list(vm__imp *w, const tq *prev, size_t nprev, size_t *n) {
     size_t c = 0;
-    for (size_t t = 0; t < w->ntet; t++) c += !w->dead[t] && w->q[t] < 1.0;
-    tq *l = malloc((c ? c : 1) * sizeof *l);
-    if (!l) return NULL;
-    c = 0;
-    for (size_t t = 0; t < w->ntet; t++)
-        if (!w->dead[t] && w->q[t] < 1.0) {
+    tq *l;
+    if (!prev) {
+        for (size_t t = 0; t < w->ntet; t++) c += !w->dead[t] && w->q[t] < 1.0;
+        l = malloc((c ? c : 1) * sizeof *l);
+        if (!l) return NULL;
+        c = 0;
+        for (size_t t = 0; t < w->ntet; t++)
+            if (!w->dead[t] && w->q[t] < 1.0) {
+                l[c].q = w->q[t];
+                l[c].t = t;
+                c++;
+            }
+    } else {
+        l = malloc((nprev + w->ntouched + 1) * sizeof *l);
+        if (!l) return NULL;
+        for (size_t i = 0; i < nprev + w->ntouched; i++) {
+            size_t t = i < nprev ? prev[i].t : (size_t)w->touched[i - nprev];
+            if (w->dead[t] || !(w->q[t] < 1.0)) continue;
             l[c].q = w->q[t];
             l[c].t = t;
             c++;
         }
+    }
+    w->ntouched = 0;
     qsort(l, c, sizeof *l, tq_cmp);
-    *n = c;
+    /* a tet listed twice sorts next to itself */
+    size_t u = 0;
+    for (size_t i = 0; i < c; i++)
+        if (u == 0 || l[i].t != l[u - 1].t) l[u++] = l[i];
+    *n = u;
     return l;
+}
+
+/* Replaces *l (n entries) by the current bad list; 0 on out-of-memory (*l freed). */
+static int next_bad_list(vm__imp *w, tq **l, size_t *n) {
+    size_t m = 0;
+    tq *nl = bad_list(w, *l, *n, &m);
+    free(*l);
+    *l = nl;
+    *n = nl ? m : 0;
+    if (!nl) w->nomem = 1;
+    return nl != NULL;
 }
 
 /* Vertices of the still-bad tets of the list, each once (stamp marks). */
@@ -426,18 +645,12 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     }
     uint32_t round = 0;
     int pass;
+    tq *l = NULL;
+    size_t n = 0;
     for (pass = 0; pass < o->max_passes && !w->nomem; pass++) {
-        size_t n, ops = 0;
+        size_t ops = 0;
         w->deep = pass >= 1;
-        tq *l = bad_list(w, &n);
-        if (!l) {
-            w->nomem = 1;
-            break;
-        }
-        if (n == 0) {
-            free(l);
-            break;
-        }
+        if (!next_bad_list(w, &l, &n) || n == 0) break;
         if (o->contract)
             for (size_t i = 0; i < n && !w->nomem; i++) {
                 report(o, pass, 0, i, n);
@@ -453,15 +666,9 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
                 report(o, pass, 2, i, n);
                 if (!w->dead[l[i].t] && w->q[l[i].t] < 2.0 / 3.0) ops += (size_t)vm__imp_peel_tet(w, l[i].t);
             }
-        free(l);
-        l = bad_list(w, &n);
-        if (!l) {
-            w->nomem = 1;
-            break;
-        }
+        if (!next_bad_list(w, &l, &n)) break;
         vm_index *vs = malloc((4 * n + 1) * sizeof *vs);
         if (!vs) {
-            free(l);
             w->nomem = 1;
             break;
         }
@@ -477,7 +684,6 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
             for (size_t i = 0; i < nv; i++) ops += (size_t)vm__imp_perturb_vertex(w, vs[i], 24);
         }
         free(vs);
-        free(l);
         ops_total += ops;
         if (o->progress) o->progress("improve", 1.0 - pow(0.5, pass + 1.0), 1.0, o->progress_user);
         if (ops == 0) break;
@@ -486,12 +692,8 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
      * their vertices and their neighbours' vertices. */
     w->deep = 1;
     for (int extra = 0; extra < 4 && !w->nomem; extra++) {
-        size_t n, ops = 0;
-        tq *l = bad_list(w, &n);
-        if (!l) {
-            w->nomem = 1;
-            break;
-        }
+        size_t ops = 0;
+        if (!next_bad_list(w, &l, &n)) break;
         for (size_t i = 0; i < n && !w->nomem; i++) {
             size_t t = l[i].t;
             if (w->dead[t] || w->q[t] >= 2.0 / 3.0) continue;
@@ -511,10 +713,10 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
                 ops += (size_t)vm__imp_perturb_vertex(w, vs[k], 200);
             }
         }
-        free(l);
         ops_total += ops;
         if (ops == 0) break;
     }
+    free(l);
     free(stamp);
     if (o->progress) o->progress("improve", 1.0, 1.0, o->progress_user);
     *passes = pass;
@@ -630,7 +832,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
             return vm_error_set(err, VM_ERR_ARG, "improve: cell %zu has node %lld outside 0..%zu",
                                 i / 4, (long long)m->cells[i], m->npoints - 1);
     figures fb;
-    mesh_figures(m->points, m->cells, m->ncells, &fb, NULL);
+    if (!mesh_figures(m->points, m->cells, m->ncells, &fb, NULL))
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     if (fb.inverted)
         return vm_error_set(err, VM_ERR_ARG, "improve: %zu tets are inverted or flat",
                             fb.inverted);
@@ -640,6 +843,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
     vm_status s = imp_init(&w, m, v, o, err);
     if (s == VM_OK && !vm__imp_guard_init(&w))
         s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the boundary guard");
+    free(w.bfaces); /* only for setting up */
+    w.bfaces = NULL;
     int passes = 0;
     if (s == VM_OK) {
         run_passes(&w, o, &passes);
@@ -677,7 +882,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
             uf = malloc((m->ncells + 1) * sizeof *uf);
             if (!uf) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
         }
-        mesh_figures(m->points, m->cells, m->ncells, &fa, uf);
+        if (s == VM_OK && !mesh_figures(m->points, m->cells, m->ncells, &fa, uf))
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
         if (uf && s == VM_OK) s = vm_mesh_set_field(m, 1, "improve_unfixed", 1, uf, err);
         free(uf);
     }

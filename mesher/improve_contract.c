@@ -386,7 +386,7 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     vm__imp_guard_moved(w, keep);
     const vm__imp_star *sk = &w->star[keep];
     for (int32_t i = 0; i < sk->n; i++) {
-        w->q[sk->t[i]] = vm__imp_tet_q(w, (size_t)sk->t[i]);
+        vm__imp_requal(w, (size_t)sk->t[i]);
         for (int k = 0; k < 4; k++) vm__imp_guard_touch(w, w->tet[4 * (size_t)sk->t[i] + k]);
     }
     w->collapses++;

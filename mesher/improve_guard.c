@@ -14,6 +14,7 @@
 #include "improve_internal.h"
 
 #define NOB SIZE_MAX
+#define GLEV 4 /* levels of the grid: hs, 2 hs, 4 hs, then the longest edge */
 
 typedef struct bflist {
     vm_index *e; /* pairs (c, d): faces (v, c, d) */
@@ -23,7 +24,16 @@ typedef struct bflist {
 struct vm__imp_guard {
     double h, lmax;
     size_t mask;
-    vm_index *head, *next, *prev;
+    vm_index *next, *prev;
+    /* Levels: lv[v] bounds the longest edge of every boundary triangle at v ever proposed;
+     * v sits in the first level l < GLEV - 1 with lv <= hs 2^l (cell and search radius
+     * hs 2^l), else in the last (cell h, radius lmax). A crossing triangle has every vertex
+     * within its own longest edge of the query, and that edge is at most the lv of each of
+     * its vertices, so the search of its vertices' level finds one of them. */
+    double hs;
+    vm_index *head[GLEV];
+    double *lv;
+    uint8_t *lev;      /* level of each vertex; it only rises */
     size_t *bucket;   /* per vertex, NOB when not in the grid */
     uint8_t *valid;   /* per vertex: bf is current */
     bflist *bf;
@@ -50,17 +60,30 @@ static int64_t cell_of(double x, double h) {
     return (int64_t)c;
 }
 
-static size_t bucket_at(const struct vm__imp_guard *g, const double *p) {
-    return hash3(cell_of(p[0], g->h), cell_of(p[1], g->h), cell_of(p[2], g->h), g->mask);
+/* Cell size (and search radius, but for the last level) of level l. */
+static double level_h(const struct vm__imp_guard *g, int l) {
+    return l == GLEV - 1 ? g->h : g->hs * (double)(1 << l);
+}
+
+static int level_of(const struct vm__imp_guard *g, double lv) {
+    int l = 0;
+    while (l < GLEV - 1 && !(lv <= g->hs * (double)(1 << l))) l++;
+    return l;
+}
+
+static size_t bucket_at(const struct vm__imp_guard *g, const double *p, int l) {
+    double h = level_h(g, l);
+    return hash3(cell_of(p[0], h), cell_of(p[1], h), cell_of(p[2], h), g->mask);
 }
 
 static void g_insert(vm__imp *w, vm_index v) {
     struct vm__imp_guard *g = w->g;
-    size_t b = bucket_at(g, w->p + 3 * (size_t)v);
-    g->next[v] = g->head[b];
+    vm_index *head = g->head[g->lev[v]];
+    size_t b = bucket_at(g, w->p + 3 * (size_t)v, g->lev[v]);
+    g->next[v] = head[b];
     g->prev[v] = -1;
-    if (g->head[b] >= 0) g->prev[g->head[b]] = v;
-    g->head[b] = v;
+    if (head[b] >= 0) g->prev[head[b]] = v;
+    head[b] = v;
     g->bucket[v] = b;
 }
 
@@ -69,7 +92,7 @@ static void g_remove(vm__imp *w, vm_index v) {
     size_t b = g->bucket[v];
     if (b == NOB) return;
     if (g->prev[v] >= 0) g->next[g->prev[v]] = g->next[v];
-    else g->head[b] = g->next[v];
+    else g->head[g->lev[v]][b] = g->next[v];
     if (g->next[v] >= 0) g->prev[g->next[v]] = g->prev[v];
     g->bucket[v] = NOB;
 }
@@ -77,7 +100,7 @@ static void g_remove(vm__imp *w, vm_index v) {
 void vm__imp_guard_moved(vm__imp *w, vm_index a) {
     struct vm__imp_guard *g = w->g;
     if (!g || g->bucket[a] == NOB) return;
-    if (bucket_at(g, w->p + 3 * (size_t)a) == g->bucket[a]) return;
+    if (bucket_at(g, w->p + 3 * (size_t)a, g->lev[a]) == g->bucket[a]) return;
     g_remove(w, a);
     g_insert(w, a);
 }
@@ -179,6 +202,20 @@ static const double *pos(const vm__imp *w, vm_index v, vm_index mv, const double
     return v == mv ? x : w->p + 3 * (size_t)v;
 }
 
+/* A boundary triangle with longest edge d at v is proposed: v's bound grows to d, and v goes
+ * up to the level that bound needs. */
+static void raise_lv(vm__imp *w, vm_index v, double d) {
+    struct vm__imp_guard *g = w->g;
+    if (d <= g->lv[v]) return;
+    g->lv[v] = d;
+    int l = level_of(g, d);
+    if (l <= g->lev[v]) return;
+    int in = g->bucket[v] != NOB;
+    if (in) g_remove(w, v);
+    g->lev[v] = (uint8_t)l;
+    if (in) g_insert(w, v);
+}
+
 int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
                      const double x[3], const vm_index *exv, int nexv,
                      const vm_index (*rem)[3], int nrem) {
@@ -186,17 +223,21 @@ int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
     if (!g || nn <= 0) return 1;
     /* Bounding boxes of the new triangles; the longest boundary edge grows with them. */
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (int i = 0; i < nn; i++)
+    for (int i = 0; i < nn; i++) {
+        double dt = 0.0; /* the triangle's longest edge */
         for (int k = 0; k < 3; k++) {
             const double *p = pos(w, nt[i][k], mv, x), *q = pos(w, nt[i][(k + 1) % 3], mv, x);
             double d = sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
                             (p[2] - q[2]) * (p[2] - q[2]));
             if (d > g->lmax) g->lmax = d;
+            if (!(d <= dt)) dt = d;
             for (int c = 0; c < 3; c++) {
                 if (p[c] < lo[c]) lo[c] = p[c];
                 if (p[c] > hi[c]) hi[c] = p[c];
             }
         }
+        for (int k = 0; k < 3; k++) raise_lv(w, nt[i][k], dt);
+    }
     /* The new triangles among themselves. */
     for (int i = 0; i < nn; i++)
         for (int j = i + 1; j < nn; j++) {
@@ -214,44 +255,47 @@ int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
     }
     g->round++;
     uint32_t inc = 2 * g->round, seen = 2 * g->round + 1;
-    double L = g->lmax, glo[3], ghi[3];
-    int64_t c0[3], c1[3];
-    double ncell = 1.0;
-    for (int k = 0; k < 3; k++) {
-        glo[k] = lo[k] - L;
-        ghi[k] = hi[k] + L;
-        c0[k] = cell_of(glo[k], g->h);
-        c1[k] = cell_of(ghi[k], g->h);
-        ncell *= (double)(c1[k] - c0[k] + 1);
-    }
     g->ncand = 0;
-    size_t nb = g->mask + 1;
-    int all = !(ncell <= (double)nb);
-    size_t nbk = all ? nb : (size_t)ncell;
-    int64_t ci = c0[0], cj = c0[1], ck = c0[2];
-    for (size_t it = 0; it < nbk; it++) {
-        size_t b;
-        if (all) b = it;
-        else {
-            b = hash3(ci, cj, ck, g->mask);
-            if (++ci > c1[0]) {
-                ci = c0[0];
-                if (++cj > c1[1]) {
-                    cj = c0[1];
-                    ck++;
+    for (int level = 0; level < GLEV; level++) {
+        double h = level_h(g, level), L = level == GLEV - 1 ? g->lmax : h, glo[3], ghi[3];
+        vm_index *head = g->head[level];
+        int64_t c0[3], c1[3];
+        double ncell = 1.0;
+        for (int k = 0; k < 3; k++) {
+            glo[k] = lo[k] - L;
+            ghi[k] = hi[k] + L;
+            c0[k] = cell_of(glo[k], h);
+            c1[k] = cell_of(ghi[k], h);
+            ncell *= (double)(c1[k] - c0[k] + 1);
+        }
+        size_t nb = g->mask + 1;
+        int all = !(ncell <= (double)nb);
+        size_t nbk = all ? nb : (size_t)ncell;
+        int64_t ci = c0[0], cj = c0[1], ck = c0[2];
+        for (size_t it = 0; it < nbk; it++) {
+            size_t b;
+            if (all) b = it;
+            else {
+                b = hash3(ci, cj, ck, g->mask);
+                if (++ci > c1[0]) {
+                    ci = c0[0];
+                    if (++cj > c1[1]) {
+                        cj = c0[1];
+                        ck++;
+                    }
                 }
             }
-        }
-        for (vm_index v = g->head[b]; v >= 0; v = g->next[v]) {
-            if (g->stamp[v] == inc || g->stamp[v] == seen) continue;
-            if (w->pdead[v] || dist2_box(w->p + 3 * (size_t)v, lo, hi) > L * L) {
-                g->stamp[v] = seen;
-                continue;
-            }
-            g->stamp[v] = inc;
-            if (!push_cand(g, v)) {
-                w->nomem = 1;
-                return 0;
+            for (vm_index v = head[b]; v >= 0; v = g->next[v]) {
+                if (g->stamp[v] == inc || g->stamp[v] == seen) continue;
+                if (w->pdead[v] || dist2_box(w->p + 3 * (size_t)v, lo, hi) > L * L) {
+                    g->stamp[v] = seen;
+                    continue;
+                }
+                g->stamp[v] = inc;
+                if (!push_cand(g, v)) {
+                    w->nomem = 1;
+                    return 0;
+                }
             }
         }
     }
@@ -346,7 +390,9 @@ void vm__imp_guard_free(vm__imp *w) {
     if (g->bf)
         for (size_t i = 0; i < w->npt; i++) free(g->bf[i].e);
     free(g->bf);
-    free(g->head);
+    for (int l = 0; l < GLEV; l++) free(g->head[l]);
+    free(g->lv);
+    free(g->lev);
     free(g->next);
     free(g->prev);
     free(g->bucket);
@@ -371,8 +417,11 @@ int vm__imp_guard_init(vm__imp *w) {
     g->valid = calloc(np + 1, 1);
     g->bf = calloc(np + 1, sizeof *g->bf);
     g->stamp = calloc(np + 1, sizeof *g->stamp);
+    g->lv = calloc(np + 1, sizeof *g->lv);
+    g->lev = calloc(np + 1, 1);
     uint8_t *on = calloc(np + 1, 1);
-    if (!g->next || !g->prev || !g->bucket || !g->valid || !g->bf || !g->stamp || !on) {
+    if (!g->next || !g->prev || !g->bucket || !g->valid || !g->bf || !g->stamp || !g->lv ||
+        !g->lev || !on) {
         free(on);
         vm__imp_guard_free(w);
         return 0;
@@ -380,37 +429,51 @@ int vm__imp_guard_init(vm__imp *w) {
     for (size_t i = 0; i < np; i++) g->bucket[i] = NOB;
     double sum = 0.0, lmax = 0.0;
     size_t ne = 0, nbv = 0;
-    for (size_t t = 0; t < w->ntet; t++) {
-        if (w->dead[t]) continue;
-        for (int f = 0; f < 4; f++) {
-            const vm_index *n = w->tet + 4 * t;
-            vm_index c[3] = {n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]};
-            if (vm__imp_face_other(w, t, c[0], c[1], c[2]) >= 0) continue;
-            for (int k = 0; k < 3; k++) {
-                const double *p = w->p + 3 * (size_t)c[k], *q = w->p + 3 * (size_t)c[(k + 1) % 3];
-                double d = sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
-                                (p[2] - q[2]) * (p[2] - q[2]));
-                sum += d;
-                ne++;
-                if (d > lmax) lmax = d;
-                if (!on[c[k]]) nbv++;
-                on[c[k]] = 1;
-            }
+    /* the boundary faces as the set-up found them (in tet order) */
+    for (size_t e = 0; e < w->nbfaces; e++) {
+        size_t t = w->bfaces[e] / 4;
+        int f = (int)(w->bfaces[e] % 4);
+        const vm_index *n = w->tet + 4 * t;
+        vm_index c[3] = {n[fo[f][0]], n[fo[f][1]], n[fo[f][2]]};
+        double dt = 0.0;
+        for (int k = 0; k < 3; k++) {
+            const double *p = w->p + 3 * (size_t)c[k], *q = w->p + 3 * (size_t)c[(k + 1) % 3];
+            double d = sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                            (p[2] - q[2]) * (p[2] - q[2]));
+            sum += d;
+            ne++;
+            if (d > lmax) lmax = d;
+            if (!(d <= dt)) dt = d;
+            if (!on[c[k]]) nbv++;
+            on[c[k]] = 1;
         }
+        for (int k = 0; k < 3; k++)
+            if (!(dt <= g->lv[c[k]])) g->lv[c[k]] = dt;
     }
     /* Cells as large as the longest edge: a query then visits a few cells only. */
     g->h = ne && lmax > 0.0 ? lmax : ne && sum > 0.0 ? sum / (double)ne : 1.0;
     g->lmax = lmax;
+    /* The first level: twice the mean boundary edge (all of the boundary of a uniform mesh,
+     * where that is about the longest edge; the skin of an adaptive one, whose faces on the
+     * volume border are long, while those go up the levels). */
+    g->hs = ne && sum > 0.0 ? 2.0 * sum / (double)ne : g->h;
+    if (g->hs > g->h) g->hs = g->h;
+    for (size_t i = 0; i < np; i++) g->lev[i] = (uint8_t)(on[i] ? level_of(g, g->lv[i]) : 0);
     size_t nb = 1024;
     while (nb < 2 * nbv) nb *= 2;
     g->mask = nb - 1;
-    g->head = malloc(nb * sizeof *g->head);
-    if (!g->head) {
+    int hfail = 0;
+    for (int l = 0; l < GLEV; l++) {
+        g->head[l] = malloc(nb * sizeof *g->head[l]);
+        hfail |= !g->head[l];
+    }
+    if (hfail) {
         free(on);
         vm__imp_guard_free(w);
         return 0;
     }
-    for (size_t b = 0; b < nb; b++) g->head[b] = -1;
+    for (int l = 0; l < GLEV; l++)
+        for (size_t b = 0; b < nb; b++) g->head[l][b] = -1;
     for (size_t i = 0; i < np; i++)
         if (on[i]) g_insert(w, (vm_index)i);
     free(on);

@@ -62,6 +62,12 @@ typedef struct vm__imp {
     vm_index *buf;
     size_t buf_cap;
     int deep;           /* later rounds: also peel bad tets off the boundary */
+    /* tets whose quality was recomputed below 1 since the last bad list (may repeat, may
+     * have died since): with the last list they hold every tet below the targets */
+    vm_index *touched;
+    size_t ntouched, touched_cap;
+    /* while setting up: the boundary faces 4 t + f (face f opposite node f), in order */
+    size_t *bfaces, nbfaces;
     int nomem;          /* sticky: an allocation inside an operation failed */
     /* the boundary guard (improve_guard.c): boundary vertices in a hashed uniform grid and
      * each vertex's boundary faces, cached until a tet around it is added or removed */
@@ -74,6 +80,8 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]);
 /* ABAQUS volume measure V / (volume of the regular tet with the same circumradius). */
 double vm__imp_volume_measure(const double p[4][3]);
 double vm__imp_tet_q(const vm__imp *w, size_t t);
+/* Recomputes w->q[t], noting t in w->touched when it is below the targets. */
+void vm__imp_requal(vm__imp *w, size_t t);
 /* Quality of tet t with vertex a replaced by position x (a must be in t). */
 double vm__imp_tet_q_moved(const vm__imp *w, size_t t, vm_index a, const double x[3]);
 

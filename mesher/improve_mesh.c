@@ -31,6 +31,16 @@ double vm__imp_volume_measure(const double p[4][3]) {
     return isfinite(r) ? r : 0.0;
 }
 
+/* The angle (degrees) at corner k % 3 of face k / 3, exactly as atan2 gives it. */
+static double corner_angle(const double p[4][3], int k) {
+    int f = k / 3, c = k % 3;
+    double u[3], v[3], cr[3];
+    vm__sub3(p[face_of[f][(c + 1) % 3]], p[face_of[f][c]], u);
+    vm__sub3(p[face_of[f][(c + 2) % 3]], p[face_of[f][c]], v);
+    vm__cross3(u, v, cr);
+    return atan2(sqrt(vm__dot3(cr, cr)), vm__dot3(u, v)) * DEG;
+}
+
 double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
     double lmax2 = 0.0;
     for (int i = 0; i < 4; i++)
@@ -70,18 +80,35 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
     if (q2 < q) q = q2;
     double q3 = vm__imp_volume_measure(p) / w->s_vm;
     if (q3 < q) q = q3;
-    double fmin = 180.0, fmax = 0.0; /* angles of the four faces */
+    /* Face angles: the smallest and the largest of the twelve found by their cosines (one
+     * square root per edge); only the corners within round-off of those are measured with
+     * atan2, so the result is the minimum (maximum) of the twelve atan2 angles. */
+    double el[4][4], fc[12];
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++) {
+            double e[3];
+            vm__sub3(p[j], p[i], e);
+            el[i][j] = el[j][i] = sqrt(vm__dot3(e, e));
+        }
+    double cfmax = -2.0, cfmin = 2.0;
     for (int f = 0; f < 4; f++)
         for (int k = 0; k < 3; k++) {
+            int o = face_of[f][k], i = face_of[f][(k + 1) % 3], j = face_of[f][(k + 2) % 3];
             double u[3], v[3];
-            vm__sub3(p[face_of[f][(k + 1) % 3]], p[face_of[f][k]], u);
-            vm__sub3(p[face_of[f][(k + 2) % 3]], p[face_of[f][k]], v);
-            double cr[3];
-            vm__cross3(u, v, cr);
-            double ang = atan2(sqrt(vm__dot3(cr, cr)), vm__dot3(u, v)) * DEG;
-            if (ang < fmin) fmin = ang;
-            if (ang > fmax) fmax = ang;
+            vm__sub3(p[i], p[o], u);
+            vm__sub3(p[j], p[o], v);
+            double cs = vm__dot3(u, v) / (el[o][i] * el[o][j]);
+            fc[3 * f + k] = cs;
+            if (cs > cfmax) cfmax = cs;
+            if (cs < cfmin) cfmin = cs;
         }
+    double fmin = 180.0, fmax = 0.0;
+    for (int k = 0; k < 12; k++) {
+        if (!(fc[k] >= cfmax - 1e-12) && !(fc[k] <= cfmin + 1e-12)) continue;
+        double ang = corner_angle(p, k);
+        if (ang < fmin) fmin = ang;
+        if (ang > fmax) fmax = ang;
+    }
     double q4 = fmin / w->s_fmin, q5 = (180.0 - fmax) / w->s_fmax;
     if (q4 < q) q = q4;
     if (q5 < q) q = q5;
@@ -96,6 +123,23 @@ double vm__imp_tet_q(const vm__imp *w, size_t t) {
     double p[4][3];
     tet_points(w, t, p);
     return vm__imp_quality(w, (const double(*)[3])p);
+}
+
+void vm__imp_requal(vm__imp *w, size_t t) {
+    double q = vm__imp_tet_q(w, t);
+    w->q[t] = q;
+    if (q >= 1.0) return;
+    if (w->ntouched == w->touched_cap) {
+        size_t cap = w->touched_cap ? 2 * w->touched_cap : 4096;
+        vm_index *nt = realloc(w->touched, cap * sizeof *nt);
+        if (!nt) {
+            w->nomem = 1;
+            return;
+        }
+        w->touched = nt;
+        w->touched_cap = cap;
+    }
+    w->touched[w->ntouched++] = (vm_index)t;
 }
 
 double vm__imp_tet_q_moved(const vm__imp *w, size_t t, vm_index a, const double x[3]) {
@@ -162,7 +206,7 @@ long vm__imp_add_tet(vm__imp *w, const vm_index n[4], int32_t region, vm_index p
     w->parent[t] = parent;
     w->dead[t] = 0;
     w->ntet++;
-    w->q[t] = vm__imp_tet_q(w, t);
+    vm__imp_requal(w, t);
     for (int k = 0; k < 4; k++) vm__imp_guard_touch(w, n[k]);
     return (long)t;
 }

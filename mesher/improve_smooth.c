@@ -93,7 +93,7 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
                 if (m > cur + 1e-7 && vm__imp_guard_move_ok(w, a, x)) {
                     memcpy(pa, x, sizeof x);
                     vm__imp_guard_moved(w, a);
-                    for (int32_t i = 0; i < n; i++) w->q[ids[i]] = vm__imp_tet_q(w, (size_t)ids[i]);
+                    for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)ids[i]);
                     cur = m;
                     accepted = 1;
                     break;
@@ -133,7 +133,7 @@ int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries) {
         if (m > cur + 1e-7 && vm__imp_guard_move_ok(w, a, x)) {
             memcpy(pa, x, sizeof x);
             vm__imp_guard_moved(w, a);
-            for (int32_t i = 0; i < n; i++) w->q[ids[i]] = vm__imp_tet_q(w, (size_t)ids[i]);
+            for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)ids[i]);
             cur = m;
             moved = 1;
         }

@@ -1,5 +1,6 @@
 /* tests/mesher/test_threads.c — the parallel stages give the same bytes for any thread count:
- * denoising (bilateral, diffusion), VTU compression and the mesh checks. */
+ * denoising (bilateral, diffusion), VTU compression, the mesh checks and the tet quality
+ * pass. */
 #include <string.h>
 #include "test.h"
 
@@ -86,6 +87,73 @@ static void vtu_bytes_and_mesh_checks_are_the_same_for_any_thread_count(void) {
     vm_set_threads(before);
 }
 
+static void quality_pass_gives_the_same_mesh_for_one_two_and_three_threads(void) {
+    vm_volume v;
+    vm_mesh m0;
+    vm_error err;
+    vm_mesh_options o;
+    int before = vm_set_threads(1);
+    /* a noisy genus-3 phantom: many slivers for the pass to work on */
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_GENUS3, getenv("VM_SANITIZED") ? 28 : 40, 0.3, 3, &v,
+                             NULL, &err),
+             &err);
+    vm_mesh_options_default(&o);
+    CHECK_OK(vm_mesh_volume(&v, &o, &m0, NULL, &err), &err);
+    vm_mesh_report r0;
+    CHECK_OK(vm_mesh_check(&m0, &r0, &err), &err);
+    vm_mesh ref;
+    vm_improve_report ref_r;
+    memset(&ref, 0, sizeof ref);
+    for (size_t t = 0; t < sizeof counts / sizeof counts[0]; t++) {
+        vm_set_threads(counts[t]);
+        vm_mesh m;
+        vm_mesh_init(&m, VM_TET4);
+        CHECK_OK(vm_mesh_reserve(&m, m0.npoints, m0.ncells, &err), &err);
+        memcpy(m.points, m0.points, 3 * m0.npoints * sizeof *m.points);
+        memcpy(m.cells, m0.cells, 4 * m0.ncells * sizeof *m.cells);
+        memcpy(m.region, m0.region, m0.ncells * sizeof *m.region);
+        m.npoints = m0.npoints;
+        m.ncells = m0.ncells;
+        vm_improve_options io;
+        vm_improve_options_default(&io);
+        io.mark_unfixed = 1;
+        vm_improve_report r;
+        CHECK_OK(vm_mesh_improve(&m, &v, &io, &r, &err), &err);
+        r.seconds = 0.0;
+        if (t == 0) {
+            vm_mesh_report mr;
+            CHECK_OK(vm_mesh_check(&m, &mr, &err), &err);
+            CHECK(r.slivers_10_before > 0 && r.collapses + r.moves > 0); /* it had work */
+            CHECK(mr.inverted == 0 && r.inverted_after == 0);
+            /* the pass keeps the boundary topology */
+            CHECK(mr.boundary_closed && r0.boundary_closed);
+            CHECK(mr.boundary_euler == r0.boundary_euler && mr.components == r0.components);
+            CHECK(r.min_dihedral_after > r.min_dihedral_before);
+            CHECK_MSG(fabs(r.volume_after - r.volume_before) < 0.03 * r.volume_before,
+                      "volume %g -> %g", r.volume_before, r.volume_after);
+            ref = m;
+            ref_r = r;
+            continue;
+        }
+        CHECK_MSG(m.npoints == ref.npoints && m.ncells == ref.ncells &&
+                      memcmp(m.points, ref.points, 3 * m.npoints * sizeof *m.points) == 0 &&
+                      memcmp(m.cells, ref.cells, 4 * m.ncells * sizeof *m.cells) == 0 &&
+                      memcmp(m.region, ref.region, m.ncells * sizeof *m.region) == 0,
+                  "improved mesh differs at %d threads", counts[t]);
+        CHECK_MSG(m.ncell_fields == 1 && ref.ncell_fields == 1 &&
+                      memcmp(m.cell_fields[0].data, ref.cell_fields[0].data,
+                             m.ncells * sizeof(double)) == 0,
+                  "improve_unfixed differs at %d threads", counts[t]);
+        CHECK_MSG(memcmp(&r, &ref_r, sizeof r) == 0, "improve report differs at %d threads",
+                  counts[t]);
+        vm_mesh_free(&m);
+    }
+    vm_mesh_free(&ref);
+    vm_mesh_free(&m0);
+    vm_volume_free(&v);
+    vm_set_threads(before);
+}
+
 static void thread_count_is_set_and_restored(void) {
     int before = vm_set_threads(2);
     int now = vm_threads();
@@ -96,4 +164,5 @@ static void thread_count_is_set_and_restored(void) {
 
 TEST_MAIN(T(denoising_is_the_same_for_one_two_and_three_threads),
           T(vtu_bytes_and_mesh_checks_are_the_same_for_any_thread_count),
+          T(quality_pass_gives_the_same_mesh_for_one_two_and_three_threads),
           T(thread_count_is_set_and_restored))
