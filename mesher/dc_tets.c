@@ -354,6 +354,17 @@ static vm_status emit_edge_box(dc *d, const int64_t lo[4], const int64_t hi[4],
                     if (++p1[a] >= d->n[a]) continue;
                     if (act) {
                         int64_t c0 = vm__dc_cidx(d, i, j, k);
+                        if (i + 8 <= hi[1]) { /* eight edges at once (the rows run along x) */
+                            uint64_t w[4];
+                            memcpy(&w[0], act + c0, 8);
+                            memcpy(&w[1], act + c0 - sb, 8);
+                            memcpy(&w[2], act + c0 - sb - sc, 8);
+                            memcpy(&w[3], act + c0 - sc, 8);
+                            if (!(w[0] | w[1] | w[2] | w[3])) {
+                                i += 7;
+                                continue;
+                            }
+                        }
                         if (!(act[c0] | act[c0 - sb] | act[c0 - sb - sc] | act[c0 - sc]))
                             continue;
                     }

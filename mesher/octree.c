@@ -87,11 +87,15 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
     }
     /* full[c] = largest l such that the aligned cube of 2^l cells at origin c is inside */
+    /* Every loop over cells below reads and writes disjoint cells per z layer (or per
+     * level, reading the level below): parallel and the same for any thread count. */
+#pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++)
         full[i] = kind[i] == VM_KIND_INTERIOR ? 0 : -1;
     for (int l = 1; l <= max_level; l++) {
         int64_t s = (int64_t)1 << l, h = s / 2;
-        for (int64_t z = 0; z + s <= nc[2]; z += s)
+#pragma omp parallel for schedule(static)
+        for (int64_t z = 0; z < nc[2] - s + 1; z += s)
             for (int64_t y = 0; y + s <= nc[1]; y += s)
                 for (int64_t x = 0; x + s <= nc[0]; x += s) {
                     int ok = 1;
@@ -107,6 +111,7 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
                 }
     }
     /* leaves: the largest inside cube holding each cell */
+#pragma omp parallel for schedule(static)
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
@@ -172,12 +177,14 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
         vm__octree_free(o);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
     }
-    for (int64_t z = 0; z < nc[2]; z++)
-        for (int64_t y = 0; y < nc[1]; y++)
-            for (int64_t x = 0; x < nc[0]; x++) {
+    /* keep is set, and later read, only at the origins of 2x2x2 leaves (even positions) */
+#pragma omp parallel for schedule(static)
+    for (int64_t z = 0; z < nc[2]; z += 2)
+        for (int64_t y = 0; y < nc[1]; y += 2)
+            for (int64_t x = 0; x < nc[0]; x += 2) {
                 size_t ci = (size_t)cell_index(o, (int64_t[3]){x, y, z});
                 keep[ci] = 1;
-                if (o->lvl[ci] != 1 || (x & 1) || (y & 1) || (z & 1)) continue;
+                if (o->lvl[ci] != 1) continue;
                 int cost = 0;
                 for (int f = 0; f < 6; f++) {
                     int64_t q[3] = {x, y, z};
@@ -187,6 +194,7 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
                 }
                 keep[ci] = cost < 40;
             }
+#pragma omp parallel for schedule(static)
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
@@ -196,12 +204,13 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
             }
     free(keep);
     size_t count = 0;
+#pragma omp parallel for schedule(static) reduction(+ : count)
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
-                int64_t c[3] = {x, y, z}, org[3];
-                int l = vm__octree_leaf(o, c, org);
-                if (l >= 0 && org[0] == x && org[1] == y && org[2] == z) count++;
+                int l = o->lvl[cell_index(o, (int64_t[3]){x, y, z})];
+                int64_t m = ((int64_t)1 << (l > 0 ? l : 0)) - 1;
+                if (l >= 0 && !(x & m) && !(y & m) && !(z & m)) count++;
             }
     if (leaves) *leaves = count;
     return VM_OK;
