@@ -420,7 +420,11 @@ static vm_status emit_edge_one(dc *d, const int64_t only[4], vm_error *err) {
 /* A slab of edges emitted on its own: a shallow copy of the state with its own tet, source
  * and centre lists. Centre ids count from N + nreps within the slab and are shifted when
  * the slab is appended, so the result is the serial one for any thread count. */
+/* The elements of the interior cells of z layers k0..k1-1. */
+static vm_status emit_interior(dc *d, int64_t k0, int64_t k1, vm_error *err);
+
 typedef struct edge_slab {
+    int interior; /* 1: the interior cells of z layers lo[3]..hi[3]-1; 0: the edges lo..hi */
     int64_t lo[4], hi[4];
     int64_t *tets, *src;
     size_t ntets;
@@ -437,7 +441,9 @@ static void emit_slab(const dc *d, const uint8_t *act, edge_slab *sl) {
     local.centre = NULL;
     local.ncentre = local.centre_cap = 0;
     vm_error_clear(&sl->err);
-    sl->status = emit_edge_box(&local, sl->lo, sl->hi, act, &sl->err);
+    local.cur_src = SRC(SRC_NONE, 0);
+    sl->status = sl->interior ? emit_interior(&local, sl->lo[3], sl->hi[3], &sl->err)
+                              : emit_edge_box(&local, sl->lo, sl->hi, act, &sl->err);
     sl->tets = local.tets;
     sl->src = local.src;
     sl->ntets = local.ntets;
@@ -478,17 +484,20 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
     return s;
 }
 
-/* The elements of every grid edge, axis by axis, in slabs of z layers run in parallel and
- * appended in order. */
-static vm_status emit_edges(dc *d, vm_error *err) {
+/* The elements of every grid edge, axis by axis (interior: of the interior cells), in slabs
+ * of z layers run in parallel and appended in order. */
+static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
     size_t nc = (size_t)(d->C[0] * d->C[1] * d->C[2]);
-    uint8_t *act = malloc(nc);
-    if (!act) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
+    uint8_t *act = NULL;
+    if (!interior) {
+        act = malloc(nc);
+        if (!act) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
 #pragma omp parallel for schedule(static)
-    for (int64_t ci = 0; ci < (int64_t)nc; ci++)
-        act[ci] = d->cell_map[ci] >= 0 || vm__dc_coarse(d, ci) >= 0;
+        for (int64_t ci = 0; ci < (int64_t)nc; ci++)
+            act[ci] = d->cell_map[ci] >= 0 || vm__dc_coarse(d, ci) >= 0;
+    }
     enum { LAYERS = 4, BATCH = 64 };
-    int64_t per_axis = (d->n[2] + LAYERS - 1) / LAYERS, total = 3 * per_axis;
+    int64_t per_axis = (d->n[2] + LAYERS - 1) / LAYERS, total = (interior ? 1 : 3) * per_axis;
     edge_slab *sl = calloc(BATCH, sizeof *sl);
     vm_status s = sl ? VM_OK : vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     for (int64_t first = 0; first < total && !s; first += BATCH) {
@@ -498,7 +507,9 @@ static vm_status emit_edges(dc *d, vm_error *err) {
             int64_t id = first + q, a = id / per_axis, z0 = (id % per_axis) * LAYERS;
             edge_slab *x = &sl[q];
             int64_t lo[4] = {a, 0, 0, z0}, hi[4] = {a + 1, d->n[0], d->n[1], z0 + LAYERS};
-            if (hi[3] > d->n[2]) hi[3] = d->n[2];
+            int64_t top = interior ? d->n[2] - 1 : d->n[2];
+            if (hi[3] > top) hi[3] = top;
+            x->interior = interior;
             memcpy(x->lo, lo, sizeof lo);
             memcpy(x->hi, hi, sizeof hi);
             emit_slab(d, act, x);
@@ -667,8 +678,8 @@ static vm_status emit_coarse_leaf(dc *d, const int64_t o[3], int l, vm_error *er
     return VM_OK;
 }
 
-static vm_status emit_interior(dc *d, vm_error *err) {
-    for (int64_t k = 0; k + 1 < d->n[2]; k++)
+static vm_status emit_interior(dc *d, int64_t k0, int64_t k1, vm_error *err) {
+    for (int64_t k = k0; k < k1; k++)
         for (int64_t j = 0; j + 1 < d->n[1]; j++)
             for (int64_t i = 0; i + 1 < d->n[0]; i++) {
                 int64_t ci = vm__dc_cidx(d, i, j, k);
@@ -786,10 +797,10 @@ static vm_status emit_gaps(dc *d, size_t first, size_t end, vm_error *err) {
 static vm_status emit_all(dc *d, vm_error *err) {
     d->ntets = 0;
     d->ncentre = 0;
-    vm_status s = emit_edges(d, err);
+    vm_status s = emit_slabs(d, 0, err);
     if (!s) s = emit_faces(d, 0, d->nbc, err);
     d->cur_src = SRC(SRC_NONE, 0);
-    if (!s) s = emit_interior(d, err);
+    if (!s) s = emit_slabs(d, 1, err);
     if (!s) s = emit_coarse_boundary(d, 0, d->ncoarse, err);
     if (!s) s = emit_gaps(d, 0, d->nbc, err);
     return s;
