@@ -492,7 +492,9 @@ static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
     if (!interior) {
         act = malloc(nc);
         if (!act) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
+#endif
         for (int64_t ci = 0; ci < (int64_t)nc; ci++)
             act[ci] = d->cell_map[ci] >= 0 || vm__dc_coarse(d, ci) >= 0;
     }
@@ -502,7 +504,9 @@ static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
     vm_status s = sl ? VM_OK : vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     for (int64_t first = 0; first < total && !s; first += BATCH) {
         int64_t count = total - first < BATCH ? total - first : BATCH;
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1)
+#endif
         for (int64_t q = 0; q < count; q++) {
             int64_t id = first + q, a = id / per_axis, z0 = (id % per_axis) * LAYERS;
             edge_slab *x = &sl[q];

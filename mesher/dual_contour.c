@@ -124,7 +124,9 @@ static vm_status classify(dc *d, vm_mesh_stats *st, vm_error *err) {
     d->in = calloc(np, 1);
     if (!d->in) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu points)", np);
     size_t inside = 0;
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static) reduction(+ : inside)
+#endif
     for (int64_t k = 0; k < d->n[2]; k++)
         for (int64_t j = 0; j < d->n[1]; j++)
             for (int64_t i = 0; i < d->n[0]; i++) {
@@ -146,7 +148,9 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
     size_t reps = 0;
     /* The corner masks first, in parallel (held in cell_map), then the boundary cells in
      * order. */
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
+#endif
     for (int64_t k = -1; k < d->n[2]; k++)
         for (int64_t j = -1; j < d->n[1]; j++)
             for (int64_t i = -1; i < d->n[0]; i++) {
@@ -261,7 +265,9 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
     if (!d->qpos || !d->mpos || !d->lambda || !d->rep_planes || !d->cpos || !d->mu)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for %zu vertices", n);
     /* each cell and each ambiguous face writes only its own representatives */
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 4096)
+#endif
     for (size_t bi = 0; bi < d->nbc; bi++) {
         const bcell *b = &d->bc[bi];
         int64_t cm[3];
@@ -329,7 +335,9 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
         }
     }
     /* Ambiguous faces: one vertex per boundary segment, midway between its two crossings. */
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
+#endif
     for (size_t fi = 0; fi < d->namb; fi++) {
         int64_t cm[3];
         int a = (int)(d->amb[fi] % 3);
@@ -658,7 +666,9 @@ static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
     size_t nblocks = (size_t)(nb[0] * nb[1] * nb[2]);
     uint8_t *ok = malloc(nblocks ? nblocks : 1);
     if (!ok) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1)
+#endif
     for (int64_t bk = 0; bk < nb[2]; bk++)
         for (int64_t bj = 0; bj < nb[1]; bj++)
             for (int64_t bi = 0; bi < nb[0]; bi++) {
@@ -709,7 +719,9 @@ static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error 
         free(blevel);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
     }
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
+#endif
     for (int64_t k = 0; k < nc[2]; k++)
         for (int64_t j = 0; j < nc[1]; j++)
             for (int64_t i = 0; i < nc[0]; i++) {

@@ -89,12 +89,16 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
     /* full[c] = largest l such that the aligned cube of 2^l cells at origin c is inside */
     /* Every loop over cells below reads and writes disjoint cells per z layer (or per
      * level, reading the level below): parallel and the same for any thread count. */
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
+#endif
     for (size_t i = 0; i < n; i++)
         full[i] = kind[i] == VM_KIND_INTERIOR ? 0 : -1;
     for (int l = 1; l <= max_level; l++) {
         int64_t s = (int64_t)1 << l, h = s / 2;
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
+#endif
         for (int64_t z = 0; z < nc[2] - s + 1; z += s)
             for (int64_t y = 0; y + s <= nc[1]; y += s)
                 for (int64_t x = 0; x + s <= nc[0]; x += s) {
@@ -111,7 +115,9 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
                 }
     }
     /* leaves: the largest inside cube holding each cell */
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
+#endif
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
@@ -178,7 +184,9 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
     }
     /* keep is set, and later read, only at the origins of 2x2x2 leaves (even positions) */
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
+#endif
     for (int64_t z = 0; z < nc[2]; z += 2)
         for (int64_t y = 0; y < nc[1]; y += 2)
             for (int64_t x = 0; x < nc[0]; x += 2) {
@@ -194,7 +202,9 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
                 }
                 keep[ci] = cost < 40;
             }
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
+#endif
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
@@ -204,7 +214,9 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
             }
     free(keep);
     size_t count = 0;
+#ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static) reduction(+ : count)
+#endif
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
