@@ -234,10 +234,14 @@ static int check_memory(const char *in, const vm_volume *v, const vm_mesh_option
         need += (o->elements == VM_HEX8 ? MEM_PER_INSIDE_HEX : MEM_PER_INSIDE_TET) * cells;
     }
     if (need <= limit) return 0;
-    return vm_cli_fail("%s: meshing needs about %.2f GiB (%zu voxels in the material), more "
-                       "than --max-memory %.2f GiB: try --size %d (about 8x less)%s",
-                       in, need / 1073741824.0, inside, limit / 1073741824.0,
-                       2 * o->cell_size, o->adaptive ? "" : " or --adaptive");
+    /* MiB below a GiB, so that small limits do not read "0.00 GiB" */
+    int gib = limit >= 1073741824.0;
+    double unit = gib ? 1073741824.0 : 1048576.0;
+    return vm_cli_fail("%s: meshing needs about %.*f %s (%zu voxels in the material), more "
+                       "than --max-memory %.*f %s: try --size %d (about 8x less)%s",
+                       in, gib ? 2 : 1, need / unit, gib ? "GiB" : "MiB", inside, gib ? 2 : 1,
+                       limit / unit, gib ? "GiB" : "MiB", 2 * o->cell_size,
+                       o->adaptive ? "" : " or --adaptive");
 }
 
 int vm_cmd_mesh(int argc, char **argv) {
