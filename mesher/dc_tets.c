@@ -467,10 +467,12 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
     }
     if (!s) {
         int64_t first = vm__dc_npoints_real(d) + (int64_t)d->nreps, shift = (int64_t)d->ncentre;
-        int64_t *t = d->tets + 4 * d->ntets;
-        for (size_t q = 0; q < 4 * sl->ntets; q++)
-            t[q] = sl->tets[q] >= first ? sl->tets[q] + shift : sl->tets[q];
-        memcpy(d->src + d->ntets, sl->src, sl->ntets * sizeof(int64_t));
+        if (sl->ntets) { /* (d->tets may still be NULL otherwise) */
+            int64_t *t = d->tets + 4 * d->ntets;
+            for (size_t q = 0; q < 4 * sl->ntets; q++)
+                t[q] = sl->tets[q] >= first ? sl->tets[q] + shift : sl->tets[q];
+            memcpy(d->src + d->ntets, sl->src, sl->ntets * sizeof(int64_t));
+        }
         if (sl->ncentre)
             memcpy(d->centre + 3 * d->ncentre, sl->centre, 3 * sl->ncentre * sizeof(double));
         d->ntets += sl->ntets;
