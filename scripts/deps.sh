@@ -23,6 +23,8 @@ if [ "$want_tests" = 1 ]; then
     command -v ccx >/dev/null 2>&1 || pkgs+=(calculix-ccx)
     command -v gmsh >/dev/null 2>&1 || pkgs+=(gmsh)
     dpkg -s libexodusii-dev >/dev/null 2>&1 || pkgs+=(libexodusii-dev)
+    # bench/run and bench/big.py: wall time and peak memory by GNU time -v
+    [ -x /usr/bin/time ] || pkgs+=(time)
     # the HTML report is checked in a real browser
     command -v chromium >/dev/null 2>&1 || pkgs+=(chromium)
 fi
