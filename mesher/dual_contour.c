@@ -713,8 +713,8 @@ static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error 
     int64_t nc[3] = {d->n[0] - 1, d->n[1] - 1, d->n[2] - 1};
     size_t n = (size_t)(nc[0] * nc[1] * nc[2]);
     uint8_t *kind = malloc(n ? n : 1);
-    int8_t *blevel = malloc(n ? n : 1);
-    if (!kind || !blevel) {
+    int8_t *blevel = d->ncoarse ? malloc(n ? n : 1) : NULL; /* the octree takes it */
+    if (!kind || (d->ncoarse && !blevel)) {
         free(kind);
         free(blevel);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
@@ -729,17 +729,15 @@ static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error 
                 int64_t ci = vm__dc_cidx(d, i, j, k);
                 int32_t code = d->cell_map[ci];
                 int coarse = vm__dc_coarse(d, ci) >= 0;
-                blevel[idx] = (int8_t)coarse;
+                if (blevel) blevel[idx] = (int8_t)coarse;
                 kind[idx] = coarse             ? VM_KIND_BOUNDARY
                               : code == CELL_IN  ? VM_KIND_INTERIOR
                               : code == CELL_OUT ? VM_KIND_EXTERIOR
                                                  : VM_KIND_BOUNDARY;
             }
     size_t leaves = 0;
-    vm_status s = vm__octree_build(&d->oct, nc, kind, d->ncoarse ? blevel : NULL, max_level,
-                                   &leaves, err);
+    vm_status s = vm__octree_build(&d->oct, nc, kind, blevel, max_level, &leaves, err);
     free(kind);
-    free(blevel);
     d->adaptive = s == VM_OK;
     st->interior_cells = leaves;
     return s;

@@ -71,17 +71,14 @@ static int neighbour_level(const vm__octree *o, const int64_t q[3]) {
 }
 
 vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *kind,
-                           const int8_t *blevel, int max_level, size_t *leaves, vm_error *err) {
+                           int8_t *blevel, int max_level, size_t *leaves, vm_error *err) {
     memset(o, 0, sizeof *o);
     memcpy(o->nc, nc, sizeof o->nc);
     size_t n = (size_t)(nc[0] * nc[1] * nc[2]);
     o->lvl = malloc(n ? n : 1);
     int8_t *full = malloc(n ? n : 1);
-    if (blevel) {
-        o->blvl = malloc(n ? n : 1);
-        if (o->blvl) memcpy(o->blvl, blevel, n);
-    }
-    if (!o->lvl || !full || (blevel && !o->blvl)) {
+    o->blvl = blevel;
+    if (!o->lvl || !full) {
         free(full);
         vm__octree_free(o);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
