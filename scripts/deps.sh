@@ -18,13 +18,13 @@ if [ "$want_tests" = 1 ]; then
     command -v tetgen >/dev/null 2>&1 || pkgs+=(tetgen)
     dpkg -s libcgal-dev >/dev/null 2>&1 || pkgs+=(libcgal-dev)
     command -v g++ >/dev/null 2>&1 || pkgs+=(g++)
+    # bench/run and bench/big.py: wall time and peak memory by GNU time -v
+    [ -x /usr/bin/time ] || pkgs+=(time)
     # FE interop judges: CalculiX solves our .inp decks, gmsh reads our .msh files; the
     # optional Exodus II writer is built when libexodusii-dev is present at configure time.
     command -v ccx >/dev/null 2>&1 || pkgs+=(calculix-ccx)
     command -v gmsh >/dev/null 2>&1 || pkgs+=(gmsh)
     dpkg -s libexodusii-dev >/dev/null 2>&1 || pkgs+=(libexodusii-dev)
-    # bench/run and bench/big.py: wall time and peak memory by GNU time -v
-    [ -x /usr/bin/time ] || pkgs+=(time)
     # the HTML report is checked in a real browser
     command -v chromium >/dev/null 2>&1 || pkgs+=(chromium)
 fi
