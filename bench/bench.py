@@ -323,6 +323,14 @@ def write_markdown(path, results, meta):
     text = (text.replace("@MACHINE@", "\n".join(machine_lines))
             .replace("@TABLE@", "\n".join(rows)).replace("@RATIOS@", "\n".join(ratios))
             .replace("@CGAL_MAX@", str(CGAL_MAX_TETS)))
+    # the big-volume block is bench/big.py's: keep what it last wrote
+    begin, end = "<!-- big-volumes:begin", "<!-- big-volumes:end -->"
+    if os.path.exists(path) and begin in text and end in text:
+        with open(path, encoding="utf-8") as fh:
+            old = fh.read()
+        if begin in old and end in old:
+            kept = old[old.index(begin):old.index(end) + len(end)]
+            text = text[:text.index(begin)] + kept + text[text.index(end) + len(end):]
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(text)
 

@@ -171,29 +171,77 @@ static int parse_bytes(const char *s, double *bytes) {
     return 0;
 }
 
-/* Peak memory of a run beyond the volume, per inside voxel at cell size 1: measured about
- * 1010 bytes for tets (5.3 tets of ~190 bytes each, quality pass included) and 245 bytes for
- * hexes on a 128^3 sphere (docs/BENCHMARKS.md); these are rounded up. Adaptive runs make
- * fewer elements, so for them this is an upper bound. */
+/* Peak memory of a run beyond the volume, from the cells the mesher will see (measured on
+ * the sphere phantoms and the CT head, docs/BENCHMARKS.md, rounded up):
+ *  - uniform tets: about 5.3 tets per inside cell, ~200 bytes per tet at the peak (the
+ *    quality pass included): 1100 bytes per inside cell; hexes: 300 bytes per inside cell;
+ *  - adaptive tets: the grid arrays of the mesher (classification, cell map, coarse leaves,
+ *    octree: 14 bytes per cell), and up to 9 tets per boundary cell (one with mixed corners)
+ *    plus 0.05 per inside cell, at 200 bytes per tet.
+ * At cell size S > 1 the counts are those of the resampled grid, estimated as 1/S^3. */
 #define MEM_PER_INSIDE_TET 1100.0
 #define MEM_PER_INSIDE_HEX 300.0
+#define MEM_ADAPTIVE_PER_CELL 14.0
+#define MEM_ADAPTIVE_TETS_PER_BOUNDARY 9.0
+#define MEM_ADAPTIVE_TETS_PER_INSIDE 0.05
+#define MEM_PER_TET 200.0
+
+static int in_range(const vm_mesh_options *o, float f) {
+    return (!o->has_lo || f >= o->lo) && (!o->has_hi || f <= o->hi);
+}
+
+/* Cells of the padded grid (one cell beyond every face) whose corners are partly in the
+ * material: the mesher's boundary cells. */
+static size_t boundary_cells(const vm_volume *v, const vm_mesh_options *o) {
+    const int64_t *n = v->dims;
+    size_t count = 0;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static) reduction(+ : count)
+#endif
+    for (int64_t k = -1; k < n[2]; k++)
+        for (int64_t j = -1; j < n[1]; j++)
+            for (int64_t i = -1; i < n[0]; i++) {
+                int any = 0, all = 1;
+                for (int c = 0; c < 8; c++) {
+                    int64_t x = i + (c & 1), y = j + ((c >> 1) & 1), z = k + (c >> 2);
+                    int in = x >= 0 && y >= 0 && z >= 0 && x < n[0] && y < n[1] && z < n[2] &&
+                             in_range(o, v->data[x + n[0] * (y + n[1] * z)]);
+                    any |= in;
+                    all &= in;
+                }
+                count += any && !all;
+            }
+    return count;
+}
 
 /* --max-memory: estimates the peak of meshing v and refuses when it exceeds limit. */
 static int check_memory(const char *in, const vm_volume *v, const vm_mesh_options *o,
                         int denoise, double limit) {
     size_t n = vm_volume_count(v), inside = 0;
-    for (size_t i = 0; i < n; i++) {
-        float f = v->data[i];
-        inside += (!o->has_lo || f >= o->lo) && (!o->has_hi || f <= o->hi);
+    for (size_t i = 0; i < n; i++)
+        inside += in_range(o, v->data[i]);
+    double s3 = (double)o->cell_size * o->cell_size * o->cell_size;
+    double cells = (double)inside / s3, need = (denoise ? 2.0 : 1.0) * 4.0 * (double)n;
+    if (o->adaptive && o->elements == VM_TET4) {
+        double grid = 1;
+        for (int a = 0; a < 3; a++)
+            grid *= (double)(v->dims[a] - 1) / o->cell_size + 3;
+        double bnd = (double)boundary_cells(v, o) / (o->cell_size * o->cell_size);
+        double tets =
+            MEM_ADAPTIVE_TETS_PER_BOUNDARY * bnd + MEM_ADAPTIVE_TETS_PER_INSIDE * cells;
+        need += MEM_ADAPTIVE_PER_CELL * grid + MEM_PER_TET * tets;
+    } else {
+        need += (o->elements == VM_HEX8 ? MEM_PER_INSIDE_HEX : MEM_PER_INSIDE_TET) * cells;
     }
-    double cells = (double)inside / ((double)o->cell_size * o->cell_size * o->cell_size);
-    double per = o->elements == VM_HEX8 ? MEM_PER_INSIDE_HEX : MEM_PER_INSIDE_TET;
-    double need = (denoise ? 2.0 : 1.0) * 4.0 * (double)n + per * cells;
     if (need <= limit) return 0;
-    return vm_cli_fail("%s: meshing needs about %.2f GiB (%zu voxels in the material), more "
-                       "than --max-memory %.2f GiB: try --size %d (about 8x less)%s",
-                       in, need / 1073741824.0, inside, limit / 1073741824.0,
-                       2 * o->cell_size, o->adaptive ? "" : " or --adaptive");
+    /* MiB below a GiB, so that small limits do not read "0.00 GiB" */
+    int gib = limit >= 1073741824.0;
+    double unit = gib ? 1073741824.0 : 1048576.0;
+    return vm_cli_fail("%s: meshing needs about %.*f %s (%zu voxels in the material), more "
+                       "than --max-memory %.*f %s: try --size %d (about 8x less)%s",
+                       in, gib ? 2 : 1, need / unit, gib ? "GiB" : "MiB", inside, gib ? 2 : 1,
+                       limit / unit, gib ? "GiB" : "MiB", 2 * o->cell_size,
+                       o->adaptive ? "" : " or --adaptive");
 }
 
 int vm_cmd_mesh(int argc, char **argv) {

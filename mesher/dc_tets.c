@@ -338,18 +338,36 @@ static vm_status emit_edge_mixed(dc *d, int a, const int64_t p0[3], int64_t mins
     return emit_polygon(d, in0 ? v0 : v1, in0, poly, inserted, n, err);
 }
 
-/* The elements of every grid edge, or (only != NULL) of the edge {axis, i, j, k}. */
-static vm_status emit_edges(dc *d, const int64_t *only, vm_error *err) {
-    int64_t lo[4] = {0, 0, 0, 0}, hi[4] = {3, d->n[0], d->n[1], d->n[2]};
-    if (only)
-        for (int q = 0; q < 4; q++)
-            lo[q] = only[q], hi[q] = only[q] + 1;
-    for (int a = (int)lo[0]; a < (int)hi[0]; a++)
+/* The elements of the grid edges {axis, i, j, k} with lo <= (axis, i, j, k) < hi. act
+ * (NULL: not used) flags the padded cells that are boundary cells or coarse leaves: an edge
+ * none of whose four cells is flagged makes no element, and is skipped early. */
+static vm_status emit_edge_box(dc *d, const int64_t lo[4], const int64_t hi[4],
+                               const uint8_t *act, vm_error *err) {
+    for (int a = (int)lo[0]; a < (int)hi[0]; a++) {
+        int b = (a + 1) % 3, c = (a + 2) % 3;
+        const int64_t stride[3] = {1, d->C[0], d->C[0] * d->C[1]};
+        const int64_t sb = stride[b], sc = stride[c];
         for (int64_t k = lo[3]; k < hi[3]; k++)
             for (int64_t j = lo[2]; j < hi[2]; j++)
                 for (int64_t i = lo[1]; i < hi[1]; i++) {
                     int64_t p0[3] = {i, j, k}, p1[3] = {i, j, k};
                     if (++p1[a] >= d->n[a]) continue;
+                    if (act) {
+                        int64_t c0 = vm__dc_cidx(d, i, j, k);
+                        if (i + 8 <= hi[1]) { /* eight edges at once (the rows run along x) */
+                            uint64_t w[4];
+                            memcpy(&w[0], act + c0, 8);
+                            memcpy(&w[1], act + c0 - sb, 8);
+                            memcpy(&w[2], act + c0 - sb - sc, 8);
+                            memcpy(&w[3], act + c0 - sc, 8);
+                            if (!(w[0] | w[1] | w[2] | w[3])) {
+                                i += 7;
+                                continue;
+                            }
+                        }
+                        if (!(act[c0] | act[c0 - sb] | act[c0 - sb - sc] | act[c0 - sc]))
+                            continue;
+                    }
                     d->cur_src = SRC(SRC_EDGE, a + 3 * vm__dc_lattice_id(d, p0));
                     int in0 = d->in[vm__dc_pidx(d, i, j, k)],
                         in1 = d->in[vm__dc_pidx(d, p1[0], p1[1], p1[2])];
@@ -387,7 +405,129 @@ static vm_status emit_edges(dc *d, const int64_t *only, vm_error *err) {
                     }
                     if (s) return s;
                 }
+    }
     return VM_OK;
+}
+
+/* The elements of the edge only = {axis, i, j, k}. */
+static vm_status emit_edge_one(dc *d, const int64_t only[4], vm_error *err) {
+    int64_t lo[4], hi[4];
+    for (int q = 0; q < 4; q++)
+        lo[q] = only[q], hi[q] = only[q] + 1;
+    return emit_edge_box(d, lo, hi, NULL, err);
+}
+
+/* A slab of edges emitted on its own: a shallow copy of the state with its own tet, source
+ * and centre lists. Centre ids count from N + nreps within the slab and are shifted when
+ * the slab is appended, so the result is the serial one for any thread count. */
+/* The elements of the interior cells of z layers k0..k1-1. */
+static vm_status emit_interior(dc *d, int64_t k0, int64_t k1, vm_error *err);
+
+typedef struct edge_slab {
+    int interior; /* 1: the interior cells of z layers lo[3]..hi[3]-1; 0: the edges lo..hi */
+    int64_t lo[4], hi[4];
+    int64_t *tets, *src;
+    size_t ntets;
+    double *centre;
+    size_t ncentre;
+    vm_status status;
+    vm_error err;
+} edge_slab;
+
+static void emit_slab(const dc *d, const uint8_t *act, edge_slab *sl) {
+    dc local = *d;
+    local.tets = local.src = NULL;
+    local.ntets = local.tet_cap = local.src_cap = 0;
+    local.centre = NULL;
+    local.ncentre = local.centre_cap = 0;
+    vm_error_clear(&sl->err);
+    local.cur_src = SRC(SRC_NONE, 0);
+    sl->status = sl->interior ? emit_interior(&local, sl->lo[3], sl->hi[3], &sl->err)
+                              : emit_edge_box(&local, sl->lo, sl->hi, act, &sl->err);
+    sl->tets = local.tets;
+    sl->src = local.src;
+    sl->ntets = local.ntets;
+    sl->centre = local.centre;
+    sl->ncentre = local.ncentre;
+}
+
+static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
+    vm_status s = sl->status;
+    if (s) {
+        if (err) *err = sl->err;
+    } else {
+        s = vm__grow((void **)&d->tets, &d->tet_cap, d->ntets + sl->ntets, 4 * sizeof(int64_t),
+                     err);
+        if (!s)
+            s = vm__grow((void **)&d->src, &d->src_cap, d->ntets + sl->ntets, sizeof(int64_t),
+                         err);
+        if (!s)
+            s = vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + sl->ncentre,
+                         3 * sizeof(double), err);
+    }
+    if (!s) {
+        int64_t first = vm__dc_npoints_real(d) + (int64_t)d->nreps, shift = (int64_t)d->ncentre;
+        if (sl->ntets) { /* (d->tets may still be NULL otherwise) */
+            int64_t *t = d->tets + 4 * d->ntets;
+            for (size_t q = 0; q < 4 * sl->ntets; q++)
+                t[q] = sl->tets[q] >= first ? sl->tets[q] + shift : sl->tets[q];
+            memcpy(d->src + d->ntets, sl->src, sl->ntets * sizeof(int64_t));
+        }
+        if (sl->ncentre)
+            memcpy(d->centre + 3 * d->ncentre, sl->centre, 3 * sl->ncentre * sizeof(double));
+        d->ntets += sl->ntets;
+        d->ncentre += sl->ncentre;
+    }
+    free(sl->tets);
+    free(sl->src);
+    free(sl->centre);
+    sl->tets = sl->src = NULL;
+    sl->centre = NULL;
+    return s;
+}
+
+/* The elements of every grid edge, axis by axis (interior: of the interior cells), in slabs
+ * of z layers run in parallel and appended in order. */
+static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
+    size_t nc = (size_t)(d->C[0] * d->C[1] * d->C[2]);
+    uint8_t *act = NULL;
+    if (!interior) {
+        act = malloc(nc);
+        if (!act) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+        for (int64_t ci = 0; ci < (int64_t)nc; ci++)
+            act[ci] = d->cell_map[ci] >= 0 || vm__dc_coarse(d, ci) >= 0;
+    }
+    enum { LAYERS = 4, BATCH = 64 };
+    int64_t per_axis = (d->n[2] + LAYERS - 1) / LAYERS, total = (interior ? 1 : 3) * per_axis;
+    edge_slab *sl = calloc(BATCH, sizeof *sl);
+    vm_status s = sl ? VM_OK : vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    for (int64_t first = 0; first < total && !s; first += BATCH) {
+        int64_t count = total - first < BATCH ? total - first : BATCH;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+        for (int64_t q = 0; q < count; q++) {
+            int64_t id = first + q, a = id / per_axis, z0 = (id % per_axis) * LAYERS;
+            edge_slab *x = &sl[q];
+            int64_t lo[4] = {a, 0, 0, z0}, hi[4] = {a + 1, d->n[0], d->n[1], z0 + LAYERS};
+            int64_t top = interior ? d->n[2] - 1 : d->n[2];
+            if (hi[3] > top) hi[3] = top;
+            x->interior = interior;
+            memcpy(x->lo, lo, sizeof lo);
+            memcpy(x->hi, hi, sizeof hi);
+            emit_slab(d, act, x);
+        }
+        for (int64_t q = 0; q < count; q++) {
+            vm_status t = append_slab(d, &sl[q], s ? NULL : err);
+            if (!s) s = t;
+        }
+    }
+    free(sl);
+    free(act);
+    return s;
 }
 
 /* Faces of boundary cells whose four corners are inside and whose neighbour is an interior
@@ -544,8 +684,8 @@ static vm_status emit_coarse_leaf(dc *d, const int64_t o[3], int l, vm_error *er
     return VM_OK;
 }
 
-static vm_status emit_interior(dc *d, vm_error *err) {
-    for (int64_t k = 0; k + 1 < d->n[2]; k++)
+static vm_status emit_interior(dc *d, int64_t k0, int64_t k1, vm_error *err) {
+    for (int64_t k = k0; k < k1; k++)
         for (int64_t j = 0; j + 1 < d->n[1]; j++)
             for (int64_t i = 0; i + 1 < d->n[0]; i++) {
                 int64_t ci = vm__dc_cidx(d, i, j, k);
@@ -663,10 +803,10 @@ static vm_status emit_gaps(dc *d, size_t first, size_t end, vm_error *err) {
 static vm_status emit_all(dc *d, vm_error *err) {
     d->ntets = 0;
     d->ncentre = 0;
-    vm_status s = emit_edges(d, NULL, err);
+    vm_status s = emit_slabs(d, 0, err);
     if (!s) s = emit_faces(d, 0, d->nbc, err);
     d->cur_src = SRC(SRC_NONE, 0);
-    if (!s) s = emit_interior(d, err);
+    if (!s) s = emit_slabs(d, 1, err);
     if (!s) s = emit_coarse_boundary(d, 0, d->ncoarse, err);
     if (!s) s = emit_gaps(d, 0, d->nbc, err);
     return s;
@@ -715,7 +855,7 @@ static vm_status emit_local(dc *d, const uint8_t *moved, vm_error *err) {
             int64_t id = pl / 3;
             int64_t only[4] = {pl % 3, id % d->n[0], (id / d->n[0]) % d->n[1],
                                id / (d->n[0] * d->n[1])};
-            s = emit_edges(d, only, err);
+            s = emit_edge_one(d, only, err);
             break;
         }
         case SRC_FACES: s = emit_faces(d, (size_t)pl, (size_t)pl + 1, err); break;

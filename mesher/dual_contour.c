@@ -124,6 +124,9 @@ static vm_status classify(dc *d, vm_mesh_stats *st, vm_error *err) {
     d->in = calloc(np, 1);
     if (!d->in) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu points)", np);
     size_t inside = 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static) reduction(+ : inside)
+#endif
     for (int64_t k = 0; k < d->n[2]; k++)
         for (int64_t j = 0; j < d->n[1]; j++)
             for (int64_t i = 0; i < d->n[0]; i++) {
@@ -143,6 +146,11 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
     if (!d->cell_map)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
     size_t reps = 0;
+    /* The corner masks first, in parallel (held in cell_map), then the boundary cells in
+     * order. */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
     for (int64_t k = -1; k < d->n[2]; k++)
         for (int64_t j = -1; j < d->n[1]; j++)
             for (int64_t i = -1; i < d->n[0]; i++) {
@@ -150,7 +158,13 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
                 for (int c = 0; c < 8; c++)
                     mask |= d->in[vm__dc_pidx(d, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))]
                             << c;
+                d->cell_map[vm__dc_cidx(d, i, j, k)] = mask;
+            }
+    for (int64_t k = -1; k < d->n[2]; k++)
+        for (int64_t j = -1; j < d->n[1]; j++)
+            for (int64_t i = -1; i < d->n[0]; i++) {
                 int64_t ci = vm__dc_cidx(d, i, j, k);
+                int mask = d->cell_map[ci];
                 if (mask == 0) {
                     d->cell_map[ci] = CELL_OUT;
                     continue;
@@ -250,6 +264,10 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
     d->mu = malloc(n * sizeof(double));
     if (!d->qpos || !d->mpos || !d->lambda || !d->rep_planes || !d->cpos || !d->mu)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for %zu vertices", n);
+    /* each cell and each ambiguous face writes only its own representatives */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 4096)
+#endif
     for (size_t bi = 0; bi < d->nbc; bi++) {
         const bcell *b = &d->bc[bi];
         int64_t cm[3];
@@ -317,6 +335,9 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
         }
     }
     /* Ambiguous faces: one vertex per boundary segment, midway between its two crossings. */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
     for (size_t fi = 0; fi < d->namb; fi++) {
         int64_t cm[3];
         int a = (int)(d->amb[fi] % 3);
@@ -476,15 +497,17 @@ static int in_material(const dc *d, double f) {
  *    plane through the minimiser normal to the crossings' mean normal, which bounds how
  *    far the fine surface lies from the leaf's fan. */
 static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double m[3]) {
+    int mask = 0;
+    for (int c = 0; c < 8; c++)
+        mask |= d->in[vm__dc_pidx(d, o[0] + 2 * (c & 1), o[1] + 2 * ((c >> 1) & 1),
+                                  o[2] + 2 * (c >> 2))]
+                << c;
+    if (mask == 0 || mask == 0xff || has_ambiguous_face(mask)) return 0;
     int s[3][3][3];
     for (int k = 0; k < 3; k++)
         for (int j = 0; j < 3; j++)
             for (int i = 0; i < 3; i++)
                 s[i][j][k] = d->in[vm__dc_pidx(d, o[0] + i, o[1] + j, o[2] + k)];
-    int mask = 0;
-    for (int c = 0; c < 8; c++)
-        mask |= s[2 * (c & 1)][2 * ((c >> 1) & 1)][2 * (c >> 2)] << c;
-    if (mask == 0 || mask == 0xff || has_ambiguous_face(mask)) return 0;
     bcell cb;
     analyse_cell(mask, &cb);
     if (cb.npatch != 1 || cb.special) return 0;
@@ -635,18 +658,40 @@ static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
     for (size_t i = 0; i < nc; i++)
         d->coarse_of[i] = -1;
     size_t cap = 0;
+    /* block_mergeable reads only the classification: the blocks are tested in parallel,
+     * then the mergeable ones are taken in order (their vertex recomputed). */
+    int64_t nb[3];
+    for (int a = 0; a < 3; a++)
+        nb[a] = d->n[a] >= 6 ? (d->n[a] - 6) / 2 + 1 : 0;
+    size_t nblocks = (size_t)(nb[0] * nb[1] * nb[2]);
+    uint8_t *ok = malloc(nblocks ? nblocks : 1);
+    if (!ok) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+    for (int64_t bk = 0; bk < nb[2]; bk++)
+        for (int64_t bj = 0; bj < nb[1]; bj++)
+            for (int64_t bi = 0; bi < nb[0]; bi++) {
+                int64_t o[3] = {2 + 2 * bi, 2 + 2 * bj, 2 + 2 * bk};
+                double x[3], m[3];
+                ok[bi + nb[0] * (bj + nb[1] * bk)] = (uint8_t)block_mergeable(d, o, x, m);
+            }
+    size_t bidx = 0;
     for (int64_t k = 2; k + 4 <= d->n[2]; k += 2)
         for (int64_t j = 2; j + 4 <= d->n[1]; j += 2)
             for (int64_t i = 2; i + 4 <= d->n[0]; i += 2) {
                 int64_t o[3] = {i, j, k};
                 double x[3], m[3];
-                if (!block_mergeable(d, o, x, m)) continue;
+                if (!ok[bidx++] || !block_mergeable(d, o, x, m)) continue;
                 vm_status s = vm__grow((void **)&d->coarse_org, &d->coarse_cap, d->ncoarse + 1,
                                        3 * sizeof(int64_t), err);
                 if (!s)
                     s = vm__grow((void **)coarse_pos, &cap, d->ncoarse + 1, 6 * sizeof(double),
                                  err);
-                if (s) return s;
+                if (s) {
+                    free(ok);
+                    return s;
+                }
                 memcpy(d->coarse_org + 3 * d->ncoarse, o, sizeof o);
                 for (int a = 0; a < 3; a++) {
                     (*coarse_pos)[6 * d->ncoarse + (size_t)a] = (double)o[a] + x[a];
@@ -657,6 +702,7 @@ static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
                                              k + (c >> 2))] = (int32_t)d->ncoarse;
                 d->ncoarse++;
             }
+    free(ok);
     d->coarse_base = d->nreps;
     d->nreps += d->ncoarse;
 
@@ -667,30 +713,31 @@ static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error 
     int64_t nc[3] = {d->n[0] - 1, d->n[1] - 1, d->n[2] - 1};
     size_t n = (size_t)(nc[0] * nc[1] * nc[2]);
     uint8_t *kind = malloc(n ? n : 1);
-    int8_t *blevel = malloc(n ? n : 1);
-    if (!kind || !blevel) {
+    int8_t *blevel = d->ncoarse ? malloc(n ? n : 1) : NULL; /* the octree takes it */
+    if (!kind || (d->ncoarse && !blevel)) {
         free(kind);
         free(blevel);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
     }
-    size_t idx = 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
     for (int64_t k = 0; k < nc[2]; k++)
         for (int64_t j = 0; j < nc[1]; j++)
             for (int64_t i = 0; i < nc[0]; i++) {
+                size_t idx = (size_t)(i + nc[0] * (j + nc[1] * k));
                 int64_t ci = vm__dc_cidx(d, i, j, k);
                 int32_t code = d->cell_map[ci];
                 int coarse = vm__dc_coarse(d, ci) >= 0;
-                blevel[idx] = (int8_t)coarse;
-                kind[idx++] = coarse             ? VM_KIND_BOUNDARY
+                if (blevel) blevel[idx] = (int8_t)coarse;
+                kind[idx] = coarse             ? VM_KIND_BOUNDARY
                               : code == CELL_IN  ? VM_KIND_INTERIOR
                               : code == CELL_OUT ? VM_KIND_EXTERIOR
                                                  : VM_KIND_BOUNDARY;
             }
     size_t leaves = 0;
-    vm_status s = vm__octree_build(&d->oct, nc, kind, d->ncoarse ? blevel : NULL, max_level,
-                                   &leaves, err);
+    vm_status s = vm__octree_build(&d->oct, nc, kind, blevel, max_level, &leaves, err);
     free(kind);
-    free(blevel);
     d->adaptive = s == VM_OK;
     st->interior_cells = leaves;
     return s;

@@ -41,11 +41,12 @@ typedef struct vm__octree {
 } vm__octree;
 
 /* kind: one VM_KIND_* per cell, x fastest; blevel (NULL: all 0): per boundary cell the
- * level of its boundary leaf (1: an aligned 2x2x2 block), copied. Neighbouring leaves
+ * level of its boundary leaf (1: an aligned 2x2x2 block), taken over (freed with the octree,
+ * also when the build fails: one grid-sized array less at the peak). Neighbouring leaves
  * differ by at most two levels; 2x2x2 interior leaves are returned to single cells.
  * [out] leaves: interior leaves. */
 vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *kind,
-                           const int8_t *blevel, int max_level, size_t *leaves, vm_error *err);
+                           int8_t *blevel, int max_level, size_t *leaves, vm_error *err);
 /* Edge length in cells of the leaf holding cell c (interior or boundary), 0 for exterior
  * cells and cells out of range. */
 int64_t vm__octree_size(const vm__octree *o, const int64_t c[3]);

@@ -71,27 +71,32 @@ static int neighbour_level(const vm__octree *o, const int64_t q[3]) {
 }
 
 vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *kind,
-                           const int8_t *blevel, int max_level, size_t *leaves, vm_error *err) {
+                           int8_t *blevel, int max_level, size_t *leaves, vm_error *err) {
     memset(o, 0, sizeof *o);
     memcpy(o->nc, nc, sizeof o->nc);
     size_t n = (size_t)(nc[0] * nc[1] * nc[2]);
     o->lvl = malloc(n ? n : 1);
     int8_t *full = malloc(n ? n : 1);
-    if (blevel) {
-        o->blvl = malloc(n ? n : 1);
-        if (o->blvl) memcpy(o->blvl, blevel, n);
-    }
-    if (!o->lvl || !full || (blevel && !o->blvl)) {
+    o->blvl = blevel;
+    if (!o->lvl || !full) {
         free(full);
         vm__octree_free(o);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
     }
     /* full[c] = largest l such that the aligned cube of 2^l cells at origin c is inside */
+    /* Every loop over cells below reads and writes disjoint cells per z layer (or per
+     * level, reading the level below): parallel and the same for any thread count. */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
     for (size_t i = 0; i < n; i++)
         full[i] = kind[i] == VM_KIND_INTERIOR ? 0 : -1;
     for (int l = 1; l <= max_level; l++) {
         int64_t s = (int64_t)1 << l, h = s / 2;
-        for (int64_t z = 0; z + s <= nc[2]; z += s)
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+        for (int64_t z = 0; z < nc[2] - s + 1; z += s)
             for (int64_t y = 0; y + s <= nc[1]; y += s)
                 for (int64_t x = 0; x + s <= nc[0]; x += s) {
                     int ok = 1;
@@ -107,6 +112,9 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
                 }
     }
     /* leaves: the largest inside cube holding each cell */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
@@ -128,12 +136,16 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
      * `grade` levels finer, until nothing changes. */
     /* Neighbouring leaves differ by at most `grade` levels: 2 keeps nearly all the saving of
      * unbalanced leaves on the shared volumes while bounding size jumps to 4x. */
+    /* Only leaves above `grade` can split, and their origins are multiples of
+     * 2^(grade+1): the sweep visits just those positions, in the order of a full raster
+     * scan, so the result is the same as scanning every cell. */
     const int grade = 2;
+    const int64_t step = (int64_t)1 << (grade + 1);
     for (int changed = 1; changed;) {
         changed = 0;
-        for (int64_t z = 0; z < nc[2]; z++)
-            for (int64_t y = 0; y < nc[1]; y++)
-                for (int64_t x = 0; x < nc[0]; x++) {
+        for (int64_t z = 0; z < nc[2]; z += step)
+            for (int64_t y = 0; y < nc[1]; y += step)
+                for (int64_t x = 0; x < nc[0]; x += step) {
                     int64_t c[3] = {x, y, z}, org[3];
                     int l = vm__octree_leaf(o, c, org);
                     if (l <= grade || org[0] != x || org[1] != y || org[2] != z) continue;
@@ -168,12 +180,16 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
         vm__octree_free(o);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
     }
-    for (int64_t z = 0; z < nc[2]; z++)
-        for (int64_t y = 0; y < nc[1]; y++)
-            for (int64_t x = 0; x < nc[0]; x++) {
+    /* keep is set, and later read, only at the origins of 2x2x2 leaves (even positions) */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (int64_t z = 0; z < nc[2]; z += 2)
+        for (int64_t y = 0; y < nc[1]; y += 2)
+            for (int64_t x = 0; x < nc[0]; x += 2) {
                 size_t ci = (size_t)cell_index(o, (int64_t[3]){x, y, z});
                 keep[ci] = 1;
-                if (o->lvl[ci] != 1 || (x & 1) || (y & 1) || (z & 1)) continue;
+                if (o->lvl[ci] != 1) continue;
                 int cost = 0;
                 for (int f = 0; f < 6; f++) {
                     int64_t q[3] = {x, y, z};
@@ -183,6 +199,9 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
                 }
                 keep[ci] = cost < 40;
             }
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
@@ -192,12 +211,15 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
             }
     free(keep);
     size_t count = 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static) reduction(+ : count)
+#endif
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
-                int64_t c[3] = {x, y, z}, org[3];
-                int l = vm__octree_leaf(o, c, org);
-                if (l >= 0 && org[0] == x && org[1] == y && org[2] == z) count++;
+                int l = o->lvl[cell_index(o, (int64_t[3]){x, y, z})];
+                int64_t m = ((int64_t)1 << (l > 0 ? l : 0)) - 1;
+                if (l >= 0 && !(x & m) && !(y & m) && !(z & m)) count++;
             }
     if (leaves) *leaves = count;
     return VM_OK;

@@ -19,6 +19,8 @@ if [ "$want_tests" = 1 ]; then
     command -v tetgen >/dev/null 2>&1 || pkgs+=(tetgen)
     dpkg -s libcgal-dev >/dev/null 2>&1 || pkgs+=(libcgal-dev)
     command -v g++ >/dev/null 2>&1 || pkgs+=(g++)
+    # bench/run and bench/big.py: wall time and peak memory by GNU time -v
+    [ -x /usr/bin/time ] || pkgs+=(time)
     # FE interop judges: CalculiX solves our .inp decks, gmsh reads our .msh files; the
     # optional Exodus II writer is built when libexodusii-dev is present at configure time.
     command -v ccx >/dev/null 2>&1 || pkgs+=(calculix-ccx)

@@ -58,6 +58,15 @@ out=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o m.vtu --max-memory 2G --json) || ba
 [ "$(echo "$out" | json "['boundary_euler']")" = 0 ] && ok || bad "--max-memory 2G: $out"
 err=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o x.vtu --max-memory 4M 2>&1 >/dev/null)
 case "$err" in *"more than --max-memory"*"try --size 2"*) ok ;; *) bad "--max-memory 4M: '$err'" ;; esac
+# adaptive runs are estimated from the grid and the boundary cells: the remedy offered is
+# --size 2 only, and a limit the estimate fits passes
+err=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o x.vtu --adaptive --max-memory 4M 2>&1 >/dev/null)
+case "$err" in *"needs about "*" MiB"*"more than --max-memory 4.0 MiB: try --size 2 (about 8x less)") ok ;;
+    *) bad "--adaptive --max-memory 4M: '$err'" ;; esac
+[ ! -e x.vtu ] && ok || bad "--adaptive --max-memory 4M wrote x.vtu"
+out=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o a.vtu --adaptive --no-improve --max-memory 64M --json) ||
+    bad "--adaptive --max-memory 64M"
+[ "$(echo "$out" | json "['boundary_euler']")" = 0 ] && ok || bad "--adaptive --max-memory 64M: $out"
 
 for args in "--iso 0 -o x.vtu --denoise blur" "--iso 0 -o x.vtu --elements prism" "--iso 99 -o x.vtu" \
             "--iso 0" "--iso 0 --range 1:2 -o x.vtu" "--iso 0 -o x.vtu --max-level 0 --adaptive" \

@@ -1,6 +1,7 @@
 /* tests/mesher/test_threads.c — the parallel stages give the same bytes for any thread count:
- * denoising (bilateral, diffusion), VTU compression, the mesh checks and the tet quality
- * pass. */
+ * denoising (bilateral, diffusion), tet meshing (uniform and adaptive: classification, octree,
+ * patch vertices, slab emission), VTU compression, the mesh checks and the tet quality pass. */
+#include <stdlib.h>
 #include <string.h>
 #include "test.h"
 
@@ -154,6 +155,63 @@ static void quality_pass_gives_the_same_mesh_for_one_two_and_three_threads(void)
     vm_set_threads(before);
 }
 
+/* The mesh of one run, and that it is a valid closed mesh of the phantom's topology. */
+static void mesh_once(const vm_volume *v, int adaptive, int euler, vm_mesh *m) {
+    vm_error err;
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.adaptive = adaptive;
+    CHECK_OK(vm_mesh_volume(v, &o, m, NULL, &err), &err);
+    vm_mesh_report r;
+    CHECK_OK(vm_mesh_check(m, &r, &err), &err);
+    CHECK_MSG(r.inverted == 0 && r.boundary_closed && r.boundary_euler == euler,
+              "adaptive %d: %zu inverted, closed %d, Euler %ld (want %d)", adaptive, r.inverted,
+              r.boundary_closed, (long)r.boundary_euler, euler);
+}
+
+static void tet_meshes_are_byte_identical_for_one_two_and_three_threads(void) {
+    /* Big enough that every parallel loop gets several slabs per thread (the emission runs
+     * in slabs of 4 layers, 64 slabs a batch: 3 x 24 = 72 edge slabs is two batches). */
+    const int n = getenv("VM_SANITIZED") ? 64 : 96;
+    static const struct {
+        vm_phantom_kind kind;
+        int euler;
+    } shapes[] = {{VM_PHANTOM_GENUS3, -4}, {VM_PHANTOM_TWO_SPHERES, 4}};
+    int before = vm_set_threads(1);
+    for (size_t sh = 0; sh < sizeof shapes / sizeof shapes[0]; sh++) {
+        vm_volume v;
+        vm_error err;
+        CHECK_OK(vm_phantom_make(shapes[sh].kind, n, 0.0, 1, &v, NULL, &err), &err);
+        for (int adaptive = 0; adaptive < 2; adaptive++) {
+            vm_mesh ref;
+            vm_set_threads(1);
+            mesh_once(&v, adaptive, shapes[sh].euler, &ref);
+            CHECK(ref.ncells > 1000);
+            for (size_t t = 1; t < sizeof counts / sizeof counts[0]; t++) {
+                vm_set_threads(counts[t]);
+                vm_mesh m;
+                mesh_once(&v, adaptive, shapes[sh].euler, &m);
+                CHECK_MSG(m.npoints == ref.npoints && m.ncells == ref.ncells,
+                          "shape %zu adaptive %d: %zu points %zu tets at %d threads, %zu %zu "
+                          "at 1", sh, adaptive, m.npoints, m.ncells, counts[t], ref.npoints,
+                          ref.ncells);
+                if (m.npoints == ref.npoints && m.ncells == ref.ncells) {
+                    CHECK_MSG(memcmp(m.points, ref.points, 3 * m.npoints * sizeof(double)) == 0,
+                              "shape %zu adaptive %d: points differ at %d threads", sh,
+                              adaptive, counts[t]);
+                    CHECK_MSG(memcmp(m.cells, ref.cells, 4 * m.ncells * sizeof(vm_index)) == 0,
+                              "shape %zu adaptive %d: tets differ at %d threads", sh,
+                              adaptive, counts[t]);
+                }
+                vm_mesh_free(&m);
+            }
+            vm_mesh_free(&ref);
+        }
+        vm_volume_free(&v);
+    }
+    vm_set_threads(before);
+}
+
 static void thread_count_is_set_and_restored(void) {
     int before = vm_set_threads(2);
     int now = vm_threads();
@@ -163,6 +221,7 @@ static void thread_count_is_set_and_restored(void) {
 }
 
 TEST_MAIN(T(denoising_is_the_same_for_one_two_and_three_threads),
+          T(tet_meshes_are_byte_identical_for_one_two_and_three_threads),
           T(vtu_bytes_and_mesh_checks_are_the_same_for_any_thread_count),
           T(quality_pass_gives_the_same_mesh_for_one_two_and_three_threads),
           T(thread_count_is_set_and_restored))
