@@ -73,7 +73,7 @@ static void hexMeshOfSharedVolumesIsValidAndThePassReachesTheBar(void) {
         int sanitized_pass; /* the pass runs under the sanitizers too */
     } cases[] = {{"ironProt.vtk", 128, 0.2, 50, 25, 0},          /* measured 0.28 */
                  {"hydrogen.vti", 0.1, 0.2, 4, 3, 0},            /* 0.500 */
-                 {"ct_head_quarter.nrrd", 1150, 0.2, -1, 0, 0},  /* @M1150@ */
+                 {"ct_head_quarter.nrrd", 1150, 0.2, -1, 0, 0},  /* 0.2002 */
                  {"HeadMRVolume.mhd", 50, 0.2, -1, 0, 1}};       /* 0.2025 */
     const char *sanitized = getenv("VM_SANITIZED");
     int small = sanitized && strcmp(sanitized, "1") == 0;
