@@ -1,7 +1,9 @@
 /* mesher/hex_improve.c — hexahedral mesh improvement: a pillow layer on the boundary (Mitchell
  * and Tautges 1995, "Pillowing doublets"), then untangling and smoothing by local max-min
  * optimisation of the corner scaled Jacobians (after Knupp 2001, "Hexahedral and tetrahedral
- * mesh untangling": one vertex at a time, the worst corner Jacobian of its hexes raised). */
+ * mesh untangling": one vertex at a time, the worst corner Jacobian of its hexes raised); where
+ * the whole layer fails, selective pillowing of the hexes still below the bar (a shrink set,
+ * Mitchell and Tautges 1995 §3). */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -28,6 +30,8 @@ typedef struct hx {
     size_t *vs, *vi; /* incidences of point i: vi[vs[i] .. vs[i+1]) = 8 * hex + corner */
     uint8_t *cls, *planes;
     double *nrm; /* unit outward normal of each boundary point (world) */
+    double *est0; /* iso_estimate of each boundary point where the run starts (index space) */
+    uint8_t *focus; /* NULL, or the points a selective run may move */
     const vm_volume *v;
     double A[3][3], Ainv[3][3], org[3];
     double lo, hi;
@@ -253,7 +257,7 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
             if (w->planes[i] & (3u << (2 * a))) y[a] = y0[a];
         limit = fmin(limit, 0.5);
     } else if (mode == MOVE_TANGENT) {
-        if (!(iso_estimate(w, y) <= fmax(0.45, iso_estimate(w, y0) + 0.01))) return 0;
+        if (!(iso_estimate(w, y) <= fmax(0.45, w->est0[i] + 0.01))) return 0;
     } else if (mode == MOVE_LOOSE) {
         if (!(iso_distance(w, y) <= 0.4)) return 0;
     } else {
@@ -364,8 +368,10 @@ static vm_status classify(hx *w, vm_error *err) {
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
     free(w->nrm);
+    free(w->est0);
     w->nrm = calloc(3 * w->np + 1, sizeof *w->nrm);
-    if (!w->nrm) {
+    w->est0 = calloc(w->np + 1, sizeof *w->est0);
+    if (!w->nrm || !w->est0) {
         free(bf);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
@@ -408,6 +414,7 @@ static vm_status classify(hx *w, vm_error *err) {
         }
         w->planes[i] = bits;
         if (bits) w->cls[i] = CLS_PLANE;
+        w->est0[i] = iso_estimate(w, y);
     }
     return VM_OK;
 }
@@ -724,6 +731,8 @@ static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int 
                 below++;
                 for (int k = 0; k < 8; k++) active[w->h[8 * t + k]] = 1;
             }
+        if (w->focus)
+            for (size_t i = 0; i < w->np; i++) active[i] &= w->focus[i];
         if (!below) break;
         if (f.min_sj > last + 1e-4 || below + below / 100 < last_below) {
             stale = 0;
@@ -734,7 +743,9 @@ static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int 
         if (below < last_below) last_below = below;
         if (snap && sw == 0)
             for (size_t i = 0; i < w->np; i++)
-                if (w->cls[i] == CLS_ISO || w->cls[i] == CLS_PLANE) active[i] = 1;
+                if ((w->cls[i] == CLS_ISO || w->cls[i] == CLS_PLANE) &&
+                    (!w->focus || w->focus[i]))
+                    active[i] = 1;
         double floor = fmax(f.min_sj, 0.5 * target);
         size_t mv = 0;
         for (size_t i = 0; i < w->np; i++) {
@@ -801,16 +812,42 @@ static vm_status load(hx *w, const vm_mesh *m, vm_error *err) {
 /* Loads m, pillowed (shrink set in) or not (in NULL), and runs stage 0 of the smoothing.
  * [out] *q, *active (free them). */
 static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, uint8_t *in,
-                       double **q, uint8_t **active, size_t *added, size_t *moves, int *sweeps,
-                       vm_error *err) {
+                       const double *init, double **q, uint8_t **active, size_t *added,
+                       size_t *moves, int *sweeps, vm_error *err) {
     free(*q);
     free(*active);
     *q = NULL;
     *active = NULL;
     *added = 0;
     vm_status s = load(w, m, err);
+    if (!s && init) memcpy(w->p, init, 3 * w->np * sizeof *w->p);
+    size_t np0 = w->np, nh0 = w->nh;
     if (!s && in) s = pillow(w, in, added, err);
     w->pillowed = *added > 0;
+    free(w->focus);
+    w->focus = NULL;
+    if (!s && init && *added) {
+        /* a selective run: only the layer, the set's hexes and three rings of points round
+         * them move (the rest is at the local optimum the run without the layer found) */
+        w->focus = calloc(w->np + 1, 1);
+        if (!w->focus) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        for (size_t t = 0; t < w->nh; t++)
+            if (t >= nh0 || in[t])
+                for (int k = 0; k < 8; k++) w->focus[w->h[8 * t + (size_t)k]] = 1;
+        for (size_t i = np0; i < w->np; i++) w->focus[i] = 1;
+        for (int r = 0; r < 3; r++) {
+            uint8_t *grow = calloc(w->np + 1, 1);
+            if (!grow) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+            for (size_t t = 0; t < w->nh; t++) {
+                int hit = 0;
+                for (int k = 0; k < 8; k++) hit |= w->focus[w->h[8 * t + (size_t)k]];
+                if (hit)
+                    for (int k = 0; k < 8; k++) grow[w->h[8 * t + (size_t)k]] = 1;
+            }
+            free(w->focus);
+            w->focus = grow;
+        }
+    }
     if (!s) s = build_incidence(w, err);
     if (!s) s = classify(w, err);
     if (s) return s;
@@ -849,6 +886,20 @@ static void final_snap(hx *w, double floor) {
     }
 }
 
+/* Grows the hex set in by rings layers (the hexes sharing a point with it). [in,out] in:
+ * one flag per hex; mark: room for one flag per point. */
+static void dilate(const hx *w, uint8_t *in, int rings, uint8_t *mark) {
+    for (int r = 0; r < rings; r++) {
+        memset(mark, 0, w->np);
+        for (size_t t = 0; t < w->nh; t++)
+            if (in[t])
+                for (int k = 0; k < 8; k++) mark[w->h[8 * t + (size_t)k]] = 1;
+        for (size_t t = 0; t < w->nh; t++)
+            for (int k = 0; k < 8 && !in[t]; k++)
+                if (mark[w->h[8 * t + (size_t)k]]) in[t] = 1;
+    }
+}
+
 static void hx_free(hx *w) {
     free(w->p);
     free(w->p0);
@@ -859,7 +910,10 @@ static void hx_free(hx *w) {
     free(w->cls);
     free(w->planes);
     free(w->nrm);
-    w->nrm = NULL;
+    free(w->est0);
+    free(w->focus);
+    w->nrm = w->est0 = NULL;
+    w->focus = NULL;
     w->p = w->p0 = NULL;
     w->h = NULL;
     w->region = NULL;
@@ -869,15 +923,20 @@ static void hx_free(hx *w) {
 
 /* The whole pass on a copy of m, with or without the pillow layer. [out] f: its figures. */
 static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, int with_pillow,
-                     size_t *added, size_t *moves, int *sweeps, figs *f, vm_error *err) {
+                     const uint8_t *set, const double *init, size_t *added, size_t *moves,
+                     int *sweeps, figs *f, vm_error *err) {
     double *q = NULL;
     uint8_t *active = NULL, *in = NULL;
-    if (with_pillow) {
+    if (set) {
+        in = malloc(m->ncells + 1);
+        if (!in) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        memcpy(in, set, m->ncells);
+    } else if (with_pillow) {
         in = malloc(m->ncells + 1);
         if (!in) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
         memset(in, 1, m->ncells);
     }
-    vm_status s = start(w, m, o, in, &q, &active, added, moves, sweeps, err);
+    vm_status s = start(w, m, o, in, init, &q, &active, added, moves, sweeps, err);
     free(in);
     if (!s && *added) {
         /* a layer still tangled after untangling will not come right: stop here */
@@ -950,8 +1009,11 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
     s = load(&w, m, err);
     if (s) goto done;
     measure(&w, &before, NULL);
-    s = run(&w, m, o, o->pillow && before.min_sj < o->target, &added, &moves, &sweeps, &after,
-            err);
+    /* A mesh the mesher could not make valid has folded boundaries (the heads), where the
+     * whole layer was measured to tangle or smooth worse than none: it goes straight to the
+     * run without it, then the selective layer below. */
+    int whole = o->pillow && before.min_sj < o->target && before.inverted == 0;
+    s = run(&w, m, o, whole, NULL, NULL, &added, &moves, &sweeps, &after, err);
     if (!s && added && (after.inverted || after.min_sj < fmin(0.2, o->target))) {
         /* Where the boundary folds (thin noisy features) some pillow corners have no valid
          * position, or the layer smooths worse than none: when it stays tangled or below the
@@ -959,7 +1021,7 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
         hx w2 = base;
         figs f2;
         size_t added2 = 0;
-        s = run(&w2, m, o, 0, &added2, &moves, &sweeps, &f2, err);
+        s = run(&w2, m, o, 0, NULL, NULL, &added2, &moves, &sweeps, &f2, err);
         if (!s && (f2.inverted < after.inverted ||
                    (f2.inverted == after.inverted && f2.min_sj > after.min_sj))) {
             hx_free(&w);
@@ -970,6 +1032,57 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
         } else {
             hx_free(&w2);
         }
+    }
+    if (!s && o->pillow && !added && after.min_sj < fmin(0.2, o->target)) {
+        /* Selective pillowing: only the spots still below the bar get the layer, from the
+         * positions the pass without it reached; where the layer leaves hexes below the bar
+         * (at the sheet's edge, or on its own hexes) the set grows round them and the run
+         * starts again from those positions, up to three times. */
+        hx plain = w;
+        size_t np0 = plain.np, nh0 = plain.nh;
+        uint8_t *set = malloc(nh0 + 1), *mark = malloc(np0 + 1);
+        if (!set || !mark) {
+            free(set);
+            free(mark);
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+            goto done;
+        }
+        for (size_t t = 0; t < nh0; t++) set[t] = hex_q(&plain, t) < 0.2;
+        dilate(&plain, set, 1, mark);
+        int have = 0; /* w holds a selective result (else it is plain) */
+        for (int round = 0; round < 3 && !s; round++) {
+            hx w3 = base;
+            figs f3;
+            size_t added3 = 0;
+            s = run(&w3, m, o, 1, set, plain.p, &added3, &moves, &sweeps, &f3, err);
+            int good = !s && added3 && !f3.inverted && f3.min_sj > after.min_sj;
+            if (good) {
+                if (have) hx_free(&w);
+                w = w3;
+                after = f3;
+                added = added3;
+                undone = 0;
+                have = 1;
+            } else {
+                hx_free(&w3);
+            }
+            if (!good || after.min_sj >= fmin(0.2, o->target)) break;
+            /* grow the set round what is still below the bar */
+            memset(mark, 0, np0);
+            for (size_t t = 0; t < w.nh; t++) {
+                if (hex_q(&w, t) >= 0.2) continue;
+                if (t < nh0) set[t] = 1;
+                for (int k = 0; k < 8; k++)
+                    if ((size_t)w.h[8 * t + (size_t)k] < np0) mark[w.h[8 * t + (size_t)k]] = 1;
+            }
+            for (size_t t = 0; t < nh0; t++)
+                for (int k = 0; k < 8 && !set[t]; k++)
+                    if (mark[plain.h[8 * t + (size_t)k]]) set[t] = 1;
+            dilate(&plain, set, 1, mark);
+        }
+        if (have) hx_free(&plain);
+        free(set);
+        free(mark);
     }
     if (s) goto done;
     double maxd = 0.0, maxd0 = 0.0;

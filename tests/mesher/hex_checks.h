@@ -1,0 +1,99 @@
+/* tests/mesher/hex_checks.h — the checks test_mesh_hexes*.c share: a valid hex mesh with its
+ * topology and volume, and what the quality pass (vm_mesh_improve_hexes) promises. */
+#ifndef VM_TESTS_HEX_CHECKS_H
+#define VM_TESTS_HEX_CHECKS_H
+#include <math.h>
+#include <stdio.h>
+#include "volmesh/improve.h"
+#include "test.h"
+
+static inline void check_hex_mesh(const char *label, const vm_mesh *m, long euler, size_t comps,
+                           double volume, double tol) {
+    vm_mesh_report r;
+    vm_error err;
+    CHECK_OK(vm_mesh_check(m, &r, &err), &err);
+    printf("  %s: %zu hexes, min scaled Jacobian %.4f, volume %.2f (expected %.2f)\n", label,
+           m->ncells, r.min_scaled_jacobian, r.volume, volume);
+    CHECK(m->kind == VM_HEX8);
+    CHECK_MSG(r.inverted == 0, "%s: %zu inverted", label, r.inverted);
+    CHECK(r.overshared_faces == 0);
+    CHECK(r.boundary_closed == 1);
+    CHECK(r.boundary_nonmanifold_vertices == 0);
+    CHECK_MSG(r.boundary_euler == euler, "%s: Euler %ld, expected %ld", label, r.boundary_euler,
+              euler);
+    CHECK_MSG(r.components == comps, "%s: %zu components, expected %zu", label, r.components,
+              comps);
+    if (volume > 0) CHECK_MSG(fabs(r.volume - volume) <= tol * volume, "%s: volume", label);
+}
+
+/* Runs the quality pass on m (meshed from v at iso lo) and checks what it promises against
+ * the mesh before it: no inverted hex, the worst scaled Jacobian not lower and at least
+ * floor, the same boundary topology, the volume within 2% (of expected when given, else of
+ * the mesh before), the boundary points within 0.5 voxel of the isosurface. */
+static inline void check_improved(const char *label, vm_mesh *m, const vm_volume *v, double lo,
+                           double floor, double expected_volume) {
+    vm_mesh_report before, after;
+    vm_error err;
+    CHECK_OK(vm_mesh_check(m, &before, &err), &err);
+    vm_hex_improve_options o;
+    vm_hex_improve_options_default(&o);
+    o.lo = lo;
+    vm_hex_improve_report r;
+    vm_status s = vm_mesh_improve_hexes(m, v, &o, &r, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return;
+    CHECK_OK(vm_mesh_check(m, &after, &err), &err);
+    printf("  %s: %zu -> %zu hexes (pillow layer %s), min scaled Jacobian %.4f -> %.4f, "
+           "%zu -> %zu below 0.2, volume %.1f -> %.1f, surface distance %.3f -> %.3f, %.2f s\n",
+           label, r.hexes_before, r.hexes_after,
+           r.pillow_undone ? "undone" : r.pillow_hexes ? "kept" : "not needed",
+           r.min_sj_before, r.min_sj_after,
+           r.below_02_before, r.below_02_after, before.volume, after.volume,
+           r.max_surface_distance_before, r.max_surface_distance, r.seconds);
+    CHECK_MSG(after.inverted == 0, "%s: %zu inverted", label, after.inverted);
+    CHECK_MSG(r.min_sj_after >= r.min_sj_before, "%s: the pass lowered the minimum", label);
+    CHECK_MSG(after.min_scaled_jacobian >= floor, "%s: min scaled Jacobian %.4f < %.2f", label,
+              after.min_scaled_jacobian, floor);
+    CHECK(after.overshared_faces == 0);
+    CHECK(after.boundary_closed == 1);
+    CHECK(after.boundary_nonmanifold_vertices == 0);
+    CHECK_MSG(after.boundary_euler == before.boundary_euler, "%s: Euler %ld -> %ld", label,
+              before.boundary_euler, after.boundary_euler);
+    CHECK(after.components == before.components);
+    double ref = expected_volume > 0 ? expected_volume : before.volume;
+    CHECK_MSG(fabs(after.volume - ref) <= 0.02 * ref, "%s: volume %.1f vs %.1f", label,
+              after.volume, ref);
+    /* The pass never takes a boundary point further off than 0.5 voxel or than the mesher
+     * had it (relaxation can leave points up to ~0.87 voxel off; the pass brings them within
+     * 0.45 where the hexes around allow). */
+    CHECK_MSG(r.max_surface_distance <= fmax(0.5, r.max_surface_distance_before) + 1e-6,
+              "%s: boundary %.3f voxel off the isosurface (%.3f before)", label,
+              r.max_surface_distance, r.max_surface_distance_before);
+}
+
+/* Reads shared volume file, meshes it in hexes at iso, checks the raw mesh when euler >= 0
+ * (its Euler characteristic and components), then the pass against floor. Skips (returns 0)
+ * when the shared data is absent. */
+static inline int check_shared_volume(const char *file, double iso, double floor, long euler,
+                                      size_t comps, int run_pass) {
+    const char *path = vm_test_shared(file);
+    if (!path) return 0;
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_volume_read(path, &v, &err), &err);
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.elements = VM_HEX8;
+    o.lo = iso;
+    vm_mesh m;
+    vm_status s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK_OK(s, &err);
+    char label[96];
+    snprintf(label, sizeof label, "%s iso %g", file, iso);
+    if (s == VM_OK && euler >= 0) check_hex_mesh(label, &m, euler, comps, 0, 0);
+    if (s == VM_OK && run_pass) check_improved(label, &m, &v, iso, floor, 0);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+    return 1;
+}
+#endif

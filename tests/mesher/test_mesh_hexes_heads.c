@@ -1,0 +1,28 @@
+/* tests/mesher/test_mesh_hexes_heads.c — the hex quality pass on the two biggest shared
+ * volumes (the CT head at the skin isovalue, 145 000 hexes, and avg152T1, 356 000), apart
+ * from test_mesh_hexes.c so that the two run side by side: 0 inverted after the pass, the
+ * topology and volume kept, the worst scaled Jacobian not lower and at least the floor. */
+#include <stdlib.h>
+#include <string.h>
+#include "hex_checks.h"
+
+/* Issue #5's bar is 0.2; these two are measured short of it (docs/IMPROVE.md: what stays
+ * below are the selective layer's own hexes on boundary quads with points of valence 3 and
+ * 5 to 6), so their floors are the measured minimum less a margin, to catch regressions.
+ * Minutes under the sanitizers: left to the Release run there. */
+static void hexQualityPassOnTheBigHeadsUntanglesAndKeepsItsFloor(void) {
+    const char *sanitized = getenv("VM_SANITIZED");
+    if (sanitized && strcmp(sanitized, "1") == 0) {
+        vm_test_skip("minutes under the sanitizers: left to the Release run");
+        return;
+    }
+    static const struct {
+        const char *file;
+        double iso, floor;
+    } cases[] = {{"ct_head_quarter.nrrd", 500, 0.1},       /* measured 0.133 */
+                 {"avg152T1_RL_nifti.nii.gz", 100, 0.07}}; /* 0.088 */
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++)
+        if (!check_shared_volume(cases[c].file, cases[c].iso, cases[c].floor, -1, 0, 1)) return;
+}
+
+TEST_MAIN(T(hexQualityPassOnTheBigHeadsUntanglesAndKeepsItsFloor))
