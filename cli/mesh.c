@@ -527,6 +527,8 @@ int vm_cmd_mesh(int argc, char **argv) {
     if (improve && m.kind == VM_HEX8) {
         vm_hex_improve_options ho;
         vm_hex_improve_options_default(&ho);
+        ho.progress = vm_cli_progress;
+        ho.progress_user = &quiet;
         ho.lo = o.lo;
         ho.hi = o.hi;
         ho.has_lo = o.has_lo;

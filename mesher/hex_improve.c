@@ -38,6 +38,8 @@ typedef struct hx {
     int has_lo, has_hi;
     double max_move;
     int pillowed; /* the mesh has the pillow layer: untangling by the penalty */
+    vm_progress_fn progress;
+    void *progress_user;
 } hx;
 
 void vm_hex_improve_options_default(vm_hex_improve_options *o) {
@@ -758,6 +760,8 @@ static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int 
         }
         *moves += mv;
         (*sweeps)++;
+        if (w->progress) /* half way after 8 sweeps, 3/4 after 16, ... */
+            w->progress("hex pass", 1.0 - pow(0.5, *sweeps / 8.0), 1.0, w->progress_user);
         if (!mv) break;
     }
 }
@@ -991,6 +995,8 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
     w.has_lo = o->has_lo;
     w.has_hi = o->has_hi;
     w.max_move = o->max_surface_move;
+    w.progress = o->progress;
+    w.progress_user = o->progress_user;
     vm_status s = VM_OK;
     if (v) {
         for (int a = 0; a < 3; a++) {
@@ -1126,5 +1132,6 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
     if (r) r->seconds = vm__now() - t0;
 done:
     hx_free(&w);
+    if (o->progress) o->progress("hex pass", 1.0, 1.0, o->progress_user);
     return s;
 }

@@ -132,6 +132,10 @@ typedef struct vm_hex_improve_options {
     double max_surface_move;
     int pillow;         /* 1 (default): insert the boundary layer first */
     int max_sweeps;     /* most rounds over the points of poor hexes per stage; 8 */
+    /* Called after each sweep (stage "hex pass", done/total rising towards 1: the number of
+     * sweeps is not known in advance) and once with done == total at the end; may be NULL. */
+    vm_progress_fn progress;
+    void *progress_user;
 } vm_hex_improve_options;
 
 typedef struct vm_hex_improve_report {
