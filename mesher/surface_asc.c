@@ -26,12 +26,15 @@
  *    from the surface point inside the box instead (not in the paper: it halves the volume
  *    lost to chords), and a loop whose ears run out is fanned from its centroid.
  * Material outside the grid is outside (value -1), so the surface is closed at the border:
- * the grid is padded by one sample on every side. */
+ * the grid is padded by one sample on every side, pressed onto the box at the output. */
 #include "../core/core.h"
 #include "surface_internal.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* How far outside the box (in voxels, per voxel of the padding layer) the closing faces lie. */
+#define BORDER_SQUEEZE 0.01
 
 /* Padded grid: sample p (padded) is sample p-1 of g; everything outside g is outside. */
 typedef struct asc_ctx {
@@ -1008,6 +1011,15 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
     size_t base = surf->npoints;
     for (size_t i = 0; !s && i < P.n; i++) {
         double x[3] = {P.xyz[3 * i] - 1, P.xyz[3 * i + 1] - 1, P.xyz[3 * i + 2] - 1};
+        /* The points between the border samples and the padding close the material; the
+         * padding layer is pressed onto the box, x -> BORDER_SQUEEZE x outside [0, n-1]
+         * per axis (monotone, so the surface stays embedded), and the closing faces lie
+         * within BORDER_SQUEEZE voxels of the box planes (DESIGN: flat faces on the box). */
+        for (int a = 0; a < 3; a++) {
+            double top = (double)(g->n[a] - 1);
+            if (x[a] < 0) x[a] *= BORDER_SQUEEZE;
+            else if (x[a] > top) x[a] = top + BORDER_SQUEEZE * (x[a] - top);
+        }
         if (vm_mesh_add_point(surf, x, err) < 0) s = VM_ERR_NOMEM;
     }
     for (size_t t = 0; !s && t < T.n; t++) {

@@ -67,6 +67,14 @@ typedef struct {
     uint8_t *bad;
     size_t passes, repairs, forced_cells, pops, places, untangles;
     uint8_t *comp_fails; /* per fine component: failed duals so far */
+    int32_t *nfps;       /* per fine component: seeds of its farthest-point covering, 0 none */
+    uint8_t *grow;       /* per fine component: scratch, its farthest-point covering grows */
+    double *fd;          /* per vertex: scratch of the farthest-point sampling */
+    size_t *csize;       /* per fine component: vertices */
+    int32_t *fps_ok;     /* per fine component: the last seed count whose dual was valid */
+    uint8_t *frozen;     /* per fine component: back at fps_ok for good */
+    int32_t *fps_hi;     /* per fine component: the smallest count whose dual failed, 0 none */
+    uint8_t *thin;       /* per fine component: a farthest-point triangle below ASPECT */
 } cover;
 
 static double radius(const cover *c, int l) { return ldexp(c->rg, -l); }
@@ -296,6 +304,9 @@ static vm_status covering(cover *c, vm_error *err) {
             c->forb[v] = 1;
             c->seeds[c->nseeds++] = (int32_t)v;
         }
+    /* the rest of a component covered by farthest points takes no disk */
+    for (size_t v = 0; v < nv; v++)
+        if (c->nfps[m->comp[v]] > 0 && !c->forced[v]) c->forb[v] = 1;
     vm_status s = VM_OK;
     for (size_t p = 0; !s && p < c->nprev; p++) {
         int32_t w = c->prev[p];
@@ -613,6 +624,17 @@ static int tri_far(const vm__cover_fine *m, const size_t *foff, const int32_t *f
     return 0;
 }
 
+/* Shortest / longest edge of dual triangle t (seed indices). */
+static double edge_ratio(const vm__cover_fine *m, const int32_t *seeds, const int32_t *t) {
+    double lmin = INFINITY, lmax = 0;
+    for (int e = 0; e < 3; e++) {
+        double l = euclid(m, seeds[t[e]], seeds[t[(e + 1) % 3]]);
+        lmin = fmin(lmin, l);
+        lmax = fmax(lmax, l);
+    }
+    return lmax > 0 ? lmin / lmax : 0;
+}
+
 /* The maximum-distance metric (sec. 3.5): a seed needs refining when a fine vertex of its
  * Voronoi neighbourhood lies farther than eps from the triangles at the seed. */
 static void refine(cover *c) {
@@ -797,7 +819,8 @@ static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, const ui
                 int32_t d = tri[3 * t2 + (e2 + 2) % 3];
                 if (t2 == t || d == c || touched[d]) continue;
                 /* the fine surface kept as is stays as is */
-                if (forced[seeds[a]] || forced[seeds[b]] || forced[seeds[c]] || forced[seeds[d]])
+                if (forced[seeds[a]] == 1 || forced[seeds[b]] == 1 || forced[seeds[c]] == 1 ||
+                    forced[seeds[d]] == 1)
                     continue;
                 if (find_hedge(h, 3 * nt, hkey(c, d)) >= 0 || find_hedge(h, 3 * nt, hkey(d, c)) >= 0)
                     continue;
@@ -841,11 +864,19 @@ static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, const ui
 
 /* Repairs the bad seeds of a failed dual: halve their disks, or, at the finest radius,
  * keep every fine vertex of their component as a seed. */
-static void repair(cover *c) {
+enum { GROW_DUAL, GROW_REFINE, GROW_TANGLE }; /* why a farthest-point covering grows */
+static vm_status fps_apply(cover *c, int why, vm_error *err);
+
+static vm_status repair(cover *c, vm_error *err) {
     const vm__cover_fine *m = c->m;
     int any_force = 0;
     /* count the failures of each component once per pass */
     uint8_t *seen = calloc(m->ncomp + 1, 1);
+    for (size_t i = 0; seen && i < c->nseeds; i++)
+        if (c->bad[i]) seen[m->comp[c->seeds[i]]] = 1;
+    for (size_t k = 0; seen && k < m->ncomp; k++)
+        if (c->nfps[k] > 0 && !seen[k]) c->fps_ok[k] = c->nfps[k];
+    if (seen) memset(seen, 0, m->ncomp + 1);
     for (size_t i = 0; seen && i < c->nseeds; i++) {
         int32_t k = m->comp[c->seeds[i]];
         if (c->bad[i] && !seen[k]) {
@@ -858,7 +889,11 @@ static void repair(cover *c) {
         if (!c->bad[i]) continue;
         int32_t w = c->seeds[i];
         int l = c->seedlev[w];
-        if (l != FORCED && l < c->lmax[w]) {
+        if (c->forced[w] == 2) {
+            c->grow[m->comp[w]] = 1; /* a farthest-point covering with too few seeds */
+        } else if (c->forced[w] == 1) {
+            continue;
+        } else if (l != FORCED && l < c->lmax[w]) {
             if (c->cap[w] < l + 1) c->cap[w] = (uint8_t)(l + 1);
         } else if (l != FORCED && c->lmax[w] < c->lfloor[w] + EXTRA && l + 1 < LEVELS) {
             /* below the 1-ring rule, at most EXTRA levels: resolves a small feature at the
@@ -871,24 +906,120 @@ static void repair(cover *c) {
             c->forced_cells++;
         }
     }
-    if (!any_force) return;
     /* A neighbourhood that cannot shrink further (the paper's case for supersampling, sec.
-     * 3.9) keeps its whole component of the fine surface: a seam between fine and coarse
-     * triangles tends to cross itself. */
-    uint8_t *cf = calloc(m->ncomp + 1, 1);
-    for (size_t x = 0; x < m->nv; x++)
-        if (c->bad[c->label[x]] == 2) {
-            c->forced[x] = 1;
-            if (cf) cf[m->comp[x]] = 1;
+     * 3.9, when the sampling is already at its finest): its whole component is covered by
+     * farthest points instead (mixing disks and other seeds in one component made seams that
+     * crossed themselves). */
+    if (any_force)
+        for (size_t i = 0; i < c->nseeds; i++)
+            if (c->bad[i] == 2) c->grow[m->comp[c->seeds[i]]] = 1;
+    return fps_apply(c, GROW_DUAL, err);
+}
+
+/* Farthest-point covering of component k with c->nfps[k] seeds (forced value 2): the first
+ * seed is the vertex farthest from the component's first vertex, each next one the vertex
+ * farthest (along the candidate graph) from the seeds so far. Seeds spread evenly, each
+ * Voronoi neighbour within about twice the spacing, so their dual keeps a good edge ratio
+ * where disks holding their 1-rings cannot be simple (a blob of a few voxels). */
+static vm_status fps_place(cover *c, size_t k, vm_error *err) {
+    const vm__cover_fine *m = c->m;
+    int32_t first = -1;
+    for (size_t v = 0; v < m->nv; v++)
+        if ((size_t)m->comp[v] == k) {
+            if (c->forced[v] == 2) c->forced[v] = 0;
+            c->fd[v] = INFINITY;
+            if (first < 0) first = (int32_t)v;
         }
-    for (size_t x = 0; cf && x < m->nv; x++)
-        if (cf[m->comp[x]]) c->forced[x] = 1;
-    free(cf);
+    if (first < 0) return VM_OK;
+    vm_status s = VM_OK;
+    int32_t src = first;
+    for (int32_t n = -1; !s && n < c->nfps[k]; n++) {
+        /* distances from src, lowering fd (n = -1: a throwaway pass to find the start) */
+        c->nheap = 0;
+        c->fd[src] = 0;
+        s = heap_push(c, 0, src, err);
+        while (!s && c->nheap > 0) {
+            hitem it = heap_pop(c);
+            if (it.d > c->fd[it.v]) continue;
+            for (size_t h = m->off[it.v]; h < m->off[it.v + 1]; h++) {
+                int32_t y = m->nbr[h];
+                double nd = it.d + m->len[h];
+                if (nd < c->fd[y]) {
+                    c->fd[y] = nd;
+                    s = heap_push(c, nd, y, err);
+                    if (s) break;
+                }
+            }
+        }
+        int32_t far = -1;
+        double dfar = -1;
+        for (size_t v = 0; v < m->nv; v++)
+            if ((size_t)m->comp[v] == k && c->fd[v] > dfar && c->forced[v] != 2)
+                dfar = c->fd[v], far = (int32_t)v;
+        if (n == -1)
+            for (size_t v = 0; v < m->nv; v++)
+                if ((size_t)m->comp[v] == k) c->fd[v] = INFINITY;
+        if (far < 0 || (n >= 0 && dfar <= 0)) break;
+        c->forced[far] = 2;
+        src = far;
+    }
+    return s;
+}
+
+/* Starts or grows (by one seed up to 8, then x1.5) the farthest-point covering of every component marked in c->grow;
+ * one that would need more than half of its vertices keeps its fine surface. */
+static vm_status fps_apply(cover *c, int why, vm_error *err) {
+    const vm__cover_fine *m = c->m;
+    vm_status s = VM_OK;
+    for (size_t k = 0; !s && k < m->ncomp; k++) {
+        if (!c->grow[k]) continue;
+        c->grow[k] = 0;
+        int thin = c->thin[k];
+        c->thin[k] = 0;
+        /* frozen: the error is given up, not the edge ratio */
+        if (c->frozen[k] && why == GROW_REFINE && !thin) continue;
+        c->changed = 1;
+        int32_t ok = c->fps_ok[k], n = c->nfps[k];
+        if (!c->frozen[k] && why == GROW_DUAL && ok > 0) {
+            /* more seeds than the candidate graph can carry: bisect between the last valid
+             * count and this one, and stay at the valid one when they are close */
+            c->fps_hi[k] = n;
+            int32_t mid = ok + (n - ok) / 2;
+            if (mid > ok && n - ok > 1 + ok / 10) {
+                c->nfps[k] = mid;
+            } else {
+                c->frozen[k] = 1;
+                c->nfps[k] = ok;
+            }
+            s = fps_place(c, k, err);
+            continue;
+        }
+        long genus = (2 - m->comp_euler[k]) / 2;
+        if (n == 0) { /* start from the disks' count there */
+            n = (int32_t)(4 + 8 * (genus > 0 ? genus : 0));
+            int32_t have = 0;
+            for (size_t i = 0; i < c->nseeds; i++) have += (size_t)m->comp[c->seeds[i]] == k;
+            if (have > n && (size_t)have <= c->csize[k] / 2) n = have;
+        } else {
+            n = n < 8 ? n + 1 : n + n / 2;
+        }
+        if (c->fps_hi[k] > 0 && n >= c->fps_hi[k]) n = c->nfps[k] + (c->fps_hi[k] - c->nfps[k]) / 2;
+        if (n <= c->nfps[k] && c->nfps[k] > 0) c->frozen[k] = 1; /* no room left */
+        if ((size_t)n > c->csize[k] / 2 || c->frozen[k]) {
+            for (size_t x = 0; x < m->nv; x++)
+                if ((size_t)m->comp[x] == k) c->forced[x] = 1;
+            c->forced_cells++;
+            continue;
+        }
+        c->nfps[k] = n;
+        s = fps_place(c, k, err);
+    }
+    return s;
 }
 
 /* Self-intersections of the dual (the paper leaves them to refinement, sec. 3.8; we look):
- * every component of the fine surface holding an intersecting triangle keeps its fine
- * surface. Returns the number of intersecting pairs. */
+ * every component of the fine surface holding an intersecting triangle is covered by
+ * farthest points, or more of them (and at worst keeps its fine surface). Returns the number of intersecting pairs. */
 static vm_status untangle(cover *c, const int32_t *tri, size_t nt, size_t *pairs, vm_error *err) {
     const vm__cover_fine *m = c->m;
     vm_index *t = malloc((3 * nt + 1) * sizeof *t);
@@ -906,8 +1037,9 @@ static vm_status untangle(cover *c, const int32_t *tri, size_t nt, size_t *pairs
     if (!s && *pairs > 0) {
         for (size_t i = 0; i < nt; i++)
             if (flags[i]) cf[m->comp[c->seeds[tri[3 * i]]]] = 1;
-        for (size_t x = 0; x < m->nv; x++)
-            if (cf[m->comp[x]]) c->forced[x] = 1;
+        for (size_t k = 0; k < m->ncomp; k++)
+            if (cf[k]) c->grow[k] = 1;
+        s = fps_apply(c, GROW_TANGLE, err);
     }
     free(t), free(flags), free(pts), free(cf);
     return s;
@@ -915,7 +1047,8 @@ static vm_status untangle(cover *c, const int32_t *tri, size_t nt, size_t *pairs
 
 static void cover_free(cover *c) {
     free(c->dist), free(c->touched), free(c->order), free(c->heap), free(c->lmax), free(c->cap), free(c->hint), free(c->lfloor);
-    free(c->comp_fails);
+    free(c->comp_fails), free(c->nfps), free(c->grow), free(c->fd), free(c->csize);
+    free(c->fps_ok), free(c->frozen), free(c->fps_hi), free(c->thin);
     free(c->forced), free(c->forb), free(c->binl), free(c->seedlev), free(c->bcnt);
     free(c->fmark), free(c->fqueue), free(c->label), free(c->seeds), free(c->prev);
     free(c->prevlev), free(c->tri), free(c->half), free(c->toff), free(c->tlist), free(c->bad);
@@ -925,7 +1058,7 @@ static void cover_free(cover *c) {
 /* Appends triangles (seed indices into seeds) to surf. */
 static vm_status emit(const vm__cover_fine *m, const double *scale, const int32_t *seeds,
                       const uint8_t *forced, size_t ns, const int32_t *tri, size_t ntri,
-                      vm_mesh *surf, vm_error *err) {
+                      vm_mesh *surf, size_t *nkept, vm_error *err) {
     vm_status s = vm_mesh_reserve(surf, surf->npoints + ns, surf->ncells + ntri, err);
     size_t base = surf->npoints;
     for (size_t i = 0; !s && i < ns; i++) {
@@ -948,9 +1081,10 @@ static vm_status emit(const vm__cover_fine *m, const double *scale, const int32_
             int any = 0;
             for (int e = 0; e < 3; e++) {
                 size_t q = (size_t)tri[3 * t + e];
-                if (forced[seeds ? (size_t)seeds[q] : q]) any = 1;
+                if (forced[seeds ? (size_t)seeds[q] : q] == 1) any = 1;
             }
             kept[surf->ncells - ntri + t] = any;
+            *nkept += (size_t)any;
         }
         s = vm_mesh_set_field(surf, 1, "cover_fine", 1, kept, err);
     }
@@ -958,27 +1092,17 @@ static vm_status emit(const vm__cover_fine *m, const double *scale, const int32_
     return s;
 }
 
-vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options *o,
-                            vm_mesh *surf, vm_surface_stats *st, vm_error *err) {
-    static const double unit[3] = {1, 1, 1};
-    return vm__surface_cover_scaled(g, o, unit, surf, st, err);
-}
 
-vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_options *o,
-                                   const double scale_in[3], vm_mesh *surf, vm_surface_stats *st,
-                                   vm_error *err) {
-    double scale[3], smin = INFINITY;
-    for (int a = 0; a < 3; a++) {
-        if (!(fabs(scale_in[a]) > 0) || !isfinite(scale_in[a]))
-            return vm_error_set(err, VM_ERR_ARG, "surface cover: axis %d step %g must be finite and "
-                                "non-zero", a, scale_in[a]);
-        smin = fmin(smin, fabs(scale_in[a]));
-    }
-    for (int a = 0; a < 3; a++) scale[a] = fabs(scale_in[a]) / smin;
+/* One extraction on the samples of g, lengths measured with index steps scale[a] (in
+ * voxels of the smallest original spacing); output points are x / out_scale[a] (the original
+ * grid's index coordinates). *kept counts the triangles kept from the fine surface. */
+static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options *o,
+                            const double scale[3], const double out_scale[3], vm_mesh *surf,
+                            vm_surface_stats *st, size_t *kept, vm_error *err) {
     vm__cover_fine m;
     vm_status s = vm__cover_fine_build(g, scale, &m, err);
     if (s) return s;
-    st->cells_visited = m.cells_visited;
+    st->cells_visited += m.cells_visited;
     if (m.nf == 0) {
         vm__cover_fine_free(&m);
         return VM_OK; /* the dispatcher reports the empty material */
@@ -999,6 +1123,16 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
     c.hint = calloc(nv, 1);
     c.lfloor = malloc(nv + 1);
     c.comp_fails = calloc(m.ncomp + 1, 1);
+    c.nfps = calloc(m.ncomp + 1, sizeof *c.nfps);
+    c.grow = calloc(m.ncomp + 1, 1);
+    c.fd = malloc((nv + 1) * sizeof *c.fd);
+    c.csize = calloc(m.ncomp + 1, sizeof *c.csize);
+    c.fps_ok = calloc(m.ncomp + 1, sizeof *c.fps_ok);
+    c.frozen = calloc(m.ncomp + 1, 1);
+    c.fps_hi = calloc(m.ncomp + 1, sizeof *c.fps_hi);
+    c.thin = calloc(m.ncomp + 1, 1);
+    if (c.csize)
+        for (size_t v = 0; v < nv; v++) c.csize[m.comp[v]]++;
     c.forced = calloc(nv, 1);
     c.forb = malloc(nv);
     c.binl = malloc(nv * sizeof *c.binl);
@@ -1011,7 +1145,7 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
     c.prev = malloc(nv * sizeof *c.prev);
     c.prevlev = malloc(nv);
     c.bad = malloc(nv);
-    if (!c.dist || !c.touched || !c.order || !c.lmax || !c.cap || !c.hint || !c.lfloor || !c.comp_fails || !c.forced || !c.forb || !c.binl ||
+    if (!c.dist || !c.touched || !c.order || !c.lmax || !c.cap || !c.hint || !c.lfloor || !c.comp_fails || !c.nfps || !c.grow || !c.fd || !c.csize || !c.fps_ok || !c.frozen || !c.fps_hi || !c.thin || !c.forced || !c.forb || !c.binl ||
         !c.seedlev || !c.bcnt || !c.fmark || !c.fqueue || !c.label || !c.seeds || !c.prev ||
         !c.prevlev || !c.bad)
         s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (%zu vertices)", nv);
@@ -1043,7 +1177,8 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
         if (s) break;
         if (nbad > 0) {
             c.repairs++;
-            repair(&c);
+            s = repair(&c, err);
+            if (s) break;
         } else {
             free(best_seeds);
             free(best_tri);
@@ -1059,15 +1194,40 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
             memcpy(best_forced, c.forced, nv);
             best_ns = c.nseeds;
             best_nt = c.ntri;
+            for (size_t k = 0; k < m.ncomp; k++)
+                if (c.nfps[k] > 0) c.fps_ok[k] = c.nfps[k];
             refine(&c);
+            /* a farthest-point covering too coarse for the error or the edge ratio grows */
+            for (size_t i = 0; i < c.nseeds; i++)
+                if (c.bad[i] && c.forced[c.seeds[i]] == 2) c.grow[m.comp[c.seeds[i]]] = 1;
+            for (size_t t = 0; t < c.ntri; t++) {
+                int32_t w = c.seeds[c.tri[3 * t]];
+                if (c.forced[w] == 2 && edge_ratio(&m, c.seeds, c.tri + 3 * t) < ASPECT)
+                    c.thin[m.comp[w]] = 1, c.grow[m.comp[w]] = 1;
+            }
+            s = fps_apply(&c, GROW_REFINE, err);
+            if (s) break;
             if (!c.changed) {
                 size_t pairs = 0;
                 flips += flip_edges(&m, best_seeds, best_forced, best_ns, best_tri, best_nt,
                                     best_label, c.eps);
                 s = untangle(&c, best_tri, best_nt, &pairs, err);
                 if (s) break;
-                if (pairs == 0) done = 1;
-                else c.untangles++;
+                if (pairs == 0) {
+                    /* after the flips, a triangle still below the paper's 0.3 (its seeds at
+                     * their floor): its component is covered by farthest points instead */
+                    for (size_t t = 0; t < best_nt; t++) {
+                        int32_t w = best_seeds[best_tri[3 * t]];
+                        if (best_forced[w] != 1 && edge_ratio(&m, best_seeds, best_tri + 3 * t) < 0.3)
+                            c.grow[m.comp[w]] = 1, c.thin[m.comp[w]] = 1;
+                    }
+                    c.changed = 0;
+                    s = fps_apply(&c, GROW_REFINE, err);
+                    if (s) break;
+                    if (!c.changed) done = 1;
+                } else {
+                    c.untangles++;
+                }
             }
         }
         /* the next pass starts from these seeds */
@@ -1085,12 +1245,13 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
     }
     if (!s) {
         if (best_tri)
-            s = emit(&m, scale, best_seeds, best_forced, best_ns, best_tri, best_nt, surf, err);
+            s = emit(&m, out_scale, best_seeds, best_forced, best_ns, best_tri, best_nt, surf,
+                     kept, err);
         else if (!(all_forced = malloc(nv + 1)))
             s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
         else { /* no valid covering: the fine surface itself, which is one */
             memset(all_forced, 1, nv);
-            s = emit(&m, scale, NULL, all_forced, m.nv, m.f, m.nf, surf, err);
+            s = emit(&m, out_scale, NULL, all_forced, m.nv, m.f, m.nf, surf, kept, err);
         }
     }
     free(best_seeds);
@@ -1101,4 +1262,78 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
     cover_free(&c);
     vm__cover_fine_free(&m);
     return s;
+}
+
+vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options *o,
+                            vm_mesh *surf, vm_surface_stats *st, vm_error *err) {
+    static const double unit[3] = {1, 1, 1};
+    return vm__surface_cover_scaled(g, o, unit, surf, st, err);
+}
+
+/* Supersampling (sec. 3.2, 3.9): where the covering cannot make simple disks that hold the
+ * 1-rings of their centres, the features are smaller than the candidate graph resolves, and
+ * the paper samples the function finer (4-8x). When triangles had to be kept fine, we
+ * resample the trilinear interpolant of the samples twice finer along every axis and keep
+ * the surface with fewer kept triangles. Bounded work: at most MAX_SAMPLES samples, and not
+ * when the kept part would grow past MAX_KEPT fine triangles (a whole skin below the floor,
+ * as on the CT head, needs more than twice finer sampling). */
+#define MAX_SUPERSAMPLE 2
+#define MAX_SAMPLES ((int64_t)4 * 1000 * 1000)
+#define MAX_KEPT ((size_t)250000)
+
+vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_options *o,
+                                   const double scale_in[3], vm_mesh *surf, vm_surface_stats *st,
+                                   vm_error *err) {
+    double scale[3], smin = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        if (!(fabs(scale_in[a]) > 0) || !isfinite(scale_in[a]))
+            return vm_error_set(err, VM_ERR_ARG, "surface cover: axis %d step %g must be finite and "
+                                "non-zero", a, scale_in[a]);
+        smin = fmin(smin, fabs(scale_in[a]));
+    }
+    for (int a = 0; a < 3; a++) scale[a] = fabs(scale_in[a]) / smin;
+    vm_mesh best;
+    size_t best_kept = SIZE_MAX;
+    int have = 0;
+    vm_status s = VM_OK;
+    for (int f = 1; f <= MAX_SUPERSAMPLE && best_kept > 0; f *= 2) {
+        int k[3];
+        int64_t total = 1;
+        for (int a = 0; a < 3; a++) {
+            k[a] = f;
+            total *= (g->n[a] - 1) * k[a] + 1;
+        }
+        if (have && (total > MAX_SAMPLES || best_kept * (size_t)(f * f) > MAX_KEPT)) break;
+        vm__surface_grid g2;
+        float *buf = NULL;
+        s = vm__cover_supersample(g, k, &g2, &buf, err);
+        if (s) break;
+        double sc[3];
+        for (int a = 0; a < 3; a++) sc[a] = scale[a] / k[a];
+        vm_mesh m;
+        vm_mesh_init(&m, VM_TRI3);
+        size_t kept = 0;
+        s = cover_once(&g2, o, sc, scale, &m, st, &kept, err);
+        free(buf);
+        if (s) {
+            vm_mesh_free(&m);
+            break;
+        }
+        if (!have || kept < best_kept) {
+            if (have) vm_mesh_free(&best);
+            best = m;
+            best_kept = kept;
+            have = 1;
+            for (int a = 0; a < 3; a++) st->supersample[a] = k[a];
+        } else {
+            vm_mesh_free(&m);
+        }
+    }
+    if (s) {
+        if (have) vm_mesh_free(&best);
+        return s;
+    }
+    vm_mesh_free(surf);
+    *surf = best;
+    return VM_OK;
 }

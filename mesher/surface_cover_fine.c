@@ -309,3 +309,68 @@ vm_status vm__cover_fine_build(const vm__surface_grid *g, const double *scale, v
     if (s) vm__cover_fine_free(m);
     return s;
 }
+
+vm_status vm__cover_supersample(const vm__surface_grid *g, const int k[3], vm__surface_grid *out,
+                                float **buf, vm_error *err) {
+    *out = *g;
+    *buf = NULL;
+    if (k[0] == 1 && k[1] == 1 && k[2] == 1) return VM_OK;
+    int64_t n[3];
+    size_t total = 1;
+    for (int a = 0; a < 3; a++) {
+        if (k[a] < 1 || g->n[a] < 1)
+            return vm_error_set(err, VM_ERR_ARG, "surface cover: supersampling %d along axis %d",
+                                k[a], a);
+        n[a] = (g->n[a] - 1) * k[a] + 1;
+        if ((size_t)n[a] > SIZE_MAX / sizeof(float) / total)
+            return vm_error_set(err, VM_ERR_NOMEM, "surface cover: supersampled grid too large");
+        total *= (size_t)n[a];
+    }
+    float *f = malloc(total * sizeof *f);
+    if (!f)
+        return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (%zu supersamples)",
+                            total);
+    /* per axis: the lower sample and the weight of the upper one for each fine index */
+    int64_t *lo[3] = {NULL, NULL, NULL};
+    double *w[3] = {NULL, NULL, NULL};
+    int ok = 1;
+    for (int a = 0; a < 3; a++) {
+        lo[a] = malloc((size_t)n[a] * sizeof *lo[a]);
+        w[a] = malloc((size_t)n[a] * sizeof *w[a]);
+        if (!lo[a] || !w[a]) ok = 0;
+        for (int64_t i = 0; ok && i < n[a]; i++) {
+            int64_t q = i / k[a], r = i % k[a];
+            if (q >= g->n[a] - 1) q = g->n[a] - 1, r = 0; /* the last sample (or a 1-sample axis) */
+            lo[a][i] = q;
+            w[a][i] = (double)r / k[a];
+        }
+    }
+    if (ok) {
+        const int64_t sx = 1, sy = g->n[0], sz = g->n[0] * g->n[1];
+        size_t p = 0;
+        for (int64_t z = 0; z < n[2]; z++)
+            for (int64_t y = 0; y < n[1]; y++)
+                for (int64_t x = 0; x < n[0]; x++, p++) {
+                    double wx = w[0][x], wy = w[1][y], wz = w[2][z];
+                    const float *c = g->f + lo[0][x] * sx + lo[1][y] * sy + lo[2][z] * sz;
+                    /* the upper neighbours only where their weight is non-zero (never past
+                     * the last sample) */
+                    int64_t dx = wx > 0 ? sx : 0, dy = wy > 0 ? sy : 0, dz = wz > 0 ? sz : 0;
+                    double c00 = c[0] + wx * (c[dx] - c[0]);
+                    double c10 = c[dy] + wx * (c[dy + dx] - c[dy]);
+                    double c01 = c[dz] + wx * (c[dz + dx] - c[dz]);
+                    double c11 = c[dz + dy] + wx * (c[dz + dy + dx] - c[dz + dy]);
+                    double c0 = c00 + wy * (c10 - c00), c1 = c01 + wy * (c11 - c01);
+                    f[p] = (float)(c0 + wz * (c1 - c0));
+                }
+    }
+    for (int a = 0; a < 3; a++) free(lo[a]), free(w[a]);
+    if (!ok) {
+        free(f);
+        return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (supersampling)");
+    }
+    for (int a = 0; a < 3; a++) out->n[a] = n[a];
+    out->f = f;
+    *buf = f;
+    return VM_OK;
+}

@@ -41,4 +41,10 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
                                    vm_error *err);
 void vm__cover_fine_free(vm__cover_fine *m);
 
+/* The trilinear interpolant of g sampled k[a] times finer along axis a: out has
+ * (n[a] - 1) k[a] + 1 samples, sample i at i / k[a] of the original index; *buf holds them
+ * (free it; NULL when every k is 1 and out is g itself). Bounds are copied. */
+vm_status vm__cover_supersample(const vm__surface_grid *g, const int k[3], vm__surface_grid *out,
+                                float **buf, vm_error *err);
+
 #endif

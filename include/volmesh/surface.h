@@ -50,6 +50,9 @@ typedef struct vm_surface_stats {
     size_t cells_visited;    /* grid cells or boxes the method examined */
     size_t centre_vertices;  /* mc: vertices added inside cubes (tunnels, and polygons no
                                 triangulation of which avoids chords in a cube face) */
+    int supersample[3];      /* cover: how many times finer than the sampling grid the
+                                interpolant was sampled along each axis (1 1 1 if not);
+                                0 0 0 for the other methods */
     double seconds;
 } vm_surface_stats;
 
