@@ -2,33 +2,12 @@
  * node-marking scheme of Schneiders (1996, "Refining quadrilateral and hexahedral element
  * meshes"): edges with both ends marked split in thirds; one template per marked-edge set. */
 #include "hex_templates.h"
-#include <math.h>
+#include "volmesh/quality.h"
 #include <string.h>
 
-/* For corner i of a VTK hexahedron, the three corners along its edges, ordered so that
- * det(p[a]-p[i], p[b]-p[i], p[c]-p[i]) > 0 for a valid element. */
-static const int corner_nb[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
-                                    {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
-
+/* The metric of quality/ (Verdict's, as the reports measure it). */
 double vm__hex_template_min_sj(double p[8][3]) {
-    double worst = INFINITY;
-    for (int k = 0; k < 8; k++) {
-        double e[3][3], len = 1;
-        for (int j = 0; j < 3; j++) {
-            double l2 = 0;
-            for (int a = 0; a < 3; a++) {
-                e[j][a] = p[corner_nb[k][j]][a] - p[k][a];
-                l2 += e[j][a] * e[j][a];
-            }
-            len *= sqrt(l2);
-        }
-        double det = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
-                     e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
-                     e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
-        double q = len > 0 ? det / len : -1;
-        if (q < worst) worst = q;
-    }
-    return worst;
+    return vm_hex_min_scaled_jacobian((const double(*)[3])p);
 }
 
 /* Symmetry s = 8 * permutation + flips: image coordinate a is source coordinate perm[a],
