@@ -26,9 +26,10 @@ static const char *usage =
     "\n"
     "  volmesh COMMAND --help      options of one command\n"
     "  volmesh --version           version\n"
-    "  volmesh --threads N COMMAND ...   run the parallel stages (denoising, VTU compression,\n"
-    "                              mesh checks) on N threads (default: OMP_NUM_THREADS, else\n"
-    "                              one per processor); results are the same for any N\n"
+    "  volmesh --threads N COMMAND ...   run the parallel stages (denoising, spectrum, meshing,\n"
+    "                              the quality pass's measures, VTU compression, mesh checks)\n"
+    "                              on N threads (default: OMP_NUM_THREADS, else one per\n"
+    "                              processor); results are the same for any N\n"
     "\n"
     "exit status: 0 ok, 1 a requested check failed, 2 bad input or usage\n";
 

@@ -408,6 +408,68 @@ vm_status vm_spectrum_compute(const vm_volume *v, int n, vm_spectrum *out, vm_er
     return vm_spectrum_compute_range(v, n, lo, hi, NULL, NULL, out, err);
 }
 
+/* Kuhn split: tet (a, b, c) runs 0 -> e_a -> e_a + e_b -> (1,1,1); corner bit 0 is x. */
+static const int kuhn_perm[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2},
+                                    {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+
+/* Adds the cells of z layer k (between grid planes k and k + 1) to ac; returns the world
+ * volume of its cells with finite corners. inv: the inverse of the index-to-world matrix. */
+static double add_layer(const vm_volume *v, accum *ac, const double inv[3][3],
+                        double cell_volume, int64_t k) {
+    const int64_t nx = v->dims[0], ny = v->dims[1];
+    const int n = ac->n;
+    const double lo = ac->lo, hi = ac->hi, tet_volume = cell_volume / 6.0;
+    const int64_t corner_off[8] = {0,           1,           nx,          nx + 1,
+                                   nx * ny,     nx * ny + 1, nx * ny + nx, nx * ny + nx + 1};
+    double total = 0.0;
+    for (int64_t j = 0; j + 1 < ny; j++)
+        for (int64_t i = 0; i + 1 < nx; i++) {
+            const float *base = v->data + (i + nx * (j + ny * k));
+            double c[8], cmin = INFINITY, cmax = -INFINITY;
+            int finite = 1;
+            for (int q = 0; q < 8; q++) {
+                c[q] = base[corner_off[q]];
+                if (!isfinite(c[q])) finite = 0;
+                cmin = fmin(cmin, c[q]);
+                cmax = fmax(cmax, c[q]);
+            }
+            if (!finite) continue;
+            total += cell_volume;
+            int kmin = last_at_or_below(ac->iso, n, lo, hi, cmin);
+            if (kmin + 1 >= n || !(ac->iso[kmin + 1] <= cmax)) {
+                /* No isovalue in (cmin, cmax]: the cell counts whole or not at all. */
+                add_full(ac, cmin, cell_volume);
+                continue;
+            }
+            for (int t = 0; t < 6; t++) {
+                int a = kuhn_perm[t][0], b = kuhn_perm[t][1], cc = kuhn_perm[t][2];
+                int v1 = 1 << a, v2 = v1 | (1 << b);
+                double f[4] = {c[0], c[v1], c[v2], c[7]};
+                double gi[3];
+                gi[a] = f[1] - f[0];
+                gi[b] = f[2] - f[1];
+                gi[cc] = f[3] - f[2];
+                double g2 = 0;
+                for (int r = 0; r < 3; r++) { /* world gradient = M^-T * index gradient */
+                    double gw = inv[0][r] * gi[0] + inv[1][r] * gi[1] + inv[2][r] * gi[2];
+                    g2 += gw * gw;
+                }
+                /* sort the four values */
+                for (int p = 1; p < 4; p++) {
+                    double x = f[p];
+                    int q = p - 1;
+                    while (q >= 0 && f[q] > x) {
+                        f[q + 1] = f[q];
+                        q--;
+                    }
+                    f[q + 1] = x;
+                }
+                add_tet(ac, f, tet_volume, g2);
+            }
+        }
+    return total;
+}
+
 vm_status vm_spectrum_compute_range(const vm_volume *v, int n, double lo, double hi,
                                     vm_progress_fn progress, void *user, vm_spectrum *out,
                                     vm_error *err) {
@@ -460,62 +522,45 @@ vm_status vm_spectrum_compute_range(const vm_volume *v, int n, double lo, double
     out->isovalue[n - 1] = hi;
     accum ac = {out->isovalue, n, lo, hi, out->area, out->volume, out->gradient_integral, full};
 
-    const int64_t nx = v->dims[0], ny = v->dims[1], nz = v->dims[2];
-    const double cell_volume = fabs(det), tet_volume = cell_volume / 6.0;
-    /* Kuhn split: tet (a, b, c) runs 0 -> e_a -> e_a + e_b -> (1,1,1); corner bit 0 is x. */
-    static const int perm[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2},
-                                   {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-    const int64_t corner_off[8] = {0,           1,           nx,          nx + 1,
-                                   nx * ny,     nx * ny + 1, nx * ny + nx, nx * ny + nx + 1};
-    double total = 0.0;
-    for (int64_t k = 0; k + 1 < nz; k++) {
-        for (int64_t j = 0; j + 1 < ny; j++)
-            for (int64_t i = 0; i + 1 < nx; i++) {
-                const float *base = v->data + (i + nx * (j + ny * k));
-                double c[8], cmin = INFINITY, cmax = -INFINITY;
-                int finite = 1;
-                for (int q = 0; q < 8; q++) {
-                    c[q] = base[corner_off[q]];
-                    if (!isfinite(c[q])) finite = 0;
-                    cmin = fmin(cmin, c[q]);
-                    cmax = fmax(cmax, c[q]);
-                }
-                if (!finite) continue;
-                total += cell_volume;
-                int kmin = last_at_or_below(ac.iso, n, lo, hi, cmin);
-                if (kmin + 1 >= n || !(ac.iso[kmin + 1] <= cmax)) {
-                    /* No isovalue in (cmin, cmax]: the cell counts whole or not at all. */
-                    add_full(&ac, cmin, cell_volume);
-                    continue;
-                }
-                for (int t = 0; t < 6; t++) {
-                    int a = perm[t][0], b = perm[t][1], cc = perm[t][2];
-                    int v1 = 1 << a, v2 = v1 | (1 << b);
-                    double f[4] = {c[0], c[v1], c[v2], c[7]};
-                    double gi[3];
-                    gi[a] = f[1] - f[0];
-                    gi[b] = f[2] - f[1];
-                    gi[cc] = f[3] - f[2];
-                    double g2 = 0;
-                    for (int r = 0; r < 3; r++) { /* world gradient = M^-T * index gradient */
-                        double gw = inv[0][r] * gi[0] + inv[1][r] * gi[1] + inv[2][r] * gi[2];
-                        g2 += gw * gw;
-                    }
-                    /* sort the four values */
-                    for (int p = 1; p < 4; p++) {
-                        double x = f[p];
-                        int q = p - 1;
-                        while (q >= 0 && f[q] > x) {
-                            f[q + 1] = f[q];
-                            q--;
-                        }
-                        f[q + 1] = x;
-                    }
-                    add_tet(&ac, f, tet_volume, g2);
-                }
-            }
-        if (progress) progress("spectrum", (double)(k + 1), (double)(nz - 1), user);
+    const int64_t nz = v->dims[2];
+    const double cell_volume = fabs(det);
+    /* Layers in parallel, each into its own sums, added in layer order: the same bits for any
+     * thread count. A batch of layers at a time (16, fewer when 4 n + 1 doubles per layer would
+     * pass 64 MB; never depending on the threads) bounds the memory and gives the progress
+     * reports (from this thread only). */
+    const size_t per = 4 * sz + 1;
+    size_t fit = ((size_t)64 << 20) / (per * sizeof(double));
+    const int64_t BATCH = fit >= 16 ? 16 : fit >= 1 ? (int64_t)fit : 1;
+    double *part = malloc((size_t)BATCH * per * sizeof *part);
+    if (!part) {
+        free(full);
+        return vm_error_set(err, VM_ERR_NOMEM, "spectrum: out of memory for %d isovalues", n);
     }
+    double total = 0.0;
+    for (int64_t k0 = 0; k0 + 1 < nz; k0 += BATCH) {
+        int64_t k1 = k0 + BATCH < nz - 1 ? k0 + BATCH : nz - 1;
+        memset(part, 0, (size_t)(k1 - k0) * per * sizeof *part);
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+        for (int64_t k = k0; k < k1; k++) {
+            double *q = part + (size_t)(k - k0) * per;
+            accum lac = {ac.iso, n, lo, hi, q, q + sz, q + 2 * sz, q + 3 * sz};
+            q[4 * sz] = add_layer(v, &lac, (const double(*)[3])inv, cell_volume, k);
+        }
+        for (int64_t k = k0; k < k1; k++) {
+            const double *q = part + (size_t)(k - k0) * per;
+            for (size_t i = 0; i < sz; i++) {
+                ac.area[i] += q[i];
+                ac.volume[i] += q[sz + i];
+                ac.grad[i] += q[2 * sz + i];
+                ac.full[i] += q[3 * sz + i];
+            }
+            total += q[4 * sz];
+        }
+        if (progress) progress("spectrum", (double)k1, (double)(nz - 1), user);
+    }
+    free(part);
     double run = 0;
     for (int k = n - 1; k >= 0; k--) {
         run += full[k];

@@ -233,6 +233,33 @@ static void tet_meshes_are_byte_identical_for_one_two_and_three_threads(void) {
     vm_set_threads(before);
 }
 
+/* The contour spectrum sums its layers in a fixed order: the same numbers for any count. */
+static void spectrum_is_the_same_for_one_two_and_three_threads(void) {
+    vm_volume v;
+    vm_error err;
+    int before = vm_set_threads(1);
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_TORUS, 48, 0.3, 5, &v, NULL, &err), &err);
+    vm_spectrum ref;
+    CHECK_OK(vm_spectrum_compute(&v, 64, &ref, &err), &err);
+    CHECK(ref.n == 64 && ref.total_volume > 0 && ref.area[32] > 0);
+    for (size_t t = 1; t < sizeof counts / sizeof counts[0]; t++) {
+        vm_set_threads(counts[t]);
+        vm_spectrum s;
+        CHECK_OK(vm_spectrum_compute(&v, 64, &s, &err), &err);
+        size_t bytes = (size_t)ref.n * sizeof(double);
+        CHECK_MSG(s.n == ref.n && s.total_volume == ref.total_volume &&
+                      memcmp(s.area, ref.area, bytes) == 0 &&
+                      memcmp(s.volume, ref.volume, bytes) == 0 &&
+                      memcmp(s.gradient_integral, ref.gradient_integral, bytes) == 0 &&
+                      memcmp(s.components, ref.components, (size_t)ref.n * sizeof(int64_t)) == 0,
+                  "spectrum differs at %d threads", counts[t]);
+        vm_spectrum_free(&s);
+    }
+    vm_spectrum_free(&ref);
+    vm_volume_free(&v);
+    vm_set_threads(before);
+}
+
 static void thread_count_is_set_and_restored(void) {
     int before = vm_set_threads(2);
     int now = vm_threads();
@@ -245,4 +272,5 @@ TEST_MAIN(T(denoising_is_the_same_for_one_two_and_three_threads),
           T(tet_meshes_are_byte_identical_for_one_two_and_three_threads),
           T(vtu_bytes_and_mesh_checks_are_the_same_for_any_thread_count),
           T(quality_pass_gives_the_same_mesh_for_one_two_and_three_threads),
+          T(spectrum_is_the_same_for_one_two_and_three_threads),
           T(thread_count_is_set_and_restored))
