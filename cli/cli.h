@@ -36,6 +36,11 @@ int vm_cli_need_value(const char *cmd, int i, int argc, char **argv);
 int vm_cli_double(const char *opt, const char *s, double *out);
 int vm_cli_int(const char *opt, const char *s, long lo, long hi, long *out);
 
+/* For a stage whose length is not known in advance (writing a file, the final checks): on a
+ * terminal and unless quiet, shows "WHAT NAME ..." on stderr until vm_cli_status_clear. */
+void vm_cli_status(const char *what, const char *name, int quiet);
+void vm_cli_status_clear(int quiet);
+
 /* Progress callback drawing a bar on stderr when it is a terminal (user: quiet flag). */
 void vm_cli_progress(const char *stage, double done, double total, void *user);
 
@@ -61,6 +66,9 @@ int vm_cli_raw_option(int argc, char **argv, int *i, vm_raw_options *raw, int *i
 
 /* Checks a mesh and prints its one-line summary (or JSON); returns an exit code. */
 int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, const char *out);
+/* The same summary for a mesh already checked (checked: its vm_mesh_check report). */
+int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
+                          const vm_mesh_stats *st, int json, const char *out);
 
 /* --labels: "all" gives *labels NULL and *n 0, else the listed labels ("1,3,7", "2-5");
  * [out] *labels malloc'd. Returns 0, or prints and returns VM_EXIT_INPUT. */

@@ -105,6 +105,18 @@ int vm_cli_need_value(const char *cmd, int i, int argc, char **argv) {
     return 0;
 }
 
+void vm_cli_status(const char *what, const char *name, int quiet) {
+    if (quiet || !isatty(2)) return;
+    fprintf(stderr, "\r\033[K%s %s ...", what, name);
+    fflush(stderr);
+}
+
+void vm_cli_status_clear(int quiet) {
+    if (quiet || !isatty(2)) return;
+    fputs("\r\033[K", stderr);
+    fflush(stderr);
+}
+
 void vm_cli_progress(const char *stage, double done, double total, void *user) {
     int quiet = user ? *(const int *)user : 0;
     if (quiet || !isatty(2) || total <= 0) return;

@@ -75,9 +75,9 @@ static const char *mesh_help2 =
     "  --max-memory SIZE       refuse (exit 2) before reading or meshing when the run would\n"
     "                          need more than SIZE bytes (suffix K, M, G, T: powers of 1024)\n"
     "  --json                  print the summary as one JSON object\n"
-    "  --quiet                 no progress bar\n"
+    "  --quiet                 no progress bar (nor the status line of writing and checking)\n"
     "  --verbose               print the time of each stage (read, denoise, mesh, improve,\n"
-    "                          write) on stderr\n"
+    "                          write, check, report) on stderr\n"
     "  raw input: --raw-dims NXxNYxNZ --raw-type T [--raw-endian E] [--raw-spacing S]\n"
     "             [--raw-origin O] [--raw-header N]   (see volmesh info --help)\n"
     "\n"
@@ -115,6 +115,12 @@ int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, cons
     vm_error err;
     vm_error_clear(&err);
     if (vm_mesh_check(m, &r, &err)) return vm_cli_fail_err(&err);
+    return vm_cli_report_checked(m, &r, st, json, out);
+}
+
+int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
+                          const vm_mesh_stats *st, int json, const char *out) {
+    const vm_mesh_report r = *checked;
     if (json) {
         printf("{\"output\": \"%s\", \"elements\": %zu, \"points\": %zu, \"inverted\": %zu, "
                "\"boundary_faces\": %zu, \"boundary_closed\": %s, \"boundary_euler\": %ld, "
@@ -549,20 +555,38 @@ int vm_cmd_mesh(int argc, char **argv) {
         return vm_cli_fail_err(&err);
     }
     wo.compress = compress;
+    vm_cli_status("writing", out, quiet);
     s = vm_mesh_write_as(out, &m, &wo, &err);
     if (!s && surface) {
         vm_mesh surf;
+        vm_cli_status("writing", surface, quiet);
         s = vm_mesh_boundary(&m, &surf, &err);
         if (!s) s = vm_mesh_write(surface, &surf, &err);
         vm_mesh_free(&surf);
     }
+    vm_cli_status_clear(quiet);
     if (s) {
         vm_mesh_free(&m);
         return vm_cli_fail_err(&err);
     }
     stage_done(verbose, "write", &t);
-    rc = vm_cli_report_mesh(&m, &st, json, out);
-    if (!rc && report) rc = vm_cli_write_report(report, &m, out);
+    vm_cli_status("checking", out, quiet);
+    vm_mesh_report checked;
+    vm_error cerr;
+    int checked_ok = vm_mesh_check(&m, &checked, &cerr) == VM_OK;
+    vm_cli_status_clear(quiet);
+    if (!checked_ok) {
+        vm_mesh_free(&m);
+        return vm_cli_fail_err(&cerr);
+    }
+    stage_done(verbose, "check", &t);
+    rc = vm_cli_report_checked(&m, &checked, &st, json, out);
+    if (!rc && report) {
+        vm_cli_status("writing", report, quiet);
+        rc = vm_cli_write_report(report, &m, out);
+        vm_cli_status_clear(quiet);
+        if (!rc) stage_done(verbose, "report", &t);
+    }
     if (!rc && improved && !json && ir.unfixed)
         printf("quality pass: %zu tets still below the targets (min dihedral 15, max 150, "
                "ABAQUS); see volmesh quality\n", ir.unfixed);
