@@ -530,15 +530,15 @@ vm_status vm_spectrum_compute_range(const vm_volume *v, int n, double lo, double
      * reports (from this thread only). */
     const size_t per = 4 * sz + 1;
     size_t fit = ((size_t)64 << 20) / (per * sizeof(double));
-    const int64_t BATCH = fit >= 16 ? 16 : fit >= 1 ? (int64_t)fit : 1;
-    double *part = malloc((size_t)BATCH * per * sizeof *part);
+    const int64_t batch = fit >= 16 ? 16 : fit >= 1 ? (int64_t)fit : 1;
+    double *part = malloc((size_t)batch * per * sizeof *part);
     if (!part) {
         free(full);
         return vm_error_set(err, VM_ERR_NOMEM, "spectrum: out of memory for %d isovalues", n);
     }
     double total = 0.0;
-    for (int64_t k0 = 0; k0 + 1 < nz; k0 += BATCH) {
-        int64_t k1 = k0 + BATCH < nz - 1 ? k0 + BATCH : nz - 1;
+    for (int64_t k0 = 0; k0 + 1 < nz; k0 += batch) {
+        int64_t k1 = k0 + batch < nz - 1 ? k0 + batch : nz - 1;
         memset(part, 0, (size_t)(k1 - k0) * per * sizeof *part);
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1)
