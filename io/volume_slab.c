@@ -159,8 +159,7 @@ static int inflate_into(const vm__samples *s, z_stream *zs, size_t *in_done,
     int r = Z_OK;
     *got = 0;
     while (*got < len) {
-        if (zs->avail_in == 0) {
-            if (*in_done >= s->avail) return Z_BUF_ERROR;
+        if (zs->avail_in == 0 && *in_done < s->avail) {
             size_t c = s->avail - *in_done < IN_CHUNK ? s->avail - *in_done : IN_CHUNK;
             drop_pages(s, s->p, s->p + *in_done);
             zs->next_in = (unsigned char *)s->p + *in_done;
@@ -171,10 +170,13 @@ static int inflate_into(const vm__samples *s, z_stream *zs, size_t *in_done,
         zs->next_out = out + *got;
         zs->avail_out = (uInt)want;
         r = inflate(zs, Z_NO_FLUSH);
-        *got += want - zs->avail_out;
+        size_t made = want - zs->avail_out;
+        *got += made;
         if (r == Z_STREAM_END) return r;
         if (r != Z_OK && r != Z_BUF_ERROR) return r;
-        if (r == Z_BUF_ERROR && zs->avail_in != 0) return r;
+        /* inflate may hold output back with all input consumed: only no progress at the
+         * end of the input means the stream is cut short */
+        if (made == 0 && zs->avail_in == 0 && *in_done >= s->avail) return Z_BUF_ERROR;
     }
     return r;
 }
@@ -242,7 +244,7 @@ static vm_status decode_ascii(const vm__samples *s, size_t first, size_t n, floa
             }
             continue;
         }
-        char word[72], *e;
+        char word[400], *e;
         size_t wl = (size_t)(p - w);
         int ok = wl < sizeof word;
         double x = 0;
