@@ -189,6 +189,11 @@ static void convert_block(const void *src, vm_scalar_type t, int swap, size_t n,
     }
 }
 
+void vm__samples_to_float_serial(const void *src, vm_scalar_type t, int swap, size_t n,
+                                 float *dst) {
+    convert_block(src, t, swap, n, dst);
+}
+
 void vm__samples_to_float(const void *src, vm_scalar_type t, int swap, size_t n, float *dst) {
     enum { BLOCK = 1 << 16 }; /* samples per task: big enough to amortise, small to balance */
 #ifdef VM_HAVE_OPENMP

@@ -26,6 +26,9 @@ vm_status vm__inflate_exact(const char *path, const unsigned char *src, size_t s
 /* Converts n samples of type t at src (native or swapped byte order) into floats; with
  * OpenMP, blocks of samples on several threads (elementwise, so the same for any count). */
 void vm__samples_to_float(const void *src, vm_scalar_type t, int swap, size_t n, float *dst);
+/* The same on the calling thread only (for small pieces inside a serial loop). */
+void vm__samples_to_float_serial(const void *src, vm_scalar_type t, int swap, size_t n,
+                                 float *dst);
 
 /* ---- Volumes read by slabs ----------------------------------------------------------- */
 

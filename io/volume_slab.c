@@ -138,7 +138,7 @@ void vm__slab_finish(vm_volume *v, const vm__slab *rq) {
     v->dims[2] = rq->z1 - rq->z0;
 }
 
-enum { RAW_CHUNK = 1 << 24, STAGE = 1 << 20, IN_CHUNK = 1 << 22 };
+enum { RAW_CHUNK = 1 << 22, STAGE = 1 << 20, IN_CHUNK = 1 << 22 };
 
 static vm_status decode_raw(const vm__samples *s, size_t first, size_t n, float *dst) {
     size_t tsize = vm_scalar_type_size(s->type);
@@ -207,7 +207,8 @@ static vm_status decode_zlib(const vm__samples *s, size_t first, size_t n, float
         r = inflate_into(s, &zs, &in_done, stage, c, &got);
         done += got;
         size_t m = got / tsize;
-        vm__samples_to_float(stage, s->type, s->swap, m, dst + out);
+        /* inflate is serial: waking threads for each stage costs more than it saves */
+        vm__samples_to_float_serial(stage, s->type, s->swap, m, dst + out);
         out += m;
         if (got < c) break;
     }
