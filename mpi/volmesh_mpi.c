@@ -1,8 +1,9 @@
 /* mpi/volmesh_mpi.c — `volmesh_mpi`: one tetrahedral mesh over several MPI ranks, written as
  * a partitioned VTK XML grid (.pvtu + one .vtu piece per rank). Design: docs/MPI.md.
  *
- * Every rank reads the whole volume, keeps the samples of its slab of cells along z plus a
- * ghost band, replaces the rest by a value outside the material and meshes the result with
+ * Every rank reads only the planes of its slab of cells along z plus a ghost band
+ * (vm_volume_read_slab) into a volume of the whole dims, the rest outside the material
+ * (untouched zero pages when 0 is outside it, else a fill value), and meshes the result with
  * the ordinary mesher in the volume's global index frame. The mesher's decisions are local
  * (a cell's vertices, splits and octree leaf depend only on samples a few cells away), so
  * away from the ghost band's far edge the rank's tets are bit for bit those of the
