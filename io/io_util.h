@@ -61,7 +61,8 @@ typedef struct vm__samples {
     size_t skip;             /* ZLIB: decompressed bytes before sample 0 */
     vm_scalar_type type;
     int swap;
-    int mapped;              /* p lies in a vm__map: pages are given back as they are read */
+    int mapped;              /* p lies in a vm__map's mapping (maplen != 0, not a buffer read
+                                from a pipe): pages are given back as they are read */
 } vm__samples;
 
 /* Checks dims for the request: a whole read as vm__check_dims(dims, tsize + 4) (within

@@ -337,7 +337,7 @@ static vm_status read_metaimage(const char *path, const vm__slab *rq, vm_volume 
     }
 
     vm__samples src = {path, NULL, 0, VM__ENC_RAW, 0, type, h.msb == vm__host_little_endian(),
-                       1};
+                       (local ? hm.maplen : dm.maplen) != 0};
     if (h.compressed) {
         size_t clen = avail - start;
         if (h.has_csize) {

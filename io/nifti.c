@@ -440,7 +440,8 @@ static vm_status read_nifti(const char *path, const vm__slab *rq, vm_volume *v, 
         if (st) goto done;
         data = &dm;
     }
-    vm__samples src = {path, data->p + offset, 0, VM__ENC_RAW, 0, type, h.swap, 1};
+    vm__samples src = {path, data->p + offset, 0, VM__ENC_RAW, 0, type, h.swap,
+                       data->maplen != 0};
     if (is_gzip(data)) {
         src.p = data->p;
         src.avail = data->len;

@@ -530,7 +530,8 @@ static vm_status read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, v
         goto done;
     }
     size_t avail = (size_t)(end - p);
-    vm__samples src = {path, p, avail, VM__ENC_RAW, 0, h.type, 0, 1};
+    vm__samples src = {path, p, avail, VM__ENC_RAW, 0, h.type, 0,
+                       (h.data_file[0] ? dm.maplen : hm.maplen) != 0};
     src.swap = tsize > 1 && h.big_endian == vm__host_little_endian();
     if (h.encoding == ENC_RAW || h.encoding == ENC_ASCII) {
         if (h.byte_skip == -1) {

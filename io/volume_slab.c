@@ -33,9 +33,10 @@ vm_status vm__map_file(const char *path, size_t max_bytes, vm__map *m, vm_error 
     if (S_ISDIR(sb.st_mode))
         return vm_error_set(err, VM_ERR_IO, "%s: is a directory, not a file", path);
     if (!S_ISREG(sb.st_mode) || (uint64_t)sb.st_size >= (uint64_t)SIZE_MAX / 2) {
-        /* pipes and devices cannot be mapped: read them */
+        /* pipes and devices cannot be mapped: read them to their end (a gzip stream
+         * arrives inflated, which every reader takes as well) */
         size_t len;
-        vm_status st = vm__read_file(path, max_bytes, &m->p, &len, err);
+        vm_status st = vm__read_gz_file(path, max_bytes, &m->p, &len, err);
         m->len = len;
         return st;
     }

@@ -238,6 +238,7 @@ typedef struct vti_file {
     int have_appended, appended_base64;
     size_t appended_start; /* first byte after '_' */
     const vm__slab *rq;
+    int mapped; /* buf is a vm__map's mapping (pages may be given back) */
 } vti_file;
 
 static vm_status parse_extent(vti_file *f, span s, const char *what, int64_t e[6]) {
@@ -557,7 +558,7 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
     if (span_is(a->format, "ascii")) {
         if (f->rq->all) return read_ascii(f, a->content, n, v->data);
         vm__samples src = {path, (const unsigned char *)a->content.p, a->content.n,
-                           VM__ENC_ASCII, 0, t, 0, 1};
+                           VM__ENC_ASCII, 0, t, 0, f->mapped};
         return vm__samples_decode(&src, first, ns, v->data, f->err);
     }
 
@@ -609,7 +610,7 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
             if (blen - hs < n * esize)
                 return vm_error_set(f->err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of "
                                     "%zu bytes)", path, blen - hs, n * esize);
-            vm__samples src = {path, bytes + hs, blen - hs, VM__ENC_RAW, 0, t, swap, 1};
+            vm__samples src = {path, bytes + hs, blen - hs, VM__ENC_RAW, 0, t, swap, f->mapped};
             return vm__samples_decode(&src, first, ns, v->data, f->err);
         }
     } else {
@@ -703,6 +704,7 @@ vm_status vm__read_vti(const char *path, const vm__slab *rq, vm_volume *v, vm_er
     f->len = m.len;
     f->err = err;
     f->rq = rq;
+    f->mapped = m.maplen != 0;
     st = parse(f, v);
     free(f);
     vm__map_free(&m);

@@ -19,6 +19,7 @@ typedef struct reader {
     int binary;
     vm_error *err;
     const vm__slab *rq;
+    int mapped; /* buf is a vm__map's mapping (pages may be given back) */
 } reader;
 
 /* Next white-space separated word into tok; returns 0 at end of file. A word longer than
@@ -222,13 +223,14 @@ static vm_status read_samples(reader *r, vm_scalar_type t, int color, size_t tot
     if (r->binary) {
         size_t size = vm_scalar_type_size(t);
         vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_RAW, 0, t,
-                           vm__host_little_endian(), 1};
+                           vm__host_little_endian(), r->mapped};
         vm_status st = vm__samples_decode(&src, first, n, v->data, r->err);
         r->pos += total * size;
         return st;
     }
     if (!r->rq->all) {
-        vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_ASCII, 0, t, 0, 1};
+        vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_ASCII, 0, t, 0,
+                           r->mapped};
         vm_status st = vm__samples_decode(&src, first, n, v->data, r->err);
         if (!st && color)
             for (size_t i = 0; i < n; i++) v->data[i] = color_value(v->data[i]);
@@ -495,7 +497,7 @@ vm_status vm__read_vtk(const char *path, const vm__slab *rq, vm_volume *v, vm_er
     vm__map m;
     vm_status st = vm__map_file(path, (size_t)-1, &m, err);
     if (st) return st;
-    reader r = {path, m.p, m.len, 0, 0, err, rq};
+    reader r = {path, m.p, m.len, 0, 0, err, rq, m.maplen != 0};
     st = parse(&r, v);
     vm__map_free(&m);
     if (st) vm_volume_free(v);

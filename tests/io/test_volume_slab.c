@@ -8,6 +8,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <zlib.h>
 #include "test.h"
 
@@ -400,6 +403,44 @@ static void slabOfAVolumeAboveTheMemoryLimitIsRead(void) {
     unsetenv("VOLMESH_MAX_MEMORY");
 }
 
+/* A named pipe cannot be mapped: it is read into memory, and the slab is still right (the
+ * pages of a buffer are never given back, which would zero them). */
+static void slabOfANamedPipeIsReadFromMemory(void) {
+    make_files();
+    const char *src = vm_test_tmp("slab_gz.nrrd");
+    char fifo[4096];
+    snprintf(fifo, sizeof fifo, "%s", vm_test_tmp("slab_fifo.nrrd"));
+    FILE *fp = fopen(src, "rb");
+    CHECK(fp != NULL);
+    if (!fp) return;
+    unsigned char *buf = malloc(1 << 16);
+    size_t len = fread(buf, 1, 1 << 16, fp);
+    fclose(fp);
+    vm_volume whole, s;
+    vm_error err;
+    CHECK_OK(vm_volume_read(src, &whole, &err), &err);
+    remove(fifo);
+    CHECK(mkfifo(fifo, 0600) == 0);
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid == 0) {
+        FILE *w = fopen(fifo, "wb");
+        if (w) {
+            fwrite(buf, 1, len, w);
+            fclose(w);
+        }
+        _exit(0);
+    }
+    CHECK(pid > 0);
+    CHECK_OK(vm_volume_read_slab(fifo, 2, 5, &s, &err), &err);
+    if (pid > 0) waitpid(pid, NULL, 0);
+    if (s.data && whole.data) check_slab("slab_fifo.nrrd", &whole, &s, 2, 5);
+    vm_volume_free(&s);
+    vm_volume_free(&whole);
+    remove(fifo);
+    free(buf);
+}
+
 int main(void) {
     static const vm_test_case cases[] = {
         {"slabsConcatenatedEqualTheWholeReadInEveryFormat",
@@ -408,6 +449,7 @@ int main(void) {
         {"slabReadsRefuseBadRangesTruncatedDataAndLyingHeaders",
          slabReadsRefuseBadRangesTruncatedDataAndLyingHeaders},
         {"slabOfAVolumeAboveTheMemoryLimitIsRead", slabOfAVolumeAboveTheMemoryLimitIsRead},
+        {"slabOfANamedPipeIsReadFromMemory", slabOfANamedPipeIsReadFromMemory},
     };
     return vm_test_run(cases, sizeof cases / sizeof cases[0]);
 }
