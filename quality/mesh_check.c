@@ -168,9 +168,7 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
     uint64_t *order = alloc_array(ninst, sizeof *order, 0, "face order", &st, err);
     size_t *fill = alloc_array(np, sizeof *fill, 0, "face buckets", &st, err);
     unsigned char *mark = alloc_array(ninst, 1, 1, "face marks", &st, err);
-    size_t cap = 64;
-    bucket_face *bf = alloc_array(cap, sizeof *bf, 0, "face bucket", &st, err);
-    if (!order || !fill || !mark || !bf) goto done;
+    if (!order || !fill || !mark) goto done;
     memcpy(fill, start, np * sizeof *fill);
     for (size_t i = 0; i < ninst; i++) {
         int64_t key[4];
@@ -183,49 +181,89 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
     free(fill);
     fill = NULL;
     if (mt) vm__meter_add(mt, share / 3.0);
-    size_t n = 0;
-    const size_t tick = 1u << 16;
-    for (size_t v = 0; v < np; v++) {
-        if (mt && v % tick == tick - 1) vm__meter_add(mt, share / 3.0 * (double)tick / (double)np);
-        size_t b = start[v + 1] - start[v];
-        if (b == 0) continue;
-        if (b > cap) {
-            free(bf);
-            cap = b;
-            bf = alloc_array(cap, sizeof *bf, 0, "face bucket", &st, err);
-            if (!bf) goto done;
-        }
-        for (size_t q = 0; q < b; q++) {
-            int64_t key[4];
-            uint64_t inst = order[start[v] + q];
-            face_nodes(fs, inst, key);
-            sort_small(key, k);
-            memcpy(bf[q].key, key + 1, (size_t)(k - 1) * sizeof key[0]);
-            bf[q].inst = inst;
-        }
-        sort_bucket(bf, b, k - 1);
-        for (size_t q = 0; q < b;) {
-            size_t e = q + 1;
-            while (e < b && memcmp(bf[e].key, bf[q].key, (size_t)(k - 1) * sizeof(int64_t)) == 0)
-                e++;
-            if (e - q == 1) {
-                mark[bf[q].inst] = 1;
-                n++;
-            } else if (e - q > 2) {
-                (*overshared)++;
+    /* Each bucket is sorted and matched on its own, so buckets run on threads; a bucket's
+     * instances go back into order sorted, with bit 1 of mark set on each instance that has
+     * the same face as the one before it, and bit 0 on boundary faces. The cells are united
+     * afterwards in one pass in order, so the result does not depend on the threads. */
+    size_t n = 0, over = 0;
+    int failed = 0;
+    const size_t nslab = 16;
+    for (size_t sl = 0; sl < nslab && !failed; sl++) {
+        const ptrdiff_t v0 = (ptrdiff_t)(np * sl / nslab), v1 = (ptrdiff_t)(np * (sl + 1) / nslab);
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel reduction(+ : n, over)
+#endif
+        {
+            size_t tcap = 64;
+            bucket_face *tbf = malloc(tcap * sizeof *tbf);
+            int lost = tbf == NULL; /* this thread's scratch could not be allocated */
+#ifdef VM_HAVE_OPENMP
+#pragma omp for schedule(dynamic, 1024)
+#endif
+            for (ptrdiff_t vv = v0; vv < v1; vv++) {
+                size_t v = (size_t)vv, b = start[v + 1] - start[v];
+                if (b == 0 || lost) continue;
+                if (b > tcap) {
+                    free(tbf);
+                    tcap = b;
+                    tbf = malloc(tcap * sizeof *tbf);
+                    if (!tbf) {
+                        lost = 1;
+                        continue;
+                    }
+                }
+                uint64_t *ord = order + start[v];
+                for (size_t q = 0; q < b; q++) {
+                    int64_t key[4];
+                    face_nodes(fs, ord[q], key);
+                    sort_small(key, k);
+                    memcpy(tbf[q].key, key + 1, (size_t)(k - 1) * sizeof key[0]);
+                    tbf[q].inst = ord[q];
+                }
+                sort_bucket(tbf, b, k - 1);
+                for (size_t q = 0; q < b;) {
+                    size_t e = q + 1;
+                    while (e < b &&
+                           memcmp(tbf[e].key, tbf[q].key, (size_t)(k - 1) * sizeof(int64_t)) == 0)
+                        e++;
+                    if (e - q == 1) {
+                        mark[tbf[q].inst] = 1;
+                        n++;
+                    } else if (e - q > 2) {
+                        over++;
+                    }
+                    for (size_t r = q + 1; r < e; r++)
+                        mark[tbf[r].inst] = 2;
+                    q = e;
+                }
+                for (size_t q = 0; q < b; q++)
+                    ord[q] = tbf[q].inst;
             }
-            if (parent)
-                for (size_t r = q + 1; r < e; r++)
-                    uf_union(parent, (size_t)(bf[q].inst / (uint64_t)fs->nf),
-                             (size_t)(bf[r].inst / (uint64_t)fs->nf));
-            q = e;
+            free(tbf);
+            if (lost) {
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic write
+#endif
+                failed = 1;
+            }
         }
+        if (mt) vm__meter_add(mt, share / 3.0 / (double)nslab);
     }
+    *overshared = over;
+    if (failed) {
+        st = vm_error_set(err, VM_ERR_NOMEM, "mesh check: out of memory for a face bucket");
+        goto done;
+    }
+    if (parent)
+        for (size_t i = 1; i < ninst; i++)
+            if (mark[order[i]] & 2)
+                uf_union(parent, (size_t)(order[i] / (uint64_t)fs->nf),
+                         (size_t)(order[i - 1] / (uint64_t)fs->nf));
     uint64_t *list = alloc_array(n, sizeof *list, 0, "boundary faces", &st, err);
     if (!list) goto done;
     size_t j = 0;
     for (size_t i = 0; i < ninst; i++)
-        if (mark[i]) list[j++] = i;
+        if (mark[i] & 1) list[j++] = i;
     *binst = list;
     *nb = n;
 done:
@@ -233,7 +271,6 @@ done:
     free(order);
     free(fill);
     free(mark);
-    free(bf);
     return st;
 }
 
