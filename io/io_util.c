@@ -273,7 +273,12 @@ vm_status vm__out_commit(vm_outfile *o, vm_error *err) {
         return vm_error_set(err, VM_ERR_IO, "%s: cannot write (%s)", o->final_path,
                             strerror(e));
     }
+    vm__meter_end(&o->meter);
     return VM_OK;
+}
+
+void vm__out_meter(vm_outfile *o, vm_progress_fn fn, void *user, double total) {
+    vm__meter_start(&o->meter, fn, user, "write", total);
 }
 
 void vm__out_abort(vm_outfile *o) {

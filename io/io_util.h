@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include "../core/core.h"
 #include "volmesh/error.h"
 #include "volmesh/volume.h"
 
@@ -120,9 +121,18 @@ typedef struct vm_outfile {
     FILE *fp;
     char final_path[4096];
     char tmp_path[4200];
+    vm__meter meter; /* stage "write"; silent unless vm__out_meter started it */
 } vm_outfile;
 vm_status vm__out_open(vm_outfile *o, const char *path, vm_error *err);
 vm_status vm__out_commit(vm_outfile *o, vm_error *err); /* checks write errors, renames */
 void vm__out_abort(vm_outfile *o);
+
+/* Starts the write progress of o (stage "write"; fn may be NULL) over total units of work
+ * (points and cells written, bytes compressed: the writer's choice), advanced by
+ * vm__out_step and completed by a successful vm__out_commit. */
+void vm__out_meter(vm_outfile *o, vm_progress_fn fn, void *user, double total);
+static inline void vm__out_step(vm_outfile *o, double units) {
+    if (o->meter.fn) vm__meter_add(&o->meter, units);
+}
 
 #endif

@@ -101,6 +101,8 @@ typedef struct vm_mesh_write_options {
                               one shared mid-edge node per edge */
     vm_deck_kind deck;     /* INP only (default VM_DECK_NONE) */
     int compress;          /* VTU: zlib-compress arrays (default 1) */
+    vm_progress_fn progress; /* stage "write" (every format but Exodus); may be NULL */
+    void *progress_user;
 } vm_mesh_write_options;
 
 /* Fills o with the defaults above. [out] o. */
