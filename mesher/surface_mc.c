@@ -231,8 +231,9 @@ static double tri_area(const double *a, const double *b, const double *c) {
  * last step back: 1 along u, 2 along w), INFINITY when no band starts there. The state
  * (a, b) is the rung u[i0 + a], w[j0 - b]; from (0,0) to (nu, nw), the first step along u,
  * the last along w, never through (nu, 0): no rung is used twice. */
-static double band_from(const mc *m, const vm_index *u, const int *fu, int nu, const vm_index *w,
-                        const int *fw, int nw, int i0, int j0, unsigned char *path) {
+static double band_from(const mc *m, const vm_index *u, const int *fu, int nu,
+                        const vm_index *w, const int *fw, int nw, int i0, int j0,
+                        unsigned char *path) {
     double q[MC_MAXPOLY + 1][MC_MAXPOLY + 1];
     unsigned char from[MC_MAXPOLY + 1][MC_MAXPOLY + 1];
     if (nu < 1 || nw < 1 || nu > MC_MAXPOLY || nw > MC_MAXPOLY) return INFINITY;
@@ -262,7 +263,8 @@ static double band_from(const mc *m, const vm_index *u, const int *fu, int nu, c
                 }
             }
             if (b > 0 && q[a][b - 1] < INFINITY) {
-                const double *p0 = pos(m, w[iw]), *p1 = pos(m, w[((j0 - b + 1) % nw + nw) % nw]),
+                const double *p0 = pos(m, w[iw]),
+                             *p1 = pos(m, w[((j0 - b + 1) % nw + nw) % nw]),
                              *p2 = pos(m, u[iu]);
                 if (tri_min_angle(p0, p1, p2) > 0) {
                     double c = q[a][b - 1] + tri_area(p0, p1, p2);
@@ -362,7 +364,8 @@ static int triangulate_tube_ring(mc *m, const vm_index *u, const int *fu, int nu
  * a second centre when no triangulation avoids the face chords. Returns 1, 0 (no fan
  * without flat triangles) or -1. */
 static int triangulate_around_centre(mc *m, int k, const vm_index loops[][12],
-                                     const int fms[][12], const int *len, const double cpos[3]) {
+                                     const int fms[][12], const int *len,
+                                     const double cpos[3]) {
     int rot[4] = {0, 0, 0, 0}, best_rot[4] = {0, 0, 0, 0};
     double best_q = 0;
     int best_poly = 0, combos = 1;
@@ -615,9 +618,9 @@ static int piece_variant(mc *m, int k, const vm_index v[][12], const int fm[][12
 /* The pieces of one cube, in the order they are triangulated. */
 typedef struct cube_pieces {
     int n;
-    int k[6];              /* loops of each piece */
-    vm_index v[6][4][12];  /* vertex ids of each loop */
-    int fm[6][4][12];      /* cube faces holding each vertex */
+    int k[6];             /* loops of each piece */
+    vm_index v[6][4][12]; /* vertex ids of each loop */
+    int fm[6][4][12];     /* cube faces holding each vertex */
     int len[6][4];
 } cube_pieces;
 
