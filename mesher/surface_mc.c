@@ -4,7 +4,9 @@
  *
  * No case table: each cube's polygons are found by walking its face-resolved edge graph,
  * grouped into the pieces of the trilinear isosurface inside the cube (disks, tunnels), and
- * triangulated on the spot. One vertex per crossed grid edge, so the surface is watertight;
+ * triangulated on the spot; where a cube has a tunnel or several pieces, candidate
+ * triangulations are searched until no two triangles of the cube cross (the exact test of
+ * quality/self_intersect.c). One vertex per crossed grid edge, so the surface is watertight;
  * material on the volume border is closed by flat faces on the box (marching squares on the
  * border faces, with the same decider). */
 #include "../quality/self_intersect.h"
@@ -85,6 +87,7 @@ typedef struct mc {
     vm_index *pv[2];         /* vertex ids of border grid points of those layers */
     vm_index *ez;            /* vertex ids of z edges between them */
     size_t centres;          /* vertices added inside cubes */
+    double cube0[3];         /* lower corner of the cube being triangulated */
 } mc;
 
 static double value(const mc *m, int64_t i, int64_t j, int64_t k) {
@@ -224,78 +227,101 @@ static double tri_area(const double *a, const double *b, const double *c) {
     return 0.5 * vm__norm3(n);
 }
 
-/* Annulus between loops u (nu) and w (nw), both oriented as the boundary of the piece: a
- * band of nu + nw triangles whose rungs join u[i] to w[j]; u is walked forward and w
- * backward. Chooses the start rung and the order of smallest area (the least twisted
- * tube), with no flat triangle and no rung joining two vertices of one cube face.
- * Returns 1, 0 (no such band) or -1. */
-static int triangulate_band(mc *m, const vm_index *u, const int *fu, int nu, const vm_index *w,
-                            const int *fw, int nw) {
-    double best_cost = INFINITY;
-    int best_i0 = -1, best_j0 = -1;
-    unsigned char best_path[2 * MC_MAXPOLY];
+/* Smallest area of a band from the rung u[i0] - w[j0], and its steps (path[s], s from the
+ * last step back: 1 along u, 2 along w), INFINITY when no band starts there. The state
+ * (a, b) is the rung u[i0 + a], w[j0 - b]; from (0,0) to (nu, nw), the first step along u,
+ * the last along w, never through (nu, 0): no rung is used twice. */
+static double band_from(const mc *m, const vm_index *u, const int *fu, int nu,
+                        const vm_index *w, const int *fw, int nw, int i0, int j0,
+                        unsigned char *path) {
     double q[MC_MAXPOLY + 1][MC_MAXPOLY + 1];
-    unsigned char from[MC_MAXPOLY + 1][MC_MAXPOLY + 1]; /* 1: a step along u, 2: along w */
-    for (int i0 = 0; i0 < nu; i0++)
-        for (int j0 = 0; j0 < nw; j0++) {
-            /* state (a, b): rung u[i0 + a], w[j0 - b]; from (0,0) to (nu, nw), the first step
-             * along u, the last along w, never through (nu, 0): no rung is used twice.
-             * q: smallest area of a band up to the state (INFINITY: unreachable). */
-            for (int a = 0; a <= nu; a++)
-                for (int b = 0; b <= nw; b++) {
-                    int iu = (i0 + a) % nu, iw = ((j0 - b) % nw + nw) % nw;
-                    q[a][b] = INFINITY;
-                    from[a][b] = 0;
-                    if (fu[iu] & fw[iw]) continue;
-                    if (a == 0 && b == 0) {
-                        q[a][b] = 0;
-                        continue;
-                    }
-                    if (a == 0 || (a == nu && b == 0)) continue;
-                    if (q[a - 1][b] < INFINITY && !(a == nu && b == nw)) {
-                        const double *p0 = pos(m, u[(i0 + a - 1) % nu]), *p1 = pos(m, u[iu]),
-                                     *p2 = pos(m, w[iw]);
-                        if (tri_min_angle(p0, p1, p2) > 0) {
-                            double c = q[a - 1][b] + tri_area(p0, p1, p2);
-                            if (c < q[a][b]) {
-                                q[a][b] = c;
-                                from[a][b] = 1;
-                            }
-                        }
-                    }
-                    if (b > 0 && q[a][b - 1] < INFINITY) {
-                        const double *p0 = pos(m, w[iw]),
-                                     *p1 = pos(m, w[((j0 - b + 1) % nw + nw) % nw]),
-                                     *p2 = pos(m, u[iu]);
-                        if (tri_min_angle(p0, p1, p2) > 0) {
-                            double c = q[a][b - 1] + tri_area(p0, p1, p2);
-                            if (c < q[a][b]) {
-                                q[a][b] = c;
-                                from[a][b] = 2;
-                            }
-                        }
+    unsigned char from[MC_MAXPOLY + 1][MC_MAXPOLY + 1];
+    if (nu < 1 || nw < 1 || nu > MC_MAXPOLY || nw > MC_MAXPOLY) return INFINITY;
+    for (int a = 0; a <= MC_MAXPOLY; a++)
+        for (int b = 0; b <= MC_MAXPOLY; b++)
+            q[a][b] = INFINITY; /* all of it: the compiler cannot see nu, nw <= MC_MAXPOLY */
+    for (int a = 0; a <= nu; a++)
+        for (int b = 0; b <= nw; b++) {
+            int iu = (i0 + a) % nu, iw = ((j0 - b) % nw + nw) % nw;
+            q[a][b] = INFINITY;
+            from[a][b] = 0;
+            if (fu[iu] & fw[iw]) continue;
+            if (a == 0 && b == 0) {
+                q[a][b] = 0;
+                continue;
+            }
+            if (a == 0 || (a == nu && b == 0)) continue;
+            if (q[a - 1][b] < INFINITY && !(a == nu && b == nw)) {
+                const double *p0 = pos(m, u[(i0 + a - 1) % nu]), *p1 = pos(m, u[iu]),
+                             *p2 = pos(m, w[iw]);
+                if (tri_min_angle(p0, p1, p2) > 0) {
+                    double c = q[a - 1][b] + tri_area(p0, p1, p2);
+                    if (c < q[a][b]) {
+                        q[a][b] = c;
+                        from[a][b] = 1;
                     }
                 }
-            if (q[nu][nw] < best_cost) {
-                best_cost = q[nu][nw];
-                best_i0 = i0;
-                best_j0 = j0;
-                int a = nu, b = nw, s = 0;
-                while (a || b) {
-                    best_path[s++] = from[a][b];
-                    if (from[a][b] == 1)
-                        a--;
-                    else
-                        b--;
+            }
+            if (b > 0 && q[a][b - 1] < INFINITY) {
+                const double *p0 = pos(m, w[iw]),
+                             *p1 = pos(m, w[((j0 - b + 1) % nw + nw) % nw]),
+                             *p2 = pos(m, u[iu]);
+                if (tri_min_angle(p0, p1, p2) > 0) {
+                    double c = q[a][b - 1] + tri_area(p0, p1, p2);
+                    if (c < q[a][b]) {
+                        q[a][b] = c;
+                        from[a][b] = 2;
+                    }
                 }
             }
         }
-    if (best_i0 < 0) return 0;
+    double total = q[nu][nw];
+    if (path && total < INFINITY) {
+        int a = nu, b = nw, s = 0;
+        while (a || b) {
+            path[s++] = from[a][b];
+            if (from[a][b] == 1)
+                a--;
+            else
+                b--;
+        }
+    }
+    return total;
+}
+
+/* Annulus between loops u (nu) and w (nw), both oriented as the boundary of the piece: a
+ * band of nu + nw triangles whose rungs join u[i] to w[j]; u is walked forward and w
+ * backward. For every start rung the band of smallest area (the least twisted tube) with no
+ * flat triangle and no rung joining two vertices of one cube face; the bands are ranked by
+ * area and the rank-th is emitted (rank 0: the least twisted). Returns 1, 0 (fewer than
+ * rank + 1 bands) or -1. */
+static int triangulate_band(mc *m, const vm_index *u, const int *fu, int nu, const vm_index *w,
+                            const int *fw, int nw, int rank) {
+    double cost[MC_MAXPOLY * MC_MAXPOLY];
+    int nc = 0;
+    for (int i0 = 0; i0 < nu; i0++)
+        for (int j0 = 0; j0 < nw; j0++) {
+            cost[i0 * nw + j0] = band_from(m, u, fu, nu, w, fw, nw, i0, j0, NULL);
+            nc += cost[i0 * nw + j0] < INFINITY;
+        }
+    if (rank >= nc) return 0;
+    /* the rank-th finite cost, ties broken by start index (deterministic) */
+    int pick = -1;
+    unsigned char used[MC_MAXPOLY * MC_MAXPOLY] = {0};
+    for (int r = 0; r <= rank; r++) {
+        pick = -1;
+        for (int x = 0; x < nu * nw; x++)
+            if (!used[x] && cost[x] < INFINITY && (pick < 0 || cost[x] < cost[pick])) pick = x;
+        used[pick] = 1;
+    }
+    int i0 = pick / nw, j0 = pick % nw;
+    unsigned char path[2 * MC_MAXPOLY];
+    band_from(m, u, fu, nu, w, fw, nw, i0, j0, path);
     int a = 0, b = 0;
     for (int s = nu + nw - 1; s >= 0; s--) {
-        int iu = (best_i0 + a) % nu, iw = ((best_j0 - b) % nw + nw) % nw;
+        int iu = (i0 + a) % nu, iw = ((j0 - b) % nw + nw) % nw;
         vm_status st;
-        if (best_path[s] == 1) {
+        if (path[s] == 1) {
             st = emit(m, u[iu], u[(iu + 1) % nu], w[iw]);
             a++;
         } else {
@@ -307,25 +333,19 @@ static int triangulate_band(mc *m, const vm_index *u, const int *fu, int nu, con
     return 1;
 }
 
-/* Annulus between loops u and w when no band joins them directly (every rung would lie in
- * a cube face): a ring of new vertices inside the cube, w shrunk halfway toward the mean of
- * both loops, a collar of 2 nw triangles from w to the ring, and a band from u to the ring
- * (whose rungs are free). Returns 1 or -1. */
+/* Annulus between loops u and w through a ring of new vertices inside the cube: w shrunk by
+ * the factor shrink toward the point c, a collar of 2 nw triangles from w to the ring, and a
+ * band from u to the ring (whose rungs are free). Used when no band joins the loops
+ * directly (every rung would lie in a cube face) or when the direct bands cross the cube's
+ * other triangles. Returns 1, 0 (no band to the ring) or -1. */
 static int triangulate_tube_ring(mc *m, const vm_index *u, const int *fu, int nu,
-                                 const vm_index *w, int nw) {
-    double c[3] = {0, 0, 0};
-    for (int i = 0; i < nu; i++)
-        for (int a = 0; a < 3; a++)
-            c[a] += pos(m, u[i])[a] / (nu + nw);
-    for (int i = 0; i < nw; i++)
-        for (int a = 0; a < 3; a++)
-            c[a] += pos(m, w[i])[a] / (nu + nw);
+                                 const vm_index *w, int nw, const double c[3], double shrink) {
     vm_index ring[MC_MAXPOLY];
     int free_fm[MC_MAXPOLY] = {0};
     for (int i = 0; i < nw; i++) {
         double p[3];
         for (int a = 0; a < 3; a++)
-            p[a] = 0.5 * (pos(m, w[i])[a] + c[a]);
+            p[a] = (1 - shrink) * pos(m, w[i])[a] + shrink * c[a];
         ring[i] = vm_mesh_add_point(m->surf, p, m->err);
         if (ring[i] < 0) return -1;
         m->centres++;
@@ -334,32 +354,25 @@ static int triangulate_tube_ring(mc *m, const vm_index *u, const int *fu, int nu
         int i1 = (i + 1) % nw;
         if (emit(m, w[i], w[i1], ring[i1]) || emit(m, w[i], ring[i1], ring[i])) return -1;
     }
-    int r = triangulate_band(m, u, fu, nu, ring, free_fm, nw);
-    return r == 0 ? -1 : r;
+    return triangulate_band(m, u, fu, nu, ring, free_fm, nw, 0);
 }
 
-/* A sphere with k >= 2 holes around one new centre vertex c: the loops are opened at one
- * edge each and chained into a single cycle fanned to c (the links last_i -> first_i+1
- * join no two vertices of one face); the 2k edges left (the opened edges and the links,
- * backwards) form one more polygon, triangulated as a disk, or fanned around a second
- * centre when no triangulation avoids the face chords. Returns VM_OK, or an error. */
-static vm_status triangulate_around_centre(mc *m, int k, const vm_index loops[][12],
-                                           const int fms[][12], const int *len) {
+/* A sphere with k >= 2 holes around one new centre vertex at cpos: the loops are opened at
+ * one edge each and chained into a single cycle fanned to the centre (the links
+ * last_i -> first_i+1 join no two vertices of one face); the 2k edges left (the opened edges
+ * and the links, backwards) form one more polygon, triangulated as a disk, or fanned around
+ * a second centre when no triangulation avoids the face chords. Returns 1, 0 (no fan
+ * without flat triangles) or -1. */
+static int triangulate_around_centre(mc *m, int k, const vm_index loops[][12],
+                                     const int fms[][12], const int *len,
+                                     const double cpos[3]) {
     int rot[4] = {0, 0, 0, 0}, best_rot[4] = {0, 0, 0, 0};
     double best_q = 0;
     int best_poly = 0, combos = 1;
     for (int i = 0; i < k; i++)
         combos *= len[i];
-    double cpos[3] = {0, 0, 0};
-    int nall = 0;
-    for (int i = 0; i < k; i++)
-        for (int j = 0; j < len[i]; j++, nall++)
-            for (int a = 0; a < 3; a++)
-                cpos[a] += pos(m, loops[i][j])[a];
-    for (int a = 0; a < 3; a++)
-        cpos[a] /= nall;
     vm_index c = vm_mesh_add_point(m->surf, cpos, m->err);
-    if (c < 0) return fail(m);
+    if (c < 0) return -1;
     m->centres++;
     vm_index poly[8];
     int pfm[8];
@@ -401,9 +414,7 @@ static vm_status triangulate_around_centre(mc *m, int k, const vm_index loops[][
             memcpy(best_rot, rot, sizeof rot);
         }
     }
-    if (!(best_q > 0))
-        return vm_error_set(m->err, VM_ERR_INTERNAL,
-                            "surface mc: a piece with %d loops found no centre fan", k);
+    if (!(best_q > 0)) return 0;
     int np = 0;
     for (int s = 0; s < k; s++) {
         int i = s == 0 ? 0 : k - s, n = len[i], r = best_rot[i], last = (r + n - 1) % n;
@@ -413,18 +424,92 @@ static vm_status triangulate_around_centre(mc *m, int k, const vm_index loops[][
         pfm[np++] = fms[i][r];
     }
     if (best_poly) {
-        if (triangulate_polygon(m, poly, pfm, np, 1) < 0) return fail(m);
-    } else {
-        vm_status st = fan_around_centre(m, poly, np);
-        if (st) return st;
+        if (triangulate_polygon(m, poly, pfm, np, 1) < 0) return -1;
+    } else if (fan_around_centre(m, poly, np)) {
+        return -1;
     }
     for (int i = 0; i < k; i++) {
         int n = len[i], r = best_rot[i], nx = (i + 1) % k;
         for (int j = 0; j + 1 < n; j++)
-            if (emit(m, c, loops[i][(r + j) % n], loops[i][(r + j + 1) % n])) return fail(m);
-        if (emit(m, c, loops[i][(r + n - 1) % n], loops[nx][best_rot[nx]])) return fail(m);
+            if (emit(m, c, loops[i][(r + j) % n], loops[i][(r + j + 1) % n])) return -1;
+        if (emit(m, c, loops[i][(r + n - 1) % n], loops[nx][best_rot[nx]])) return -1;
     }
-    return VM_OK;
+    return 1;
+}
+
+/* Mean of the vertices of loop v[0..n-1]. */
+static void loop_mean(const mc *m, const vm_index *v, int n, double c[3]) {
+    c[0] = c[1] = c[2] = 0;
+    for (int i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++)
+            c[a] += pos(m, v[i])[a] / n;
+}
+
+/* The candidate triangulations of a tunnel piece (k >= 2 loops), in order of preference:
+ * the bands between two loops ranked by area; then rings, one loop shrunk toward a point
+ * (the mean of the loops, points between the loops' means, then the points of a grid over
+ * the cube's interior) by 0.5, 0.3 or 0.7, and banded to the other loop; then fans around
+ * one centre vertex at such points. Variant `variant` is emitted; returns 1, 0 when that
+ * variant does not exist for this piece, or -1. */
+#define MC_GRID 5 /* grid points per axis */
+#define MC_GRID3 (MC_GRID * MC_GRID * MC_GRID)
+#define MC_POINTS (5 + MC_GRID3)
+#define MC_BAND_VARIANTS (MC_MAXPOLY * MC_MAXPOLY)
+#define MC_RING_VARIANTS (2 * 3 * MC_POINTS)
+#define MC_TUNNEL_VARIANTS (MC_BAND_VARIANTS + MC_RING_VARIANTS + MC_POINTS)
+
+/* Candidate point q of a tunnel between k loops with means lm and overall mean: 0 the mean,
+ * 1..4 toward each loop (k > 2) or along the segment between the two loops' means (k = 2),
+ * then the grid over the cube. Returns 0 when q does not exist. */
+static int tunnel_point(const mc *m, int k, double lm[][3], const double mean[3], int q,
+                        double c[3]) {
+    if (q == 0) {
+        memcpy(c, mean, 3 * sizeof *c);
+        return 1;
+    }
+    if (q < 5) {
+        static const double along[4] = {0.5, 0.3, 0.7, 0.15};
+        if (k > 2 && q > k) return 0;
+        for (int a = 0; a < 3; a++)
+            c[a] = k > 2 ? 0.6 * mean[a] + 0.4 * lm[q - 1][a]
+                         : lm[0][a] + along[q - 1] * (lm[1][a] - lm[0][a]);
+        return 1;
+    }
+    int g = q - 5;
+    c[0] = m->cube0[0] + (0.5 + g % MC_GRID) / MC_GRID;
+    c[1] = m->cube0[1] + (0.5 + (g / MC_GRID) % MC_GRID) / MC_GRID;
+    c[2] = m->cube0[2] + (0.5 + g / (MC_GRID * MC_GRID)) / MC_GRID;
+    return 1;
+}
+
+static int tunnel_variant(mc *m, int k, const vm_index v[][12], const int fm[][12],
+                          const int *len, int variant) {
+    double mean[3] = {0, 0, 0}, lm[4][3], c[3];
+    int nall = 0;
+    for (int i = 0; i < k; i++) {
+        loop_mean(m, v[i], len[i], lm[i]);
+        nall += len[i];
+        for (int a = 0; a < 3; a++)
+            mean[a] += lm[i][a] * len[i];
+    }
+    for (int a = 0; a < 3; a++)
+        mean[a] /= nall;
+    if (variant < MC_BAND_VARIANTS) {
+        if (k != 2) return 0;
+        return triangulate_band(m, v[0], fm[0], len[0], v[1], fm[1], len[1], variant);
+    }
+    variant -= MC_BAND_VARIANTS;
+    if (variant < MC_RING_VARIANTS) {
+        static const double shrink[3] = {0.5, 0.3, 0.7};
+        int side = variant / (3 * MC_POINTS), q = (variant / 3) % MC_POINTS;
+        if (k != 2 || !tunnel_point(m, k, lm, mean, q, c)) return 0;
+        int big = (len[0] >= len[1]) != side ? 0 : 1; /* side 0: ring on the smaller loop */
+        return triangulate_tube_ring(m, v[big], fm[big], len[big], v[1 - big], len[1 - big], c,
+                                     shrink[variant % 3]);
+    }
+    variant -= MC_RING_VARIANTS;
+    if (variant >= MC_POINTS || !tunnel_point(m, k, lm, mean, variant, c)) return 0;
+    return triangulate_around_centre(m, k, v, fm, len, c);
 }
 
 /* One disk: the best triangulation of its loop, else a fan around a centre vertex. */
@@ -499,18 +584,114 @@ static void interior_joins(const double s[8], int *parent) {
         }
 }
 
-/* 1 when two of the triangles from first on cross (in the sense of vm_mesh_check). */
-static int cube_crosses_itself(const mc *m, size_t first) {
+/* Pairs of crossing triangles (in the sense of vm_mesh_check) with one triangle from
+ * piece_first on and the other from cube_first on. */
+static size_t piece_crossings(const mc *m, size_t cube_first, size_t piece_first) {
     const vm_mesh *s = m->surf;
-    for (size_t a = first; a < s->ncells; a++)
-        for (size_t b = a + 1; b < s->ncells; b++) {
+    size_t n = 0;
+    for (size_t a = piece_first; a < s->ncells; a++)
+        for (size_t b = cube_first; b < a; b++) {
             const vm_index *ia = s->cells + 3 * a, *ib = s->cells + 3 * b;
             const double *pa[3] = {pos(m, ia[0]), pos(m, ia[1]), pos(m, ia[2])};
             const double *pb[3] = {pos(m, ib[0]), pos(m, ib[1]), pos(m, ib[2])};
-            if (vm__tri_pair_intersects(pa, ia, pb, ib)) return 1;
+            n += (size_t)vm__tri_pair_intersects(pa, ia, pb, ib);
         }
+    return n;
+}
+
+/* One candidate triangulation of a piece: a disk (k = 1) is its best polygon triangulation
+ * (variant 0) or a fan around its mean (variant 1); a tunnel is tunnel_variant. Returns 1,
+ * 0 (no such variant) or -1. */
+static int piece_variant(mc *m, int k, const vm_index v[][12], const int fm[][12],
+                         const int *len, int variant) {
+    if (k >= 2) return tunnel_variant(m, k, v, fm, len, variant);
+    if (variant == 0) {
+        double r = triangulate_polygon(m, v[0], fm[0], len[0], 1);
+        if (r < 0) return -1;
+        if (r > 0) return 1;
+        return fan_around_centre(m, v[0], len[0]) ? -1 : 1;
+    }
+    if (variant == 1) return fan_around_centre(m, v[0], len[0]) ? -1 : 1;
     return 0;
 }
+
+/* The pieces of one cube, in the order they are triangulated. */
+typedef struct cube_pieces {
+    int n;
+    int k[6];             /* loops of each piece */
+    vm_index v[6][4][12]; /* vertex ids of each loop */
+    int fm[6][4][12];     /* cube faces holding each vertex */
+    int len[6][4];
+} cube_pieces;
+
+static int piece_variants(const cube_pieces *cp, int p) {
+    return cp->k[p] >= 2 ? MC_TUNNEL_VARIANTS : 2;
+}
+
+static int emit_piece(mc *m, const cube_pieces *cp, int p, int variant) {
+    return piece_variant(m, cp->k[p], (const vm_index(*)[12])cp->v[p],
+                         (const int(*)[12])cp->fm[p], cp->len[p], variant);
+}
+
+static void undo_to(mc *m, size_t cells, size_t points, size_t centres) {
+    m->surf->ncells = cells;
+    m->surf->npoints = points;
+    m->centres = centres;
+}
+
+/* Depth-first search for candidate triangulations of pieces p.. that cross neither
+ * themselves nor each other nor the pieces before p (triangles from cube_first on), at most
+ * *budget candidates in all. Returns 1 with the triangles emitted, 0 with nothing emitted
+ * (none found within the budget), -1 on error. */
+static int search_pieces(mc *m, const cube_pieces *cp, int p, size_t cube_first, int *budget) {
+    if (p == cp->n) return 1;
+    size_t cells = m->surf->ncells, points = m->surf->npoints, centres = m->centres;
+    for (int var = 0; var < piece_variants(cp, p) && *budget > 0; var++) {
+        int r = emit_piece(m, cp, p, var);
+        if (r < 0) return -1;
+        if (r > 0) {
+            --*budget;
+            if (piece_crossings(m, cube_first, cells) == 0) {
+                r = search_pieces(m, cp, p + 1, cube_first, budget);
+                if (r != 0) return r;
+            }
+        }
+        undo_to(m, cells, points, centres);
+    }
+    return 0;
+}
+
+/* Piece p alone, when the search found nothing: its candidate with the fewest crossings
+ * with the triangles from cube_first on (check = 0: its first candidate). */
+static vm_status fewest_crossings(mc *m, const cube_pieces *cp, int p, size_t cube_first,
+                                  int check) {
+    size_t cells = m->surf->ncells, points = m->surf->npoints, centres = m->centres;
+    size_t best_x = SIZE_MAX;
+    int best = -1;
+    for (int var = 0; var < piece_variants(cp, p); var++) {
+        int r = emit_piece(m, cp, p, var);
+        if (r < 0) return fail(m);
+        if (r == 0) {
+            undo_to(m, cells, points, centres);
+            continue;
+        }
+        size_t x = check ? piece_crossings(m, cube_first, cells) : 0;
+        if (x == 0) return VM_OK;
+        if (x < best_x) {
+            best_x = x;
+            best = var;
+        }
+        undo_to(m, cells, points, centres);
+    }
+    if (best < 0)
+        return vm_error_set(m->err, VM_ERR_INTERNAL,
+                            "surface mc: a piece with %d loops found no triangulation",
+                            cp->k[p]);
+    return emit_piece(m, cp, p, best) < 0 ? fail(m) : VM_OK;
+}
+
+/* Searched candidates per cube before giving up on a crossing-free triangulation. */
+#define MC_SEARCH_BUDGET 20000
 
 static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
     const cube_geom *cg = &m->cg;
@@ -522,6 +703,9 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
         mask |= in[c] << c;
     }
     if (mask == 0 || mask == 255) return VM_OK;
+    m->cube0[0] = (double)i;
+    m->cube0[1] = (double)j;
+    m->cube0[2] = (double)k;
 
     int parent[8];
     for (int c = 0; c < 8; c++)
@@ -593,51 +777,46 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
         if (vid[e] < 0) return fail(m);
     }
 
-    /* Pieces: the loops between the same inside and outside region of the cube. A tunnel
-     * is first tried as a plain band between its loops; when the cube's triangles then
-     * cross each other (a thin, twisted tunnel), it is made again through a ring of
-     * vertices inside the cube, and then around one centre vertex. */
-    size_t cell_mark = m->surf->ncells, point_mark = m->surf->npoints, centre_mark = m->centres;
-    for (int mode = 0; mode < 3; mode++) { /* 0: bands, 1: rings, 2: centre fans */
-        int done = 0, tunnels = 0;
+    /* Pieces: the loops between the same inside and outside region of the cube; the disks
+     * first, then the tunnels. When the cube has more than one piece or a tunnel, each
+     * piece takes the first of its candidate triangulations that crosses neither itself
+     * nor the pieces made before it (a thin, twisted tunnel may need a ring of vertices
+     * inside the cube, or a centre vertex). */
+    cube_pieces cp;
+    cp.n = 0;
+    int done = 0, tunnels = 0;
+    for (int pass = 0; pass < 2; pass++) /* the disks first, then the tunnels */
         for (int l = 0; l < nloops; l++) {
             if (done & (1 << l)) continue;
-            vm_index v[4][12];
-            int fm[4][12], len[4], np = 0;
+            int np = 0;
+            for (int l2 = 0; l2 < nloops; l2++)
+                np += loop_key[l2] == loop_key[l];
+            if ((np > 1) != pass) continue;
+            if (np > 4) return vm_error_set(m->err, VM_ERR_INTERNAL, "surface mc: pieces");
+            np = 0;
             for (int l2 = l; l2 < nloops; l2++) {
                 if ((done & (1 << l2)) || loop_key[l2] != loop_key[l]) continue;
                 done |= 1 << l2;
-                if (np == 4) return vm_error_set(m->err, VM_ERR_INTERNAL, "surface mc: pieces");
                 for (int q = 0; q < loop_n[l2]; q++) {
-                    v[np][q] = vid[loop_e[l2][q]];
-                    fm[np][q] = cg->edge_faces[loop_e[l2][q]];
+                    cp.v[cp.n][np][q] = vid[loop_e[l2][q]];
+                    cp.fm[cp.n][np][q] = cg->edge_faces[loop_e[l2][q]];
                 }
-                len[np++] = loop_n[l2];
+                cp.len[cp.n][np++] = loop_n[l2];
             }
-            vm_status st = VM_OK;
-            if (np == 1) {
-                st = piece_disk(m, v[0], fm[0], len[0]);
-            } else {
-                tunnels++;
-                int r = 0;
-                if (np == 2 && mode == 0)
-                    r = triangulate_band(m, v[0], fm[0], len[0], v[1], fm[1], len[1]);
-                if (r == 0 && np == 2 && mode < 2) {
-                    int big = len[0] >= len[1] ? 0 : 1;
-                    r = triangulate_tube_ring(m, v[big], fm[big], len[big], v[1 - big],
-                                              len[1 - big]);
-                }
-                if (r < 0) return fail(m);
-                if (r == 0)
-                    st = triangulate_around_centre(m, np, (const vm_index(*)[12])v,
-                                                   (const int(*)[12])fm, len);
-            }
-            if (st) return st;
+            tunnels += np > 1;
+            cp.k[cp.n++] = np;
         }
-        if (!tunnels || mode == 2 || !cube_crosses_itself(m, cell_mark)) break;
-        m->surf->ncells = cell_mark;
-        m->surf->npoints = point_mark;
-        m->centres = centre_mark;
+    size_t cube_first = m->surf->ncells;
+    int check = tunnels > 0 || cp.n > 1;
+    if (check) {
+        int budget = MC_SEARCH_BUDGET;
+        int r = search_pieces(m, &cp, 0, cube_first, &budget);
+        if (r < 0) return fail(m);
+        if (r > 0) return VM_OK;
+    }
+    for (int p = 0; p < cp.n; p++) {
+        vm_status st = fewest_crossings(m, &cp, p, cube_first, check);
+        if (st) return st;
     }
     return VM_OK;
 }
