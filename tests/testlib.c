@@ -1,6 +1,7 @@
 /* tests/testlib.c — the harness behind tests/test.h. */
 #define _POSIX_C_SOURCE 200809L
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -14,14 +15,32 @@ void vm_test_skip(const char *reason) {
     skipped_flag = 1;
 }
 
+static double wall_seconds(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 int vm_test_run(const vm_test_case *cases, size_t n) {
     int passed = 0, failed = 0, skipped = 0;
+    /* VM_TEST_PART=K/N (set by tests/CMakeLists.txt for a file that asks for N ctest parts):
+     * only the cases i with i % N == K run here. */
+    unsigned part = 0, parts = 1;
+    const char *pe = getenv("VM_TEST_PART");
+    if (pe && (sscanf(pe, "%u/%u", &part, &parts) != 2 || parts == 0 || part >= parts)) {
+        fprintf(stderr, "VM_TEST_PART=%s: expected K/N with K < N\n", pe);
+        return 2;
+    }
     for (size_t i = 0; i < n; i++) {
+        if (i % parts != part) continue;
         vm_test_failures = 0;
         skipped_flag = 0;
         printf("%s\n", cases[i].name);
         fflush(stdout);
+        double t0 = wall_seconds();
         cases[i].fn();
+        double dt = wall_seconds() - t0;
+        if (dt >= 1.0) printf("  (%.1f s)\n", dt);
         if (vm_test_failures) {
             printf("  FAILED (%d checks)\n", vm_test_failures);
             failed++;

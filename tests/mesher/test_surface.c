@@ -4,6 +4,7 @@
  * and volume, its vertices near the analytic surface; on noisy phantoms the topology of the
  * method's own reference (the thresholded voxels for dc, the trilinear interpolant for mc,
  * counted independently here by Morse theory); and a left-handed, anisotropic frame. */
+/* ctest parts: 2 */
 #include "test.h"
 #include <stdint.h>
 #include <stdlib.h>

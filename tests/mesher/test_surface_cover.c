@@ -4,6 +4,7 @@
  * the analytic surface within the error parameter, triangle aspect ratio (shortest / longest
  * edge) >= 0.3, fewer triangles at a larger error, anisotropic steps, the shared volumes, and
  * bad input. */
+/* ctest parts: 2 */
 #include "test.h"
 #include <stdint.h>
 #include <string.h>
