@@ -259,7 +259,13 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
             if (w->planes[i] & (3u << (2 * a))) y[a] = y0[a];
         limit = fmin(limit, 0.5);
     } else if (mode == MOVE_TANGENT) {
-        if (!(iso_estimate(w, y) <= fmax(0.45, w->est0[i] + 0.01))) return 0;
+        double est = iso_estimate(w, y);
+        if (!(est <= fmax(0.45, w->est0[i] + 0.01))) return 0;
+        /* the first-order estimate can miss a crossing the gradient does not point at (the
+         * genus-3 tubes: 0.45 by it, 0.68 along the gradient): past 0.2, the distance the
+         * report measures must stay within 0.5 or where it was */
+        if (est > 0.2 && iso_distance(w, y) > 0.5 && iso_distance(w, y) > iso_distance(w, y0))
+            return 0;
     } else if (mode == MOVE_LOOSE) {
         if (!(iso_distance(w, y) <= 0.4)) return 0;
     } else {
@@ -668,18 +674,23 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
             int best = -1;
             double bx[3];
             lq bq = cur;
-            for (int d = 0; d < (untangle == 2 ? 26 : 14); d++) {
-                double y[3];
-                lq n;
-                for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
-                if (!constrain(w, i, y, untangle ? MOVE_LOOSE : MOVE_TANGENT)) continue;
-                local_q(w, i, y, norm, &n);
-                if (better(&n, &bq, floor, untangle)) {
-                    best = d;
-                    bq = n;
-                    memcpy(bx, y, sizeof bx);
+            int slide = untangle == 3 && w->cls[i] == CLS_ISO;
+            for (int d = 0; d < (untangle >= 2 ? 26 : 14); d++)
+                for (int v = 0; v <= slide; v++) {
+                    double y[3];
+                    lq n;
+                    for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
+                    int mode = untangle == 1 || untangle == 2 ? MOVE_LOOSE
+                               : v                            ? MOVE_PROJECT
+                                                              : MOVE_TANGENT;
+                    if (!constrain(w, i, y, mode)) continue;
+                    local_q(w, i, y, norm, &n);
+                    if (better(&n, &bq, floor, untangle == 3 ? 0 : untangle)) {
+                        best = d;
+                        bq = n;
+                        memcpy(bx, y, sizeof bx);
+                    }
                 }
-            }
             if (best < 0) break;
             memcpy(x, bx, sizeof x);
             cur = bq;
@@ -925,6 +936,56 @@ static void hx_free(hx *w) {
     w->cls = w->planes = NULL;
 }
 
+/* Runs with more hexes than this below the bar are left to the selective layer unpolished
+ * (the polish is meant for a few spots). */
+#define POLISH_MAX 1000
+
+/* A last stage, on the few hexes still below target: their points and one ring round
+ * them move by max-min compass search as in smoothing, except that boundary points may also
+ * slide along the surface, a step being put back on the isosurface (within the allowed
+ * distance of where the mesher put the point) instead of kept in its tangent plane: the
+ * boundary quads of valence 3 to 6 points need their points moved further than the tangent
+ * plane allows. Returns 0, or VM_ERR_NOMEM. */
+static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
+    double *q = malloc((w->nh + 1) * sizeof *q);
+    uint8_t *act = malloc(w->np + 1), *ring = malloc(w->np + 1);
+    if (!q || !act || !ring) {
+        free(q);
+        free(act);
+        free(ring);
+        return VM_ERR_NOMEM;
+    }
+    double last = -INFINITY;
+    for (int sw = 0; sw < 16; sw++) {
+        figs f;
+        measure(w, &f, q);
+        if (f.min_sj >= target || f.min_sj <= last + 1e-4) break;
+        last = f.min_sj;
+        memset(act, 0, w->np);
+        for (size_t t = 0; t < w->nh; t++)
+            if (q[t] < target)
+                for (int k = 0; k < 8; k++) act[w->h[8 * t + (size_t)k]] = 1;
+        memcpy(ring, act, w->np);
+        for (size_t t = 0; t < w->nh; t++) {
+            int hit = 0;
+            for (int k = 0; k < 8; k++) hit |= act[w->h[8 * t + (size_t)k]];
+            if (hit)
+                for (int k = 0; k < 8; k++) ring[w->h[8 * t + (size_t)k]] = 1;
+        }
+        size_t mv = 0;
+        for (int pass = 0; pass < 2; pass++) /* the worst hexes' own points first */
+            for (size_t i = 0; i < w->np; i++)
+                if ((pass ? ring[i] && !act[i] : act[i]) && optimise(w, i, f.min_sj, 3)) mv++;
+        *moves += mv;
+        (*sweeps)++;
+        if (!mv) break;
+    }
+    free(q);
+    free(act);
+    free(ring);
+    return VM_OK;
+}
+
 /* The whole pass on a copy of m, with or without the pillow layer. [out] f: its figures. */
 static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, int with_pillow,
                      const uint8_t *set, const double *init, size_t *added, size_t *moves,
@@ -954,6 +1015,13 @@ static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, i
     if (!s) {
         smooth(w, o, 1, q, active, moves, sweeps);
         measure(w, f, NULL);
+        if (w->v && f->min_sj < fmin(0.2, o->target) && f->below <= POLISH_MAX) {
+            free(w->focus); /* the polish reaches past a selective run's focus */
+            w->focus = NULL;
+            s = polish(w, fmin(0.3, o->target), moves, sweeps);
+            if (s) s = vm_error_set(err, s, "improve: out of memory");
+            measure(w, f, NULL);
+        }
         if (w->v) final_snap(w, fmax(f->min_sj, 0.2));
         measure(w, f, NULL);
     }
@@ -1091,6 +1159,16 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
         free(mark);
     }
     if (s) goto done;
+    if (v && after.min_sj < fmin(0.2, o->target) && after.below <= POLISH_MAX) {
+        /* once more on the kept result: the selective rounds' focus is gone */
+        free(w.focus);
+        w.focus = NULL;
+        if (polish(&w, fmin(0.3, o->target), &moves, &sweeps)) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+            goto done;
+        }
+        measure(&w, &after, NULL);
+    }
     double maxd = 0.0, maxd0 = 0.0;
     if (v)
         for (size_t i = 0; i < w.np; i++) {

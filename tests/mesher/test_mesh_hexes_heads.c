@@ -6,10 +6,10 @@
 #include <string.h>
 #include "hex_checks.h"
 
-/* Issue #5's bar is 0.2; these two are measured short of it (docs/IMPROVE.md: what stays
- * below are the selective layer's own hexes on boundary quads with points of valence 3 and
- * 5 to 6), so their floors are the measured minimum less a margin, to catch regressions.
- * Minutes under the sanitizers: left to the Release run there. */
+/* Issue #5's bar is 0.2. The CT head at 500 reaches it since the polish (boundary points of
+ * the selective layer's hexes sliding along the isosurface, docs/IMPROVE.md); avg152T1 is
+ * measured short of it, so its floor is the measured minimum less a margin, to catch
+ * regressions. Minutes under the sanitizers: left to the Release run there. */
 static void hexQualityPassOnTheBigHeadsUntanglesAndKeepsItsFloor(void) {
     const char *sanitized = getenv("VM_SANITIZED");
     if (sanitized && strcmp(sanitized, "1") == 0) {
@@ -19,8 +19,8 @@ static void hexQualityPassOnTheBigHeadsUntanglesAndKeepsItsFloor(void) {
     static const struct {
         const char *file;
         double iso, floor;
-    } cases[] = {{"ct_head_quarter.nrrd", 500, 0.1},       /* measured 0.133 */
-                 {"avg152T1_RL_nifti.nii.gz", 100, 0.07}}; /* 0.088 */
+    } cases[] = {{"ct_head_quarter.nrrd", 500, 0.2},       /* measured 0.2009 */
+                 {"avg152T1_RL_nifti.nii.gz", 100, 0.09}}; /* 0.1049, 28 below 0.2 */
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++)
         if (!check_shared_volume(cases[c].file, cases[c].iso, cases[c].floor, -1, 0, 1)) return;
 }
