@@ -72,6 +72,9 @@ typedef struct vm__imp {
     /* the boundary guard (improve_guard.c): boundary vertices in a hashed uniform grid and
      * each vertex's boundary faces, cached until a tet around it is added or removed */
     struct vm__imp_guard *g;
+    /* when set: each contraction stamps the vertices of the tets it changes or reads with
+     * mark_round (so a probe made before it is known to be stale) */
+    uint32_t *mark, mark_round;
 } vm__imp;
 
 /* Normalised quality of a tet (>= 1 meets the targets, > 2/3 passes ABAQUS with the default
@@ -132,9 +135,17 @@ int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e);
 
 /* The operations: each returns 1 when it changed the mesh. */
 int vm__imp_contract_tet(vm__imp *w, size_t t);
+/* 0 when vm__imp_contract_tet(w, t) would surely do nothing (no contraction of an edge of t
+ * raises the worst quality); reads only the tets around t's vertices and writes nothing, so
+ * threads may call it together while nothing changes the mesh. */
+int vm__imp_contract_may(const vm__imp *w, size_t t);
 int vm__imp_flip_tet(vm__imp *w, size_t t);
 int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters);
 int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries);
+/* Smooths the vertices vs[0..nv) (as vm__imp_smooth_vertex) in colour classes of vertices
+ * sharing no tet, each class on threads and its moves committed in list order; the same
+ * result on any thread count. col: npt bytes of zeros, left zero. Returns the moves. */
+size_t vm__imp_smooth_set(vm__imp *w, const vm_index *vs, size_t nv, int iters, uint8_t *col);
 int vm__imp_peel_tet(vm__imp *w, size_t t);
 
 #endif
