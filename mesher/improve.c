@@ -729,10 +729,9 @@ static size_t contract_list(vm__imp *w, const tq *l, size_t n, uint8_t *may, uin
 static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     size_t ops_total = 0;
     uint32_t *stamp = calloc(w->npt, sizeof *stamp);
-    uint8_t *col = calloc(w->npt + 1, 1), *may = malloc(CBATCH);
-    if (!stamp || !col || !may) {
+    uint8_t *may = malloc(CBATCH);
+    if (!stamp || !may) {
         free(stamp);
-        free(col);
         free(may);
         w->nomem = 1;
         return 0;
@@ -765,7 +764,7 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         if (o->smooth) {
             size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
             report(o, pass, 3, 0, nv);
-            ops += vm__imp_smooth_set(w, vs, nv, 6, col);
+            ops += vm__imp_smooth_set(w, vs, nv, 6, stamp, &round);
         }
         if (o->perturb && pass >= 1) {
             size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
@@ -806,7 +805,6 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     }
     free(l);
     free(stamp);
-    free(col);
     free(may);
     show(o, 1.0 - FINAL_SHARE);
     *passes = pass;

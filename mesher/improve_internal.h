@@ -125,6 +125,8 @@ int vm__imp_project(const vm__imp *w, vm_index a, double x[3]);
 /* Unit normal of the constraint of boundary vertex a: the field gradient (world) for a
  * surface vertex with a volume, else the stored plane normal. */
 void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]);
+/* The same with a taken at pa. */
+void vm__imp_normal_at(const vm__imp *w, vm_index a, const double pa[3], double n[3]);
 int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]);
 
 /* The boundary guard: no operation may make two boundary triangles cross. */
@@ -154,10 +156,12 @@ int vm__imp_contract_may(const vm__imp *w, size_t t);
 int vm__imp_flip_tet(vm__imp *w, size_t t);
 int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters);
 int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries);
-/* Smooths the vertices vs[0..nv) (as vm__imp_smooth_vertex) in colour classes of vertices
- * sharing no tet, each class on threads and its moves committed in list order; the same
- * result on any thread count. col: npt bytes of zeros, left zero. Returns the moves. */
-size_t vm__imp_smooth_set(vm__imp *w, const vm_index *vs, size_t nv, int iters, uint8_t *col);
+/* Smooths the vertices vs[0..nv) as vm__imp_smooth_vertex on each in turn would, with the
+ * same result on any thread count: batches are searched on threads first, and a search is
+ * redone in order when a neighbour moved since. mark: npt stamps, round: the last stamp used
+ * (advanced). Returns the vertices moved. */
+size_t vm__imp_smooth_set(vm__imp *w, const vm_index *vs, size_t nv, int iters, uint32_t *mark,
+                          uint32_t *round);
 int vm__imp_peel_tet(vm__imp *w, size_t t);
 
 #endif

@@ -36,23 +36,26 @@ static double shortest_edge(const vm__imp *w, vm_index a) {
 }
 
 /* Removes from g its component along the constraint normal of a (tangent moves only). */
-static void tangent(const vm__imp *w, vm_index a, double g[3]) {
+static void tangent(const vm__imp *w, vm_index a, const double pa[3], double g[3]) {
     if (w->cls[a] == VM__IMP_INTERIOR) return;
     /* Surface vertices with a volume and a band may leave the isosurface a little. */
     if (w->cls[a] == VM__IMP_SURF && w->v && w->o->surface_band > 0.0) return;
     double n[3];
-    vm__imp_normal(w, a, n);
+    vm__imp_normal_at(w, a, pa, n);
     double s = g[0] * n[0] + g[1] * n[1] + g[2] * n[2];
     for (int k = 0; k < 3; k++) g[k] -= s * n[k];
 }
 
-/* The line searches of vertex a (iters at most): each accepted step moves w->p[a] in place and
+/* The line searches of vertex a (iters at most): each accepted step moves a and
  * refreshes qs[0..n), the qualities of the star ids[0..n) (on entry, their current values).
  * With guard, a step must also pass the boundary guard, which is kept current; without it
- * (a colour class on threads) nothing but p[a] and qs is written. Returns 1 when a moved. */
+ * (a probe on threads) only qs is written, the mesh is not, and the accepted positions go to
+ * steps (iters of them at most). Returns the number of accepted steps. */
 static int smooth_core(vm__imp *w, vm_index a, int iters, const vm_index *ids, int32_t n,
-                       double *qs, int guard) {
-    double *pa = w->p + 3 * (size_t)a;
+                       double *qs, int guard, double *steps) {
+    /* a's position is kept here: a probe never writes w->p, which other probes read */
+    double pa[3];
+    memcpy(pa, w->p + 3 * (size_t)a, sizeof pa);
     double cur = INFINITY;
     for (int32_t i = 0; i < n; i++)
         if (qs[i] < cur) cur = qs[i];
@@ -82,7 +85,7 @@ static int smooth_core(vm__imp *w, vm_index a, int iters, const vm_index *ids, i
         for (int dir = 0; dir < 2 && !accepted; dir++) {
             double d[3];
             memcpy(d, dir ? gw : g, sizeof d);
-            tangent(w, a, d);
+            tangent(w, a, pa, d);
             double gl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
             if (!(gl > 0.0) || !isfinite(gl)) continue;
             for (double step = 0.3 * L; step > 1e-4 * L; step *= 0.5) {
@@ -92,8 +95,14 @@ static int smooth_core(vm__imp *w, vm_index a, int iters, const vm_index *ids, i
                 double m = star_min(w, ids, n, a, x, cur + 1e-7);
                 if (m > cur + 1e-7 && (!guard || vm__imp_guard_move_ok(w, a, x))) {
                     memcpy(pa, x, sizeof x);
-                    if (guard) vm__imp_guard_moved(w, a);
-                    for (int32_t i = 0; i < n; i++) qs[i] = vm__imp_tet_q(w, (size_t)ids[i]);
+                    if (guard) {
+                        memcpy(w->p + 3 * (size_t)a, x, sizeof x);
+                        vm__imp_guard_moved(w, a);
+                    } else {
+                        memcpy(steps + 3 * moved, x, sizeof x);
+                    }
+                    for (int32_t i = 0; i < n; i++)
+                        qs[i] = vm__imp_tet_q_moved(w, (size_t)ids[i], a, pa);
                     cur = m;
                     accepted = 1;
                     break;
@@ -101,7 +110,7 @@ static int smooth_core(vm__imp *w, vm_index a, int iters, const vm_index *ids, i
             }
         }
         if (!accepted) break;
-        moved = 1;
+        moved++;
     }
     return moved;
 }
@@ -118,7 +127,7 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
     }
     /* the guard never changes the star: it is read in place */
     for (int32_t i = 0; i < n; i++) qs[i] = w->q[s->t[i]];
-    int moved = smooth_core(w, a, iters, s->t, n, qs, 1);
+    int moved = smooth_core(w, a, iters, s->t, n, qs, 1, NULL) > 0;
     if (moved) {
         for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)s->t[i]);
         w->moves++;
@@ -127,105 +136,92 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
     return moved;
 }
 
-/* Greedy colours of the movable vertices of vs[0..nv) in their order: the smallest colour
- * (1..255) no earlier vertex of the list sharing a tet with it has; 0 when all are taken. */
-static void colour(const vm__imp *w, const vm_index *vs, size_t nv, uint8_t *col, uint8_t *c) {
-    for (size_t i = 0; i < nv; i++) {
-        vm_index a = vs[i];
-        c[i] = 0;
-        if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || w->star[a].n == 0) continue;
-        uint64_t used[4] = {1, 0, 0, 0}; /* colour 0 is "none" */
-        const vm__imp_star *s = &w->star[a];
-        for (int32_t j = 0; j < s->n; j++)
-            for (int k = 0; k < 4; k++) {
-                uint8_t x = col[w->tet[4 * (size_t)s->t[j] + k]];
-                used[x >> 6] |= (uint64_t)1 << (x & 63);
-            }
-        for (int x = 1; x < 256; x++)
-            if (!(used[x >> 6] >> (x & 63) & 1)) {
-                c[i] = (uint8_t)x;
-                break;
-            }
-        col[a] = c[i];
-    }
-    for (size_t i = 0; i < nv; i++) col[vs[i]] = 0;
+/* 1 when a vertex of a tet around a carries mark r (a neighbour of a moved). */
+static int near_mark(const vm__imp *w, vm_index a, const uint32_t *mark, uint32_t r) {
+    const vm__imp_star *s = &w->star[a];
+    for (int32_t j = 0; j < s->n; j++)
+        for (int k = 0; k < 4; k++)
+            if (mark[w->tet[4 * (size_t)s->t[j] + k]] == r) return 1;
+    return 0;
 }
 
-size_t vm__imp_smooth_set(vm__imp *w, const vm_index *vs, size_t nv, int iters, uint8_t *col) {
+#define SBATCH 1024
+#define SITERS 8 /* steps stored per vertex: iters at most */
+
+size_t vm__imp_smooth_set(vm__imp *w, const vm_index *vs, size_t nv, int iters, uint32_t *mark,
+                          uint32_t *round) {
     size_t ops = 0;
-    uint8_t *c = malloc(nv + 1);
-    size_t *order = malloc((nv + 1) * sizeof *order), start[257];
-    double *x = malloc((3 * nv + 1) * sizeof *x);
-    uint8_t *mv = malloc(nv + 1);
-    if (!c || !order || !x || !mv) {
-        free(c);
-        free(order);
-        free(x);
-        free(mv);
+    if (iters > SITERS) iters = SITERS;
+    double *steps = malloc(SBATCH * 3 * SITERS * sizeof *steps);
+    int *ns = malloc(SBATCH * sizeof *ns);
+    if (!steps || !ns) {
+        free(steps);
+        free(ns);
         w->nomem = 1;
         return 0;
     }
-    colour(w, vs, nv, col, c);
-    /* the classes in colour order, each in list order */
-    memset(start, 0, sizeof start);
-    for (size_t i = 0; i < nv; i++) start[c[i] + 1]++;
-    for (int k = 1; k < 257; k++) start[k] += start[k - 1];
-    size_t fill[256];
-    memcpy(fill, start, sizeof fill);
-    for (size_t i = 0; i < nv; i++) order[fill[c[i]]++] = i;
-    for (int k = 1; k < 256 && !w->nomem; k++) {
-        size_t i0 = start[k], i1 = start[k + 1];
-        if (i0 == i1) continue;
+    for (size_t i0 = 0; i0 < nv && !w->nomem; i0 += SBATCH) {
+        size_t i1 = i0 + SBATCH < nv ? i0 + SBATCH : nv;
         int fail = 0;
-        /* No two vertices of a class share a tet, so each reads only positions and
-         * qualities no other one writes: the moves are the same on any thread count. */
+        /* Probes on the unchanged mesh (they write nothing but their own results). */
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 16) reduction(| : fail)
 #endif
-        for (size_t j = i0; j < i1; j++) {
-            size_t i = order[j];
+        for (size_t i = i0; i < i1; i++) {
             vm_index a = vs[i];
             const vm__imp_star *s = &w->star[a];
+            ns[i - i0] = 0;
+            if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || s->n == 0) continue;
             double qbuf[64], *qs = s->n <= 64 ? qbuf : malloc((size_t)s->n * sizeof *qs);
-            mv[i] = 0;
             if (!qs) {
                 fail = 1;
                 continue;
             }
             for (int32_t t = 0; t < s->n; t++) qs[t] = w->q[s->t[t]];
-            double *pa = w->p + 3 * (size_t)a, p0[3];
-            memcpy(p0, pa, sizeof p0);
-            mv[i] = (uint8_t)smooth_core(w, a, iters, s->t, s->n, qs, 0);
-            memcpy(x + 3 * i, pa, 3 * sizeof *x);
-            memcpy(pa, p0, sizeof p0);
+            ns[i - i0] = smooth_core(w, a, iters, s->t, s->n, qs, 0,
+                                     steps + 3 * SITERS * (i - i0));
             if (qs != qbuf) free(qs);
         }
-        if (fail) w->nomem = 1;
-        /* Commits in list order: the boundary guard sees each move after the ones before
-         * it; a move it refuses is searched again step by step with the guard. */
-        for (size_t j = i0; j < i1 && !w->nomem; j++) {
-            size_t i = order[j];
+        if (fail) {
+            w->nomem = 1;
+            break;
+        }
+        /* In list order, as the plain loop: a probe whose neighbours have not moved since
+         * is what the plain search computes, but for the guard, asked here at each of its
+         * steps (its answer does not depend on where the vertex is now); anything else is
+         * searched again with the guard. */
+        uint32_t r = ++*round;
+        for (size_t i = i0; i < i1 && !w->nomem; i++) {
             vm_index a = vs[i];
-            if (!mv[i]) continue;
-            if (vm__imp_guard_move_ok(w, a, x + 3 * i)) {
-                memcpy(w->p + 3 * (size_t)a, x + 3 * i, 3 * sizeof *x);
-                vm__imp_guard_moved(w, a);
-                const vm__imp_star *s = &w->star[a];
-                for (int32_t t = 0; t < s->n; t++) vm__imp_requal(w, (size_t)s->t[t]);
-                w->moves++;
+            if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || w->star[a].n == 0) continue;
+            int n = ns[i - i0], moved;
+            const double *st = steps + 3 * SITERS * (i - i0);
+            if (near_mark(w, a, mark, r)) {
+                moved = vm__imp_smooth_vertex(w, a, iters);
+            } else if (n == 0) {
+                moved = 0;
+            } else {
+                int ok = 1;
+                for (int k = 0; k < n && ok; k++) ok = vm__imp_guard_move_ok(w, a, st + 3 * k);
+                if (ok) {
+                    memcpy(w->p + 3 * (size_t)a, st + 3 * (n - 1), 3 * sizeof *st);
+                    vm__imp_guard_moved(w, a);
+                    const vm__imp_star *s = &w->star[a];
+                    for (int32_t t = 0; t < s->n; t++) vm__imp_requal(w, (size_t)s->t[t]);
+                    w->moves++;
+                    moved = 1;
+                } else {
+                    moved = w->nomem ? 0 : vm__imp_smooth_vertex(w, a, iters);
+                }
+            }
+            if (moved) {
+                mark[a] = r;
                 ops++;
-            } else if (!w->nomem) {
-                ops += (size_t)vm__imp_smooth_vertex(w, a, iters);
             }
         }
     }
-    /* vertices left without a colour (more than 254 coloured neighbours), one by one */
-    for (size_t j = start[0]; j < start[1] && !w->nomem; j++)
-        ops += (size_t)vm__imp_smooth_vertex(w, vs[order[j]], iters);
-    free(c);
-    free(order);
-    free(x);
-    free(mv);
+    free(steps);
+    free(ns);
     return ops;
 }
 
@@ -245,7 +241,7 @@ int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries) {
     for (int k = 0; k < tries; k++) {
         double d[3], r = L * (k % 3 == 0 ? 0.3 : k % 3 == 1 ? 0.1 : 0.03);
         for (int c = 0; c < 3; c++) d[c] = 2.0 * vm__imp_rand01(w) - 1.0;
-        tangent(w, a, d);
+        tangent(w, a, pa, d);
         double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         if (!(dl > 1e-6)) continue;
         double x[3];
