@@ -405,8 +405,8 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
     w->iso_hi = calloc(np, 1);
     w->pdead = calloc(np, 1);
     w->star = calloc(np, sizeof *w->star);
-    if (!w->tet || !w->region || (m->ncell_fields && !w->parent) || !w->q || !w->dead || !w->p || !w->ci ||
-        !w->cls || !w->planes || !w->iso_hi || !w->pdead || !w->star)
+    if (!w->tet || !w->region || (m->ncell_fields && !w->parent) || !w->q || !w->dead ||
+        !w->p || !w->ci || !w->cls || !w->planes || !w->iso_hi || !w->pdead || !w->star)
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for %zu tets", nt);
     memcpy(w->p, m->points, 3 * np * sizeof *w->p);
     memcpy(w->tet, m->cells, 4 * nt * sizeof *w->tet);

@@ -177,8 +177,8 @@ static void quality_pass_gives_the_same_mesh_for_one_two_and_three_threads(void)
 }
 
 /* Two regions (split by a grid plane through the phantom, so the interface is flat and its
- * vertices move in it) and a cell field holding each input tet's id: the smoothing classes, the probes and
- * the parent ids of the pass give the same mesh on 1, 2 and 3 threads, and every output tet
+ * vertices move in it) and a cell field holding each input tet's id: the probes and the
+ * parent ids of the pass give the same mesh on 1, 2 and 3 threads, and every output tet
  * carries the field and region of the input tet it descends from. */
 static void quality_pass_with_two_regions_and_a_cell_field_is_the_same_for_any_thread_count(void) {
     vm_volume v;
