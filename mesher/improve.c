@@ -689,50 +689,10 @@ static void report(const vm_improve_options *o, int pass, int phase, size_t i, s
     show_rounds(o, pass + (phase + (double)i / (double)n) / 4.0);
 }
 
-/* Contractions of the tets of l in list order, in batches: threads first probe every tet
- * of a batch on the unchanged mesh (vm__imp_contract_may), then the batch runs in order,
- * skipping the tets whose probe found nothing unless a contraction of this batch changed a
- * tet around one of their vertices (stamped in mark). A skipped tet is one the contraction
- * would have left alone anyway, so the result is that of the plain loop, on any thread
- * count. */
-#define CBATCH 4096
-static size_t contract_list(vm__imp *w, const tq *l, size_t n, uint8_t *may, uint32_t *mark,
-                            uint32_t *round, int pass) {
-    size_t ops = 0;
-    w->mark = mark;
-    for (size_t i0 = 0; i0 < n && !w->nomem; i0 += CBATCH) {
-        size_t i1 = i0 + CBATCH < n ? i0 + CBATCH : n;
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(dynamic, 32)
-#endif
-        for (size_t i = i0; i < i1; i++) {
-            size_t t = l[i].t;
-            may[i - i0] = (uint8_t)(!w->dead[t] && w->q[t] < 1.0 && vm__imp_contract_may(w, t));
-        }
-        w->mark_round = ++*round;
-        for (size_t i = i0; i < i1 && !w->nomem; i++) {
-            report(w->o, pass, 0, i, n);
-            size_t t = l[i].t;
-            if (w->dead[t] || !(w->q[t] < 1.0)) continue;
-            const vm_index *v = w->tet + 4 * t;
-            uint32_t r = w->mark_round;
-            if (!may[i - i0] && mark[v[0]] != r && mark[v[1]] != r && mark[v[2]] != r &&
-                mark[v[3]] != r)
-                continue;
-            ops += (size_t)vm__imp_contract_tet(w, t);
-        }
-    }
-    w->mark = NULL;
-    return ops;
-}
-
 static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     size_t ops_total = 0;
     uint32_t *stamp = calloc(w->npt, sizeof *stamp);
-    uint8_t *may = malloc(CBATCH);
-    if (!stamp || !may) {
-        free(stamp);
-        free(may);
+    if (!stamp) {
         w->nomem = 1;
         return 0;
     }
@@ -744,7 +704,11 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         size_t ops = 0;
         w->deep = pass >= 1;
         if (!next_bad_list(w, &l, &n) || n == 0) break;
-        if (o->contract) ops += contract_list(w, l, n, may, stamp, &round, pass);
+        if (o->contract)
+            for (size_t i = 0; i < n && !w->nomem; i++) {
+                report(o, pass, 0, i, n);
+                if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_contract_tet(w, l[i].t);
+            }
         if (o->flip)
             for (size_t i = 0; i < n && !w->nomem; i++) {
                 report(o, pass, 1, i, n);
@@ -763,8 +727,10 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         }
         if (o->smooth) {
             size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
-            report(o, pass, 3, 0, nv);
-            ops += vm__imp_smooth_set(w, vs, nv, 6, stamp, &round);
+            for (size_t i = 0; i < nv; i++) {
+                report(o, pass, 3, i, nv);
+                ops += (size_t)vm__imp_smooth_vertex(w, vs[i], 6);
+            }
         }
         if (o->perturb && pass >= 1) {
             size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
@@ -805,7 +771,6 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     }
     free(l);
     free(stamp);
-    free(may);
     show(o, 1.0 - FINAL_SHARE);
     *passes = pass;
     return ops_total;

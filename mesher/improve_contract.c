@@ -3,7 +3,6 @@
  * Dey–Edelsbrunner–Guha–Nekhayev (1999) on the mesh closed by a vertex at infinity, so the
  * boundary keeps its topology, and by accepting only contractions that raise the worst quality. */
 #include <math.h>
-#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include "improve_internal.h"
@@ -305,17 +304,8 @@ static int contract_guard_ok(vm__imp *w, vm_index a, vm_index b, vm_index keep, 
     return ok;
 }
 
-/* Marks the vertices of the tets around v (w->mark, when set). */
-static void mark_star(vm__imp *w, vm_index v) {
-    const vm__imp_star *s = &w->star[v];
-    for (int32_t i = 0; i < s->n; i++)
-        for (int k = 0; k < 4; k++) w->mark[w->tet[4 * (size_t)s->t[i] + k]] = w->mark_round;
-}
-
-/* Tries to contract edge ab; returns 1 when done. With probe, only reads the mesh: returns 1
- * when some way of contracting ab raises the worst quality (the checks after that one — surface
- * normals, the boundary guard, the link condition — are left out). */
-static int try_edge(vm__imp *w, vm_index a, vm_index b, int probe) {
+/* Tries to contract edge ab; returns 1 when done. */
+static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     int keep_a = may_merge(w, a, b), keep_b = may_merge(w, b, a);
     int mid = w->cls[a] == VM__IMP_INTERIOR && w->cls[b] == VM__IMP_INTERIOR;
     if (!keep_a && !keep_b) return 0;
@@ -351,7 +341,6 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b, int probe) {
         } else continue;
         double q = merged_min(w, a, b, x, best);
         if (q <= best) continue;
-        if (probe) return 1;
         if (opt != 1 && w->cls[b] != VM__IMP_INTERIOR && !boundary_keeps_normals(w, b, a, x))
             continue;
         if (opt != 0 && w->cls[a] != VM__IMP_INTERIOR && !boundary_keeps_normals(w, a, b, x))
@@ -372,10 +361,6 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b, int probe) {
     if (ok <= 0) return 0;
     /* Apply: keep = survivor, gone = removed vertex. */
     vm_index keep = choice == 1 ? b : a, gone = choice == 1 ? a : b;
-    if (w->mark) {
-        mark_star(w, keep);
-        mark_star(w, gone);
-    }
     const vm__imp_star *sg = &w->star[gone];
     if (!vm__imp_scratch(w, (size_t)sg->n)) return 0;
     int32_t ng = sg->n;
@@ -408,7 +393,7 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b, int probe) {
     return 1;
 }
 
-static int contract(vm__imp *w, size_t t, int probe) {
+int vm__imp_contract_tet(vm__imp *w, size_t t) {
     static const int ed[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
     double len[6];
     int order[6];
@@ -427,15 +412,8 @@ static int contract(vm__imp *w, size_t t, int probe) {
         }
     for (int i = 0; i < 6; i++) {
         vm_index a = w->tet[4 * t + ed[order[i]][0]], b = w->tet[4 * t + ed[order[i]][1]];
-        if (try_edge(w, a, b, probe)) return 1;
+        if (try_edge(w, a, b)) return 1;
         if (w->nomem) return 0;
     }
     return 0;
-}
-
-int vm__imp_contract_tet(vm__imp *w, size_t t) { return contract(w, t, 0); }
-
-int vm__imp_contract_may(const vm__imp *w, size_t t) {
-    /* the probe writes nothing (no guard, no scratch, no counters) */
-    return contract((vm__imp *)(uintptr_t)w, t, 1);
 }

@@ -34,8 +34,8 @@ typedef struct vm__imp {
     size_t ntet, tet_cap;
     /* vertices */
     double *p;          /* world positions */
-    /* The next three only for the vertices that may be constrained (on the boundary or
-     * between regions), at index ci[v] (-1 for the others): see vm__imp_p0 etc. */
+    /* p0, nrm and bound hold only the vertices that may be constrained (on the boundary or
+     * between regions), vertex v at index ci[v] (-1 for the others): see vm__imp_p0 etc. */
     int32_t *ci;
     double *p0;         /* input positions */
     uint8_t *cls;       /* VM__IMP_* */
@@ -75,9 +75,6 @@ typedef struct vm__imp {
     /* the boundary guard (improve_guard.c): boundary vertices in a hashed uniform grid and
      * each vertex's boundary faces, cached until a tet around it is added or removed */
     struct vm__imp_guard *g;
-    /* when set: each contraction stamps the vertices of the tets it changes or reads with
-     * mark_round (so a probe made before it is known to be stale) */
-    uint32_t *mark, mark_round;
 } vm__imp;
 
 /* Input position, constraint normal and bound of a constrained vertex a (ci[a] >= 0). */
@@ -125,8 +122,6 @@ int vm__imp_project(const vm__imp *w, vm_index a, double x[3]);
 /* Unit normal of the constraint of boundary vertex a: the field gradient (world) for a
  * surface vertex with a volume, else the stored plane normal. */
 void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]);
-/* The same with a taken at pa. */
-void vm__imp_normal_at(const vm__imp *w, vm_index a, const double pa[3], double n[3]);
 int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]);
 
 /* The boundary guard: no operation may make two boundary triangles cross. */
@@ -149,19 +144,9 @@ int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e);
 
 /* The operations: each returns 1 when it changed the mesh. */
 int vm__imp_contract_tet(vm__imp *w, size_t t);
-/* 0 when vm__imp_contract_tet(w, t) would surely do nothing (no contraction of an edge of t
- * raises the worst quality); reads only the tets around t's vertices and writes nothing, so
- * threads may call it together while nothing changes the mesh. */
-int vm__imp_contract_may(const vm__imp *w, size_t t);
 int vm__imp_flip_tet(vm__imp *w, size_t t);
 int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters);
 int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries);
-/* Smooths the vertices vs[0..nv) as vm__imp_smooth_vertex on each in turn would, with the
- * same result on any thread count: batches are searched on threads first, and a search is
- * redone in order when a neighbour moved since. mark: npt stamps, round: the last stamp used
- * (advanced). Returns the vertices moved. */
-size_t vm__imp_smooth_set(vm__imp *w, const vm_index *vs, size_t nv, int iters, uint32_t *mark,
-                          uint32_t *round);
 int vm__imp_peel_tet(vm__imp *w, size_t t);
 
 #endif

@@ -384,14 +384,10 @@ int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]) {
 }
 
 void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]) {
-    vm__imp_normal_at(w, a, w->p + 3 * (size_t)a, n);
-}
-
-void vm__imp_normal_at(const vm__imp *w, vm_index a, const double pa[3], double n[3]) {
     memcpy(n, vm__imp_nrm(w, a), 3 * sizeof(double));
     if (w->cls[a] != VM__IMP_SURF || !w->v) return;
     double ijk[3], g[3], x[3];
-    vm__imp_to_index(w, pa, ijk);
+    vm__imp_to_index(w, w->p + 3 * (size_t)a, ijk);
     field(w->v, ijk, g);
     /* d f / d x = Ainv^T d f / d ijk */
     for (int c = 0; c < 3; c++) x[c] = w->Ainv[0][c] * g[0] + w->Ainv[1][c] * g[1] + w->Ainv[2][c] * g[2];
