@@ -36,6 +36,9 @@ int vm_cli_need_value(const char *cmd, int i, int argc, char **argv);
 int vm_cli_double(const char *opt, const char *s, double *out);
 int vm_cli_int(const char *opt, const char *s, long lo, long hi, long *out);
 
+/* 1 when s ends with tail, ignoring case (".nrrd" matches "A.NRRD"). */
+int vm_cli_ends_with(const char *s, const char *tail);
+
 /* For a stage whose length is not known in advance (writing a file, the final checks): on a
  * terminal and unless quiet, shows "WHAT NAME ..." on stderr until vm_cli_status_clear. */
 void vm_cli_status(const char *what, const char *name, int quiet);
@@ -49,8 +52,11 @@ int vm_cmd_mesh(int argc, char **argv);
 int vm_cmd_demo(int argc, char **argv);
 int vm_cmd_report(int argc, char **argv);
 
-/* Writes the HTML quality report of m to path (name shown in it); returns an exit code. */
-int vm_cli_write_report(const char *path, const vm_mesh *m, const char *name);
+/* Writes the HTML quality report of m to path (name shown in it); returns an exit code.
+ * check: m's vm_mesh_check when the caller has it (not run again), else NULL. Bars for the
+ * check and the metrics and a status line while drawing, on a terminal and unless quiet. */
+int vm_cli_write_report(const char *path, const vm_mesh *m, const char *name,
+                        const vm_mesh_report *check, int quiet);
 int vm_cmd_quality(int argc, char **argv);
 int vm_cmd_convert(int argc, char **argv);
 int vm_cmd_denoise(int argc, char **argv);
@@ -64,9 +70,8 @@ int vm_cli_read_volume(const char *path, const vm_raw_options *raw, vm_volume *v
  * argument is not a raw option, -1 on error. */
 int vm_cli_raw_option(int argc, char **argv, int *i, vm_raw_options *raw, int *is_raw);
 
-/* Checks a mesh and prints its one-line summary (or JSON); returns an exit code. */
-int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, const char *out);
-/* The same summary for a mesh already checked (checked: its vm_mesh_check report). */
+/* Prints the one-line summary (or JSON) of a mesh already checked (checked: its
+ * vm_mesh_check report); returns an exit code. */
 int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
                           const vm_mesh_stats *st, int json, const char *out);
 

@@ -17,13 +17,17 @@ static const char *convert_help =
     "  --deck static   .inp: add a static step (lowest z slab fixed, top slab loaded in -z,\n"
     "                  displacements and stresses requested)\n"
     "  --order 2       .inp: second-order elements (C3D10 / C3D20, shared mid-edge nodes)\n"
-    "  --ascii         ASCII STL, PLY or legacy VTK instead of binary\n";
+    "  --ascii         ASCII STL, PLY or legacy VTK instead of binary\n"
+    "  -q, --quiet     no progress bar (shown on a terminal while writing)\n";
 
 int vm_cmd_convert(int argc, char **argv) {
     const char *in = NULL, *out = NULL;
     vm_mesh_write_options o;
     vm_mesh_write_options_init(&o);
     vm_mesh_format in_fmt = VM_MESH_AUTO;
+    int quiet = 0;
+    o.progress = vm_cli_progress;
+    o.progress_user = &quiet;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (vm_cli_is(a, "--help", "-h")) {
@@ -50,6 +54,8 @@ int vm_cmd_convert(int argc, char **argv) {
             o.order = (int)v;
         } else if (strcmp(a, "--ascii") == 0) {
             o.ascii = 1;
+        } else if (vm_cli_is(a, "-q", "--quiet")) {
+            quiet = 1;
         } else if (a[0] == '-' && a[1]) {
             return vm_cli_fail("convert: unknown option %s (see volmesh convert --help)", a);
         } else if (!in) {
@@ -83,7 +89,10 @@ int vm_cmd_convert(int argc, char **argv) {
     vm_error err;
     vm_error_clear(&err);
     vm_mesh m;
-    if (vm_mesh_read_as(in, in_fmt, &m, &err)) return vm_cli_fail_mesh_read(in, &err);
+    vm_cli_status("reading", in, quiet);
+    vm_status rs = vm_mesh_read_as(in, in_fmt, &m, &err);
+    vm_cli_status_clear(quiet);
+    if (rs) return vm_cli_fail_mesh_read(in, &err);
     vm_status s = vm_mesh_write_as(out, &m, &o, &err);
     if (s) {
         vm_mesh_free(&m);

@@ -40,11 +40,6 @@ static double now_seconds(void) {
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static int ends_with(const char *s, const char *suffix) {
-    size_t n = strlen(s), m = strlen(suffix);
-    return n >= m && strcmp(s + n - m, suffix) == 0;
-}
-
 int vm_cmd_denoise(int argc, char **argv) {
     const char *in_path = NULL, *out_path = NULL, *method = "bilateral";
     double sigma_space = 0, sigma_range = 0, kappa = 0, dt = 0;
@@ -111,7 +106,7 @@ int vm_cmd_denoise(int argc, char **argv) {
     }
     if (!in_path) return vm_cli_fail("denoise: no input file (see volmesh denoise --help)");
     if (!out_path) return vm_cli_fail("denoise: no output file (-o OUT.nrrd)");
-    if (!ends_with(out_path, ".nrrd"))
+    if (!vm_cli_ends_with(out_path, ".nrrd"))
         return vm_cli_fail("%s: denoise writes NRRD; name the output *.nrrd", out_path);
     int diffusion = strcmp(method, "diffusion") == 0;
     if (diffusion && bilateral_opt)

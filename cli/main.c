@@ -75,11 +75,11 @@ int vm_cli_int(const char *opt, const char *s, long lo, long hi, long *out) {
     return 0;
 }
 
-static int ends_with(const char *s, const char *tail) {
+int vm_cli_ends_with(const char *s, const char *tail) {
     size_t n = strlen(s), t = strlen(tail);
     if (n < t) return 0;
     for (size_t i = 0; i < t; i++)
-        if (tolower((unsigned char)s[n - t + i]) != tail[i]) return 0;
+        if (tolower((unsigned char)s[n - t + i]) != tolower((unsigned char)tail[i])) return 0;
     return 1;
 }
 
@@ -88,7 +88,7 @@ int vm_cli_fail_mesh_read(const char *path, const vm_error *err) {
                                                ".img",  ".mha",  ".mhd", ".vti",    ".raw"};
     int volume = strstr(err->message, "STRUCTURED_POINTS") != NULL;
     for (size_t i = 0; i < sizeof volume_tails / sizeof volume_tails[0]; i++)
-        volume |= ends_with(path, volume_tails[i]);
+        volume |= vm_cli_ends_with(path, volume_tails[i]);
     if (!volume) return vm_cli_fail_err(err);
     return vm_cli_fail("%s: this is an image volume, not a mesh: mesh it first "
                        "(volmesh mesh %s --iso V -o OUT.vtu)",

@@ -110,14 +110,6 @@ static int parse_range(const char *s, vm_mesh_options *o) {
     return 0;
 }
 
-int vm_cli_report_mesh(const vm_mesh *m, const vm_mesh_stats *st, int json, const char *out) {
-    vm_mesh_report r;
-    vm_error err;
-    vm_error_clear(&err);
-    if (vm_mesh_check(m, &r, &err)) return vm_cli_fail_err(&err);
-    return vm_cli_report_checked(m, &r, st, json, out);
-}
-
 int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
                           const vm_mesh_stats *st, int json, const char *out) {
     const vm_mesh_report r = *checked;
@@ -263,6 +255,8 @@ int vm_cmd_mesh(int argc, char **argv) {
     vm_label_options_default(&lo);
     vm_mesh_write_options wo;
     vm_mesh_write_options_init(&wo);
+    wo.progress = vm_cli_progress;
+    wo.progress_user = &quiet;
     const char *denoise = NULL, *report = NULL;
     double max_memory = 0;
     vm_mesh_options o;
@@ -555,26 +549,25 @@ int vm_cmd_mesh(int argc, char **argv) {
         return vm_cli_fail_err(&err);
     }
     wo.compress = compress;
-    vm_cli_status("writing", out, quiet);
     s = vm_mesh_write_as(out, &m, &wo, &err);
     if (!s && surface) {
         vm_mesh surf;
-        vm_cli_status("writing", surface, quiet);
+        vm_mesh_write_options sw;
+        vm_mesh_write_options_init(&sw);
+        sw.progress = vm_cli_progress;
+        sw.progress_user = &quiet;
         s = vm_mesh_boundary(&m, &surf, &err);
-        if (!s) s = vm_mesh_write(surface, &surf, &err);
+        if (!s) s = vm_mesh_write_as(surface, &surf, &sw, &err);
         vm_mesh_free(&surf);
     }
-    vm_cli_status_clear(quiet);
     if (s) {
         vm_mesh_free(&m);
         return vm_cli_fail_err(&err);
     }
     stage_done(verbose, "write", &t);
-    vm_cli_status("checking", out, quiet);
     vm_mesh_report checked;
     vm_error cerr;
-    int checked_ok = vm_mesh_check(&m, &checked, &cerr) == VM_OK;
-    vm_cli_status_clear(quiet);
+    int checked_ok = vm_mesh_check_with(&m, vm_cli_progress, &quiet, &checked, &cerr) == VM_OK;
     if (!checked_ok) {
         vm_mesh_free(&m);
         return vm_cli_fail_err(&cerr);
@@ -582,9 +575,7 @@ int vm_cmd_mesh(int argc, char **argv) {
     stage_done(verbose, "check", &t);
     rc = vm_cli_report_checked(&m, &checked, &st, json, out);
     if (!rc && report) {
-        vm_cli_status("writing", report, quiet);
-        rc = vm_cli_write_report(report, &m, out);
-        vm_cli_status_clear(quiet);
+        rc = vm_cli_write_report(report, &m, out, &checked, quiet);
         if (!rc) stage_done(verbose, "report", &t);
     }
     if (!rc && improved && !json && ir.unfixed)

@@ -232,13 +232,18 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
     if (!s) s = vm_mesh_write_as(out, &m, wo, &err);
     if (!s && surface) {
         vm_mesh surf;
+        vm_mesh_write_options so;
+        vm_mesh_write_options_init(&so);
+        so.progress = wo->progress;
+        so.progress_user = wo->progress_user;
         s = vm_mesh_boundary(&m, &surf, &err);
-        if (!s) s = vm_mesh_write(surface, &surf, &err);
+        if (!s) s = vm_mesh_write_as(surface, &surf, &so, &err);
         vm_mesh_free(&surf);
     }
     if (!s) stage_line(verbose, "write", cli_clock() - t);
     int rc = s ? vm_cli_fail_err(&err) : report(&m, &st, json, out, improved ? &ir : NULL);
-    if (!rc && html) rc = vm_cli_write_report(html, &m, out);
+    int quiet = lo->progress_user ? *(const int *)lo->progress_user : 0;
+    if (!rc && html) rc = vm_cli_write_report(html, &m, out, NULL, quiet);
     vm_label_stats_free(&st);
     vm_mesh_free(&m);
     return rc;

@@ -27,6 +27,7 @@ static const char *quality_help =
     "                        \"inverted==0\", \"radius_ratio.max<=3\" (METRIC.min/.mean/.max/\n"
     "                        .unacceptable); repeatable; exit 1 naming each unmet one\n"
     "  --per-cell-csv FILE   write every metric of every cell (cell,region,METRIC,...)\n"
+    "  -q, --quiet           no progress bars (shown on a terminal for big meshes)\n"
     "\n"
     "exit status: 0 ok, 1 a requirement or the ABAQUS check failed, 2 bad usage or input\n";
 
@@ -91,7 +92,7 @@ static int requirement_met(const requirement *r, double v) {
 
 int vm_cmd_quality(int argc, char **argv) {
     const char *path = NULL, *svg = NULL, *csv = NULL;
-    int json = 0, abaqus = 0;
+    int json = 0, abaqus = 0, quiet = 0;
     requirement req[MAX_REQUIRE];
     int nreq = 0;
     for (int i = 1; i < argc; i++) {
@@ -107,6 +108,8 @@ int vm_cmd_quality(int argc, char **argv) {
             json = 1;
         } else if (vm_cli_is(a, "--abaqus", NULL)) {
             abaqus = 1;
+        } else if (vm_cli_is(a, "-q", "--quiet")) {
+            quiet = 1;
         } else if (vm_cli_is(a, "--svg", NULL)) {
             svg = argv[++i];
         } else if (vm_cli_is(a, "--per-cell-csv", NULL)) {
@@ -127,9 +130,16 @@ int vm_cmd_quality(int argc, char **argv) {
     vm_mesh m;
     vm_error err;
     vm_error_clear(&err);
-    if (vm_mesh_read(path, &m, &err)) return vm_cli_fail_mesh_read(path, &err);
+    vm_cli_status("reading", path, quiet);
+    vm_status rs = vm_mesh_read(path, &m, &err);
+    vm_cli_status_clear(quiet);
+    if (rs) return vm_cli_fail_mesh_read(path, &err);
     vm_quality_summary q;
-    vm_status st = vm_quality_report(&m, &q, &err);
+    vm_quality_options qo;
+    vm_quality_options_init(&qo);
+    qo.progress = vm_cli_progress;
+    qo.progress_user = &quiet;
+    vm_status st = vm_quality_report_with(&m, &qo, &q, &err);
     if (st) {
         vm_mesh_free(&m);
         return vm_cli_fail("%s: %s", path, err.message);

@@ -7,21 +7,32 @@ static const char *report_help =
     "\n"
     "Writes one self-contained HTML page (no network needed): the mesh checks, the quality\n"
     "metrics, pictures of the mesh (its boundary, and a cut-away with the worst elements in\n"
-    "red) and the quality histograms. MESH is any mesh volmesh reads.\n"
+    "red) and the quality histograms. MESH is any mesh volmesh reads. On a terminal, bars\n"
+    "show the checks and the metrics of big meshes.\n"
     "\n"
-    "  -o, --output FILE       the HTML file\n";
+    "  -o, --output FILE       the HTML file\n"
+    "  -q, --quiet             no progress bars\n";
 
-int vm_cli_write_report(const char *path, const vm_mesh *m, const char *name) {
+int vm_cli_write_report(const char *path, const vm_mesh *m, const char *name,
+                        const vm_mesh_report *check, int quiet) {
     vm_error err;
     vm_error_clear(&err);
     vm_quality_summary q;
-    if (vm_quality_report(m, &q, &err) || vm_quality_write_html(path, m, name, &q, &err))
-        return vm_cli_fail_err(&err);
-    return VM_EXIT_OK;
+    vm_quality_options o;
+    vm_quality_options_init(&o);
+    o.check = check;
+    o.progress = vm_cli_progress;
+    o.progress_user = &quiet;
+    if (vm_quality_report_with(m, &o, &q, &err)) return vm_cli_fail_err(&err);
+    vm_cli_status("drawing", path, quiet);
+    vm_status s = vm_quality_write_html(path, m, name, &q, &err);
+    vm_cli_status_clear(quiet);
+    return s ? vm_cli_fail_err(&err) : VM_EXIT_OK;
 }
 
 int vm_cmd_report(int argc, char **argv) {
     const char *in = NULL, *out = NULL;
+    int quiet = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (vm_cli_is(a, "--help", "-h")) {
@@ -31,6 +42,8 @@ int vm_cmd_report(int argc, char **argv) {
         if (vm_cli_is(a, "-o", "--output")) {
             if (vm_cli_need_value("report", i, argc, argv)) return VM_EXIT_INPUT;
             out = argv[++i];
+        } else if (vm_cli_is(a, "-q", "--quiet")) {
+            quiet = 1;
         } else if (a[0] == '-' && a[1]) {
             return vm_cli_fail("report: unknown option %s", a);
         } else if (in) {
@@ -44,8 +57,11 @@ int vm_cmd_report(int argc, char **argv) {
     vm_mesh m;
     vm_error err;
     vm_error_clear(&err);
-    if (vm_mesh_read(in, &m, &err)) return vm_cli_fail_mesh_read(in, &err);
-    int rc = vm_cli_write_report(out, &m, in);
+    vm_cli_status("reading", in, quiet);
+    vm_status rs = vm_mesh_read(in, &m, &err);
+    vm_cli_status_clear(quiet);
+    if (rs) return vm_cli_fail_mesh_read(in, &err);
+    int rc = vm_cli_write_report(out, &m, in, NULL, quiet);
     vm_mesh_free(&m);
     if (!rc) printf("wrote %s\n", out);
     return rc;

@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include "volmesh/error.h"
+#include "volmesh/mesh.h"
 
 /* a*b into *out; returns 0 on overflow. */
 int vm__mul_size(size_t a, size_t b, size_t *out);
@@ -24,5 +25,19 @@ vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *
 
 /* Seconds from a monotonic clock. */
 double vm__now(void);
+
+/* A progress meter over a known amount of work: calls fn(stage, done, total, user) when done
+ * has grown by about 1/200 of total since the last call, and once at the end with done ==
+ * total. fn may be NULL (the meter then does nothing). Single-threaded: add from one thread. */
+typedef struct vm__meter {
+    vm_progress_fn fn;
+    void *user;
+    const char *stage;
+    double total, done, next;
+} vm__meter;
+void vm__meter_start(vm__meter *mt, vm_progress_fn fn, void *user, const char *stage,
+                     double total);
+void vm__meter_add(vm__meter *mt, double units);
+void vm__meter_end(vm__meter *mt);
 
 #endif

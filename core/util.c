@@ -79,3 +79,30 @@ double vm__now(void) {
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
+
+void vm__meter_start(vm__meter *mt, vm_progress_fn fn, void *user, const char *stage,
+                     double total) {
+    mt->fn = fn;
+    mt->user = user;
+    mt->stage = stage;
+    mt->total = total > 0.0 ? total : 1.0;
+    mt->done = 0.0;
+    mt->next = mt->total / 200.0;
+    if (fn) fn(stage, 0.0, mt->total, user);
+}
+
+void vm__meter_add(vm__meter *mt, double units) {
+    if (!mt->fn) return;
+    mt->done += units;
+    if (mt->done > mt->total) mt->done = mt->total;
+    if (mt->done < mt->next || mt->done >= mt->total) return;
+    mt->next = mt->done + mt->total / 200.0;
+    mt->fn(mt->stage, mt->done, mt->total, mt->user);
+}
+
+void vm__meter_end(vm__meter *mt) {
+    if (!mt->fn) return;
+    mt->done = mt->total;
+    mt->fn(mt->stage, mt->total, mt->total, mt->user);
+    mt->fn = NULL;
+}

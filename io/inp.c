@@ -260,6 +260,10 @@ vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
     if (st) goto fail;
     opened = 1;
     FILE *fp = o.fp;
+    /* Progress: node by node (mid-edge nodes too), element by element, then the sets as one
+     * tenth of the elements. */
+    vm__out_meter(&o, opt->progress, opt->progress_user,
+                  (double)nnodes + 1.1 * (double)m->ncells);
     fprintf(fp, "*HEADING\nvolmesh %s mesh: %zu nodes, %zu %s elements, %zu regions\n",
             vm_cell_kind_name(m->kind), nnodes, m->ncells, etype, nregions);
     fprintf(fp, "** written by volmesh %s; node and element order as in the source mesh\n",
@@ -268,6 +272,7 @@ vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
     for (size_t i = 0; i < m->npoints; i++) {
         const double *p = m->points + 3 * i;
         fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", i + 1, p[0], p[1], p[2]);
+        vm__out_step(&o, 1.0);
     }
     if (order2) {
         /* Straight-sided: each mid-edge node at the middle of its edge, in id order. */
@@ -286,6 +291,7 @@ vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
             const double *b = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][1]];
             fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", m->npoints + i + 1, 0.5 * (a[0] + b[0]),
                     0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]));
+            vm__out_step(&o, 1.0);
         }
         free(slot_of);
     }
@@ -302,6 +308,7 @@ vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
                     (long long)mid[c * (size_t)ne + (size_t)k] + 1);
         }
         fputc('\n', fp);
+        vm__out_step(&o, 1.0);
     }
     for (size_t r = 0; r < nregions; r++) {
         char name[32];

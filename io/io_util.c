@@ -174,7 +174,7 @@ int vm__host_little_endian(void) {
         }                                                                                  \
     } while (0)
 
-void vm__samples_to_float(const void *src, vm_scalar_type t, int swap, size_t n, float *dst) {
+static void convert_block(const void *src, vm_scalar_type t, int swap, size_t n, float *dst) {
     switch (t) {
     case VM_SCALAR_UINT8: CONVERT(uint8_t); break;
     case VM_SCALAR_INT8: CONVERT(int8_t); break;
@@ -187,6 +187,29 @@ void vm__samples_to_float(const void *src, vm_scalar_type t, int swap, size_t n,
     case VM_SCALAR_FLOAT32: CONVERT(float); break;
     case VM_SCALAR_FLOAT64: CONVERT(double); break;
     }
+}
+
+void vm__samples_to_float_serial(const void *src, vm_scalar_type t, int swap, size_t n,
+                                 float *dst) {
+    convert_block(src, t, swap, n, dst);
+}
+
+void vm__samples_to_float(const void *src, vm_scalar_type t, int swap, size_t n, float *dst) {
+    enum { BLOCK = 1 << 16 }; /* samples per task: big enough to amortise, small to balance */
+#ifdef VM_HAVE_OPENMP
+    if (n >= 4 * (size_t)BLOCK) {
+        const unsigned char *s = src;
+        size_t ts = vm_scalar_type_size(t);
+        int64_t nb = (int64_t)((n + BLOCK - 1) / BLOCK);
+#pragma omp parallel for schedule(static)
+        for (int64_t b = 0; b < nb; b++) {
+            size_t i = (size_t)b * BLOCK, m = n - i < (size_t)BLOCK ? n - i : (size_t)BLOCK;
+            convert_block(s + i * ts, t, swap, m, dst + i);
+        }
+        return;
+    }
+#endif
+    convert_block(src, t, swap, n, dst);
 }
 
 int vm__path_sibling(const char *path, const char *name, char *out, size_t cap) {
@@ -250,7 +273,12 @@ vm_status vm__out_commit(vm_outfile *o, vm_error *err) {
         return vm_error_set(err, VM_ERR_IO, "%s: cannot write (%s)", o->final_path,
                             strerror(e));
     }
+    vm__meter_end(&o->meter);
     return VM_OK;
+}
+
+void vm__out_meter(vm_outfile *o, vm_progress_fn fn, void *user, double total) {
+    vm__meter_start(&o->meter, fn, user, "write", total);
 }
 
 void vm__out_abort(vm_outfile *o) {

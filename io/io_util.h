@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include "../core/core.h"
 #include "volmesh/error.h"
 #include "volmesh/volume.h"
 
@@ -23,8 +24,69 @@ vm_status vm__read_gz_file(const char *path, size_t max_bytes, unsigned char **b
 vm_status vm__inflate_exact(const char *path, const unsigned char *src, size_t src_len,
                             unsigned char *dst, size_t dst_len, vm_error *err);
 
-/* Converts n samples of type t at src (native or swapped byte order) into floats. */
+/* Converts n samples of type t at src (native or swapped byte order) into floats; with
+ * OpenMP, blocks of samples on several threads (elementwise, so the same for any count). */
 void vm__samples_to_float(const void *src, vm_scalar_type t, int swap, size_t n, float *dst);
+/* The same on the calling thread only (for small pieces inside a serial loop). */
+void vm__samples_to_float_serial(const void *src, vm_scalar_type t, int swap, size_t n,
+                                 float *dst);
+
+/* ---- Volumes read by slabs ----------------------------------------------------------- */
+
+/* A file mapped read-only (private copy-on-write pages: a parser may write NULs into the
+ * header), with one NUL byte after the last byte like vm__read_file. Only the pages that are
+ * touched are read; vm__map_drop gives pages back once they have been used. */
+typedef struct vm__map {
+    unsigned char *p;
+    size_t len;    /* file size */
+    size_t maplen; /* bytes mapped (len + 1 rounded up to pages) */
+} vm__map;
+vm_status vm__map_file(const char *path, size_t max_bytes, vm__map *m, vm_error *err);
+void vm__map_free(vm__map *m);
+
+/* Which planes a reader returns: z0 <= k < z1, or (all = 1) the whole volume; header_only
+ * sets the header and dims of the whole volume and reads no sample. */
+typedef struct vm__slab {
+    int64_t z0, z1;
+    int all, header_only;
+} vm__slab;
+extern const vm__slab vm__slab_whole;
+
+/* How the samples are stored. */
+enum { VM__ENC_RAW, VM__ENC_ZLIB, VM__ENC_ASCII };
+typedef struct vm__samples {
+    const char *path;        /* for messages */
+    const unsigned char *p;  /* RAW: sample 0; ZLIB: the zlib/gzip stream; ASCII: the text */
+    size_t avail;            /* bytes from p to the end of the data */
+    int enc;
+    size_t skip;             /* ZLIB: decompressed bytes before sample 0 */
+    vm_scalar_type type;
+    int swap;
+    int mapped;              /* p lies in a vm__map's mapping (maplen != 0, not a buffer read
+                                from a pipe): pages are given back as they are read */
+} vm__samples;
+
+/* Checks dims for the request: a whole read as vm__check_dims(dims, tsize + 4) (within
+ * the memory limit); a slab or header read only against overflow, then the z range
+ * (0 <= z0 < z1 <= nz, "PATH: slab of planes ... is outside ...") and the slab's floats
+ * against the memory limit. [out] *count: nx*ny*nz; *first: index of the slab's first
+ * sample; *n: samples to read (0 for header_only). */
+vm_status vm__slab_check(const char *path, const vm__slab *rq, const int64_t dims[3],
+                         size_t tsize, size_t *count, size_t *first, size_t *n,
+                         vm_error *err);
+
+/* v->data = n floats ("PATH: out of memory for N voxels"). */
+vm_status vm__slab_alloc(const char *path, size_t n, vm_volume *v, vm_error *err);
+
+/* Decodes samples first .. first+n-1 of s into dst (RAW by seeking, ZLIB by streaming
+ * inflate discarding what precedes, ASCII by a streaming parse skipping values). RAW callers
+ * check the data size first; ZLIB and ASCII report truncation here. */
+vm_status vm__samples_decode(const vm__samples *s, size_t first, size_t n, float *dst,
+                             vm_error *err);
+
+/* Turns v (the whole volume's header, dims and geometry set, data NULL) into the slab rq:
+ * dims[2] = z1 - z0, origin moved to the world position of voxel (0, 0, z0). */
+void vm__slab_finish(vm_volume *v, const vm__slab *rq);
 
 /* 1 when this machine is little endian. */
 int vm__host_little_endian(void);
@@ -43,15 +105,34 @@ char *vm__trim(char *s);
  * parsed, or -1 on a malformed number. */
 int vm__parse_doubles(const char *s, double *out, int max);
 
+/* The format readers behind vm_volume_read*, reading what rq asks for. */
+vm_status vm__read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err);
+vm_status vm__read_nifti(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err);
+vm_status vm__read_metaimage(const char *path, const vm__slab *rq, vm_volume *v,
+                             vm_error *err);
+vm_status vm__read_vtk(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err);
+vm_status vm__read_vti(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err);
+vm_status vm__read_raw(const char *path, const vm_raw_options *opt, const vm__slab *rq,
+                       vm_volume *v, vm_error *err);
+
 /* Atomic output: opens PATH.tmp-PID for writing; commit renames it over path, abort
  * removes it. */
 typedef struct vm_outfile {
     FILE *fp;
     char final_path[4096];
     char tmp_path[4200];
+    vm__meter meter; /* stage "write"; silent unless vm__out_meter started it */
 } vm_outfile;
 vm_status vm__out_open(vm_outfile *o, const char *path, vm_error *err);
 vm_status vm__out_commit(vm_outfile *o, vm_error *err); /* checks write errors, renames */
 void vm__out_abort(vm_outfile *o);
+
+/* Starts the write progress of o (stage "write"; fn may be NULL) over total units of work
+ * (points and cells written, bytes compressed: the writer's choice), advanced by
+ * vm__out_step and completed by a successful vm__out_commit. */
+void vm__out_meter(vm_outfile *o, vm_progress_fn fn, void *user, double total);
+static inline void vm__out_step(vm_outfile *o, double units) {
+    if (o->meter.fn) vm__meter_add(&o->meter, units);
+}
 
 #endif

@@ -19,6 +19,13 @@ static const char *section_of(vm_cell_kind k) {
 }
 
 vm_status vm_mesh_write_medit(const char *path, const vm_mesh *m, vm_error *err) {
+    vm_mesh_write_options opt;
+    vm_mesh_write_options_init(&opt);
+    return vm__write_medit(path, m, &opt, err);
+}
+
+vm_status vm__write_medit(const char *path, const vm_mesh *m,
+                          const vm_mesh_write_options *opt, vm_error *err) {
     const char *sec = section_of(m->kind);
     if (!sec)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
@@ -29,10 +36,12 @@ vm_status vm_mesh_write_medit(const char *path, const vm_mesh *m, vm_error *err)
     st = vm__out_open(&o, path, err);
     if (st) return st;
     FILE *fp = o.fp;
+    vm__out_meter(&o, opt->progress, opt->progress_user, (double)m->npoints + m->ncells);
     fprintf(fp, "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n%zu\n", m->npoints);
     for (size_t i = 0; i < m->npoints; i++) {
         const double *p = m->points + 3 * i;
         fprintf(fp, "%.17g %.17g %.17g 0\n", p[0], p[1], p[2]);
+        vm__out_step(&o, 1.0);
     }
     /* MEDIT's node order for all four kinds is VTK's (tets: positive det(p1-p0,p2-p0,p3-p0)). */
     size_t nn = (size_t)vm_cell_nodes(m->kind);
@@ -41,6 +50,7 @@ vm_status vm_mesh_write_medit(const char *path, const vm_mesh *m, vm_error *err)
         for (size_t k = 0; k < nn; k++)
             fprintf(fp, "%lld ", (long long)m->cells[c * nn + k] + 1);
         fprintf(fp, "%ld\n", (long)m->region[c]);
+        vm__out_step(&o, 1.0);
     }
     fprintf(fp, "\nEnd\n");
     return vm__out_commit(&o, err);

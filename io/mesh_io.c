@@ -2,6 +2,7 @@
  * checks that the write options apply to the chosen format. */
 #include <string.h>
 #include "io_util.h"
+#include "mesh_util.h"
 #include "volmesh/io.h"
 
 static const struct {
@@ -93,17 +94,19 @@ vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
         return vm_error_set(err, VM_ERR_ARG,
                             "%s: --ascii applies to stl, ply and vtk, not %s (always ASCII or "
                             "always binary)", path, vm_mesh_format_name(f));
+    vm_mesh_write_options o = *opt;
+    o.format = f;
     switch (f) {
-    case VM_MESH_VTU: return vm_mesh_write_vtu(path, m, opt->compress, err);
-    case VM_MESH_VTK: return vm_mesh_write_vtk(path, m, opt->ascii, err);
-    case VM_MESH_INP: return vm_mesh_write_inp(path, m, opt, err);
-    case VM_MESH_MSH: return vm_mesh_write_msh(path, m, 41, err);
-    case VM_MESH_MSH2: return vm_mesh_write_msh(path, m, 22, err);
-    case VM_MESH_MEDIT: return vm_mesh_write_medit(path, m, err);
-    case VM_MESH_STL: return vm_mesh_write_stl(path, m, opt->ascii, err);
-    case VM_MESH_OFF: return vm_mesh_write_off(path, m, err);
-    case VM_MESH_PLY: return vm_mesh_write_ply(path, m, opt->ascii, err);
-    case VM_MESH_OBJ: return vm_mesh_write_obj(path, m, err);
+    case VM_MESH_VTU: return vm__write_vtu(path, m, &o, err);
+    case VM_MESH_VTK: return vm__write_vtk(path, m, &o, err);
+    case VM_MESH_INP: return vm_mesh_write_inp(path, m, &o, err);
+    case VM_MESH_MSH:
+    case VM_MESH_MSH2: return vm__write_msh(path, m, &o, err);
+    case VM_MESH_MEDIT: return vm__write_medit(path, m, &o, err);
+    case VM_MESH_STL: return vm__write_stl(path, m, &o, err);
+    case VM_MESH_OFF: return vm__write_off(path, m, &o, err);
+    case VM_MESH_PLY: return vm__write_ply(path, m, &o, err);
+    case VM_MESH_OBJ: return vm__write_obj(path, m, &o, err);
     case VM_MESH_EXODUS: return vm_mesh_write_exodus(path, m, err);
     case VM_MESH_AUTO: break;
     }

@@ -14,6 +14,29 @@
 /* Largest file any mesh reader reads whole (bytes). */
 #define VM__MESH_MAX_FILE ((size_t)1 << 36)
 
+/* --- writers with progress --------------------------------------------------------------- */
+
+/* The writers behind vm_mesh_write_as, taking its options (non-NULL, already validated):
+ * the public vm_mesh_write_FORMAT functions call them with the defaults. They report stage
+ * "write" through opt->progress. msh takes its version from opt->format (VM_MESH_MSH2: 2.2,
+ * otherwise 4.1). */
+vm_status vm__write_vtu(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err);
+vm_status vm__write_vtk(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err);
+vm_status vm__write_msh(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err);
+vm_status vm__write_medit(const char *path, const vm_mesh *m,
+                          const vm_mesh_write_options *opt, vm_error *err);
+vm_status vm__write_stl(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err);
+vm_status vm__write_off(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err);
+vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err);
+vm_status vm__write_obj(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err);
+
 /* --- text cursor ------------------------------------------------------------------------- */
 
 typedef struct vm__cursor {

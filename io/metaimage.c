@@ -263,14 +263,17 @@ static int is_file_series(const char *name) {
     return strchr(name, '%') != NULL;
 }
 
-vm_status vm_volume_read_metaimage(const char *path, vm_volume *v, vm_error *err) {
+static vm_status read_metaimage(const char *path, const vm__slab *rq, vm_volume *v,
+                                vm_error *err) {
     memset(v, 0, sizeof *v);
-    unsigned char *hbuf = NULL, *dbuf = NULL;
-    size_t hlen = 0, dlen = 0;
-    vm_status st = vm__read_file(path, vm__memory_limit(), &hbuf, &hlen, err);
+    vm__map hm, dm;
+    memset(&dm, 0, sizeof dm);
+    vm_status st = vm__map_file(path, (size_t)-1, &hm, err);
     if (st) return st;
+    unsigned char *hbuf = hm.p;
+    size_t hlen = hm.len, dlen = 0;
     if (hlen == 0) {
-        free(hbuf);
+        vm__map_free(&hm);
         return vm_error_set(err, VM_ERR_FORMAT, "%s: file is empty", path);
     }
 
@@ -282,8 +285,8 @@ vm_status vm_volume_read_metaimage(const char *path, vm_volume *v, vm_error *err
     st = parse_header(path, hbuf, hlen, &h, err);
     if (!st) st = check_header(path, &h, &type, dims, &geo, err);
     if (st) goto done;
-    size_t esize = vm_scalar_type_size(type), count;
-    st = vm__check_dims(dims, esize, path, &count, err);
+    size_t esize = vm_scalar_type_size(type), count, first, n;
+    st = vm__slab_check(path, rq, dims, esize, &count, &first, &n, err);
     if (st) goto done;
     size_t bytes = count * esize; /* checked by vm__check_dims */
 
@@ -314,12 +317,13 @@ vm_status vm_volume_read_metaimage(const char *path, vm_volume *v, vm_error *err
         }
         vm_error inner;
         vm_error_clear(&inner);
-        st = vm__read_file(dpath, vm__memory_limit(), &dbuf, &dlen, &inner);
+        st = vm__map_file(dpath, (size_t)-1, &dm, &inner);
+        dlen = dm.len;
         if (st) {
             st = vm_error_set(err, st, "%s: data file %s", path, inner.message);
             goto done;
         }
-        data = dbuf;
+        data = dm.p;
         avail = dlen;
         start = 0;
         if (h.has_header_size && h.header_size > 0) {
@@ -332,8 +336,8 @@ vm_status vm_volume_read_metaimage(const char *path, vm_volume *v, vm_error *err
         }
     }
 
-    st = vm_volume_alloc(v, dims, err);
-    if (st) goto done;
+    vm__samples src = {path, NULL, 0, VM__ENC_RAW, 0, type, h.msb == vm__host_little_endian(),
+                       (local ? hm.maplen : dm.maplen) != 0};
     if (h.compressed) {
         size_t clen = avail - start;
         if (h.has_csize) {
@@ -354,15 +358,9 @@ vm_status vm_volume_read_metaimage(const char *path, vm_volume *v, vm_error *err
                               "needs CompressedDataSize", path);
             goto done;
         }
-        unsigned char *raw = malloc(bytes ? bytes : 1);
-        if (!raw) {
-            st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu bytes", path, bytes);
-            goto done;
-        }
-        st = vm__inflate_exact(path, data + start, clen, raw, bytes, err);
-        if (!st) vm__samples_to_float(raw, type, h.msb == vm__host_little_endian(), count, v->data);
-        free(raw);
-        if (st) goto done;
+        src.enc = VM__ENC_ZLIB;
+        src.p = data + start;
+        src.avail = clen;
     } else {
         if (h.has_header_size && h.header_size == -1) {
             if (avail < bytes) {
@@ -377,18 +375,32 @@ vm_status vm_volume_read_metaimage(const char *path, vm_volume *v, vm_error *err
                               path, avail - start, bytes);
             goto done;
         }
-        vm__samples_to_float(data + start, type, h.msb == vm__host_little_endian(), count,
-                             v->data);
+        src.p = data + start;
+        src.avail = avail - start;
     }
+    memcpy(v->dims, dims, sizeof v->dims);
     v->type = type;
     memcpy(v->spacing, geo.spacing, sizeof v->spacing);
     memcpy(v->origin, geo.origin, sizeof v->origin);
     memcpy(v->direction, geo.direction, sizeof v->direction);
     snprintf(v->format, sizeof v->format, "metaimage");
+    if (rq->header_only) goto done;
+    st = vm__slab_alloc(path, n, v, err);
+    if (!st) st = vm__samples_decode(&src, first, n, v->data, err);
+    if (!st) vm__slab_finish(v, rq);
 
 done:
-    free(hbuf);
-    free(dbuf);
+    vm__map_free(&hm);
+    vm__map_free(&dm);
     if (st) vm_volume_free(v);
     return st;
+}
+
+vm_status vm_volume_read_metaimage(const char *path, vm_volume *v, vm_error *err) {
+    return read_metaimage(path, &vm__slab_whole, v, err);
+}
+
+vm_status vm__read_metaimage(const char *path, const vm__slab *rq, vm_volume *v,
+                             vm_error *err) {
+    return read_metaimage(path, rq, v, err);
 }

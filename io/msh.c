@@ -37,10 +37,25 @@ static int gmsh_type_dim(int64_t t) {
     }
 }
 
+static vm_status write_msh(const char *path, const vm_mesh *m, int version,
+                           const vm_mesh_write_options *opt, vm_error *err);
+
 vm_status vm_mesh_write_msh(const char *path, const vm_mesh *m, int version, vm_error *err) {
     if (version != 41 && version != 22)
         return vm_error_set(err, VM_ERR_ARG, "%s: MSH version %d (expected 41 or 22)", path,
                             version);
+    vm_mesh_write_options opt;
+    vm_mesh_write_options_init(&opt);
+    return write_msh(path, m, version, &opt, err);
+}
+
+vm_status vm__write_msh(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err) {
+    return write_msh(path, m, opt->format == VM_MESH_MSH2 ? 22 : 41, opt, err);
+}
+
+static vm_status write_msh(const char *path, const vm_mesh *m, int version,
+                           const vm_mesh_write_options *opt, vm_error *err) {
     int type = gmsh_type(m->kind);
     if (!type)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
@@ -85,6 +100,8 @@ vm_status vm_mesh_write_msh(const char *path, const vm_mesh *m, int version, vm_
     st = vm__out_open(&o, path, err);
     if (st) goto done;
     FILE *fp = o.fp;
+    /* Progress: node by node, then element by element. */
+    vm__out_meter(&o, opt->progress, opt->progress_user, (double)m->npoints + m->ncells);
     fprintf(fp, "$MeshFormat\n%s 0 8\n$EndMeshFormat\n", version == 41 ? "4.1" : "2.2");
     fprintf(fp, "$PhysicalNames\n%zu\n", nreg);
     for (size_t r = 0; r < nreg; r++) {
@@ -114,6 +131,7 @@ vm_status vm_mesh_write_msh(const char *path, const vm_mesh *m, int version, vm_
             for (size_t i = 0; i < m->npoints; i++) {
                 const double *p = m->points + 3 * i;
                 fprintf(fp, "%.17g %.17g %.17g\n", p[0], p[1], p[2]);
+                vm__out_step(&o, 1.0);
             }
         }
         fprintf(fp, "$EndNodes\n$Elements\n%zu %zu %d %zu\n", nreg, m->ncells,
@@ -127,6 +145,7 @@ vm_status vm_mesh_write_msh(const char *path, const vm_mesh *m, int version, vm_
                 for (size_t k = 0; k < nn; k++)
                     fprintf(fp, " %lld", (long long)m->cells[c * nn + k] + 1);
                 fputc('\n', fp);
+                vm__out_step(&o, 1.0);
             }
         }
         fprintf(fp, "$EndElements\n");
@@ -135,6 +154,7 @@ vm_status vm_mesh_write_msh(const char *path, const vm_mesh *m, int version, vm_
         for (size_t i = 0; i < m->npoints; i++) {
             const double *p = m->points + 3 * i;
             fprintf(fp, "%zu %.17g %.17g %.17g\n", i + 1, p[0], p[1], p[2]);
+            vm__out_step(&o, 1.0);
         }
         fprintf(fp, "$EndNodes\n$Elements\n%zu\n", m->ncells);
         for (size_t c = 0; c < m->ncells; c++) {
@@ -143,6 +163,7 @@ vm_status vm_mesh_write_msh(const char *path, const vm_mesh *m, int version, vm_
             for (size_t k = 0; k < nn; k++)
                 fprintf(fp, " %lld", (long long)m->cells[c * nn + k] + 1);
             fputc('\n', fp);
+            vm__out_step(&o, 1.0);
         }
         fprintf(fp, "$EndElements\n");
     }

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <zlib.h>
 #include "../core/core.h"
 #include "io_util.h"
 #include "volmesh/io.h"
@@ -305,25 +306,84 @@ static vm_status read_partner(const char *owner, const char *what, size_t stem_l
     return VM_OK;
 }
 
-vm_status vm_volume_read_nifti(const char *path, vm_volume *v, vm_error *err) {
+/* The first up to cap bytes of the gzip stream at p (n bytes). [out] *got. */
+static vm_status gz_prefix(const char *path, const unsigned char *p, size_t n,
+                           unsigned char *out, size_t cap, size_t *got, vm_error *err) {
+    z_stream zs;
+    memset(&zs, 0, sizeof zs);
+    *got = 0;
+    if (inflateInit2(&zs, 15 + 32) != Z_OK)
+        return vm_error_set(err, VM_ERR_NOMEM, "%s: cannot start zlib", path);
+    zs.next_in = (unsigned char *)p;
+    zs.avail_in = (uInt)(n < (1u << 30) ? n : (1u << 30));
+    zs.next_out = out;
+    zs.avail_out = (uInt)cap;
+    int r = inflate(&zs, Z_SYNC_FLUSH);
+    *got = cap - zs.avail_out;
+    inflateEnd(&zs);
+    if (r != Z_OK && r != Z_STREAM_END && r != Z_BUF_ERROR)
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: corrupt compressed data", path);
+    return VM_OK;
+}
+
+static int is_gzip(const vm__map *m) { return m->len >= 2 && m->p[0] == 0x1f && m->p[1] == 0x8b; }
+
+/* Maps the partner file stem+ext for the first ext of exts[] that exists (the first one
+ * when none does). [out] m, dpath. */
+static vm_status map_partner(const char *owner, const char *what, size_t stem_len,
+                             const char *const *exts, vm__map *m, char dpath[4200],
+                             vm_error *err) {
+    struct stat sb;
+    int pick = 0;
+    for (int i = 0; exts[i]; i++) {
+        snprintf(dpath, 4200, "%.*s%s", (int)stem_len, owner, exts[i]);
+        if (stat(dpath, &sb) == 0) {
+            pick = i;
+            break;
+        }
+    }
+    if ((size_t)snprintf(dpath, 4200, "%.*s%s", (int)stem_len, owner, exts[pick]) >= 4200)
+        return vm_error_set(err, VM_ERR_IO, "%s: path too long", owner);
+    vm_error inner;
+    vm_error_clear(&inner);
+    vm_status st = vm__map_file(dpath, (size_t)-1, m, &inner);
+    if (st) return vm_error_set(err, st, "%s: %s %s", owner, what, inner.message);
+    return VM_OK;
+}
+
+/* Deflate cannot compress better than about 1032:1 (as in io/nrrd.c). */
+#define GZIP_MAX_RATIO 1040u
+
+static vm_status read_nifti(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
     memset(v, 0, sizeof *v);
-    unsigned char *hbuf = NULL, *dbuf = NULL;
-    size_t hlen = 0, dlen = 0;
+    unsigned char *hbuf = NULL, hpre[N2_SIZE + 8];
+    vm__map fm, dm;
+    memset(&fm, 0, sizeof fm);
+    memset(&dm, 0, sizeof dm);
+    size_t hlen = 0;
     int gz = 0;
     size_t stem_len = pair_stem(path, &gz);
     int given_img = vm__ends_with(path, ".img") || vm__ends_with(path, ".img.gz");
+    const unsigned char *hdr;
     vm_status st;
 
     if (given_img) {
         static const char *const hdr_exts[] = {".hdr", ".hdr.gz", NULL};
         st = read_partner(path, "header", stem_len, hdr_exts, &hbuf, &hlen, err);
+        hdr = hbuf;
     } else {
-        st = vm__read_gz_file(path, vm__memory_limit(), &hbuf, &hlen, err);
+        st = vm__map_file(path, (size_t)-1, &fm, err);
+        hdr = fm.p;
+        hlen = fm.len;
+        if (!st && is_gzip(&fm)) {
+            st = gz_prefix(path, fm.p, fm.len, hpre, sizeof hpre, &hlen, err);
+            hdr = hpre;
+        }
     }
-    if (st) return st;
+    if (st) goto done;
 
     nifti_hdr h;
-    st = parse_header(path, hbuf, hlen, &h, err);
+    st = parse_header(path, hdr, hlen, &h, err);
     if (st) goto done;
 
     vm_scalar_type type;
@@ -348,10 +408,10 @@ vm_status vm_volume_read_nifti(const char *path, vm_volume *v, vm_error *err) {
         }
     }
     int64_t dims[3] = {h.dim[1], h.dim[2], h.dim[3]};
-    size_t esize = vm_scalar_type_size(type), count, bytes;
-    st = vm__check_dims(dims, esize, path, &count, err);
+    size_t esize = vm_scalar_type_size(type), count, first, n, bytes;
+    st = vm__slab_check(path, rq, dims, esize, &count, &first, &n, err);
     if (st) goto done;
-    bytes = count * esize; /* checked by vm__check_dims */
+    bytes = count * esize; /* checked by vm__slab_check */
 
     double vo = h.vox_offset;
     if (!isfinite(vo) || vo < 0.0 || vo != floor(vo) || vo > 9.0e15) {
@@ -360,8 +420,7 @@ vm_status vm_volume_read_nifti(const char *path, vm_volume *v, vm_error *err) {
         goto done;
     }
     size_t offset = (size_t)vo;
-    const unsigned char *data;
-    size_t avail;
+    const vm__map *data;
     if (h.single_file) {
         size_t hsize = h.version == 1 ? N1_SIZE : N2_SIZE;
         if (offset < hsize) {
@@ -369,42 +428,77 @@ vm_status vm_volume_read_nifti(const char *path, vm_volume *v, vm_error *err) {
                               "header", path, offset, hsize);
             goto done;
         }
-        data = hbuf;
-        avail = hlen;
+        data = &fm;
     } else {
         static const char *const img_exts[] = {".img", ".img.gz", NULL};
+        char dpath[4200];
         if (given_img) {
-            st = vm__read_gz_file(path, vm__memory_limit(), &dbuf, &dlen, err);
+            st = vm__map_file(path, (size_t)-1, &dm, err);
         } else {
-            st = read_partner(path, "data file", stem_len, img_exts, &dbuf, &dlen, err);
+            st = map_partner(path, "data file", stem_len, img_exts, &dm, dpath, err);
         }
         if (st) goto done;
-        data = dbuf;
-        avail = dlen;
+        data = &dm;
     }
-    if (offset > avail || avail - offset < bytes) {
-        st = vm_error_set(err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of %zu bytes "
-                          "after offset %zu)", path, offset > avail ? 0 : avail - offset,
-                          bytes, offset);
-        goto done;
+    vm__samples src = {path, data->p + offset, 0, VM__ENC_RAW, 0, type, h.swap,
+                       data->maplen != 0};
+    if (is_gzip(data)) {
+        src.p = data->p;
+        src.avail = data->len;
+        src.enc = VM__ENC_ZLIB;
+        src.skip = offset;
+        if ((offset + bytes) / GZIP_MAX_RATIO > data->len + 64) {
+            st = vm_error_set(err, VM_ERR_FORMAT, "%s: data is truncated (%zu compressed bytes "
+                              "cannot hold %zu bytes after offset %zu)", path, data->len, bytes,
+                              offset);
+            goto done;
+        }
+    } else {
+        size_t avail = data->len;
+        if (offset > avail || avail - offset < bytes) {
+            st = vm_error_set(err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of %zu bytes "
+                              "after offset %zu)", path, offset > avail ? 0 : avail - offset,
+                              bytes, offset);
+            goto done;
+        }
+        src.avail = avail - offset;
     }
 
-    st = vm_volume_alloc(v, dims, err);
-    if (st) goto done;
-    vm__samples_to_float(data + offset, type, h.swap, count, v->data);
+    v->dims[0] = dims[0];
+    v->dims[1] = dims[1];
+    v->dims[2] = dims[2];
     v->type = type;
     set_geometry(&h, v);
     snprintf(v->format, sizeof v->format, "nifti");
+    if (rq->header_only) goto done;
+    st = vm__slab_alloc(path, n, v, err);
+    if (!st) st = vm__samples_decode(&src, first, n, v->data, err);
+    if (st) goto done;
 
     /* scl_slope = 0 means "no scaling" (nifti1.h); (1, 0) is the identity. */
     double a = h.scl_slope, b = h.scl_inter;
     if (a != 0.0 && isfinite(a) && isfinite(b) && !(a == 1.0 && b == 0.0)) {
-        for (size_t i = 0; i < count; i++) v->data[i] = (float)((double)v->data[i] * a + b);
+        float *d = v->data;
+        int64_t nn = (int64_t)n;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static) if (nn > (1 << 18))
+#endif
+        for (int64_t i = 0; i < nn; i++) d[i] = (float)((double)d[i] * a + b);
     }
+    vm__slab_finish(v, rq);
 
 done:
     free(hbuf);
-    free(dbuf);
+    vm__map_free(&fm);
+    vm__map_free(&dm);
     if (st) vm_volume_free(v);
     return st;
+}
+
+vm_status vm_volume_read_nifti(const char *path, vm_volume *v, vm_error *err) {
+    return read_nifti(path, &vm__slab_whole, v, err);
+}
+
+vm_status vm__read_nifti(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
+    return read_nifti(path, rq, v, err);
 }

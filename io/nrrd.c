@@ -482,54 +482,25 @@ static int skip_lines(const unsigned char **p, const unsigned char *end, long lo
     return 0;
 }
 
-/* ASCII samples separated by white space or commas (data must be NUL-terminated at end). */
-static vm_status read_ascii(const char *path, const unsigned char *p, const unsigned char *end,
-                            size_t count, float *out, vm_error *err) {
-    char tmp[48];
-    size_t got = 0;
-    const char *s = (const char *)p;
-    while (got < count) {
-        while ((const unsigned char *)s < end && (isspace((unsigned char)*s) || *s == ','))
-            s++;
-        if ((const unsigned char *)s >= end) break;
-        char *e;
-        double x = strtod(s, &e);
-        if (e == s || (const unsigned char *)e > end) {
-            char word[48];
-            size_t w = 0;
-            while (w < 20 && (const unsigned char *)s + w < end && s[w] &&
-                   !isspace((unsigned char)s[w]))
-                w++;
-            memcpy(word, s, w);
-            word[w] = 0;
-            return fail(err, VM_ERR_FORMAT, path, "ascii value %zu ('%s') is not a number",
-                        got, show(word, tmp));
-        }
-        if (x > FLT_MAX) x = INFINITY;
-        if (x < -FLT_MAX) x = -INFINITY;
-        out[got++] = (float)x;
-        s = e;
-    }
-    if (got < count)
-        return fail(err, VM_ERR_FORMAT, path, "data is truncated (%zu of %zu ascii values)",
-                    got, count);
-    return VM_OK;
-}
-
-vm_status vm_volume_read_nrrd(const char *path, vm_volume *v, vm_error *err) {
+/* Reads the planes rq asks for (vm__slab_whole: all of them). */
+static vm_status read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
     memset(v, 0, sizeof *v);
-    unsigned char *buf = NULL, *dbuf = NULL, *inflated = NULL;
-    size_t len = 0, dlen = 0, data_at = 0;
+    vm__map hm, dm;
+    memset(&dm, 0, sizeof dm);
+    unsigned char *buf;
+    size_t len = 0, data_at = 0;
     int ended = 0;
     nrrd_fields f;
     nrrd_info h;
     memset(&h, 0, sizeof h);
-    vm_status st = vm__read_file(path, vm__memory_limit(), &buf, &len, err);
+    vm_status st = vm__map_file(path, (size_t)-1, &hm, err);
     if (st) return st;
+    buf = hm.p;
+    len = hm.len;
     st = parse_header(path, buf, len, &f, &data_at, &ended, err);
     if (!st) st = interpret(path, &f, &h, err);
-    size_t count = 0, tsize = vm_scalar_type_size(h.type);
-    if (!st) st = vm__check_dims(h.dims, tsize + sizeof(float), path, &count, err);
+    size_t count = 0, first = 0, n = 0, tsize = vm_scalar_type_size(h.type);
+    if (!st) st = vm__slab_check(path, rq, h.dims, tsize, &count, &first, &n, err);
     if (st) goto done;
     size_t need = count * tsize;
 
@@ -537,13 +508,13 @@ vm_status vm_volume_read_nrrd(const char *path, vm_volume *v, vm_error *err) {
     if (h.data_file[0]) {
         vm_error derr;
         vm_error_clear(&derr);
-        st = vm__read_file(h.data_file, vm__memory_limit(), &dbuf, &dlen, &derr);
+        st = vm__map_file(h.data_file, (size_t)-1, &dm, &derr);
         if (st) {
             st = fail(err, st, path, "cannot read data file (%s)", derr.message);
             goto done;
         }
-        p = dbuf;
-        end = dbuf + dlen;
+        p = dm.p;
+        end = dm.p + dm.len;
     } else {
         if (!ended) {
             st = fail(err, VM_ERR_FORMAT, path,
@@ -559,7 +530,9 @@ vm_status vm_volume_read_nrrd(const char *path, vm_volume *v, vm_error *err) {
         goto done;
     }
     size_t avail = (size_t)(end - p);
-    const unsigned char *samples = NULL;
+    vm__samples src = {path, p, avail, VM__ENC_RAW, 0, h.type, 0,
+                       (h.data_file[0] ? dm.maplen : hm.maplen) != 0};
+    src.swap = tsize > 1 && h.big_endian == vm__host_little_endian();
     if (h.encoding == ENC_RAW || h.encoding == ENC_ASCII) {
         if (h.byte_skip == -1) {
             if (avail < need) {
@@ -576,65 +549,62 @@ vm_status vm_volume_read_nrrd(const char *path, vm_volume *v, vm_error *err) {
             p += h.byte_skip;
         }
         avail = (size_t)(end - p);
+        src.p = p;
+        src.avail = avail;
         if (h.encoding == ENC_RAW) {
             if (avail < need) {
                 st = fail(err, VM_ERR_FORMAT, path, "data is truncated (%zu of %zu bytes)",
                           avail, need);
                 goto done;
             }
-            samples = p;
         } else if (count > avail / 2 + 1) { /* each value takes a character and a separator */
             st = fail(err, VM_ERR_FORMAT, path,
                       "data is truncated (%zu bytes of text cannot hold %zu values)", avail,
                       count);
             goto done;
+        } else {
+            src.enc = VM__ENC_ASCII;
         }
     } else {
         /* gzip: byte skip counts decompressed bytes. */
-        size_t total = need + (size_t)h.byte_skip;
-        if ((unsigned long long)h.byte_skip > SIZE_MAX - need || total > vm__memory_limit()) {
+        if ((unsigned long long)h.byte_skip > SIZE_MAX - need ||
+            (rq->all && need + (size_t)h.byte_skip > vm__memory_limit())) {
             st = fail(err, VM_ERR_NOMEM, path, "byte skip %lld is too large", h.byte_skip);
             goto done;
         }
+        size_t total = need + (size_t)h.byte_skip;
         if (total / GZIP_MAX_RATIO > avail + 64) {
             st = fail(err, VM_ERR_FORMAT, path,
                       "compressed data is truncated (%zu bytes cannot hold %zu)", avail, total);
             goto done;
         }
-        inflated = malloc(total);
-        if (!inflated) {
-            st = fail(err, VM_ERR_NOMEM, path, "out of memory for %zu bytes", total);
-            goto done;
-        }
-        st = vm__inflate_exact(path, p, avail, inflated, total, err);
-        if (st) goto done;
-        samples = inflated + h.byte_skip;
+        src.enc = VM__ENC_ZLIB;
+        src.skip = (size_t)h.byte_skip;
     }
 
-    v->data = malloc(count * sizeof(float));
-    if (!v->data) {
-        st = fail(err, VM_ERR_NOMEM, path, "out of memory for %zu voxels", count);
-        goto done;
-    }
-    if (h.encoding == ENC_ASCII) {
-        st = read_ascii(path, p, end, count, v->data, err);
-        if (st) goto done;
-    } else {
-        int swap = tsize > 1 && h.big_endian == vm__host_little_endian();
-        vm__samples_to_float(samples, h.type, swap, count, v->data);
-    }
     memcpy(v->dims, h.dims, sizeof v->dims);
     v->type = h.type;
     memcpy(v->spacing, h.spacing, sizeof v->spacing);
     memcpy(v->origin, h.origin, sizeof v->origin);
     memcpy(v->direction, h.direction, sizeof v->direction);
     snprintf(v->format, sizeof v->format, "nrrd");
+    if (rq->header_only) goto done;
+    st = vm__slab_alloc(path, n, v, err);
+    if (!st) st = vm__samples_decode(&src, first, n, v->data, err);
+    if (!st) vm__slab_finish(v, rq);
 done:
-    free(buf);
-    free(dbuf);
-    free(inflated);
+    vm__map_free(&hm);
+    vm__map_free(&dm);
     if (st) vm_volume_free(v);
     return st;
+}
+
+vm_status vm_volume_read_nrrd(const char *path, vm_volume *v, vm_error *err) {
+    return read_nrrd(path, &vm__slab_whole, v, err);
+}
+
+vm_status vm__read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
+    return read_nrrd(path, rq, v, err);
 }
 
 /* Little-endian bytes of n floats. */

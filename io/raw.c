@@ -8,8 +8,8 @@
 #include "io_util.h"
 #include "volmesh/io.h"
 
-vm_status vm_volume_read_raw(const char *path, const vm_raw_options *opt, vm_volume *v,
-                             vm_error *err) {
+vm_status vm__read_raw(const char *path, const vm_raw_options *opt, const vm__slab *rq,
+                       vm_volume *v, vm_error *err) {
     memset(v, 0, sizeof *v);
     size_t tsize = vm_scalar_type_size(opt->type);
     if (tsize == 0) return vm_error_set(err, VM_ERR_ARG, "%s: unknown raw sample type", path);
@@ -18,29 +18,21 @@ vm_status vm_volume_read_raw(const char *path, const vm_raw_options *opt, vm_vol
             return vm_error_set(err, VM_ERR_ARG,
                                 "%s: raw spacing must be > 0 (or 0 for 1) and origin finite",
                                 path);
-    size_t count;
-    vm_status st = vm__check_dims(opt->dims, tsize + sizeof(float), path, &count, err);
+    size_t count, first, n;
+    vm_status st = vm__slab_check(path, rq, opt->dims, tsize, &count, &first, &n, err);
     if (st) return st;
     size_t need = count * tsize;
 
-    unsigned char *buf;
-    size_t len;
-    st = vm__read_file(path, vm__memory_limit(), &buf, &len, err);
+    vm__map m;
+    st = vm__map_file(path, (size_t)-1, &m, err);
     if (st) return st;
+    size_t len = m.len;
     size_t avail = opt->header_bytes >= len ? 0 : len - (size_t)opt->header_bytes;
     if (avail < need) {
-        free(buf);
+        vm__map_free(&m);
         return vm_error_set(err, VM_ERR_FORMAT, "%s: data is truncated (%zu of %zu bytes)",
                             path, avail, need);
     }
-    v->data = malloc(count * sizeof(float));
-    if (!v->data) {
-        free(buf);
-        return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu voxels", path, count);
-    }
-    int swap = tsize > 1 && (opt->big_endian != 0) == (vm__host_little_endian() != 0);
-    vm__samples_to_float(buf + opt->header_bytes, opt->type, swap, count, v->data);
-    free(buf);
     for (int a = 0; a < 3; a++) {
         v->dims[a] = opt->dims[a];
         v->spacing[a] = opt->spacing[a] == 0.0 ? 1.0 : opt->spacing[a];
@@ -49,5 +41,20 @@ vm_status vm_volume_read_raw(const char *path, const vm_raw_options *opt, vm_vol
     }
     v->type = opt->type;
     snprintf(v->format, sizeof v->format, "raw");
-    return VM_OK;
+    if (!rq->header_only) {
+        int swap = tsize > 1 && (opt->big_endian != 0) == (vm__host_little_endian() != 0);
+        vm__samples src = {path, m.p + opt->header_bytes, avail, VM__ENC_RAW, 0, opt->type,
+                           swap, m.maplen != 0};
+        st = vm__slab_alloc(path, n, v, err);
+        if (!st) st = vm__samples_decode(&src, first, n, v->data, err);
+        if (!st) vm__slab_finish(v, rq);
+    }
+    vm__map_free(&m);
+    if (st) vm_volume_free(v);
+    return st;
+}
+
+vm_status vm_volume_read_raw(const char *path, const vm_raw_options *opt, vm_volume *v,
+                             vm_error *err) {
+    return vm__read_raw(path, opt, &vm__slab_whole, v, err);
 }

@@ -65,6 +65,15 @@ static vm_status begin_surface_file(const char *path, const vm_mesh *m, vm_mesh 
 /* ======================================================================================= */
 
 vm_status vm_mesh_write_stl(const char *path, const vm_mesh *m, int ascii, vm_error *err) {
+    vm_mesh_write_options opt;
+    vm_mesh_write_options_init(&opt);
+    opt.ascii = ascii;
+    return vm__write_stl(path, m, &opt, err);
+}
+
+vm_status vm__write_stl(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err) {
+    int ascii = opt->ascii;
     vm_mesh tmp;
     const vm_mesh *s = NULL;
     vm_status st = begin_surface(path, m, &tmp, &s, err);
@@ -82,6 +91,7 @@ vm_status vm_mesh_write_stl(const char *path, const vm_mesh *m, int ascii, vm_er
         return st;
     }
     FILE *fp = o.fp;
+    vm__out_meter(&o, opt->progress, opt->progress_user, (double)s->ncells);
     if (ascii) {
         /* One solid per region, faces in mesh order within each. */
         int32_t *regions = NULL;
@@ -111,6 +121,7 @@ vm_status vm_mesh_write_stl(const char *path, const vm_mesh *m, int ascii, vm_er
                     }
                     fprintf(fp, "    endloop\n  endfacet\n");
                 }
+                vm__out_step(&o, 1.0);
             }
             fprintf(fp, "endsolid %s\n", name);
         }
@@ -140,6 +151,7 @@ vm_status vm_mesh_write_stl(const char *path, const vm_mesh *m, int ascii, vm_er
                 vm__put_le16(rec + 48, (uint16_t)(r >= 0 && r <= 65535 ? r : 0));
                 fwrite(rec, 1, 50, fp);
             }
+            vm__out_step(&o, 1.0);
         }
     }
     vm_mesh_free(&tmp);
@@ -272,24 +284,34 @@ vm_status vm_mesh_read_stl(const char *path, vm_mesh *m, vm_error *err) {
 /* ======================================================================================= */
 
 vm_status vm_mesh_write_off(const char *path, const vm_mesh *m, vm_error *err) {
+    vm_mesh_write_options opt;
+    vm_mesh_write_options_init(&opt);
+    return vm__write_off(path, m, &opt, err);
+}
+
+vm_status vm__write_off(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err) {
     vm_mesh tmp;
     const vm_mesh *s = NULL;
     vm_outfile o;
     vm_status st = begin_surface_file(path, m, &tmp, &s, &o, err);
     if (st) return st;
     FILE *fp = o.fp;
+    vm__out_meter(&o, opt->progress, opt->progress_user, (double)s->npoints + s->ncells);
     size_t nn = (size_t)vm_cell_nodes(s->kind);
     fprintf(fp, "OFF\n# volmesh %s surface\n%zu %zu 0\n", vm_cell_kind_name(s->kind),
             s->npoints, s->ncells);
     for (size_t i = 0; i < s->npoints; i++) {
         const double *p = s->points + 3 * i;
         fprintf(fp, "%.17g %.17g %.17g\n", p[0], p[1], p[2]);
+        vm__out_step(&o, 1.0);
     }
     for (size_t c = 0; c < s->ncells; c++) {
         fprintf(fp, "%zu", nn);
         for (size_t k = 0; k < nn; k++)
             fprintf(fp, " %lld", (long long)s->cells[c * nn + k]);
         fputc('\n', fp);
+        vm__out_step(&o, 1.0);
     }
     vm_mesh_free(&tmp);
     return vm__out_commit(&o, err);
@@ -367,12 +389,22 @@ done:
 /* ======================================================================================= */
 
 vm_status vm_mesh_write_ply(const char *path, const vm_mesh *m, int ascii, vm_error *err) {
+    vm_mesh_write_options opt;
+    vm_mesh_write_options_init(&opt);
+    opt.ascii = ascii;
+    return vm__write_ply(path, m, &opt, err);
+}
+
+vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err) {
+    int ascii = opt->ascii;
     vm_mesh tmp;
     const vm_mesh *s = NULL;
     vm_outfile o;
     vm_status st = begin_surface_file(path, m, &tmp, &s, &o, err);
     if (st) return st;
     FILE *fp = o.fp;
+    vm__out_meter(&o, opt->progress, opt->progress_user, (double)s->npoints + s->ncells);
     size_t nn = (size_t)vm_cell_nodes(s->kind);
     fprintf(fp, "ply\nformat %s 1.0\ncomment volmesh %s surface\nelement vertex %zu\n"
                 "property double x\nproperty double y\nproperty double z\nelement face %zu\n"
@@ -383,12 +415,14 @@ vm_status vm_mesh_write_ply(const char *path, const vm_mesh *m, int ascii, vm_er
         for (size_t i = 0; i < s->npoints; i++) {
             const double *p = s->points + 3 * i;
             fprintf(fp, "%.17g %.17g %.17g\n", p[0], p[1], p[2]);
+            vm__out_step(&o, 1.0);
         }
         for (size_t c = 0; c < s->ncells; c++) {
             fprintf(fp, "%zu", nn);
             for (size_t k = 0; k < nn; k++)
                 fprintf(fp, " %lld", (long long)s->cells[c * nn + k]);
             fprintf(fp, " %ld\n", (long)s->region[c]);
+            vm__out_step(&o, 1.0);
         }
     } else {
         for (size_t i = 0; i < s->npoints; i++) {
@@ -396,6 +430,7 @@ vm_status vm_mesh_write_ply(const char *path, const vm_mesh *m, int ascii, vm_er
             for (int d = 0; d < 3; d++)
                 vm__put_le64(b + 8 * d, vm__double_bits(s->points[3 * i + (size_t)d]));
             fwrite(b, 1, 24, fp);
+            vm__out_step(&o, 1.0);
         }
         for (size_t c = 0; c < s->ncells; c++) {
             unsigned char b[1 + 4 * 8 + 4];
@@ -404,6 +439,7 @@ vm_status vm_mesh_write_ply(const char *path, const vm_mesh *m, int ascii, vm_er
                 vm__put_le32(b + 1 + 4 * k, (uint32_t)(int32_t)s->cells[c * nn + k]);
             vm__put_le32(b + 1 + 4 * nn, (uint32_t)s->region[c]);
             fwrite(b, 1, 1 + 4 * nn + 4, fp);
+            vm__out_step(&o, 1.0);
         }
     }
     vm_mesh_free(&tmp);
@@ -634,18 +670,27 @@ done:
 /* ======================================================================================= */
 
 vm_status vm_mesh_write_obj(const char *path, const vm_mesh *m, vm_error *err) {
+    vm_mesh_write_options opt;
+    vm_mesh_write_options_init(&opt);
+    return vm__write_obj(path, m, &opt, err);
+}
+
+vm_status vm__write_obj(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err) {
     vm_mesh tmp;
     const vm_mesh *s = NULL;
     vm_outfile o;
     vm_status st = begin_surface_file(path, m, &tmp, &s, &o, err);
     if (st) return st;
     FILE *fp = o.fp;
+    vm__out_meter(&o, opt->progress, opt->progress_user, (double)s->npoints + s->ncells);
     size_t nn = (size_t)vm_cell_nodes(s->kind);
     fprintf(fp, "# volmesh %s surface: %zu vertices, %zu faces; g REGION_r groups\n",
             vm_cell_kind_name(s->kind), s->npoints, s->ncells);
     for (size_t i = 0; i < s->npoints; i++) {
         const double *p = s->points + 3 * i;
         fprintf(fp, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
+        vm__out_step(&o, 1.0);
     }
     for (size_t c = 0; c < s->ncells; c++) {
         if (c == 0 || s->region[c] != s->region[c - 1]) {
@@ -657,6 +702,7 @@ vm_status vm_mesh_write_obj(const char *path, const vm_mesh *m, vm_error *err) {
         for (size_t k = 0; k < nn; k++)
             fprintf(fp, " %lld", (long long)s->cells[c * nn + k] + 1);
         fputc('\n', fp);
+        vm__out_step(&o, 1.0);
     }
     vm_mesh_free(&tmp);
     return vm__out_commit(&o, err);

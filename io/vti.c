@@ -237,6 +237,8 @@ typedef struct vti_file {
     int narrays;
     int have_appended, appended_base64;
     size_t appended_start; /* first byte after '_' */
+    const vm__slab *rq;
+    int mapped; /* buf is a vm__map's mapping (pages may be given back) */
 } vti_file;
 
 static vm_status parse_extent(vti_file *f, span s, const char *what, int64_t e[6]) {
@@ -545,13 +547,20 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
     int64_t dims[3];
     const int64_t *e = f->have_extent ? f->extent : f->whole;
     for (int k = 0; k < 3; k++) dims[k] = e[2 * k + 1] - e[2 * k] + 1;
-    size_t n, esize = vm_scalar_type_size(t);
-    vm_status st = vm__check_dims(dims, esize + sizeof(float), path, &n, f->err);
+    size_t n, first, ns, esize = vm_scalar_type_size(t);
+    vm_status st = vm__slab_check(path, f->rq, dims, esize, &n, &first, &ns, f->err);
     if (st) return st;
-    if ((st = vm_volume_alloc(v, dims, f->err)))
-        return vm_error_set(f->err, st, "%s: out of memory for %zu voxels", path, n);
+    memcpy(v->dims, dims, sizeof v->dims);
     v->type = t;
-    if (span_is(a->format, "ascii")) return read_ascii(f, a->content, n, v->data);
+    if (f->rq->header_only) return VM_OK;
+    if ((st = vm__slab_alloc(path, ns, v, f->err))) return st;
+    int swap = f->big_endian == vm__host_little_endian();
+    if (span_is(a->format, "ascii")) {
+        if (f->rq->all) return read_ascii(f, a->content, n, v->data);
+        vm__samples src = {path, (const unsigned char *)a->content.p, a->content.n,
+                           VM__ENC_ASCII, 0, t, 0, f->mapped};
+        return vm__samples_decode(&src, first, ns, v->data, f->err);
+    }
 
     const unsigned char *bytes;
     size_t blen;
@@ -587,6 +596,23 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
                                 (unsigned long long)a->offset);
         bytes = (const unsigned char *)f->buf + f->appended_start + a->offset;
         blen = f->len - f->appended_start - (size_t)a->offset;
+        if (!f->compressed) {
+            /* Raw appended samples are read in place: only the slab's bytes are touched. */
+            int hs = f->header_size;
+            if (blen < (size_t)hs)
+                return vm_error_set(f->err, VM_ERR_FORMAT, "%s: data is truncated (no size "
+                                    "header)", path);
+            uint64_t nbytes = read_uint(bytes, hs, f->big_endian);
+            if (nbytes != n * esize)
+                return vm_error_set(f->err, VM_ERR_FORMAT, "%s: data header says %llu bytes, "
+                                    "the extent and type need %zu", path,
+                                    (unsigned long long)nbytes, n * esize);
+            if (blen - hs < n * esize)
+                return vm_error_set(f->err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of "
+                                    "%zu bytes)", path, blen - hs, n * esize);
+            vm__samples src = {path, bytes + hs, blen - hs, VM__ENC_RAW, 0, t, swap, f->mapped};
+            return vm__samples_decode(&src, first, ns, v->data, f->err);
+        }
     } else {
         return vm_error_set(f->err, VM_ERR_UNSUPPORTED, "%s: DataArray '%s' has format '%s' "
                             "(expected ascii, binary or appended)", path, aname,
@@ -599,7 +625,8 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
                             n * esize);
     }
     st = decode_payload(f, bytes, blen, raw, n * esize);
-    if (!st) vm__samples_to_float(raw, t, f->big_endian == vm__host_little_endian(), n, v->data);
+    /* base64 and zlib blocks are decoded whole; a slab keeps its planes */
+    if (!st) vm__samples_to_float(raw + first * esize, t, swap, ns, v->data);
     free(raw);
     free(decoded);
     return st;
@@ -658,27 +685,33 @@ static vm_status parse(vti_file *f, vm_volume *v) {
         for (int r = 0; r < 3; r++) v->direction[r][c] = sign * f->direction[r][c];
     }
     strcpy(v->format, "vti");
+    vm__slab_finish(v, f->rq);
     return VM_OK;
 }
 
-vm_status vm_volume_read_vti(const char *path, vm_volume *v, vm_error *err) {
+vm_status vm__read_vti(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
     memset(v, 0, sizeof *v);
-    unsigned char *buf;
-    size_t len;
-    vm_status st = vm__read_file(path, vm__memory_limit(), &buf, &len, err);
+    vm__map m;
+    vm_status st = vm__map_file(path, (size_t)-1, &m, err);
     if (st) return st;
     vti_file *f = calloc(1, sizeof *f);
     if (!f) {
-        free(buf);
+        vm__map_free(&m);
         return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
     }
     f->path = path;
-    f->buf = (const char *)buf;
-    f->len = len;
+    f->buf = (const char *)m.p;
+    f->len = m.len;
     f->err = err;
+    f->rq = rq;
+    f->mapped = m.maplen != 0;
     st = parse(f, v);
     free(f);
-    free(buf);
+    vm__map_free(&m);
     if (st) vm_volume_free(v);
     return st;
+}
+
+vm_status vm_volume_read_vti(const char *path, vm_volume *v, vm_error *err) {
+    return vm__read_vti(path, &vm__slab_whole, v, err);
 }

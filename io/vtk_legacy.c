@@ -18,6 +18,8 @@ typedef struct reader {
     size_t len, pos;
     int binary;
     vm_error *err;
+    const vm__slab *rq;
+    int mapped; /* buf is a vm__map's mapping (pages may be given back) */
 } reader;
 
 /* Next white-space separated word into tok; returns 0 at end of file. A word longer than
@@ -207,20 +209,32 @@ static vm_status skip_field(reader *r) {
     return st;
 }
 
+static float color_value(double d) {
+    d = d * 255.0 + 0.5;
+    d = d > 0 ? (d < 255 ? d : 255) : 0; /* also maps NaN to 0 */
+    return (float)(int)d;
+}
+
 /* color: COLOR_SCALARS with one value per point, stored as unsigned char; VTK writes them
- * as raw bytes in BINARY files and as fractions 0..1 (times 255) in ASCII files. */
-static vm_status read_samples(reader *r, vm_scalar_type t, int color, size_t n, vm_volume *v) {
+ * as raw bytes in BINARY files and as fractions 0..1 (times 255) in ASCII files. Reads
+ * samples first .. first+n-1 of the total into v->data. */
+static vm_status read_samples(reader *r, vm_scalar_type t, int color, size_t total,
+                              size_t first, size_t n, vm_volume *v) {
     if (r->binary) {
-        char line[8];
-        rest_of_line(r, line, sizeof line);
-        size_t size = vm_scalar_type_size(t), bytes = n * size; /* checked by vm__check_dims */
-        if (bytes > r->len - r->pos)
-            return vm_error_set(r->err, VM_ERR_FORMAT,
-                                "%s: data is truncated (got %zu of %zu bytes)", r->path,
-                                r->len - r->pos, bytes);
-        vm__samples_to_float(r->buf + r->pos, t, vm__host_little_endian(), n, v->data);
-        r->pos += bytes;
-        return VM_OK;
+        size_t size = vm_scalar_type_size(t);
+        vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_RAW, 0, t,
+                           vm__host_little_endian(), r->mapped};
+        vm_status st = vm__samples_decode(&src, first, n, v->data, r->err);
+        r->pos += total * size;
+        return st;
+    }
+    if (!r->rq->all) {
+        vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_ASCII, 0, t, 0,
+                           r->mapped};
+        vm_status st = vm__samples_decode(&src, first, n, v->data, r->err);
+        if (!st && color)
+            for (size_t i = 0; i < n; i++) v->data[i] = color_value(v->data[i]);
+        return st;
     }
     for (size_t i = 0; i < n; i++) {
         char tok[TOKEN_MAX], *end;
@@ -235,48 +249,51 @@ static vm_status read_samples(reader *r, vm_scalar_type t, int color, size_t n, 
         if (end == tok || *end)
             return vm_error_set(r->err, VM_ERR_FORMAT, "%s: sample %zu ('%.40s') is not a "
                                 "number", r->path, i, tok);
-        if (color) {
-            d = d * 255.0 + 0.5;
-            d = d > 0 ? (d < 255 ? d : 255) : 0; /* also maps NaN to 0 */
-            d = (double)(int)d;
-        }
-        v->data[i] = (float)d;
+        v->data[i] = color ? color_value(d) : (float)d;
     }
     return VM_OK;
 }
 
-/* Reads the selected point scalars (n values of type t) and sets the geometry. */
+/* Reads the selected point scalars (the planes r->rq asks for, of n values of type t) and
+ * sets the geometry. */
 static vm_status take_scalars(reader *r, vm_volume *v, const int64_t dims[3],
                               int64_t point_count, const double spacing[3],
                               const double origin[3], vm_scalar_type t, int color) {
     vm_status st;
-    size_t n, esize = vm_scalar_type_size(t);
-    if ((st = vm__check_dims(dims, esize + sizeof(float), r->path, &n, r->err))) return st;
+    size_t n, first, ns, esize = vm_scalar_type_size(t);
+    if ((st = vm__slab_check(r->path, r->rq, dims, esize, &n, &first, &ns, r->err))) return st;
     if ((uint64_t)point_count != (uint64_t)n)
         return vm_error_set(r->err, VM_ERR_FORMAT, "%s: POINT_DATA %lld does not match "
                             "DIMENSIONS %lldx%lldx%lld", r->path, (long long)point_count,
                             (long long)dims[0], (long long)dims[1], (long long)dims[2]);
-    if ((st = vm_volume_alloc(v, dims, r->err))) {
-        /* vm_volume_alloc names "volume"; keep the path in the message. */
-        return vm_error_set(r->err, st, "%s: out of memory for %zu voxels", r->path, n);
-    }
-    st = read_samples(r, t, color, n, v);
-    if (st) {
-        vm_volume_free(v);
-        return st;
-    }
-    v->type = t;
     for (int a = 0; a < 3; a++) {
         /* A negative spacing flips the axis: keep spacing > 0, negate the column. */
-        if (spacing[a] == 0.0) {
-            vm_volume_free(v);
+        if (spacing[a] == 0.0)
             return vm_error_set(r->err, VM_ERR_FORMAT, "%s: SPACING %d is zero", r->path, a);
-        }
+        v->dims[a] = dims[a];
         v->spacing[a] = spacing[a] < 0 ? -spacing[a] : spacing[a];
         v->direction[a][a] = spacing[a] < 0 ? -1.0 : 1.0;
         v->origin[a] = origin[a];
     }
+    v->type = t;
     strcpy(v->format, "vtk");
+    if (r->binary) {
+        char line[8];
+        rest_of_line(r, line, sizeof line);
+        size_t bytes = n * esize; /* checked by vm__slab_check */
+        if (bytes > r->len - r->pos)
+            return vm_error_set(r->err, VM_ERR_FORMAT,
+                                "%s: data is truncated (got %zu of %zu bytes)", r->path,
+                                r->len - r->pos, bytes);
+    }
+    if (r->rq->header_only) return VM_OK;
+    if ((st = vm__slab_alloc(r->path, ns, v, r->err))) return st;
+    st = read_samples(r, t, color, n, first, ns, v);
+    if (st) {
+        vm_volume_free(v);
+        return st;
+    }
+    vm__slab_finish(v, r->rq);
     return VM_OK;
 }
 
@@ -475,15 +492,18 @@ static vm_status parse(reader *r, vm_volume *v) {
     }
 }
 
-vm_status vm_volume_read_vtk(const char *path, vm_volume *v, vm_error *err) {
+vm_status vm__read_vtk(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
     memset(v, 0, sizeof *v);
-    unsigned char *buf;
-    size_t len;
-    vm_status st = vm__read_file(path, vm__memory_limit(), &buf, &len, err);
+    vm__map m;
+    vm_status st = vm__map_file(path, (size_t)-1, &m, err);
     if (st) return st;
-    reader r = {path, buf, len, 0, 0, err};
+    reader r = {path, m.p, m.len, 0, 0, err, rq, m.maplen != 0};
     st = parse(&r, v);
-    free(buf);
+    vm__map_free(&m);
     if (st) vm_volume_free(v);
     return st;
+}
+
+vm_status vm_volume_read_vtk(const char *path, vm_volume *v, vm_error *err) {
+    return vm__read_vtk(path, &vm__slab_whole, v, err);
 }

@@ -62,6 +62,15 @@ static void put_fields(FILE *fp, const vm_field *f, size_t nf, size_t count, int
 }
 
 vm_status vm_mesh_write_vtk(const char *path, const vm_mesh *m, int ascii, vm_error *err) {
+    vm_mesh_write_options opt;
+    vm_mesh_write_options_init(&opt);
+    opt.ascii = ascii;
+    return vm__write_vtk(path, m, &opt, err);
+}
+
+vm_status vm__write_vtk(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err) {
+    int ascii = opt->ascii;
     int nn = vm_cell_nodes(m->kind);
     if (!nn)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
@@ -75,15 +84,19 @@ vm_status vm_mesh_write_vtk(const char *path, const vm_mesh *m, int ascii, vm_er
     st = vm__out_open(&o, path, err);
     if (st) return st;
     FILE *fp = o.fp;
+    /* Progress: the points at once, then cell by cell (connectivity, then regions). */
+    vm__out_meter(&o, opt->progress, opt->progress_user, (double)m->npoints + 2.0 * m->ncells);
     fprintf(fp, "# vtk DataFile Version 4.2\nvolmesh %s mesh\n%s\nDATASET UNSTRUCTURED_GRID\n",
             vm_cell_kind_name(m->kind), ascii ? "ASCII" : "BINARY");
     fprintf(fp, "POINTS %zu double\n", m->npoints);
     put_doubles(fp, m->points, 3 * m->npoints, 3, ascii);
+    vm__out_step(&o, (double)m->npoints);
     fprintf(fp, "CELLS %zu %zu\n", m->ncells, m->ncells * (size_t)(nn + 1));
     for (size_t c = 0; c < m->ncells; c++) {
         put_int(fp, nn, ascii, 0);
         for (int k = 0; k < nn; k++)
             put_int(fp, m->cells[c * (size_t)nn + (size_t)k], ascii, k == nn - 1);
+        vm__out_step(&o, 1.0);
     }
     if (!ascii) fputc('\n', fp);
     fprintf(fp, "CELL_TYPES %zu\n", m->ncells);
@@ -91,8 +104,10 @@ vm_status vm_mesh_write_vtk(const char *path, const vm_mesh *m, int ascii, vm_er
         put_int(fp, (int64_t)m->kind, ascii, 1);
     if (!ascii) fputc('\n', fp);
     fprintf(fp, "CELL_DATA %zu\nSCALARS region int 1\nLOOKUP_TABLE default\n", m->ncells);
-    for (size_t c = 0; c < m->ncells; c++)
+    for (size_t c = 0; c < m->ncells; c++) {
         put_int(fp, m->region[c], ascii, 1);
+        vm__out_step(&o, 1.0);
+    }
     if (!ascii) fputc('\n', fp);
     put_fields(fp, m->cell_fields, m->ncell_fields, m->ncells, ascii);
     if (m->npoint_fields) {

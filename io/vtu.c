@@ -3,6 +3,7 @@
  * vtkZLibDataCompressor block header [nblocks][blocksize][lastblocksize][csize...]). */
 #include "../core/core.h"
 #include "io_util.h"
+#include "mesh_util.h"
 #include "volmesh/io.h"
 #include <errno.h>
 #include <limits.h>
@@ -80,7 +81,8 @@ static void xml_escape(const char *s, char *out, size_t cap) {
  * Blocks are independent, so a group of them is compressed in parallel, then appended in
  * order: the bytes are the same for any thread count. */
 #define VTU_GROUP 64
-static vm_status compress_array(const char *path, out_array *a, vm_error *err) {
+static vm_status compress_array(const char *path, out_array *a, vm_outfile *o,
+                                vm_error *err) {
     size_t bytes = a->count * a->esize;
     size_t nblocks = (bytes + VTU_BLOCK - 1) / VTU_BLOCK;
     size_t hdr = (3 + nblocks) * 8;
@@ -130,6 +132,9 @@ static vm_status compress_array(const char *path, out_array *a, vm_error *err) {
             a->blob_len += zlen[g];
             h[3 + b0 + (size_t)g] = zlen[g];
         }
+        size_t done_bytes = (b0 + (size_t)ng) * VTU_BLOCK;
+        vm__out_step(o, (double)(((size_t)ng * VTU_BLOCK) -
+                                 (done_bytes > bytes ? done_bytes - bytes : 0)));
     }
     memcpy(a->blob, h, hdr);
 done:
@@ -150,7 +155,8 @@ static void write_array_xml(FILE *fp, const out_array *a) {
 }
 
 /* Streams an uncompressed array: UInt64 byte count, then the values. */
-static void write_raw_array(FILE *fp, const out_array *a, unsigned char *buf) {
+static void write_raw_array(vm_outfile *o, const out_array *a, unsigned char *buf) {
+    FILE *fp = o->fp;
     uint64_t n = (uint64_t)(a->count * a->esize);
     fwrite(&n, 8, 1, fp);
     size_t per = VTU_BLOCK / a->esize;
@@ -158,10 +164,20 @@ static void write_raw_array(FILE *fp, const out_array *a, unsigned char *buf) {
         size_t k = a->count - first < per ? a->count - first : per;
         fill_values(a, first, k, buf);
         fwrite(buf, a->esize, k, fp);
+        vm__out_step(o, (double)(k * a->esize));
     }
 }
 
 vm_status vm_mesh_write_vtu(const char *path, const vm_mesh *m, int compress, vm_error *err) {
+    vm_mesh_write_options opt;
+    vm_mesh_write_options_init(&opt);
+    opt.compress = compress;
+    return vm__write_vtu(path, m, &opt, err);
+}
+
+vm_status vm__write_vtu(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err) {
+    int compress = opt->compress;
     int nn = vm_cell_nodes(m->kind);
     if (nn == 0)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
@@ -246,25 +262,30 @@ vm_status vm_mesh_write_vtu(const char *path, const vm_mesh *m, int compress, vm
         a->kind = SRC_TYPES;
         a->aux = (int64_t)m->kind;
     }
-    uint64_t off = 0;
+    double total_bytes = 0.0;
     for (size_t i = 0; i < na; i++) {
         size_t bytes;
         if (!vm__mul_size(arr[i].count, arr[i].esize, &bytes)) {
             st = vm_error_set(err, VM_ERR_ARG, "%s: array %s is too large", path, arr[i].name);
             goto fail;
         }
-        arr[i].offset = off;
-        if (compress) {
-            st = compress_array(path, &arr[i], err);
-            if (st) goto fail;
-            off += arr[i].blob_len;
-        } else {
-            off += 8 + (uint64_t)bytes;
-        }
+        total_bytes += (double)bytes;
     }
     st = vm__out_open(&o, path, err);
     if (st) goto fail;
     opened = 1;
+    vm__out_meter(&o, opt->progress, opt->progress_user, total_bytes);
+    uint64_t off = 0;
+    for (size_t i = 0; i < na; i++) {
+        arr[i].offset = off;
+        if (compress) {
+            st = compress_array(path, &arr[i], &o, err);
+            if (st) goto fail;
+            off += arr[i].blob_len;
+        } else {
+            off += 8 + (uint64_t)(arr[i].count * arr[i].esize);
+        }
+    }
     FILE *fp = o.fp;
     fprintf(fp,
             "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
@@ -291,7 +312,7 @@ vm_status vm_mesh_write_vtu(const char *path, const vm_mesh *m, int compress, vm
         if (compress)
             fwrite(arr[i].blob, 1, arr[i].blob_len, fp);
         else
-            write_raw_array(fp, &arr[i], buf);
+            write_raw_array(&o, &arr[i], buf);
     }
     fprintf(fp, "\n  </AppendedData>\n</VTKFile>\n");
     opened = 0;

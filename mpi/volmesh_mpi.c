@@ -1,8 +1,9 @@
 /* mpi/volmesh_mpi.c — `volmesh_mpi`: one tetrahedral mesh over several MPI ranks, written as
  * a partitioned VTK XML grid (.pvtu + one .vtu piece per rank). Design: docs/MPI.md.
  *
- * Every rank reads the whole volume, keeps the samples of its slab of cells along z plus a
- * ghost band, replaces the rest by a value outside the material and meshes the result with
+ * Every rank reads only the planes of its slab of cells along z plus a ghost band
+ * (vm_volume_read_slab) into a volume of the whole dims, the rest outside the material
+ * (untouched zero pages when 0 is outside it, else a fill value), and meshes the result with
  * the ordinary mesher in the volume's global index frame. The mesher's decisions are local
  * (a cell's vertices, splits and octree leaf depend only on samples a few cells away), so
  * away from the ghost band's far edge the rank's tets are bit for bit those of the
@@ -215,16 +216,95 @@ static void sampling_z(int64_t nz, int S, int64_t *m, double *step) {
     *step = (double)(nz - 1) / (double)(*m - 1);
 }
 
-/* A value outside the material: below the lower bound (or above the upper one). */
-static float outside_value(const vm_volume *v, const vm_mesh_options *o) {
-    double vmin, vmax;
-    vm_volume_stats(v, &vmin, &vmax, NULL);
+/* A value outside the material: below the lower bound (or above the upper one), from the
+ * data range vmin..vmax of the whole volume. */
+static float outside_value(double vmin, double vmax, const vm_mesh_options *o) {
     if (o->has_lo) {
         double span = vmax - o->lo > 1 ? vmax - o->lo : 1;
         return (float)(fmin(vmin, o->lo) - span);
     }
     double span = o->hi - vmin > 1 ? o->hi - vmin : 1;
     return (float)(fmax(vmax, o->hi) + span);
+}
+
+/* The data range of the whole volume (every rank's planes together cover it). */
+static double vmin_ = NAN, vmax_ = NAN;
+
+/* This rank's cells c0 <= c < c1 along z of the sampling grid (whole blocks of B cells, B
+ * = 2^L with --adaptive), the grid step in voxels and the number of blocks. */
+static void rank_cells(const args *A, int64_t nzvox, int64_t *c0, int64_t *c1, double *step,
+                       int64_t *blocks, int64_t *B) {
+    int64_t nz;
+    sampling_z(nzvox, A->mo.cell_size, &nz, step);
+    int64_t cells = nz - 1;
+    *B = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
+    *blocks = (cells + *B - 1) / *B;
+    int64_t b0 = *blocks * rank_ / nranks_, b1 = *blocks * (rank_ + 1) / nranks_;
+    *c0 = b0 * *B;
+    *c1 = b1 * *B < cells ? b1 * *B : cells;
+}
+
+/* Voxel planes lo..hi this rank meshes: its cells, the ghost band of G cells on each side
+ * and the voxel beyond (for the trilinear resampling), within 0..nz-1. */
+static void rank_planes(const args *A, int64_t nzvox, int64_t *lo, int64_t *hi) {
+    int64_t c0, c1, blocks, B;
+    double step;
+    rank_cells(A, nzvox, &c0, &c1, &step, &blocks, &B);
+    if (nranks_ == 1 || c1 <= c0) {
+        *lo = 0;
+        *hi = c1 <= c0 ? -1 : nzvox - 1;
+        return;
+    }
+    double l = floor((double)(c0 - A->ghost) * step) - 1;
+    double h = ceil((double)(c1 + A->ghost) * step) + 1;
+    *lo = l < 0 ? 0 : (int64_t)l;
+    *hi = h > (double)(nzvox - 1) ? nzvox - 1 : (int64_t)h;
+}
+
+/* The volume with only this rank's planes read (vm_volume_read_slab): [out] v has the whole
+ * volume's dims and geometry; its other planes are zero pages of a lazy allocation (never
+ * touched, so they take no memory) until slab_mesh fills them when 0 is in the material.
+ * Collective (the data range is reduced over all ranks), whatever fails. */
+static vm_status read_planes(const args *A, vm_volume *v, vm_error *err) {
+    memset(v, 0, sizeof *v);
+    vm_volume info, slab;
+    memset(&slab, 0, sizeof slab);
+    double mm[2] = {INFINITY, INFINITY}; /* min and -max, reduced with MPI_MIN */
+    vm_status s = vm_volume_read_info(A->in, &info, err);
+    int64_t lo = 0, hi = -1;
+    if (!s) rank_planes(A, info.dims[2], &lo, &hi);
+    size_t plane = 0, count = 0;
+    if (!s) {
+        plane = (size_t)info.dims[0] * (size_t)info.dims[1];
+        count = plane * (size_t)info.dims[2]; /* fits: vm_volume_read_info checked it */
+        if (count > SIZE_MAX / sizeof(float))
+            s = vm_error_set(err, VM_ERR_NOMEM, "%s: the volume is too big", A->in);
+    }
+    if (!s && hi >= lo) s = vm_volume_read_slab(A->in, lo, hi + 1, &slab, err);
+    if (!s) {
+        *v = info;
+        v->data = calloc(count, sizeof(float));
+        if (!v->data) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu voxels", A->in,
+                             count);
+            memset(v, 0, sizeof *v);
+        }
+    }
+    if (!s && slab.data) {
+        memcpy(v->data + plane * (size_t)lo, slab.data, plane * (size_t)slab.dims[2] * sizeof(float));
+        double a, b;
+        vm_volume_stats(&slab, &a, &b, NULL);
+        if (!isnan(a)) {
+            mm[0] = a;
+            mm[1] = -b;
+        }
+    }
+    vm_volume_free(&slab);
+    double all[2];
+    MPI_Allreduce(mm, all, 2, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+    vmin_ = all[0];
+    vmax_ = -all[1];
+    return s;
 }
 
 /* The piece name of rank r beside OUT.pvtu: OUT_r.vtu. [out] path (size n). */
@@ -608,13 +688,9 @@ done:
 static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, double *z1,
                            double *seconds, vm_error *err) {
     vm_mesh_init(m, VM_TET4);
-    int64_t nz;
+    int64_t c0, c1, blocks, B;
     double step;
-    sampling_z(v->dims[2], A->mo.cell_size, &nz, &step);
-    int64_t cells = nz - 1, B = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
-    int64_t blocks = (cells + B - 1) / B;
-    int64_t b0 = blocks * rank_ / nranks_, b1 = blocks * (rank_ + 1) / nranks_;
-    int64_t c0 = b0 * B, c1 = b1 * B < cells ? b1 * B : cells;
+    rank_cells(A, v->dims[2], &c0, &c1, &step, &blocks, &B);
     *z0 = rank_ == 0 ? -INFINITY : (double)c0 * step;
     *z1 = rank_ == nranks_ - 1 ? INFINITY : (double)c1 * step;
     if (A->improve && nranks_ > 1 && blocks < nranks_) /* the same answer on every rank */
@@ -625,16 +701,19 @@ static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, 
             nranks_, (long long)blocks, (long long)B, (long long)blocks);
     if (c1 <= c0) return VM_ERR_EMPTY; /* more ranks than blocks */
     if (nranks_ > 1) {
-        /* Sample points c0 - ghost .. c1 + ghost keep their voxels (and the one beyond, for
-         * the trilinear resampling); every other voxel goes outside the material. */
-        float fill = outside_value(v, &A->mo);
-        double lo = floor((double)(c0 - A->ghost) * step) - 1;
-        double hi = ceil((double)(c1 + A->ghost) * step) + 1;
+        /* Planes lo..hi keep their voxels; every other voxel goes outside the material: the
+         * zeros a slab read left there already are when 0 is outside it. */
+        const vm_mesh_options *o = &A->mo;
+        int zero_outside = (o->has_lo && 0.0 < o->lo) || (o->has_hi && 0.0 > o->hi);
+        float fill = outside_value(vmin_, vmax_, o);
+        int64_t lo, hi;
+        rank_planes(A, v->dims[2], &lo, &hi);
         size_t plane = (size_t)v->dims[0] * (size_t)v->dims[1];
-        for (int64_t k = 0; k < v->dims[2]; k++)
-            if ((double)k < lo || (double)k > hi)
-                for (size_t i = 0; i < plane; i++)
-                    v->data[(size_t)k * plane + i] = fill;
+        if (!(A->in && zero_outside))
+            for (int64_t k = 0; k < v->dims[2]; k++)
+                if (k < lo || k > hi)
+                    for (size_t i = 0; i < plane; i++)
+                        v->data[(size_t)k * plane + i] = fill;
     }
     for (int a = 0; a < 3; a++) {
         v->origin[a] = 0;
@@ -707,8 +786,13 @@ int main(int argc, char **argv) {
     vm_error_clear(&err);
     vm_volume v;
     memset(&v, 0, sizeof v);
-    vm_status s = A.phantom ? vm_phantom_make(A.kind, (int)A.phantom_n, 0.0, 1, &v, NULL, &err)
-                            : vm_volume_read(A.in, &v, &err);
+    vm_status s;
+    if (A.phantom) {
+        s = vm_phantom_make(A.kind, (int)A.phantom_n, 0.0, 1, &v, NULL, &err);
+        if (!s) vm_volume_stats(&v, &vmin_, &vmax_, NULL);
+    } else {
+        s = read_planes(&A, &v, &err);
+    }
     char piece_file[4096];
     piece_path(A.out, rank_, piece_file, sizeof piece_file);
     size_t ntets = 0;

@@ -5,6 +5,7 @@
 #include "../core/core.h"
 #include "../io/io_util.h"
 #include "volmesh/quality.h"
+#include "tet_internal.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -157,45 +158,103 @@ static void add_to_histogram(vm_metric_stats *s, double q) {
 
 /* ---- the report ------------------------------------------------------------------------- */
 
+void vm_quality_options_init(vm_quality_options *o) { memset(o, 0, sizeof *o); }
+
 vm_status vm_quality_report(const vm_mesh *m, vm_quality_summary *q, vm_error *err) {
-    memset(q, 0, sizeof *q);
-    q->kind = m->kind;
-    vm_status st = vm_mesh_check(m, &q->check, err);
-    if (st) return st;
-    const vm_metric_info *t;
-    size_t nm = vm_quality_metrics(m->kind, &t);
-    if (nm > VM_QUALITY_MAX_METRICS) nm = VM_QUALITY_MAX_METRICS;
-    q->nmetrics = nm;
-    int nn = vm_cell_nodes(m->kind);
-    double sum[VM_QUALITY_MAX_METRICS] = {0};
-    int auto_range = 0;
+    return vm_quality_report_with(m, NULL, q, err);
+}
+
+/* The cells are cut into chunks of a fixed size; threads take whole chunks, each chunk folds
+ * its cells in order into its own statistics, and the chunks are merged in order. Neither
+ * depends on the number of threads, so neither does the report. Chunks go in groups, with
+ * the progress reported between groups. */
+#define REPORT_CHUNK 16384
+#define REPORT_GROUP 64
+
+/* Where a tet's angle extremes sit in the metric table, so one evaluation of the six
+ * dihedrals and one of the twelve face angles serve two metrics each (-1: not there). */
+typedef struct angle_slots {
+    int dmin, dmax, fmin, fmax;
+} angle_slots;
+
+/* v[k] = metric k of cell c, for the metrics with want[k] set. */
+static void eval_metrics(const vm_mesh *m, const vm_metric_info *t, size_t nm, const int *want,
+                         const angle_slots *as, size_t c, double *v) {
+    int nn = vm_cell_nodes(m->kind), tets = m->kind == VM_TET4;
+    double p[8][3];
+    cell_points(m, c, nn, p);
+    int done_d = 0, done_f = 0;
     for (size_t k = 0; k < nm; k++) {
-        vm_metric_stats *s = &q->metrics[k];
-        s->info = &t[k];
-        s->min = INFINITY;
-        s->max = -INFINITY;
-        s->lo = t[k].hist_lo;
-        s->hi = t[k].hist_hi;
-        if (!(s->hi > s->lo)) auto_range = 1;
-    }
-    int iv = -1, ia = -1, ib = -1;
-    if (m->kind == VM_TET4) {
-        q->has_abaqus = 1;
-        for (size_t k = 0; k < nm; k++) {
-            if (strcmp(t[k].name, "volume_measure") == 0) iv = (int)k;
-            if (strcmp(t[k].name, "min_face_angle") == 0) ia = (int)k;
-            if (strcmp(t[k].name, "max_face_angle") == 0) ib = (int)k;
+        if (!want[k]) continue;
+        int ki = (int)k;
+        if (tets && (ki == as->dmin || ki == as->dmax)) {
+            if (!done_d) {
+                double lo, hi;
+                vm__tet_dihedral_range((const double(*)[3])p, &lo, &hi);
+                if (as->dmin >= 0) v[as->dmin] = lo;
+                if (as->dmax >= 0) v[as->dmax] = hi;
+                done_d = 1;
+            }
+        } else if (tets && (ki == as->fmin || ki == as->fmax)) {
+            if (!done_f) {
+                double lo, hi;
+                vm__tet_face_angle_range((const double(*)[3])p, &lo, &hi);
+                if (as->fmin >= 0) v[as->fmin] = lo;
+                if (as->fmax >= 0) v[as->fmax] = hi;
+                done_f = 1;
+            }
+        } else {
+            v[k] = eval_cell(&t[k], p);
         }
     }
-    double val[VM_QUALITY_MAX_METRICS];
-    for (size_t c = 0; c < m->ncells; c++) {
-        double p[8][3];
-        cell_points(m, c, nn, p);
-        for (size_t k = 0; k < nm; k++) {
-            vm_metric_stats *s = &q->metrics[k];
-            double x = eval_cell(&t[k], p);
-            val[k] = x;
-            sum[k] += x;
+}
+
+static int metric_slot(const vm_metric_info *t, size_t nm, const char *name) {
+    for (size_t k = 0; k < nm; k++)
+        if (strcmp(t[k].name, name) == 0) return (int)k;
+    return -1;
+}
+
+/* What one chunk adds to the summary. */
+typedef struct chunk_stats {
+    vm_metric_stats s[VM_QUALITY_MAX_METRICS];
+    double sum[VM_QUALITY_MAX_METRICS];
+    size_t ab_volume, ab_small, ab_large, ab_failures, nlist;
+    size_t list[VM_QUALITY_LIST];
+} chunk_stats;
+
+/* Everything a chunk needs to read. */
+typedef struct report_job {
+    const vm_mesh *m;
+    const vm_metric_info *t;
+    size_t nm;
+    const int *want;
+    angle_slots as;
+    int iv, ia, ib;          /* ABAQUS metric slots (tets), -1 otherwise */
+    const vm_quality_summary *q; /* histogram ranges (lo, hi) */
+    int bins_only;           /* second pass: only the histograms of want[] */
+} report_job;
+
+static void fold_chunk(const report_job *j, size_t c0, size_t c1, chunk_stats *cs) {
+    memset(cs, 0, sizeof *cs);
+    for (size_t k = 0; k < j->nm; k++) {
+        cs->s[k].min = INFINITY;
+        cs->s[k].max = -INFINITY;
+        cs->s[k].lo = j->q->metrics[k].lo;
+        cs->s[k].hi = j->q->metrics[k].hi;
+    }
+    double v[VM_QUALITY_MAX_METRICS];
+    for (size_t c = c0; c < c1; c++) {
+        eval_metrics(j->m, j->t, j->nm, j->want, &j->as, c, v);
+        for (size_t k = 0; k < j->nm; k++) {
+            if (!j->want[k]) continue;
+            vm_metric_stats *s = &cs->s[k];
+            double x = v[k];
+            if (j->bins_only) {
+                add_to_histogram(s, x);
+                continue;
+            }
+            cs->sum[k] += x;
             if (x < s->min) {
                 s->min = x;
                 s->argmin = c;
@@ -205,24 +264,137 @@ vm_status vm_quality_report(const vm_mesh *m, vm_quality_summary *q, vm_error *e
                 s->argmax = c;
             }
             /* A hair beyond the ideal end of a range (60.0000000001 deg) is round-off. */
-            if (x < t[k].acceptable_lo - 1e-9 * fmax(1.0, fabs(t[k].acceptable_lo)) ||
-                x > t[k].acceptable_hi + 1e-9 * fmax(1.0, fabs(t[k].acceptable_hi)))
+            const vm_metric_info *mi = &j->t[k];
+            if (x < mi->acceptable_lo - 1e-9 * fmax(1.0, fabs(mi->acceptable_lo)) ||
+                x > mi->acceptable_hi + 1e-9 * fmax(1.0, fabs(mi->acceptable_hi)))
                 s->unacceptable++;
             if (s->hi > s->lo) add_to_histogram(s, x);
         }
-        if (q->has_abaqus && iv >= 0 && ia >= 0 && ib >= 0) {
-            int bad_v = val[iv] < ABAQUS_VOLUME_MEASURE;
-            int bad_a = val[ia] < ABAQUS_SMALL_ANGLE;
-            int bad_b = val[ib] > ABAQUS_LARGE_ANGLE;
-            q->abaqus_volume += (size_t)bad_v;
-            q->abaqus_small_angle += (size_t)bad_a;
-            q->abaqus_large_angle += (size_t)bad_b;
+        if (!j->bins_only && j->iv >= 0 && j->ia >= 0 && j->ib >= 0) {
+            int bad_v = v[j->iv] < ABAQUS_VOLUME_MEASURE;
+            int bad_a = v[j->ia] < ABAQUS_SMALL_ANGLE;
+            int bad_b = v[j->ib] > ABAQUS_LARGE_ANGLE;
+            cs->ab_volume += (size_t)bad_v;
+            cs->ab_small += (size_t)bad_a;
+            cs->ab_large += (size_t)bad_b;
             if (bad_v || bad_a || bad_b) {
-                if (q->abaqus_nlist < VM_QUALITY_LIST) q->abaqus_list[q->abaqus_nlist++] = c;
-                q->abaqus_failures++;
+                if (cs->nlist < VM_QUALITY_LIST) cs->list[cs->nlist++] = c;
+                cs->ab_failures++;
             }
         }
     }
+}
+
+/* Adds a chunk to the summary (chunks come in cell order, so "first" stays first). */
+static void merge_chunk(const report_job *j, const chunk_stats *cs, vm_quality_summary *q,
+                        double *sum) {
+    for (size_t k = 0; k < j->nm; k++) {
+        if (!j->want[k]) continue;
+        vm_metric_stats *s = &q->metrics[k];
+        const vm_metric_stats *c = &cs->s[k];
+        for (int b = 0; b < VM_QUALITY_BINS; b++)
+            s->bins[b] += c->bins[b];
+        s->below += c->below;
+        s->above += c->above;
+        if (j->bins_only) continue;
+        sum[k] += cs->sum[k];
+        if (c->min < s->min) {
+            s->min = c->min;
+            s->argmin = c->argmin;
+        }
+        if (c->max > s->max) {
+            s->max = c->max;
+            s->argmax = c->argmax;
+        }
+        s->unacceptable += c->unacceptable;
+    }
+    if (j->bins_only) return;
+    q->abaqus_volume += cs->ab_volume;
+    q->abaqus_small_angle += cs->ab_small;
+    q->abaqus_large_angle += cs->ab_large;
+    q->abaqus_failures += cs->ab_failures;
+    for (size_t i = 0; i < cs->nlist && q->abaqus_nlist < VM_QUALITY_LIST; i++)
+        q->abaqus_list[q->abaqus_nlist++] = cs->list[i];
+}
+
+/* One pass over all cells: chunks on threads, merged in order. */
+static void report_pass(const report_job *j, chunk_stats *cs, vm_quality_summary *q,
+                        double *sum, vm__meter *mt, double weight) {
+    size_t nc = j->m->ncells, nchunks = (nc + REPORT_CHUNK - 1) / REPORT_CHUNK;
+    for (size_t g0 = 0; g0 < nchunks; g0 += REPORT_GROUP) {
+        size_t ng = nchunks - g0 < REPORT_GROUP ? nchunks - g0 : REPORT_GROUP;
+        const ptrdiff_t ngs = (ptrdiff_t)ng;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+        for (ptrdiff_t g = 0; g < ngs; g++) {
+            size_t c0 = (g0 + (size_t)g) * REPORT_CHUNK;
+            size_t c1 = nc - c0 < REPORT_CHUNK ? nc : c0 + REPORT_CHUNK;
+            fold_chunk(j, c0, c1, &cs[g]);
+        }
+        size_t cells = 0;
+        for (size_t g = 0; g < ng; g++) {
+            merge_chunk(j, &cs[g], q, sum);
+            size_t c0 = (g0 + g) * REPORT_CHUNK;
+            cells += nc - c0 < REPORT_CHUNK ? nc - c0 : REPORT_CHUNK;
+        }
+        vm__meter_add(mt, weight * (double)cells);
+    }
+}
+
+vm_status vm_quality_report_with(const vm_mesh *m, const vm_quality_options *o,
+                                 vm_quality_summary *q, vm_error *err) {
+    vm_quality_options def;
+    if (!o) {
+        vm_quality_options_init(&def);
+        o = &def;
+    }
+    memset(q, 0, sizeof *q);
+    q->kind = m->kind;
+    vm_status st;
+    if (o->check) {
+        st = check_nodes(m, "quality report", err);
+        if (st) return st;
+        q->check = *o->check;
+    } else {
+        st = vm_mesh_check_with(m, o->progress, o->progress_user, &q->check, err);
+        if (st) return st;
+    }
+    const vm_metric_info *t;
+    size_t nm = vm_quality_metrics(m->kind, &t);
+    if (nm > VM_QUALITY_MAX_METRICS) nm = VM_QUALITY_MAX_METRICS;
+    q->nmetrics = nm;
+    double sum[VM_QUALITY_MAX_METRICS] = {0};
+    int all[VM_QUALITY_MAX_METRICS], autos[VM_QUALITY_MAX_METRICS], auto_range = 0;
+    for (size_t k = 0; k < nm; k++) {
+        vm_metric_stats *s = &q->metrics[k];
+        s->info = &t[k];
+        s->min = INFINITY;
+        s->max = -INFINITY;
+        s->lo = t[k].hist_lo;
+        s->hi = t[k].hist_hi;
+        all[k] = 1;
+        autos[k] = !(s->hi > s->lo);
+        auto_range |= autos[k];
+    }
+    report_job j = {m, t, nm, all, {-1, -1, -1, -1}, -1, -1, -1, q, 0};
+    if (m->kind == VM_TET4) {
+        q->has_abaqus = 1;
+        j.iv = metric_slot(t, nm, "volume_measure");
+        j.ia = metric_slot(t, nm, "min_face_angle");
+        j.ib = metric_slot(t, nm, "max_face_angle");
+        j.as.dmin = metric_slot(t, nm, "min_dihedral");
+        j.as.dmax = metric_slot(t, nm, "max_dihedral");
+        j.as.fmin = j.ia;
+        j.as.fmax = j.ib;
+    }
+    chunk_stats *cs = malloc(REPORT_GROUP * sizeof *cs);
+    if (!cs) return vm_error_set(err, VM_ERR_NOMEM, "quality report: out of memory");
+    vm__meter mt;
+    double second = auto_range ? 0.2 : 0.0;
+    vm__meter_start(&mt, o->progress, o->progress_user, "quality",
+                    (double)m->ncells * (1.0 + second));
+    report_pass(&j, cs, q, sum, &mt, 1.0);
     for (size_t k = 0; k < nm; k++) {
         vm_metric_stats *s = &q->metrics[k];
         if (m->ncells == 0) {
@@ -237,14 +409,13 @@ vm_status vm_quality_report(const vm_mesh *m, vm_quality_summary *q, vm_error *e
         }
     }
     /* Metrics without a fixed range are binned in a second pass over their own range. */
-    if (auto_range && m->ncells)
-        for (size_t c = 0; c < m->ncells; c++) {
-            double p[8][3];
-            cell_points(m, c, nn, p);
-            for (size_t k = 0; k < nm; k++)
-                if (!(t[k].hist_hi > t[k].hist_lo))
-                    add_to_histogram(&q->metrics[k], eval_cell(&t[k], p));
-        }
+    if (auto_range) {
+        j.want = autos;
+        j.bins_only = 1;
+        report_pass(&j, cs, q, sum, &mt, second);
+    }
+    free(cs);
+    vm__meter_end(&mt);
     return VM_OK;
 }
 

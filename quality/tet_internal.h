@@ -7,4 +7,8 @@
  * degenerate tet). */
 void vm__tet_dihedral_range(const double p[4][3], double *min_deg, double *max_deg);
 
+/* Smallest and largest face angle in degrees from one evaluation of the twelve: the values
+ * of vm_tet_min_face_angle and vm_tet_max_face_angle (0 and 180 for a degenerate tet). */
+void vm__tet_face_angle_range(const double p[4][3], double *min_deg, double *max_deg);
+
 #endif

@@ -31,65 +31,82 @@ static double edge_lengths2(const double p[4][3], double l2[6]) {
     return lmax2;
 }
 
-/* Fills the six dihedral angles (degrees); returns 0 when the tet is degenerate (zero
- * volume relative to its size, or non-finite coordinates). */
-static int tet_dihedrals(const double p[4][3], double ang[6]) {
-    double n[4][3], l2[6];
+/* The smallest and largest of n angles between vector pairs (u[i], w[i]) with |u[i]| |w[i]|
+ * = len[i] > 0: the pairs are ranked by their cosines and only the two extremes take an
+ * atan2, unless a cosine is within 1e-6 of +-1, where cosines no longer rank slivers and
+ * every angle is evaluated. The values are those of the smallest and largest vm__angle_deg
+ * (up to a tie within round-off). */
+static void angle_extremes(int n, const double (*u)[3], const double (*w)[3],
+                           const double *len, double *lo, double *hi) {
+    int imin = 0, imax = 0;
+    double cmin = 2.0, cmax = -2.0;
+    for (int i = 0; i < n; i++) {
+        double c = vm__dot3(u[i], w[i]) / len[i];
+        if (c > cmax) {
+            cmax = c;
+            imin = i;
+        }
+        if (c < cmin) {
+            cmin = c;
+            imax = i;
+        }
+    }
+    if (cmax < 1.0 - 1e-6 && cmin > -1.0 + 1e-6) {
+        *lo = vm__angle_deg(u[imin], w[imin]);
+        *hi = vm__angle_deg(u[imax], w[imax]);
+        return;
+    }
+    *lo = 180.0;
+    *hi = 0.0;
+    for (int i = 0; i < n; i++) {
+        double a = vm__angle_deg(u[i], w[i]);
+        if (a < *lo) *lo = a;
+        if (a > *hi) *hi = a;
+    }
+}
+
+void vm__tet_dihedral_range(const double p[4][3], double *min_deg, double *max_deg) {
+    double n[4][3], l2[6], ln[4];
     double lmax2 = edge_lengths2(p, l2);
     double vol6 = 6.0 * vm_tet_signed_volume(p);
-    /* Volume below round-off relative to edge length cubed means the points are coplanar. */
-    if (!isfinite(lmax2) || lmax2 <= 0.0 || fabs(vol6) <= 1e-13 * lmax2 * sqrt(lmax2)) return 0;
+    *min_deg = 0.0;
+    *max_deg = 180.0;
+    /* Degenerate: volume below round-off relative to edge length cubed (coplanar points),
+     * a zero face or a non-finite coordinate. The dihedral angle at the edge shared by two
+     * faces is the angle between one outward normal and the other reversed; the sign of the
+     * volume flips every normal, so it cancels. */
+    if (!isfinite(lmax2) || lmax2 <= 0.0 || fabs(vol6) <= 1e-13 * lmax2 * sqrt(lmax2)) return;
     for (int f = 0; f < 4; f++) {
         double a[3], b[3];
         vm__sub3(p[tet_face[f][1]], p[tet_face[f][0]], a);
         vm__sub3(p[tet_face[f][2]], p[tet_face[f][0]], b);
         vm__cross3(a, b, n[f]);
-        if (!(vm__norm3(n[f]) > 0.0)) return 0;
+        ln[f] = vm__norm3(n[f]);
+        if (!(ln[f] > 0.0)) return;
     }
-    /* The dihedral angle at the edge shared by two faces is pi minus the angle between their
-     * outward normals, i.e. the angle between one normal and the other reversed; the sign of
-     * the volume flips every normal, so it cancels. atan2 keeps slivers accurate. */
+    double u[6][3], w[6][3], len[6];
     int k = 0;
     for (int f = 0; f < 4; f++)
         for (int g = f + 1; g < 4; g++) {
-            double ng[3] = {-n[g][0], -n[g][1], -n[g][2]};
-            ang[k++] = vm__angle_deg(n[f], ng);
+            for (int d = 0; d < 3; d++) {
+                u[k][d] = n[f][d];
+                w[k][d] = -n[g][d];
+            }
+            len[k++] = ln[f] * ln[g];
         }
-    return 1;
-}
-
-void vm__tet_dihedral_range(const double p[4][3], double *min_deg, double *max_deg) {
-    double a[6];
-    if (!tet_dihedrals(p, a)) {
-        *min_deg = 0.0;
-        *max_deg = 180.0;
-        return;
-    }
-    double lo = a[0], hi = a[0];
-    for (int i = 1; i < 6; i++) {
-        if (a[i] < lo) lo = a[i];
-        if (a[i] > hi) hi = a[i];
-    }
-    *min_deg = lo;
-    *max_deg = hi;
+    angle_extremes(6, (const double(*)[3])u, (const double(*)[3])w, len, min_deg, max_deg);
 }
 
 double vm_tet_min_dihedral(const double p[4][3]) {
-    double a[6];
-    if (!tet_dihedrals(p, a)) return 0.0;
-    double m = a[0];
-    for (int i = 1; i < 6; i++)
-        if (a[i] < m) m = a[i];
-    return m;
+    double lo, hi;
+    vm__tet_dihedral_range(p, &lo, &hi);
+    return lo;
 }
 
 double vm_tet_max_dihedral(const double p[4][3]) {
-    double a[6];
-    if (!tet_dihedrals(p, a)) return 180.0;
-    double m = a[0];
-    for (int i = 1; i < 6; i++)
-        if (a[i] > m) m = a[i];
-    return m;
+    double lo, hi;
+    vm__tet_dihedral_range(p, &lo, &hi);
+    return hi;
 }
 
 double vm_tet_scaled_jacobian(const double p[4][3]) {
@@ -164,39 +181,34 @@ double vm_tet_edge_ratio(const double p[4][3]) {
     return vm__cap_ratio(sqrt(lmax2 / lmin2), VM_QUALITY_HUGE);
 }
 
-/* The twelve face angles; returns 0 when an edge has zero length or a coordinate is not
- * finite. */
-static int face_angles(const double p[4][3], double ang[12]) {
+void vm__tet_face_angle_range(const double p[4][3], double *min_deg, double *max_deg) {
+    double u[12][3], w[12][3], len[12];
+    *min_deg = 0.0;
+    *max_deg = 180.0;
     int k = 0;
     for (int f = 0; f < 4; f++)
         for (int i = 0; i < 3; i++) {
             const double *o = p[tet_face[f][i]];
-            double a[3], b[3];
-            vm__sub3(p[tet_face[f][(i + 1) % 3]], o, a);
-            vm__sub3(p[tet_face[f][(i + 2) % 3]], o, b);
-            double la = vm__dot3(a, a), lb = vm__dot3(b, b);
-            if (!(la > 0.0) || !(lb > 0.0) || !isfinite(la) || !isfinite(lb)) return 0;
-            ang[k++] = vm__angle_deg(a, b);
+            vm__sub3(p[tet_face[f][(i + 1) % 3]], o, u[k]);
+            vm__sub3(p[tet_face[f][(i + 2) % 3]], o, w[k]);
+            double la = vm__dot3(u[k], u[k]), lb = vm__dot3(w[k], w[k]);
+            /* An edge of zero length or a non-finite coordinate: degenerate. */
+            if (!(la > 0.0) || !(lb > 0.0) || !isfinite(la) || !isfinite(lb)) return;
+            len[k++] = sqrt(la * lb);
         }
-    return 1;
+    angle_extremes(12, (const double(*)[3])u, (const double(*)[3])w, len, min_deg, max_deg);
 }
 
 double vm_tet_min_face_angle(const double p[4][3]) {
-    double a[12];
-    if (!face_angles(p, a)) return 0.0;
-    double m = a[0];
-    for (int i = 1; i < 12; i++)
-        if (a[i] < m) m = a[i];
-    return m;
+    double lo, hi;
+    vm__tet_face_angle_range(p, &lo, &hi);
+    return lo;
 }
 
 double vm_tet_max_face_angle(const double p[4][3]) {
-    double a[12];
-    if (!face_angles(p, a)) return 180.0;
-    double m = a[0];
-    for (int i = 1; i < 12; i++)
-        if (a[i] > m) m = a[i];
-    return m;
+    double lo, hi;
+    vm__tet_face_angle_range(p, &lo, &hi);
+    return hi;
 }
 
 double vm_tet_volume_measure(const double p[4][3]) {

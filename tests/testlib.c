@@ -133,6 +133,26 @@ int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
     if (st == VM_OK) {
         double lo, hi, mean; /* touch every voxel so a short allocation shows under ASan */
         vm_volume_stats(&v, &lo, &hi, &mean);
+        /* A file read whole also reads by slabs: header, then the upper half, same values. */
+        vm_volume info, s;
+        vm_status si = vm_volume_read_info(path, &info, &err);
+        if (si == VM_OK) {
+            if (memcmp(info.dims, v.dims, sizeof v.dims) != 0 || info.data) abort();
+            int64_t z0 = v.dims[2] / 2;
+            if (vm_volume_read_slab(path, z0, v.dims[2], &s, &err) != VM_OK) {
+                fprintf(stderr, "slab read failed: %s\n", err.message);
+                abort();
+            }
+            size_t plane = (size_t)v.dims[0] * (size_t)v.dims[1];
+            if (s.dims[2] != v.dims[2] - z0 ||
+                memcmp(s.data, v.data + plane * (size_t)z0,
+                       plane * (size_t)s.dims[2] * sizeof(float)) != 0)
+                abort();
+            vm_volume_free(&s);
+        } else if (si != VM_ERR_UNSUPPORTED) {
+            fprintf(stderr, "header read failed: %s\n", err.message);
+            abort();
+        }
         vm_volume_free(&v);
     } else {
         fuzz_refusal(ext, st, &err);

@@ -27,6 +27,30 @@ vm_status vm_volume_read_vti(const char *path, vm_volume *v, vm_error *err);
 vm_status vm_volume_read_raw(const char *path, const vm_raw_options *opt, vm_volume *v,
                              vm_error *err);
 
+/* ---- Reading by slabs -----------------------------------------------------------------
+ *
+ * For volumes larger than memory, or one slab per MPI rank. vm_volume_read_info reads only
+ * the header: [out] v has the whole volume's dims, type, geometry and format, data NULL
+ * (vm_volume_free is still fine). vm_volume_read_slab reads planes z0 <= k < z1 (0 <= z0 <
+ * z1 <= nz, else VM_ERR_ARG "PATH: slab of planes ... is outside ..."): [out] v is a volume
+ * of dims nx, ny, z1 - z0 whose origin is the world position of voxel (0, 0, z0) of the whole
+ * volume (same spacing, direction, type, format), free with vm_volume_free. Only the slab's
+ * floats are allocated (checked against the memory limit, not the whole volume's size):
+ * uncompressed data is read by seeking (files are mapped, pages given back once read), gzip
+ * and zlib data by streaming inflate that discards what precedes z0, ASCII by a streaming
+ * parse. VTI base64 (inline or appended) and VTI zlib blocks are decoded whole, then cut
+ * (docs/FORMATS.md). The file's consistency (size against the header) is checked as in a
+ * whole read; values and compressed data after the slab are not read. Slabs concatenated
+ * along z equal vm_volume_read, value for value. */
+vm_status vm_volume_read_info(const char *path, vm_volume *v, vm_error *err);
+vm_status vm_volume_read_slab(const char *path, int64_t z0, int64_t z1, vm_volume *v,
+                              vm_error *err);
+/* The same for a headerless raw file described by opt. */
+vm_status vm_volume_read_raw_info(const char *path, const vm_raw_options *opt, vm_volume *v,
+                                  vm_error *err);
+vm_status vm_volume_read_raw_slab(const char *path, const vm_raw_options *opt, int64_t z0,
+                                  int64_t z1, vm_volume *v, vm_error *err);
+
 /* Writes v as NRRD (attached data, float32 samples, little endian); gzip != 0 compresses. */
 vm_status vm_volume_write_nrrd(const char *path, const vm_volume *v, int gzip, vm_error *err);
 
@@ -77,6 +101,8 @@ typedef struct vm_mesh_write_options {
                               one shared mid-edge node per edge */
     vm_deck_kind deck;     /* INP only (default VM_DECK_NONE) */
     int compress;          /* VTU: zlib-compress arrays (default 1) */
+    vm_progress_fn progress; /* stage "write" (every format but Exodus); may be NULL */
+    void *progress_user;
 } vm_mesh_write_options;
 
 /* Fills o with the defaults above. [out] o. */

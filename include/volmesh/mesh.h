@@ -19,6 +19,11 @@ typedef int64_t vm_index;
 typedef int32_t vm_index;
 #endif
 
+/* Progress callback: stage name, work done out of total (done only grows and ends equal to
+ * total). Called from the calling thread, a few hundred times per stage at most. Used by the
+ * mesher, the quality pass, the writers and the checks. */
+typedef void (*vm_progress_fn)(const char *stage, double done, double total, void *user);
+
 /* Element kinds, valued as VTK cell type ids. */
 typedef enum vm_cell_kind {
     VM_TRI3 = 5,

@@ -14,9 +14,6 @@
 extern "C" {
 #endif
 
-/* Progress callback: stage name, work done out of total. Called from the meshing thread. */
-typedef void (*vm_progress_fn)(const char *stage, double done, double total, void *user);
-
 typedef struct vm_mesh_options {
     double lo, hi;          /* material bounds */
     int has_lo, has_hi;     /* which bounds apply (at least one must) */

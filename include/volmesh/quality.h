@@ -239,6 +239,10 @@ typedef struct vm_mesh_report {
  * (VM_ERR_ARG). */
 vm_status vm_mesh_check(const vm_mesh *m, vm_mesh_report *r, vm_error *err);
 
+/* vm_mesh_check with a progress callback (stage "check"; may be NULL). */
+vm_status vm_mesh_check_with(const vm_mesh *m, vm_progress_fn progress, void *user,
+                             vm_mesh_report *r, vm_error *err);
+
 /* Extracts the boundary faces of a volume mesh as a surface mesh (tri3 for tets, quad4 for
  * hexes) with outward orientation, sharing no storage with m. [out] surf. Each face carries
  * the region of its cell. Only points used by boundary faces are kept, renumbered in their
@@ -286,6 +290,21 @@ typedef struct vm_quality_summary {
  * tets the ABAQUS check. Time O(cells * metrics): about 1.5 s for a million tets.
  * [out] q. Errors as vm_mesh_check. */
 vm_status vm_quality_report(const vm_mesh *m, vm_quality_summary *q, vm_error *err);
+
+typedef struct vm_quality_options {
+    const vm_mesh_report *check; /* vm_mesh_check(m) already run by the caller, copied into
+                                    q->check instead of checking again; NULL: check here */
+    vm_progress_fn progress;     /* stages "check" then "quality"; may be NULL */
+    void *progress_user;
+} vm_quality_options;
+
+/* Fills o with the defaults (no check given, no progress). [out] o. */
+void vm_quality_options_init(vm_quality_options *o);
+
+/* vm_quality_report with options (o may be NULL). The metrics run on threads in blocks and
+ * are summed in cell order, so q is the same for any thread count. */
+vm_status vm_quality_report_with(const vm_mesh *m, const vm_quality_options *o,
+                                 vm_quality_summary *q, vm_error *err);
 
 /* The value of a report key for --require style checks. Keys: the top-level numeric keys
  * of vm_quality_write_json (elements, points, inverted, degenerate, overshared_faces,

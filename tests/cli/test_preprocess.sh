@@ -99,6 +99,10 @@ expect_input_error "denoise missing file" "no-such.nrrd" "$CLI" denoise no-such.
 expect_input_error "denoise unknown method" "median" "$CLI" denoise ball.nrrd -o out.nrrd \
     --method median
 expect_input_error "denoise output not NRRD" "out.vti" "$CLI" denoise ball.nrrd -o out.vti
+# the extension's case does not matter, as for every reader and writer
+if "$CLI" denoise ball.nrrd -o upper.NRRD >/dev/null 2>&1 && [ -s upper.NRRD ] &&
+    "$CLI" info upper.NRRD >/dev/null 2>&1; then pass; else fail "denoise -o upper.NRRD"; fi
+rm -f upper.NRRD
 expect_input_error "denoise negative sigma" "--sigma-space" "$CLI" denoise ball.nrrd -o out.nrrd \
     --sigma-space -1
 expect_input_error "denoise bad number" "--sigma-range" "$CLI" denoise ball.nrrd -o out.nrrd \

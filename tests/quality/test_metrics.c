@@ -255,7 +255,94 @@ static void hexScaledJacobianIncludesTheCentre(void) {
           vm_hex_min_scaled_jacobian((const double(*)[3])tw));
 }
 
-TEST_MAIN(T(tetMetricsMatchGoldenValues), T(hexMetricsMatchGoldenValues),
+
+/* All six dihedral and twelve face angles of a tet by atan2, the slow and plain way. */
+static void all_angles(const double p[4][3], double dih[6], double face[12]) {
+    static const int fc[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    double n[4][3];
+    int k = 0;
+    for (int f = 0; f < 4; f++) {
+        double a[3], b[3];
+        for (int d = 0; d < 3; d++) {
+            a[d] = p[fc[f][1]][d] - p[fc[f][0]][d];
+            b[d] = p[fc[f][2]][d] - p[fc[f][0]][d];
+        }
+        n[f][0] = a[1] * b[2] - a[2] * b[1];
+        n[f][1] = a[2] * b[0] - a[0] * b[2];
+        n[f][2] = a[0] * b[1] - a[1] * b[0];
+        for (int i = 0; i < 3; i++) {
+            const double *o = p[fc[f][i]], *q1 = p[fc[f][(i + 1) % 3]], *q2 = p[fc[f][(i + 2) % 3]];
+            double u[3] = {q1[0] - o[0], q1[1] - o[1], q1[2] - o[2]};
+            double w[3] = {q2[0] - o[0], q2[1] - o[1], q2[2] - o[2]};
+            double c[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                           u[0] * w[1] - u[1] * w[0]};
+            face[k++] = atan2(sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
+                              u[0] * w[0] + u[1] * w[1] + u[2] * w[2]) * 57.29577951308232;
+        }
+    }
+    k = 0;
+    for (int f = 0; f < 4; f++)
+        for (int g = f + 1; g < 4; g++) {
+            const double *u = n[f];
+            double w[3] = {-n[g][0], -n[g][1], -n[g][2]};
+            double c[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                           u[0] * w[1] - u[1] * w[0]};
+            dih[k++] = atan2(sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
+                             u[0] * w[0] + u[1] * w[1] + u[2] * w[2]) * 57.29577951308232;
+        }
+}
+
+/* The angle metrics rank the angles by cosine and take atan2 of the extremes only; on random
+ * tets, flattened slivers down to 1e-12 thick, needles and caps they must still give the
+ * smallest and largest of all the angles. */
+static void angleExtremesMatchEveryAngleOnRandomSliverAndNeedleTets(void) {
+    unsigned r = 7u;
+    int checked = 0;
+    for (int it = 0; it < 20000; it++) {
+        double p[4][3];
+        for (int i = 0; i < 4; i++)
+            for (int d = 0; d < 3; d++) {
+                r = r * 1664525u + 1013904223u;
+                p[i][d] = (double)(r >> 8) / 16777216.0;
+            }
+        int mode = it % 4;
+        double flat = pow(10.0, -(double)(it % 13)); /* 1 .. 1e-12 */
+        if (mode == 1)
+            for (int i = 0; i < 4; i++) p[i][2] = 0.5 + flat * (p[i][2] - 0.5); /* sliver */
+        if (mode == 2)
+            for (int i = 0; i < 4; i++) { /* needle along x */
+                p[i][1] = 0.5 + flat * (p[i][1] - 0.5);
+                p[i][2] = 0.5 + flat * (p[i][2] - 0.5);
+            }
+        if (mode == 3) /* cap: node 3 near the opposite face's plane centre */
+            for (int d = 0; d < 3; d++)
+                p[3][d] = (p[0][d] + p[1][d] + p[2][d]) / 3.0 + flat * (p[3][d] - 0.5);
+        double dih[6], face[12];
+        all_angles((const double(*)[3])p, dih, face);
+        double dlo = 180, dhi = 0, flo = 180, fhi = 0;
+        for (int i = 0; i < 6; i++) dlo = fmin(dlo, dih[i]), dhi = fmax(dhi, dih[i]);
+        for (int i = 0; i < 12; i++) flo = fmin(flo, face[i]), fhi = fmax(fhi, face[i]);
+        double got_dlo = vm_tet_min_dihedral((const double(*)[3])p);
+        double got_dhi = vm_tet_max_dihedral((const double(*)[3])p);
+        double got_flo = vm_tet_min_face_angle((const double(*)[3])p);
+        double got_fhi = vm_tet_max_face_angle((const double(*)[3])p);
+        /* The metric calls a tet degenerate (0 / 180) below a volume threshold: skip those. */
+        if (got_dlo == 0.0 && got_dhi == 180.0) continue;
+        checked++;
+        double tol = 1e-9 * fmax(1.0, dlo);
+        CHECK_MSG(fabs(got_dlo - dlo) <= tol && fabs(got_dhi - dhi) <= 1e-9 * 180,
+                  "tet %d (mode %d, flat %g): dihedral %.17g..%.17g, all angles give %.17g..%.17g",
+                  it, mode, flat, got_dlo, got_dhi, dlo, dhi);
+        CHECK_MSG(fabs(got_flo - flo) <= 1e-9 * fmax(1.0, flo) && fabs(got_fhi - fhi) <= 1e-9 * 180,
+                  "tet %d (mode %d, flat %g): face %.17g..%.17g, all angles give %.17g..%.17g",
+                  it, mode, flat, got_flo, got_fhi, flo, fhi);
+        if (vm_test_failures > 5) return;
+    }
+    CHECK(checked > 15000);
+}
+
+TEST_MAIN(T(angleExtremesMatchEveryAngleOnRandomSliverAndNeedleTets),
+         T(tetMetricsMatchGoldenValues), T(hexMetricsMatchGoldenValues),
           T(triangleMetricsMatchGoldenValues), T(quadMetricsMatchGoldenValues),
           T(metricsNeverReturnNaNOrLeaveTheirRange), T(shapeMetricsIgnoreRigidMotionAndScale),
           T(metricTablesAreConsistent), T(hexScaledJacobianIncludesTheCentre))

@@ -336,8 +336,181 @@ static void surfaceReportUsesTriangleMetrics(void) {
     vm_mesh_free(&m);
 }
 
+
+/* --- big meshes: blocks on threads against a plain loop ---------------------------------- */
+
+/* A noisy genus-3 mesh without the quality pass (tens of thousands of tets: several report
+ * blocks), with some points pushed so that slivers, ABAQUS failures and inverted tets occur. */
+static void rough_mesh(vm_mesh *m, vm_cell_kind kind) {
+    vm_volume v;
+    vm_error err;
+    vm_mesh_options o;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_GENUS3, kind == VM_TET4 ? 64 : 48, 0.3, 5, &v, NULL, &err),
+             &err);
+    vm_mesh_options_default(&o);
+    o.elements = kind;
+    CHECK_OK(vm_mesh_volume(&v, &o, m, NULL, &err), &err);
+    vm_volume_free(&v);
+    unsigned r = 12345u;
+    for (size_t i = 0; i < m->npoints; i += 97) {
+        for (int d = 0; d < 3; d++) {
+            r = r * 1103515245u + 12345u;
+            m->points[3 * i + (size_t)d] += 0.6 * ((double)(r >> 8) / 16777216.0 - 0.5);
+        }
+    }
+}
+
+/* The summary computed the plain way: each metric function over the cells in order. */
+static void plain_summary(const vm_mesh *m, vm_quality_summary *q) {
+    vm_error err;
+    memset(q, 0, sizeof *q);
+    q->kind = m->kind;
+    CHECK_OK(vm_mesh_check(m, &q->check, &err), &err);
+    const vm_metric_info *t;
+    size_t nm = vm_quality_metrics(m->kind, &t);
+    q->nmetrics = nm;
+    int nn = vm_cell_nodes(m->kind);
+    for (size_t k = 0; k < nm; k++) {
+        vm_metric_stats *s = &q->metrics[k];
+        s->info = &t[k];
+        s->min = INFINITY;
+        s->max = -INFINITY;
+        double sum = 0.0;
+        for (int pass = 0; pass < 2; pass++) {
+            if (pass == 1) {
+                s->lo = t[k].hist_lo;
+                s->hi = t[k].hist_hi;
+                if (!(s->hi > s->lo)) {
+                    s->lo = s->min;
+                    s->hi = s->max > s->min ? s->max : s->min + 1.0;
+                }
+            }
+            for (size_t c = 0; c < m->ncells; c++) {
+                double p[8][3];
+                for (int i = 0; i < nn; i++)
+                    memcpy(p[i], m->points + 3 * (size_t)m->cells[c * (size_t)nn + (size_t)i],
+                           sizeof p[i]);
+                double x = t[k].eval((const double(*)[3])p);
+                if (pass == 0) {
+                    sum += x;
+                    if (x < s->min) {
+                        s->min = x;
+                        s->argmin = c;
+                    }
+                    if (x > s->max) {
+                        s->max = x;
+                        s->argmax = c;
+                    }
+                    continue;
+                }
+                double w = (s->hi - s->lo) / VM_QUALITY_BINS;
+                long b = x < s->lo ? 0 : x > s->hi ? VM_QUALITY_BINS - 1 : (long)((x - s->lo) / w);
+                if (b >= VM_QUALITY_BINS) b = VM_QUALITY_BINS - 1;
+                if (b < 0) b = 0;
+                s->bins[b]++;
+                s->below += x < s->lo;
+                s->above += x > s->hi;
+            }
+        }
+        s->mean = sum / (double)m->ncells;
+    }
+}
+
+static void reportOnThreadsEqualsThePlainLoopForAnyThreadCount(void) {
+    vm_cell_kind kinds[2] = {VM_TET4, VM_HEX8};
+    for (int ki = 0; ki < 2; ki++) {
+        vm_mesh m;
+        vm_error err;
+        rough_mesh(&m, kinds[ki]);
+        if (kinds[ki] == VM_TET4) /* two blocks of 16384 and a part */
+            CHECK_MSG(m.ncells > 32768, "%zu cells", m.ncells);
+        vm_quality_summary plain, first;
+        plain_summary(&m, &plain);
+        int before = vm_set_threads(1);
+        int counts[3] = {1, 2, 3};
+        for (int ti = 0; ti < 3; ti++) {
+            vm_set_threads(counts[ti]);
+            vm_quality_summary q;
+            CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+            CHECK(q.check.inverted > 0);
+            for (size_t k = 0; k < q.nmetrics; k++) {
+                const vm_metric_stats *a = &q.metrics[k], *b = &plain.metrics[k];
+                CHECK_MSG(a->min == b->min && a->max == b->max && a->argmin == b->argmin &&
+                              a->argmax == b->argmax,
+                          "%s: min %.17g/%.17g max %.17g/%.17g", a->info->name, a->min, b->min,
+                          a->max, b->max);
+                CHECK_MSG(fabs(a->mean - b->mean) <= 1e-12 * fmax(1.0, fabs(b->mean)),
+                          "%s: mean %.17g, plain %.17g", a->info->name, a->mean, b->mean);
+                CHECK(a->lo == b->lo && a->hi == b->hi && a->below == b->below &&
+                      a->above == b->above);
+                CHECK_MSG(memcmp(a->bins, b->bins, sizeof a->bins) == 0, "%s: histogram differs",
+                          a->info->name);
+            }
+            if (ti == 0)
+                first = q;
+            else
+                CHECK_MSG(memcmp(&q, &first, sizeof q) == 0, "%d threads: summary differs",
+                          counts[ti]);
+        }
+        if (kinds[ki] == VM_TET4) CHECK(first.abaqus_failures > 0);
+        vm_set_threads(before);
+        vm_mesh_free(&m);
+    }
+}
+
+typedef struct progress_log {
+    char stages[8][16];
+    int nstages;
+    double last;
+    int backwards, ended;
+} progress_log;
+
+static void log_progress(const char *stage, double done, double total, void *user) {
+    progress_log *pl = user;
+    if (pl->nstages == 0 || strcmp(pl->stages[pl->nstages - 1], stage) != 0) {
+        if (pl->nstages < 8) snprintf(pl->stages[pl->nstages++], 16, "%s", stage);
+        pl->last = -1.0;
+    }
+    if (done < pl->last) pl->backwards++;
+    pl->last = done;
+    if (done >= total) pl->ended++;
+}
+
+static void reportReusesAGivenCheckAndShowsProgressForEachStage(void) {
+    vm_mesh m;
+    vm_error err;
+    rough_mesh(&m, VM_TET4);
+    vm_quality_summary full, reused;
+    progress_log pl = {0};
+    vm_quality_options o;
+    vm_quality_options_init(&o);
+    o.progress = log_progress;
+    o.progress_user = &pl;
+    CHECK_OK(vm_quality_report_with(&m, &o, &full, &err), &err);
+    CHECK(pl.nstages == 2 && strcmp(pl.stages[0], "check") == 0 &&
+          strcmp(pl.stages[1], "quality") == 0);
+    CHECK(pl.backwards == 0 && pl.ended == 2);
+    vm_mesh_report r;
+    progress_log pc = {0};
+    CHECK_OK(vm_mesh_check_with(&m, log_progress, &pc, &r, &err), &err);
+    CHECK(pc.nstages == 1 && pc.backwards == 0 && pc.ended == 1);
+    CHECK(memcmp(&r, &full.check, sizeof r) == 0);
+    memset(&pl, 0, sizeof pl);
+    o.check = &r;
+    CHECK_OK(vm_quality_report_with(&m, &o, &reused, &err), &err);
+    CHECK(pl.nstages == 1 && strcmp(pl.stages[0], "quality") == 0 && pl.ended == 1);
+    CHECK(memcmp(&reused, &full, sizeof full) == 0);
+    /* A given check does not excuse a bad node index. */
+    m.cells[5] = (vm_index)m.npoints;
+    CHECK(vm_quality_report_with(&m, &o, &reused, &err) == VM_ERR_ARG);
+    CHECK(strstr(err.message, "node") != NULL);
+    vm_mesh_free(&m);
+}
+
 TEST_MAIN(T(reportOfKuhnCubeHasExactStatistics), T(sliversAndAbaqusFailuresAreCounted),
           T(hexReportHasNoDihedralsOrAbaqus), T(emptyMeshReportsZeros),
           T(badNodeIndexIsAnError), T(writersProduceTheDocumentedKeysAndFiles),
           T(qualityFieldsHoldEachCellsMetric), T(qualityFieldsRespectTheMemoryLimit),
-          T(surfaceReportUsesTriangleMetrics))
+          T(surfaceReportUsesTriangleMetrics),
+          T(reportOnThreadsEqualsThePlainLoopForAnyThreadCount),
+          T(reportReusesAGivenCheckAndShowsProgressForEachStage))
