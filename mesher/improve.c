@@ -190,7 +190,24 @@ static int mesh_figures(const double *pts, const vm_index *cells, size_t n, figu
 
 /* --- setting up the working mesh --------------------------------------------------------- */
 
+/* Frees what only the rounds need (stars, qualities, the guard, scratch), before writing
+ * back, so the output arrays do not come on top of them. */
+static void imp_free_rounds(vm__imp *w) {
+    if (w->star)
+        for (size_t i = 0; i < w->npt; i++) free(w->star[i].t);
+    free(w->star);
+    w->star = NULL;
+    free(w->q);
+    w->q = NULL;
+    free(w->buf);
+    w->buf = NULL;
+    free(w->touched);
+    w->touched = NULL;
+    vm__imp_guard_free(w);
+}
+
 static void imp_free(vm__imp *w) {
+    imp_free_rounds(w);
     free(w->tet);
     free(w->region);
     free(w->parent);
@@ -198,19 +215,14 @@ static void imp_free(vm__imp *w) {
     free(w->dead);
     free(w->p);
     free(w->p0);
+    free(w->ci);
     free(w->cls);
     free(w->planes);
     free(w->iso_hi);
     free(w->pdead);
     free(w->nrm);
     free(w->bound);
-    if (w->star)
-        for (size_t i = 0; i < w->npt; i++) free(w->star[i].t);
-    free(w->star);
-    free(w->buf);
-    free(w->touched);
     free(w->bfaces);
-    vm__imp_guard_free(w);
 }
 
 static int invert3(double A[3][3], double B[3][3]) {
@@ -303,7 +315,7 @@ static int interface_plane(vm__imp *w, size_t i) {
     for (int f = 0; f < nf; f++)
         if (fn[f][0] * sum[0] + fn[f][1] * sum[1] + fn[f][2] * sum[2] < 0.90630778703665)
             return 0; /* more than 25 degrees off (cos 25 degrees) */
-    memcpy(w->nrm + 3 * i, sum, sizeof sum);
+    memcpy(vm__imp_nrm(w, (vm_index)i), sum, sizeof sum);
     return 1;
 }
 
@@ -378,30 +390,29 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
     w->s_fmax = 30.0;
     w->rng = o->seed ? o->seed : 1u;
     w->npt = np;
-    w->tet_cap = nt + nt / 8 + 1024;
+    /* The pass mostly removes tets; the few flips add are appended (growing by half). */
+    w->tet_cap = nt + nt / 64 + 1024;
     w->tet = malloc(4 * w->tet_cap * sizeof *w->tet);
     w->region = malloc(w->tet_cap * sizeof *w->region);
-    w->parent = malloc(w->tet_cap * sizeof *w->parent);
+    /* which input tet each tet descends from: only to carry cell fields */
+    w->parent = m->ncell_fields ? malloc(w->tet_cap * sizeof *w->parent) : NULL;
     w->q = malloc(w->tet_cap * sizeof *w->q);
     w->dead = calloc(w->tet_cap, 1);
     w->p = malloc(3 * np * sizeof *w->p);
-    w->p0 = malloc(3 * np * sizeof *w->p0);
+    w->ci = malloc((np + 1) * sizeof *w->ci);
     w->cls = calloc(np, 1);
     w->planes = calloc(np, 1);
     w->iso_hi = calloc(np, 1);
     w->pdead = calloc(np, 1);
-    w->nrm = calloc(3 * np, sizeof *w->nrm);
-    w->bound = calloc(np, sizeof *w->bound);
     w->star = calloc(np, sizeof *w->star);
-    if (!w->tet || !w->region || !w->parent || !w->q || !w->dead || !w->p || !w->p0 ||
-        !w->cls || !w->planes || !w->iso_hi || !w->pdead || !w->nrm || !w->bound || !w->star)
+    if (!w->tet || !w->region || (m->ncell_fields && !w->parent) || !w->q || !w->dead ||
+        !w->p || !w->ci || !w->cls || !w->planes || !w->iso_hi || !w->pdead || !w->star)
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for %zu tets", nt);
     memcpy(w->p, m->points, 3 * np * sizeof *w->p);
-    memcpy(w->p0, m->points, 3 * np * sizeof *w->p0);
     memcpy(w->tet, m->cells, 4 * nt * sizeof *w->tet);
     for (size_t t = 0; t < nt; t++) {
         w->region[t] = m->region ? m->region[t] : 0;
-        w->parent[t] = (vm_index)t;
+        if (w->parent) w->parent[t] = (vm_index)t;
     }
     w->ntet = nt;
     /* Stars, sized exactly. */
@@ -474,6 +485,32 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
         free(boxmask);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
+    /* The vertices that may be constrained: on a boundary face, or between regions. */
+    for (size_t e = 0; e < w->nbfaces; e++) {
+        const vm_index *n = w->tet + 4 * (w->bfaces[e] / 4);
+        int f = (int)(w->bfaces[e] % 4);
+        for (int k = 0; k < 3; k++) bnd[n[fo[f][k]]] = 1;
+    }
+    size_t nc = 0;
+    for (size_t i = 0; i < np; i++) {
+        int mixed = 0;
+        const vm__imp_star *s = &w->star[i];
+        for (int32_t j = 1; j < s->n && !mixed; j++)
+            mixed = w->region[s->t[j]] != w->region[s->t[0]];
+        w->ci[i] = bnd[i] || mixed ? (int32_t)nc++ : -1;
+    }
+    w->p0 = malloc((3 * nc + 1) * sizeof *w->p0);
+    w->nrm = calloc(3 * nc + 1, sizeof *w->nrm);
+    w->bound = calloc(nc + 1, sizeof *w->bound);
+    if (!w->p0 || !w->nrm || !w->bound) {
+        free(bnd);
+        free(nonbox);
+        free(boxmask);
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    for (size_t i = 0; i < np; i++)
+        if (w->ci[i] >= 0)
+            memcpy(w->p0 + 3 * (size_t)w->ci[i], w->p + 3 * i, 3 * sizeof *w->p0);
     for (size_t e = 0; e < w->nbfaces; e++) {
         size_t t = w->bfaces[e] / 4;
         int f = (int)(w->bfaces[e] % 4);
@@ -494,14 +531,17 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
             bnd[c[k]] = 1;
             if (common) boxmask[c[k]] |= common;
             else nonbox[c[k]] = 1;
-            for (int j = 0; j < 3; j++) w->nrm[3 * (size_t)c[k] + j] += nn[j];
+            double *nk = vm__imp_nrm(w, c[k]);
+            for (int j = 0; j < 3; j++) nk[j] += nn[j];
         }
     }
     for (size_t i = 0; i < np; i++) {
-        double *nn = w->nrm + 3 * i;
-        double l = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
-        if (l > 0.0)
-            for (int k = 0; k < 3; k++) nn[k] /= l;
+        if (w->ci[i] >= 0) {
+            double *nn = vm__imp_nrm(w, (vm_index)i);
+            double l = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
+            if (l > 0.0)
+                for (int k = 0; k < 3; k++) nn[k] /= l;
+        }
         int regions_mixed = 0;
         const vm__imp_star *s = &w->star[i];
         for (int32_t j = 1; j < s->n; j++)
@@ -518,14 +558,14 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
             w->cls[i] = VM__IMP_FLAT;
         else w->cls[i] = VM__IMP_FIXED;
         if (w->cls[i] == VM__IMP_IFACE)
-            w->bound[i] = o->max_interface_move * shortest_edge(w, i);
+            w->bound[w->ci[i]] = o->max_interface_move * shortest_edge(w, i);
         if (w->cls[i] == VM__IMP_SURF) {
             if (v) {
                 double ijk[3];
                 vm__imp_to_index(w, w->p + 3 * i, ijk);
                 double f = field_at(v, ijk);
                 w->iso_hi[i] = w->has_hi && (!w->has_lo || fabs(f - w->hi) < fabs(f - w->lo));
-                w->bound[i] = o->max_surface_move;
+                w->bound[w->ci[i]] = o->max_surface_move;
             } else {
                 double L = INFINITY;
                 for (int32_t j = 0; j < s->n; j++)
@@ -537,7 +577,7 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
                                    (pa[2] - pb[2]) * (pa[2] - pb[2]);
                         if (d > 0.0 && d < L) L = d;
                     }
-                w->bound[i] = isfinite(L) ? o->max_surface_move_free * sqrt(L) : 0.0;
+                w->bound[w->ci[i]] = isfinite(L) ? o->max_surface_move_free * sqrt(L) : 0.0;
             }
         }
     }
@@ -755,11 +795,11 @@ static vm_status write_back(vm__imp *w, vm_mesh *m, const vm_improve_options *o,
     /* Points keep their input order. */
     for (size_t i = 0; i < w->npt; i++)
         if (map[i] >= 0) map[i] = (vm_index)np++;
-    vm_index *par = malloc((nt + 1) * sizeof *par);
+    vm_index *par = m->ncell_fields ? malloc((nt + 1) * sizeof *par) : NULL;
     size_t npf = m->npoint_fields;
     double **pf_new = calloc(npf + 1, sizeof *pf_new);
     double **cf_new = calloc(m->ncell_fields + 1, sizeof *cf_new);
-    int fail = !par || !cf_new || !pf_new;
+    int fail = (m->ncell_fields && !par) || !cf_new || !pf_new;
     for (size_t f = 0; f < npf; f++) {
         pf_new[f] = fail ? NULL : malloc((np + 1) * (size_t)m->point_fields[f].ncomp * sizeof(double));
         if (!pf_new[f]) fail = 1;
@@ -797,7 +837,7 @@ static vm_status write_back(vm__imp *w, vm_mesh *m, const vm_improve_options *o,
         if (w->dead[t]) continue;
         for (int k = 0; k < 4; k++) m->cells[4 * c + k] = map[w->tet[4 * t + k]];
         m->region[c] = w->region[t];
-        par[c] = w->parent[t];
+        if (par) par[c] = w->parent[t];
         c++;
     }
     for (size_t f = 0; f < m->ncell_fields; f++) {
@@ -872,23 +912,25 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
         for (size_t i = 0; i < w.npt; i++) {
             if (!w.pdead[i] && w.cls[i] == VM__IMP_IFACE) {
                 double d[3];
-                for (int k = 0; k < 3; k++) d[k] = w.p[3 * i + k] - w.p0[3 * i + k];
+                const double *q0 = vm__imp_p0(&w, (vm_index)i);
+                for (int k = 0; k < 3; k++) d[k] = w.p[3 * i + k] - q0[k];
                 double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
                 if (l > maxiface) maxiface = l;
             }
             if (w.pdead[i] || w.cls[i] != VM__IMP_SURF) continue;
             double d[3], x0[3], x1[3];
             if (v) {
-                vm__imp_to_index(&w, w.p0 + 3 * i, x0);
+                vm__imp_to_index(&w, vm__imp_p0(&w, (vm_index)i), x0);
                 vm__imp_to_index(&w, w.p + 3 * i, x1);
             } else {
-                memcpy(x0, w.p0 + 3 * i, sizeof x0);
+                memcpy(x0, vm__imp_p0(&w, (vm_index)i), sizeof x0);
                 memcpy(x1, w.p + 3 * i, sizeof x1);
             }
             for (int k = 0; k < 3; k++) d[k] = x1[k] - x0[k];
             double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
             if (l > maxmove) maxmove = l;
         }
+        imp_free_rounds(&w);
         s = write_back(&w, m, o, err);
     }
     figures fa;

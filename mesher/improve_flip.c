@@ -36,7 +36,7 @@ static int adjacent(const vm__imp *w, vm_index a, vm_index b) {
 /* Replaces the nold tets by the nnew tets (all positive, checked by the caller). */
 static int replace(vm__imp *w, const size_t *old, int nold, vm_index nw[][4], int nnew) {
     int32_t reg = w->region[old[0]];
-    vm_index par = w->parent[old[0]];
+    vm_index par = w->parent ? w->parent[old[0]] : 0;
     for (int i = 0; i < nnew; i++)
         if (vm__imp_add_tet(w, nw[i], reg, par) < 0) {
             for (int j = 0; j < i; j++) vm__imp_kill_tet(w, w->ntet - 1 - (size_t)j);

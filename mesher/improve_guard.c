@@ -121,6 +121,11 @@ static int pair_cmp(const void *pa, const void *pb) {
 int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e) {
     struct vm__imp_guard *g = w->g;
     bflist *l = &g->bf[a];
+    if (g->bucket[a] == NOB) {
+        /* never on the boundary: a vertex joins the grid when it gets boundary faces */
+        *e = l->e;
+        return 0;
+    }
     if (!g->valid[a]) {
         const vm__imp_star *s = &w->star[a];
         size_t m = 3 * (size_t)s->n;
@@ -146,7 +151,17 @@ int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e) {
                 c++;
             }
         }
-        if (c > 1) qsort(g->tmp, c, 2 * sizeof *g->tmp, pair_cmp);
+        /* insertion sort: a star has a few dozen link edges */
+        for (size_t i = 1; i < c; i++) {
+            vm_index x0 = g->tmp[2 * i], x1 = g->tmp[2 * i + 1];
+            size_t j = i;
+            for (; j > 0 && pair_cmp(g->tmp + 2 * (j - 1), (vm_index[2]){x0, x1}) > 0; j--) {
+                g->tmp[2 * j] = g->tmp[2 * (j - 1)];
+                g->tmp[2 * j + 1] = g->tmp[2 * (j - 1) + 1];
+            }
+            g->tmp[2 * j] = x0;
+            g->tmp[2 * j + 1] = x1;
+        }
         l->n = 0;
         for (size_t i = 0; i < c; i++) {
             const vm_index *q = g->tmp + 2 * i;

@@ -34,6 +34,9 @@ typedef struct vm__imp {
     size_t ntet, tet_cap;
     /* vertices */
     double *p;          /* world positions */
+    /* p0, nrm and bound hold only the vertices that may be constrained (on the boundary or
+     * between regions), vertex v at index ci[v] (-1 for the others): see vm__imp_p0 etc. */
+    int32_t *ci;
     double *p0;         /* input positions */
     uint8_t *cls;       /* VM__IMP_* */
     uint8_t *planes;    /* border planes the vertex lies on (bit 2*axis + side) */
@@ -73,6 +76,15 @@ typedef struct vm__imp {
      * each vertex's boundary faces, cached until a tet around it is added or removed */
     struct vm__imp_guard *g;
 } vm__imp;
+
+/* Input position, constraint normal and bound of a constrained vertex a (ci[a] >= 0). */
+static inline double *vm__imp_p0(const vm__imp *w, vm_index a) {
+    return w->p0 + 3 * (size_t)w->ci[a];
+}
+static inline double *vm__imp_nrm(const vm__imp *w, vm_index a) {
+    return w->nrm + 3 * (size_t)w->ci[a];
+}
+static inline double vm__imp_bound(const vm__imp *w, vm_index a) { return w->bound[w->ci[a]]; }
 
 /* Normalised quality of a tet (>= 1 meets the targets, > 2/3 passes ABAQUS with the default
  * targets); -1 when it is not clearly positive. */

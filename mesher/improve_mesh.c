@@ -182,13 +182,13 @@ long vm__imp_add_tet(vm__imp *w, const vm_index n[4], int32_t region, vm_index p
         if (nt) w->tet = nt;
         int32_t *nr = realloc(w->region, cap * sizeof *nr);
         if (nr) w->region = nr;
-        vm_index *np = realloc(w->parent, cap * sizeof *np);
+        vm_index *np = w->parent ? realloc(w->parent, cap * sizeof *np) : NULL;
         if (np) w->parent = np;
         double *nq = realloc(w->q, cap * sizeof *nq);
         if (nq) w->q = nq;
         uint8_t *nd = realloc(w->dead, cap);
         if (nd) w->dead = nd;
-        if (!nt || !nr || !np || !nq || !nd) {
+        if (!nt || !nr || (w->parent && !np) || !nq || !nd) {
             w->nomem = 1;
             return -1;
         }
@@ -203,7 +203,7 @@ long vm__imp_add_tet(vm__imp *w, const vm_index n[4], int32_t region, vm_index p
         }
     }
     w->region[t] = region;
-    w->parent[t] = parent;
+    if (w->parent) w->parent[t] = parent;
     w->dead[t] = 0;
     w->ntet++;
     vm__imp_requal(w, t);
@@ -311,7 +311,7 @@ static double field(const vm_volume *v, const double ijk[3], double g[3]) {
 int vm__imp_project(const vm__imp *w, vm_index a, double x[3]) {
     double ijk[3], ijk0[3], g[3];
     vm__imp_to_index(w, x, ijk);
-    vm__imp_to_index(w, w->p0 + 3 * (size_t)a, ijk0);
+    vm__imp_to_index(w, vm__imp_p0(w, a), ijk0);
     double iso = w->iso_hi[a] ? w->hi : w->lo;
     int ok = 0;
     for (int it = 0; it < 10; it++) {
@@ -329,7 +329,7 @@ int vm__imp_project(const vm__imp *w, vm_index a, double x[3]) {
     if (!ok) return 0;
     double d[3];
     vm__sub3(ijk, ijk0, d);
-    if (vm__dot3(d, d) > w->bound[a] * w->bound[a]) return 0;
+    if (vm__dot3(d, d) > vm__imp_bound(w, a) * vm__imp_bound(w, a)) return 0;
     vm__imp_to_world(w, ijk, x);
     return 1;
 }
@@ -345,20 +345,20 @@ static int band_constrain(const vm__imp *w, vm_index a, double x[3]) {
         double f = field(w->v, ijk, g) - (w->iso_hi[a] ? w->hi : w->lo);
         double gl = sqrt(vm__dot3(g, g));
         if (gl > 1e-12 && isfinite(f) && fabs(f) <= band * gl) {
-            vm__imp_to_index(w, w->p0 + 3 * (size_t)a, ijk0);
+            vm__imp_to_index(w, vm__imp_p0(w, a), ijk0);
             vm__sub3(ijk, ijk0, d);
-            return vm__dot3(d, d) <= w->bound[a] * w->bound[a];
+            return vm__dot3(d, d) <= vm__imp_bound(w, a) * vm__imp_bound(w, a);
         }
     }
     return vm__imp_project(w, a, x);
 }
 
 int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]) {
-    const double *p0 = w->p0 + 3 * (size_t)a, *n = w->nrm + 3 * (size_t)a;
+    if (w->cls[a] == VM__IMP_INTERIOR) return 1;
+    if (w->cls[a] == VM__IMP_FIXED) return 0;
+    const double *p0 = vm__imp_p0(w, a), *n = vm__imp_nrm(w, a);
     double d[3];
     switch (w->cls[a]) {
-    case VM__IMP_INTERIOR:
-        return 1;
     case VM__IMP_FLAT:
         vm__sub3(x, p0, d);
         {
@@ -377,14 +377,14 @@ int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]) {
                 d[k] -= s * n[k];
             }
         }
-        return vm__dot3(d, d) <= w->bound[a] * w->bound[a];
+        return vm__dot3(d, d) <= vm__imp_bound(w, a) * vm__imp_bound(w, a);
     default:
         return 0;
     }
 }
 
 void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]) {
-    memcpy(n, w->nrm + 3 * (size_t)a, 3 * sizeof(double));
+    memcpy(n, vm__imp_nrm(w, a), 3 * sizeof(double));
     if (w->cls[a] != VM__IMP_SURF || !w->v) return;
     double ijk[3], g[3], x[3];
     vm__imp_to_index(w, w->p + 3 * (size_t)a, ijk);

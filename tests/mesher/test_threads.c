@@ -176,6 +176,91 @@ static void quality_pass_gives_the_same_mesh_for_one_two_and_three_threads(void)
     vm_set_threads(before);
 }
 
+/* Two regions (split by a grid plane through the phantom, so the interface is flat and its
+ * vertices move in it) and a cell field holding each input tet's id: the probes and the
+ * parent ids of the pass give the same mesh on 1, 2 and 3 threads, and every output tet
+ * carries the field and region of the input tet it descends from. */
+static void quality_pass_with_two_regions_and_a_cell_field_is_the_same_for_any_thread_count(void) {
+    vm_volume v;
+    vm_mesh m0;
+    vm_error err;
+    vm_mesh_options o;
+    int before = vm_set_threads(1);
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_SPHERE, getenv("VM_SANITIZED") ? 24 : 32, 0.3, 5, &v,
+                             NULL, &err),
+             &err);
+    vm_mesh_options_default(&o);
+    CHECK_OK(vm_mesh_volume(&v, &o, &m0, NULL, &err), &err);
+    double zmid = 0.0;
+    for (size_t i = 0; i < m0.npoints; i++) zmid += m0.points[3 * i + 2] / (double)m0.npoints;
+    zmid = floor(zmid); /* a grid plane: the inner cells' tets lie on one side of it */
+    double *id = malloc(m0.ncells * sizeof *id);
+    CHECK(id != NULL);
+    for (size_t t = 0; t < m0.ncells; t++) {
+        double z = 0.0;
+        for (int k = 0; k < 4; k++) z += 0.25 * m0.points[3 * (size_t)m0.cells[4 * t + k] + 2];
+        m0.region[t] = z < zmid ? 1 : 2;
+        id[t] = (double)t;
+    }
+    CHECK_OK(vm_mesh_set_field(&m0, 1, "input_id", 1, id, &err), &err);
+    free(id);
+    vm_mesh ref;
+    vm_improve_report ref_r;
+    memset(&ref, 0, sizeof ref);
+    for (size_t t = 0; t < sizeof counts / sizeof counts[0]; t++) {
+        vm_set_threads(counts[t]);
+        vm_mesh m;
+        vm_mesh_init(&m, VM_TET4);
+        CHECK_OK(vm_mesh_reserve(&m, m0.npoints, m0.ncells, &err), &err);
+        memcpy(m.points, m0.points, 3 * m0.npoints * sizeof *m.points);
+        memcpy(m.cells, m0.cells, 4 * m0.ncells * sizeof *m.cells);
+        memcpy(m.region, m0.region, m0.ncells * sizeof *m.region);
+        m.npoints = m0.npoints;
+        m.ncells = m0.ncells;
+        CHECK_OK(vm_mesh_set_field(&m, 1, "input_id", 1, m0.cell_fields[0].data, &err), &err);
+        vm_improve_options io;
+        vm_improve_options_default(&io);
+        vm_improve_report r;
+        CHECK_OK(vm_mesh_improve(&m, &v, &io, &r, &err), &err);
+        r.seconds = 0.0;
+        CHECK(m.ncell_fields == 1);
+        if (t == 0) {
+            vm_mesh_report mr;
+            CHECK_OK(vm_mesh_check(&m, &mr, &err), &err);
+            CHECK(r.moves > 0 && r.collapses > 0 && r.slivers_10_before > 0);
+            CHECK(mr.inverted == 0 && r.inverted_after == 0 && mr.boundary_closed);
+            CHECK(r.max_interface_move > 0.0); /* interface vertices moved */
+            size_t wrong = 0;
+            for (size_t c = 0; c < m.ncells; c++) {
+                double f = m.cell_fields[0].data[c];
+                size_t k = (size_t)f;
+                wrong += !(f >= 0.0 && k < m0.ncells && (double)k == f &&
+                           m.region[c] == m0.region[k]);
+            }
+            CHECK_MSG(wrong == 0, "%zu tets carry a wrong input id or region", wrong);
+            CHECK_MSG(fabs(r.volume_after - r.volume_before) < 0.03 * r.volume_before,
+                      "volume %g -> %g", r.volume_before, r.volume_after);
+            ref = m;
+            ref_r = r;
+            continue;
+        }
+        CHECK_MSG(m.npoints == ref.npoints && m.ncells == ref.ncells &&
+                      memcmp(m.points, ref.points, 3 * m.npoints * sizeof *m.points) == 0 &&
+                      memcmp(m.cells, ref.cells, 4 * m.ncells * sizeof *m.cells) == 0 &&
+                      memcmp(m.region, ref.region, m.ncells * sizeof *m.region) == 0 &&
+                      memcmp(m.cell_fields[0].data, ref.cell_fields[0].data,
+                             m.ncells * sizeof(double)) == 0,
+                  "improved two-region mesh differs at %d threads", counts[t]);
+        CHECK_MSG(memcmp(&r, &ref_r, sizeof r) == 0, "improve report differs at %d threads",
+                  counts[t]);
+        vm_mesh_free(&m);
+    }
+    vm_mesh_free(&ref);
+    vm_mesh_free(&m0);
+    vm_volume_free(&v);
+    vm_set_threads(before);
+}
+
 /* The mesh of one run, and that it is a valid closed mesh of the phantom's topology. */
 static void mesh_once(const vm_volume *v, int adaptive, int euler, vm_mesh *m) {
     vm_error err;
@@ -272,5 +357,6 @@ TEST_MAIN(T(denoising_is_the_same_for_one_two_and_three_threads),
           T(tet_meshes_are_byte_identical_for_one_two_and_three_threads),
           T(vtu_bytes_and_mesh_checks_are_the_same_for_any_thread_count),
           T(quality_pass_gives_the_same_mesh_for_one_two_and_three_threads),
+          T(quality_pass_with_two_regions_and_a_cell_field_is_the_same_for_any_thread_count),
           T(spectrum_is_the_same_for_one_two_and_three_threads),
           T(thread_count_is_set_and_restored))
