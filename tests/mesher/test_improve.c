@@ -2,6 +2,7 @@
  * volumes it meets the issue-6 bar (min dihedral >= 10, max <= 165, no ABAQUS failure, none
  * inverted) while keeping every mesh invariant and the boundary topology, keeps the surface
  * within half a voxel of the isosurface, never makes a good mesh worse, and rejects bad input. */
+/* ctest parts: 2 */
 #include "test.h"
 #include <stdint.h>
 #include <string.h>
