@@ -20,7 +20,9 @@ static const int corner_nb[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
                                     {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
 
 enum { ROLE_NONE = 0, ROLE_COARSE = 1, ROLE_TRANS = 2, ROLE_FRAME = 3 };
-enum { BLOCK_ORIGIN = 1 }; /* block b holds the grid points 3b+1 .. 3b+3 per axis */
+/* At scale s, a cube is a hex with corners c + s*offset, c = s*i + 0.5 (i >= 0 integer: the
+ * cube's index); block b holds the cubes 3b .. 3b+2 per axis. At s = 1 these are the unit
+ * cubes round grid points i + 1. */
 
 /* int64 -> int64 open-addressing map (keys >= 0). */
 typedef struct imap {
@@ -180,7 +182,7 @@ static void bcoord(const blocks *B, int64_t b, int64_t c[3]) {
 
 /* One pillowing round along axis d: every non-coarse hex of block layer k is in the shrink
  * set S_k; the sheet is the set's faces toward a coarse hex or another layer. */
-static vm_status pillow_round(tmesh *t, const blocks *B, int d, vm_error *err) {
+static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_error *err) {
     int64_t *nb = NULL;
     vm_status s = face_neighbours(t, &nb, err);
     if (s) return s;
@@ -246,7 +248,7 @@ static vm_status pillow_round(tmesh *t, const blocks *B, int d, vm_error *err) {
         const double *q = acc + 3 * (i - nn0);
         double l = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
         for (int a = 0; a < 3 && l > 0; a++)
-            if (fabs(q[a]) > 0.3 * l) t->pos[3 * i + a] += q[a] > 0 ? 1.0 : -1.0;
+            if (fabs(q[a]) > 0.3 * l) t->pos[3 * i + a] += q[a] > 0 ? sc : -sc;
     }
     /* pillow hexes: the copy of each sheet face below, the face itself on top */
     for (size_t e = 0; !s && e < ns; e++) {
@@ -310,34 +312,37 @@ static void soup_pos(const vm__tet_soup *sp, const int64_t n[3], int64_t id, dou
     }
 }
 
-/* Grid point at the centre of hex t when it is the unit cube around it, else 0. */
-static int cube_centre(const vm__tet_soup *sp, const int64_t n[3], size_t t, int64_t p[3]) {
+/* Index of hex t when it is a cube at scale sc (1, else 0). */
+static int cube_index(const vm__tet_soup *sp, const int64_t n[3], size_t t, double sc,
+                      int64_t p[3]) {
     const int64_t *c = sp->tets + 8 * t;
-    double q[3];
+    double q[3], o[3];
     if (c[0] < sp->nlattice) return 0;
-    soup_pos(sp, n, c[0], q);
+    soup_pos(sp, n, c[0], o);
     for (int a = 0; a < 3; a++) {
-        double r = q[a] + 0.5;
-        if (r != floor(r)) return 0;
+        double r = (o[a] - 0.5) / sc;
+        if (r != floor(r) || r < 0) return 0;
         p[a] = (int64_t)r;
     }
     for (int k = 1; k < 8; k++) {
         if (c[k] < sp->nlattice) return 0;
         soup_pos(sp, n, c[k], q);
         for (int a = 0; a < 3; a++)
-            if (q[a] != (double)p[a] + hex_off[k][a] - 0.5) return 0;
+            if (q[a] != o[a] + sc * hex_off[k][a]) return 0;
     }
     return 1;
 }
 
-static int64_t cell_key(const int64_t n[3], const double q[3]) {
-    int64_t c[3];
+/* Key of the cube corner at q (scale sc), -1 when q is not one. */
+static int64_t corner_key(const int64_t n[3], double sc, const double q[3]) {
+    int64_t c[3], m[3];
     for (int a = 0; a < 3; a++) {
-        double r = q[a] - 0.5;
-        if (r != floor(r) || r < -1 || r > (double)n[a]) return -1;
+        double r = (q[a] - 0.5) / sc;
+        m[a] = (int64_t)((double)n[a] / sc) + 3;
+        if (r != floor(r) || r < -1 || r > (double)(m[a] - 2)) return -1;
         c[a] = (int64_t)r + 1;
     }
-    return c[0] + (n[0] + 2) * (c[1] + (n[1] + 2) * c[2]);
+    return c[0] + m[0] * (c[1] + m[1] * c[2]);
 }
 
 /* Worst corner of the hexes around node v (scaled Jacobian). */
@@ -354,7 +359,8 @@ static double around_min(const tmesh *t, const int32_t *inc, const int32_t *star
 
 /* Moves each free node (flag == 1) by compass search to raise the worst corner scaled
  * Jacobian of the hexes around it; a move is kept only if that worst corner goes up. */
-static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, vm_error *err) {
+static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double sc,
+                         vm_error *err) {
     int32_t *start = calloc(t->nn + 1, sizeof *start);
     if (!start) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     for (size_t h = 0; h < t->nh; h++)
@@ -380,14 +386,14 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, vm_err
                                    {1, -1, 1}, {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1}, {-1, -1, 1},
                                    {-1, -1, -1}};
     for (int round = 0; round < 20; round++) {
-        double stepmax = 0.25 * pow(0.9, round);
+        double stepmax = 0.25 * sc * pow(0.9, round);
         size_t moved = 0;
         for (size_t v = 0; v < t->nn; v++) {
             if (!(flag[v] & 5) || (flag[v] & 2)) continue;
             double best = around_min(t, inc, start, (int32_t)v);
             if (best > 0.3) continue;
             double *p = t->pos + 3 * v;
-            for (double step = stepmax; step > 0.01; step *= 0.5) {
+            for (double step = stepmax; step > 0.01 * sc; step *= 0.5) {
                 int improved = 1;
                 while (improved) {
                     improved = 0;
@@ -415,12 +421,14 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, vm_err
     return VM_OK;
 }
 
-vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], vm_mesh_stats *st, vm_error *err) {
+vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_mesh_stats *st,
+                        vm_error *err) {
+    double sc = (double)scale;
     blocks B;
     memset(&B, 0, sizeof B);
     int64_t real[3];
     for (int a = 0; a < 3; a++) {
-        real[a] = n[a] > BLOCK_ORIGIN ? (n[a] - BLOCK_ORIGIN) / 3 : 0;
+        real[a] = n[a] > 1 ? (n[a] - 1) / scale / 3 : 0;
         B.nb[a] = real[a] + 4;
     }
     size_t nblk = (size_t)(B.nb[0] * B.nb[1] * B.nb[2]);
@@ -442,11 +450,10 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], vm_mesh_stats *st,
     /* blocks whose 27 hexes are unit cubes */
     for (size_t h = 0; h < sp->ntets; h++) {
         int64_t p[3], b[3];
-        if (!cube_centre(sp, n, h, p)) continue;
+        if (!cube_index(sp, n, h, sc, p)) continue;
         int ok = 1;
         for (int a = 0; a < 3; a++) {
-            if (p[a] < BLOCK_ORIGIN) ok = 0;
-            b[a] = (p[a] - BLOCK_ORIGIN) / 3;
+            b[a] = p[a] / 3;
             if (b[a] >= real[a]) ok = 0;
         }
         if (ok) count[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
@@ -467,10 +474,31 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], vm_mesh_stats *st,
                     ncoarse++;
                 }
             }
-    /* no two coarse blocks may meet only along an edge in a plane (the shrink sets'
-     * boundaries must be manifold): drop one of each such pair until none is left */
+    /* Coarse blocks come in 2x2x2 groups (an opening: a lone block or a one-block-thick
+     * spike would need its transitions crammed round it), and no two may meet only along
+     * an edge in a plane (the shrink sets' boundaries must be manifold): drop blocks until
+     * both hold. */
     for (int changed = 1; changed;) {
         changed = 0;
+        memset(cube, 0, nblk); /* reused: 1 where some 2x2x2 group of coarse blocks covers */
+        for (int64_t z = 0; z + 1 < B.nb[2]; z++)
+            for (int64_t y = 0; y + 1 < B.nb[1]; y++)
+                for (int64_t x = 0; x + 1 < B.nb[0]; x++) {
+                    int all = 1;
+                    for (int q = 0; q < 8 && all; q++)
+                        all = B.role[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
+                                          z + hex_off[q][2])] == ROLE_COARSE;
+                    if (all)
+                        for (int q = 0; q < 8; q++)
+                            cube[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
+                                      z + hex_off[q][2])] = 1;
+                }
+        for (size_t b = 0; b < nblk; b++)
+            if (B.role[b] == ROLE_COARSE && !cube[b]) {
+                B.role[b] = ROLE_NONE;
+                ncoarse--;
+                changed = 1;
+            }
         for (int64_t z = 0; z + 1 < B.nb[2]; z++)
             for (int64_t y = 0; y + 1 < B.nb[1]; y++)
                 for (int64_t x = 0; x + 1 < B.nb[0]; x++)
@@ -532,7 +560,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], vm_mesh_stats *st,
             if (corner[ci] < 0) {
                 double p[3];
                 for (int a = 0; a < 3; a++)
-                    p[a] = (double)(3 * (k[a] - 2) + BLOCK_ORIGIN) - 0.5;
+                    p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5;
                 corner[ci] = (int32_t)t.nn;
                 s = add_node(&t, p, err);
             }
@@ -540,7 +568,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], vm_mesh_stats *st,
         }
         if (!s) s = add_hex(&t, c, (int32_t)b, err);
     }
-    for (int d = 0; !s && d < 3; d++) s = pillow_round(&t, &B, d, err);
+    for (int d = 0; !s && d < 3; d++) s = pillow_round(&t, &B, d, sc, err);
     if (s) goto done;
 
     /* nodes kept: fixed where coarse or shared with the frame (they are fine cube corners) */
@@ -590,7 +618,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], vm_mesh_stats *st,
         free(ed);
         free(sum);
     }
-    s = optimise(&t, &B, flag, err);
+    s = optimise(&t, &B, flag, sc, err);
 
     /* the fine cube corners by cell, to share the frame-side nodes */
     s = imap_init(&cells, 1024, err);
@@ -599,11 +627,10 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], vm_mesh_stats *st,
     size_t dropped = 0;
     for (size_t h = 0; !s && h < sp->ntets; h++) {
         int64_t p[3], b[3];
-        if (!cube_centre(sp, n, h, p)) continue;
+        if (!cube_index(sp, n, h, sc, p)) continue;
         int ok = 1;
         for (int a = 0; a < 3; a++) {
-            if (p[a] < BLOCK_ORIGIN) ok = 0;
-            b[a] = (p[a] - BLOCK_ORIGIN) / 3;
+            b[a] = p[a] / 3;
             if (b[a] >= real[a]) ok = 0;
         }
         if (!ok) continue;
@@ -614,7 +641,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], vm_mesh_stats *st,
         for (int q = 0; !s && q < 8; q++) {
             double qp[3];
             soup_pos(sp, n, sp->tets[8 * h + q], qp);
-            s = imap_put(&cells, cell_key(n, qp), sp->tets[8 * h + q], err);
+            s = imap_put(&cells, corner_key(n, sc, qp), sp->tets[8 * h + q], err);
         }
     }
     /* number the kept nodes: frame-side ones are existing fine vertices */
@@ -626,7 +653,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], vm_mesh_stats *st,
         id[i] = -1;
         if (!(flag[i] & 5)) continue;
         if (flag[i] & 2) {
-            int64_t k = cell_key(n, t.pos + 3 * i);
+            int64_t k = corner_key(n, sc, t.pos + 3 * i);
             id[i] = k < 0 ? -1 : imap_get(&cells, k);
             if (id[i] < 0) missing++;
         } else {

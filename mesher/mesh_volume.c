@@ -137,7 +137,12 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     memset(&soup, 0, sizeof soup);
     s = g.hexes ? vm__dual_contour_hexes(&g, &soup, &st, err)
                 : vm__dual_contour_tets(&g, &soup, &st, err);
-    if (!s && g.hexes && o->adaptive) s = vm__hex_adapt(&soup, g.n, &st, err);
+    /* --max-level L: up to L coarsening levels, blocks of 3^L cells */
+    for (int64_t l = 1, sc = 1; !s && g.hexes && o->adaptive && l <= o->max_level; l++, sc *= 3) {
+        size_t before = soup.ntets;
+        s = vm__hex_adapt(&soup, g.n, sc, &st, err);
+        if (soup.ntets == before) break;
+    }
     free(resampled);
     if (s == VM_ERR_EMPTY)
         s = vm_error_set(err, VM_ERR_EMPTY, "mesh: no grid point is in the material");
