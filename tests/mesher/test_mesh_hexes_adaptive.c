@@ -245,6 +245,26 @@ static void adaptiveHexMeshOfEachPhantomIsValidAndCoarser(void) {
     }
 }
 
+/* --max-level outside 1..10 is a bad argument for hexes too, named in the message, and
+ * leaves no mesh. */
+static void adaptiveHexMeshRejectsABadMaxLevel(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_SPHERE, 16, 0.0, 0, &v, NULL, &err), &err);
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.elements = VM_HEX8;
+    o.adaptive = 1;
+    vm_mesh m;
+    for (int level = -1; level <= 11; level += 12) {
+        o.max_level = level;
+        CHECK(vm_mesh_volume(&v, &o, &m, NULL, &err) == VM_ERR_ARG);
+        CHECK(strstr(err.message, "max level") != NULL);
+        CHECK(m.ncells == 0);
+    }
+    vm_volume_free(&v);
+}
+
 TEST_MAIN(T(hexTemplatesFillTheirBlockWithValidHexes), T(hexTemplatesRejectTwoRefinedFaces),
           T(refinedBoxesMeetCoarseBlocksConformingly),
-          T(adaptiveHexMeshOfEachPhantomIsValidAndCoarser))
+          T(adaptiveHexMeshOfEachPhantomIsValidAndCoarser), T(adaptiveHexMeshRejectsABadMaxLevel))
