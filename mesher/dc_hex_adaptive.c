@@ -3,11 +3,11 @@
  * insertion, Mitchell and Tautges 1995), one shrink set per block layer and axis, so the
  * 3-refinement faces, edges and corners — concave ones included — are conforming by
  * construction (see docs/ALGORITHMS.md, "Adaptive hexahedra"). */
+#include "../core/core.h"
+#include "mesher_internal.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include "../core/core.h"
-#include "mesher_internal.h"
 
 static const int hex_off[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
                                   {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
@@ -33,18 +33,21 @@ typedef struct imap {
 static size_t imap_slot(const imap *m, int64_t k) {
     uint64_t h = (uint64_t)k * 0x9E3779B97F4A7C15ull;
     size_t i = (size_t)(h >> 17) & (m->cap - 1);
-    while (m->key[i] >= 0 && m->key[i] != k) i = (i + 1) & (m->cap - 1);
+    while (m->key[i] >= 0 && m->key[i] != k)
+        i = (i + 1) & (m->cap - 1);
     return i;
 }
 
 static vm_status imap_init(imap *m, size_t expect, vm_error *err) {
     m->cap = 64;
-    while (m->cap < 2 * expect + 16) m->cap *= 2;
+    while (m->cap < 2 * expect + 16)
+        m->cap *= 2;
     m->n = 0;
     m->key = malloc(m->cap * sizeof *m->key);
     m->val = malloc(m->cap * sizeof *m->val);
     if (!m->key || !m->val) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-    for (size_t i = 0; i < m->cap; i++) m->key[i] = -1;
+    for (size_t i = 0; i < m->cap; i++)
+        m->key[i] = -1;
     return VM_OK;
 }
 
@@ -147,7 +150,8 @@ static vm_status face_neighbours(const tmesh *t, int64_t **nb_out, vm_error *err
     for (size_t h = 0; h < t->nh; h++)
         for (int f = 0; f < 6; f++) {
             face_rec *x = r + 6 * h + f;
-            for (int i = 0; i < 4; i++) x->k[i] = t->conn[8 * h + hex_face[f][i]];
+            for (int i = 0; i < 4; i++)
+                x->k[i] = t->conn[8 * h + hex_face[f][i]];
             sort4(x->k);
             x->hf = (int64_t)(6 * h + f);
             nb[6 * h + f] = -1;
@@ -165,7 +169,7 @@ static vm_status face_neighbours(const tmesh *t, int64_t **nb_out, vm_error *err
 }
 
 typedef struct blocks {
-    int64_t nb[3];  /* padded block grid (two frame blocks each side) */
+    int64_t nb[3]; /* padded block grid (two frame blocks each side) */
     uint8_t *role;
     int64_t lay_stride[3];
 } blocks;
@@ -212,8 +216,10 @@ static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_er
             /* inward normal of the face (into h) from the current positions */
             const int32_t *c = t->conn + 8 * h;
             double u[3], v[3], nrm[3];
-            const double *p0 = t->pos + 3 * c[hex_face[f][0]], *p1 = t->pos + 3 * c[hex_face[f][1]],
-                         *p2 = t->pos + 3 * c[hex_face[f][2]], *p3 = t->pos + 3 * c[hex_face[f][3]];
+            const double *p0 = t->pos + 3 * c[hex_face[f][0]],
+                         *p1 = t->pos + 3 * c[hex_face[f][1]],
+                         *p2 = t->pos + 3 * c[hex_face[f][2]],
+                         *p3 = t->pos + 3 * c[hex_face[f][3]];
             for (int a = 0; a < 3; a++) {
                 u[a] = p2[a] - p0[a];
                 v[a] = p3[a] - p1[a];
@@ -236,10 +242,12 @@ static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_er
                     }
                     if (!s) s = vm__grow((void **)&acc, &acap, t->nn, 3 * sizeof(double), err);
                     if (s) break;
-                    for (int a = 0; a < 3; a++) acc[3 * (id - (int64_t)nn0) + a] = 0;
+                    for (int a = 0; a < 3; a++)
+                        acc[3 * (id - (int64_t)nn0) + a] = 0;
                 }
                 if (l > 0)
-                    for (int a = 0; a < 3; a++) acc[3 * (id - (int64_t)nn0) + a] += nrm[a] / l;
+                    for (int a = 0; a < 3; a++)
+                        acc[3 * (id - (int64_t)nn0) + a] += nrm[a] / l;
             }
         }
     }
@@ -350,7 +358,8 @@ static double around_min(const tmesh *t, const int32_t *inc, const int32_t *star
     double worst = INFINITY;
     for (int32_t i = start[v]; i < start[v + 1]; i++) {
         double p[8][3];
-        for (int q = 0; q < 8; q++) memcpy(p[q], t->pos + 3 * t->conn[8 * inc[i] + q], sizeof p[q]);
+        for (int q = 0; q < 8; q++)
+            memcpy(p[q], t->pos + 3 * t->conn[8 * inc[i] + q], sizeof p[q]);
         double m = hex_min_sj(p);
         if (m < worst) worst = m;
     }
@@ -360,13 +369,15 @@ static double around_min(const tmesh *t, const int32_t *inc, const int32_t *star
 /* Moves each free node (flag == 1) by compass search to raise the worst corner scaled
  * Jacobian of the hexes around it; a move is kept only if that worst corner goes up. */
 static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double sc,
-                         vm_error *err) {
+                          vm_error *err) {
     int32_t *start = calloc(t->nn + 1, sizeof *start);
     if (!start) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     for (size_t h = 0; h < t->nh; h++)
         if (B->role[t->blk[h]] != ROLE_FRAME)
-            for (int q = 0; q < 8; q++) start[t->conn[8 * h + q] + 1]++;
-    for (size_t i = 0; i < t->nn; i++) start[i + 1] += start[i];
+            for (int q = 0; q < 8; q++)
+                start[t->conn[8 * h + q] + 1]++;
+    for (size_t i = 0; i < t->nn; i++)
+        start[i + 1] += start[i];
     int32_t *inc = malloc(((size_t)start[t->nn] + 1) * sizeof *inc);
     int32_t *fill = malloc((t->nn + 1) * sizeof *fill);
     if (!inc || !fill) {
@@ -378,10 +389,12 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
     memcpy(fill, start, t->nn * sizeof *fill);
     for (size_t h = 0; h < t->nh; h++)
         if (B->role[t->blk[h]] != ROLE_FRAME)
-            for (int q = 0; q < 8; q++) inc[fill[t->conn[8 * h + q]]++] = (int32_t)h;
-    static const int dir[14][3] = {{1, 0, 0},  {-1, 0, 0},  {0, 1, 0},   {0, -1, 0},  {0, 0, 1},
-                                   {0, 0, -1}, {1, 1, 1},   {1, 1, -1},  {1, -1, 1},  {1, -1, -1},
-                                   {-1, 1, 1}, {-1, 1, -1}, {-1, -1, 1}, {-1, -1, -1}};
+            for (int q = 0; q < 8; q++)
+                inc[fill[t->conn[8 * h + q]]++] = (int32_t)h;
+    static const int dir[14][3] = {{1, 0, 0},   {-1, 0, 0},  {0, 1, 0},  {0, -1, 0},
+                                   {0, 0, 1},   {0, 0, -1},  {1, 1, 1},  {1, 1, -1},
+                                   {1, -1, 1},  {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1},
+                                   {-1, -1, 1}, {-1, -1, -1}};
     for (int round = 0; round < 12; round++) {
         double stepmax = 0.25 * sc * pow(0.85, round);
         size_t moved = 0;
@@ -397,7 +410,8 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
                     for (int d = 0; d < 14; d++) {
                         double keep[3];
                         memcpy(keep, p, sizeof keep);
-                        for (int a = 0; a < 3; a++) p[a] += step * dir[d][a];
+                        for (int a = 0; a < 3; a++)
+                            p[a] += step * dir[d][a];
                         double q = around_min(t, inc, start, (int32_t)v);
                         if (q > best + 1e-9) {
                             best = q;
@@ -455,7 +469,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         }
         if (ok) count[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
     }
-    for (size_t b = 0; b < nblk; b++) cube[b] = count[b] == 27;
+    for (size_t b = 0; b < nblk; b++)
+        cube[b] = count[b] == 27;
     /* coarse: a cube block whose 26 neighbours are cube blocks */
     size_t ncoarse = 0;
     for (int64_t z = 1; z + 1 < B.nb[2]; z++)
@@ -507,7 +522,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
                         q[0] = bidx(&B, x, y, z);
                         q[1] = bidx(&B, x + e1[0], y + e1[1], z + e1[2]);
                         q[2] = bidx(&B, x + e2[0], y + e2[1], z + e2[2]);
-                        q[3] = bidx(&B, x + e1[0] + e2[0], y + e1[1] + e2[1], z + e1[2] + e2[2]);
+                        q[3] =
+                            bidx(&B, x + e1[0] + e2[0], y + e1[1] + e2[1], z + e1[2] + e2[2]);
                         int c0 = B.role[q[0]] == ROLE_COARSE, c1 = B.role[q[1]] == ROLE_COARSE,
                             c2 = B.role[q[2]] == ROLE_COARSE, c3 = B.role[q[3]] == ROLE_COARSE;
                         if (c0 && c3 && !c1 && !c2) {
@@ -544,7 +560,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
         goto done;
     }
-    for (size_t i = 0; i < ncorner; i++) corner[i] = -1;
+    for (size_t i = 0; i < ncorner; i++)
+        corner[i] = -1;
     for (int64_t b = 0; !s && b < (int64_t)nblk; b++) {
         if (B.role[b] == ROLE_NONE) continue;
         int64_t bc[3];
@@ -552,7 +569,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         int32_t c[8];
         for (int q = 0; !s && q < 8; q++) {
             int64_t k[3];
-            for (int a = 0; a < 3; a++) k[a] = bc[a] + hex_off[q][a];
+            for (int a = 0; a < 3; a++)
+                k[a] = bc[a] + hex_off[q][a];
             size_t ci = (size_t)(k[0] + (B.nb[0] + 1) * (k[1] + (B.nb[1] + 1) * k[2]));
             if (corner[ci] < 0) {
                 double p[3];
@@ -565,7 +583,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         }
         if (!s) s = add_hex(&t, c, (int32_t)b, err);
     }
-    for (int d = 0; !s && d < 3; d++) s = pillow_round(&t, &B, d, sc, err);
+    for (int d = 0; !s && d < 3; d++)
+        s = pillow_round(&t, &B, d, sc, err);
     if (s) goto done;
 
     /* nodes kept: fixed where coarse or shared with the frame (they are fine cube corners) */
@@ -577,7 +596,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
     for (size_t h = 0; h < t.nh; h++) {
         uint8_t r = B.role[t.blk[h]];
         uint8_t f = r == ROLE_FRAME ? 2 : r == ROLE_COARSE ? 4 : 1;
-        for (int q = 0; q < 8; q++) flag[t.conn[8 * h + q]] |= f;
+        for (int q = 0; q < 8; q++)
+            flag[t.conn[8 * h + q]] |= f;
     }
     /* Laplacian smoothing of the free transition nodes (a fixed-boundary linear system, so
      * the initial copy positions only speed it up) */
@@ -605,12 +625,14 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
             for (size_t e = 0; e < ne; e++)
                 for (int side = 0; side < 2; side++) {
                     int32_t a = ed[2 * e + side], b = ed[2 * e + 1 - side];
-                    for (int x = 0; x < 3; x++) sum[4 * a + x] += t.pos[3 * b + x];
+                    for (int x = 0; x < 3; x++)
+                        sum[4 * a + x] += t.pos[3 * b + x];
                     sum[4 * a + 3] += 1;
                 }
             for (size_t i = 0; i < t.nn; i++)
                 if (flag[i] == 1 && sum[4 * i + 3] > 0)
-                    for (int x = 0; x < 3; x++) t.pos[3 * i + x] = sum[4 * i + x] / sum[4 * i + 3];
+                    for (int x = 0; x < 3; x++)
+                        t.pos[3 * i + x] = sum[4 * i + x] / sum[4 * i + 3];
         }
         free(ed);
         free(sum);
@@ -675,7 +697,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         } else {
             sp->rep_pos = rp;
             for (size_t h = 0; h < sp->ntets; h++)
-                if (!drop[h]) memcpy(cells_out + 8 * w++, sp->tets + 8 * h, 8 * sizeof(int64_t));
+                if (!drop[h])
+                    memcpy(cells_out + 8 * w++, sp->tets + 8 * h, 8 * sizeof(int64_t));
             size_t bad = 0;
             for (size_t h = 0; h < t.nh; h++) {
                 if (B.role[t.blk[h]] == ROLE_FRAME) continue;
@@ -690,8 +713,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
             }
             for (size_t i = 0; i < t.nn; i++)
                 if (id[i] >= first)
-                    memcpy(sp->rep_pos + 3 * (sp->nreps + (size_t)(id[i] - first)), t.pos + 3 * i,
-                           3 * sizeof(double));
+                    memcpy(sp->rep_pos + 3 * (sp->nreps + (size_t)(id[i] - first)),
+                           t.pos + 3 * i, 3 * sizeof(double));
             sp->nreps += nnew;
             free(sp->tets);
             sp->tets = cells_out;
