@@ -391,12 +391,13 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
         if (B->role[t->blk[h]] != ROLE_FRAME)
             for (int q = 0; q < 8; q++)
                 inc[fill[t->conn[8 * h + q]]++] = (int32_t)h;
-    static const int dir[14][3] = {{1, 0, 0},   {-1, 0, 0},  {0, 1, 0},  {0, -1, 0},
-                                   {0, 0, 1},   {0, 0, -1},  {1, 1, 1},  {1, 1, -1},
-                                   {1, -1, 1},  {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1},
-                                   {-1, -1, 1}, {-1, -1, -1}};
-    for (int round = 0; round < 12; round++) {
-        double stepmax = 0.25 * sc * pow(0.85, round);
+    static const int dir[26][3] = {
+        {1, 0, 0},   {-1, 0, 0}, {0, 1, 0},   {0, -1, 0},  {0, 0, 1},   {0, 0, -1}, {1, 1, 0},
+        {1, -1, 0},  {-1, 1, 0}, {-1, -1, 0}, {1, 0, 1},   {1, 0, -1},  {-1, 0, 1}, {-1, 0, -1},
+        {0, 1, 1},   {0, 1, -1}, {0, -1, 1},  {0, -1, -1}, {1, 1, 1},   {1, 1, -1}, {1, -1, 1},
+        {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1}, {-1, -1, 1}, {-1, -1, -1}};
+    for (int round = 0; round < 20; round++) {
+        double stepmax = 0.25 * sc * pow(0.9, round);
         size_t moved = 0;
         for (size_t v = 0; v < t->nn; v++) {
             if (!(flag[v] & 5) || (flag[v] & 2)) continue;
@@ -405,9 +406,9 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
             double *p = t->pos + 3 * v;
             for (double step = stepmax; step > 0.01 * sc; step *= 0.5) {
                 int improved = 1;
-                for (int pass = 0; improved && pass < 3; pass++) {
+                while (improved) {
                     improved = 0;
-                    for (int d = 0; d < 14; d++) {
+                    for (int d = 0; d < 26; d++) {
                         double keep[3];
                         memcpy(keep, p, sizeof keep);
                         for (int a = 0; a < 3; a++)
@@ -620,7 +621,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
                 ne++;
             }
         }
-        for (int it = 0; it < 200; it++) {
+        for (int it = 0; it < 400; it++) {
             memset(sum, 0, 4 * t.nn * sizeof *sum);
             for (size_t e = 0; e < ne; e++)
                 for (int side = 0; side < 2; side++) {
