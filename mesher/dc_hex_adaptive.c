@@ -433,64 +433,11 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
     return VM_OK;
 }
 
-vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_mesh_stats *st,
-                        vm_error *err) {
-    double sc = (double)scale;
-    blocks B;
-    memset(&B, 0, sizeof B);
-    int64_t real[3];
-    for (int a = 0; a < 3; a++) {
-        real[a] = n[a] > 1 ? (n[a] - 1) / scale / 3 : 0;
-        B.nb[a] = real[a] + 4;
-    }
-    size_t nblk = (size_t)(B.nb[0] * B.nb[1] * B.nb[2]);
-    uint8_t *count = calloc(nblk, 1);
-    B.role = calloc(nblk, 1);
-    uint8_t *cube = calloc(nblk, 1);
-    tmesh t;
-    memset(&t, 0, sizeof t);
-    imap cells, nodeid;
-    memset(&cells, 0, sizeof cells);
-    memset(&nodeid, 0, sizeof nodeid);
-    int32_t *corner = NULL;
-    uint8_t *drop = NULL;
-    vm_status s = VM_OK;
-    if (!count || !B.role || !cube) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-        goto done;
-    }
-    /* blocks whose 27 hexes are unit cubes */
-    for (size_t h = 0; h < sp->ntets; h++) {
-        int64_t p[3], b[3];
-        if (!cube_index(sp, n, h, sc, p)) continue;
-        int ok = 1;
-        for (int a = 0; a < 3; a++) {
-            b[a] = p[a] / 3;
-            if (b[a] >= real[a]) ok = 0;
-        }
-        if (ok) count[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
-    }
-    for (size_t b = 0; b < nblk; b++)
-        cube[b] = count[b] == 27;
-    /* coarse: a cube block whose 26 neighbours are cube blocks */
-    size_t ncoarse = 0;
-    for (int64_t z = 1; z + 1 < B.nb[2]; z++)
-        for (int64_t y = 1; y + 1 < B.nb[1]; y++)
-            for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
-                int ok = 1;
-                for (int dz = -1; dz <= 1 && ok; dz++)
-                    for (int dy = -1; dy <= 1 && ok; dy++)
-                        for (int dx = -1; dx <= 1 && ok; dx++)
-                            ok = cube[bidx(&B, x + dx, y + dy, z + dz)];
-                if (ok) {
-                    B.role[bidx(&B, x, y, z)] = ROLE_COARSE;
-                    ncoarse++;
-                }
-            }
-    /* Coarse blocks come in 2x2x2 groups (an opening: a lone block or a one-block-thick
-     * spike would need its transitions crammed round it), and no two may meet only along
-     * an edge in a plane (the shrink sets' boundaries must be manifold): drop blocks until
-     * both hold. */
+/* Drops coarse blocks until they come in 2x2x2 groups and no two meet only along an edge
+ * within an axis plane; cube is scratch (nblk bytes). */
+static void prune_coarse(const blocks *Bp, uint8_t *cube, size_t nblk, size_t *ncoarse_p) {
+    blocks B = *Bp; /* the same role array */
+    size_t ncoarse = *ncoarse_p;
     for (int changed = 1; changed;) {
         changed = 0;
         memset(cube, 0, nblk); /* reused: 1 where some 2x2x2 group of coarse blocks covers */
@@ -538,107 +485,204 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
                         }
                     }
     }
-    if (!ncoarse) goto done;
-    /* transition blocks round the coarse ones, then a frame of virtual blocks round those */
-    for (int pass = 0; pass < 2; pass++) {
-        uint8_t from = pass ? ROLE_TRANS : ROLE_COARSE, to = pass ? ROLE_FRAME : ROLE_TRANS;
-        for (int64_t z = 1; z + 1 < B.nb[2]; z++)
-            for (int64_t y = 1; y + 1 < B.nb[1]; y++)
-                for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
-                    if (B.role[bidx(&B, x, y, z)] != from) continue;
-                    for (int dz = -1; dz <= 1; dz++)
-                        for (int dy = -1; dy <= 1; dy++)
-                            for (int dx = -1; dx <= 1; dx++) {
-                                int64_t o = bidx(&B, x + dx, y + dy, z + dz);
-                                if (B.role[o] == ROLE_NONE) B.role[o] = to;
-                            }
-                }
-    }
-    /* the coarse mesh over the coarse, transition and frame blocks */
-    size_t ncorner = (size_t)((B.nb[0] + 1) * (B.nb[1] + 1) * (B.nb[2] + 1));
-    corner = malloc(ncorner * sizeof *corner);
-    if (!corner) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-        goto done;
-    }
-    for (size_t i = 0; i < ncorner; i++)
-        corner[i] = -1;
-    for (int64_t b = 0; !s && b < (int64_t)nblk; b++) {
-        if (B.role[b] == ROLE_NONE) continue;
-        int64_t bc[3];
-        bcoord(&B, b, bc);
-        int32_t c[8];
-        for (int q = 0; !s && q < 8; q++) {
-            int64_t k[3];
-            for (int a = 0; a < 3; a++)
-                k[a] = bc[a] + hex_off[q][a];
-            size_t ci = (size_t)(k[0] + (B.nb[0] + 1) * (k[1] + (B.nb[1] + 1) * k[2]));
-            if (corner[ci] < 0) {
-                double p[3];
-                for (int a = 0; a < 3; a++)
-                    p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5;
-                corner[ci] = (int32_t)t.nn;
-                s = add_node(&t, p, err);
-            }
-            c[q] = corner[ci];
-        }
-        if (!s) s = add_hex(&t, c, (int32_t)b, err);
-    }
-    for (int d = 0; !s && d < 3; d++)
-        s = pillow_round(&t, &B, d, sc, err);
-    if (s) goto done;
+    *ncoarse_p = ncoarse;
+}
 
-    /* nodes kept: fixed where coarse or shared with the frame (they are fine cube corners) */
-    uint8_t *flag = calloc(t.nn ? t.nn : 1, 1); /* 1 kept, 2 frame, 4 coarse */
-    if (!flag) {
+vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_mesh_stats *st,
+                        vm_error *err) {
+    double sc = (double)scale;
+    blocks B;
+    memset(&B, 0, sizeof B);
+    int64_t real[3];
+    for (int a = 0; a < 3; a++) {
+        real[a] = n[a] > 1 ? (n[a] - 1) / scale / 3 : 0;
+        B.nb[a] = real[a] + 4;
+    }
+    size_t nblk = (size_t)(B.nb[0] * B.nb[1] * B.nb[2]);
+    uint8_t *count = calloc(nblk, 1);
+    B.role = calloc(nblk, 1);
+    uint8_t *cube = calloc(nblk, 1);
+    tmesh t;
+    memset(&t, 0, sizeof t);
+    imap cells, nodeid;
+    memset(&cells, 0, sizeof cells);
+    memset(&nodeid, 0, sizeof nodeid);
+    int32_t *corner = NULL;
+    uint8_t *drop = NULL, *flag = NULL;
+    vm_status s = VM_OK;
+    if (!count || !B.role || !cube) {
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
         goto done;
     }
-    for (size_t h = 0; h < t.nh; h++) {
-        uint8_t r = B.role[t.blk[h]];
-        uint8_t f = r == ROLE_FRAME ? 2 : r == ROLE_COARSE ? 4 : 1;
-        for (int q = 0; q < 8; q++)
-            flag[t.conn[8 * h + q]] |= f;
+    /* blocks whose 27 hexes are unit cubes */
+    for (size_t h = 0; h < sp->ntets; h++) {
+        int64_t p[3], b[3];
+        if (!cube_index(sp, n, h, sc, p)) continue;
+        int ok = 1;
+        for (int a = 0; a < 3; a++) {
+            b[a] = p[a] / 3;
+            if (b[a] >= real[a]) ok = 0;
+        }
+        if (ok) count[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
     }
-    /* Laplacian smoothing of the free transition nodes (a fixed-boundary linear system, so
-     * the initial copy positions only speed it up) */
-    {
-        size_t ne = 0;
-        int32_t *ed = malloc((12 * t.nh + 1) * 2 * sizeof *ed);
-        double *sum = malloc(4 * (t.nn ? t.nn : 1) * sizeof *sum);
-        if (!ed || !sum) {
-            free(ed);
-            free(sum);
-            free(flag);
+    for (size_t b = 0; b < nblk; b++)
+        cube[b] = count[b] == 27;
+    /* coarse: a cube block whose 26 neighbours are cube blocks */
+    size_t ncoarse = 0;
+    for (int64_t z = 1; z + 1 < B.nb[2]; z++)
+        for (int64_t y = 1; y + 1 < B.nb[1]; y++)
+            for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
+                int ok = 1;
+                for (int dz = -1; dz <= 1 && ok; dz++)
+                    for (int dy = -1; dy <= 1 && ok; dy++)
+                        for (int dx = -1; dx <= 1 && ok; dx++)
+                            ok = cube[bidx(&B, x + dx, y + dy, z + dz)];
+                if (ok) {
+                    B.role[bidx(&B, x, y, z)] = ROLE_COARSE;
+                    ncoarse++;
+                }
+            }
+    /* Coarse blocks come in 2x2x2 groups (an opening: a lone block or a one-block-thick
+     * spike would need its transitions crammed round it), and no two may meet only along
+     * an edge in a plane (the shrink sets' boundaries must be manifold): drop blocks until
+     * both hold. */
+    prune_coarse(&B, cube, nblk, &ncoarse);
+    /* Build, smooth, and where the smoothing leaves a transition hex inverted drop the coarse
+     * blocks round it and build again (at most three times). */
+    for (int attempt = 0;; attempt++) {
+        for (size_t b = 0; b < nblk; b++)
+            if (B.role[b] != ROLE_COARSE) B.role[b] = ROLE_NONE;
+        free(corner);
+        corner = NULL;
+        free(flag);
+        flag = NULL;
+        t.nh = t.nn = 0;
+        if (!ncoarse) goto done;
+        /* transition blocks round the coarse ones, then a frame of virtual blocks round those
+         */
+        for (int pass = 0; pass < 2; pass++) {
+            uint8_t from = pass ? ROLE_TRANS : ROLE_COARSE, to = pass ? ROLE_FRAME : ROLE_TRANS;
+            for (int64_t z = 1; z + 1 < B.nb[2]; z++)
+                for (int64_t y = 1; y + 1 < B.nb[1]; y++)
+                    for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
+                        if (B.role[bidx(&B, x, y, z)] != from) continue;
+                        for (int dz = -1; dz <= 1; dz++)
+                            for (int dy = -1; dy <= 1; dy++)
+                                for (int dx = -1; dx <= 1; dx++) {
+                                    int64_t o = bidx(&B, x + dx, y + dy, z + dz);
+                                    if (B.role[o] == ROLE_NONE) B.role[o] = to;
+                                }
+                    }
+        }
+        /* the coarse mesh over the coarse, transition and frame blocks */
+        size_t ncorner = (size_t)((B.nb[0] + 1) * (B.nb[1] + 1) * (B.nb[2] + 1));
+        corner = malloc(ncorner * sizeof *corner);
+        if (!corner) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+            goto done;
+        }
+        for (size_t i = 0; i < ncorner; i++)
+            corner[i] = -1;
+        for (int64_t b = 0; !s && b < (int64_t)nblk; b++) {
+            if (B.role[b] == ROLE_NONE) continue;
+            int64_t bc[3];
+            bcoord(&B, b, bc);
+            int32_t c[8];
+            for (int q = 0; !s && q < 8; q++) {
+                int64_t k[3];
+                for (int a = 0; a < 3; a++)
+                    k[a] = bc[a] + hex_off[q][a];
+                size_t ci = (size_t)(k[0] + (B.nb[0] + 1) * (k[1] + (B.nb[1] + 1) * k[2]));
+                if (corner[ci] < 0) {
+                    double p[3];
+                    for (int a = 0; a < 3; a++)
+                        p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5;
+                    corner[ci] = (int32_t)t.nn;
+                    s = add_node(&t, p, err);
+                }
+                c[q] = corner[ci];
+            }
+            if (!s) s = add_hex(&t, c, (int32_t)b, err);
+        }
+        for (int d = 0; !s && d < 3; d++)
+            s = pillow_round(&t, &B, d, sc, err);
+        if (s) goto done;
+
+        /* nodes kept: fixed where coarse or shared with the frame (they are fine cube corners)
+         */
+        flag = calloc(t.nn ? t.nn : 1, 1); /* 1 kept, 2 frame, 4 coarse */
+        if (!flag) {
             s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
             goto done;
         }
         for (size_t h = 0; h < t.nh; h++) {
-            if (B.role[t.blk[h]] == ROLE_FRAME) continue;
-            for (int e = 0; e < 12; e++) {
-                ed[2 * ne] = t.conn[8 * h + hex_edge[e][0]];
-                ed[2 * ne + 1] = t.conn[8 * h + hex_edge[e][1]];
-                ne++;
+            uint8_t r = B.role[t.blk[h]];
+            uint8_t f = r == ROLE_FRAME ? 2 : r == ROLE_COARSE ? 4 : 1;
+            for (int q = 0; q < 8; q++)
+                flag[t.conn[8 * h + q]] |= f;
+        }
+        /* Laplacian smoothing of the free transition nodes (a fixed-boundary linear system, so
+         * the initial copy positions only speed it up) */
+        {
+            size_t ne = 0;
+            int32_t *ed = malloc((12 * t.nh + 1) * 2 * sizeof *ed);
+            double *sum = malloc(4 * (t.nn ? t.nn : 1) * sizeof *sum);
+            if (!ed || !sum) {
+                free(ed);
+                free(sum);
+                s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+                goto done;
             }
-        }
-        for (int it = 0; it < 400; it++) {
-            memset(sum, 0, 4 * t.nn * sizeof *sum);
-            for (size_t e = 0; e < ne; e++)
-                for (int side = 0; side < 2; side++) {
-                    int32_t a = ed[2 * e + side], b = ed[2 * e + 1 - side];
-                    for (int x = 0; x < 3; x++)
-                        sum[4 * a + x] += t.pos[3 * b + x];
-                    sum[4 * a + 3] += 1;
+            for (size_t h = 0; h < t.nh; h++) {
+                if (B.role[t.blk[h]] == ROLE_FRAME) continue;
+                for (int e = 0; e < 12; e++) {
+                    ed[2 * ne] = t.conn[8 * h + hex_edge[e][0]];
+                    ed[2 * ne + 1] = t.conn[8 * h + hex_edge[e][1]];
+                    ne++;
                 }
-            for (size_t i = 0; i < t.nn; i++)
-                if (flag[i] == 1 && sum[4 * i + 3] > 0)
-                    for (int x = 0; x < 3; x++)
-                        t.pos[3 * i + x] = sum[4 * i + x] / sum[4 * i + 3];
+            }
+            for (int it = 0; it < 400; it++) {
+                memset(sum, 0, 4 * t.nn * sizeof *sum);
+                for (size_t e = 0; e < ne; e++)
+                    for (int side = 0; side < 2; side++) {
+                        int32_t a = ed[2 * e + side], b = ed[2 * e + 1 - side];
+                        for (int x = 0; x < 3; x++)
+                            sum[4 * a + x] += t.pos[3 * b + x];
+                        sum[4 * a + 3] += 1;
+                    }
+                for (size_t i = 0; i < t.nn; i++)
+                    if (flag[i] == 1 && sum[4 * i + 3] > 0)
+                        for (int x = 0; x < 3; x++)
+                            t.pos[3 * i + x] = sum[4 * i + x] / sum[4 * i + 3];
+            }
+            free(ed);
+            free(sum);
         }
-        free(ed);
-        free(sum);
+        s = optimise(&t, &B, flag, sc, err);
+        if (s) goto done;
+        size_t inverted = 0;
+        for (size_t h = 0; h < t.nh; h++) {
+            if (B.role[t.blk[h]] == ROLE_FRAME) continue;
+            double p[8][3];
+            for (int q = 0; q < 8; q++)
+                memcpy(p[q], t.pos + 3 * t.conn[8 * h + q], sizeof p[q]);
+            if (hex_min_sj(p) > 0) continue;
+            inverted++;
+            int64_t bc[3];
+            bcoord(&B, t.blk[h], bc);
+            for (int dz = -1; dz <= 1; dz++)
+                for (int dy = -1; dy <= 1; dy++)
+                    for (int dx = -1; dx <= 1; dx++) {
+                        int64_t o = bidx(&B, bc[0] + dx, bc[1] + dy, bc[2] + dz);
+                        if (B.role[o] == ROLE_COARSE) {
+                            B.role[o] = ROLE_NONE;
+                            ncoarse--;
+                        }
+                    }
+        }
+        if (!inverted || attempt == 3) break;
+        prune_coarse(&B, cube, nblk, &ncoarse);
     }
-    s = optimise(&t, &B, flag, sc, err);
 
     /* the fine cube corners by cell, to share the frame-side nodes */
     s = imap_init(&cells, 1024, err);
@@ -724,8 +768,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         }
     }
     free(id);
-    free(flag);
 done:
+    free(flag);
     free(count);
     free(cube);
     free(B.role);

@@ -236,7 +236,9 @@ static void adaptiveHexMeshOfEachPhantomIsValidAndCoarser(void) {
                 CHECK_MSG(ratio <= cases[c].max_ratio, "%s: ratio %.3f", info.name, ratio);
             check_hex_mesh(info.name, &ada, info.euler, (size_t)info.components, info.volume,
                            0.02);
-            if (!small && ada.ncells < uni.ncells)
+            /* the sphere's pass (a minute on a loaded machine) is in
+             * test_mesh_hexes_adaptive_pass.c */
+            if (!small && ada.ncells < uni.ncells && cases[c].kind != VM_PHANTOM_SPHERE)
                 check_improved(info.name, &ada, &v, 0.0, 0.2, info.volume);
             vm_mesh_free(&ada);
         }
