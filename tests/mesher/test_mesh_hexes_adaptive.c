@@ -200,7 +200,7 @@ static vm_status mesh_hexes(const vm_volume *v, double lo, int adaptive, vm_mesh
     return s;
 }
 
-/* The adaptive hex mesher (dc_hex_adaptive.c) on the six phantoms at 64^3 (40^3 under the
+/* The adaptive hex mesher (dc_hex_adaptive.c) on the six phantoms at 64^3 (48^3 under the
  * sanitizers): a valid, conforming, closed mesh with the phantom's topology and volume within
  * 2%, fewer hexes than uniform where an interior block fits (the torus, genus-3 tubes and
  * plate are too thin at 64^3: the same mesh as uniform, whose pass test_mesh_hexes.c
@@ -218,7 +218,7 @@ static void adaptiveHexMeshOfEachPhantomIsValidAndCoarser(void) {
                  {VM_PHANTOM_CUT_SPHERE, 0.8}};   /* 0.758 */
     const char *sanitized = getenv("VM_SANITIZED");
     int small = sanitized && strcmp(sanitized, "1") == 0;
-    int n = small ? 40 : 64;
+    int n = small ? 48 : 64;
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         vm_volume v;
         vm_phantom_info info;
