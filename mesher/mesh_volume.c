@@ -105,9 +105,6 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     vm_mesh_init(mesh, o->elements == VM_HEX8 ? VM_HEX8 : VM_TET4);
     if (o->elements != VM_TET4 && o->elements != VM_HEX8)
         return vm_error_set(err, VM_ERR_ARG, "mesh: elements must be tetrahedra or hexahedra");
-    if (o->elements == VM_HEX8 && o->adaptive)
-        return vm_error_set(err, VM_ERR_UNSUPPORTED,
-                            "mesh: adaptive hexahedra are not built yet (use uniform --size)");
     if (o->adaptive && (o->max_level < 1 || o->max_level > 10))
         return vm_error_set(err, VM_ERR_ARG, "mesh: adaptive max level %d is outside 1..10",
                             o->max_level);
@@ -129,7 +126,8 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     g.hi = o->hi;
     g.has_lo = o->has_lo;
     g.has_hi = o->has_hi;
-    g.max_level = o->adaptive ? o->max_level : 0;
+    /* adaptive hexes: uniform hexes first, then one coarsening level (dc_hex_adaptive.c) */
+    g.max_level = o->adaptive && o->elements != VM_HEX8 ? o->max_level : 0;
     g.hexes = o->elements == VM_HEX8;
     g.error = o->error;
     g.progress = o->progress;
@@ -139,10 +137,20 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     memset(&soup, 0, sizeof soup);
     s = g.hexes ? vm__dual_contour_hexes(&g, &soup, &st, err)
                 : vm__dual_contour_tets(&g, &soup, &st, err);
+    /* --max-level L: up to L coarsening levels, blocks of 3^L cells */
+    for (int64_t l = 1, sc = 1; !s && g.hexes && o->adaptive && l <= o->max_level; l++, sc *= 3) {
+        size_t before = soup.ntets;
+        s = vm__hex_adapt(&soup, g.n, sc, &st, err);
+        if (soup.ntets == before) break;
+    }
     free(resampled);
     if (s == VM_ERR_EMPTY)
         s = vm_error_set(err, VM_ERR_EMPTY, "mesh: no grid point is in the material");
-    if (s) return s;
+    if (s) {
+        free(soup.tets);
+        free(soup.rep_pos);
+        return s;
+    }
 
     /* Number the used vertices in order of first use; map to world coordinates. */
     size_t nl = (size_t)soup.nlattice;

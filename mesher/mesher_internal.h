@@ -73,4 +73,11 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
 vm_status vm__dual_contour_hexes(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
                                  vm_error *err);
 
+/* Adaptive hexahedra (dc_hex_adaptive.c): replaces the cubes of side `scale` (1: the unit
+ * cubes of dc_hex.c; 3, 9, ...: those of the previous call) in interior 3x3x3 blocks well
+ * inside the material by one hex each, with a conforming all-hex transition round them; a
+ * soup without such blocks is left as it is. n: the grid's points per axis. */
+vm_status vm__hex_adapt(vm__tet_soup *soup, const int64_t n[3], int64_t scale,
+                        vm_mesh_stats *st, vm_error *err);
+
 #endif

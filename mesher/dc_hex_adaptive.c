@@ -1,0 +1,784 @@
+/* mesher/dc_hex_adaptive.c — adaptive hexahedra, one coarsening level: interior 3x3x3 blocks
+ * of unit cubes become one hex; the transition around them is made by pillowing (sheet
+ * insertion, Mitchell and Tautges 1995), one shrink set per block layer and axis, so the
+ * 3-refinement faces, edges and corners — concave ones included — are conforming by
+ * construction (see docs/ALGORITHMS.md, "Adaptive hexahedra"). */
+#include "../core/core.h"
+#include "mesher_internal.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const int hex_off[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                  {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+/* the six faces of a VTK hex, ordered counter-clockwise seen from outside */
+static const int hex_face[6][4] = {{0, 4, 7, 3}, {1, 2, 6, 5}, {0, 1, 5, 4},
+                                   {3, 7, 6, 2}, {0, 3, 2, 1}, {4, 5, 6, 7}};
+static const int hex_edge[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
+                                    {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+static const int corner_nb[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
+                                    {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
+
+enum { ROLE_NONE = 0, ROLE_COARSE = 1, ROLE_TRANS = 2, ROLE_FRAME = 3 };
+/* At scale s, a cube is a hex with corners c + s*offset, c = s*i + 0.5 (i >= 0 integer: the
+ * cube's index); block b holds the cubes 3b .. 3b+2 per axis. At s = 1 these are the unit
+ * cubes round grid points i + 1. */
+
+/* int64 -> int64 open-addressing map (keys >= 0). */
+typedef struct imap {
+    int64_t *key, *val;
+    size_t cap, n;
+} imap;
+
+static size_t imap_slot(const imap *m, int64_t k) {
+    uint64_t h = (uint64_t)k * 0x9E3779B97F4A7C15ull;
+    size_t i = (size_t)(h >> 17) & (m->cap - 1);
+    while (m->key[i] >= 0 && m->key[i] != k)
+        i = (i + 1) & (m->cap - 1);
+    return i;
+}
+
+static vm_status imap_init(imap *m, size_t expect, vm_error *err) {
+    m->cap = 64;
+    while (m->cap < 2 * expect + 16)
+        m->cap *= 2;
+    m->n = 0;
+    m->key = malloc(m->cap * sizeof *m->key);
+    m->val = malloc(m->cap * sizeof *m->val);
+    if (!m->key || !m->val) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    for (size_t i = 0; i < m->cap; i++)
+        m->key[i] = -1;
+    return VM_OK;
+}
+
+static void imap_free(imap *m) {
+    free(m->key);
+    free(m->val);
+    memset(m, 0, sizeof *m);
+}
+
+static int64_t imap_get(const imap *m, int64_t k) {
+    size_t i = imap_slot(m, k);
+    return m->key[i] < 0 ? -1 : m->val[i];
+}
+
+static vm_status imap_put(imap *m, int64_t k, int64_t v, vm_error *err) {
+    if (2 * (m->n + 1) > m->cap) {
+        imap old = *m;
+        vm_status s = imap_init(m, old.n + 1, err);
+        if (s) {
+            imap_free(&old);
+            return s;
+        }
+        for (size_t i = 0; i < old.cap; i++)
+            if (old.key[i] >= 0) {
+                size_t j = imap_slot(m, old.key[i]);
+                m->key[j] = old.key[i];
+                m->val[j] = old.val[i];
+                m->n++;
+            }
+        imap_free(&old);
+    }
+    size_t i = imap_slot(m, k);
+    if (m->key[i] < 0) m->n++;
+    m->key[i] = k;
+    m->val[i] = v;
+    return VM_OK;
+}
+
+/* The transition mesh under construction (index coordinates). */
+typedef struct tmesh {
+    int32_t *conn; /* 8 per hex */
+    int32_t *blk;  /* per hex: its block (padded block index) */
+    size_t nh, hcap;
+    double *pos; /* 3 per node */
+    size_t nn, ncap;
+} tmesh;
+
+static vm_status add_node(tmesh *t, const double p[3], vm_error *err) {
+    vm_status s = vm__grow((void **)&t->pos, &t->ncap, t->nn + 1, 3 * sizeof(double), err);
+    if (s) return s;
+    memcpy(t->pos + 3 * t->nn++, p, 3 * sizeof(double));
+    return VM_OK;
+}
+
+static vm_status add_hex(tmesh *t, const int32_t c[8], int32_t blk, vm_error *err) {
+    size_t cap = t->hcap;
+    vm_status s = vm__grow((void **)&t->conn, &t->hcap, t->nh + 1, 8 * sizeof(int32_t), err);
+    if (s) return s;
+    if (t->hcap != cap) {
+        int32_t *b = realloc(t->blk, t->hcap * sizeof *b);
+        if (!b) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        t->blk = b;
+    }
+    memcpy(t->conn + 8 * t->nh, c, 8 * sizeof(int32_t));
+    t->blk[t->nh++] = blk;
+    return VM_OK;
+}
+
+typedef struct face_rec {
+    int32_t k[4]; /* sorted node ids */
+    int64_t hf;   /* hex * 6 + face */
+} face_rec;
+
+static int face_cmp(const void *a, const void *b) {
+    const face_rec *x = a, *y = b;
+    for (int i = 0; i < 4; i++)
+        if (x->k[i] != y->k[i]) return x->k[i] < y->k[i] ? -1 : 1;
+    return 0;
+}
+
+static void sort4(int32_t k[4]) {
+    for (int i = 1; i < 4; i++)
+        for (int j = i; j > 0 && k[j - 1] > k[j]; j--) {
+            int32_t t = k[j];
+            k[j] = k[j - 1];
+            k[j - 1] = t;
+        }
+}
+
+/* nb[6*h+f]: the hex across face f of hex h, -1 on the boundary. */
+static vm_status face_neighbours(const tmesh *t, int64_t **nb_out, vm_error *err) {
+    size_t nf = 6 * t->nh;
+    face_rec *r = malloc((nf ? nf : 1) * sizeof *r);
+    int64_t *nb = malloc((nf ? nf : 1) * sizeof *nb);
+    if (!r || !nb) {
+        free(r);
+        free(nb);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
+    for (size_t h = 0; h < t->nh; h++)
+        for (int f = 0; f < 6; f++) {
+            face_rec *x = r + 6 * h + f;
+            for (int i = 0; i < 4; i++)
+                x->k[i] = t->conn[8 * h + hex_face[f][i]];
+            sort4(x->k);
+            x->hf = (int64_t)(6 * h + f);
+            nb[6 * h + f] = -1;
+        }
+    qsort(r, nf, sizeof *r, face_cmp);
+    for (size_t i = 0; i + 1 < nf; i++)
+        if (!face_cmp(r + i, r + i + 1)) {
+            nb[r[i].hf] = r[i + 1].hf / 6;
+            nb[r[i + 1].hf] = r[i].hf / 6;
+            i++;
+        }
+    free(r);
+    *nb_out = nb;
+    return VM_OK;
+}
+
+typedef struct blocks {
+    int64_t nb[3]; /* padded block grid (two frame blocks each side) */
+    uint8_t *role;
+    int64_t lay_stride[3];
+} blocks;
+
+static int64_t bidx(const blocks *B, int64_t x, int64_t y, int64_t z) {
+    return x + B->nb[0] * (y + B->nb[1] * z);
+}
+
+static void bcoord(const blocks *B, int64_t b, int64_t c[3]) {
+    c[0] = b % B->nb[0];
+    c[1] = (b / B->nb[0]) % B->nb[1];
+    c[2] = b / (B->nb[0] * B->nb[1]);
+}
+
+/* One pillowing round along axis d: every non-coarse hex of block layer k is in the shrink
+ * set S_k; the sheet is the set's faces toward a coarse hex or another layer. */
+static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_error *err) {
+    int64_t *nb = NULL;
+    vm_status s = face_neighbours(t, &nb, err);
+    if (s) return s;
+    imap copy;
+    memset(&copy, 0, sizeof copy);
+    int32_t *sheet = NULL; /* pairs (hex, face) */
+    size_t ns = 0, scap = 0;
+    double *acc = NULL;
+    size_t acap = 0;
+    s = imap_init(&copy, t->nn, err);
+    size_t nh0 = t->nh, nn0 = t->nn;
+    for (size_t h = 0; !s && h < nh0; h++) {
+        if (B->role[t->blk[h]] == ROLE_COARSE) continue;
+        int64_t bc[3];
+        bcoord(B, t->blk[h], bc);
+        for (int f = 0; !s && f < 6; f++) {
+            int64_t o = nb[6 * h + f];
+            if (o < 0) continue;
+            int64_t oc[3];
+            bcoord(B, t->blk[o], oc);
+            if (B->role[t->blk[o]] != ROLE_COARSE && oc[d] == bc[d]) continue;
+            s = vm__grow((void **)&sheet, &scap, ns + 1, 2 * sizeof(int32_t), err);
+            if (s) break;
+            sheet[2 * ns] = (int32_t)h;
+            sheet[2 * ns + 1] = f;
+            ns++;
+            /* inward normal of the face (into h) from the current positions */
+            const int32_t *c = t->conn + 8 * h;
+            double u[3], v[3], nrm[3];
+            const double *p0 = t->pos + 3 * c[hex_face[f][0]],
+                         *p1 = t->pos + 3 * c[hex_face[f][1]],
+                         *p2 = t->pos + 3 * c[hex_face[f][2]],
+                         *p3 = t->pos + 3 * c[hex_face[f][3]];
+            for (int a = 0; a < 3; a++) {
+                u[a] = p2[a] - p0[a];
+                v[a] = p3[a] - p1[a];
+            }
+            nrm[0] = -(u[1] * v[2] - u[2] * v[1]);
+            nrm[1] = -(u[2] * v[0] - u[0] * v[2]);
+            nrm[2] = -(u[0] * v[1] - u[1] * v[0]);
+            double l = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+            for (int i = 0; !s && i < 4; i++) {
+                int32_t node = c[hex_face[f][i]];
+                int64_t key = (int64_t)node * B->nb[d] + bc[d];
+                int64_t id = imap_get(&copy, key);
+                if (id < 0) {
+                    id = (int64_t)t->nn;
+                    s = imap_put(&copy, key, id, err);
+                    if (!s) {
+                        double q[3];
+                        memcpy(q, t->pos + 3 * node, sizeof q);
+                        s = add_node(t, q, err);
+                    }
+                    if (!s) s = vm__grow((void **)&acc, &acap, t->nn, 3 * sizeof(double), err);
+                    if (s) break;
+                    for (int a = 0; a < 3; a++)
+                        acc[3 * (id - (int64_t)nn0) + a] = 0;
+                }
+                if (l > 0)
+                    for (int a = 0; a < 3; a++)
+                        acc[3 * (id - (int64_t)nn0) + a] += nrm[a] / l;
+            }
+        }
+    }
+    /* copies step one cell into the set along each axis their sheet faces point */
+    for (size_t i = nn0; !s && i < t->nn; i++) {
+        const double *q = acc + 3 * (i - nn0);
+        double l = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+        for (int a = 0; a < 3 && l > 0; a++)
+            if (fabs(q[a]) > 0.3 * l) t->pos[3 * i + a] += q[a] > 0 ? sc : -sc;
+    }
+    /* pillow hexes: the copy of each sheet face below, the face itself on top */
+    for (size_t e = 0; !s && e < ns; e++) {
+        size_t h = (size_t)sheet[2 * e];
+        int f = sheet[2 * e + 1];
+        int64_t bc[3];
+        bcoord(B, t->blk[h], bc);
+        int32_t c[8];
+        for (int i = 0; i < 4; i++) {
+            int32_t node = t->conn[8 * h + hex_face[f][i]];
+            c[4 + i] = node;
+            c[i] = (int32_t)imap_get(&copy, (int64_t)node * B->nb[d] + bc[d]);
+        }
+        s = add_hex(t, c, t->blk[h], err);
+    }
+    /* the set's hexes take the copies */
+    for (size_t h = 0; !s && h < nh0; h++) {
+        if (B->role[t->blk[h]] == ROLE_COARSE) continue;
+        int64_t bc[3];
+        bcoord(B, t->blk[h], bc);
+        for (int q = 0; q < 8; q++) {
+            int64_t id = imap_get(&copy, (int64_t)t->conn[8 * h + q] * B->nb[d] + bc[d]);
+            if (id >= 0) t->conn[8 * h + q] = (int32_t)id;
+        }
+    }
+    free(nb);
+    free(sheet);
+    free(acc);
+    imap_free(&copy);
+    return s;
+}
+
+static double hex_min_sj(double p[8][3]) {
+    double worst = INFINITY;
+    for (int k = 0; k < 8; k++) {
+        double e[3][3], len = 1;
+        for (int j = 0; j < 3; j++) {
+            double l2 = 0;
+            for (int a = 0; a < 3; a++) {
+                e[j][a] = p[corner_nb[k][j]][a] - p[k][a];
+                l2 += e[j][a] * e[j][a];
+            }
+            len *= sqrt(l2);
+        }
+        double det = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
+                     e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+                     e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+        double q = len > 0 ? det / len : -1;
+        if (q < worst) worst = q;
+    }
+    return worst;
+}
+
+static void soup_pos(const vm__tet_soup *sp, const int64_t n[3], int64_t id, double out[3]) {
+    if (id < sp->nlattice) {
+        out[0] = (double)(id % n[0]);
+        out[1] = (double)((id / n[0]) % n[1]);
+        out[2] = (double)(id / (n[0] * n[1]));
+    } else {
+        memcpy(out, sp->rep_pos + 3 * (id - sp->nlattice), 3 * sizeof(double));
+    }
+}
+
+/* Index of hex t when it is a cube at scale sc (1, else 0). */
+static int cube_index(const vm__tet_soup *sp, const int64_t n[3], size_t t, double sc,
+                      int64_t p[3]) {
+    const int64_t *c = sp->tets + 8 * t;
+    double q[3], o[3];
+    if (c[0] < sp->nlattice) return 0;
+    soup_pos(sp, n, c[0], o);
+    for (int a = 0; a < 3; a++) {
+        double r = (o[a] - 0.5) / sc;
+        if (r != floor(r) || r < 0) return 0;
+        p[a] = (int64_t)r;
+    }
+    for (int k = 1; k < 8; k++) {
+        if (c[k] < sp->nlattice) return 0;
+        soup_pos(sp, n, c[k], q);
+        for (int a = 0; a < 3; a++)
+            if (q[a] != o[a] + sc * hex_off[k][a]) return 0;
+    }
+    return 1;
+}
+
+/* Key of the cube corner at q (scale sc), -1 when q is not one. */
+static int64_t corner_key(const int64_t n[3], double sc, const double q[3]) {
+    int64_t c[3], m[3];
+    for (int a = 0; a < 3; a++) {
+        double r = (q[a] - 0.5) / sc;
+        m[a] = (int64_t)((double)n[a] / sc) + 3;
+        if (r != floor(r) || r < -1 || r > (double)(m[a] - 2)) return -1;
+        c[a] = (int64_t)r + 1;
+    }
+    return c[0] + m[0] * (c[1] + m[1] * c[2]);
+}
+
+/* Worst corner of the hexes around node v (scaled Jacobian). */
+static double around_min(const tmesh *t, const int32_t *inc, const int32_t *start, int32_t v) {
+    double worst = INFINITY;
+    for (int32_t i = start[v]; i < start[v + 1]; i++) {
+        double p[8][3];
+        for (int q = 0; q < 8; q++)
+            memcpy(p[q], t->pos + 3 * t->conn[8 * inc[i] + q], sizeof p[q]);
+        double m = hex_min_sj(p);
+        if (m < worst) worst = m;
+    }
+    return worst;
+}
+
+/* Moves each free node (flag == 1) by compass search to raise the worst corner scaled
+ * Jacobian of the hexes around it; a move is kept only if that worst corner goes up. */
+static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double sc,
+                          vm_error *err) {
+    int32_t *start = calloc(t->nn + 1, sizeof *start);
+    if (!start) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    for (size_t h = 0; h < t->nh; h++)
+        if (B->role[t->blk[h]] != ROLE_FRAME)
+            for (int q = 0; q < 8; q++)
+                start[t->conn[8 * h + q] + 1]++;
+    for (size_t i = 0; i < t->nn; i++)
+        start[i + 1] += start[i];
+    int32_t *inc = malloc(((size_t)start[t->nn] + 1) * sizeof *inc);
+    int32_t *fill = malloc((t->nn + 1) * sizeof *fill);
+    if (!inc || !fill) {
+        free(start);
+        free(inc);
+        free(fill);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
+    memcpy(fill, start, t->nn * sizeof *fill);
+    for (size_t h = 0; h < t->nh; h++)
+        if (B->role[t->blk[h]] != ROLE_FRAME)
+            for (int q = 0; q < 8; q++)
+                inc[fill[t->conn[8 * h + q]]++] = (int32_t)h;
+    static const int dir[26][3] = {
+        {1, 0, 0},   {-1, 0, 0}, {0, 1, 0},   {0, -1, 0},  {0, 0, 1},   {0, 0, -1}, {1, 1, 0},
+        {1, -1, 0},  {-1, 1, 0}, {-1, -1, 0}, {1, 0, 1},   {1, 0, -1},  {-1, 0, 1}, {-1, 0, -1},
+        {0, 1, 1},   {0, 1, -1}, {0, -1, 1},  {0, -1, -1}, {1, 1, 1},   {1, 1, -1}, {1, -1, 1},
+        {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1}, {-1, -1, 1}, {-1, -1, -1}};
+    for (int round = 0; round < 20; round++) {
+        double stepmax = 0.25 * sc * pow(0.9, round);
+        size_t moved = 0;
+        for (size_t v = 0; v < t->nn; v++) {
+            if (!(flag[v] & 5) || (flag[v] & 2)) continue;
+            double best = around_min(t, inc, start, (int32_t)v);
+            if (best > 0.3) continue;
+            double *p = t->pos + 3 * v;
+            for (double step = stepmax; step > 0.01 * sc; step *= 0.5) {
+                int improved = 1;
+                while (improved) {
+                    improved = 0;
+                    for (int d = 0; d < 26; d++) {
+                        double keep[3];
+                        memcpy(keep, p, sizeof keep);
+                        for (int a = 0; a < 3; a++)
+                            p[a] += step * dir[d][a];
+                        double q = around_min(t, inc, start, (int32_t)v);
+                        if (q > best + 1e-9) {
+                            best = q;
+                            improved = 1;
+                            moved++;
+                        } else {
+                            memcpy(p, keep, sizeof keep);
+                        }
+                    }
+                }
+            }
+        }
+        if (!moved) break;
+    }
+    free(start);
+    free(inc);
+    free(fill);
+    return VM_OK;
+}
+
+/* Drops coarse blocks until they come in 2x2x2 groups and no two meet only along an edge
+ * within an axis plane; cube is scratch (nblk bytes). */
+static void prune_coarse(const blocks *Bp, uint8_t *cube, size_t nblk, size_t *ncoarse_p) {
+    blocks B = *Bp; /* the same role array */
+    size_t ncoarse = *ncoarse_p;
+    for (int changed = 1; changed;) {
+        changed = 0;
+        memset(cube, 0, nblk); /* reused: 1 where some 2x2x2 group of coarse blocks covers */
+        for (int64_t z = 0; z + 1 < B.nb[2]; z++)
+            for (int64_t y = 0; y + 1 < B.nb[1]; y++)
+                for (int64_t x = 0; x + 1 < B.nb[0]; x++) {
+                    int all = 1;
+                    for (int q = 0; q < 8 && all; q++)
+                        all = B.role[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
+                                          z + hex_off[q][2])] == ROLE_COARSE;
+                    if (all)
+                        for (int q = 0; q < 8; q++)
+                            cube[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
+                                      z + hex_off[q][2])] = 1;
+                }
+        for (size_t b = 0; b < nblk; b++)
+            if (B.role[b] == ROLE_COARSE && !cube[b]) {
+                B.role[b] = ROLE_NONE;
+                ncoarse--;
+                changed = 1;
+            }
+        for (int64_t z = 0; z + 1 < B.nb[2]; z++)
+            for (int64_t y = 0; y + 1 < B.nb[1]; y++)
+                for (int64_t x = 0; x + 1 < B.nb[0]; x++)
+                    for (int pl = 0; pl < 3; pl++) {
+                        int64_t e1[3] = {0, 0, 0}, e2[3] = {0, 0, 0};
+                        e1[pl] = 1;
+                        e2[(pl + 1) % 3] = 1;
+                        int64_t q[4];
+                        q[0] = bidx(&B, x, y, z);
+                        q[1] = bidx(&B, x + e1[0], y + e1[1], z + e1[2]);
+                        q[2] = bidx(&B, x + e2[0], y + e2[1], z + e2[2]);
+                        q[3] =
+                            bidx(&B, x + e1[0] + e2[0], y + e1[1] + e2[1], z + e1[2] + e2[2]);
+                        int c0 = B.role[q[0]] == ROLE_COARSE, c1 = B.role[q[1]] == ROLE_COARSE,
+                            c2 = B.role[q[2]] == ROLE_COARSE, c3 = B.role[q[3]] == ROLE_COARSE;
+                        if (c0 && c3 && !c1 && !c2) {
+                            B.role[q[0]] = ROLE_NONE;
+                            ncoarse--;
+                            changed = 1;
+                        } else if (c1 && c2 && !c0 && !c3) {
+                            B.role[q[1]] = ROLE_NONE;
+                            ncoarse--;
+                            changed = 1;
+                        }
+                    }
+    }
+    *ncoarse_p = ncoarse;
+}
+
+vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_mesh_stats *st,
+                        vm_error *err) {
+    double sc = (double)scale;
+    blocks B;
+    memset(&B, 0, sizeof B);
+    int64_t real[3];
+    for (int a = 0; a < 3; a++) {
+        real[a] = n[a] > 1 ? (n[a] - 1) / scale / 3 : 0;
+        B.nb[a] = real[a] + 4;
+    }
+    size_t nblk = (size_t)(B.nb[0] * B.nb[1] * B.nb[2]);
+    uint8_t *count = calloc(nblk, 1);
+    B.role = calloc(nblk, 1);
+    uint8_t *cube = calloc(nblk, 1);
+    tmesh t;
+    memset(&t, 0, sizeof t);
+    imap cells, nodeid;
+    memset(&cells, 0, sizeof cells);
+    memset(&nodeid, 0, sizeof nodeid);
+    int32_t *corner = NULL;
+    uint8_t *drop = NULL, *flag = NULL;
+    vm_status s = VM_OK;
+    if (!count || !B.role || !cube) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
+    }
+    /* blocks whose 27 hexes are unit cubes */
+    for (size_t h = 0; h < sp->ntets; h++) {
+        int64_t p[3], b[3];
+        if (!cube_index(sp, n, h, sc, p)) continue;
+        int ok = 1;
+        for (int a = 0; a < 3; a++) {
+            b[a] = p[a] / 3;
+            if (b[a] >= real[a]) ok = 0;
+        }
+        if (ok) count[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
+    }
+    for (size_t b = 0; b < nblk; b++)
+        cube[b] = count[b] == 27;
+    /* coarse: a cube block whose 26 neighbours are cube blocks */
+    size_t ncoarse = 0;
+    for (int64_t z = 1; z + 1 < B.nb[2]; z++)
+        for (int64_t y = 1; y + 1 < B.nb[1]; y++)
+            for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
+                int ok = 1;
+                for (int dz = -1; dz <= 1 && ok; dz++)
+                    for (int dy = -1; dy <= 1 && ok; dy++)
+                        for (int dx = -1; dx <= 1 && ok; dx++)
+                            ok = cube[bidx(&B, x + dx, y + dy, z + dz)];
+                if (ok) {
+                    B.role[bidx(&B, x, y, z)] = ROLE_COARSE;
+                    ncoarse++;
+                }
+            }
+    /* Coarse blocks come in 2x2x2 groups (an opening: a lone block or a one-block-thick
+     * spike would need its transitions crammed round it), and no two may meet only along
+     * an edge in a plane (the shrink sets' boundaries must be manifold): drop blocks until
+     * both hold. */
+    prune_coarse(&B, cube, nblk, &ncoarse);
+    /* Build, smooth, and where the smoothing leaves a transition hex inverted drop the coarse
+     * blocks round it and build again (at most three times). */
+    for (int attempt = 0;; attempt++) {
+        for (size_t b = 0; b < nblk; b++)
+            if (B.role[b] != ROLE_COARSE) B.role[b] = ROLE_NONE;
+        free(corner);
+        corner = NULL;
+        free(flag);
+        flag = NULL;
+        t.nh = t.nn = 0;
+        if (!ncoarse) goto done;
+        /* transition blocks round the coarse ones, then a frame of virtual blocks round those
+         */
+        for (int pass = 0; pass < 2; pass++) {
+            uint8_t from = pass ? ROLE_TRANS : ROLE_COARSE, to = pass ? ROLE_FRAME : ROLE_TRANS;
+            for (int64_t z = 1; z + 1 < B.nb[2]; z++)
+                for (int64_t y = 1; y + 1 < B.nb[1]; y++)
+                    for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
+                        if (B.role[bidx(&B, x, y, z)] != from) continue;
+                        for (int dz = -1; dz <= 1; dz++)
+                            for (int dy = -1; dy <= 1; dy++)
+                                for (int dx = -1; dx <= 1; dx++) {
+                                    int64_t o = bidx(&B, x + dx, y + dy, z + dz);
+                                    if (B.role[o] == ROLE_NONE) B.role[o] = to;
+                                }
+                    }
+        }
+        /* the coarse mesh over the coarse, transition and frame blocks */
+        size_t ncorner = (size_t)((B.nb[0] + 1) * (B.nb[1] + 1) * (B.nb[2] + 1));
+        corner = malloc(ncorner * sizeof *corner);
+        if (!corner) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+            goto done;
+        }
+        for (size_t i = 0; i < ncorner; i++)
+            corner[i] = -1;
+        for (int64_t b = 0; !s && b < (int64_t)nblk; b++) {
+            if (B.role[b] == ROLE_NONE) continue;
+            int64_t bc[3];
+            bcoord(&B, b, bc);
+            int32_t c[8];
+            for (int q = 0; !s && q < 8; q++) {
+                int64_t k[3];
+                for (int a = 0; a < 3; a++)
+                    k[a] = bc[a] + hex_off[q][a];
+                size_t ci = (size_t)(k[0] + (B.nb[0] + 1) * (k[1] + (B.nb[1] + 1) * k[2]));
+                if (corner[ci] < 0) {
+                    double p[3];
+                    for (int a = 0; a < 3; a++)
+                        p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5;
+                    corner[ci] = (int32_t)t.nn;
+                    s = add_node(&t, p, err);
+                }
+                c[q] = corner[ci];
+            }
+            if (!s) s = add_hex(&t, c, (int32_t)b, err);
+        }
+        for (int d = 0; !s && d < 3; d++)
+            s = pillow_round(&t, &B, d, sc, err);
+        if (s) goto done;
+
+        /* nodes kept: fixed where coarse or shared with the frame (they are fine cube corners)
+         */
+        flag = calloc(t.nn ? t.nn : 1, 1); /* 1 kept, 2 frame, 4 coarse */
+        if (!flag) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+            goto done;
+        }
+        for (size_t h = 0; h < t.nh; h++) {
+            uint8_t r = B.role[t.blk[h]];
+            uint8_t f = r == ROLE_FRAME ? 2 : r == ROLE_COARSE ? 4 : 1;
+            for (int q = 0; q < 8; q++)
+                flag[t.conn[8 * h + q]] |= f;
+        }
+        /* Laplacian smoothing of the free transition nodes (a fixed-boundary linear system, so
+         * the initial copy positions only speed it up) */
+        {
+            size_t ne = 0;
+            int32_t *ed = malloc((12 * t.nh + 1) * 2 * sizeof *ed);
+            double *sum = malloc(4 * (t.nn ? t.nn : 1) * sizeof *sum);
+            if (!ed || !sum) {
+                free(ed);
+                free(sum);
+                s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+                goto done;
+            }
+            for (size_t h = 0; h < t.nh; h++) {
+                if (B.role[t.blk[h]] == ROLE_FRAME) continue;
+                for (int e = 0; e < 12; e++) {
+                    ed[2 * ne] = t.conn[8 * h + hex_edge[e][0]];
+                    ed[2 * ne + 1] = t.conn[8 * h + hex_edge[e][1]];
+                    ne++;
+                }
+            }
+            for (int it = 0; it < 400; it++) {
+                memset(sum, 0, 4 * t.nn * sizeof *sum);
+                for (size_t e = 0; e < ne; e++)
+                    for (int side = 0; side < 2; side++) {
+                        int32_t a = ed[2 * e + side], b = ed[2 * e + 1 - side];
+                        for (int x = 0; x < 3; x++)
+                            sum[4 * a + x] += t.pos[3 * b + x];
+                        sum[4 * a + 3] += 1;
+                    }
+                for (size_t i = 0; i < t.nn; i++)
+                    if (flag[i] == 1 && sum[4 * i + 3] > 0)
+                        for (int x = 0; x < 3; x++)
+                            t.pos[3 * i + x] = sum[4 * i + x] / sum[4 * i + 3];
+            }
+            free(ed);
+            free(sum);
+        }
+        s = optimise(&t, &B, flag, sc, err);
+        if (s) goto done;
+        size_t inverted = 0;
+        for (size_t h = 0; h < t.nh; h++) {
+            if (B.role[t.blk[h]] == ROLE_FRAME) continue;
+            double p[8][3];
+            for (int q = 0; q < 8; q++)
+                memcpy(p[q], t.pos + 3 * t.conn[8 * h + q], sizeof p[q]);
+            if (hex_min_sj(p) > 0) continue;
+            inverted++;
+            int64_t bc[3];
+            bcoord(&B, t.blk[h], bc);
+            for (int dz = -1; dz <= 1; dz++)
+                for (int dy = -1; dy <= 1; dy++)
+                    for (int dx = -1; dx <= 1; dx++) {
+                        int64_t o = bidx(&B, bc[0] + dx, bc[1] + dy, bc[2] + dz);
+                        if (B.role[o] == ROLE_COARSE) {
+                            B.role[o] = ROLE_NONE;
+                            ncoarse--;
+                        }
+                    }
+        }
+        if (!inverted || attempt == 3) break;
+        prune_coarse(&B, cube, nblk, &ncoarse);
+    }
+
+    /* the fine cube corners by cell, to share the frame-side nodes */
+    s = imap_init(&cells, 1024, err);
+    drop = calloc(sp->ntets ? sp->ntets : 1, 1);
+    if (!s && !drop) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    size_t dropped = 0;
+    for (size_t h = 0; !s && h < sp->ntets; h++) {
+        int64_t p[3], b[3];
+        if (!cube_index(sp, n, h, sc, p)) continue;
+        int ok = 1;
+        for (int a = 0; a < 3; a++) {
+            b[a] = p[a] / 3;
+            if (b[a] >= real[a]) ok = 0;
+        }
+        if (!ok) continue;
+        uint8_t r = B.role[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)];
+        if (r != ROLE_COARSE && r != ROLE_TRANS) continue;
+        drop[h] = 1;
+        dropped++;
+        for (int q = 0; !s && q < 8; q++) {
+            double qp[3];
+            soup_pos(sp, n, sp->tets[8 * h + q], qp);
+            s = imap_put(&cells, corner_key(n, sc, qp), sp->tets[8 * h + q], err);
+        }
+    }
+    /* number the kept nodes: frame-side ones are existing fine vertices */
+    int64_t *id = malloc((t.nn ? t.nn : 1) * sizeof *id);
+    size_t nkept = 0, nnew = 0, missing = 0;
+    if (!s && !id) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    int64_t first = sp->nlattice + (int64_t)sp->nreps;
+    for (size_t i = 0; !s && i < t.nn; i++) {
+        id[i] = -1;
+        if (!(flag[i] & 5)) continue;
+        if (flag[i] & 2) {
+            int64_t k = corner_key(n, sc, t.pos + 3 * i);
+            id[i] = k < 0 ? -1 : imap_get(&cells, k);
+            if (id[i] < 0) missing++;
+        } else {
+            id[i] = first + (int64_t)nnew++;
+        }
+    }
+    for (size_t h = 0; h < t.nh; h++)
+        if (B.role[t.blk[h]] != ROLE_FRAME) nkept++;
+    if (!s && missing)
+        s = vm_error_set(err, VM_ERR_INTERNAL,
+                         "mesh: adaptive hexes: %zu transition nodes match no fine vertex",
+                         missing);
+    /* rebuild the soup: fine hexes outside the coarse and transition blocks, then those */
+    if (!s) {
+        size_t nt = sp->ntets - dropped + nkept, w = 0;
+        int64_t *cells_out = malloc(8 * nt * sizeof *cells_out);
+        double *rp = realloc(sp->rep_pos, 3 * (sp->nreps + nnew + 1) * sizeof *rp);
+        if (!cells_out || !rp) {
+            free(cells_out);
+            if (rp) sp->rep_pos = rp;
+            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        } else {
+            sp->rep_pos = rp;
+            for (size_t h = 0; h < sp->ntets; h++)
+                if (!drop[h])
+                    memcpy(cells_out + 8 * w++, sp->tets + 8 * h, 8 * sizeof(int64_t));
+            size_t bad = 0;
+            for (size_t h = 0; h < t.nh; h++) {
+                if (B.role[t.blk[h]] == ROLE_FRAME) continue;
+                double p[8][3];
+                for (int q = 0; q < 8; q++) {
+                    int32_t v = t.conn[8 * h + q];
+                    cells_out[8 * w + q] = id[v];
+                    memcpy(p[q], t.pos + 3 * v, sizeof p[q]);
+                }
+                if (hex_min_sj(p) <= 0) bad++;
+                w++;
+            }
+            for (size_t i = 0; i < t.nn; i++)
+                if (id[i] >= first)
+                    memcpy(sp->rep_pos + 3 * (sp->nreps + (size_t)(id[i] - first)),
+                           t.pos + 3 * i, 3 * sizeof(double));
+            sp->nreps += nnew;
+            free(sp->tets);
+            sp->tets = cells_out;
+            sp->ntets = w;
+            if (st) st->inverted_cells += bad;
+        }
+    }
+    free(id);
+done:
+    free(flag);
+    free(count);
+    free(cube);
+    free(B.role);
+    free(corner);
+    free(drop);
+    free(t.conn);
+    free(t.blk);
+    free(t.pos);
+    imap_free(&cells);
+    imap_free(&nodeid);
+    return s;
+}
