@@ -5,6 +5,7 @@
  * went down and reaches 0.2, and a boundary on the isosurface. */
 #include <stdlib.h>
 #include <string.h>
+/* ctest parts: 2 */
 #include "hex_checks.h"
 
 /* The six phantoms at 64^3, each test meshing them the same way. */
