@@ -5,6 +5,7 @@
  * construction (see docs/ALGORITHMS.md, "Adaptive hexahedra"). */
 #include "../core/core.h"
 #include "mesher_internal.h"
+#include "volmesh/quality.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,8 +17,6 @@ static const int hex_face[6][4] = {{0, 4, 7, 3}, {1, 2, 6, 5}, {0, 1, 5, 4},
                                    {3, 7, 6, 2}, {0, 3, 2, 1}, {4, 5, 6, 7}};
 static const int hex_edge[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
                                     {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
-static const int corner_nb[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
-                                    {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
 
 enum { ROLE_NONE = 0, ROLE_COARSE = 1, ROLE_TRANS = 2, ROLE_FRAME = 3 };
 /* At scale s, a cube is a hex with corners c + s*offset, c = s*i + 0.5 (i >= 0 integer: the
@@ -289,25 +288,9 @@ static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_er
     return s;
 }
 
+/* Worst corner scaled Jacobian (quality/'s corner-only metric; 0 at a zero-length edge). */
 static double hex_min_sj(double p[8][3]) {
-    double worst = INFINITY;
-    for (int k = 0; k < 8; k++) {
-        double e[3][3], len = 1;
-        for (int j = 0; j < 3; j++) {
-            double l2 = 0;
-            for (int a = 0; a < 3; a++) {
-                e[j][a] = p[corner_nb[k][j]][a] - p[k][a];
-                l2 += e[j][a] * e[j][a];
-            }
-            len *= sqrt(l2);
-        }
-        double det = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
-                     e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
-                     e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
-        double q = len > 0 ? det / len : -1;
-        if (q < worst) worst = q;
-    }
-    return worst;
+    return vm_hex_min_scaled_jacobian((const double(*)[3])p);
 }
 
 static void soup_pos(const vm__tet_soup *sp, const int64_t n[3], int64_t id, double out[3]) {
