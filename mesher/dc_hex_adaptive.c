@@ -324,6 +324,19 @@ static int cube_index(const vm__tet_soup *sp, const int64_t n[3], size_t t, doub
     return 1;
 }
 
+/* The 3x3x3 block b of hex t when t is a unit cube (cube_index) inside the grid's whole
+ * blocks (b[a] < real[a] on every axis); 0 otherwise. */
+static int cube_block(const vm__tet_soup *sp, const int64_t n[3], size_t t, double sc,
+                      const int64_t real[3], int64_t b[3]) {
+    int64_t p[3];
+    if (!cube_index(sp, n, t, sc, p)) return 0;
+    for (int a = 0; a < 3; a++) {
+        b[a] = p[a] / 3;
+        if (b[a] >= real[a]) return 0;
+    }
+    return 1;
+}
+
 /* Key of the cube corner at q (scale sc), -1 when q is not one. */
 static int64_t corner_key(const int64_t n[3], double sc, const double q[3]) {
     int64_t c[3], m[3];
@@ -499,14 +512,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
     }
     /* blocks whose 27 hexes are unit cubes */
     for (size_t h = 0; h < sp->ntets; h++) {
-        int64_t p[3], b[3];
-        if (!cube_index(sp, n, h, sc, p)) continue;
-        int ok = 1;
-        for (int a = 0; a < 3; a++) {
-            b[a] = p[a] / 3;
-            if (b[a] >= real[a]) ok = 0;
-        }
-        if (ok) count[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
+        int64_t b[3];
+        if (cube_block(sp, n, h, sc, real, b)) count[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
     }
     for (size_t b = 0; b < nblk; b++)
         cube[b] = count[b] == 27;
@@ -673,14 +680,8 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
     if (!s && !drop) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     size_t dropped = 0;
     for (size_t h = 0; !s && h < sp->ntets; h++) {
-        int64_t p[3], b[3];
-        if (!cube_index(sp, n, h, sc, p)) continue;
-        int ok = 1;
-        for (int a = 0; a < 3; a++) {
-            b[a] = p[a] / 3;
-            if (b[a] >= real[a]) ok = 0;
-        }
-        if (!ok) continue;
+        int64_t b[3];
+        if (!cube_block(sp, n, h, sc, real, b)) continue;
         uint8_t r = B.role[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)];
         if (r != ROLE_COARSE && r != ROLE_TRANS) continue;
         drop[h] = 1;
