@@ -102,6 +102,18 @@ static void count_pass_progress(const char *stage, double done, double total, vo
     p->last = done;
 }
 
+/* dst = the points, tets and regions of src (no fields), for one run of the pass. */
+static void copy_tets(const vm_mesh *src, vm_mesh *dst) {
+    vm_error err;
+    vm_mesh_init(dst, VM_TET4);
+    CHECK_OK(vm_mesh_reserve(dst, src->npoints, src->ncells, &err), &err);
+    memcpy(dst->points, src->points, 3 * src->npoints * sizeof *dst->points);
+    memcpy(dst->cells, src->cells, 4 * src->ncells * sizeof *dst->cells);
+    memcpy(dst->region, src->region, src->ncells * sizeof *dst->region);
+    dst->npoints = src->npoints;
+    dst->ncells = src->ncells;
+}
+
 static void quality_pass_gives_the_same_mesh_for_one_two_and_three_threads(void) {
     vm_volume v;
     vm_mesh m0;
@@ -122,13 +134,7 @@ static void quality_pass_gives_the_same_mesh_for_one_two_and_three_threads(void)
     for (size_t t = 0; t < sizeof counts / sizeof counts[0]; t++) {
         vm_set_threads(counts[t]);
         vm_mesh m;
-        vm_mesh_init(&m, VM_TET4);
-        CHECK_OK(vm_mesh_reserve(&m, m0.npoints, m0.ncells, &err), &err);
-        memcpy(m.points, m0.points, 3 * m0.npoints * sizeof *m.points);
-        memcpy(m.cells, m0.cells, 4 * m0.ncells * sizeof *m.cells);
-        memcpy(m.region, m0.region, m0.ncells * sizeof *m.region);
-        m.npoints = m0.npoints;
-        m.ncells = m0.ncells;
+        copy_tets(&m0, &m);
         vm_improve_options io;
         vm_improve_options_default(&io);
         io.mark_unfixed = 1;
@@ -210,13 +216,7 @@ static void quality_pass_with_two_regions_and_a_cell_field_is_the_same_for_any_t
     for (size_t t = 0; t < sizeof counts / sizeof counts[0]; t++) {
         vm_set_threads(counts[t]);
         vm_mesh m;
-        vm_mesh_init(&m, VM_TET4);
-        CHECK_OK(vm_mesh_reserve(&m, m0.npoints, m0.ncells, &err), &err);
-        memcpy(m.points, m0.points, 3 * m0.npoints * sizeof *m.points);
-        memcpy(m.cells, m0.cells, 4 * m0.ncells * sizeof *m.cells);
-        memcpy(m.region, m0.region, m0.ncells * sizeof *m.region);
-        m.npoints = m0.npoints;
-        m.ncells = m0.ncells;
+        copy_tets(&m0, &m);
         CHECK_OK(vm_mesh_set_field(&m, 1, "input_id", 1, m0.cell_fields[0].data, &err), &err);
         vm_improve_options io;
         vm_improve_options_default(&io);
