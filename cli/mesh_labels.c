@@ -99,12 +99,10 @@ bad:
     return vm_cli_fail("--size-per-label: '%s' is not a list of LABEL:SIZE such as 3:0.5,7:2", s);
 }
 
-static int report(const vm_mesh *m, const vm_label_stats *st, int json, const char *out,
-                  const vm_improve_report *ir) {
-    vm_mesh_report r;
-    vm_error err;
-    vm_error_clear(&err);
-    if (vm_mesh_check(m, &r, &err)) return vm_cli_fail_err(&err);
+/* Prints the summary of m, whose vm_mesh_check is *checked. */
+static int report(const vm_mesh *m, const vm_mesh_report *checked, const vm_label_stats *st,
+                  int json, const char *out, const vm_improve_report *ir) {
+    const vm_mesh_report r = *checked;
     const char *kind = m->kind == VM_HEX8 ? "hexes" : "tets";
     if (json) {
         printf("{\"output\": \"%s\", \"elements\": %zu, \"points\": %zu, \"inverted\": %zu, "
@@ -241,9 +239,13 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
         vm_mesh_free(&surf);
     }
     if (!s) stage_line(verbose, "write", cli_clock() - t);
-    int rc = s ? vm_cli_fail_err(&err) : report(&m, &st, json, out, improved ? &ir : NULL);
+    /* one check serves the summary and the HTML report */
+    vm_mesh_report checked;
+    if (!s) s = vm_mesh_check_with(&m, lo->progress, lo->progress_user, &checked, &err);
+    int rc = s ? vm_cli_fail_err(&err)
+               : report(&m, &checked, &st, json, out, improved ? &ir : NULL);
     int quiet = lo->progress_user ? *(const int *)lo->progress_user : 0;
-    if (!rc && html) rc = vm_cli_write_report(html, &m, out, NULL, quiet);
+    if (!rc && html) rc = vm_cli_write_report(html, &m, out, &checked, quiet);
     vm_label_stats_free(&st);
     vm_mesh_free(&m);
     return rc;
