@@ -689,6 +689,166 @@ static void report(const vm_improve_options *o, int pass, int phase, size_t i, s
     show_rounds(o, pass + (phase + (double)i / (double)n) / 4.0);
 }
 
+/* --- smoothing by blocks (issue #12) ------------------------------------------------------
+ * The candidate vertices without boundary faces (their moves neither ask nor change the
+ * boundary guard) are cut into SMOOTH_BLOCKS z-slabs of equal count: the cuts depend on the
+ * mesh only, never on the thread count. Such a vertex is smoothed inside its slab's block
+ * when every vertex of every tet around it lies in the slab (at the start of the phase):
+ * then two vertices of different blocks share no tet, and none reads a position or quality
+ * another block writes. Each block runs in list order on a private copy of the working state
+ * (scratch, touched list, counters), merged in block order. A second phase does the same for
+ * the vertices left at slab borders with the cuts shifted by half a slab; then the vertices
+ * left (on the boundary, or at a border of both partitions) are smoothed in list order,
+ * sequentially. The same mesh for any thread count. */
+#define SMOOTH_BLOCKS 8
+
+static int smooth_blocks = SMOOTH_BLOCKS; /* <= 1: the plain sequential loop */
+
+void vm__imp_set_smooth_blocks(int k) {
+    smooth_blocks = k > SMOOTH_BLOCKS ? SMOOTH_BLOCKS : k;
+}
+
+static int dbl_cmp(const void *pa, const void *pb) {
+    double a = *(const double *)pa, b = *(const double *)pb;
+    return a < b ? -1 : a > b;
+}
+
+/* Slab of height z: the number of cuts at or below it. */
+static int slab_of(const double *cut, int ncut, double z) {
+    int lo = 0, hi = ncut;
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        if (cut[mid] <= z) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
+}
+
+/* Appends n indices to w->touched; 0 on out-of-memory. */
+static int append_touched(vm__imp *w, const vm_index *t, size_t n) {
+    if (n == 0) return 1;
+    if (w->ntouched + n > w->touched_cap) {
+        size_t cap = w->touched_cap ? 2 * w->touched_cap : 4096;
+        while (cap < w->ntouched + n) cap *= 2;
+        vm_index *tt = realloc(w->touched, cap * sizeof *tt);
+        if (!tt) return 0;
+        w->touched = tt;
+        w->touched_cap = cap;
+    }
+    memcpy(w->touched + w->ntouched, t, n * sizeof *t);
+    w->ntouched += n;
+    return 1;
+}
+
+/* One block phase over the vertices vs[i] with state[i] == 0 (cuts at the quantiles of all
+ * vertices without boundary faces, shifted by half a slab when shift): those whose stars lie
+ * in one slab are smoothed there and get state 2.
+ * blk, z and order hold nv entries, start SMOOTH_BLOCKS + 2. Returns the vertices moved. */
+static size_t smooth_block_phase(vm__imp *w, const vm_index *vs, size_t nv, uint8_t *state,
+                                 int shift, int *blk, double *z, vm_index *order,
+                                 size_t *start) {
+    const int K = smooth_blocks, nb = K + shift;
+    size_t ne = 0, ops = 0;
+    for (size_t i = 0; i < nv; i++)
+        if (state[i] != 1) z[ne++] = w->p[3 * (size_t)vs[i] + 2]; /* the same set twice */
+    if (ne < (size_t)K) return 0;
+    qsort(z, ne, sizeof *z, dbl_cmp);
+    double cut[SMOOTH_BLOCKS];
+    int ncut = 0;
+    for (int k = shift ? 0 : 1; k < K; k++)
+        cut[ncut++] = z[((size_t)(2 * k + shift) * ne) / (size_t)(2 * K)];
+    /* The slab of each vertex whose star lies in one (reads only). */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 1024)
+#endif
+    for (size_t i = 0; i < nv; i++) {
+        blk[i] = -1;
+        if (state[i] != 0) continue;
+        vm_index a = vs[i];
+        int b = slab_of(cut, ncut, w->p[3 * (size_t)a + 2]), same = 1;
+        const vm__imp_star *st = &w->star[a];
+        for (int32_t j = 0; j < st->n && same; j++)
+            for (int k = 0; k < 4 && same; k++) {
+                vm_index u = w->tet[4 * (size_t)st->t[j] + k];
+                same = u == a || slab_of(cut, ncut, w->p[3 * (size_t)u + 2]) == b;
+            }
+        if (same) blk[i] = b;
+    }
+    memset(start, 0, ((size_t)nb + 1) * sizeof *start);
+    for (size_t i = 0; i < nv; i++)
+        if (blk[i] >= 0) start[blk[i] + 1]++;
+    for (int k = 0; k < nb; k++) start[k + 1] += start[k];
+    size_t pos[SMOOTH_BLOCKS + 1];
+    memcpy(pos, start, (size_t)nb * sizeof *pos);
+    for (size_t i = 0; i < nv; i++)
+        if (blk[i] >= 0) {
+            order[pos[blk[i]]++] = vs[i];
+            state[i] = 2;
+        }
+    vm__imp part[SMOOTH_BLOCKS + 1];
+    size_t pops[SMOOTH_BLOCKS + 1] = {0};
+    for (int k = 0; k < nb; k++) {
+        part[k] = *w;
+        part[k].g = NULL; /* no vertex of a block has boundary faces */
+        part[k].buf = NULL;
+        part[k].buf_cap = 0;
+        part[k].touched = NULL;
+        part[k].ntouched = part[k].touched_cap = 0;
+        part[k].moves = 0;
+        part[k].nomem = 0;
+    }
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+    for (int k = 0; k < nb; k++)
+        for (size_t i = start[k]; i < start[k + 1] && !part[k].nomem; i++)
+            pops[k] += (size_t)vm__imp_smooth_vertex(&part[k], order[i], 6);
+    /* Merged in block order. */
+    for (int k = 0; k < nb; k++) {
+        ops += pops[k];
+        w->moves += part[k].moves;
+        if (part[k].nomem || !append_touched(w, part[k].touched, part[k].ntouched)) w->nomem = 1;
+        free(part[k].buf);
+        free(part[k].touched);
+    }
+    return ops;
+}
+
+/* Smooths vs[0..nv) (list order) as above; returns the number of vertices moved. */
+static size_t smooth_by_blocks(vm__imp *w, const vm_improve_options *o, int pass,
+                               const vm_index *vs, size_t nv) {
+    size_t ops = 0;
+    uint8_t *state = malloc(nv + 1);
+    int *blk = malloc((nv + 1) * sizeof *blk);
+    double *z = malloc((nv + 1) * sizeof *z);
+    vm_index *order = malloc((nv + 1) * sizeof *order);
+    size_t start[SMOOTH_BLOCKS + 2];
+    if (!state || !blk || !z || !order) {
+        w->nomem = 1;
+    } else {
+        /* 0: may go in a block; 1: has boundary faces (or cannot move) */
+        for (size_t i = 0; i < nv; i++) {
+            vm_index a = vs[i];
+            int off = w->cls[a] == VM__IMP_FIXED || w->pdead[a] ? 0 : vm__imp_guard_off(w, a);
+            if (off < 0) w->nomem = 1;
+            state[i] = off == 1 ? 0 : 1;
+        }
+        for (int shift = 0; shift < 2 && !w->nomem; shift++)
+            ops += smooth_block_phase(w, vs, nv, state, shift, blk, z, order, start);
+        /* The rest, in list order. */
+        for (size_t i = 0, j = 0; i < nv && !w->nomem; i++) {
+            if (state[i] == 2) continue;
+            report(o, pass, 3, j++, nv);
+            ops += (size_t)vm__imp_smooth_vertex(w, vs[i], 6);
+        }
+    }
+    free(state);
+    free(blk);
+    free(z);
+    free(order);
+    return ops;
+}
+
 static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     size_t ops_total = 0;
     uint32_t *stamp = calloc(w->npt, sizeof *stamp);
@@ -727,10 +887,13 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         }
         if (o->smooth) {
             size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
-            for (size_t i = 0; i < nv; i++) {
-                report(o, pass, 3, i, nv);
-                ops += (size_t)vm__imp_smooth_vertex(w, vs[i], 6);
-            }
+            if (smooth_blocks > 1)
+                ops += smooth_by_blocks(w, o, pass, vs, nv);
+            else
+                for (size_t i = 0; i < nv; i++) {
+                    report(o, pass, 3, i, nv);
+                    ops += (size_t)vm__imp_smooth_vertex(w, vs[i], 6);
+                }
         }
         if (o->perturb && pass >= 1) {
             size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
