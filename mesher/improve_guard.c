@@ -372,17 +372,6 @@ int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
     return 1;
 }
 
-int vm__imp_guard_off(vm__imp *w, vm_index a) {
-    struct vm__imp_guard *g = w->g;
-    if (!g || g->bucket[a] == NOB) return 1;
-    const vm_index *e;
-    int nf = vm__imp_guard_faces(w, a, &e);
-    if (nf < 0) return -1;
-    if (nf > 0) return 0;
-    g_remove(w, a); /* as a query that meets it does */
-    return 1;
-}
-
 int vm__imp_guard_move_ok(vm__imp *w, vm_index a, const double x[3]) {
     struct vm__imp_guard *g = w->g;
     if (!g || g->bucket[a] == NOB) return 1;

@@ -139,11 +139,6 @@ int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
                      const vm_index (*rem)[3], int nrem);
 /* 1 when moving vertex a to x makes no boundary triangles cross. */
 int vm__imp_guard_move_ok(vm__imp *w, vm_index a, const double x[3]);
-/* 1 when vertex a has no boundary faces and is out of the grid, so that its moves neither
- * ask nor change the guard (a vertex in the grid without boundary faces is taken out, as a
- * query meeting it would: the guard's answers stay the same); 0 when it has boundary faces,
- * -1 on nomem. */
-int vm__imp_guard_off(vm__imp *w, vm_index a);
 /* The boundary faces (a, e[2i], e[2i+1]) around vertex a, i < return value; -1 on nomem. */
 int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e);
 
@@ -153,9 +148,5 @@ int vm__imp_flip_tet(vm__imp *w, size_t t);
 int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters);
 int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries);
 int vm__imp_peel_tet(vm__imp *w, size_t t);
-
-/* Smoothing by blocks (improve.c): k slabs, or the plain sequential loop for k <= 1. For
- * measurements and tests. */
-void vm__imp_set_smooth_blocks(int k);
 
 #endif
