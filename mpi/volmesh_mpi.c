@@ -2,9 +2,9 @@
  * a partitioned VTK XML grid (.pvtu + one .vtu piece per rank). Design: docs/MPI.md.
  *
  * Every rank reads only the planes of its slab of cells along z plus a ghost band
- * (vm_volume_read_slab) into a volume of the whole dims, the rest outside the material
- * (untouched zero pages when 0 is outside it, else a fill value), and meshes the result with
- * the ordinary mesher in the volume's global index frame. The mesher's decisions are local
+ * (vm_volume_read_slab) and meshes them with the ordinary mesher as a cropped volume
+ * (vm_mesh_options z_offset, full_nz) in the whole volume's index frame: its grid structures
+ * span the crop only, its coordinates are the whole grid's. The mesher's decisions are local
  * (a cell's vertices, splits and octree leaf depend only on samples a few cells away), so
  * away from the ghost band's far edge the rank's tets are bit for bit those of the
  * single-process mesh. Each rank keeps the tets whose centroid lies in its slab; the
@@ -216,20 +216,6 @@ static void sampling_z(int64_t nz, int S, int64_t *m, double *step) {
     *step = (double)(nz - 1) / (double)(*m - 1);
 }
 
-/* A value outside the material: below the lower bound (or above the upper one), from the
- * data range vmin..vmax of the whole volume. */
-static float outside_value(double vmin, double vmax, const vm_mesh_options *o) {
-    if (o->has_lo) {
-        double span = vmax - o->lo > 1 ? vmax - o->lo : 1;
-        return (float)(fmin(vmin, o->lo) - span);
-    }
-    double span = o->hi - vmin > 1 ? o->hi - vmin : 1;
-    return (float)(fmax(vmax, o->hi) + span);
-}
-
-/* The data range of the whole volume (every rank's planes together cover it). */
-static double vmin_ = NAN, vmax_ = NAN;
-
 /* This rank's cells c0 <= c < c1 along z of the sampling grid (whole blocks of B cells, B
  * = 2^L with --adaptive), the grid step in voxels and the number of blocks. */
 static void rank_cells(const args *A, int64_t nzvox, int64_t *c0, int64_t *c1, double *step,
@@ -245,7 +231,9 @@ static void rank_cells(const args *A, int64_t nzvox, int64_t *c0, int64_t *c1, d
 }
 
 /* Voxel planes lo..hi this rank meshes: its cells, the ghost band of G cells on each side
- * and the voxel beyond (for the trilinear resampling), within 0..nz-1. */
+ * and the voxel beyond (for the trilinear resampling), within 0..nz-1. The band below starts
+ * on a multiple of the mesher's crop alignment (2 cells, 2^(L+1) with --adaptive; see
+ * vm_mesh_options), so the mesher keeps all of it. */
 static void rank_planes(const args *A, int64_t nzvox, int64_t *lo, int64_t *hi) {
     int64_t c0, c1, blocks, B;
     double step;
@@ -255,56 +243,52 @@ static void rank_planes(const args *A, int64_t nzvox, int64_t *lo, int64_t *hi) 
         *hi = c1 <= c0 ? -1 : nzvox - 1;
         return;
     }
-    double l = floor((double)(c0 - A->ghost) * step) - 1;
+    int64_t align = A->mo.adaptive ? (int64_t)2 << A->mo.max_level : 2;
+    int64_t g0 = c0 - A->ghost < 0 ? 0 : (c0 - A->ghost) / align * align;
+    double l = floor((double)g0 * step) - 1;
     double h = ceil((double)(c1 + A->ghost) * step) + 1;
     *lo = l < 0 ? 0 : (int64_t)l;
     *hi = h > (double)(nzvox - 1) ? nzvox - 1 : (int64_t)h;
 }
 
-/* The volume with only this rank's planes read (vm_volume_read_slab): [out] v has the whole
- * volume's dims and geometry; its other planes are zero pages of a lazy allocation (never
- * touched, so they take no memory) until slab_mesh fills them when 0 is in the material.
- * Collective (the data range is reduced over all ranks), whatever fails. */
-static vm_status read_planes(const args *A, vm_volume *v, vm_error *err) {
+/* This rank's planes lo..hi of the volume (vm_volume_read_slab): [out] v holds just them, with
+ * the whole volume's geometry (origin of plane 0), [out] *nz: the whole volume's planes;
+ * no data when the rank has no cells. */
+static vm_status read_planes(const args *A, vm_volume *v, int64_t *nz, vm_error *err) {
     memset(v, 0, sizeof *v);
     vm_volume info, slab;
     memset(&slab, 0, sizeof slab);
-    double mm[2] = {INFINITY, INFINITY}; /* min and -max, reduced with MPI_MIN */
     vm_status s = vm_volume_read_info(A->in, &info, err);
     int64_t lo = 0, hi = -1;
-    if (!s) rank_planes(A, info.dims[2], &lo, &hi);
-    size_t plane = 0, count = 0;
-    if (!s) {
-        plane = (size_t)info.dims[0] * (size_t)info.dims[1];
-        count = plane * (size_t)info.dims[2]; /* fits: vm_volume_read_info checked it */
-        if (count > SIZE_MAX / sizeof(float))
-            s = vm_error_set(err, VM_ERR_NOMEM, "%s: the volume is too big", A->in);
+    if (s) return s;
+    *nz = info.dims[2];
+    rank_planes(A, info.dims[2], &lo, &hi);
+    *v = info;
+    if (hi < lo) return VM_OK;
+    s = vm_volume_read_slab(A->in, lo, hi + 1, &slab, err);
+    if (s) return s;
+    v->data = slab.data; /* the frame stays the whole volume's */
+    v->dims[2] = slab.dims[2];
+    return VM_OK;
+}
+
+/* A whole volume cut down to this rank's planes lo..hi (as read_planes reads them). [in,out]
+ * v, [out] *nz: the whole volume's planes. */
+static vm_status crop_planes(const args *A, vm_volume *v, int64_t *nz, vm_error *err) {
+    *nz = v->dims[2];
+    int64_t lo, hi;
+    rank_planes(A, v->dims[2], &lo, &hi);
+    if (lo == 0 && hi == v->dims[2] - 1) return VM_OK;
+    size_t plane = (size_t)v->dims[0] * (size_t)v->dims[1], keep = 0;
+    if (hi >= lo) {
+        keep = plane * (size_t)(hi - lo + 1);
+        memmove(v->data, v->data + plane * (size_t)lo, keep * sizeof(float));
     }
-    if (!s && hi >= lo) s = vm_volume_read_slab(A->in, lo, hi + 1, &slab, err);
-    if (!s) {
-        *v = info;
-        v->data = calloc(count, sizeof(float));
-        if (!v->data) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu voxels", A->in,
-                             count);
-            memset(v, 0, sizeof *v);
-        }
-    }
-    if (!s && slab.data) {
-        memcpy(v->data + plane * (size_t)lo, slab.data, plane * (size_t)slab.dims[2] * sizeof(float));
-        double a, b;
-        vm_volume_stats(&slab, &a, &b, NULL);
-        if (!isnan(a)) {
-            mm[0] = a;
-            mm[1] = -b;
-        }
-    }
-    vm_volume_free(&slab);
-    double all[2];
-    MPI_Allreduce(mm, all, 2, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
-    vmin_ = all[0];
-    vmax_ = -all[1];
-    return s;
+    float *d = realloc(v->data, (keep ? keep : 1) * sizeof(float));
+    if (!d) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    v->data = d;
+    v->dims[2] = hi >= lo ? hi - lo + 1 : 0;
+    return VM_OK;
 }
 
 /* The piece name of rank r beside OUT.pvtu: OUT_r.vtu. [out] path (size n). */
@@ -685,12 +669,12 @@ done:
  * (another slab's); with --improve, the first quality pass over the owned tets with the
  * vertices they share with other slabs fixed. [out] m (empty on error), z0, z1: the slab's
  * z range (index space), seconds. VM_ERR_EMPTY: no tets here. */
-static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, double *z1,
-                           double *seconds, vm_error *err) {
+static vm_status slab_mesh(const args *A, vm_volume *v, int64_t nz, vm_mesh *m, double *z0,
+                           double *z1, double *seconds, vm_error *err) {
     vm_mesh_init(m, VM_TET4);
     int64_t c0, c1, blocks, B;
     double step;
-    rank_cells(A, v->dims[2], &c0, &c1, &step, &blocks, &B);
+    rank_cells(A, nz, &c0, &c1, &step, &blocks, &B);
     *z0 = rank_ == 0 ? -INFINITY : (double)c0 * step;
     *z1 = rank_ == nranks_ - 1 ? INFINITY : (double)c1 * step;
     if (A->improve && nranks_ > 1 && blocks < nranks_) /* the same answer on every rank */
@@ -700,20 +684,12 @@ static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, 
             "at most %lld ranks)",
             nranks_, (long long)blocks, (long long)B, (long long)blocks);
     if (c1 <= c0) return VM_ERR_EMPTY; /* more ranks than blocks */
-    if (nranks_ > 1) {
-        /* Planes lo..hi keep their voxels; every other voxel goes outside the material: the
-         * zeros a slab read left there already are when 0 is outside it. */
-        const vm_mesh_options *o = &A->mo;
-        int zero_outside = (o->has_lo && 0.0 < o->lo) || (o->has_hi && 0.0 > o->hi);
-        float fill = outside_value(vmin_, vmax_, o);
-        int64_t lo, hi;
-        rank_planes(A, v->dims[2], &lo, &hi);
-        size_t plane = (size_t)v->dims[0] * (size_t)v->dims[1];
-        if (!(A->in && zero_outside))
-            for (int64_t k = 0; k < v->dims[2]; k++)
-                if (k < lo || k > hi)
-                    for (size_t i = 0; i < plane; i++)
-                        v->data[(size_t)k * plane + i] = fill;
+    int64_t lo, hi;
+    rank_planes(A, nz, &lo, &hi);
+    vm_mesh_options mo = A->mo;
+    if (nranks_ > 1) { /* v holds planes lo..hi */
+        mo.z_offset = lo;
+        mo.full_nz = nz;
     }
     for (int a = 0; a < 3; a++) {
         v->origin[a] = 0;
@@ -722,8 +698,10 @@ static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, 
             v->direction[a][b] = a == b;
     }
     double t0 = MPI_Wtime();
-    vm_status s = vm_mesh_volume(v, &A->mo, m, NULL, err);
+    vm_status s = vm_mesh_volume(v, &mo, m, NULL, err);
     if (s) return s;
+    /* The quality pass reads v in the mesh's frame: plane 0 of the crop is plane lo. */
+    v->origin[2] = (double)mo.z_offset;
     for (size_t t = 0; t < m->ncells; t++)
         m->region[t] = owned(m, t, *z0, *z1) ? 1 : 2;
     if (A->improve && nranks_ > 1) {
@@ -787,11 +765,13 @@ int main(int argc, char **argv) {
     vm_volume v;
     memset(&v, 0, sizeof v);
     vm_status s;
+    int64_t nz = 0;
     if (A.phantom) {
+        /* made whole; the rank keeps only its planes */
         s = vm_phantom_make(A.kind, (int)A.phantom_n, 0.0, 1, &v, NULL, &err);
-        if (!s) vm_volume_stats(&v, &vmin_, &vmax_, NULL);
+        if (!s) s = crop_planes(&A, &v, &nz, &err);
     } else {
-        s = read_planes(&A, &v, &err);
+        s = read_planes(&A, &v, &nz, &err);
     }
     char piece_file[4096];
     piece_path(A.out, rank_, piece_file, sizeof piece_file);
@@ -802,7 +782,7 @@ int main(int argc, char **argv) {
     vm_mesh m;
     vm_mesh_init(&m, VM_TET4);
     int secondary = 0;
-    if (!s) s = slab_mesh(&A, &v, &m, &z0, &z1, &secs, &err);
+    if (!s) s = slab_mesh(&A, &v, nz, &m, &z0, &z1, &secs, &err);
     if (A.improve && nranks_ > 1) {
         /* collective: every rank goes through it, whatever happened so far */
         int bad = s && s != VM_ERR_EMPTY, anybad;
