@@ -77,6 +77,10 @@ static inline float vm__dc_fval(const dc *d, int64_t i, int64_t j, int64_t k) {
 static inline double vm__dc_coord(const dc *d, int64_t i, int a) {
     return (double)(i + d->off[a]);
 }
+/* i + j + k of grid point p in the whole grid (the parity of the tet splits). */
+static inline int64_t vm__dc_gsum(const dc *d, const int64_t p[3]) {
+    return p[0] + p[1] + p[2] + d->off[0] + d->off[1] + d->off[2];
+}
 static inline int vm__dc_real_point(const dc *d, const int64_t p[3]) {
     for (int a = 0; a < 3; a++)
         if (p[a] < 0 || p[a] >= d->n[a]) return 0;

@@ -185,9 +185,9 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     float *resampled = NULL;
     double step[3];
     if (o->full_nz > 0) {
-        /* A crop starts on a whole-grid plane where the octree's blocks and the parity of
-         * the tet splits (even / odd corners, per leaf size) are those of the whole grid. */
-        int64_t align = o->adaptive ? (int64_t)2 << o->max_level : 2;
+        /* An adaptive crop starts on a whole-grid plane where the octree's blocks are those
+         * of the whole grid (the tet splits take their parity in the whole grid's frame). */
+        int64_t align = o->adaptive ? (int64_t)1 << o->max_level : 1;
         s = crop_grid(v, o, align, g.n, &g.f, &resampled, step, &g.off[2], err);
     } else if (o->z_offset) {
         s = vm_error_set(err, VM_ERR_ARG, "mesh: a z offset needs the whole volume's planes");

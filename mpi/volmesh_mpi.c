@@ -232,7 +232,7 @@ static void rank_cells(const args *A, int64_t nzvox, int64_t *c0, int64_t *c1, d
 
 /* Voxel planes lo..hi this rank meshes: its cells, the ghost band of G cells on each side
  * and the voxel beyond (for the trilinear resampling), within 0..nz-1. The band below starts
- * on a multiple of the mesher's crop alignment (2 cells, 2^(L+1) with --adaptive; see
+ * on a multiple of 2^L cells with --adaptive (the mesher's crop alignment, see
  * vm_mesh_options), so the mesher keeps all of it. */
 static void rank_planes(const args *A, int64_t nzvox, int64_t *lo, int64_t *hi) {
     int64_t c0, c1, blocks, B;
@@ -243,7 +243,7 @@ static void rank_planes(const args *A, int64_t nzvox, int64_t *lo, int64_t *hi) 
         *hi = c1 <= c0 ? -1 : nzvox - 1;
         return;
     }
-    int64_t align = A->mo.adaptive ? (int64_t)2 << A->mo.max_level : 2;
+    int64_t align = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
     int64_t g0 = c0 - A->ghost < 0 ? 0 : (c0 - A->ghost) / align * align;
     double l = floor((double)g0 * step) - 1;
     double h = ceil((double)(c1 + A->ghost) * step) + 1;
