@@ -419,10 +419,33 @@ static vm_status keep_ring(vm_mesh *m, vm_error *err) {
     return VM_OK;
 }
 
-/* The quality pass on m (index space, v its masked volume) with every vertex between two
- * regions fixed. */
-static vm_status improve(const args *A, const vm_volume *v, vm_mesh *m, vm_error *err) {
+/* The quality pass on m (index space, v its volume's planes) with every vertex between two
+ * regions fixed. Only region 1 is improved: the other tets (each a region of its own, with
+ * fixed vertices) cannot change and are kept off the pass's work lists (frozen). With
+ * cut != 0 (the first phase) so are the region-1 tets with a vertex on another region: the
+ * cut's tets, whose fixed vertices keep most of them from reaching the targets; the second
+ * phase improves them across the cut (they are in its bands), and until then they would
+ * keep every round of the pass busy for nothing. */
+static vm_status improve(const args *A, const vm_volume *v, vm_mesh *m, int cut,
+                         vm_error *err) {
     if (!m->ncells) return VM_OK;
+    unsigned char *fz = malloc(m->ncells);
+    uint8_t *other = cut ? calloc(m->npoints ? m->npoints : 1, 1) : NULL;
+    if (!fz || (cut && !other)) {
+        free(fz);
+        free(other);
+        return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    for (size_t t = 0; other && t < m->ncells; t++)
+        if (m->region[t] != 1)
+            for (int k = 0; k < 4; k++)
+                other[m->cells[4 * t + (size_t)k]] = 1;
+    for (size_t t = 0; t < m->ncells; t++) {
+        const vm_index *c = m->cells + 4 * t;
+        fz[t] = m->region[t] != 1 ||
+                (other && (other[c[0]] || other[c[1]] || other[c[2]] || other[c[3]]));
+    }
+    free(other);
     vm_improve_options io;
     vm_improve_options_default(&io);
     io.lo = A->mo.lo;
@@ -430,7 +453,10 @@ static vm_status improve(const args *A, const vm_volume *v, vm_mesh *m, vm_error
     io.has_lo = A->mo.has_lo;
     io.has_hi = A->mo.has_hi;
     io.max_interface_move = 0;
-    return vm_mesh_improve(m, v, &io, NULL, err);
+    io.frozen = fz;
+    vm_status s = vm_mesh_improve(m, v, &io, NULL, err);
+    free(fz);
+    return s;
 }
 
 /* Exact-coordinate lookup of points (open addressing over the bits of x, y, z). */
@@ -461,6 +487,109 @@ static vm_index pmap_find(const pmap *pm, const double p[3], size_t *at) {
     }
     *at = i;
     return -1;
+}
+
+/* The quality pass on the tets of region 1 of m only: it runs on them and the one ring of
+ * tets around them (their vertices between two regions stay fixed, the ring's tets cannot
+ * change), not on the whole of m, whose set-up (figures, stars, qualities, guard) would cost
+ * as much as a pass over it; then the improved region-1 tets replace the old ones in m, on
+ * the ring's vertices (the same coordinates, matched exactly). */
+static vm_status improve_region1(const args *A, const vm_volume *v, vm_mesh *m,
+                                 vm_error *err) {
+    size_t np = m->npoints, nc = m->ncells;
+    vm_index *map = malloc((np ? np : 1) * sizeof *map);
+    uint8_t *near = calloc(np ? np : 1, 1);
+    vm_mesh sub, out;
+    vm_mesh_init(&sub, VM_TET4);
+    vm_mesh_init(&out, VM_TET4);
+    pmap pm = {1, NULL, &out};
+    vm_status s = VM_OK;
+    if (!map || !near) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
+        goto done;
+    }
+    for (size_t t = 0; t < nc; t++)
+        if (m->region[t] == 1)
+            for (int k = 0; k < 4; k++)
+                near[m->cells[4 * t + (size_t)k]] = 1;
+    for (size_t i = 0; i < np; i++)
+        map[i] = -1;
+    for (size_t t = 0; t < nc && !s; t++) {
+        const vm_index *c = m->cells + 4 * t;
+        if (!near[c[0]] && !near[c[1]] && !near[c[2]] && !near[c[3]]) continue;
+        vm_index n[4];
+        for (int k = 0; k < 4 && !s; k++) {
+            if (map[c[k]] < 0) {
+                map[c[k]] = vm_mesh_add_point(&sub, m->points + 3 * (size_t)c[k], err);
+                if (map[c[k]] < 0) s = VM_ERR_NOMEM;
+            }
+            n[k] = map[c[k]];
+        }
+        if (!s) s = vm_mesh_add_cell(&sub, n, m->region[t], err);
+    }
+    if (!s) s = improve(A, v, &sub, 0, err);
+    /* out: m's points and tets but region 1's, then sub's region-1 tets */
+    if (!s) s = vm_mesh_reserve(&out, np + sub.npoints, nc + sub.ncells, err);
+    if (s) goto done;
+    memcpy(out.points, m->points, 3 * np * sizeof(double));
+    out.npoints = np;
+    for (size_t t = 0; t < nc && !s; t++)
+        if (m->region[t] != 1) s = vm_mesh_add_cell(&out, m->cells + 4 * t, m->region[t], err);
+    while (pm.cap < 2 * (np + sub.npoints) + 16)
+        pm.cap <<= 1;
+    if (!s) {
+        pm.slot = malloc(pm.cap * sizeof *pm.slot);
+        if (!pm.slot) s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    if (!s) {
+        for (size_t i = 0; i < pm.cap; i++)
+            pm.slot[i] = -1;
+        for (size_t i = 0; i < np; i++) {
+            size_t at;
+            if (pmap_find(&pm, out.points + 3 * i, &at) < 0) pm.slot[at] = (vm_index)i;
+        }
+    }
+    vm_index *smap = NULL; /* sub's points in out */
+    if (!s) {
+        smap = malloc((sub.npoints ? sub.npoints : 1) * sizeof *smap);
+        if (!smap) s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    for (size_t i = 0; smap && i < sub.npoints; i++)
+        smap[i] = -1;
+    for (size_t t = 0; t < sub.ncells && !s; t++) {
+        const vm_index *c = sub.cells + 4 * t;
+        if (sub.region[t] != 1) continue;
+        vm_index n[4];
+        for (int k = 0; k < 4 && !s; k++) {
+            if (smap[c[k]] < 0) {
+                size_t at;
+                const double *x = sub.points + 3 * (size_t)c[k];
+                smap[c[k]] = pmap_find(&pm, x, &at);
+                if (smap[c[k]] < 0) {
+                    smap[c[k]] = vm_mesh_add_point(&out, x, err);
+                    if (smap[c[k]] < 0)
+                        s = VM_ERR_NOMEM;
+                    else
+                        pm.slot[at] = smap[c[k]];
+                }
+            }
+            n[k] = smap[c[k]];
+        }
+        if (!s) s = vm_mesh_add_cell(&out, n, 1, err);
+    }
+    free(smap);
+    if (!s) {
+        vm_mesh_free(m);
+        *m = out;
+        vm_mesh_init(&out, VM_TET4);
+    }
+done:
+    free(pm.slot);
+    free(map);
+    free(near);
+    vm_mesh_free(&sub);
+    vm_mesh_free(&out);
+    return s;
 }
 
 enum { TET_DOUBLES = 13 }; /* 4 corners, then 1 (improve it) or 0 (context) */
@@ -650,7 +779,7 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
         if (!s) s = vm_mesh_add_cell(&m2, n, r, err);
     }
     free(pm.slot);
-    if (!s) s = improve(A, v, &m2, err);
+    if (!s) s = improve_region1(A, v, &m2, err);
     if (!s) {
         vm_mesh_free(m);
         *m = m2;
@@ -709,9 +838,9 @@ static vm_status slab_mesh(const args *A, vm_volume *v, int64_t nz, vm_mesh *m, 
          * stays where it is (max_interface_move 0) and no operation mixes materials, so the
          * faces and vertices at the cut stay those the neighbour has. */
         s = keep_ring(m, err);
-        if (!s) s = improve(A, v, m, err);
+        if (!s) s = improve(A, v, m, 1, err);
     } else if (A->improve) {
-        s = improve(A, v, m, err);
+        s = improve(A, v, m, 0, err);
     }
     *seconds = MPI_Wtime() - t0;
     if (s) vm_mesh_free(m);
