@@ -130,7 +130,7 @@ static void cropIsTheWholeMeshAwayFromItsPlanes(void) {
     crop_case(VM_PHANTOM_SPHERE, n, 2, 0, 7, n - 1, 4);     /* resampled, to the last */
     /* adaptive: blocks of 4 and 8 cells, crops starting at odd multiples of them and off
      * them (the mesher leaves out the planes below the first aligned one) */
-    crop_case(VM_PHANTOM_SPHERE, n, 1, 2, 4, n - 9, 14);
+    crop_case(VM_PHANTOM_SPHERE, n, 1, 2, 4, small ? n - 1 : n - 9, 14);
     crop_case(VM_PHANTOM_SPHERE, n, 1, 2, 5, n - 1, 16);
     if (!small) crop_case(VM_PHANTOM_SPHERE, n, 1, 3, 8, n - 1, 22);
 }
