@@ -902,6 +902,14 @@ int main(int argc, char **argv) {
     } else {
         s = read_planes(&A, &v, &nz, &err);
     }
+    /* the data range of this rank's planes (together they cover the volume), for the
+     * message when no rank has material */
+    double range[2] = {INFINITY, INFINITY}; /* min and -max, reduced with MPI_MIN */
+    if (!s && v.data && v.dims[2] > 0) {
+        double a, b;
+        vm_volume_stats(&v, &a, &b, NULL);
+        if (!isnan(a)) range[0] = a, range[1] = -b;
+    }
     char piece_file[4096];
     piece_path(A.out, rank_, piece_file, sizeof piece_file);
     size_t ntets = 0;
@@ -935,6 +943,8 @@ int main(int argc, char **argv) {
     unsigned long long nt = ntets, *all = malloc((size_t)nranks_ * sizeof *all);
     double tmax = 0;
     MPI_Allreduce(&secs, &tmax, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    double all_range[2];
+    MPI_Allreduce(range, all_range, 2, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
     if (!all) MPI_Abort(MPI_COMM_WORLD, EXIT_INPUT);
     MPI_Allgather(&nt, 1, MPI_UNSIGNED_LONG_LONG, all, 1, MPI_UNSIGNED_LONG_LONG,
                   MPI_COMM_WORLD);
@@ -943,10 +953,21 @@ int main(int argc, char **argv) {
         total += all[r];
     if (first == nranks_ && secondary) first = nranks_ + 1; /* cannot happen: someone failed */
     if (first == nranks_ && total == 0) {
-        first = 0; /* every slab empty: the material is empty */
-        if (rank_ == 0 && !err.message[0])
+        first = 0; /* every slab empty: the material is empty (a rank's own message would
+                      give the data range of its planes only) */
+        const char *what = A.phantom ? "--phantom" : A.in;
+        double lo = all_range[0], hi = -all_range[1];
+        if (rank_ == 0 && A.mo.has_lo && A.mo.lo > hi)
+            snprintf(err.message, sizeof err.message,
+                     "%s: no voxel >= %g (the data range is %g to %g): choose an isovalue "
+                     "below %g",
+                     what, A.mo.lo, lo, hi, hi);
+        else if (rank_ == 0 && A.mo.has_hi && A.mo.hi < lo)
+            snprintf(err.message, sizeof err.message,
+                     "%s: no voxel <= %g (the data range is %g to %g)", what, A.mo.hi, lo, hi);
+        else if (rank_ == 0)
             snprintf(err.message, sizeof err.message, "%s: no grid point is in the material",
-                     A.phantom ? "--phantom" : A.in);
+                     what);
     }
     if (first != nranks_) {
         if (ntets) remove(piece_file); /* leave nothing behind */
