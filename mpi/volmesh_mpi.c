@@ -47,6 +47,9 @@ static const char *help =
     "                          pieces still conform, but are not tet for tet what the\n"
     "                          single-process pass makes (needs a slab per rank and slabs\n"
     "                          a few cells thick)\n"
+    "  --balance               slabs of about equal material (a z histogram of the inside\n"
+    "                          voxels, each rank reading a share of the planes once more)\n"
+    "                          instead of equal numbers of blocks\n"
     "  --no-compress           write the pieces without zlib\n"
     "  --quiet                 no summary line\n"
     "\n"
@@ -63,12 +66,14 @@ typedef struct args {
     vm_mesh_options mo;
     int have_bound;
     long ghost;
-    int compress, quiet, help, improve;
+    int compress, quiet, help, improve, balance;
 } args;
 
 /* Messages come from rank 0 only: every rank parses the same arguments and reads the same
  * file, so they fail alike. */
 static int rank_, nranks_;
+/* --balance: the first block of each rank (nranks_ + 1 entries); NULL: equal numbers. */
+static int64_t *cuts_;
 
 static int fail(const char *fmt, const char *a, const char *b) {
     if (rank_ == 0) {
@@ -173,6 +178,8 @@ static int parse_args(int argc, char **argv, args *A) {
             A->phantom = 1;
         } else if (!strcmp(a, "--improve")) {
             A->improve = 1;
+        } else if (!strcmp(a, "--balance")) {
+            A->balance = 1;
         } else if (!strcmp(a, "--no-compress")) {
             A->compress = 0;
         } else if (!strcmp(a, "--quiet")) {
@@ -226,6 +233,7 @@ static void rank_cells(const args *A, int64_t nzvox, int64_t *c0, int64_t *c1, d
     *B = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
     *blocks = (cells + *B - 1) / *B;
     int64_t b0 = *blocks * rank_ / nranks_, b1 = *blocks * (rank_ + 1) / nranks_;
+    if (cuts_) b0 = cuts_[rank_], b1 = cuts_[rank_ + 1];
     *c0 = b0 * *B;
     *c1 = b1 * *B < cells ? b1 * *B : cells;
 }
@@ -249,6 +257,155 @@ static void rank_planes(const args *A, int64_t nzvox, int64_t *lo, int64_t *hi) 
     double h = ceil((double)(c1 + A->ghost) * step) + 1;
     *lo = l < 0 ? 0 : (int64_t)l;
     *hi = h > (double)(nzvox - 1) ? nzvox - 1 : (int64_t)h;
+}
+
+static int in_material(const vm_mesh_options *o, float f) {
+    return (!o->has_lo || f >= o->lo) && (!o->has_hi || f <= o->hi);
+}
+
+/* The weight of plane f (nx * ny voxels; below and above: its neighbour planes, NULL on the
+ * volume's border) for --balance, a proxy of its tets: the inside voxels (uniform cells:
+ * about 5 tets each; adaptive: about one leaf of 2^L cells each) plus twice the surface
+ * (inside voxels with an outside neighbour: boundary cells, more tets each; with the grading
+ * around them, almost all of an adaptive mesh). */
+static double plane_weight(const vm_mesh_options *o, const float *f, const float *below,
+                           const float *above, int64_t nx, int64_t ny) {
+    double inside = 0, surface = 0;
+    for (int64_t j = 0; j < ny; j++)
+        for (int64_t i = 0; i < nx; i++) {
+            int64_t at = i + nx * j;
+            const float *p = f + at;
+            if (!in_material(o, *p)) continue;
+            inside++;
+            if (i == 0 || j == 0 || i == nx - 1 || j == ny - 1 || !below || !above ||
+                !in_material(o, p[-1]) || !in_material(o, p[1]) || !in_material(o, p[-nx]) ||
+                !in_material(o, p[nx]) || !in_material(o, below[at]) ||
+                !in_material(o, above[at]))
+                surface++;
+        }
+    /* adaptive: a 2^L leaf is a few tets; the grading around the surface is in its share */
+    double leaf = o->adaptive ? (double)((int64_t)1 << (3 * o->max_level)) : 1;
+    return inside / leaf + 2 * surface;
+}
+
+/* --balance: cuts_ from the inside voxels per plane (count[k], the whole volume's nz planes):
+ * rank r starts at the first block where the blocks before it hold r/N of the material. */
+static vm_status balance_cuts(const args *A, const double *count, int64_t nz, vm_error *err) {
+    int64_t c0, c1, blocks, B;
+    double step;
+    int save = rank_;
+    rank_ = 0;
+    rank_cells(A, nz, &c0, &c1, &step, &blocks, &B); /* for blocks, B, step */
+    rank_ = save;
+    cuts_ = malloc((size_t)(nranks_ + 1) * sizeof *cuts_);
+    double *w = malloc((size_t)(blocks + 1) * sizeof *w);
+    if (!cuts_ || !w) {
+        free(w);
+        return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    double total = 0;
+    for (int64_t b = 0; b < blocks; b++) { /* voxel planes of block b's cells */
+        int64_t k0 = (int64_t)floor((double)(b * B) * step);
+        int64_t k1 = (int64_t)floor((double)((b + 1) * B) * step);
+        if (b == blocks - 1) k1 = nz;
+        w[b] = 0;
+        for (int64_t k = k0; k < k1 && k < nz; k++)
+            w[b] += count[k];
+        total += w[b];
+    }
+    /* the smallest largest slab weight L for which N slabs in order hold every block
+     * (bisection; greedy packing: a slab takes blocks while it stays within L), then the cuts
+     * of that packing, leaving each later rank a block where there are enough */
+    double lo = 0, hi = total;
+    for (int64_t b = 0; b < blocks; b++)
+        lo = fmax(lo, w[b]);
+    for (int it = 0; it < 100 && hi - lo > 1e-9 * total; it++) {
+        double L = 0.5 * (lo + hi), load = 0;
+        int used = 1;
+        for (int64_t b = 0; b < blocks; b++) {
+            if (load + w[b] > L) used++, load = 0;
+            load += w[b];
+        }
+        if (used <= nranks_)
+            hi = L;
+        else
+            lo = L;
+    }
+    int r = 1;
+    double load = 0;
+    cuts_[0] = 0;
+    for (int64_t b = 0; b < blocks; b++) {
+        int must = blocks - b <= nranks_ - r; /* as many blocks left as ranks after this */
+        if (r < nranks_ && b > cuts_[r - 1] && (load + w[b] > hi || must)) {
+            cuts_[r++] = b;
+            load = 0;
+        }
+        load += w[b];
+    }
+    while (r <= nranks_)
+        cuts_[r++] = blocks;
+    free(w);
+    return VM_OK;
+}
+
+/* --balance for a file: every rank reads a share of the planes, counts its inside voxels per
+ * plane, and the counts are summed over the ranks. Collective, whatever fails. */
+static vm_status balance_file(const args *A, vm_error *err) {
+    vm_volume info, slab;
+    memset(&slab, 0, sizeof slab);
+    vm_status s = vm_volume_read_info(A->in, &info, err);
+    int64_t nz = s ? 0 : info.dims[2];
+    int64_t nzs[2] = {nz, -nz}, agree[2];
+    MPI_Allreduce(nzs, agree, 2, MPI_INT64_T, MPI_MIN, MPI_COMM_WORLD);
+    int bad = s != VM_OK || agree[0] != -agree[1] || nz < 2;
+    double *count = bad ? NULL : calloc((size_t)nz, sizeof *count);
+    double *sum = bad ? NULL : malloc((size_t)nz * sizeof *sum);
+    if (!bad && (!count || !sum)) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+        bad = 1;
+    }
+    int64_t k0 = nz * rank_ / nranks_, k1 = nz * (rank_ + 1) / nranks_; /* and one beyond */
+    int64_t r0 = k0 > 0 ? k0 - 1 : 0, r1 = k1 < nz ? k1 + 1 : nz;
+    if (!bad && k1 > k0) {
+        s = vm_volume_read_slab(A->in, r0, r1, &slab, err);
+        if (s) bad = 1;
+    }
+    if (!bad && slab.data) {
+        size_t plane = (size_t)slab.dims[0] * (size_t)slab.dims[1];
+        for (int64_t k = k0; k < k1; k++) {
+            const float *f = slab.data + (size_t)(k - r0) * plane;
+            count[k] = plane_weight(&A->mo, f, k > 0 ? f - plane : NULL,
+                                    k < nz - 1 ? f + plane : NULL, slab.dims[0], slab.dims[1]);
+        }
+    }
+    vm_volume_free(&slab);
+    int anybad;
+    MPI_Allreduce(&bad, &anybad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    if (!anybad) {
+        MPI_Allreduce(count, sum, (int)nz, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+        s = balance_cuts(A, sum, nz, err);
+    } else if (!bad) {
+        s = VM_ERR_INTERNAL; /* another rank failed: it reads the same file and says why */
+    }
+    free(count);
+    free(sum);
+    return s;
+}
+
+/* --balance for a whole volume (a phantom): the counts from its planes. */
+static vm_status balance_whole(const args *A, const vm_volume *v, vm_error *err) {
+    int64_t nz = v->dims[2];
+    double *count = calloc((size_t)nz, sizeof *count);
+    if (!count) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    size_t plane = (size_t)v->dims[0] * (size_t)v->dims[1];
+    for (int64_t k = 0; k < nz; k++) {
+        const float *f = v->data + (size_t)k * plane;
+        count[k] = plane_weight(&A->mo, f, k > 0 ? f - plane : NULL,
+                                k < nz - 1 ? f + plane : NULL, v->dims[0], v->dims[1]);
+    }
+    vm_status s = balance_cuts(A, count, nz, err);
+    free(count);
+    return s;
 }
 
 /* This rank's planes lo..hi of the volume (vm_volume_read_slab): [out] v holds just them, with
@@ -895,12 +1052,16 @@ int main(int argc, char **argv) {
     memset(&v, 0, sizeof v);
     vm_status s;
     int64_t nz = 0;
+    int secondary = 0; /* failed because another rank did (that one speaks) */
     if (A.phantom) {
         /* made whole; the rank keeps only its planes */
         s = vm_phantom_make(A.kind, (int)A.phantom_n, 0.0, 1, &v, NULL, &err);
+        if (!s && A.balance && nranks_ > 1) s = balance_whole(&A, &v, &err);
         if (!s) s = crop_planes(&A, &v, &nz, &err);
     } else {
-        s = read_planes(&A, &v, &nz, &err);
+        s = A.balance && nranks_ > 1 ? balance_file(&A, &err) : VM_OK;
+        if (s == VM_ERR_INTERNAL && !err.message[0]) secondary = 1;
+        if (!s) s = read_planes(&A, &v, &nz, &err);
     }
     /* the data range of this rank's planes (together they cover the volume), for the
      * message when no rank has material */
@@ -918,7 +1079,6 @@ int main(int argc, char **argv) {
     frame.data = NULL;
     vm_mesh m;
     vm_mesh_init(&m, VM_TET4);
-    int secondary = 0;
     if (!s) s = slab_mesh(&A, &v, nz, &m, &z0, &z1, &secs, &err);
     if (A.improve && nranks_ > 1) {
         /* collective: every rank goes through it, whatever happened so far */
@@ -973,6 +1133,7 @@ int main(int argc, char **argv) {
         if (ntets) remove(piece_file); /* leave nothing behind */
         if (rank_ == first) fprintf(stderr, "volmesh_mpi: %s\n", err.message);
         free(all);
+        free(cuts_);
         MPI_Finalize();
         return EXIT_INPUT;
     }
@@ -988,6 +1149,7 @@ int main(int argc, char **argv) {
         printf("), slowest rank %.3f s\n", tmax);
     }
     free(all);
+    free(cuts_);
     MPI_Finalize();
     return rc;
 }

@@ -5,7 +5,8 @@
 # characteristic, components, volume against the analytic value) and are that mesh tet for
 # tet (tests/mpi/check_pvtu.py): torus, genus-3 and sphere, uniform, --size 2 and adaptive,
 # 2 and 3 ranks (each meshing a crop of the volume: its planes and the ghost band), crops of
-# adaptive meshes starting at odd multiples of the block size, --phantom, and a volume with
+# adaptive meshes starting at odd multiples of the block size, --balance (slabs of equal
+# material, a smaller largest piece), --phantom, and a volume with
 # spacing, origin and a left-handed direction; the judge fails a wrong mesh. The quality pass
 # is test_mpi_improve.sh, slab reads and bad input test_mpi_input.sh. Skips (77) when
 # volmesh_mpi was not built (no MPI at configure time).
@@ -24,6 +25,17 @@ one sphere 2 2 2 --adaptive
 # a crop whose ghost band starts at an odd multiple of the block size (rank 1: blocks of 4
 # from cell 4), where the tets split by the parity of the whole grid
 [ $full = 1 ] && MPI_ONLY="--ghost 6" one sphere 2 3 3 --adaptive --max-level 2
+
+# --balance: slabs of about equal material instead of equal planes; still the single mesh
+# tet for tet, and the largest piece of the sphere on 4 ranks is smaller than with equal
+# planes (whose polar slabs hold few tets)
+MPI_ONLY=--balance one sphere 2 4 4
+[ $full = 1 ] && MPI_ONLY=--balance one sphere 2 3 3 --adaptive --max-level 2
+largest() { sed -n 's/.*tets (\(.*\)),.*/\1/p' | tr -d ' ' | tr '+' '\n' | sort -n | tail -1; }
+eq=$(run 4 "$VM_MPI" sphere.nrrd --iso 0 -o out.pvtu 2>&1 | largest)
+bal=$(run 4 "$VM_MPI" sphere.nrrd --iso 0 --balance -o out.pvtu 2>&1 | largest)
+[ -n "$eq" ] && [ -n "$bal" ] && [ "$bal" -lt $((eq * 3 / 4)) ] && ok ||
+    bad "--balance: largest piece $bal tets, equal planes $eq"
 
 # --phantom gives the same volume as `volmesh demo`
 [ $full = 1 ] && {
