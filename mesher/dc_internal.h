@@ -27,6 +27,7 @@ typedef struct bcell {
 typedef struct dc {
     const vm__grid *g;
     int64_t n[3], P[3], C[3]; /* real points, padded points, padded cells per axis */
+    int64_t off[3];           /* g->off: grid index i is i + off in the whole grid */
     uint8_t *in;              /* padded inside flags */
     int32_t *cell_map;        /* per padded cell: bcell index, CELL_OUT or CELL_IN */
     bcell *bc;
@@ -70,6 +71,15 @@ static inline void vm__dc_cell_coords(const dc *d, int64_t c, int64_t out[3]) {
 }
 static inline float vm__dc_fval(const dc *d, int64_t i, int64_t j, int64_t k) {
     return d->g->f[i + d->n[0] * (j + d->n[1] * k)];
+}
+/* Index coordinate of grid index i along axis a, in the whole grid's frame (so a cropped
+ * grid computes the same doubles as the whole one). */
+static inline double vm__dc_coord(const dc *d, int64_t i, int a) {
+    return (double)(i + d->off[a]);
+}
+/* i + j + k of grid point p in the whole grid (the parity of the tet splits). */
+static inline int64_t vm__dc_gsum(const dc *d, const int64_t p[3]) {
+    return p[0] + p[1] + p[2] + d->off[0] + d->off[1] + d->off[2];
 }
 static inline int vm__dc_real_point(const dc *d, const int64_t p[3]) {
     for (int a = 0; a < 3; a++)

@@ -556,7 +556,7 @@ static vm_status emit_faces(dc *d, size_t first, size_t end, vm_error *err) {
                 int c = vm__dc_face_corner[f][q];
                 int64_t p[3] = {cm[0] + (c & 1), cm[1] + ((c >> 1) & 1), cm[2] + (c >> 2)};
                 v[q] = vm__dc_lattice_id(d, p);
-                if (q == 0) even0 = ((p[0] + p[1] + p[2]) & 1) == 0;
+                if (q == 0) even0 = (vm__dc_gsum(d, p) & 1) == 0;
             }
             int64_t apex = N + b->base + b->corner_patch[vm__dc_face_corner[f][0]];
             int o = even0 ? 0 : 1; /* diagonal v[o] - v[o+2] */
@@ -571,7 +571,8 @@ static vm_status emit_faces(dc *d, size_t first, size_t end, vm_error *err) {
 /* Interior cells: five tets, the central one on the four even-parity corners. */
 static vm_status emit_five(dc *d, int64_t i, int64_t j, int64_t k, vm_error *err) {
     int64_t v[8];
-    int odd_first = (int)((i + j + k) & 1); /* corner 0 is odd */
+    int64_t p0[3] = {i, j, k};
+    int odd_first = (int)(vm__dc_gsum(d, p0) & 1); /* corner 0 is odd */
     for (int c = 0; c < 8; c++) {
         int64_t p[3] = {i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)};
         v[c] = vm__dc_lattice_id(d, p);
@@ -626,7 +627,7 @@ static vm_status emit_coarse_face(dc *d, int64_t centre, int a, const int64_t q[
         p[b] += sz * cyc[k][0];
         p[c] += sz * cyc[k][1];
         corner[k] = vm__dc_lattice_id(d, p);
-        if (k == 0) even0 = (((p[0] + p[1] + p[2]) / sz) & 1) == 0;
+        if (k == 0) even0 = ((vm__dc_gsum(d, p) / sz) & 1) == 0;
         if (nr + (size_t)sz >= ring_cap) { /* room for this corner and its edge */
             size_t ncap = 2 * (nr + (size_t)sz + 1);
             int64_t *nb = malloc(ncap * sizeof *nb);

@@ -242,7 +242,7 @@ static void edge_crossing(const dc *d, const int64_t p0[3], const int64_t p1[3],
     gradient(d, p0, g0);
     gradient(d, p1, g1);
     for (int a = 0; a < 3; a++) {
-        pt[a] = (double)p0[a] + t * (double)(p1[a] - p0[a]);
+        pt[a] = vm__dc_coord(d, p0[a], a) + t * (double)(p1[a] - p0[a]);
         nrm[a] = (1 - t) * g0[a] + t * g1[a];
     }
     double len = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
@@ -300,7 +300,7 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
                 double pt[3], nrm[3];
                 edge_crossing(d, p0, p1, pt, nrm);
                 for (int a = 0; a < 3; a++)
-                    pt[a] -= (double)cm[a];
+                    pt[a] -= vm__dc_coord(d, cm[a], a);
                 vm__qef_add(&q, pt, nrm);
             }
             double x[3], m[3];
@@ -314,20 +314,20 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
             for (int a = 0; a < 3; a++) {
                 if (x[a] < 0) x[a] = 0;
                 if (x[a] > 1) x[a] = 1;
-                d->qpos[3 * r + a] = (double)cm[a] + x[a];
-                d->mpos[3 * r + a] = (double)cm[a] + m[a];
+                d->qpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + x[a];
+                d->mpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + m[a];
             }
             d->lambda[r] = 1.0;
             d->rep_planes[r] = planes;
             d->mu[r] = 1.0;
             for (int a = 0; a < 3; a++)
                 d->cpos[3 * r + a] =
-                    b->npatch == 1 ? (double)cm[a] + (fixed[a] ? fixval[a] : 0.5) : NAN;
+                    b->npatch == 1 ? vm__dc_coord(d, cm[a], a) + (fixed[a] ? fixval[a] : 0.5) : NAN;
         }
         if (b->special) {
             size_t r = (size_t)b->base + b->npatch;
             for (int a = 0; a < 3; a++)
-                d->qpos[3 * r + a] = d->mpos[3 * r + a] = (double)cm[a] + 0.5;
+                d->qpos[3 * r + a] = d->mpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + 0.5;
             d->lambda[r] = 1.0;
             d->rep_planes[r] = 0;
             d->mu[r] = 1.0;
@@ -358,7 +358,8 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
             for (int k = 0; k < 3; k++) {
                 d->qpos[3 * r + k] = 0.5 * (x0[k] + x1[k]);
                 d->mpos[3 * r + k] =
-                    (double)pc[q][k] + 0.35 * (d->qpos[3 * r + k] - (double)pc[q][k]);
+                    vm__dc_coord(d, pc[q][k], k) +
+                    0.35 * (d->qpos[3 * r + k] - vm__dc_coord(d, pc[q][k], k));
             }
             d->lambda[r] = 1.0;
             d->mu[r] = 1.0;
@@ -374,7 +375,7 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
         for (int a = 0; a < 3; a++) {
             d->qpos[3 * r + (size_t)a] = coarse_pos[6 * l + (size_t)a];
             d->mpos[3 * r + (size_t)a] = coarse_pos[6 * l + 3 + (size_t)a];
-            d->cpos[3 * r + (size_t)a] = (double)d->coarse_org[3 * l + (size_t)a] + 1.0;
+            d->cpos[3 * r + (size_t)a] = vm__dc_coord(d, d->coarse_org[3 * l + (size_t)a], a) + 1.0;
         }
         d->lambda[r] = 1.0;
         d->mu[r] = 1.0;
@@ -411,9 +412,9 @@ int64_t vm__dc_face_vertex(const dc *d, const int64_t lower_cm[3], int a, const 
 void vm__dc_vertex_pos(const dc *d, int64_t id, int reference, double out[3]) {
     int64_t N = vm__dc_npoints_real(d);
     if (id < N) {
-        out[0] = (double)(id % d->n[0]);
-        out[1] = (double)((id / d->n[0]) % d->n[1]);
-        out[2] = (double)(id / (d->n[0] * d->n[1]));
+        out[0] = vm__dc_coord(d, id % d->n[0], 0);
+        out[1] = vm__dc_coord(d, (id / d->n[0]) % d->n[1], 1);
+        out[2] = vm__dc_coord(d, id / (d->n[0] * d->n[1]), 2);
         return;
     }
     size_t r = (size_t)(id - N);
@@ -604,7 +605,7 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
                     if (s[i][j][k] == s[r[0]][r[1]][r[2]]) continue;
                     edge_crossing(d, p0, p1, pts[np], nrms[np]);
                     for (int t = 0; t < 3; t++)
-                        pts[np][t] -= (double)o[t];
+                        pts[np][t] -= vm__dc_coord(d, o[t], t);
                     vm__qef_add(&q, pts[np], nrms[np]);
                     np++;
                 }
@@ -694,8 +695,9 @@ static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
                 }
                 memcpy(d->coarse_org + 3 * d->ncoarse, o, sizeof o);
                 for (int a = 0; a < 3; a++) {
-                    (*coarse_pos)[6 * d->ncoarse + (size_t)a] = (double)o[a] + x[a];
-                    (*coarse_pos)[6 * d->ncoarse + 3 + (size_t)a] = (double)o[a] + m[a];
+                    (*coarse_pos)[6 * d->ncoarse + (size_t)a] = vm__dc_coord(d, o[a], a) + x[a];
+                    (*coarse_pos)[6 * d->ncoarse + 3 + (size_t)a] =
+                        vm__dc_coord(d, o[a], a) + m[a];
                 }
                 for (int c = 0; c < 8; c++)
                     d->coarse_of[vm__dc_cidx(d, i + (c & 1), j + ((c >> 1) & 1),
@@ -814,6 +816,7 @@ vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *er
     d->g = g;
     for (int a = 0; a < 3; a++) {
         d->n[a] = g->n[a];
+        d->off[a] = g->off[a];
         d->P[a] = g->n[a] + 2;
         d->C[a] = g->n[a] + 1;
     }

@@ -415,6 +415,7 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
         if (w->parent) w->parent[t] = (vm_index)t;
     }
     w->ntet = nt;
+    w->nfrozen = o->frozen ? nt : 0;
     /* Stars, sized exactly. */
     for (size_t t = 0; t < 4 * nt; t++) w->star[w->tet[t]].cap++;
     for (size_t i = 0; i < np; i++) {
@@ -600,20 +601,26 @@ static int tq_cmp(const void *pa, const void *pb) {
     return a->t < b->t ? -1 : a->t > b->t;
 }
 
-/* Tets with q below 1 (the targets), worst first. The first list scans the mesh; later ones
- * take the previous list and the tets touched since (every other tet kept its quality, at
- * or above 1), so a round costs what it changes, not the mesh size. The list is the same
- * either way: the tets below 1 in (q, id) order. */
+/* 1 when tet t is one of the input tets o->frozen keeps off the lists. */
+static int frozen(const vm__imp *w, size_t t) {
+    return t < w->nfrozen && w->o->frozen[t];
+}
+
+/* Tets with q below 1 (the targets) and not frozen, worst first. The first list scans the
+ * mesh; later ones take the previous list and the tets touched since (every other tet kept
+ * its quality, at or above 1), so a round costs what it changes, not the mesh size. The
+ * list is the same either way: the tets below 1 in (q, id) order. */
 static tq *bad_list(vm__imp *w, const tq *prev, size_t nprev, size_t *n) {
     size_t c = 0;
     tq *l;
     if (!prev) {
-        for (size_t t = 0; t < w->ntet; t++) c += !w->dead[t] && w->q[t] < 1.0;
+        for (size_t t = 0; t < w->ntet; t++)
+            c += !w->dead[t] && w->q[t] < 1.0 && !frozen(w, t);
         l = malloc((c ? c : 1) * sizeof *l);
         if (!l) return NULL;
         c = 0;
         for (size_t t = 0; t < w->ntet; t++)
-            if (!w->dead[t] && w->q[t] < 1.0) {
+            if (!w->dead[t] && w->q[t] < 1.0 && !frozen(w, t)) {
                 l[c].q = w->q[t];
                 l[c].t = t;
                 c++;
@@ -623,7 +630,7 @@ static tq *bad_list(vm__imp *w, const tq *prev, size_t nprev, size_t *n) {
         if (!l) return NULL;
         for (size_t i = 0; i < nprev + w->ntouched; i++) {
             size_t t = i < nprev ? prev[i].t : (size_t)w->touched[i - nprev];
-            if (w->dead[t] || !(w->q[t] < 1.0)) continue;
+            if (w->dead[t] || !(w->q[t] < 1.0) || frozen(w, t)) continue;
             l[c].q = w->q[t];
             l[c].t = t;
             c++;

@@ -65,6 +65,7 @@ typedef struct vm__imp {
     vm_index *buf;
     size_t buf_cap;
     int deep;           /* later rounds: also peel bad tets off the boundary */
+    size_t nfrozen;     /* input tets 0..nfrozen-1 have o->frozen flags */
     /* tets whose quality was recomputed below 1 since the last bad list (may repeat, may
      * have died since): with the last list they hold every tet below the targets */
     vm_index *touched;

@@ -17,18 +17,20 @@ void vm_mesh_options_default(vm_mesh_options *o) {
     o->max_level = 4;
 }
 
-/* Trilinear sample of v at continuous index position (x, y, z) inside the volume. */
-static float sample(const vm_volume *v, double x, double y, double z) {
+/* Trilinear sample at continuous index position (x, y, z) inside a volume of nz planes of
+ * which v holds planes z0 .. z0 + v->dims[2] - 1 (the whole volume: z0 = 0, nz = dims[2]);
+ * the planes with a nonzero weight must be among them. */
+static float sample(const vm_volume *v, int64_t z0, int64_t nz, double x, double y, double z) {
     int64_t i = (int64_t)floor(x), j = (int64_t)floor(y), k = (int64_t)floor(z);
     if (i > v->dims[0] - 2) i = v->dims[0] - 2;
     if (j > v->dims[1] - 2) j = v->dims[1] - 2;
-    if (k > v->dims[2] - 2) k = v->dims[2] - 2;
+    if (k > nz - 2) k = nz - 2;
     double fx = x - (double)i, fy = y - (double)j, fz = z - (double)k, s = 0;
     for (int c = 0; c < 8; c++) {
         int dx = c & 1, dy = (c >> 1) & 1, dz = c >> 2;
         double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) * (dz ? fz : 1 - fz);
         if (w == 0) continue;
-        s += w * v->data[(i + dx) + v->dims[0] * ((j + dy) + v->dims[1] * (k + dz))];
+        s += w * v->data[(i + dx) + v->dims[0] * ((j + dy) + v->dims[1] * (k + dz - z0))];
     }
     return (float)s;
 }
@@ -89,9 +91,71 @@ vm_status vm__sampling_grid(const vm_volume *v, int cell_size, const char *what,
     for (int64_t k = 0; k < m[2]; k++)
         for (int64_t j = 0; j < m[1]; j++)
             for (int64_t i = 0; i < m[0]; i++)
-                r[idx++] = sample(v, (double)i * step[0], (double)j * step[1],
+                r[idx++] = sample(v, 0, v->dims[2], (double)i * step[0], (double)j * step[1],
                                   (double)k * step[2]);
     for (int a = 0; a < 3; a++) n[a] = m[a];
+    *f = r;
+    *owned = r;
+    return VM_OK;
+}
+
+/* The sampling grid of a cropped volume (o->full_nz > 0): the points of the whole volume's
+ * sampling grid whose samples need only v's planes, from the first one at a multiple of
+ * `align` (or 0) on. [out] n, f, owned (may be NULL for cell size 1: f points into v),
+ * step (of the whole grid), g0: the whole grid's index of point 0 along z. */
+static vm_status crop_grid(const vm_volume *v, const vm_mesh_options *o, int64_t align,
+                           int64_t n[3], const float **f, float **owned, double step[3],
+                           int64_t *g0, vm_error *err) {
+    int64_t z0 = o->z_offset, nz = o->full_nz, top = z0 + v->dims[2] - 1;
+    *owned = NULL;
+    if (o->elements != VM_TET4)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: a cropped volume is meshed with tets only");
+    if (z0 < 0 || top >= nz || v->dims[2] < 2)
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: crop planes %lld..%lld are not inside the %lld planes of "
+                            "the whole volume",
+                            (long long)z0, (long long)top, (long long)nz);
+    int64_t S = o->cell_size, m[3];
+    for (int a = 0; a < 3; a++) {
+        int64_t len = a < 2 ? v->dims[a] : nz;
+        m[a] = S == 1 ? len : (len - 1 + S - 1) / S + 1;
+        if (m[a] < 2) m[a] = 2;
+        step[a] = S == 1 ? 1.0 : (double)(len - 1) / (double)(m[a] - 1);
+    }
+    /* grid planes [ga, gb] along z: their samples read only planes z0..top */
+    int64_t ga = 0, gb = m[2] - 1;
+    if (z0 > 0) {
+        while (ga < m[2] && (double)ga * step[2] < (double)z0)
+            ga++;
+        ga = (ga + align - 1) / align * align;
+    }
+    if (top < nz - 1)
+        while (gb >= 0 && (double)gb * step[2] > (double)top)
+            gb--;
+    if (gb - ga + 1 < 2)
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: crop planes %lld..%lld hold fewer than two aligned grid "
+                            "planes",
+                            (long long)z0, (long long)top);
+    *g0 = ga;
+    n[0] = m[0];
+    n[1] = m[1];
+    n[2] = gb - ga + 1;
+    if (S == 1) {
+        *f = v->data + (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)(ga - z0);
+        return VM_OK;
+    }
+    size_t count;
+    vm_status s = vm__check_dims(n, sizeof(float), "mesh", &count, err);
+    if (s) return s;
+    float *r = malloc(count * sizeof(float));
+    if (!r) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    size_t idx = 0;
+    for (int64_t k = ga; k <= gb; k++)
+        for (int64_t j = 0; j < n[1]; j++)
+            for (int64_t i = 0; i < n[0]; i++)
+                r[idx++] = sample(v, z0, nz, (double)i * step[0], (double)j * step[1],
+                                  (double)k * step[2]);
     *f = r;
     *owned = r;
     return VM_OK;
@@ -120,7 +184,16 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     memset(&g, 0, sizeof g);
     float *resampled = NULL;
     double step[3];
-    s = vm__sampling_grid(v, o->cell_size, "mesh", g.n, &g.f, &resampled, step, err);
+    if (o->full_nz > 0) {
+        /* An adaptive crop starts on a whole-grid plane where the octree's blocks are those
+         * of the whole grid (the tet splits take their parity in the whole grid's frame). */
+        int64_t align = o->adaptive ? (int64_t)1 << o->max_level : 1;
+        s = crop_grid(v, o, align, g.n, &g.f, &resampled, step, &g.off[2], err);
+    } else if (o->z_offset) {
+        s = vm_error_set(err, VM_ERR_ARG, "mesh: a z offset needs the whole volume's planes");
+    } else {
+        s = vm__sampling_grid(v, o->cell_size, "mesh", g.n, &g.f, &resampled, step, err);
+    }
     if (s) return s;
     g.lo = o->lo;
     g.hi = o->hi;
@@ -172,7 +245,7 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
         if (id < nl) {
             ijk[0] = (double)(id % (size_t)g.n[0]) * step[0];
             ijk[1] = (double)((id / (size_t)g.n[0]) % (size_t)g.n[1]) * step[1];
-            ijk[2] = (double)(id / (size_t)(g.n[0] * g.n[1])) * step[2];
+            ijk[2] = (double)((int64_t)(id / (size_t)(g.n[0] * g.n[1])) + g.off[2]) * step[2];
         } else {
             for (int a = 0; a < 3; a++) ijk[a] = soup.rep_pos[3 * (id - nl) + a] * step[a];
         }

@@ -8,6 +8,8 @@
 /* A uniform grid of samples in the material test's hands: n points per axis, x fastest. */
 typedef struct vm__grid {
     int64_t n[3];
+    int64_t off[3]; /* index of point 0 in the whole grid (a cropped grid; 0: whole): every
+                       coordinate the mesher computes is in the whole grid's frame */
     const float *f;
     double lo, hi;
     int has_lo, has_hi;

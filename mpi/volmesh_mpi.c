@@ -2,9 +2,9 @@
  * a partitioned VTK XML grid (.pvtu + one .vtu piece per rank). Design: docs/MPI.md.
  *
  * Every rank reads only the planes of its slab of cells along z plus a ghost band
- * (vm_volume_read_slab) into a volume of the whole dims, the rest outside the material
- * (untouched zero pages when 0 is outside it, else a fill value), and meshes the result with
- * the ordinary mesher in the volume's global index frame. The mesher's decisions are local
+ * (vm_volume_read_slab) and meshes them with the ordinary mesher as a cropped volume
+ * (vm_mesh_options z_offset, full_nz) in the whole volume's index frame: its grid structures
+ * span the crop only, its coordinates are the whole grid's. The mesher's decisions are local
  * (a cell's vertices, splits and octree leaf depend only on samples a few cells away), so
  * away from the ghost band's far edge the rank's tets are bit for bit those of the
  * single-process mesh. Each rank keeps the tets whose centroid lies in its slab; the
@@ -47,6 +47,9 @@ static const char *help =
     "                          pieces still conform, but are not tet for tet what the\n"
     "                          single-process pass makes (needs a slab per rank and slabs\n"
     "                          a few cells thick)\n"
+    "  --balance               slabs of about equal material (a z histogram of the inside\n"
+    "                          voxels, each rank reading a share of the planes once more)\n"
+    "                          instead of equal numbers of blocks\n"
     "  --no-compress           write the pieces without zlib\n"
     "  --quiet                 no summary line\n"
     "\n"
@@ -63,12 +66,14 @@ typedef struct args {
     vm_mesh_options mo;
     int have_bound;
     long ghost;
-    int compress, quiet, help, improve;
+    int compress, quiet, help, improve, balance;
 } args;
 
 /* Messages come from rank 0 only: every rank parses the same arguments and reads the same
  * file, so they fail alike. */
 static int rank_, nranks_;
+/* --balance: the first block of each rank (nranks_ + 1 entries); NULL: equal numbers. */
+static int64_t *cuts_;
 
 static int fail(const char *fmt, const char *a, const char *b) {
     if (rank_ == 0) {
@@ -173,6 +178,8 @@ static int parse_args(int argc, char **argv, args *A) {
             A->phantom = 1;
         } else if (!strcmp(a, "--improve")) {
             A->improve = 1;
+        } else if (!strcmp(a, "--balance")) {
+            A->balance = 1;
         } else if (!strcmp(a, "--no-compress")) {
             A->compress = 0;
         } else if (!strcmp(a, "--quiet")) {
@@ -216,20 +223,6 @@ static void sampling_z(int64_t nz, int S, int64_t *m, double *step) {
     *step = (double)(nz - 1) / (double)(*m - 1);
 }
 
-/* A value outside the material: below the lower bound (or above the upper one), from the
- * data range vmin..vmax of the whole volume. */
-static float outside_value(double vmin, double vmax, const vm_mesh_options *o) {
-    if (o->has_lo) {
-        double span = vmax - o->lo > 1 ? vmax - o->lo : 1;
-        return (float)(fmin(vmin, o->lo) - span);
-    }
-    double span = o->hi - vmin > 1 ? o->hi - vmin : 1;
-    return (float)(fmax(vmax, o->hi) + span);
-}
-
-/* The data range of the whole volume (every rank's planes together cover it). */
-static double vmin_ = NAN, vmax_ = NAN;
-
 /* This rank's cells c0 <= c < c1 along z of the sampling grid (whole blocks of B cells, B
  * = 2^L with --adaptive), the grid step in voxels and the number of blocks. */
 static void rank_cells(const args *A, int64_t nzvox, int64_t *c0, int64_t *c1, double *step,
@@ -240,12 +233,15 @@ static void rank_cells(const args *A, int64_t nzvox, int64_t *c0, int64_t *c1, d
     *B = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
     *blocks = (cells + *B - 1) / *B;
     int64_t b0 = *blocks * rank_ / nranks_, b1 = *blocks * (rank_ + 1) / nranks_;
+    if (cuts_) b0 = cuts_[rank_], b1 = cuts_[rank_ + 1];
     *c0 = b0 * *B;
     *c1 = b1 * *B < cells ? b1 * *B : cells;
 }
 
 /* Voxel planes lo..hi this rank meshes: its cells, the ghost band of G cells on each side
- * and the voxel beyond (for the trilinear resampling), within 0..nz-1. */
+ * and the voxel beyond (for the trilinear resampling), within 0..nz-1. The band below starts
+ * on a multiple of 2^L cells with --adaptive (the mesher's crop alignment, see
+ * vm_mesh_options), so the mesher keeps all of it. */
 static void rank_planes(const args *A, int64_t nzvox, int64_t *lo, int64_t *hi) {
     int64_t c0, c1, blocks, B;
     double step;
@@ -255,56 +251,201 @@ static void rank_planes(const args *A, int64_t nzvox, int64_t *lo, int64_t *hi) 
         *hi = c1 <= c0 ? -1 : nzvox - 1;
         return;
     }
-    double l = floor((double)(c0 - A->ghost) * step) - 1;
+    int64_t align = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
+    int64_t g0 = c0 - A->ghost < 0 ? 0 : (c0 - A->ghost) / align * align;
+    double l = floor((double)g0 * step) - 1;
     double h = ceil((double)(c1 + A->ghost) * step) + 1;
     *lo = l < 0 ? 0 : (int64_t)l;
     *hi = h > (double)(nzvox - 1) ? nzvox - 1 : (int64_t)h;
 }
 
-/* The volume with only this rank's planes read (vm_volume_read_slab): [out] v has the whole
- * volume's dims and geometry; its other planes are zero pages of a lazy allocation (never
- * touched, so they take no memory) until slab_mesh fills them when 0 is in the material.
- * Collective (the data range is reduced over all ranks), whatever fails. */
-static vm_status read_planes(const args *A, vm_volume *v, vm_error *err) {
-    memset(v, 0, sizeof *v);
+static int in_material(const vm_mesh_options *o, float f) {
+    return (!o->has_lo || f >= o->lo) && (!o->has_hi || f <= o->hi);
+}
+
+/* The weight of plane f (nx * ny voxels; below and above: its neighbour planes, NULL on the
+ * volume's border) for --balance, a proxy of its tets: the inside voxels (uniform cells:
+ * about 5 tets each; adaptive: about one leaf of 2^L cells each) plus twice the surface
+ * (inside voxels with an outside neighbour: boundary cells, more tets each; with the grading
+ * around them, almost all of an adaptive mesh). */
+static double plane_weight(const vm_mesh_options *o, const float *f, const float *below,
+                           const float *above, int64_t nx, int64_t ny) {
+    double inside = 0, surface = 0;
+    for (int64_t j = 0; j < ny; j++)
+        for (int64_t i = 0; i < nx; i++) {
+            int64_t at = i + nx * j;
+            const float *p = f + at;
+            if (!in_material(o, *p)) continue;
+            inside++;
+            if (i == 0 || j == 0 || i == nx - 1 || j == ny - 1 || !below || !above ||
+                !in_material(o, p[-1]) || !in_material(o, p[1]) || !in_material(o, p[-nx]) ||
+                !in_material(o, p[nx]) || !in_material(o, below[at]) ||
+                !in_material(o, above[at]))
+                surface++;
+        }
+    /* adaptive: a 2^L leaf is a few tets; the grading around the surface is in its share */
+    double leaf = o->adaptive ? (double)((int64_t)1 << (3 * o->max_level)) : 1;
+    return inside / leaf + 2 * surface;
+}
+
+/* --balance: cuts_ from the inside voxels per plane (count[k], the whole volume's nz planes):
+ * rank r starts at the first block where the blocks before it hold r/N of the material. */
+static vm_status balance_cuts(const args *A, const double *count, int64_t nz, vm_error *err) {
+    int64_t c0, c1, blocks, B;
+    double step;
+    int save = rank_;
+    rank_ = 0;
+    rank_cells(A, nz, &c0, &c1, &step, &blocks, &B); /* for blocks, B, step */
+    rank_ = save;
+    cuts_ = malloc((size_t)(nranks_ + 1) * sizeof *cuts_);
+    double *w = malloc((size_t)(blocks + 1) * sizeof *w);
+    if (!cuts_ || !w) {
+        free(w);
+        return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    double total = 0;
+    for (int64_t b = 0; b < blocks; b++) { /* voxel planes of block b's cells */
+        int64_t k0 = (int64_t)floor((double)(b * B) * step);
+        int64_t k1 = (int64_t)floor((double)((b + 1) * B) * step);
+        if (b == blocks - 1) k1 = nz;
+        w[b] = 0;
+        for (int64_t k = k0; k < k1 && k < nz; k++)
+            w[b] += count[k];
+        total += w[b];
+    }
+    /* the smallest largest slab weight L for which N slabs in order hold every block
+     * (bisection; greedy packing: a slab takes blocks while it stays within L), then the cuts
+     * of that packing, leaving each later rank a block where there are enough */
+    double lo = 0, hi = total;
+    for (int64_t b = 0; b < blocks; b++)
+        lo = fmax(lo, w[b]);
+    for (int it = 0; it < 100 && hi - lo > 1e-9 * total; it++) {
+        double L = 0.5 * (lo + hi), load = 0;
+        int used = 1;
+        for (int64_t b = 0; b < blocks; b++) {
+            if (load + w[b] > L) used++, load = 0;
+            load += w[b];
+        }
+        if (used <= nranks_)
+            hi = L;
+        else
+            lo = L;
+    }
+    int r = 1;
+    double load = 0;
+    cuts_[0] = 0;
+    for (int64_t b = 0; b < blocks; b++) {
+        int must = blocks - b <= nranks_ - r; /* as many blocks left as ranks after this */
+        if (r < nranks_ && b > cuts_[r - 1] && (load + w[b] > hi || must)) {
+            cuts_[r++] = b;
+            load = 0;
+        }
+        load += w[b];
+    }
+    while (r <= nranks_)
+        cuts_[r++] = blocks;
+    free(w);
+    return VM_OK;
+}
+
+/* --balance for a file: every rank reads a share of the planes, counts its inside voxels per
+ * plane, and the counts are summed over the ranks. Collective, whatever fails. */
+static vm_status balance_file(const args *A, vm_error *err) {
     vm_volume info, slab;
     memset(&slab, 0, sizeof slab);
-    double mm[2] = {INFINITY, INFINITY}; /* min and -max, reduced with MPI_MIN */
     vm_status s = vm_volume_read_info(A->in, &info, err);
-    int64_t lo = 0, hi = -1;
-    if (!s) rank_planes(A, info.dims[2], &lo, &hi);
-    size_t plane = 0, count = 0;
-    if (!s) {
-        plane = (size_t)info.dims[0] * (size_t)info.dims[1];
-        count = plane * (size_t)info.dims[2]; /* fits: vm_volume_read_info checked it */
-        if (count > SIZE_MAX / sizeof(float))
-            s = vm_error_set(err, VM_ERR_NOMEM, "%s: the volume is too big", A->in);
+    int64_t nz = s ? 0 : info.dims[2];
+    int64_t nzs[2] = {nz, -nz}, agree[2];
+    MPI_Allreduce(nzs, agree, 2, MPI_INT64_T, MPI_MIN, MPI_COMM_WORLD);
+    int bad = s != VM_OK || agree[0] != -agree[1] || nz < 2;
+    double *count = bad ? NULL : calloc((size_t)nz, sizeof *count);
+    double *sum = bad ? NULL : malloc((size_t)nz * sizeof *sum);
+    if (!bad && (!count || !sum)) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+        bad = 1;
     }
-    if (!s && hi >= lo) s = vm_volume_read_slab(A->in, lo, hi + 1, &slab, err);
-    if (!s) {
-        *v = info;
-        v->data = calloc(count, sizeof(float));
-        if (!v->data) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu voxels", A->in,
-                             count);
-            memset(v, 0, sizeof *v);
-        }
+    int64_t k0 = nz * rank_ / nranks_, k1 = nz * (rank_ + 1) / nranks_; /* and one beyond */
+    int64_t r0 = k0 > 0 ? k0 - 1 : 0, r1 = k1 < nz ? k1 + 1 : nz;
+    if (!bad && k1 > k0) {
+        s = vm_volume_read_slab(A->in, r0, r1, &slab, err);
+        if (s) bad = 1;
     }
-    if (!s && slab.data) {
-        memcpy(v->data + plane * (size_t)lo, slab.data, plane * (size_t)slab.dims[2] * sizeof(float));
-        double a, b;
-        vm_volume_stats(&slab, &a, &b, NULL);
-        if (!isnan(a)) {
-            mm[0] = a;
-            mm[1] = -b;
+    if (!bad && slab.data) {
+        size_t plane = (size_t)slab.dims[0] * (size_t)slab.dims[1];
+        for (int64_t k = k0; k < k1; k++) {
+            const float *f = slab.data + (size_t)(k - r0) * plane;
+            count[k] = plane_weight(&A->mo, f, k > 0 ? f - plane : NULL,
+                                    k < nz - 1 ? f + plane : NULL, slab.dims[0], slab.dims[1]);
         }
     }
     vm_volume_free(&slab);
-    double all[2];
-    MPI_Allreduce(mm, all, 2, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
-    vmin_ = all[0];
-    vmax_ = -all[1];
+    int anybad;
+    MPI_Allreduce(&bad, &anybad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    if (!anybad) {
+        MPI_Allreduce(count, sum, (int)nz, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+        s = balance_cuts(A, sum, nz, err);
+    } else if (!bad) {
+        s = VM_ERR_INTERNAL; /* another rank failed: it reads the same file and says why */
+    }
+    free(count);
+    free(sum);
     return s;
+}
+
+/* --balance for a whole volume (a phantom): the counts from its planes. */
+static vm_status balance_whole(const args *A, const vm_volume *v, vm_error *err) {
+    int64_t nz = v->dims[2];
+    double *count = calloc((size_t)nz, sizeof *count);
+    if (!count) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    size_t plane = (size_t)v->dims[0] * (size_t)v->dims[1];
+    for (int64_t k = 0; k < nz; k++) {
+        const float *f = v->data + (size_t)k * plane;
+        count[k] = plane_weight(&A->mo, f, k > 0 ? f - plane : NULL,
+                                k < nz - 1 ? f + plane : NULL, v->dims[0], v->dims[1]);
+    }
+    vm_status s = balance_cuts(A, count, nz, err);
+    free(count);
+    return s;
+}
+
+/* This rank's planes lo..hi of the volume (vm_volume_read_slab): [out] v holds just them, with
+ * the whole volume's geometry (origin of plane 0), [out] *nz: the whole volume's planes;
+ * no data when the rank has no cells. */
+static vm_status read_planes(const args *A, vm_volume *v, int64_t *nz, vm_error *err) {
+    memset(v, 0, sizeof *v);
+    vm_volume info, slab;
+    memset(&slab, 0, sizeof slab);
+    vm_status s = vm_volume_read_info(A->in, &info, err);
+    int64_t lo = 0, hi = -1;
+    if (s) return s;
+    *nz = info.dims[2];
+    rank_planes(A, info.dims[2], &lo, &hi);
+    *v = info;
+    if (hi < lo) return VM_OK;
+    s = vm_volume_read_slab(A->in, lo, hi + 1, &slab, err);
+    if (s) return s;
+    v->data = slab.data; /* the frame stays the whole volume's */
+    v->dims[2] = slab.dims[2];
+    return VM_OK;
+}
+
+/* A whole volume cut down to this rank's planes lo..hi (as read_planes reads them). [in,out]
+ * v, [out] *nz: the whole volume's planes. */
+static vm_status crop_planes(const args *A, vm_volume *v, int64_t *nz, vm_error *err) {
+    *nz = v->dims[2];
+    int64_t lo, hi;
+    rank_planes(A, v->dims[2], &lo, &hi);
+    if (lo == 0 && hi == v->dims[2] - 1) return VM_OK;
+    size_t plane = (size_t)v->dims[0] * (size_t)v->dims[1], keep = 0;
+    if (hi >= lo) {
+        keep = plane * (size_t)(hi - lo + 1);
+        memmove(v->data, v->data + plane * (size_t)lo, keep * sizeof(float));
+    }
+    float *d = realloc(v->data, (keep ? keep : 1) * sizeof(float));
+    if (!d) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    v->data = d;
+    v->dims[2] = hi >= lo ? hi - lo + 1 : 0;
+    return VM_OK;
 }
 
 /* The piece name of rank r beside OUT.pvtu: OUT_r.vtu. [out] path (size n). */
@@ -435,10 +576,33 @@ static vm_status keep_ring(vm_mesh *m, vm_error *err) {
     return VM_OK;
 }
 
-/* The quality pass on m (index space, v its masked volume) with every vertex between two
- * regions fixed. */
-static vm_status improve(const args *A, const vm_volume *v, vm_mesh *m, vm_error *err) {
+/* The quality pass on m (index space, v its volume's planes) with every vertex between two
+ * regions fixed. Only region 1 is improved: the other tets (each a region of its own, with
+ * fixed vertices) cannot change and are kept off the pass's work lists (frozen). With
+ * cut != 0 (the first phase) so are the region-1 tets with a vertex on another region: the
+ * cut's tets, whose fixed vertices keep most of them from reaching the targets; the second
+ * phase improves them across the cut (they are in its bands), and until then they would
+ * keep every round of the pass busy for nothing. */
+static vm_status improve(const args *A, const vm_volume *v, vm_mesh *m, int cut,
+                         vm_error *err) {
     if (!m->ncells) return VM_OK;
+    unsigned char *fz = malloc(m->ncells);
+    uint8_t *other = cut ? calloc(m->npoints ? m->npoints : 1, 1) : NULL;
+    if (!fz || (cut && !other)) {
+        free(fz);
+        free(other);
+        return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    for (size_t t = 0; other && t < m->ncells; t++)
+        if (m->region[t] != 1)
+            for (int k = 0; k < 4; k++)
+                other[m->cells[4 * t + (size_t)k]] = 1;
+    for (size_t t = 0; t < m->ncells; t++) {
+        const vm_index *c = m->cells + 4 * t;
+        fz[t] = m->region[t] != 1 ||
+                (other && (other[c[0]] || other[c[1]] || other[c[2]] || other[c[3]]));
+    }
+    free(other);
     vm_improve_options io;
     vm_improve_options_default(&io);
     io.lo = A->mo.lo;
@@ -446,7 +610,10 @@ static vm_status improve(const args *A, const vm_volume *v, vm_mesh *m, vm_error
     io.has_lo = A->mo.has_lo;
     io.has_hi = A->mo.has_hi;
     io.max_interface_move = 0;
-    return vm_mesh_improve(m, v, &io, NULL, err);
+    io.frozen = fz;
+    vm_status s = vm_mesh_improve(m, v, &io, NULL, err);
+    free(fz);
+    return s;
 }
 
 /* Exact-coordinate lookup of points (open addressing over the bits of x, y, z). */
@@ -477,6 +644,109 @@ static vm_index pmap_find(const pmap *pm, const double p[3], size_t *at) {
     }
     *at = i;
     return -1;
+}
+
+/* The quality pass on the tets of region 1 of m only: it runs on them and the one ring of
+ * tets around them (their vertices between two regions stay fixed, the ring's tets cannot
+ * change), not on the whole of m, whose set-up (figures, stars, qualities, guard) would cost
+ * as much as a pass over it; then the improved region-1 tets replace the old ones in m, on
+ * the ring's vertices (the same coordinates, matched exactly). */
+static vm_status improve_region1(const args *A, const vm_volume *v, vm_mesh *m,
+                                 vm_error *err) {
+    size_t np = m->npoints, nc = m->ncells;
+    vm_index *map = malloc((np ? np : 1) * sizeof *map);
+    uint8_t *near = calloc(np ? np : 1, 1);
+    vm_mesh sub, out;
+    vm_mesh_init(&sub, VM_TET4);
+    vm_mesh_init(&out, VM_TET4);
+    pmap pm = {1, NULL, &out};
+    vm_status s = VM_OK;
+    if (!map || !near) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
+        goto done;
+    }
+    for (size_t t = 0; t < nc; t++)
+        if (m->region[t] == 1)
+            for (int k = 0; k < 4; k++)
+                near[m->cells[4 * t + (size_t)k]] = 1;
+    for (size_t i = 0; i < np; i++)
+        map[i] = -1;
+    for (size_t t = 0; t < nc && !s; t++) {
+        const vm_index *c = m->cells + 4 * t;
+        if (!near[c[0]] && !near[c[1]] && !near[c[2]] && !near[c[3]]) continue;
+        vm_index n[4];
+        for (int k = 0; k < 4 && !s; k++) {
+            if (map[c[k]] < 0) {
+                map[c[k]] = vm_mesh_add_point(&sub, m->points + 3 * (size_t)c[k], err);
+                if (map[c[k]] < 0) s = VM_ERR_NOMEM;
+            }
+            n[k] = map[c[k]];
+        }
+        if (!s) s = vm_mesh_add_cell(&sub, n, m->region[t], err);
+    }
+    if (!s) s = improve(A, v, &sub, 0, err);
+    /* out: m's points and tets but region 1's, then sub's region-1 tets */
+    if (!s) s = vm_mesh_reserve(&out, np + sub.npoints, nc + sub.ncells, err);
+    if (s) goto done;
+    memcpy(out.points, m->points, 3 * np * sizeof(double));
+    out.npoints = np;
+    for (size_t t = 0; t < nc && !s; t++)
+        if (m->region[t] != 1) s = vm_mesh_add_cell(&out, m->cells + 4 * t, m->region[t], err);
+    while (pm.cap < 2 * (np + sub.npoints) + 16)
+        pm.cap <<= 1;
+    if (!s) {
+        pm.slot = malloc(pm.cap * sizeof *pm.slot);
+        if (!pm.slot) s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    if (!s) {
+        for (size_t i = 0; i < pm.cap; i++)
+            pm.slot[i] = -1;
+        for (size_t i = 0; i < np; i++) {
+            size_t at;
+            if (pmap_find(&pm, out.points + 3 * i, &at) < 0) pm.slot[at] = (vm_index)i;
+        }
+    }
+    vm_index *smap = NULL; /* sub's points in out */
+    if (!s) {
+        smap = malloc((sub.npoints ? sub.npoints : 1) * sizeof *smap);
+        if (!smap) s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    }
+    for (size_t i = 0; smap && i < sub.npoints; i++)
+        smap[i] = -1;
+    for (size_t t = 0; t < sub.ncells && !s; t++) {
+        const vm_index *c = sub.cells + 4 * t;
+        if (sub.region[t] != 1) continue;
+        vm_index n[4];
+        for (int k = 0; k < 4 && !s; k++) {
+            if (smap[c[k]] < 0) {
+                size_t at;
+                const double *x = sub.points + 3 * (size_t)c[k];
+                smap[c[k]] = pmap_find(&pm, x, &at);
+                if (smap[c[k]] < 0) {
+                    smap[c[k]] = vm_mesh_add_point(&out, x, err);
+                    if (smap[c[k]] < 0)
+                        s = VM_ERR_NOMEM;
+                    else
+                        pm.slot[at] = smap[c[k]];
+                }
+            }
+            n[k] = smap[c[k]];
+        }
+        if (!s) s = vm_mesh_add_cell(&out, n, 1, err);
+    }
+    free(smap);
+    if (!s) {
+        vm_mesh_free(m);
+        *m = out;
+        vm_mesh_init(&out, VM_TET4);
+    }
+done:
+    free(pm.slot);
+    free(map);
+    free(near);
+    vm_mesh_free(&sub);
+    vm_mesh_free(&out);
+    return s;
 }
 
 enum { TET_DOUBLES = 13 }; /* 4 corners, then 1 (improve it) or 0 (context) */
@@ -666,7 +936,7 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
         if (!s) s = vm_mesh_add_cell(&m2, n, r, err);
     }
     free(pm.slot);
-    if (!s) s = improve(A, v, &m2, err);
+    if (!s) s = improve_region1(A, v, &m2, err);
     if (!s) {
         vm_mesh_free(m);
         *m = m2;
@@ -685,12 +955,12 @@ done:
  * (another slab's); with --improve, the first quality pass over the owned tets with the
  * vertices they share with other slabs fixed. [out] m (empty on error), z0, z1: the slab's
  * z range (index space), seconds. VM_ERR_EMPTY: no tets here. */
-static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, double *z1,
-                           double *seconds, vm_error *err) {
+static vm_status slab_mesh(const args *A, vm_volume *v, int64_t nz, vm_mesh *m, double *z0,
+                           double *z1, double *seconds, vm_error *err) {
     vm_mesh_init(m, VM_TET4);
     int64_t c0, c1, blocks, B;
     double step;
-    rank_cells(A, v->dims[2], &c0, &c1, &step, &blocks, &B);
+    rank_cells(A, nz, &c0, &c1, &step, &blocks, &B);
     *z0 = rank_ == 0 ? -INFINITY : (double)c0 * step;
     *z1 = rank_ == nranks_ - 1 ? INFINITY : (double)c1 * step;
     if (A->improve && nranks_ > 1 && blocks < nranks_) /* the same answer on every rank */
@@ -700,20 +970,12 @@ static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, 
             "at most %lld ranks)",
             nranks_, (long long)blocks, (long long)B, (long long)blocks);
     if (c1 <= c0) return VM_ERR_EMPTY; /* more ranks than blocks */
-    if (nranks_ > 1) {
-        /* Planes lo..hi keep their voxels; every other voxel goes outside the material: the
-         * zeros a slab read left there already are when 0 is outside it. */
-        const vm_mesh_options *o = &A->mo;
-        int zero_outside = (o->has_lo && 0.0 < o->lo) || (o->has_hi && 0.0 > o->hi);
-        float fill = outside_value(vmin_, vmax_, o);
-        int64_t lo, hi;
-        rank_planes(A, v->dims[2], &lo, &hi);
-        size_t plane = (size_t)v->dims[0] * (size_t)v->dims[1];
-        if (!(A->in && zero_outside))
-            for (int64_t k = 0; k < v->dims[2]; k++)
-                if (k < lo || k > hi)
-                    for (size_t i = 0; i < plane; i++)
-                        v->data[(size_t)k * plane + i] = fill;
+    int64_t lo, hi;
+    rank_planes(A, nz, &lo, &hi);
+    vm_mesh_options mo = A->mo;
+    if (nranks_ > 1) { /* v holds planes lo..hi */
+        mo.z_offset = lo;
+        mo.full_nz = nz;
     }
     for (int a = 0; a < 3; a++) {
         v->origin[a] = 0;
@@ -722,8 +984,10 @@ static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, 
             v->direction[a][b] = a == b;
     }
     double t0 = MPI_Wtime();
-    vm_status s = vm_mesh_volume(v, &A->mo, m, NULL, err);
+    vm_status s = vm_mesh_volume(v, &mo, m, NULL, err);
     if (s) return s;
+    /* The quality pass reads v in the mesh's frame: plane 0 of the crop is plane lo. */
+    v->origin[2] = (double)mo.z_offset;
     for (size_t t = 0; t < m->ncells; t++)
         m->region[t] = owned(m, t, *z0, *z1) ? 1 : 2;
     if (A->improve && nranks_ > 1) {
@@ -731,9 +995,9 @@ static vm_status slab_mesh(const args *A, vm_volume *v, vm_mesh *m, double *z0, 
          * stays where it is (max_interface_move 0) and no operation mixes materials, so the
          * faces and vertices at the cut stay those the neighbour has. */
         s = keep_ring(m, err);
-        if (!s) s = improve(A, v, m, err);
+        if (!s) s = improve(A, v, m, 1, err);
     } else if (A->improve) {
-        s = improve(A, v, m, err);
+        s = improve(A, v, m, 0, err);
     }
     *seconds = MPI_Wtime() - t0;
     if (s) vm_mesh_free(m);
@@ -787,11 +1051,25 @@ int main(int argc, char **argv) {
     vm_volume v;
     memset(&v, 0, sizeof v);
     vm_status s;
+    int64_t nz = 0;
+    int secondary = 0; /* failed because another rank did (that one speaks) */
     if (A.phantom) {
+        /* made whole; the rank keeps only its planes */
         s = vm_phantom_make(A.kind, (int)A.phantom_n, 0.0, 1, &v, NULL, &err);
-        if (!s) vm_volume_stats(&v, &vmin_, &vmax_, NULL);
+        if (!s && A.balance && nranks_ > 1) s = balance_whole(&A, &v, &err);
+        if (!s) s = crop_planes(&A, &v, &nz, &err);
     } else {
-        s = read_planes(&A, &v, &err);
+        s = A.balance && nranks_ > 1 ? balance_file(&A, &err) : VM_OK;
+        if (s == VM_ERR_INTERNAL && !err.message[0]) secondary = 1;
+        if (!s) s = read_planes(&A, &v, &nz, &err);
+    }
+    /* the data range of this rank's planes (together they cover the volume), for the
+     * message when no rank has material */
+    double range[2] = {INFINITY, INFINITY}; /* min and -max, reduced with MPI_MIN */
+    if (!s && v.data && v.dims[2] > 0) {
+        double a, b;
+        vm_volume_stats(&v, &a, &b, NULL);
+        if (!isnan(a)) range[0] = a, range[1] = -b;
     }
     char piece_file[4096];
     piece_path(A.out, rank_, piece_file, sizeof piece_file);
@@ -801,8 +1079,7 @@ int main(int argc, char **argv) {
     frame.data = NULL;
     vm_mesh m;
     vm_mesh_init(&m, VM_TET4);
-    int secondary = 0;
-    if (!s) s = slab_mesh(&A, &v, &m, &z0, &z1, &secs, &err);
+    if (!s) s = slab_mesh(&A, &v, nz, &m, &z0, &z1, &secs, &err);
     if (A.improve && nranks_ > 1) {
         /* collective: every rank goes through it, whatever happened so far */
         int bad = s && s != VM_ERR_EMPTY, anybad;
@@ -826,6 +1103,8 @@ int main(int argc, char **argv) {
     unsigned long long nt = ntets, *all = malloc((size_t)nranks_ * sizeof *all);
     double tmax = 0;
     MPI_Allreduce(&secs, &tmax, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    double all_range[2];
+    MPI_Allreduce(range, all_range, 2, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
     if (!all) MPI_Abort(MPI_COMM_WORLD, EXIT_INPUT);
     MPI_Allgather(&nt, 1, MPI_UNSIGNED_LONG_LONG, all, 1, MPI_UNSIGNED_LONG_LONG,
                   MPI_COMM_WORLD);
@@ -834,15 +1113,27 @@ int main(int argc, char **argv) {
         total += all[r];
     if (first == nranks_ && secondary) first = nranks_ + 1; /* cannot happen: someone failed */
     if (first == nranks_ && total == 0) {
-        first = 0; /* every slab empty: the material is empty */
-        if (rank_ == 0 && !err.message[0])
+        first = 0; /* every slab empty: the material is empty (a rank's own message would
+                      give the data range of its planes only) */
+        const char *what = A.phantom ? "--phantom" : A.in;
+        double lo = all_range[0], hi = -all_range[1];
+        if (rank_ == 0 && A.mo.has_lo && A.mo.lo > hi)
+            snprintf(err.message, sizeof err.message,
+                     "%s: no voxel >= %g (the data range is %g to %g): choose an isovalue "
+                     "below %g",
+                     what, A.mo.lo, lo, hi, hi);
+        else if (rank_ == 0 && A.mo.has_hi && A.mo.hi < lo)
+            snprintf(err.message, sizeof err.message,
+                     "%s: no voxel <= %g (the data range is %g to %g)", what, A.mo.hi, lo, hi);
+        else if (rank_ == 0)
             snprintf(err.message, sizeof err.message, "%s: no grid point is in the material",
-                     A.phantom ? "--phantom" : A.in);
+                     what);
     }
     if (first != nranks_) {
         if (ntets) remove(piece_file); /* leave nothing behind */
         if (rank_ == first) fprintf(stderr, "volmesh_mpi: %s\n", err.message);
         free(all);
+        free(cuts_);
         MPI_Finalize();
         return EXIT_INPUT;
     }
@@ -858,6 +1149,7 @@ int main(int argc, char **argv) {
         printf("), slowest rank %.3f s\n", tmax);
     }
     free(all);
+    free(cuts_);
     MPI_Finalize();
     return rc;
 }

@@ -62,6 +62,12 @@ typedef struct vm_improve_options {
     /* 1: add a cell field "improve_unfixed" (1 for tets still failing the ABAQUS check or
      * below 10 degrees, else 0). Default 0. */
     int mark_unfixed;
+    /* One flag per input cell (NULL, the default: none): a nonzero flag keeps that tet off
+     * the pass's work lists, so no operation is tried for it (it changes only when an
+     * operation on another tet reaches it and its region and vertices allow). For tets
+     * that cannot change anyway, e.g. held by regions of their own (volmesh_mpi's
+     * neighbour rings), whose attempts would cost time for nothing. */
+    const unsigned char *frozen;
     /* Called during the rounds ("improve", done, 1.0; done grows, the first round taking the
      * first half) and once at the end with done == total == 1; NULL (default) for none. */
     vm_progress_fn progress;

@@ -22,6 +22,16 @@ typedef struct vm_mesh_options {
     int adaptive;           /* coarse cells in the interior where the octree allows */
     double error;           /* adaptive error tolerance (EDerror), in voxels */
     int max_level;          /* adaptive: largest cell is 2^max_level voxels */
+    /* A cropped volume (tets only; full_nz 0: v is the whole volume). v holds the planes
+     * z_offset .. z_offset + v->dims[2] - 1 of a whole volume of full_nz planes, and v's
+     * index-to-world mapping is the whole volume's (plane 0 at its origin). The mesh covers
+     * the crop only, closed on its first and last planes as on a border, and its grid
+     * structures span only the crop; but every vertex, element and coordinate that does
+     * not depend on samples beyond the crop is bit for bit the one meshing the whole volume
+     * makes (the sampling grid, octree blocks and tet splits are those of the whole grid;
+     * adaptive meshes leave out the first few planes of the crop to align on its octree
+     * blocks). A crop of material far enough inside its planes is meshed exactly. */
+    int64_t z_offset, full_nz;
     vm_progress_fn progress;
     void *progress_user;
 } vm_mesh_options;
