@@ -986,6 +986,212 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
     return VM_OK;
 }
 
+/* ---- repair of the last hexes below the bar ---- */
+
+/* The repair works on the hexes below this, when there are at most POLISH_MAX of them. */
+#define REPAIR_BAR 0.3
+
+/* Corners around point i with i at x: [out] *mn the worst scaled Jacobian, and the energy
+ * sum over them of (max(0, bar - sj))^2, which couples the moves of the points of a patch
+ * where the max-min search stalls (several points share the worst corner). */
+static double patch_energy(const hx *w, size_t i, const double x[3], double bar, double *mn) {
+    double e = 0.0;
+    *mn = INFINITY;
+    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
+        size_t t = w->vi[u] / 8;
+        int k = (int)(w->vi[u] % 8);
+        double p[8][3];
+        hex_points(w, t, p);
+        memcpy(p[k], x, sizeof p[k]);
+        for (int c = 0; c < 8; c++) {
+            double det, q = corner_sj((const double(*)[3])p, c, &det);
+            if (q < *mn) *mn = q;
+            if (q < bar) e += (bar - q) * (bar - q);
+        }
+    }
+    return e;
+}
+
+/* Compass search on patch_energy for point i, its worst corner kept at or above floor (or
+ * where it was). A boundary point may stay in its tangent plane, slide along the isosurface
+ * (as in the polish) or go anywhere within 0.4 voxel of it (as in untangling): the valence 3
+ * and 5 to 6 boundary points at the last hexes below 0.2 on avg152T1 need room off the
+ * trilinear isosurface (measured: 0.186 on it or in the tangent plane, 0.300 with the room).
+ * Returns 1 when it moved. */
+static int patch_move(hx *w, size_t i, double bar, double floor) {
+    if (w->cls[i] == CLS_FIXED || w->vs[i] == w->vs[i + 1]) return 0;
+    double x[3], mn;
+    memcpy(x, w->p + 3 * i, sizeof x);
+    double e = patch_energy(w, i, x, bar, &mn);
+    double keep = fmin(mn, floor);
+    int moved = 0;
+    double L = edge_scale(w, i);
+    for (double h = 0.25 * L; h > 0.005 * L; h *= 0.5) {
+        for (int rep = 0; rep < 4; rep++) {
+            int best = -1;
+            double bx[3], be = e;
+            int slide = w->cls[i] == CLS_ISO;
+            for (int d = 0; d < 26; d++)
+                for (int v = 0; v <= 2 * slide; v++) {
+                    double y[3], m2;
+                    for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
+                    int mode = v == 2 ? MOVE_LOOSE : v ? MOVE_PROJECT : MOVE_TANGENT;
+                    if (!constrain(w, i, y, mode)) continue;
+                    double ne = patch_energy(w, i, y, bar, &m2);
+                    if (ne < be - 1e-12 && m2 >= keep) {
+                        best = d;
+                        be = ne;
+                        memcpy(bx, y, sizeof bx);
+                    }
+                }
+            if (best < 0) break;
+            memcpy(x, bx, sizeof x);
+            e = be;
+            moved = 1;
+        }
+    }
+    if (moved) memcpy(w->p + 3 * i, x, sizeof x);
+    return moved;
+}
+
+/* The worst scaled Jacobian of the hexes at the points pts[0..n) (and their sum). */
+static double group_q(const hx *w, const size_t *pts, int n, double *sum) {
+    double mn = INFINITY;
+    *sum = 0.0;
+    for (int j = 0; j < n; j++)
+        for (size_t u = w->vs[pts[j]]; u < w->vs[pts[j] + 1]; u++) {
+            double q = hex_q(w, w->vi[u] / 8);
+            *sum += q;
+            if (q < mn) mn = q;
+        }
+    return mn;
+}
+
+/* Compass search moving the points pts[0..n) of one hex together (the same step for all,
+ * each then put back on its own constraint, with patch_move's three modes), for a
+ * higher worst hex round them: where the points of a patch share its worst corner, no move
+ * of one point alone raises it. Returns 1 when they moved. */
+static int group_move(hx *w, const size_t *pts, int n) {
+    double old[8][3], sum;
+    for (int j = 0; j < n; j++) {
+        if (w->cls[pts[j]] == CLS_FIXED) return 0;
+        memcpy(old[j], w->p + 3 * pts[j], sizeof old[j]);
+    }
+    double cur = group_q(w, pts, n, &sum), L = 0.0;
+    for (int j = 0; j < n; j++) L += edge_scale(w, pts[j]) / n;
+    int moved = 0;
+    double base[8][3];
+    for (int j = 0; j < n; j++) memcpy(base[j], old[j], sizeof base[j]);
+    for (double h = 0.2 * L; h > 0.005 * L; h *= 0.5)
+        for (int rep = 0; rep < 4; rep++) {
+            int best = -1;
+            double bq = cur, bs = sum, bp[8][3];
+            for (int d = 0; d < 26; d++)
+                for (int v = 0; v < 3; v++) {
+                    int ok = 1;
+                    for (int j = 0; j < n && ok; j++) {
+                        double y[3];
+                        for (int a = 0; a < 3; a++) y[a] = base[j][a] + h * dirs[d][a];
+                        int mode = w->cls[pts[j]] != CLS_ISO || !v ? MOVE_TANGENT
+                                   : v == 2                         ? MOVE_LOOSE
+                                                                    : MOVE_PROJECT;
+                        ok = constrain(w, pts[j], y, mode);
+                        if (ok) memcpy(w->p + 3 * pts[j], y, sizeof y);
+                    }
+                    double s2, q2 = ok ? group_q(w, pts, n, &s2) : -INFINITY;
+                    if (ok && (q2 > bq + 1e-6 || (q2 >= bq && s2 > bs + 1e-4))) {
+                        best = d;
+                        bq = q2;
+                        bs = s2;
+                        for (int j = 0; j < n; j++) memcpy(bp[j], w->p + 3 * pts[j], sizeof bp[j]);
+                    }
+                    for (int j = 0; j < n; j++) memcpy(w->p + 3 * pts[j], base[j], sizeof base[j]);
+                }
+            if (best < 0) break;
+            for (int j = 0; j < n; j++) {
+                memcpy(base[j], bp[j], sizeof base[j]);
+                memcpy(w->p + 3 * pts[j], bp[j], sizeof bp[j]);
+            }
+            cur = bq;
+            sum = bs;
+            moved = 1;
+        }
+    return moved;
+}
+
+/* Group moves on each hex below bar: its edges' point pairs, its faces' quads and the whole
+ * hex. Returns the number of groups moved. */
+static size_t group_sweep(hx *w, double bar) {
+    static const int edges[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
+                                     {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+    size_t mv = 0;
+    for (size_t t = 0; t < w->nh; t++) {
+        if (hex_q(w, t) >= bar) continue;
+        const vm_index *c = w->h + 8 * t;
+        size_t pts[8];
+        for (int e = 0; e < 12; e++) {
+            pts[0] = (size_t)c[edges[e][0]];
+            pts[1] = (size_t)c[edges[e][1]];
+            mv += (size_t)group_move(w, pts, 2);
+        }
+        for (int f = 0; f < 6; f++) {
+            for (int j = 0; j < 4; j++) pts[j] = (size_t)c[face_tab[f][j]];
+            mv += (size_t)group_move(w, pts, 4);
+        }
+        for (int k = 0; k < 8; k++) pts[k] = (size_t)c[k];
+        mv += (size_t)group_move(w, pts, 8);
+    }
+    return mv;
+}
+
+/* The hexes below bar and rings of hexes round them: their points get Gauss-Seidel sweeps
+ * of patch_move (the mesh's worst hex never gets worse), then the max-min polish. */
+static vm_status repair(hx *w, double bar, int rings, int nsweeps, size_t *moves, int *sweeps) {
+    double *q = malloc((w->nh + 1) * sizeof *q);
+    uint8_t *act = malloc(w->np + 1), *ring = malloc(w->np + 1);
+    if (!q || !act || !ring) {
+        free(q);
+        free(act);
+        free(ring);
+        return VM_ERR_NOMEM;
+    }
+    for (int sw = 0; sw < nsweeps; sw++) {
+        figs f;
+        measure(w, &f, q);
+        memset(act, 0, w->np);
+        for (size_t t = 0; t < w->nh; t++)
+            if (q[t] < bar)
+                for (int k = 0; k < 8; k++) act[w->h[8 * t + (size_t)k]] = 1;
+        for (int r = 0; r < rings; r++) {
+            memcpy(ring, act, w->np);
+            for (size_t t = 0; t < w->nh; t++) {
+                int hit = 0;
+                for (int k = 0; k < 8; k++) hit |= ring[w->h[8 * t + (size_t)k]];
+                if (hit)
+                    for (int k = 0; k < 8; k++) act[w->h[8 * t + (size_t)k]] = 1;
+            }
+        }
+        size_t mv = 0;
+        for (size_t i = 0; i < w->np; i++)
+            if (act[i] && patch_move(w, i, bar, f.min_sj)) mv++;
+        *moves += mv;
+        (*sweeps)++;
+        if (!mv) break;
+    }
+    free(q);
+    free(act);
+    free(ring);
+    vm_status s = polish(w, bar, moves, sweeps);
+    for (int r = 0; r < 4 && !s; r++) {
+        size_t mv = group_sweep(w, 0.2);
+        *moves += mv;
+        (*sweeps)++;
+        if (!mv) break;
+        s = polish(w, bar, moves, sweeps);
+    }
+    return s;
+}
+
 /* The whole pass on a copy of m, with or without the pillow layer. [out] f: its figures. */
 static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, int with_pillow,
                      const uint8_t *set, const double *init, size_t *added, size_t *moves,
@@ -1169,6 +1375,19 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
         }
         measure(&w, &after, NULL);
     }
+    if (v && after.min_sj < fmin(REPAIR_BAR, o->target)) {
+        /* the last few hexes below 0.3: the patch repair (coupled moves, then the polish) */
+        size_t below = 0;
+        for (size_t t = 0; t < w.nh; t++) below += hex_q(&w, t) < REPAIR_BAR;
+        free(w.focus);
+        w.focus = NULL;
+        if (below <= POLISH_MAX &&
+            repair(&w, fmin(REPAIR_BAR, o->target), 1, 10, &moves, &sweeps)) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+            goto done;
+        }
+        measure(&w, &after, NULL);
+    }
     double maxd = 0.0, maxd0 = 0.0;
     if (v)
         for (size_t i = 0; i < w.np; i++) {
@@ -1213,3 +1432,4 @@ done:
     if (o->progress) o->progress("hex pass", 1.0, 1.0, o->progress_user);
     return s;
 }
+
