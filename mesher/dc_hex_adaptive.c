@@ -303,15 +303,16 @@ static void soup_pos(const vm__tet_soup *sp, const int64_t n[3], int64_t id, dou
     }
 }
 
-/* Index of hex t when it is a cube at scale sc (1, else 0). */
+/* Index of hex t when it is a cube at scale sc whose corners lie on the block grid with
+ * origin org (1, else 0). */
 static int cube_index(const vm__tet_soup *sp, const int64_t n[3], size_t t, double sc,
-                      int64_t p[3]) {
+                      const int64_t org[3], int64_t p[3]) {
     const int64_t *c = sp->tets + 8 * t;
     double q[3], o[3];
     if (c[0] < sp->nlattice) return 0;
     soup_pos(sp, n, c[0], o);
     for (int a = 0; a < 3; a++) {
-        double r = (o[a] - 0.5) / sc;
+        double r = (o[a] - 0.5 - (double)org[a]) / sc;
         if (r != floor(r) || r < 0) return 0;
         p[a] = (int64_t)r;
     }
@@ -327,9 +328,9 @@ static int cube_index(const vm__tet_soup *sp, const int64_t n[3], size_t t, doub
 /* The 3x3x3 block b of hex t when t is a unit cube (cube_index) inside the grid's whole
  * blocks (b[a] < real[a] on every axis); 0 otherwise. */
 static int cube_block(const vm__tet_soup *sp, const int64_t n[3], size_t t, double sc,
-                      const int64_t real[3], int64_t b[3]) {
+                      const int64_t org[3], const int64_t real[3], int64_t b[3]) {
     int64_t p[3];
-    if (!cube_index(sp, n, t, sc, p)) return 0;
+    if (!cube_index(sp, n, t, sc, org, p)) return 0;
     for (int a = 0; a < 3; a++) {
         b[a] = p[a] / 3;
         if (b[a] >= real[a]) return 0;
@@ -338,10 +339,11 @@ static int cube_block(const vm__tet_soup *sp, const int64_t n[3], size_t t, doub
 }
 
 /* Key of the cube corner at q (scale sc), -1 when q is not one. */
-static int64_t corner_key(const int64_t n[3], double sc, const double q[3]) {
+static int64_t corner_key(const int64_t n[3], double sc, const int64_t org[3],
+                          const double q[3]) {
     int64_t c[3], m[3];
     for (int a = 0; a < 3; a++) {
-        double r = (q[a] - 0.5) / sc;
+        double r = (q[a] - 0.5 - (double)org[a]) / sc;
         m[a] = (int64_t)((double)n[a] / sc) + 3;
         if (r != floor(r) || r < -1 || r > (double)(m[a] - 2)) return -1;
         c[a] = (int64_t)r + 1;
@@ -499,32 +501,13 @@ done:
     return s;
 }
 
-/* Drops coarse blocks until they come in 2x2x2 groups and no two meet only along an edge
- * within an axis plane; cube is scratch (nblk bytes). */
-static void prune_coarse(const blocks *Bp, uint8_t *cube, size_t nblk, size_t *ncoarse_p) {
+/* Drops coarse blocks until no two meet only along an edge within an axis plane (the
+ * shrink sets' boundaries must be manifold). */
+static void prune_coarse(const blocks *Bp, size_t *ncoarse_p) {
     blocks B = *Bp; /* the same role array */
     size_t ncoarse = *ncoarse_p;
     for (int changed = 1; changed;) {
         changed = 0;
-        memset(cube, 0, nblk); /* reused: 1 where some 2x2x2 group of coarse blocks covers */
-        for (int64_t z = 0; z + 1 < B.nb[2]; z++)
-            for (int64_t y = 0; y + 1 < B.nb[1]; y++)
-                for (int64_t x = 0; x + 1 < B.nb[0]; x++) {
-                    int all = 1;
-                    for (int q = 0; q < 8 && all; q++)
-                        all = B.role[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
-                                          z + hex_off[q][2])] == ROLE_COARSE;
-                    if (all)
-                        for (int q = 0; q < 8; q++)
-                            cube[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
-                                      z + hex_off[q][2])] = 1;
-                }
-        for (size_t b = 0; b < nblk; b++)
-            if (B.role[b] == ROLE_COARSE && !cube[b]) {
-                B.role[b] = ROLE_NONE;
-                ncoarse--;
-                changed = 1;
-            }
         for (int64_t z = 0; z + 1 < B.nb[2]; z++)
             for (int64_t y = 0; y + 1 < B.nb[1]; y++)
                 for (int64_t x = 0; x + 1 < B.nb[0]; x++)
@@ -554,14 +537,58 @@ static void prune_coarse(const blocks *Bp, uint8_t *cube, size_t nblk, size_t *n
     *ncoarse_p = ncoarse;
 }
 
-vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_mesh_stats *st,
-                        vm_error *err) {
+/* A cube's index from the level's origin. */
+typedef struct cube_pos {
+    int64_t p[3];
+} cube_pos;
+
+/* Marks the coarse blocks (roles) with the block grid shifted by off cubes per axis: a block
+ * whose 27 cubes are all there, as in its 26 neighbours, then pruned; returns their count.
+ * count and cube are scratch (nblk bytes). */
+static size_t classify(const blocks *B, const cube_pos *ci, size_t ncube, const int64_t off[3],
+                       const int64_t real[3], uint8_t *count, uint8_t *cube, size_t nblk) {
+    memset(count, 0, nblk);
+    memset(B->role, 0, nblk);
+    for (size_t i = 0; i < ncube; i++) {
+        int64_t b[3];
+        int in = 1;
+        for (int a = 0; a < 3 && in; a++) {
+            int64_t q = ci[i].p[a] - off[a];
+            b[a] = q >= 0 ? q / 3 : -1;
+            in = b[a] >= 0 && b[a] < real[a];
+        }
+        if (in) count[bidx(B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
+    }
+    for (size_t b = 0; b < nblk; b++)
+        cube[b] = count[b] == 27;
+    size_t ncoarse = 0;
+    for (int64_t z = 1; z + 1 < B->nb[2]; z++)
+        for (int64_t y = 1; y + 1 < B->nb[1]; y++)
+            for (int64_t x = 1; x + 1 < B->nb[0]; x++) {
+                int ok = 1;
+                for (int dz = -1; dz <= 1 && ok; dz++)
+                    for (int dy = -1; dy <= 1 && ok; dy++)
+                        for (int dx = -1; dx <= 1 && ok; dx++)
+                            ok = cube[bidx(B, x + dx, y + dy, z + dz)];
+                if (ok) {
+                    B->role[bidx(B, x, y, z)] = ROLE_COARSE;
+                    ncoarse++;
+                }
+            }
+    /* no two coarse blocks may meet only along an edge in a plane (the shrink sets'
+     * boundaries must be manifold): drop blocks until that holds */
+    prune_coarse(B, &ncoarse);
+    return ncoarse;
+}
+
+vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, int64_t org[3],
+                        vm_mesh_stats *st, vm_error *err) {
     double sc = (double)scale;
     blocks B;
     memset(&B, 0, sizeof B);
     int64_t real[3];
     for (int a = 0; a < 3; a++) {
-        real[a] = n[a] > 1 ? (n[a] - 1) / scale / 3 : 0;
+        real[a] = n[a] - 1 > org[a] ? (n[a] - 1 - org[a]) / scale / 3 : 0;
         B.nb[a] = real[a] + 4;
     }
     size_t nblk = (size_t)(B.nb[0] * B.nb[1] * B.nb[2]);
@@ -575,38 +602,36 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
     memset(&nodeid, 0, sizeof nodeid);
     int32_t *corner = NULL;
     uint8_t *drop = NULL, *flag = NULL;
+    cube_pos *cidx = NULL;
     vm_status s = VM_OK;
     if (!count || !B.role || !cube) {
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
         goto done;
     }
-    /* blocks whose 27 hexes are unit cubes */
-    for (size_t h = 0; h < sp->ntets; h++) {
-        int64_t b[3];
-        if (cube_block(sp, n, h, sc, real, b)) count[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
+    /* The cubes of this scale (indices from org); then the block grid's offset, 0..2 cubes
+     * per axis, that makes the most coarse blocks. */
+    size_t ncube = 0;
+    cidx = malloc((sp->ntets ? sp->ntets : 1) * sizeof *cidx);
+    if (!cidx) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
     }
-    for (size_t b = 0; b < nblk; b++)
-        cube[b] = count[b] == 27;
-    /* coarse: a cube block whose 26 neighbours are cube blocks */
+    for (size_t h = 0; h < sp->ntets; h++)
+        if (cube_index(sp, n, h, sc, org, cidx[ncube].p)) ncube++;
     size_t ncoarse = 0;
-    for (int64_t z = 1; z + 1 < B.nb[2]; z++)
-        for (int64_t y = 1; y + 1 < B.nb[1]; y++)
-            for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
-                int ok = 1;
-                for (int dz = -1; dz <= 1 && ok; dz++)
-                    for (int dy = -1; dy <= 1 && ok; dy++)
-                        for (int dx = -1; dx <= 1 && ok; dx++)
-                            ok = cube[bidx(&B, x + dx, y + dy, z + dz)];
-                if (ok) {
-                    B.role[bidx(&B, x, y, z)] = ROLE_COARSE;
-                    ncoarse++;
-                }
+    int best_k = -1;
+    for (int pass = 0; pass < 2; pass++)
+        for (int k = 0; k < 27; k++) {
+            if (pass && k != best_k) continue;
+            int64_t off[3] = {k % 3, (k / 3) % 3, k / 9};
+            size_t nc = classify(&B, cidx, ncube, off, real, count, cube, nblk);
+            if (!pass && (best_k < 0 || nc > ncoarse)) {
+                best_k = k;
+                ncoarse = nc;
             }
-    /* Coarse blocks come in 2x2x2 groups (an opening: a lone block or a one-block-thick
-     * spike would need its transitions crammed round it), and no two may meet only along
-     * an edge in a plane (the shrink sets' boundaries must be manifold): drop blocks until
-     * both hold. */
-    prune_coarse(&B, cube, nblk, &ncoarse);
+        }
+    for (int a = 0; a < 3; a++)
+        org[a] += scale * (best_k / (a == 0 ? 1 : a == 1 ? 3 : 9) % 3);
     /* Build, smooth, and where the smoothing leaves a transition hex inverted drop the coarse
      * blocks round it and build again (at most three times). */
     for (int attempt = 0;; attempt++) {
@@ -656,7 +681,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
                 if (corner[ci] < 0) {
                     double p[3];
                     for (int a = 0; a < 3; a++)
-                        p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5;
+                        p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5 + (double)org[a];
                     corner[ci] = (int32_t)t.nn;
                     s = add_node(&t, p, err);
                 }
@@ -753,7 +778,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
                     }
         }
         if (!inverted || attempt == 3) break;
-        prune_coarse(&B, cube, nblk, &ncoarse);
+        prune_coarse(&B, &ncoarse);
     }
 
     /* the fine cube corners by cell, to share the frame-side nodes */
@@ -763,7 +788,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
     size_t dropped = 0;
     for (size_t h = 0; !s && h < sp->ntets; h++) {
         int64_t b[3];
-        if (!cube_block(sp, n, h, sc, real, b)) continue;
+        if (!cube_block(sp, n, h, sc, org, real, b)) continue;
         uint8_t r = B.role[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)];
         if (r != ROLE_COARSE && r != ROLE_TRANS) continue;
         drop[h] = 1;
@@ -771,7 +796,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         for (int q = 0; !s && q < 8; q++) {
             double qp[3];
             soup_pos(sp, n, sp->tets[8 * h + q], qp);
-            s = imap_put(&cells, corner_key(n, sc, qp), sp->tets[8 * h + q], err);
+            s = imap_put(&cells, corner_key(n, sc, org, qp), sp->tets[8 * h + q], err);
         }
     }
     /* number the kept nodes: frame-side ones are existing fine vertices */
@@ -783,7 +808,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         id[i] = -1;
         if (!(flag[i] & 5)) continue;
         if (flag[i] & 2) {
-            int64_t k = corner_key(n, sc, t.pos + 3 * i);
+            int64_t k = corner_key(n, sc, org, t.pos + 3 * i);
             id[i] = k < 0 ? -1 : imap_get(&cells, k);
             if (id[i] < 0) missing++;
         } else {
@@ -835,6 +860,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
     }
     free(id);
 done:
+    free(cidx);
     free(flag);
     free(count);
     free(cube);

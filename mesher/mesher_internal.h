@@ -78,6 +78,6 @@ vm_status vm__dual_contour_hexes(const vm__grid *g, vm__tet_soup *out, vm_mesh_s
  * inside the material by one hex each, with a conforming all-hex transition round them; a
  * soup without such blocks is left as it is. n: the grid's points per axis. */
 vm_status vm__hex_adapt(vm__tet_soup *soup, const int64_t n[3], int64_t scale,
-                        vm_mesh_stats *st, vm_error *err);
+                        int64_t org[3], vm_mesh_stats *st, vm_error *err);
 
 #endif
