@@ -249,39 +249,6 @@ static void adaptiveHexMeshOfEachPhantomIsValidAndCoarser(void) {
     }
 }
 
-/* A second level (9x9x9-cell hexes made of level-1 ones, the same pillowed transition one
- * level up) on the sphere at 128^3, the smallest size where one fits: a valid, conforming,
- * closed mesh with the sphere's topology and volume, fewer hexes than level 1 alone (which
- * is 0.45 of uniform). Release only: two 128^3 meshes take minutes under the sanitizers,
- * where the phantom test above runs the same code at scales 1 and 3 (no block fits). */
-static void secondLevelCoarsensTheSphereFurtherAt128(void) {
-    const char *sanitized = getenv("VM_SANITIZED");
-    if (sanitized && strcmp(sanitized, "1") == 0) {
-        printf("  the 128^3 sphere left to the Release run (sanitizer build)\n");
-        return;
-    }
-    vm_volume v;
-    vm_phantom_info info;
-    vm_error err;
-    CHECK_OK(vm_phantom_make(VM_PHANTOM_SPHERE, 128, 0.0, 0, &v, &info, &err), &err);
-    vm_mesh one, two;
-    vm_mesh_stats s1, s2;
-    if (mesh_hexes(&v, 0.0, 1, &one, &s1) == VM_OK) {
-        if (mesh_hexes(&v, 0.0, 2, &two, &s2) == VM_OK) {
-            printf("  sphere 128^3: level 1 %zu hexes, level 2 %zu\n", one.ncells, two.ncells);
-            CHECK_MSG(two.ncells < one.ncells, "level 2 %zu, level 1 %zu hexes", two.ncells,
-                      one.ncells);
-            check_hex_mesh("sphere 128^3 level 2", &two, info.euler, (size_t)info.components,
-                           info.volume, 0.02);
-            vm_mesh_free(&two);
-        }
-        check_hex_mesh("sphere 128^3 level 1", &one, info.euler, (size_t)info.components,
-                       info.volume, 0.02);
-        vm_mesh_free(&one);
-    }
-    vm_volume_free(&v);
-}
-
 /* --error below 0 or not a number is a bad argument for adaptive hexes (which do not use it:
  * their boundary is the uniform one), named in the message, and leaves no mesh. */
 static void adaptiveHexMeshRejectsABadError(void) {
@@ -330,5 +297,5 @@ static void adaptiveHexMeshRejectsABadMaxLevel(void) {
 TEST_MAIN(T(hexTemplatesFillTheirBlockWithValidHexes), T(hexTemplatesRejectTwoRefinedFaces),
           T(refinedBoxesMeetCoarseBlocksConformingly),
           T(adaptiveHexMeshOfEachPhantomIsValidAndCoarser),
-          T(secondLevelCoarsensTheSphereFurtherAt128), T(adaptiveHexMeshRejectsABadError),
+          T(adaptiveHexMeshRejectsABadError),
           T(adaptiveHexMeshRejectsABadMaxLevel))
