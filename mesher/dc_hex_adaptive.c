@@ -1,5 +1,6 @@
-/* mesher/dc_hex_adaptive.c — adaptive hexahedra, one coarsening level: interior 3x3x3 blocks
- * of unit cubes become one hex; the transition around them is made by pillowing (sheet
+/* mesher/dc_hex_adaptive.c — adaptive hexahedra, one coarsening level per call: interior 3x3x3
+ * blocks of cubes (the unit cubes, then the coarse hexes of the level before) become one hex;
+ * the transition around them is made by pillowing (sheet
  * insertion, Mitchell and Tautges 1995), one shrink set per block layer and axis, so the
  * 3-refinement faces, edges and corners — concave ones included — are conforming by
  * construction (see docs/ALGORITHMS.md, "Adaptive hexahedra"). */
@@ -19,9 +20,10 @@ static const int hex_edge[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 
                                     {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
 
 enum { ROLE_NONE = 0, ROLE_COARSE = 1, ROLE_TRANS = 2, ROLE_FRAME = 3 };
-/* At scale s, a cube is a hex with corners c + s*offset, c = s*i + 0.5 (i >= 0 integer: the
- * cube's index); block b holds the cubes 3b .. 3b+2 per axis. At s = 1 these are the unit
- * cubes round grid points i + 1. */
+/* At scale s, a cube is a hex with corners c + s*offset, c = s*i + 0.5 + org (i >= 0 integer:
+ * the cube's index; org the level's block grid origin, in cells, a multiple of the level
+ * before's scale); block b holds the cubes 3b .. 3b+2 per axis. At s = 1, org = 0 these are
+ * the unit cubes round grid points i + 1. */
 
 /* int64 -> int64 open-addressing map (keys >= 0). */
 typedef struct imap {
