@@ -368,8 +368,7 @@ static const int hex_nbr[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
                                   {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
 
 static int moves_with(int slot, int c) {
-    return c == slot || c == hex_nbr[slot][0] || c == hex_nbr[slot][1] ||
-           c == hex_nbr[slot][2];
+    return c == slot || c == hex_nbr[slot][0] || c == hex_nbr[slot][1] || c == hex_nbr[slot][2];
 }
 
 /* Loads the star of v; returns its worst corner (as the min over vm_hex_min_scaled_jacobian

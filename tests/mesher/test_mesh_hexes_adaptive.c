@@ -296,6 +296,5 @@ static void adaptiveHexMeshRejectsABadMaxLevel(void) {
 
 TEST_MAIN(T(hexTemplatesFillTheirBlockWithValidHexes), T(hexTemplatesRejectTwoRefinedFaces),
           T(refinedBoxesMeetCoarseBlocksConformingly),
-          T(adaptiveHexMeshOfEachPhantomIsValidAndCoarser),
-          T(adaptiveHexMeshRejectsABadError),
+          T(adaptiveHexMeshOfEachPhantomIsValidAndCoarser), T(adaptiveHexMeshRejectsABadError),
           T(adaptiveHexMeshRejectsABadMaxLevel))

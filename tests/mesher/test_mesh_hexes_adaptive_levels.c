@@ -1,9 +1,9 @@
 /* tests/mesher/test_mesh_hexes_adaptive_levels.c — nested coarsening of adaptive hexahedra
  * (mesher/dc_hex_adaptive.c, --max-level 2): the second level on the 128^3 sphere. Apart from
  * test_mesh_hexes_adaptive.c so that each stays within a minute. */
+#include "hex_checks.h"
 #include <stdlib.h>
 #include <string.h>
-#include "hex_checks.h"
 
 /* Meshes v at iso lo in hexes with up to `levels` coarse levels. */
 static vm_status mesh_levels(const vm_volume *v, double lo, int levels, vm_mesh *m) {
