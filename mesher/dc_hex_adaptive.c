@@ -502,13 +502,67 @@ done:
     return s;
 }
 
-/* Drops coarse blocks until no two meet only along an edge within an axis plane (the
- * shrink sets' boundaries must be manifold). */
-static void prune_coarse(const blocks *Bp, size_t *ncoarse_p) {
+/* Face-connected pieces of the corners set in m (bit c: corner (c&1, c>>1&1, c>>2) of a
+ * 2x2x2 window); 0 for none. */
+static int window_pieces(unsigned m) {
+    unsigned seen = 0;
+    int pieces = 0;
+    for (int c = 0; c < 8; c++) {
+        if (!(m >> c & 1) || (seen >> c & 1)) continue;
+        pieces++;
+        unsigned front = 1u << c;
+        seen |= front;
+        while (front) {
+            unsigned next = 0;
+            for (int a = 0; a < 8; a++)
+                if (front >> a & 1)
+                    for (int bit = 1; bit < 8; bit <<= 1) {
+                        int b = a ^ bit;
+                        if ((m >> b & 1) && !(seen >> b & 1)) next |= 1u << b;
+                    }
+            seen |= next;
+            front = next;
+        }
+    }
+    return pieces;
+}
+
+/* 1 when the coarse blocks m of a 2x2x2 window, or the others, are in two or more pieces. */
+static int window_pinches(unsigned m) {
+    return window_pieces(m) > 1 || window_pieces(~m & 0xffu) > 1;
+}
+
+/* Drops coarse blocks until no two meet only along an edge within an axis plane or only at
+ * a corner (the shrink sets' boundaries must be manifold), and with group set until they
+ * come in 2x2x2 groups (the conservative rule: see vm__hex_adapt). cube: nblk bytes of
+ * scratch. */
+static void prune_coarse(const blocks *Bp, int group, uint8_t *cube, size_t *ncoarse_p) {
     blocks B = *Bp; /* the same role array */
     size_t ncoarse = *ncoarse_p;
+    size_t nblk = (size_t)(B.nb[0] * B.nb[1] * B.nb[2]);
     for (int changed = 1; changed;) {
         changed = 0;
+        if (group) {
+            memset(cube, 0, nblk); /* 1 where some 2x2x2 group of coarse blocks covers */
+            for (int64_t z = 0; z + 1 < B.nb[2]; z++)
+                for (int64_t y = 0; y + 1 < B.nb[1]; y++)
+                    for (int64_t x = 0; x + 1 < B.nb[0]; x++) {
+                        int all = 1;
+                        for (int q = 0; q < 8 && all; q++)
+                            all = B.role[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
+                                              z + hex_off[q][2])] == ROLE_COARSE;
+                        if (all)
+                            for (int q = 0; q < 8; q++)
+                                cube[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
+                                          z + hex_off[q][2])] = 1;
+                    }
+            for (size_t b = 0; b < nblk; b++)
+                if (B.role[b] == ROLE_COARSE && !cube[b]) {
+                    B.role[b] = ROLE_NONE;
+                    ncoarse--;
+                    changed = 1;
+                }
+        }
         for (int64_t z = 0; z + 1 < B.nb[2]; z++)
             for (int64_t y = 0; y + 1 < B.nb[1]; y++)
                 for (int64_t x = 0; x + 1 < B.nb[0]; x++)
@@ -534,6 +588,28 @@ static void prune_coarse(const blocks *Bp, size_t *ncoarse_p) {
                             changed = 1;
                         }
                     }
+        /* and no 2x2x2 window of blocks round a block corner may split its coarse blocks or
+         * the others into two face-connected pieces (two blocks meeting only at a corner,
+         * or its complement: the shrink set's boundary would pinch at that vertex) */
+        for (int64_t z = 0; z + 1 < B.nb[2]; z++)
+            for (int64_t y = 0; y + 1 < B.nb[1]; y++)
+                for (int64_t x = 0; x + 1 < B.nb[0]; x++) {
+                    unsigned m = 0;
+                    int64_t q[8];
+                    for (int c = 0; c < 8; c++) {
+                        q[c] = bidx(&B, x + (c & 1), y + (c >> 1 & 1), z + (c >> 2));
+                        if (B.role[q[c]] == ROLE_COARSE) m |= 1u << c;
+                    }
+                    if (window_pinches(m)) {
+                        for (int c = 0; c < 8; c++)
+                            if (m >> c & 1) {
+                                B.role[q[c]] = ROLE_NONE;
+                                ncoarse--;
+                                changed = 1;
+                                break;
+                            }
+                    }
+                }
     }
     *ncoarse_p = ncoarse;
 }
@@ -547,7 +623,8 @@ typedef struct cube_pos {
  * whose 27 cubes are all there, as in its 26 neighbours, then pruned; returns their count.
  * count and cube are scratch (nblk bytes). */
 static size_t classify(const blocks *B, const cube_pos *ci, size_t ncube, const int64_t off[3],
-                       const int64_t real[3], uint8_t *count, uint8_t *cube, size_t nblk) {
+                       const int64_t real[3], int group, uint8_t *count, uint8_t *cube,
+                       size_t nblk) {
     memset(count, 0, nblk);
     memset(B->role, 0, nblk);
     for (size_t i = 0; i < ncube; i++) {
@@ -576,9 +653,7 @@ static size_t classify(const blocks *B, const cube_pos *ci, size_t ncube, const 
                     ncoarse++;
                 }
             }
-    /* no two coarse blocks may meet only along an edge in a plane (the shrink sets'
-     * boundaries must be manifold): drop blocks until that holds */
-    prune_coarse(B, &ncoarse);
+    prune_coarse(B, group, cube, &ncoarse);
     return ncoarse;
 }
 
@@ -619,167 +694,195 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, int
     }
     for (size_t h = 0; h < sp->ntets; h++)
         if (cube_index(sp, n, h, sc, org, cidx[ncube].p)) ncube++;
+    /* Two modes: first the permissive one (lone coarse blocks allowed, the best of the 27
+     * offsets); when its transition keeps an inverted hex or does not fill its blocks'
+     * volume exactly (thin coarse configurations can pillow badly), the conservative one of
+     * the first version (coarse blocks only in 2x2x2 groups, offset 0) instead. */
+    const int64_t org0[3] = {org[0], org[1], org[2]};
     size_t ncoarse = 0;
-    int best_k = -1;
-    for (int pass = 0; pass < 2; pass++)
-        for (int k = 0; k < 27; k++) {
-            if (pass && k != best_k) continue;
-            int64_t off[3] = {k % 3, (k / 3) % 3, k / 9};
-            size_t nc = classify(&B, cidx, ncube, off, real, count, cube, nblk);
-            if (!pass && (best_k < 0 || nc > ncoarse)) {
-                best_k = k;
-                ncoarse = nc;
-            }
-        }
-    for (int a = 0; a < 3; a++)
-        org[a] += scale * (best_k / (a == 0 ? 1 : a == 1 ? 3 : 9) % 3);
-    /* Build, smooth, and where the smoothing leaves a transition hex inverted drop the coarse
-     * blocks round it and build again (at most three times). */
-    for (int attempt = 0;; attempt++) {
-        for (size_t b = 0; b < nblk; b++)
-            if (B.role[b] != ROLE_COARSE) B.role[b] = ROLE_NONE;
-        free(corner);
-        corner = NULL;
-        free(flag);
-        flag = NULL;
-        t.nh = t.nn = 0;
-        if (!ncoarse) goto done;
-        /* transition blocks round the coarse ones, then a frame of virtual blocks round those
-         */
-        for (int pass = 0; pass < 2; pass++) {
-            uint8_t from = pass ? ROLE_TRANS : ROLE_COARSE, to = pass ? ROLE_FRAME : ROLE_TRANS;
-            for (int64_t z = 1; z + 1 < B.nb[2]; z++)
-                for (int64_t y = 1; y + 1 < B.nb[1]; y++)
-                    for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
-                        if (B.role[bidx(&B, x, y, z)] != from) continue;
-                        for (int dz = -1; dz <= 1; dz++)
-                            for (int dy = -1; dy <= 1; dy++)
-                                for (int dx = -1; dx <= 1; dx++) {
-                                    int64_t o = bidx(&B, x + dx, y + dy, z + dz);
-                                    if (B.role[o] == ROLE_NONE) B.role[o] = to;
-                                }
-                    }
-        }
-        /* the coarse mesh over the coarse, transition and frame blocks */
-        size_t ncorner = (size_t)((B.nb[0] + 1) * (B.nb[1] + 1) * (B.nb[2] + 1));
-        corner = malloc(ncorner * sizeof *corner);
-        if (!corner) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-            goto done;
-        }
-        for (size_t i = 0; i < ncorner; i++)
-            corner[i] = -1;
-        for (int64_t b = 0; !s && b < (int64_t)nblk; b++) {
-            if (B.role[b] == ROLE_NONE) continue;
-            int64_t bc[3];
-            bcoord(&B, b, bc);
-            int32_t c[8];
-            for (int q = 0; !s && q < 8; q++) {
-                int64_t k[3];
-                for (int a = 0; a < 3; a++)
-                    k[a] = bc[a] + hex_off[q][a];
-                size_t ci = (size_t)(k[0] + (B.nb[0] + 1) * (k[1] + (B.nb[1] + 1) * k[2]));
-                if (corner[ci] < 0) {
-                    double p[3];
-                    for (int a = 0; a < 3; a++)
-                        p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5 + (double)org[a];
-                    corner[ci] = (int32_t)t.nn;
-                    s = add_node(&t, p, err);
+    for (int mode = 0; mode < 2; mode++) {
+        int group = mode == 1;
+        int best_k = -1;
+        ncoarse = 0;
+        for (int pass = 0; pass < 2; pass++)
+            for (int k = 0; k < 27; k++) {
+                if ((pass && k != best_k) || (group && k)) continue;
+                int64_t off[3] = {k % 3, (k / 3) % 3, k / 9};
+                size_t nc = classify(&B, cidx, ncube, off, real, group, count, cube, nblk);
+                if (!pass && (best_k < 0 || nc > ncoarse)) {
+                    best_k = k;
+                    ncoarse = nc;
                 }
-                c[q] = corner[ci];
             }
-            if (!s) s = add_hex(&t, c, (int32_t)b, err);
-        }
-        for (int d = 0; !s && d < 3; d++)
-            s = pillow_round(&t, &B, d, sc, err);
-        if (s) goto done;
+        for (int a = 0; a < 3; a++)
+            org[a] = org0[a] + scale * (best_k / (a == 0 ? 1 : a == 1 ? 3 : 9) % 3);
+        /* Build, smooth, and where the smoothing leaves a transition hex inverted drop the
+         * coarse blocks round it and build again (at most three times). */
+        size_t inverted = 0;
+        for (int attempt = 0;; attempt++) {
+            for (size_t b = 0; b < nblk; b++)
+                if (B.role[b] != ROLE_COARSE) B.role[b] = ROLE_NONE;
+            free(corner);
+            corner = NULL;
+            free(flag);
+            flag = NULL;
+            t.nh = t.nn = 0;
+            if (!ncoarse) goto done;
+            /* transition blocks round the coarse ones, then a frame of virtual blocks round
+             * those
+             */
+            for (int pass = 0; pass < 2; pass++) {
+                uint8_t from = pass ? ROLE_TRANS : ROLE_COARSE,
+                        to = pass ? ROLE_FRAME : ROLE_TRANS;
+                for (int64_t z = 1; z + 1 < B.nb[2]; z++)
+                    for (int64_t y = 1; y + 1 < B.nb[1]; y++)
+                        for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
+                            if (B.role[bidx(&B, x, y, z)] != from) continue;
+                            for (int dz = -1; dz <= 1; dz++)
+                                for (int dy = -1; dy <= 1; dy++)
+                                    for (int dx = -1; dx <= 1; dx++) {
+                                        int64_t o = bidx(&B, x + dx, y + dy, z + dz);
+                                        if (B.role[o] == ROLE_NONE) B.role[o] = to;
+                                    }
+                        }
+            }
+            /* the coarse mesh over the coarse, transition and frame blocks */
+            size_t ncorner = (size_t)((B.nb[0] + 1) * (B.nb[1] + 1) * (B.nb[2] + 1));
+            corner = malloc(ncorner * sizeof *corner);
+            if (!corner) {
+                s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+                goto done;
+            }
+            for (size_t i = 0; i < ncorner; i++)
+                corner[i] = -1;
+            for (int64_t b = 0; !s && b < (int64_t)nblk; b++) {
+                if (B.role[b] == ROLE_NONE) continue;
+                int64_t bc[3];
+                bcoord(&B, b, bc);
+                int32_t c[8];
+                for (int q = 0; !s && q < 8; q++) {
+                    int64_t k[3];
+                    for (int a = 0; a < 3; a++)
+                        k[a] = bc[a] + hex_off[q][a];
+                    size_t ci = (size_t)(k[0] + (B.nb[0] + 1) * (k[1] + (B.nb[1] + 1) * k[2]));
+                    if (corner[ci] < 0) {
+                        double p[3];
+                        for (int a = 0; a < 3; a++)
+                            p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5 + (double)org[a];
+                        corner[ci] = (int32_t)t.nn;
+                        s = add_node(&t, p, err);
+                    }
+                    c[q] = corner[ci];
+                }
+                if (!s) s = add_hex(&t, c, (int32_t)b, err);
+            }
+            for (int d = 0; !s && d < 3; d++)
+                s = pillow_round(&t, &B, d, sc, err);
+            if (s) goto done;
 
-        /* nodes kept: fixed where coarse or shared with the frame (they are fine cube corners)
-         */
-        flag = calloc(t.nn ? t.nn : 1, 1); /* 1 kept, 2 frame, 4 coarse */
-        if (!flag) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-            goto done;
-        }
-        for (size_t h = 0; h < t.nh; h++) {
-            uint8_t r = B.role[t.blk[h]];
-            uint8_t f = r == ROLE_FRAME ? 2 : r == ROLE_COARSE ? 4 : 1;
-            for (int q = 0; q < 8; q++)
-                flag[t.conn[8 * h + q]] |= f;
-        }
-        /* Laplacian smoothing of the free transition nodes (a fixed-boundary linear system, so
-         * the initial copy positions only speed it up) */
-        {
-            size_t ne = 0;
-            int32_t *ed = malloc((12 * t.nh + 1) * 2 * sizeof *ed);
-            double *sum = malloc(4 * (t.nn ? t.nn : 1) * sizeof *sum);
-            if (!ed || !sum) {
-                free(ed);
-                free(sum);
+            /* nodes kept: fixed where coarse or shared with the frame (they are fine cube
+             * corners)
+             */
+            flag = calloc(t.nn ? t.nn : 1, 1); /* 1 kept, 2 frame, 4 coarse */
+            if (!flag) {
                 s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
                 goto done;
             }
             for (size_t h = 0; h < t.nh; h++) {
-                if (B.role[t.blk[h]] == ROLE_FRAME) continue;
-                for (int e = 0; e < 12; e++) {
-                    /* an edge between two fixed nodes moves nothing */
-                    if (flag[t.conn[8 * h + hex_edge[e][0]]] != 1 &&
-                        flag[t.conn[8 * h + hex_edge[e][1]]] != 1)
-                        continue;
-                    ed[2 * ne] = t.conn[8 * h + hex_edge[e][0]];
-                    ed[2 * ne + 1] = t.conn[8 * h + hex_edge[e][1]];
-                    ne++;
+                uint8_t r = B.role[t.blk[h]];
+                uint8_t f = r == ROLE_FRAME ? 2 : r == ROLE_COARSE ? 4 : 1;
+                for (int q = 0; q < 8; q++)
+                    flag[t.conn[8 * h + q]] |= f;
+            }
+            /* Laplacian smoothing of the free transition nodes (a fixed-boundary linear system,
+             * so the initial copy positions only speed it up) */
+            {
+                size_t ne = 0;
+                int32_t *ed = malloc((12 * t.nh + 1) * 2 * sizeof *ed);
+                double *sum = malloc(4 * (t.nn ? t.nn : 1) * sizeof *sum);
+                if (!ed || !sum) {
+                    free(ed);
+                    free(sum);
+                    s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+                    goto done;
                 }
-            }
-            for (int it = 0; it < 400; it++) {
-                memset(sum, 0, 4 * t.nn * sizeof *sum);
-                for (size_t e = 0; e < ne; e++)
-                    for (int side = 0; side < 2; side++) {
-                        int32_t a = ed[2 * e + side], b = ed[2 * e + 1 - side];
-                        for (int x = 0; x < 3; x++)
-                            sum[4 * a + x] += t.pos[3 * b + x];
-                        sum[4 * a + 3] += 1;
+                for (size_t h = 0; h < t.nh; h++) {
+                    if (B.role[t.blk[h]] == ROLE_FRAME) continue;
+                    for (int e = 0; e < 12; e++) {
+                        /* an edge between two fixed nodes moves nothing */
+                        if (flag[t.conn[8 * h + hex_edge[e][0]]] != 1 &&
+                            flag[t.conn[8 * h + hex_edge[e][1]]] != 1)
+                            continue;
+                        ed[2 * ne] = t.conn[8 * h + hex_edge[e][0]];
+                        ed[2 * ne + 1] = t.conn[8 * h + hex_edge[e][1]];
+                        ne++;
                     }
-                double moved = 0;
-                for (size_t i = 0; i < t.nn; i++)
-                    if (flag[i] == 1 && sum[4 * i + 3] > 0)
-                        for (int x = 0; x < 3; x++) {
-                            double nv = sum[4 * i + x] / sum[4 * i + 3];
-                            if (fabs(nv - t.pos[3 * i + x]) > moved)
-                                moved = fabs(nv - t.pos[3 * i + x]);
-                            t.pos[3 * i + x] = nv;
+                }
+                for (int it = 0; it < 400; it++) {
+                    memset(sum, 0, 4 * t.nn * sizeof *sum);
+                    for (size_t e = 0; e < ne; e++)
+                        for (int side = 0; side < 2; side++) {
+                            int32_t a = ed[2 * e + side], b = ed[2 * e + 1 - side];
+                            for (int x = 0; x < 3; x++)
+                                sum[4 * a + x] += t.pos[3 * b + x];
+                            sum[4 * a + 3] += 1;
                         }
-                /* converged (it shrinks about 8x per 25 sweeps): 1e-7 cell is far below
-                 * the compass search's smallest step */
-                if (moved < 1e-7 * sc) break;
+                    double moved = 0;
+                    for (size_t i = 0; i < t.nn; i++)
+                        if (flag[i] == 1 && sum[4 * i + 3] > 0)
+                            for (int x = 0; x < 3; x++) {
+                                double nv = sum[4 * i + x] / sum[4 * i + 3];
+                                if (fabs(nv - t.pos[3 * i + x]) > moved)
+                                    moved = fabs(nv - t.pos[3 * i + x]);
+                                t.pos[3 * i + x] = nv;
+                            }
+                    /* converged (it shrinks about 8x per 25 sweeps): 1e-7 cell is far below
+                     * the compass search's smallest step */
+                    if (moved < 1e-7 * sc) break;
+                }
+                free(ed);
+                free(sum);
             }
-            free(ed);
-            free(sum);
+            s = optimise(&t, &B, flag, sc, err);
+            if (s) goto done;
+            inverted = 0;
+            for (size_t h = 0; h < t.nh; h++) {
+                if (B.role[t.blk[h]] == ROLE_FRAME) continue;
+                double p[8][3];
+                for (int q = 0; q < 8; q++)
+                    memcpy(p[q], t.pos + 3 * t.conn[8 * h + q], sizeof p[q]);
+                if (hex_min_sj(p) > 0) continue;
+                inverted++;
+                int64_t bc[3];
+                bcoord(&B, t.blk[h], bc);
+                for (int dz = -1; dz <= 1; dz++)
+                    for (int dy = -1; dy <= 1; dy++)
+                        for (int dx = -1; dx <= 1; dx++) {
+                            int64_t o = bidx(&B, bc[0] + dx, bc[1] + dy, bc[2] + dz);
+                            if (B.role[o] == ROLE_COARSE) {
+                                B.role[o] = ROLE_NONE;
+                                ncoarse--;
+                            }
+                        }
+            }
+            if (!inverted || attempt == 3) break;
+            prune_coarse(&B, group, cube, &ncoarse);
         }
-        s = optimise(&t, &B, flag, sc, err);
-        if (s) goto done;
-        size_t inverted = 0;
+        /* the coarse and transition hexes fill their blocks exactly (trilinear volumes of hexes
+         * sharing faces add up to the region's) */
+        double vol = 0, blocks_vol = 0, side = 3 * sc;
         for (size_t h = 0; h < t.nh; h++) {
             if (B.role[t.blk[h]] == ROLE_FRAME) continue;
             double p[8][3];
             for (int q = 0; q < 8; q++)
                 memcpy(p[q], t.pos + 3 * t.conn[8 * h + q], sizeof p[q]);
-            if (hex_min_sj(p) > 0) continue;
-            inverted++;
-            int64_t bc[3];
-            bcoord(&B, t.blk[h], bc);
-            for (int dz = -1; dz <= 1; dz++)
-                for (int dy = -1; dy <= 1; dy++)
-                    for (int dx = -1; dx <= 1; dx++) {
-                        int64_t o = bidx(&B, bc[0] + dx, bc[1] + dy, bc[2] + dz);
-                        if (B.role[o] == ROLE_COARSE) {
-                            B.role[o] = ROLE_NONE;
-                            ncoarse--;
-                        }
-                    }
+            vol += vm_hex_volume((const double(*)[3])p);
         }
-        if (!inverted || attempt == 3) break;
-        prune_coarse(&B, &ncoarse);
+        for (size_t b = 0; b < nblk; b++)
+            if (B.role[b] == ROLE_COARSE || B.role[b] == ROLE_TRANS)
+                blocks_vol += side * side * side;
+        if (inverted || !(fabs(vol - blocks_vol) <= 1e-6 * blocks_vol)) continue;
+        break;
     }
 
     /* the fine cube corners by cell, to share the frame-side nodes */
@@ -822,8 +925,9 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, int
         s = vm_error_set(err, VM_ERR_INTERNAL,
                          "mesh: adaptive hexes: %zu transition nodes match no fine vertex",
                          missing);
-    /* rebuild the soup: fine hexes outside the coarse and transition blocks, then those */
-    if (!s) {
+    /* rebuild the soup: fine hexes outside the coarse and transition blocks, then those —
+     * unless the level saves nothing (a few coarse blocks whose transitions cost more) */
+    if (!s && sp->ntets - dropped + nkept < sp->ntets) {
         size_t nt = sp->ntets - dropped + nkept, w = 0;
         int64_t *cells_out = malloc(8 * nt * sizeof *cells_out);
         double *rp = realloc(sp->rep_pos, 3 * (sp->nreps + nnew + 1) * sizeof *rp);

@@ -55,4 +55,39 @@ static void secondLevelCoarsensTheSphereFurtherAt128(void) {
     vm_volume_free(&v);
 }
 
-TEST_MAIN(T(secondLevelCoarsensTheSphereFurtherAt128))
+/* Sizes where lone coarse blocks or a shifted block grid pillow badly (found by a sweep:
+ * the sphere at 80^3 and the cut sphere at 76^3 came out with inverted hexes, two components
+ * and 2.5% too much volume): the permissive mode is checked and replaced by the
+ * conservative one, so the mesh stays valid with the phantom's topology and volume, and no
+ * level adds hexes. The sphere is left to the Release run. */
+static void badlyPillowedCoarseBlocksFallBackToAValidMesh(void) {
+    const char *sanitized = getenv("VM_SANITIZED");
+    int small = sanitized && strcmp(sanitized, "1") == 0;
+    static const struct {
+        vm_phantom_kind kind;
+        int n;
+    } cases[] = {{VM_PHANTOM_CUT_SPHERE, 76}, {VM_PHANTOM_SPHERE, 80}};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        if (small && cases[c].kind == VM_PHANTOM_SPHERE) continue;
+        vm_volume v;
+        vm_phantom_info info;
+        vm_error err;
+        CHECK_OK(vm_phantom_make(cases[c].kind, cases[c].n, 0.0, 0, &v, &info, &err), &err);
+        vm_mesh uni, ada;
+        if (mesh_levels(&v, 0.0, 0, &uni) == VM_OK) {
+            if (mesh_levels(&v, 0.0, 2, &ada) == VM_OK) {
+                printf("  %s %d^3: %zu uniform, %zu adaptive hexes\n", info.name, cases[c].n,
+                       uni.ncells, ada.ncells);
+                CHECK(ada.ncells < uni.ncells);
+                check_hex_mesh(info.name, &ada, info.euler, (size_t)info.components,
+                               info.volume, 0.02);
+                vm_mesh_free(&ada);
+            }
+            vm_mesh_free(&uni);
+        }
+        vm_volume_free(&v);
+    }
+}
+
+TEST_MAIN(T(secondLevelCoarsensTheSphereFurtherAt128),
+          T(badlyPillowedCoarseBlocksFallBackToAValidMesh))
