@@ -1,5 +1,6 @@
-/* mesher/dc_hex_adaptive.c — adaptive hexahedra, one coarsening level: interior 3x3x3 blocks
- * of unit cubes become one hex; the transition around them is made by pillowing (sheet
+/* mesher/dc_hex_adaptive.c — adaptive hexahedra, one coarsening level per call: interior 3x3x3
+ * blocks of cubes (the unit cubes, then the coarse hexes of the level before) become one hex;
+ * the transition around them is made by pillowing (sheet
  * insertion, Mitchell and Tautges 1995), one shrink set per block layer and axis, so the
  * 3-refinement faces, edges and corners — concave ones included — are conforming by
  * construction (see docs/ALGORITHMS.md, "Adaptive hexahedra"). */
@@ -19,9 +20,10 @@ static const int hex_edge[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 
                                     {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
 
 enum { ROLE_NONE = 0, ROLE_COARSE = 1, ROLE_TRANS = 2, ROLE_FRAME = 3 };
-/* At scale s, a cube is a hex with corners c + s*offset, c = s*i + 0.5 (i >= 0 integer: the
- * cube's index); block b holds the cubes 3b .. 3b+2 per axis. At s = 1 these are the unit
- * cubes round grid points i + 1. */
+/* At scale s, a cube is a hex with corners c + s*offset, c = s*i + 0.5 + org (i >= 0 integer:
+ * the cube's index; org the level's block grid origin, in cells, a multiple of the level
+ * before's scale); block b holds the cubes 3b .. 3b+2 per axis. At s = 1, org = 0 these are
+ * the unit cubes round grid points i + 1. */
 
 /* int64 -> int64 open-addressing map (keys >= 0). */
 typedef struct imap {
@@ -303,15 +305,16 @@ static void soup_pos(const vm__tet_soup *sp, const int64_t n[3], int64_t id, dou
     }
 }
 
-/* Index of hex t when it is a cube at scale sc (1, else 0). */
+/* Index of hex t when it is a cube at scale sc whose corners lie on the block grid with
+ * origin org (1, else 0). */
 static int cube_index(const vm__tet_soup *sp, const int64_t n[3], size_t t, double sc,
-                      int64_t p[3]) {
+                      const int64_t org[3], int64_t p[3]) {
     const int64_t *c = sp->tets + 8 * t;
     double q[3], o[3];
     if (c[0] < sp->nlattice) return 0;
     soup_pos(sp, n, c[0], o);
     for (int a = 0; a < 3; a++) {
-        double r = (o[a] - 0.5) / sc;
+        double r = (o[a] - 0.5 - (double)org[a]) / sc;
         if (r != floor(r) || r < 0) return 0;
         p[a] = (int64_t)r;
     }
@@ -327,9 +330,9 @@ static int cube_index(const vm__tet_soup *sp, const int64_t n[3], size_t t, doub
 /* The 3x3x3 block b of hex t when t is a unit cube (cube_index) inside the grid's whole
  * blocks (b[a] < real[a] on every axis); 0 otherwise. */
 static int cube_block(const vm__tet_soup *sp, const int64_t n[3], size_t t, double sc,
-                      const int64_t real[3], int64_t b[3]) {
+                      const int64_t org[3], const int64_t real[3], int64_t b[3]) {
     int64_t p[3];
-    if (!cube_index(sp, n, t, sc, p)) return 0;
+    if (!cube_index(sp, n, t, sc, org, p)) return 0;
     for (int a = 0; a < 3; a++) {
         b[a] = p[a] / 3;
         if (b[a] >= real[a]) return 0;
@@ -338,10 +341,11 @@ static int cube_block(const vm__tet_soup *sp, const int64_t n[3], size_t t, doub
 }
 
 /* Key of the cube corner at q (scale sc), -1 when q is not one. */
-static int64_t corner_key(const int64_t n[3], double sc, const double q[3]) {
+static int64_t corner_key(const int64_t n[3], double sc, const int64_t org[3],
+                          const double q[3]) {
     int64_t c[3], m[3];
     for (int a = 0; a < 3; a++) {
-        double r = (q[a] - 0.5) / sc;
+        double r = (q[a] - 0.5 - (double)org[a]) / sc;
         m[a] = (int64_t)((double)n[a] / sc) + 3;
         if (r != floor(r) || r < -1 || r > (double)(m[a] - 2)) return -1;
         c[a] = (int64_t)r + 1;
@@ -349,21 +353,81 @@ static int64_t corner_key(const int64_t n[3], double sc, const double q[3]) {
     return c[0] + m[0] * (c[1] + m[1] * c[2]);
 }
 
-/* Worst corner of the hexes around node v (scaled Jacobian). */
-static double around_min(const tmesh *t, const int32_t *inc, const int32_t *start, int32_t v) {
-    double worst = INFINITY;
-    for (int32_t i = start[v]; i < start[v + 1]; i++) {
-        double p[8][3];
-        for (int q = 0; q < 8; q++)
-            memcpy(p[q], t->pos + 3 * t->conn[8 * inc[i] + q], sizeof p[q]);
-        double m = hex_min_sj(p);
-        if (m < worst) worst = m;
+/* The hexes round one node v while v alone moves: each hex's corners, v's slot in it, and
+ * the worst of its four corners that v does not move (corner c moves with v when c is v's
+ * slot or one of the slot's three neighbours). */
+typedef struct star {
+    double (*p)[8][3];
+    int *slot;
+    double *fixed;
+    size_t n;
+} star;
+
+/* the three neighbours of each VTK hex corner */
+static const int hex_nbr[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
+                                  {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
+
+static int moves_with(int slot, int c) {
+    return c == slot || c == hex_nbr[slot][0] || c == hex_nbr[slot][1] || c == hex_nbr[slot][2];
+}
+
+/* Loads the star of v; returns its worst corner (as the min over vm_hex_min_scaled_jacobian
+ * of its hexes). */
+static double star_load(star *S, const tmesh *t, const int32_t *inc, const int32_t *start,
+                        int32_t v) {
+    double worst = 1.0;
+    S->n = 0;
+    for (int32_t i = start[v]; i < start[v + 1]; i++, S->n++) {
+        const int32_t *c = t->conn + 8 * inc[i];
+        double(*p)[3] = S->p[S->n];
+        int slot = 0;
+        for (int q = 0; q < 8; q++) {
+            memcpy(p[q], t->pos + 3 * c[q], sizeof p[q]);
+            if (c[q] == v) slot = q;
+        }
+        S->slot[S->n] = slot;
+        double fixed = 1.0, moving = 1.0;
+        for (int q = 0; q < 8; q++) {
+            double j = vm_hex_corner_scaled_jacobian((const double(*)[3])p, q);
+            if (moves_with(slot, q)) {
+                if (j < moving) moving = j;
+            } else if (j < fixed) {
+                fixed = j;
+            }
+        }
+        S->fixed[S->n] = fixed;
+        if (fixed < worst) worst = fixed;
+        if (moving < worst) worst = moving;
     }
-    return worst;
+    return worst < -1.0 ? -1.0 : worst;
+}
+
+/* The star's worst corner with v at x; stops early at a corner <= bound (a move that cannot
+ * be kept) and returns that corner. */
+static double star_eval(star *S, const double x[3], double bound) {
+    double worst = 1.0;
+    for (size_t h = 0; h < S->n; h++)
+        if (S->fixed[h] <= bound) return S->fixed[h];
+    for (size_t h = 0; h < S->n; h++) {
+        int slot = S->slot[h];
+        memcpy(S->p[h][slot], x, 3 * sizeof(double));
+        const double(*p)[3] = (const double(*)[3])S->p[h];
+        double j = vm_hex_corner_scaled_jacobian(p, slot);
+        for (int k = 0; k < 3 && j > bound; k++) {
+            double jk = vm_hex_corner_scaled_jacobian(p, hex_nbr[slot][k]);
+            if (jk < j) j = jk;
+        }
+        if (j <= bound) return j;
+        if (j < worst) worst = j;
+        if (S->fixed[h] < worst) worst = S->fixed[h];
+    }
+    return worst < -1.0 ? -1.0 : worst;
 }
 
 /* Moves each free node (flag == 1) by compass search to raise the worst corner scaled
- * Jacobian of the hexes around it; a move is kept only if that worst corner goes up. */
+ * Jacobian of the hexes around it; a move is kept only if that worst corner goes up. Only
+ * the four corners of each hex that move with the node are evaluated, and a trial stops at
+ * its first corner not above the best so far (the same moves as evaluating every corner). */
 static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double sc,
                           vm_error *err) {
     int32_t *start = calloc(t->nn + 1, sizeof *start);
@@ -372,15 +436,21 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
         if (B->role[t->blk[h]] != ROLE_FRAME)
             for (int q = 0; q < 8; q++)
                 start[t->conn[8 * h + q] + 1]++;
-    for (size_t i = 0; i < t->nn; i++)
+    int32_t deg = 0;
+    for (size_t i = 0; i < t->nn; i++) {
+        if (start[i + 1] > deg) deg = start[i + 1];
         start[i + 1] += start[i];
+    }
     int32_t *inc = malloc(((size_t)start[t->nn] + 1) * sizeof *inc);
     int32_t *fill = malloc((t->nn + 1) * sizeof *fill);
-    if (!inc || !fill) {
-        free(start);
-        free(inc);
-        free(fill);
-        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    star S;
+    S.p = malloc(((size_t)deg + 1) * sizeof *S.p);
+    S.slot = malloc(((size_t)deg + 1) * sizeof *S.slot);
+    S.fixed = malloc(((size_t)deg + 1) * sizeof *S.fixed);
+    vm_status s = VM_OK;
+    if (!inc || !fill || !S.p || !S.slot || !S.fixed) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
     }
     memcpy(fill, start, t->nn * sizeof *fill);
     for (size_t h = 0; h < t->nh; h++)
@@ -396,8 +466,8 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
         double stepmax = 0.25 * sc * pow(0.9, round);
         size_t moved = 0;
         for (size_t v = 0; v < t->nn; v++) {
-            if (!(flag[v] & 5) || (flag[v] & 2)) continue;
-            double best = around_min(t, inc, start, (int32_t)v);
+            if (!(flag[v] & 5) || (flag[v] & 2) || start[v] == start[v + 1]) continue;
+            double best = star_load(&S, t, inc, start, (int32_t)v);
             if (best > 0.3) continue;
             double *p = t->pos + 3 * v;
             for (double step = stepmax; step > 0.01 * sc; step *= 0.5) {
@@ -405,17 +475,16 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
                 while (improved) {
                     improved = 0;
                     for (int d = 0; d < 26; d++) {
-                        double keep[3];
-                        memcpy(keep, p, sizeof keep);
+                        double x[3];
+                        memcpy(x, p, sizeof x);
                         for (int a = 0; a < 3; a++)
-                            p[a] += step * dir[d][a];
-                        double q = around_min(t, inc, start, (int32_t)v);
+                            x[a] += step * dir[d][a];
+                        double q = star_eval(&S, x, best + 1e-9);
                         if (q > best + 1e-9) {
                             best = q;
                             improved = 1;
                             moved++;
-                        } else {
-                            memcpy(p, keep, sizeof keep);
+                            memcpy(p, x, sizeof x);
                         }
                     }
                 }
@@ -423,38 +492,77 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
         }
         if (!moved) break;
     }
+done:
     free(start);
     free(inc);
     free(fill);
-    return VM_OK;
+    free(S.p);
+    free(S.slot);
+    free(S.fixed);
+    return s;
 }
 
-/* Drops coarse blocks until they come in 2x2x2 groups and no two meet only along an edge
- * within an axis plane; cube is scratch (nblk bytes). */
-static void prune_coarse(const blocks *Bp, uint8_t *cube, size_t nblk, size_t *ncoarse_p) {
+/* Face-connected pieces of the corners set in m (bit c: corner (c&1, c>>1&1, c>>2) of a
+ * 2x2x2 window); 0 for none. */
+static int window_pieces(unsigned m) {
+    unsigned seen = 0;
+    int pieces = 0;
+    for (int c = 0; c < 8; c++) {
+        if (!(m >> c & 1) || (seen >> c & 1)) continue;
+        pieces++;
+        unsigned front = 1u << c;
+        seen |= front;
+        while (front) {
+            unsigned next = 0;
+            for (int a = 0; a < 8; a++)
+                if (front >> a & 1)
+                    for (int bit = 1; bit < 8; bit <<= 1) {
+                        int b = a ^ bit;
+                        if ((m >> b & 1) && !(seen >> b & 1)) next |= 1u << b;
+                    }
+            seen |= next;
+            front = next;
+        }
+    }
+    return pieces;
+}
+
+/* 1 when the coarse blocks m of a 2x2x2 window, or the others, are in two or more pieces. */
+static int window_pinches(unsigned m) {
+    return window_pieces(m) > 1 || window_pieces(~m & 0xffu) > 1;
+}
+
+/* Drops coarse blocks until no two meet only along an edge within an axis plane or only at
+ * a corner (the shrink sets' boundaries must be manifold), and with group set until they
+ * come in 2x2x2 groups (the conservative rule: see vm__hex_adapt). cube: nblk bytes of
+ * scratch. */
+static void prune_coarse(const blocks *Bp, int group, uint8_t *cube, size_t *ncoarse_p) {
     blocks B = *Bp; /* the same role array */
     size_t ncoarse = *ncoarse_p;
+    size_t nblk = (size_t)(B.nb[0] * B.nb[1] * B.nb[2]);
     for (int changed = 1; changed;) {
         changed = 0;
-        memset(cube, 0, nblk); /* reused: 1 where some 2x2x2 group of coarse blocks covers */
-        for (int64_t z = 0; z + 1 < B.nb[2]; z++)
-            for (int64_t y = 0; y + 1 < B.nb[1]; y++)
-                for (int64_t x = 0; x + 1 < B.nb[0]; x++) {
-                    int all = 1;
-                    for (int q = 0; q < 8 && all; q++)
-                        all = B.role[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
-                                          z + hex_off[q][2])] == ROLE_COARSE;
-                    if (all)
-                        for (int q = 0; q < 8; q++)
-                            cube[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
-                                      z + hex_off[q][2])] = 1;
+        if (group) {
+            memset(cube, 0, nblk); /* 1 where some 2x2x2 group of coarse blocks covers */
+            for (int64_t z = 0; z + 1 < B.nb[2]; z++)
+                for (int64_t y = 0; y + 1 < B.nb[1]; y++)
+                    for (int64_t x = 0; x + 1 < B.nb[0]; x++) {
+                        int all = 1;
+                        for (int q = 0; q < 8 && all; q++)
+                            all = B.role[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
+                                              z + hex_off[q][2])] == ROLE_COARSE;
+                        if (all)
+                            for (int q = 0; q < 8; q++)
+                                cube[bidx(&B, x + hex_off[q][0], y + hex_off[q][1],
+                                          z + hex_off[q][2])] = 1;
+                    }
+            for (size_t b = 0; b < nblk; b++)
+                if (B.role[b] == ROLE_COARSE && !cube[b]) {
+                    B.role[b] = ROLE_NONE;
+                    ncoarse--;
+                    changed = 1;
                 }
-        for (size_t b = 0; b < nblk; b++)
-            if (B.role[b] == ROLE_COARSE && !cube[b]) {
-                B.role[b] = ROLE_NONE;
-                ncoarse--;
-                changed = 1;
-            }
+        }
         for (int64_t z = 0; z + 1 < B.nb[2]; z++)
             for (int64_t y = 0; y + 1 < B.nb[1]; y++)
                 for (int64_t x = 0; x + 1 < B.nb[0]; x++)
@@ -480,18 +588,83 @@ static void prune_coarse(const blocks *Bp, uint8_t *cube, size_t nblk, size_t *n
                             changed = 1;
                         }
                     }
+        /* and no 2x2x2 window of blocks round a block corner may split its coarse blocks or
+         * the others into two face-connected pieces (two blocks meeting only at a corner,
+         * or its complement: the shrink set's boundary would pinch at that vertex) */
+        for (int64_t z = 0; z + 1 < B.nb[2]; z++)
+            for (int64_t y = 0; y + 1 < B.nb[1]; y++)
+                for (int64_t x = 0; x + 1 < B.nb[0]; x++) {
+                    unsigned m = 0;
+                    int64_t q[8];
+                    for (int c = 0; c < 8; c++) {
+                        q[c] = bidx(&B, x + (c & 1), y + (c >> 1 & 1), z + (c >> 2));
+                        if (B.role[q[c]] == ROLE_COARSE) m |= 1u << c;
+                    }
+                    if (window_pinches(m)) {
+                        for (int c = 0; c < 8; c++)
+                            if (m >> c & 1) {
+                                B.role[q[c]] = ROLE_NONE;
+                                ncoarse--;
+                                changed = 1;
+                                break;
+                            }
+                    }
+                }
     }
     *ncoarse_p = ncoarse;
 }
 
-vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_mesh_stats *st,
-                        vm_error *err) {
+/* A cube's index from the level's origin. */
+typedef struct cube_pos {
+    int64_t p[3];
+} cube_pos;
+
+/* Marks the coarse blocks (roles) with the block grid shifted by off cubes per axis: a block
+ * whose 27 cubes are all there, as in its 26 neighbours, then pruned; returns their count.
+ * count and cube are scratch (nblk bytes). */
+static size_t classify(const blocks *B, const cube_pos *ci, size_t ncube, const int64_t off[3],
+                       const int64_t real[3], int group, uint8_t *count, uint8_t *cube,
+                       size_t nblk) {
+    memset(count, 0, nblk);
+    memset(B->role, 0, nblk);
+    for (size_t i = 0; i < ncube; i++) {
+        int64_t b[3];
+        int in = 1;
+        for (int a = 0; a < 3 && in; a++) {
+            int64_t q = ci[i].p[a] - off[a];
+            b[a] = q >= 0 ? q / 3 : -1;
+            in = b[a] >= 0 && b[a] < real[a];
+        }
+        if (in) count[bidx(B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
+    }
+    for (size_t b = 0; b < nblk; b++)
+        cube[b] = count[b] == 27;
+    size_t ncoarse = 0;
+    for (int64_t z = 1; z + 1 < B->nb[2]; z++)
+        for (int64_t y = 1; y + 1 < B->nb[1]; y++)
+            for (int64_t x = 1; x + 1 < B->nb[0]; x++) {
+                int ok = 1;
+                for (int dz = -1; dz <= 1 && ok; dz++)
+                    for (int dy = -1; dy <= 1 && ok; dy++)
+                        for (int dx = -1; dx <= 1 && ok; dx++)
+                            ok = cube[bidx(B, x + dx, y + dy, z + dz)];
+                if (ok) {
+                    B->role[bidx(B, x, y, z)] = ROLE_COARSE;
+                    ncoarse++;
+                }
+            }
+    prune_coarse(B, group, cube, &ncoarse);
+    return ncoarse;
+}
+
+vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, int64_t org[3],
+                        vm_mesh_stats *st, vm_error *err) {
     double sc = (double)scale;
     blocks B;
     memset(&B, 0, sizeof B);
     int64_t real[3];
     for (int a = 0; a < 3; a++) {
-        real[a] = n[a] > 1 ? (n[a] - 1) / scale / 3 : 0;
+        real[a] = n[a] - 1 > org[a] ? (n[a] - 1 - org[a]) / scale / 3 : 0;
         B.nb[a] = real[a] + 4;
     }
     size_t nblk = (size_t)(B.nb[0] * B.nb[1] * B.nb[2]);
@@ -505,173 +678,211 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
     memset(&nodeid, 0, sizeof nodeid);
     int32_t *corner = NULL;
     uint8_t *drop = NULL, *flag = NULL;
+    cube_pos *cidx = NULL;
     vm_status s = VM_OK;
     if (!count || !B.role || !cube) {
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
         goto done;
     }
-    /* blocks whose 27 hexes are unit cubes */
-    for (size_t h = 0; h < sp->ntets; h++) {
-        int64_t b[3];
-        if (cube_block(sp, n, h, sc, real, b)) count[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)]++;
+    /* The cubes of this scale (indices from org); then the block grid's offset, 0..2 cubes
+     * per axis, that makes the most coarse blocks. */
+    size_t ncube = 0;
+    cidx = malloc((sp->ntets ? sp->ntets : 1) * sizeof *cidx);
+    if (!cidx) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
     }
-    for (size_t b = 0; b < nblk; b++)
-        cube[b] = count[b] == 27;
-    /* coarse: a cube block whose 26 neighbours are cube blocks */
+    for (size_t h = 0; h < sp->ntets; h++)
+        if (cube_index(sp, n, h, sc, org, cidx[ncube].p)) ncube++;
+    /* Two modes: first the permissive one (lone coarse blocks allowed, the best of the 27
+     * offsets); when its transition keeps an inverted hex or does not fill its blocks'
+     * volume exactly (thin coarse configurations can pillow badly), the conservative one of
+     * the first version (coarse blocks only in 2x2x2 groups, offset 0) instead. */
+    const int64_t org0[3] = {org[0], org[1], org[2]};
     size_t ncoarse = 0;
-    for (int64_t z = 1; z + 1 < B.nb[2]; z++)
-        for (int64_t y = 1; y + 1 < B.nb[1]; y++)
-            for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
-                int ok = 1;
-                for (int dz = -1; dz <= 1 && ok; dz++)
-                    for (int dy = -1; dy <= 1 && ok; dy++)
-                        for (int dx = -1; dx <= 1 && ok; dx++)
-                            ok = cube[bidx(&B, x + dx, y + dy, z + dz)];
-                if (ok) {
-                    B.role[bidx(&B, x, y, z)] = ROLE_COARSE;
-                    ncoarse++;
+    for (int mode = 0; mode < 2; mode++) {
+        int group = mode == 1;
+        int best_k = -1;
+        ncoarse = 0;
+        for (int pass = 0; pass < 2; pass++)
+            for (int k = 0; k < 27; k++) {
+                if ((pass && k != best_k) || (group && k)) continue;
+                int64_t off[3] = {k % 3, (k / 3) % 3, k / 9};
+                size_t nc = classify(&B, cidx, ncube, off, real, group, count, cube, nblk);
+                if (!pass && (best_k < 0 || nc > ncoarse)) {
+                    best_k = k;
+                    ncoarse = nc;
                 }
             }
-    /* Coarse blocks come in 2x2x2 groups (an opening: a lone block or a one-block-thick
-     * spike would need its transitions crammed round it), and no two may meet only along
-     * an edge in a plane (the shrink sets' boundaries must be manifold): drop blocks until
-     * both hold. */
-    prune_coarse(&B, cube, nblk, &ncoarse);
-    /* Build, smooth, and where the smoothing leaves a transition hex inverted drop the coarse
-     * blocks round it and build again (at most three times). */
-    for (int attempt = 0;; attempt++) {
-        for (size_t b = 0; b < nblk; b++)
-            if (B.role[b] != ROLE_COARSE) B.role[b] = ROLE_NONE;
-        free(corner);
-        corner = NULL;
-        free(flag);
-        flag = NULL;
-        t.nh = t.nn = 0;
-        if (!ncoarse) goto done;
-        /* transition blocks round the coarse ones, then a frame of virtual blocks round those
-         */
-        for (int pass = 0; pass < 2; pass++) {
-            uint8_t from = pass ? ROLE_TRANS : ROLE_COARSE, to = pass ? ROLE_FRAME : ROLE_TRANS;
-            for (int64_t z = 1; z + 1 < B.nb[2]; z++)
-                for (int64_t y = 1; y + 1 < B.nb[1]; y++)
-                    for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
-                        if (B.role[bidx(&B, x, y, z)] != from) continue;
-                        for (int dz = -1; dz <= 1; dz++)
-                            for (int dy = -1; dy <= 1; dy++)
-                                for (int dx = -1; dx <= 1; dx++) {
-                                    int64_t o = bidx(&B, x + dx, y + dy, z + dz);
-                                    if (B.role[o] == ROLE_NONE) B.role[o] = to;
-                                }
-                    }
-        }
-        /* the coarse mesh over the coarse, transition and frame blocks */
-        size_t ncorner = (size_t)((B.nb[0] + 1) * (B.nb[1] + 1) * (B.nb[2] + 1));
-        corner = malloc(ncorner * sizeof *corner);
-        if (!corner) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-            goto done;
-        }
-        for (size_t i = 0; i < ncorner; i++)
-            corner[i] = -1;
-        for (int64_t b = 0; !s && b < (int64_t)nblk; b++) {
-            if (B.role[b] == ROLE_NONE) continue;
-            int64_t bc[3];
-            bcoord(&B, b, bc);
-            int32_t c[8];
-            for (int q = 0; !s && q < 8; q++) {
-                int64_t k[3];
-                for (int a = 0; a < 3; a++)
-                    k[a] = bc[a] + hex_off[q][a];
-                size_t ci = (size_t)(k[0] + (B.nb[0] + 1) * (k[1] + (B.nb[1] + 1) * k[2]));
-                if (corner[ci] < 0) {
-                    double p[3];
+        for (int a = 0; a < 3; a++)
+            org[a] = org0[a] + scale * (best_k / (a == 0 ? 1 : a == 1 ? 3 : 9) % 3);
+        /* Build, smooth, and where the smoothing leaves a transition hex inverted drop the
+         * coarse blocks round it and build again (at most three times). */
+        size_t inverted = 0;
+        for (int attempt = 0;; attempt++) {
+            for (size_t b = 0; b < nblk; b++)
+                if (B.role[b] != ROLE_COARSE) B.role[b] = ROLE_NONE;
+            free(corner);
+            corner = NULL;
+            free(flag);
+            flag = NULL;
+            t.nh = t.nn = 0;
+            if (!ncoarse) goto done;
+            /* transition blocks round the coarse ones, then a frame of virtual blocks round
+             * those
+             */
+            for (int pass = 0; pass < 2; pass++) {
+                uint8_t from = pass ? ROLE_TRANS : ROLE_COARSE,
+                        to = pass ? ROLE_FRAME : ROLE_TRANS;
+                for (int64_t z = 1; z + 1 < B.nb[2]; z++)
+                    for (int64_t y = 1; y + 1 < B.nb[1]; y++)
+                        for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
+                            if (B.role[bidx(&B, x, y, z)] != from) continue;
+                            for (int dz = -1; dz <= 1; dz++)
+                                for (int dy = -1; dy <= 1; dy++)
+                                    for (int dx = -1; dx <= 1; dx++) {
+                                        int64_t o = bidx(&B, x + dx, y + dy, z + dz);
+                                        if (B.role[o] == ROLE_NONE) B.role[o] = to;
+                                    }
+                        }
+            }
+            /* the coarse mesh over the coarse, transition and frame blocks */
+            size_t ncorner = (size_t)((B.nb[0] + 1) * (B.nb[1] + 1) * (B.nb[2] + 1));
+            corner = malloc(ncorner * sizeof *corner);
+            if (!corner) {
+                s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+                goto done;
+            }
+            for (size_t i = 0; i < ncorner; i++)
+                corner[i] = -1;
+            for (int64_t b = 0; !s && b < (int64_t)nblk; b++) {
+                if (B.role[b] == ROLE_NONE) continue;
+                int64_t bc[3];
+                bcoord(&B, b, bc);
+                int32_t c[8];
+                for (int q = 0; !s && q < 8; q++) {
+                    int64_t k[3];
                     for (int a = 0; a < 3; a++)
-                        p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5;
-                    corner[ci] = (int32_t)t.nn;
-                    s = add_node(&t, p, err);
+                        k[a] = bc[a] + hex_off[q][a];
+                    size_t ci = (size_t)(k[0] + (B.nb[0] + 1) * (k[1] + (B.nb[1] + 1) * k[2]));
+                    if (corner[ci] < 0) {
+                        double p[3];
+                        for (int a = 0; a < 3; a++)
+                            p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5 + (double)org[a];
+                        corner[ci] = (int32_t)t.nn;
+                        s = add_node(&t, p, err);
+                    }
+                    c[q] = corner[ci];
                 }
-                c[q] = corner[ci];
+                if (!s) s = add_hex(&t, c, (int32_t)b, err);
             }
-            if (!s) s = add_hex(&t, c, (int32_t)b, err);
-        }
-        for (int d = 0; !s && d < 3; d++)
-            s = pillow_round(&t, &B, d, sc, err);
-        if (s) goto done;
+            for (int d = 0; !s && d < 3; d++)
+                s = pillow_round(&t, &B, d, sc, err);
+            if (s) goto done;
 
-        /* nodes kept: fixed where coarse or shared with the frame (they are fine cube corners)
-         */
-        flag = calloc(t.nn ? t.nn : 1, 1); /* 1 kept, 2 frame, 4 coarse */
-        if (!flag) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-            goto done;
-        }
-        for (size_t h = 0; h < t.nh; h++) {
-            uint8_t r = B.role[t.blk[h]];
-            uint8_t f = r == ROLE_FRAME ? 2 : r == ROLE_COARSE ? 4 : 1;
-            for (int q = 0; q < 8; q++)
-                flag[t.conn[8 * h + q]] |= f;
-        }
-        /* Laplacian smoothing of the free transition nodes (a fixed-boundary linear system, so
-         * the initial copy positions only speed it up) */
-        {
-            size_t ne = 0;
-            int32_t *ed = malloc((12 * t.nh + 1) * 2 * sizeof *ed);
-            double *sum = malloc(4 * (t.nn ? t.nn : 1) * sizeof *sum);
-            if (!ed || !sum) {
-                free(ed);
-                free(sum);
+            /* nodes kept: fixed where coarse or shared with the frame (they are fine cube
+             * corners)
+             */
+            flag = calloc(t.nn ? t.nn : 1, 1); /* 1 kept, 2 frame, 4 coarse */
+            if (!flag) {
                 s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
                 goto done;
             }
             for (size_t h = 0; h < t.nh; h++) {
-                if (B.role[t.blk[h]] == ROLE_FRAME) continue;
-                for (int e = 0; e < 12; e++) {
-                    ed[2 * ne] = t.conn[8 * h + hex_edge[e][0]];
-                    ed[2 * ne + 1] = t.conn[8 * h + hex_edge[e][1]];
-                    ne++;
+                uint8_t r = B.role[t.blk[h]];
+                uint8_t f = r == ROLE_FRAME ? 2 : r == ROLE_COARSE ? 4 : 1;
+                for (int q = 0; q < 8; q++)
+                    flag[t.conn[8 * h + q]] |= f;
+            }
+            /* Laplacian smoothing of the free transition nodes (a fixed-boundary linear system,
+             * so the initial copy positions only speed it up) */
+            {
+                size_t ne = 0;
+                int32_t *ed = malloc((12 * t.nh + 1) * 2 * sizeof *ed);
+                double *sum = malloc(4 * (t.nn ? t.nn : 1) * sizeof *sum);
+                if (!ed || !sum) {
+                    free(ed);
+                    free(sum);
+                    s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+                    goto done;
                 }
-            }
-            for (int it = 0; it < 400; it++) {
-                memset(sum, 0, 4 * t.nn * sizeof *sum);
-                for (size_t e = 0; e < ne; e++)
-                    for (int side = 0; side < 2; side++) {
-                        int32_t a = ed[2 * e + side], b = ed[2 * e + 1 - side];
-                        for (int x = 0; x < 3; x++)
-                            sum[4 * a + x] += t.pos[3 * b + x];
-                        sum[4 * a + 3] += 1;
+                for (size_t h = 0; h < t.nh; h++) {
+                    if (B.role[t.blk[h]] == ROLE_FRAME) continue;
+                    for (int e = 0; e < 12; e++) {
+                        /* an edge between two fixed nodes moves nothing */
+                        if (flag[t.conn[8 * h + hex_edge[e][0]]] != 1 &&
+                            flag[t.conn[8 * h + hex_edge[e][1]]] != 1)
+                            continue;
+                        ed[2 * ne] = t.conn[8 * h + hex_edge[e][0]];
+                        ed[2 * ne + 1] = t.conn[8 * h + hex_edge[e][1]];
+                        ne++;
                     }
-                for (size_t i = 0; i < t.nn; i++)
-                    if (flag[i] == 1 && sum[4 * i + 3] > 0)
-                        for (int x = 0; x < 3; x++)
-                            t.pos[3 * i + x] = sum[4 * i + x] / sum[4 * i + 3];
+                }
+                for (int it = 0; it < 400; it++) {
+                    memset(sum, 0, 4 * t.nn * sizeof *sum);
+                    for (size_t e = 0; e < ne; e++)
+                        for (int side = 0; side < 2; side++) {
+                            int32_t a = ed[2 * e + side], b = ed[2 * e + 1 - side];
+                            for (int x = 0; x < 3; x++)
+                                sum[4 * a + x] += t.pos[3 * b + x];
+                            sum[4 * a + 3] += 1;
+                        }
+                    double moved = 0;
+                    for (size_t i = 0; i < t.nn; i++)
+                        if (flag[i] == 1 && sum[4 * i + 3] > 0)
+                            for (int x = 0; x < 3; x++) {
+                                double nv = sum[4 * i + x] / sum[4 * i + 3];
+                                if (fabs(nv - t.pos[3 * i + x]) > moved)
+                                    moved = fabs(nv - t.pos[3 * i + x]);
+                                t.pos[3 * i + x] = nv;
+                            }
+                    /* converged (it shrinks about 8x per 25 sweeps): 1e-7 cell is far below
+                     * the compass search's smallest step */
+                    if (moved < 1e-7 * sc) break;
+                }
+                free(ed);
+                free(sum);
             }
-            free(ed);
-            free(sum);
+            s = optimise(&t, &B, flag, sc, err);
+            if (s) goto done;
+            inverted = 0;
+            for (size_t h = 0; h < t.nh; h++) {
+                if (B.role[t.blk[h]] == ROLE_FRAME) continue;
+                double p[8][3];
+                for (int q = 0; q < 8; q++)
+                    memcpy(p[q], t.pos + 3 * t.conn[8 * h + q], sizeof p[q]);
+                if (hex_min_sj(p) > 0) continue;
+                inverted++;
+                int64_t bc[3];
+                bcoord(&B, t.blk[h], bc);
+                for (int dz = -1; dz <= 1; dz++)
+                    for (int dy = -1; dy <= 1; dy++)
+                        for (int dx = -1; dx <= 1; dx++) {
+                            int64_t o = bidx(&B, bc[0] + dx, bc[1] + dy, bc[2] + dz);
+                            if (B.role[o] == ROLE_COARSE) {
+                                B.role[o] = ROLE_NONE;
+                                ncoarse--;
+                            }
+                        }
+            }
+            if (!inverted || attempt == 3) break;
+            prune_coarse(&B, group, cube, &ncoarse);
         }
-        s = optimise(&t, &B, flag, sc, err);
-        if (s) goto done;
-        size_t inverted = 0;
+        /* the coarse and transition hexes fill their blocks exactly (trilinear volumes of hexes
+         * sharing faces add up to the region's) */
+        double vol = 0, blocks_vol = 0, side = 3 * sc;
         for (size_t h = 0; h < t.nh; h++) {
             if (B.role[t.blk[h]] == ROLE_FRAME) continue;
             double p[8][3];
             for (int q = 0; q < 8; q++)
                 memcpy(p[q], t.pos + 3 * t.conn[8 * h + q], sizeof p[q]);
-            if (hex_min_sj(p) > 0) continue;
-            inverted++;
-            int64_t bc[3];
-            bcoord(&B, t.blk[h], bc);
-            for (int dz = -1; dz <= 1; dz++)
-                for (int dy = -1; dy <= 1; dy++)
-                    for (int dx = -1; dx <= 1; dx++) {
-                        int64_t o = bidx(&B, bc[0] + dx, bc[1] + dy, bc[2] + dz);
-                        if (B.role[o] == ROLE_COARSE) {
-                            B.role[o] = ROLE_NONE;
-                            ncoarse--;
-                        }
-                    }
+            vol += vm_hex_volume((const double(*)[3])p);
         }
-        if (!inverted || attempt == 3) break;
-        prune_coarse(&B, cube, nblk, &ncoarse);
+        for (size_t b = 0; b < nblk; b++)
+            if (B.role[b] == ROLE_COARSE || B.role[b] == ROLE_TRANS)
+                blocks_vol += side * side * side;
+        if (inverted || !(fabs(vol - blocks_vol) <= 1e-6 * blocks_vol)) continue;
+        break;
     }
 
     /* the fine cube corners by cell, to share the frame-side nodes */
@@ -681,7 +892,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
     size_t dropped = 0;
     for (size_t h = 0; !s && h < sp->ntets; h++) {
         int64_t b[3];
-        if (!cube_block(sp, n, h, sc, real, b)) continue;
+        if (!cube_block(sp, n, h, sc, org, real, b)) continue;
         uint8_t r = B.role[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)];
         if (r != ROLE_COARSE && r != ROLE_TRANS) continue;
         drop[h] = 1;
@@ -689,7 +900,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         for (int q = 0; !s && q < 8; q++) {
             double qp[3];
             soup_pos(sp, n, sp->tets[8 * h + q], qp);
-            s = imap_put(&cells, corner_key(n, sc, qp), sp->tets[8 * h + q], err);
+            s = imap_put(&cells, corner_key(n, sc, org, qp), sp->tets[8 * h + q], err);
         }
     }
     /* number the kept nodes: frame-side ones are existing fine vertices */
@@ -701,7 +912,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         id[i] = -1;
         if (!(flag[i] & 5)) continue;
         if (flag[i] & 2) {
-            int64_t k = corner_key(n, sc, t.pos + 3 * i);
+            int64_t k = corner_key(n, sc, org, t.pos + 3 * i);
             id[i] = k < 0 ? -1 : imap_get(&cells, k);
             if (id[i] < 0) missing++;
         } else {
@@ -714,8 +925,9 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
         s = vm_error_set(err, VM_ERR_INTERNAL,
                          "mesh: adaptive hexes: %zu transition nodes match no fine vertex",
                          missing);
-    /* rebuild the soup: fine hexes outside the coarse and transition blocks, then those */
-    if (!s) {
+    /* rebuild the soup: fine hexes outside the coarse and transition blocks, then those —
+     * unless the level saves nothing (a few coarse blocks whose transitions cost more) */
+    if (!s && sp->ntets - dropped + nkept < sp->ntets) {
         size_t nt = sp->ntets - dropped + nkept, w = 0;
         int64_t *cells_out = malloc(8 * nt * sizeof *cells_out);
         double *rp = realloc(sp->rep_pos, 3 * (sp->nreps + nnew + 1) * sizeof *rp);
@@ -753,6 +965,7 @@ vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, vm_
     }
     free(id);
 done:
+    free(cidx);
     free(flag);
     free(count);
     free(cube);

@@ -211,9 +211,10 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     s = g.hexes ? vm__dual_contour_hexes(&g, &soup, &st, err)
                 : vm__dual_contour_tets(&g, &soup, &st, err);
     /* --max-level L: up to L coarsening levels, blocks of 3^L cells */
+    int64_t org[3] = {0, 0, 0}; /* each level's block grid origin (cells), from the last */
     for (int64_t l = 1, sc = 1; !s && g.hexes && o->adaptive && l <= o->max_level; l++, sc *= 3) {
         size_t before = soup.ntets;
-        s = vm__hex_adapt(&soup, g.n, sc, &st, err);
+        s = vm__hex_adapt(&soup, g.n, sc, org, &st, err);
         if (soup.ntets == before) break;
     }
     free(resampled);

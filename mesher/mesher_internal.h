@@ -78,8 +78,10 @@ vm_status vm__dual_contour_hexes(const vm__grid *g, vm__tet_soup *out, vm_mesh_s
 /* Adaptive hexahedra (dc_hex_adaptive.c): replaces the cubes of side `scale` (1: the unit
  * cubes of dc_hex.c; 3, 9, ...: those of the previous call) in interior 3x3x3 blocks well
  * inside the material by one hex each, with a conforming all-hex transition round them; a
- * soup without such blocks is left as it is. n: the grid's points per axis. */
+ * soup without such blocks is left as it is. n: the grid's points per axis. org [in,out]: the
+ * block grid's origin in cells ({0,0,0} before the first call); the call shifts it by 0..2
+ * cubes per axis to the offset with the most coarse blocks, for the next call to build on. */
 vm_status vm__hex_adapt(vm__tet_soup *soup, const int64_t n[3], int64_t scale,
-                        vm_mesh_stats *st, vm_error *err);
+                        int64_t org[3], vm_mesh_stats *st, vm_error *err);
 
 #endif

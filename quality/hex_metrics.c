@@ -45,12 +45,16 @@ static double normalized_det(const double a[3], const double b[3], const double 
     return isfinite(s) ? s : 0.0;
 }
 
+double vm_hex_corner_scaled_jacobian(const double p[8][3], int c) {
+    double e[3][3];
+    corner_edges(p, c, e);
+    return normalized_det(e[0], e[1], e[2]);
+}
+
 double vm_hex_min_scaled_jacobian(const double p[8][3]) {
     double smin = 1.0;
     for (int c = 0; c < 8; c++) {
-        double e[3][3];
-        corner_edges(p, c, e);
-        double s = normalized_det(e[0], e[1], e[2]);
+        double s = vm_hex_corner_scaled_jacobian(p, c);
         if (s < smin) smin = s;
     }
     if (smin < -1.0) smin = -1.0;

@@ -100,6 +100,12 @@ double vm_hex_scaled_jacobian(const double p[8][3]);
  * <= 0; vm_mesh_check uses it. */
 double vm_hex_min_scaled_jacobian(const double p[8][3]);
 
+/* Corner c (0..7, VTK order) of the corner-only variant: det of the corner's three edges
+ * over the product of their lengths, in -1..1, 0 at a zero-length edge. The minimum over c
+ * is vm_hex_min_scaled_jacobian; a node moves only the corners at it and its three
+ * neighbours, so a search moving one node evaluates just those. */
+double vm_hex_corner_scaled_jacobian(const double p[8][3], int c);
+
 /* Jacobian: minimum over the 8 corners of det(three corner edges) and of det(X1,X2,X3)/64
  * at the centre (Verdict ch. 7, Jacobian). Ideal: the volume of the hex (a unit cube: 1);
  * acceptable > 0; full -inf..inf. Degenerate: 0 (the determinant of zero edges). */

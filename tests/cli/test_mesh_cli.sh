@@ -76,7 +76,11 @@ out=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o a.vtu --adaptive --no-improve --max
 for args in "--iso 0 -o x.vtu --denoise blur" "--iso 0 -o x.vtu --elements prism" "--iso 99 -o x.vtu" \
             "--iso 0" "--iso 0 --range 1:2 -o x.vtu" "--iso 0 -o x.vtu --max-level 0 --adaptive" \
             "--iso 0 -o x.vtu --max-memory 4M" "--iso 0 -o x.vtu --max-memory 1.5M" \
-            "--iso 0 -o x.vtu --max-memory lots" "--iso 0 -o x.vtu --max-memory 0"; do
+            "--iso 0 -o x.vtu --max-memory lots" "--iso 0 -o x.vtu --max-memory 0" \
+            "--iso 0 -o x.vtu --elements hex --adaptive --max-level 11" \
+            "--iso 0 -o x.vtu --elements hex --adaptive --error -1" \
+            "--iso 0 -o x.vtu --elements hex --adaptive --error nan" \
+            "--iso 0 -o x.vtu --elements hex --error 0.5"; do
     err=$("$VM_CLI" mesh phantom.nrrd $args 2>&1 >/dev/null); rc=$?
     lines=$(printf '%s\n' "$err" | wc -l)
     if [ $rc = 2 ] && [ "$lines" = 1 ] && [ "${err#volmesh: }" != "$err" ] && [ ! -e x.vtu ]; then ok; else bad "mesh $args: rc $rc, '$err'"; fi

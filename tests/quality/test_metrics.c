@@ -255,6 +255,40 @@ static void hexScaledJacobianIncludesTheCentre(void) {
           vm_hex_min_scaled_jacobian((const double(*)[3])tw));
 }
 
+/* vm_hex_corner_scaled_jacobian: 1 at every corner of a cube, -1 at a mirrored corner, 0 at
+ * a zero-length edge, and its minimum over the corners is vm_hex_min_scaled_jacobian exactly
+ * on perturbed hexes (the adaptive hex search relies on it to evaluate only moved corners). */
+static void hexCornerScaledJacobianIsTheMinimumsTerm(void) {
+    const double cube[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                               {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+    for (int c = 0; c < 8; c++)
+        CHECK_NEAR(vm_hex_corner_scaled_jacobian(cube, c), 1.0, 1e-15);
+    double p[8][3];
+    memcpy(p, cube, sizeof p);
+    for (int k = 0; k < 8; k++)
+        p[k][0] = -cube[k][0]; /* the mirror image: every corner left-handed */
+    for (int c = 0; c < 8; c++)
+        CHECK_NEAR(vm_hex_corner_scaled_jacobian((const double(*)[3])p, c), -1.0, 1e-15);
+    memcpy(p, cube, sizeof p);
+    memcpy(p[1], p[0], sizeof p[1]); /* edge 0-1 of length 0 */
+    CHECK(vm_hex_corner_scaled_jacobian((const double(*)[3])p, 0) == 0.0);
+    unsigned seed = 12345;
+    for (int trial = 0; trial < 200; trial++) {
+        for (int k = 0; k < 8; k++)
+            for (int a = 0; a < 3; a++) {
+                seed = seed * 1103515245u + 12345u;
+                p[k][a] = cube[k][a] + 0.6 * ((double)(seed >> 8 & 0xffff) / 65535.0 - 0.5);
+            }
+        double m = 1.0;
+        for (int c = 0; c < 8; c++) {
+            double j = vm_hex_corner_scaled_jacobian((const double(*)[3])p, c);
+            CHECK(j >= -1.0 && j <= 1.0);
+            if (j < m) m = j;
+        }
+        CHECK(m == vm_hex_min_scaled_jacobian((const double(*)[3])p));
+    }
+}
+
 
 /* All six dihedral and twelve face angles of a tet by atan2, the slow and plain way. */
 static void all_angles(const double p[4][3], double dih[6], double face[12]) {
@@ -345,4 +379,5 @@ TEST_MAIN(T(angleExtremesMatchEveryAngleOnRandomSliverAndNeedleTets),
          T(tetMetricsMatchGoldenValues), T(hexMetricsMatchGoldenValues),
           T(triangleMetricsMatchGoldenValues), T(quadMetricsMatchGoldenValues),
           T(metricsNeverReturnNaNOrLeaveTheirRange), T(shapeMetricsIgnoreRigidMotionAndScale),
-          T(metricTablesAreConsistent), T(hexScaledJacobianIncludesTheCentre))
+          T(metricTablesAreConsistent), T(hexScaledJacobianIncludesTheCentre),
+          T(hexCornerScaledJacobianIsTheMinimumsTerm))
