@@ -646,6 +646,23 @@ static vm_index pmap_find(const pmap *pm, const double p[3], size_t *at) {
     return -1;
 }
 
+/* Sizes pm for at least `room` points (a power of two, at least twice over) and enters the
+ * first npoints points of pm->m, the first of equal coordinates winning. */
+static vm_status pmap_build(pmap *pm, size_t room, vm_error *err) {
+    pm->cap = 1;
+    while (pm->cap < 2 * room + 16)
+        pm->cap <<= 1;
+    pm->slot = malloc(pm->cap * sizeof *pm->slot);
+    if (!pm->slot) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
+    for (size_t i = 0; i < pm->cap; i++)
+        pm->slot[i] = -1;
+    for (size_t i = 0; i < pm->m->npoints; i++) {
+        size_t at;
+        if (pmap_find(pm, pm->m->points + 3 * i, &at) < 0) pm->slot[at] = (vm_index)i;
+    }
+    return VM_OK;
+}
+
 /* The quality pass on the tets of region 1 of m only: it runs on them and the one ring of
  * tets around them (their vertices between two regions stay fixed, the ring's tets cannot
  * change), not on the whole of m, whose set-up (figures, stars, qualities, guard) would cost
@@ -692,20 +709,7 @@ static vm_status improve_region1(const args *A, const vm_volume *v, vm_mesh *m,
     out.npoints = np;
     for (size_t t = 0; t < nc && !s; t++)
         if (m->region[t] != 1) s = vm_mesh_add_cell(&out, m->cells + 4 * t, m->region[t], err);
-    while (pm.cap < 2 * (np + sub.npoints) + 16)
-        pm.cap <<= 1;
-    if (!s) {
-        pm.slot = malloc(pm.cap * sizeof *pm.slot);
-        if (!pm.slot) s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
-    }
-    if (!s) {
-        for (size_t i = 0; i < pm.cap; i++)
-            pm.slot[i] = -1;
-        for (size_t i = 0; i < np; i++) {
-            size_t at;
-            if (pmap_find(&pm, out.points + 3 * i, &at) < 0) pm.slot[at] = (vm_index)i;
-        }
-    }
+    if (!s) s = pmap_build(&pm, np + sub.npoints, err);
     vm_index *smap = NULL; /* sub's points in out */
     if (!s) {
         smap = malloc((sub.npoints ? sub.npoints : 1) * sizeof *smap);
@@ -903,20 +907,7 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
         s = vm_mesh_add_cell(&m2, m->cells + 4 * t, r, err);
     }
     pmap pm = {1, NULL, &m2};
-    while (pm.cap < 2 * (m2.npoints + 4 * (size_t)nrecv) + 16)
-        pm.cap <<= 1;
-    if (!s) {
-        pm.slot = malloc(pm.cap * sizeof *pm.slot);
-        if (!pm.slot) s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
-    }
-    if (!s) {
-        for (size_t i = 0; i < pm.cap; i++)
-            pm.slot[i] = -1;
-        for (size_t i = 0; i < m2.npoints; i++) {
-            size_t at;
-            if (pmap_find(&pm, m2.points + 3 * i, &at) < 0) pm.slot[at] = (vm_index)i;
-        }
-    }
+    if (!s) s = pmap_build(&pm, m2.npoints + 4 * (size_t)nrecv, err);
     for (size_t t = 0; t < (size_t)nrecv && !s; t++) {
         const double *b = recvbuf + TET_DOUBLES * t;
         vm_index n[4];
