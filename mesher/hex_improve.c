@@ -940,6 +940,24 @@ static void hx_free(hx *w) {
  * (the polish is meant for a few spots). */
 #define POLISH_MAX 1000
 
+/* Flags (in act, cleared first) the points of the hexes whose quality q is below bar. */
+static void mark_below(const hx *w, const double *q, double bar, uint8_t *act) {
+    memset(act, 0, w->np);
+    for (size_t t = 0; t < w->nh; t++)
+        if (q[t] < bar)
+            for (int k = 0; k < 8; k++) act[w->h[8 * t + (size_t)k]] = 1;
+}
+
+/* Adds to `to` the points of every hex that has a point flagged in `from`. */
+static void grow_points(const hx *w, const uint8_t *from, uint8_t *to) {
+    for (size_t t = 0; t < w->nh; t++) {
+        int hit = 0;
+        for (int k = 0; k < 8; k++) hit |= from[w->h[8 * t + (size_t)k]];
+        if (hit)
+            for (int k = 0; k < 8; k++) to[w->h[8 * t + (size_t)k]] = 1;
+    }
+}
+
 /* A last stage, on the few hexes still below target: their points and one ring round
  * them move by max-min compass search as in smoothing, except that boundary points may also
  * slide along the surface, a step being put back on the isosurface (within the allowed
@@ -961,17 +979,9 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
         measure(w, &f, q);
         if (f.min_sj >= target || f.min_sj <= last + 1e-4) break;
         last = f.min_sj;
-        memset(act, 0, w->np);
-        for (size_t t = 0; t < w->nh; t++)
-            if (q[t] < target)
-                for (int k = 0; k < 8; k++) act[w->h[8 * t + (size_t)k]] = 1;
+        mark_below(w, q, target, act);
         memcpy(ring, act, w->np);
-        for (size_t t = 0; t < w->nh; t++) {
-            int hit = 0;
-            for (int k = 0; k < 8; k++) hit |= act[w->h[8 * t + (size_t)k]];
-            if (hit)
-                for (int k = 0; k < 8; k++) ring[w->h[8 * t + (size_t)k]] = 1;
-        }
+        grow_points(w, act, ring);
         size_t mv = 0;
         for (int pass = 0; pass < 2; pass++) /* the worst hexes' own points first */
             for (size_t i = 0; i < w->np; i++)
@@ -1158,18 +1168,10 @@ static vm_status repair(hx *w, double bar, int rings, int nsweeps, size_t *moves
     for (int sw = 0; sw < nsweeps; sw++) {
         figs f;
         measure(w, &f, q);
-        memset(act, 0, w->np);
-        for (size_t t = 0; t < w->nh; t++)
-            if (q[t] < bar)
-                for (int k = 0; k < 8; k++) act[w->h[8 * t + (size_t)k]] = 1;
+        mark_below(w, q, bar, act);
         for (int r = 0; r < rings; r++) {
             memcpy(ring, act, w->np);
-            for (size_t t = 0; t < w->nh; t++) {
-                int hit = 0;
-                for (int k = 0; k < 8; k++) hit |= ring[w->h[8 * t + (size_t)k]];
-                if (hit)
-                    for (int k = 0; k < 8; k++) act[w->h[8 * t + (size_t)k]] = 1;
-            }
+            grow_points(w, ring, act);
         }
         size_t mv = 0;
         for (size_t i = 0; i < w->np; i++)
