@@ -67,6 +67,34 @@ vm_status vm__material_check(const vm_volume *v, int has_lo, double lo, int has_
     return VM_OK;
 }
 
+/* The sampling grid along one axis of len samples at cell size S: *m points, *step
+ * samples apart (S = 1: every sample, step 1). */
+static void grid_axis(int64_t len, int64_t S, int64_t *m, double *step) {
+    *m = (len - 1 + S - 1) / S + 1;
+    if (*m < 2) *m = 2;
+    *step = (double)(len - 1) / (double)(*m - 1);
+}
+
+/* The n[0] x n[1] x n[2] grid points from whole-grid plane k0 on, sampled in a volume of nz
+ * planes of which v holds planes z0.. (see sample). [out] *f, owned by the caller. */
+static vm_status resample(const vm_volume *v, int64_t z0, int64_t nz, const int64_t n[3],
+                          int64_t k0, const double step[3], const char *what, float **f,
+                          vm_error *err) {
+    size_t count;
+    vm_status s = vm__check_dims(n, sizeof(float), what, &count, err);
+    if (s) return s;
+    float *r = malloc(count * sizeof(float));
+    if (!r) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", what);
+    size_t idx = 0;
+    for (int64_t k = k0; k < k0 + n[2]; k++)
+        for (int64_t j = 0; j < n[1]; j++)
+            for (int64_t i = 0; i < n[0]; i++)
+                r[idx++] = sample(v, z0, nz, (double)i * step[0], (double)j * step[1],
+                                  (double)k * step[2]);
+    *f = r;
+    return VM_OK;
+}
+
 vm_status vm__sampling_grid(const vm_volume *v, int cell_size, const char *what, int64_t n[3],
                             const float **f, float **owned, double step[3], vm_error *err) {
     *owned = NULL;
@@ -76,27 +104,10 @@ vm_status vm__sampling_grid(const vm_volume *v, int cell_size, const char *what,
         *f = v->data;
         return VM_OK;
     }
-    int64_t m[3];
-    for (int a = 0; a < 3; a++) {
-        m[a] = (v->dims[a] - 1 + cell_size - 1) / cell_size + 1;
-        if (m[a] < 2) m[a] = 2;
-        step[a] = (double)(v->dims[a] - 1) / (double)(m[a] - 1);
-    }
-    size_t count;
-    vm_status s = vm__check_dims(m, sizeof(float), what, &count, err);
-    if (s) return s;
-    float *r = malloc(count * sizeof(float));
-    if (!r) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", what);
-    size_t idx = 0;
-    for (int64_t k = 0; k < m[2]; k++)
-        for (int64_t j = 0; j < m[1]; j++)
-            for (int64_t i = 0; i < m[0]; i++)
-                r[idx++] = sample(v, 0, v->dims[2], (double)i * step[0], (double)j * step[1],
-                                  (double)k * step[2]);
-    for (int a = 0; a < 3; a++) n[a] = m[a];
-    *f = r;
-    *owned = r;
-    return VM_OK;
+    for (int a = 0; a < 3; a++) grid_axis(v->dims[a], cell_size, &n[a], &step[a]);
+    vm_status s = resample(v, 0, v->dims[2], n, 0, step, what, owned, err);
+    if (!s) *f = *owned;
+    return s;
 }
 
 /* The sampling grid of a cropped volume (o->full_nz > 0): the points of the whole volume's
@@ -116,12 +127,7 @@ static vm_status crop_grid(const vm_volume *v, const vm_mesh_options *o, int64_t
                             "the whole volume",
                             (long long)z0, (long long)top, (long long)nz);
     int64_t S = o->cell_size, m[3];
-    for (int a = 0; a < 3; a++) {
-        int64_t len = a < 2 ? v->dims[a] : nz;
-        m[a] = S == 1 ? len : (len - 1 + S - 1) / S + 1;
-        if (m[a] < 2) m[a] = 2;
-        step[a] = S == 1 ? 1.0 : (double)(len - 1) / (double)(m[a] - 1);
-    }
+    for (int a = 0; a < 3; a++) grid_axis(a < 2 ? v->dims[a] : nz, S, &m[a], &step[a]);
     /* grid planes [ga, gb] along z: their samples read only planes z0..top */
     int64_t ga = 0, gb = m[2] - 1;
     if (z0 > 0) {
@@ -145,20 +151,9 @@ static vm_status crop_grid(const vm_volume *v, const vm_mesh_options *o, int64_t
         *f = v->data + (size_t)v->dims[0] * (size_t)v->dims[1] * (size_t)(ga - z0);
         return VM_OK;
     }
-    size_t count;
-    vm_status s = vm__check_dims(n, sizeof(float), "mesh", &count, err);
-    if (s) return s;
-    float *r = malloc(count * sizeof(float));
-    if (!r) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-    size_t idx = 0;
-    for (int64_t k = ga; k <= gb; k++)
-        for (int64_t j = 0; j < n[1]; j++)
-            for (int64_t i = 0; i < n[0]; i++)
-                r[idx++] = sample(v, z0, nz, (double)i * step[0], (double)j * step[1],
-                                  (double)k * step[2]);
-    *f = r;
-    *owned = r;
-    return VM_OK;
+    vm_status s = resample(v, z0, nz, n, ga, step, "mesh", owned, err);
+    if (!s) *f = *owned;
+    return s;
 }
 
 vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *mesh,
