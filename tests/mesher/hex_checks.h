@@ -8,6 +8,22 @@
 #include "volmesh/improve.h"
 #include "test.h"
 
+/* Meshes v at iso lo in hexes, uniform (levels 0) or with up to `levels` coarse levels
+ * (--adaptive --max-level levels); st may be NULL. */
+static inline vm_status mesh_hex_levels(const vm_volume *v, double lo, int levels, vm_mesh *m,
+                                        vm_mesh_stats *st) {
+    vm_error err;
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.elements = VM_HEX8;
+    o.adaptive = levels > 0;
+    if (levels > 0) o.max_level = levels;
+    o.lo = lo;
+    vm_status s = vm_mesh_volume(v, &o, m, st, &err);
+    CHECK_OK(s, &err);
+    return s;
+}
+
 static inline void check_hex_mesh(const char *label, const vm_mesh *m, long euler, size_t comps,
                            double volume, double tol) {
     vm_mesh_report r;

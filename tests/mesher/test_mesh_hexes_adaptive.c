@@ -187,21 +187,6 @@ static void refinedBoxesMeetCoarseBlocksConformingly(void) {
     refinedBoxInCoarseGrid(7, (const int[3]){2, 2, 2}, (const int[3]){4, 4, 4}, 0);
 }
 
-/* Meshes v at iso lo in hexes, uniform (adaptive 0) or with up to `adaptive` coarse levels. */
-static vm_status mesh_hexes(const vm_volume *v, double lo, int adaptive, vm_mesh *m,
-                            vm_mesh_stats *st) {
-    vm_error err;
-    vm_mesh_options o;
-    vm_mesh_options_default(&o);
-    o.elements = VM_HEX8;
-    o.adaptive = adaptive > 0;
-    if (adaptive > 0) o.max_level = adaptive;
-    o.lo = lo;
-    vm_status s = vm_mesh_volume(v, &o, m, st, &err);
-    CHECK_OK(s, &err);
-    return s;
-}
-
 /* The adaptive hex mesher (dc_hex_adaptive.c) on the six phantoms at 64^3 (48^3 under the
  * sanitizers): a valid, conforming, closed mesh with the phantom's topology and volume within
  * 2%, fewer hexes than uniform where an interior block fits (the torus, genus-3 tubes and
@@ -228,8 +213,8 @@ static void adaptiveHexMeshOfEachPhantomIsValidAndCoarser(void) {
         CHECK_OK(vm_phantom_make(cases[c].kind, n, 0.0, 0, &v, &info, &err), &err);
         vm_mesh uni, ada;
         vm_mesh_stats su, sa;
-        if (mesh_hexes(&v, 0.0, 0, &uni, &su) == VM_OK &&
-            mesh_hexes(&v, 0.0, 1, &ada, &sa) == VM_OK) {
+        if (mesh_hex_levels(&v, 0.0, 0, &uni, &su) == VM_OK &&
+            mesh_hex_levels(&v, 0.0, 1, &ada, &sa) == VM_OK) {
             double ratio = (double)ada.ncells / (double)uni.ncells;
             printf("  %s %d^3: %zu uniform, %zu adaptive hexes (%.3f)\n", info.name, n,
                    uni.ncells, ada.ncells, ratio);

@@ -5,20 +5,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Meshes v at iso lo in hexes with up to `levels` coarse levels (0: uniform). */
-static vm_status mesh_levels(const vm_volume *v, double lo, int levels, vm_mesh *m) {
-    vm_error err;
-    vm_mesh_options o;
-    vm_mesh_options_default(&o);
-    o.elements = VM_HEX8;
-    o.adaptive = levels > 0;
-    if (levels > 0) o.max_level = levels;
-    o.lo = lo;
-    vm_status s = vm_mesh_volume(v, &o, m, NULL, &err);
-    CHECK_OK(s, &err);
-    return s;
-}
-
 /* A second level (9x9x9-cell hexes made of level-1 ones, the same pillowed transition one
  * level up) on the sphere at 128^3, the smallest size where one fits: a valid, conforming,
  * closed mesh with the sphere's topology and volume, fewer hexes than level 1 alone (which
@@ -33,8 +19,8 @@ static void secondLevelCoarsensTheSphereFurtherAt128(void) {
     CHECK_OK(vm_phantom_make(VM_PHANTOM_SPHERE, 128, 0.0, 0, &v, &info, &err), &err);
     vm_mesh base, two;
     /* the mesh to beat: level 1 (Release), uniform (sanitizers) */
-    if (mesh_levels(&v, 0.0, small ? 0 : 1, &base) == VM_OK) {
-        if (mesh_levels(&v, 0.0, 2, &two) == VM_OK) {
+    if (mesh_hex_levels(&v, 0.0, small ? 0 : 1, &base, NULL) == VM_OK) {
+        if (mesh_hex_levels(&v, 0.0, 2, &two, NULL) == VM_OK) {
             printf("  sphere 128^3: %s %zu hexes, level 2 %zu\n", small ? "uniform" : "level 1",
                    base.ncells, two.ncells);
             if (small)
@@ -74,8 +60,8 @@ static void badlyPillowedCoarseBlocksFallBackToAValidMesh(void) {
         vm_error err;
         CHECK_OK(vm_phantom_make(cases[c].kind, cases[c].n, 0.0, 0, &v, &info, &err), &err);
         vm_mesh uni, ada;
-        if (mesh_levels(&v, 0.0, 0, &uni) == VM_OK) {
-            if (mesh_levels(&v, 0.0, 2, &ada) == VM_OK) {
+        if (mesh_hex_levels(&v, 0.0, 0, &uni, NULL) == VM_OK) {
+            if (mesh_hex_levels(&v, 0.0, 2, &ada, NULL) == VM_OK) {
                 printf("  %s %d^3: %zu uniform, %zu adaptive hexes\n", info.name, cases[c].n,
                        uni.ncells, ada.ncells);
                 CHECK(ada.ncells < uni.ncells);
