@@ -7,7 +7,7 @@
  * visits the cells of that box grown by the largest lv of each level and keeps the vertices
  * within their own lv of it: its reach is local. Each vertex's boundary faces are cached and
  * recomputed after a tet around it is added or removed; the faces gathered for a moving
- * vertex (or a contracted edge) serve its next queries while nothing else changes. */
+ * vertex serve its next queries while nothing else changes. */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -66,11 +66,11 @@ struct vm__imp_guard {
     vm_index (*nt)[3]; /* new-triangle scratch for moves */
     size_t nt_cap;
     /* the faces of the last gathering; for cache_v >= 0 those of the box [elo, ehi] less
-     * the faces at cache_v and cache_v2 (when >= 0), current while gen (bumped whenever a tet changes or another
+     * the faces at cache_v, current while gen (bumped whenever a tet changes or another
      * boundary vertex moves) equals cache_gen */
     gface *cf;
     size_t ncf, cf_cap;
-    vm_index cache_v, cache_v2;
+    vm_index cache_v;
     uint64_t gen, cache_gen;
     double elo[3], ehi[3];
 };
@@ -133,7 +133,7 @@ static void g_remove(vm__imp *w, vm_index v) {
 void vm__imp_guard_moved(vm__imp *w, vm_index a) {
     struct vm__imp_guard *g = w->g;
     if (!g || g->vx[a].bucket == NOB) return;
-    if (a != g->cache_v && a != g->cache_v2) g->gen++;
+    if (a != g->cache_v) g->gen++;
     if (bucket_at(g, w->p + 3 * (size_t)a, g->vx[a].lev) == g->vx[a].bucket) return;
     g_remove(w, a);
     g_insert(w, a);
@@ -464,22 +464,16 @@ static int faces_cross(const vm__imp *w, const vm_index (*nt)[3], int nn, vm_ind
     return 0;
 }
 
-/* The gathering for a query that leaves out the faces at exv[0..nexv) (1 or 2 vertices;
- * mv, when >= 0, one of them) and removes no other face: consecutive queries about the same
- * vertices — the positions a line search or a perturbation tries for one vertex, the options
- * of one contraction — see the rest of the boundary unchanged, so the faces gathered for the
- * query's box grown by margin serve every later query whose box lies inside it. The answer
- * is the same as a fresh gathering's: a face that can cross lies in both. */
-static int gather_cached(vm__imp *w, const vm_index *exv, int nexv, const double lo[3],
-                         const double hi[3], double margin) {
+/* The gathering for a move of vertex a: the positions a line search or a perturbation tries
+ * for a come in a row with the rest of the boundary unchanged, so the faces gathered (less
+ * those at a) for the query's box grown by margin serve every later query whose box lies
+ * inside it. The answer is the same as a fresh gathering's: a face that can cross lies in
+ * both. (Doing the same for the options of one contraction gathered more faces than it
+ * saved walks: MR head, 2 000 fewer gatherings, 25 % more faces fetched.) */
+static int gather_cached(vm__imp *w, vm_index a, const double lo[3], const double hi[3],
+                         double margin) {
     struct vm__imp_guard *g = w->g;
-    vm_index k0 = exv[0], k1 = nexv > 1 ? exv[1] : -1;
-    if (k1 >= 0 && k1 < k0) {
-        vm_index t = k0;
-        k0 = k1;
-        k1 = t;
-    }
-    int hit = g->cache_v == k0 && g->cache_v2 == k1 && g->cache_gen == g->gen;
+    int hit = g->cache_v == a && g->cache_gen == g->gen;
     for (int c = 0; c < 3 && hit; c++) hit = lo[c] >= g->elo[c] && hi[c] <= g->ehi[c];
     if (hit) return 1;
     for (int c = 0; c < 3; c++) {
@@ -487,9 +481,8 @@ static int gather_cached(vm__imp *w, const vm_index *exv, int nexv, const double
         g->ehi[c] = hi[c] + margin;
     }
     g->cache_v = -1;
-    if (!gather(w, g->elo, g->ehi, exv, nexv, NULL, 0)) return 0;
-    g->cache_v = k0;
-    g->cache_v2 = k1;
+    if (!gather(w, g->elo, g->ehi, &a, 1, NULL, 0)) return 0;
+    g->cache_v = a;
     g->cache_gen = g->gen;
     return 1;
 }
@@ -507,16 +500,8 @@ int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
     double lo[3], hi[3];
     query_box(w, nt, nn, mv, x, lo, hi);
     if (new_cross(w, nt, nn, mv, x)) return 0;
-    int ok;
-    if (nexv == 2 && nrem == 0 && mv >= 0 && (mv == exv[0] || mv == exv[1])) {
-        /* a contraction of edge exv[0] exv[1]: its options put the merged vertex at either
-         * end or between them */
-        ok = gather_cached(w, exv, 2, lo, hi,
-                           dist(w->p + 3 * (size_t)exv[0], w->p + 3 * (size_t)exv[1]));
-    } else {
-        g->cache_v = -1; /* the gathered faces are this query's */
-        ok = gather(w, lo, hi, exv, nexv, rem, nrem);
-    }
+    g->cache_v = -1; /* the gathered faces are this query's */
+    int ok = gather(w, lo, hi, exv, nexv, rem, nrem);
     if (!ok) {
         w->nomem = 1;
         return 0;
@@ -559,7 +544,7 @@ int vm__imp_guard_move_ok(vm__imp *w, vm_index a, const double x[3]) {
     query_box(w, nt, nf, a, x, lo, hi);
     if (new_cross(w, nt, nf, a, x)) return 0;
     /* the margin: what the line searches and perturbations of a usually move it */
-    if (!gather_cached(w, &a, 1, lo, hi, GUARD_MARGIN * m)) {
+    if (!gather_cached(w, a, lo, hi, GUARD_MARGIN * m)) {
         w->nomem = 1;
         return 0;
     }
