@@ -77,6 +77,62 @@ vm_status vm__octree_init(vm__octree *o, const int64_t nc[3], vm_error *err) {
     return VM_OK;
 }
 
+/* Moves the dense codes into blocks of 8^3 cells: one code per uniform block, a page for
+ * the others (cells beyond the grid in a border block count as agreeing). */
+static vm_status to_blocks(vm__octree *o, vm_error *err) {
+    const int64_t *nc = o->nc;
+    for (int a = 0; a < 3; a++)
+        o->nb[a] = (nc[a] + 7) / 8;
+    int64_t nblocks = o->nb[0] * o->nb[1] * o->nb[2];
+    o->block = malloc((size_t)(nblocks ? nblocks : 1) * sizeof *o->block);
+    if (!o->block) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+    /* first the uniform blocks (entry: the code) and the others (entry: VM_OCT_PAGE) */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (int64_t b = 0; b < nblocks; b++) {
+        int64_t org[3] = {8 * (b % o->nb[0]), 8 * ((b / o->nb[0]) % o->nb[1]),
+                          8 * (b / (o->nb[0] * o->nb[1]))};
+        int first = vm__octree_get(o, org), uniform = 1;
+        for (int64_t k = org[2]; k < org[2] + 8 && k < nc[2] && uniform; k++)
+            for (int64_t j = org[1]; j < org[1] + 8 && j < nc[1] && uniform; j++)
+                for (int64_t i = org[0]; i < org[0] + 8 && i < nc[0]; i++)
+                    if (vm__octree_get(o, (int64_t[3]){i, j, k}) != first) {
+                        uniform = 0;
+                        break;
+                    }
+        o->block[b] = uniform ? (uint32_t)first : VM_OCT_PAGE;
+    }
+    size_t npages = 0;
+    for (int64_t b = 0; b < nblocks; b++)
+        if (o->block[b] >= VM_OCT_PAGE) {
+            if (npages >= (size_t)UINT32_MAX - VM_OCT_PAGE)
+                return vm_error_set(err, VM_ERR_NOMEM, "mesh: octree too large");
+            o->block[b] = VM_OCT_PAGE + (uint32_t)npages++;
+        }
+    o->pages = calloc(npages ? npages : 1, 256);
+    if (!o->pages) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (int64_t b = 0; b < nblocks; b++) {
+        if (o->block[b] < VM_OCT_PAGE) continue;
+        uint8_t *pg = o->pages + 256 * (size_t)(o->block[b] - VM_OCT_PAGE);
+        int64_t org[3] = {8 * (b % o->nb[0]), 8 * ((b / o->nb[0]) % o->nb[1]),
+                          8 * (b / (o->nb[0] * o->nb[1]))};
+        for (int64_t k = 0; k < 8 && org[2] + k < nc[2]; k++)
+            for (int64_t j = 0; j < 8 && org[1] + j < nc[1]; j++)
+                for (int64_t i = 0; i < 8 && org[0] + i < nc[0]; i++) {
+                    int code = vm__octree_get(o, (int64_t[3]){org[0] + i, org[1] + j, org[2] + k});
+                    size_t in = (size_t)(i + 8 * (j + 8 * k));
+                    pg[in / 2] |= (uint8_t)(code << (4 * (in & 1)));
+                }
+    }
+    free(o->code);
+    o->code = NULL;
+    return VM_OK;
+}
+
 vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_error *err) {
     const int64_t *nc = o->nc;
     /* full: per cell 1 + the largest l such that the aligned cube of 2^l cells at origin c
@@ -219,11 +275,14 @@ vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_erro
                 if (!(x & m) && !(y & m) && !(z & m)) count++;
             }
     if (leaves) *leaves = count;
-    return VM_OK;
+    return to_blocks(o, err);
 }
 
 void vm__octree_free(vm__octree *o) {
     if (!o) return;
     free(o->code);
-    o->code = NULL;
+    free(o->block);
+    free(o->pages);
+    o->code = o->pages = NULL;
+    o->block = NULL;
 }
