@@ -1095,7 +1095,26 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     st->untangled_vertices = untangled;
     st->boundary_crossings = crossing;
     st->surface_vertices = d.nreps;
-    /* Hand over tets and the positions of the vertices they use. */
+    /* Hand over tets and the positions of the vertices they use. The per-cell state goes
+     * first and the tet list is cut to its length: this is the peak of the mesher. */
+    free(d.src);
+    d.src = NULL;
+    free(d.in);
+    free(d.bnd);
+    free(d.inner);
+    free(d.bnd_rank);
+    free(d.coarse);
+    free(d.bc);
+    free(d.amb);
+    d.in = d.bnd = d.inner = d.coarse = NULL;
+    d.bnd_rank = NULL;
+    d.bc = NULL;
+    d.amb = NULL;
+    vm__octree_free(&d.oct);
+    if (d.ntets && d.ntets < d.tet_cap) {
+        int64_t *t = realloc(d.tets, 4 * d.ntets * sizeof(int64_t));
+        if (t) d.tets = t;
+    }
     out->nodes = 4;
     out->ntets = d.ntets;
     out->tets = d.tets;
