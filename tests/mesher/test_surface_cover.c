@@ -117,6 +117,25 @@ static double area_of(const vm_mesh *m) {
     return a;
 }
 
+/* The share of the area of m on its triangles kept fine (cell field cover_fine). */
+static double kept_area_fraction(const vm_mesh *m) {
+    const vm_field *kept = vm_mesh_find_field(m, 1, "cover_fine");
+    double a = 0, total = 0;
+    for (size_t c = 0; c < m->ncells; c++) {
+        const double *p = m->points + 3 * (size_t)m->cells[3 * c];
+        const double *q = m->points + 3 * (size_t)m->cells[3 * c + 1];
+        const double *r = m->points + 3 * (size_t)m->cells[3 * c + 2];
+        double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+        double w[3] = {r[0] - p[0], r[1] - p[1], r[2] - p[2]};
+        double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2];
+        double z = u[0] * w[1] - u[1] * w[0];
+        double t = 0.5 * sqrt(x * x + y * y + z * z);
+        total += t;
+        if (kept && kept->data[c] != 0) a += t;
+    }
+    return total > 0 ? a / total : 0;
+}
+
 static int cmp_u64(const void *a, const void *b) {
     uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
     return x < y ? -1 : x > y;
@@ -461,7 +480,8 @@ static void noisy_phantoms_keep_the_topology_of_the_interpolant(void) {
         vm_phantom_info info;
         vm_error err;
         /* sigma 0.2: rough walls; sigma 0.6 (the last case): so rough that the covering keeps
-         * the fine surface of the component (sec. 3.9), still closed and the same topology */
+         * fine surface where its cells fail (sec. 3.9), still closed and the same topology, the
+         * edge ratio holding on the covered triangles */
         double sigma = k + 1 < sizeof kinds / sizeof kinds[0] ? 0.2 : 0.6;
         /* the rough one is also supersampled (it keeps fine triangles): smaller under the
          * sanitizers */
@@ -485,9 +505,8 @@ static void noisy_phantoms_keep_the_topology_of_the_interpolant(void) {
                    "%d), %zu components, edge ratio min %.3f, min angle %.2f, %.3f s\n",
                    info.name, size, sigma, fg.tris, fg.kept, r.boundary_euler, info.euler,
                    r.boundary_components, fg.min_edge_ratio, fg.min_angle, sec);
-            if (sigma < 0.5)
-                CHECK_MSG(fg.min_edge_ratio >= 0.3, "noisy %s: min edge ratio %.3f", info.name,
-                          fg.min_edge_ratio);
+            CHECK_MSG(fg.min_edge_ratio >= 0.3, "noisy %s: min edge ratio %.3f", info.name,
+                      fg.min_edge_ratio);
             vm_mesh_free(&m);
         }
         vm_volume_free(&v);
@@ -540,9 +559,10 @@ static size_t sample_components(const vm_volume *v, double iso, int inside, int 
 
 /* The invariants of the cover surface of v (material >= iso, error eps) against the
  * interpolant it meshes; aspect_floor: the paper's 0.3 (see docs/SURFACE_COVER.md).
- * Returns the fraction of triangles kept fine. */
+ * Returns the fraction of triangles kept fine; *kept_area (NULL: not wanted) the fraction of
+ * the area they hold. */
 static double volume_case(const char *name, const vm_volume *vp, double iso, double eps,
-                          double aspect_floor) {
+                          double aspect_floor, double *kept_area) {
     vm_volume v = *vp;
     double kept_fraction = 1;
     vm_mesh m;
@@ -591,6 +611,7 @@ static double volume_case(const char *name, const vm_volume *vp, double iso, dou
         CHECK_MSG(fw.min_edge_ratio >= aspect_floor, "%s: min edge ratio %.3f", name,
                   fw.min_edge_ratio);
         kept_fraction = fg.tris ? (double)fg.kept / (double)fg.tris : 1;
+        if (kept_area) *kept_area = kept_area_fraction(&m);
         vm_mesh_free(&m);
     }
     return kept_fraction;
@@ -602,7 +623,7 @@ static void shared_case(const char *name, double iso, double eps, double aspect_
     vm_volume v;
     vm_error err;
     CHECK_OK(vm_volume_read(path, &v, &err), &err);
-    volume_case(name, &v, iso, eps, aspect_floor);
+    volume_case(name, &v, iso, eps, aspect_floor, NULL);
     vm_volume_free(&v);
 }
 
@@ -642,8 +663,13 @@ static void mr_head_piece_keeps_the_interpolant_topology(void) {
               (long long)hi[0], (long long)hi[1], (long long)hi[2]);
     if (ok) {
         vm_volume c = crop(&v, lo, hi);
-        double kept = volume_case("HeadMRVolume box", &c, 50, 1.0, 0.3);
-        printf("    kept fine: %.1f %% of the triangles\n", 100 * kept);
+        double area = 1;
+        double kept = volume_case("HeadMRVolume box", &c, 50, 1.0, 0.3, &area);
+        printf("    kept fine: %.1f %% of the triangles, %.1f %% of the area\n", 100 * kept,
+               100 * area);
+        /* the failing farthest-point cells and their neighbours are kept fine, not the whole
+         * skin (which held 94 % of the area before the local fallback) */
+        CHECK_MSG(area <= 0.3, "HeadMRVolume box: %.1f %% of the area kept fine", 100 * area);
         vm_volume_free(&c);
     }
     vm_volume_free(&v);
