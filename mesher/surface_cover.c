@@ -1047,8 +1047,10 @@ static vm_status untangle(cover *c, const int32_t *tri, size_t nt, size_t *pairs
 
 /* -- the local fallback: one-vertex cells where the farthest-point cells fail ------------ */
 
-#define LOCAL_SPACING 6 /* fine vertices per farthest-point cell of a local fallback */
-#define LOCAL_MIN 8      /* components this small keep their fine surface as they are */
+#define LOCAL_SPACING 6   /* fine vertices per farthest-point cell of a local fallback */
+#define LOCAL_MIN 8       /* components this small keep their fine surface as they are */
+#define NOMEM_LOCAL "surface cover: out of memory (local fallback)"
+#define LOCAL_RATIO 0.301 /* the paper's edge ratio 0.3, a margin for rounding in the world */
 
 /* Farthest-point cells of component k with n seeds, grown along the candidate graph as
  * voronoi() does: rep[v] is the seed vertex of v's cell. */
@@ -1096,10 +1098,12 @@ static vm_status local_cells(cover *c, size_t k, int32_t n, int32_t *rep, vm_err
 static int flat(const vm__cover_fine *m, const int32_t *seeds, const int32_t *t) {
     const double *a = m->x + 3 * (size_t)seeds[t[0]], *b = m->x + 3 * (size_t)seeds[t[1]];
     const double *d = m->x + 3 * (size_t)seeds[t[2]];
-    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
-    double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
-    double l = fmax(euclid(m, seeds[t[0]], seeds[t[1]]),
-                    fmax(euclid(m, seeds[t[1]], seeds[t[2]]), euclid(m, seeds[t[2]], seeds[t[0]])));
+    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+    double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                   u[0] * w[1] - u[1] * w[0]};
+    double l = fmax(euclid(m, seeds[t[0]], seeds[t[1]]), euclid(m, seeds[t[1]], seeds[t[2]]));
+    l = fmax(l, euclid(m, seeds[t[2]], seeds[t[0]]));
     return sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) <= 1e-9 * l * l;
 }
 
@@ -1133,7 +1137,7 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
     uint8_t *flags = NULL;
     vm_status s = VM_OK;
     if (!local || !nforced || !rep || !idx || !cnt || !split)
-        s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (local fallback)");
+        s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
     size_t nlocal = 0;
     for (size_t v = 0; !s && v < nv; v++) nforced[m->comp[v]] += pforced[v] == 1;
     for (size_t k = 0; !s && k < nc; k++)
@@ -1179,7 +1183,7 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
         free(pts);
         pts = malloc((3 * ns + 1) * sizeof *pts);
         if (!out || !vt || !flags || !pts) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (local fallback)");
+            s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
             break;
         }
         nt = 0;
@@ -1188,7 +1192,8 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
                 memcpy(out + 3 * nt++, c->tri + 3 * t, 3 * sizeof *out);
         for (size_t t = 0; t < *pnt; t++)
             if (!local[m->comp[(*pseeds)[(*ptri)[3 * t]]]]) {
-                for (int e = 0; e < 3; e++) out[3 * nt + e] = idx[(*pseeds)[(*ptri)[3 * t + e]]];
+                for (int e = 0; e < 3; e++)
+                    out[3 * nt + e] = idx[(*pseeds)[(*ptri)[3 * t + e]]];
                 nt++;
             }
         for (size_t i = 0; i < ns; i++) {
@@ -1216,7 +1221,8 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
             int thin = 0;
             if (!flags[t] && local[m->comp[w]]) {
                 int one = cnt[q[0]] == 1 || cnt[q[1]] == 1 || cnt[q[2]] == 1;
-                thin = (!one && edge_ratio(m, c->seeds, q) < 0.3) || flat(m, c->seeds, q);
+                thin = !one && edge_ratio(m, c->seeds, q) < LOCAL_RATIO;
+                thin = thin || flat(m, c->seeds, q);
             }
             if (!flags[t] && !thin) continue;
             int any = 0;
@@ -1250,7 +1256,7 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
             size_t *foff = NULL;
             int32_t *flist = NULL;
             if (!cell_faces(m, c->label, ns, &foff, &flist)) {
-                s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (local fallback)");
+                s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
                 break;
             }
             for (size_t t = 0; t < c->ntri; t++) {
@@ -1275,14 +1281,36 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
             break;
         }
     }
+    if (!s) {
+        for (size_t v = 0; v < nv; v++)
+            if (local[m->comp[v]]) pforced[v] = cnt[c->label[v]] == 1 ? 1 : 2;
+        /* the final flips on the covered triangles, kept only when they leave no crossing and
+         * no covered triangle below the edge ratio 0.3 (a flip trades edge ratio for angle) */
+        int32_t *save = malloc((3 * nt + 1) * sizeof *save);
+        if (save) {
+            memcpy(save, out, 3 * nt * sizeof *save);
+            if (flip_edges(m, c->seeds, pforced, c->nseeds, out, nt, c->label, c->eps) > 0) {
+                int ok = 1;
+                for (size_t t = 0; ok && t < nt; t++) {
+                    const int32_t *q = out + 3 * t;
+                    int one = cnt[q[0]] == 1 || cnt[q[1]] == 1 || cnt[q[2]] == 1;
+                    if (!one && edge_ratio(m, c->seeds, q) < LOCAL_RATIO) ok = 0;
+                    if (!one && flat(m, c->seeds, q)) ok = 0;
+                }
+                size_t pairs = 0;
+                for (size_t i = 0; ok && i < 3 * nt; i++) vt[i] = (vm_index)out[i];
+                if (ok) s = vm__self_intersections(pts, vt, nt, &pairs, NULL, err);
+                if (!ok || pairs > 0) memcpy(out, save, 3 * nt * sizeof *out);
+            }
+            free(save);
+        }
+    }
     if (!s) { /* the result */
         int32_t *seeds = malloc((c->nseeds + 1) * sizeof *seeds);
         if (!seeds) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (local fallback)");
+            s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
         } else {
             memcpy(seeds, c->seeds, c->nseeds * sizeof *seeds);
-            for (size_t v = 0; v < nv; v++)
-                if (local[m->comp[v]]) pforced[v] = cnt[c->label[v]] == 1 ? 1 : 2;
             free(*pseeds);
             free(*ptri);
             *pseeds = seeds;
@@ -1513,8 +1541,8 @@ static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options 
     }
     if (!s) {
         size_t iters = 0;
-        s = local_fallback(&c, &best_seeds, best_forced, &best_ns, &best_tri, &best_nt, best_label,
-                           &iters, err);
+        s = local_fallback(&c, &best_seeds, best_forced, &best_ns, &best_tri, &best_nt,
+                           best_label, &iters, err);
     }
     if (!s) {
         if (best_tri)
