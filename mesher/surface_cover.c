@@ -783,10 +783,12 @@ static long find_hedge(const hedge *h, size_t n, uint64_t k) {
 
 /* Flips edges of the dual whose two triangles have a poor quality, when the flipped pair is
  * better, bends no more than the old pair (or less than 30 degrees), creates no edge that
- * exists, and stays within eps of the fine faces of the four neighbourhoods. Flips keep the
- * surface a closed oriented manifold with the same vertices. Returns the number of flips. */
+ * exists, stays within eps of the fine faces of the four neighbourhoods, and leaves both
+ * new triangles at an edge ratio of min_ratio or more (0: any). Flips keep the surface a
+ * closed oriented manifold with the same vertices. Returns the number of flips. */
 static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, const uint8_t *forced,
-                         size_t ns, int32_t *tri, size_t nt, const int32_t *label, double eps) {
+                         size_t ns, int32_t *tri, size_t nt, const int32_t *label, double eps,
+                         double min_ratio) {
     size_t *foff = NULL;
     int32_t *flist = NULL;
     hedge *h = malloc((3 * nt + 1) * sizeof *h);
@@ -830,6 +832,11 @@ static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, const ui
                 if (qold >= 1.0) continue;
                 double qnew = fmin(tri_quality(pa, pd, pc), tri_quality(pd, pb, pc));
                 if (qnew <= qold + 1e-9) continue;
+                if (min_ratio > 0) {
+                    int32_t t1[3] = {a, d, c}, t2n[3] = {d, b, c};
+                    if (edge_ratio(m, seeds, t1) < min_ratio) continue;
+                    if (edge_ratio(m, seeds, t2n) < min_ratio) continue;
+                }
                 double n1[3], n2[3], n3[3], n4[3];
                 unit_normal(pa, pb, pc, n1);
                 unit_normal(pb, pa, pd, n2);
@@ -1289,7 +1296,8 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
         int32_t *save = malloc((3 * nt + 1) * sizeof *save);
         if (save) {
             memcpy(save, out, 3 * nt * sizeof *save);
-            if (flip_edges(m, c->seeds, pforced, c->nseeds, out, nt, c->label, c->eps) > 0) {
+            if (flip_edges(m, c->seeds, pforced, c->nseeds, out, nt, c->label, c->eps,
+                           LOCAL_RATIO) > 0) {
                 int ok = 1;
                 for (size_t t = 0; ok && t < nt; t++) {
                     const int32_t *q = out + 3 * t;
@@ -1493,7 +1501,7 @@ static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options 
             if (!c.changed) {
                 size_t pairs = 0;
                 flips += flip_edges(&m, best_seeds, best_forced, best_ns, best_tri, best_nt,
-                                    best_label, c.eps);
+                                    best_label, c.eps, 0);
                 s = untangle(&c, best_tri, best_nt, &pairs, err);
                 if (s) break;
                 if (pairs == 0) {
