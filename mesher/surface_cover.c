@@ -1215,6 +1215,7 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
         /* what to split: failing cells and their neighbours, corners of crossing triangles
          * and of thin covered triangles */
         memset(split, 0, ns);
+        memset(nforced, 0, nc * sizeof *nforced); /* now: components to replace */
         size_t nsplit = 0;
         for (size_t v = 0; v < nv; v++) {
             int32_t a = c->label[v];
@@ -1235,14 +1236,7 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
             int any = 0;
             for (int e = 0; e < 3; e++)
                 if (local[m->comp[w]] && cnt[q[e]] > 1) split[q[e]] = 1, any = 1;
-            if (!any && !local[m->comp[w]]) {
-                /* a crossing covered triangle elsewhere: that component becomes local,
-                 * all of it one-vertex cells (its fine surface) */
-                local[m->comp[w]] = 1;
-                for (size_t v = 0; v < nv; v++)
-                    if (m->comp[v] == m->comp[w]) rep[v] = (int32_t)v;
-                nsplit++;
-            }
+            if (!any && !local[m->comp[w]]) nforced[m->comp[w]] = 1;
         }
         /* the maximum-distance metric both ways (sec. 3.5), as refine() measures it: a fine
          * vertex farther than eps from the triangles at its cell's seed, a point of a triangle
@@ -1283,6 +1277,12 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
         for (size_t v = 0; v < nv; v++)
             if (local[m->comp[v]] && split[c->label[v]] && cnt[c->label[v]] > 1)
                 rep[v] = (int32_t)v, nsplit++;
+        /* a covered component elsewhere at a crossing that no split removes becomes local,
+         * all of it one-vertex cells (its fine surface) */
+        for (size_t v = 0; nsplit == 0 && v < nv; v++)
+            if (nforced[m->comp[v]]) rep[v] = (int32_t)v;
+        for (size_t k = 0; nsplit == 0 && k < nc; k++)
+            if (nforced[k]) local[k] = 1, nsplit++;
         if (nsplit == 0) {
             *iterations = it + 1;
             break;
@@ -1291,8 +1291,8 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
     if (!s) {
         for (size_t v = 0; v < nv; v++)
             if (local[m->comp[v]]) pforced[v] = cnt[c->label[v]] == 1 ? 1 : 2;
-        /* the final flips on the covered triangles, kept only when they leave no crossing and
-         * no covered triangle below the edge ratio 0.3 (a flip trades edge ratio for angle) */
+        /* the final flips on the covered triangles, none below LOCAL_RATIO (a flip trades
+         * edge ratio for angle), all undone if they made a crossing or a thin triangle */
         int32_t *save = malloc((3 * nt + 1) * sizeof *save);
         if (save) {
             memcpy(save, out, 3 * nt * sizeof *save);
@@ -1302,6 +1302,7 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
                 for (size_t t = 0; ok && t < nt; t++) {
                     const int32_t *q = out + 3 * t;
                     int one = cnt[q[0]] == 1 || cnt[q[1]] == 1 || cnt[q[2]] == 1;
+                    one = one || !local[m->comp[c->seeds[q[0]]]];
                     if (!one && edge_ratio(m, c->seeds, q) < LOCAL_RATIO) ok = 0;
                     if (!one && flat(m, c->seeds, q)) ok = 0;
                 }
