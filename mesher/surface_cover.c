@@ -783,10 +783,12 @@ static long find_hedge(const hedge *h, size_t n, uint64_t k) {
 
 /* Flips edges of the dual whose two triangles have a poor quality, when the flipped pair is
  * better, bends no more than the old pair (or less than 30 degrees), creates no edge that
- * exists, and stays within eps of the fine faces of the four neighbourhoods. Flips keep the
- * surface a closed oriented manifold with the same vertices. Returns the number of flips. */
+ * exists, stays within eps of the fine faces of the four neighbourhoods, and leaves both
+ * new triangles at an edge ratio of min_ratio or more (0: any). Flips keep the surface a
+ * closed oriented manifold with the same vertices. Returns the number of flips. */
 static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, const uint8_t *forced,
-                         size_t ns, int32_t *tri, size_t nt, const int32_t *label, double eps) {
+                         size_t ns, int32_t *tri, size_t nt, const int32_t *label, double eps,
+                         double min_ratio) {
     size_t *foff = NULL;
     int32_t *flist = NULL;
     hedge *h = malloc((3 * nt + 1) * sizeof *h);
@@ -830,6 +832,11 @@ static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, const ui
                 if (qold >= 1.0) continue;
                 double qnew = fmin(tri_quality(pa, pd, pc), tri_quality(pd, pb, pc));
                 if (qnew <= qold + 1e-9) continue;
+                if (min_ratio > 0) {
+                    int32_t t1[3] = {a, d, c}, t2n[3] = {d, b, c};
+                    if (edge_ratio(m, seeds, t1) < min_ratio) continue;
+                    if (edge_ratio(m, seeds, t2n) < min_ratio) continue;
+                }
                 double n1[3], n2[3], n3[3], n4[3];
                 unit_normal(pa, pb, pc, n1);
                 unit_normal(pb, pa, pd, n2);
@@ -1045,6 +1052,289 @@ static vm_status untangle(cover *c, const int32_t *tri, size_t nt, size_t *pairs
     return s;
 }
 
+/* -- the local fallback: one-vertex cells where the farthest-point cells fail ------------ */
+
+#define LOCAL_SPACING 6   /* fine vertices per farthest-point cell of a local fallback */
+#define LOCAL_MIN 8       /* components this small keep their fine surface as they are */
+#define NOMEM_LOCAL "surface cover: out of memory (local fallback)"
+#define LOCAL_RATIO 0.301 /* the paper's edge ratio 0.3, a margin for rounding in the world */
+
+/* Farthest-point cells of component k with n seeds, grown along the candidate graph as
+ * voronoi() does: rep[v] is the seed vertex of v's cell. */
+static vm_status local_cells(cover *c, size_t k, int32_t n, int32_t *rep, vm_error *err) {
+    const vm__cover_fine *m = c->m;
+    c->nfps[k] = n;
+    vm_status s = fps_place(c, k, err);
+    if (s) return s;
+    c->nheap = 0;
+    for (size_t v = 0; !s && v < m->nv; v++) {
+        if ((size_t)m->comp[v] != k) continue;
+        c->dist[v] = INFINITY;
+        rep[v] = -1;
+        if (c->forced[v] == 2) {
+            c->dist[v] = 0;
+            rep[v] = (int32_t)v;
+            s = heap_push(c, 0, (int32_t)v, err);
+        }
+    }
+    while (!s && c->nheap > 0) {
+        hitem it = heap_pop(c);
+        if (it.d > c->dist[it.v]) continue;
+        int32_t src = rep[it.v];
+        for (size_t h = m->off[it.v]; h < m->off[it.v + 1]; h++) {
+            int32_t y = m->nbr[h];
+            double nd = euclid(m, y, src);
+            if (nd < c->dist[y]) {
+                c->dist[y] = nd;
+                rep[y] = src;
+                s = heap_push(c, nd, y, err);
+                if (s) break;
+            }
+        }
+    }
+    for (size_t v = 0; v < m->nv; v++)
+        if ((size_t)m->comp[v] == k) {
+            c->dist[v] = INFINITY;
+            if (rep[v] < 0) rep[v] = (int32_t)v; /* unreachable: a cell of its own */
+        }
+    return s;
+}
+
+/* 1 when dual triangle t (seed indices) has next to no area: twice its area at most 1e-9
+ * of its longest edge squared (a seam triangle whose corners lie on one grid line). */
+static int flat(const vm__cover_fine *m, const int32_t *seeds, const int32_t *t) {
+    const double *a = m->x + 3 * (size_t)seeds[t[0]], *b = m->x + 3 * (size_t)seeds[t[1]];
+    const double *d = m->x + 3 * (size_t)seeds[t[2]];
+    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+    double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                   u[0] * w[1] - u[1] * w[0]};
+    double l = fmax(euclid(m, seeds[t[0]], seeds[t[1]]), euclid(m, seeds[t[1]], seeds[t[2]]));
+    l = fmax(l, euclid(m, seeds[t[2]], seeds[t[0]]));
+    return sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) <= 1e-9 * l * l;
+}
+
+/* Where a component kept its fine surface whole (its farthest-point duals failed), keep
+ * it fine only locally, as a fixpoint: the component is cut into farthest-point cells; every
+ * cell failing the dual checks (twin edges, one fan, closed ball, Euler and connectedness of
+ * the component) and every cell next to it along a fine edge is split into one-vertex cells;
+ * then so is every cell owning a corner of a crossing triangle (quality/self_intersect.c)
+ * or of a triangle below the edge ratio 0.3 without a one-vertex corner (or flat), and every
+ * cell farther than the error from its triangles or they from it (sec. 3.5); repeat until
+ * nothing fails. It ends: with every cell split, the component is its fine surface, which
+ * passes every check. One-vertex cells reproduce the fine faces between them; seam
+ * triangles join them to larger cells. The arrays *pseeds, *pforced (per fine vertex: 1 on
+ * one-vertex cells, whose triangles carry cover_fine = 1), *pns, *ptri, *pnt describe the
+ * valid dual on entry and on return; label is its labelling (seed index per fine vertex);
+ * *iterations counts the duals built. Components covered on entry keep their triangles as
+ * they are (one of them is replaced by its fine surface only if it crosses a triangle no
+ * split can remove). */
+static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, size_t *pns,
+                                int32_t **ptri, size_t *pnt, const int32_t *label,
+                                size_t *iterations, vm_error *err) {
+    const vm__cover_fine *m = c->m;
+    size_t nv = m->nv, nc = m->ncomp;
+    uint8_t *local = calloc(nc + 1, 1);
+    size_t *nforced = calloc(nc + 1, sizeof *nforced);
+    int32_t *rep = malloc((nv + 1) * sizeof *rep), *idx = malloc((nv + 1) * sizeof *idx);
+    int32_t *cnt = malloc((nv + 1) * sizeof *cnt), *out = NULL;
+    uint8_t *split = malloc(nv + 1);
+    vm_index *vt = NULL;
+    double *pts = NULL;
+    uint8_t *flags = NULL;
+    vm_status s = VM_OK;
+    if (!local || !nforced || !rep || !idx || !cnt || !split)
+        s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
+    size_t nlocal = 0;
+    for (size_t v = 0; !s && v < nv; v++) nforced[m->comp[v]] += pforced[v] == 1;
+    for (size_t k = 0; !s && k < nc; k++)
+        if (nforced[k] == c->csize[k] && c->csize[k] >= LOCAL_MIN) local[k] = 1, nlocal++;
+    if (!s && nlocal == 0) goto done;
+    for (size_t v = 0; !s && v < nv; v++) rep[v] = (*pseeds)[label[v]];
+    for (size_t k = 0; !s && k < nc; k++) {
+        if (!local[k]) continue;
+        long genus = (2 - m->comp_euler[k]) / 2;
+        int32_t n = (int32_t)(c->csize[k] / LOCAL_SPACING);
+        if (n < 4 + 8 * genus) n = (int32_t)(4 + 8 * (genus > 0 ? genus : 0));
+        if ((size_t)n > c->csize[k] / 2) n = (int32_t)(c->csize[k] / 2);
+        if (n < 1) n = 1;
+        s = local_cells(c, k, n, rep, err);
+    }
+    size_t nt = 0, tcap = 0;
+    for (size_t it = 0; !s; it++) {
+        /* the partition as seeds and labels */
+        size_t ns = 0;
+        for (size_t v = 0; v < nv; v++) idx[v] = -1;
+        for (size_t v = 0; v < nv; v++) {
+            int32_t r = rep[v];
+            if (idx[r] < 0) idx[r] = (int32_t)ns, c->seeds[ns++] = r;
+            c->label[v] = idx[r];
+        }
+        c->nseeds = ns;
+        size_t nbad = 0;
+        s = dual(c, &nbad, err);
+        if (s) break;
+        /* the triangles: the dual's on local components, the entry's elsewhere */
+        nt = 0;
+        for (size_t t = 0; t < c->ntri; t++)
+            if (local[m->comp[c->seeds[c->tri[3 * t]]]]) nt++;
+        for (size_t t = 0; t < *pnt; t++)
+            if (!local[m->comp[(*pseeds)[(*ptri)[3 * t]]]]) nt++;
+        if (nt > tcap) {
+            free(out), free(vt), free(flags);
+            tcap = nt;
+            out = malloc((3 * tcap + 1) * sizeof *out);
+            vt = malloc((3 * tcap + 1) * sizeof *vt);
+            flags = malloc(tcap + 1);
+        }
+        free(pts);
+        pts = malloc((3 * ns + 1) * sizeof *pts);
+        if (!out || !vt || !flags || !pts) {
+            s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
+            break;
+        }
+        nt = 0;
+        for (size_t t = 0; t < c->ntri; t++)
+            if (local[m->comp[c->seeds[c->tri[3 * t]]]])
+                memcpy(out + 3 * nt++, c->tri + 3 * t, 3 * sizeof *out);
+        for (size_t t = 0; t < *pnt; t++)
+            if (!local[m->comp[(*pseeds)[(*ptri)[3 * t]]]]) {
+                for (int e = 0; e < 3; e++)
+                    out[3 * nt + e] = idx[(*pseeds)[(*ptri)[3 * t + e]]];
+                nt++;
+            }
+        for (size_t i = 0; i < ns; i++) {
+            memcpy(pts + 3 * i, m->x + 3 * (size_t)c->seeds[i], 3 * sizeof *pts);
+            cnt[i] = 0;
+        }
+        for (size_t v = 0; v < nv; v++) cnt[c->label[v]]++;
+        for (size_t i = 0; i < 3 * nt; i++) vt[i] = (vm_index)out[i];
+        size_t pairs = 0;
+        s = vm__self_intersections(pts, vt, nt, &pairs, flags, err);
+        if (s) break;
+        /* what to split: failing cells and their neighbours, corners of crossing triangles
+         * and of thin covered triangles */
+        memset(split, 0, ns);
+        memset(nforced, 0, nc * sizeof *nforced); /* now: components to replace */
+        size_t nsplit = 0;
+        for (size_t v = 0; v < nv; v++) {
+            int32_t a = c->label[v];
+            if (!local[m->comp[v]] || !c->bad[a]) continue;
+            split[a] = 1;
+            for (size_t h = m->off[v]; h < m->off[v + 1]; h++) split[c->label[m->nbr[h]]] = 1;
+        }
+        for (size_t t = 0; t < nt; t++) {
+            const int32_t *q = out + 3 * t;
+            int32_t w = c->seeds[q[0]];
+            int thin = 0;
+            if (!flags[t] && local[m->comp[w]]) {
+                int one = cnt[q[0]] == 1 || cnt[q[1]] == 1 || cnt[q[2]] == 1;
+                thin = !one && edge_ratio(m, c->seeds, q) < LOCAL_RATIO;
+                thin = thin || flat(m, c->seeds, q);
+            }
+            if (!flags[t] && !thin) continue;
+            int any = 0;
+            for (int e = 0; e < 3; e++)
+                if (local[m->comp[w]] && cnt[q[e]] > 1) split[q[e]] = 1, any = 1;
+            if (!any && !local[m->comp[w]]) nforced[m->comp[w]] = 1;
+        }
+        /* the maximum-distance metric both ways (sec. 3.5), as refine() measures it: a fine
+         * vertex farther than eps from the triangles at its cell's seed, a point of a triangle
+         * farther than eps from the fine faces of its three cells */
+        for (size_t v = 0; v < nv; v++) {
+            int32_t a = c->label[v];
+            if (!local[m->comp[v]] || cnt[a] == 1 || split[a]) continue;
+            double best = INFINITY;
+            for (size_t q = c->toff[a]; q < c->toff[a + 1] && best > c->eps; q++) {
+                const int32_t *t = c->tri + 3 * (size_t)c->tlist[q];
+                best = fmin(best, point_tri(m->x + 3 * v, m->x + 3 * (size_t)c->seeds[t[0]],
+                                            m->x + 3 * (size_t)c->seeds[t[1]],
+                                            m->x + 3 * (size_t)c->seeds[t[2]]));
+            }
+            if (best > c->eps) split[a] = 1;
+        }
+        {
+            size_t *foff = NULL;
+            int32_t *flist = NULL;
+            if (!cell_faces(m, c->label, ns, &foff, &flist)) {
+                s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
+                break;
+            }
+            for (size_t t = 0; t < c->ntri; t++) {
+                const int32_t *q = c->tri + 3 * t;
+                if (!local[m->comp[c->seeds[q[0]]]]) continue;
+                int open = 0;
+                for (int e = 0; e < 3; e++) open |= cnt[q[e]] > 1 && !split[q[e]];
+                if (!open) continue;
+                const double *p[3];
+                for (int e = 0; e < 3; e++) p[e] = m->x + 3 * (size_t)c->seeds[q[e]];
+                if (tri_far(m, foff, flist, p, q, 3, c->eps))
+                    for (int e = 0; e < 3; e++) split[q[e]] = 1;
+            }
+            free(foff);
+            free(flist);
+        }
+        for (size_t v = 0; v < nv; v++)
+            if (local[m->comp[v]] && split[c->label[v]] && cnt[c->label[v]] > 1)
+                rep[v] = (int32_t)v, nsplit++;
+        /* a covered component elsewhere at a crossing that no split removes becomes local,
+         * all of it one-vertex cells (its fine surface) */
+        for (size_t v = 0; nsplit == 0 && v < nv; v++)
+            if (nforced[m->comp[v]]) rep[v] = (int32_t)v;
+        for (size_t k = 0; nsplit == 0 && k < nc; k++)
+            if (nforced[k]) local[k] = 1, nsplit++;
+        if (nsplit == 0) {
+            *iterations = it + 1;
+            break;
+        }
+    }
+    if (!s) {
+        for (size_t v = 0; v < nv; v++)
+            if (local[m->comp[v]]) pforced[v] = cnt[c->label[v]] == 1 ? 1 : 2;
+        /* the final flips on the covered triangles, none below LOCAL_RATIO (a flip trades
+         * edge ratio for angle), all undone if they made a crossing or a thin triangle */
+        int32_t *save = malloc((3 * nt + 1) * sizeof *save);
+        if (save) {
+            memcpy(save, out, 3 * nt * sizeof *save);
+            if (flip_edges(m, c->seeds, pforced, c->nseeds, out, nt, c->label, c->eps,
+                           LOCAL_RATIO) > 0) {
+                int ok = 1;
+                for (size_t t = 0; ok && t < nt; t++) {
+                    const int32_t *q = out + 3 * t;
+                    int one = cnt[q[0]] == 1 || cnt[q[1]] == 1 || cnt[q[2]] == 1;
+                    one = one || !local[m->comp[c->seeds[q[0]]]];
+                    if (!one && edge_ratio(m, c->seeds, q) < LOCAL_RATIO) ok = 0;
+                    if (!one && flat(m, c->seeds, q)) ok = 0;
+                }
+                size_t pairs = 0;
+                for (size_t i = 0; ok && i < 3 * nt; i++) vt[i] = (vm_index)out[i];
+                if (ok) s = vm__self_intersections(pts, vt, nt, &pairs, NULL, err);
+                if (!ok || pairs > 0) memcpy(out, save, 3 * nt * sizeof *out);
+            }
+            free(save);
+        }
+    }
+    if (!s) { /* the result */
+        int32_t *seeds = malloc((c->nseeds + 1) * sizeof *seeds);
+        if (!seeds) {
+            s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
+        } else {
+            memcpy(seeds, c->seeds, c->nseeds * sizeof *seeds);
+            free(*pseeds);
+            free(*ptri);
+            *pseeds = seeds;
+            *pns = c->nseeds;
+            *ptri = out;
+            *pnt = nt;
+            out = NULL;
+        }
+    }
+done:
+    free(local), free(nforced), free(rep), free(idx), free(cnt), free(split);
+    free(out), free(vt), free(pts), free(flags);
+    return s;
+}
+
 static void cover_free(cover *c) {
     free(c->dist), free(c->touched), free(c->order), free(c->heap), free(c->lmax), free(c->cap), free(c->hint), free(c->lfloor);
     free(c->comp_fails), free(c->nfps), free(c->grow), free(c->fd), free(c->csize);
@@ -1095,13 +1385,15 @@ static vm_status emit(const vm__cover_fine *m, const double *scale, const int32_
 
 /* One extraction on the samples of g, lengths measured with index steps scale[a] (in
  * voxels of the smallest original spacing); output points are x / out_scale[a] (the original
- * grid's index coordinates). *kept counts the triangles kept from the fine surface. */
+ * grid's index coordinates). *kept counts the triangles kept from the fine surface, *nfine
+ * the triangles of the fine surface. */
 static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options *o,
                             const double scale[3], const double out_scale[3], vm_mesh *surf,
-                            vm_surface_stats *st, size_t *kept, vm_error *err) {
+                            vm_surface_stats *st, size_t *kept, size_t *nfine, vm_error *err) {
     vm__cover_fine m;
     vm_status s = vm__cover_fine_build(g, scale, &m, err);
     if (s) return s;
+    *nfine = m.nf;
     st->cells_visited += m.cells_visited;
     if (m.nf == 0) {
         vm__cover_fine_free(&m);
@@ -1210,7 +1502,7 @@ static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options 
             if (!c.changed) {
                 size_t pairs = 0;
                 flips += flip_edges(&m, best_seeds, best_forced, best_ns, best_tri, best_nt,
-                                    best_label, c.eps);
+                                    best_label, c.eps, 0);
                 s = untangle(&c, best_tri, best_nt, &pairs, err);
                 if (s) break;
                 if (pairs == 0) {
@@ -1243,6 +1535,24 @@ static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options 
             c.prevlev[c.nprev++] = (uint8_t)c.seedlev[w];
         }
     }
+    if (!s && !best_tri) { /* no valid covering: the fine surface itself, which is one */
+        best_seeds = malloc((nv + 1) * sizeof *best_seeds);
+        best_tri = malloc((3 * m.nf + 1) * sizeof *best_tri);
+        if (!best_seeds || !best_tri) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+        } else {
+            for (size_t v = 0; v < nv; v++) best_seeds[v] = best_label[v] = (int32_t)v;
+            memcpy(best_tri, m.f, 3 * m.nf * sizeof *best_tri);
+            memset(best_forced, 1, nv);
+            best_ns = nv;
+            best_nt = m.nf;
+        }
+    }
+    if (!s) {
+        size_t iters = 0;
+        s = local_fallback(&c, &best_seeds, best_forced, &best_ns, &best_tri, &best_nt,
+                           best_label, &iters, err);
+    }
     if (!s) {
         if (best_tri)
             s = emit(&m, out_scale, best_seeds, best_forced, best_ns, best_tri, best_nt, surf,
@@ -1274,12 +1584,14 @@ vm_status vm__surface_cover(const vm__surface_grid *g, const vm_surface_options 
  * 1-rings of their centres, the features are smaller than the candidate graph resolves, and
  * the paper samples the function finer (4-8x). When triangles had to be kept fine, we
  * resample the trilinear interpolant of the samples twice finer along every axis and keep
- * the surface with fewer kept triangles. Bounded work: at most MAX_SAMPLES samples, and not
- * when the kept part would grow past MAX_KEPT fine triangles (a whole skin below the floor,
- * as on the CT head, needs more than twice finer sampling). */
+ * the surface with fewer kept triangles. Bounded work (the time goes as the fine surface):
+ * at most MAX_SAMPLES samples, and not when the fine surface would grow past MAX_FINE
+ * triangles (the whole heads: with the local fallback their kept part is a few places,
+ * and resampling the whole volume for them costs ten times the 1x run, see
+ * docs/SURFACE_COVER.md). */
 #define MAX_SUPERSAMPLE 2
 #define MAX_SAMPLES ((int64_t)4 * 1000 * 1000)
-#define MAX_KEPT ((size_t)250000)
+#define MAX_FINE ((size_t)400000)
 
 vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_options *o,
                                    const double scale_in[3], vm_mesh *surf, vm_surface_stats *st,
@@ -1293,7 +1605,7 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
     }
     for (int a = 0; a < 3; a++) scale[a] = fabs(scale_in[a]) / smin;
     vm_mesh best;
-    size_t best_kept = SIZE_MAX;
+    size_t best_kept = SIZE_MAX, fine1 = 0;
     int have = 0;
     vm_status s = VM_OK;
     for (int f = 1; f <= MAX_SUPERSAMPLE && best_kept > 0; f *= 2) {
@@ -1303,7 +1615,7 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
             k[a] = f;
             total *= (g->n[a] - 1) * k[a] + 1;
         }
-        if (have && (total > MAX_SAMPLES || best_kept * (size_t)(f * f) > MAX_KEPT)) break;
+        if (have && (total > MAX_SAMPLES || fine1 * (size_t)(f * f) > MAX_FINE)) break;
         vm__surface_grid g2;
         float *buf = NULL;
         s = vm__cover_supersample(g, k, &g2, &buf, err);
@@ -1312,8 +1624,9 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
         for (int a = 0; a < 3; a++) sc[a] = scale[a] / k[a];
         vm_mesh m;
         vm_mesh_init(&m, VM_TRI3);
-        size_t kept = 0;
-        s = cover_once(&g2, o, sc, scale, &m, st, &kept, err);
+        size_t kept = 0, nfine = 0;
+        s = cover_once(&g2, o, sc, scale, &m, st, &kept, &nfine, err);
+        if (f == 1) fine1 = nfine;
         free(buf);
         if (s) {
             vm_mesh_free(&m);
