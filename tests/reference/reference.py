@@ -403,11 +403,13 @@ def main():
 
     results = []
     start = time.monotonic()
+    loads = [os.getloadavg()[0]]  # 1-minute load average, sampled after every input
     for shape in PHANTOMS:
         if wanted and shape not in wanted and f"{shape}-{args.size}" not in wanted:
             continue
         results.append(phantom_case(args, shape))
         settle_shortfalls(results[-1], known_short)
+        loads.append(os.getloadavg()[0])
         print_results(results[-1:])
         sys.stdout.flush()
     if args.data and os.path.isdir(args.data):
@@ -420,6 +422,7 @@ def main():
                 continue
             results.append(one_case(args, name, path, iso, None, os.path.join(args.work, name)))
             settle_shortfalls(results[-1], known_short)
+            loads.append(os.getloadavg()[0])
             print_results(results[-1:])
             sys.stdout.flush()
     elapsed = time.monotonic() - start
@@ -436,7 +439,9 @@ def main():
                 subprocess.run(["git", "-C", os.path.dirname(os.path.abspath(__file__)),
                                 "describe", "--always", "--dirty"], stdout=subprocess.PIPE,
                                stderr=subprocess.DEVNULL, text=True).stdout.strip()) if x),
-            "size": args.size}
+            "size": args.size,
+            "load": {"min": min(loads), "median": float(np.median(loads)), "max": max(loads),
+                     "samples": len(loads)}}
     if args.json:
         R.dump(args.json, {"meta": meta, "results": results})
     if args.markdown:
@@ -446,6 +451,15 @@ def main():
         print(f"\n{failures} check(s) failed")
         return 1
     return 0
+
+
+def load_text(load):
+    """The machine's load during the run, for the page's opening paragraph."""
+    if not load:
+        return "The load average was not recorded."
+    return (f"The 1-minute load average, sampled after each input, was {load['min']:.1f} to "
+            f"{load['max']:.1f} (median {load['median']:.1f}; this run itself counts about 1), "
+            "so the seconds are those of a shared machine.")
 
 
 def write_markdown(path, results, meta):
@@ -478,6 +492,7 @@ def write_markdown(path, results, meta):
             .replace("@CGAL@", meta["cgal"] or "not available")
             .replace("@SIZE@", str(meta["size"]))
             .replace("@SECONDS@", f"{meta['seconds']:.0f}")
+            .replace("@LOAD@", load_text(meta.get("load")))
             .replace("@SUMMARY@", "\n".join(summary_lines(results)))
             .replace("@TABLES@", "\n".join(body).rstrip())
             .replace("@PARAMETERS@", "\n".join(params)))
