@@ -94,6 +94,24 @@ def median_of(r, key):
     return statistics.median(vals) if vals else None
 
 
+def tetgen_stats(r, stem, v_ours):
+    """Count, min dihedral and volume of TetGen's mesh STEM.node/.ele, into r. TetGen meshes
+    volmesh's own surface, so its volume must equal volmesh's; when it does not (it has
+    meshed another domain: a few hundred tets on the CT head), r["wrong_domain"] says so and
+    the ratios leave the row out."""
+    points, tets = R.read_tetgen(stem)
+    r["tets"] = int(len(tets))
+    if len(tets) == 0:
+        r["wrong_domain"] = "no tets"
+        return
+    q = R.tet_quality(points, tets, R.orientation_sign(points, tets))
+    r["min_dihedral"] = float(q[0].min())
+    r["volume"] = float(abs(q[3]).sum())
+    if abs(r["volume"] - v_ours) > 0.01 * abs(v_ours):
+        r["wrong_domain"] = (f"{100 * r['volume'] / v_ours:.2g} % of volmesh's volume: "
+                             "not volmesh's domain")
+
+
 def machine():
     out = {}
     try:
@@ -190,8 +208,7 @@ def main():
             r = measure([tetgen, f"-pq1.414a{a:.6g}QF", "surface.smesh"], cdir, args.reps,
                         args.timeout, ["surface.1.node", "surface.1.ele"])
             if "failed" not in r:
-                with open(os.path.join(cdir, "surface.1.ele")) as fh:
-                    r["tets"] = int(fh.readline().split()[0])
+                tetgen_stats(r, os.path.join(cdir, "surface.1"), v_ours)
             row["tools"]["TetGen"] = r
             print(f"  TetGen: {r.get('wall', r.get('failed'))}", flush=True)
         if args.cgal:
@@ -329,23 +346,28 @@ def where_we_are(results, meta):
             + (f"; it finds little to merge (under 1.2× fewer tets) on "
                f"{', '.join(a[2] for a in adapt if a[0] < 1.2)}"
                if any(a[0] < 1.2 for a in adapt) else "") + ".")
-    tg_ok, tg_bad, tg_ratio = [], [], []
+    tg_ok, tg_bad, tg_wrong, tg_ratio = [], [], [], []
     for res in results:
         t = res["tools"]
         if "TetGen" not in t:
             continue
-        if ok(t["TetGen"]):
+        if ok(t["TetGen"]) and "wrong_domain" in t["TetGen"]:
+            tg_wrong.append(res["case"])
+        elif ok(t["TetGen"]):
             tg_ok.append(res["case"])
             o = t.get("volmesh", {})
             if ok(o) and t["TetGen"].get("tets"):
                 tg_ratio.append((o["tets"] / o["wall"]) / (t["TetGen"]["tets"] / t["TetGen"]["wall"]))
         else:
             tg_bad.append(res["case"])
-    if tg_ok or tg_bad:
+    if tg_ok or tg_bad or tg_wrong:
         text = (f"- **TetGen** (on volmesh's own boundary surface) meshes {len(tg_ok)} of "
-                f"{len(tg_ok) + len(tg_bad)} inputs")
+                f"{len(tg_ok) + len(tg_bad) + len(tg_wrong)} inputs")
         if tg_bad:
-            text += f" and fails on {', '.join(tg_bad)} (the reason is in its row)"
+            text += f"; it fails on {', '.join(tg_bad)} (the reason is in its row)"
+        if tg_wrong:
+            text += (f"; on {', '.join(tg_wrong)} it finishes but meshes another domain "
+                     "(its volume is not volmesh's: left out of the ratios)")
         if tg_ratio:
             text += f"; where it runs volmesh makes {span(tg_ratio)} its tets/s"
         where.append(text + ". docs/REFERENCE.md compares the three meshes' quality and "
@@ -407,19 +429,21 @@ def write_markdown(path, results, meta):
                 continue
             tets = r.get("tets")
             inner = r.get("inner_seconds")
-            tps = tets / r["wall"] if tets else None
+            tps = tets / r["wall"] if tets and "wrong_domain" not in r else None
             vps = vox / inner if inner else vox / r["wall"]
             md = r.get("min_dihedral")
             rows.append(f"| {res['case']} | {f(vox)} | {tool} | {r['wall']:.2f} | "
                         f"{'–' if inner is None else f'{inner:.3f}'} | "
-                        f"{f(tets) if tets else (str(r.get('triangles')) + ' tris')} | "
+                        f"{f(tets) if tets else (str(r.get('triangles')) + ' tris')}"
+                        f"{' (' + r['wrong_domain'] + ')' if 'wrong_domain' in r else ''} | "
                         f"{'–' if md is None else f'{md:.2f}'} | {f(tps)} | {f(vps)} | "
                         f"{r['peak_mb']:.0f} | {r['out_mb']:.1f} |")
         t = res["tools"]
         ours = t.get("volmesh", {})
 
         def tets_per_s(r):
-            return r["tets"] / r["wall"] if r and "failed" not in r and r.get("tets") else None
+            return (r["tets"] / r["wall"] if r and "failed" not in r and r.get("tets")
+                    and "wrong_domain" not in r else None)
 
         def ratio(a, b):
             return times(a / b) if a and b else "–"
