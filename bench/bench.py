@@ -342,7 +342,9 @@ def where_we_are(results, meta):
         where.append(
             f"- **`--adaptive`:** the uniform mesh has {span([a[0] for a in adapt])} the "
             f"adaptive one's tets (most on {best[2]}) and takes {span([a[1] for a in adapt])} "
-            "its wall time (below 1×: the adaptive run was the slower)"
+            "its wall time (below 1×: the adaptive run was the slower"
+            + (f", as on {', '.join(a[2] for a in adapt if a[1] < 1)}"
+               if any(a[1] < 1 for a in adapt) else "") + ")"
             + (f"; it finds little to merge (under 1.2× fewer tets) on "
                f"{', '.join(a[2] for a in adapt if a[0] < 1.2)}"
                if any(a[0] < 1.2 for a in adapt) else "") + ".")
