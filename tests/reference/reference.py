@@ -462,6 +462,83 @@ def load_text(load):
             "so the seconds are those of a shared machine.")
 
 
+def _range(vals, fmt_one):
+    lo, hi = fmt_one(min(vals)), fmt_one(max(vals))
+    return lo if lo == hi else f"{lo}–{hi}"
+
+
+def prose_numbers(results):
+    """The figures the prose of docs/REFERENCE.md quotes, from this run's rows."""
+    def good(row):
+        return row and "failed" not in row
+
+    def topo_ok(res, row):
+        exp = res["expected"]
+        return row["components"] == exp["components"] and row["boundary_euler"] == exp["euler"]
+
+    out = {}
+    tg_same = [(res, res["rows"]["TetGen"], res["rows"]["volmesh"]) for res in results
+               if good(res["rows"].get("TetGen")) and good(res["rows"].get("volmesh"))
+               and topo_ok(res, res["rows"]["TetGen"])]
+    if tg_same:
+        out["@TG_COUNT@"] = _range([t["elements"] / o["elements"] for _, t, o in tg_same],
+                                   lambda x: f"{x:.1f}")
+        out["@TG_DIH@"] = _range([t["min_dihedral"] for _, t, _ in tg_same], lambda x: f"{x:.1f}")
+        out["@TG_BELOW10@"] = _range([t["slivers_10"] for _, t, _ in tg_same], str)
+    heads = []
+    for res in results:
+        t, o = res["rows"].get("TetGen"), res["rows"].get("volmesh")
+        if t is None or not good(o):
+            continue
+        if "failed" in t:
+            heads.append(f"fails on {res['case']} (`{t['failed']}`)")
+        elif not topo_ok(res, t):
+            heads.append(f"on {res['case']} finishes but meshes another domain ({t['elements']} "
+                         f"tets, {100 * t['volume'] / o['volume']:.2g} % of volmesh's volume, "
+                         f"χ∂ {t['boundary_euler']}, {t['components']} components)")
+    out["@TG_HEADS@"] = "; ".join(heads) if heads else "runs correctly on every input"
+    ph = [res for res in results if res["expected"].get("source") == "phantom"]
+    sh = [res for res in results if res["expected"].get("source") != "phantom"]
+    cg = lambda rs: [r["rows"]["CGAL"] for r in rs if good(r["rows"].get("CGAL"))]  # noqa: E731
+    vm = lambda rs: [r["rows"]["volmesh"] for r in rs if good(r["rows"].get("volmesh"))]  # noqa: E731
+    if cg(ph):
+        out["@CGAL_DIH_PH@"] = _range([r["min_dihedral"] for r in cg(ph)], lambda x: f"{x:.1f}")
+        out["@CGAL_H@"] = _range([r["hausdorff_out"] for r in cg(ph)], lambda x: f"{x:.2f}")
+    if vm(ph):
+        out["@VM_H@"] = _range([r["hausdorff_out"] for r in vm(ph)], lambda x: f"{x:.2f}")
+    if cg(sh):
+        out["@CGAL_DIH_SH@"] = _range([r["min_dihedral"] for r in cg(sh)], lambda x: f"{x:.1f}")
+        out["@CGAL_BELOW10_SH@"] = _range([r["slivers_10"] for r in cg(sh)], str)
+    if cg(results) and vm(results):
+        out["@CGAL_RR@"] = _range([r["rr_mean"] for r in cg(results)], lambda x: f"{x:.2f}")
+        out["@VM_RR@"] = _range([r["rr_mean"] for r in vm(results)], lambda x: f"{x:.2f}")
+    lost = []
+    for res in sh:
+        c, o = res["rows"].get("CGAL"), res["rows"].get("volmesh")
+        if good(c) and good(o) and not topo_ok(res, c):
+            lost.append(f"{res['case']} ({c['components']} of {res['expected']['components']} "
+                        f"components, {100 * c['volume'] / o['volume']:.0f} % of the volume)")
+    ours = [r for r in results if good(r["rows"].get("volmesh"))]
+    kept = [r for r in ours if topo_ok(r, r["rows"]["volmesh"])]
+    out["@VM_TOPO@"] = ("on every input" if len(kept) == len(results) else
+                        f"on {len(kept)} of {len(results)} inputs (not on "
+                        + ", ".join(r["case"] for r in results if r not in kept) + ")")
+    best = [r for r in ours
+            if all(r["rows"]["volmesh"]["min_dihedral"] >= r["rows"][m]["min_dihedral"]
+                   for m in ("TetGen", "CGAL") if good(r["rows"].get(m)))]
+    out["@VM_BEST@"] = ("on every input" if len(best) == len(results) else
+                        f"on {len(best)} of {len(results)} inputs")
+    out["@CGAL_LOST@"] = ", ".join(lost) if lost else "none of them"
+    thin = [(abs(1 - r["rows"]["CGAL"]["volume"] / r["rows"]["volmesh"]["volume"]), r)
+            for r in ph if good(r["rows"].get("CGAL")) and good(r["rows"].get("volmesh"))]
+    if thin:
+        d, r = max(thin, key=lambda x: x[0])
+        low = r["rows"]["CGAL"]["volume"] < r["rows"]["volmesh"]["volume"]
+        out["@CGAL_THIN@"] = (f"{r['case']} is the phantom CGAL gets furthest from in volume: "
+                              f"{100 * d:.0f} % {'low' if low else 'high'}")
+    return out
+
+
 def write_markdown(path, results, meta):
     template = os.path.join(os.path.dirname(os.path.abspath(__file__)), "REFERENCE.md.in")
     with open(template, encoding="utf-8") as fh:
@@ -496,6 +573,9 @@ def write_markdown(path, results, meta):
             .replace("@SUMMARY@", "\n".join(summary_lines(results)))
             .replace("@TABLES@", "\n".join(body).rstrip())
             .replace("@PARAMETERS@", "\n".join(params)))
+    for key, value in prose_numbers(results).items():
+        text = text.replace(key, value)
+    text = re.sub(r"@[A-Z0-9_]+@", "(not measured in this run)", text)
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(text)
 
