@@ -373,7 +373,7 @@ def where_we_are(results, meta):
         if tg_ratio:
             text += f"; where it runs volmesh makes {span(tg_ratio)} its tets/s"
         where.append(text + ". docs/REFERENCE.md compares the three meshes' quality and "
-                     "topology.")
+                     "topology, and has what is known of TetGen's failures.")
     capped = []
     for res in results:
         o, c = res["tools"].get("volmesh", {}), res["tools"].get("CGAL Mesh_3", {})
@@ -426,6 +426,8 @@ def write_markdown(path, results, meta):
                 if "instance of 'int'" in why:
                     why = ("aborted (TetGen threw an exception, `terminate called after throwing "
                            "an instance of 'int'`)")
+                elif "terminated by signal 11" in why:
+                    why = "crashed (signal 11, a segmentation fault)"
                 rows.append(f"| {res['case']} | {f(vox)} | {tool} | failed: {why} "
                             "| | | | | | | |")
                 continue
