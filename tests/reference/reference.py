@@ -386,6 +386,9 @@ def main():
                     help="cases where volmesh's quality/self-intersection promises are known "
                          "not to hold yet (reported, not failed)")
     ap.add_argument("--from-json", help="only rewrite --markdown from a saved --json")
+    ap.add_argument("--merge-json", help="a saved --json whose inputs this run's --cases "
+                    "replace; --json and --markdown then hold the merged set, and the page "
+                    "names the rerun inputs with their date, version and load")
     args = ap.parse_args()
     if hasattr(sys.stdout, "reconfigure"):
         sys.stdout.reconfigure(encoding="utf-8")
@@ -442,6 +445,14 @@ def main():
             "size": args.size,
             "load": {"min": min(loads), "median": float(np.median(loads)), "max": max(loads),
                      "samples": len(loads)}}
+    if args.merge_json:
+        with open(args.merge_json, encoding="utf-8") as fh:
+            saved = json.load(fh)
+        fresh = {r["case"]: r for r in results}
+        rerun = dict(meta, cases=[r["case"] for r in results])
+        meta = dict(saved["meta"])
+        meta["reruns"] = meta.get("reruns", []) + [rerun]
+        results = [fresh.get(r["case"], r) for r in saved["results"]]
     if args.json:
         R.dump(args.json, {"meta": meta, "results": results})
     if args.markdown:
@@ -569,7 +580,10 @@ def write_markdown(path, results, meta):
             .replace("@CGAL@", meta["cgal"] or "not available")
             .replace("@SIZE@", str(meta["size"]))
             .replace("@SECONDS@", f"{meta['seconds']:.0f}")
-            .replace("@LOAD@", load_text(meta.get("load")))
+            .replace("@LOAD@", load_text(meta.get("load")) + "".join(
+                f"\nThe rows of {', '.join(r['cases'])} come from a rerun on {r['date']} with "
+                f"{r.get('volmesh') or 'volmesh'} ({r['seconds']:.0f} s): "
+                + load_text(r.get("load")) for r in meta.get("reruns", [])))
             .replace("@SUMMARY@", "\n".join(summary_lines(results)))
             .replace("@TABLES@", "\n".join(body).rstrip())
             .replace("@PARAMETERS@", "\n".join(params)))
