@@ -248,9 +248,7 @@ def main():
                                   stdout=subprocess.PIPE, text=True).stdout.strip(),
             "volmesh": subprocess.run([args.cli, "--version"], stdout=subprocess.PIPE,
                                       text=True).stdout.strip(),
-            "commit": subprocess.run(["git", "-C", HERE, "describe", "--always", "--dirty"],
-                                     stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                     text=True).stdout.strip(),
+            "commit": R.source_version(),
             "reps": args.reps, "date": time.strftime("%Y-%m-%d"),
             "load": {"min": min(LOADS), "median": statistics.median(LOADS), "max": max(LOADS),
                      "samples": len(LOADS)}}
@@ -405,7 +403,7 @@ def write_markdown(path, results, meta):
                      f"{m.get('CPU(s)', '?')} CPUs, {m.get('Thread(s) per core', '?')} thread(s) "
                      f"per core, L3 {m.get('L3 cache', '?')}; nproc {m['nproc']}",
                      f"- memory: {m.get('memory', '?')}; Linux {m['kernel']}",
-                     f"- volmesh: {meta['volmesh']} (Release build, commit "
+                     f"- volmesh: {meta['volmesh']} (Release build of the code at commit "
                      f"{meta.get('commit') or 'not recorded'})",
                      f"- TetGen: {meta['tetgen'] or 'not installed'}",
                      f"- CGAL: {meta['cgal'] or 'not installed'} (cgal_mesh3.cpp, g++ -O2, "

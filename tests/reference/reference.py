@@ -439,9 +439,7 @@ def main():
             "volmesh": " ".join(x for x in (
                 subprocess.run([args.cli, "--version"], stdout=subprocess.PIPE,
                                stderr=subprocess.DEVNULL, text=True).stdout.strip(),
-                subprocess.run(["git", "-C", os.path.dirname(os.path.abspath(__file__)),
-                                "describe", "--always", "--dirty"], stdout=subprocess.PIPE,
-                               stderr=subprocess.DEVNULL, text=True).stdout.strip()) if x),
+                f"(code at commit {R.source_version()})" if R.source_version() else "") if x),
             "size": args.size,
             "load": {"min": min(loads), "median": float(np.median(loads)), "max": max(loads),
                      "samples": len(loads)}}

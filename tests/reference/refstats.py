@@ -26,6 +26,7 @@ import gzip
 import json
 import os
 import re
+import subprocess
 
 import numpy as np
 
@@ -591,6 +592,25 @@ def write_smesh(path, points, tris, holes):
 def public(stats):
     """The statistics without the private arrays, for JSON."""
     return {k: v for k, v in stats.items() if not k.startswith("_")}
+
+
+SOURCES = ["CMakeLists.txt", "include", "core", "io", "mesher", "quality", "cli"]
+
+
+def source_version():
+    """The last commit that changed volmesh's own code (SOURCES: not its tests, benchmarks or
+    docs), with '-dirty' when that code has uncommitted changes: the version measured, which
+    edits to the drivers while a run goes on do not change. None outside a git checkout."""
+    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+    try:
+        head = subprocess.run(["git", "-C", root, "log", "-1", "--format=%h", "--"] + SOURCES,
+                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                              text=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", root, "diff", "--quiet", "HEAD", "--"] + SOURCES,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode
+    except OSError:
+        return None
+    return (head + ("-dirty" if dirty == 1 else "")) if head else None
 
 
 def dump(path, obj):
