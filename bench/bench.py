@@ -203,7 +203,8 @@ def main():
         if tetgen:
             spts, stris = R.read_vtu_triangles(os.path.join(cdir, "ref-surface.vtu"))
             R.write_smesh(os.path.join(cdir, "surface.smesh"), spts, stris,
-                          R.cavity_points(vol, mask, os.path.join(cdir, "ref.vtu")))
+                          R.surface_cavity_points(spts, stris, os.path.join(cdir, "ref.vtu"),
+                                                  0.05 * float(vol.spacing.min())))
             a = REF.TETGEN_VOLUME_FACTOR * v_ours / n_ours
             r = measure([tetgen, f"-pq1.414a{a:.6g}QF", "surface.smesh"], cdir, args.reps,
                         args.timeout, ["surface.1.node", "surface.1.ele"])

@@ -145,7 +145,7 @@ def one_case(args, name, volume_path, iso, expected, case_dir, prepare=None):
     # TetGen on our boundary surface.
     if args.tetgen:
         spts, stris = R.read_vtu_triangles(ours_surf)
-        holes = R.cavity_points(vol, mask, ours_vtu)
+        holes = R.surface_cavity_points(spts, stris, ours_vtu, 0.05 * float(vol.spacing.min()))
         smesh = os.path.join(case_dir, "surface.smesh")
         R.write_smesh(smesh, spts, stris, holes)
         a = TETGEN_VOLUME_FACTOR * v_ours / max(n_ours, 1)

@@ -522,53 +522,42 @@ def hausdorff(vol, iso, points, tris, iso_surface=None, invert=False):
     return float(d_out.max()), float(d_in.max())
 
 
-def cavity_points(vol, mask, mesh_vtu=None):
-    """One outside grid point (the most outside) in each 6-connected region of the outside that
-    does not reach the volume's border: TetGen's hole points for cavities of the material.
-
-    With mesh_vtu (volmesh's tet mesh of that material) a point is taken only where it lies
-    outside that mesh, the most outside such point of its region, and a region with none is
-    skipped: volmesh's surface does not follow the 6-connected outside everywhere (it fills
-    some of those regions), and TetGen carves away the whole part of the domain around a hole
-    point that lies inside it (on the CT head at 500, 14 of 38 points did: TetGen then kept
-    0.001 % of the volume)."""
-    labels, count = grid_components(~mask)
-    if count == 0:
+def surface_cavity_points(points, tris, mesh_vtu, step):
+    """TetGen's hole points from volmesh's own boundary surface: one point in each cavity of
+    the material, that is inside each closed shell of the surface that encloses negative
+    volume (the triangles are oriented out of the material, so a cavity's shell faces into
+    it). The point is STEP beyond the centroid of one of the shell's triangles, along its
+    normal, and is kept only where it lies outside the tet mesh mesh_vtu (the largest
+    triangles are tried first)."""
+    tris = np.asarray(tris, dtype=np.int64)
+    if len(tris) == 0:
         return np.zeros((0, 3))
-    border = np.zeros(mask.shape, dtype=bool)
-    border[[0, -1], :, :] = True
-    border[:, [0, -1], :] = True
-    border[:, :, [0, -1]] = True
-    reaching = np.unique(labels[border & ~mask])
-    f = vol.f.astype(np.float64)
-    locator = None
-    if mesh_vtu is not None:
-        import vtk  # only here: the rest of refstats does not need VTK to load
-        reader = vtk.vtkXMLUnstructuredGridReader()
-        reader.SetFileName(mesh_vtu)
-        reader.Update()
-        locator = vtk.vtkStaticCellLocator()
-        locator.SetDataSet(reader.GetOutput())
-        locator.BuildLocator()
+    edges = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
+    vlab = components_from_edges(len(points), edges[:, 0], edges[:, 1])
+    shell = vlab[tris[:, 0]]
+    p0, p1, p2 = points[tris[:, 0]], points[tris[:, 1]], points[tris[:, 2]]
+    cross = np.cross(p1 - p0, p2 - p0)
+    signed = np.einsum("ij,ij->i", p0, cross) / 6.0  # divergence theorem, per triangle
+    area2 = np.linalg.norm(cross, axis=1)
+    import vtk  # only here: the rest of refstats does not need VTK to load
+    reader = vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(mesh_vtu)
+    reader.Update()
+    locator = vtk.vtkStaticCellLocator()
+    locator.SetDataSet(reader.GetOutput())
+    locator.BuildLocator()
+    volume = np.bincount(shell, weights=signed)
     result = []
-    for lab in range(count):
-        if lab in reaching:
-            continue
-        k, j, i = np.nonzero(labels == lab)
-        # deepest = farthest from the material by the field's value
-        order = np.argsort(f[k, j, i], kind="stable")
-        if locator is None:
-            result.append(vol.to_physical(np.array([[i[order[0]], j[order[0]], k[order[0]]]],
-                                                   dtype=float))[0])
-            continue
-        for n in order:
-            xyz = vol.to_physical(np.array([[i[n], j[n], k[n]]], dtype=float))[0]
-            if locator.FindCell([float(c) for c in xyz]) < 0:
-                result.append(xyz)
+    for lab in np.nonzero(volume < 0)[0]:
+        faces = np.nonzero(shell == lab)[0]
+        for t in faces[np.argsort(-area2[faces], kind="stable")][:64]:
+            if area2[t] == 0:
                 break
-    if not result:
-        return np.zeros((0, 3))
-    return np.array(result, dtype=float)
+            x = (p0[t] + p1[t] + p2[t]) / 3.0 + step * cross[t] / area2[t]
+            if locator.FindCell([float(c) for c in x]) < 0:
+                result.append(x)
+                break
+    return np.array(result, dtype=float) if result else np.zeros((0, 3))
 
 
 def write_smesh(path, points, tris, holes):
