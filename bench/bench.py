@@ -145,6 +145,9 @@ def main():
     ap.add_argument("--json")
     ap.add_argument("--cases", default="")
     ap.add_argument("--from-json", help="only rewrite --markdown from a saved --json")
+    ap.add_argument("--merge-json", help="a saved --json whose inputs this run's --cases "
+                    "replace; --json and --markdown then hold the merged set, and the page "
+                    "names the rerun inputs with their date, commit and load")
     args = ap.parse_args()
     if args.from_json:
         with open(args.from_json, encoding="utf-8") as fh:
@@ -253,6 +256,14 @@ def main():
             "reps": args.reps, "date": time.strftime("%Y-%m-%d"),
             "load": {"min": min(LOADS), "median": statistics.median(LOADS), "max": max(LOADS),
                      "samples": len(LOADS)}}
+    if args.merge_json:
+        with open(args.merge_json, encoding="utf-8") as fh:
+            saved = json.load(fh)
+        fresh = {r["case"]: r for r in results}
+        rerun = dict(meta, cases=[r["case"] for r in results])
+        meta = dict(saved["meta"])
+        meta["reruns"] = meta.get("reruns", []) + [rerun]
+        results = [fresh.get(r["case"], r) for r in saved["results"]]
     if args.json:
         R.dump(args.json, {"meta": meta, "results": results})
     if args.markdown:
@@ -462,7 +473,11 @@ def write_markdown(path, results, meta):
     text = text.replace("@WHERE@", "\n".join(where) or "- no ratios measured")
     text = (text.replace("@MACHINE@", "\n".join(machine_lines))
             .replace("@TABLE@", "\n".join(rows)).replace("@RATIOS@", "\n".join(ratios))
-            .replace("@CGAL_MAX@", str(CGAL_MAX_TETS)).replace("@LOAD@", load_text(meta)))
+            .replace("@CGAL_MAX@", str(CGAL_MAX_TETS))
+            .replace("@LOAD@", load_text(meta) + "".join(
+                f"\n\nThe rows of {', '.join(r['cases'])} come from a rerun on {r['date']} "
+                f"(code at commit {r.get('commit') or 'not recorded'}): " + load_text(r)
+                for r in meta.get("reruns", []))))
     # the big-volume block is bench/big.py's: keep what it last wrote
     begin, end = "<!-- big-volumes:begin", "<!-- big-volumes:end -->"
     if os.path.exists(path) and begin in text and end in text:
