@@ -500,7 +500,13 @@ def prose_numbers(results):
         if t is None or not good(o):
             continue
         if "failed" in t:
-            heads.append(f"fails on {res['case']} (`{t['failed']}`)")
+            why = t["failed"]
+            if why in ("exit -11", "exit 139"):
+                heads.append(f"crashes on {res['case']} (signal 11, a segmentation fault)")
+            elif "terminate called" in why:
+                heads.append(f"aborts on {res['case']} (`{why}`)")
+            else:
+                heads.append(f"fails on {res['case']} (`{why}`)")
         elif not topo_ok(res, t):
             heads.append(f"on {res['case']} finishes but meshes another domain ({t['elements']} "
                          f"tets, {100 * t['volume'] / o['volume']:.2g} % of volmesh's volume, "
@@ -512,9 +518,12 @@ def prose_numbers(results):
     vm = lambda rs: [r["rows"]["volmesh"] for r in rs if good(r["rows"].get("volmesh"))]  # noqa: E731
     if cg(ph):
         out["@CGAL_DIH_PH@"] = _range([r["min_dihedral"] for r in cg(ph)], lambda x: f"{x:.1f}")
-        out["@CGAL_H@"] = _range([r["hausdorff_out"] for r in cg(ph)], lambda x: f"{x:.2f}")
+        h = [r["hausdorff_out"] for r in cg(ph)]
+        out["@CGAL_H@"] = f"median {np.median(h):.2f} ({_range(h, lambda x: f'{x:.2f}')})"
     if vm(ph):
-        out["@VM_H@"] = _range([r["hausdorff_out"] for r in vm(ph)], lambda x: f"{x:.2f}")
+        h = [r["hausdorff_out"] for r in vm(ph)]
+        out["@VM_H@"] = _range(h, lambda x: f"{x:.2f}")
+        out["@VM_H_MEDIAN@"] = f"median {np.median(h):.2f} ({out['@VM_H@']})"
     if cg(sh):
         out["@CGAL_DIH_SH@"] = _range([r["min_dihedral"] for r in cg(sh)], lambda x: f"{x:.1f}")
         out["@CGAL_BELOW10_SH@"] = _range([r["slivers_10"] for r in cg(sh)], str)
