@@ -395,6 +395,10 @@ def where_we_are(results, meta):
     return where
 
 
+def lower_first(text):
+    return text[:1].lower() + text[1:]
+
+
 def load_text(meta):
     """The machine's load during the run."""
     load = meta.get("load")
@@ -476,7 +480,7 @@ def write_markdown(path, results, meta):
             .replace("@CGAL_MAX@", str(CGAL_MAX_TETS))
             .replace("@LOAD@", load_text(meta) + "".join(
                 f"\n\nThe rows of {', '.join(r['cases'])} come from a rerun on {r['date']} "
-                f"(code at commit {r.get('commit') or 'not recorded'}): " + load_text(r)
+                f"(code at commit {r.get('commit') or 'not recorded'}); " + lower_first(load_text(r))
                 for r in meta.get("reruns", []))))
     # the big-volume block is bench/big.py's: keep what it last wrote
     begin, end = "<!-- big-volumes:begin", "<!-- big-volumes:end -->"

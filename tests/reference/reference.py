@@ -462,6 +462,10 @@ def main():
     return 0
 
 
+def lower_first(text):
+    return text[:1].lower() + text[1:]
+
+
 def load_text(load):
     """The machine's load during the run, for the page's opening paragraph."""
     if not load:
@@ -589,8 +593,8 @@ def write_markdown(path, results, meta):
             .replace("@SECONDS@", f"{meta['seconds']:.0f}")
             .replace("@LOAD@", load_text(meta.get("load")) + "".join(
                 f"\nThe rows of {', '.join(r['cases'])} come from a rerun on {r['date']} with "
-                f"{r.get('volmesh') or 'volmesh'} ({r['seconds']:.0f} s): "
-                + load_text(r.get("load")) for r in meta.get("reruns", [])))
+                f"{r.get('volmesh') or 'volmesh'} ({r['seconds']:.0f} s); "
+                + lower_first(load_text(r.get("load"))) for r in meta.get("reruns", [])))
             .replace("@SUMMARY@", "\n".join(summary_lines(results)))
             .replace("@TABLES@", "\n".join(body).rstrip())
             .replace("@PARAMETERS@", "\n".join(params)))
