@@ -369,7 +369,8 @@ def where_we_are(results, meta):
             tg_ok.append(res["case"])
             o = t.get("volmesh", {})
             if ok(o) and t["TetGen"].get("tets"):
-                tg_ratio.append((o["tets"] / o["wall"]) / (t["TetGen"]["tets"] / t["TetGen"]["wall"]))
+                tg = t["TetGen"]
+                tg_ratio.append((o["tets"] / o["wall"]) / (tg["tets"] / tg["wall"]))
         else:
             tg_bad.append(res["case"])
     if tg_ok or tg_bad or tg_wrong:
@@ -480,7 +481,8 @@ def write_markdown(path, results, meta):
             .replace("@CGAL_MAX@", str(CGAL_MAX_TETS))
             .replace("@LOAD@", load_text(meta) + "".join(
                 f"\n\nThe rows of {', '.join(r['cases'])} come from a rerun on {r['date']} "
-                f"(code at commit {r.get('commit') or 'not recorded'}); " + lower_first(load_text(r))
+                f"(code at commit {r.get('commit') or 'not recorded'}); "
+                + lower_first(load_text(r))
                 for r in meta.get("reruns", []))))
     # the big-volume block is bench/big.py's: keep what it last wrote
     begin, end = "<!-- big-volumes:begin", "<!-- big-volumes:end -->"

@@ -519,7 +519,8 @@ def prose_numbers(results):
     ph = [res for res in results if res["expected"].get("source") == "phantom"]
     sh = [res for res in results if res["expected"].get("source") != "phantom"]
     cg = lambda rs: [r["rows"]["CGAL"] for r in rs if good(r["rows"].get("CGAL"))]  # noqa: E731
-    vm = lambda rs: [r["rows"]["volmesh"] for r in rs if good(r["rows"].get("volmesh"))]  # noqa: E731
+    vm = lambda rs: [r["rows"]["volmesh"] for r in rs  # noqa: E731
+                     if good(r["rows"].get("volmesh"))]
     if cg(ph):
         out["@CGAL_DIH_PH@"] = _range([r["min_dihedral"] for r in cg(ph)], lambda x: f"{x:.1f}")
         h = [r["hausdorff_out"] for r in cg(ph)]
