@@ -177,13 +177,14 @@ static int parse_bytes(const char *s, double *bytes) {
  * the sphere phantoms and the CT head, docs/BENCHMARKS.md, rounded up):
  *  - uniform tets: about 5.3 tets per inside cell, ~200 bytes per tet at the peak (the
  *    quality pass included): 1100 bytes per inside cell; hexes: 300 bytes per inside cell;
- *  - adaptive tets: the grid arrays of the mesher (classification, cell map, coarse leaves,
- *    octree: 14 bytes per cell), and up to 9 tets per boundary cell (one with mixed corners)
+ *  - adaptive tets: the grid state of the mesher (bit sets of inside points, boundary,
+ *    interior and coarse cells, the octree's 4-bit codes while it is built: under 1.7
+ *    bytes per cell, 2 here), and up to 9 tets per boundary cell (one with mixed corners)
  *    plus 0.05 per inside cell, at 200 bytes per tet.
  * At cell size S > 1 the counts are those of the resampled grid, estimated as 1/S^3. */
 #define MEM_PER_INSIDE_TET 1100.0
 #define MEM_PER_INSIDE_HEX 300.0
-#define MEM_ADAPTIVE_PER_CELL 14.0
+#define MEM_ADAPTIVE_PER_CELL 2.0
 #define MEM_ADAPTIVE_TETS_PER_BOUNDARY 9.0
 #define MEM_ADAPTIVE_TETS_PER_INSIDE 0.05
 #define MEM_PER_TET 200.0

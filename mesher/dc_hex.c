@@ -73,7 +73,7 @@ static vm_status build(dc *d, hexes *h, vm_error *err) {
     for (int64_t k = 0; k < d->n[2]; k++)
         for (int64_t j = 0; j < d->n[1]; j++)
             for (int64_t i = 0; i < d->n[0]; i++) {
-                if (!d->in[vm__dc_pidx(d, i, j, k)]) continue;
+                if (!vm__dc_in(d, vm__dc_pidx(d, i, j, k))) continue;
                 vm_status s = vm__grow((void **)&h->cells, &h->cap, h->n + 1, 8 * sizeof(int64_t), err);
                 if (s) return s;
                 int64_t *c = h->cells + 8 * h->n++;
@@ -81,7 +81,7 @@ static vm_status build(dc *d, hexes *h, vm_error *err) {
                     /* the cell whose centre is corner q of the dual cube around (i,j,k) */
                     int64_t m[3] = {i + hex_off[q][0] - 1, j + hex_off[q][1] - 1, k + hex_off[q][2] - 1};
                     int64_t ci = vm__dc_cidx(d, m[0], m[1], m[2]);
-                    int32_t code = d->cell_map[ci];
+                    int32_t code = vm__dc_code(d, ci);
                     if (code >= 0) {
                         const bcell *b = &d->bc[code];
                         int local = (1 - hex_off[q][0]) | (1 - hex_off[q][1]) << 1 | (1 - hex_off[q][2]) << 2;

@@ -28,9 +28,12 @@ typedef struct dc {
     const vm__grid *g;
     int64_t n[3], P[3], C[3]; /* real points, padded points, padded cells per axis */
     int64_t off[3];           /* g->off: grid index i is i + off in the whole grid */
-    uint8_t *in;              /* padded inside flags */
-    int32_t *cell_map;        /* per padded cell: bcell index, CELL_OUT or CELL_IN */
-    bcell *bc;
+    /* Per padded point and cell, one bit each (read through the accessors below): */
+    uint64_t *in;       /* per padded point: inside the material */
+    uint64_t *bnd;      /* per padded cell: a boundary cell (corners mixed) */
+    uint64_t *inner;    /* per padded cell: every corner inside */
+    uint32_t *bnd_rank; /* per word of bnd: boundary cells before it (their bcell index) */
+    bcell *bc;          /* boundary cells in increasing cell order */
     size_t nbc, bc_cap;
     size_t nreps;
     int64_t *amb; /* keys (3*lower cell + axis) of ambiguous faces, sorted */
@@ -47,7 +50,8 @@ typedef struct dc {
      * patch, one representative each (index coarse_base + leaf). */
     int64_t *coarse_org; /* 3 per leaf: lowest cell */
     size_t ncoarse, coarse_cap, coarse_base;
-    int32_t *coarse_of; /* per padded cell: its coarse leaf, or -1 (NULL: none) */
+    uint64_t *coarse;    /* per padded cell, one bit: in a coarse leaf (NULL: none) */
+    int64_t *coarse_key; /* per leaf: padded index of its lowest cell, increasing */
     double error;       /* merge tolerance, voxels */
     int64_t *tets;      /* 4 global ids per tet */
     size_t ntets, tet_cap;
@@ -87,8 +91,27 @@ static inline int vm__dc_real_point(const dc *d, const int64_t p[3]) {
     return 1;
 }
 
+static inline int vm__dc_bit(const uint64_t *w, int64_t i) {
+    return (int)((w[i >> 6] >> (i & 63)) & 1);
+}
+static inline void vm__dc_set_bit(uint64_t *w, int64_t i) {
+    w[i >> 6] |= (uint64_t)1 << (i & 63);
+}
+/* 1 when padded grid point p (vm__dc_pidx) is in the material. */
+static inline int vm__dc_in(const dc *d, int64_t p) {
+    return vm__dc_bit(d->in, p);
+}
+/* Per padded cell (vm__dc_cidx): its bcell index, CELL_OUT or CELL_IN (the rank of its bit
+ * among the boundary cells: the bcells are in cell order). */
+static inline int32_t vm__dc_code(const dc *d, int64_t ci) {
+    uint64_t w = d->bnd[ci >> 6], bit = (uint64_t)1 << (ci & 63);
+    if (w & bit) return (int32_t)(d->bnd_rank[ci >> 6] + (uint32_t)__builtin_popcountll(w & (bit - 1)));
+    return vm__dc_bit(d->inner, ci) ? CELL_IN : CELL_OUT;
+}
+/* The coarse boundary leaf holding padded cell ci, or -1. */
+int32_t vm__dc_coarse_find(const dc *d, int64_t ci);
 static inline int32_t vm__dc_coarse(const dc *d, int64_t ci) {
-    return d->coarse_of ? d->coarse_of[ci] : -1;
+    return d->coarse && vm__dc_bit(d->coarse, ci) ? vm__dc_coarse_find(d, ci) : -1;
 }
 
 static inline int64_t vm__dc_npoints_real(const dc *d) {

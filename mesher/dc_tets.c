@@ -76,7 +76,7 @@ static void cells_around(const dc *d, const int64_t p[3], int a, const bcell *cb
         int64_t m[3] = {p[0], p[1], p[2]};
         m[b] += off[q][0];
         m[c] += off[q][1];
-        code[q] = d->cell_map[vm__dc_cidx(d, m[0], m[1], m[2])];
+        code[q] = vm__dc_code(d, vm__dc_cidx(d, m[0], m[1], m[2]));
         memcpy(mins[q], m, sizeof m);
         cb[q] = code[q] >= 0 ? &d->bc[code[q]] : NULL;
         le[q] = 4 * a + (-off[q][0]) + 2 * (-off[q][1]);
@@ -260,7 +260,7 @@ typedef struct leafref {
 static leafref leaf_at(const dc *d, const int64_t m[3], int le) {
     leafref r = {0, 0, -1};
     int64_t ci = vm__dc_cidx(d, m[0], m[1], m[2]);
-    int32_t cl = vm__dc_coarse(d, ci), code = d->cell_map[ci];
+    int32_t cl = vm__dc_coarse(d, ci), code = vm__dc_code(d, ci);
     if (cl >= 0) {
         r.kind = 2;
         r.id = cl;
@@ -299,8 +299,8 @@ static vm_status emit_edge_mixed(dc *d, int a, const int64_t p0[3], int64_t mins
     if (!vm__octree_is_vertex(&d->oct, p0)) return VM_OK;
     int64_t p1[3] = {p0[0], p0[1], p0[2]};
     p1[a]++;
-    if (!d->in[vm__dc_pidx(d, p0[0], p0[1], p0[2])] &&
-        !d->in[vm__dc_pidx(d, p1[0], p1[1], p1[2])]) {
+    if (!vm__dc_in(d, vm__dc_pidx(d, p0[0], p0[1], p0[2])) &&
+        !vm__dc_in(d, vm__dc_pidx(d, p1[0], p1[1], p1[2]))) {
         /* outside at both ends: only the lower half of an undivided edge of a coarse leaf
          * (one that touches the edge in one quadrant) can make elements */
         int on_edge = 0;
@@ -313,8 +313,8 @@ static vm_status emit_edge_mixed(dc *d, int a, const int64_t p0[3], int64_t mins
         if (!on_edge || vm__octree_is_vertex(&d->oct, p1)) return VM_OK;
     }
     if (!vm__octree_is_vertex(&d->oct, p1)) p1[a]++;
-    int in0 = d->in[vm__dc_pidx(d, p0[0], p0[1], p0[2])];
-    int in1 = d->in[vm__dc_pidx(d, p1[0], p1[1], p1[2])];
+    int in0 = vm__dc_in(d, vm__dc_pidx(d, p0[0], p0[1], p0[2]));
+    int in1 = vm__dc_in(d, vm__dc_pidx(d, p1[0], p1[1], p1[2]));
     if (!in0 && !in1) return VM_OK;
     int64_t v0 = vm__dc_lattice_id(d, p0), v1 = vm__dc_lattice_id(d, p1);
     if (in0 && in1) {
@@ -338,11 +338,28 @@ static vm_status emit_edge_mixed(dc *d, int a, const int64_t p0[3], int64_t mins
     return emit_polygon(d, in0 ? v0 : v1, in0, poly, inserted, n, err);
 }
 
-/* The elements of the grid edges {axis, i, j, k} with lo <= (axis, i, j, k) < hi. act
- * (NULL: not used) flags the padded cells that are boundary cells or coarse leaves: an edge
- * none of whose four cells is flagged makes no element, and is skipped early. */
-static vm_status emit_edge_box(dc *d, const int64_t lo[4], const int64_t hi[4],
-                               const uint8_t *act, vm_error *err) {
+/* 8 bits of the bit set w from bit i on (bit i + 7 must exist). */
+static unsigned bits8(const uint64_t *w, int64_t i) {
+    int sh = (int)(i & 63);
+    uint64_t x = w[i >> 6] >> sh;
+    if (sh > 56) x |= w[(i + 7) >> 6] << (64 - sh);
+    return (unsigned)(x & 0xff);
+}
+
+/* Whether padded cell ci is a boundary cell or in a coarse leaf. */
+static unsigned active1(const dc *d, int64_t ci) {
+    return (unsigned)(vm__dc_bit(d->bnd, ci) | (d->coarse ? vm__dc_bit(d->coarse, ci) : 0));
+}
+
+static unsigned active8(const dc *d, int64_t ci) {
+    return bits8(d->bnd, ci) | (d->coarse ? bits8(d->coarse, ci) : 0);
+}
+
+/* The elements of the grid edges {axis, i, j, k} with lo <= (axis, i, j, k) < hi. skip != 0:
+ * an edge none of whose four cells is a boundary cell or in a coarse leaf makes no element,
+ * and is skipped early. */
+static vm_status emit_edge_box(dc *d, const int64_t lo[4], const int64_t hi[4], int skip,
+                               vm_error *err) {
     for (int a = (int)lo[0]; a < (int)hi[0]; a++) {
         int b = (a + 1) % 3, c = (a + 2) % 3;
         const int64_t stride[3] = {1, d->C[0], d->C[0] * d->C[1]};
@@ -352,34 +369,31 @@ static vm_status emit_edge_box(dc *d, const int64_t lo[4], const int64_t hi[4],
                 for (int64_t i = lo[1]; i < hi[1]; i++) {
                     int64_t p0[3] = {i, j, k}, p1[3] = {i, j, k};
                     if (++p1[a] >= d->n[a]) continue;
-                    if (act) {
+                    if (skip) {
                         int64_t c0 = vm__dc_cidx(d, i, j, k);
                         if (i + 8 <= hi[1]) { /* eight edges at once (the rows run along x) */
-                            uint64_t w[4];
-                            memcpy(&w[0], act + c0, 8);
-                            memcpy(&w[1], act + c0 - sb, 8);
-                            memcpy(&w[2], act + c0 - sb - sc, 8);
-                            memcpy(&w[3], act + c0 - sc, 8);
-                            if (!(w[0] | w[1] | w[2] | w[3])) {
+                            if (!(active8(d, c0) | active8(d, c0 - sb) |
+                                  active8(d, c0 - sb - sc) | active8(d, c0 - sc))) {
                                 i += 7;
                                 continue;
                             }
                         }
-                        if (!(act[c0] | act[c0 - sb] | act[c0 - sb - sc] | act[c0 - sc]))
+                        if (!(active1(d, c0) | active1(d, c0 - sb) | active1(d, c0 - sb - sc) |
+                              active1(d, c0 - sc)))
                             continue;
                     }
                     d->cur_src = SRC(SRC_EDGE, a + 3 * vm__dc_lattice_id(d, p0));
-                    int in0 = d->in[vm__dc_pidx(d, i, j, k)],
-                        in1 = d->in[vm__dc_pidx(d, p1[0], p1[1], p1[2])];
+                    int in0 = vm__dc_in(d, vm__dc_pidx(d, i, j, k)),
+                        in1 = vm__dc_in(d, vm__dc_pidx(d, p1[0], p1[1], p1[2]));
                     /* an edge next to a coarse leaf may be the lower half of a longer edge
                      * whose upper end is inside */
-                    if (!in0 && !in1 && !d->coarse_of) continue;
+                    if (!in0 && !in1 && !d->coarse) continue;
                     const bcell *cb[4];
                     int le[4];
                     int32_t code[4];
                     int64_t mins[4][3];
                     cells_around(d, p0, a, cb, le, code, mins);
-                    if (d->coarse_of) {
+                    if (d->coarse) {
                         int mixed = 0;
                         for (int q = 0; q < 4; q++)
                             mixed |= vm__dc_coarse(d, vm__dc_cidx(d, mins[q][0], mins[q][1],
@@ -414,7 +428,7 @@ static vm_status emit_edge_one(dc *d, const int64_t only[4], vm_error *err) {
     int64_t lo[4], hi[4];
     for (int q = 0; q < 4; q++)
         lo[q] = only[q], hi[q] = only[q] + 1;
-    return emit_edge_box(d, lo, hi, NULL, err);
+    return emit_edge_box(d, lo, hi, 0, err);
 }
 
 /* A slab of edges emitted on its own: a shallow copy of the state with its own tet, source
@@ -434,7 +448,7 @@ typedef struct edge_slab {
     vm_error err;
 } edge_slab;
 
-static void emit_slab(const dc *d, const uint8_t *act, edge_slab *sl) {
+static void emit_slab(const dc *d, edge_slab *sl) {
     dc local = *d;
     local.tets = local.src = NULL;
     local.ntets = local.tet_cap = local.src_cap = 0;
@@ -443,7 +457,7 @@ static void emit_slab(const dc *d, const uint8_t *act, edge_slab *sl) {
     vm_error_clear(&sl->err);
     local.cur_src = SRC(SRC_NONE, 0);
     sl->status = sl->interior ? emit_interior(&local, sl->lo[3], sl->hi[3], &sl->err)
-                              : emit_edge_box(&local, sl->lo, sl->hi, act, &sl->err);
+                              : emit_edge_box(&local, sl->lo, sl->hi, 1, &sl->err);
     sl->tets = local.tets;
     sl->src = local.src;
     sl->ntets = local.ntets;
@@ -489,17 +503,6 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
 /* The elements of every grid edge, axis by axis (interior: of the interior cells), in slabs
  * of z layers run in parallel and appended in order. */
 static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
-    size_t nc = (size_t)(d->C[0] * d->C[1] * d->C[2]);
-    uint8_t *act = NULL;
-    if (!interior) {
-        act = malloc(nc);
-        if (!act) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static)
-#endif
-        for (int64_t ci = 0; ci < (int64_t)nc; ci++)
-            act[ci] = d->cell_map[ci] >= 0 || vm__dc_coarse(d, ci) >= 0;
-    }
     enum { LAYERS = 4, BATCH = 64 };
     int64_t per_axis = (d->n[2] + LAYERS - 1) / LAYERS, total = (interior ? 1 : 3) * per_axis;
     edge_slab *sl = calloc(BATCH, sizeof *sl);
@@ -518,7 +521,7 @@ static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
             x->interior = interior;
             memcpy(x->lo, lo, sizeof lo);
             memcpy(x->hi, hi, sizeof hi);
-            emit_slab(d, act, x);
+            emit_slab(d, x);
         }
         for (int64_t q = 0; q < count; q++) {
             vm_status t = append_slab(d, &sl[q], s ? NULL : err);
@@ -526,7 +529,6 @@ static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
         }
     }
     free(sl);
-    free(act);
     return s;
 }
 
@@ -549,7 +551,7 @@ static vm_status emit_faces(dc *d, size_t first, size_t end, vm_error *err) {
             int64_t nb[3] = {cm[0], cm[1], cm[2]};
             nb[a] += s ? 1 : -1;
             int64_t nci = vm__dc_cidx(d, nb[0], nb[1], nb[2]);
-            if (d->cell_map[nci] != CELL_IN || vm__dc_coarse(d, nci) >= 0) continue;
+            if (vm__dc_code(d, nci) != CELL_IN || vm__dc_coarse(d, nci) >= 0) continue;
             int64_t v[4];
             int even0 = 0;
             for (int q = 0; q < 4; q++) {
@@ -690,7 +692,7 @@ static vm_status emit_interior(dc *d, int64_t k0, int64_t k1, vm_error *err) {
         for (int64_t j = 0; j + 1 < d->n[1]; j++)
             for (int64_t i = 0; i + 1 < d->n[0]; i++) {
                 int64_t ci = vm__dc_cidx(d, i, j, k);
-                if (d->cell_map[ci] != CELL_IN || vm__dc_coarse(d, ci) >= 0) continue;
+                if (vm__dc_code(d, ci) != CELL_IN || vm__dc_coarse(d, ci) >= 0) continue;
                 vm_status s = VM_OK;
                 if (d->adaptive) {
                     int64_t c[3] = {i, j, k}, org[3];
@@ -725,7 +727,7 @@ static vm_status emit_coarse_boundary(dc *d, size_t first, size_t end, vm_error 
             int64_t aci = vm__dc_cidx(d, ac[0], ac[1], ac[2]);
             if (vm__dc_coarse(d, aci) >= 0) continue;
             vm_status s = VM_OK;
-            if (d->cell_map[aci] == CELL_IN && vm__octree_size(&d->oct, ac) >= 2) {
+            if (vm__dc_code(d, aci) == CELL_IN && vm__octree_size(&d->oct, ac) >= 2) {
                 s = emit_coarse_face(d, rep, a, q, 2, side, err);
             } else {
                 for (int k = 0; k < 4 && !s; k++) {
@@ -734,7 +736,7 @@ static vm_status emit_coarse_boundary(dc *d, size_t first, size_t end, vm_error 
                     sq[c] += k >> 1;
                     sc[b] += k & 1;
                     sc[c] += k >> 1;
-                    if (d->cell_map[vm__dc_cidx(d, sc[0], sc[1], sc[2])] == CELL_IN)
+                    if (vm__dc_code(d, vm__dc_cidx(d, sc[0], sc[1], sc[2])) == CELL_IN)
                         s = emit_coarse_face(d, rep, a, sq, 1, side, err);
                 }
             }
@@ -758,7 +760,7 @@ static vm_status emit_gaps(dc *d, size_t first, size_t end, vm_error *err) {
             int a = f >> 1, s = f & 1;
             int64_t nb[3] = {cm[0], cm[1], cm[2]};
             nb[a] += s ? 1 : -1;
-            int32_t code = d->cell_map[vm__dc_cidx(d, nb[0], nb[1], nb[2])];
+            int32_t code = vm__dc_code(d, vm__dc_cidx(d, nb[0], nb[1], nb[2]));
             if (code < 0)
                 return vm_error_set(err, VM_ERR_INTERNAL,
                                     "mesh: special cell next to a uniform cell");
@@ -1093,7 +1095,26 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     st->untangled_vertices = untangled;
     st->boundary_crossings = crossing;
     st->surface_vertices = d.nreps;
-    /* Hand over tets and the positions of the vertices they use. */
+    /* Hand over tets and the positions of the vertices they use. The per-cell state goes
+     * first and the tet list is cut to its length: this is the peak of the mesher. */
+    free(d.src);
+    d.src = NULL;
+    free(d.in);
+    free(d.bnd);
+    free(d.inner);
+    free(d.bnd_rank);
+    free(d.coarse);
+    free(d.bc);
+    free(d.amb);
+    d.in = d.bnd = d.inner = d.coarse = NULL;
+    d.bnd_rank = NULL;
+    d.bc = NULL;
+    d.amb = NULL;
+    vm__octree_free(&d.oct);
+    if (d.ntets && d.ntets < d.tet_cap) {
+        int64_t *t = realloc(d.tets, 4 * d.ntets * sizeof(int64_t));
+        if (t) d.tets = t;
+    }
     out->nodes = 4;
     out->ntets = d.ntets;
     out->tets = d.tets;

@@ -118,86 +118,132 @@ static void analyse_cell(int mask, bcell *b) {
         if (out == ((1 << c) | (1 << (c ^ 7)))) b->special = 1;
 }
 
+/* Bit sets of n bits in 64-bit words. */
+static uint64_t *bits_new(size_t n) {
+    return calloc(n / 64 + 1, sizeof(uint64_t));
+}
+
+/* Coordinates (padded: 0 .. dims-1) of index i of a grid of dims, x fastest. */
+static void unflatten(int64_t i, const int64_t dims[3], int64_t out[3]) {
+    out[0] = i % dims[0];
+    out[1] = (i / dims[0]) % dims[1];
+    out[2] = i / (dims[0] * dims[1]);
+}
+
+static void step_coords(int64_t c[3], const int64_t dims[3]) {
+    if (++c[0] < dims[0]) return;
+    c[0] = 0;
+    if (++c[1] < dims[1]) return;
+    c[1] = 0;
+    c[2]++;
+}
+
 static vm_status classify(dc *d, vm_mesh_stats *st, vm_error *err) {
     const vm__grid *g = d->g;
     size_t np = (size_t)(d->P[0] * d->P[1] * d->P[2]);
-    d->in = calloc(np, 1);
+    d->in = bits_new(np);
     if (!d->in) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu points)", np);
     size_t inside = 0;
+    int64_t nw = (int64_t)(np / 64 + 1);
+    /* word by word, so that threads never share a word */
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static) reduction(+ : inside)
 #endif
-    for (int64_t k = 0; k < d->n[2]; k++)
-        for (int64_t j = 0; j < d->n[1]; j++)
-            for (int64_t i = 0; i < d->n[0]; i++) {
-                float f = vm__dc_fval(d, i, j, k);
-                int is = (!g->has_lo || f >= g->lo) && (!g->has_hi || f <= g->hi);
-                d->in[vm__dc_pidx(d, i, j, k)] = (uint8_t)is;
-                inside += (size_t)is;
-            }
+    for (int64_t w = 0; w < nw; w++) {
+        int64_t c[3], first = 64 * w;
+        unflatten(first, d->P, c);
+        uint64_t word = 0;
+        for (int b = 0; b < 64 && first + b < (int64_t)np; b++, step_coords(c, d->P)) {
+            int64_t i = c[0] - 1, j = c[1] - 1, k = c[2] - 1;
+            if (i < 0 || j < 0 || k < 0 || i >= d->n[0] || j >= d->n[1] || k >= d->n[2])
+                continue;
+            float f = vm__dc_fval(d, i, j, k);
+            int is = (!g->has_lo || f >= g->lo) && (!g->has_hi || f <= g->hi);
+            word |= (uint64_t)is << b;
+            inside += (size_t)is;
+        }
+        d->in[w] = word;
+    }
     st->inside_voxels = inside;
     if (!inside) return vm_error_set(err, VM_ERR_EMPTY, "no grid point is in the material");
     return VM_OK;
 }
 
+static int cell_mask(const dc *d, int64_t i, int64_t j, int64_t k) {
+    int mask = 0;
+    for (int c = 0; c < 8; c++)
+        mask |= vm__dc_in(d, vm__dc_pidx(d, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)))
+                << c;
+    return mask;
+}
+
+static void free_cells(dc *d) {
+    free(d->bnd);
+    free(d->inner);
+    free(d->bnd_rank);
+    d->bnd = d->inner = NULL;
+    d->bnd_rank = NULL;
+}
+
 static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
     size_t nc = (size_t)(d->C[0] * d->C[1] * d->C[2]);
-    d->cell_map = malloc(nc * sizeof *d->cell_map);
-    if (!d->cell_map)
+    int64_t nw = (int64_t)(nc / 64 + 1);
+    d->bnd = bits_new(nc);
+    d->inner = bits_new(nc);
+    d->bnd_rank = malloc((size_t)nw * sizeof *d->bnd_rank);
+    if (!d->bnd || !d->inner || !d->bnd_rank)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
     size_t reps = 0;
-    /* The corner masks first, in parallel (held in cell_map), then the boundary cells in
-     * order. */
+    /* The cell kinds first, in parallel word by word, then the boundary cells in order. */
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
 #endif
-    for (int64_t k = -1; k < d->n[2]; k++)
-        for (int64_t j = -1; j < d->n[1]; j++)
-            for (int64_t i = -1; i < d->n[0]; i++) {
-                int mask = 0;
-                for (int c = 0; c < 8; c++)
-                    mask |= d->in[vm__dc_pidx(d, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))]
-                            << c;
-                d->cell_map[vm__dc_cidx(d, i, j, k)] = mask;
-            }
-    for (int64_t k = -1; k < d->n[2]; k++)
-        for (int64_t j = -1; j < d->n[1]; j++)
-            for (int64_t i = -1; i < d->n[0]; i++) {
-                int64_t ci = vm__dc_cidx(d, i, j, k);
-                int mask = d->cell_map[ci];
-                if (mask == 0) {
-                    d->cell_map[ci] = CELL_OUT;
-                    continue;
-                }
-                if (mask == 0xff) {
-                    d->cell_map[ci] = CELL_IN;
-                    st->interior_cells++;
-                    continue;
-                }
-                vm_status s =
-                    vm__grow((void **)&d->bc, &d->bc_cap, d->nbc + 1, sizeof(bcell), err);
-                if (s) return s;
-                bcell *b = &d->bc[d->nbc];
-                b->cell = ci;
-                analyse_cell(mask, b);
-                b->base = (int32_t)reps;
-                reps += b->npatch + b->special;
-                if (reps > (size_t)INT32_MAX)
-                    return vm_error_set(err, VM_ERR_NOMEM, "mesh: too many surface vertices");
-                st->special_cells += b->special;
-                d->cell_map[ci] = (int32_t)d->nbc++;
-                for (int a = 0; a < 3; a++) { /* the cell's upper face along a */
-                    const int *fc = vm__dc_face_corner[2 * a + 1];
-                    int q0 = (mask >> fc[0]) & 1, q1 = (mask >> fc[1]) & 1;
-                    int q2 = (mask >> fc[2]) & 1, q3 = (mask >> fc[3]) & 1;
-                    if (q0 == q2 && q1 == q3 && q0 != q1) {
-                        s = vm__grow((void **)&d->amb, &d->amb_cap, d->namb + 1,
-                                     sizeof(int64_t), err);
-                        if (s) return s;
-                        d->amb[d->namb++] = 3 * ci + a;
-                    }
+    for (int64_t w = 0; w < nw; w++) {
+        int64_t c[3], first = 64 * w;
+        unflatten(first, d->C, c);
+        uint64_t wb = 0, wi = 0;
+        for (int b = 0; b < 64 && first + b < (int64_t)nc; b++, step_coords(c, d->C)) {
+            int mask = cell_mask(d, c[0] - 1, c[1] - 1, c[2] - 1);
+            if (mask == 0xff) wi |= (uint64_t)1 << b;
+            else if (mask) wb |= (uint64_t)1 << b;
+        }
+        d->bnd[w] = wb;
+        d->inner[w] = wi;
+    }
+    uint32_t before = 0;
+    for (int64_t w = 0; w < nw; w++) {
+        d->bnd_rank[w] = before;
+        st->interior_cells += (size_t)__builtin_popcountll(d->inner[w]);
+        for (uint64_t bits = d->bnd[w]; bits; bits &= bits - 1) {
+            int64_t ci = 64 * w + __builtin_ctzll(bits), cm[3];
+            vm__dc_cell_coords(d, ci, cm);
+            int mask = cell_mask(d, cm[0], cm[1], cm[2]);
+            vm_status s =
+                vm__grow((void **)&d->bc, &d->bc_cap, d->nbc + 1, sizeof(bcell), err);
+            if (s) return s;
+            bcell *b = &d->bc[d->nbc];
+            b->cell = ci;
+            analyse_cell(mask, b);
+            b->base = (int32_t)reps;
+            reps += b->npatch + b->special;
+            if (reps > (size_t)INT32_MAX || d->nbc >= (size_t)INT32_MAX)
+                return vm_error_set(err, VM_ERR_NOMEM, "mesh: too many surface vertices");
+            st->special_cells += b->special;
+            d->nbc++;
+            for (int a = 0; a < 3; a++) { /* the cell's upper face along a */
+                const int *fc = vm__dc_face_corner[2 * a + 1];
+                int q0 = (mask >> fc[0]) & 1, q1 = (mask >> fc[1]) & 1;
+                int q2 = (mask >> fc[2]) & 1, q3 = (mask >> fc[3]) & 1;
+                if (q0 == q2 && q1 == q3 && q0 != q1) {
+                    s = vm__grow((void **)&d->amb, &d->amb_cap, d->namb + 1, sizeof(int64_t),
+                                 err);
+                    if (s) return s;
+                    d->amb[d->namb++] = 3 * ci + a;
                 }
             }
+        }
+        before = (uint32_t)d->nbc;
+    }
     st->boundary_cells = d->nbc;
     /* An ambiguous face needs its own vertices only when both cells put its two segments
      * in one patch: then the two cells' vertices would be joined twice. */
@@ -208,8 +254,8 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
         vm__dc_cell_coords(d, d->amb[fi] / 3, cm);
         memcpy(um, cm, sizeof um);
         um[a]++;
-        const bcell *lo = &d->bc[d->cell_map[d->amb[fi] / 3]];
-        const bcell *up = &d->bc[d->cell_map[vm__dc_cidx(d, um[0], um[1], um[2])]];
+        const bcell *lo = &d->bc[vm__dc_code(d, d->amb[fi] / 3)];
+        const bcell *up = &d->bc[vm__dc_code(d, vm__dc_cidx(d, um[0], um[1], um[2]))];
         const int *fc = vm__dc_face_corner[2 * a + 1];
         int e0 = vm__dc_edge_of[fc[0]][fc[1]], e2 = vm__dc_edge_of[fc[2]][fc[3]];
         int u0 = vm__dc_edge_of[fc[0] ^ (1 << a)][fc[1] ^ (1 << a)];
@@ -232,7 +278,7 @@ static void edge_crossing(const dc *d, const int64_t p0[3], const int64_t p1[3],
                           double nrm[3]) {
     const vm__grid *g = d->g;
     double f0 = vm__dc_fval(d, p0[0], p0[1], p0[2]), f1 = vm__dc_fval(d, p1[0], p1[1], p1[2]);
-    int in0 = d->in[vm__dc_pidx(d, p0[0], p0[1], p0[2])];
+    int in0 = vm__dc_in(d, vm__dc_pidx(d, p0[0], p0[1], p0[2]));
     double fo = in0 ? f1 : f0;
     double bound = (g->has_hi && fo > g->hi) ? g->hi : g->lo;
     double t = (f1 != f0) ? (bound - f0) / (f1 - f0) : 0.5;
@@ -347,7 +393,7 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
         for (int q = 0; q < 4; q++)
             for (int k = 0; k < 3; k++)
                 pc[q][k] = cm[k] + ((fc[q] >> k) & 1);
-        int first = d->in[vm__dc_pidx(d, pc[0][0], pc[0][1], pc[0][2])] ? 0 : 1;
+        int first = vm__dc_in(d, vm__dc_pidx(d, pc[0][0], pc[0][1], pc[0][2])) ? 0 : 1;
         for (int h = 0; h < 2; h++) {
             int q = first + 2 * h;
             double x0[3], x1[3], nrm[3];
@@ -450,13 +496,6 @@ int64_t vm__dc_rep_for_edge(const dc *d, const bcell *b, int e) {
     return N + b->base + b->corner_patch[vm__dc_edge_c0[e]];
 }
 
-static int cell_mask(const dc *d, int64_t i, int64_t j, int64_t k) {
-    int mask = 0;
-    for (int c = 0; c < 8; c++)
-        mask |= d->in[vm__dc_pidx(d, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))] << c;
-    return mask;
-}
-
 static int has_ambiguous_face(int mask) {
     for (int f = 0; f < 6; f++) {
         const int *fc = vm__dc_face_corner[f];
@@ -500,15 +539,15 @@ static int in_material(const dc *d, double f) {
 static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double m[3]) {
     int mask = 0;
     for (int c = 0; c < 8; c++)
-        mask |= d->in[vm__dc_pidx(d, o[0] + 2 * (c & 1), o[1] + 2 * ((c >> 1) & 1),
-                                  o[2] + 2 * (c >> 2))]
+        mask |= vm__dc_in(d, vm__dc_pidx(d, o[0] + 2 * (c & 1), o[1] + 2 * ((c >> 1) & 1),
+                                         o[2] + 2 * (c >> 2)))
                 << c;
     if (mask == 0 || mask == 0xff || has_ambiguous_face(mask)) return 0;
     int s[3][3][3];
     for (int k = 0; k < 3; k++)
         for (int j = 0; j < 3; j++)
             for (int i = 0; i < 3; i++)
-                s[i][j][k] = d->in[vm__dc_pidx(d, o[0] + i, o[1] + j, o[2] + k)];
+                s[i][j][k] = vm__dc_in(d, vm__dc_pidx(d, o[0] + i, o[1] + j, o[2] + k));
     bcell cb;
     analyse_cell(mask, &cb);
     if (cb.npatch != 1 || cb.special) return 0;
@@ -561,7 +600,7 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
     for (int64_t k = o[2] - 1; k <= o[2] + 2; k++) /* the cells of the block and around it */
         for (int64_t j = o[1] - 1; j <= o[1] + 2; j++)
             for (int64_t i = o[0] - 1; i <= o[0] + 2; i++) {
-                int32_t code = d->cell_map[vm__dc_cidx(d, i, j, k)];
+                int32_t code = vm__dc_code(d, vm__dc_cidx(d, i, j, k));
                 if (code < 0) continue;
                 if (d->bc[code].special || has_ambiguous_face(cell_mask(d, i, j, k))) return 0;
             }
@@ -654,11 +693,9 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
  * where block_mergeable allows. Blocks keep one cell away from the padding. */
 static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
     size_t nc = (size_t)(d->C[0] * d->C[1] * d->C[2]);
-    d->coarse_of = malloc(nc * sizeof *d->coarse_of);
-    if (!d->coarse_of) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-    for (size_t i = 0; i < nc; i++)
-        d->coarse_of[i] = -1;
-    size_t cap = 0;
+    d->coarse = bits_new(nc);
+    if (!d->coarse) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    size_t cap = 0, key_cap = 0;
     /* block_mergeable reads only the classification: the blocks are tested in parallel,
      * then the mergeable ones are taken in order (their vertex recomputed). */
     int64_t nb[3];
@@ -687,6 +724,9 @@ static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
                 vm_status s = vm__grow((void **)&d->coarse_org, &d->coarse_cap, d->ncoarse + 1,
                                        3 * sizeof(int64_t), err);
                 if (!s)
+                    s = vm__grow((void **)&d->coarse_key, &key_cap, d->ncoarse + 1,
+                                 sizeof(int64_t), err);
+                if (!s)
                     s = vm__grow((void **)coarse_pos, &cap, d->ncoarse + 1, 6 * sizeof(double),
                                  err);
                 if (s) {
@@ -699,9 +739,15 @@ static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
                     (*coarse_pos)[6 * d->ncoarse + 3 + (size_t)a] =
                         vm__dc_coord(d, o[a], a) + m[a];
                 }
+                /* blocks come in raster order of their lowest cell: the keys increase */
+                d->coarse_key[d->ncoarse] = vm__dc_cidx(d, i, j, k);
                 for (int c = 0; c < 8; c++)
-                    d->coarse_of[vm__dc_cidx(d, i + (c & 1), j + ((c >> 1) & 1),
-                                             k + (c >> 2))] = (int32_t)d->ncoarse;
+                    vm__dc_set_bit(d->coarse, vm__dc_cidx(d, i + (c & 1), j + ((c >> 1) & 1),
+                                                          k + (c >> 2)));
+                if (d->ncoarse >= (size_t)INT32_MAX) {
+                    free(ok);
+                    return vm_error_set(err, VM_ERR_NOMEM, "mesh: too many coarse leaves");
+                }
                 d->ncoarse++;
             }
     free(ok);
@@ -711,35 +757,41 @@ static vm_status merge_boundary(dc *d, double **coarse_pos, vm_error *err) {
     return VM_OK;
 }
 
+int32_t vm__dc_coarse_find(const dc *d, int64_t ci) {
+    int64_t c[3];
+    vm__dc_cell_coords(d, ci, c);
+    int64_t key = vm__dc_cidx(d, c[0] & ~(int64_t)1, c[1] & ~(int64_t)1, c[2] & ~(int64_t)1);
+    size_t lo = 0, hi = d->ncoarse;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (d->coarse_key[mid] < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < d->ncoarse && d->coarse_key[lo] == key ? (int32_t)lo : -1;
+}
+
 static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error *err) {
     int64_t nc[3] = {d->n[0] - 1, d->n[1] - 1, d->n[2] - 1};
-    size_t n = (size_t)(nc[0] * nc[1] * nc[2]);
-    uint8_t *kind = malloc(n ? n : 1);
-    int8_t *blevel = d->ncoarse ? malloc(n ? n : 1) : NULL; /* the octree takes it */
-    if (!kind || (d->ncoarse && !blevel)) {
-        free(kind);
-        free(blevel);
-        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
-    }
+    vm_status s = vm__octree_init(&d->oct, nc, err);
+    if (s) return s;
+    /* z layers start on a byte of the octree's codes: filled in parallel */
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
 #endif
     for (int64_t k = 0; k < nc[2]; k++)
         for (int64_t j = 0; j < nc[1]; j++)
             for (int64_t i = 0; i < nc[0]; i++) {
-                size_t idx = (size_t)(i + nc[0] * (j + nc[1] * k));
                 int64_t ci = vm__dc_cidx(d, i, j, k);
-                int32_t code = d->cell_map[ci];
-                int coarse = vm__dc_coarse(d, ci) >= 0;
-                if (blevel) blevel[idx] = (int8_t)coarse;
-                kind[idx] = coarse             ? VM_KIND_BOUNDARY
-                              : code == CELL_IN  ? VM_KIND_INTERIOR
-                              : code == CELL_OUT ? VM_KIND_EXTERIOR
-                                                 : VM_KIND_BOUNDARY;
+                int code = d->coarse && vm__dc_bit(d->coarse, ci) ? VM_OCT_COARSE
+                           : vm__dc_bit(d->bnd, ci)               ? VM_OCT_FINE
+                           : vm__dc_bit(d->inner, ci)             ? VM_OCT_LEVEL
+                                                                  : VM_OCT_NONE;
+                if (code != VM_OCT_NONE) vm__octree_put(&d->oct, (int64_t[3]){i, j, k}, code);
             }
     size_t leaves = 0;
-    vm_status s = vm__octree_build(&d->oct, nc, kind, blevel, max_level, &leaves, err);
-    free(kind);
+    s = vm__octree_build(&d->oct, max_level, &leaves, err);
     d->adaptive = s == VM_OK;
     st->interior_cells = leaves;
     return s;
@@ -747,7 +799,7 @@ static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error 
 
 void vm__dc_free(dc *d) {
     free(d->in);
-    free(d->cell_map);
+    free_cells(d);
     free(d->bc);
     free(d->qpos);
     free(d->mpos);
@@ -758,7 +810,8 @@ void vm__dc_free(dc *d) {
     free(d->amb);
     free(d->centre);
     free(d->coarse_org);
-    free(d->coarse_of);
+    free(d->coarse);
+    free(d->coarse_key);
     vm__octree_free(&d->oct);
     free(d->tets);
     free(d->src);
@@ -776,8 +829,8 @@ vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_
             for (int c = 0; c < 8; c++) {
                 int64_t p =
                     vm__dc_pidx(d, cm[0] + (c & 1), cm[1] + ((c >> 1) & 1), cm[2] + (c >> 2));
-                if (!d->in[p]) { /* the first of the two antipodal outside corners */
-                    d->in[p] = 1;
+                if (!vm__dc_in(d, p)) { /* the first of the two antipodal outside corners */
+                    vm__dc_set_bit(d->in, p);
                     flips++;
                     break;
                 }
@@ -791,8 +844,8 @@ vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_
             for (int q = 0; q < 4; q++) {
                 int64_t p = vm__dc_pidx(d, cm[0] + (fc[q] & 1), cm[1] + ((fc[q] >> 1) & 1),
                                         cm[2] + (fc[q] >> 2));
-                if (!d->in[p]) {
-                    d->in[p] = 1;
+                if (!vm__dc_in(d, p)) {
+                    vm__dc_set_bit(d->in, p);
                     flips++;
                     break;
                 }
@@ -800,8 +853,7 @@ vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_
         }
         if (!flips) return VM_OK;
         *flipped += flips;
-        free(d->cell_map);
-        d->cell_map = NULL;
+        free_cells(d);
         d->nbc = d->namb = 0;
         st->special_cells = st->interior_cells = st->boundary_cells = 0;
         vm_status s = find_cells(d, st, err);

@@ -202,6 +202,9 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     g.progress_user = o->progress_user;
 
     vm__tet_soup soup;
+    int32_t *map = NULL;
+    uint64_t *used_bits = NULL;
+    size_t *used_rank = NULL;
     memset(&soup, 0, sizeof soup);
     s = g.hexes ? vm__dual_contour_hexes(&g, &soup, &st, err)
                 : vm__dual_contour_tets(&g, &soup, &st, err);
@@ -221,38 +224,65 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
         return s;
     }
 
-    /* Number the used vertices in order of first use; map to world coordinates. */
-    size_t nl = (size_t)soup.nlattice;
-    int32_t *map = malloc((nl + soup.nreps + 1) * sizeof(int32_t));
+    /* Number the used vertices in order of first use; map to world coordinates. The used
+     * grid points are a bit set with a rank per word (a grid point costs 0.25 bytes, not a
+     * 4-byte map entry), the numbers are kept for used vertices only. */
+    size_t nl = (size_t)soup.nlattice, nw = nl / 64 + 1, nn = (size_t)soup.nodes;
+    used_bits = calloc(nw, sizeof *used_bits);
+    used_rank = malloc(nw * sizeof *used_rank);
+    if (!used_bits || !used_rank) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
+    }
+    for (size_t t = 0; t < nn * soup.ntets; t++) {
+        int64_t id = soup.tets[t];
+        if ((size_t)id < nl) used_bits[id >> 6] |= (uint64_t)1 << (id & 63);
+    }
+    size_t nused_lattice = 0;
+    for (size_t w = 0; w < nw; w++) {
+        used_rank[w] = nused_lattice;
+        nused_lattice += (size_t)__builtin_popcountll(used_bits[w]);
+    }
+    map = malloc((nused_lattice + soup.nreps + 1) * sizeof *map);
     if (!map) {
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
         goto done;
     }
-    for (size_t i = 0; i < nl + soup.nreps; i++) map[i] = -1;
-    size_t used = 0, nn = (size_t)soup.nodes;
-    for (size_t t = 0; t < nn * soup.ntets; t++)
-        if (map[soup.tets[t]] < 0) map[soup.tets[t]] = (int32_t)used++;
+    for (size_t i = 0; i < nused_lattice + soup.nreps; i++) map[i] = -1;
+#define MAP_SLOT(id)                                                                       \
+    ((size_t)(id) < nl ? used_rank[(id) >> 6] + (size_t)__builtin_popcountll(               \
+                                                   used_bits[(id) >> 6] &                  \
+                                                   (((uint64_t)1 << ((id) & 63)) - 1))     \
+                       : nused_lattice + ((size_t)(id) - nl))
+    size_t used = 0;
+    for (size_t t = 0; t < nn * soup.ntets; t++) {
+        size_t slot = MAP_SLOT(soup.tets[t]);
+        if (map[slot] < 0) map[slot] = (int32_t)used++;
+    }
     s = vm_mesh_reserve(mesh, used, soup.ntets, err);
     if (s) goto done;
     mesh->npoints = used;
-    for (size_t id = 0; id < nl + soup.nreps; id++) {
-        if (map[id] < 0) continue;
-        double ijk[3];
-        if (id < nl) {
+    for (size_t w = 0; w < nw; w++)
+        for (uint64_t bits = used_bits[w]; bits; bits &= bits - 1) {
+            size_t id = 64 * w + (size_t)__builtin_ctzll(bits);
+            double ijk[3];
             ijk[0] = (double)(id % (size_t)g.n[0]) * step[0];
             ijk[1] = (double)((id / (size_t)g.n[0]) % (size_t)g.n[1]) * step[1];
             ijk[2] = (double)((int64_t)(id / (size_t)(g.n[0] * g.n[1])) + g.off[2]) * step[2];
-        } else {
-            for (int a = 0; a < 3; a++) ijk[a] = soup.rep_pos[3 * (id - nl) + a] * step[a];
+            vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)map[MAP_SLOT(id)]);
         }
-        vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)map[id]);
+    for (size_t r = 0; r < soup.nreps; r++) {
+        if (map[nused_lattice + r] < 0) continue;
+        double ijk[3];
+        for (int a = 0; a < 3; a++) ijk[a] = soup.rep_pos[3 * r + a] * step[a];
+        vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)map[nused_lattice + r]);
     }
     /* A left-handed frame mirrors every element: swap nodes so volumes stay positive. */
     int flip = vm_volume_frame_determinant(v) < 0;
     static const int tet_swap[][2] = {{1, 2}}, hex_swap[][2] = {{1, 3}, {5, 7}};
     for (size_t t = 0; t < soup.ntets; t++) {
         vm_index *c = mesh->cells + nn * t;
-        for (size_t k = 0; k < nn; k++) c[k] = (vm_index)map[soup.tets[nn * t + k]];
+        for (size_t k = 0; k < nn; k++) c[k] = (vm_index)map[MAP_SLOT(soup.tets[nn * t + k])];
         if (flip) {
             const int(*sw)[2] = nn == 8 ? hex_swap : tet_swap;
             int nsw = nn == 8 ? 2 : 1;
@@ -267,8 +297,11 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     mesh->ncells = soup.ntets;
     st.seconds = vm__now() - t0;
     if (stats) *stats = st;
+#undef MAP_SLOT
 done:
     free(map);
+    free(used_bits);
+    free(used_rank);
     free(soup.tets);
     free(soup.rep_pos);
     if (s) vm_mesh_free(mesh);

@@ -33,22 +33,56 @@ typedef struct vm__tet_soup {
     double *rep_pos;
 } vm__tet_soup;
 
-/* Octree of interior cells over the real grid cells (nc = n - 1 per axis). */
+/* Octree of interior cells over the real grid cells (nc = n - 1 per axis), one 4-bit code
+ * per cell: VM_OCT_NONE (exterior), VM_OCT_FINE / VM_OCT_COARSE (boundary leaf of level
+ * 0 / 1: an aligned 2x2x2 block), or VM_OCT_LEVEL + l (interior leaf of level l <= 12).
+ * While it is built the codes are dense, two cells a byte (rows start on a byte, so z
+ * layers never share one); vm__octree_build then stores them per aligned block of 8^3
+ * cells: one code for a block whose cells agree (most of them: outside, or inside large
+ * leaves), a 256-byte page of codes for the others (near the surface). */
 enum { VM_KIND_EXTERIOR = 0, VM_KIND_BOUNDARY = 1, VM_KIND_INTERIOR = 2 };
 enum { VM_LEAF_BOUNDARY = -1, VM_LEAF_NONE = -2 };
+enum { VM_OCT_NONE = 0, VM_OCT_FINE = 1, VM_OCT_COARSE = 2, VM_OCT_LEVEL = 3 };
+enum { VM_OCT_PAGE = 16 }; /* block entries >= this: VM_OCT_PAGE + page index */
 typedef struct vm__octree {
     int64_t nc[3];
-    int8_t *lvl;  /* per cell: level of its interior leaf, VM_LEAF_BOUNDARY or VM_LEAF_NONE */
-    int8_t *blvl; /* per cell: level of its boundary leaf (0 or 1; NULL: all 0) */
+    int64_t row;     /* dense codes: bytes per row of cells, (nc[0] + 1) / 2 */
+    uint8_t *code;   /* dense codes, row * nc[1] * nc[2] bytes (NULL once in blocks) */
+    int64_t nb[3];   /* blocks per axis */
+    uint32_t *block; /* per block: its code, or VM_OCT_PAGE + page */
+    uint8_t *pages;  /* 256 bytes per page: codes of 8^3 cells, two a byte, x fastest */
 } vm__octree;
 
-/* kind: one VM_KIND_* per cell, x fastest; blevel (NULL: all 0): per boundary cell the
- * level of its boundary leaf (1: an aligned 2x2x2 block), taken over (freed with the octree,
- * also when the build fails: one grid-sized array less at the peak). Neighbouring leaves
+static inline size_t vm__octree_byte(const vm__octree *o, const int64_t c[3], int *shift) {
+    *shift = (int)(c[0] & 1) * 4;
+    return (size_t)((c[0] >> 1) + o->row * (c[1] + o->nc[1] * c[2]));
+}
+static inline int vm__octree_get(const vm__octree *o, const int64_t c[3]) {
+    if (o->code) {
+        int sh;
+        size_t b = vm__octree_byte(o, c, &sh);
+        return (o->code[b] >> sh) & 15;
+    }
+    uint32_t e = o->block[(c[0] >> 3) + o->nb[0] * ((c[1] >> 3) + o->nb[1] * (c[2] >> 3))];
+    if (e < VM_OCT_PAGE) return (int)e;
+    size_t in = (size_t)((c[0] & 7) + 8 * ((c[1] & 7) + 8 * (c[2] & 7)));
+    return (o->pages[256 * (size_t)(e - VM_OCT_PAGE) + in / 2] >> (4 * (in & 1))) & 15;
+}
+/* Dense codes only (before vm__octree_build returns). */
+static inline void vm__octree_put(vm__octree *o, const int64_t c[3], int code) {
+    int sh;
+    size_t b = vm__octree_byte(o, c, &sh);
+    o->code[b] = (uint8_t)((o->code[b] & ~(15 << sh)) | (code << sh));
+}
+
+/* Allocates o over nc cells, every code VM_OCT_NONE; the caller then puts VM_OCT_FINE or
+ * VM_OCT_COARSE on boundary cells and VM_OCT_LEVEL on interior cells (disjoint z layers
+ * may be filled in parallel). */
+vm_status vm__octree_init(vm__octree *o, const int64_t nc[3], vm_error *err);
+/* Builds the interior leaves from the codes put after vm__octree_init: neighbouring leaves
  * differ by at most two levels; 2x2x2 interior leaves are returned to single cells.
- * [out] leaves: interior leaves. */
-vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *kind,
-                           int8_t *blevel, int max_level, size_t *leaves, vm_error *err);
+ * max_level <= 10. [out] leaves: interior leaves. On failure o stays to be freed. */
+vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_error *err);
 /* Edge length in cells of the leaf holding cell c (interior or boundary), 0 for exterior
  * cells and cells out of range. */
 int64_t vm__octree_size(const vm__octree *o, const int64_t c[3]);

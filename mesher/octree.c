@@ -7,10 +7,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int64_t cell_index(const vm__octree *o, const int64_t c[3]) {
-    return c[0] + o->nc[0] * (c[1] + o->nc[1] * c[2]);
-}
-
 static int in_range(const vm__octree *o, const int64_t c[3]) {
     for (int a = 0; a < 3; a++)
         if (c[a] < 0 || c[a] >= o->nc[a]) return 0;
@@ -19,18 +15,19 @@ static int in_range(const vm__octree *o, const int64_t c[3]) {
 
 int vm__octree_leaf(const vm__octree *o, const int64_t c[3], int64_t origin[3]) {
     if (!in_range(o, c)) return VM_LEAF_NONE;
-    int l = o->lvl[cell_index(o, c)];
-    if (l < 0) {
+    int code = vm__octree_get(o, c);
+    if (code < VM_OCT_LEVEL) {
         memcpy(origin, c, 3 * sizeof(int64_t));
-        return l;
+        return code == VM_OCT_NONE ? VM_LEAF_NONE : VM_LEAF_BOUNDARY;
     }
+    int l = code - VM_OCT_LEVEL;
     for (int a = 0; a < 3; a++)
         origin[a] = c[a] & ~(((int64_t)1 << l) - 1);
     return l;
 }
 
 static int boundary_level(const vm__octree *o, const int64_t c[3]) {
-    return o->blvl ? o->blvl[cell_index(o, c)] : 0;
+    return vm__octree_get(o, c) == VM_OCT_COARSE;
 }
 
 int64_t vm__octree_size(const vm__octree *o, const int64_t c[3]) {
@@ -64,51 +61,111 @@ int vm__octree_is_vertex(const vm__octree *o, const int64_t p[3]) {
  * as level 0, exterior cells do not count. */
 static int neighbour_level(const vm__octree *o, const int64_t q[3]) {
     if (!in_range(o, q)) return 99;
-    int l = o->lvl[cell_index(o, q)];
-    if (l == VM_LEAF_BOUNDARY) return boundary_level(o, q);
-    if (l < 0) return 99;
-    return l;
+    int code = vm__octree_get(o, q);
+    if (code == VM_OCT_NONE) return 99;
+    if (code < VM_OCT_LEVEL) return code == VM_OCT_COARSE;
+    return code - VM_OCT_LEVEL;
 }
 
-vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *kind,
-                           int8_t *blevel, int max_level, size_t *leaves, vm_error *err) {
+vm_status vm__octree_init(vm__octree *o, const int64_t nc[3], vm_error *err) {
     memset(o, 0, sizeof *o);
     memcpy(o->nc, nc, sizeof o->nc);
-    size_t n = (size_t)(nc[0] * nc[1] * nc[2]);
-    o->lvl = malloc(n ? n : 1);
-    int8_t *full = malloc(n ? n : 1);
-    o->blvl = blevel;
-    if (!o->lvl || !full) {
-        free(full);
-        vm__octree_free(o);
-        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+    o->row = (nc[0] + 1) / 2;
+    size_t bytes = (size_t)(o->row * nc[1] * nc[2]);
+    o->code = calloc(bytes ? bytes : 1, 1);
+    if (!o->code) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+    return VM_OK;
+}
+
+/* Moves the dense codes into blocks of 8^3 cells: one code per uniform block, a page for
+ * the others (cells beyond the grid in a border block count as agreeing). */
+static vm_status to_blocks(vm__octree *o, vm_error *err) {
+    const int64_t *nc = o->nc;
+    for (int a = 0; a < 3; a++)
+        o->nb[a] = (nc[a] + 7) / 8;
+    int64_t nblocks = o->nb[0] * o->nb[1] * o->nb[2];
+    o->block = malloc((size_t)(nblocks ? nblocks : 1) * sizeof *o->block);
+    if (!o->block) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+    /* first the uniform blocks (entry: the code) and the others (entry: VM_OCT_PAGE) */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (int64_t b = 0; b < nblocks; b++) {
+        int64_t org[3] = {8 * (b % o->nb[0]), 8 * ((b / o->nb[0]) % o->nb[1]),
+                          8 * (b / (o->nb[0] * o->nb[1]))};
+        int first = vm__octree_get(o, org), uniform = 1;
+        for (int64_t k = org[2]; k < org[2] + 8 && k < nc[2] && uniform; k++)
+            for (int64_t j = org[1]; j < org[1] + 8 && j < nc[1] && uniform; j++)
+                for (int64_t i = org[0]; i < org[0] + 8 && i < nc[0]; i++)
+                    if (vm__octree_get(o, (int64_t[3]){i, j, k}) != first) {
+                        uniform = 0;
+                        break;
+                    }
+        o->block[b] = uniform ? (uint32_t)first : VM_OCT_PAGE;
     }
-    /* full[c] = largest l such that the aligned cube of 2^l cells at origin c is inside */
-    /* Every loop over cells below reads and writes disjoint cells per z layer (or per
-     * level, reading the level below): parallel and the same for any thread count. */
+    size_t npages = 0;
+    for (int64_t b = 0; b < nblocks; b++)
+        if (o->block[b] >= VM_OCT_PAGE) {
+            if (npages >= (size_t)UINT32_MAX - VM_OCT_PAGE)
+                return vm_error_set(err, VM_ERR_NOMEM, "mesh: octree too large");
+            o->block[b] = VM_OCT_PAGE + (uint32_t)npages++;
+        }
+    o->pages = calloc(npages ? npages : 1, 256);
+    if (!o->pages) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
 #endif
-    for (size_t i = 0; i < n; i++)
-        full[i] = kind[i] == VM_KIND_INTERIOR ? 0 : -1;
+    for (int64_t b = 0; b < nblocks; b++) {
+        if (o->block[b] < VM_OCT_PAGE) continue;
+        uint8_t *pg = o->pages + 256 * (size_t)(o->block[b] - VM_OCT_PAGE);
+        int64_t org[3] = {8 * (b % o->nb[0]), 8 * ((b / o->nb[0]) % o->nb[1]),
+                          8 * (b / (o->nb[0] * o->nb[1]))};
+        for (int64_t k = 0; k < 8 && org[2] + k < nc[2]; k++)
+            for (int64_t j = 0; j < 8 && org[1] + j < nc[1]; j++)
+                for (int64_t i = 0; i < 8 && org[0] + i < nc[0]; i++) {
+                    int code = vm__octree_get(o, (int64_t[3]){org[0] + i, org[1] + j, org[2] + k});
+                    size_t in = (size_t)(i + 8 * (j + 8 * k));
+                    pg[in / 2] |= (uint8_t)(code << (4 * (in & 1)));
+                }
+    }
+    free(o->code);
+    o->code = NULL;
+    return VM_OK;
+}
+
+vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_error *err) {
+    const int64_t *nc = o->nc;
+    /* full: per cell 1 + the largest l such that the aligned cube of 2^l cells at origin c
+     * is inside (0: not inside), in the layout of o */
+    vm__octree full;
+    vm_status s = vm__octree_init(&full, nc, err);
+    if (s) return s;
+    /* Every loop over cells below reads and writes disjoint z layers (or per level, reading
+     * the level below): parallel and the same for any thread count. */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (int64_t z = 0; z < nc[2]; z++)
+        for (int64_t y = 0; y < nc[1]; y++)
+            for (int64_t x = 0; x < nc[0]; x++) {
+                int64_t c[3] = {x, y, z};
+                if (vm__octree_get(o, c) == VM_OCT_LEVEL) vm__octree_put(&full, c, 1);
+            }
     for (int l = 1; l <= max_level; l++) {
-        int64_t s = (int64_t)1 << l, h = s / 2;
+        int64_t s2 = (int64_t)1 << l, h = s2 / 2;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
 #endif
-        for (int64_t z = 0; z < nc[2] - s + 1; z += s)
-            for (int64_t y = 0; y + s <= nc[1]; y += s)
-                for (int64_t x = 0; x + s <= nc[0]; x += s) {
+        for (int64_t z = 0; z < nc[2] - s2 + 1; z += s2)
+            for (int64_t y = 0; y + s2 <= nc[1]; y += s2)
+                for (int64_t x = 0; x + s2 <= nc[0]; x += s2) {
                     int ok = 1;
                     for (int k = 0; k < 8 && ok; k++) {
                         int64_t c[3] = {x + h * (k & 1), y + h * ((k >> 1) & 1),
                                         z + h * (k >> 2)};
-                        ok = full[cell_index(o, c)] >= l - 1;
+                        ok = vm__octree_get(&full, c) >= l;
                     }
-                    if (ok) {
-                        int64_t c[3] = {x, y, z};
-                        full[cell_index(o, c)] = (int8_t)l;
-                    }
+                    if (ok) vm__octree_put(&full, (int64_t[3]){x, y, z}, l + 1);
                 }
     }
     /* leaves: the largest inside cube holding each cell */
@@ -119,19 +176,15 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
                 int64_t c[3] = {x, y, z};
-                size_t ci = (size_t)cell_index(o, c);
-                if (kind[ci] != VM_KIND_INTERIOR) {
-                    o->lvl[ci] = kind[ci] == VM_KIND_BOUNDARY ? VM_LEAF_BOUNDARY : VM_LEAF_NONE;
-                    continue;
-                }
+                if (vm__octree_get(o, c) != VM_OCT_LEVEL) continue;
                 int l = max_level;
                 for (; l > 0; l--) {
                     int64_t m = ~(((int64_t)1 << l) - 1), org[3] = {x & m, y & m, z & m};
-                    if (full[cell_index(o, org)] >= l) break;
+                    if (vm__octree_get(&full, org) >= l + 1) break;
                 }
-                o->lvl[ci] = (int8_t)l;
+                vm__octree_put(o, c, VM_OCT_LEVEL + l);
             }
-    free(full);
+    vm__octree_free(&full);
     /* Balance across faces, edges and corners: split any leaf that touches a leaf more than
      * `grade` levels finer, until nothing changes. */
     /* Neighbouring leaves differ by at most `grade` levels: 2 keeps nearly all the saving of
@@ -149,25 +202,24 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
                     int64_t c[3] = {x, y, z}, org[3];
                     int l = vm__octree_leaf(o, c, org);
                     if (l <= grade || org[0] != x || org[1] != y || org[2] != z) continue;
-                    int64_t s = (int64_t)1 << l;
+                    int64_t sz = (int64_t)1 << l;
                     int split = 0;
-                    for (int64_t k = -1; k <= s && !split; k++)
-                        for (int64_t j = -1; j <= s && !split; j++)
-                            for (int64_t i = -1; i <= s && !split; i++) {
-                                if (i >= 0 && i < s && j >= 0 && j < s && k >= 0 && k < s) {
-                                    i = s - 1; /* skip the inside of the cube */
+                    for (int64_t k = -1; k <= sz && !split; k++)
+                        for (int64_t j = -1; j <= sz && !split; j++)
+                            for (int64_t i = -1; i <= sz && !split; i++) {
+                                if (i >= 0 && i < sz && j >= 0 && j < sz && k >= 0 && k < sz) {
+                                    i = sz - 1; /* skip the inside of the cube */
                                     continue;
                                 }
                                 int64_t q[3] = {x + i, y + j, z + k};
                                 if (neighbour_level(o, q) < l - grade) split = 1;
                             }
                     if (!split) continue;
-                    for (int64_t k = 0; k < s; k++)
-                        for (int64_t j = 0; j < s; j++)
-                            for (int64_t i = 0; i < s; i++) {
-                                int64_t q[3] = {x + i, y + j, z + k};
-                                o->lvl[cell_index(o, q)] = (int8_t)(l - 1);
-                            }
+                    for (int64_t k = 0; k < sz; k++)
+                        for (int64_t j = 0; j < sz; j++)
+                            for (int64_t i = 0; i < sz; i++)
+                                vm__octree_put(o, (int64_t[3]){x + i, y + j, z + k},
+                                               VM_OCT_LEVEL + l - 1);
                     changed = 1;
                 }
     }
@@ -175,21 +227,19 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
      * next to a leaf of its size or larger; its eight cells cost 40. Leaves that would cost
      * more (mostly those with finer neighbours) return to cells. The faces of coarse leaves
      * accept any finer neighbour, so this keeps the mesh conforming. */
-    int8_t *keep = malloc(n ? n : 1);
-    if (!keep) {
-        vm__octree_free(o);
-        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
-    }
-    /* keep is set, and later read, only at the origins of 2x2x2 leaves (even positions) */
+    /* keep: one byte per aligned 2x2x2 block (bytes: blocks of different z layers apart) */
+    const int64_t kb[3] = {(nc[0] + 1) / 2, (nc[1] + 1) / 2, (nc[2] + 1) / 2};
+    uint8_t *keep = malloc((size_t)(kb[0] * kb[1] * kb[2]) + 1);
+    if (!keep) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
 #endif
     for (int64_t z = 0; z < nc[2]; z += 2)
         for (int64_t y = 0; y < nc[1]; y += 2)
             for (int64_t x = 0; x < nc[0]; x += 2) {
-                size_t ci = (size_t)cell_index(o, (int64_t[3]){x, y, z});
-                keep[ci] = 1;
-                if (o->lvl[ci] != 1) continue;
+                size_t bi = (size_t)(x / 2 + kb[0] * (y / 2 + kb[1] * (z / 2)));
+                keep[bi] = 1;
+                if (vm__octree_get(o, (int64_t[3]){x, y, z}) != VM_OCT_LEVEL + 1) continue;
                 int cost = 0;
                 for (int f = 0; f < 6; f++) {
                     int64_t q[3] = {x, y, z};
@@ -197,7 +247,7 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
                     int64_t sz = vm__octree_size(o, q);
                     cost += sz == 1 ? 8 : 3;
                 }
-                keep[ci] = cost < 40;
+                keep[bi] = cost < 40;
             }
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
@@ -205,9 +255,10 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
-                size_t ci = (size_t)cell_index(o, (int64_t[3]){x, y, z});
-                if (o->lvl[ci] != 1) continue;
-                if (!keep[cell_index(o, (int64_t[3]){x & ~1, y & ~1, z & ~1})]) o->lvl[ci] = 0;
+                int64_t c[3] = {x, y, z};
+                if (vm__octree_get(o, c) != VM_OCT_LEVEL + 1) continue;
+                if (!keep[x / 2 + kb[0] * (y / 2 + kb[1] * (z / 2))])
+                    vm__octree_put(o, c, VM_OCT_LEVEL);
             }
     free(keep);
     size_t count = 0;
@@ -217,18 +268,21 @@ vm_status vm__octree_build(vm__octree *o, const int64_t nc[3], const uint8_t *ki
     for (int64_t z = 0; z < nc[2]; z++)
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
-                int l = o->lvl[cell_index(o, (int64_t[3]){x, y, z})];
-                int64_t m = ((int64_t)1 << (l > 0 ? l : 0)) - 1;
-                if (l >= 0 && !(x & m) && !(y & m) && !(z & m)) count++;
+                int code = vm__octree_get(o, (int64_t[3]){x, y, z});
+                if (code < VM_OCT_LEVEL) continue;
+                int l = code - VM_OCT_LEVEL;
+                int64_t m = ((int64_t)1 << l) - 1;
+                if (!(x & m) && !(y & m) && !(z & m)) count++;
             }
     if (leaves) *leaves = count;
-    return VM_OK;
+    return to_blocks(o, err);
 }
 
 void vm__octree_free(vm__octree *o) {
     if (!o) return;
-    free(o->lvl);
-    free(o->blvl);
-    o->lvl = NULL;
-    o->blvl = NULL;
+    free(o->code);
+    free(o->block);
+    free(o->pages);
+    o->code = o->pages = NULL;
+    o->block = NULL;
 }
