@@ -81,7 +81,8 @@ def volmesh_case(cli, vol, label, extra, work, timeout):
     if rc not in (0, 1):
         msg = [ln for ln in se.splitlines() if ln.startswith("volmesh") and ":" in ln
                and not re.match(r"^volmesh: \w+\s+[\d.]+ s$", ln)]
-        row["failed"] = msg[-1] if msg else f"exit {rc}"
+        # the phantom's name, not the work directory it happened to be written in
+        row["failed"] = (msg[-1].replace(vol, os.path.basename(vol)) if msg else f"exit {rc}")
         return row
     js = json.loads(so.strip().splitlines()[-1])
     row.update(wall=wall, cpu=cpu, peak_mb=peak, tets=js["elements"], min_dih=js["min_dihedral"],
