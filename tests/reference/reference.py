@@ -145,7 +145,7 @@ def one_case(args, name, volume_path, iso, expected, case_dir, prepare=None):
     # TetGen on our boundary surface.
     if args.tetgen:
         spts, stris = R.read_vtu_triangles(ours_surf)
-        holes = R.cavity_points(vol, mask)
+        holes = R.surface_cavity_points(spts, stris, ours_vtu, 0.05 * float(vol.spacing.min()))
         smesh = os.path.join(case_dir, "surface.smesh")
         R.write_smesh(smesh, spts, stris, holes)
         a = TETGEN_VOLUME_FACTOR * v_ours / max(n_ours, 1)
@@ -386,6 +386,9 @@ def main():
                     help="cases where volmesh's quality/self-intersection promises are known "
                          "not to hold yet (reported, not failed)")
     ap.add_argument("--from-json", help="only rewrite --markdown from a saved --json")
+    ap.add_argument("--merge-json", help="a saved --json whose inputs this run's --cases "
+                    "replace; --json and --markdown then hold the merged set, and the page "
+                    "names the rerun inputs with their date, version and load")
     args = ap.parse_args()
     if hasattr(sys.stdout, "reconfigure"):
         sys.stdout.reconfigure(encoding="utf-8")
@@ -403,11 +406,13 @@ def main():
 
     results = []
     start = time.monotonic()
+    loads = [os.getloadavg()[0]]  # 1-minute load average, sampled after every input
     for shape in PHANTOMS:
         if wanted and shape not in wanted and f"{shape}-{args.size}" not in wanted:
             continue
         results.append(phantom_case(args, shape))
         settle_shortfalls(results[-1], known_short)
+        loads.append(os.getloadavg()[0])
         print_results(results[-1:])
         sys.stdout.flush()
     if args.data and os.path.isdir(args.data):
@@ -420,6 +425,7 @@ def main():
                 continue
             results.append(one_case(args, name, path, iso, None, os.path.join(args.work, name)))
             settle_shortfalls(results[-1], known_short)
+            loads.append(os.getloadavg()[0])
             print_results(results[-1:])
             sys.stdout.flush()
     elapsed = time.monotonic() - start
@@ -433,10 +439,18 @@ def main():
             "volmesh": " ".join(x for x in (
                 subprocess.run([args.cli, "--version"], stdout=subprocess.PIPE,
                                stderr=subprocess.DEVNULL, text=True).stdout.strip(),
-                subprocess.run(["git", "-C", os.path.dirname(os.path.abspath(__file__)),
-                                "describe", "--always", "--dirty"], stdout=subprocess.PIPE,
-                               stderr=subprocess.DEVNULL, text=True).stdout.strip()) if x),
-            "size": args.size}
+                f"(code at commit {R.source_version()})" if R.source_version() else "") if x),
+            "size": args.size,
+            "load": {"min": min(loads), "median": float(np.median(loads)), "max": max(loads),
+                     "samples": len(loads)}}
+    if args.merge_json:
+        with open(args.merge_json, encoding="utf-8") as fh:
+            saved = json.load(fh)
+        fresh = {r["case"]: r for r in results}
+        rerun = dict(meta, cases=[r["case"] for r in results])
+        meta = dict(saved["meta"])
+        meta["reruns"] = meta.get("reruns", []) + [rerun]
+        results = [fresh.get(r["case"], r) for r in saved["results"]]
     if args.json:
         R.dump(args.json, {"meta": meta, "results": results})
     if args.markdown:
@@ -446,6 +460,106 @@ def main():
         print(f"\n{failures} check(s) failed")
         return 1
     return 0
+
+
+def lower_first(text):
+    return text[:1].lower() + text[1:]
+
+
+def load_text(load):
+    """The machine's load during the run, for the page's opening paragraph."""
+    if not load:
+        return "The load average was not recorded."
+    return (f"The 1-minute load average, sampled after each input, was {load['min']:.1f} to "
+            f"{load['max']:.1f} (median {load['median']:.1f}; this run itself counts about 1), "
+            "so the seconds are those of a shared machine.")
+
+
+def _range(vals, fmt_one):
+    lo, hi = fmt_one(min(vals)), fmt_one(max(vals))
+    return lo if lo == hi else f"{lo}–{hi}"
+
+
+def prose_numbers(results):
+    """The figures the prose of docs/REFERENCE.md quotes, from this run's rows."""
+    def good(row):
+        return row and "failed" not in row
+
+    def topo_ok(res, row):
+        exp = res["expected"]
+        return row["components"] == exp["components"] and row["boundary_euler"] == exp["euler"]
+
+    out = {}
+    tg_same = [(res, res["rows"]["TetGen"], res["rows"]["volmesh"]) for res in results
+               if good(res["rows"].get("TetGen")) and good(res["rows"].get("volmesh"))
+               and topo_ok(res, res["rows"]["TetGen"])]
+    if tg_same:
+        out["@TG_COUNT@"] = _range([t["elements"] / o["elements"] for _, t, o in tg_same],
+                                   lambda x: f"{x:.1f}")
+        out["@TG_DIH@"] = _range([t["min_dihedral"] for _, t, _ in tg_same], lambda x: f"{x:.1f}")
+        out["@TG_BELOW10@"] = _range([t["slivers_10"] for _, t, _ in tg_same], str)
+    heads = []
+    for res in results:
+        t, o = res["rows"].get("TetGen"), res["rows"].get("volmesh")
+        if t is None or not good(o):
+            continue
+        if "failed" in t:
+            why = t["failed"]
+            if why in ("exit -11", "exit 139"):
+                heads.append(f"crashes on {res['case']} (signal 11, a segmentation fault)")
+            elif "terminate called" in why:
+                heads.append(f"aborts on {res['case']} (`{why}`)")
+            else:
+                heads.append(f"fails on {res['case']} (`{why}`)")
+        elif not topo_ok(res, t):
+            heads.append(f"on {res['case']} finishes but meshes another domain ({t['elements']} "
+                         f"tets, {100 * t['volume'] / o['volume']:.2g} % of volmesh's volume, "
+                         f"χ∂ {t['boundary_euler']}, {t['components']} components)")
+    out["@TG_HEADS@"] = "; ".join(heads) if heads else "runs correctly on every input"
+    ph = [res for res in results if res["expected"].get("source") == "phantom"]
+    sh = [res for res in results if res["expected"].get("source") != "phantom"]
+    cg = lambda rs: [r["rows"]["CGAL"] for r in rs if good(r["rows"].get("CGAL"))]  # noqa: E731
+    vm = lambda rs: [r["rows"]["volmesh"] for r in rs  # noqa: E731
+                     if good(r["rows"].get("volmesh"))]
+    if cg(ph):
+        out["@CGAL_DIH_PH@"] = _range([r["min_dihedral"] for r in cg(ph)], lambda x: f"{x:.1f}")
+        h = [r["hausdorff_out"] for r in cg(ph)]
+        out["@CGAL_H@"] = f"median {np.median(h):.2f} ({_range(h, lambda x: f'{x:.2f}')})"
+    if vm(ph):
+        h = [r["hausdorff_out"] for r in vm(ph)]
+        out["@VM_H@"] = _range(h, lambda x: f"{x:.2f}")
+        out["@VM_H_MEDIAN@"] = f"median {np.median(h):.2f} ({out['@VM_H@']})"
+    if cg(sh):
+        out["@CGAL_DIH_SH@"] = _range([r["min_dihedral"] for r in cg(sh)], lambda x: f"{x:.1f}")
+        out["@CGAL_BELOW10_SH@"] = _range([r["slivers_10"] for r in cg(sh)], str)
+    if cg(results) and vm(results):
+        out["@CGAL_RR@"] = _range([r["rr_mean"] for r in cg(results)], lambda x: f"{x:.2f}")
+        out["@VM_RR@"] = _range([r["rr_mean"] for r in vm(results)], lambda x: f"{x:.2f}")
+    lost = []
+    for res in sh:
+        c, o = res["rows"].get("CGAL"), res["rows"].get("volmesh")
+        if good(c) and good(o) and not topo_ok(res, c):
+            lost.append(f"{res['case']} ({c['components']} of {res['expected']['components']} "
+                        f"components, {100 * c['volume'] / o['volume']:.0f} % of the volume)")
+    ours = [r for r in results if good(r["rows"].get("volmesh"))]
+    kept = [r for r in ours if topo_ok(r, r["rows"]["volmesh"])]
+    out["@VM_TOPO@"] = ("on every input" if len(kept) == len(results) else
+                        f"on {len(kept)} of {len(results)} inputs (not on "
+                        + ", ".join(r["case"] for r in results if r not in kept) + ")")
+    best = [r for r in ours
+            if all(r["rows"]["volmesh"]["min_dihedral"] >= r["rows"][m]["min_dihedral"]
+                   for m in ("TetGen", "CGAL") if good(r["rows"].get(m)))]
+    out["@VM_BEST@"] = ("on every input" if len(best) == len(results) else
+                        f"on {len(best)} of {len(results)} inputs")
+    out["@CGAL_LOST@"] = ", ".join(lost) if lost else "none of them"
+    thin = [(abs(1 - r["rows"]["CGAL"]["volume"] / r["rows"]["volmesh"]["volume"]), r)
+            for r in ph if good(r["rows"].get("CGAL")) and good(r["rows"].get("volmesh"))]
+    if thin:
+        d, r = max(thin, key=lambda x: x[0])
+        low = r["rows"]["CGAL"]["volume"] < r["rows"]["volmesh"]["volume"]
+        out["@CGAL_THIN@"] = (f"{r['case']} is the phantom CGAL gets furthest from in volume: "
+                              f"{100 * d:.0f} % {'low' if low else 'high'}")
+    return out
 
 
 def write_markdown(path, results, meta):
@@ -478,9 +592,16 @@ def write_markdown(path, results, meta):
             .replace("@CGAL@", meta["cgal"] or "not available")
             .replace("@SIZE@", str(meta["size"]))
             .replace("@SECONDS@", f"{meta['seconds']:.0f}")
+            .replace("@LOAD@", load_text(meta.get("load")) + "".join(
+                f"\nThe rows of {', '.join(r['cases'])} come from a rerun on {r['date']} with "
+                f"{r.get('volmesh') or 'volmesh'} ({r['seconds']:.0f} s); "
+                + lower_first(load_text(r.get("load"))) for r in meta.get("reruns", [])))
             .replace("@SUMMARY@", "\n".join(summary_lines(results)))
             .replace("@TABLES@", "\n".join(body).rstrip())
             .replace("@PARAMETERS@", "\n".join(params)))
+    for key, value in prose_numbers(results).items():
+        text = text.replace(key, value)
+    text = re.sub(r"@[A-Z0-9_]+@", "(not measured in this run)", text)
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(text)
 

@@ -26,6 +26,7 @@ import gzip
 import json
 import os
 import re
+import subprocess
 
 import numpy as np
 
@@ -521,30 +522,42 @@ def hausdorff(vol, iso, points, tris, iso_surface=None, invert=False):
     return float(d_out.max()), float(d_in.max())
 
 
-def cavity_points(vol, mask):
-    """One outside grid point (the most outside) in each 6-connected region of the outside that
-    does not reach the volume's border: TetGen's hole points for cavities of the material."""
-    labels, count = grid_components(~mask)
-    if count == 0:
+def surface_cavity_points(points, tris, mesh_vtu, step):
+    """TetGen's hole points from volmesh's own boundary surface: one point in each cavity of
+    the material, that is inside each closed shell of the surface that encloses negative
+    volume (the triangles are oriented out of the material, so a cavity's shell faces into
+    it). The point is STEP beyond the centroid of one of the shell's triangles, along its
+    normal, and is kept only where it lies outside the tet mesh mesh_vtu (the largest
+    triangles are tried first)."""
+    tris = np.asarray(tris, dtype=np.int64)
+    if len(tris) == 0:
         return np.zeros((0, 3))
-    border = np.zeros(mask.shape, dtype=bool)
-    border[[0, -1], :, :] = True
-    border[:, [0, -1], :] = True
-    border[:, :, [0, -1]] = True
-    reaching = np.unique(labels[border & ~mask])
-    f = vol.f.astype(np.float64)
+    edges = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
+    vlab = components_from_edges(len(points), edges[:, 0], edges[:, 1])
+    shell = vlab[tris[:, 0]]
+    p0, p1, p2 = points[tris[:, 0]], points[tris[:, 1]], points[tris[:, 2]]
+    cross = np.cross(p1 - p0, p2 - p0)
+    signed = np.einsum("ij,ij->i", p0, cross) / 6.0  # divergence theorem, per triangle
+    area2 = np.linalg.norm(cross, axis=1)
+    import vtk  # only here: the rest of refstats does not need VTK to load
+    reader = vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(mesh_vtu)
+    reader.Update()
+    locator = vtk.vtkStaticCellLocator()
+    locator.SetDataSet(reader.GetOutput())
+    locator.BuildLocator()
+    volume = np.bincount(shell, weights=signed)
     result = []
-    for lab in range(count):
-        if lab in reaching:
-            continue
-        k, j, i = np.nonzero(labels == lab)
-        # deepest = farthest from the material by the field's value
-        values = f[k, j, i]
-        pick = int(np.argmin(values))
-        result.append((i[pick], j[pick], k[pick]))
-    if not result:
-        return np.zeros((0, 3))
-    return vol.to_physical(np.array(result, dtype=float))
+    for lab in np.nonzero(volume < 0)[0]:
+        faces = np.nonzero(shell == lab)[0]
+        for t in faces[np.argsort(-area2[faces], kind="stable")][:64]:
+            if area2[t] == 0:
+                break
+            x = (p0[t] + p1[t] + p2[t]) / 3.0 + step * cross[t] / area2[t]
+            if locator.FindCell([float(c) for c in x]) < 0:
+                result.append(x)
+                break
+    return np.array(result, dtype=float) if result else np.zeros((0, 3))
 
 
 def write_smesh(path, points, tris, holes):
@@ -568,6 +581,25 @@ def write_smesh(path, points, tris, holes):
 def public(stats):
     """The statistics without the private arrays, for JSON."""
     return {k: v for k, v in stats.items() if not k.startswith("_")}
+
+
+SOURCES = ["CMakeLists.txt", "include", "core", "io", "mesher", "quality", "cli"]
+
+
+def source_version():
+    """The last commit that changed volmesh's own code (SOURCES: not its tests, benchmarks or
+    docs), with '-dirty' when that code has uncommitted changes: the version measured, which
+    edits to the drivers while a run goes on do not change. None outside a git checkout."""
+    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+    try:
+        head = subprocess.run(["git", "-C", root, "log", "-1", "--format=%h", "--"] + SOURCES,
+                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                              text=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", root, "diff", "--quiet", "HEAD", "--"] + SOURCES,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode
+    except OSError:
+        return None
+    return (head + ("-dirty" if dirty == 1 else "")) if head else None
 
 
 def dump(path, obj):
