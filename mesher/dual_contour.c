@@ -430,18 +430,24 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
     return VM_OK;
 }
 
-/* Vertex of the ambiguous face between the cells around an edge (lower cell lower_cm,
- * face normal along axis a) on the segment cutting off the inside corner v, or -1. */
-int64_t vm__dc_face_vertex(const dc *d, const int64_t lower_cm[3], int a, const int64_t v[3]) {
-    int64_t key = 3 * vm__dc_cidx(d, lower_cm[0], lower_cm[1], lower_cm[2]) + a;
-    size_t lo = 0, hi = d->namb;
+/* Index of the first of the n increasing keys that is >= key (n when none is). */
+static size_t first_at_least(const int64_t *keys, size_t n, int64_t key) {
+    size_t lo = 0, hi = n;
     while (lo < hi) {
         size_t mid = (lo + hi) / 2;
-        if (d->amb[mid] < key)
+        if (keys[mid] < key)
             lo = mid + 1;
         else
             hi = mid;
     }
+    return lo;
+}
+
+/* Vertex of the ambiguous face between the cells around an edge (lower cell lower_cm,
+ * face normal along axis a) on the segment cutting off the inside corner v, or -1. */
+int64_t vm__dc_face_vertex(const dc *d, const int64_t lower_cm[3], int a, const int64_t v[3]) {
+    int64_t key = 3 * vm__dc_cidx(d, lower_cm[0], lower_cm[1], lower_cm[2]) + a;
+    size_t lo = first_at_least(d->amb, d->namb, key);
     if (lo == d->namb || d->amb[lo] != key) return -1;
     int corner = 0;
     for (int k = 0; k < 3; k++)
@@ -761,14 +767,7 @@ int32_t vm__dc_coarse_find(const dc *d, int64_t ci) {
     int64_t c[3];
     vm__dc_cell_coords(d, ci, c);
     int64_t key = vm__dc_cidx(d, c[0] & ~(int64_t)1, c[1] & ~(int64_t)1, c[2] & ~(int64_t)1);
-    size_t lo = 0, hi = d->ncoarse;
-    while (lo < hi) {
-        size_t mid = (lo + hi) / 2;
-        if (d->coarse_key[mid] < key)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
+    size_t lo = first_at_least(d->coarse_key, d->ncoarse, key);
     return lo < d->ncoarse && d->coarse_key[lo] == key ? (int32_t)lo : -1;
 }
 

@@ -102,18 +102,21 @@ static void figures(const vm_mesh *m, const vm_volume *phantom, surf_figures *fg
     }
 }
 
+/* Area of triangle c of m. */
+static double tri_area(const vm_mesh *m, size_t c) {
+    const double *p = m->points + 3 * (size_t)m->cells[3 * c];
+    const double *q = m->points + 3 * (size_t)m->cells[3 * c + 1];
+    const double *r = m->points + 3 * (size_t)m->cells[3 * c + 2];
+    double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+    double w[3] = {r[0] - p[0], r[1] - p[1], r[2] - p[2]};
+    double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2];
+    double z = u[0] * w[1] - u[1] * w[0];
+    return 0.5 * sqrt(x * x + y * y + z * z);
+}
+
 static double area_of(const vm_mesh *m) {
     double a = 0;
-    for (size_t c = 0; c < m->ncells; c++) {
-        const double *p = m->points + 3 * (size_t)m->cells[3 * c];
-        const double *q = m->points + 3 * (size_t)m->cells[3 * c + 1];
-        const double *r = m->points + 3 * (size_t)m->cells[3 * c + 2];
-        double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
-        double w[3] = {r[0] - p[0], r[1] - p[1], r[2] - p[2]};
-        double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2];
-        double z = u[0] * w[1] - u[1] * w[0];
-        a += 0.5 * sqrt(x * x + y * y + z * z);
-    }
+    for (size_t c = 0; c < m->ncells; c++) a += tri_area(m, c);
     return a;
 }
 
@@ -122,14 +125,7 @@ static double kept_area_fraction(const vm_mesh *m) {
     const vm_field *kept = vm_mesh_find_field(m, 1, "cover_fine");
     double a = 0, total = 0;
     for (size_t c = 0; c < m->ncells; c++) {
-        const double *p = m->points + 3 * (size_t)m->cells[3 * c];
-        const double *q = m->points + 3 * (size_t)m->cells[3 * c + 1];
-        const double *r = m->points + 3 * (size_t)m->cells[3 * c + 2];
-        double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
-        double w[3] = {r[0] - p[0], r[1] - p[1], r[2] - p[2]};
-        double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2];
-        double z = u[0] * w[1] - u[1] * w[0];
-        double t = 0.5 * sqrt(x * x + y * y + z * z);
+        double t = tri_area(m, c);
         total += t;
         if (kept && kept->data[c] != 0) a += t;
     }

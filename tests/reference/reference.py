@@ -444,13 +444,7 @@ def main():
             "load": {"min": min(loads), "median": float(np.median(loads)), "max": max(loads),
                      "samples": len(loads)}}
     if args.merge_json:
-        with open(args.merge_json, encoding="utf-8") as fh:
-            saved = json.load(fh)
-        fresh = {r["case"]: r for r in results}
-        rerun = dict(meta, cases=[r["case"] for r in results])
-        meta = dict(saved["meta"])
-        meta["reruns"] = meta.get("reruns", []) + [rerun]
-        results = [fresh.get(r["case"], r) for r in saved["results"]]
+        meta, results = R.merge_rerun(args.merge_json, meta, results)
     if args.json:
         R.dump(args.json, {"meta": meta, "results": results})
     if args.markdown:

@@ -605,3 +605,14 @@ def source_version():
 def dump(path, obj):
     with open(path, "w", encoding="utf-8") as fh:
         json.dump(obj, fh, indent=1, sort_keys=True)
+
+
+def merge_rerun(path, meta, results):
+    """(meta, results) of the saved run at path with the cases of this run put in its place:
+    the rerun's meta goes to the saved meta's list "reruns"."""
+    with open(path, encoding="utf-8") as fh:
+        saved = json.load(fh)
+    fresh = {r["case"]: r for r in results}
+    merged = dict(saved["meta"])
+    merged["reruns"] = merged.get("reruns", []) + [dict(meta, cases=[r["case"] for r in results])]
+    return merged, [fresh.get(r["case"], r) for r in saved["results"]]
