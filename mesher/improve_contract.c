@@ -5,6 +5,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include "../core/core.h"
 #include "improve_internal.h"
 
 #define INF INT64_MAX
@@ -39,13 +40,7 @@ typedef struct kset {
 } kset;
 
 static int kpush(kset *s, key3 k) {
-    if (s->n == s->cap) {
-        size_t cap = s->cap ? 2 * s->cap : 64;
-        key3 *ne = realloc(s->e, cap * sizeof *ne);
-        if (!ne) return 0;
-        s->e = ne;
-        s->cap = cap;
-    }
+    if (vm__grow((void **)&s->e, &s->cap, s->n + 1, sizeof *s->e, NULL)) return 0;
     s->e[s->n++] = k;
     return 1;
 }

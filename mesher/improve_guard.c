@@ -12,6 +12,7 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include "../core/core.h"
 #include "../quality/self_intersect.h"
 #include "improve_internal.h"
 
@@ -231,13 +232,8 @@ int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e) {
 }
 
 static int push_cand(struct vm__imp_guard *g, vm_index v) {
-    if (g->ncand == g->cand_cap) {
-        size_t cap = g->cand_cap ? 2 * g->cand_cap : 256;
-        vm_index *nc = realloc(g->cand, cap * sizeof *nc);
-        if (!nc) return 0;
-        g->cand = nc;
-        g->cand_cap = cap;
-    }
+    if (vm__grow((void **)&g->cand, &g->cand_cap, g->ncand + 1, sizeof *g->cand, NULL))
+        return 0;
     g->cand[g->ncand++] = v;
     return 1;
 }
@@ -426,13 +422,7 @@ static int gather(vm__imp *w, const double lo[3], const double hi[3], const vm_i
                 fc.hi[1] < lo[1] || fc.hi[2] < lo[2])
                 continue;
             memcpy(fc.v, tri, sizeof tri);
-            if (g->ncf == g->cf_cap) {
-                size_t cap = g->cf_cap ? 2 * g->cf_cap : 256;
-                gface *ncf = realloc(g->cf, cap * sizeof *ncf);
-                if (!ncf) return 0;
-                g->cf = ncf;
-                g->cf_cap = cap;
-            }
+            if (vm__grow((void **)&g->cf, &g->cf_cap, g->ncf + 1, sizeof *g->cf, NULL)) return 0;
             g->cf[g->ncf++] = fc;
         }
     }
