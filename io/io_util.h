@@ -49,11 +49,11 @@ void vm__map_free(vm__map *m);
  * goes on from there instead of from the start. live = 0: nothing kept. */
 typedef struct vm__resume {
     int live, enc;
-    size_t avail, skip;  /* the stream it belongs to (vm__samples avail, skip) */
-    void *zs;            /* ZLIB: the z_stream (heap) */
-    size_t in_done;      /* ZLIB: compressed bytes handed to inflate, from the stream's start */
-    size_t done;         /* ZLIB: bytes inflated; ASCII: byte offset after the last value */
-    size_t index;        /* ASCII: values parsed */
+    size_t avail, skip; /* the stream it belongs to (vm__samples avail, skip) */
+    void *zs;           /* ZLIB: the z_stream (heap) */
+    size_t in_done;     /* ZLIB: compressed bytes handed to inflate, from the stream's start */
+    size_t done;        /* ZLIB: bytes inflated; ASCII: byte offset after the last value */
+    size_t index;       /* ASCII: values parsed */
 } vm__resume;
 /* Ends a cursor's inflate stream, if any (live = 0). */
 void vm__resume_end(vm__resume *c);

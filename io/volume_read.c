@@ -1,10 +1,10 @@
 /* io/volume_read.c — picks the volume reader from the file name; whole, header-only and
  * slab reads all go through the same reader of each format. */
+#include "io_util.h"
+#include "volmesh/io.h"
 #include <assert.h>
 #include <stdlib.h>
 #include <string.h>
-#include "io_util.h"
-#include "volmesh/io.h"
 
 static vm_status read_any(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
     memset(v, 0, sizeof *v);

@@ -193,8 +193,7 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     vm_mesh_init(mesh, o->elements == VM_HEX8 ? VM_HEX8 : VM_TET4);
     vm_status s = vm__mesh_options_check(o, err);
     if (s) return s;
-    s = vm__material_check(v, o->has_lo, o->lo, o->has_hi, o->hi, o->cell_size,
-                                     "mesh", err);
+    s = vm__material_check(v, o->has_lo, o->lo, o->has_hi, o->hi, o->cell_size, "mesh", err);
     if (s) return s;
 
     /* Sampling grid: the volume itself, or a trilinear resampling with cell size ~S. */

@@ -2,12 +2,12 @@
  * ownership of tets by centroid, the exact-coordinate point index that merges the pieces,
  * and vm_mesh_volume_slabs, which meshes slab after slab in one process (docs/ALGORITHMS.md,
  * "Meshing by slabs"; the same decomposition as volmesh_mpi, docs/MPI.md). */
+#include "volmesh/slabs.h"
+#include "../core/core.h"
+#include "mesher_internal.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include "../core/core.h"
-#include "mesher_internal.h"
-#include "volmesh/slabs.h"
 
 int64_t vm_slab_default_ghost(const vm_mesh_options *o) {
     return 6 + (o->adaptive ? (int64_t)2 << o->max_level : 0);
@@ -117,13 +117,17 @@ vm_status vm_point_index_build(vm_point_index *pi, const double *points, size_t 
                                vm_error *err) {
     pi->cap = 1;
     if (room < n) room = n;
-    while (pi->cap < 2 * room + 16) pi->cap <<= 1;
+    while (pi->cap < 2 * room + 16)
+        pi->cap <<= 1;
     pi->slot = malloc(pi->cap * sizeof *pi->slot);
-    if (!pi->slot) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for a point index");
-    for (size_t i = 0; i < pi->cap; i++) pi->slot[i] = -1;
+    if (!pi->slot)
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for a point index");
+    for (size_t i = 0; i < pi->cap; i++)
+        pi->slot[i] = -1;
     for (size_t i = 0; i < n; i++) {
         size_t at;
-        if (vm_point_index_find(pi, points, points + 3 * i, &at) < 0) pi->slot[at] = (vm_index)i;
+        if (vm_point_index_find(pi, points, points + 3 * i, &at) < 0)
+            pi->slot[at] = (vm_index)i;
     }
     return VM_OK;
 }
@@ -143,7 +147,8 @@ void vm_mesh_index_to_world(vm_mesh *m, const vm_volume *frame) {
     }
     int nn = vm_cell_nodes(m->kind);
     if (vm_volume_frame_determinant(frame) < 0 && (nn == 4 || nn == 8))
-        for (size_t t = 0; t < m->ncells; t++) vm__mirror_cell(m->cells + (size_t)nn * t, nn);
+        for (size_t t = 0; t < m->ncells; t++)
+            vm__mirror_cell(m->cells + (size_t)nn * t, nn);
 }
 
 /* ---- one process, slab after slab ---- */
@@ -193,7 +198,8 @@ static vm_status append_owned(vm_mesh *mesh, const vm_mesh *part, const vm_slab 
         }
     sh->n = kept;
     st = vm_point_index_build(&pi, sh->xyz, sh->n, sh->n + nabove, err);
-    if (!st) st = vm__grow((void **)&sh->xyz, &sh->cap, sh->n + nabove, 3 * sizeof(double), err);
+    if (!st)
+        st = vm__grow((void **)&sh->xyz, &sh->cap, sh->n + nabove, 3 * sizeof(double), err);
     if (!st) st = vm__grow((void **)&sh->id, &sh->idcap, sh->n + nabove, sizeof(vm_index), err);
     if (!st) st = vm_mesh_reserve(mesh, mesh->npoints + np, mesh->ncells + nown, err);
     for (size_t t = 0; t < nc && !st; t++) {
@@ -263,14 +269,16 @@ vm_status vm_mesh_volume_slabs(const vm_volume *info, const vm_mesh_options *o,
     if (o->elements != VM_TET4)
         return vm_error_set(err, VM_ERR_ARG, "mesh: slabs are meshed with tetrahedra only");
     if (o->z_offset || o->full_nz)
-        return vm_error_set(err, VM_ERR_ARG, "mesh: slabs of a cropped volume are not supported");
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: slabs of a cropped volume are not supported");
     if (so->slabs < 1)
         return vm_error_set(err, VM_ERR_ARG, "mesh: %d slabs (need at least 1)", so->slabs);
     for (int a = 0; a < 3; a++)
         if (info->dims[a] < 2)
-            return vm_error_set(err, VM_ERR_ARG,
-                                "mesh: the volume is %lld voxel(s) along axis %d; need at least 2",
-                                (long long)info->dims[a], a);
+            return vm_error_set(
+                err, VM_ERR_ARG,
+                "mesh: the volume is %lld voxel(s) along axis %d; need at least 2",
+                (long long)info->dims[a], a);
     vm_slab_grid g;
     vm_slab_grid_init(info->dims[2], o, so->ghost, &g);
     int n = so->slabs;
@@ -280,7 +288,8 @@ vm_status vm_mesh_volume_slabs(const vm_volume *info, const vm_mesh_options *o,
     st = vm__check_dims(bd, sizeof(float), "mesh: the planes of a slab", &count, err);
     float *buf = st ? NULL : malloc(count * sizeof(float));
     if (!st && !buf)
-        st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for %zu voxels of a slab", count);
+        st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for %zu voxels of a slab",
+                          count);
     vm__meter meter;
     vm__meter_start(&meter, o->progress, o->progress_user, "slabs", (double)n);
     shared_points sh;
@@ -297,7 +306,8 @@ vm_status vm_mesh_volume_slabs(const vm_volume *info, const vm_mesh_options *o,
          * fills in the rest, each plane once (slabs overlap: s.plane0 <= have1) */
         int64_t keep = have1 - s.plane0;
         if (keep > 0)
-            memmove(buf, buf + plane * (size_t)(s.plane0 - have0), plane * (size_t)keep * sizeof(float));
+            memmove(buf, buf + plane * (size_t)(s.plane0 - have0),
+                    plane * (size_t)keep * sizeof(float));
         else
             keep = 0;
         vm_volume in;
@@ -308,7 +318,8 @@ vm_status vm_mesh_volume_slabs(const vm_volume *info, const vm_mesh_options *o,
         in.data = buf + plane * (size_t)keep;
         in.type = VM_SCALAR_FLOAT32;
         /* a slab thinner than the ghost band may need no plane beyond the previous one's */
-        if (in.dims[2] > 0) st = so->source(s.plane0 + keep, s.plane1, &in, so->source_user, err);
+        if (in.dims[2] > 0)
+            st = so->source(s.plane0 + keep, s.plane1, &in, so->source_user, err);
         if (st) break;
         have0 = s.plane0;
         have1 = s.plane1;

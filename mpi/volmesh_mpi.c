@@ -816,7 +816,9 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
         s = vm_mesh_add_cell(&m2, m->cells + 4 * t, r, err);
     }
     vm_point_index pm = {0, NULL};
-    if (!s) s = vm_point_index_build(&pm, m2.points, m2.npoints, m2.npoints + 4 * (size_t)nrecv, err);
+    if (!s)
+        s = vm_point_index_build(&pm, m2.points, m2.npoints, m2.npoints + 4 * (size_t)nrecv,
+                                 err);
     for (size_t t = 0; t < (size_t)nrecv && !s; t++) {
         const double *b = recvbuf + TET_DOUBLES * t;
         vm_index n[4];

@@ -12,12 +12,12 @@
 #ifndef VOLMESH_SLABS_H
 #define VOLMESH_SLABS_H
 
-#include <stddef.h>
-#include <stdint.h>
 #include "error.h"
 #include "mesh.h"
 #include "mesher.h"
 #include "volume.h"
+#include <stddef.h>
+#include <stdint.h>
 
 #ifdef __cplusplus
 extern "C" {

@@ -460,7 +460,8 @@ static void forwardReaderEqualsTheWholeReadInEveryFormat(void) {
         o.type = VM_SCALAR_FLOAT32;
         vm_volume whole, info;
         vm_error err;
-        CHECK_OK(raw ? vm_volume_read_raw(path, &o, &whole, &err) : vm_volume_read(path, &whole, &err),
+        CHECK_OK(raw ? vm_volume_read_raw(path, &o, &whole, &err)
+                     : vm_volume_read(path, &whole, &err),
                  &err);
         vm_volume_reader *r = NULL;
         CHECK_OK(vm_volume_reader_open(path, raw ? &o : NULL, &info, &r, &err), &err);
@@ -475,16 +476,19 @@ static void forwardReaderEqualsTheWholeReadInEveryFormat(void) {
         float *buf = malloc(N * sizeof(float));
         for (size_t c = 0; buf && c < sizeof cuts / sizeof cuts[0]; c++) {
             int64_t z0 = cuts[c][0], z1 = cuts[c][1];
-            for (size_t i = 0; i < N; i++) buf[i] = -1;
+            for (size_t i = 0; i < N; i++)
+                buf[i] = -1;
             CHECK_OK(vm_volume_reader_read(r, z0, z1, buf, &err), &err);
             size_t n = plane * (size_t)(z1 - z0);
             int same = memcmp(buf, whole.data + plane * (size_t)z0, n * sizeof(float)) == 0;
-            CHECK_MSG(same && (n == N || buf[n] == -1), "%s: planes %lld..%lld differ from the whole read",
-                      name, (long long)z0, (long long)z1 - 1);
+            CHECK_MSG(same && (n == N || buf[n] == -1),
+                      "%s: planes %lld..%lld differ from the whole read", name, (long long)z0,
+                      (long long)z1 - 1);
         }
         vm_error_clear(&err);
         vm_status st = buf ? vm_volume_reader_read(r, 4, 7, buf, &err) : VM_ERR_ARG;
-        CHECK_MSG(st == VM_ERR_ARG && strstr(err.message, path) && strstr(err.message, "outside"),
+        CHECK_MSG(st == VM_ERR_ARG && strstr(err.message, path) &&
+                      strstr(err.message, "outside"),
                   "%s: planes 4..6 of 6: '%s'", name, err.message);
         free(buf);
         vm_volume_free(&whole);
@@ -496,13 +500,15 @@ static void forwardReaderEqualsTheWholeReadInEveryFormat(void) {
     vm_error err;
     const char *missing = vm_test_tmp("no_such_volume.nrrd");
     vm_status st = vm_volume_reader_open(missing, NULL, &info, &r, &err);
-    CHECK_MSG(st == VM_ERR_IO && r == NULL && strncmp(err.message, missing, strlen(missing)) == 0,
+    CHECK_MSG(st == VM_ERR_IO && r == NULL &&
+                  strncmp(err.message, missing, strlen(missing)) == 0,
               "missing file: %d '%s'", (int)st, err.message);
 }
 
 /* The reader goes on where the previous slab ended: after planes 0..1 the start of the
- * data is damaged (gzip NRRD, ASCII NRRD); reading on from plane 2 still works (nothing before it is read again),
- * while a slab read or the reader going back, which start from the beginning, fail. */
+ * data is damaged (gzip NRRD, ASCII NRRD); reading on from plane 2 still works (nothing before
+ * it is read again), while a slab read or the reader going back, which start from the
+ * beginning, fail. */
 static void forwardReaderGoesOnWhereTheLastSlabEnded(void) {
     make_files();
     static const char *const names[] = {"slab_gz.nrrd", "slab_ascii.nrrd"};
@@ -556,7 +562,8 @@ int main(void) {
     static const vm_test_case cases[] = {
         {"slabsConcatenatedEqualTheWholeReadInEveryFormat",
          slabsConcatenatedEqualTheWholeReadInEveryFormat},
-        {"slabsOfAThreadedConversionEqualTheWholeRead", slabsOfAThreadedConversionEqualTheWholeRead},
+        {"slabsOfAThreadedConversionEqualTheWholeRead",
+         slabsOfAThreadedConversionEqualTheWholeRead},
         {"slabReadsRefuseBadRangesTruncatedDataAndLyingHeaders",
          slabReadsRefuseBadRangesTruncatedDataAndLyingHeaders},
         {"slabOfAVolumeAboveTheMemoryLimitIsRead", slabOfAVolumeAboveTheMemoryLimitIsRead},

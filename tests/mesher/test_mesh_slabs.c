@@ -8,9 +8,9 @@
  * components, volume against the analytic one); the source is asked for each plane once in
  * increasing z; a failing source and bad requests are refused with one line and no mesh. */
 /* ctest parts: 2 */
+#include "test.h"
 #include <stdint.h>
 #include <string.h>
-#include "test.h"
 
 #define PI 3.14159265358979323846
 
@@ -35,7 +35,8 @@ static vm_status from_volume(int64_t z0, int64_t z1, vm_volume *out, void *user,
         return vm_error_set(err, VM_ERR_FORMAT, "planes.nrrd: data is truncated at plane %lld",
                             (long long)z0);
     size_t plane = (size_t)p->v->dims[0] * (size_t)p->v->dims[1];
-    memcpy(out->data, p->v->data + plane * (size_t)z0, plane * (size_t)(z1 - z0) * sizeof(float));
+    memcpy(out->data, p->v->data + plane * (size_t)z0,
+           plane * (size_t)(z1 - z0) * sizeof(float));
     return VM_OK;
 }
 
@@ -87,8 +88,8 @@ static int same_mesh(const char *label, const vm_mesh *a, const vm_mesh *b) {
         same = memcmp(pa, pb, a->npoints * 3 * sizeof(double)) == 0;
         CHECK_MSG(same, "%s: the points differ", label);
         for (size_t i = 1; same && i < b->npoints; i++)
-            CHECK_MSG(coord_cmp(pb + 3 * (i - 1), pb + 3 * i) != 0,
-                      "%s: a point appears twice", label);
+            CHECK_MSG(coord_cmp(pb + 3 * (i - 1), pb + 3 * i) != 0, "%s: a point appears twice",
+                      label);
         int tets = memcmp(ta, tb, a->ncells * 13 * sizeof(double)) == 0;
         CHECK_MSG(tets, "%s: the tets differ", label);
         same = same && tets;
@@ -116,8 +117,8 @@ static void check_invariants(const char *label, const vm_mesh *m, long euler, si
               "non-manifold vertices, Euler %ld (expected %ld), %zu components (expected %zu)",
               label, r.inverted, r.degenerate, r.overshared_faces, r.boundary_closed,
               r.boundary_nonmanifold_vertices, r.boundary_euler, euler, r.components, comps);
-    CHECK_MSG(fabs(r.volume - volume) <= tol * volume, "%s: volume %.6g, expected %.6g (%.2f%%)",
-              label, r.volume, volume, 100 * tol);
+    CHECK_MSG(fabs(r.volume - volume) <= tol * volume,
+              "%s: volume %.6g, expected %.6g (%.2f%%)", label, r.volume, volume, 100 * tol);
 }
 
 /* Gives v a physical frame: spacing, origin and a left-handed direction (z flipped). */
@@ -145,8 +146,7 @@ static vm_status mesh_by_slabs(const vm_volume *v, const vm_mesh_options *o, int
 /* One volume and options: the whole mesh, then each slab count of counts[] (0 ends it; -1:
  * one slab per block), compared tet for tet and checked. */
 static void slab_cases(const char *name, const vm_volume *v, const vm_mesh_options *o,
-                       const int *counts, long euler, size_t comps, double volume,
-                       double tol) {
+                       const int *counts, long euler, size_t comps, double volume, double tol) {
     vm_error err;
     vm_mesh whole;
     vm_status s = vm_mesh_volume(v, o, &whole, NULL, &err);
@@ -158,8 +158,7 @@ static void slab_cases(const char *name, const vm_volume *v, const vm_mesh_optio
     for (const int *c = counts; *c; c++) {
         int n = *c < 0 ? (int)g.blocks : *c;
         char label[160];
-        snprintf(label, sizeof label, "%s, %d slabs%s", name, n,
-                 *c < 0 ? " of one block" : "");
+        snprintf(label, sizeof label, "%s, %d slabs%s", name, n, *c < 0 ? " of one block" : "");
         planes p;
         vm_mesh m;
         s = mesh_by_slabs(v, o, n, 0, &p, &m, &err);
@@ -168,14 +167,17 @@ static void slab_cases(const char *name, const vm_volume *v, const vm_mesh_optio
         CHECK_MSG(!p.broken_contract && p.next == v->dims[2],
                   "%s: the source was asked out of order (%d times) or not to the end (%lld)",
                   label, p.broken_contract, (long long)p.next);
-        if (same_mesh(label, &whole, &m)) check_invariants(label, &m, euler, comps, volume, tol);
+        if (same_mesh(label, &whole, &m))
+            check_invariants(label, &m, euler, comps, volume, tol);
         printf("  %s: %zu tets, %d source calls\n", label, m.ncells, p.calls);
         vm_mesh_free(&m);
     }
     vm_mesh_free(&whole);
 }
 
-static int small(void) { return getenv("VM_SANITIZED") != NULL; }
+static int small(void) {
+    return getenv("VM_SANITIZED") != NULL;
+}
 
 /* The four phantoms in a physical frame, one mode: 0 uniform, 2 --size 2, 'a' adaptive. */
 static void phantoms_in(int mode) {
@@ -197,16 +199,24 @@ static void phantoms_in(int mode) {
         if (mode == 'a') o.adaptive = 1, o.max_level = 2, tol = 0.04;
         char name[96];
         snprintf(name, sizeof name, "%s %d%s", info.name, n,
-                 mode == 2 ? " --size 2" : mode == 'a' ? " adaptive L2" : "");
+                 mode == 2     ? " --size 2"
+                 : mode == 'a' ? " adaptive L2"
+                               : "");
         slab_cases(name, &v, &o, counts, info.euler, (size_t)info.components,
                    info.volume * cell, tol);
         vm_volume_free(&v);
     }
 }
 
-static void slabsAreTheWholeMeshUniform(void) { phantoms_in(0); }
-static void slabsAreTheWholeMeshAtSize2(void) { phantoms_in(2); }
-static void slabsAreTheWholeMeshAdaptive(void) { phantoms_in('a'); }
+static void slabsAreTheWholeMeshUniform(void) {
+    phantoms_in(0);
+}
+static void slabsAreTheWholeMeshAtSize2(void) {
+    phantoms_in(2);
+}
+static void slabsAreTheWholeMeshAdaptive(void) {
+    phantoms_in('a');
+}
 
 /* Adaptive at the default level 4: blocks of 16 cells, slabs cut on them; a ghost band of
  * 38 cells, wider than the volume's slabs. */
@@ -266,8 +276,9 @@ static void slabsWithoutMaterialOrCells(void) {
     for (int k = 0; k < nz; k++)
         for (int j = 0; j < n; j++)
             for (int i = 0; i < n; i++)
-                v.data[i + n * (j + n * k)] = (float)(
-                    r - sqrt((i - c) * (i - c) + (j - c) * (j - c) + (k - c) * (k - c)));
+                v.data[i + n * (j + n * k)] =
+                    (float)(r -
+                            sqrt((i - c) * (i - c) + (j - c) * (j - c) + (k - c) * (k - c)));
     vm_mesh_options o;
     vm_mesh_options_default(&o);
     static const int counts[] = {3, 5, 0};
@@ -340,8 +351,8 @@ static void badRequestsAreRefused(void) {
         if (cases[i].status == VM_ERR_EMPTY) { /* the whole mesher's message */
             vm_mesh w;
             vm_mesh_volume(&v, &o, &w, NULL, &werr);
-            CHECK_MSG(strcmp(err.message, werr.message) == 0, "'%s' against '%s'",
-                      err.message, werr.message);
+            CHECK_MSG(strcmp(err.message, werr.message) == 0, "'%s' against '%s'", err.message,
+                      werr.message);
             vm_mesh_free(&w);
         }
         vm_mesh_free(&m);
