@@ -9,7 +9,7 @@ Makes the 512³ sphere phantom of bench/big.py (raw float NRRD) and a gzip copy 
 then runs each case once under GNU `time -v` (wall, CPU = user + system, peak resident set;
 the stage columns are `volmesh --verbose`) and prints Markdown tables: the mesh stage alone
 (read and mesh, bench/slab_mesh.c), volmesh mesh end to end (every --no-improve slab mesh
-compared with the whole run's tet for tet by the --slabs CLI test's judge, VTK + numpy),
+compared with the whole run's tet for tet by tests/cli/same_tets.py, VTK + numpy),
 and the cost of reading a gzip stream in slabs forward (one vm_volume_reader) or from the
 start each time (vm_volume_read_slab, bench/slab_read.c). Build the two drivers as their
 headers say.
@@ -27,22 +27,7 @@ sys.dont_write_bytecode = True
 sys.path.insert(0, HERE)
 import big  # noqa: E402  (make_phantom, run, stages)
 
-SAME = r"""
-import sys
-import numpy as np
-from vtkmodules.util.numpy_support import vtk_to_numpy
-from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridReader
-def tets(path):
-    r = vtkXMLUnstructuredGridReader(); r.SetFileName(path); r.Update()
-    g = r.GetOutput()
-    p = vtk_to_numpy(g.GetPoints().GetData()).astype(np.float64)
-    c = vtk_to_numpy(g.GetCells().GetConnectivityArray()).reshape(-1, 4)
-    reg = vtk_to_numpy(g.GetCellData().GetArray("region")).astype(np.float64)
-    t = np.concatenate([p[c].reshape(-1, 12), reg[:, None]], axis=1)
-    return t[np.lexsort(t.T[::-1])], len(p), len(np.unique(p, axis=0))
-a, na, ua = tets(sys.argv[1]); b, nb, ub = tets(sys.argv[2])
-print("same" if na == nb == ua == ub and np.array_equal(a, b) else "DIFFERENT")
-"""
+SAME = os.path.join(HERE, "..", "tests", "cli", "same_tets.py")
 
 
 def gzip_copy(src, dst):
@@ -130,8 +115,9 @@ def main():
                 continue
             same = "–"
             if n is not None and "--no-improve" in opts:
-                same = subprocess.run(["/usr/bin/python3", "-c", SAME, whole, out],
-                                      capture_output=True, text=True).stdout.strip()
+                same = subprocess.run(["/usr/bin/python3", SAME, whole, out],
+                                      capture_output=True, text=True)
+                same = "same" if same.returncode == 0 else "DIFFERENT"
             st = r["stages"]
             print(f"| {name} | `{' '.join(opts)}` | {label} | {r['wall']:.1f} | {r['cpu']:.1f} "
                   f"| {st.get('mesh', 0):.1f} | {st.get('read', 0):.1f} "

@@ -371,3 +371,17 @@ void vm_test_digital_topology(const vm_volume *v, int has_lo, double lo, int has
     *euler = 2 * (V - E + F - C + S);
     *components = comps;
 }
+
+static int sort_width;
+
+static int row_cmp(const void *pa, const void *pb) {
+    const double *a = pa, *b = pb;
+    for (int k = 0; k < sort_width; k++)
+        if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
+    return 0;
+}
+
+void vm_test_sort_rows(double *rows, size_t count, int width) {
+    sort_width = width;
+    qsort(rows, count, (size_t)width * sizeof(double), row_cmp);
+}

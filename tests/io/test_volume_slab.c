@@ -192,6 +192,15 @@ static void make_files(void) {
     free(z);
 }
 
+/* The description of slab.raw: NX x NY x NZ float32, little endian. */
+static void raw_options(vm_raw_options *o) {
+    memset(o, 0, sizeof *o);
+    o->dims[0] = NX;
+    o->dims[1] = NY;
+    o->dims[2] = NZ;
+    o->type = VM_SCALAR_FLOAT32;
+}
+
 static const char *const files[] = {
     "slab_raw.nrrd", "slab_big.nrrd",     "slab_ascii.nrrd", "slab_det.nhdr",
     "slab_gz.nrrd",  "slab.nii",          "slab.nii.gz",     "slab_pair.hdr",
@@ -261,11 +270,7 @@ static void slabsConcatenatedEqualTheWholeReadInEveryFormat(void) {
     }
     /* raw */
     vm_raw_options o;
-    memset(&o, 0, sizeof o);
-    o.dims[0] = NX;
-    o.dims[1] = NY;
-    o.dims[2] = NZ;
-    o.type = VM_SCALAR_FLOAT32;
+    raw_options(&o);
     o.spacing[2] = 3;
     vm_volume whole, s, info;
     vm_error err;
@@ -453,11 +458,7 @@ static void forwardReaderEqualsTheWholeReadInEveryFormat(void) {
         int raw = f == sizeof files / sizeof files[0];
         const char *name = raw ? "slab.raw" : files[f], *path = vm_test_tmp(name);
         vm_raw_options o;
-        memset(&o, 0, sizeof o);
-        o.dims[0] = NX;
-        o.dims[1] = NY;
-        o.dims[2] = NZ;
-        o.type = VM_SCALAR_FLOAT32;
+        raw_options(&o);
         vm_volume whole, info;
         vm_error err;
         CHECK_OK(raw ? vm_volume_read_raw(path, &o, &whole, &err)

@@ -7,7 +7,7 @@
  * mesh has every invariant (0 inverted, conforming, closed boundary, Euler characteristic,
  * components, volume against the analytic one); the source is asked for each plane once in
  * increasing z; a failing source and bad requests are refused with one line and no mesh. */
-/* ctest parts: 2 */
+/* ctest parts: 3 */
 #include "test.h"
 #include <stdint.h>
 #include <string.h>
@@ -40,20 +40,6 @@ static vm_status from_volume(int64_t z0, int64_t z1, vm_volume *out, void *user,
     return VM_OK;
 }
 
-static int coord_cmp(const void *pa, const void *pb) {
-    const double *a = pa, *b = pb;
-    for (int k = 0; k < 3; k++)
-        if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
-    return 0;
-}
-
-static int tet_cmp(const void *pa, const void *pb) {
-    const double *a = pa, *b = pb;
-    for (int k = 0; k < 13; k++)
-        if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
-    return 0;
-}
-
 /* m's tets as 13 doubles each (four corners in node order, then the region), sorted. */
 static double *tet_list(const vm_mesh *m) {
     double *out = malloc((m->ncells + 1) * 13 * sizeof *out);
@@ -64,7 +50,7 @@ static double *tet_list(const vm_mesh *m) {
                    3 * sizeof(double));
         out[13 * t + 12] = m->region[t];
     }
-    qsort(out, m->ncells, 13 * sizeof(double), tet_cmp);
+    vm_test_sort_rows(out, m->ncells, 13);
     return out;
 }
 
@@ -83,12 +69,12 @@ static int same_mesh(const char *label, const vm_mesh *a, const vm_mesh *b) {
     if (same) {
         memcpy(pa, a->points, a->npoints * 3 * sizeof(double));
         memcpy(pb, b->points, b->npoints * 3 * sizeof(double));
-        qsort(pa, a->npoints, 3 * sizeof(double), coord_cmp);
-        qsort(pb, b->npoints, 3 * sizeof(double), coord_cmp);
+        vm_test_sort_rows(pa, a->npoints, 3);
+        vm_test_sort_rows(pb, b->npoints, 3);
         same = memcmp(pa, pb, a->npoints * 3 * sizeof(double)) == 0;
         CHECK_MSG(same, "%s: the points differ", label);
         for (size_t i = 1; same && i < b->npoints; i++)
-            CHECK_MSG(coord_cmp(pb + 3 * (i - 1), pb + 3 * i) != 0, "%s: a point appears twice",
+            CHECK_MSG(memcmp(pb + 3 * (i - 1), pb + 3 * i, 3 * sizeof(double)) != 0, "%s: a point appears twice",
                       label);
         int tets = memcmp(ta, tb, a->ncells * 13 * sizeof(double)) == 0;
         CHECK_MSG(tets, "%s: the tets differ", label);
