@@ -53,7 +53,11 @@ typedef struct dc {
     uint64_t *coarse;    /* per padded cell, one bit: in a coarse leaf (NULL: none) */
     int64_t *coarse_key; /* per leaf: padded index of its lowest cell, increasing */
     double error;       /* merge tolerance, voxels */
-    int64_t *tets;      /* 4 global ids per tet */
+    /* The tet list, 4 global ids per tet: uint32_t while every id is below id_limit, then
+     * int64_t (wide != 0; dc_tets.c widens it when an id needs it). */
+    void *tets;
+    int wide;
+    int64_t id_limit;
     size_t ntets, tet_cap;
     int64_t *src; /* per tet: the element that made it (see dc_tets.c), for re-emission */
     size_t src_cap;

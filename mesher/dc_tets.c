@@ -39,21 +39,63 @@ static int id_cmp(const void *x, const void *y) {
     return a < b ? -1 : a > b;
 }
 
+/* The tet list (d->tets) holds 32-bit ids until an id reaches d->id_limit, 64-bit ones
+ * from then on: 16 bytes a tet instead of 32 on every grid below 2^32 points. */
+static size_t tet_bytes(const dc *d) {
+    return 4 * (d->wide ? sizeof(int64_t) : sizeof(uint32_t));
+}
+
+static void tet_get(const dc *d, size_t t, int64_t v[4]) {
+    if (d->wide) {
+        memcpy(v, (const int64_t *)d->tets + 4 * t, 4 * sizeof(int64_t));
+    } else {
+        const uint32_t *p = (const uint32_t *)d->tets + 4 * t;
+        for (int k = 0; k < 4; k++)
+            v[k] = (int64_t)p[k];
+    }
+}
+
+/* Makes the list 64-bit, keeping its capacity. */
+static vm_status widen(dc *d, vm_error *err) {
+    int64_t *w = malloc((d->tet_cap ? d->tet_cap : 1) * 4 * sizeof(int64_t));
+    if (!w) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the tet list");
+    const uint32_t *n = d->tets;
+    for (size_t q = 0; q < 4 * d->ntets; q++)
+        w[q] = (int64_t)n[q];
+    free(d->tets);
+    d->tets = w;
+    d->wide = 1;
+    return VM_OK;
+}
+
+/* Stores v as tet t (< tet_cap), widening the list first when an id needs it. */
+static vm_status tet_set(dc *d, size_t t, const int64_t v[4], vm_error *err) {
+    if (!d->wide && (v[0] >= d->id_limit || v[1] >= d->id_limit || v[2] >= d->id_limit ||
+                     v[3] >= d->id_limit)) {
+        vm_status s = widen(d, err);
+        if (s) return s;
+    }
+    if (d->wide) {
+        memcpy((int64_t *)d->tets + 4 * t, v, 4 * sizeof(int64_t));
+    } else {
+        uint32_t *p = (uint32_t *)d->tets + 4 * t;
+        for (int k = 0; k < 4; k++)
+            p[k] = (uint32_t)v[k];
+    }
+    return VM_OK;
+}
+
 static vm_status emit(dc *d, int64_t a, int64_t b, int64_t c, int64_t e, vm_error *err) {
     /* Tets lying flat on one border plane are the closure of the padding: drop them. */
     if (vm__dc_vertex_planes(d, a) & vm__dc_vertex_planes(d, b) & vm__dc_vertex_planes(d, c) &
         vm__dc_vertex_planes(d, e))
         return VM_OK;
-    vm_status s =
-        vm__grow((void **)&d->tets, &d->tet_cap, d->ntets + 1, 4 * sizeof(int64_t), err);
+    const int64_t v[4] = {a, b, c, e};
+    vm_status s = vm__grow(&d->tets, &d->tet_cap, d->ntets + 1, tet_bytes(d), err);
     if (!s) s = vm__grow((void **)&d->src, &d->src_cap, d->ntets + 1, sizeof(int64_t), err);
+    if (!s) s = tet_set(d, d->ntets, v, err);
     if (s) return s;
-    d->src[d->ntets] = d->cur_src;
-    int64_t *t = d->tets + 4 * d->ntets++;
-    t[0] = a;
-    t[1] = b;
-    t[2] = c;
-    t[3] = e;
+    d->src[d->ntets++] = d->cur_src;
     return VM_OK;
 }
 
@@ -440,7 +482,9 @@ static vm_status emit_interior(dc *d, int64_t k0, int64_t k1, vm_error *err);
 typedef struct edge_slab {
     int interior; /* 1: the interior cells of z layers lo[3]..hi[3]-1; 0: the edges lo..hi */
     int64_t lo[4], hi[4];
-    int64_t *tets, *src;
+    void *tets; /* 32-bit ids, or 64-bit (wide) */
+    int wide;
+    int64_t *src;
     size_t ntets;
     double *centre;
     size_t ncentre;
@@ -450,7 +494,8 @@ typedef struct edge_slab {
 
 static void emit_slab(const dc *d, edge_slab *sl) {
     dc local = *d;
-    local.tets = local.src = NULL;
+    local.tets = NULL;
+    local.src = NULL;
     local.ntets = local.tet_cap = local.src_cap = 0;
     local.centre = NULL;
     local.ncentre = local.centre_cap = 0;
@@ -459,6 +504,7 @@ static void emit_slab(const dc *d, edge_slab *sl) {
     sl->status = sl->interior ? emit_interior(&local, sl->lo[3], sl->hi[3], &sl->err)
                               : emit_edge_box(&local, sl->lo, sl->hi, 1, &sl->err);
     sl->tets = local.tets;
+    sl->wide = local.wide;
     sl->src = local.src;
     sl->ntets = local.ntets;
     sl->centre = local.centre;
@@ -470,8 +516,7 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
     if (s) {
         if (err) *err = sl->err;
     } else {
-        s = vm__grow((void **)&d->tets, &d->tet_cap, d->ntets + sl->ntets, 4 * sizeof(int64_t),
-                     err);
+        s = vm__grow(&d->tets, &d->tet_cap, d->ntets + sl->ntets, tet_bytes(d), err);
         if (!s)
             s = vm__grow((void **)&d->src, &d->src_cap, d->ntets + sl->ntets, sizeof(int64_t),
                          err);
@@ -481,21 +526,26 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
     }
     if (!s) {
         int64_t first = vm__dc_npoints_real(d) + (int64_t)d->nreps, shift = (int64_t)d->ncentre;
-        if (sl->ntets) { /* (d->tets may still be NULL otherwise) */
-            int64_t *t = d->tets + 4 * d->ntets;
-            for (size_t q = 0; q < 4 * sl->ntets; q++)
-                t[q] = sl->tets[q] >= first ? sl->tets[q] + shift : sl->tets[q];
+        if (sl->ntets) /* (d->src may still be NULL otherwise) */
             memcpy(d->src + d->ntets, sl->src, sl->ntets * sizeof(int64_t));
+        const dc from = {.tets = sl->tets, .wide = sl->wide};
+        for (size_t t = 0; t < sl->ntets && !s; t++) {
+            int64_t v[4];
+            tet_get(&from, t, v);
+            for (int k = 0; k < 4; k++)
+                if (v[k] >= first) v[k] += shift;
+            s = tet_set(d, d->ntets, v, err);
+            if (!s) d->ntets++;
         }
         if (sl->ncentre)
             memcpy(d->centre + 3 * d->ncentre, sl->centre, 3 * sl->ncentre * sizeof(double));
-        d->ntets += sl->ntets;
         d->ncentre += sl->ncentre;
     }
     free(sl->tets);
     free(sl->src);
     free(sl->centre);
-    sl->tets = sl->src = NULL;
+    sl->tets = NULL;
+    sl->src = NULL;
     sl->centre = NULL;
     return s;
 }
@@ -824,7 +874,8 @@ static vm_status emit_local(dc *d, const uint8_t *moved, vm_error *err) {
     size_t nredo = 0, cap = 0;
     vm_status s = VM_OK;
     for (size_t t = 0; t < d->ntets && !s; t++) {
-        const int64_t *v = d->tets + 4 * t;
+        int64_t v[4];
+        tet_get(d, t, v);
         int hit = 0;
         for (int k = 0; k < 4; k++)
             if (v[k] >= N && (size_t)(v[k] - N) < d->nreps && moved[v[k] - N]) hit = 1;
@@ -842,12 +893,12 @@ static vm_status emit_local(dc *d, const uint8_t *moved, vm_error *err) {
     for (size_t i = 0; i < nredo; i++)
         if (u == 0 || redo[u - 1] != redo[i]) redo[u++] = redo[i];
     nredo = u;
-    size_t kept = 0;
+    size_t kept = 0, tb = tet_bytes(d);
     for (size_t t = 0; t < d->ntets; t++) {
         if (SRC_KIND(d->src[t]) != SRC_NONE &&
             bsearch(&d->src[t], redo, nredo, sizeof *redo, id_cmp))
             continue;
-        memmove(d->tets + 4 * kept, d->tets + 4 * t, 4 * sizeof(int64_t));
+        memmove((char *)d->tets + tb * kept, (char *)d->tets + tb * t, tb);
         d->src[kept++] = d->src[t];
     }
     d->ntets = kept;
@@ -888,7 +939,8 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
         bad = 0;
         memset(now, 0, d->nreps);
         for (size_t t = 0; t < d->ntets; t++) {
-            const int64_t *v = d->tets + 4 * t;
+            int64_t v[4];
+            tet_get(d, t, v);
             if (tet_volume(d, v, 0) > eps) continue;
             bad++;
             for (int k = 0; k < 4; k++)
@@ -949,7 +1001,8 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
     vm_status s = VM_OK;
     *pairs = 0;
     for (size_t t = 0; t < d->ntets; t++) {
-        const int64_t *v = d->tets + 4 * t;
+        int64_t v[4];
+        tet_get(d, t, v);
         int surf[4];
         for (int k = 0; k < 4; k++)
             surf[k] = v[k] >= N || vm__dc_vertex_planes(d, v[k]) != 0;
@@ -1112,12 +1165,15 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     d.amb = NULL;
     vm__octree_free(&d.oct);
     if (d.ntets && d.ntets < d.tet_cap) {
-        int64_t *t = realloc(d.tets, 4 * d.ntets * sizeof(int64_t));
+        void *t = realloc(d.tets, d.ntets * tet_bytes(&d));
         if (t) d.tets = t;
     }
     out->nodes = 4;
     out->ntets = d.ntets;
-    out->tets = d.tets;
+    if (d.wide)
+        out->tets = d.tets;
+    else
+        out->tets32 = d.tets;
     d.tets = NULL;
     out->nlattice = vm__dc_npoints_real(&d);
     out->nreps = d.nreps + d.ncentre;

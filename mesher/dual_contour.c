@@ -865,6 +865,7 @@ vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *er
     vm__dc_init_tables();
     memset(d, 0, sizeof *d);
     d->g = g;
+    d->id_limit = g->id_limit > 0 ? g->id_limit : (int64_t)1 << 32;
     for (int a = 0; a < 3; a++) {
         d->n[a] = g->n[a];
         d->off[a] = g->off[a];

@@ -220,6 +220,7 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
         s = vm_error_set(err, VM_ERR_EMPTY, "mesh: no grid point is in the material");
     if (s) {
         free(soup.tets);
+        free(soup.tets32);
         free(soup.rep_pos);
         return s;
     }
@@ -228,14 +229,18 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
      * grid points are a bit set with a rank per word (a grid point costs 0.25 bytes, not a
      * 4-byte map entry), the numbers are kept for used vertices only. */
     size_t nl = (size_t)soup.nlattice, nw = nl / 64 + 1, nn = (size_t)soup.nodes;
+    size_t nid = nn * soup.ntets;
+    const uint32_t *t32 = soup.tets32;
+    const int64_t *t64 = soup.tets;
+#define SOUP_ID(q) (t32 ? (int64_t)t32[q] : t64[q])
     used_bits = calloc(nw, sizeof *used_bits);
     used_rank = malloc(nw * sizeof *used_rank);
     if (!used_bits || !used_rank) {
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
         goto done;
     }
-    for (size_t t = 0; t < nn * soup.ntets; t++) {
-        int64_t id = soup.tets[t];
+    for (size_t q = 0; q < nid; q++) {
+        int64_t id = SOUP_ID(q);
         if ((size_t)id < nl) used_bits[id >> 6] |= (uint64_t)1 << (id & 63);
     }
     size_t nused_lattice = 0;
@@ -255,11 +260,11 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
                                                    (((uint64_t)1 << ((id) & 63)) - 1))     \
                        : nused_lattice + ((size_t)(id) - nl))
     size_t used = 0;
-    for (size_t t = 0; t < nn * soup.ntets; t++) {
-        size_t slot = MAP_SLOT(soup.tets[t]);
+    for (size_t q = 0; q < nid; q++) {
+        size_t slot = MAP_SLOT(SOUP_ID(q));
         if (map[slot] < 0) map[slot] = (int32_t)used++;
     }
-    s = vm_mesh_reserve(mesh, used, soup.ntets, err);
+    s = vm_mesh_reserve(mesh, used, 0, err);
     if (s) goto done;
     mesh->npoints = used;
     for (size_t w = 0; w < nw; w++)
@@ -277,12 +282,62 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
         for (int a = 0; a < 3; a++) ijk[a] = soup.rep_pos[3 * r + a] * step[a];
         vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)map[nused_lattice + r]);
     }
+    /* The cells take over the soup's buffer, each id replaced by its number in place (the
+     * soup and the cells are never both whole in memory): forward when a number is no wider
+     * than an id (it lands at or below every id still to be read), backward when wider. */
+    size_t isz = t32 ? sizeof(uint32_t) : sizeof(int64_t), osz = sizeof(vm_index);
+    unsigned char *buf = t32 ? (unsigned char *)soup.tets32 : (unsigned char *)soup.tets;
+    soup.tets = NULL;
+    soup.tets32 = NULL;
+    if (nid && osz > isz) {
+        unsigned char *wider = realloc(buf, nid * osz);
+        if (!wider) {
+            free(buf);
+            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for %zu cells",
+                             (size_t)(nid / nn));
+            goto done;
+        }
+        buf = wider;
+    }
+    mesh->cells = (vm_index *)buf;
+    mesh->cell_cap = soup.ntets;
+    for (size_t k = 0; k < nid; k++) {
+        size_t q = osz <= isz ? k : nid - 1 - k;
+        int64_t id;
+        if (isz == sizeof(uint32_t)) {
+            uint32_t x;
+            memcpy(&x, buf + isz * q, sizeof x);
+            id = (int64_t)x;
+        } else {
+            memcpy(&id, buf + isz * q, sizeof id);
+        }
+        vm_index c = (vm_index)map[MAP_SLOT(id)];
+        memcpy(buf + osz * q, &c, sizeof c);
+    }
+#undef MAP_SLOT
+#undef SOUP_ID
+    if (nid && osz < isz) {
+        vm_index *fit = realloc(buf, nid * osz);
+        if (fit) mesh->cells = fit;
+    }
+    free(map);
+    free(used_bits);
+    free(used_rank);
+    free(soup.rep_pos);
+    map = NULL;
+    used_bits = NULL;
+    used_rank = NULL;
+    soup.rep_pos = NULL;
+    mesh->region = malloc((soup.ntets ? soup.ntets : 1) * sizeof *mesh->region);
+    if (!mesh->region) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for %zu cells", soup.ntets);
+        goto done;
+    }
     /* A left-handed frame mirrors every element: swap nodes so volumes stay positive. */
     int flip = vm_volume_frame_determinant(v) < 0;
     static const int tet_swap[][2] = {{1, 2}}, hex_swap[][2] = {{1, 3}, {5, 7}};
     for (size_t t = 0; t < soup.ntets; t++) {
         vm_index *c = mesh->cells + nn * t;
-        for (size_t k = 0; k < nn; k++) c[k] = (vm_index)map[MAP_SLOT(soup.tets[nn * t + k])];
         if (flip) {
             const int(*sw)[2] = nn == 8 ? hex_swap : tet_swap;
             int nsw = nn == 8 ? 2 : 1;
@@ -297,12 +352,12 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     mesh->ncells = soup.ntets;
     st.seconds = vm__now() - t0;
     if (stats) *stats = st;
-#undef MAP_SLOT
 done:
     free(map);
     free(used_bits);
     free(used_rank);
     free(soup.tets);
+    free(soup.tets32);
     free(soup.rep_pos);
     if (s) vm_mesh_free(mesh);
     return s;
