@@ -596,7 +596,7 @@ static vm_status emit_faces(dc *d, size_t first, size_t end, vm_error *err) {
         for (int f = 0; f < 6; f++) {
             int a = f >> 1, s = f & 1, all = 1;
             for (int q = 0; q < 4; q++)
-                if (b->corner_patch[vm__dc_face_corner[f][q]] == NONE) all = 0;
+                if (vm__dc_kind_of(b)->corner_patch[vm__dc_face_corner[f][q]] == NONE) all = 0;
             if (!all) continue;
             int64_t nb[3] = {cm[0], cm[1], cm[2]};
             nb[a] += s ? 1 : -1;
@@ -610,7 +610,8 @@ static vm_status emit_faces(dc *d, size_t first, size_t end, vm_error *err) {
                 v[q] = vm__dc_lattice_id(d, p);
                 if (q == 0) even0 = (vm__dc_gsum(d, p) & 1) == 0;
             }
-            int64_t apex = N + b->base + b->corner_patch[vm__dc_face_corner[f][0]];
+            int64_t apex =
+                N + b->base + vm__dc_kind_of(b)->corner_patch[vm__dc_face_corner[f][0]];
             int o = even0 ? 0 : 1; /* diagonal v[o] - v[o+2] */
             vm_status st = emit_oriented(d, apex, v[o], v[o + 1], v[(o + 2) & 3], err);
             if (!st) st = emit_oriented(d, apex, v[o], v[(o + 2) & 3], v[(o + 3) & 3], err);
@@ -802,7 +803,7 @@ static vm_status emit_coarse_boundary(dc *d, size_t first, size_t end, vm_error 
 static vm_status emit_gaps(dc *d, size_t first, size_t end, vm_error *err) {
     for (size_t bi = first; bi < end; bi++) {
         const bcell *b = &d->bc[bi];
-        if (!b->special) continue;
+        if (!vm__dc_kind_of(b)->special) continue;
         d->cur_src = SRC(SRC_GAPS, bi);
         int64_t cm[3];
         vm__dc_cell_coords(d, b->cell, cm);
@@ -815,10 +816,10 @@ static vm_status emit_gaps(dc *d, size_t first, size_t end, vm_error *err) {
                 return vm_error_set(err, VM_ERR_INTERNAL,
                                     "mesh: special cell next to a uniform cell");
             const bcell *o = &d->bc[code];
-            if (o->special && (size_t)code < bi) continue; /* done from the other side */
+            if (vm__dc_kind_of(o)->special && (size_t)code < bi) continue; /* done from the other side */
             for (int q = 0; q < 4; q++) {
                 int c = vm__dc_face_corner[f][q];
-                if (b->corner_patch[c] == NONE) continue;
+                if (vm__dc_kind_of(b)->corner_patch[c] == NONE) continue;
                 int e1 = vm__dc_edge_of[c][vm__dc_face_corner[f][(q + 1) & 3]];
                 int e2 = vm__dc_edge_of[c][vm__dc_face_corner[f][(q + 3) & 3]];
                 /* the same edges seen from the neighbour: flip bit a of both corners */
@@ -946,12 +947,12 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
             for (int k = 0; k < 4; k++)
                 if (v[k] >= N && (size_t)(v[k] - N) < d->nreps) {
                     size_t r = (size_t)(v[k] - N);
-                    d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * 0.5 : 0.0;
+                    d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * 0.5f : 0.0f;
                     /* A coarse leaf's vertex also moves toward the block centre: its mass
                      * point may lie outside the wedge that the grid edges on its faces
                      * leave it (the centre lies inside every one of them). */
                     if (d->ncoarse && r >= d->coarse_base)
-                        d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * 0.5 : 0.0;
+                        d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * 0.5f : 0.0f;
                     touched[r] = now[r] = 1;
                 }
         }
@@ -1099,11 +1100,11 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
         for (size_t r = 0; r < d->nreps; r++) {
             if (!mark[r]) continue;
             /* a quarter of the way at first; vertices that keep crossing go faster */
-            double keep = ever[r] == 0 ? 0.75 : ever[r] == 1 ? 0.5 : 0.25;
+            float keep = ever[r] == 0 ? 0.75f : ever[r] == 1 ? 0.5f : 0.25f;
             if (d->lambda[r] > 0) {
-                d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * keep : 0.0;
-            } else if (d->mu[r] > 0 && !isnan(d->cpos[3 * r])) {
-                d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * keep : 0.0;
+                d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * keep : 0.0f;
+            } else if (d->mu[r] > 0 && vm__dc_rep_centre(d, r, NULL)) {
+                d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * keep : 0.0f;
             } else {
                 continue;
             }
@@ -1148,42 +1149,50 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     st->untangled_vertices = untangled;
     st->boundary_crossings = crossing;
     st->surface_vertices = d.nreps;
-    /* Hand over tets and the positions of the vertices they use. The per-cell state goes
-     * first and the tet list is cut to its length: this is the peak of the mesher. */
+    /* Hand over tets and the positions of the vertices they use. The representatives'
+     * positions are written over their minimisers (each reads only its own values and its
+     * cell), the rest of the state goes, and the tet list is cut to its length. */
     free(d.src);
     d.src = NULL;
-    free(d.in);
-    free(d.bnd);
-    free(d.inner);
-    free(d.bnd_rank);
-    free(d.coarse);
-    free(d.bc);
-    free(d.amb);
-    d.in = d.bnd = d.inner = d.coarse = NULL;
-    d.bnd_rank = NULL;
-    d.bc = NULL;
-    d.amb = NULL;
-    vm__octree_free(&d.oct);
-    if (d.ntets && d.ntets < d.tet_cap) {
-        void *t = realloc(d.tets, d.ntets * tet_bytes(&d));
-        if (t) d.tets = t;
+    int64_t N = vm__dc_npoints_real(&d);
+    for (size_t r = 0; r < d.nreps; r++) {
+        double p[3];
+        vm__dc_vertex_pos(&d, N + (int64_t)r, 0, p);
+        memcpy(d.qpos + 3 * r, p, sizeof p);
+    }
+    double *pos = d.qpos;
+    d.qpos = NULL;
+    size_t nreps = d.nreps, ncentre = d.ncentre;
+    double *centre = d.centre;
+    d.centre = NULL;
+    void *tets = d.tets;
+    size_t ntets = d.ntets;
+    int wide = d.wide;
+    d.tets = NULL;
+    vm__dc_free(&d);
+    if (ntets) {
+        void *t = realloc(tets, ntets * 4 * (wide ? sizeof(int64_t) : sizeof(uint32_t)));
+        if (t) tets = t;
     }
     out->nodes = 4;
-    out->ntets = d.ntets;
-    if (d.wide)
-        out->tets = d.tets;
+    out->ntets = ntets;
+    if (wide)
+        out->tets = tets;
     else
-        out->tets32 = d.tets;
-    d.tets = NULL;
-    out->nlattice = vm__dc_npoints_real(&d);
-    out->nreps = d.nreps + d.ncentre;
-    out->rep_pos = malloc(3 * (out->nreps ? out->nreps : 1) * sizeof(double));
-    if (!out->rep_pos) {
-        vm__dc_free(&d);
-        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        out->tets32 = tets;
+    out->nlattice = N;
+    out->nreps = nreps + ncentre;
+    if (ncentre) {
+        double *all = realloc(pos, 3 * out->nreps * sizeof(double));
+        if (!all) {
+            free(centre);
+            free(pos);
+            return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        }
+        pos = all;
+        memcpy(pos + 3 * nreps, centre, 3 * ncentre * sizeof(double));
     }
-    for (size_t r = 0; r < out->nreps; r++)
-        vm__dc_vertex_pos(&d, out->nlattice + (int64_t)r, 0, out->rep_pos + 3 * r);
-    vm__dc_free(&d);
+    free(centre);
+    out->rep_pos = pos;
     return VM_OK;
 }
