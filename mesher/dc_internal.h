@@ -74,7 +74,8 @@ typedef struct dc {
     int wide;
     int64_t id_limit;
     size_t ntets, tet_cap;
-    int64_t *src; /* per tet: the element that made it (see dc_tets.c), for re-emission */
+    void *src;    /* per tet: the element that made it (see dc_tets.c), for re-emission */
+    int src_wide; /* src: int64_t, else uint32_t */
     size_t src_cap;
     int64_t cur_src; /* element being emitted */
 } dc;

@@ -33,6 +33,27 @@ enum { SRC_NONE = 0, SRC_EDGE = 1, SRC_FACES = 2, SRC_COARSE = 3, SRC_GAPS = 4 }
 #define SRC(kind, payload) (((int64_t)(kind) << 58) | (int64_t)(payload))
 #define SRC_KIND(s) ((int)((s) >> 58))
 #define SRC_PAYLOAD(s) ((s) & (((int64_t)1 << 58) - 1))
+/* d->src keeps them in 32 bits (kind << 29 | payload) when every payload is below 2^29: 3
+ * edges a grid point on grids below 179 M points (d->src_wide == 0, see emit_all). */
+enum { SRC_NARROW_SHIFT = 29 };
+
+static size_t src_bytes(const dc *d) {
+    return d->src_wide ? sizeof(int64_t) : sizeof(uint32_t);
+}
+
+static int64_t src_get(const dc *d, size_t t) {
+    if (d->src_wide) return ((const int64_t *)d->src)[t];
+    uint32_t x = ((const uint32_t *)d->src)[t];
+    return SRC(x >> SRC_NARROW_SHIFT, x & (((uint32_t)1 << SRC_NARROW_SHIFT) - 1));
+}
+
+static void src_set(dc *d, size_t t, int64_t s) {
+    if (d->src_wide)
+        ((int64_t *)d->src)[t] = s;
+    else
+        ((uint32_t *)d->src)[t] =
+            (uint32_t)SRC_KIND(s) << SRC_NARROW_SHIFT | (uint32_t)SRC_PAYLOAD(s);
+}
 
 static int id_cmp(const void *x, const void *y) {
     int64_t a = *(const int64_t *)x, b = *(const int64_t *)y;
@@ -92,10 +113,10 @@ static vm_status emit(dc *d, int64_t a, int64_t b, int64_t c, int64_t e, vm_erro
         return VM_OK;
     const int64_t v[4] = {a, b, c, e};
     vm_status s = vm__grow(&d->tets, &d->tet_cap, d->ntets + 1, tet_bytes(d), err);
-    if (!s) s = vm__grow((void **)&d->src, &d->src_cap, d->ntets + 1, sizeof(int64_t), err);
+    if (!s) s = vm__grow(&d->src, &d->src_cap, d->ntets + 1, src_bytes(d), err);
     if (!s) s = tet_set(d, d->ntets, v, err);
     if (s) return s;
-    d->src[d->ntets++] = d->cur_src;
+    src_set(d, d->ntets++, d->cur_src);
     return VM_OK;
 }
 
@@ -484,7 +505,7 @@ typedef struct edge_slab {
     int64_t lo[4], hi[4];
     void *tets; /* 32-bit ids, or 64-bit (wide) */
     int wide;
-    int64_t *src;
+    void *src;
     size_t ntets;
     double *centre;
     size_t ncentre;
@@ -518,8 +539,7 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
     } else {
         s = vm__grow(&d->tets, &d->tet_cap, d->ntets + sl->ntets, tet_bytes(d), err);
         if (!s)
-            s = vm__grow((void **)&d->src, &d->src_cap, d->ntets + sl->ntets, sizeof(int64_t),
-                         err);
+            s = vm__grow(&d->src, &d->src_cap, d->ntets + sl->ntets, src_bytes(d), err);
         if (!s)
             s = vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + sl->ncentre,
                          3 * sizeof(double), err);
@@ -527,7 +547,7 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
     if (!s) {
         int64_t first = vm__dc_npoints_real(d) + (int64_t)d->nreps, shift = (int64_t)d->ncentre;
         if (sl->ntets) /* (d->src may still be NULL otherwise) */
-            memcpy(d->src + d->ntets, sl->src, sl->ntets * sizeof(int64_t));
+            memcpy((char *)d->src + src_bytes(d) * d->ntets, sl->src, sl->ntets * src_bytes(d));
         const dc from = {.tets = sl->tets, .wide = sl->wide};
         for (size_t t = 0; t < sl->ntets && !s; t++) {
             int64_t v[4];
@@ -857,6 +877,11 @@ static vm_status emit_gaps(dc *d, size_t first, size_t end, vm_error *err) {
 static vm_status emit_all(dc *d, vm_error *err) {
     d->ntets = 0;
     d->ncentre = 0;
+    /* payloads: a + 3 * lattice id of an edge, a boundary cell, a coarse leaf (a grid
+     * whose ids need 64 bits, which tests force with d->g->id_limit, goes wide too) */
+    int64_t most = 3 * vm__dc_npoints_real(d);
+    if ((int64_t)d->nbc > most) most = (int64_t)d->nbc;
+    d->src_wide = most >= ((int64_t)1 << SRC_NARROW_SHIFT) || d->g->id_limit > 0;
     vm_status s = emit_slabs(d, 0, err);
     if (!s) s = emit_faces(d, 0, d->nbc, err);
     d->cur_src = SRC(SRC_NONE, 0);
@@ -880,10 +905,11 @@ static vm_status emit_local(dc *d, const uint8_t *moved, vm_error *err) {
         int hit = 0;
         for (int k = 0; k < 4; k++)
             if (v[k] >= N && (size_t)(v[k] - N) < d->nreps && moved[v[k] - N]) hit = 1;
-        if (!hit || SRC_KIND(d->src[t]) == SRC_NONE) continue;
-        if (nredo && redo[nredo - 1] == d->src[t]) continue;
+        int64_t src = src_get(d, t);
+        if (!hit || SRC_KIND(src) == SRC_NONE) continue;
+        if (nredo && redo[nredo - 1] == src) continue;
         s = vm__grow((void **)&redo, &cap, nredo + 1, sizeof *redo, err);
-        if (!s) redo[nredo++] = d->src[t];
+        if (!s) redo[nredo++] = src;
     }
     if (s || !nredo) {
         free(redo);
@@ -896,11 +922,11 @@ static vm_status emit_local(dc *d, const uint8_t *moved, vm_error *err) {
     nredo = u;
     size_t kept = 0, tb = tet_bytes(d);
     for (size_t t = 0; t < d->ntets; t++) {
-        if (SRC_KIND(d->src[t]) != SRC_NONE &&
-            bsearch(&d->src[t], redo, nredo, sizeof *redo, id_cmp))
+        int64_t src = src_get(d, t);
+        if (SRC_KIND(src) != SRC_NONE && bsearch(&src, redo, nredo, sizeof *redo, id_cmp))
             continue;
         memmove((char *)d->tets + tb * kept, (char *)d->tets + tb * t, tb);
-        d->src[kept++] = d->src[t];
+        src_set(d, kept++, src);
     }
     d->ntets = kept;
     for (size_t i = 0; i < nredo && !s; i++) {
@@ -974,10 +1000,17 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
     return VM_OK;
 }
 
-/* A boundary candidate: a tet face, its sorted corners (key) and its outward order (v). */
+/* A boundary candidate: a tet face, its sorted corners (key) and where each corner of its
+ * outward order is in the key (32 bytes, not 48 with the order spelt out). */
 typedef struct bface {
-    int64_t key[3], v[3];
+    int64_t key[3];
+    uint8_t at[3];
 } bface;
+
+/* Corner k of face b in its outward order. */
+static int64_t bface_v(const bface *b, int k) {
+    return b->key[b->at[k]];
+}
 
 static int bface_cmp(const void *x, const void *y) {
     const int64_t *a = ((const bface *)x)->key, *b = ((const bface *)y)->key;
@@ -1011,14 +1044,17 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
             if (!surf[tf[q][0]] || !surf[tf[q][1]] || !surf[tf[q][2]]) continue;
             if ((s = vm__grow((void **)&f, &cap, nf + 1, sizeof *f, err))) goto done;
             bface *b = &f[nf++];
-            for (int k = 0; k < 3; k++)
-                b->v[k] = b->key[k] = v[tf[q][k]];
-            for (int i = 1; i < 3; i++) /* sort the key */
-                for (int j = i; j > 0 && b->key[j - 1] > b->key[j]; j--) {
-                    int64_t x = b->key[j];
-                    b->key[j] = b->key[j - 1];
-                    b->key[j - 1] = x;
+            int ord[3] = {0, 1, 2}; /* corners in increasing id order */
+            for (int i = 1; i < 3; i++)
+                for (int j = i; j > 0 && v[tf[q][ord[j - 1]]] > v[tf[q][ord[j]]]; j--) {
+                    int x = ord[j];
+                    ord[j] = ord[j - 1];
+                    ord[j - 1] = x;
                 }
+            for (int i = 0; i < 3; i++) {
+                b->key[i] = v[tf[q][ord[i]]];
+                b->at[ord[i]] = (uint8_t)i;
+            }
         }
     }
     if (nf) qsort(f, nf, sizeof *f, bface_cmp);
@@ -1030,6 +1066,10 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
         i = j;
     }
     if (nb < 2) goto done;
+    if (nb < nf) { /* give back the faces dropped before the check's own arrays come */
+        bface *fit = realloc(f, nb * sizeof *f);
+        if (fit) f = fit;
+    }
     ids = malloc(3 * nb * sizeof *ids);
     tri = malloc(3 * nb * sizeof *tri);
     flag = malloc(nb);
@@ -1039,7 +1079,7 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
     }
     for (size_t i = 0; i < nb; i++)
         for (int k = 0; k < 3; k++)
-            ids[3 * i + (size_t)k] = f[i].v[k];
+            ids[3 * i + (size_t)k] = bface_v(&f[i], k);
     qsort(ids, 3 * nb, sizeof *ids, id_cmp);
     size_t nv = 0;
     for (size_t i = 0; i < 3 * nb; i++)
@@ -1053,7 +1093,8 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
         vm__dc_vertex_pos(d, ids[i], 0, pos + 3 * i);
     for (size_t i = 0; i < nb; i++)
         for (int k = 0; k < 3; k++) {
-            const int64_t *hit = bsearch(&f[i].v[k], ids, nv, sizeof *ids, id_cmp);
+            int64_t id = bface_v(&f[i], k);
+            const int64_t *hit = bsearch(&id, ids, nv, sizeof *ids, id_cmp);
             tri[3 * i + (size_t)k] = (vm_index)(hit - ids);
         }
     s = vm__self_intersections(pos, tri, nb, pairs, flag, err);
@@ -1061,7 +1102,7 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
     for (size_t i = 0; i < nb; i++) {
         if (!flag[i]) continue;
         for (int k = 0; k < 3; k++) {
-            int64_t id = f[i].v[k];
+            int64_t id = bface_v(&f[i], k);
             if (id >= N && (size_t)(id - N) < d->nreps) mark[id - N] = 1;
         }
     }
