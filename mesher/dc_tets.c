@@ -3,6 +3,7 @@
 #include "../core/core.h"
 #include "../quality/self_intersect.h"
 #include "dc_internal.h"
+#include "volmesh/volmesh.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -573,12 +574,16 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
 /* The elements of every grid edge, axis by axis (interior: of the interior cells), in slabs
  * of z layers run in parallel and appended in order. */
 static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
-    enum { LAYERS = 4, BATCH = 64 };
+    /* A batch's slabs hold their tets twice until appended: four per thread keep the
+     * threads busy without holding a large part of the mesh twice (the order, and so the
+     * mesh, is the same for any batch). */
+    enum { LAYERS = 4 };
+    const int64_t batch = 4 * (int64_t)vm_threads();
     int64_t per_axis = (d->n[2] + LAYERS - 1) / LAYERS, total = (interior ? 1 : 3) * per_axis;
-    edge_slab *sl = calloc(BATCH, sizeof *sl);
+    edge_slab *sl = calloc((size_t)batch, sizeof *sl);
     vm_status s = sl ? VM_OK : vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-    for (int64_t first = 0; first < total && !s; first += BATCH) {
-        int64_t count = total - first < BATCH ? total - first : BATCH;
+    for (int64_t first = 0; first < total && !s; first += batch) {
+        int64_t count = total - first < batch ? total - first : batch;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1)
 #endif
