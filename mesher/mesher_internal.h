@@ -108,6 +108,13 @@ vm_status vm__material_check(const vm_volume *v, int has_lo, double lo, int has_
 vm_status vm__sampling_grid(const vm_volume *v, int cell_size, const char *what, int64_t n[3],
                             const float **f, float **owned, double step[3], vm_error *err);
 
+/* The mesh of soup's cells (mesh initialised to their kind): the used vertices numbered in
+ * order of first use, at index position id * step (grid index i, j, k of a grid of n points,
+ * k shifted by z_off) mapped to v's world frame; the cells take over soup's id buffer, which
+ * is renumbered in place. soup is emptied (its buffers freed or taken) either way. */
+vm_status vm__soup_to_mesh(vm__tet_soup *soup, const vm_volume *v, const int64_t n[3],
+                           int64_t z_off, const double step[3], vm_mesh *mesh, vm_error *err);
+
 vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
                                 vm_error *err);
 vm_status vm__dual_contour_hexes(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
