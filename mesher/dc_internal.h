@@ -38,12 +38,15 @@ static inline const vm__dc_kind *vm__dc_kind_of(const bcell *b) {
 
 typedef struct dc {
     const vm__grid *g;
-    int64_t n[3], P[3], C[3]; /* real points, padded points, padded cells per axis */
+    /* real points, padded points, padded cells per axis: the cells are indexed with the
+     * points' strides (C == P; a cell's index is that of its lowest corner, the last plane
+     * along each axis holds no cell) */
+    int64_t n[3], P[3], C[3];
     int64_t off[3];           /* g->off: grid index i is i + off in the whole grid */
     /* Per padded point and cell, one bit each (read through the accessors below): */
     uint64_t *in;       /* per padded point: inside the material */
-    uint64_t *bnd;      /* per padded cell: a boundary cell (corners mixed) */
-    uint64_t *inner;    /* per padded cell: every corner inside */
+    uint64_t *bnd;      /* per padded cell: a boundary cell (corners mixed); a cell that
+                           is not has every corner as its lowest one, in or out */
     uint32_t *bnd_rank; /* per word of bnd: boundary cells before it (their bcell index) */
     bcell *bc;          /* boundary cells in increasing cell order */
     size_t nbc, bc_cap;
@@ -126,7 +129,7 @@ static inline int vm__dc_in(const dc *d, int64_t p) {
 static inline int32_t vm__dc_code(const dc *d, int64_t ci) {
     uint64_t w = d->bnd[ci >> 6], bit = (uint64_t)1 << (ci & 63);
     if (w & bit) return (int32_t)(d->bnd_rank[ci >> 6] + (uint32_t)__builtin_popcountll(w & (bit - 1)));
-    return vm__dc_bit(d->inner, ci) ? CELL_IN : CELL_OUT;
+    return vm__dc_in(d, ci) ? CELL_IN : CELL_OUT; /* ci is its lowest corner's index */
 }
 /* The coarse boundary leaf holding padded cell ci, or -1. */
 int32_t vm__dc_coarse_find(const dc *d, int64_t ci);

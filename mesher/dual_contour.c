@@ -184,9 +184,8 @@ static int cell_mask(const dc *d, int64_t i, int64_t j, int64_t k) {
 
 static void free_cells(dc *d) {
     free(d->bnd);
-    free(d->inner);
     free(d->bnd_rank);
-    d->bnd = d->inner = NULL;
+    d->bnd = NULL;
     d->bnd_rank = NULL;
 }
 
@@ -194,31 +193,31 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
     size_t nc = (size_t)(d->C[0] * d->C[1] * d->C[2]);
     int64_t nw = (int64_t)(nc / 64 + 1);
     d->bnd = bits_new(nc);
-    d->inner = bits_new(nc);
     d->bnd_rank = malloc((size_t)nw * sizeof *d->bnd_rank);
-    if (!d->bnd || !d->inner || !d->bnd_rank)
+    if (!d->bnd || !d->bnd_rank)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
-    size_t reps = 0;
-    /* The cell kinds first, in parallel word by word, then the boundary cells in order. */
+    size_t reps = 0, interior = 0;
+    /* The cell kinds first, in parallel word by word, then the boundary cells in order. The
+     * last plane along each axis holds no cell (cells share the points' strides). */
 #ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) reduction(+ : interior)
 #endif
     for (int64_t w = 0; w < nw; w++) {
         int64_t c[3], first = 64 * w;
         unflatten(first, d->C, c);
-        uint64_t wb = 0, wi = 0;
+        uint64_t wb = 0;
         for (int b = 0; b < 64 && first + b < (int64_t)nc; b++, step_coords(c, d->C)) {
+            if (c[0] == d->C[0] - 1 || c[1] == d->C[1] - 1 || c[2] == d->C[2] - 1) continue;
             int mask = cell_mask(d, c[0] - 1, c[1] - 1, c[2] - 1);
-            if (mask == 0xff) wi |= (uint64_t)1 << b;
+            if (mask == 0xff) interior++;
             else if (mask) wb |= (uint64_t)1 << b;
         }
         d->bnd[w] = wb;
-        d->inner[w] = wi;
     }
+    st->interior_cells += interior;
     uint32_t before = 0;
     for (int64_t w = 0; w < nw; w++) {
         d->bnd_rank[w] = before;
-        st->interior_cells += (size_t)__builtin_popcountll(d->inner[w]);
         for (uint64_t bits = d->bnd[w]; bits; bits &= bits - 1) {
             int64_t ci = 64 * w + __builtin_ctzll(bits), cm[3];
             vm__dc_cell_coords(d, ci, cm);
@@ -815,7 +814,7 @@ static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error 
                 int64_t ci = vm__dc_cidx(d, i, j, k);
                 int code = d->coarse && vm__dc_bit(d->coarse, ci) ? VM_OCT_COARSE
                            : vm__dc_bit(d->bnd, ci)               ? VM_OCT_FINE
-                           : vm__dc_bit(d->inner, ci)             ? VM_OCT_LEVEL
+                           : vm__dc_in(d, ci)                     ? VM_OCT_LEVEL
                                                                   : VM_OCT_NONE;
                 if (code != VM_OCT_NONE) vm__octree_put(&d->oct, (int64_t[3]){i, j, k}, code);
             }
@@ -899,7 +898,7 @@ vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *er
         d->n[a] = g->n[a];
         d->off[a] = g->off[a];
         d->P[a] = g->n[a] + 2;
-        d->C[a] = g->n[a] + 1;
+        d->C[a] = g->n[a] + 2; /* as P: a cell's index is that of its lowest corner */
     }
     size_t tmp;
     vm_status s =
