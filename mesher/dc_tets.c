@@ -1075,10 +1075,10 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
         bface *fit = realloc(f, nb * sizeof *f);
         if (fit) f = fit;
     }
+    /* The faces' corners as indices into their sorted distinct ids; then the faces go
+     * before the positions and the check's own arrays come (a corner's id is ids[index]). */
     ids = malloc(3 * nb * sizeof *ids);
-    tri = malloc(3 * nb * sizeof *tri);
-    flag = malloc(nb);
-    if (!ids || !tri || !flag) {
+    if (!ids) {
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
         goto done;
     }
@@ -1089,25 +1089,35 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
     size_t nv = 0;
     for (size_t i = 0; i < 3 * nb; i++)
         if (nv == 0 || ids[nv - 1] != ids[i]) ids[nv++] = ids[i];
-    pos = malloc(3 * nv * sizeof *pos);
-    if (!pos) {
+    int64_t *distinct = realloc(ids, nv * sizeof *ids);
+    if (distinct) ids = distinct;
+    tri = malloc(3 * nb * sizeof *tri);
+    if (!tri) {
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
         goto done;
     }
-    for (size_t i = 0; i < nv; i++)
-        vm__dc_vertex_pos(d, ids[i], 0, pos + 3 * i);
     for (size_t i = 0; i < nb; i++)
         for (int k = 0; k < 3; k++) {
             int64_t id = bface_v(&f[i], k);
             const int64_t *hit = bsearch(&id, ids, nv, sizeof *ids, id_cmp);
             tri[3 * i + (size_t)k] = (vm_index)(hit - ids);
         }
+    free(f);
+    f = NULL;
+    pos = malloc(3 * nv * sizeof *pos);
+    flag = malloc(nb);
+    if (!pos || !flag) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
+        goto done;
+    }
+    for (size_t i = 0; i < nv; i++)
+        vm__dc_vertex_pos(d, ids[i], 0, pos + 3 * i);
     s = vm__self_intersections(pos, tri, nb, pairs, flag, err);
     if (s || !*pairs) goto done;
     for (size_t i = 0; i < nb; i++) {
         if (!flag[i]) continue;
         for (int k = 0; k < 3; k++) {
-            int64_t id = bface_v(&f[i], k);
+            int64_t id = ids[tri[3 * i + (size_t)k]];
             if (id >= N && (size_t)(id - N) < d->nreps) mark[id - N] = 1;
         }
     }
