@@ -179,13 +179,14 @@ static int parse_bytes(const char *s, double *bytes) {
 }
 
 /* Peak memory of a run beyond the volume, from the cells the mesher will see (measured on
- * the sphere phantoms and the CT head, docs/BENCHMARKS.md, rounded up):
+ * the sphere phantoms and the CT head, docs/BENCHMARKS.md, rounded up; upper bounds, kept
+ * when the mesher's own peak fell to under 100 bytes per tet, 2026-12-02):
  *  - uniform tets: about 5.3 tets per inside cell, ~200 bytes per tet at the peak (the
  *    quality pass included): 1100 bytes per inside cell; hexes: 300 bytes per inside cell;
- *  - adaptive tets: the grid state of the mesher (bit sets of inside points, boundary,
- *    interior and coarse cells, the octree's 4-bit codes while it is built: under 1.7
- *    bytes per cell, 2 here), and up to 9 tets per boundary cell (one with mixed corners)
- *    plus 0.05 per inside cell, at 200 bytes per tet.
+ *  - adaptive tets: the grid state of the mesher (bit sets of inside points, boundary and
+ *    coarse cells, the octree's 4-bit codes while it is built: under 1.5 bytes per cell,
+ *    2 here), and up to 9 tets per boundary cell (one with mixed corners) plus 0.05 per
+ *    inside cell, at 200 bytes per tet.
  * At cell size S > 1 the counts are those of the resampled grid, estimated as 1/S^3. */
 #define MEM_PER_INSIDE_TET 1100.0
 #define MEM_PER_INSIDE_HEX 300.0

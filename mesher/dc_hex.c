@@ -85,7 +85,7 @@ static vm_status build(dc *d, hexes *h, vm_error *err) {
                     if (code >= 0) {
                         const bcell *b = &d->bc[code];
                         int local = (1 - hex_off[q][0]) | (1 - hex_off[q][1]) << 1 | (1 - hex_off[q][2]) << 2;
-                        c[q] = N + b->base + b->corner_patch[local];
+                        c[q] = N + b->base + vm__dc_kind_of(b)->corner_patch[local];
                     } else {
                         if (h->centre_of[ci] < 0) {
                             s = vm__grow((void **)&h->centre_cell, &h->centre_cap, h->ncentres + 1,
@@ -152,7 +152,7 @@ static size_t pull_to_surface(dc *d) {
     size_t pulled = 0;
     for (size_t bi = 0; bi < d->nbc; bi++) {
         const bcell *b = &d->bc[bi];
-        for (int p = 0; p < b->npatch; p++) {
+        for (int p = 0; p < vm__dc_kind_of(b)->npatch; p++) {
             size_t r = (size_t)b->base + (size_t)p;
             const double *q = d->qpos + 3 * r, *m = d->mpos + 3 * r;
             double best_l = 1.0, best_e = INFINITY;
@@ -170,7 +170,7 @@ static size_t pull_to_surface(dc *d) {
                 }
             }
             if (best_l < 1.0) {
-                d->lambda[r] = best_l;
+                d->lambda[r] = (float)best_l;
                 pulled++;
             }
         }
@@ -198,10 +198,10 @@ static size_t make_valid(dc *d, const hexes *h, size_t *relaxed) {
                 if (c[k] < N || (size_t)(c[k] - N) >= d->nreps) continue;
                 size_t r = (size_t)(c[k] - N);
                 if (d->lambda[r] > 0) {
-                    d->lambda[r] = d->lambda[r] > 1.0 / 16 ? d->lambda[r] * 0.5 : 0.0;
+                    d->lambda[r] = d->lambda[r] > 1.0 / 16 ? d->lambda[r] * 0.5f : 0.0f;
                     moved++;
-                } else if (!isnan(d->cpos[3 * r]) && d->mu[r] > 0) {
-                    d->mu[r] = d->mu[r] > 1.0 / 16 ? d->mu[r] * 0.5 : 0.0;
+                } else if (vm__dc_rep_centre(d, r, NULL) && d->mu[r] > 0) {
+                    d->mu[r] = d->mu[r] > 1.0 / 16 ? d->mu[r] * 0.5f : 0.0f;
                     moved++;
                 }
             }

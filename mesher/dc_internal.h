@@ -16,22 +16,37 @@ void vm__dc_init_tables(void);
 
 #define NONE 0xff /* no patch */
 
+/* What the signs of its corners make of a boundary cell: the same for every cell with one
+ * mask of inside corners, so kept once per mask (vm__dc_kinds, filled by
+ * vm__dc_init_tables) rather than per cell. */
+typedef struct vm__dc_kind {
+    uint8_t npatch, special; /* surface patches; special: an extra vertex at the centre */
+    uint8_t edge_patch[12];  /* patch of each crossing edge, NONE otherwise */
+    uint8_t corner_patch[8]; /* patch of each inside corner's component, NONE outside */
+} vm__dc_kind;
+extern vm__dc_kind vm__dc_kinds[256];
+
 typedef struct bcell {
     int64_t cell; /* padded cell index */
     int32_t base; /* first representative vertex */
-    uint8_t npatch, special;
-    uint8_t edge_patch[12];  /* patch of each crossing edge, NONE otherwise */
-    uint8_t corner_patch[8]; /* patch of each inside corner's component, NONE outside */
+    uint8_t mask; /* inside corners (bit c): the cell's kind is vm__dc_kinds[mask] */
 } bcell;
+
+static inline const vm__dc_kind *vm__dc_kind_of(const bcell *b) {
+    return &vm__dc_kinds[b->mask];
+}
 
 typedef struct dc {
     const vm__grid *g;
-    int64_t n[3], P[3], C[3]; /* real points, padded points, padded cells per axis */
+    /* real points, padded points, padded cells per axis: the cells are indexed with the
+     * points' strides (C == P; a cell's index is that of its lowest corner, the last plane
+     * along each axis holds no cell) */
+    int64_t n[3], P[3], C[3];
     int64_t off[3];           /* g->off: grid index i is i + off in the whole grid */
     /* Per padded point and cell, one bit each (read through the accessors below): */
     uint64_t *in;       /* per padded point: inside the material */
-    uint64_t *bnd;      /* per padded cell: a boundary cell (corners mixed) */
-    uint64_t *inner;    /* per padded cell: every corner inside */
+    uint64_t *bnd;      /* per padded cell: a boundary cell (corners mixed); a cell that
+                           is not has every corner as its lowest one, in or out */
     uint32_t *bnd_rank; /* per word of bnd: boundary cells before it (their bcell index) */
     bcell *bc;          /* boundary cells in increasing cell order */
     size_t nbc, bc_cap;
@@ -39,8 +54,11 @@ typedef struct dc {
     int64_t *amb; /* keys (3*lower cell + axis) of ambiguous faces, sorted */
     size_t namb, amb_cap;
     size_t amb_base;              /* representative index of the first face vertex */
-    double *qpos, *mpos, *lambda; /* per rep: minimiser, mass point, blend factor */
-    double *cpos, *mu;   /* per rep: its cell's centre (NAN: none safe), blend toward it */
+    double *qpos, *mpos; /* per rep: minimiser, mass point */
+    /* Per rep: blend factors toward the mass point (lambda), then toward the centre of
+     * vm__dc_rep_centre (mu). Floats hold them exactly: from 1 (or k/8) relaxation only
+     * multiplies them by 3/4, 1/2 or 1/4 and sets them to 0 below 1/64. */
+    float *lambda, *mu;
     uint8_t *rep_planes; /* per rep: box planes it lies on (bit 2a+side) */
     double *centre;      /* positions of polygon centres (ids after the reps) */
     size_t ncentre, centre_cap;
@@ -53,9 +71,14 @@ typedef struct dc {
     uint64_t *coarse;    /* per padded cell, one bit: in a coarse leaf (NULL: none) */
     int64_t *coarse_key; /* per leaf: padded index of its lowest cell, increasing */
     double error;       /* merge tolerance, voxels */
-    int64_t *tets;      /* 4 global ids per tet */
+    /* The tet list, 4 global ids per tet: uint32_t while every id is below id_limit, then
+     * int64_t (wide != 0; dc_tets.c widens it when an id needs it). */
+    void *tets;
+    int wide;
+    int64_t id_limit;
     size_t ntets, tet_cap;
-    int64_t *src; /* per tet: the element that made it (see dc_tets.c), for re-emission */
+    void *src;    /* per tet: the element that made it (see dc_tets.c), for re-emission */
+    int src_wide; /* src: int64_t, else uint32_t */
     size_t src_cap;
     int64_t cur_src; /* element being emitted */
 } dc;
@@ -106,7 +129,7 @@ static inline int vm__dc_in(const dc *d, int64_t p) {
 static inline int32_t vm__dc_code(const dc *d, int64_t ci) {
     uint64_t w = d->bnd[ci >> 6], bit = (uint64_t)1 << (ci & 63);
     if (w & bit) return (int32_t)(d->bnd_rank[ci >> 6] + (uint32_t)__builtin_popcountll(w & (bit - 1)));
-    return vm__dc_bit(d->inner, ci) ? CELL_IN : CELL_OUT;
+    return vm__dc_in(d, ci) ? CELL_IN : CELL_OUT; /* ci is its lowest corner's index */
 }
 /* The coarse boundary leaf holding padded cell ci, or -1. */
 int32_t vm__dc_coarse_find(const dc *d, int64_t ci);
@@ -135,6 +158,10 @@ vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_
  * (patch vertices, cell centres of special cells, ambiguous-face vertices), then polygon
  * centres made while emitting. reference != 0 gives the mass-point position. */
 void vm__dc_vertex_pos(const dc *d, int64_t id, int reference, double out[3]);
+/* The centre representative r is pulled toward once at its mass point: its cell's centre
+ * (on the border plane along padded axes) for the vertex of a one-patch cell, the block's
+ * centre for a coarse leaf. Returns 0 when it has none (c, which may be NULL, untouched). */
+int vm__dc_rep_centre(const dc *d, size_t r, double c[3]);
 /* Box planes (bit 2a + side) the vertex lies on. */
 uint8_t vm__dc_vertex_planes(const dc *d, int64_t id);
 /* Vertex of boundary cell b for its local edge e. */

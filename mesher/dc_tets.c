@@ -3,6 +3,7 @@
 #include "../core/core.h"
 #include "../quality/self_intersect.h"
 #include "dc_internal.h"
+#include "volmesh/volmesh.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -33,10 +34,77 @@ enum { SRC_NONE = 0, SRC_EDGE = 1, SRC_FACES = 2, SRC_COARSE = 3, SRC_GAPS = 4 }
 #define SRC(kind, payload) (((int64_t)(kind) << 58) | (int64_t)(payload))
 #define SRC_KIND(s) ((int)((s) >> 58))
 #define SRC_PAYLOAD(s) ((s) & (((int64_t)1 << 58) - 1))
+/* d->src keeps them in 32 bits (kind << 29 | payload) when every payload is below 2^29: 3
+ * edges a grid point on grids below 179 M points (d->src_wide == 0, see emit_all). */
+enum { SRC_NARROW_SHIFT = 29 };
+
+static size_t src_bytes(const dc *d) {
+    return d->src_wide ? sizeof(int64_t) : sizeof(uint32_t);
+}
+
+static int64_t src_get(const dc *d, size_t t) {
+    if (d->src_wide) return ((const int64_t *)d->src)[t];
+    uint32_t x = ((const uint32_t *)d->src)[t];
+    return SRC(x >> SRC_NARROW_SHIFT, x & (((uint32_t)1 << SRC_NARROW_SHIFT) - 1));
+}
+
+static void src_set(dc *d, size_t t, int64_t s) {
+    if (d->src_wide)
+        ((int64_t *)d->src)[t] = s;
+    else
+        ((uint32_t *)d->src)[t] =
+            (uint32_t)SRC_KIND(s) << SRC_NARROW_SHIFT | (uint32_t)SRC_PAYLOAD(s);
+}
 
 static int id_cmp(const void *x, const void *y) {
     int64_t a = *(const int64_t *)x, b = *(const int64_t *)y;
     return a < b ? -1 : a > b;
+}
+
+/* The tet list (d->tets) holds 32-bit ids until an id reaches d->id_limit, 64-bit ones
+ * from then on: 16 bytes a tet instead of 32 on every grid below 2^32 points. */
+static size_t tet_bytes(const dc *d) {
+    return 4 * (d->wide ? sizeof(int64_t) : sizeof(uint32_t));
+}
+
+static void tet_get(const dc *d, size_t t, int64_t v[4]) {
+    if (d->wide) {
+        memcpy(v, (const int64_t *)d->tets + 4 * t, 4 * sizeof(int64_t));
+    } else {
+        const uint32_t *p = (const uint32_t *)d->tets + 4 * t;
+        for (int k = 0; k < 4; k++)
+            v[k] = (int64_t)p[k];
+    }
+}
+
+/* Makes the list 64-bit, keeping its capacity. */
+static vm_status widen(dc *d, vm_error *err) {
+    int64_t *w = malloc((d->tet_cap ? d->tet_cap : 1) * 4 * sizeof(int64_t));
+    if (!w) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the tet list");
+    const uint32_t *n = d->tets;
+    for (size_t q = 0; q < 4 * d->ntets; q++)
+        w[q] = (int64_t)n[q];
+    free(d->tets);
+    d->tets = w;
+    d->wide = 1;
+    return VM_OK;
+}
+
+/* Stores v as tet t (< tet_cap), widening the list first when an id needs it. */
+static vm_status tet_set(dc *d, size_t t, const int64_t v[4], vm_error *err) {
+    if (!d->wide && (v[0] >= d->id_limit || v[1] >= d->id_limit || v[2] >= d->id_limit ||
+                     v[3] >= d->id_limit)) {
+        vm_status s = widen(d, err);
+        if (s) return s;
+    }
+    if (d->wide) {
+        memcpy((int64_t *)d->tets + 4 * t, v, 4 * sizeof(int64_t));
+    } else {
+        uint32_t *p = (uint32_t *)d->tets + 4 * t;
+        for (int k = 0; k < 4; k++)
+            p[k] = (uint32_t)v[k];
+    }
+    return VM_OK;
 }
 
 static vm_status emit(dc *d, int64_t a, int64_t b, int64_t c, int64_t e, vm_error *err) {
@@ -44,16 +112,12 @@ static vm_status emit(dc *d, int64_t a, int64_t b, int64_t c, int64_t e, vm_erro
     if (vm__dc_vertex_planes(d, a) & vm__dc_vertex_planes(d, b) & vm__dc_vertex_planes(d, c) &
         vm__dc_vertex_planes(d, e))
         return VM_OK;
-    vm_status s =
-        vm__grow((void **)&d->tets, &d->tet_cap, d->ntets + 1, 4 * sizeof(int64_t), err);
-    if (!s) s = vm__grow((void **)&d->src, &d->src_cap, d->ntets + 1, sizeof(int64_t), err);
+    const int64_t v[4] = {a, b, c, e};
+    vm_status s = vm__grow(&d->tets, &d->tet_cap, d->ntets + 1, tet_bytes(d), err);
+    if (!s) s = vm__grow(&d->src, &d->src_cap, d->ntets + 1, src_bytes(d), err);
+    if (!s) s = tet_set(d, d->ntets, v, err);
     if (s) return s;
-    d->src[d->ntets] = d->cur_src;
-    int64_t *t = d->tets + 4 * d->ntets++;
-    t[0] = a;
-    t[1] = b;
-    t[2] = c;
-    t[3] = e;
+    src_set(d, d->ntets++, d->cur_src);
     return VM_OK;
 }
 
@@ -440,7 +504,9 @@ static vm_status emit_interior(dc *d, int64_t k0, int64_t k1, vm_error *err);
 typedef struct edge_slab {
     int interior; /* 1: the interior cells of z layers lo[3]..hi[3]-1; 0: the edges lo..hi */
     int64_t lo[4], hi[4];
-    int64_t *tets, *src;
+    void *tets; /* 32-bit ids, or 64-bit (wide) */
+    int wide;
+    void *src;
     size_t ntets;
     double *centre;
     size_t ncentre;
@@ -450,7 +516,8 @@ typedef struct edge_slab {
 
 static void emit_slab(const dc *d, edge_slab *sl) {
     dc local = *d;
-    local.tets = local.src = NULL;
+    local.tets = NULL;
+    local.src = NULL;
     local.ntets = local.tet_cap = local.src_cap = 0;
     local.centre = NULL;
     local.ncentre = local.centre_cap = 0;
@@ -459,6 +526,7 @@ static void emit_slab(const dc *d, edge_slab *sl) {
     sl->status = sl->interior ? emit_interior(&local, sl->lo[3], sl->hi[3], &sl->err)
                               : emit_edge_box(&local, sl->lo, sl->hi, 1, &sl->err);
     sl->tets = local.tets;
+    sl->wide = local.wide;
     sl->src = local.src;
     sl->ntets = local.ntets;
     sl->centre = local.centre;
@@ -470,32 +538,35 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
     if (s) {
         if (err) *err = sl->err;
     } else {
-        s = vm__grow((void **)&d->tets, &d->tet_cap, d->ntets + sl->ntets, 4 * sizeof(int64_t),
-                     err);
+        s = vm__grow(&d->tets, &d->tet_cap, d->ntets + sl->ntets, tet_bytes(d), err);
         if (!s)
-            s = vm__grow((void **)&d->src, &d->src_cap, d->ntets + sl->ntets, sizeof(int64_t),
-                         err);
+            s = vm__grow(&d->src, &d->src_cap, d->ntets + sl->ntets, src_bytes(d), err);
         if (!s)
             s = vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + sl->ncentre,
                          3 * sizeof(double), err);
     }
     if (!s) {
         int64_t first = vm__dc_npoints_real(d) + (int64_t)d->nreps, shift = (int64_t)d->ncentre;
-        if (sl->ntets) { /* (d->tets may still be NULL otherwise) */
-            int64_t *t = d->tets + 4 * d->ntets;
-            for (size_t q = 0; q < 4 * sl->ntets; q++)
-                t[q] = sl->tets[q] >= first ? sl->tets[q] + shift : sl->tets[q];
-            memcpy(d->src + d->ntets, sl->src, sl->ntets * sizeof(int64_t));
+        if (sl->ntets) /* (d->src may still be NULL otherwise) */
+            memcpy((char *)d->src + src_bytes(d) * d->ntets, sl->src, sl->ntets * src_bytes(d));
+        const dc from = {.tets = sl->tets, .wide = sl->wide};
+        for (size_t t = 0; t < sl->ntets && !s; t++) {
+            int64_t v[4];
+            tet_get(&from, t, v);
+            for (int k = 0; k < 4; k++)
+                if (v[k] >= first) v[k] += shift;
+            s = tet_set(d, d->ntets, v, err);
+            if (!s) d->ntets++;
         }
         if (sl->ncentre)
             memcpy(d->centre + 3 * d->ncentre, sl->centre, 3 * sl->ncentre * sizeof(double));
-        d->ntets += sl->ntets;
         d->ncentre += sl->ncentre;
     }
     free(sl->tets);
     free(sl->src);
     free(sl->centre);
-    sl->tets = sl->src = NULL;
+    sl->tets = NULL;
+    sl->src = NULL;
     sl->centre = NULL;
     return s;
 }
@@ -503,12 +574,16 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
 /* The elements of every grid edge, axis by axis (interior: of the interior cells), in slabs
  * of z layers run in parallel and appended in order. */
 static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
-    enum { LAYERS = 4, BATCH = 64 };
+    /* A batch's slabs hold their tets twice until appended: four per thread keep the
+     * threads busy without holding a large part of the mesh twice (the order, and so the
+     * mesh, is the same for any batch). */
+    enum { LAYERS = 4 };
+    const int64_t batch = 4 * (int64_t)vm_threads();
     int64_t per_axis = (d->n[2] + LAYERS - 1) / LAYERS, total = (interior ? 1 : 3) * per_axis;
-    edge_slab *sl = calloc(BATCH, sizeof *sl);
+    edge_slab *sl = calloc((size_t)batch, sizeof *sl);
     vm_status s = sl ? VM_OK : vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-    for (int64_t first = 0; first < total && !s; first += BATCH) {
-        int64_t count = total - first < BATCH ? total - first : BATCH;
+    for (int64_t first = 0; first < total && !s; first += batch) {
+        int64_t count = total - first < batch ? total - first : batch;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1)
 #endif
@@ -546,7 +621,7 @@ static vm_status emit_faces(dc *d, size_t first, size_t end, vm_error *err) {
         for (int f = 0; f < 6; f++) {
             int a = f >> 1, s = f & 1, all = 1;
             for (int q = 0; q < 4; q++)
-                if (b->corner_patch[vm__dc_face_corner[f][q]] == NONE) all = 0;
+                if (vm__dc_kind_of(b)->corner_patch[vm__dc_face_corner[f][q]] == NONE) all = 0;
             if (!all) continue;
             int64_t nb[3] = {cm[0], cm[1], cm[2]};
             nb[a] += s ? 1 : -1;
@@ -560,7 +635,8 @@ static vm_status emit_faces(dc *d, size_t first, size_t end, vm_error *err) {
                 v[q] = vm__dc_lattice_id(d, p);
                 if (q == 0) even0 = (vm__dc_gsum(d, p) & 1) == 0;
             }
-            int64_t apex = N + b->base + b->corner_patch[vm__dc_face_corner[f][0]];
+            int64_t apex =
+                N + b->base + vm__dc_kind_of(b)->corner_patch[vm__dc_face_corner[f][0]];
             int o = even0 ? 0 : 1; /* diagonal v[o] - v[o+2] */
             vm_status st = emit_oriented(d, apex, v[o], v[o + 1], v[(o + 2) & 3], err);
             if (!st) st = emit_oriented(d, apex, v[o], v[(o + 2) & 3], v[(o + 3) & 3], err);
@@ -752,7 +828,7 @@ static vm_status emit_coarse_boundary(dc *d, size_t first, size_t end, vm_error 
 static vm_status emit_gaps(dc *d, size_t first, size_t end, vm_error *err) {
     for (size_t bi = first; bi < end; bi++) {
         const bcell *b = &d->bc[bi];
-        if (!b->special) continue;
+        if (!vm__dc_kind_of(b)->special) continue;
         d->cur_src = SRC(SRC_GAPS, bi);
         int64_t cm[3];
         vm__dc_cell_coords(d, b->cell, cm);
@@ -765,10 +841,10 @@ static vm_status emit_gaps(dc *d, size_t first, size_t end, vm_error *err) {
                 return vm_error_set(err, VM_ERR_INTERNAL,
                                     "mesh: special cell next to a uniform cell");
             const bcell *o = &d->bc[code];
-            if (o->special && (size_t)code < bi) continue; /* done from the other side */
+            if (vm__dc_kind_of(o)->special && (size_t)code < bi) continue; /* done from the other side */
             for (int q = 0; q < 4; q++) {
                 int c = vm__dc_face_corner[f][q];
-                if (b->corner_patch[c] == NONE) continue;
+                if (vm__dc_kind_of(b)->corner_patch[c] == NONE) continue;
                 int e1 = vm__dc_edge_of[c][vm__dc_face_corner[f][(q + 1) & 3]];
                 int e2 = vm__dc_edge_of[c][vm__dc_face_corner[f][(q + 3) & 3]];
                 /* the same edges seen from the neighbour: flip bit a of both corners */
@@ -806,6 +882,11 @@ static vm_status emit_gaps(dc *d, size_t first, size_t end, vm_error *err) {
 static vm_status emit_all(dc *d, vm_error *err) {
     d->ntets = 0;
     d->ncentre = 0;
+    /* payloads: a + 3 * lattice id of an edge, a boundary cell, a coarse leaf (a grid
+     * whose ids need 64 bits, which tests force with d->g->id_limit, goes wide too) */
+    int64_t most = 3 * vm__dc_npoints_real(d);
+    if ((int64_t)d->nbc > most) most = (int64_t)d->nbc;
+    d->src_wide = most >= ((int64_t)1 << SRC_NARROW_SHIFT) || d->g->id_limit > 0;
     vm_status s = emit_slabs(d, 0, err);
     if (!s) s = emit_faces(d, 0, d->nbc, err);
     d->cur_src = SRC(SRC_NONE, 0);
@@ -824,14 +905,16 @@ static vm_status emit_local(dc *d, const uint8_t *moved, vm_error *err) {
     size_t nredo = 0, cap = 0;
     vm_status s = VM_OK;
     for (size_t t = 0; t < d->ntets && !s; t++) {
-        const int64_t *v = d->tets + 4 * t;
+        int64_t v[4];
+        tet_get(d, t, v);
         int hit = 0;
         for (int k = 0; k < 4; k++)
             if (v[k] >= N && (size_t)(v[k] - N) < d->nreps && moved[v[k] - N]) hit = 1;
-        if (!hit || SRC_KIND(d->src[t]) == SRC_NONE) continue;
-        if (nredo && redo[nredo - 1] == d->src[t]) continue;
+        int64_t src = src_get(d, t);
+        if (!hit || SRC_KIND(src) == SRC_NONE) continue;
+        if (nredo && redo[nredo - 1] == src) continue;
         s = vm__grow((void **)&redo, &cap, nredo + 1, sizeof *redo, err);
-        if (!s) redo[nredo++] = d->src[t];
+        if (!s) redo[nredo++] = src;
     }
     if (s || !nredo) {
         free(redo);
@@ -842,13 +925,13 @@ static vm_status emit_local(dc *d, const uint8_t *moved, vm_error *err) {
     for (size_t i = 0; i < nredo; i++)
         if (u == 0 || redo[u - 1] != redo[i]) redo[u++] = redo[i];
     nredo = u;
-    size_t kept = 0;
+    size_t kept = 0, tb = tet_bytes(d);
     for (size_t t = 0; t < d->ntets; t++) {
-        if (SRC_KIND(d->src[t]) != SRC_NONE &&
-            bsearch(&d->src[t], redo, nredo, sizeof *redo, id_cmp))
+        int64_t src = src_get(d, t);
+        if (SRC_KIND(src) != SRC_NONE && bsearch(&src, redo, nredo, sizeof *redo, id_cmp))
             continue;
-        memmove(d->tets + 4 * kept, d->tets + 4 * t, 4 * sizeof(int64_t));
-        d->src[kept++] = d->src[t];
+        memmove((char *)d->tets + tb * kept, (char *)d->tets + tb * t, tb);
+        src_set(d, kept++, src);
     }
     d->ntets = kept;
     for (size_t i = 0; i < nredo && !s; i++) {
@@ -888,18 +971,19 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
         bad = 0;
         memset(now, 0, d->nreps);
         for (size_t t = 0; t < d->ntets; t++) {
-            const int64_t *v = d->tets + 4 * t;
+            int64_t v[4];
+            tet_get(d, t, v);
             if (tet_volume(d, v, 0) > eps) continue;
             bad++;
             for (int k = 0; k < 4; k++)
                 if (v[k] >= N && (size_t)(v[k] - N) < d->nreps) {
                     size_t r = (size_t)(v[k] - N);
-                    d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * 0.5 : 0.0;
+                    d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * 0.5f : 0.0f;
                     /* A coarse leaf's vertex also moves toward the block centre: its mass
                      * point may lie outside the wedge that the grid edges on its faces
                      * leave it (the centre lies inside every one of them). */
                     if (d->ncoarse && r >= d->coarse_base)
-                        d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * 0.5 : 0.0;
+                        d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * 0.5f : 0.0f;
                     touched[r] = now[r] = 1;
                 }
         }
@@ -921,10 +1005,17 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
     return VM_OK;
 }
 
-/* A boundary candidate: a tet face, its sorted corners (key) and its outward order (v). */
+/* A boundary candidate: a tet face, its sorted corners (key) and where each corner of its
+ * outward order is in the key (32 bytes, not 48 with the order spelt out). */
 typedef struct bface {
-    int64_t key[3], v[3];
+    int64_t key[3];
+    uint8_t at[3];
 } bface;
+
+/* Corner k of face b in its outward order. */
+static int64_t bface_v(const bface *b, int k) {
+    return b->key[b->at[k]];
+}
 
 static int bface_cmp(const void *x, const void *y) {
     const int64_t *a = ((const bface *)x)->key, *b = ((const bface *)y)->key;
@@ -949,7 +1040,8 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
     vm_status s = VM_OK;
     *pairs = 0;
     for (size_t t = 0; t < d->ntets; t++) {
-        const int64_t *v = d->tets + 4 * t;
+        int64_t v[4];
+        tet_get(d, t, v);
         int surf[4];
         for (int k = 0; k < 4; k++)
             surf[k] = v[k] >= N || vm__dc_vertex_planes(d, v[k]) != 0;
@@ -957,14 +1049,17 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
             if (!surf[tf[q][0]] || !surf[tf[q][1]] || !surf[tf[q][2]]) continue;
             if ((s = vm__grow((void **)&f, &cap, nf + 1, sizeof *f, err))) goto done;
             bface *b = &f[nf++];
-            for (int k = 0; k < 3; k++)
-                b->v[k] = b->key[k] = v[tf[q][k]];
-            for (int i = 1; i < 3; i++) /* sort the key */
-                for (int j = i; j > 0 && b->key[j - 1] > b->key[j]; j--) {
-                    int64_t x = b->key[j];
-                    b->key[j] = b->key[j - 1];
-                    b->key[j - 1] = x;
+            int ord[3] = {0, 1, 2}; /* corners in increasing id order */
+            for (int i = 1; i < 3; i++)
+                for (int j = i; j > 0 && v[tf[q][ord[j - 1]]] > v[tf[q][ord[j]]]; j--) {
+                    int x = ord[j];
+                    ord[j] = ord[j - 1];
+                    ord[j - 1] = x;
                 }
+            for (int i = 0; i < 3; i++) {
+                b->key[i] = v[tf[q][ord[i]]];
+                b->at[ord[i]] = (uint8_t)i;
+            }
         }
     }
     if (nf) qsort(f, nf, sizeof *f, bface_cmp);
@@ -976,38 +1071,53 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
         i = j;
     }
     if (nb < 2) goto done;
+    if (nb < nf) { /* give back the faces dropped before the check's own arrays come */
+        bface *fit = realloc(f, nb * sizeof *f);
+        if (fit) f = fit;
+    }
+    /* The faces' corners as indices into their sorted distinct ids; then the faces go
+     * before the positions and the check's own arrays come (a corner's id is ids[index]). */
     ids = malloc(3 * nb * sizeof *ids);
-    tri = malloc(3 * nb * sizeof *tri);
-    flag = malloc(nb);
-    if (!ids || !tri || !flag) {
+    if (!ids) {
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
         goto done;
     }
     for (size_t i = 0; i < nb; i++)
         for (int k = 0; k < 3; k++)
-            ids[3 * i + (size_t)k] = f[i].v[k];
+            ids[3 * i + (size_t)k] = bface_v(&f[i], k);
     qsort(ids, 3 * nb, sizeof *ids, id_cmp);
     size_t nv = 0;
     for (size_t i = 0; i < 3 * nb; i++)
         if (nv == 0 || ids[nv - 1] != ids[i]) ids[nv++] = ids[i];
+    int64_t *distinct = realloc(ids, nv * sizeof *ids);
+    if (distinct) ids = distinct;
+    tri = malloc(3 * nb * sizeof *tri);
+    if (!tri) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
+        goto done;
+    }
+    for (size_t i = 0; i < nb; i++)
+        for (int k = 0; k < 3; k++) {
+            int64_t id = bface_v(&f[i], k);
+            const int64_t *hit = bsearch(&id, ids, nv, sizeof *ids, id_cmp);
+            tri[3 * i + (size_t)k] = (vm_index)(hit - ids);
+        }
+    free(f);
+    f = NULL;
     pos = malloc(3 * nv * sizeof *pos);
-    if (!pos) {
+    flag = malloc(nb);
+    if (!pos || !flag) {
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
         goto done;
     }
     for (size_t i = 0; i < nv; i++)
         vm__dc_vertex_pos(d, ids[i], 0, pos + 3 * i);
-    for (size_t i = 0; i < nb; i++)
-        for (int k = 0; k < 3; k++) {
-            const int64_t *hit = bsearch(&f[i].v[k], ids, nv, sizeof *ids, id_cmp);
-            tri[3 * i + (size_t)k] = (vm_index)(hit - ids);
-        }
     s = vm__self_intersections(pos, tri, nb, pairs, flag, err);
     if (s || !*pairs) goto done;
     for (size_t i = 0; i < nb; i++) {
         if (!flag[i]) continue;
         for (int k = 0; k < 3; k++) {
-            int64_t id = f[i].v[k];
+            int64_t id = ids[tri[3 * i + (size_t)k]];
             if (id >= N && (size_t)(id - N) < d->nreps) mark[id - N] = 1;
         }
     }
@@ -1046,11 +1156,11 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
         for (size_t r = 0; r < d->nreps; r++) {
             if (!mark[r]) continue;
             /* a quarter of the way at first; vertices that keep crossing go faster */
-            double keep = ever[r] == 0 ? 0.75 : ever[r] == 1 ? 0.5 : 0.25;
+            float keep = ever[r] == 0 ? 0.75f : ever[r] == 1 ? 0.5f : 0.25f;
             if (d->lambda[r] > 0) {
-                d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * keep : 0.0;
-            } else if (d->mu[r] > 0 && !isnan(d->cpos[3 * r])) {
-                d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * keep : 0.0;
+                d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * keep : 0.0f;
+            } else if (d->mu[r] > 0 && vm__dc_rep_centre(d, r, NULL)) {
+                d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * keep : 0.0f;
             } else {
                 continue;
             }
@@ -1095,39 +1205,50 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     st->untangled_vertices = untangled;
     st->boundary_crossings = crossing;
     st->surface_vertices = d.nreps;
-    /* Hand over tets and the positions of the vertices they use. The per-cell state goes
-     * first and the tet list is cut to its length: this is the peak of the mesher. */
+    /* Hand over tets and the positions of the vertices they use. The representatives'
+     * positions are written over their minimisers (each reads only its own values and its
+     * cell), the rest of the state goes, and the tet list is cut to its length. */
     free(d.src);
     d.src = NULL;
-    free(d.in);
-    free(d.bnd);
-    free(d.inner);
-    free(d.bnd_rank);
-    free(d.coarse);
-    free(d.bc);
-    free(d.amb);
-    d.in = d.bnd = d.inner = d.coarse = NULL;
-    d.bnd_rank = NULL;
-    d.bc = NULL;
-    d.amb = NULL;
-    vm__octree_free(&d.oct);
-    if (d.ntets && d.ntets < d.tet_cap) {
-        int64_t *t = realloc(d.tets, 4 * d.ntets * sizeof(int64_t));
-        if (t) d.tets = t;
+    int64_t N = vm__dc_npoints_real(&d);
+    for (size_t r = 0; r < d.nreps; r++) {
+        double p[3];
+        vm__dc_vertex_pos(&d, N + (int64_t)r, 0, p);
+        memcpy(d.qpos + 3 * r, p, sizeof p);
+    }
+    double *pos = d.qpos;
+    d.qpos = NULL;
+    size_t nreps = d.nreps, ncentre = d.ncentre;
+    double *centre = d.centre;
+    d.centre = NULL;
+    void *tets = d.tets;
+    size_t ntets = d.ntets;
+    int wide = d.wide;
+    d.tets = NULL;
+    vm__dc_free(&d);
+    if (ntets) {
+        void *t = realloc(tets, ntets * 4 * (wide ? sizeof(int64_t) : sizeof(uint32_t)));
+        if (t) tets = t;
     }
     out->nodes = 4;
-    out->ntets = d.ntets;
-    out->tets = d.tets;
-    d.tets = NULL;
-    out->nlattice = vm__dc_npoints_real(&d);
-    out->nreps = d.nreps + d.ncentre;
-    out->rep_pos = malloc(3 * (out->nreps ? out->nreps : 1) * sizeof(double));
-    if (!out->rep_pos) {
-        vm__dc_free(&d);
-        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    out->ntets = ntets;
+    if (wide)
+        out->tets = tets;
+    else
+        out->tets32 = tets;
+    out->nlattice = N;
+    out->nreps = nreps + ncentre;
+    if (ncentre) {
+        double *all = realloc(pos, 3 * out->nreps * sizeof(double));
+        if (!all) {
+            free(centre);
+            free(pos);
+            return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        }
+        pos = all;
+        memcpy(pos + 3 * nreps, centre, 3 * ncentre * sizeof(double));
     }
-    for (size_t r = 0; r < out->nreps; r++)
-        vm__dc_vertex_pos(&d, out->nlattice + (int64_t)r, 0, out->rep_pos + 3 * r);
-    vm__dc_free(&d);
+    free(centre);
+    out->rep_pos = pos;
     return VM_OK;
 }

@@ -14,6 +14,9 @@
 int vm__dc_edge_c0[12], vm__dc_edge_c1[12], vm__dc_edge_of[8][8];
 /* Face f = 2*a + s (corners with bit a == s), corners in cyclic order. */
 int vm__dc_face_corner[6][4];
+vm__dc_kind vm__dc_kinds[256];
+
+static void analyse_cell(int mask, vm__dc_kind *b);
 
 void vm__dc_init_tables(void) {
     static int done;
@@ -35,6 +38,8 @@ void vm__dc_init_tables(void) {
                     (s << a) | (cyc[q][0] << b) | (cyc[q][1] << c);
         }
     }
+    for (int mask = 0; mask < 256; mask++)
+        analyse_cell(mask, &vm__dc_kinds[mask]);
     done = 1;
 }
 
@@ -62,7 +67,7 @@ static int find(const int *parent, int x) {
     return x;
 }
 
-static void analyse_cell(int mask, bcell *b) {
+static void analyse_cell(int mask, vm__dc_kind *b) {
     int parent[12];
     for (int e = 0; e < 12; e++)
         parent[e] = e;
@@ -179,9 +184,8 @@ static int cell_mask(const dc *d, int64_t i, int64_t j, int64_t k) {
 
 static void free_cells(dc *d) {
     free(d->bnd);
-    free(d->inner);
     free(d->bnd_rank);
-    d->bnd = d->inner = NULL;
+    d->bnd = NULL;
     d->bnd_rank = NULL;
 }
 
@@ -189,31 +193,31 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
     size_t nc = (size_t)(d->C[0] * d->C[1] * d->C[2]);
     int64_t nw = (int64_t)(nc / 64 + 1);
     d->bnd = bits_new(nc);
-    d->inner = bits_new(nc);
     d->bnd_rank = malloc((size_t)nw * sizeof *d->bnd_rank);
-    if (!d->bnd || !d->inner || !d->bnd_rank)
+    if (!d->bnd || !d->bnd_rank)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
-    size_t reps = 0;
-    /* The cell kinds first, in parallel word by word, then the boundary cells in order. */
+    size_t reps = 0, interior = 0;
+    /* The cell kinds first, in parallel word by word, then the boundary cells in order. The
+     * last plane along each axis holds no cell (cells share the points' strides). */
 #ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) reduction(+ : interior)
 #endif
     for (int64_t w = 0; w < nw; w++) {
         int64_t c[3], first = 64 * w;
         unflatten(first, d->C, c);
-        uint64_t wb = 0, wi = 0;
+        uint64_t wb = 0;
         for (int b = 0; b < 64 && first + b < (int64_t)nc; b++, step_coords(c, d->C)) {
+            if (c[0] == d->C[0] - 1 || c[1] == d->C[1] - 1 || c[2] == d->C[2] - 1) continue;
             int mask = cell_mask(d, c[0] - 1, c[1] - 1, c[2] - 1);
-            if (mask == 0xff) wi |= (uint64_t)1 << b;
+            if (mask == 0xff) interior++;
             else if (mask) wb |= (uint64_t)1 << b;
         }
         d->bnd[w] = wb;
-        d->inner[w] = wi;
     }
+    st->interior_cells += interior;
     uint32_t before = 0;
     for (int64_t w = 0; w < nw; w++) {
         d->bnd_rank[w] = before;
-        st->interior_cells += (size_t)__builtin_popcountll(d->inner[w]);
         for (uint64_t bits = d->bnd[w]; bits; bits &= bits - 1) {
             int64_t ci = 64 * w + __builtin_ctzll(bits), cm[3];
             vm__dc_cell_coords(d, ci, cm);
@@ -222,13 +226,14 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
                 vm__grow((void **)&d->bc, &d->bc_cap, d->nbc + 1, sizeof(bcell), err);
             if (s) return s;
             bcell *b = &d->bc[d->nbc];
+            const vm__dc_kind *kind = &vm__dc_kinds[mask];
             b->cell = ci;
-            analyse_cell(mask, b);
+            b->mask = (uint8_t)mask;
             b->base = (int32_t)reps;
-            reps += b->npatch + b->special;
+            reps += kind->npatch + kind->special;
             if (reps > (size_t)INT32_MAX || d->nbc >= (size_t)INT32_MAX)
                 return vm_error_set(err, VM_ERR_NOMEM, "mesh: too many surface vertices");
-            st->special_cells += b->special;
+            st->special_cells += kind->special;
             d->nbc++;
             for (int a = 0; a < 3; a++) { /* the cell's upper face along a */
                 const int *fc = vm__dc_face_corner[2 * a + 1];
@@ -254,8 +259,9 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
         vm__dc_cell_coords(d, d->amb[fi] / 3, cm);
         memcpy(um, cm, sizeof um);
         um[a]++;
-        const bcell *lo = &d->bc[vm__dc_code(d, d->amb[fi] / 3)];
-        const bcell *up = &d->bc[vm__dc_code(d, vm__dc_cidx(d, um[0], um[1], um[2]))];
+        const vm__dc_kind *lo = vm__dc_kind_of(&d->bc[vm__dc_code(d, d->amb[fi] / 3)]);
+        const vm__dc_kind *up =
+            vm__dc_kind_of(&d->bc[vm__dc_code(d, vm__dc_cidx(d, um[0], um[1], um[2]))]);
         const int *fc = vm__dc_face_corner[2 * a + 1];
         int e0 = vm__dc_edge_of[fc[0]][fc[1]], e2 = vm__dc_edge_of[fc[2]][fc[3]];
         int u0 = vm__dc_edge_of[fc[0] ^ (1 << a)][fc[1] ^ (1 << a)];
@@ -304,11 +310,10 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
     size_t n = d->nreps ? d->nreps : 1;
     d->qpos = malloc(3 * n * sizeof(double));
     d->mpos = malloc(3 * n * sizeof(double));
-    d->lambda = malloc(n * sizeof(double));
+    d->lambda = malloc(n * sizeof(float));
     d->rep_planes = calloc(n, 1);
-    d->cpos = malloc(3 * n * sizeof(double));
-    d->mu = malloc(n * sizeof(double));
-    if (!d->qpos || !d->mpos || !d->lambda || !d->rep_planes || !d->cpos || !d->mu)
+    d->mu = malloc(n * sizeof(float));
+    if (!d->qpos || !d->mpos || !d->lambda || !d->rep_planes || !d->mu)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for %zu vertices", n);
     /* each cell and each ambiguous face writes only its own representatives */
 #ifdef VM_HAVE_OPENMP
@@ -316,6 +321,7 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
 #endif
     for (size_t bi = 0; bi < d->nbc; bi++) {
         const bcell *b = &d->bc[bi];
+        const vm__dc_kind *kind = vm__dc_kind_of(b);
         int64_t cm[3];
         vm__dc_cell_coords(d, b->cell, cm);
         int fixed[3] = {0, 0, 0};
@@ -332,11 +338,11 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
                 planes |= (uint8_t)(1 << (2 * a + 1));
             }
         }
-        for (int p = 0; p < b->npatch; p++) {
+        for (int p = 0; p < kind->npatch; p++) {
             vm_qef q;
             vm__qef_init(&q);
             for (int e = 0; e < 12; e++) {
-                if (b->edge_patch[e] != p) continue;
+                if (kind->edge_patch[e] != p) continue;
                 int64_t p0[3], p1[3];
                 for (int a = 0; a < 3; a++) {
                     p0[a] = cm[a] + ((vm__dc_edge_c0[e] >> a) & 1);
@@ -363,21 +369,17 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
                 d->qpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + x[a];
                 d->mpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + m[a];
             }
-            d->lambda[r] = 1.0;
+            d->lambda[r] = 1.0f;
             d->rep_planes[r] = planes;
-            d->mu[r] = 1.0;
-            for (int a = 0; a < 3; a++)
-                d->cpos[3 * r + a] =
-                    b->npatch == 1 ? vm__dc_coord(d, cm[a], a) + (fixed[a] ? fixval[a] : 0.5) : NAN;
+            d->mu[r] = 1.0f;
         }
-        if (b->special) {
-            size_t r = (size_t)b->base + b->npatch;
+        if (kind->special) {
+            size_t r = (size_t)b->base + kind->npatch;
             for (int a = 0; a < 3; a++)
                 d->qpos[3 * r + a] = d->mpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + 0.5;
-            d->lambda[r] = 1.0;
+            d->lambda[r] = 1.0f;
             d->rep_planes[r] = 0;
-            d->mu[r] = 1.0;
-            d->cpos[3 * r] = d->cpos[3 * r + 1] = d->cpos[3 * r + 2] = NAN;
+            d->mu[r] = 1.0f;
         }
     }
     /* Ambiguous faces: one vertex per boundary segment, midway between its two crossings. */
@@ -407,9 +409,8 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
                     vm__dc_coord(d, pc[q][k], k) +
                     0.35 * (d->qpos[3 * r + k] - vm__dc_coord(d, pc[q][k], k));
             }
-            d->lambda[r] = 1.0;
-            d->mu[r] = 1.0;
-            d->cpos[3 * r] = d->cpos[3 * r + 1] = d->cpos[3 * r + 2] = NAN;
+            d->lambda[r] = 1.0f;
+            d->mu[r] = 1.0f;
             uint8_t planes = 0;
             if (pc[0][a] == 0) planes |= (uint8_t)(1 << (2 * a));
             if (pc[0][a] == d->n[a] - 1) planes |= (uint8_t)(1 << (2 * a + 1));
@@ -421,10 +422,9 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
         for (int a = 0; a < 3; a++) {
             d->qpos[3 * r + (size_t)a] = coarse_pos[6 * l + (size_t)a];
             d->mpos[3 * r + (size_t)a] = coarse_pos[6 * l + 3 + (size_t)a];
-            d->cpos[3 * r + (size_t)a] = vm__dc_coord(d, d->coarse_org[3 * l + (size_t)a], a) + 1.0;
         }
-        d->lambda[r] = 1.0;
-        d->mu[r] = 1.0;
+        d->lambda[r] = 1.0f;
+        d->mu[r] = 1.0f;
         d->rep_planes[r] = 0;
     }
     return VM_OK;
@@ -474,12 +474,41 @@ void vm__dc_vertex_pos(const dc *d, int64_t id, int reference, double out[3]) {
         memcpy(out, d->centre + 3 * (r - d->nreps), 3 * sizeof(double));
         return;
     }
-    const double *m = d->mpos + 3 * r, *q = d->qpos + 3 * r, *c = d->cpos + 3 * r;
+    const double *m = d->mpos + 3 * r, *q = d->qpos + 3 * r;
     double l = reference ? 0.0 : d->lambda[r], u = reference ? 1.0 : d->mu[r];
-    for (int a = 0; a < 3; a++) {
+    for (int a = 0; a < 3; a++)
         out[a] = m[a] + l * (q[a] - m[a]);
-        if (u < 1.0) out[a] = c[a] + u * (out[a] - c[a]);
+    if (u < 1.0) {
+        double c[3] = {NAN, NAN, NAN};
+        vm__dc_rep_centre(d, r, c);
+        for (int a = 0; a < 3; a++)
+            out[a] = c[a] + u * (out[a] - c[a]);
     }
+}
+
+int vm__dc_rep_centre(const dc *d, size_t r, double c[3]) {
+    if (d->ncoarse && r >= d->coarse_base) {
+        const int64_t *o = d->coarse_org + 3 * (r - d->coarse_base);
+        for (int a = 0; c && a < 3; a++)
+            c[a] = vm__dc_coord(d, o[a], a) + 1.0;
+        return 1;
+    }
+    if (r >= d->amb_base || !d->nbc) return 0;
+    size_t lo = 0, hi = d->nbc; /* the last cell whose vertices start at or below r */
+    while (hi - lo > 1) {
+        size_t mid = lo + (hi - lo) / 2;
+        if ((size_t)d->bc[mid].base <= r)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    const bcell *b = &d->bc[lo];
+    if (vm__dc_kind_of(b)->npatch != 1 || r != (size_t)b->base) return 0;
+    int64_t cm[3];
+    vm__dc_cell_coords(d, b->cell, cm);
+    for (int a = 0; c && a < 3; a++) /* padded axes: pinned to the border plane */
+        c[a] = vm__dc_coord(d, cm[a], a) + (cm[a] < 0 ? 1.0 : cm[a] + 1 >= d->n[a] ? 0.0 : 0.5);
+    return 1;
 }
 
 uint8_t vm__dc_vertex_planes(const dc *d, int64_t id) {
@@ -497,9 +526,10 @@ uint8_t vm__dc_vertex_planes(const dc *d, int64_t id) {
 /* Representative vertex of cell b for its local edge e. */
 int64_t vm__dc_rep_for_edge(const dc *d, const bcell *b, int e) {
     int64_t N = vm__dc_npoints_real(d);
-    if (b->edge_patch[e] != NONE) return N + b->base + b->edge_patch[e];
-    if (b->special) return N + b->base + b->npatch;
-    return N + b->base + b->corner_patch[vm__dc_edge_c0[e]];
+    const vm__dc_kind *k = vm__dc_kind_of(b);
+    if (k->edge_patch[e] != NONE) return N + b->base + k->edge_patch[e];
+    if (k->special) return N + b->base + k->npatch;
+    return N + b->base + k->corner_patch[vm__dc_edge_c0[e]];
 }
 
 static int has_ambiguous_face(int mask) {
@@ -554,9 +584,8 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
         for (int j = 0; j < 3; j++)
             for (int i = 0; i < 3; i++)
                 s[i][j][k] = vm__dc_in(d, vm__dc_pidx(d, o[0] + i, o[1] + j, o[2] + k));
-    bcell cb;
-    analyse_cell(mask, &cb);
-    if (cb.npatch != 1 || cb.special) return 0;
+    const vm__dc_kind *cb = &vm__dc_kinds[mask];
+    if (cb->npatch != 1 || cb->special) return 0;
     for (int a = 0; a < 3; a++) { /* coarse edges */
         int b = (a + 1) % 3, c = (a + 2) % 3;
         for (int u = 0; u <= 2; u += 2)
@@ -608,7 +637,7 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
             for (int64_t i = o[0] - 1; i <= o[0] + 2; i++) {
                 int32_t code = vm__dc_code(d, vm__dc_cidx(d, i, j, k));
                 if (code < 0) continue;
-                if (d->bc[code].special || has_ambiguous_face(cell_mask(d, i, j, k))) return 0;
+                if (vm__dc_kind_of(&d->bc[code])->special || has_ambiguous_face(cell_mask(d, i, j, k))) return 0;
             }
     /* EDerror of the trilinear coarse cell at the non-corner points near the surface */
     double fc[8], edmax = 0;
@@ -785,7 +814,7 @@ static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error 
                 int64_t ci = vm__dc_cidx(d, i, j, k);
                 int code = d->coarse && vm__dc_bit(d->coarse, ci) ? VM_OCT_COARSE
                            : vm__dc_bit(d->bnd, ci)               ? VM_OCT_FINE
-                           : vm__dc_bit(d->inner, ci)             ? VM_OCT_LEVEL
+                           : vm__dc_in(d, ci)                     ? VM_OCT_LEVEL
                                                                   : VM_OCT_NONE;
                 if (code != VM_OCT_NONE) vm__octree_put(&d->oct, (int64_t[3]){i, j, k}, code);
             }
@@ -804,7 +833,6 @@ void vm__dc_free(dc *d) {
     free(d->mpos);
     free(d->lambda);
     free(d->rep_planes);
-    free(d->cpos);
     free(d->mu);
     free(d->amb);
     free(d->centre);
@@ -822,7 +850,7 @@ vm_status vm__dc_repair_for_hexes(dc *d, vm_mesh_stats *st, size_t *flipped, vm_
         size_t flips = 0;
         for (size_t bi = 0; bi < d->nbc; bi++) {
             const bcell *b = &d->bc[bi];
-            if (!b->special) continue;
+            if (!vm__dc_kind_of(b)->special) continue;
             int64_t cm[3];
             vm__dc_cell_coords(d, b->cell, cm);
             for (int c = 0; c < 8; c++) {
@@ -865,11 +893,12 @@ vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *er
     vm__dc_init_tables();
     memset(d, 0, sizeof *d);
     d->g = g;
+    d->id_limit = g->id_limit > 0 ? g->id_limit : (int64_t)1 << 32;
     for (int a = 0; a < 3; a++) {
         d->n[a] = g->n[a];
         d->off[a] = g->off[a];
         d->P[a] = g->n[a] + 2;
-        d->C[a] = g->n[a] + 1;
+        d->C[a] = g->n[a] + 2; /* as P: a cell's index is that of its lowest corner */
     }
     /* A byte per padded grid point bounds the largest per-point array (the octree's codes,
      * half a byte per cell; the rest are bit sets): the grid must fit in a size_t and

@@ -171,6 +171,139 @@ static vm_status crop_grid(const vm_volume *v, const vm_mesh_options *o, int64_t
     return s;
 }
 
+vm_status vm__soup_to_mesh(vm__tet_soup *soup, const vm_volume *v, const int64_t n[3],
+                           int64_t z_off, const double step[3], vm_mesh *mesh, vm_error *err) {
+    vm_status s = VM_OK;
+    int32_t *map = NULL;
+    uint64_t *used_bits = NULL;
+    size_t *used_rank = NULL;
+    /* Number the used vertices in order of first use; map to world coordinates. The used
+     * grid points are a bit set with a rank per word (a grid point costs 0.25 bytes, not a
+     * 4-byte map entry), the numbers are kept for used vertices only. */
+    size_t nl = (size_t)soup->nlattice, nw = nl / 64 + 1, nn = (size_t)soup->nodes;
+    size_t nid = nn * soup->ntets;
+    const uint32_t *t32 = soup->tets32;
+    const int64_t *t64 = soup->tets;
+#define SOUP_ID(q) (t32 ? (int64_t)t32[q] : t64[q])
+    used_bits = calloc(nw, sizeof *used_bits);
+    used_rank = malloc(nw * sizeof *used_rank);
+    if (!used_bits || !used_rank) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
+    }
+    for (size_t q = 0; q < nid; q++) {
+        int64_t id = SOUP_ID(q);
+        if ((size_t)id < nl) used_bits[id >> 6] |= (uint64_t)1 << (id & 63);
+    }
+    size_t nused_lattice = 0;
+    for (size_t w = 0; w < nw; w++) {
+        used_rank[w] = nused_lattice;
+        nused_lattice += (size_t)__builtin_popcountll(used_bits[w]);
+    }
+    map = malloc((nused_lattice + soup->nreps + 1) * sizeof *map);
+    if (!map) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
+    }
+    for (size_t i = 0; i < nused_lattice + soup->nreps; i++) map[i] = -1;
+#define MAP_SLOT(id)                                                                       \
+    ((size_t)(id) < nl ? used_rank[(id) >> 6] + (size_t)__builtin_popcountll(               \
+                                                   used_bits[(id) >> 6] &                  \
+                                                   (((uint64_t)1 << ((id) & 63)) - 1))     \
+                       : nused_lattice + ((size_t)(id) - nl))
+    size_t used = 0;
+    for (size_t q = 0; q < nid; q++) {
+        size_t slot = MAP_SLOT(SOUP_ID(q));
+        if (map[slot] < 0) map[slot] = (int32_t)used++;
+    }
+    s = vm_mesh_reserve(mesh, used, 0, err);
+    if (s) goto done;
+    mesh->npoints = used;
+    for (size_t w = 0; w < nw; w++)
+        for (uint64_t bits = used_bits[w]; bits; bits &= bits - 1) {
+            size_t id = 64 * w + (size_t)__builtin_ctzll(bits);
+            double ijk[3];
+            ijk[0] = (double)(id % (size_t)n[0]) * step[0];
+            ijk[1] = (double)((id / (size_t)n[0]) % (size_t)n[1]) * step[1];
+            ijk[2] = (double)((int64_t)(id / (size_t)(n[0] * n[1])) + z_off) * step[2];
+            vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)map[MAP_SLOT(id)]);
+        }
+    for (size_t r = 0; r < soup->nreps; r++) {
+        if (map[nused_lattice + r] < 0) continue;
+        double ijk[3];
+        for (int a = 0; a < 3; a++) ijk[a] = soup->rep_pos[3 * r + a] * step[a];
+        vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)map[nused_lattice + r]);
+    }
+    /* The cells take over the soup's buffer, each id replaced by its number in place (the
+     * soup and the cells are never both whole in memory): forward when a number is no wider
+     * than an id (it lands at or below every id still to be read), backward when wider. */
+    size_t isz = t32 ? sizeof(uint32_t) : sizeof(int64_t), osz = sizeof(vm_index);
+    unsigned char *buf = t32 ? (unsigned char *)soup->tets32 : (unsigned char *)soup->tets;
+    soup->tets = NULL;
+    soup->tets32 = NULL;
+    if (nid && osz > isz) {
+        unsigned char *wider = realloc(buf, nid * osz);
+        if (!wider) {
+            free(buf);
+            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for %zu cells",
+                             (size_t)(nid / nn));
+            goto done;
+        }
+        buf = wider;
+    }
+    mesh->cells = (vm_index *)buf;
+    mesh->cell_cap = soup->ntets;
+    for (size_t k = 0; k < nid; k++) {
+        size_t q = osz <= isz ? k : nid - 1 - k;
+        int64_t id;
+        if (isz == sizeof(uint32_t)) {
+            uint32_t x;
+            memcpy(&x, buf + isz * q, sizeof x);
+            id = (int64_t)x;
+        } else {
+            memcpy(&id, buf + isz * q, sizeof id);
+        }
+        vm_index c = (vm_index)map[MAP_SLOT(id)];
+        memcpy(buf + osz * q, &c, sizeof c);
+    }
+#undef MAP_SLOT
+#undef SOUP_ID
+    if (nid && osz < isz) {
+        vm_index *fit = realloc(buf, nid * osz);
+        if (fit) mesh->cells = fit;
+    }
+    free(map);
+    free(used_bits);
+    free(used_rank);
+    free(soup->rep_pos);
+    map = NULL;
+    used_bits = NULL;
+    used_rank = NULL;
+    soup->rep_pos = NULL;
+    mesh->region = malloc((soup->ntets ? soup->ntets : 1) * sizeof *mesh->region);
+    if (!mesh->region) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for %zu cells", soup->ntets);
+        goto done;
+    }
+    /* A left-handed frame mirrors every element: swap nodes so volumes stay positive. */
+    int flip = vm_volume_frame_determinant(v) < 0;
+    for (size_t t = 0; t < soup->ntets; t++) {
+        if (flip) vm__mirror_cell(mesh->cells + nn * t, (int)nn);
+        mesh->region[t] = 1;
+    }
+    mesh->ncells = soup->ntets;
+done:
+    free(map);
+    free(used_bits);
+    free(used_rank);
+    free(soup->tets);
+    free(soup->tets32);
+    free(soup->rep_pos);
+    memset(soup, 0, sizeof *soup);
+    if (s) vm_mesh_free(mesh);
+    return s;
+}
+
 vm_status vm__mesh_options_check(const vm_mesh_options *o, vm_error *err) {
     if (o->elements != VM_TET4 && o->elements != VM_HEX8)
         return vm_error_set(err, VM_ERR_ARG, "mesh: elements must be tetrahedra or hexahedra");
@@ -224,9 +357,6 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     g.progress_user = o->progress_user;
 
     vm__tet_soup soup;
-    int32_t *map = NULL;
-    uint64_t *used_bits = NULL;
-    size_t *used_rank = NULL;
     memset(&soup, 0, sizeof soup);
     s = g.hexes ? vm__dual_contour_hexes(&g, &soup, &st, err)
                 : vm__dual_contour_tets(&g, &soup, &st, err);
@@ -242,81 +372,14 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
         s = vm_error_set(err, VM_ERR_EMPTY, "mesh: no grid point is in the material");
     if (s) {
         free(soup.tets);
+        free(soup.tets32);
         free(soup.rep_pos);
         return s;
     }
 
-    /* Number the used vertices in order of first use; map to world coordinates. The used
-     * grid points are a bit set with a rank per word (a grid point costs 0.25 bytes, not a
-     * 4-byte map entry), the numbers are kept for used vertices only. */
-    size_t nl = (size_t)soup.nlattice, nw = nl / 64 + 1, nn = (size_t)soup.nodes;
-    used_bits = calloc(nw, sizeof *used_bits);
-    used_rank = malloc(nw * sizeof *used_rank);
-    if (!used_bits || !used_rank) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-        goto done;
-    }
-    for (size_t t = 0; t < nn * soup.ntets; t++) {
-        int64_t id = soup.tets[t];
-        if ((size_t)id < nl) used_bits[id >> 6] |= (uint64_t)1 << (id & 63);
-    }
-    size_t nused_lattice = 0;
-    for (size_t w = 0; w < nw; w++) {
-        used_rank[w] = nused_lattice;
-        nused_lattice += (size_t)__builtin_popcountll(used_bits[w]);
-    }
-    map = malloc((nused_lattice + soup.nreps + 1) * sizeof *map);
-    if (!map) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-        goto done;
-    }
-    for (size_t i = 0; i < nused_lattice + soup.nreps; i++) map[i] = -1;
-#define MAP_SLOT(id)                                                                       \
-    ((size_t)(id) < nl ? used_rank[(id) >> 6] + (size_t)__builtin_popcountll(               \
-                                                   used_bits[(id) >> 6] &                  \
-                                                   (((uint64_t)1 << ((id) & 63)) - 1))     \
-                       : nused_lattice + ((size_t)(id) - nl))
-    size_t used = 0;
-    for (size_t t = 0; t < nn * soup.ntets; t++) {
-        size_t slot = MAP_SLOT(soup.tets[t]);
-        if (map[slot] < 0) map[slot] = (int32_t)used++;
-    }
-    s = vm_mesh_reserve(mesh, used, soup.ntets, err);
-    if (s) goto done;
-    mesh->npoints = used;
-    for (size_t w = 0; w < nw; w++)
-        for (uint64_t bits = used_bits[w]; bits; bits &= bits - 1) {
-            size_t id = 64 * w + (size_t)__builtin_ctzll(bits);
-            double ijk[3];
-            ijk[0] = (double)(id % (size_t)g.n[0]) * step[0];
-            ijk[1] = (double)((id / (size_t)g.n[0]) % (size_t)g.n[1]) * step[1];
-            ijk[2] = (double)((int64_t)(id / (size_t)(g.n[0] * g.n[1])) + g.off[2]) * step[2];
-            vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)map[MAP_SLOT(id)]);
-        }
-    for (size_t r = 0; r < soup.nreps; r++) {
-        if (map[nused_lattice + r] < 0) continue;
-        double ijk[3];
-        for (int a = 0; a < 3; a++) ijk[a] = soup.rep_pos[3 * r + a] * step[a];
-        vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)map[nused_lattice + r]);
-    }
-    /* A left-handed frame mirrors every element: swap nodes so volumes stay positive. */
-    int flip = vm_volume_frame_determinant(v) < 0;
-    for (size_t t = 0; t < soup.ntets; t++) {
-        vm_index *c = mesh->cells + nn * t;
-        for (size_t k = 0; k < nn; k++) c[k] = (vm_index)map[MAP_SLOT(soup.tets[nn * t + k])];
-        if (flip) vm__mirror_cell(c, (int)nn);
-        mesh->region[t] = 1;
-    }
-    mesh->ncells = soup.ntets;
+    s = vm__soup_to_mesh(&soup, v, g.n, g.off[2], step, mesh, err);
+    if (s) return s;
     st.seconds = vm__now() - t0;
     if (stats) *stats = st;
-#undef MAP_SLOT
-done:
-    free(map);
-    free(used_bits);
-    free(used_rank);
-    free(soup.tets);
-    free(soup.rep_pos);
-    if (s) vm_mesh_free(mesh);
-    return s;
+    return VM_OK;
 }

@@ -16,6 +16,8 @@ typedef struct vm__grid {
     int max_level;          /* 0: uniform; > 0: interior cells merged up to 2^max_level */
     int hexes;              /* 1: the cells are prepared for hexahedra */
     double error;           /* adaptive: boundary cells merge below this error (voxels) */
+    int64_t id_limit;       /* tets: soup ids below it are kept in 32 bits (0: 2^32; tests
+                               set less to take the 64-bit path) */
     vm_progress_fn progress;
     void *progress_user;
 } vm__grid;
@@ -23,9 +25,11 @@ typedef struct vm__grid {
 /* Cells (4 nodes: tets, 8: hexes in VTK order) over two kinds of vertices: ids below
  * nlattice are grid points (i + nx*(j + ny*k)), ids from nlattice on are surface/centre
  * vertices with positions rep_pos (grid index coordinates). Positive orientation in grid
- * index space. */
+ * index space. The ids are in tets32 when every one fits in 32 bits (then tets is NULL),
+ * else in tets (tets32 NULL). */
 typedef struct vm__tet_soup {
     int64_t *tets;
+    uint32_t *tets32;
     size_t ntets;
     int nodes;
     int64_t nlattice;
@@ -116,6 +120,13 @@ vm_status vm__material_range(int has_lo, double lo, int has_hi, double hi, doubl
  * [out] n, f, owned, step. */
 vm_status vm__sampling_grid(const vm_volume *v, int cell_size, const char *what, int64_t n[3],
                             const float **f, float **owned, double step[3], vm_error *err);
+
+/* The mesh of soup's cells (mesh initialised to their kind): the used vertices numbered in
+ * order of first use, at index position id * step (grid index i, j, k of a grid of n points,
+ * k shifted by z_off) mapped to v's world frame; the cells take over soup's id buffer, which
+ * is renumbered in place. soup is emptied (its buffers freed or taken) either way. */
+vm_status vm__soup_to_mesh(vm__tet_soup *soup, const vm_volume *v, const int64_t n[3],
+                           int64_t z_off, const double step[3], vm_mesh *mesh, vm_error *err);
 
 vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_stats *st,
                                 vm_error *err);
