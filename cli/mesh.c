@@ -78,6 +78,11 @@ static const char *mesh_help2 =
     "  --order 2               with -o X.inp: quadratic elements (C3D10)\n"
     "  --max-memory SIZE       refuse (exit 2) before reading or meshing when the run would\n"
     "                          need more than SIZE bytes (suffix K, M, G, T: powers of 1024)\n"
+    "  --slabs N|auto          tets: mesh by N slabs along z, each read and meshed on its own\n"
+    "                          (the same mesh, without the whole volume in memory while\n"
+    "                          meshing; the quality pass still reads it whole); auto: the\n"
+    "                          fewest slabs whose planes fit in a quarter of --max-memory\n"
+    "                          (one slab without it). See docs/ALGORITHMS.md\n"
     "  --json                  print the summary as one JSON object\n"
     "  --quiet                 no progress bar (nor the status line of writing and checking)\n"
     "  --verbose               print the time of each stage (read, denoise, mesh, improve,\n"
@@ -248,11 +253,66 @@ static int check_memory(const char *in, const vm_volume *v, const vm_mesh_option
                        o->adaptive ? "" : " or --adaptive");
 }
 
+/* --slabs: the planes come from a reader that goes on where the previous slab ended. */
+static vm_status read_planes(int64_t z0, int64_t z1, vm_volume *out, void *user,
+                             vm_error *err) {
+    return vm_volume_reader_read(user, z0, z1, out->data, err);
+}
+
+/* --slabs N (0: auto) of in (raw: its description or NULL): meshes slab after slab, each
+ * read on its own ([out] m, st). Returns 0, an exit code > 0 after printing why, or -1 when
+ * the volume goes in one slab (the caller reads it whole, as without --slabs). */
+static int mesh_slabs(const char *in, const vm_raw_options *raw, const vm_mesh_options *o,
+                      int n, double max_memory, int verbose, vm_mesh *m, vm_mesh_stats *st,
+                      double *t) {
+    vm_volume info;
+    vm_volume_reader *r = NULL;
+    vm_error err;
+    vm_error_clear(&err);
+    if (vm_volume_reader_open(in, raw, &info, &r, &err)) return vm_cli_fail_err(&err);
+    if (n == 0 && max_memory > 0 && info.dims[2] >= 2) {
+        /* the planes of a slab within a quarter of the limit: the mesh, the mesher's grid
+         * and the quality pass take the rest */
+        vm_slab_grid g;
+        vm_slab_grid_init(info.dims[2], o, 0, &g);
+        double plane = 4.0 * (double)info.dims[0] * (double)info.dims[1];
+        n = vm_slab_count_within(&g, (int64_t)(max_memory / 4 / plane));
+        if (n == 0) {
+            int64_t least = vm_slab_planes_held(&g, (int)g.blocks);
+            vm_volume_reader_close(r);
+            vm_volume_free(&info);
+            return vm_cli_fail(
+                "%s: --slabs auto: the thinnest slabs hold %lld planes (%.1f MiB), "
+                "more than a quarter of --max-memory (%.1f MiB)",
+                in, (long long)least, (double)least * plane / 1048576.0,
+                max_memory / 4 / 1048576.0);
+        }
+        if (verbose)
+            fprintf(stderr, "volmesh: --slabs auto: %d slab%s of at most %lld planes\n", n,
+                    n == 1 ? "" : "s", (long long)vm_slab_planes_held(&g, n));
+    }
+    if (n <= 1) {
+        vm_volume_reader_close(r);
+        vm_volume_free(&info);
+        return -1;
+    }
+    vm_slab_options so = {n, 0, read_planes, r};
+    vm_status s = vm_mesh_volume_slabs(&info, o, &so, m, st, &err);
+    vm_volume_reader_close(r);
+    vm_volume_free(&info);
+    if (s) /* a reader's message names the file, the mesher's the stage */
+        return strncmp(err.message, in, strlen(in)) == 0
+                   ? vm_cli_fail_err(&err)
+                   : vm_cli_fail("%s: %s", in, err.message);
+    stage_done(verbose, "mesh", t);
+    return 0;
+}
+
 int vm_cmd_mesh(int argc, char **argv) {
     const char *in = NULL, *out = NULL, *surface = NULL;
     int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
     int improve = 1, quality_fields = 0, verbose = 0, have_labels = 0;
-    int surface_elements = 0, have_method = 0, have_error = 0;
+    int surface_elements = 0, have_method = 0, have_error = 0, slabs = 1, have_slabs = 0;
     vm_surface_options so;
     vm_surface_options_default(&so);
     const char *labels_arg = NULL;
@@ -285,7 +345,7 @@ int vm_cmd_mesh(int argc, char **argv) {
                     vm_cli_is(a, "--order", NULL) || vm_cli_is(a, "--labels", NULL) ||
                     vm_cli_is(a, "--min-island", NULL) || vm_cli_is(a, "--max-memory", NULL) ||
                     vm_cli_is(a, "--size-per-label", NULL) || vm_cli_is(a, "--method", NULL) ||
-                    vm_cli_is(a, "--error", NULL);
+                    vm_cli_is(a, "--error", NULL) || vm_cli_is(a, "--slabs", NULL);
         if (needs && vm_cli_need_value("mesh", i, argc, argv)) return VM_EXIT_INPUT;
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
@@ -361,6 +421,12 @@ int vm_cmd_mesh(int argc, char **argv) {
             if (parse_bytes(argv[++i], &max_memory) || max_memory < 1048576.0)
                 return vm_cli_fail("--max-memory: '%s' is not a size of at least 1M (e.g. 4G)",
                                    argv[i]);
+        } else if (vm_cli_is(a, "--slabs", NULL)) {
+            long n = 0; /* 0: auto */
+            if (strcmp(argv[++i], "auto") != 0 && vm_cli_int(a, argv[i], 1, 1 << 20, &n))
+                return VM_EXIT_INPUT;
+            slabs = (int)n;
+            have_slabs = 1;
         } else if (vm_cli_is(a, "--verbose", "-v")) {
             verbose = 1;
         } else if (vm_cli_is(a, "--no-improve", NULL)) {
@@ -414,6 +480,11 @@ int vm_cmd_mesh(int argc, char **argv) {
                  "mesh: --elements %s writes a surface: no --labels, --adaptive, --surface, "
                  "--report, --deck or --order",
                  surface_elements == VM_QUAD4 ? "quad" : "tri");
+    else if (have_slabs &&
+             (have_labels || denoise || surface_elements || o.elements != VM_TET4))
+        snprintf(problem, sizeof problem,
+                 "mesh: --slabs meshes tetrahedra: not with --labels, --denoise or --elements "
+                 "hex|tri|quad");
     if (problem[0]) {
         free(label_sizes);
         return vm_cli_fail("%s", problem);
@@ -442,70 +513,88 @@ int vm_cmd_mesh(int argc, char **argv) {
         lo.max_level = o.max_level;
     }
     vm_volume v;
-    double t = stage_clock();
-    int rc = vm_cli_read_volume(in, is_raw ? &raw : NULL, &v);
-    if (rc) {
-        free(labels);
-        return rc;
-    }
-    stage_done(verbose, "read", &t);
-    if (have_labels) {
-        lo.progress = vm_cli_progress;
-        lo.progress_user = &quiet;
-        wo.compress = compress;
-        rc = vm_cli_mesh_labels(&v, in, out, surface, &lo, &wo, json, quality_fields, report,
-                                improve, verbose);
-        free(labels);
-        free(label_sizes);
-        vm_volume_free(&v);
-        return rc;
-    }
-    if (max_memory > 0 && (rc = check_memory(in, &v, &o, denoise != NULL, max_memory)) != 0) {
-        vm_volume_free(&v);
-        return rc;
-    }
-    o.progress = vm_cli_progress;
-    o.progress_user = &quiet;
+    memset(&v, 0, sizeof v);
     vm_mesh m;
     vm_mesh_stats st;
     vm_error err;
     vm_error_clear(&err);
     vm_status s = VM_OK;
-    if (denoise) {
-        vm_volume den;
-        s = strcmp(denoise, "diffusion") == 0
-                ? vm_denoise_diffusion(&v, 0, 0, 0, &den, vm_cli_progress, &quiet, &err)
-                : vm_denoise_bilateral(&v, 0, 0, &den, vm_cli_progress, &quiet, &err);
+    o.progress = vm_cli_progress;
+    o.progress_user = &quiet;
+    double t = stage_clock();
+    int rc = -1;
+    if (have_slabs) {
+        rc = mesh_slabs(in, is_raw ? &raw : NULL, &o, slabs, max_memory, verbose, &m, &st, &t);
+        if (rc > 0) return rc;
+        /* the quality pass projects onto the isosurface: for now it reads the volume whole */
+        if (rc == 0 && improve) {
+            rc = vm_cli_read_volume(in, is_raw ? &raw : NULL, &v);
+            if (rc) {
+                vm_mesh_free(&m);
+                return rc;
+            }
+            stage_done(verbose, "read", &t);
+        }
+    }
+    if (rc < 0) { /* one slab: the whole volume, as without --slabs */
+        rc = vm_cli_read_volume(in, is_raw ? &raw : NULL, &v);
+        if (rc) {
+            free(labels);
+            return rc;
+        }
+        stage_done(verbose, "read", &t);
+        if (have_labels) {
+            lo.progress = vm_cli_progress;
+            lo.progress_user = &quiet;
+            wo.compress = compress;
+            rc = vm_cli_mesh_labels(&v, in, out, surface, &lo, &wo, json, quality_fields,
+                                    report, improve, verbose);
+            free(labels);
+            free(label_sizes);
+            vm_volume_free(&v);
+            return rc;
+        }
+        if (max_memory > 0 &&
+            (rc = check_memory(in, &v, &o, denoise != NULL, max_memory)) != 0) {
+            vm_volume_free(&v);
+            return rc;
+        }
+        if (denoise) {
+            vm_volume den;
+            s = strcmp(denoise, "diffusion") == 0
+                    ? vm_denoise_diffusion(&v, 0, 0, 0, &den, vm_cli_progress, &quiet, &err)
+                    : vm_denoise_bilateral(&v, 0, 0, &den, vm_cli_progress, &quiet, &err);
+            if (s) {
+                vm_volume_free(&v);
+                return vm_cli_fail("%s: %s", in, err.message);
+            }
+            vm_volume_free(&v);
+            v = den;
+            stage_done(verbose, "denoise", &t);
+        }
+        if (surface_elements) {
+            so.lo = o.lo;
+            so.hi = o.hi;
+            so.has_lo = o.has_lo;
+            so.has_hi = o.has_hi;
+            so.elements = (vm_cell_kind)surface_elements;
+            so.cell_size = o.cell_size;
+            so.improve = improve;
+            so.progress = vm_cli_progress;
+            so.progress_user = &quiet;
+            wo.compress = compress;
+            rc = vm_cli_mesh_surface(&v, in, out, &so, &wo, json, quality_fields);
+            vm_volume_free(&v);
+            if (!rc) stage_done(verbose, "surface", &t);
+            return rc;
+        }
+        s = vm_mesh_volume(&v, &o, &m, &st, &err);
+        if (!s) stage_done(verbose, "mesh", &t);
         if (s) {
             vm_volume_free(&v);
+            /* name the input, the library names the stage */
             return vm_cli_fail("%s: %s", in, err.message);
         }
-        vm_volume_free(&v);
-        v = den;
-        stage_done(verbose, "denoise", &t);
-    }
-    if (surface_elements) {
-        so.lo = o.lo;
-        so.hi = o.hi;
-        so.has_lo = o.has_lo;
-        so.has_hi = o.has_hi;
-        so.elements = (vm_cell_kind)surface_elements;
-        so.cell_size = o.cell_size;
-        so.improve = improve;
-        so.progress = vm_cli_progress;
-        so.progress_user = &quiet;
-        wo.compress = compress;
-        rc = vm_cli_mesh_surface(&v, in, out, &so, &wo, json, quality_fields);
-        vm_volume_free(&v);
-        if (!rc) stage_done(verbose, "surface", &t);
-        return rc;
-    }
-    s = vm_mesh_volume(&v, &o, &m, &st, &err);
-    if (!s) stage_done(verbose, "mesh", &t);
-    if (s) {
-        vm_volume_free(&v);
-        /* name the input, the library names the stage */
-        return vm_cli_fail("%s: %s", in, err.message);
     }
     vm_improve_report ir;
     int improved = 0;

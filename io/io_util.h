@@ -44,11 +44,29 @@ typedef struct vm__map {
 vm_status vm__map_file(const char *path, size_t max_bytes, vm__map *m, vm_error *err);
 void vm__map_free(vm__map *m);
 
+/* Where a forward reader stopped in a stream of samples (vm_volume_reader): a gzip/zlib
+ * stream's inflate state, or an ASCII text's position, so that the next slab further on
+ * goes on from there instead of from the start. live = 0: nothing kept. */
+typedef struct vm__resume {
+    int live, enc;
+    size_t avail, skip; /* the stream it belongs to (vm__samples avail, skip) */
+    void *zs;           /* ZLIB: the z_stream (heap) */
+    size_t in_done;     /* ZLIB: compressed bytes handed to inflate, from the stream's start */
+    size_t done;        /* ZLIB: bytes inflated; ASCII: byte offset after the last value */
+    size_t index;       /* ASCII: values parsed */
+} vm__resume;
+/* Ends a cursor's inflate stream, if any (live = 0). */
+void vm__resume_end(vm__resume *c);
+
 /* Which planes a reader returns: z0 <= k < z1, or (all = 1) the whole volume; header_only
- * sets the header and dims of the whole volume and reads no sample. */
+ * sets the header and dims of the whole volume and reads no sample. into (NULL: allocate)
+ * is where the slab's floats go, owned by the caller; cursor (NULL: none) lets a gzip stream
+ * or ASCII text go on from where the previous read of the same file stopped. */
 typedef struct vm__slab {
     int64_t z0, z1;
     int all, header_only;
+    float *into;
+    vm__resume *cursor;
 } vm__slab;
 extern const vm__slab vm__slab_whole;
 
@@ -75,14 +93,19 @@ vm_status vm__slab_check(const char *path, const vm__slab *rq, const int64_t dim
                          size_t tsize, size_t *count, size_t *first, size_t *n,
                          vm_error *err);
 
-/* v->data = n floats ("PATH: out of memory for N voxels"). */
-vm_status vm__slab_alloc(const char *path, size_t n, vm_volume *v, vm_error *err);
+/* v->data = n floats ("PATH: out of memory for N voxels"), or rq->into when given. */
+vm_status vm__slab_alloc(const char *path, const vm__slab *rq, size_t n, vm_volume *v,
+                         vm_error *err);
+
+/* vm_volume_free(v) after a failed read, leaving rq->into (the caller's) alone. */
+void vm__slab_release(vm_volume *v, const vm__slab *rq);
 
 /* Decodes samples first .. first+n-1 of s into dst (RAW by seeking, ZLIB by streaming
- * inflate discarding what precedes, ASCII by a streaming parse skipping values). RAW callers
+ * inflate discarding what precedes, ASCII by a streaming parse skipping values; with
+ * rq->cursor, ZLIB and ASCII go on from the cursor when first is at or past it). RAW callers
  * check the data size first; ZLIB and ASCII report truncation here. */
-vm_status vm__samples_decode(const vm__samples *s, size_t first, size_t n, float *dst,
-                             vm_error *err);
+vm_status vm__samples_decode(const vm__samples *s, const vm__slab *rq, size_t first, size_t n,
+                             float *dst, vm_error *err);
 
 /* Turns v (the whole volume's header, dims and geometry set, data NULL) into the slab rq:
  * dims[2] = z1 - z0, origin moved to the world position of voxel (0, 0, z0). */

@@ -471,8 +471,8 @@ static vm_status read_nifti(const char *path, const vm__slab *rq, vm_volume *v, 
     set_geometry(&h, v);
     snprintf(v->format, sizeof v->format, "nifti");
     if (rq->header_only) goto done;
-    st = vm__slab_alloc(path, n, v, err);
-    if (!st) st = vm__samples_decode(&src, first, n, v->data, err);
+    st = vm__slab_alloc(path, rq, n, v, err);
+    if (!st) st = vm__samples_decode(&src, rq, first, n, v->data, err);
     if (st) goto done;
 
     /* scl_slope = 0 means "no scaling" (nifti1.h); (1, 0) is the identity. */
@@ -491,7 +491,7 @@ done:
     free(hbuf);
     vm__map_free(&fm);
     vm__map_free(&dm);
-    if (st) vm_volume_free(v);
+    if (st) vm__slab_release(v, rq);
     return st;
 }
 

@@ -589,13 +589,13 @@ static vm_status read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, v
     memcpy(v->direction, h.direction, sizeof v->direction);
     snprintf(v->format, sizeof v->format, "nrrd");
     if (rq->header_only) goto done;
-    st = vm__slab_alloc(path, n, v, err);
-    if (!st) st = vm__samples_decode(&src, first, n, v->data, err);
+    st = vm__slab_alloc(path, rq, n, v, err);
+    if (!st) st = vm__samples_decode(&src, rq, first, n, v->data, err);
     if (!st) vm__slab_finish(v, rq);
 done:
     vm__map_free(&hm);
     vm__map_free(&dm);
-    if (st) vm_volume_free(v);
+    if (st) vm__slab_release(v, rq);
     return st;
 }
 

@@ -1,9 +1,10 @@
 /* io/volume_read.c — picks the volume reader from the file name; whole, header-only and
  * slab reads all go through the same reader of each format. */
-#include <assert.h>
-#include <string.h>
 #include "io_util.h"
 #include "volmesh/io.h"
+#include <assert.h>
+#include <stdlib.h>
+#include <string.h>
 
 static vm_status read_any(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
     memset(v, 0, sizeof *v);
@@ -29,27 +30,94 @@ vm_status vm_volume_read(const char *path, vm_volume *v, vm_error *err) {
 
 vm_status vm_volume_read_info(const char *path, vm_volume *v, vm_error *err) {
     assert(path && v);
-    vm__slab rq = {0, 0, 0, 1};
+    vm__slab rq = {0, 0, 0, 1, NULL, NULL};
     return read_any(path, &rq, v, err);
 }
 
 vm_status vm_volume_read_slab(const char *path, int64_t z0, int64_t z1, vm_volume *v,
                               vm_error *err) {
     assert(path && v);
-    vm__slab rq = {z0, z1, 0, 0};
+    vm__slab rq = {z0, z1, 0, 0, NULL, NULL};
     return read_any(path, &rq, v, err);
 }
 
 vm_status vm_volume_read_raw_info(const char *path, const vm_raw_options *opt, vm_volume *v,
                                   vm_error *err) {
     assert(path && opt && v);
-    vm__slab rq = {0, 0, 0, 1};
+    vm__slab rq = {0, 0, 0, 1, NULL, NULL};
     return vm__read_raw(path, opt, &rq, v, err);
 }
 
 vm_status vm_volume_read_raw_slab(const char *path, const vm_raw_options *opt, int64_t z0,
                                   int64_t z1, vm_volume *v, vm_error *err) {
     assert(path && opt && v);
-    vm__slab rq = {z0, z1, 0, 0};
+    vm__slab rq = {z0, z1, 0, 0, NULL, NULL};
     return vm__read_raw(path, opt, &rq, v, err);
+}
+
+struct vm_volume_reader {
+    char *path;
+    int is_raw;
+    vm_raw_options raw;
+    int64_t dims[3];
+    vm__resume cursor;
+};
+
+static vm_status reader_read(vm_volume_reader *r, const vm__slab *rq, vm_volume *v,
+                             vm_error *err) {
+    if (r->is_raw) {
+        memset(v, 0, sizeof *v);
+        return vm__read_raw(r->path, &r->raw, rq, v, err);
+    }
+    return read_any(r->path, rq, v, err);
+}
+
+vm_status vm_volume_reader_open(const char *path, const vm_raw_options *raw, vm_volume *info,
+                                vm_volume_reader **out, vm_error *err) {
+    assert(path && out);
+    *out = NULL;
+    vm_volume_reader *r = calloc(1, sizeof *r);
+    size_t len = strlen(path);
+    if (r) r->path = malloc(len + 1);
+    if (!r || !r->path) {
+        free(r);
+        return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
+    }
+    memcpy(r->path, path, len + 1);
+    if (raw) {
+        r->is_raw = 1;
+        r->raw = *raw;
+    }
+    vm_volume v;
+    vm__slab rq = {0, 0, 0, 1, NULL, NULL};
+    vm_status st = reader_read(r, &rq, &v, err);
+    if (st) {
+        vm_volume_reader_close(r);
+        return st;
+    }
+    memcpy(r->dims, v.dims, sizeof r->dims);
+    if (info)
+        *info = v;
+    else
+        vm_volume_free(&v);
+    *out = r;
+    return VM_OK;
+}
+
+vm_status vm_volume_reader_read(vm_volume_reader *r, int64_t z0, int64_t z1, float *dst,
+                                vm_error *err) {
+    assert(r && dst);
+    vm__slab rq = {z0, z1, 0, 0, dst, &r->cursor};
+    vm_volume v;
+    vm_status st = reader_read(r, &rq, &v, err);
+    v.data = NULL; /* the caller's */
+    vm_volume_free(&v);
+    return st;
+}
+
+void vm_volume_reader_close(vm_volume_reader *r) {
+    if (!r) return;
+    vm__resume_end(&r->cursor);
+    free(r->path);
+    free(r);
 }

@@ -18,7 +18,7 @@
 #include "../core/core.h"
 #include "io_util.h"
 
-const vm__slab vm__slab_whole = {0, 0, 1, 0};
+const vm__slab vm__slab_whole = {0, 0, 1, 0, NULL, NULL};
 
 static size_t page_size(void) {
     long pg = sysconf(_SC_PAGESIZE);
@@ -125,11 +125,36 @@ vm_status vm__slab_check(const char *path, const vm__slab *rq, const int64_t dim
     return VM_OK;
 }
 
-vm_status vm__slab_alloc(const char *path, size_t n, vm_volume *v, vm_error *err) {
-    v->data = malloc((n ? n : 1) * sizeof(float));
+vm_status vm__slab_alloc(const char *path, const vm__slab *rq, size_t n, vm_volume *v,
+                         vm_error *err) {
+    v->data = rq->into ? rq->into : malloc((n ? n : 1) * sizeof(float));
     if (!v->data)
         return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu voxels", path, n);
     return VM_OK;
+}
+
+void vm__slab_release(vm_volume *v, const vm__slab *rq) {
+    if (rq->into && v->data == rq->into) v->data = NULL;
+    vm_volume_free(v);
+}
+
+void vm__resume_end(vm__resume *c) {
+    if (c->zs) {
+        inflateEnd(c->zs);
+        free(c->zs);
+    }
+    memset(c, 0, sizeof *c);
+}
+
+/* 1 when c holds a position of stream s (encoding enc) at or before sample byte `from`
+ * (ZLIB: decompressed bytes from the stream's start; ASCII: the value index). A cursor of
+ * another stream, or one past `from`, is ended. */
+static int resume_here(vm__resume *c, const vm__samples *s, size_t from) {
+    if (!c || !c->live) return 0;
+    size_t at = s->enc == VM__ENC_ZLIB ? c->done : c->index;
+    if (c->enc == s->enc && c->avail == s->avail && c->skip == s->skip && from >= at) return 1;
+    vm__resume_end(c);
+    return 0;
 }
 
 void vm__slab_finish(vm_volume *v, const vm__slab *rq) {
@@ -182,30 +207,45 @@ static int inflate_into(const vm__samples *s, z_stream *zs, size_t *in_done,
     return r;
 }
 
-static vm_status decode_zlib(const vm__samples *s, size_t first, size_t n, float *dst,
-                             vm_error *err) {
+static vm_status decode_zlib(const vm__samples *s, vm__resume *cur, size_t first, size_t n,
+                             float *dst, vm_error *err) {
     size_t tsize = vm_scalar_type_size(s->type);
     size_t discard = s->skip + first * tsize, want = n * tsize, total = discard + want;
     unsigned char *stage = malloc(STAGE);
     if (!stage) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", s->path);
-    z_stream zs;
-    memset(&zs, 0, sizeof zs);
-    if (inflateInit2(&zs, 15 + 32) != Z_OK) {
-        free(stage);
-        return vm_error_set(err, VM_ERR_NOMEM, "%s: cannot start zlib", s->path);
-    }
+    z_stream own, *zs = &own;
     size_t in_done = 0, done = 0, got = 0;
+    if (resume_here(cur, s, discard)) {
+        /* go on where the previous slab stopped: the stream's state is the cursor's, its
+         * unread input is at the same offset of this mapping of the file */
+        zs = cur->zs;
+        in_done = cur->in_done;
+        done = cur->done;
+        zs->next_in = (unsigned char *)s->p + (in_done - zs->avail_in);
+    } else {
+        if (cur) {
+            cur->zs = calloc(1, sizeof(z_stream));
+            zs = cur->zs;
+        } else {
+            memset(&own, 0, sizeof own);
+        }
+        if (!zs || inflateInit2(zs, 15 + 32) != Z_OK) {
+            free(stage);
+            if (cur) vm__resume_end(cur);
+            return vm_error_set(err, VM_ERR_NOMEM, "%s: cannot start zlib", s->path);
+        }
+    }
     int r = Z_OK;
     while (done < discard) { /* the planes before the slab go through the stage */
         size_t c = discard - done < STAGE ? discard - done : STAGE;
-        r = inflate_into(s, &zs, &in_done, stage, c, &got);
+        r = inflate_into(s, zs, &in_done, stage, c, &got);
         done += got;
         if (got < c) break;
     }
     size_t out = 0; /* samples written */
     while (done >= discard && out < n) {
         size_t c = (n - out) * tsize < STAGE ? (n - out) * tsize : STAGE / tsize * tsize;
-        r = inflate_into(s, &zs, &in_done, stage, c, &got);
+        r = inflate_into(s, zs, &in_done, stage, c, &got);
         done += got;
         size_t m = got / tsize;
         /* inflate is serial: waking threads for each stage costs more than it saves */
@@ -213,8 +253,19 @@ static vm_status decode_zlib(const vm__samples *s, size_t first, size_t n, float
         out += m;
         if (got < c) break;
     }
-    inflateEnd(&zs);
     free(stage);
+    if (cur && done >= total) { /* keep the stream for the next slab */
+        cur->live = 1;
+        cur->enc = s->enc;
+        cur->avail = s->avail;
+        cur->skip = s->skip;
+        cur->in_done = in_done;
+        cur->done = done;
+    } else if (cur) {
+        vm__resume_end(cur);
+    } else {
+        inflateEnd(zs);
+    }
     if (done < total) {
         if (r == Z_DATA_ERROR || r == Z_NEED_DICT || r == Z_STREAM_ERROR || r == Z_MEM_ERROR)
             return vm_error_set(err, VM_ERR_FORMAT, "%s: corrupt compressed data", s->path);
@@ -227,11 +278,16 @@ static vm_status decode_zlib(const vm__samples *s, size_t first, size_t n, float
 
 static int ascii_sep(int c) { return isspace(c) || c == ','; }
 
-static vm_status decode_ascii(const vm__samples *s, size_t first, size_t n, float *dst,
-                              vm_error *err) {
-    const unsigned char *p = s->p, *end = s->p + s->avail, *dropped = s->p;
-    size_t total = first + n;
-    for (size_t i = 0; i < total; i++) {
+static vm_status decode_ascii(const vm__samples *s, vm__resume *cur, size_t first, size_t n,
+                              float *dst, vm_error *err) {
+    const unsigned char *p = s->p, *end = s->p + s->avail;
+    size_t total = first + n, i = 0;
+    if (resume_here(cur, s, first)) { /* the values before the cursor are skipped */
+        p += cur->done;
+        i = cur->index;
+    }
+    const unsigned char *dropped = p;
+    for (; i < total; i++) {
         while (p < end && ascii_sep(*p)) p++;
         if (p >= end)
             return vm_error_set(err, VM_ERR_FORMAT,
@@ -267,14 +323,22 @@ static vm_status decode_ascii(const vm__samples *s, size_t first, size_t n, floa
         if (x < -FLT_MAX) x = -INFINITY;
         dst[i - first] = (float)x;
     }
+    if (cur) {
+        cur->live = 1;
+        cur->enc = s->enc;
+        cur->avail = s->avail;
+        cur->skip = s->skip;
+        cur->done = (size_t)(p - s->p);
+        cur->index = total;
+    }
     return VM_OK;
 }
 
-vm_status vm__samples_decode(const vm__samples *s, size_t first, size_t n, float *dst,
-                             vm_error *err) {
+vm_status vm__samples_decode(const vm__samples *s, const vm__slab *rq, size_t first, size_t n,
+                             float *dst, vm_error *err) {
     switch (s->enc) {
     case VM__ENC_RAW: return decode_raw(s, first, n, dst);
-    case VM__ENC_ZLIB: return decode_zlib(s, first, n, dst, err);
-    default: return decode_ascii(s, first, n, dst, err);
+    case VM__ENC_ZLIB: return decode_zlib(s, rq->cursor, first, n, dst, err);
+    default: return decode_ascii(s, rq->cursor, first, n, dst, err);
     }
 }

@@ -553,13 +553,13 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
     memcpy(v->dims, dims, sizeof v->dims);
     v->type = t;
     if (f->rq->header_only) return VM_OK;
-    if ((st = vm__slab_alloc(path, ns, v, f->err))) return st;
+    if ((st = vm__slab_alloc(path, f->rq, ns, v, f->err))) return st;
     int swap = f->big_endian == vm__host_little_endian();
     if (span_is(a->format, "ascii")) {
         if (f->rq->all) return read_ascii(f, a->content, n, v->data);
         vm__samples src = {path, (const unsigned char *)a->content.p, a->content.n,
                            VM__ENC_ASCII, 0, t, 0, f->mapped};
-        return vm__samples_decode(&src, first, ns, v->data, f->err);
+        return vm__samples_decode(&src, f->rq, first, ns, v->data, f->err);
     }
 
     const unsigned char *bytes;
@@ -611,7 +611,7 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
                 return vm_error_set(f->err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of "
                                     "%zu bytes)", path, blen - hs, n * esize);
             vm__samples src = {path, bytes + hs, blen - hs, VM__ENC_RAW, 0, t, swap, f->mapped};
-            return vm__samples_decode(&src, first, ns, v->data, f->err);
+            return vm__samples_decode(&src, f->rq, first, ns, v->data, f->err);
         }
     } else {
         return vm_error_set(f->err, VM_ERR_UNSUPPORTED, "%s: DataArray '%s' has format '%s' "
@@ -708,7 +708,7 @@ vm_status vm__read_vti(const char *path, const vm__slab *rq, vm_volume *v, vm_er
     st = parse(f, v);
     free(f);
     vm__map_free(&m);
-    if (st) vm_volume_free(v);
+    if (st) vm__slab_release(v, rq);
     return st;
 }
 

@@ -224,14 +224,14 @@ static vm_status read_samples(reader *r, vm_scalar_type t, int color, size_t tot
         size_t size = vm_scalar_type_size(t);
         vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_RAW, 0, t,
                            vm__host_little_endian(), r->mapped};
-        vm_status st = vm__samples_decode(&src, first, n, v->data, r->err);
+        vm_status st = vm__samples_decode(&src, r->rq, first, n, v->data, r->err);
         r->pos += total * size;
         return st;
     }
     if (!r->rq->all) {
         vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_ASCII, 0, t, 0,
                            r->mapped};
-        vm_status st = vm__samples_decode(&src, first, n, v->data, r->err);
+        vm_status st = vm__samples_decode(&src, r->rq, first, n, v->data, r->err);
         if (!st && color)
             for (size_t i = 0; i < n; i++) v->data[i] = color_value(v->data[i]);
         return st;
@@ -287,10 +287,10 @@ static vm_status take_scalars(reader *r, vm_volume *v, const int64_t dims[3],
                                 r->len - r->pos, bytes);
     }
     if (r->rq->header_only) return VM_OK;
-    if ((st = vm__slab_alloc(r->path, ns, v, r->err))) return st;
+    if ((st = vm__slab_alloc(r->path, r->rq, ns, v, r->err))) return st;
     st = read_samples(r, t, color, n, first, ns, v);
     if (st) {
-        vm_volume_free(v);
+        vm__slab_release(v, r->rq);
         return st;
     }
     vm__slab_finish(v, r->rq);
@@ -500,7 +500,7 @@ vm_status vm__read_vtk(const char *path, const vm__slab *rq, vm_volume *v, vm_er
     reader r = {path, m.p, m.len, 0, 0, err, rq, m.maplen != 0};
     st = parse(&r, v);
     vm__map_free(&m);
-    if (st) vm_volume_free(v);
+    if (st) vm__slab_release(v, rq);
     return st;
 }
 

@@ -900,9 +900,11 @@ vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *er
         d->P[a] = g->n[a] + 2;
         d->C[a] = g->n[a] + 2; /* as P: a cell's index is that of its lowest corner */
     }
+    /* A byte per padded grid point bounds the largest per-point array (the octree's codes,
+     * half a byte per cell; the rest are bit sets): the grid must fit in a size_t and
+     * within the memory limit at that. */
     size_t tmp;
-    vm_status s =
-        vm__check_dims(d->P, 1 + sizeof(int32_t) + 2 * sizeof(int64_t), "mesh", &tmp, err);
+    vm_status s = vm__check_dims(d->P, 1, "mesh", &tmp, err);
     if (!s) s = classify(d, st, err);
     if (!s && g->progress) g->progress("contour", 1, 4, g->progress_user);
     if (!s) s = find_cells(d, st, err);

@@ -17,6 +17,16 @@ void vm_mesh_options_default(vm_mesh_options *o) {
     o->max_level = 4;
 }
 
+void vm__mirror_cell(vm_index *c, int nodes) {
+    static const int tet_swap[][2] = {{1, 2}}, hex_swap[][2] = {{1, 3}, {5, 7}};
+    const int(*sw)[2] = nodes == 8 ? hex_swap : tet_swap;
+    for (int q = 0; q < (nodes == 8 ? 2 : 1); q++) {
+        vm_index tmp = c[sw[q][0]];
+        c[sw[q][0]] = c[sw[q][1]];
+        c[sw[q][1]] = tmp;
+    }
+}
+
 /* Trilinear sample at continuous index position (x, y, z) inside a volume of nz planes of
  * which v holds planes z0 .. z0 + v->dims[2] - 1 (the whole volume: z0 = 0, nz = dims[2]);
  * the planes with a nonzero weight must be among them. */
@@ -56,6 +66,11 @@ vm_status vm__material_check(const vm_volume *v, int has_lo, double lo, int has_
         return vm_error_set(err, VM_ERR_FORMAT,
                             "%s: the volume has %zu non-finite values (NaN or infinity)", what,
                             nonfinite);
+    return vm__material_range(has_lo, lo, has_hi, hi, vmin, vmax, what, err);
+}
+
+vm_status vm__material_range(int has_lo, double lo, int has_hi, double hi, double vmin,
+                             double vmax, const char *what, vm_error *err) {
     if (has_lo && lo > vmax)
         return vm_error_set(err, VM_ERR_EMPTY,
                             "%s: no voxel >= %g (the data range is %g to %g): choose an "
@@ -272,18 +287,8 @@ vm_status vm__soup_to_mesh(vm__tet_soup *soup, const vm_volume *v, const int64_t
     }
     /* A left-handed frame mirrors every element: swap nodes so volumes stay positive. */
     int flip = vm_volume_frame_determinant(v) < 0;
-    static const int tet_swap[][2] = {{1, 2}}, hex_swap[][2] = {{1, 3}, {5, 7}};
     for (size_t t = 0; t < soup->ntets; t++) {
-        vm_index *c = mesh->cells + nn * t;
-        if (flip) {
-            const int(*sw)[2] = nn == 8 ? hex_swap : tet_swap;
-            int nsw = nn == 8 ? 2 : 1;
-            for (int q = 0; q < nsw; q++) {
-                vm_index tmp = c[sw[q][0]];
-                c[sw[q][0]] = c[sw[q][1]];
-                c[sw[q][1]] = tmp;
-            }
-        }
+        if (flip) vm__mirror_cell(mesh->cells + nn * t, (int)nn);
         mesh->region[t] = 1;
     }
     mesh->ncells = soup->ntets;
@@ -299,22 +304,29 @@ done:
     return s;
 }
 
-vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *mesh,
-                         vm_mesh_stats *stats, vm_error *err) {
-    double t0 = vm__now();
-    vm_mesh_stats st;
-    memset(&st, 0, sizeof st);
-    vm_mesh_init(mesh, o->elements == VM_HEX8 ? VM_HEX8 : VM_TET4);
+vm_status vm__mesh_options_check(const vm_mesh_options *o, vm_error *err) {
     if (o->elements != VM_TET4 && o->elements != VM_HEX8)
         return vm_error_set(err, VM_ERR_ARG, "mesh: elements must be tetrahedra or hexahedra");
+    if (o->cell_size < 1)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: cell size %d must be >= 1", o->cell_size);
     if (o->adaptive && (o->max_level < 1 || o->max_level > 10))
         return vm_error_set(err, VM_ERR_ARG, "mesh: adaptive max level %d is outside 1..10",
                             o->max_level);
     if (o->adaptive && !(o->error >= 0 && o->error < 1e30))
         return vm_error_set(err, VM_ERR_ARG, "mesh: adaptive error %g must be >= 0 (voxels)",
                             o->error);
-    vm_status s = vm__material_check(v, o->has_lo, o->lo, o->has_hi, o->hi, o->cell_size,
-                                     "mesh", err);
+    return VM_OK;
+}
+
+vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *mesh,
+                         vm_mesh_stats *stats, vm_error *err) {
+    double t0 = vm__now();
+    vm_mesh_stats st;
+    memset(&st, 0, sizeof st);
+    vm_mesh_init(mesh, o->elements == VM_HEX8 ? VM_HEX8 : VM_TET4);
+    vm_status s = vm__mesh_options_check(o, err);
+    if (s) return s;
+    s = vm__material_check(v, o->has_lo, o->lo, o->has_hi, o->hi, o->cell_size, "mesh", err);
     if (s) return s;
 
     /* Sampling grid: the volume itself, or a trilinear resampling with cell size ~S. */

@@ -102,6 +102,19 @@ void vm__octree_free(vm__octree *o);
 vm_status vm__material_check(const vm_volume *v, int has_lo, double lo, int has_hi, double hi,
                              int cell_size, const char *what, vm_error *err);
 
+/* Checks the options of vm_mesh_volume that need no volume (elements, cell size, adaptive
+ * level and error); messages start with "mesh: ". */
+vm_status vm__mesh_options_check(const vm_mesh_options *o, vm_error *err);
+
+/* Swaps two nodes of a tet (nodes 4) or two pairs of a hex (8), mirroring it: the cells of a
+ * left-handed frame keep positive volumes. */
+void vm__mirror_cell(vm_index *c, int nodes);
+
+/* VM_ERR_EMPTY ("WHAT: no voxel >= lo (the data range is ...)") when no value of the data
+ * range vmin..vmax is in the material, else VM_OK. */
+vm_status vm__material_range(int has_lo, double lo, int has_hi, double hi, double vmin,
+                             double vmax, const char *what, vm_error *err);
+
 /* The sampling grid of cell size S: v's own samples for S == 1 (*owned = NULL), else a
  * trilinear resampling (*owned, free it) with index step[a] voxels between samples.
  * [out] n, f, owned, step. */

@@ -207,56 +207,22 @@ static int parse_args(int argc, char **argv, args *A) {
     }
     if (!A->have_bound)
         return fail("no material bound: give --iso V or --range A:B%s%s", "", NULL);
-    if (A->ghost < 0) A->ghost = 6 + (A->mo.adaptive ? 2L << A->mo.max_level : 0);
+    if (A->ghost < 0) A->ghost = (long)vm_slab_default_ghost(&A->mo);
     return 0;
 }
 
-/* The sampling grid along z, as vm_mesh_volume makes it: m points, step voxels apart. */
-static void sampling_z(int64_t nz, int S, int64_t *m, double *step) {
-    if (S == 1) {
-        *m = nz;
-        *step = 1;
-        return;
-    }
-    *m = (nz - 1 + S - 1) / S + 1;
-    if (*m < 2) *m = 2;
-    *step = (double)(nz - 1) / (double)(*m - 1);
+/* The whole volume's z axis of nz planes cut into blocks (vm_slab_grid_init). */
+static void grid_of(const args *A, int64_t nz, vm_slab_grid *g) {
+    vm_slab_grid_init(nz, &A->mo, A->ghost, g);
 }
 
-/* This rank's cells c0 <= c < c1 along z of the sampling grid (whole blocks of B cells, B
- * = 2^L with --adaptive), the grid step in voxels and the number of blocks. */
-static void rank_cells(const args *A, int64_t nzvox, int64_t *c0, int64_t *c1, double *step,
-                       int64_t *blocks, int64_t *B) {
-    int64_t nz;
-    sampling_z(nzvox, A->mo.cell_size, &nz, step);
-    int64_t cells = nz - 1;
-    *B = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
-    *blocks = (cells + *B - 1) / *B;
-    int64_t b0 = *blocks * rank_ / nranks_, b1 = *blocks * (rank_ + 1) / nranks_;
-    if (cuts_) b0 = cuts_[rank_], b1 = cuts_[rank_ + 1];
-    *c0 = b0 * *B;
-    *c1 = b1 * *B < cells ? b1 * *B : cells;
-}
-
-/* Voxel planes lo..hi this rank meshes: its cells, the ghost band of G cells on each side
- * and the voxel beyond (for the trilinear resampling), within 0..nz-1. The band below starts
- * on a multiple of 2^L cells with --adaptive (the mesher's crop alignment, see
- * vm_mesh_options), so the mesher keeps all of it. */
-static void rank_planes(const args *A, int64_t nzvox, int64_t *lo, int64_t *hi) {
-    int64_t c0, c1, blocks, B;
-    double step;
-    rank_cells(A, nzvox, &c0, &c1, &step, &blocks, &B);
-    if (nranks_ == 1 || c1 <= c0) {
-        *lo = 0;
-        *hi = c1 <= c0 ? -1 : nzvox - 1;
-        return;
-    }
-    int64_t align = A->mo.adaptive ? (int64_t)1 << A->mo.max_level : 1;
-    int64_t g0 = c0 - A->ghost < 0 ? 0 : (c0 - A->ghost) / align * align;
-    double l = floor((double)g0 * step) - 1;
-    double h = ceil((double)(c1 + A->ghost) * step) + 1;
-    *lo = l < 0 ? 0 : (int64_t)l;
-    *hi = h > (double)(nzvox - 1) ? nzvox - 1 : (int64_t)h;
+/* This rank's slab of g: its cells, owned z range and planes (the ghost band included):
+ * equal numbers of blocks, or the --balance cuts. */
+static void rank_slab(const vm_slab_grid *g, vm_slab *s) {
+    if (cuts_)
+        vm_slab_of_blocks(g, cuts_[rank_], cuts_[rank_ + 1], s);
+    else
+        vm_slab_part(g, rank_, nranks_, s);
 }
 
 static int in_material(const vm_mesh_options *o, float f) {
@@ -291,12 +257,10 @@ static double plane_weight(const vm_mesh_options *o, const float *f, const float
 /* --balance: cuts_ from the inside voxels per plane (count[k], the whole volume's nz planes):
  * rank r starts at the first block where the blocks before it hold r/N of the material. */
 static vm_status balance_cuts(const args *A, const double *count, int64_t nz, vm_error *err) {
-    int64_t c0, c1, blocks, B;
-    double step;
-    int save = rank_;
-    rank_ = 0;
-    rank_cells(A, nz, &c0, &c1, &step, &blocks, &B); /* for blocks, B, step */
-    rank_ = save;
+    vm_slab_grid g;
+    grid_of(A, nz, &g);
+    int64_t blocks = g.blocks, B = g.block;
+    double step = g.step;
     cuts_ = malloc((size_t)(nranks_ + 1) * sizeof *cuts_);
     double *w = malloc((size_t)(blocks + 1) * sizeof *w);
     if (!cuts_ || !w) {
@@ -416,13 +380,15 @@ static vm_status read_planes(const args *A, vm_volume *v, int64_t *nz, vm_error 
     vm_volume info, slab;
     memset(&slab, 0, sizeof slab);
     vm_status s = vm_volume_read_info(A->in, &info, err);
-    int64_t lo = 0, hi = -1;
     if (s) return s;
     *nz = info.dims[2];
-    rank_planes(A, info.dims[2], &lo, &hi);
+    vm_slab_grid g;
+    vm_slab sl;
+    grid_of(A, info.dims[2], &g);
+    rank_slab(&g, &sl);
     *v = info;
-    if (hi < lo) return VM_OK;
-    s = vm_volume_read_slab(A->in, lo, hi + 1, &slab, err);
+    if (sl.plane1 <= sl.plane0) return VM_OK;
+    s = vm_volume_read_slab(A->in, sl.plane0, sl.plane1, &slab, err);
     if (s) return s;
     v->data = slab.data; /* the frame stays the whole volume's */
     v->dims[2] = slab.dims[2];
@@ -433,18 +399,21 @@ static vm_status read_planes(const args *A, vm_volume *v, int64_t *nz, vm_error 
  * v, [out] *nz: the whole volume's planes. */
 static vm_status crop_planes(const args *A, vm_volume *v, int64_t *nz, vm_error *err) {
     *nz = v->dims[2];
-    int64_t lo, hi;
-    rank_planes(A, v->dims[2], &lo, &hi);
-    if (lo == 0 && hi == v->dims[2] - 1) return VM_OK;
+    vm_slab_grid g;
+    vm_slab sl;
+    grid_of(A, v->dims[2], &g);
+    rank_slab(&g, &sl);
+    int64_t lo = sl.plane0, hi = sl.plane1;
+    if (lo == 0 && hi == v->dims[2]) return VM_OK;
     size_t plane = (size_t)v->dims[0] * (size_t)v->dims[1], keep = 0;
-    if (hi >= lo) {
-        keep = plane * (size_t)(hi - lo + 1);
+    if (hi > lo) {
+        keep = plane * (size_t)(hi - lo);
         memmove(v->data, v->data + plane * (size_t)lo, keep * sizeof(float));
     }
     float *d = realloc(v->data, (keep ? keep : 1) * sizeof(float));
     if (!d) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
     v->data = d;
-    v->dims[2] = hi >= lo ? hi - lo + 1 : 0;
+    v->dims[2] = hi > lo ? hi - lo : 0;
     return VM_OK;
 }
 
@@ -502,16 +471,6 @@ static int write_pvtu(const char *out, const unsigned long long *tets, int n) {
     return 0;
 }
 
-/* 1 when the centroid z of tet t of m (index space) is in [z0, z1): the tets this rank
- * owns. Both ranks at a cut add the same four doubles in the same order. */
-static int owned(const vm_mesh *m, size_t t, double z0, double z1) {
-    const vm_index *c = m->cells + 4 * t;
-    const double *p = m->points;
-    double cz =
-        ((p[3 * c[0] + 2] + p[3 * c[1] + 2]) + (p[3 * c[2] + 2] + p[3 * c[3] + 2])) * 0.25;
-    return cz >= z0 && cz < z1;
-}
-
 /* Keeps the tets of m (index space) of odd region (this rank's; even ones belong to other
  * ranks), with their points in world coordinates of frame, as region 1; [out] piece. */
 static vm_status own_tets(const vm_mesh *m, const vm_volume *frame, vm_mesh *piece,
@@ -521,32 +480,25 @@ static vm_status own_tets(const vm_mesh *m, const vm_volume *frame, vm_mesh *pie
     if (!map) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
     for (size_t i = 0; i < m->npoints; i++)
         map[i] = -1;
-    int flip = vm_volume_frame_determinant(frame) < 0;
     vm_status s = VM_OK;
     for (size_t t = 0; t < m->ncells && !s; t++) {
         const vm_index *c = m->cells + 4 * t;
-        const double *p = m->points;
         if (m->region[t] % 2 != 1) continue;
         vm_index nodes[4];
         for (int k = 0; k < 4 && !s; k++) {
             if (map[c[k]] < 0) {
-                double w[3];
-                vm_volume_index_to_world(frame, p + 3 * (size_t)c[k], w);
-                map[c[k]] = vm_mesh_add_point(piece, w, err);
+                map[c[k]] = vm_mesh_add_point(piece, m->points + 3 * (size_t)c[k], err);
                 if (map[c[k]] < 0) s = VM_ERR_NOMEM;
             }
             nodes[k] = map[c[k]];
         }
-        if (s) break;
-        if (flip) { /* a left-handed frame mirrors the tets (as vm_mesh_volume does) */
-            vm_index x = nodes[1];
-            nodes[1] = nodes[2];
-            nodes[2] = x;
-        }
-        s = vm_mesh_add_cell(piece, nodes, 1, err);
+        if (!s) s = vm_mesh_add_cell(piece, nodes, 1, err);
     }
     free(map);
-    if (s) vm_mesh_free(piece);
+    if (s)
+        vm_mesh_free(piece);
+    else /* world coordinates; a left-handed frame mirrors the tets, as vm_mesh_volume does */
+        vm_mesh_index_to_world(piece, frame);
     return s;
 }
 
@@ -616,53 +568,6 @@ static vm_status improve(const args *A, const vm_volume *v, vm_mesh *m, int cut,
     return s;
 }
 
-/* Exact-coordinate lookup of points (open addressing over the bits of x, y, z). */
-typedef struct pmap {
-    size_t cap;
-    vm_index *slot; /* -1: empty */
-    const vm_mesh *m;
-} pmap;
-
-static size_t pmap_hash(const double p[3]) {
-    uint64_t h = 1469598103934665603ull;
-    for (int a = 0; a < 3; a++) {
-        uint64_t b;
-        double x = p[a] == 0 ? 0.0 : p[a]; /* -0 and +0 alike */
-        memcpy(&b, &x, sizeof b);
-        h = (h ^ b) * 1099511628211ull;
-        h ^= h >> 29;
-    }
-    return (size_t)h;
-}
-
-static vm_index pmap_find(const pmap *pm, const double p[3], size_t *at) {
-    size_t i = pmap_hash(p) & (pm->cap - 1);
-    while (pm->slot[i] >= 0) {
-        const double *q = pm->m->points + 3 * (size_t)pm->slot[i];
-        if (q[0] == p[0] && q[1] == p[1] && q[2] == p[2]) return pm->slot[i];
-        i = (i + 1) & (pm->cap - 1);
-    }
-    *at = i;
-    return -1;
-}
-
-/* Sizes pm for at least `room` points (a power of two, at least twice over) and enters the
- * first npoints points of pm->m, the first of equal coordinates winning. */
-static vm_status pmap_build(pmap *pm, size_t room, vm_error *err) {
-    pm->cap = 1;
-    while (pm->cap < 2 * room + 16)
-        pm->cap <<= 1;
-    pm->slot = malloc(pm->cap * sizeof *pm->slot);
-    if (!pm->slot) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory");
-    for (size_t i = 0; i < pm->cap; i++)
-        pm->slot[i] = -1;
-    for (size_t i = 0; i < pm->m->npoints; i++) {
-        size_t at;
-        if (pmap_find(pm, pm->m->points + 3 * i, &at) < 0) pm->slot[at] = (vm_index)i;
-    }
-    return VM_OK;
-}
-
 /* The quality pass on the tets of region 1 of m only: it runs on them and the one ring of
  * tets around them (their vertices between two regions stay fixed, the ring's tets cannot
  * change), not on the whole of m, whose set-up (figures, stars, qualities, guard) would cost
@@ -676,7 +581,7 @@ static vm_status improve_region1(const args *A, const vm_volume *v, vm_mesh *m,
     vm_mesh sub, out;
     vm_mesh_init(&sub, VM_TET4);
     vm_mesh_init(&out, VM_TET4);
-    pmap pm = {1, NULL, &out};
+    vm_point_index pm = {0, NULL};
     vm_status s = VM_OK;
     if (!map || !near) {
         s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
@@ -709,7 +614,7 @@ static vm_status improve_region1(const args *A, const vm_volume *v, vm_mesh *m,
     out.npoints = np;
     for (size_t t = 0; t < nc && !s; t++)
         if (m->region[t] != 1) s = vm_mesh_add_cell(&out, m->cells + 4 * t, m->region[t], err);
-    if (!s) s = pmap_build(&pm, np + sub.npoints, err);
+    if (!s) s = vm_point_index_build(&pm, out.points, out.npoints, np + sub.npoints, err);
     vm_index *smap = NULL; /* sub's points in out */
     if (!s) {
         smap = malloc((sub.npoints ? sub.npoints : 1) * sizeof *smap);
@@ -725,7 +630,7 @@ static vm_status improve_region1(const args *A, const vm_volume *v, vm_mesh *m,
             if (smap[c[k]] < 0) {
                 size_t at;
                 const double *x = sub.points + 3 * (size_t)c[k];
-                smap[c[k]] = pmap_find(&pm, x, &at);
+                smap[c[k]] = vm_point_index_find(&pm, out.points, x, &at);
                 if (smap[c[k]] < 0) {
                     smap[c[k]] = vm_mesh_add_point(&out, x, err);
                     if (smap[c[k]] < 0)
@@ -745,7 +650,7 @@ static vm_status improve_region1(const args *A, const vm_volume *v, vm_mesh *m,
         vm_mesh_init(&out, VM_TET4);
     }
 done:
-    free(pm.slot);
+    vm_point_index_free(&pm);
     free(map);
     free(near);
     vm_mesh_free(&sub);
@@ -775,12 +680,16 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
     int local_ok = pf && tf;
     enum { P_OWN = 1, P_LO = 2, P_HI = 4, P_S1LO = 8, P_S1HI = 16, P_SENT = 32 };
     enum { T_BANDLO = 1, T_BANDHI = 2, T_CTXLO = 4, T_RING_LO = 8, T_RING_HI = 16 };
+    vm_slab below; /* the tets of the ranks below: centroid under this rank's z0 */
+    memset(&below, 0, sizeof below);
+    below.z0 = -INFINITY;
+    below.z1 = z0;
     if (local_ok) {
         for (size_t t = 0; t < nc; t++) {
             const vm_index *c = m->cells + 4 * t;
             uint8_t bit = P_OWN;
             if (m->region[t] != 1) {
-                int lower = owned(m, t, -INFINITY, z0);
+                int lower = vm_slab_owns(&below, m, t);
                 tf[t] = lower ? T_RING_LO : T_RING_HI;
                 bit = lower ? P_LO : P_HI;
             }
@@ -906,14 +815,16 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
         if (r != 1) next += 2;
         s = vm_mesh_add_cell(&m2, m->cells + 4 * t, r, err);
     }
-    pmap pm = {1, NULL, &m2};
-    if (!s) s = pmap_build(&pm, m2.npoints + 4 * (size_t)nrecv, err);
+    vm_point_index pm = {0, NULL};
+    if (!s)
+        s = vm_point_index_build(&pm, m2.points, m2.npoints, m2.npoints + 4 * (size_t)nrecv,
+                                 err);
     for (size_t t = 0; t < (size_t)nrecv && !s; t++) {
         const double *b = recvbuf + TET_DOUBLES * t;
         vm_index n[4];
         for (int q = 0; q < 4 && !s; q++) {
             size_t at;
-            n[q] = pmap_find(&pm, b + 3 * q, &at);
+            n[q] = vm_point_index_find(&pm, m2.points, b + 3 * q, &at);
             if (n[q] < 0) {
                 n[q] = vm_mesh_add_point(&m2, b + 3 * q, err);
                 if (n[q] < 0)
@@ -926,7 +837,7 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
         if (r != 1) next += 2;
         if (!s) s = vm_mesh_add_cell(&m2, n, r, err);
     }
-    free(pm.slot);
+    vm_point_index_free(&pm);
     if (!s) s = improve_region1(A, v, &m2, err);
     if (!s) {
         vm_mesh_free(m);
@@ -949,25 +860,21 @@ done:
 static vm_status slab_mesh(const args *A, vm_volume *v, int64_t nz, vm_mesh *m, double *z0,
                            double *z1, double *seconds, vm_error *err) {
     vm_mesh_init(m, VM_TET4);
-    int64_t c0, c1, blocks, B;
-    double step;
-    rank_cells(A, nz, &c0, &c1, &step, &blocks, &B);
-    *z0 = rank_ == 0 ? -INFINITY : (double)c0 * step;
-    *z1 = rank_ == nranks_ - 1 ? INFINITY : (double)c1 * step;
-    if (A->improve && nranks_ > 1 && blocks < nranks_) /* the same answer on every rank */
+    vm_slab_grid g;
+    vm_slab sl;
+    grid_of(A, nz, &g);
+    rank_slab(&g, &sl);
+    *z0 = sl.z0;
+    *z1 = sl.z1;
+    if (A->improve && nranks_ > 1 && g.blocks < nranks_) /* the same answer on every rank */
         return vm_error_set(
             err, VM_ERR_ARG,
             "--improve: %d ranks but only %lld slabs of %lld cells along z (use "
             "at most %lld ranks)",
-            nranks_, (long long)blocks, (long long)B, (long long)blocks);
-    if (c1 <= c0) return VM_ERR_EMPTY; /* more ranks than blocks */
-    int64_t lo, hi;
-    rank_planes(A, nz, &lo, &hi);
+            nranks_, (long long)g.blocks, (long long)g.block, (long long)g.blocks);
+    if (sl.cell1 <= sl.cell0) return VM_ERR_EMPTY; /* more ranks than blocks */
     vm_mesh_options mo = A->mo;
-    if (nranks_ > 1) { /* v holds planes lo..hi */
-        mo.z_offset = lo;
-        mo.full_nz = nz;
-    }
+    vm_slab_crop_options(&g, &sl, &mo); /* v holds the slab's planes */
     for (int a = 0; a < 3; a++) {
         v->origin[a] = 0;
         v->spacing[a] = 1;
@@ -980,7 +887,7 @@ static vm_status slab_mesh(const args *A, vm_volume *v, int64_t nz, vm_mesh *m, 
     /* The quality pass reads v in the mesh's frame: plane 0 of the crop is plane lo. */
     v->origin[2] = (double)mo.z_offset;
     for (size_t t = 0; t < m->ncells; t++)
-        m->region[t] = owned(m, t, *z0, *z1) ? 1 : 2;
+        m->region[t] = vm_slab_owns(&sl, m, t) ? 1 : 2;
     if (A->improve && nranks_ > 1) {
         /* The other slabs' tets are other materials: a vertex with tets of two around it
          * stays where it is (max_interface_move 0) and no operation mixes materials, so the

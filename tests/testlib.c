@@ -152,7 +152,8 @@ int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
     if (st == VM_OK) {
         double lo, hi, mean; /* touch every voxel so a short allocation shows under ASan */
         vm_volume_stats(&v, &lo, &hi, &mean);
-        /* A file read whole also reads by slabs: header, then the upper half, same values. */
+        /* A file read whole also reads by slabs: header, then the upper half, then forward
+         * with a reader, same values. */
         vm_volume info, s;
         vm_status si = vm_volume_read_info(path, &info, &err);
         if (si == VM_OK) {
@@ -168,6 +169,23 @@ int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
                        plane * (size_t)s.dims[2] * sizeof(float)) != 0)
                 abort();
             vm_volume_free(&s);
+            /* and forward in up to 7 slabs, with a reader going on where it stopped */
+            vm_volume_reader *r = NULL;
+            int64_t step = (v.dims[2] + 6) / 7;
+            float *buf = malloc(plane * (size_t)step * sizeof(float));
+            if (!buf || vm_volume_reader_open(path, NULL, NULL, &r, &err) != VM_OK) abort();
+            for (int64_t k = 0; k < v.dims[2]; k += step) {
+                int64_t k1 = k + step < v.dims[2] ? k + step : v.dims[2];
+                if (vm_volume_reader_read(r, k, k1, buf, &err) != VM_OK ||
+                    memcmp(buf, v.data + plane * (size_t)k,
+                           plane * (size_t)(k1 - k) * sizeof(float)) != 0) {
+                    fprintf(stderr, "forward read of planes %lld..%lld failed: %s\n",
+                            (long long)k, (long long)k1 - 1, err.message);
+                    abort();
+                }
+            }
+            vm_volume_reader_close(r);
+            free(buf);
         } else if (si != VM_ERR_UNSUPPORTED) {
             fprintf(stderr, "header read failed: %s\n", err.message);
             abort();
@@ -352,4 +370,18 @@ void vm_test_digital_topology(const vm_volume *v, int has_lo, double lo, int has
     free(parent);
     *euler = 2 * (V - E + F - C + S);
     *components = comps;
+}
+
+static int sort_width;
+
+static int row_cmp(const void *pa, const void *pb) {
+    const double *a = pa, *b = pb;
+    for (int k = 0; k < sort_width; k++)
+        if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
+    return 0;
+}
+
+void vm_test_sort_rows(double *rows, size_t count, int width) {
+    sort_width = width;
+    qsort(rows, count, (size_t)width * sizeof(double), row_cmp);
 }

@@ -51,6 +51,25 @@ vm_status vm_volume_read_raw_info(const char *path, const vm_raw_options *opt, v
 vm_status vm_volume_read_raw_slab(const char *path, const vm_raw_options *opt, int64_t z0,
                                   int64_t z1, vm_volume *v, vm_error *err);
 
+/* Reading forward, slab after slab: a reader keeps where the previous slab ended in a gzip
+ * or zlib stream (its inflate state) or in ASCII text, so that slabs read in increasing z
+ * (each starting at or after the previous one's end) inflate or parse each byte once in all,
+ * where vm_volume_read_slab starts from the beginning of the data every time; a slab that
+ * starts earlier starts again from the beginning. Uncompressed data is read by offset
+ * either way; VTI base64 and zlib blocks are decoded whole for every slab. The file is opened
+ * (mapped) again for each read and must not change in between.
+ * vm_volume_reader_open reads the header: [out] *r (close with vm_volume_reader_close),
+ * [out] info (as vm_volume_read_info; may be NULL); raw: NULL, or the description of a
+ * headerless raw file. vm_volume_reader_read reads planes z0 <= k < z1 (as
+ * vm_volume_read_slab, same errors) into dst, room for nx * ny * (z1 - z0) floats that the
+ * caller owns (nothing else is allocated for the samples). */
+typedef struct vm_volume_reader vm_volume_reader;
+vm_status vm_volume_reader_open(const char *path, const vm_raw_options *raw, vm_volume *info,
+                                vm_volume_reader **r, vm_error *err);
+vm_status vm_volume_reader_read(vm_volume_reader *r, int64_t z0, int64_t z1, float *dst,
+                                vm_error *err);
+void vm_volume_reader_close(vm_volume_reader *r);
+
 /* Writes v as NRRD (attached data, float32 samples, little endian); gzip != 0 compresses. */
 vm_status vm_volume_write_nrrd(const char *path, const vm_volume *v, int gzip, vm_error *err);
 

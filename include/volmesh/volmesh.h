@@ -13,6 +13,7 @@
 #include "preprocess.h"
 #include "quality.h"
 #include "render.h"
+#include "slabs.h"
 #include "surface.h"
 #include "volume.h"
 

@@ -1,7 +1,9 @@
 /* tests/io/test_volume_slab.c — reading volumes by slabs: for every format and encoding,
  * the slabs concatenated along z equal the whole read value for value, each slab's origin is
  * the world position of its first plane, the header-only read has the whole dims, and bad
- * ranges, truncated data and lying headers give one-line errors. */
+ * ranges, truncated data and lying headers give one-line errors; a forward reader reads the
+ * same planes into the caller's buffer and goes on in a gzip stream or ASCII text where its
+ * previous slab ended. */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdint.h>
@@ -190,6 +192,15 @@ static void make_files(void) {
     free(z);
 }
 
+/* The description of slab.raw: NX x NY x NZ float32, little endian. */
+static void raw_options(vm_raw_options *o) {
+    memset(o, 0, sizeof *o);
+    o->dims[0] = NX;
+    o->dims[1] = NY;
+    o->dims[2] = NZ;
+    o->type = VM_SCALAR_FLOAT32;
+}
+
 static const char *const files[] = {
     "slab_raw.nrrd", "slab_big.nrrd",     "slab_ascii.nrrd", "slab_det.nhdr",
     "slab_gz.nrrd",  "slab.nii",          "slab.nii.gz",     "slab_pair.hdr",
@@ -259,11 +270,7 @@ static void slabsConcatenatedEqualTheWholeReadInEveryFormat(void) {
     }
     /* raw */
     vm_raw_options o;
-    memset(&o, 0, sizeof o);
-    o.dims[0] = NX;
-    o.dims[1] = NY;
-    o.dims[2] = NZ;
-    o.type = VM_SCALAR_FLOAT32;
+    raw_options(&o);
     o.spacing[2] = 3;
     vm_volume whole, s, info;
     vm_error err;
@@ -441,15 +448,130 @@ static void slabOfANamedPipeIsReadFromMemory(void) {
     free(buf);
 }
 
+/* A forward reader (vm_volume_reader) gives the same planes as the whole read for every
+ * storage, read forward, again from an earlier plane, and on to the end; into the caller's
+ * buffer only. */
+static void forwardReaderEqualsTheWholeReadInEveryFormat(void) {
+    make_files();
+    static const int64_t cuts[][2] = {{0, 2}, {2, 3}, {3, 6}, {1, 4}, {4, 6}, {0, 6}};
+    for (size_t f = 0; f <= sizeof files / sizeof files[0]; f++) {
+        int raw = f == sizeof files / sizeof files[0];
+        const char *name = raw ? "slab.raw" : files[f], *path = vm_test_tmp(name);
+        vm_raw_options o;
+        raw_options(&o);
+        vm_volume whole, info;
+        vm_error err;
+        CHECK_OK(raw ? vm_volume_read_raw(path, &o, &whole, &err)
+                     : vm_volume_read(path, &whole, &err),
+                 &err);
+        vm_volume_reader *r = NULL;
+        CHECK_OK(vm_volume_reader_open(path, raw ? &o : NULL, &info, &r, &err), &err);
+        if (!whole.data || !r) {
+            vm_volume_free(&whole);
+            vm_volume_reader_close(r);
+            continue;
+        }
+        CHECK(info.data == NULL && memcmp(info.dims, whole.dims, sizeof info.dims) == 0 &&
+              memcmp(info.origin, whole.origin, sizeof info.origin) == 0);
+        size_t plane = NX * NY;
+        float *buf = malloc(N * sizeof(float));
+        for (size_t c = 0; buf && c < sizeof cuts / sizeof cuts[0]; c++) {
+            int64_t z0 = cuts[c][0], z1 = cuts[c][1];
+            for (size_t i = 0; i < N; i++)
+                buf[i] = -1;
+            CHECK_OK(vm_volume_reader_read(r, z0, z1, buf, &err), &err);
+            size_t n = plane * (size_t)(z1 - z0);
+            int same = memcmp(buf, whole.data + plane * (size_t)z0, n * sizeof(float)) == 0;
+            CHECK_MSG(same && (n == N || buf[n] == -1),
+                      "%s: planes %lld..%lld differ from the whole read", name, (long long)z0,
+                      (long long)z1 - 1);
+        }
+        vm_error_clear(&err);
+        vm_status st = buf ? vm_volume_reader_read(r, 4, 7, buf, &err) : VM_ERR_ARG;
+        CHECK_MSG(st == VM_ERR_ARG && strstr(err.message, path) &&
+                      strstr(err.message, "outside"),
+                  "%s: planes 4..6 of 6: '%s'", name, err.message);
+        free(buf);
+        vm_volume_free(&whole);
+        vm_volume_free(&info);
+        vm_volume_reader_close(r);
+    }
+    vm_volume_reader *r = NULL;
+    vm_volume info;
+    vm_error err;
+    const char *missing = vm_test_tmp("no_such_volume.nrrd");
+    vm_status st = vm_volume_reader_open(missing, NULL, &info, &r, &err);
+    CHECK_MSG(st == VM_ERR_IO && r == NULL &&
+                  strncmp(err.message, missing, strlen(missing)) == 0,
+              "missing file: %d '%s'", (int)st, err.message);
+}
+
+/* The reader goes on where the previous slab ended: after planes 0..1 the start of the
+ * data is damaged (gzip NRRD, ASCII NRRD); reading on from plane 2 still works (nothing before
+ * it is read again), while a slab read or the reader going back, which start from the
+ * beginning, fail. */
+static void forwardReaderGoesOnWhereTheLastSlabEnded(void) {
+    make_files();
+    static const char *const names[] = {"slab_gz.nrrd", "slab_ascii.nrrd"};
+    for (int f = 0; f < 2; f++) {
+        const char *path = vm_test_tmp(names[f]);
+        vm_volume whole;
+        vm_error err;
+        CHECK_OK(vm_volume_read(path, &whole, &err), &err);
+        vm_volume_reader *r = NULL;
+        CHECK_OK(vm_volume_reader_open(path, NULL, NULL, &r, &err), &err);
+        float *buf = malloc(N * sizeof(float));
+        FILE *fp = fopen(path, "rb");
+        unsigned char *bytes = malloc(64 * N + 4096);
+        size_t len = fp && bytes ? fread(bytes, 1, 64 * N + 4096, fp) : 0;
+        if (fp) fclose(fp);
+        unsigned char *data = len ? (unsigned char *)strstr((char *)bytes, "\n\n") : NULL;
+        if (!whole.data || !r || !buf || !data) {
+            CHECK(0);
+        } else {
+            size_t plane = NX * NY;
+            CHECK_OK(vm_volume_reader_read(r, 0, 2, buf, &err), &err);
+            /* the gzip magic; in the text, the space after the first value, which merges
+             * two values into one word (all the later ones shift by one) */
+            if (f == 0)
+                memcpy(data + 2, "XX", 2);
+            else
+                *(unsigned char *)strchr((char *)data + 2, ' ') = 'X';
+            CHECK(vm_test_write_file(path, bytes, len) == 0);
+            CHECK_OK(vm_volume_reader_read(r, 2, 6, buf, &err), &err);
+            CHECK_MSG(memcmp(buf, whole.data + 2 * plane, 4 * plane * sizeof(float)) == 0,
+                      "%s: planes 2..5 read on differ", names[f]);
+            vm_volume s;
+            vm_error_clear(&err);
+            vm_status st = vm_volume_read_slab(path, 2, 6, &s, &err);
+            CHECK_MSG(st == VM_ERR_FORMAT && strstr(err.message, path),
+                      "%s: the damaged file read as a slab: %d '%s'", names[f], (int)st,
+                      err.message);
+            vm_volume_free(&s);
+            st = vm_volume_reader_read(r, 0, 2, buf, &err);
+            CHECK_MSG(st == VM_ERR_FORMAT, "%s: going back read the damaged start: %d",
+                      names[f], (int)st);
+        }
+        free(bytes);
+        free(buf);
+        vm_volume_free(&whole);
+        vm_volume_reader_close(r);
+    }
+}
+
 int main(void) {
     static const vm_test_case cases[] = {
         {"slabsConcatenatedEqualTheWholeReadInEveryFormat",
          slabsConcatenatedEqualTheWholeReadInEveryFormat},
-        {"slabsOfAThreadedConversionEqualTheWholeRead", slabsOfAThreadedConversionEqualTheWholeRead},
+        {"slabsOfAThreadedConversionEqualTheWholeRead",
+         slabsOfAThreadedConversionEqualTheWholeRead},
         {"slabReadsRefuseBadRangesTruncatedDataAndLyingHeaders",
          slabReadsRefuseBadRangesTruncatedDataAndLyingHeaders},
         {"slabOfAVolumeAboveTheMemoryLimitIsRead", slabOfAVolumeAboveTheMemoryLimitIsRead},
         {"slabOfANamedPipeIsReadFromMemory", slabOfANamedPipeIsReadFromMemory},
+        {"forwardReaderEqualsTheWholeReadInEveryFormat",
+         forwardReaderEqualsTheWholeReadInEveryFormat},
+        {"forwardReaderGoesOnWhereTheLastSlabEnded", forwardReaderGoesOnWhereTheLastSlabEnded},
     };
     return vm_test_run(cases, sizeof cases / sizeof cases[0]);
 }

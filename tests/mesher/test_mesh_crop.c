@@ -10,20 +10,6 @@
 
 /* The tets of m (index frame) whose centroid z lies in [zlo, zhi), each as its four corners
  * sorted (12 doubles), the list sorted: [out] *n tets, returned array (free it). */
-static int coord_cmp(const void *pa, const void *pb) {
-    const double *a = pa, *b = pb;
-    for (int k = 0; k < 3; k++)
-        if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
-    return 0;
-}
-
-static int tet_cmp(const void *pa, const void *pb) {
-    const double *a = pa, *b = pb;
-    for (int k = 0; k < 12; k++)
-        if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
-    return 0;
-}
-
 static double *tets_between(const vm_mesh *m, double zlo, double zhi, size_t *n) {
     double *out = malloc((m->ncells + 1) * 12 * sizeof *out);
     size_t c = 0;
@@ -41,9 +27,9 @@ static double *tets_between(const vm_mesh *m, double zlo, double zhi, size_t *n)
         double *o = out + 12 * c++;
         for (int k = 0; k < 4; k++)
             memcpy(o + 3 * k, m->points + 3 * (size_t)v[k], 3 * sizeof(double));
-        qsort(o, 4, 3 * sizeof(double), coord_cmp);
+        vm_test_sort_rows(o, 4, 3);
     }
-    qsort(out, c, 12 * sizeof(double), tet_cmp);
+    vm_test_sort_rows(out, c, 12);
     *n = c;
     return out;
 }
