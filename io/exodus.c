@@ -1,7 +1,11 @@
-/* io/exodus.c — Exodus II writer (through libexodusii, when the build found it): one element
- * block per region, an element number map keeping the mesh's element numbers, and one side
- * set of the boundary faces. Follows "EXODUS II: A Finite Element Data Model" (Sandia,
- * SAND92-2137), element types TETRA/HEX/TRI3/SHELL4 and their side numbering. */
+/* io/exodus.c — Exodus II writer (through libexodusii, when the build found its header): one
+ * element block per region, an element number map keeping the mesh's element numbers, and one
+ * side set of the boundary faces. Follows "EXODUS II: A Finite Element Data Model" (Sandia,
+ * SAND92-2137), element types TETRA/HEX/TRI3/SHELL4 and their side numbering.
+ *
+ * The library is opened with dlopen on the first .exo written, not linked: Debian's
+ * libexoIIv2c pulls in netCDF, HDF5, Open MPI and curl (about 50 shared libraries, 13 MB of
+ * resident memory in every process and their start-up cost), which no other format needs. */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,11 +14,69 @@
 #include "mesh_util.h"
 
 #ifdef VM_HAVE_EXODUS
+#include <dlfcn.h>
 #include <exodusII.h>
 #include <unistd.h>
 
-int vm_exodus_available(void) {
+#ifndef VM_EXODUS_SONAME
+#define VM_EXODUS_SONAME "libexoIIv2c.so"
+#endif
+
+/* The entry points used, with the prototypes of exodusII.h (ex_create is a macro over
+ * ex_create_int that passes the header's API version). */
+static struct {
+    int tried, ok;
+    int (*opts)(int);
+    int (*create_int)(const char *, int, int *, int *, int);
+    int (*put_init)(int, const char *, int64_t, int64_t, int64_t, int64_t, int64_t, int64_t);
+    int (*put_coord)(int, const void *, const void *, const void *);
+    int (*put_block)(int, ex_entity_type, ex_entity_id, const char *, int64_t, int64_t, int64_t,
+                     int64_t, int64_t);
+    int (*put_conn)(int, ex_entity_type, ex_entity_id, const void_int *, const void_int *,
+                    const void_int *);
+    int (*put_name)(int, ex_entity_type, ex_entity_id, const char *);
+    int (*put_id_map)(int, ex_entity_type, const void_int *);
+    int (*put_set_param)(int, ex_entity_type, ex_entity_id, int64_t, int64_t);
+    int (*put_set)(int, ex_entity_type, ex_entity_id, const void_int *, const void_int *);
+    int (*close)(int);
+} exo;
+
+/* ISO C cannot convert an object pointer (dlsym's) to a function pointer; POSIX guarantees
+ * the representation, so the bytes are copied. */
+static int exo_sym(void *lib, const char *name, void *fn, size_t size) {
+    void *p = dlsym(lib, name);
+    if (!p) return 0;
+    memcpy(fn, &p, size);
     return 1;
+}
+
+/* The library to open: $VOLMESH_EXODUS_LIBRARY when set (a path or a name, for an
+ * installation outside the loader's path), else the soname found at build time. */
+static const char *exo_name(void) {
+    const char *e = getenv("VOLMESH_EXODUS_LIBRARY");
+    return e && *e ? e : VM_EXODUS_SONAME;
+}
+
+/* Opens the library once (the handle stays open for the process: Open MPI's libraries do
+ * not unload cleanly). Not thread-safe on its first call, like the library itself. */
+static int exo_load(void) {
+    if (exo.tried) return exo.ok;
+    exo.tried = 1;
+    void *lib = dlopen(exo_name(), RTLD_NOW | RTLD_LOCAL);
+    if (!lib) return 0;
+#define EXO_SYM(field, name) exo_sym(lib, name, &exo.field, sizeof exo.field)
+    exo.ok = EXO_SYM(opts, "ex_opts") && EXO_SYM(create_int, "ex_create_int") &&
+             EXO_SYM(put_init, "ex_put_init") && EXO_SYM(put_coord, "ex_put_coord") &&
+             EXO_SYM(put_block, "ex_put_block") && EXO_SYM(put_conn, "ex_put_conn") &&
+             EXO_SYM(put_name, "ex_put_name") && EXO_SYM(put_id_map, "ex_put_id_map") &&
+             EXO_SYM(put_set_param, "ex_put_set_param") && EXO_SYM(put_set, "ex_put_set") &&
+             EXO_SYM(close, "ex_close");
+#undef EXO_SYM
+    return exo.ok;
+}
+
+int vm_exodus_available(void) {
+    return exo_load();
 }
 
 /* Our (ABAQUS) face numbers S1.. to Exodus side numbers. */
@@ -26,6 +88,10 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
     if (!nn)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
                             (int)m->kind);
+    if (!exo_load())
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "%s: cannot load the Exodus II library %s (install libexodusii)",
+                            path, exo_name());
     vm_status st = vm__check_cells(path, m, err);
     if (st) return st;
     if (m->npoints > INT32_MAX || m->ncells > INT32_MAX)
@@ -68,16 +134,16 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
                 order[k] = (int)c;
                 rank[c] = (int)++k;
             }
-    ex_opts(0); /* the library reports through our status, never prints or aborts */
+    exo.opts(0); /* the library reports through our status, never prints or aborts */
     int cws = 8, iows = 8;
-    exoid = ex_create(tmp, EX_CLOBBER, &cws, &iows);
+    exoid = exo.create_int(tmp, EX_CLOBBER, &cws, &iows, EX_API_VERS_NODOT);
     if (exoid < 0) {
         st = vm_error_set(err, VM_ERR_IO, "%s: cannot create the Exodus file", path);
         goto done;
     }
-    int bad = ex_put_init(exoid, "volmesh mesh", 3, (int64_t)m->npoints, (int64_t)m->ncells,
+    int bad = exo.put_init(exoid, "volmesh mesh", 3, (int64_t)m->npoints, (int64_t)m->ncells,
                           (int64_t)nreg, 0, volume && nb ? 1 : 0) < 0;
-    bad = bad || ex_put_coord(exoid, xyz, xyz + m->npoints, xyz + 2 * m->npoints) < 0;
+    bad = bad || exo.put_coord(exoid, xyz, xyz + m->npoints, xyz + 2 * m->npoints) < 0;
     k = 0;
     for (size_t r = 0; r < nreg && !bad; r++) {
         size_t n = 0;
@@ -89,15 +155,15 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
             }
         char name[32];
         vm__region_name(regions[r], name, sizeof name);
-        bad = ex_put_block(exoid, EX_ELEM_BLOCK, (ex_entity_id)(r + 1), etype, (int64_t)n, nn,
+        bad = exo.put_block(exoid, EX_ELEM_BLOCK, (ex_entity_id)(r + 1), etype, (int64_t)n, nn,
                            0, 0, 0) < 0 ||
-              ex_put_conn(exoid, EX_ELEM_BLOCK, (ex_entity_id)(r + 1), conn, NULL, NULL) < 0 ||
-              ex_put_name(exoid, EX_ELEM_BLOCK, (ex_entity_id)(r + 1), name) < 0;
+              exo.put_conn(exoid, EX_ELEM_BLOCK, (ex_entity_id)(r + 1), conn, NULL, NULL) < 0 ||
+              exo.put_name(exoid, EX_ELEM_BLOCK, (ex_entity_id)(r + 1), name) < 0;
     }
     if (!bad) {
         for (size_t i = 0; i < m->ncells; i++)
             order[i] += 1; /* element number map: file element i is mesh element order[i]+1 */
-        bad = ex_put_id_map(exoid, EX_ELEM_MAP, order) < 0;
+        bad = exo.put_id_map(exoid, EX_ELEM_MAP, order) < 0;
     }
     if (!bad && volume && nb) {
         int nf = m->kind == VM_TET4 ? 4 : 6;
@@ -107,11 +173,11 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
             elist[i] = rank[c];
             slist[i] = nf == 4 ? tet_side[f] : hex_side[f];
         }
-        bad = ex_put_set_param(exoid, EX_SIDE_SET, 1, (int64_t)nb, 0) < 0 ||
-              ex_put_set(exoid, EX_SIDE_SET, 1, elist, slist) < 0 ||
-              ex_put_name(exoid, EX_SIDE_SET, 1, "BOUNDARY") < 0;
+        bad = exo.put_set_param(exoid, EX_SIDE_SET, 1, (int64_t)nb, 0) < 0 ||
+              exo.put_set(exoid, EX_SIDE_SET, 1, elist, slist) < 0 ||
+              exo.put_name(exoid, EX_SIDE_SET, 1, "BOUNDARY") < 0;
     }
-    if (ex_close(exoid) < 0) bad = 1;
+    if (exo.close(exoid) < 0) bad = 1;
     exoid = -1;
     if (bad) {
         st = vm_error_set(err, VM_ERR_IO, "%s: writing the Exodus file failed", path);

@@ -264,6 +264,17 @@ if [ -s one.vtu ] && cmp -s one.vtu two.vtu; then
 else
     fail "--threads 1 and --threads 2 demo meshes differ (or were not written)"
 fi
+# Exodus II is loaded only when a .exo is written: without its library the write fails with
+# one line naming the file and the library, and leaves no file behind.
+if [ -s one.vtu ]; then
+    VOLMESH_EXODUS_LIBRARY=$WORK/no-such-libexo.so \
+        expect_input_error "Exodus library missing" "no-such-libexo.so" "$CLI" convert one.vtu one.exo
+    if [ -e one.exo ] || ls one.exo.tmp-* >/dev/null 2>&1; then
+        fail "Exodus library missing: a file was left behind" "$(ls)"
+    else
+        pass
+    fi
+fi
 cd "$WORK" || exit 1
 
 # ---- demo in a fresh folder, read back -----------------------------------------------------
