@@ -619,9 +619,14 @@ static int tq_cmp(const void *pa, const void *pb) {
     return a->t < b->t ? -1 : a->t > b->t;
 }
 
-/* 1 when tet t is one of the input tets o->frozen keeps off the lists, or locked. */
+/* 1 when tet t is one of the input tets o->frozen keeps off the lists; in a part, also when
+ * it has a locked vertex (it waits for the bands over the part's border, where it is free:
+ * here little can be done for it, at the price of the longest searches). */
 static int frozen(const vm__imp *w, size_t t) {
-    return (t < w->nfrozen && w->o->frozen[t]) || vm__imp_locked(w, t);
+    if (t < w->nfrozen && w->o->frozen[t]) return 1;
+    if (!w->vlock) return 0;
+    const vm_index *n = w->tet + 4 * t;
+    return w->vlock[n[0]] || w->vlock[n[1]] || w->vlock[n[2]] || w->vlock[n[3]];
 }
 
 /* Tets with q below 1 (the targets) and not frozen, worst first. The first list scans the
@@ -764,7 +769,9 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         free(vs);
         ops_total += ops;
         show_rounds(o, pass + 1.0);
-        if (ops == 0) break;
+        /* a part (vlock) often starts with tets only the later rounds' peels and surface
+         * flips can fix: it gives them their round */
+        if (ops == 0 && (pass >= 1 || !w->vlock)) break;
     }
     /* Last rounds for the few tets still failing ABAQUS's check: long searches around them,
      * their vertices and their neighbours' vertices. */

@@ -25,6 +25,9 @@
 #define HIST 4096         /* bins of the centroid histogram that places the slab borders */
 #define MIN_THICK 4.0     /* a slab is at least this many mean tet heights thick */
 #define DEAD_SLOT ((vm_index)-1)
+#define BAND_ROUNDS 4      /* most rounds over the tets left below the targets */
+#define RINGS 2           /* rings of free tets around each of them */
+#define GRID 128          /* cells a side of the grid that finds the tets near a part */
 
 size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o) {
     if (o->frozen || o->parts == 1 || !m->region) return 1;
@@ -44,7 +47,7 @@ typedef struct pstate {
     double *p0;             /* 3 per point: where the pass found it */
     vm_index *par;          /* per slot: the input cell (only with cell fields) */
     double box[6];
-    double vox;             /* world length bounding one voxel step (with a volume) */
+    double row[3];          /* with a volume: world displacement along each axis per voxel */
     vm__imp qw;             /* the quality scales, for vm__imp_quality */
     vm_improve_report *r;
 } pstate;
@@ -120,6 +123,45 @@ static int push_slot(size_t **l, size_t *n, size_t *cap, size_t t) {
     return 1;
 }
 
+/* The cells c0..c1 of a grid (origin lo, cell cs, gd cells a side) that box [a, b] meets
+ * (clamped to the grid). */
+static void cell_range(const double lo[3], double cs, const size_t gd[3], const double a[3],
+                       const double b[3], size_t c0[3], size_t c1[3]) {
+    for (int k = 0; k < 3; k++) {
+        double u = floor((a[k] - lo[k]) / cs), v = floor((b[k] - lo[k]) / cs);
+        double top = (double)(gd[k] - 1);
+        c0[k] = u < 0.0 ? 0 : u > top ? gd[k] - 1 : (size_t)u;
+        c1[k] = v < 0.0 ? 0 : v > top ? gd[k] - 1 : (size_t)v;
+    }
+}
+
+/* Grows the marked cells of grid (gd cells a side) by r cells along axis k. 0 on
+ * out-of-memory. */
+static int dilate(uint8_t *grid, const size_t gd[3], int k, size_t r) {
+    size_t n = gd[k], st = k == 0 ? 1 : k == 1 ? gd[0] : gd[0] * gd[1];
+    uint8_t *line = malloc(n);
+    if (!line) return 0;
+    for (size_t z = 0; z < (k == 2 ? 1 : gd[2]); z++)
+        for (size_t y = 0; y < (k == 1 ? 1 : gd[1]); y++)
+            for (size_t x = 0; x < (k == 0 ? 1 : gd[0]); x++) {
+                uint8_t *g = grid + (z * gd[1] + y) * gd[0] + x;
+                for (size_t i = 0; i < n; i++) line[i] = g[i * st];
+                /* distance to the last marked cell before, then after */
+                size_t last = SIZE_MAX;
+                for (size_t i = 0; i < n; i++) {
+                    if (line[i]) last = i;
+                    if (last != SIZE_MAX && i - last <= r) g[i * st] = 1;
+                }
+                last = SIZE_MAX;
+                for (size_t i = n; i-- > 0;) {
+                    if (line[i]) last = i;
+                    if (last != SIZE_MAX && last - i <= r) g[i * st] = 1;
+                }
+            }
+    free(line);
+    return 1;
+}
+
 /* Stage 1 (reads the mesh only): the part's slots, the locked slots and the z range. The
  * margin is twice the farthest a boundary vertex may be from where the pass found it, plus a
  * quarter of the longest edge for the surface flips. 0 on out-of-memory. */
@@ -140,15 +182,47 @@ static int job_scan(const pstate *S, job *J) {
         if (l2 > L2) L2 = l2;
     }
     if (J->nps == 0) return 1;
-    double L = sqrt(L2);
-    double bound = S->v ? S->o.max_surface_move * S->vox : S->o.max_surface_move_free * L;
-    double M = 2.0 * bound + 0.25 * L;
+    /* M[k]: how far along axis k a boundary vertex may get from where it is now (twice its
+     * bound from where the pass found it), and a little slack */
+    double L = sqrt(L2), M[3];
     for (int k = 0; k < 3; k++) {
-        lo[k] -= M;
-        hi[k] += M;
+        double bound = S->v ? S->o.max_surface_move * S->row[k] : S->o.max_surface_move_free * L;
+        M[k] = 2.0 * bound + 0.05 * L;
+        lo[k] -= M[k];
+        hi[k] += M[k];
     }
     J->zlo = lo[2];
     J->zhi = hi[2];
+    /* Which tets come within M of a part tet: the cells of a grid over the grown box that the
+     * part's tets meet, grown by M. A tet meeting a marked cell is locked: a superset of the
+     * tets within M (the ring among them), much smaller than all tets in the box when the
+     * part is thin or sparse. */
+    double ext = 0.0;
+    for (int k = 0; k < 3; k++)
+        if (hi[k] - lo[k] > ext) ext = hi[k] - lo[k];
+    double cs = ext / GRID;
+    if (!(cs > 0.0)) cs = 1.0;
+    size_t gd[3];
+    for (int k = 0; k < 3; k++) {
+        double c = floor((hi[k] - lo[k]) / cs) + 1.0;
+        gd[k] = c > GRID + 1 ? GRID + 1 : (size_t)c;
+    }
+    uint8_t *grid = calloc(gd[0] * gd[1] * gd[2], 1);
+    if (!grid) return 0;
+    for (size_t i = 0; i < J->nps; i++) {
+        double a[3], b[3];
+        tet_box(S, J->ps[i], a, b);
+        size_t c0[3], c1[3];
+        cell_range(lo, cs, gd, a, b, c0, c1);
+        for (size_t z = c0[2]; z <= c1[2]; z++)
+            for (size_t y = c0[1]; y <= c1[1]; y++)
+                memset(grid + (z * gd[1] + y) * gd[0] + c0[0], 1, c1[0] - c0[0] + 1);
+    }
+    for (int k = 0; k < 3; k++)
+        if (!dilate(grid, gd, k, (size_t)ceil(M[k] / cs) + 1)) {
+            free(grid);
+            return 0;
+        }
     for (size_t t = 0; t < S->nt; t++) {
         if (slot_dead(S, t) || in_part(S, J, t)) continue;
         double a[3], b[3];
@@ -156,10 +230,22 @@ static int job_scan(const pstate *S, job *J) {
         if (a[0] > hi[0] || a[1] > hi[1] || a[2] > hi[2] || b[0] < lo[0] || b[1] < lo[1] ||
             b[2] < lo[2])
             continue;
-        if (!push_slot(&J->ls, &J->nls, &cl, t)) return 0;
+        size_t c0[3], c1[3];
+        cell_range(lo, cs, gd, a, b, c0, c1);
+        int hit = 0;
+        for (size_t z = c0[2]; z <= c1[2] && !hit; z++)
+            for (size_t y = c0[1]; y <= c1[1] && !hit; y++)
+                for (size_t x = c0[0]; x <= c1[0] && !hit; x++)
+                    hit = grid[(z * gd[1] + y) * gd[0] + x];
+        if (!hit) continue;
+        if (!push_slot(&J->ls, &J->nls, &cl, t)) {
+            free(grid);
+            return 0;
+        }
         if (a[2] < J->zlo) J->zlo = a[2];
         if (b[2] > J->zhi) J->zhi = b[2];
     }
+    free(grid);
     return 1;
 }
 
@@ -463,31 +549,19 @@ static double slot_q(const pstate *S, size_t t) {
     return vm__imp_quality(&S->qw, (const double(*)[3])p);
 }
 
-/* Marks the tets below q_bar (and, with cut, only those whose z range comes within their own
- * height of a slab border cut[1..ns)), then grows the marks by rings rings of tets sharing a
- * vertex. Returns the number marked, or SIZE_MAX on out-of-memory. */
-static size_t mark_bad(const pstate *S, uint8_t *mark, double q_bar, const double *cut,
-                       size_t ns, int rings) {
+/* Marks the tets below the targets, then grows the marks by rings rings of tets sharing a
+ * vertex. Returns the number below the targets, or SIZE_MAX on out-of-memory. */
+static size_t mark_bad(const pstate *S, uint8_t *mark, int rings) {
     size_t n = 0;
     memset(mark, 0, S->nt);
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static, 4096) reduction(+ : n)
 #endif
-    for (size_t t = 0; t < S->nt; t++) {
-        if (cut) {
-            double a[3], b[3];
-            tet_box(S, t, a, b);
-            double e = b[2] - a[2];
-            int near = 0;
-            for (size_t k = 1; k < ns && !near; k++)
-                near = cut[k] >= a[2] - e && cut[k] <= b[2] + e;
-            if (!near) continue;
-        }
-        if (slot_q(S, t) < q_bar) {
+    for (size_t t = 0; t < S->nt; t++)
+        if (!slot_dead(S, t) && slot_q(S, t) < 1.0) {
             mark[t] = 1;
             n++;
         }
-    }
     if (n == 0) return 0;
     uint8_t *vm = calloc(S->m->npoints + 1, 1);
     if (!vm) return SIZE_MAX;
@@ -497,10 +571,7 @@ static size_t mark_bad(const pstate *S, uint8_t *mark, double q_bar, const doubl
                 for (int k = 0; k < 4; k++) vm[S->m->cells[4 * t + k]] = 1;
         for (size_t t = 0; t < S->nt; t++) {
             const vm_index *c = S->m->cells + 4 * t;
-            if (!mark[t] && (vm[c[0]] || vm[c[1]] || vm[c[2]] || vm[c[3]])) {
-                mark[t] = 1;
-                n++;
-            }
+            if (!slot_dead(S, t) && (vm[c[0]] || vm[c[1]] || vm[c[2]] || vm[c[3]])) mark[t] = 1;
         }
     }
     free(vm);
@@ -573,14 +644,14 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
     S.qw.s_vm = o->target_volume_measure;
     S.qw.s_fmin = 15.0; /* as imp_init sets them */
     S.qw.s_fmax = 30.0;
-    if (v) {
+    /* with a volume: |x_k| <= |row k of A| |ijk| (world = org + A ijk), a little over */
+    for (int k = 0; v && k < 3; k++) {
         double f = 0.0;
-        for (int a = 0; a < 3; a++)
-            for (int c = 0; c < 3; c++) {
-                double x = v->direction[a][c] * v->spacing[c];
-                f += x * x;
-            }
-        S.vox = sqrt(f); /* |A x| <= |A|_F |x| */
+        for (int c = 0; c < 3; c++) {
+            double a = v->direction[k][c] * v->spacing[c];
+            f += a * a;
+        }
+        S.row[k] = 1.01 * sqrt(f);
     }
     S.p0 = malloc((3 * m->npoints + 1) * sizeof *S.p0);
     if (m->ncell_fields) S.par = malloc((m->ncells + 1) * sizeof *S.par);
@@ -619,28 +690,27 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
         jobs[k].seed = part_seed(o->seed, 1, k);
     }
     if (s == VM_OK) s = run_jobs(&S, jobs, order, no, 0.0, 0.7, err);
-    /* Phase 2: bands over the borders (slabs shifted by half a slab), only the tets there
-     * still below the targets and two rings around them; phase 3: the tets still failing
-     * ABAQUS's check anywhere, two rings around them, by slab. */
-    for (int phase = 2; phase <= 3 && s == VM_OK && ns > 1; phase++) {
-        /* the marks may have to cover slots appended since */
+    /* Then rounds over the tets still below the targets, anywhere, with two rings of tets
+     * around them: first by the slabs shifted by half a slab (their borders were locked in
+     * the slabs), then by the slabs, and so on while the count goes down. */
+    size_t nbad_last = SIZE_MAX;
+    for (int round = 0; round < BAND_ROUNDS && s == VM_OK && ns > 1; round++) {
+        /* the marks cover the slots appended since */
         uint8_t *nm = realloc(mark, S.nt + 1);
         if (!nm) {
             s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
             break;
         }
         mark = nm;
-        size_t nb = mark_bad(&S, mark, phase == 2 ? 1.0 : 2.0 / 3.0, phase == 2 ? cut : NULL,
-                             ns, 2);
-        if (nb == SIZE_MAX) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-            break;
-        }
-        if (nb == 0) continue;
-        size_t nj = phase == 2 ? ns - 1 : ns;
+        size_t nb = mark_bad(&S, mark, RINGS);
+        if (nb == SIZE_MAX) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        if (nb == SIZE_MAX || nb == 0 || nb >= nbad_last) break;
+        nbad_last = nb;
+        int shifted = round % 2 == 0;
+        size_t nj = shifted ? ns - 1 : ns;
         for (size_t k = 0; k < nj; k++) {
             memset(&jobs[k], 0, sizeof jobs[k]);
-            if (phase == 2) {
+            if (shifted) {
                 jobs[k].z0 = k == 0 ? -INFINITY : 0.5 * (cut[k] + cut[k + 1]);
                 jobs[k].z1 = k + 1 == nj ? INFINITY : 0.5 * (cut[k + 1] + cut[k + 2]);
             } else {
@@ -649,12 +719,13 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
             }
             jobs[k].mark = mark;
             jobs[k].nmark = S.nt;
-            jobs[k].seed = part_seed(o->seed, phase, k);
+            jobs[k].seed = part_seed(o->seed, 2 + round, k);
         }
         no = 0;
         for (size_t k = 0; k < nj; k += 2) order[no++] = k;
         for (size_t k = 1; k < nj; k += 2) order[no++] = k;
-        s = run_jobs(&S, jobs, order, no, phase == 2 ? 0.7 : 0.8, phase == 2 ? 0.8 : 0.9, err);
+        double f0 = 0.7 + 0.2 * (1.0 - pow(0.5, round)), f1 = 0.7 + 0.2 * (1.0 - pow(0.5, round + 1));
+        s = run_jobs(&S, jobs, order, no, f0, f1, err);
     }
     /* also after an error: the mesh stays valid (the parts done so far improved) */
     vm_error e2;
