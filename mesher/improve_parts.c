@@ -23,7 +23,7 @@
 #define AUTO_MIN 400000   /* tets: below this, one pass */
 #define AUTO_SIZE 100000  /* tets per part */
 #define HIST 4096         /* bins of the centroid histogram that places the slab borders */
-#define MIN_THICK 4.0     /* a slab is at least this many mean tet heights thick */
+#define MIN_THICK 6.0     /* a slab is at least this many mean longest tet edges thick */
 #define DEAD_SLOT ((vm_index)-1)
 #define BAND_ROUNDS 4      /* most rounds over the tets left below the targets */
 #define RINGS 2           /* rings of free tets around each of them */
@@ -52,11 +52,13 @@ typedef struct pstate {
     vm_improve_report *r;
 } pstate;
 
-/* One part: the tets in slots with centroid z in [z0, z1) (and mark set, when given). */
+/* One part: the tets in slots with centroid z in [z0, z1) (or, with key, key in it). */
 typedef struct job {
     double z0, z1;
-    const uint8_t *mark;    /* marks of slots 0..nmark-1; later slots are not marked */
-    size_t nmark;
+    /* with key: only the slots 0..nkey-1 with a finite key, taken in place of the centroid
+     * (later slots are not marked) */
+    const float *key;
+    size_t nkey;
     unsigned seed;
     size_t *ps, nps;        /* slots of the part's tets, in order */
     size_t *ls, nls;        /* slots of the locked tets, in order */
@@ -82,8 +84,14 @@ static double centroid_z(const pstate *S, size_t t) {
 }
 
 static int in_part(const pstate *S, const job *J, size_t t) {
-    if (slot_dead(S, t) || (J->mark && (t >= J->nmark || !J->mark[t]))) return 0;
-    double z = centroid_z(S, t);
+    if (slot_dead(S, t)) return 0;
+    double z;
+    if (J->key) {
+        if (t >= J->nkey || !(J->key[t] < INFINITY)) return 0;
+        z = J->key[t];
+    } else {
+        z = centroid_z(S, t);
+    }
     return z >= J->z0 && z < J->z1;
 }
 
@@ -489,16 +497,15 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
 }
 
 /* Slab borders cut[1..ns) (cut[0] = -inf, cut[ns] = +inf) placing about as many tet
- * centroids in each slab; fewer slabs when one would be thinner than MIN_THICK mean tet
- * heights. Returns the number of slabs (>= 1) or 0 on out-of-memory. */
+ * centroids in each slab; fewer slabs when one would be thinner than MIN_THICK mean
+ * longest tet edges (else the parts around a slab would reach into each other). Returns the number of slabs (>= 1) or 0 on out-of-memory. */
 static size_t slab_cuts(const pstate *S, size_t want, double **cut_out) {
     double zmin = INFINITY, zmax = -INFINITY, hsum = 0.0;
     for (size_t t = 0; t < S->nt; t++) {
-        double z = centroid_z(S, t), a[3], b[3];
+        double z = centroid_z(S, t);
         if (z < zmin) zmin = z;
         if (z > zmax) zmax = z;
-        tet_box(S, t, a, b);
-        hsum += b[2] - a[2];
+        hsum += sqrt(longest_edge2(S, t));
     }
     double h = S->nt ? hsum / (double)S->nt : 0.0;
     size_t *hist = calloc(HIST, sizeof *hist);
@@ -549,32 +556,52 @@ static double slot_q(const pstate *S, size_t t) {
     return vm__imp_quality(&S->qw, (const double(*)[3])p);
 }
 
-/* Marks the tets below the targets, then grows the marks by rings rings of tets sharing a
- * vertex. Returns the number below the targets, or SIZE_MAX on out-of-memory. */
-static size_t mark_bad(const pstate *S, uint8_t *mark, int rings) {
+/* One step over the marked tets (finite key): each vertex takes the least key of the marked
+ * tets around it, then each tet the least key of its vertices (grow: also the unmarked
+ * ones, which become marked). Returns 1 when a key changed. */
+static int key_step(const pstate *S, float *key, float *vkey, int grow) {
+    const vm_index *c = S->m->cells;
+    for (size_t i = 0; i < S->m->npoints; i++) vkey[i] = INFINITY;
+    for (size_t t = 0; t < S->nt; t++)
+        if (key[t] < INFINITY)
+            for (int k = 0; k < 4; k++)
+                if (key[t] < vkey[c[4 * t + k]]) vkey[c[4 * t + k]] = key[t];
+    int changed = 0;
+    for (size_t t = 0; t < S->nt; t++) {
+        if (slot_dead(S, t) || (!grow && !(key[t] < INFINITY))) continue;
+        float m = key[t];
+        for (int k = 0; k < 4; k++)
+            if (vkey[c[4 * t + k]] < m) m = vkey[c[4 * t + k]];
+        if (m < key[t]) {
+            key[t] = m;
+            changed = 1;
+        }
+    }
+    return changed;
+}
+
+/* Marks the tets below the targets with their centroid's z, grows the marks by rings rings
+ * of tets sharing a vertex, and gives each connected group of marked tets the least key in
+ * it: a group goes to one part whole. Returns the number below the targets, or SIZE_MAX on
+ * out-of-memory. */
+static size_t key_bad(const pstate *S, float *key, int rings) {
     size_t n = 0;
-    memset(mark, 0, S->nt);
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static, 4096) reduction(+ : n)
 #endif
-    for (size_t t = 0; t < S->nt; t++)
+    for (size_t t = 0; t < S->nt; t++) {
+        key[t] = INFINITY;
         if (!slot_dead(S, t) && slot_q(S, t) < 1.0) {
-            mark[t] = 1;
+            key[t] = (float)centroid_z(S, t);
             n++;
         }
-    if (n == 0) return 0;
-    uint8_t *vm = calloc(S->m->npoints + 1, 1);
-    if (!vm) return SIZE_MAX;
-    for (int r = 0; r < rings; r++) {
-        for (size_t t = 0; t < S->nt; t++)
-            if (mark[t])
-                for (int k = 0; k < 4; k++) vm[S->m->cells[4 * t + k]] = 1;
-        for (size_t t = 0; t < S->nt; t++) {
-            const vm_index *c = S->m->cells + 4 * t;
-            if (!slot_dead(S, t) && (vm[c[0]] || vm[c[1]] || vm[c[2]] || vm[c[3]])) mark[t] = 1;
-        }
     }
-    free(vm);
+    if (n == 0) return 0;
+    float *vkey = malloc((S->m->npoints + 1) * sizeof *vkey);
+    if (!vkey) return SIZE_MAX;
+    for (int r = 0; r < rings; r++) key_step(S, key, vkey, 1);
+    for (int it = 0; it < 64 && key_step(S, key, vkey, 0); it++) {}
+    free(vkey);
     return n;
 }
 
@@ -676,9 +703,9 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
     size_t ns = slab_cuts(&S, nparts, &cut);
     job *jobs = ns ? calloc(ns, sizeof *jobs) : NULL;
     size_t *order = ns ? malloc(ns * sizeof *order) : NULL;
-    uint8_t *mark = ns > 1 ? malloc(m->ncells + m->ncells / 8 + 1024) : NULL;
+    float *key = NULL;
     vm_status s = VM_OK;
-    if (!jobs || !order || (ns > 1 && !mark))
+    if (!jobs || !order)
         s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     /* Phase 1: the slabs, even ones first. */
     size_t no = 0;
@@ -695,14 +722,14 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
      * the slabs), then by the slabs, and so on while the count goes down. */
     size_t nbad_last = SIZE_MAX;
     for (int round = 0; round < BAND_ROUNDS && s == VM_OK && ns > 1; round++) {
-        /* the marks cover the slots appended since */
-        uint8_t *nm = realloc(mark, S.nt + 1);
-        if (!nm) {
+        /* the keys cover the slots appended since */
+        float *nk = realloc(key, (S.nt + 1) * sizeof *nk);
+        if (!nk) {
             s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
             break;
         }
-        mark = nm;
-        size_t nb = mark_bad(&S, mark, RINGS);
+        key = nk;
+        size_t nb = key_bad(&S, key, RINGS);
         if (nb == SIZE_MAX) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
         if (nb == SIZE_MAX || nb == 0 || nb >= nbad_last) break;
         nbad_last = nb;
@@ -717,8 +744,8 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
                 jobs[k].z0 = cut[k];
                 jobs[k].z1 = cut[k + 1];
             }
-            jobs[k].mark = mark;
-            jobs[k].nmark = S.nt;
+            jobs[k].key = key;
+            jobs[k].nkey = S.nt;
             jobs[k].seed = part_seed(o->seed, 2 + round, k);
         }
         no = 0;
@@ -734,7 +761,7 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
         s = s2;
         if (err) *err = e2;
     }
-    free(mark);
+    free(key);
     free(order);
     free(jobs);
     free(cut);
