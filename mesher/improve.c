@@ -919,11 +919,14 @@ static void measure_moves(const vm__imp *w, const vm_volume *v, double *maxmove,
     }
 }
 
-vm_status vm__imp_sub_run(vm__imp *w, const vm_mesh *m, const vm_volume *v,
-                          const vm_improve_options *o, const vm__imp_sub *x, int *passes,
+vm_status vm__imp_sub_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
+                          const vm_improve_options *o, vm__imp_sub *x, int *passes,
                           double *maxmove, double *maxiface, vm_error *err) {
     memset(w, 0, sizeof *w);
     vm_status s = imp_init(w, m, v, o, x, err);
+    vm_mesh_free(m);
+    free(x->p0);
+    x->p0 = NULL;
     if (s == VM_OK && !vm__imp_guard_init(w))
         s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the boundary guard");
     free(w->bfaces);

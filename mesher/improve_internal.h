@@ -162,17 +162,19 @@ int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e);
  * positions the ones the surface bounds count from. */
 typedef struct vm__imp_sub {
     const uint8_t *lock;   /* per submesh tet: 1 = locked */
-    const double *p0;      /* per submesh point: its position when the whole pass began */
+    double *p0;            /* per submesh point: its position when the whole pass began
+                              (freed by vm__imp_sub_run once copied, and set to NULL) */
     const double *box;     /* the whole mesh's bounding box (min xyz, max xyz) */
     unsigned seed;         /* of the random perturbations */
 } vm__imp_sub;
 
-/* Improves submesh m (only its tets, points and regions are read) into *w, which the caller
+/* Improves submesh m (only its tets, points and regions are read; m is freed, as x->p0,
+ * once they are copied, so that they do not stay beside the working data) into *w, which the caller
  * reads (tet, dead, region, parent = submesh tet each descends from, p, pdead) and frees with
  * vm__imp_sub_free, also on error. Single-threaded apart from nested parallel set-up loops;
  * o->progress is not called. *maxmove and *maxiface as in vm_improve_report. */
-vm_status vm__imp_sub_run(vm__imp *w, const vm_mesh *m, const vm_volume *v,
-                          const vm_improve_options *o, const vm__imp_sub *x, int *passes,
+vm_status vm__imp_sub_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
+                          const vm_improve_options *o, vm__imp_sub *x, int *passes,
                           double *maxmove, double *maxiface, vm_error *err);
 void vm__imp_sub_free(vm__imp *w);
 

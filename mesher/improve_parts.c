@@ -30,7 +30,8 @@
 #define GRID 128          /* cells a side of the grid that finds the tets near a part */
 
 size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o) {
-    if (o->frozen || o->parts == 1 || !m->region) return 1;
+    /* slots are 32-bit; the tets flips add stay far below the slack */
+    if (o->frozen || o->parts == 1 || !m->region || m->ncells > UINT32_MAX / 2) return 1;
     if (o->parts > 1) return (size_t)o->parts;
     if (m->ncells < AUTO_MIN) return 1;
     return (m->ncells + AUTO_SIZE / 2) / AUTO_SIZE;
@@ -60,8 +61,9 @@ typedef struct job {
     const float *key;
     size_t nkey;
     unsigned seed;
-    size_t *ps, nps;        /* slots of the part's tets, in order */
-    size_t *ls, nls;        /* slots of the locked tets, in order */
+    uint32_t *ps;           /* slots of the part's tets, in order */
+    uint32_t *ls;           /* slots of the locked tets, in order */
+    size_t nps, nls;
     double zlo, zhi;        /* the z range it reads and writes */
     vm_index (*xt)[4];      /* tets beyond its slots, appended after the batch */
     int32_t *xreg;
@@ -119,15 +121,15 @@ static double longest_edge2(const pstate *S, size_t t) {
     return L;
 }
 
-static int push_slot(size_t **l, size_t *n, size_t *cap, size_t t) {
+static int push_slot(uint32_t **l, size_t *n, size_t *cap, size_t t) {
     if (*n == *cap) {
         size_t c = *cap ? 2 * *cap : 1024;
-        size_t *nl = realloc(*l, c * sizeof *nl);
+        uint32_t *nl = realloc(*l, c * sizeof *nl);
         if (!nl) return 0;
         *l = nl;
         *cap = c;
     }
-    (*l)[(*n)++] = t;
+    (*l)[(*n)++] = (uint32_t)t;
     return 1;
 }
 
@@ -307,11 +309,9 @@ static void job_run(pstate *S, job *J) {
     sub.npoints = sub.point_cap = ng;
     sub.ncells = sub.cell_cap = nc;
     vm__imp_sub x = {lock, sp0, S->box, J->seed};
+    sp0 = NULL; /* the run frees it and the submesh once it has copied them */
     J->s = vm__imp_sub_run(&w, &sub, S->v, &S->o, &x, &J->passes, &J->maxmove, &J->maxiface,
                            &J->err);
-    vm_mesh_free(&sub);
-    free(sp0);
-    sp0 = NULL;
     if (J->s != VM_OK) goto done;
     for (size_t t = J->nps; t < nc; t++)
         if (w.dead[t]) {
@@ -400,8 +400,10 @@ static void compact_slots(pstate *S) {
     S->nt = S->m->ncells = c;
 }
 
+/* done (0..0.9) within what vm_mesh_improve has shown before (its first checks) and after */
 static void progress(const pstate *S, double done) {
-    if (S->uo->progress) S->uo->progress("improve", done, 1.0, S->uo->progress_user);
+    if (S->uo->progress)
+        S->uo->progress("improve", 0.05 + 0.85 * done / 0.9, 1.0, S->uo->progress_user);
 }
 
 /* Runs jobs order[0..n) in batches: each batch takes, in order, the jobs whose z ranges do
