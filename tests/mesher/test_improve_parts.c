@@ -215,6 +215,39 @@ static void fieldsFollowByParts(void) {
     vm_volume_free(&v);
 }
 
+static int prog_calls, prog_backwards, prog_ended;
+static double prog_last;
+
+static void count_progress(const char *stage, double done, double total, void *user) {
+    (void)stage;
+    (void)user;
+    prog_calls++;
+    if (done < prog_last) prog_backwards++;
+    prog_last = done;
+    prog_ended = done == total;
+}
+
+/* By parts too, the bar only goes forward and ends at its total. */
+static void progressGoesForwardByParts(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_TORUS, 40, 0.0, 1, &v, NULL, &err), &err);
+    vm_mesh_options mo;
+    vm_mesh_options_default(&mo);
+    vm_mesh m;
+    CHECK_OK(vm_mesh_volume(&v, &mo, &m, NULL, &err), &err);
+    vm_improve_options o;
+    vm_improve_options_default(&o);
+    o.parts = 3;
+    o.progress = count_progress;
+    prog_calls = prog_backwards = prog_ended = 0;
+    prog_last = 0.0;
+    CHECK_OK(vm_mesh_improve(&m, &v, &o, NULL, &err), &err);
+    CHECK(prog_calls >= 3 && prog_backwards == 0 && prog_ended);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
 /* volmesh mesh --improve-parts N runs and is the same for 1 and 2 threads. */
 static void cliImprovePartsOption(void) {
     vm_volume v;
@@ -242,4 +275,4 @@ static void cliImprovePartsOption(void) {
 
 TEST_MAIN(T(sphereTorusGenus3ByPartsKeepInvariantsAndQuality),
           T(twoSpheresAndPlateByPartsKeepInvariantsAndQuality), T(onePartIsTheOnePass),
-          T(fieldsFollowByParts), T(cliImprovePartsOption))
+          T(fieldsFollowByParts), T(progressGoesForwardByParts), T(cliImprovePartsOption))
