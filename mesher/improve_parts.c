@@ -24,6 +24,7 @@
 #define AUTO_SIZE 100000  /* tets per part */
 #define HIST 4096         /* bins of the centroid histogram that places the slab borders */
 #define MIN_THICK 6.0     /* a slab is at least this many mean longest tet edges thick */
+#define MIN_THICK_ASKED 2.0 /* ... when the caller asked for a number of parts */
 #define DEAD_SLOT ((vm_index)-1)
 #define BAND_ROUNDS 4      /* most rounds over the tets left below the targets */
 #define RINGS 2           /* rings of free tets around each of them */
@@ -499,9 +500,9 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
 }
 
 /* Slab borders cut[1..ns) (cut[0] = -inf, cut[ns] = +inf) placing about as many tet
- * centroids in each slab; fewer slabs when one would be thinner than MIN_THICK mean
+ * centroids in each slab; fewer slabs when one would be thinner than thick mean
  * longest tet edges (else the parts around a slab would reach into each other). Returns the number of slabs (>= 1) or 0 on out-of-memory. */
-static size_t slab_cuts(const pstate *S, size_t want, double **cut_out) {
+static size_t slab_cuts(const pstate *S, size_t want, double thick, double **cut_out) {
     double zmin = INFINITY, zmax = -INFINITY, hsum = 0.0;
     for (size_t t = 0; t < S->nt; t++) {
         double z = centroid_z(S, t);
@@ -534,7 +535,7 @@ static size_t slab_cuts(const pstate *S, size_t want, double **cut_out) {
         cut[0] = zmin;
         cut[ns] = zmax;
         int ok = k == ns;
-        for (size_t j = 0; j < ns && ok; j++) ok = cut[j + 1] - cut[j] >= MIN_THICK * h;
+        for (size_t j = 0; j < ns && ok; j++) ok = cut[j + 1] - cut[j] >= thick * h;
         if (ok) break;
     }
     cut[0] = -INFINITY;
@@ -702,7 +703,7 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
             if (x > S.box[3 + a]) S.box[3 + a] = x;
         }
     double *cut = NULL;
-    size_t ns = slab_cuts(&S, nparts, &cut);
+    size_t ns = slab_cuts(&S, nparts, o->parts > 1 ? MIN_THICK_ASKED : MIN_THICK, &cut);
     job *jobs = ns ? calloc(ns, sizeof *jobs) : NULL;
     size_t *order = ns ? malloc(ns * sizeof *order) : NULL;
     float *key = NULL;

@@ -75,7 +75,7 @@ typedef struct vm_improve_options {
      * about 100 000 tets per part; 1: one pass over the whole mesh; N > 1: N slabs (fewer
      * when the mesh is too thin for N slabs a few tets thick each). The output is the same
      * for any thread count; with parts it differs from the one-pass output (similar
-     * quality). With frozen set, the pass always runs in one piece. */
+     * quality). With frozen set, or without regions, the pass runs in one piece. */
     int parts;
     /* Called during the rounds ("improve", done, 1.0; done grows, the first round taking the
      * first half) and once at the end with done == total == 1; NULL (default) for none. */
