@@ -311,7 +311,7 @@ static int mesh_slabs(const char *in, const vm_raw_options *raw, const vm_mesh_o
 int vm_cmd_mesh(int argc, char **argv) {
     const char *in = NULL, *out = NULL, *surface = NULL;
     int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
-    int improve = 1, quality_fields = 0, verbose = 0, have_labels = 0;
+    int improve = 1, improve_parts = 0, quality_fields = 0, verbose = 0, have_labels = 0;
     int surface_elements = 0, have_method = 0, have_error = 0, slabs = 1, have_slabs = 0;
     vm_surface_options so;
     vm_surface_options_default(&so);
@@ -345,7 +345,8 @@ int vm_cmd_mesh(int argc, char **argv) {
                     vm_cli_is(a, "--order", NULL) || vm_cli_is(a, "--labels", NULL) ||
                     vm_cli_is(a, "--min-island", NULL) || vm_cli_is(a, "--max-memory", NULL) ||
                     vm_cli_is(a, "--size-per-label", NULL) || vm_cli_is(a, "--method", NULL) ||
-                    vm_cli_is(a, "--error", NULL) || vm_cli_is(a, "--slabs", NULL);
+                    vm_cli_is(a, "--error", NULL) || vm_cli_is(a, "--slabs", NULL) ||
+                    vm_cli_is(a, "--improve-parts", NULL);
         if (needs && vm_cli_need_value("mesh", i, argc, argv)) return VM_EXIT_INPUT;
         if (vm_cli_is(a, "-o", "--output")) {
             out = argv[++i];
@@ -431,6 +432,11 @@ int vm_cmd_mesh(int argc, char **argv) {
             verbose = 1;
         } else if (vm_cli_is(a, "--no-improve", NULL)) {
             improve = 0;
+        } else if (vm_cli_is(a, "--improve-parts", NULL)) {
+            long n = 0; /* 0: auto */
+            if (strcmp(argv[++i], "auto") != 0 && vm_cli_int(a, argv[i], 1, 1 << 16, &n))
+                return VM_EXIT_INPUT;
+            improve_parts = (int)n;
         } else if (vm_cli_is(a, "--quality-fields", NULL)) {
             quality_fields = 1;
         } else if (vm_cli_is(a, "--invert", NULL)) {
@@ -605,6 +611,7 @@ int vm_cmd_mesh(int argc, char **argv) {
         io.hi = o.hi;
         io.has_lo = o.has_lo;
         io.has_hi = o.has_hi;
+        io.parts = improve_parts;
         io.progress = vm_cli_progress;
         io.progress_user = &quiet;
         s = vm_mesh_improve(&m, &v, &io, &ir, &err);

@@ -223,6 +223,7 @@ static void imp_free(vm__imp *w) {
     free(w->nrm);
     free(w->bound);
     free(w->bfaces);
+    free(w->vlock);
 }
 
 static int invert3(double A[3][3], double B[3][3]) {
@@ -375,7 +376,7 @@ static int find_boundary_faces(vm__imp *w) {
 }
 
 static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
-                          const vm_improve_options *o, vm_error *err) {
+                          const vm_improve_options *o, const vm__imp_sub *sx, vm_error *err) {
     size_t np = m->npoints, nt = m->ncells;
     w->o = o;
     w->v = v;
@@ -389,13 +390,14 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
     w->s_fmin = 15.0; /* face angles: 10 and 160 degrees (ABAQUS) score 2/3, as the others */
     w->s_fmax = 30.0;
     w->rng = o->seed ? o->seed : 1u;
+    if (sx) w->rng = sx->seed ? sx->seed : 1u;
     w->npt = np;
     /* The pass mostly removes tets; the few flips add are appended (growing by half). */
     w->tet_cap = nt + nt / 64 + 1024;
     w->tet = malloc(4 * w->tet_cap * sizeof *w->tet);
     w->region = malloc(w->tet_cap * sizeof *w->region);
     /* which input tet each tet descends from: only to carry cell fields */
-    w->parent = m->ncell_fields ? malloc(w->tet_cap * sizeof *w->parent) : NULL;
+    w->parent = m->ncell_fields || sx ? malloc(w->tet_cap * sizeof *w->parent) : NULL;
     w->q = malloc(w->tet_cap * sizeof *w->q);
     w->dead = calloc(w->tet_cap, 1);
     w->p = malloc(3 * np * sizeof *w->p);
@@ -405,7 +407,7 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
     w->iso_hi = calloc(np, 1);
     w->pdead = calloc(np, 1);
     w->star = calloc(np, sizeof *w->star);
-    if (!w->tet || !w->region || (m->ncell_fields && !w->parent) || !w->q || !w->dead ||
+    if (!w->tet || !w->region || ((m->ncell_fields || sx) && !w->parent) || !w->q || !w->dead ||
         !w->p || !w->ci || !w->cls || !w->planes || !w->iso_hi || !w->pdead || !w->star)
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for %zu tets", nt);
     memcpy(w->p, m->points, 3 * np * sizeof *w->p);
@@ -416,6 +418,16 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
     }
     w->ntet = nt;
     w->nfrozen = o->frozen ? nt : 0;
+    if (sx) {
+        /* a part: the locked tets' vertices stay as they are */
+        w->lock = sx->lock;
+        w->nlock = nt;
+        w->vlock = calloc(np + 1, 1);
+        if (!w->vlock) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        for (size_t t = 0; t < nt; t++)
+            if (sx->lock[t])
+                for (int k = 0; k < 4; k++) w->vlock[w->tet[4 * t + k]] = 1;
+    }
     /* Stars, sized exactly. */
     for (size_t t = 0; t < 4 * nt; t++) w->star[w->tet[t]].cap++;
     for (size_t i = 0; i < np; i++) {
@@ -449,6 +461,11 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
             double x = w->p[3 * i + a];
             if (x < bmin[a]) bmin[a] = x;
             if (x > bmax[a]) bmax[a] = x;
+        }
+    if (sx)
+        for (int a = 0; a < 3; a++) {
+            bmin[a] = sx->box[a];
+            bmax[a] = sx->box[3 + a];
         }
     double ext = 0.0;
     for (int a = 0; a < 3; a++)
@@ -511,7 +528,8 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
     }
     for (size_t i = 0; i < np; i++)
         if (w->ci[i] >= 0)
-            memcpy(w->p0 + 3 * (size_t)w->ci[i], w->p + 3 * i, 3 * sizeof *w->p0);
+            memcpy(w->p0 + 3 * (size_t)w->ci[i], sx ? sx->p0 + 3 * i : w->p + 3 * i,
+                   3 * sizeof *w->p0);
     for (size_t e = 0; e < w->nbfaces; e++) {
         size_t t = w->bfaces[e] / 4;
         int f = (int)(w->bfaces[e] % 4);
@@ -601,9 +619,14 @@ static int tq_cmp(const void *pa, const void *pb) {
     return a->t < b->t ? -1 : a->t > b->t;
 }
 
-/* 1 when tet t is one of the input tets o->frozen keeps off the lists. */
+/* 1 when tet t is one of the input tets o->frozen keeps off the lists; in a part, also when
+ * it has a locked vertex (it waits for the bands over the part's border, where it is free:
+ * here little can be done for it, at the price of the longest searches). */
 static int frozen(const vm__imp *w, size_t t) {
-    return t < w->nfrozen && w->o->frozen[t];
+    if (t < w->nfrozen && w->o->frozen[t]) return 1;
+    if (!w->vlock) return 0;
+    const vm_index *n = w->tet + 4 * t;
+    return w->vlock[n[0]] || w->vlock[n[1]] || w->vlock[n[2]] || w->vlock[n[3]];
 }
 
 /* Tets with q below 1 (the targets) and not frozen, worst first. The first list scans the
@@ -746,7 +769,9 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         free(vs);
         ops_total += ops;
         show_rounds(o, pass + 1.0);
-        if (ops == 0) break;
+        /* a part (vlock) often starts with tets only the later rounds' peels and surface
+         * flips can fix: it gives them their round */
+        if (ops == 0 && (pass >= 1 || !w->vlock)) break;
     }
     /* Last rounds for the few tets still failing ABAQUS's check: long searches around them,
      * their vertices and their neighbours' vertices. */
@@ -865,6 +890,82 @@ static vm_status write_back(vm__imp *w, vm_mesh *m, const vm_improve_options *o,
     return VM_OK;
 }
 
+/* The largest displacements of isosurface vertices (voxels with a volume) and of interface
+ * vertices (world) from their starting positions (for a part: where the pass found them). */
+static void measure_moves(const vm__imp *w, const vm_volume *v, double *maxmove,
+                          double *maxiface) {
+    for (size_t i = 0; i < w->npt; i++) {
+        /* a locked vertex did not move here (and may look like a boundary one) */
+        if (vm__imp_vlocked(w, (vm_index)i)) continue;
+        if (!w->pdead[i] && w->cls[i] == VM__IMP_IFACE) {
+            double d[3];
+            const double *q0 = vm__imp_p0(w, (vm_index)i);
+            for (int k = 0; k < 3; k++) d[k] = w->p[3 * i + k] - q0[k];
+            double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            if (l > *maxiface) *maxiface = l;
+        }
+        if (w->pdead[i] || w->cls[i] != VM__IMP_SURF) continue;
+        double d[3], x0[3], x1[3];
+        if (v) {
+            vm__imp_to_index(w, vm__imp_p0(w, (vm_index)i), x0);
+            vm__imp_to_index(w, w->p + 3 * i, x1);
+        } else {
+            memcpy(x0, vm__imp_p0(w, (vm_index)i), sizeof x0);
+            memcpy(x1, w->p + 3 * i, sizeof x1);
+        }
+        for (int k = 0; k < 3; k++) d[k] = x1[k] - x0[k];
+        double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (l > *maxmove) *maxmove = l;
+    }
+}
+
+vm_status vm__imp_sub_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
+                          const vm_improve_options *o, vm__imp_sub *x, int *passes,
+                          double *maxmove, double *maxiface, vm_error *err) {
+    memset(w, 0, sizeof *w);
+    vm_status s = imp_init(w, m, v, o, x, err);
+    vm_mesh_free(m);
+    free(x->p0);
+    x->p0 = NULL;
+    if (s == VM_OK && !vm__imp_guard_init(w))
+        s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the boundary guard");
+    free(w->bfaces);
+    w->bfaces = NULL;
+    if (s == VM_OK) {
+        run_passes(w, o, passes);
+        if (w->nomem) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    if (s == VM_OK) measure_moves(w, v, maxmove, maxiface);
+    imp_free_rounds(w);
+    return s;
+}
+
+void vm__imp_sub_free(vm__imp *w) { imp_free(w); }
+
+/* The pass over the whole mesh at once (the only way before parts). */
+static vm_status one_pass(vm__imp *w, vm_mesh *m, const vm_volume *v,
+                          const vm_improve_options *o, int *passes, double *maxmove,
+                          double *maxiface, vm_error *err) {
+    show(o, 0.25 * SETUP_SHARE);
+    vm_status s = imp_init(w, m, v, o, NULL, err);
+    show(o, 0.75 * SETUP_SHARE);
+    if (s == VM_OK && !vm__imp_guard_init(w))
+        s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the boundary guard");
+    show(o, SETUP_SHARE);
+    free(w->bfaces); /* only for setting up */
+    w->bfaces = NULL;
+    if (s == VM_OK) {
+        run_passes(w, o, passes);
+        if (w->nomem) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    if (s == VM_OK) {
+        measure_moves(w, v, maxmove, maxiface);
+        imp_free_rounds(w);
+        s = write_back(w, m, o, err);
+    }
+    return s;
+}
+
 vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                           vm_improve_report *r, vm_error *err) {
     double t0 = vm__now();
@@ -901,44 +1002,28 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
     size_t nt0 = m->ncells, np0 = m->npoints;
     vm__imp w;
     memset(&w, 0, sizeof w);
-    show(o, 0.25 * SETUP_SHARE);
-    vm_status s = imp_init(&w, m, v, o, err);
-    show(o, 0.75 * SETUP_SHARE);
-    if (s == VM_OK && !vm__imp_guard_init(&w))
-        s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the boundary guard");
-    show(o, SETUP_SHARE);
-    free(w.bfaces); /* only for setting up */
-    w.bfaces = NULL;
-    int passes = 0;
-    if (s == VM_OK) {
-        run_passes(&w, o, &passes);
-        if (w.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-    }
     double maxmove = 0.0, maxiface = 0.0;
-    if (s == VM_OK) {
-        for (size_t i = 0; i < w.npt; i++) {
-            if (!w.pdead[i] && w.cls[i] == VM__IMP_IFACE) {
-                double d[3];
-                const double *q0 = vm__imp_p0(&w, (vm_index)i);
-                for (int k = 0; k < 3; k++) d[k] = w.p[3 * i + k] - q0[k];
-                double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                if (l > maxiface) maxiface = l;
-            }
-            if (w.pdead[i] || w.cls[i] != VM__IMP_SURF) continue;
-            double d[3], x0[3], x1[3];
-            if (v) {
-                vm__imp_to_index(&w, vm__imp_p0(&w, (vm_index)i), x0);
-                vm__imp_to_index(&w, w.p + 3 * i, x1);
-            } else {
-                memcpy(x0, vm__imp_p0(&w, (vm_index)i), sizeof x0);
-                memcpy(x1, w.p + 3 * i, sizeof x1);
-            }
-            for (int k = 0; k < 3; k++) d[k] = x1[k] - x0[k];
-            double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            if (l > maxmove) maxmove = l;
-        }
-        imp_free_rounds(&w);
-        s = write_back(&w, m, o, err);
+    int passes = 0;
+    size_t nparts = vm__imp_parts_count(m, o);
+    vm_status s = VM_OK;
+    if (nparts > 1) {
+        vm_improve_report pr;
+        memset(&pr, 0, sizeof pr);
+        s = vm__imp_parts_run(m, v, o, nparts, &pr, err);
+        w.collapses = pr.collapses;
+        w.flips23 = pr.flips23;
+        w.flips32 = pr.flips32;
+        w.edge_removals = pr.edge_removals;
+        w.moves = pr.moves;
+        w.perturbations = pr.perturbations;
+        w.peels = pr.peels;
+        w.boundary_flips = pr.boundary_flips;
+        passes = pr.passes;
+        maxmove = pr.max_surface_move;
+        maxiface = pr.max_interface_move;
+        show(o, 1.0 - FINAL_SHARE);
+    } else {
+        s = one_pass(&w, m, v, o, &passes, &maxmove, &maxiface, err);
     }
     figures fa;
     memset(&fa, 0, sizeof fa);

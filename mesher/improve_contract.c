@@ -301,8 +301,11 @@ static int contract_guard_ok(vm__imp *w, vm_index a, vm_index b, vm_index keep, 
 
 /* Tries to contract edge ab; returns 1 when done. */
 static int try_edge(vm__imp *w, vm_index a, vm_index b) {
-    int keep_a = may_merge(w, a, b), keep_b = may_merge(w, b, a);
-    int mid = w->cls[a] == VM__IMP_INTERIOR && w->cls[b] == VM__IMP_INTERIOR;
+    /* A locked vertex neither moves nor goes: it can only be the survivor, in place (so no
+     * locked tet dies either: one with both ends would have both locked). */
+    int lka = vm__imp_vlocked(w, a), lkb = vm__imp_vlocked(w, b);
+    int keep_a = !lkb && may_merge(w, a, b), keep_b = !lka && may_merge(w, b, a);
+    int mid = !lka && !lkb && w->cls[a] == VM__IMP_INTERIOR && w->cls[b] == VM__IMP_INTERIOR;
     if (!keep_a && !keep_b) return 0;
     /* Old worst quality and region of the cavity. */
     double old = INFINITY;
@@ -322,7 +325,7 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     int choice = -1;
     const double *pa = w->p + 3 * (size_t)a, *pb = w->p + 3 * (size_t)b;
     /* Surface edges may also meet at their midpoint put back on the isosurface. */
-    int smid = w->v && w->cls[a] == VM__IMP_SURF && w->cls[b] == VM__IMP_SURF &&
+    int smid = !lka && !lkb && w->v && w->cls[a] == VM__IMP_SURF && w->cls[b] == VM__IMP_SURF &&
                w->iso_hi[a] == w->iso_hi[b];
     for (int opt = 0; opt < 4; opt++) {
         double x[3];

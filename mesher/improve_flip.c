@@ -35,6 +35,8 @@ static int adjacent(const vm__imp *w, vm_index a, vm_index b) {
 
 /* Replaces the nold tets by the nnew tets (all positive, checked by the caller). */
 static int replace(vm__imp *w, const size_t *old, int nold, vm_index nw[][4], int nnew) {
+    for (int i = 0; i < nold; i++)
+        if (vm__imp_locked(w, old[i])) return 0;
     int32_t reg = w->region[old[0]];
     vm_index par = w->parent ? w->parent[old[0]] : 0;
     for (int i = 0; i < nnew; i++)
@@ -53,7 +55,7 @@ static int flip23(vm__imp *w, size_t t, int i) {
     /* (a, b, c, d) positive: the outward face order reversed. */
     vm_index a = n[fo[i][0]], b = n[fo[i][2]], c = n[fo[i][1]], d = n[i];
     long u = vm__imp_face_other(w, t, a, b, c);
-    if (u < 0 || w->region[u] != w->region[t]) return 0;
+    if (u < 0 || w->region[u] != w->region[t] || vm__imp_locked(w, (size_t)u)) return 0;
     vm_index e = 0;
     for (int k = 0; k < 4; k++) {
         vm_index x = w->tet[4 * (size_t)u + k];
@@ -153,7 +155,7 @@ static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
     for (int32_t i = 0; i < s->n; i++) {
         size_t u = (size_t)s->t[i];
         if (!vm__imp_has(w, u, e)) continue;
-        if (n == RING_MAX) return 0;
+        if (n == RING_MAX || vm__imp_locked(w, u)) return 0;
         ring[n++] = u;
     }
     if (n < 2) return 0;

@@ -76,7 +76,21 @@ typedef struct vm__imp {
     /* the boundary guard (improve_guard.c): boundary vertices in a hashed uniform grid and
      * each vertex's boundary faces, cached until a tet around it is added or removed */
     struct vm__imp_guard *g;
+    /* A part of a bigger mesh (improve_parts.c): input tets 0..nlock-1 with lock[t] set are
+     * locked (never killed or replaced) and vlock marks their vertices (never moved or
+     * removed); NULL for a whole mesh. */
+    const uint8_t *lock;
+    size_t nlock;
+    uint8_t *vlock;
 } vm__imp;
+
+/* 1 when tet t is locked / vertex a is locked (see vm__imp.lock). */
+static inline int vm__imp_locked(const vm__imp *w, size_t t) {
+    return t < w->nlock && w->lock[t];
+}
+static inline int vm__imp_vlocked(const vm__imp *w, vm_index a) {
+    return w->vlock && w->vlock[a];
+}
 
 /* Input position, constraint normal and bound of a constrained vertex a (ci[a] >= 0). */
 static inline double *vm__imp_p0(const vm__imp *w, vm_index a) {
@@ -142,6 +156,33 @@ int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
 int vm__imp_guard_move_ok(vm__imp *w, vm_index a, const double x[3]);
 /* The boundary faces (a, e[2i], e[2i+1]) around vertex a, i < return value; -1 on nomem. */
 int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e);
+
+/* One part of a bigger mesh, for improve_parts.c: what vm__imp_sub_run needs beyond the
+ * submesh. The submesh's own bounding box is not the mesh's, nor are its vertices' starting
+ * positions the ones the surface bounds count from. */
+typedef struct vm__imp_sub {
+    const uint8_t *lock;   /* per submesh tet: 1 = locked */
+    double *p0;            /* per submesh point: its position when the whole pass began
+                              (freed by vm__imp_sub_run once copied, and set to NULL) */
+    const double *box;     /* the whole mesh's bounding box (min xyz, max xyz) */
+    unsigned seed;         /* of the random perturbations */
+} vm__imp_sub;
+
+/* Improves submesh m (only its tets, points and regions are read; m is freed, as x->p0,
+ * once they are copied, so that they do not stay beside the working data) into *w, which the caller
+ * reads (tet, dead, region, parent = submesh tet each descends from, p, pdead) and frees with
+ * vm__imp_sub_free, also on error. Single-threaded apart from nested parallel set-up loops;
+ * o->progress is not called. *maxmove and *maxiface as in vm_improve_report. */
+vm_status vm__imp_sub_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
+                          const vm_improve_options *o, vm__imp_sub *x, int *passes,
+                          double *maxmove, double *maxiface, vm_error *err);
+void vm__imp_sub_free(vm__imp *w);
+
+/* The whole pass by parts (improve_parts.c), when vm__imp_parts_count says more than one:
+ * m is improved in place; counters, passes and moves go to r (figures are the caller's). */
+size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o);
+vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
+                            size_t nparts, vm_improve_report *r, vm_error *err);
 
 /* The operations: each returns 1 when it changed the mesh. */
 int vm__imp_contract_tet(vm__imp *w, size_t t);

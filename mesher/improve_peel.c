@@ -74,6 +74,7 @@ static int on_interface(const vm__imp *w, vm_index a) {
 int vm__imp_peel_tet(vm__imp *w, size_t t) {
     const vm_index *n = w->tet + 4 * t;
     int bnd[4], nb = 0;
+    if (vm__imp_locked(w, t)) return 0;
     /* Peeling next to another material would turn interface faces into boundary faces or
      * give a surface edge that is an interface edge already: only inside one material. */
     for (int i = 0; i < 4; i++)

@@ -46,7 +46,7 @@ static void tangent(const vm__imp *w, vm_index a, double g[3]) {
 }
 
 int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
-    if (w->cls[a] == VM__IMP_FIXED || w->pdead[a]) return 0;
+    if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || vm__imp_vlocked(w, a)) return 0;
     const vm__imp_star *s = &w->star[a];
     int32_t n = s->n;
     if (n == 0 || !vm__imp_scratch(w, (size_t)n)) return 0;
@@ -108,7 +108,7 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
 }
 
 int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries) {
-    if (w->cls[a] == VM__IMP_FIXED || w->pdead[a]) return 0;
+    if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || vm__imp_vlocked(w, a)) return 0;
     const vm__imp_star *s = &w->star[a];
     int32_t n = s->n;
     if (n == 0 || !vm__imp_scratch(w, (size_t)n)) return 0;

@@ -68,6 +68,15 @@ typedef struct vm_improve_options {
      * that cannot change anyway, e.g. held by regions of their own (volmesh_mpi's
      * neighbour rings), whose attempts would cost time for nothing. */
     const unsigned char *frozen;
+    /* Parts (issue #12): the pass may run on slabs of the mesh along z, two slabs at a time
+     * on OpenMP threads, then on bands around the slab borders, each with the tets around
+     * it locked (never changed, their vertices never moved), so that only one slab's
+     * working data is held per thread. 0 (default): one pass below 400 000 tets, else
+     * about 100 000 tets per part; 1: one pass over the whole mesh; N > 1: N slabs (fewer
+     * when the mesh is too thin for N slabs a few tets thick each). The output is the same
+     * for any thread count; with parts it differs from the one-pass output (similar
+     * quality). With frozen set, or without regions, the pass runs in one piece. */
+    int parts;
     /* Called during the rounds ("improve", done, 1.0; done grows, the first round taking the
      * first half) and once at the end with done == total == 1; NULL (default) for none. */
     vm_progress_fn progress;
@@ -114,8 +123,10 @@ void vm_improve_options_default(vm_improve_options *o);
  * has_hi its material bounds. [in] o may be NULL (defaults). [out] r may be NULL.
  * Errors: VM_ERR_UNSUPPORTED for a kind other than tet4, VM_ERR_EMPTY for a mesh without
  * cells, VM_ERR_ARG for a node index out of range or an inverted input tet (it cannot
- * improve what it cannot orient), VM_ERR_NOMEM. On error m is unchanged.
- * Time O(n log n) per pass; memory about 150 bytes per tet. */
+ * improve what it cannot orient), VM_ERR_NOMEM. On error m is unchanged, except that a
+ * pass by parts (o->parts) may have improved some parts of it already (still valid).
+ * Time O(n log n) per pass; memory about 150 bytes per tet in one pass (by parts: the
+ * mesh, 25 bytes per point more and the working data of one part per thread). */
 vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                           vm_improve_report *r, vm_error *err);
 
