@@ -4,7 +4,6 @@
  * R_g / 2^i (sec. 3.3, Figs. 3-7), its graph Voronoi neighbourhoods and their dual triangles,
  * refined by the maximum-distance metric (sec. 3.4-3.5, Fig. 8). See docs/SURFACE_COVER.md. */
 #include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "../core/core.h"
@@ -1402,11 +1401,7 @@ static vm_status finish(const vm__cover_fine *m, const vm_surface_options *o, do
         any += kept[k];
     }
     if (!s && any && o->improve) {
-        vm__cover_improve_stats st;
-        s = vm__cover_improve(m, eps, x, &ns, t, &ntri, kept, &st, err);
-        if (!s && getenv("VOLMESH_COVER_DEBUG"))
-            fprintf(stderr, "cover improve: %zu contractions, %zu flips, %zu moves, %zu rounds\n",
-                    st.contractions, st.flips, st.moves, st.rounds);
+        s = vm__cover_improve(m, eps, x, &ns, t, &ntri, kept, NULL, err);
     }
     if (!s) s = emit(x, ns, scale, t, ntri, kept, surf, nkept, err);
     free(x);

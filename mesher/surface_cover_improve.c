@@ -5,7 +5,6 @@
  * is accepted only within the error both ways, without a flip-over, a sharper crease or a
  * self-intersection. See docs/SURFACE_COVER.md, "The improvement pass". */
 #include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "../core/core.h"
@@ -16,11 +15,11 @@
 #define MIN_ANGLE 15.0  /* degrees: the angle half of the quality (the ratio allows flat ones) */
 #define TURN_COS 0.0    /* a changed triangle turns by at most 90 degrees */
 #define BEND_FREE 0.293 /* 1 - cos 45 deg: bends up to 45 degrees are always allowed */
+#define BEND_MAX 1.5    /* 1 - cos 120 deg: sharper only where a crease was already */
 #define ROUNDS 8        /* contract, flip, smooth rounds at most */
 #define MAXS 96         /* largest star a change may touch */
 #define MAX_CELLS ((double)2e6)
 
-size_t dbg_rej[32];
 typedef struct {
     int32_t *v;
     int32_t n, cap;
@@ -49,6 +48,7 @@ typedef struct {
     int ns, nn;
     int32_t ov;
     double op[3], newq;
+    int newbad; /* new triangles below the edge ratio 0.3 */
 } imp;
 
 static int vl_push(vlist *l, int32_t x) {
@@ -290,28 +290,44 @@ static int outside_dir(const imp *s, int32_t u, int32_t w, int32_t *which) {
     return n;
 }
 
-/* Largest bend (1 - cos of the angle between normals) over the edges of the old star. */
-static double old_bend(const imp *s) {
-    double worst = 0;
+/* The live triangle across the directed edge u -> w (the one with w -> u), -1 none. */
+static int32_t across(const imp *s, int32_t u, int32_t w) {
+    const vlist *l = &s->vt[w];
+    for (int32_t j = 0; j < l->n; j++)
+        if (has_dir(s->t + 3 * (size_t)l->v[j], w, u)) return l->v[j];
+    return -1;
+}
+
+static int tri_normal(const imp *s, int32_t t, double n[3]) {
+    const int32_t *v = s->t + 3 * (size_t)t;
+    return normal(s->x + 3 * (size_t)v[0], s->x + 3 * (size_t)v[1], s->x + 3 * (size_t)v[2], n);
+}
+
+/* The bends (1 - cos of the angle between normals) of the old star: *one, the largest
+ * across its edges; *two, the largest from its triangles to the neighbours of their
+ * neighbours (a crease split in two by a sliver counts whole there). */
+static void old_bend(const imp *s, double *one, double *two) {
+    *one = *two = 0;
     for (int i = 0; i < s->ns; i++) {
         const int32_t *v = s->t + 3 * (size_t)s->S[i];
         double n[3], n2[3];
-        if (!normal(s->x + 3 * (size_t)v[0], s->x + 3 * (size_t)v[1], s->x + 3 * (size_t)v[2], n))
-            return 2;
+        if (!tri_normal(s, s->S[i], n)) {
+            *one = *two = 2;
+            return;
+        }
         for (int e = 0; e < 3; e++) {
-            int32_t u = v[e], w = v[(e + 1) % 3];
-            const vlist *l = &s->vt[w];
-            for (int32_t j = 0; j < l->n; j++) {
-                const int32_t *g = s->t + 3 * (size_t)l->v[j];
-                if (!has_dir(g, w, u)) continue;
-                if (!normal(s->x + 3 * (size_t)g[0], s->x + 3 * (size_t)g[1],
-                            s->x + 3 * (size_t)g[2], n2))
-                    return 2;
-                worst = fmax(worst, 1 - (n[0] * n2[0] + n[1] * n2[1] + n[2] * n2[2]));
+            int32_t g = across(s, v[e], v[(e + 1) % 3]);
+            if (g < 0 || !tri_normal(s, g, n2)) continue;
+            double b = 1 - (n[0] * n2[0] + n[1] * n2[1] + n[2] * n2[2]);
+            *one = fmax(*one, b), *two = fmax(*two, b);
+            const int32_t *w = s->t + 3 * (size_t)g;
+            for (int f = 0; f < 3; f++) {
+                int32_t h = across(s, w[f], w[(f + 1) % 3]);
+                if (h < 0 || h == s->S[i] || !tri_normal(s, h, n2)) continue;
+                *two = fmax(*two, 1 - (n[0] * n2[0] + n[1] * n2[1] + n[2] * n2[2]));
             }
         }
     }
-    return worst;
 }
 
 /* Distance from p to the triangles of N (new positions), or of S (old) when old. */
@@ -361,15 +377,18 @@ static int acceptable(imp *s, double qfloor) {
                                       {1. / 6, 2. / 3, 1. / 6}, {1. / 6, 1. / 6, 2. / 3}};
     double nn[3 * MAXS];
     s->newq = INFINITY;
+    s->newbad = 0;
     for (int i = 0; i < s->nn; i++) {
         const int32_t *v = s->N + 3 * i;
         const double *a = P(s, v[0]), *b = P(s, v[1]), *c = P(s, v[2]);
-        if (!normal(a, b, c, nn + 3 * i)) { dbg_rej[1]++; return 0; }
+        if (!normal(a, b, c, nn + 3 * i)) return 0;
         const double *r = s->nref + 3 * i, *n = nn + 3 * i;
-        if (n[0] * r[0] + n[1] * r[1] + n[2] * r[2] < TURN_COS) { dbg_rej[2]++; return 0; }
+        if (n[0] * r[0] + n[1] * r[1] + n[2] * r[2] < TURN_COS) return 0;
         double q = quality(a, b, c);
-        if (q < qfloor) { dbg_rej[3]++; return 0; }
-        if (!s->fine[s->norig[i]] && edge_ratio3(a, b, c) < ASPECT) { dbg_rej[4]++; return 0; }
+        if (q < qfloor) return 0;
+        double er = edge_ratio3(a, b, c);
+        if (!s->fine[s->norig[i]] && er < ASPECT) return 0;
+        s->newbad += er < ASPECT;
         s->newq = fmin(s->newq, q);
     }
     /* every edge once each way; the bend across it */
@@ -388,15 +407,19 @@ static int acceptable(imp *s, double qfloor) {
             if (outside_dir(s, w, u, &other)) {
                 twins++;
                 const int32_t *g = s->t + 3 * (size_t)other;
-                if (!normal(P(s, g[0]), P(s, g[1]), P(s, g[2]), n3)) { dbg_rej[5]++; return 0; }
+                if (!normal(P(s, g[0]), P(s, g[1]), P(s, g[2]), n3)) return 0;
                 n2 = n3;
             }
-            if (same || twins != 1) { dbg_rej[6]++; return 0; }
+            if (same || twins != 1) return 0;
             const double *n = nn + 3 * i;
             bend = fmax(bend, 1 - (n[0] * n2[0] + n[1] * n2[1] + n[2] * n2[2]));
         }
     }
-    if (bend > BEND_FREE && bend > old_bend(s) + 1e-12) { dbg_rej[7]++; return 0; }
+    if (bend > BEND_FREE) {
+        double one, two;
+        old_bend(s, &one, &two);
+        if (bend > two + 1e-12 || (bend > BEND_MAX && bend > one + 1e-12)) return 0;
+    }
     /* the mesh within eps of the fine surface (sampled as in the refinement) */
     for (int i = 0; i < s->nn; i++) {
         const int32_t *v = s->N + 3 * i;
@@ -405,7 +428,7 @@ static int acceptable(imp *s, double qfloor) {
             double q[3];
             for (int k = 0; k < 3; k++)
                 q[k] = bary[b][0] * p[0][k] + bary[b][1] * p[1][k] + bary[b][2] * p[2][k];
-            if (!fine_near(s, q, s->eps)) { dbg_rej[8]++; return 0; }
+            if (!fine_near(s, q, s->eps)) return 0;
         }
     }
     /* the fine surface within eps of the mesh: the fine vertices the old star covered */
@@ -421,7 +444,7 @@ static int acceptable(imp *s, double qfloor) {
         const double *p = s->m->x + 3 * (size_t)s->vitem[r];
         if (star_dist(s, p, 1) <= s->eps && star_dist(s, p, 0) > s->eps &&
             !other_near(s, p, s->eps))
-            { dbg_rej[9]++; return 0; }
+            return 0;
     }
     /* no crossing with the triangles around, nor among the new ones */
     for (int i = 0; i < s->nn; i++) {
@@ -437,12 +460,12 @@ static int acceptable(imp *s, double qfloor) {
             s->stamp[t] = s->now;
             const int32_t *g = s->t + 3 * (size_t)t;
             const double *pg[3] = {P(s, g[0]), P(s, g[1]), P(s, g[2])};
-            if (crosses(s, p, v, pg, g)) { dbg_rej[10]++; return 0; }
+            if (crosses(s, p, v, pg, g)) return 0;
         }
         for (int j = i + 1; j < s->nn; j++) {
             const int32_t *g = s->N + 3 * j;
             const double *pg[3] = {P(s, g[0]), P(s, g[1]), P(s, g[2])};
-            if (crosses(s, p, v, pg, g)) { dbg_rej[11]++; return 0; }
+            if (crosses(s, p, v, pg, g)) return 0;
         }
     }
     return 1;
@@ -476,6 +499,16 @@ static double star_quality(const imp *s) {
         q = fmin(q, quality(s->x + 3 * (size_t)v[0], s->x + 3 * (size_t)v[1], s->x + 3 * (size_t)v[2]));
     }
     return q;
+}
+
+/* Triangles of S below the edge ratio 0.3 */
+static int star_bad(const imp *s) {
+    int n = 0;
+    for (int i = 0; i < s->ns; i++) {
+        const int32_t *v = s->t + 3 * (size_t)s->S[i];
+        n += edge_ratio3(s->x + 3 * (size_t)v[0], s->x + 3 * (size_t)v[1], s->x + 3 * (size_t)v[2]) < ASPECT;
+    }
+    return n;
 }
 
 /* The two triangles at edge a-b (a -> b in *t1), 0 when not an edge. */
@@ -559,9 +592,11 @@ static int try_contract(imp *s, int32_t a, int32_t b) {
         star_clear(s);
         return 0;
     }
-    /* below the good quality 1 a contraction must raise the star's worst triangle: it
-     * replaces every triangle of the star */
-    double q0 = star_quality(s), qfloor = q0 < 1 ? q0 * 1.02 + 1e-6 : 1, best = -1, bp[3];
+    /* a contraction replaces every triangle of the star: below the good quality 1 it must
+     * raise the worst one, or leave fewer triangles below the edge ratio 0.3 and the worst
+     * one nearly as good (it removes a vertex, so this cannot cycle) */
+    int bad0 = star_bad(s);
+    double q0 = star_quality(s), qfloor = fmin(1, 0.95 * q0), best = -1, bp[3];
     int32_t bk = -1;
     double mid[3], q[3], fn[3], sn[3] = {0, 0, 0};
     for (int k = 0; k < 3; k++) mid[k] = 0.5 * (s->x[3 * (size_t)a + k] + s->x[3 * (size_t)b + k]);
@@ -580,7 +615,9 @@ static int try_contract(imp *s, int32_t a, int32_t b) {
         contract_star(s, keep, gone, t1, t2);
         s->ov = keep;
         memcpy(s->op, pos, sizeof s->op);
-        if (acceptable(s, qfloor) && s->newq > best) best = s->newq, bk = cand, memcpy(bp, pos, sizeof bp);
+        if (acceptable(s, qfloor) && (s->newq >= fmin(1, 1.02 * q0) || s->newbad < bad0) &&
+            s->newq > best)
+            best = s->newq, bk = cand, memcpy(bp, pos, sizeof bp);
         s->ov = -1;
     }
     int done = 0;
@@ -633,12 +670,12 @@ static int try_move(imp *s, int32_t v) {
     if (!any || l->n > MAXS) return 0;
     star_clear(s);
     star_add(s, v);
-    double cen[3] = {0, 0, 0}, sn[3] = {0, 0, 0}, emin = INFINITY;
+    double cen[3] = {0, 0, 0}, sn[3] = {0, 0, 0}, emean = 0;
     for (int i = 0; i < s->ns; i++) {
         const int32_t *g = s->t + 3 * (size_t)s->S[i];
         int32_t u = g[0] == v ? g[1] : g[1] == v ? g[2] : g[0]; /* each ring vertex once */
         for (int k = 0; k < 3; k++) cen[k] += s->x[3 * (size_t)u + k] / s->ns;
-        emin = fmin(emin, dist2(s->x + 3 * (size_t)u, s->x + 3 * (size_t)v));
+        emean += sqrt(dist2(s->x + 3 * (size_t)u, s->x + 3 * (size_t)v)) / s->ns;
         normal(s->x + 3 * (size_t)g[0], s->x + 3 * (size_t)g[1], s->x + 3 * (size_t)g[2],
                s->nref + 3 * i);
         for (int k = 0; k < 3; k++) sn[k] += s->nref[3 * i + k];
@@ -646,17 +683,33 @@ static int try_move(imp *s, int32_t v) {
         s->norig[i] = s->S[i];
     }
     s->nn = s->ns;
-    double q[3], fn[3];
+    double q[3], fn[3], q0 = star_quality(s), tgt[3];
     int done = 0;
-    double step = sqrt(dist2(cen, s->x + 3 * (size_t)v));
-    if (step > 1e-6 * sqrt(emin) &&
-        fine_project(s, cen, fmax(s->eps, step), q, fn) &&
-        fn[0] * sn[0] + fn[1] * sn[1] + fn[2] * sn[2] > 0 &&
-        dist2(q, s->x + 3 * (size_t)v) < 0.25 * emin) {
-        double q0 = star_quality(s);
+    /* the centroid, else halfway, else a quarter of the way there, projected; a vertex of
+     * a triangle below the edge ratio 0.3 may also stay off the fine surface, within half
+     * the error (a neck of a few hundredths of a voxel is widened so) */
+    int thin = star_bad(s) > 0;
+    for (int k = 0; !done && k < (thin ? 5 : 3); k++) {
+        double frac = k < 3 ? ldexp(1, -k) : ldexp(1, 3 - k);
+        for (int a = 0; a < 3; a++)
+            tgt[a] = s->x[3 * (size_t)v + a] + frac * (cen[a] - s->x[3 * (size_t)v + a]);
+        double step = sqrt(dist2(tgt, s->x + 3 * (size_t)v));
+        if (!(step > 1e-6 * emean)) continue;
+        if (k < 3) {
+            /* a step of at most half the mean edge: the projection must not jump to
+             * another sheet */
+            if (!fine_project(s, tgt, fmax(s->eps, step), q, fn) ||
+                fn[0] * sn[0] + fn[1] * sn[1] + fn[2] * sn[2] <= 0 ||
+                dist2(q, s->x + 3 * (size_t)v) >= 0.25 * emean * emean)
+                continue;
+        } else {
+            if (!fine_near(s, tgt, 0.5 * s->eps)) continue;
+            memcpy(q, tgt, sizeof q);
+        }
         s->ov = v;
         memcpy(s->op, q, sizeof q);
         if (acceptable(s, q0 + 1e-3)) done = apply(s) ? -1 : 1;
+        s->ov = -1;
     }
     star_clear(s);
     return done;
@@ -777,39 +830,6 @@ vm_status vm__cover_improve(const vm__cover_fine *m, double eps, double *x, size
         if (st) st->contractions += c, st->flips += f, st->moves += mv, st->rounds++;
         if (c + f + mv == 0) break;
     }
-    if (getenv("VOLMESH_COVER_DEBUG")) {
-        size_t hist[4] = {0, 0, 0, 0}, bad = 0;
-        for (size_t t = 0; t < s.nt; t++) {
-            if (s.tdead[t] || !s.fine[t]) continue;
-            const int32_t *g = s.t + 3 * t;
-            if (edge_ratio3(s.x + 3 * (size_t)g[0], s.x + 3 * (size_t)g[1], s.x + 3 * (size_t)g[2]) >= ASPECT) continue;
-            bad++;
-            int k = 0;
-            for (int e = 0; e < 3; e++) {
-                int32_t t1, t2;
-                edge_tris(&s, g[e], g[(e + 1) % 3], &t1, &t2);
-                if (!s.fine[t2]) k++;
-            }
-            hist[k]++;
-        }
-        memset(dbg_rej, 0, sizeof dbg_rej);
-        size_t fixed = 0, nolink = 0;
-        for (size_t t = 0; t < s.nt; t++) {
-            if (s.tdead[t] || !s.fine[t]) continue;
-            const int32_t *g = s.t + 3 * t;
-            if (edge_ratio3(s.x + 3 * (size_t)g[0], s.x + 3 * (size_t)g[1], s.x + 3 * (size_t)g[2]) >= ASPECT) continue;
-            int eb = 0; double lb = INFINITY;
-            for (int e = 0; e < 3; e++) { double l = dist2(s.x + 3 * (size_t)g[e], s.x + 3 * (size_t)g[(e + 1) % 3]); if (l < lb) lb = l, eb = e; }
-            int32_t a = g[eb], b = g[(eb + 1) % 3], t1, t2;
-            edge_tris(&s, a, b, &t1, &t2);
-            if (!link_ok(&s, a, b, third(s.t + 3 * (size_t)t1, a, b), third(s.t + 3 * (size_t)t2, a, b))) { nolink++; continue; }
-            size_t before[32]; memcpy(before, dbg_rej, sizeof before);
-            fixed += (size_t)try_contract(&s, a, b);
-        }
-        fprintf(stderr, "diag: fixed %zu nolink %zu\n", fixed, nolink);
-        for (int i = 0; i < 32; i++) if (dbg_rej[i]) fprintf(stderr, "diag rej %d: %zu\n", i, dbg_rej[i]);
-        fprintf(stderr, "bad %zu: covered-neighbour edges 0:%zu 1:%zu 2:%zu 3:%zu\n", bad, hist[0], hist[1], hist[2], hist[3]);
-    }
     if (!r) { /* compact: live vertices and triangles in their order */
         int32_t *map = malloc((s.nv + 1) * sizeof *map);
         if (!map) {
@@ -837,7 +857,6 @@ vm_status vm__cover_improve(const vm__cover_fine *m, double eps, double *x, size
             free(map);
         }
     }
-    if (getenv("VOLMESH_COVER_DEBUG")) for (int i = 0; i < 32; i++) if (dbg_rej[i]) fprintf(stderr, "rej %d: %zu\n", i, dbg_rej[i]);
     imp_free(&s);
     return r;
 }
