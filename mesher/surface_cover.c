@@ -1348,8 +1348,7 @@ static void cover_free(cover *c) {
 /* Appends the points x (3 np, scaled space; output x / scale[a]) and triangles tri (3 ntri)
  * to surf, with the cell field cover_fine = kept[t]. */
 static vm_status emit(const double *x, size_t np, const double *scale, const int32_t *tri,
-                      size_t ntri, const uint8_t *kept, vm_mesh *surf, size_t *nkept,
-                      vm_error *err) {
+                      size_t ntri, const uint8_t *kept, vm_mesh *surf, vm_error *err) {
     vm_status s = vm_mesh_reserve(surf, surf->npoints + np, surf->ncells + ntri, err);
     size_t base = surf->npoints;
     for (size_t i = 0; !s && i < np; i++) {
@@ -1365,10 +1364,7 @@ static vm_status emit(const double *x, size_t np, const double *scale, const int
     if (!s && !f) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
     if (!s) {
         for (size_t t = 0; t < surf->ncells; t++) f[t] = 0;
-        for (size_t t = 0; t < ntri; t++) {
-            f[surf->ncells - ntri + t] = kept[t];
-            *nkept += kept[t];
-        }
+        for (size_t t = 0; t < ntri; t++) f[surf->ncells - ntri + t] = kept[t];
         s = vm_mesh_set_field(surf, 1, "cover_fine", 1, f, err);
     }
     free(f);
@@ -1376,11 +1372,10 @@ static vm_status emit(const double *x, size_t np, const double *scale, const int
 }
 
 /* The final triangles: the dual (seed indices into seeds; NULL seeds: every fine vertex),
- * improved where kept fine unless o->improve is 0, appended to surf. Cell field cover_fine:
- * 1 on triangles kept from the fine surface or at its seam (a corner is a forced seed) —
- * after the improvement pass only those still below the edge ratio 0.3. */
-static vm_status finish(const vm__cover_fine *m, const vm_surface_options *o, double eps,
-                        const double *scale, const int32_t *seeds, const uint8_t *forced,
+ * appended to surf. Cell field cover_fine: 1 on triangles kept from the fine surface or at
+ * its seam (a corner is a forced seed); *nkept counts them. */
+static vm_status finish(const vm__cover_fine *m, const double *scale, const int32_t *seeds,
+                        const uint8_t *forced,
                         size_t ns, const int32_t *tri, size_t ntri, vm_mesh *surf,
                         size_t *nkept, vm_error *err) {
     double *x = malloc((3 * ns + 1) * sizeof *x);
@@ -1400,10 +1395,8 @@ static vm_status finish(const vm__cover_fine *m, const vm_surface_options *o, do
         }
         any += kept[k];
     }
-    if (!s && any && o->improve) {
-        s = vm__cover_improve(m, eps, x, &ns, t, &ntri, kept, NULL, err);
-    }
-    if (!s) s = emit(x, ns, scale, t, ntri, kept, surf, nkept, err);
+    *nkept += any;
+    if (!s) s = emit(x, ns, scale, t, ntri, kept, surf, err);
     free(x);
     free(t);
     free(kept);
@@ -1582,14 +1575,13 @@ static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options 
     }
     if (!s) {
         if (best_tri)
-            s = finish(&m, o, c.eps, out_scale, best_seeds, best_forced, best_ns, best_tri,
-                       best_nt, surf, kept, err);
+            s = finish(&m, out_scale, best_seeds, best_forced, best_ns, best_tri, best_nt, surf,
+                       kept, err);
         else if (!(all_forced = malloc(nv + 1)))
             s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
         else { /* no valid covering: the fine surface itself, which is one */
             memset(all_forced, 1, nv);
-            s = finish(&m, o, c.eps, out_scale, NULL, all_forced, m.nv, m.f, m.nf, surf, kept,
-                       err);
+            s = finish(&m, out_scale, NULL, all_forced, m.nv, m.f, m.nf, surf, kept, err);
         }
     }
     free(best_seeds);
@@ -1598,6 +1590,51 @@ static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options 
     free(best_forced);
     free(all_forced);
     cover_free(&c);
+    vm__cover_fine_free(&m);
+    return s;
+}
+
+/* The improvement pass (surface_cover_improve.c) on surf, the result at sampling k[a] of g
+ * with lengths measured by scale[a]: it rebuilds that fine surface (cheap next to the
+ * covering) and replaces surf by the improved mesh. Run once, on the returned sampling. */
+static vm_status improve_result(const vm__surface_grid *g, const vm_surface_options *o,
+                                const double scale[3], const int k[3], vm_mesh *surf,
+                                vm_error *err) {
+    const vm_field *fl = vm_mesh_find_field(surf, 1, "cover_fine");
+    size_t nt = surf->ncells, nv = surf->npoints, any = 0;
+    for (size_t t = 0; fl && t < nt; t++) any += fl->data[t] != 0;
+    if (!any) return VM_OK;
+    vm__surface_grid g2;
+    float *buf = NULL;
+    vm_status s = vm__cover_supersample(g, k, &g2, &buf, err);
+    if (s) return s;
+    double sc[3];
+    for (int a = 0; a < 3; a++) sc[a] = scale[a] / k[a];
+    vm__cover_fine m;
+    s = vm__cover_fine_build(&g2, sc, &m, err);
+    free(buf);
+    if (s) return s;
+    double *x = malloc((3 * nv + 1) * sizeof *x);
+    int32_t *tri = malloc((3 * nt + 1) * sizeof *tri);
+    uint8_t *kept = malloc(nt + 1);
+    if (!x || !tri || !kept) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    for (size_t v = 0; !s && v < nv; v++)
+        for (int a = 0; a < 3; a++) x[3 * v + a] = surf->points[3 * v + a] * scale[a];
+    for (size_t t = 0; !s && t < nt; t++) {
+        for (int e = 0; e < 3; e++) tri[3 * t + e] = (int32_t)surf->cells[3 * t + e];
+        kept[t] = fl->data[t] != 0;
+    }
+    if (!s) s = vm__cover_improve(&m, o->error, x, &nv, tri, &nt, kept, NULL, err);
+    vm_mesh out;
+    vm_mesh_init(&out, VM_TRI3);
+    if (!s) s = emit(x, nv, scale, tri, nt, kept, &out, err);
+    if (!s) {
+        vm_mesh_free(surf);
+        *surf = out;
+    } else {
+        vm_mesh_free(&out);
+    }
+    free(x), free(tri), free(kept);
     vm__cover_fine_free(&m);
     return s;
 }
@@ -1670,6 +1707,7 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
             vm_mesh_free(&m);
         }
     }
+    if (!s && have && o->improve) s = improve_result(g, o, scale, st->supersample, &best, err);
     if (s) {
         if (have) vm_mesh_free(&best);
         return s;

@@ -370,8 +370,9 @@ static int crosses(const imp *s, const double *const a[3], const int32_t *ia,
 
 /* Whether the change S -> N passes: no degenerate or turned triangle, every new triangle's
  * quality at least qfloor (covered ones also keep the edge ratio 0.3), a manifold without
- * duplicate edges, no sharper crease, the error both ways, no crossing. Sets s->newq. */
-static int acceptable(imp *s, double qfloor) {
+ * duplicate edges, no sharper crease; when full, also the error both ways and no crossing
+ * (the costly part). Sets s->newq and s->newbad. */
+static int acceptable(imp *s, double qfloor, int full) {
     static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3}, {.5, .5, 0}, {0, .5, .5},
                                       {.5, 0, .5}, {2. / 3, 1. / 6, 1. / 6},
                                       {1. / 6, 2. / 3, 1. / 6}, {1. / 6, 1. / 6, 2. / 3}};
@@ -420,6 +421,7 @@ static int acceptable(imp *s, double qfloor) {
         old_bend(s, &one, &two);
         if (bend > two + 1e-12 || (bend > BEND_MAX && bend > one + 1e-12)) return 0;
     }
+    if (!full) return 1;
     /* the mesh within eps of the fine surface (sampled as in the refinement) */
     for (int i = 0; i < s->nn; i++) {
         const int32_t *v = s->N + 3 * i;
@@ -442,7 +444,7 @@ static int acceptable(imp *s, double qfloor) {
     grange(s, lo, hi, i0, i1);
     FOR_CELLS(s, i0, i1, c) for (size_t r = s->voff[c]; r < s->voff[c + 1]; r++) {
         const double *p = s->m->x + 3 * (size_t)s->vitem[r];
-        if (star_dist(s, p, 1) <= s->eps && star_dist(s, p, 0) > s->eps &&
+        if (star_dist(s, p, 0) > s->eps && star_dist(s, p, 1) <= s->eps &&
             !other_near(s, p, s->eps))
             return 0;
     }
@@ -596,8 +598,7 @@ static int try_contract(imp *s, int32_t a, int32_t b) {
      * raise the worst one, or leave fewer triangles below the edge ratio 0.3 and the worst
      * one nearly as good (it removes a vertex, so this cannot cycle) */
     int bad0 = star_bad(s);
-    double q0 = star_quality(s), qfloor = fmin(1, 0.95 * q0), best = -1, bp[3];
-    int32_t bk = -1;
+    double q0 = star_quality(s), qfloor = fmin(1, 0.95 * q0);
     double mid[3], q[3], fn[3], sn[3] = {0, 0, 0};
     for (int k = 0; k < 3; k++) mid[k] = 0.5 * (s->x[3 * (size_t)a + k] + s->x[3 * (size_t)b + k]);
     for (int i = 0; i < s->ns; i++) {
@@ -608,25 +609,33 @@ static int try_contract(imp *s, int32_t a, int32_t b) {
     }
     int have_mid = fine_project(s, mid, fmax(s->eps, sqrt(dist2(mid, s->x + 3 * (size_t)a))), q, fn) &&
                    fn[0] * sn[0] + fn[1] * sn[1] + fn[2] * sn[2] > 0;
+    /* the cheap checks for the three places, then the costly ones from the best down */
+    double cq[3] = {-1, -1, -1};
     for (int cand = 0; cand < 3; cand++) {
-        int32_t keep = cand == 1 ? b : a, gone = cand == 1 ? a : b;
-        const double *pos = cand == 0 ? s->x + 3 * (size_t)a : cand == 1 ? s->x + 3 * (size_t)b : q;
         if (cand == 2 && !have_mid) continue;
+        int32_t keep = cand == 1 ? b : a, gone = cand == 1 ? a : b;
         contract_star(s, keep, gone, t1, t2);
         s->ov = keep;
-        memcpy(s->op, pos, sizeof s->op);
-        if (acceptable(s, qfloor) && (s->newq >= fmin(1, 1.02 * q0) || s->newbad < bad0) &&
-            s->newq > best)
-            best = s->newq, bk = cand, memcpy(bp, pos, sizeof bp);
+        memcpy(s->op, cand == 0 ? s->x + 3 * (size_t)a : cand == 1 ? s->x + 3 * (size_t)b : q,
+               sizeof s->op);
+        if (acceptable(s, qfloor, 0) && (s->newq >= fmin(1, 1.02 * q0) || s->newbad < bad0))
+            cq[cand] = s->newq;
         s->ov = -1;
     }
     int done = 0;
-    if (bk >= 0) {
+    for (int round = 0; round < 3 && !done; round++) {
+        int bk = -1;
+        for (int cand = 0; cand < 3; cand++)
+            if (cq[cand] >= 0 && (bk < 0 || cq[cand] > cq[bk])) bk = cand;
+        if (bk < 0) break;
+        cq[bk] = -1;
         int32_t keep = bk == 1 ? b : a, gone = bk == 1 ? a : b;
         contract_star(s, keep, gone, t1, t2);
         s->ov = keep;
-        memcpy(s->op, bp, sizeof bp);
-        done = apply(s) ? -1 : 1;
+        memcpy(s->op, bk == 0 ? s->x + 3 * (size_t)a : bk == 1 ? s->x + 3 * (size_t)b : q,
+               sizeof s->op);
+        if (acceptable(s, qfloor, 1)) done = apply(s) ? -1 : 1;
+        s->ov = -1;
     }
     star_clear(s);
     return done;
@@ -655,7 +664,7 @@ static int try_flip(imp *s, int32_t a, int32_t b) {
     int done = 0;
     if (ok && l > 1e-9) {
         for (int k = 0; k < 3; k++) s->nref[k] = s->nref[3 + k] = avg[k] / l;
-        if (acceptable(s, q0 * 1.05 + 1e-9)) done = apply(s) ? -1 : 1;
+        if (acceptable(s, q0 * 1.05 + 1e-9, 1)) done = apply(s) ? -1 : 1;
     }
     star_clear(s);
     return done;
@@ -708,7 +717,7 @@ static int try_move(imp *s, int32_t v) {
         }
         s->ov = v;
         memcpy(s->op, q, sizeof q);
-        if (acceptable(s, q0 + 1e-3)) done = apply(s) ? -1 : 1;
+        if (acceptable(s, q0 + 1e-3, 1)) done = apply(s) ? -1 : 1;
         s->ov = -1;
     }
     star_clear(s);
