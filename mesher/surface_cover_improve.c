@@ -857,9 +857,11 @@ vm_status vm__cover_improve(const vm__cover_fine *m, double eps, double *x, size
                 if (s.tdead[t]) continue;
                 for (int e = 0; e < 3; e++) tri[3 * k + e] = map[tri[3 * t + e]];
                 const int32_t *g = tri + 3 * k;
-                /* still flagged: kept fine and below the paper's edge ratio */
+                /* still flagged: kept fine and below the paper's edge ratio (a relative
+                 * millionth above it too, so that the ratio recomputed from the output's
+                 * rounded world coordinates cannot fall below 0.3 unflagged) */
                 fine[k] = s.fine[t] && edge_ratio3(x + 3 * (size_t)g[0], x + 3 * (size_t)g[1],
-                                                   x + 3 * (size_t)g[2]) < ASPECT;
+                                                   x + 3 * (size_t)g[2]) < ASPECT * (1 + 1e-6);
                 k++;
             }
             *nt = k;
