@@ -715,7 +715,7 @@ static void error_both_ways(const vm_volume *v, double iso, const vm_mesh *m, do
 /* The improvement pass over the kept-fine triangles (docs/SURFACE_COVER.md, "The
  * improvement pass") on the MR head box: the same closed, oriented, manifold surface
  * topology as without it (Euler characteristic, components), no crossings, far fewer
- * triangles and triangles below the edge ratio 0.3, cover_fine on exactly those, and the
+ * triangles and triangles below the edge ratio 0.3, cover_fine on every one of those, and the
  * error both ways no larger than without the pass (within the error parameter). */
 static void improvement_pass_keeps_the_topology_and_removes_thin_triangles(void) {
     if (sanitized()) { /* the box test above runs the pass under the sanitizers */
