@@ -90,7 +90,8 @@ static int normal(const double *a, const double *b, const double *c, double n[3]
     n[1] = u[2] * w[0] - u[0] * w[2];
     n[2] = u[0] * w[1] - u[1] * w[0];
     double l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    double scale = u[0] * u[0] + u[1] * u[1] + u[2] * u[2] + w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    double scale =
+        u[0] * u[0] + u[1] * u[1] + u[2] * u[2] + w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
     if (!(l > 1e-12 * scale) || !(l > 0)) return 0;
     for (int k = 0; k < 3; k++) n[k] /= l;
     return 1;
@@ -438,7 +439,8 @@ static int acceptable(imp *s, double qfloor, int full) {
     for (int i = 0; i < s->ns; i++)
         for (int e = 0; e < 3; e++) {
             const double *x = s->x + 3 * (size_t)s->t[3 * (size_t)s->S[i] + e];
-            for (int a = 0; a < 3; a++) lo[a] = fmin(lo[a], x[a] - s->eps), hi[a] = fmax(hi[a], x[a] + s->eps);
+            for (int a = 0; a < 3; a++)
+                lo[a] = fmin(lo[a], x[a] - s->eps), hi[a] = fmax(hi[a], x[a] + s->eps);
         }
     int64_t i0[3], i1[3];
     grange(s, lo, hi, i0, i1);
@@ -498,7 +500,8 @@ static double star_quality(const imp *s) {
     double q = INFINITY;
     for (int i = 0; i < s->ns; i++) {
         const int32_t *v = s->t + 3 * (size_t)s->S[i];
-        q = fmin(q, quality(s->x + 3 * (size_t)v[0], s->x + 3 * (size_t)v[1], s->x + 3 * (size_t)v[2]));
+        q = fmin(q, quality(s->x + 3 * (size_t)v[0], s->x + 3 * (size_t)v[1],
+                            s->x + 3 * (size_t)v[2]));
     }
     return q;
 }
@@ -508,7 +511,8 @@ static int star_bad(const imp *s) {
     int n = 0;
     for (int i = 0; i < s->ns; i++) {
         const int32_t *v = s->t + 3 * (size_t)s->S[i];
-        n += edge_ratio3(s->x + 3 * (size_t)v[0], s->x + 3 * (size_t)v[1], s->x + 3 * (size_t)v[2]) < ASPECT;
+        n += edge_ratio3(s->x + 3 * (size_t)v[0], s->x + 3 * (size_t)v[1],
+                         s->x + 3 * (size_t)v[2]) < ASPECT;
     }
     return n;
 }
@@ -607,7 +611,8 @@ static int try_contract(imp *s, int32_t a, int32_t b) {
         if (normal(s->x + 3 * (size_t)v[0], s->x + 3 * (size_t)v[1], s->x + 3 * (size_t)v[2], n))
             for (int k = 0; k < 3; k++) sn[k] += n[k];
     }
-    int have_mid = fine_project(s, mid, fmax(s->eps, sqrt(dist2(mid, s->x + 3 * (size_t)a))), q, fn) &&
+    double reach = fmax(s->eps, sqrt(dist2(mid, s->x + 3 * (size_t)a)));
+    int have_mid = fine_project(s, mid, reach, q, fn) &&
                    fn[0] * sn[0] + fn[1] * sn[1] + fn[2] * sn[2] > 0;
     /* the cheap checks for the three places, then the costly ones from the best down */
     double cq[3] = {-1, -1, -1};
@@ -656,9 +661,7 @@ static int try_flip(imp *s, int32_t a, int32_t b) {
     memcpy(s->N, nv, sizeof nv);
     s->norig[0] = t1, s->norig[1] = t2, s->nn = 2;
     double n1[3], n2[3];
-    const int32_t *v1 = s->t + 3 * (size_t)t1, *v2 = s->t + 3 * (size_t)t2;
-    int ok = normal(s->x + 3 * (size_t)v1[0], s->x + 3 * (size_t)v1[1], s->x + 3 * (size_t)v1[2], n1) &&
-             normal(s->x + 3 * (size_t)v2[0], s->x + 3 * (size_t)v2[1], s->x + 3 * (size_t)v2[2], n2);
+    int ok = tri_normal(s, t1, n1) && tri_normal(s, t2, n2);
     double avg[3] = {n1[0] + n2[0], n1[1] + n2[1], n1[2] + n2[2]};
     double l = sqrt(avg[0] * avg[0] + avg[1] * avg[1] + avg[2] * avg[2]);
     int done = 0;
@@ -748,7 +751,9 @@ static cand *fine_edges(const imp *s, size_t *n) {
         const int32_t *v = s->t + 3 * t;
         for (int e = 0; e < 3; e++) {
             int32_t a = v[e], b = v[(e + 1) % 3];
-            if (a < b) c[k].a = a, c[k].b = b, c[k++].len = dist2(s->x + 3 * (size_t)a, s->x + 3 * (size_t)b);
+            if (a < b)
+                c[k].a = a, c[k].b = b,
+                c[k++].len = dist2(s->x + 3 * (size_t)a, s->x + 3 * (size_t)b);
         }
     }
     qsort(c, k, sizeof *c, cmp_cand);
@@ -800,7 +805,8 @@ static vm_status setup(imp *s, vm_error *err) {
     s->smark = calloc(s->nt + 1, 1);
     s->stamp = calloc(s->nt + 1, sizeof *s->stamp);
     s->ov = -1;
-    if (!s->vt || !s->cell || !s->tdead || !s->smark || !s->stamp || grid_static(s, 1, &s->foff, &s->fitem) ||
+    if (!s->vt || !s->cell || !s->tdead || !s->smark || !s->stamp ||
+        grid_static(s, 1, &s->foff, &s->fitem) ||
         grid_static(s, 0, &s->voff, &s->vitem))
         return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (improvement pass)");
     for (size_t t = 0; t < s->nt; t++) {
