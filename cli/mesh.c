@@ -67,7 +67,8 @@ static const char *mesh_help =
     "  --denoise M             smooth the volume first: bilateral or diffusion (parameters\n"
     "                          from the data; see volmesh denoise for control)\n"
     "  --no-improve            skip the quality pass (tets: edge contraction, flips, smoothing;\n"
-    "                          hexes: boundary pillow layer, untangling, smoothing)\n"
+    "                          hexes: boundary pillow layer, untangling, smoothing;\n"
+    "                          tri --method cover: the pass over the kept-fine triangles)\n"
     ;
 static const char *mesh_help2 =
     "  --quality-fields        add per-cell quality arrays (min_dihedral, radius_ratio, ...)\n"

@@ -1345,15 +1345,14 @@ static void cover_free(cover *c) {
     for (int l = 0; l < LEVELS; l++) free(c->bins[l]);
 }
 
-/* Appends triangles (seed indices into seeds) to surf. */
-static vm_status emit(const vm__cover_fine *m, const double *scale, const int32_t *seeds,
-                      const uint8_t *forced, size_t ns, const int32_t *tri, size_t ntri,
-                      vm_mesh *surf, size_t *nkept, vm_error *err) {
-    vm_status s = vm_mesh_reserve(surf, surf->npoints + ns, surf->ncells + ntri, err);
+/* Appends the points x (3 np, scaled space; output x / scale[a]) and triangles tri (3 ntri)
+ * to surf, with the cell field cover_fine = kept[t]. */
+static vm_status emit(const double *x, size_t np, const double *scale, const int32_t *tri,
+                      size_t ntri, const uint8_t *kept, vm_mesh *surf, vm_error *err) {
+    vm_status s = vm_mesh_reserve(surf, surf->npoints + np, surf->ncells + ntri, err);
     size_t base = surf->npoints;
-    for (size_t i = 0; !s && i < ns; i++) {
-        const double *x = m->x + 3 * (size_t)(seeds ? seeds[i] : (int32_t)i);
-        double q[3] = {x[0] / scale[0], x[1] / scale[1], x[2] / scale[2]};
+    for (size_t i = 0; !s && i < np; i++) {
+        double q[3] = {x[3 * i] / scale[0], x[3 * i + 1] / scale[1], x[3 * i + 2] / scale[2]};
         if (vm_mesh_add_point(surf, q, err) < 0) s = VM_ERR_NOMEM;
     }
     for (size_t t = 0; !s && t < ntri; t++) {
@@ -1361,27 +1360,48 @@ static vm_status emit(const vm__cover_fine *m, const double *scale, const int32_
         for (int e = 0; e < 3; e++) nodes[e] = (vm_index)(base + (size_t)tri[3 * t + e]);
         s = vm_mesh_add_cell(surf, nodes, 1, err);
     }
-    /* cell field cover_fine: 1 on triangles kept from the fine surface or at its seam (a
-     * corner is a forced seed), where the aspect bound does not hold */
-    double *kept = s ? NULL : malloc((surf->ncells + 1) * sizeof *kept);
-    if (!s && !kept) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    double *f = s ? NULL : malloc((surf->ncells + 1) * sizeof *f);
+    if (!s && !f) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
     if (!s) {
-        for (size_t t = 0; t < surf->ncells; t++) kept[t] = 0;
-        for (size_t t = 0; t < ntri; t++) {
-            int any = 0;
-            for (int e = 0; e < 3; e++) {
-                size_t q = (size_t)tri[3 * t + e];
-                if (forced[seeds ? (size_t)seeds[q] : q] == 1) any = 1;
-            }
-            kept[surf->ncells - ntri + t] = any;
-            *nkept += (size_t)any;
-        }
-        s = vm_mesh_set_field(surf, 1, "cover_fine", 1, kept, err);
+        for (size_t t = 0; t < surf->ncells; t++) f[t] = 0;
+        for (size_t t = 0; t < ntri; t++) f[surf->ncells - ntri + t] = kept[t];
+        s = vm_mesh_set_field(surf, 1, "cover_fine", 1, f, err);
     }
-    free(kept);
+    free(f);
     return s;
 }
 
+/* The final triangles: the dual (seed indices into seeds; NULL seeds: every fine vertex),
+ * appended to surf. Cell field cover_fine: 1 on triangles kept from the fine surface or at
+ * its seam (a corner is a forced seed); *nkept counts them. */
+static vm_status finish(const vm__cover_fine *m, const double *scale, const int32_t *seeds,
+                        const uint8_t *forced,
+                        size_t ns, const int32_t *tri, size_t ntri, vm_mesh *surf,
+                        size_t *nkept, vm_error *err) {
+    double *x = malloc((3 * ns + 1) * sizeof *x);
+    int32_t *t = malloc((3 * ntri + 1) * sizeof *t);
+    uint8_t *kept = malloc(ntri + 1);
+    vm_status s = VM_OK;
+    if (!x || !t || !kept) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    size_t any = 0;
+    for (size_t i = 0; !s && i < ns; i++)
+        memcpy(x + 3 * i, m->x + 3 * (size_t)(seeds ? seeds[i] : (int32_t)i), 3 * sizeof *x);
+    for (size_t k = 0; !s && k < ntri; k++) {
+        kept[k] = 0;
+        for (int e = 0; e < 3; e++) {
+            size_t q = (size_t)tri[3 * k + e];
+            t[3 * k + e] = tri[3 * k + e];
+            if (forced[seeds ? (size_t)seeds[q] : q] == 1) kept[k] = 1;
+        }
+        any += kept[k];
+    }
+    *nkept += any;
+    if (!s) s = emit(x, ns, scale, t, ntri, kept, surf, err);
+    free(x);
+    free(t);
+    free(kept);
+    return s;
+}
 
 /* One extraction on the samples of g, lengths measured with index steps scale[a] (in
  * voxels of the smallest original spacing); output points are x / out_scale[a] (the original
@@ -1555,13 +1575,13 @@ static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options 
     }
     if (!s) {
         if (best_tri)
-            s = emit(&m, out_scale, best_seeds, best_forced, best_ns, best_tri, best_nt, surf,
-                     kept, err);
+            s = finish(&m, out_scale, best_seeds, best_forced, best_ns, best_tri, best_nt, surf,
+                       kept, err);
         else if (!(all_forced = malloc(nv + 1)))
             s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
         else { /* no valid covering: the fine surface itself, which is one */
             memset(all_forced, 1, nv);
-            s = emit(&m, out_scale, NULL, all_forced, m.nv, m.f, m.nf, surf, kept, err);
+            s = finish(&m, out_scale, NULL, all_forced, m.nv, m.f, m.nf, surf, kept, err);
         }
     }
     free(best_seeds);
@@ -1570,6 +1590,51 @@ static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options 
     free(best_forced);
     free(all_forced);
     cover_free(&c);
+    vm__cover_fine_free(&m);
+    return s;
+}
+
+/* The improvement pass (surface_cover_improve.c) on surf, the result at sampling k[a] of g
+ * with lengths measured by scale[a]: it rebuilds that fine surface (cheap next to the
+ * covering) and replaces surf by the improved mesh. Run once, on the returned sampling. */
+static vm_status improve_result(const vm__surface_grid *g, const vm_surface_options *o,
+                                const double scale[3], const int k[3], vm_mesh *surf,
+                                vm_error *err) {
+    const vm_field *fl = vm_mesh_find_field(surf, 1, "cover_fine");
+    size_t nt = surf->ncells, nv = surf->npoints, any = 0;
+    for (size_t t = 0; fl && t < nt; t++) any += fl->data[t] != 0;
+    if (!any) return VM_OK;
+    vm__surface_grid g2;
+    float *buf = NULL;
+    vm_status s = vm__cover_supersample(g, k, &g2, &buf, err);
+    if (s) return s;
+    double sc[3];
+    for (int a = 0; a < 3; a++) sc[a] = scale[a] / k[a];
+    vm__cover_fine m;
+    s = vm__cover_fine_build(&g2, sc, &m, err);
+    free(buf);
+    if (s) return s;
+    double *x = malloc((3 * nv + 1) * sizeof *x);
+    int32_t *tri = malloc((3 * nt + 1) * sizeof *tri);
+    uint8_t *kept = malloc(nt + 1);
+    if (!x || !tri || !kept) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    for (size_t v = 0; !s && v < nv; v++)
+        for (int a = 0; a < 3; a++) x[3 * v + a] = surf->points[3 * v + a] * scale[a];
+    for (size_t t = 0; !s && t < nt; t++) {
+        for (int e = 0; e < 3; e++) tri[3 * t + e] = (int32_t)surf->cells[3 * t + e];
+        kept[t] = fl->data[t] != 0;
+    }
+    if (!s) s = vm__cover_improve(&m, o->error, x, &nv, tri, &nt, kept, NULL, err);
+    vm_mesh out;
+    vm_mesh_init(&out, VM_TRI3);
+    if (!s) s = emit(x, nv, scale, tri, nt, kept, &out, err);
+    if (!s) {
+        vm_mesh_free(surf);
+        *surf = out;
+    } else {
+        vm_mesh_free(&out);
+    }
+    free(x), free(tri), free(kept);
     vm__cover_fine_free(&m);
     return s;
 }
@@ -1642,6 +1707,7 @@ vm_status vm__surface_cover_scaled(const vm__surface_grid *g, const vm_surface_o
             vm_mesh_free(&m);
         }
     }
+    if (!s && have && o->improve) s = improve_result(g, o, scale, st->supersample, &best, err);
     if (s) {
         if (have) vm_mesh_free(&best);
         return s;

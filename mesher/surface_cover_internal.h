@@ -47,4 +47,20 @@ void vm__cover_fine_free(vm__cover_fine *m);
 vm_status vm__cover_supersample(const vm__surface_grid *g, const int k[3], vm__surface_grid *out,
                                 float **buf, vm_error *err);
 
+/* The improvement pass (surface_cover_improve.c) over the triangles kept from the fine
+ * surface. [in,out] x (3 nv, positions in the scaled space of m), tri (3 nt, vertex
+ * indices), fine (nt: 1 where a triangle may change, i.e. it was kept fine) are rewritten in
+ * place and *nv, *nt shrink: edge contractions under the link condition, flips and moves
+ * projected onto the fine surface, each kept only when the mesh stays within eps of the fine
+ * surface and the fine surface within eps of the mesh, with no flip-over, sharper crease,
+ * duplicate edge or crossing, and the covered triangles keep their edge ratio 0.3. On
+ * return fine[t] is 1 only for a kept-fine triangle still below the edge ratio 0.3.
+ * [out] st may be NULL. Deterministic (one thread, a fixed order). Errors: out of memory. */
+typedef struct vm__cover_improve_stats {
+    size_t contractions, flips, moves, rounds;
+} vm__cover_improve_stats;
+vm_status vm__cover_improve(const vm__cover_fine *m, double eps, double *x, size_t *nv,
+                            int32_t *tri, size_t *nt, uint8_t *fine, vm__cover_improve_stats *st,
+                            vm_error *err);
+
 #endif
