@@ -919,35 +919,19 @@ static void measure_moves(const vm__imp *w, const vm_volume *v, double *maxmove,
     }
 }
 
-vm_status vm__imp_sub_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
-                          const vm_improve_options *o, vm__imp_sub *x, int *passes,
-                          double *maxmove, double *maxiface, vm_error *err) {
-    memset(w, 0, sizeof *w);
-    vm_status s = imp_init(w, m, v, o, x, err);
-    vm_mesh_free(m);
-    free(x->p0);
-    x->p0 = NULL;
-    if (s == VM_OK && !vm__imp_guard_init(w))
-        s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the boundary guard");
-    free(w->bfaces);
-    w->bfaces = NULL;
-    if (s == VM_OK) {
-        run_passes(w, o, passes);
-        if (w->nomem) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-    }
-    if (s == VM_OK) measure_moves(w, v, maxmove, maxiface);
-    imp_free_rounds(w);
-    return s;
-}
-
-void vm__imp_sub_free(vm__imp *w) { imp_free(w); }
-
-/* The pass over the whole mesh at once (the only way before parts). */
-static vm_status one_pass(vm__imp *w, vm_mesh *m, const vm_volume *v,
-                          const vm_improve_options *o, int *passes, double *maxmove,
-                          double *maxiface, vm_error *err) {
+/* Sets w up for m, runs the rounds and measures the moves; the rounds' data is freed, the
+ * mesh data stays in w. For a part (x), m and x->p0 are freed as soon as w holds them (a
+ * part's options carry no progress callback, so show() draws nothing there). */
+static vm_status imp_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
+                         const vm_improve_options *o, vm__imp_sub *x, int *passes,
+                         double *maxmove, double *maxiface, vm_error *err) {
     show(o, 0.25 * SETUP_SHARE);
-    vm_status s = imp_init(w, m, v, o, NULL, err);
+    vm_status s = imp_init(w, m, v, o, x, err);
+    if (x) {
+        vm_mesh_free(m);
+        free(x->p0);
+        x->p0 = NULL;
+    }
     show(o, 0.75 * SETUP_SHARE);
     if (s == VM_OK && !vm__imp_guard_init(w))
         s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the boundary guard");
@@ -958,12 +942,26 @@ static vm_status one_pass(vm__imp *w, vm_mesh *m, const vm_volume *v,
         run_passes(w, o, passes);
         if (w->nomem) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
-    if (s == VM_OK) {
-        measure_moves(w, v, maxmove, maxiface);
-        imp_free_rounds(w);
-        s = write_back(w, m, o, err);
-    }
+    if (s == VM_OK) measure_moves(w, v, maxmove, maxiface);
+    imp_free_rounds(w);
     return s;
+}
+
+vm_status vm__imp_sub_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
+                          const vm_improve_options *o, vm__imp_sub *x, int *passes,
+                          double *maxmove, double *maxiface, vm_error *err) {
+    memset(w, 0, sizeof *w);
+    return imp_run(w, m, v, o, x, passes, maxmove, maxiface, err);
+}
+
+void vm__imp_sub_free(vm__imp *w) { imp_free(w); }
+
+/* The pass over the whole mesh at once (the only way before parts). */
+static vm_status one_pass(vm__imp *w, vm_mesh *m, const vm_volume *v,
+                          const vm_improve_options *o, int *passes, double *maxmove,
+                          double *maxiface, vm_error *err) {
+    vm_status s = imp_run(w, m, v, o, NULL, passes, maxmove, maxiface, err);
+    return s == VM_OK ? write_back(w, m, o, err) : s;
 }
 
 vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
