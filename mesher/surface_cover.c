@@ -1379,10 +1379,9 @@ static vm_status finish(const vm__cover_fine *m, const double *scale, const int3
                         size_t ns, const int32_t *tri, size_t ntri, vm_mesh *surf,
                         size_t *nkept, vm_error *err) {
     double *x = malloc((3 * ns + 1) * sizeof *x);
-    int32_t *t = malloc((3 * ntri + 1) * sizeof *t);
     uint8_t *kept = malloc(ntri + 1);
     vm_status s = VM_OK;
-    if (!x || !t || !kept) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    if (!x || !kept) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
     size_t any = 0;
     for (size_t i = 0; !s && i < ns; i++)
         memcpy(x + 3 * i, m->x + 3 * (size_t)(seeds ? seeds[i] : (int32_t)i), 3 * sizeof *x);
@@ -1390,15 +1389,13 @@ static vm_status finish(const vm__cover_fine *m, const double *scale, const int3
         kept[k] = 0;
         for (int e = 0; e < 3; e++) {
             size_t q = (size_t)tri[3 * k + e];
-            t[3 * k + e] = tri[3 * k + e];
             if (forced[seeds ? (size_t)seeds[q] : q] == 1) kept[k] = 1;
         }
         any += kept[k];
     }
     *nkept += any;
-    if (!s) s = emit(x, ns, scale, t, ntri, kept, surf, err);
+    if (!s) s = emit(x, ns, scale, tri, ntri, kept, surf, err);
     free(x);
-    free(t);
     free(kept);
     return s;
 }
