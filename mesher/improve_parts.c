@@ -14,21 +14,21 @@
  * share no tet and no vertex; each writes its tets into its own slots and its points, and
  * what it adds beyond its slots is appended in part order: the output does not depend on the
  * thread count. */
+#include "../core/core.h"
+#include "improve_internal.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include "../core/core.h"
-#include "improve_internal.h"
 
-#define AUTO_MIN 400000   /* tets: below this, one pass */
-#define AUTO_SIZE 100000  /* tets per part */
-#define HIST 4096         /* bins of the centroid histogram that places the slab borders */
-#define MIN_THICK 6.0     /* a slab is at least this many mean longest tet edges thick */
+#define AUTO_MIN 400000     /* tets: below this, one pass */
+#define AUTO_SIZE 100000    /* tets per part */
+#define HIST 4096           /* bins of the centroid histogram that places the slab borders */
+#define MIN_THICK 6.0       /* a slab is at least this many mean longest tet edges thick */
 #define MIN_THICK_ASKED 2.0 /* ... when the caller asked for a number of parts */
 #define DEAD_SLOT ((vm_index)-1)
-#define BAND_ROUNDS 4      /* most rounds over the tets left below the targets */
-#define RINGS 2           /* rings of free tets around each of them */
-#define GRID 128          /* cells a side of the grid that finds the tets near a part */
+#define BAND_ROUNDS 4 /* most rounds over the tets left below the targets */
+#define RINGS 2       /* rings of free tets around each of them */
+#define GRID 128      /* cells a side of the grid that finds the tets near a part */
 
 size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o) {
     /* slots are 32-bit; the tets flips add stay far below the slack */
@@ -43,14 +43,14 @@ size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o) {
 typedef struct pstate {
     vm_mesh *m;
     const vm_volume *v;
-    vm_improve_options o;   /* the caller's options without the progress callback */
+    vm_improve_options o; /* the caller's options without the progress callback */
     const vm_improve_options *uo;
-    size_t nt;              /* slots */
-    double *p0;             /* 3 per point: where the pass found it */
-    vm_index *par;          /* per slot: the input cell (only with cell fields) */
+    size_t nt;     /* slots */
+    double *p0;    /* 3 per point: where the pass found it */
+    vm_index *par; /* per slot: the input cell (only with cell fields) */
     double box[6];
-    double row[3];          /* with a volume: world displacement along each axis per voxel */
-    vm__imp qw;             /* the quality scales, for vm__imp_quality */
+    double row[3]; /* with a volume: world displacement along each axis per voxel */
+    vm__imp qw;    /* the quality scales, for vm__imp_quality */
     vm_improve_report *r;
 } pstate;
 
@@ -62,11 +62,11 @@ typedef struct job {
     const float *key;
     size_t nkey;
     unsigned seed;
-    uint32_t *ps;           /* slots of the part's tets, in order */
-    uint32_t *ls;           /* slots of the locked tets, in order */
+    uint32_t *ps; /* slots of the part's tets, in order */
+    uint32_t *ls; /* slots of the locked tets, in order */
     size_t nps, nls;
-    double zlo, zhi;        /* the z range it reads and writes */
-    vm_index (*xt)[4];      /* tets beyond its slots, appended after the batch */
+    double zlo, zhi;   /* the z range it reads and writes */
+    vm_index (*xt)[4]; /* tets beyond its slots, appended after the batch */
     int32_t *xreg;
     vm_index *xpar;
     size_t nx;
@@ -77,9 +77,13 @@ typedef struct job {
     size_t cnt[8];
 } job;
 
-static const double *pt(const pstate *S, vm_index a) { return S->m->points + 3 * (size_t)a; }
+static const double *pt(const pstate *S, vm_index a) {
+    return S->m->points + 3 * (size_t)a;
+}
 
-static int slot_dead(const pstate *S, size_t t) { return S->m->cells[4 * t] == DEAD_SLOT; }
+static int slot_dead(const pstate *S, size_t t) {
+    return S->m->cells[4 * t] == DEAD_SLOT;
+}
 
 static double centroid_z(const pstate *S, size_t t) {
     const vm_index *n = S->m->cells + 4 * t;
@@ -100,7 +104,8 @@ static int in_part(const pstate *S, const job *J, size_t t) {
 
 static void tet_box(const pstate *S, size_t t, double lo[3], double hi[3]) {
     const vm_index *n = S->m->cells + 4 * t;
-    for (int a = 0; a < 3; a++) lo[a] = hi[a] = pt(S, n[0])[a];
+    for (int a = 0; a < 3; a++)
+        lo[a] = hi[a] = pt(S, n[0])[a];
     for (int k = 1; k < 4; k++)
         for (int a = 0; a < 3; a++) {
             double x = pt(S, n[k])[a];
@@ -156,7 +161,8 @@ static int dilate(uint8_t *grid, const size_t gd[3], int k, size_t r) {
         for (size_t y = 0; y < (k == 1 ? 1 : gd[1]); y++)
             for (size_t x = 0; x < (k == 0 ? 1 : gd[0]); x++) {
                 uint8_t *g = grid + (z * gd[1] + y) * gd[0] + x;
-                for (size_t i = 0; i < n; i++) line[i] = g[i * st];
+                for (size_t i = 0; i < n; i++)
+                    line[i] = g[i * st];
                 /* distance to the last marked cell before, then after */
                 size_t last = SIZE_MAX;
                 for (size_t i = 0; i < n; i++) {
@@ -197,7 +203,8 @@ static int job_scan(const pstate *S, job *J) {
      * bound from where the pass found it), and a little slack */
     double L = sqrt(L2), M[3];
     for (int k = 0; k < 3; k++) {
-        double bound = S->v ? S->o.max_surface_move * S->row[k] : S->o.max_surface_move_free * L;
+        double bound =
+            S->v ? S->o.max_surface_move * S->row[k] : S->o.max_surface_move_free * L;
         M[k] = 2.0 * bound + 0.05 * L;
         lo[k] -= M[k];
         hi[k] += M[k];
@@ -303,7 +310,8 @@ static void job_run(pstate *S, job *J) {
     }
     for (size_t i = 0; i < nc; i++) {
         size_t t = i < J->nps ? J->ps[i] : J->ls[i - J->nps];
-        for (int k = 0; k < 4; k++) sub.cells[4 * i + k] = sub_id(gid, ng, m->cells[4 * t + k]);
+        for (int k = 0; k < 4; k++)
+            sub.cells[4 * i + k] = sub_id(gid, ng, m->cells[4 * t + k]);
         sub.region[i] = m->region[t];
         lock[i] = i >= J->nps;
     }
@@ -323,11 +331,13 @@ static void job_run(pstate *S, job *J) {
     if (S->par) {
         tpar = malloc((J->nps + 1) * sizeof *tpar);
         if (!tpar) goto nomem;
-        for (size_t i = 0; i < J->nps; i++) tpar[i] = (size_t)S->par[J->ps[i]];
+        for (size_t i = 0; i < J->nps; i++)
+            tpar[i] = (size_t)S->par[J->ps[i]];
     }
     /* room for the tets beyond the part's slots first: nothing fails half-way */
     size_t nout = 0;
-    for (size_t t = 0; t < w.ntet; t++) nout += !w.dead[t] && !(t >= J->nps && t < nc);
+    for (size_t t = 0; t < w.ntet; t++)
+        nout += !w.dead[t] && !(t >= J->nps && t < nc);
     if (nout > J->nps) {
         size_t nx = nout - J->nps;
         J->xt = malloc(nx * sizeof *J->xt);
@@ -342,7 +352,8 @@ static void job_run(pstate *S, job *J) {
     for (size_t t = 0; t < w.ntet; t++) {
         if (w.dead[t] || (t >= J->nps && t < nc)) continue;
         vm_index n[4];
-        for (int c = 0; c < 4; c++) n[c] = gid[w.tet[4 * t + c]];
+        for (int c = 0; c < 4; c++)
+            n[c] = gid[w.tet[4 * t + c]];
         vm_index pg = tpar ? (vm_index)tpar[w.parent[t]] : 0;
         if (k < J->nps) {
             size_t s = J->ps[k];
@@ -357,9 +368,10 @@ static void job_run(pstate *S, job *J) {
         }
         k++;
     }
-    for (; k < J->nps; k++) m->cells[4 * J->ps[k]] = DEAD_SLOT;
-    size_t c8[8] = {w.collapses, w.flips23,      w.flips32, w.edge_removals,
-                    w.moves,     w.perturbations, w.peels,  w.boundary_flips};
+    for (; k < J->nps; k++)
+        m->cells[4 * J->ps[k]] = DEAD_SLOT;
+    size_t c8[8] = {w.collapses, w.flips23,       w.flips32, w.edge_removals,
+                    w.moves,     w.perturbations, w.peels,   w.boundary_flips};
     memcpy(J->cnt, c8, sizeof c8);
     goto done;
 nomem:
@@ -438,9 +450,12 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
             int clash = 0;
             for (size_t j = 0; j < ntake && !clash; j++)
                 clash = !(J->zhi < jobs[take[j]].zlo || J->zlo > jobs[take[j]].zhi);
-            if (J->nps == 0) ndone++;
-            else if (clash) todo[nleft++] = todo[i];
-            else take[ntake++] = todo[i];
+            if (J->nps == 0)
+                ndone++;
+            else if (clash)
+                todo[nleft++] = todo[i];
+            else
+                take[ntake++] = todo[i];
         }
         /* the rest are scanned again next time */
         for (size_t i = 0; i < nleft; i++) {
@@ -452,7 +467,8 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1)
 #endif
-        for (size_t i = 0; i < ntake; i++) job_run(S, &jobs[take[i]]);
+        for (size_t i = 0; i < ntake; i++)
+            job_run(S, &jobs[take[i]]);
         size_t extra = 0;
         for (size_t i = 0; i < ntake; i++) {
             job *J = &jobs[take[i]];
@@ -465,8 +481,10 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
         if (s == VM_OK && extra) s = vm_mesh_reserve(S->m, S->m->npoints, S->nt + extra, err);
         if (s == VM_OK && extra && S->par) {
             vm_index *np = realloc(S->par, (S->nt + extra) * sizeof *np);
-            if (!np) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-            else S->par = np;
+            if (!np)
+                s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+            else
+                S->par = np;
         }
         for (size_t i = 0; i < ntake; i++) {
             job *J = &jobs[take[i]];
@@ -479,9 +497,11 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
                 }
                 S->m->ncells = S->nt;
                 vm_improve_report *r = S->r;
-                size_t *c[8] = {&r->collapses, &r->flips23,       &r->flips32, &r->edge_removals,
-                                &r->moves,     &r->perturbations, &r->peels,   &r->boundary_flips};
-                for (int q = 0; q < 8; q++) *c[q] += J->cnt[q];
+                size_t *c[8] = {&r->collapses,     &r->flips23,       &r->flips32,
+                                &r->edge_removals, &r->moves,         &r->perturbations,
+                                &r->peels,         &r->boundary_flips};
+                for (int q = 0; q < 8; q++)
+                    *c[q] += J->cnt[q];
                 if (J->passes > r->passes) r->passes = J->passes;
                 if (J->maxmove > r->max_surface_move) r->max_surface_move = J->maxmove;
                 if (J->maxiface > r->max_interface_move) r->max_interface_move = J->maxiface;
@@ -492,7 +512,8 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
         ntodo = nleft;
         progress(S, f0 + (f1 - f0) * (double)ndone / (double)(n ? n : 1));
     }
-    for (size_t i = 0; i < n; i++) job_reset(&jobs[order[i]]);
+    for (size_t i = 0; i < n; i++)
+        job_reset(&jobs[order[i]]);
     free(todo);
     free(take);
     compact_slots(S);
@@ -501,7 +522,8 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
 
 /* Slab borders cut[1..ns) (cut[0] = -inf, cut[ns] = +inf) placing about as many tet
  * centroids in each slab; fewer slabs when one would be thinner than thick mean
- * longest tet edges (else the parts around a slab would reach into each other). Returns the number of slabs (>= 1) or 0 on out-of-memory. */
+ * longest tet edges (else the parts around a slab would reach into each other). Returns the
+ * number of slabs (>= 1) or 0 on out-of-memory. */
 static size_t slab_cuts(const pstate *S, size_t want, double thick, double **cut_out) {
     double zmin = INFINITY, zmax = -INFINITY, hsum = 0.0;
     for (size_t t = 0; t < S->nt; t++) {
@@ -535,7 +557,8 @@ static size_t slab_cuts(const pstate *S, size_t want, double thick, double **cut
         cut[0] = zmin;
         cut[ns] = zmax;
         int ok = k == ns;
-        for (size_t j = 0; j < ns && ok; j++) ok = cut[j + 1] - cut[j] >= thick * h;
+        for (size_t j = 0; j < ns && ok; j++)
+            ok = cut[j + 1] - cut[j] >= thick * h;
         if (ok) break;
     }
     cut[0] = -INFINITY;
@@ -555,7 +578,8 @@ static unsigned part_seed(unsigned seed, int phase, size_t k) {
 
 static double slot_q(const pstate *S, size_t t) {
     double p[4][3];
-    for (int k = 0; k < 4; k++) memcpy(p[k], pt(S, S->m->cells[4 * t + k]), sizeof p[k]);
+    for (int k = 0; k < 4; k++)
+        memcpy(p[k], pt(S, S->m->cells[4 * t + k]), sizeof p[k]);
     return vm__imp_quality(&S->qw, (const double(*)[3])p);
 }
 
@@ -564,7 +588,8 @@ static double slot_q(const pstate *S, size_t t) {
  * ones, which become marked). Returns 1 when a key changed. */
 static int key_step(const pstate *S, float *key, float *vkey, int grow) {
     const vm_index *c = S->m->cells;
-    for (size_t i = 0; i < S->m->npoints; i++) vkey[i] = INFINITY;
+    for (size_t i = 0; i < S->m->npoints; i++)
+        vkey[i] = INFINITY;
     for (size_t t = 0; t < S->nt; t++)
         if (key[t] < INFINITY)
             for (int k = 0; k < 4; k++)
@@ -602,8 +627,10 @@ static size_t key_bad(const pstate *S, float *key, int rings) {
     if (n == 0) return 0;
     float *vkey = malloc((S->m->npoints + 1) * sizeof *vkey);
     if (!vkey) return SIZE_MAX;
-    for (int r = 0; r < rings; r++) key_step(S, key, vkey, 1);
-    for (int it = 0; it < 64 && key_step(S, key, vkey, 0); it++) {}
+    for (int r = 0; r < rings; r++)
+        key_step(S, key, vkey, 1);
+    for (int it = 0; it < 64 && key_step(S, key, vkey, 0); it++) {
+    }
     free(vkey);
     return n;
 }
@@ -614,8 +641,10 @@ static vm_status finish(pstate *S, vm_error *err) {
     vm_mesh *m = S->m;
     vm_index *map = malloc((m->npoints + 1) * sizeof *map);
     if (!map) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-    for (size_t i = 0; i < m->npoints; i++) map[i] = -1;
-    for (size_t i = 0; i < 4 * m->ncells; i++) map[m->cells[i]] = 0;
+    for (size_t i = 0; i < m->npoints; i++)
+        map[i] = -1;
+    for (size_t i = 0; i < 4 * m->ncells; i++)
+        map[m->cells[i]] = 0;
     size_t np = 0;
     for (size_t i = 0; i < m->npoints; i++)
         if (map[i] >= 0) map[i] = (vm_index)np++;
@@ -626,7 +655,8 @@ static vm_status finish(pstate *S, vm_error *err) {
         if (!cf[f]) fail = 1;
     }
     if (fail) {
-        for (size_t f = 0; cf && f < m->ncell_fields; f++) free(cf[f]);
+        for (size_t f = 0; cf && f < m->ncell_fields; f++)
+            free(cf[f]);
         free(cf);
         free(map);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
@@ -651,7 +681,8 @@ static vm_status finish(pstate *S, vm_error *err) {
                     nc * sizeof(double));
         }
     }
-    for (size_t i = 0; i < 4 * m->ncells; i++) m->cells[i] = map[m->cells[i]];
+    for (size_t i = 0; i < 4 * m->ncells; i++)
+        m->cells[i] = map[m->cells[i]];
     m->npoints = np;
     free(map);
     return VM_OK;
@@ -691,7 +722,8 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
     memcpy(S.p0, m->points, 3 * m->npoints * sizeof *S.p0);
-    for (size_t t = 0; S.par && t < m->ncells; t++) S.par[t] = (vm_index)t;
+    for (size_t t = 0; S.par && t < m->ncells; t++)
+        S.par[t] = (vm_index)t;
     for (int a = 0; a < 3; a++) {
         S.box[a] = INFINITY;
         S.box[3 + a] = -INFINITY;
@@ -708,12 +740,13 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
     size_t *order = ns ? malloc(ns * sizeof *order) : NULL;
     float *key = NULL;
     vm_status s = VM_OK;
-    if (!jobs || !order)
-        s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    if (!jobs || !order) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     /* Phase 1: the slabs, even ones first. */
     size_t no = 0;
-    for (size_t k = 0; s == VM_OK && k < ns; k += 2) order[no++] = k;
-    for (size_t k = 1; s == VM_OK && k < ns; k += 2) order[no++] = k;
+    for (size_t k = 0; s == VM_OK && k < ns; k += 2)
+        order[no++] = k;
+    for (size_t k = 1; s == VM_OK && k < ns; k += 2)
+        order[no++] = k;
     for (size_t k = 0; s == VM_OK && k < ns; k++) {
         jobs[k].z0 = cut[k];
         jobs[k].z1 = cut[k + 1];
@@ -752,9 +785,12 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
             jobs[k].seed = part_seed(o->seed, 2 + round, k);
         }
         no = 0;
-        for (size_t k = 0; k < nj; k += 2) order[no++] = k;
-        for (size_t k = 1; k < nj; k += 2) order[no++] = k;
-        double f0 = 0.7 + 0.2 * (1.0 - pow(0.5, round)), f1 = 0.7 + 0.2 * (1.0 - pow(0.5, round + 1));
+        for (size_t k = 0; k < nj; k += 2)
+            order[no++] = k;
+        for (size_t k = 1; k < nj; k += 2)
+            order[no++] = k;
+        double f0 = 0.7 + 0.2 * (1.0 - pow(0.5, round)),
+               f1 = 0.7 + 0.2 * (1.0 - pow(0.5, round + 1));
         s = run_jobs(&S, jobs, order, no, f0, f1, err);
     }
     /* also after an error: the mesh stays valid (the parts done so far improved) */
