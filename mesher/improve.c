@@ -224,6 +224,7 @@ static void imp_free(vm__imp *w) {
     free(w->bound);
     free(w->bfaces);
     free(w->vlock);
+    free(w->below);
 }
 
 static int invert3(double A[3][3], double B[3][3]) {
@@ -441,11 +442,28 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
             vm__imp_star *s = &w->star[w->tet[4 * t + k]];
             s->t[s->n++] = (vm_index)t;
         }
+    /* In a part, only the tets around the free tets' vertices are ever looked at: the other
+     * locked tets (often most of them) take 1 in place of their quality. */
+    uint8_t *seen = NULL;
+    if (sx) {
+        seen = calloc(np + 1, 1);
+        if (!seen) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        for (size_t t = 0; t < nt; t++)
+            if (!sx->lock[t])
+                for (int k = 0; k < 4; k++) seen[w->tet[4 * t + k]] = 1;
+    }
     /* Each tet's quality on its own: any thread count gives the same values. */
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static, 4096)
 #endif
-    for (size_t t = 0; t < nt; t++) w->q[t] = vm__imp_tet_q(w, t);
+    for (size_t t = 0; t < nt; t++) {
+        const vm_index *n = w->tet + 4 * t;
+        if (seen && sx->lock[t] && !seen[n[0]] && !seen[n[1]] && !seen[n[2]] && !seen[n[3]])
+            w->q[t] = 1.0;
+        else
+            w->q[t] = vm__imp_tet_q(w, t);
+    }
+    free(seen);
     if (v) {
         for (int r = 0; r < 3; r++) {
             w->org[r] = v->origin[r];
@@ -943,6 +961,12 @@ static vm_status imp_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
         if (w->nomem) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
     if (s == VM_OK) measure_moves(w, v, maxmove, maxiface);
+    if (s == VM_OK && x) {
+        /* what the parts' driver needs of the qualities, which go with the rounds' data */
+        w->below = malloc(w->ntet + 1);
+        if (!w->below) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        for (size_t t = 0; w->below && t < w->ntet; t++) w->below[t] = w->q[t] < 1.0;
+    }
     imp_free_rounds(w);
     return s;
 }

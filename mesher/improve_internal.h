@@ -82,6 +82,7 @@ typedef struct vm__imp {
     const uint8_t *lock;
     size_t nlock;
     uint8_t *vlock;
+    uint8_t *below;     /* a part, at the end: per tet, 1 when its quality is below 1 */
 } vm__imp;
 
 /* 1 when tet t is locked / vertex a is locked (see vm__imp.lock). */
@@ -170,7 +171,8 @@ typedef struct vm__imp_sub {
 
 /* Improves submesh m (only its tets, points and regions are read; m is freed, as x->p0,
  * once they are copied, so that they do not stay beside the working data) into *w, which the caller
- * reads (tet, dead, region, parent = submesh tet each descends from, p, pdead) and frees with
+ * reads (tet, dead, region, parent = submesh tet each descends from, p, pdead, below) and
+ * frees with
  * vm__imp_sub_free, also on error. Single-threaded apart from nested parallel set-up loops;
  * o->progress is not called. *maxmove and *maxiface as in vm_improve_report. */
 vm_status vm__imp_sub_run(vm__imp *w, vm_mesh *m, const vm_volume *v,

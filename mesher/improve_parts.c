@@ -32,7 +32,9 @@
 
 size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o) {
     /* slots are 32-bit; the tets flips add stay far below the slack */
-    if (o->frozen || o->parts == 1 || !m->region || m->ncells > UINT32_MAX / 2) return 1;
+    if (o->frozen || o->parts == 1 || !m->region || m->ncells > UINT32_MAX / 2 ||
+        m->npoints > UINT32_MAX)
+        return 1;
     if (o->parts > 1) return (size_t)o->parts;
     if (m->ncells < AUTO_MIN) return 1;
     return (m->ncells + AUTO_SIZE / 2) / AUTO_SIZE;
@@ -45,12 +47,13 @@ typedef struct pstate {
     const vm_volume *v;
     vm_improve_options o; /* the caller's options without the progress callback */
     const vm_improve_options *uo;
-    size_t nt;     /* slots */
-    double *p0;    /* 3 per point: where the pass found it */
-    vm_index *par; /* per slot: the input cell (only with cell fields) */
+    size_t nt;      /* slots */
+    double *p0;     /* 3 per point: where the pass found it */
+    vm_index *par;  /* per slot: the input cell (only with cell fields) */
+    uint8_t *below; /* per slot: below the targets when its part last ran */
+    uint32_t *loc;  /* per point: its id in the submesh of the part running with it */
     double box[6];
     double row[3]; /* with a volume: world displacement along each axis per voxel */
-    vm__imp qw;    /* the quality scales, for vm__imp_quality */
     vm_improve_report *r;
 } pstate;
 
@@ -69,6 +72,7 @@ typedef struct job {
     vm_index (*xt)[4]; /* tets beyond its slots, appended after the batch */
     int32_t *xreg;
     vm_index *xpar;
+    uint8_t *xbelow;
     size_t nx;
     vm_status s;
     vm_error err;
@@ -179,26 +183,174 @@ static int dilate(uint8_t *grid, const size_t gd[3], int k, size_t r) {
     return 1;
 }
 
-/* Stage 1 (reads the mesh only): the part's slots, the locked slots and the z range. The
+/* Sorts a[0..n) ascending (radix, three 11-bit digits); tmp holds n. */
+static void sort_u32(uint32_t *a, uint32_t *tmp, size_t n) {
+    size_t cnt[2048];
+    uint32_t *src = a, *dst = tmp;
+    for (int sh = 0; sh < 33; sh += 11) {
+        memset(cnt, 0, sizeof cnt);
+        for (size_t i = 0; i < n; i++)
+            cnt[(src[i] >> sh) & 2047u]++;
+        size_t acc = 0;
+        for (size_t d = 0; d < 2048; d++) {
+            size_t c = cnt[d];
+            cnt[d] = acc;
+            acc += c;
+        }
+        for (size_t i = 0; i < n; i++)
+            dst[cnt[(src[i] >> sh) & 2047u]++] = src[i];
+        uint32_t *x = src;
+        src = dst;
+        dst = x;
+    }
+    if (src != a) memcpy(a, src, n * sizeof *a);
+}
+
+/* Sorts a list of slots (or point ids) in place; 0 on out-of-memory. */
+static int sort_slots(uint32_t *l, size_t n) {
+    uint32_t *tmp = malloc((n + 1) * sizeof *tmp);
+    if (!tmp) return 0;
+    sort_u32(l, tmp, n);
+    free(tmp);
+    return 1;
+}
+
+/* The live slots bucketed by a z value (the centroid's, or a part key): the candidates for a
+ * range of z without a scan of the whole mesh. Built once per batch of parts. By centroid,
+ * the tets are also split into classes by how far their box reaches from the centroid in z
+ * (class c: at most reach / 2^c), so that the few big tets of an adaptive mesh do not widen
+ * the search for all. */
+#define ZCLASSES 12
+typedef struct zindex {
+    uint32_t *slot; /* class by class, bucket by bucket, each in slot order */
+    size_t *start;  /* ncls * nb + 1 */
+    size_t nb, ncls;
+    double z0, dz;
+    double reach; /* by centroid: the farthest a tet's box gets from its centroid in z */
+} zindex;
+
+/* The z value slot t is bucketed by (key: the part keys, slots below nkey only), or
+ * INFINITY when it is not in the index. */
+static double zvalue(const pstate *S, const float *key, size_t nkey, size_t t) {
+    if (slot_dead(S, t)) return INFINITY;
+    if (!key) return centroid_z(S, t);
+    return t < nkey && key[t] < INFINITY ? (double)key[t] : INFINITY;
+}
+
+/* How far the box of slot t reaches from its centroid z. */
+static double zreach(const pstate *S, size_t t, double z) {
+    double a[3], b[3];
+    tet_box(S, t, a, b);
+    return z - a[2] > b[2] - z ? z - a[2] : b[2] - z;
+}
+
+static size_t zclass(const zindex *X, double r) {
+    size_t c = 0;
+    for (double h = 0.5 * X->reach; c + 1 < X->ncls && r <= h; h *= 0.5)
+        c++;
+    return c;
+}
+
+/* The bucket of value z in class c. */
+static size_t zbucket(const zindex *X, size_t c, double z) {
+    double b = floor((z - X->z0) / X->dz);
+    return c * X->nb + (b < 0.0 ? 0 : b >= (double)X->nb ? X->nb - 1 : (size_t)b);
+}
+
+static void zindex_free(zindex *X) {
+    free(X->slot);
+    free(X->start);
+    memset(X, 0, sizeof *X);
+}
+
+/* The bucket of slot t, or UINT32_MAX when it is not indexed. */
+static uint32_t zslot_bucket(const pstate *S, const float *key, size_t nkey, const zindex *X,
+                             size_t t) {
+    double z = zvalue(S, key, nkey, t);
+    if (!(z < INFINITY)) return UINT32_MAX;
+    return (uint32_t)zbucket(X, key ? 0 : zclass(X, zreach(S, t, z)), z);
+}
+
+/* 0 on out-of-memory. */
+static int zindex_build(const pstate *S, const float *key, size_t nkey, zindex *X) {
+    memset(X, 0, sizeof *X);
+    double zmin = INFINITY, zmax = -INFINITY;
+    size_t n = 0;
+    for (size_t t = 0; t < S->nt; t++) {
+        double z = zvalue(S, key, nkey, t);
+        if (!(z < INFINITY)) continue;
+        n++;
+        if (z < zmin) zmin = z;
+        if (z > zmax) zmax = z;
+        if (!key && zreach(S, t, z) > X->reach) X->reach = zreach(S, t, z);
+    }
+    X->ncls = key ? 1 : ZCLASSES;
+    X->nb = n / 256 < 1 ? 1 : n / 256 > ((size_t)1 << 20) ? (size_t)1 << 20 : n / 256;
+    X->z0 = n ? zmin : 0.0;
+    X->dz = n && zmax > zmin ? (zmax - zmin) / (double)X->nb : 1.0;
+    size_t nbk = X->ncls * X->nb;
+    /* each slot's bucket once, then the slots bucket by bucket */
+    uint32_t *bk = malloc((S->nt + 1) * sizeof *bk);
+    X->slot = malloc((n + 1) * sizeof *X->slot);
+    X->start = calloc(nbk + 1, sizeof *X->start);
+    if (!bk || !X->slot || !X->start) {
+        free(bk);
+        zindex_free(X);
+        return 0;
+    }
+    for (size_t t = 0; t < S->nt; t++) {
+        bk[t] = zslot_bucket(S, key, nkey, X, t);
+        if (bk[t] != UINT32_MAX) X->start[bk[t] + 1]++;
+    }
+    for (size_t i = 0; i < nbk; i++)
+        X->start[i + 1] += X->start[i];
+    /* fill with the starts, then shift them back */
+    for (size_t t = 0; t < S->nt; t++)
+        if (bk[t] != UINT32_MAX) X->slot[X->start[bk[t]]++] = (uint32_t)t;
+    for (size_t i = nbk; i > 0; i--)
+        X->start[i] = X->start[i - 1];
+    X->start[0] = 0;
+    free(bk);
+    return 1;
+}
+
+/* The slots of class c whose value may lie in [a - r, b + r], r the reach of the class when
+ * grow (else 0): slot[*i0 .. *i1). */
+static void zindex_span(const zindex *X, size_t c, double a, double b, int grow, size_t *i0,
+                        size_t *i1) {
+    double r = grow ? ldexp(X->reach, -(int)c) : 0.0;
+    *i0 = X->start[zbucket(X, c, a - r)];
+    *i1 = X->start[zbucket(X, c, b + r) + 1];
+}
+
+/* Stage 1 (reads the mesh only): the part's slots, the locked slots and the z range, from
+ * the candidates of the batch's indices (C by centroid; K by key, for keyed parts). The
  * margin is twice the farthest a boundary vertex may be from where the pass found it, plus a
  * quarter of the longest edge for the surface flips. 0 on out-of-memory. */
-static int job_scan(const pstate *S, job *J) {
+static int job_scan(const pstate *S, const zindex *C, const zindex *K, job *J) {
     size_t cp = 0, cl = 0;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     double L2 = 0.0;
     J->nps = J->nls = 0;
-    for (size_t t = 0; t < S->nt; t++) {
-        if (!in_part(S, J, t)) continue;
-        if (!push_slot(&J->ps, &J->nps, &cp, t)) return 0;
-        double a[3], b[3], l2 = longest_edge2(S, t);
-        tet_box(S, t, a, b);
+    const zindex *X = J->key ? K : C;
+    size_t i0, i1;
+    for (size_t c = 0; c < X->ncls; c++) {
+        zindex_span(X, c, J->z0, J->z1, 0, &i0, &i1);
+        for (size_t i = i0; i < i1; i++)
+            if (in_part(S, J, X->slot[i]) && !push_slot(&J->ps, &J->nps, &cp, X->slot[i]))
+                return 0;
+    }
+    if (J->nps == 0) return 1;
+    if (!sort_slots(J->ps, J->nps)) return 0;
+    for (size_t i = 0; i < J->nps; i++) {
+        double a[3], b[3], l2 = longest_edge2(S, J->ps[i]);
+        tet_box(S, J->ps[i], a, b);
         for (int k = 0; k < 3; k++) {
             if (a[k] < lo[k]) lo[k] = a[k];
             if (b[k] > hi[k]) hi[k] = b[k];
         }
         if (l2 > L2) L2 = l2;
     }
-    if (J->nps == 0) return 1;
     /* M[k]: how far along axis k a boundary vertex may get from where it is now (twice its
      * bound from where the pass found it), and a little slack */
     double L = sqrt(L2), M[3];
@@ -241,40 +393,32 @@ static int job_scan(const pstate *S, job *J) {
             free(grid);
             return 0;
         }
-    for (size_t t = 0; t < S->nt; t++) {
-        if (slot_dead(S, t) || in_part(S, J, t)) continue;
-        double a[3], b[3];
-        tet_box(S, t, a, b);
-        if (a[0] > hi[0] || a[1] > hi[1] || a[2] > hi[2] || b[0] < lo[0] || b[1] < lo[1] ||
-            b[2] < lo[2])
-            continue;
-        size_t c0[3], c1[3];
-        cell_range(lo, cs, gd, a, b, c0, c1);
-        int hit = 0;
-        for (size_t z = c0[2]; z <= c1[2] && !hit; z++)
-            for (size_t y = c0[1]; y <= c1[1] && !hit; y++)
-                for (size_t x = c0[0]; x <= c1[0] && !hit; x++)
-                    hit = grid[(z * gd[1] + y) * gd[0] + x];
-        if (!hit) continue;
-        if (!push_slot(&J->ls, &J->nls, &cl, t)) {
-            free(grid);
-            return 0;
+    int fail = 0;
+    for (size_t c = 0; c < C->ncls && !fail; c++) {
+        zindex_span(C, c, lo[2], hi[2], 1, &i0, &i1);
+        for (size_t i = i0; i < i1 && !fail; i++) {
+            size_t t = C->slot[i];
+            if (in_part(S, J, t)) continue;
+            double a[3], b[3];
+            tet_box(S, t, a, b);
+            if (a[0] > hi[0] || a[1] > hi[1] || a[2] > hi[2] || b[0] < lo[0] || b[1] < lo[1] ||
+                b[2] < lo[2])
+                continue;
+            size_t c0[3], c1[3];
+            cell_range(lo, cs, gd, a, b, c0, c1);
+            int hit = 0;
+            for (size_t z = c0[2]; z <= c1[2] && !hit; z++)
+                for (size_t y = c0[1]; y <= c1[1] && !hit; y++)
+                    for (size_t x = c0[0]; x <= c1[0] && !hit; x++)
+                        hit = grid[(z * gd[1] + y) * gd[0] + x];
+            if (!hit) continue;
+            if (!push_slot(&J->ls, &J->nls, &cl, t)) fail = 1;
+            if (a[2] < J->zlo) J->zlo = a[2];
+            if (b[2] > J->zhi) J->zhi = b[2];
         }
-        if (a[2] < J->zlo) J->zlo = a[2];
-        if (b[2] > J->zhi) J->zhi = b[2];
     }
     free(grid);
-    return 1;
-}
-
-static int idx_cmp(const void *pa, const void *pb) {
-    vm_index a = *(const vm_index *)pa, b = *(const vm_index *)pb;
-    return a < b ? -1 : a > b;
-}
-
-static vm_index sub_id(const vm_index *gid, size_t n, vm_index g) {
-    const vm_index *f = bsearch(&g, gid, n, sizeof *gid, idx_cmp);
-    return (vm_index)(f - gid);
+    return !fail && sort_slots(J->ls, J->nls);
 }
 
 /* Stage 2: builds the submesh (the part's tets first, then the locked ones), improves it and
@@ -283,7 +427,8 @@ static vm_index sub_id(const vm_index *gid, size_t n, vm_index g) {
 static void job_run(pstate *S, job *J) {
     vm_mesh *m = S->m;
     size_t nc = J->nps + J->nls, ng = 0;
-    vm_index *gid = malloc((4 * nc + 1) * sizeof *gid);
+    /* the part's points: sorted, each once; S->loc maps them to submesh ids */
+    uint32_t *gid = malloc((4 * nc + 1) * sizeof *gid);
     vm_mesh sub;
     vm_mesh_init(&sub, VM_TET4);
     uint8_t *lock = calloc(nc + 1, 1);
@@ -294,11 +439,14 @@ static void job_run(pstate *S, job *J) {
     if (!gid || !lock) goto nomem;
     for (size_t i = 0; i < nc; i++) {
         size_t t = i < J->nps ? J->ps[i] : J->ls[i - J->nps];
-        memcpy(gid + 4 * i, m->cells + 4 * t, 4 * sizeof *gid);
+        for (int k = 0; k < 4; k++)
+            gid[4 * i + k] = (uint32_t)m->cells[4 * t + k];
     }
-    qsort(gid, 4 * nc, sizeof *gid, idx_cmp);
+    if (!sort_slots(gid, 4 * nc)) goto nomem;
     for (size_t i = 0; i < 4 * nc; i++)
         if (ng == 0 || gid[i] != gid[ng - 1]) gid[ng++] = gid[i];
+    for (size_t i = 0; i < ng; i++)
+        S->loc[gid[i]] = (uint32_t)i;
     sub.points = malloc((3 * ng + 1) * sizeof *sub.points);
     sp0 = malloc((3 * ng + 1) * sizeof *sp0);
     sub.cells = malloc((4 * nc + 1) * sizeof *sub.cells);
@@ -311,7 +459,7 @@ static void job_run(pstate *S, job *J) {
     for (size_t i = 0; i < nc; i++) {
         size_t t = i < J->nps ? J->ps[i] : J->ls[i - J->nps];
         for (int k = 0; k < 4; k++)
-            sub.cells[4 * i + k] = sub_id(gid, ng, m->cells[4 * t + k]);
+            sub.cells[4 * i + k] = (vm_index)S->loc[m->cells[4 * t + k]];
         sub.region[i] = m->region[t];
         lock[i] = i >= J->nps;
     }
@@ -343,7 +491,8 @@ static void job_run(pstate *S, job *J) {
         J->xt = malloc(nx * sizeof *J->xt);
         J->xreg = malloc(nx * sizeof *J->xreg);
         J->xpar = malloc(nx * sizeof *J->xpar);
-        if (!J->xt || !J->xreg || !J->xpar) goto nomem;
+        J->xbelow = malloc(nx);
+        if (!J->xt || !J->xreg || !J->xpar || !J->xbelow) goto nomem;
     }
     for (size_t i = 0; i < ng; i++)
         if (!w.vlock[i] && !w.pdead[i])
@@ -360,10 +509,12 @@ static void job_run(pstate *S, job *J) {
             memcpy(m->cells + 4 * s, n, sizeof n);
             m->region[s] = w.region[t];
             if (S->par) S->par[s] = pg;
+            S->below[s] = w.below[t];
         } else {
             memcpy(J->xt[J->nx], n, sizeof n);
             J->xreg[J->nx] = w.region[t];
             J->xpar[J->nx] = pg;
+            J->xbelow[J->nx] = w.below[t];
             J->nx++;
         }
         k++;
@@ -391,10 +542,12 @@ static void job_reset(job *J) {
     free(J->xt);
     free(J->xreg);
     free(J->xpar);
+    free(J->xbelow);
     J->ps = J->ls = NULL;
     J->xt = NULL;
     J->xreg = NULL;
     J->xpar = NULL;
+    J->xbelow = NULL;
     J->nps = J->nls = J->nx = 0;
 }
 
@@ -407,6 +560,7 @@ static void compact_slots(pstate *S) {
             memcpy(S->m->cells + 4 * c, S->m->cells + 4 * t, 4 * sizeof *S->m->cells);
             S->m->region[c] = S->m->region[t];
             if (S->par) S->par[c] = S->par[t];
+            S->below[c] = S->below[t];
         }
         c++;
     }
@@ -421,7 +575,8 @@ static void progress(const pstate *S, double done) {
 
 /* Runs jobs order[0..n) in batches: each batch takes, in order, the jobs whose z ranges do
  * not meet those of the jobs taken before it; the others wait for the next batch (scanned
- * again, since the mesh changed). Progress goes from f0 to f1. */
+ * again, since the mesh changed). Progress goes from f0 to f1. The slots the parts empty stay
+ * dead until the caller compacts them (keys stay aligned across calls). */
 static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, double f0,
                           double f1, vm_error *err) {
     size_t *todo = malloc((n + 1) * sizeof *todo), *take = malloc((n + 1) * sizeof *take);
@@ -435,11 +590,21 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
     vm_status s = VM_OK;
     while (ntodo && s == VM_OK) {
         int fail = 0;
+        /* the jobs of one call share their key (or have none) */
+        const float *key = jobs[todo[0]].key;
+        zindex C, K;
+        memset(&K, 0, sizeof K);
+        if (!zindex_build(S, NULL, 0, &C))
+            fail = 1;
+        else if (key && !zindex_build(S, key, jobs[todo[0]].nkey, &K))
+            fail = 1;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1) reduction(|| : fail)
 #endif
         for (size_t i = 0; i < ntodo; i++)
-            if (!job_scan(S, &jobs[todo[i]])) fail = 1;
+            if (!fail && !job_scan(S, &C, &K, &jobs[todo[i]])) fail = 1;
+        zindex_free(&C);
+        zindex_free(&K);
         if (fail) {
             s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
             break;
@@ -486,6 +651,13 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
             else
                 S->par = np;
         }
+        if (s == VM_OK && extra) {
+            uint8_t *nb = realloc(S->below, S->nt + extra);
+            if (!nb)
+                s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+            else
+                S->below = nb;
+        }
         for (size_t i = 0; i < ntake; i++) {
             job *J = &jobs[take[i]];
             if (s == VM_OK) {
@@ -493,6 +665,7 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
                     memcpy(S->m->cells + 4 * S->nt, J->xt[k], sizeof J->xt[k]);
                     S->m->region[S->nt] = J->xreg[k];
                     if (S->par) S->par[S->nt] = J->xpar[k];
+                    S->below[S->nt] = J->xbelow[k];
                     S->nt++;
                 }
                 S->m->ncells = S->nt;
@@ -516,7 +689,6 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
         job_reset(&jobs[order[i]]);
     free(todo);
     free(take);
-    compact_slots(S);
     return s;
 }
 
@@ -576,17 +748,9 @@ static unsigned part_seed(unsigned seed, int phase, size_t k) {
     return r ? r : 1u;
 }
 
-static double slot_q(const pstate *S, size_t t) {
-    double p[4][3];
-    for (int k = 0; k < 4; k++)
-        memcpy(p[k], pt(S, S->m->cells[4 * t + k]), sizeof p[k]);
-    return vm__imp_quality(&S->qw, (const double(*)[3])p);
-}
-
-/* One step over the marked tets (finite key): each vertex takes the least key of the marked
- * tets around it, then each tet the least key of its vertices (grow: also the unmarked
- * ones, which become marked). Returns 1 when a key changed. */
-static int key_step(const pstate *S, float *key, float *vkey, int grow) {
+/* Grows the marked tets (finite key) by one ring of tets sharing a vertex; a new tet takes
+ * the least key of the marked tets around its vertices. */
+static void key_grow(const pstate *S, float *key, float *vkey) {
     const vm_index *c = S->m->cells;
     for (size_t i = 0; i < S->m->npoints; i++)
         vkey[i] = INFINITY;
@@ -594,44 +758,72 @@ static int key_step(const pstate *S, float *key, float *vkey, int grow) {
         if (key[t] < INFINITY)
             for (int k = 0; k < 4; k++)
                 if (key[t] < vkey[c[4 * t + k]]) vkey[c[4 * t + k]] = key[t];
-    int changed = 0;
     for (size_t t = 0; t < S->nt; t++) {
-        if (slot_dead(S, t) || (!grow && !(key[t] < INFINITY))) continue;
-        float m = key[t];
+        if (slot_dead(S, t)) continue;
         for (int k = 0; k < 4; k++)
-            if (vkey[c[4 * t + k]] < m) m = vkey[c[4 * t + k]];
-        if (m < key[t]) {
-            key[t] = m;
-            changed = 1;
-        }
+            if (vkey[c[4 * t + k]] < key[t]) key[t] = vkey[c[4 * t + k]];
     }
-    return changed;
+}
+
+static uint32_t uf_root(uint32_t *up, uint32_t a) {
+    while (up[a] != a) {
+        up[a] = up[up[a]];
+        a = up[a];
+    }
+    return a;
+}
+
+static void uf_join(uint32_t *up, uint32_t a, uint32_t b) {
+    a = uf_root(up, a);
+    b = uf_root(up, b);
+    if (a < b)
+        up[b] = a;
+    else if (b < a)
+        up[a] = b;
 }
 
 /* Marks the tets below the targets with their centroid's z, grows the marks by rings rings
- * of tets sharing a vertex, and gives each connected group of marked tets the least key in
- * it: a group goes to one part whole. Returns the number below the targets, or SIZE_MAX on
- * out-of-memory. */
+ * of tets sharing a vertex, and gives each connected group of marked tets (sharing
+ * vertices) the least key in it: a group goes to one part whole. Returns the number below
+ * the targets, or SIZE_MAX on out-of-memory. */
 static size_t key_bad(const pstate *S, float *key, int rings) {
     size_t n = 0;
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static, 4096) reduction(+ : n)
-#endif
     for (size_t t = 0; t < S->nt; t++) {
         key[t] = INFINITY;
-        if (!slot_dead(S, t) && slot_q(S, t) < 1.0) {
+        if (!slot_dead(S, t) && S->below[t]) {
             key[t] = (float)centroid_z(S, t);
             n++;
         }
     }
     if (n == 0) return 0;
-    float *vkey = malloc((S->m->npoints + 1) * sizeof *vkey);
-    if (!vkey) return SIZE_MAX;
-    for (int r = 0; r < rings; r++)
-        key_step(S, key, vkey, 1);
-    for (int it = 0; it < 64 && key_step(S, key, vkey, 0); it++) {
+    size_t np = S->m->npoints;
+    float *vkey = malloc((np + 1) * sizeof *vkey);
+    uint32_t *up = malloc((np + 1) * sizeof *up);
+    if (!vkey || !up) {
+        free(vkey);
+        free(up);
+        return SIZE_MAX;
     }
+    for (int r = 0; r < rings; r++)
+        key_grow(S, key, vkey);
+    const vm_index *c = S->m->cells;
+    for (size_t i = 0; i < np; i++) {
+        up[i] = (uint32_t)i;
+        vkey[i] = INFINITY;
+    }
+    for (size_t t = 0; t < S->nt; t++)
+        if (key[t] < INFINITY)
+            for (int k = 1; k < 4; k++)
+                uf_join(up, (uint32_t)c[4 * t], (uint32_t)c[4 * t + k]);
+    for (size_t t = 0; t < S->nt; t++) {
+        if (!(key[t] < INFINITY)) continue;
+        uint32_t r = uf_root(up, (uint32_t)c[4 * t]);
+        if (key[t] < vkey[r]) vkey[r] = key[t];
+    }
+    for (size_t t = 0; t < S->nt; t++)
+        if (key[t] < INFINITY) key[t] = vkey[uf_root(up, (uint32_t)c[4 * t])];
     free(vkey);
+    free(up);
     return n;
 }
 
@@ -700,11 +892,6 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
     S.o.mark_unfixed = 0;
     S.nt = m->ncells;
     S.r = r;
-    S.qw.s_min = o->target_min_dihedral;
-    S.qw.s_max = 180.0 - o->target_max_dihedral;
-    S.qw.s_vm = o->target_volume_measure;
-    S.qw.s_fmin = 15.0; /* as imp_init sets them */
-    S.qw.s_fmax = 30.0;
     /* with a volume: |x_k| <= |row k of A| |ijk| (world = org + A ijk), a little over */
     for (int k = 0; v && k < 3; k++) {
         double f = 0.0;
@@ -716,9 +903,14 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
     }
     S.p0 = malloc((3 * m->npoints + 1) * sizeof *S.p0);
     if (m->ncell_fields) S.par = malloc((m->ncells + 1) * sizeof *S.par);
-    if (!S.p0 || (m->ncell_fields && !S.par)) {
+    /* every slot is in a slab of the first phase, which sets its flag */
+    S.below = malloc(m->ncells + 1);
+    S.loc = malloc((m->npoints + 1) * sizeof *S.loc);
+    if (!S.p0 || (m->ncell_fields && !S.par) || !S.below || !S.loc) {
         free(S.p0);
         free(S.par);
+        free(S.below);
+        free(S.loc);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
     memcpy(S.p0, m->points, 3 * m->npoints * sizeof *S.p0);
@@ -752,7 +944,11 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
         jobs[k].z1 = cut[k + 1];
         jobs[k].seed = part_seed(o->seed, 1, k);
     }
-    if (s == VM_OK) s = run_jobs(&S, jobs, order, no, 0.0, 0.7, err);
+    /* evens, then odds: the parts of a call are all scanned before they run */
+    size_t ne = (ns + 1) / 2;
+    if (s == VM_OK) s = run_jobs(&S, jobs, order, ne, 0.0, 0.35, err);
+    if (s == VM_OK && no > ne) s = run_jobs(&S, jobs, order + ne, no - ne, 0.35, 0.7, err);
+    compact_slots(&S);
     /* Then rounds over the tets still below the targets, anywhere, with two rings of tets
      * around them: first by the slabs shifted by half a slab (their borders were locked in
      * the slabs), then by the slabs, and so on while the count goes down. */
@@ -791,7 +987,11 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
             order[no++] = k;
         double f0 = 0.7 + 0.2 * (1.0 - pow(0.5, round)),
                f1 = 0.7 + 0.2 * (1.0 - pow(0.5, round + 1));
-        s = run_jobs(&S, jobs, order, no, f0, f1, err);
+        size_t nje = (nj + 1) / 2;
+        s = run_jobs(&S, jobs, order, nje, f0, 0.5 * (f0 + f1), err);
+        if (s == VM_OK && no > nje)
+            s = run_jobs(&S, jobs, order + nje, no - nje, 0.5 * (f0 + f1), f1, err);
+        compact_slots(&S);
     }
     /* also after an error: the mesh stays valid (the parts done so far improved) */
     vm_error e2;
@@ -800,11 +1000,13 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_opt
         s = s2;
         if (err) *err = e2;
     }
-    free(key);
+    if (0) free(key);
     free(order);
     free(jobs);
     free(cut);
     free(S.p0);
     free(S.par);
+    free(S.below);
+    free(S.loc);
     return s;
 }
