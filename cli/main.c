@@ -6,6 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include "cli.h"
 
 static const char *usage =
@@ -129,6 +132,12 @@ void vm_cli_progress(const char *stage, double done, double total, void *user) {
 }
 
 int main(int argc, char **argv) {
+#ifdef __GLIBC__
+    /* Big arrays (a stage's working data, a part's in the quality pass) go back to the system
+     * when freed: glibc would otherwise raise this threshold to the size of the first one
+     * freed and keep later ones in its heaps, where freed memory stays resident. */
+    mallopt(M_MMAP_THRESHOLD, 256 * 1024);
+#endif
     if (argc < 2) {
         fputs(usage, stderr);
         return VM_EXIT_INPUT;

@@ -445,6 +445,8 @@ static void job_run(pstate *S, job *J) {
     if (!sort_slots(gid, 4 * nc)) goto nomem;
     for (size_t i = 0; i < 4 * nc; i++)
         if (ng == 0 || gid[i] != gid[ng - 1]) gid[ng++] = gid[i];
+    uint32_t *g2 = realloc(gid, (ng + 1) * sizeof *gid); /* held while the part runs */
+    if (g2) gid = g2;
     for (size_t i = 0; i < ng; i++)
         S->loc[gid[i]] = (uint32_t)i;
     sub.points = malloc((3 * ng + 1) * sizeof *sub.points);
