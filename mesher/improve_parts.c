@@ -274,16 +274,24 @@ static uint32_t zslot_bucket(const pstate *S, const float *key, size_t nkey, con
 /* 0 on out-of-memory. */
 static int zindex_build(const pstate *S, const float *key, size_t nkey, zindex *X) {
     memset(X, 0, sizeof *X);
-    double zmin = INFINITY, zmax = -INFINITY;
+    double zmin = INFINITY, zmax = -INFINITY, reach = 0.0;
     size_t n = 0;
+    /* minima, maxima and counts: the same for any thread count */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096) reduction(min : zmin) reduction(max : zmax, reach) reduction(+ : n)
+#endif
     for (size_t t = 0; t < S->nt; t++) {
         double z = zvalue(S, key, nkey, t);
         if (!(z < INFINITY)) continue;
         n++;
         if (z < zmin) zmin = z;
         if (z > zmax) zmax = z;
-        if (!key && zreach(S, t, z) > X->reach) X->reach = zreach(S, t, z);
+        if (!key) {
+            double r = zreach(S, t, z);
+            if (r > reach) reach = r;
+        }
     }
+    X->reach = reach;
     X->ncls = key ? 1 : ZCLASSES;
     X->nb = n / 256 < 1 ? 1 : n / 256 > ((size_t)1 << 20) ? (size_t)1 << 20 : n / 256;
     X->z0 = n ? zmin : 0.0;
@@ -298,10 +306,13 @@ static int zindex_build(const pstate *S, const float *key, size_t nkey, zindex *
         zindex_free(X);
         return 0;
     }
-    for (size_t t = 0; t < S->nt; t++) {
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (size_t t = 0; t < S->nt; t++)
         bk[t] = zslot_bucket(S, key, nkey, X, t);
+    for (size_t t = 0; t < S->nt; t++)
         if (bk[t] != UINT32_MAX) X->start[bk[t] + 1]++;
-    }
     for (size_t i = 0; i < nbk; i++)
         X->start[i + 1] += X->start[i];
     /* fill with the starts, then shift them back */
