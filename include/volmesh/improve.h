@@ -126,7 +126,8 @@ void vm_improve_options_default(vm_improve_options *o);
  * improve what it cannot orient), VM_ERR_NOMEM. On error m is unchanged, except that a
  * pass by parts (o->parts) may have improved some parts of it already (still valid).
  * Time O(n log n) per pass; memory about 150 bytes per tet in one pass (by parts: the
- * mesh, 25 bytes per point more and the working data of one part per thread). */
+ * mesh, 28 bytes per point and 1 to 9 per tet more, and the working data of one part per
+ * thread). */
 vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                           vm_improve_report *r, vm_error *err);
 
