@@ -26,6 +26,12 @@ vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *
 /* Seconds from a monotonic clock. */
 double vm__now(void);
 
+/* Union-find over 0..n-1 (parent[i] = i to start): the root of x (path halving), and the
+ * union of the sets of a and b, whose root is the smaller of their roots (so the result
+ * does not depend on the order of the unions). */
+size_t vm__uf_find(size_t *parent, size_t x);
+void vm__uf_union(size_t *parent, size_t a, size_t b);
+
 /* A progress meter over a known amount of work: calls fn(stage, done, total, user) when done
  * has grown by about 1/200 of total since the last call, and once at the end with done ==
  * total. fn may be NULL (the meter then does nothing). Single-threaded: add from one thread. */

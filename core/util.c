@@ -106,3 +106,20 @@ void vm__meter_end(vm__meter *mt) {
     mt->fn(mt->stage, mt->total, mt->total, mt->user);
     mt->fn = NULL;
 }
+
+size_t vm__uf_find(size_t *parent, size_t x) {
+    while (parent[x] != x) {
+        parent[x] = parent[parent[x]];
+        x = parent[x];
+    }
+    return x;
+}
+
+void vm__uf_union(size_t *parent, size_t a, size_t b) {
+    a = vm__uf_find(parent, a);
+    b = vm__uf_find(parent, b);
+    if (a < b)
+        parent[b] = a;
+    else if (b < a)
+        parent[a] = b;
+}

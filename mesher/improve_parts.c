@@ -778,23 +778,6 @@ static void key_grow(const pstate *S, float *key, float *vkey) {
     }
 }
 
-static uint32_t uf_root(uint32_t *up, uint32_t a) {
-    while (up[a] != a) {
-        up[a] = up[up[a]];
-        a = up[a];
-    }
-    return a;
-}
-
-static void uf_join(uint32_t *up, uint32_t a, uint32_t b) {
-    a = uf_root(up, a);
-    b = uf_root(up, b);
-    if (a < b)
-        up[b] = a;
-    else if (b < a)
-        up[a] = b;
-}
-
 /* Marks the tets below the targets with their centroid's z, grows the marks by rings rings
  * of tets sharing a vertex, and gives each connected group of marked tets (sharing
  * vertices) the least key in it: a group goes to one part whole. Returns the number below
@@ -811,7 +794,7 @@ static size_t key_bad(const pstate *S, float *key, int rings) {
     if (n == 0) return 0;
     size_t np = S->m->npoints;
     float *vkey = malloc((np + 1) * sizeof *vkey);
-    uint32_t *up = malloc((np + 1) * sizeof *up);
+    size_t *up = malloc((np + 1) * sizeof *up);
     if (!vkey || !up) {
         free(vkey);
         free(up);
@@ -821,20 +804,20 @@ static size_t key_bad(const pstate *S, float *key, int rings) {
         key_grow(S, key, vkey);
     const vm_index *c = S->m->cells;
     for (size_t i = 0; i < np; i++) {
-        up[i] = (uint32_t)i;
+        up[i] = i;
         vkey[i] = INFINITY;
     }
     for (size_t t = 0; t < S->nt; t++)
         if (key[t] < INFINITY)
             for (int k = 1; k < 4; k++)
-                uf_join(up, (uint32_t)c[4 * t], (uint32_t)c[4 * t + k]);
+                vm__uf_union(up, (size_t)c[4 * t], (size_t)c[4 * t + k]);
     for (size_t t = 0; t < S->nt; t++) {
         if (!(key[t] < INFINITY)) continue;
-        uint32_t r = uf_root(up, (uint32_t)c[4 * t]);
+        size_t r = vm__uf_find(up, (size_t)c[4 * t]);
         if (key[t] < vkey[r]) vkey[r] = key[t];
     }
     for (size_t t = 0; t < S->nt; t++)
-        if (key[t] < INFINITY) key[t] = vkey[uf_root(up, (uint32_t)c[4 * t])];
+        if (key[t] < INFINITY) key[t] = vkey[vm__uf_find(up, (size_t)c[4 * t])];
     free(vkey);
     free(up);
     return n;

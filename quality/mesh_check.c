@@ -59,28 +59,6 @@ static uint64_t hash_key(const int64_t *key, int n) {
     return h;
 }
 
-/* --- union-find ------------------------------------------------------------------------ */
-
-static size_t uf_find(size_t *parent, size_t x) {
-    while (parent[x] != x) {
-        parent[x] = parent[parent[x]];
-        x = parent[x];
-    }
-    return x;
-}
-
-static void uf_union(size_t *parent, size_t a, size_t b) {
-    a = uf_find(parent, a);
-    b = uf_find(parent, b);
-    if (a == b) return;
-    /* Smaller index becomes the root: deterministic and keeps trees shallow enough with
-     * path halving. */
-    if (a < b)
-        parent[b] = a;
-    else
-        parent[a] = b;
-}
-
 /* --- checked allocation ------------------------------------------------------------------ */
 
 static void *alloc_array(size_t n, size_t elem, int zeroed, const char *what, vm_status *st,
@@ -257,7 +235,7 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
     if (parent)
         for (size_t i = 1; i < ninst; i++)
             if (mark[order[i]] & 2)
-                uf_union(parent, (size_t)(order[i] / (uint64_t)fs->nf),
+                vm__uf_union(parent, (size_t)(order[i] / (uint64_t)fs->nf),
                          (size_t)(order[i - 1] / (uint64_t)fs->nf));
     uint64_t *list = alloc_array(n, sizeof *list, 0, "boundary faces", &st, err);
     if (!list) goto done;
@@ -334,7 +312,7 @@ static vm_status analyse_surface(const vm_index *faces, size_t nf, int k, size_t
                 if ((a1 < b1 ? a1 : b1) == key[0] && (a1 < b1 ? b1 : a1) == key[1]) {
                     if (s->count == 1) s->c2 = (uint64_t)i + 1;
                     if (s->count < UINT32_MAX) s->count++;
-                    uf_union(fparent, f1, f);
+                    vm__uf_union(fparent, f1, f);
                     break;
                 }
             }
@@ -362,17 +340,17 @@ static vm_status analyse_surface(const vm_index *faces, size_t nf, int k, size_t
         size_t i2 = (size_t)(tab[s].c2 - 1), f2 = i2 / (size_t)k, j2 = i2 % (size_t)k;
         size_t i2n = f2 * (size_t)k + (j2 + 1) % (size_t)k;
         if (faces[i2] == a) {
-            uf_union(cparent, i1, i2);
-            uf_union(cparent, i1n, i2n);
+            vm__uf_union(cparent, i1, i2);
+            vm__uf_union(cparent, i1n, i2n);
         } else {
-            uf_union(cparent, i1, i2n);
-            uf_union(cparent, i1n, i2);
+            vm__uf_union(cparent, i1, i2n);
+            vm__uf_union(cparent, i1n, i2);
         }
     }
     /* A vertex is manifold when all its corners form one fan and none of its edges is open
      * or non-manifold (a fan that closes into a single cycle). */
     for (size_t c = 0; c < ninst; c++) {
-        size_t v = (size_t)faces[c], root = uf_find(cparent, c);
+        size_t v = (size_t)faces[c], root = vm__uf_find(cparent, c);
         if (first_root[v] == SIZE_MAX)
             first_root[v] = root;
         else if (first_root[v] != root)
@@ -386,7 +364,7 @@ static vm_status analyse_surface(const vm_index *faces, size_t nf, int k, size_t
     }
     size_t ncomp = 0;
     for (size_t f = 0; f < nf; f++)
-        if (uf_find(fparent, f) == f) ncomp++;
+        if (vm__uf_find(fparent, f) == f) ncomp++;
     r->boundary_components = ncomp;
     r->boundary_closed = r->boundary_open_edges == 0 && r->boundary_nonmanifold_edges == 0;
     r->boundary_euler = (long)nverts - (long)nedges + (long)nf;
@@ -521,7 +499,7 @@ static vm_status check_volume_mesh(const vm_mesh *m, vm_mesh_report *r, vm__mete
         return st;
     }
     for (size_t c = 0; c < m->ncells; c++)
-        if (uf_find(parent, c) == c) r->components++;
+        if (vm__uf_find(parent, c) == c) r->components++;
     free(parent);
     r->boundary_faces = nb;
     size_t nidx;
