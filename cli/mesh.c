@@ -80,9 +80,10 @@ static const char *mesh_help2 =
     "  --max-memory SIZE       refuse (exit 2) before reading or meshing when the run would\n"
     "                          need more than SIZE bytes (suffix K, M, G, T: powers of 1024)\n"
     "  --slabs N|auto          tets: mesh by N slabs along z, each read and meshed on its own\n"
-    "                          (the same mesh, without the whole volume in memory while\n"
-    "                          meshing; the quality pass still reads it whole); auto: the\n"
-    "                          fewest slabs whose planes fit in a quarter of --max-memory\n"
+    "                          (the same mesh, never the whole volume in memory: the\n"
+    "                          quality pass by parts reads the planes each part reaches,\n"
+    "                          the one pass all of them); auto: the fewest slabs whose\n"
+    "                          planes fit in a quarter of --max-memory\n"
     "                          (one slab without it). See docs/ALGORITHMS.md\n"
     "  --json                  print the summary as one JSON object\n"
     "  --quiet                 no progress bar (nor the status line of writing and checking)\n"
@@ -254,7 +255,8 @@ static int check_memory(const char *in, const vm_volume *v, const vm_mesh_option
                        o->adaptive ? "" : " or --adaptive");
 }
 
-/* --slabs: the planes come from a reader that goes on where the previous slab ended. */
+/* --slabs: the planes come from a reader that goes on where the previous slab ended (the
+ * mesher reads forward; the quality pass's parts read windows in any order). */
 static vm_status read_planes(int64_t z0, int64_t z1, vm_volume *out, void *user,
                              vm_error *err) {
     return vm_volume_reader_read(user, z0, z1, out->data, err);
@@ -530,17 +532,16 @@ int vm_cmd_mesh(int argc, char **argv) {
     o.progress_user = &quiet;
     double t = stage_clock();
     int rc = -1;
+    vm_volume_reader *planes = NULL; /* --slabs: the quality pass reads its planes from it */
     if (have_slabs) {
         rc = mesh_slabs(in, is_raw ? &raw : NULL, &o, slabs, max_memory, verbose, &m, &st, &t);
         if (rc > 0) return rc;
-        /* the quality pass projects onto the isosurface: for now it reads the volume whole */
-        if (rc == 0 && improve) {
-            rc = vm_cli_read_volume(in, is_raw ? &raw : NULL, &v);
-            if (rc) {
-                vm_mesh_free(&m);
-                return rc;
-            }
-            stage_done(verbose, "read", &t);
+        /* the quality pass projects onto the isosurface: by parts, each part reads the
+         * planes it reaches (v: the header only) */
+        if (rc == 0 && improve &&
+            vm_volume_reader_open(in, is_raw ? &raw : NULL, &v, &planes, &err) != VM_OK) {
+            vm_mesh_free(&m);
+            return vm_cli_fail_err(&err);
         }
     }
     if (rc < 0) { /* one slab: the whole volume, as without --slabs */
@@ -615,11 +616,17 @@ int vm_cmd_mesh(int argc, char **argv) {
         io.parts = improve_parts;
         io.progress = vm_cli_progress;
         io.progress_user = &quiet;
-        s = vm_mesh_improve(&m, &v, &io, &ir, &err);
+        s = planes ? vm_mesh_improve_planes(&m, &v, read_planes, planes, &io, &ir, &err)
+                   : vm_mesh_improve(&m, &v, &io, &ir, &err);
+        vm_volume_reader_close(planes);
+        planes = NULL;
         if (s) {
             vm_volume_free(&v);
             vm_mesh_free(&m);
-            return vm_cli_fail("%s: %s", in, err.message);
+            /* a reader's message names the file, the pass's the stage */
+            return strncmp(err.message, in, strlen(in)) == 0
+                       ? vm_cli_fail_err(&err)
+                       : vm_cli_fail("%s: %s", in, err.message);
         }
         improved = 1;
         st.seconds += ir.seconds;

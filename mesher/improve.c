@@ -240,15 +240,15 @@ static int invert3(double A[3][3], double B[3][3]) {
     return 1;
 }
 
-static double field_at(const vm_volume *v, const double ijk[3]) {
+static double field_at(const vm__imp *w, const double ijk[3]) {
     int64_t i[3];
     for (int a = 0; a < 3; a++) {
         double x = floor(ijk[a] + 0.5);
         if (x < 0) x = 0;
-        if (x > (double)(v->dims[a] - 1)) x = (double)(v->dims[a] - 1);
+        if (x > (double)(w->v->dims[a] - 1)) x = (double)(w->v->dims[a] - 1);
         i[a] = (int64_t)x;
     }
-    return v->data[i[0] + v->dims[0] * (i[1] + v->dims[1] * i[2])];
+    return vm__imp_voxel(w, i[0], i[1], i[2]);
 }
 
 static double shortest_edge(const vm__imp *w, size_t i) {
@@ -381,6 +381,15 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
     size_t np = m->npoints, nt = m->ncells;
     w->o = o;
     w->v = v;
+    if (v && sx && sx->planes) {
+        w->fdata = sx->planes;
+        w->fk0 = sx->k0;
+        w->fk1 = sx->k1;
+    } else if (v) {
+        w->fdata = v->data;
+        w->fk0 = 0;
+        w->fk1 = v->dims[2];
+    }
     w->lo = o->lo;
     w->hi = o->hi;
     w->has_lo = o->has_lo;
@@ -600,7 +609,7 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
             if (v) {
                 double ijk[3];
                 vm__imp_to_index(w, w->p + 3 * i, ijk);
-                double f = field_at(v, ijk);
+                double f = field_at(w, ijk);
                 w->iso_hi[i] = w->has_hi && (!w->has_lo || fabs(f - w->hi) < fabs(f - w->lo));
                 w->bound[w->ci[i]] = o->max_surface_move;
             } else {
@@ -988,8 +997,29 @@ static vm_status one_pass(vm__imp *w, vm_mesh *m, const vm_volume *v,
     return s == VM_OK ? write_back(w, m, o, err) : s;
 }
 
-vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
-                          vm_improve_report *r, vm_error *err) {
+/* The one pass over a volume given by its planes: reads them all first. */
+static vm_status one_pass_planes(vm__imp *w, vm_mesh *m, const vm_volume *info,
+                                 vm_plane_source src, void *user, const vm_improve_options *o,
+                                 int *passes, double *maxmove, double *maxiface,
+                                 vm_error *err) {
+    vm_volume whole = *info;
+    size_t n, bytes;
+    if (!vm__mul_size((size_t)info->dims[0] * (size_t)info->dims[1], (size_t)info->dims[2], &n) ||
+        !vm__mul_size(n, sizeof *whole.data, &bytes) || bytes > vm__memory_limit())
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: the volume is over the memory limit");
+    whole.data = malloc((n + 1) * sizeof *whole.data);
+    if (!whole.data)
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the volume");
+    vm_status s = src(0, info->dims[2], &whole, user, err);
+    if (s == VM_OK) s = one_pass(w, m, &whole, o, passes, maxmove, maxiface, err);
+    free(whole.data);
+    return s;
+}
+
+/* vm_mesh_improve, with the volume in memory (src NULL) or given by its planes (v: its dims
+ * and geometry). */
+static vm_status improve(vm_mesh *m, const vm_volume *v, vm_plane_source src, void *user,
+                         const vm_improve_options *o, vm_improve_report *r, vm_error *err) {
     double t0 = vm__now();
     vm_improve_options def;
     if (!o) {
@@ -1031,7 +1061,7 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
     if (nparts > 1) {
         vm_improve_report pr;
         memset(&pr, 0, sizeof pr);
-        s = vm__imp_parts_run(m, v, o, nparts, &pr, err);
+        s = vm__imp_parts_run(m, v, src, user, o, nparts, &pr, err);
         w.collapses = pr.collapses;
         w.flips23 = pr.flips23;
         w.flips32 = pr.flips32;
@@ -1044,6 +1074,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
         maxmove = pr.max_surface_move;
         maxiface = pr.max_interface_move;
         show(o, 1.0 - FINAL_SHARE);
+    } else if (src) {
+        s = one_pass_planes(&w, m, v, src, user, o, &passes, &maxmove, &maxiface, err);
     } else {
         s = one_pass(&w, m, v, o, &passes, &maxmove, &maxiface, err);
     }
@@ -1096,4 +1128,19 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
     imp_free(&w);
     show(o, 1.0);
     return s;
+}
+
+vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
+                          vm_improve_report *r, vm_error *err) {
+    return improve(m, v, NULL, NULL, o, r, err);
+}
+
+vm_status vm_mesh_improve_planes(vm_mesh *m, const vm_volume *info, vm_plane_source source,
+                                 void *source_user, const vm_improve_options *o,
+                                 vm_improve_report *r, vm_error *err) {
+    if (!info || !source)
+        return vm_error_set(err, VM_ERR_ARG, "improve: a plane source needs the volume's info");
+    if (info->dims[0] < 1 || info->dims[1] < 1 || info->dims[2] < 1)
+        return vm_error_set(err, VM_ERR_ARG, "improve: the volume has no voxels");
+    return improve(m, info, source, source_user, o, r, err);
 }

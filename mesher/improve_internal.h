@@ -49,6 +49,11 @@ typedef struct vm__imp {
     size_t npt;
     /* the volume, when given: world = org + A * ijk */
     const vm_volume *v;
+    /* its planes held: plane k at fdata + (k - fk0) nx ny for fk0 <= k < fk1 (the whole
+     * volume, or the window a part reads, which holds every plane its vertices can sample;
+     * a read outside would be clamped to them) */
+    const float *fdata;
+    int64_t fk0, fk1;
     double A[3][3], Ainv[3][3], org[3];
     double lo, hi;
     int has_lo, has_hi;
@@ -127,6 +132,13 @@ int vm__imp_scratch(vm__imp *w, size_t n);
 unsigned vm__imp_rand(vm__imp *w);
 double vm__imp_rand01(vm__imp *w);
 
+/* Voxel (i, j, k) of the volume (in the grid) from the planes held. */
+static inline double vm__imp_voxel(const vm__imp *w, int64_t i, int64_t j, int64_t k) {
+    if (k < w->fk0) k = w->fk0;
+    if (k >= w->fk1) k = w->fk1 - 1;
+    return w->fdata[i + w->v->dims[0] * (j + w->v->dims[1] * (k - w->fk0))];
+}
+
 /* World <-> index space and the trilinear field (with a volume). */
 void vm__imp_to_index(const vm__imp *w, const double x[3], double ijk[3]);
 void vm__imp_to_world(const vm__imp *w, const double ijk[3], double x[3]);
@@ -167,6 +179,10 @@ typedef struct vm__imp_sub {
                               (freed by vm__imp_sub_run once copied, and set to NULL) */
     const double *box;     /* the whole mesh's bounding box (min xyz, max xyz) */
     unsigned seed;         /* of the random perturbations */
+    /* the volume's planes k0 <= k < k1, when the part reads a window of them (else NULL:
+     * the volume's data) */
+    const float *planes;
+    int64_t k0, k1;
 } vm__imp_sub;
 
 /* Improves submesh m (only its tets, points and regions are read; m is freed, as x->p0,
@@ -183,8 +199,11 @@ void vm__imp_sub_free(vm__imp *w);
 /* The whole pass by parts (improve_parts.c), when vm__imp_parts_count says more than one:
  * m is improved in place; counters, passes and moves go to r (figures are the caller's). */
 size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o);
-vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
-                            size_t nparts, vm_improve_report *r, vm_error *err);
+/* v: the volume, or with src its dims and geometry only, each part then reading the planes
+ * it reaches from src (one call at a time). */
+vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src, void *src_user,
+                            const vm_improve_options *o, size_t nparts, vm_improve_report *r,
+                            vm_error *err);
 
 /* The operations: each returns 1 when it changed the mesh. */
 int vm__imp_contract_tet(vm__imp *w, size_t t);

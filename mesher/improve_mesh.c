@@ -274,7 +274,8 @@ void vm__imp_to_world(const vm__imp *w, const double ijk[3], double x[3]) {
 }
 
 /* Trilinear value and index-space gradient of the volume at ijk (clamped to the grid). */
-static double field(const vm_volume *v, const double ijk[3], double g[3]) {
+static double field(const vm__imp *w, const double ijk[3], double g[3]) {
+    const vm_volume *v = w->v;
     int64_t i0[3];
     double t[3];
     for (int a = 0; a < 3; a++) {
@@ -292,7 +293,7 @@ static double field(const vm_volume *v, const double ijk[3], double g[3]) {
         int64_t ii = i0[0] + ((q & 1) && v->dims[0] > 1);
         int64_t jj = i0[1] + (((q >> 1) & 1) && v->dims[1] > 1);
         int64_t kk = i0[2] + ((q >> 2) && v->dims[2] > 1);
-        c[q] = v->data[ii + v->dims[0] * (jj + v->dims[1] * kk)];
+        c[q] = vm__imp_voxel(w, ii, jj, kk);
     }
     double x0 = t[0], y0 = t[1], z0 = t[2];
     double c00 = c[0] + (c[1] - c[0]) * x0, c10 = c[2] + (c[3] - c[2]) * x0;
@@ -315,7 +316,7 @@ int vm__imp_project(const vm__imp *w, vm_index a, double x[3]) {
     double iso = w->iso_hi[a] ? w->hi : w->lo;
     int ok = 0;
     for (int it = 0; it < 10; it++) {
-        double f = field(w->v, ijk, g) - iso;
+        double f = field(w, ijk, g) - iso;
         double g2 = vm__dot3(g, g);
         if (!(g2 > 1e-30) || !isfinite(f)) return 0;
         double step = f / g2, len = fabs(f) / sqrt(g2);
@@ -342,7 +343,7 @@ static int band_constrain(const vm__imp *w, vm_index a, double x[3]) {
     if (band > 0.0) {
         double ijk[3], ijk0[3], g[3], d[3];
         vm__imp_to_index(w, x, ijk);
-        double f = field(w->v, ijk, g) - (w->iso_hi[a] ? w->hi : w->lo);
+        double f = field(w, ijk, g) - (w->iso_hi[a] ? w->hi : w->lo);
         double gl = sqrt(vm__dot3(g, g));
         if (gl > 1e-12 && isfinite(f) && fabs(f) <= band * gl) {
             vm__imp_to_index(w, vm__imp_p0(w, a), ijk0);
@@ -388,7 +389,7 @@ void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]) {
     if (w->cls[a] != VM__IMP_SURF || !w->v) return;
     double ijk[3], g[3], x[3];
     vm__imp_to_index(w, w->p + 3 * (size_t)a, ijk);
-    field(w->v, ijk, g);
+    field(w, ijk, g);
     /* d f / d x = Ainv^T d f / d ijk */
     for (int c = 0; c < 3; c++) x[c] = w->Ainv[0][c] * g[0] + w->Ainv[1][c] * g[1] + w->Ainv[2][c] * g[2];
     double l = sqrt(vm__dot3(x, x));

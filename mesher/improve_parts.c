@@ -54,6 +54,9 @@ typedef struct pstate {
     uint32_t *loc;  /* per point: its id in the submesh of the part running with it */
     double box[6];
     double row[3]; /* with a volume: world displacement along each axis per voxel */
+    vm_plane_source src; /* with a volume given by its planes: where the parts read them */
+    void *src_user;
+    double kz[3]; /* then: index z of a world point x is kz . (x - the volume's origin) */
     vm_improve_report *r;
 } pstate;
 
@@ -432,6 +435,61 @@ static int job_scan(const pstate *S, const zindex *C, const zindex *K, job *J) {
     return !fail && sort_slots(J->ls, J->nls);
 }
 
+/* With a volume given by its planes: reads the planes part J may sample into a new buffer
+ * (returned; NULL with J->s set on error) and points x at them. A vertex of the submesh
+ * samples the field where it is or, moving, within twice its surface bound (in voxels) of
+ * it; the trilinear cell adds a plane above, and a Newton step may stray a little: three
+ * planes more each side. */
+static float *part_planes(pstate *S, job *J, const vm_mesh *sub, vm__imp_sub *x) {
+    const vm_volume *v = S->v;
+    double kmin = INFINITY, kmax = -INFINITY;
+    for (size_t i = 0; i < sub->npoints; i++) {
+        const double *p = sub->points + 3 * i;
+        double k = S->kz[0] * (p[0] - v->origin[0]) + S->kz[1] * (p[1] - v->origin[1]) +
+                   S->kz[2] * (p[2] - v->origin[2]);
+        if (k < kmin) kmin = k;
+        if (k > kmax) kmax = k;
+    }
+    double grow = 2.0 * S->o.max_surface_move + 3.0;
+    double lo = floor(kmin - grow), hi = ceil(kmax + grow) + 2.0, nz = (double)v->dims[2];
+    int64_t k0 = lo < 0.0 ? 0 : lo > nz - 1.0 ? v->dims[2] - 1 : (int64_t)lo;
+    int64_t k1 = hi > nz ? v->dims[2] : hi < (double)(k0 + 1) ? k0 + 1 : (int64_t)hi;
+    size_t n, bytes;
+    if (!vm__mul_size((size_t)v->dims[0] * (size_t)v->dims[1], (size_t)(k1 - k0), &n) ||
+        !vm__mul_size(n, sizeof(float), &bytes) || bytes > vm__memory_limit()) {
+        J->s = vm_error_set(&J->err, VM_ERR_NOMEM,
+                            "improve: a part's planes are over the memory limit");
+        return NULL;
+    }
+    float *planes = malloc((n + 1) * sizeof *planes);
+    if (!planes) {
+        J->s =
+            vm_error_set(&J->err, VM_ERR_NOMEM, "improve: out of memory for a part's planes");
+        return NULL;
+    }
+    vm_volume out;
+    memset(&out, 0, sizeof out);
+    out.dims[0] = v->dims[0];
+    out.dims[1] = v->dims[1];
+    out.dims[2] = k1 - k0;
+    out.data = planes;
+    vm_status s;
+    /* a source (a file reader) serves one call at a time */
+#ifdef VM_HAVE_OPENMP
+#pragma omp critical(vm_improve_planes)
+#endif
+    s = S->src(k0, k1, &out, S->src_user, &J->err);
+    if (s != VM_OK) {
+        J->s = s;
+        free(planes);
+        return NULL;
+    }
+    x->planes = planes;
+    x->k0 = k0;
+    x->k1 = k1;
+    return planes;
+}
+
 /* Stage 2: builds the submesh (the part's tets first, then the locked ones), improves it and
  * writes it back into the part's slots and points; tets beyond its slots wait in J->xt.
  * Touches only what this part reaches. */
@@ -443,6 +501,7 @@ static void job_run(pstate *S, job *J) {
     vm_mesh sub;
     vm_mesh_init(&sub, VM_TET4);
     uint8_t *lock = calloc(nc + 1, 1);
+    float *planes = NULL;
     double *sp0 = NULL;
     size_t *tpar = NULL;
     vm__imp w;
@@ -478,7 +537,8 @@ static void job_run(pstate *S, job *J) {
     }
     sub.npoints = sub.point_cap = ng;
     sub.ncells = sub.cell_cap = nc;
-    vm__imp_sub x = {lock, sp0, S->box, J->seed};
+    vm__imp_sub x = {lock, sp0, S->box, J->seed, NULL, 0, 0};
+    if (S->src && !(planes = part_planes(S, J, &sub, &x))) goto done;
     sp0 = NULL; /* the run frees it and the submesh once it has copied them */
     J->s = vm__imp_sub_run(&w, &sub, S->v, &S->o, &x, &J->passes, &J->maxmove, &J->maxiface,
                            &J->err);
@@ -541,6 +601,7 @@ static void job_run(pstate *S, job *J) {
 nomem:
     J->s = vm_error_set(&J->err, VM_ERR_NOMEM, "improve: out of memory for a part");
 done:
+    free(planes);
     vm__imp_sub_free(&w);
     vm_mesh_free(&sub);
     free(sp0);
@@ -876,12 +937,32 @@ static vm_status finish(pstate *S, vm_error *err) {
     return VM_OK;
 }
 
-vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
-                            size_t nparts, vm_improve_report *r, vm_error *err) {
+vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src, void *src_user,
+                            const vm_improve_options *o, size_t nparts, vm_improve_report *r,
+                            vm_error *err) {
     pstate S;
     memset(&S, 0, sizeof S);
     S.m = m;
     S.v = v;
+    S.src = v ? src : NULL;
+    S.src_user = src_user;
+    if (S.src) {
+        /* row 2 of the inverse of A (columns a_c = direction column c x spacing c): the
+         * cross product of a_0 and a_1 over the determinant */
+        double a[3][3];
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++)
+                a[c][k] = v->direction[k][c] * v->spacing[c];
+        double n[3] = {a[0][1] * a[1][2] - a[0][2] * a[1][1],
+                       a[0][2] * a[1][0] - a[0][0] * a[1][2],
+                       a[0][0] * a[1][1] - a[0][1] * a[1][0]};
+        double det = n[0] * a[2][0] + n[1] * a[2][1] + n[2] * a[2][2];
+        if (!(fabs(det) > 0.0))
+            return vm_error_set(err, VM_ERR_ARG,
+                                "improve: the volume's index frame is singular");
+        for (int k = 0; k < 3; k++)
+            S.kz[k] = n[k] / det;
+    }
     S.uo = o;
     S.o = *o;
     S.o.progress = NULL;

@@ -15,11 +15,12 @@
 #ifndef VOLMESH_IMPROVE_H
 #define VOLMESH_IMPROVE_H
 
-#include <stddef.h>
 #include "error.h"
 #include "mesh.h"
 #include "mesher.h"
+#include "slabs.h"
 #include "volume.h"
+#include <stddef.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -130,6 +131,21 @@ void vm_improve_options_default(vm_improve_options *o);
  * thread). */
 vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                           vm_improve_report *r, vm_error *err);
+
+/* vm_mesh_improve with the volume read by planes instead of held whole (for meshes made by
+ * slabs, vm_mesh_volume_slabs): info gives the dims and geometry (its data is not used and
+ * may be NULL). By parts (o->parts; auto from 400 000 tets), each part reads from source
+ * the planes its vertices can sample (its z reach, twice the surface bound and 3 planes
+ * more each side) while it runs, and frees them after: the volume is never held whole (on
+ * the 2-core machine, two parts' planes at a time). Otherwise (the one pass, a mesh without
+ * regions, o->frozen) it reads all the planes at once. source is called one call at a
+ * time, from any thread, in any order of z (vm_volume_reader_read goes back to the start
+ * of a compressed stream for a slab before the last one). The result is vm_mesh_improve's
+ * with the whole volume, byte for byte. Errors as vm_mesh_improve, VM_ERR_ARG without info
+ * or source, and the source's own (naming its file). */
+vm_status vm_mesh_improve_planes(vm_mesh *m, const vm_volume *info, vm_plane_source source,
+                                 void *source_user, const vm_improve_options *o,
+                                 vm_improve_report *r, vm_error *err);
 
 /* Hexahedral meshes (hex8): vm_mesh_improve_hexes first inserts a pillow layer (one hex on
  * every boundary quad, between the boundary and an inner copy of it), so that no hex keeps

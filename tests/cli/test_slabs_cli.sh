@@ -3,7 +3,8 @@
 # for tet (judged by VTK + numpy: the same points, the same tets with the same node order and
 # regions, in any order) from a gzip NRRD (the demo phantom), uniform, adaptive and at
 # --size 2, with 0 inverted and a closed boundary of the torus's Euler characteristic; the
-# quality pass still runs (on the volume read whole); auto picks slabs within a quarter of
+# quality pass still runs, without a read of the whole volume (one pass: all the planes from
+# the reader; by parts: each part's); auto picks slabs within a quarter of
 # --max-memory and one slab without it; bad counts, options that do not go with slabs, a
 # budget too small and a file truncated after its first slabs exit 2 with one line naming
 # the problem and leave no output file.
@@ -35,13 +36,21 @@ for opts in "" "--adaptive --max-level 2" "--size 2"; do
     done
 done
 
-# The quality pass runs after slabs too (reading the volume whole for it), stage by stage.
+# The quality pass runs after slabs too (reading its planes from the file, no read stage).
 err=$("$VM_CLI" mesh phantom.nrrd --iso 0 --slabs 3 -o i.vtu --json --verbose 2>&1 >i.json) ||
     bad "--slabs 3 with the quality pass: $err"
 md=$(json "['min_dihedral']" <i.json)
 /usr/bin/python3 -c "import sys; sys.exit(0 if $md >= 15 else 1)" && ok || bad "--slabs 3 improved: $md"
 stages=$(printf '%s\n' "$err" | sed -n 's/^volmesh: \([a-z]*\) .* s$/\1/p' | tr '\n' ' ')
-[ "$stages" = "mesh read improve write check " ] && ok || bad "--slabs stages: '$stages'"
+[ "$stages" = "mesh improve write check " ] && ok || bad "--slabs stages: '$stages'"
+# by parts, each part reading its own planes
+err=$("$VM_CLI" --threads 2 mesh phantom.nrrd --iso 0 --slabs 3 --improve-parts 3 -o p.vtu --json \
+    2>&1 >p.json) || bad "--slabs 3 --improve-parts 3: $err"
+md=$(json "['min_dihedral']" <p.json)
+inv=$(json "['inverted']" <p.json)
+eul=$(json "['boundary_euler']" <p.json)
+[ "$inv" = 0 ] && [ "$eul" = 0 ] && /usr/bin/python3 -c "import sys; sys.exit(0 if $md >= 15 else 1)" &&
+    ok || bad "--slabs 3 --improve-parts 3: min dihedral $md, $inv inverted, Euler $eul"
 
 # auto: one slab without --max-memory (the very run without --slabs); slabs within a quarter
 # of the limit with it (96^3 floats: 36 KiB a plane, 3.4 MiB in all; 8M: 56 planes at most)

@@ -2,7 +2,8 @@
  * and 4 slabs it keeps every invariant of the one pass (none inverted, conforming, closed
  * boundary with the same Euler characteristic and components, volume, surface bound, no
  * boundary crossing), reaches about the one pass's quality, gives the same bytes for 1 and 2
- * threads, carries fields, and parts = 1 is the one pass. */
+ * threads, carries fields, and parts = 1 is the one pass; with the volume given by its
+ * planes, each part reads only a window of them, for the same mesh. */
 /* ctest parts: 2 */
 #include "test.h"
 #include <stdint.h>
@@ -248,6 +249,86 @@ static void progressGoesForwardByParts(void) {
     vm_volume_free(&v);
 }
 
+/* A plane source over a volume in memory, logging what it is asked for. */
+typedef struct plane_log {
+    const vm_volume *v;
+    int64_t reads, planes, most;
+    int64_t fail_at; /* the read that fails (-1: none) */
+} plane_log;
+
+static vm_status copy_planes(int64_t z0, int64_t z1, vm_volume *out, void *user,
+                             vm_error *err) {
+    plane_log *L = user;
+    if (L->reads++ == L->fail_at)
+        return vm_error_set(err, VM_ERR_IO, "planes.nrrd: cannot read planes %lld..%lld",
+                            (long long)z0, (long long)z1 - 1);
+    CHECK(0 <= z0 && z0 < z1 && z1 <= L->v->dims[2]);
+    CHECK(out->dims[0] == L->v->dims[0] && out->dims[1] == L->v->dims[1] &&
+          out->dims[2] == z1 - z0);
+    size_t plane = (size_t)(L->v->dims[0] * L->v->dims[1]);
+    memcpy(out->data, L->v->data + (size_t)z0 * plane,
+           (size_t)(z1 - z0) * plane * sizeof(float));
+    L->planes += z1 - z0;
+    if (z1 - z0 > L->most) L->most = z1 - z0;
+    return VM_OK;
+}
+
+/* vm_mesh_improve_planes: by parts each part reads a window of the planes, never the whole
+ * volume, and the mesh is the whole volume's byte for byte, on 1 and 2 threads; the one
+ * pass reads the planes all at once; a source that fails fails the pass with its message
+ * and leaves a valid mesh. */
+static void planesGiveTheWholeVolumeMesh(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_TORUS, 64, 0.0, 1, &v, NULL, &err), &err);
+    vm_mesh_options mo;
+    vm_mesh_options_default(&mo);
+    mo.adaptive = 1;
+    vm_mesh m0, a, b;
+    CHECK_OK(vm_mesh_volume(&v, &mo, &m0, NULL, &err), &err);
+    vm_volume info = v;
+    info.data = NULL;
+    vm_improve_options o;
+    vm_improve_options_default(&o);
+    for (int parts = 4; parts >= 1; parts -= 3)
+        for (int threads = 1; threads <= 2; threads++) {
+            copy_mesh(&m0, &a);
+            copy_mesh(&m0, &b);
+            o.parts = parts;
+            int old = vm_set_threads(threads);
+            CHECK_OK(vm_mesh_improve(&a, &v, &o, NULL, &err), &err);
+            plane_log L = {&v, 0, 0, 0, -1};
+            CHECK_OK(vm_mesh_improve_planes(&b, &info, copy_planes, &L, &o, NULL, &err), &err);
+            vm_set_threads(old);
+            CHECK_MSG(same_mesh(&a, &b), "%d parts, %d threads: not the whole volume's mesh",
+                      parts, threads);
+            if (parts > 1)
+                CHECK_MSG(L.reads >= 2 && L.most < v.dims[2] * 3 / 4,
+                          "%d parts: %lld reads, up to %lld of %lld planes", parts,
+                          (long long)L.reads, (long long)L.most, (long long)v.dims[2]);
+            else
+                CHECK(L.reads == 1 && L.most == v.dims[2]);
+            printf("  %d parts, %d threads: %lld reads, %lld planes in all, at most %lld of "
+                   "%lld\n",
+                   parts, threads, (long long)L.reads, (long long)L.planes, (long long)L.most,
+                   (long long)v.dims[2]);
+            vm_mesh_free(&a);
+            vm_mesh_free(&b);
+        }
+    /* the source fails on its third read */
+    copy_mesh(&m0, &b);
+    o.parts = 4;
+    plane_log L = {&v, 0, 0, 0, 2};
+    vm_status s = vm_mesh_improve_planes(&b, &info, copy_planes, &L, &o, NULL, &err);
+    CHECK(s == VM_ERR_IO && strstr(err.message, "planes.nrrd") != NULL);
+    vm_mesh_report r;
+    if (checked(&b, &r)) CHECK(r.inverted == 0 && r.overshared_faces == 0 && r.boundary_closed);
+    vm_mesh_free(&b);
+    CHECK(vm_mesh_improve_planes(&m0, &info, NULL, NULL, &o, NULL, &err) == VM_ERR_ARG);
+    vm_mesh_free(&m0);
+    vm_volume_free(&v);
+}
+
 /* volmesh mesh --improve-parts N runs and is the same for 1 and 2 threads. */
 static void cliImprovePartsOption(void) {
     vm_volume v;
@@ -275,4 +356,5 @@ static void cliImprovePartsOption(void) {
 
 TEST_MAIN(T(sphereTorusGenus3ByPartsKeepInvariantsAndQuality),
           T(twoSpheresAndPlateByPartsKeepInvariantsAndQuality), T(onePartIsTheOnePass),
-          T(fieldsFollowByParts), T(progressGoesForwardByParts), T(cliImprovePartsOption))
+          T(fieldsFollowByParts), T(progressGoesForwardByParts),
+          T(planesGiveTheWholeVolumeMesh), T(cliImprovePartsOption))
