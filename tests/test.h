@@ -76,6 +76,20 @@ int vm_test_write_file(const char *path, const void *data, size_t len);
  * capturing stdout+stderr into *out (malloc'd, may be NULL). Returns the exit status. */
 int vm_test_cli(const char *args, char **out);
 
+/* What a progress callback was told, for the tests of the bars: give vm_test_progress as the
+ * callback and a zeroed log (stage set to count only that stage, or NULL for all) as its
+ * user data. */
+typedef struct vm_test_progress_log {
+    const char *stage; /* the stage counted (NULL: every call) */
+    int calls;         /* calls counted */
+    int backwards;     /* counted calls whose done went down, or past their total */
+    int other_stage;   /* calls of another stage than stage */
+    int total_changed; /* counted calls whose total differs from the one before */
+    int ended;         /* the last counted call had done == total */
+    double last, total; /* done and total of the last counted call */
+} vm_test_progress_log;
+void vm_test_progress(const char *stage, double done, double total, void *user);
+
 /* 1 when a file exists at path. */
 int vm_test_exists(const char *path);
 

@@ -43,22 +43,6 @@ static inline void check_hex_mesh(const char *label, const vm_mesh *m, long eule
     if (volume > 0) CHECK_MSG(fabs(r.volume - volume) <= tol * volume, "%s: volume", label);
 }
 
-/* Progress seen by check_improved: calls, whether done ever went down or past total, and
- * whether the last call said done. */
-typedef struct hex_progress {
-    int calls, backwards, finished;
-    double last;
-} hex_progress;
-
-static inline void count_hex_progress(const char *stage, double done, double total,
-                                      void *user) {
-    hex_progress *p = (hex_progress *)user;
-    p->calls++;
-    if (done < p->last || done > total || strcmp(stage, "hex pass") != 0) p->backwards++;
-    p->last = done;
-    p->finished = done == total;
-}
-
 /* Runs the quality pass on m (meshed from v at iso lo) and checks what it promises against
  * the mesh before it: no inverted hex, the worst scaled Jacobian not lower and at least
  * floor, the same boundary topology, the volume within 2% (of expected when given, else of
@@ -71,17 +55,17 @@ static inline void check_improved(const char *label, vm_mesh *m, const vm_volume
     vm_hex_improve_options o;
     vm_hex_improve_options_default(&o);
     o.lo = lo;
-    hex_progress prog = {0, 0, 0, 0.0};
-    o.progress = count_hex_progress;
+    vm_test_progress_log prog = {"hex pass", 0, 0, 0, 0, 0, 0.0, 0.0};
+    o.progress = vm_test_progress;
     o.progress_user = &prog;
     vm_hex_improve_report r;
     vm_status s = vm_mesh_improve_hexes(m, v, &o, &r, &err);
     CHECK_OK(s, &err);
     if (s != VM_OK) return;
     /* the bar moves forward only and ends full */
-    CHECK_MSG(prog.calls >= 1 && prog.backwards == 0 && prog.finished,
-              "%s: progress %d calls, %d backwards, finished %d", label, prog.calls,
-              prog.backwards, prog.finished);
+    CHECK_MSG(prog.calls >= 1 && prog.backwards == 0 && prog.ended && prog.other_stage == 0,
+              "%s: progress %d calls, %d backwards, ended %d, %d of other stages", label,
+              prog.calls, prog.backwards, prog.ended, prog.other_stage);
     CHECK_OK(vm_mesh_check(m, &after, &err), &err);
     printf("  %s: %zu -> %zu hexes (pillow layer %s), min scaled Jacobian %.4f -> %.4f, "
            "%zu -> %zu below 0.2, volume %.1f -> %.1f, surface distance %.3f -> %.3f, %.2f s\n",

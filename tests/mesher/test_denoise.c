@@ -304,34 +304,22 @@ static void nonfinite_voxels_stay_and_do_not_spread(void) {
     vm_volume_free(&v);
 }
 
-static int progress_calls, progress_backwards;
-static double progress_last, progress_total;
-static void count_progress(const char *stage, double done, double total, void *user) {
-    (void)stage;
-    (void)user;
-    if (done <= total) progress_calls++;
-    if (done < progress_last) progress_backwards++;
-    progress_last = done;
-    progress_total = total;
-}
-
 static void progress_is_reported_and_geometry_kept(void) {
     vm_volume v, out;
     vm_error err;
     CHECK_OK(vm_phantom_make(VM_PHANTOM_TORUS, 20, 0.5, 1, &v, NULL, &err), &err);
     v.origin[1] = -7.5;
     v.direction[0][0] = -1;
-    progress_calls = progress_backwards = 0;
-    progress_last = 0;
-    CHECK_OK(vm_denoise_bilateral(&v, 0, 0, &out, count_progress, NULL, &err), &err);
+    vm_test_progress_log pl = {NULL, 0, 0, 0, 0, 0, 0.0, 0.0};
+    CHECK_OK(vm_denoise_bilateral(&v, 0, 0, &out, vm_test_progress, &pl, &err), &err);
     /* Reported per block of slabs, in order, ending at the whole volume. */
-    CHECK(progress_calls >= 2 && progress_calls <= 20 && progress_backwards == 0);
-    CHECK(progress_last == 20 && progress_total == 20);
+    CHECK(pl.calls >= 2 && pl.calls <= 20 && pl.backwards == 0);
+    CHECK(pl.last == 20 && pl.total == 20 && pl.ended);
     CHECK(out.origin[1] == -7.5 && out.direction[0][0] == -1);
     vm_volume_free(&out);
-    progress_calls = 0;
-    CHECK_OK(vm_denoise_diffusion(&v, 0, 0, 7, &out, count_progress, NULL, &err), &err);
-    CHECK(progress_calls == 7);
+    vm_test_progress_log pd = {NULL, 0, 0, 0, 0, 0, 0.0, 0.0};
+    CHECK_OK(vm_denoise_diffusion(&v, 0, 0, 7, &out, vm_test_progress, &pd, &err), &err);
+    CHECK(pd.calls == 7 && pd.backwards == 0 && pd.ended);
     vm_volume_free(&out);
     vm_volume_free(&v);
 }

@@ -592,17 +592,6 @@ static void boundaryCrossingCheckSeesCrossingTets(void) {
     vm_mesh_free(&m);
 }
 
-static int prog_calls, prog_backwards, prog_ended;
-static double prog_last;
-static void count_progress(const char *stage, double done, double total, void *user) {
-    (void)user;
-    if (strcmp(stage, "improve") != 0 || done > total) return;
-    prog_calls++;
-    if (done < prog_last) prog_backwards++;
-    prog_last = done;
-    prog_ended = done == total;
-}
-
 /* The pass reports its rounds in order and ends with done == total (the CLI's bar). */
 static void progressIsReportedRoundByRound(void) {
     vm_volume v;
@@ -614,12 +603,12 @@ static void progressIsReportedRoundByRound(void) {
     CHECK_OK(vm_mesh_volume(&v, &mo, &m, NULL, &err), &err);
     vm_improve_options o;
     vm_improve_options_default(&o);
-    o.progress = count_progress;
-    prog_calls = prog_backwards = prog_ended = 0;
-    prog_last = 0;
+    vm_test_progress_log pl = {"improve", 0, 0, 0, 0, 0, 0.0, 0.0};
+    o.progress = vm_test_progress;
+    o.progress_user = &pl;
     vm_improve_report r;
     CHECK_OK(vm_mesh_improve(&m, &v, &o, &r, &err), &err);
-    CHECK(prog_calls >= 2 && prog_backwards == 0 && prog_ended);
+    CHECK(pl.calls >= 2 && pl.backwards == 0 && pl.ended && pl.other_stage == 0);
     vm_mesh_free(&m);
     vm_volume_free(&v);
 }

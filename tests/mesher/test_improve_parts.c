@@ -216,18 +216,6 @@ static void fieldsFollowByParts(void) {
     vm_volume_free(&v);
 }
 
-static int prog_calls, prog_backwards, prog_ended;
-static double prog_last;
-
-static void count_progress(const char *stage, double done, double total, void *user) {
-    (void)stage;
-    (void)user;
-    prog_calls++;
-    if (done < prog_last) prog_backwards++;
-    prog_last = done;
-    prog_ended = done == total;
-}
-
 /* By parts too, the bar only goes forward and ends at its total. */
 static void progressGoesForwardByParts(void) {
     vm_volume v;
@@ -240,11 +228,11 @@ static void progressGoesForwardByParts(void) {
     vm_improve_options o;
     vm_improve_options_default(&o);
     o.parts = 3;
-    o.progress = count_progress;
-    prog_calls = prog_backwards = prog_ended = 0;
-    prog_last = 0.0;
+    vm_test_progress_log pl = {NULL, 0, 0, 0, 0, 0, 0.0, 0.0};
+    o.progress = vm_test_progress;
+    o.progress_user = &pl;
     CHECK_OK(vm_mesh_improve(&m, &v, &o, NULL, &err), &err);
-    CHECK(prog_calls >= 3 && prog_backwards == 0 && prog_ended);
+    CHECK(pl.calls >= 3 && pl.backwards == 0 && pl.ended);
     vm_mesh_free(&m);
     vm_volume_free(&v);
 }

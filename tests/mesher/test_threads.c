@@ -88,20 +88,6 @@ static void vtu_bytes_and_mesh_checks_are_the_same_for_any_thread_count(void) {
     vm_set_threads(before);
 }
 
-/* Progress of the quality pass: calls, steps back, the last value. */
-typedef struct pass_progress {
-    int calls, backwards;
-    double last;
-} pass_progress;
-
-static void count_pass_progress(const char *stage, double done, double total, void *user) {
-    pass_progress *p = (pass_progress *)user;
-    p->calls++;
-    if (done < p->last || done > total || total != 1.0 || strcmp(stage, "improve") != 0)
-        p->backwards++;
-    p->last = done;
-}
-
 /* dst = the points, tets and regions of src (no fields), for one run of the pass. */
 static void copy_tets(const vm_mesh *src, vm_mesh *dst) {
     vm_error err;
@@ -138,15 +124,16 @@ static void quality_pass_gives_the_same_mesh_for_one_two_and_three_threads(void)
         vm_improve_options io;
         vm_improve_options_default(&io);
         io.mark_unfixed = 1;
-        pass_progress prog = {0, 0, 0.0};
-        io.progress = count_pass_progress;
+        vm_test_progress_log prog = {"improve", 0, 0, 0, 0, 0, 0.0, 0.0};
+        io.progress = vm_test_progress;
         io.progress_user = &prog;
         vm_improve_report r;
         CHECK_OK(vm_mesh_improve(&m, &v, &io, &r, &err), &err);
         /* the bar starts with the set-up, only moves forward and ends full */
-        CHECK_MSG(prog.calls >= 6 && prog.backwards == 0 && prog.last == 1.0,
-                  "progress: %d calls, %d backwards, last %g", prog.calls, prog.backwards,
-                  prog.last);
+        CHECK_MSG(prog.calls >= 6 && prog.backwards == 0 && prog.last == 1.0 &&
+                      prog.total == 1.0 && prog.total_changed == 0 && prog.other_stage == 0,
+                  "progress: %d calls, %d backwards, last %g of %g", prog.calls, prog.backwards,
+                  prog.last, prog.total);
         r.seconds = 0.0;
         if (t == 0) {
             vm_mesh_report mr;
