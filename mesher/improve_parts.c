@@ -281,7 +281,8 @@ static int zindex_build(const pstate *S, const float *key, size_t nkey, zindex *
     size_t n = 0;
     /* minima, maxima and counts: the same for any thread count */
 #ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static, 4096) reduction(min : zmin) reduction(max : zmax, reach) reduction(+ : n)
+#pragma omp parallel for schedule(static, 4096) reduction(min : zmin)                     \
+    reduction(max : zmax, reach) reduction(+ : n)
 #endif
     for (size_t t = 0; t < S->nt; t++) {
         double z = zvalue(S, key, nkey, t);
