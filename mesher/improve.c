@@ -997,20 +997,41 @@ static vm_status one_pass(vm__imp *w, vm_mesh *m, const vm_volume *v,
     return s == VM_OK ? write_back(w, m, o, err) : s;
 }
 
+vm_status vm__imp_read_planes(const vm_volume *info, vm_plane_source src, void *user,
+                              int64_t k0, int64_t k1, float **out, vm_error *err) {
+    *out = NULL;
+    size_t n, bytes;
+    if (!vm__mul_size((size_t)info->dims[0] * (size_t)info->dims[1], (size_t)(k1 - k0), &n) ||
+        !vm__mul_size(n, sizeof **out, &bytes) || bytes > vm__memory_limit())
+        return vm_error_set(err, VM_ERR_NOMEM,
+                            "improve: planes %lld..%lld are over the memory limit",
+                            (long long)k0, (long long)k1 - 1);
+    float *data = malloc(bytes + sizeof *data);
+    if (!data)
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for planes %lld..%lld",
+                            (long long)k0, (long long)k1 - 1);
+    vm_volume planes;
+    memset(&planes, 0, sizeof planes);
+    planes.dims[0] = info->dims[0];
+    planes.dims[1] = info->dims[1];
+    planes.dims[2] = k1 - k0;
+    planes.data = data;
+    vm_status s = src(k0, k1, &planes, user, err);
+    if (s != VM_OK) {
+        free(data);
+        return s;
+    }
+    *out = data;
+    return VM_OK;
+}
+
 /* The one pass over a volume given by its planes: reads them all first. */
 static vm_status one_pass_planes(vm__imp *w, vm_mesh *m, const vm_volume *info,
                                  vm_plane_source src, void *user, const vm_improve_options *o,
                                  int *passes, double *maxmove, double *maxiface,
                                  vm_error *err) {
     vm_volume whole = *info;
-    size_t n, bytes;
-    if (!vm__mul_size((size_t)info->dims[0] * (size_t)info->dims[1], (size_t)info->dims[2], &n) ||
-        !vm__mul_size(n, sizeof *whole.data, &bytes) || bytes > vm__memory_limit())
-        return vm_error_set(err, VM_ERR_NOMEM, "improve: the volume is over the memory limit");
-    whole.data = malloc((n + 1) * sizeof *whole.data);
-    if (!whole.data)
-        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the volume");
-    vm_status s = src(0, info->dims[2], &whole, user, err);
+    vm_status s = vm__imp_read_planes(info, src, user, 0, info->dims[2], &whole.data, err);
     if (s == VM_OK) s = one_pass(w, m, &whole, o, passes, maxmove, maxiface, err);
     free(whole.data);
     return s;

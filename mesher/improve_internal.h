@@ -199,6 +199,11 @@ void vm__imp_sub_free(vm__imp *w);
 /* The whole pass by parts (improve_parts.c), when vm__imp_parts_count says more than one:
  * m is improved in place; counters, passes and moves go to r (figures are the caller's). */
 size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o);
+/* Reads planes k0 <= k < k1 of the volume info describes from src into a new buffer (*out:
+ * nx ny (k1 - k0) floats, the caller frees it), checked against the memory limit. */
+vm_status vm__imp_read_planes(const vm_volume *info, vm_plane_source src, void *user,
+                              int64_t k0, int64_t k1, float **out, vm_error *err);
+
 /* v: the volume, or with src its dims and geometry only, each part then reading the planes
  * it reaches from src (one call at a time). */
 vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src, void *src_user,

@@ -455,34 +455,15 @@ static float *part_planes(pstate *S, job *J, const vm_mesh *sub, vm__imp_sub *x)
     double lo = floor(kmin - grow), hi = ceil(kmax + grow) + 2.0, nz = (double)v->dims[2];
     int64_t k0 = lo < 0.0 ? 0 : lo > nz - 1.0 ? v->dims[2] - 1 : (int64_t)lo;
     int64_t k1 = hi > nz ? v->dims[2] : hi < (double)(k0 + 1) ? k0 + 1 : (int64_t)hi;
-    size_t n, bytes;
-    if (!vm__mul_size((size_t)v->dims[0] * (size_t)v->dims[1], (size_t)(k1 - k0), &n) ||
-        !vm__mul_size(n, sizeof(float), &bytes) || bytes > vm__memory_limit()) {
-        J->s = vm_error_set(&J->err, VM_ERR_NOMEM,
-                            "improve: a part's planes are over the memory limit");
-        return NULL;
-    }
-    float *planes = malloc((n + 1) * sizeof *planes);
-    if (!planes) {
-        J->s =
-            vm_error_set(&J->err, VM_ERR_NOMEM, "improve: out of memory for a part's planes");
-        return NULL;
-    }
-    vm_volume out;
-    memset(&out, 0, sizeof out);
-    out.dims[0] = v->dims[0];
-    out.dims[1] = v->dims[1];
-    out.dims[2] = k1 - k0;
-    out.data = planes;
+    float *planes;
     vm_status s;
     /* a source (a file reader) serves one call at a time */
 #ifdef VM_HAVE_OPENMP
 #pragma omp critical(vm_improve_planes)
 #endif
-    s = S->src(k0, k1, &out, S->src_user, &J->err);
+    s = vm__imp_read_planes(v, S->src, S->src_user, k0, k1, &planes, &J->err);
     if (s != VM_OK) {
         J->s = s;
-        free(planes);
         return NULL;
     }
     x->planes = planes;
