@@ -188,8 +188,9 @@ typedef struct vm__imp_sub {
 /* Improves submesh m (only its tets, points and regions are read; m is freed, as x->p0,
  * once they are copied, so that they do not stay beside the working data) into *w, which the
  * caller reads (tet, dead, region, parent = submesh tet each descends from, p, pdead, below)
- * and frees with vm__imp_sub_free, also on error. Single-threaded apart from nested parallel set-up loops;
- * o->progress is not called. *maxmove and *maxiface as in vm_improve_report. */
+ * and frees with vm__imp_sub_free, also on error. Single-threaded apart from nested
+ * parallel set-up loops; o->progress is not called. *maxmove and *maxiface as in
+ * vm_improve_report. */
 vm_status vm__imp_sub_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
                           const vm_improve_options *o, vm__imp_sub *x, int *passes,
                           double *maxmove, double *maxiface, vm_error *err);
