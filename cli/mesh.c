@@ -80,10 +80,10 @@ static const char *mesh_help2 =
     "  --max-memory SIZE       refuse (exit 2) before reading or meshing when the run would\n"
     "                          need more than SIZE bytes (suffix K, M, G, T: powers of 1024)\n"
     "  --slabs N|auto          tets: mesh by N slabs along z, each read and meshed on its own\n"
-    "                          (the same mesh, never the whole volume in memory: the\n"
+    "                          (the same mesh, without the whole volume in memory; the\n"
     "                          quality pass by parts reads the planes each part reaches,\n"
-    "                          the one pass all of them); auto: the fewest slabs whose\n"
-    "                          planes fit in a quarter of --max-memory\n"
+    "                          the one pass below 400 000 tets all of them); auto: the\n"
+    "                          fewest slabs whose planes fit in a quarter of --max-memory\n"
     "                          (one slab without it). See docs/ALGORITHMS.md\n"
     "  --json                  print the summary as one JSON object\n"
     "  --quiet                 no progress bar (nor the status line of writing and checking)\n"
@@ -262,6 +262,13 @@ static vm_status read_planes(int64_t z0, int64_t z1, vm_volume *out, void *user,
     return vm_volume_reader_read(user, z0, z1, out->data, err);
 }
 
+/* The failure of a stage that reads in: a reader's message names the file already, a
+ * stage's is given the file's name. */
+static int fail_reading(const char *in, const vm_error *err) {
+    return strncmp(err->message, in, strlen(in)) == 0 ? vm_cli_fail_err(err)
+                                                      : vm_cli_fail("%s: %s", in, err->message);
+}
+
 /* --slabs N (0: auto) of in (raw: its description or NULL): meshes slab after slab, each
  * read on its own ([out] m, st). Returns 0, an exit code > 0 after printing why, or -1 when
  * the volume goes in one slab (the caller reads it whole, as without --slabs). */
@@ -303,10 +310,7 @@ static int mesh_slabs(const char *in, const vm_raw_options *raw, const vm_mesh_o
     vm_status s = vm_mesh_volume_slabs(&info, o, &so, m, st, &err);
     vm_volume_reader_close(r);
     vm_volume_free(&info);
-    if (s) /* a reader's message names the file, the mesher's the stage */
-        return strncmp(err.message, in, strlen(in)) == 0
-                   ? vm_cli_fail_err(&err)
-                   : vm_cli_fail("%s: %s", in, err.message);
+    if (s) return fail_reading(in, &err);
     stage_done(verbose, "mesh", t);
     return 0;
 }
@@ -623,10 +627,7 @@ int vm_cmd_mesh(int argc, char **argv) {
         if (s) {
             vm_volume_free(&v);
             vm_mesh_free(&m);
-            /* a reader's message names the file, the pass's the stage */
-            return strncmp(err.message, in, strlen(in)) == 0
-                       ? vm_cli_fail_err(&err)
-                       : vm_cli_fail("%s: %s", in, err.message);
+            return fail_reading(in, &err);
         }
         improved = 1;
         st.seconds += ir.seconds;
