@@ -188,6 +188,7 @@ static int dilate(uint8_t *grid, const size_t gd[3], int k, size_t r) {
 
 /* Sorts a[0..n) ascending (radix, three 11-bit digits); tmp holds n. */
 static void sort_u32(uint32_t *a, uint32_t *tmp, size_t n) {
+    if (n < 2) return;
     size_t cnt[2048];
     uint32_t *src = a, *dst = tmp;
     for (int sh = 0; sh < 33; sh += 11) {
@@ -1059,7 +1060,7 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
         s = s2;
         if (err) *err = e2;
     }
-    if (0) free(key);
+    free(key);
     free(order);
     free(jobs);
     free(cut);
