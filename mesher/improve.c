@@ -227,7 +227,7 @@ static void imp_free(vm__imp *w) {
     free(w->below);
 }
 
-static int invert3(double A[3][3], double B[3][3]) {
+int vm__imp_invert3(double A[3][3], double B[3][3]) {
     double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
                  A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
                  A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
@@ -478,7 +478,7 @@ static vm_status imp_init(vm__imp *w, const vm_mesh *m, const vm_volume *v,
             w->org[r] = v->origin[r];
             for (int c = 0; c < 3; c++) w->A[r][c] = v->direction[r][c] * v->spacing[c];
         }
-        if (!invert3(w->A, w->Ainv))
+        if (!vm__imp_invert3(w->A, w->Ainv))
             return vm_error_set(err, VM_ERR_ARG, "improve: the volume's index frame is singular");
     }
     /* Border planes: the grid's faces in index space, or the bounding box without a volume. */

@@ -139,6 +139,9 @@ static inline double vm__imp_voxel(const vm__imp *w, int64_t i, int64_t j, int64
     return w->fdata[i + w->v->dims[0] * (j + w->v->dims[1] * (k - w->fk0))];
 }
 
+/* B = A^-1; 0 when A is singular. */
+int vm__imp_invert3(double A[3][3], double B[3][3]);
+
 /* World <-> index space and the trilinear field (with a volume). */
 void vm__imp_to_index(const vm__imp *w, const double x[3], double ijk[3]);
 void vm__imp_to_world(const vm__imp *w, const double ijk[3], double x[3]);

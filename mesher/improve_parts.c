@@ -930,21 +930,15 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
     S.src = v ? src : NULL;
     S.src_user = src_user;
     if (S.src) {
-        /* row 2 of the inverse of A (columns a_c = direction column c x spacing c): the
-         * cross product of a_0 and a_1 over the determinant */
-        double a[3][3];
-        for (int c = 0; c < 3; c++)
-            for (int k = 0; k < 3; k++)
-                a[c][k] = v->direction[k][c] * v->spacing[c];
-        double n[3] = {a[0][1] * a[1][2] - a[0][2] * a[1][1],
-                       a[0][2] * a[1][0] - a[0][0] * a[1][2],
-                       a[0][0] * a[1][1] - a[0][1] * a[1][0]};
-        double det = n[0] * a[2][0] + n[1] * a[2][1] + n[2] * a[2][2];
-        if (!(fabs(det) > 0.0))
+        /* row 2 of the inverse of the index frame A (world = origin + A ijk), as imp_init */
+        double A[3][3], Ainv[3][3];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                A[i][j] = v->direction[i][j] * v->spacing[j];
+        if (!vm__imp_invert3(A, Ainv))
             return vm_error_set(err, VM_ERR_ARG,
                                 "improve: the volume's index frame is singular");
-        for (int k = 0; k < 3; k++)
-            S.kz[k] = n[k] / det;
+        memcpy(S.kz, Ainv[2], sizeof S.kz);
     }
     S.uo = o;
     S.o = *o;
