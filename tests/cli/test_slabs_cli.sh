@@ -49,8 +49,14 @@ err=$("$VM_CLI" --threads 2 mesh phantom.nrrd --iso 0 --slabs 3 --improve-parts 
 md=$(json "['min_dihedral']" <p.json)
 inv=$(json "['inverted']" <p.json)
 eul=$(json "['boundary_euler']" <p.json)
-[ "$inv" = 0 ] && [ "$eul" = 0 ] && /usr/bin/python3 -c "import sys; sys.exit(0 if $md >= 15 else 1)" &&
-    ok || bad "--slabs 3 --improve-parts 3: min dihedral $md, $inv inverted, Euler $eul"
+closed=$(json "['boundary_closed']" <p.json)
+vol=$(json "['volume']" <p.json)
+"$VM_CLI" mesh phantom.nrrd --iso 0 --improve-parts 3 -o w.vtu --json 2>/dev/null >w.json ||
+    bad "--improve-parts 3 without slabs"
+wvol=$(json "['volume']" <w.json)
+[ "$inv" = 0 ] && [ "$eul" = 0 ] && [ "$closed" = True ] &&
+    /usr/bin/python3 -c "import sys; sys.exit(0 if $md >= 15 and abs($vol - $wvol) <= 0.005 * $wvol else 1)" &&
+    ok || bad "--slabs 3 --improve-parts 3: min dihedral $md, $inv inverted, Euler $eul, closed $closed, volume $vol against $wvol"
 
 # auto: one slab without --max-memory (the very run without --slabs); slabs within a quarter
 # of the limit with it (96^3 floats: 36 KiB a plane, 3.4 MiB in all; 8M: 56 planes at most)
