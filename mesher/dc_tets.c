@@ -1,7 +1,7 @@
 /* mesher/dc_tets.c — tetrahedra filling the material by dual contouring: seed 001 (LBIE,
  * Zhang–Bajaj–Sohn) §4.1.2 and §4.2.2, over the cells analysed in dual_contour.c. */
 #include "../core/core.h"
-#include "../quality/self_intersect.h"
+#include "../core/self_intersect.h"
 #include "dc_internal.h"
 #include "volmesh/volmesh.h"
 #include <math.h>

@@ -1,7 +1,7 @@
 /* quality/hex_metrics.c — hexahedron metrics: scaled Jacobian, Jacobian, skew, taper, edge
  * ratio and exact trilinear volume (Verdict manual SAND2007-1751 ch. 7). */
 #include "volmesh/quality.h"
-#include "vec3.h"
+#include "../core/vec3.h"
 
 /* For each VTK hex corner, its three neighbours in right-handed order. */
 static const int hex_corner[8][4] = {{0, 1, 3, 4}, {1, 2, 0, 5}, {2, 3, 1, 6}, {3, 0, 2, 7},

@@ -5,7 +5,7 @@
  * union-find with path halving. Everything is O(n). */
 #include "../core/core.h"
 #include "volmesh/quality.h"
-#include "self_intersect.h"
+#include "../core/self_intersect.h"
 #include "tet_internal.h"
 #include <math.h>
 #include <stdint.h>

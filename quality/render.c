@@ -7,7 +7,7 @@
 #include "../core/core.h"
 #include "volmesh/quality.h"
 #include "volmesh/render.h"
-#include "vec3.h"
+#include "../core/vec3.h"
 #include <float.h>
 #include <math.h>
 #include <stdint.h>

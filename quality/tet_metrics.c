@@ -3,7 +3,7 @@
  * volume measure (ABAQUS/CAE "Verify Mesh" element check). */
 #include "volmesh/quality.h"
 #include "tet_internal.h"
-#include "vec3.h"
+#include "../core/vec3.h"
 
 double vm_tet_signed_volume(const double p[4][3]) {
     double a[3], b[3], c[3];

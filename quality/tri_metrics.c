@@ -1,7 +1,7 @@
 /* quality/tri_metrics.c — triangle and quadrilateral metrics in 3-D: aspect ratio, corner
  * angles, scaled Jacobian, edge ratio (Verdict manual SAND2007-1751 ch. 4 and 5). */
 #include "volmesh/quality.h"
-#include "vec3.h"
+#include "../core/vec3.h"
 
 /* Edge vectors e[i] = p[i+1] - p[i] of an n-gon and their lengths; returns 0 when an edge has
  * zero length or a coordinate is not finite. */

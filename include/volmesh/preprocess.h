@@ -1,8 +1,8 @@
 /* volmesh/preprocess.h — stages before meshing: denoising and the contour spectrum.
  *
- * Denoising (mesher/denoise.c) follows seed 001 (LBIE, Zhang, Bajaj and Sohn, §3): a bilateral
+ * Denoising (preprocess/denoise.c) follows seed 001 (LBIE, Zhang, Bajaj and Sohn, §3): a bilateral
  * filter (Tomasi and Manduchi 1998) and Perona–Malik anisotropic diffusion (Perona and Malik
- * 1990; Bajaj, Wu and Xu 2003). The contour spectrum (mesher/spectrum.c) follows Bajaj,
+ * 1990; Bajaj, Wu and Xu 2003). The contour spectrum (preprocess/spectrum.c) follows Bajaj,
  * Pascucci and Schikore, "The contour spectrum", IEEE Visualization 1997.
  *
  * Units. Distances, areas and volumes are in world units (spacing and direction applied).

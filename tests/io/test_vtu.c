@@ -129,7 +129,7 @@ static void round_trip(const vm_mesh *m, const char *name, int compress) {
 
 /* --- round trips ------------------------------------------------------------------------- */
 
-static void tets_and_hexes_round_trip_exactly_compressed_or_not(void) {
+static void tetsAndHexesRoundTripExactlyCompressedOrNot(void) {
     const double o[3] = {0.1, -2.25, 1e-7};
     vm_mesh t, h;
     build_cubes(&t, ring_cubes, 8, 0, o);
@@ -142,7 +142,7 @@ static void tets_and_hexes_round_trip_exactly_compressed_or_not(void) {
     vm_mesh_free(&h);
 }
 
-static void multi_block_arrays_and_awkward_doubles_round_trip_bit_exact(void) {
+static void multiBlockArraysAndAwkwardDoublesRoundTripBitExact(void) {
     vm_mesh m;
     build_noisy(&m, 20000, 30000);
     m.points[0] = -0.0;
@@ -158,7 +158,7 @@ static void multi_block_arrays_and_awkward_doubles_round_trip_bit_exact(void) {
     vm_mesh_free(&m);
 }
 
-static void surfaces_and_empty_meshes_round_trip(void) {
+static void surfacesAndEmptyMeshesRoundTrip(void) {
     vm_mesh m;
     vm_mesh_init(&m, VM_TRI3);
     const double p[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
@@ -183,7 +183,7 @@ static void surfaces_and_empty_meshes_round_trip(void) {
     vm_mesh_free(&m);
 }
 
-static void judge_files_for_vtk_are_written(void) {
+static void judgeFilesForVtkAreWritten(void) {
     /* Read by tests/io/test_vtu_vtk.py: keep these shapes in step with it. */
     vm_error eb, *err = &eb;
     vm_mesh t, h;
@@ -400,7 +400,7 @@ static void check_generated_mesh(const vm_mesh *m, const char *what) {
     CHECK_MSG(m->ncell_fields == 0, "%s: integer cell arrays are not fields", what);
 }
 
-static void files_in_every_vtk_encoding_are_read(void) {
+static void filesInEveryVtkEncodingAreRead(void) {
     static const gen_opts variants[] = {
         {"ascii", 0, 0, 0, 0, 0, 0, 0},
         {"ascii", 1, 1, 1, 1, 1, 0, 0},
@@ -460,7 +460,7 @@ static void write_text(const char *path, const char *text) {
     CHECK(vm_test_write_file(path, text, strlen(text)) == 0);
 }
 
-static void empty_garbage_missing_and_directory_paths_are_errors(void) {
+static void emptyGarbageMissingAndDirectoryPathsAreErrors(void) {
     const char *p = vm_test_tmp("bad_empty.vtu");
     write_text(p, "");
     expect_error(p, VM_ERR_FORMAT, "empty");
@@ -482,7 +482,7 @@ static void empty_garbage_missing_and_directory_paths_are_errors(void) {
 }
 
 /* Prefixes of a valid file that cut into its data are errors, never crashes. */
-static void truncated_files_are_errors_at_every_length(void) {
+static void truncatedFilesAreErrorsAtEveryLength(void) {
     static const gen_opts kinds[] = {{"appended-raw", 1, 1, 0, 0, 0, 0, 16},
                                      {"appended-raw", 0, 0, 0, 0, 0, 0, 0},
                                      {"binary", 0, 1, 0, 0, 0, 1, 16},
@@ -521,7 +521,7 @@ static void replace_once(char *text, const char *from, const char *to) {
     memcpy(p, to, strlen(to));
 }
 
-static void lying_offsets_sizes_and_cells_are_errors(void) {
+static void lyingOffsetsSizesAndCellsAreErrors(void) {
     const gen_opts raw = {"appended-raw", 1, 0, 0, 0, 0, 0, 0};
     const gen_opts zraw = {"appended-raw", 1, 1, 0, 0, 0, 0, 16};
     size_t len;
@@ -628,7 +628,7 @@ static int count_temp_files(const char *dir, const char *prefix) {
     return n;
 }
 
-static void failed_writes_leave_no_file_behind(void) {
+static void failedWritesLeaveNoFileBehind(void) {
     vm_mesh m;
     vm_error eb, *err = &eb;
     const double o[3] = {0, 0, 0};
@@ -648,10 +648,10 @@ static void failed_writes_leave_no_file_behind(void) {
     vm_mesh_free(&m);
 }
 
-TEST_MAIN(T(tets_and_hexes_round_trip_exactly_compressed_or_not),
-          T(multi_block_arrays_and_awkward_doubles_round_trip_bit_exact),
-          T(surfaces_and_empty_meshes_round_trip), T(judge_files_for_vtk_are_written),
-          T(files_in_every_vtk_encoding_are_read),
-          T(empty_garbage_missing_and_directory_paths_are_errors),
-          T(truncated_files_are_errors_at_every_length),
-          T(lying_offsets_sizes_and_cells_are_errors), T(failed_writes_leave_no_file_behind))
+TEST_MAIN(T(tetsAndHexesRoundTripExactlyCompressedOrNot),
+          T(multiBlockArraysAndAwkwardDoublesRoundTripBitExact),
+          T(surfacesAndEmptyMeshesRoundTrip), T(judgeFilesForVtkAreWritten),
+          T(filesInEveryVtkEncodingAreRead),
+          T(emptyGarbageMissingAndDirectoryPathsAreErrors),
+          T(truncatedFilesAreErrorsAtEveryLength),
+          T(lyingOffsetsSizesAndCellsAreErrors), T(failedWritesLeaveNoFileBehind))

@@ -19,7 +19,7 @@ static unsigned char *slurp(const char *path, size_t *len) {
 
 static const int counts[] = {1, 2, 3};
 
-static void denoising_is_the_same_for_one_two_and_three_threads(void) {
+static void denoisingIsTheSameForOneTwoAndThreeThreads(void) {
     vm_volume v, ref[2];
     vm_error err;
     int before = vm_set_threads(1);
@@ -48,7 +48,7 @@ static void denoising_is_the_same_for_one_two_and_three_threads(void) {
     vm_set_threads(before);
 }
 
-static void vtu_bytes_and_mesh_checks_are_the_same_for_any_thread_count(void) {
+static void vtuBytesAndMeshChecksAreTheSameForAnyThreadCount(void) {
     vm_volume v;
     vm_mesh m;
     vm_error err;
@@ -100,7 +100,7 @@ static void copy_tets(const vm_mesh *src, vm_mesh *dst) {
     dst->ncells = src->ncells;
 }
 
-static void quality_pass_gives_the_same_mesh_for_one_two_and_three_threads(void) {
+static void qualityPassGivesTheSameMeshForOneTwoAndThreeThreads(void) {
     vm_volume v;
     vm_mesh m0;
     vm_error err;
@@ -173,7 +173,7 @@ static void quality_pass_gives_the_same_mesh_for_one_two_and_three_threads(void)
  * vertices move in it) and a cell field holding each input tet's id: the probes and the
  * parent ids of the pass give the same mesh on 1, 2 and 3 threads, and every output tet
  * carries the field and region of the input tet it descends from. */
-static void quality_pass_with_two_regions_and_a_cell_field_is_the_same_for_any_thread_count(void) {
+static void qualityPassWithTwoRegionsAndACellFieldIsTheSameForAnyThreadCount(void) {
     vm_volume v;
     vm_mesh m0;
     vm_error err;
@@ -262,7 +262,7 @@ static void mesh_once(const vm_volume *v, int adaptive, int euler, vm_mesh *m) {
               r.boundary_closed, (long)r.boundary_euler, euler);
 }
 
-static void tet_meshes_are_byte_identical_for_one_two_and_three_threads(void) {
+static void tetMeshesAreByteIdenticalForOneTwoAndThreeThreads(void) {
     /* Big enough that every parallel loop gets several slabs per thread (the emission runs
      * in slabs of 4 layers, 64 slabs a batch: 3 x 24 = 72 edge slabs is two batches). */
     const int n = getenv("VM_SANITIZED") ? 64 : 96;
@@ -306,7 +306,7 @@ static void tet_meshes_are_byte_identical_for_one_two_and_three_threads(void) {
 }
 
 /* The contour spectrum sums its layers in a fixed order: the same numbers for any count. */
-static void spectrum_is_the_same_for_one_two_and_three_threads(void) {
+static void spectrumIsTheSameForOneTwoAndThreeThreads(void) {
     vm_volume v;
     vm_error err;
     int before = vm_set_threads(1);
@@ -332,7 +332,7 @@ static void spectrum_is_the_same_for_one_two_and_three_threads(void) {
     vm_set_threads(before);
 }
 
-static void thread_count_is_set_and_restored(void) {
+static void threadCountIsSetAndRestored(void) {
     int before = vm_set_threads(2);
     int now = vm_threads();
     CHECK(now == 2 || now == 1); /* 1: built without OpenMP */
@@ -340,10 +340,10 @@ static void thread_count_is_set_and_restored(void) {
     CHECK(vm_threads() == before);
 }
 
-TEST_MAIN(T(denoising_is_the_same_for_one_two_and_three_threads),
-          T(tet_meshes_are_byte_identical_for_one_two_and_three_threads),
-          T(vtu_bytes_and_mesh_checks_are_the_same_for_any_thread_count),
-          T(quality_pass_gives_the_same_mesh_for_one_two_and_three_threads),
-          T(quality_pass_with_two_regions_and_a_cell_field_is_the_same_for_any_thread_count),
-          T(spectrum_is_the_same_for_one_two_and_three_threads),
-          T(thread_count_is_set_and_restored))
+TEST_MAIN(T(denoisingIsTheSameForOneTwoAndThreeThreads),
+          T(tetMeshesAreByteIdenticalForOneTwoAndThreeThreads),
+          T(vtuBytesAndMeshChecksAreTheSameForAnyThreadCount),
+          T(qualityPassGivesTheSameMeshForOneTwoAndThreeThreads),
+          T(qualityPassWithTwoRegionsAndACellFieldIsTheSameForAnyThreadCount),
+          T(spectrumIsTheSameForOneTwoAndThreeThreads),
+          T(threadCountIsSetAndRestored))

@@ -305,7 +305,7 @@ static const golden goldens[] = {
         }                                                                                      \
     } while (0)
 
-static void every_golden_mesh_gets_its_known_report(void) {
+static void everyGoldenMeshGetsItsKnownReport(void) {
     for (size_t i = 0; i < sizeof goldens / sizeof goldens[0]; i++) {
         const golden *g = &goldens[i];
         vm_mesh m;
@@ -336,7 +336,7 @@ static void every_golden_mesh_gets_its_known_report(void) {
 
 /* --- metrics ----------------------------------------------------------------------------- */
 
-static void tet_metrics_match_verdict_on_regular_flat_and_degenerate_tets(void) {
+static void tetMetricsMatchVerdictOnRegularFlatAndDegenerateTets(void) {
     vm_mesh m;
     build_regular_tet(&m);
     double p[4][3];
@@ -367,7 +367,7 @@ static void tet_metrics_match_verdict_on_regular_flat_and_degenerate_tets(void) 
     }
 }
 
-static void hex_scaled_jacobian_is_one_for_a_box_and_falls_for_a_sheared_hex(void) {
+static void hexScaledJacobianIsOneForABoxAndFallsForAShearedHex(void) {
     const double box[8][3] = {{0, 0, 0}, {2, 0, 0}, {2, 3, 0}, {0, 3, 0},
                               {0, 0, 5}, {2, 0, 5}, {2, 3, 5}, {0, 3, 5}};
     CHECK_NEAR(vm_hex_min_scaled_jacobian(box), 1.0, 1e-12);
@@ -413,7 +413,7 @@ static void hex_scaled_jacobian_is_one_for_a_box_and_falls_for_a_sheared_hex(voi
 
 /* --- boundary extraction ----------------------------------------------------------------- */
 
-static void boundary_of_a_tet_block_is_an_outward_closed_surface(void) {
+static void boundaryOfATetBlockIsAnOutwardClosedSurface(void) {
     static const char block[4][4][4] = {{{1, 1}, {1, 1}}, {{1, 1}, {1, 1}}};
     vm_mesh m, s;
     vm_error eb, *err = &eb;
@@ -443,7 +443,7 @@ static void boundary_of_a_tet_block_is_an_outward_closed_surface(void) {
     vm_mesh_free(&s);
 }
 
-static void boundary_of_a_hex_block_is_quads_pointing_outward(void) {
+static void boundaryOfAHexBlockIsQuadsPointingOutward(void) {
     vm_mesh m, s;
     vm_error eb, *err = &eb;
     vm_mesh_report r;
@@ -457,7 +457,7 @@ static void boundary_of_a_hex_block_is_quads_pointing_outward(void) {
     vm_mesh_free(&s);
 }
 
-static void boundary_of_a_surface_mesh_is_refused(void) {
+static void boundaryOfASurfaceMeshIsRefused(void) {
     vm_mesh m, s;
     vm_error eb, *err = &eb;
     build_closed_octahedron(&m);
@@ -466,7 +466,7 @@ static void boundary_of_a_surface_mesh_is_refused(void) {
     vm_mesh_free(&m);
 }
 
-static void out_of_range_nodes_are_an_error_not_a_crash(void) {
+static void outOfRangeNodesAreAnErrorNotACrash(void) {
     vm_mesh m;
     vm_mesh_report r;
     vm_error eb, *err = &eb;
@@ -477,7 +477,7 @@ static void out_of_range_nodes_are_an_error_not_a_crash(void) {
     vm_mesh_free(&m);
 }
 
-static void an_empty_mesh_reports_zeros(void) {
+static void anEmptyMeshReportsZeros(void) {
     vm_mesh m;
     vm_mesh_report r;
     vm_error eb, *err = &eb;
@@ -487,7 +487,7 @@ static void an_empty_mesh_reports_zeros(void) {
     CHECK(r.min_dihedral == 0.0 && r.max_dihedral == 0.0);
 }
 
-static void a_voxel_block_with_a_hole_has_two_boundary_components(void) {
+static void aVoxelBlockWithAHoleHasTwoBoundaryComponents(void) {
     /* 3x3x3 cubes minus the centre: the cavity gives a second boundary sphere, euler 4. */
     char cubes[4][4][4];
     memset(cubes, 0, sizeof cubes);
@@ -563,7 +563,7 @@ static const pair_case pair_cases[] = {
      4, {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}}, 0},
 };
 
-static void boundary_self_intersections_count_crossing_not_touching_neighbours(void) {
+static void boundarySelfIntersectionsCountCrossingNotTouchingNeighbours(void) {
     for (size_t c = 0; c < sizeof pair_cases / sizeof pair_cases[0]; c++) {
         const pair_case *pc = &pair_cases[c];
         vm_mesh m;
@@ -598,7 +598,7 @@ static void boundary_self_intersections_count_crossing_not_touching_neighbours(v
     }
 }
 
-static void a_tet_block_has_no_self_intersection_and_two_overlapping_tets_have(void) {
+static void aTetBlockHasNoSelfIntersectionAndTwoOverlappingTetsHave(void) {
     static const char block[4][4][4] = {{{1, 1, 1}, {1, 1, 1}}, {{1, 1, 1}, {1, 0, 1}}};
     vm_mesh m;
     vm_mesh_report r;
@@ -626,13 +626,13 @@ static void a_tet_block_has_no_self_intersection_and_two_overlapping_tets_have(v
     vm_mesh_free(&m);
 }
 
-TEST_MAIN(T(every_golden_mesh_gets_its_known_report),
-          T(tet_metrics_match_verdict_on_regular_flat_and_degenerate_tets),
-          T(hex_scaled_jacobian_is_one_for_a_box_and_falls_for_a_sheared_hex),
-          T(boundary_of_a_tet_block_is_an_outward_closed_surface),
-          T(boundary_of_a_hex_block_is_quads_pointing_outward),
-          T(boundary_of_a_surface_mesh_is_refused),
-          T(out_of_range_nodes_are_an_error_not_a_crash), T(an_empty_mesh_reports_zeros),
-          T(a_voxel_block_with_a_hole_has_two_boundary_components),
-          T(boundary_self_intersections_count_crossing_not_touching_neighbours),
-          T(a_tet_block_has_no_self_intersection_and_two_overlapping_tets_have))
+TEST_MAIN(T(everyGoldenMeshGetsItsKnownReport),
+          T(tetMetricsMatchVerdictOnRegularFlatAndDegenerateTets),
+          T(hexScaledJacobianIsOneForABoxAndFallsForAShearedHex),
+          T(boundaryOfATetBlockIsAnOutwardClosedSurface),
+          T(boundaryOfAHexBlockIsQuadsPointingOutward),
+          T(boundaryOfASurfaceMeshIsRefused),
+          T(outOfRangeNodesAreAnErrorNotACrash), T(anEmptyMeshReportsZeros),
+          T(aVoxelBlockWithAHoleHasTwoBoundaryComponents),
+          T(boundarySelfIntersectionsCountCrossingNotTouchingNeighbours),
+          T(aTetBlockHasNoSelfIntersectionAndTwoOverlappingTetsHave))

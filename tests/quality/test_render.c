@@ -192,7 +192,7 @@ static void check_fit(const coverage *c, int w, int h) {
 
 /* --- rendering ---------------------------------------------------------------------------- */
 
-static void render_single_tet_is_framed_by_background(void) {
+static void renderSingleTetIsFramedByBackground(void) {
     vm_mesh m;
     single_tet(&m);
     vm_error err;
@@ -213,7 +213,7 @@ static void render_single_tet_is_framed_by_background(void) {
     vm_mesh_free(&m);
 }
 
-static void render_hex_block_covers_centre_and_fills_frame(void) {
+static void renderHexBlockCoversCentreAndFillsFrame(void) {
     vm_mesh m;
     hex_block(&m, 4);
     vm_error err;
@@ -234,7 +234,7 @@ static void render_hex_block_covers_centre_and_fills_frame(void) {
     vm_mesh_free(&m);
 }
 
-static void render_ball_shading_varies_and_centre_is_brightest(void) {
+static void renderBallShadingVariesAndCentreIsBrightest(void) {
     vm_mesh m;
     tet_ball(&m, 10);
     vm_error err;
@@ -267,7 +267,7 @@ static void render_ball_shading_varies_and_centre_is_brightest(void) {
     vm_mesh_free(&m);
 }
 
-static void render_torus_from_above_shows_the_hole(void) {
+static void renderTorusFromAboveShowsTheHole(void) {
     vm_mesh m;
     hex_torus(&m, 48, 4);
     vm_error err;
@@ -288,7 +288,7 @@ static void render_torus_from_above_shows_the_hole(void) {
     vm_mesh_free(&m);
 }
 
-static void render_edges_darken_pixels_only_when_shown(void) {
+static void renderEdgesDarkenPixelsOnlyWhenShown(void) {
     vm_mesh m;
     hex_block(&m, 3);
     vm_error err;
@@ -316,7 +316,7 @@ static void render_edges_darken_pixels_only_when_shown(void) {
     vm_mesh_free(&m);
 }
 
-static void render_highlight_is_red_only_when_cells_qualify(void) {
+static void renderHighlightIsRedOnlyWhenCellsQualify(void) {
     vm_mesh m;
     tet_ball(&m, 8);
     double *x = malloc(m.ncells * sizeof *x);
@@ -414,7 +414,7 @@ static void render_highlight_is_red_only_when_cells_qualify(void) {
     vm_mesh_free(&m);
 }
 
-static void render_cut_removes_one_side_and_opens_the_volume(void) {
+static void renderCutRemovesOneSideAndOpensTheVolume(void) {
     vm_mesh m;
     tet_ball(&m, 10);
     vm_error err;
@@ -466,7 +466,7 @@ static void render_cut_removes_one_side_and_opens_the_volume(void) {
     vm_mesh_free(&m);
 }
 
-static void render_boundary_surface_matches_the_volume(void) {
+static void renderBoundarySurfaceMatchesTheVolume(void) {
     vm_mesh m, s;
     hex_torus(&m, 24, 2);
     vm_error err;
@@ -524,7 +524,7 @@ static size_t distinct_colours(const vm_image *img) {
     return count;
 }
 
-static void render_is_deterministic_and_supersampling_smooths_edges(void) {
+static void renderIsDeterministicAndSupersamplingSmoothsEdges(void) {
     vm_mesh m;
     tet_ball(&m, 6);
     vm_error err;
@@ -546,7 +546,7 @@ static void render_is_deterministic_and_supersampling_smooths_edges(void) {
     vm_mesh_free(&m);
 }
 
-static void render_refuses_bad_options_and_meshes(void) {
+static void renderRefusesBadOptionsAndMeshes(void) {
     vm_mesh m;
     single_tet(&m);
     vm_error err;
@@ -587,7 +587,7 @@ static void render_refuses_bad_options_and_meshes(void) {
     vm_mesh_free(&m);
 }
 
-static void render_over_the_memory_limit_fails_cleanly(void) {
+static void renderOverTheMemoryLimitFailsCleanly(void) {
     vm_mesh m;
     tet_ball(&m, 4);
     vm_error err;
@@ -705,7 +705,7 @@ static int bits(int x) {
     return n;
 }
 
-static void png_round_trips_through_zlib_with_valid_crcs(void) {
+static void pngRoundTripsThroughZlibWithValidCrcs(void) {
     vm_error err;
     int sizes[][2] = {{1, 1}, {2, 3}, {67, 45}, {300, 200}};
     for (size_t s = 0; s < sizeof sizes / sizeof sizes[0]; s++) {
@@ -752,7 +752,7 @@ static int folder_has_temp_files(const char *dir) {
 }
 
 /* Writes render_torus.png / .rgb and render_card.png / .rgb for test_render_png.py. */
-static void png_files_decode_to_the_rendered_pixels(void) {
+static void pngFilesDecodeToTheRenderedPixels(void) {
     vm_mesh m;
     hex_torus(&m, 36, 3);
     vm_error err;
@@ -804,16 +804,16 @@ static void png_files_decode_to_the_rendered_pixels(void) {
     vm_mesh_free(&m);
 }
 
-TEST_MAIN(T(render_single_tet_is_framed_by_background),
-          T(render_hex_block_covers_centre_and_fills_frame),
-          T(render_ball_shading_varies_and_centre_is_brightest),
-          T(render_torus_from_above_shows_the_hole),
-          T(render_edges_darken_pixels_only_when_shown),
-          T(render_highlight_is_red_only_when_cells_qualify),
-          T(render_cut_removes_one_side_and_opens_the_volume),
-          T(render_boundary_surface_matches_the_volume),
-          T(render_is_deterministic_and_supersampling_smooths_edges),
-          T(render_refuses_bad_options_and_meshes),
-          T(render_over_the_memory_limit_fails_cleanly),
-          T(png_round_trips_through_zlib_with_valid_crcs),
-          T(png_files_decode_to_the_rendered_pixels))
+TEST_MAIN(T(renderSingleTetIsFramedByBackground),
+          T(renderHexBlockCoversCentreAndFillsFrame),
+          T(renderBallShadingVariesAndCentreIsBrightest),
+          T(renderTorusFromAboveShowsTheHole),
+          T(renderEdgesDarkenPixelsOnlyWhenShown),
+          T(renderHighlightIsRedOnlyWhenCellsQualify),
+          T(renderCutRemovesOneSideAndOpensTheVolume),
+          T(renderBoundarySurfaceMatchesTheVolume),
+          T(renderIsDeterministicAndSupersamplingSmoothsEdges),
+          T(renderRefusesBadOptionsAndMeshes),
+          T(renderOverTheMemoryLimitFailsCleanly),
+          T(pngRoundTripsThroughZlibWithValidCrcs),
+          T(pngFilesDecodeToTheRenderedPixels))

@@ -1,0 +1,1437 @@
+/* improve/hex_improve.c — hexahedral mesh improvement: a pillow layer on the boundary (Mitchell
+ * and Tautges 1995, "Pillowing doublets"), then untangling and smoothing by local max-min
+ * optimisation of the corner scaled Jacobians (after Knupp 2001, "Hexahedral and tetrahedral
+ * mesh untangling": one vertex at a time, the worst corner Jacobian of its hexes raised); where
+ * the whole layer fails, selective pillowing of the hexes still below the bar (a shrink set,
+ * Mitchell and Tautges 1995 §3). */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../core/core.h"
+#include "volmesh/improve.h"
+#include "volmesh/quality.h"
+
+/* For each VTK hex corner: itself and its three edge neighbours in right-handed order, so
+ * that det(p[a]-p[c], p[b]-p[c], p[d]-p[c]) > 0 on a valid hex (as quality/hex_metrics.c). */
+static const int corner_tab[8][4] = {{0, 1, 3, 4}, {1, 2, 0, 5}, {2, 3, 1, 6}, {3, 0, 2, 7},
+                                     {4, 7, 5, 0}, {5, 4, 6, 1}, {6, 5, 7, 2}, {7, 6, 4, 3}};
+/* Faces with their right-hand normal pointing out of a valid hex. */
+static const int face_tab[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
+                                   {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}};
+
+enum { CLS_FREE = 0, CLS_ISO = 1, CLS_PLANE = 2, CLS_FIXED = 3 };
+
+typedef struct hx {
+    size_t np, nh;
+    double *p, *p0; /* world positions: current, and where the mesher put them */
+    vm_index *h;    /* 8 nodes per hex */
+    int32_t *region;
+    size_t *vs, *vi; /* incidences of point i: vi[vs[i] .. vs[i+1]) = 8 * hex + corner */
+    uint8_t *cls, *planes;
+    double *nrm; /* unit outward normal of each boundary point (world) */
+    double *est0; /* iso_estimate of each boundary point where the run starts (index space) */
+    uint8_t *focus; /* NULL, or the points a selective run may move */
+    const vm_volume *v;
+    double A[3][3], Ainv[3][3], org[3];
+    double lo, hi;
+    int has_lo, has_hi;
+    double max_move;
+    int pillowed; /* the mesh has the pillow layer: untangling by the penalty */
+    vm_progress_fn progress;
+    void *progress_user;
+} hx;
+
+void vm_hex_improve_options_default(vm_hex_improve_options *o) {
+    memset(o, 0, sizeof *o);
+    o->has_lo = 1;
+    o->target = 0.5;
+    o->max_surface_move = 1.0;
+    o->pillow = 1;
+    o->max_sweeps = 8;
+}
+
+/* ---- geometry ---- */
+
+/* Scaled Jacobian of corner c; [out] *det its unscaled Jacobian determinant. */
+static double corner_sj(const double p[8][3], int c, double *det) {
+    const int *t = corner_tab[c];
+    double e[3][3], len = 1.0;
+    for (int k = 0; k < 3; k++) {
+        double l2 = 0.0;
+        for (int a = 0; a < 3; a++) {
+            e[k][a] = p[t[k + 1]][a] - p[t[0]][a];
+            l2 += e[k][a] * e[k][a];
+        }
+        len *= sqrt(l2);
+    }
+    *det = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
+           e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+           e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+    if (!(len > 0.0)) return 0.0;
+    double s = *det / len;
+    return isfinite(s) ? s : 0.0;
+}
+
+static void hex_points(const hx *w, size_t t, double p[8][3]) {
+    for (int k = 0; k < 8; k++) memcpy(p[k], w->p + 3 * (size_t)w->h[8 * t + k], sizeof p[k]);
+}
+
+static double hex_q(const hx *w, size_t t) {
+    double p[8][3];
+    hex_points(w, t, p);
+    return vm_hex_min_scaled_jacobian((const double(*)[3])p);
+}
+
+/* Figures of the corners that depend on point i, with i at x: the worst scaled Jacobian, the
+ * sum of them, and the worst determinant. The determinant is affine in x at every corner, so
+ * its minimum is concave in x: the untangling objective (Knupp 2001) without local optima. */
+typedef struct lq {
+    double min, sum, det, pen;
+} lq;
+
+/* Corners whose normalised determinant is below this are penalised while untangling. */
+#define UNTANGLE_BETA 0.1
+
+/* With norm (one edge-length product per corner around i, in the order visited here, taken
+ * before the move): also the untangling penalty, the sum over those corners of
+ * max(0, beta - det / norm). Each det is affine in x, so the penalty is convex in x (Knupp
+ * 2001's untangling function, normalised so that small and large hexes count alike). */
+static void local_q(const hx *w, size_t i, const double x[3], const double *norm, lq *r) {
+    r->min = r->det = INFINITY;
+    r->sum = r->pen = 0.0;
+    size_t c = 0;
+    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
+        size_t t = w->vi[u] / 8;
+        int k = (int)(w->vi[u] % 8);
+        double p[8][3];
+        hex_points(w, t, p);
+        memcpy(p[k], x, sizeof p[k]);
+        for (int j = 0; j < 4; j++, c++) {
+            double det, q = corner_sj((const double(*)[3])p, j == 0 ? k : corner_tab[k][j], &det);
+            if (q < r->min) r->min = q;
+            if (det < r->det) r->det = det;
+            r->sum += q;
+            if (norm) r->pen += fmax(0.0, UNTANGLE_BETA - det / norm[c]);
+        }
+    }
+}
+
+/* The edge-length products of the corners around point i, in local_q's order. [out] norm:
+ * 4 per incidence of i. */
+static void corner_norms(const hx *w, size_t i, double *norm) {
+    size_t c = 0;
+    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
+        size_t t = w->vi[u] / 8;
+        int k = (int)(w->vi[u] % 8);
+        double p[8][3];
+        hex_points(w, t, p);
+        for (int j = 0; j < 4; j++, c++) {
+            const int *ct = corner_tab[j == 0 ? k : corner_tab[k][j]];
+            double len = 1.0;
+            for (int e = 1; e < 4; e++) {
+                double l2 = 0.0;
+                for (int a = 0; a < 3; a++)
+                    l2 += (p[ct[e]][a] - p[ct[0]][a]) * (p[ct[e]][a] - p[ct[0]][a]);
+                len *= sqrt(l2);
+            }
+            norm[c] = len > 1e-300 ? len : 1e-300;
+        }
+    }
+}
+
+static void to_index(const hx *w, const double x[3], double ijk[3]) {
+    double d[3] = {x[0] - w->org[0], x[1] - w->org[1], x[2] - w->org[2]};
+    for (int r = 0; r < 3; r++)
+        ijk[r] = w->Ainv[r][0] * d[0] + w->Ainv[r][1] * d[1] + w->Ainv[r][2] * d[2];
+}
+
+static void to_world(const hx *w, const double ijk[3], double x[3]) {
+    for (int r = 0; r < 3; r++)
+        x[r] = w->org[r] + w->A[r][0] * ijk[0] + w->A[r][1] * ijk[1] + w->A[r][2] * ijk[2];
+}
+
+static int invert3(double a[3][3], double b[3][3]) {
+    double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                 a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                 a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    if (!(fabs(det) > 0.0) || !isfinite(det)) return 0;
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) {
+            int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
+            b[r][c] = (a[r1][c1] * a[r2][c2] - a[r1][c2] * a[r2][c1]) / det;
+        }
+    return 1;
+}
+
+/* Trilinear field of the volume at index position x (clamped to the box) and its gradient
+ * in index space. */
+static double field(const vm_volume *v, const double x[3], double g[3]) {
+    int64_t i0[3];
+    double f[3];
+    for (int a = 0; a < 3; a++) {
+        double c = x[a];
+        double top = (double)(v->dims[a] - 1);
+        if (c < 0.0) c = 0.0;
+        if (c > top) c = top;
+        int64_t i = (int64_t)floor(c);
+        if (i > v->dims[a] - 2) i = v->dims[a] - 2;
+        i0[a] = i;
+        f[a] = c - (double)i;
+    }
+    double val = 0.0;
+    g[0] = g[1] = g[2] = 0.0;
+    for (int c = 0; c < 8; c++) {
+        int d[3] = {c & 1, (c >> 1) & 1, c >> 2};
+        double s = v->data[(i0[0] + d[0]) +
+                           v->dims[0] * ((i0[1] + d[1]) + v->dims[1] * (i0[2] + d[2]))];
+        double wgt[3], dw[3];
+        for (int a = 0; a < 3; a++) {
+            wgt[a] = d[a] ? f[a] : 1.0 - f[a];
+            dw[a] = d[a] ? 1.0 : -1.0;
+        }
+        val += s * wgt[0] * wgt[1] * wgt[2];
+        g[0] += s * dw[0] * wgt[1] * wgt[2];
+        g[1] += s * wgt[0] * dw[1] * wgt[2];
+        g[2] += s * wgt[0] * wgt[1] * dw[2];
+    }
+    return val;
+}
+
+/* The material bound nearest to the field value f. */
+static double iso_for(const hx *w, double f) {
+    if (w->has_lo && w->has_hi) return fabs(f - w->lo) <= fabs(f - w->hi) ? w->lo : w->hi;
+    return w->has_lo ? w->lo : w->hi;
+}
+
+/* Distance of index position x from the isosurface, in voxels: the first crossing on the
+ * gradient line toward it (within 2 voxels), else the first-order estimate |f - iso| / |g|. */
+static double iso_distance(const hx *w, const double x[3]) {
+    double g[3], g2[3];
+    double f = field(w->v, x, g);
+    double iso = iso_for(w, f);
+    double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    double d = fabs(f - iso);
+    double est = gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
+    if (est < 0.05 || !(gn > 0.0)) return est;
+    double sgn = f > iso ? -1.0 : 1.0;
+    for (double t = 0.02; t <= 2.0; t += 0.02) {
+        double y[3];
+        for (int a = 0; a < 3; a++) y[a] = x[a] + sgn * t * g[a] / gn;
+        double fy = field(w->v, y, g2);
+        if ((fy - iso) * (f - iso) <= 0.0) return t;
+    }
+    return est;
+}
+
+/* First-order distance |f - iso| / |grad f| of index position y from the isosurface. */
+static double iso_estimate(const hx *w, const double y[3]) {
+    double g[3];
+    double f = field(w->v, y, g);
+    double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    double d = fabs(f - iso_for(w, f));
+    return gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
+}
+
+enum { MOVE_TANGENT, MOVE_LOOSE, MOVE_PROJECT };
+
+/* Moves a trial position x of point i onto its constraint; 0 when that fails or takes it more
+ * than the allowed distance from p0 (where the mesher put it). Box-plane points stay in their
+ * plane(s). Surface points: MOVE_TANGENT keeps them in the tangent plane at p0 and within 0.45
+ * voxel of the isosurface (smoothing: the mesher's points sit on sharp features, which the
+ * smooth trilinear isosurface rounds off, so sliding on it would shave volume); MOVE_LOOSE
+ * lets them anywhere within 0.4 voxel of it (untangling needs the room); MOVE_PROJECT puts
+ * them on it (Newton steps along the gradient). */
+static int constrain(const hx *w, size_t i, double x[3], int mode) {
+    if (w->cls[i] == CLS_FREE) return 1;
+    if (w->cls[i] == CLS_FIXED) return 0;
+    double y[3], y0[3];
+    to_index(w, w->p0 + 3 * i, y0);
+    double limit = w->max_move;
+    if (w->cls[i] == CLS_ISO && mode == MOVE_TANGENT) {
+        const double *n = w->nrm + 3 * i, *x0 = w->p0 + 3 * i;
+        double dn = (x[0] - x0[0]) * n[0] + (x[1] - x0[1]) * n[1] + (x[2] - x0[2]) * n[2];
+        for (int a = 0; a < 3; a++) x[a] -= dn * n[a];
+    }
+    to_index(w, x, y);
+    if (w->cls[i] == CLS_PLANE) {
+        for (int a = 0; a < 3; a++)
+            if (w->planes[i] & (3u << (2 * a))) y[a] = y0[a];
+        limit = fmin(limit, 0.5);
+    } else if (mode == MOVE_TANGENT) {
+        double est = iso_estimate(w, y);
+        if (!(est <= fmax(0.45, w->est0[i] + 0.01))) return 0;
+        /* the first-order estimate can miss a crossing the gradient does not point at (the
+         * genus-3 tubes: 0.45 by it, 0.68 along the gradient): past 0.2, the distance the
+         * report measures must stay within 0.5 or where it was */
+        if (est > 0.2 && iso_distance(w, y) > 0.5 && iso_distance(w, y) > iso_distance(w, y0))
+            return 0;
+    } else if (mode == MOVE_LOOSE) {
+        if (!(iso_distance(w, y) <= 0.4)) return 0;
+    } else {
+        int ok = 0;
+        for (int it = 0; it < 8; it++) {
+            double g[3];
+            double f = field(w->v, y, g);
+            double r = f - iso_for(w, f);
+            double g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+            if (!(g2 > 0.0)) return 0;
+            if (fabs(r) / sqrt(g2) < 1e-4) {
+                ok = 1;
+                break;
+            }
+            double step = r / g2, len = fabs(step) * sqrt(g2);
+            if (len > 0.5) step *= 0.5 / len;
+            for (int a = 0; a < 3; a++) y[a] -= step * g[a];
+        }
+        if (!ok && iso_distance(w, y) > 0.02) return 0;
+    }
+    double d2 = 0.0;
+    for (int a = 0; a < 3; a++) d2 += (y[a] - y0[a]) * (y[a] - y0[a]);
+    if (d2 > limit * limit) return 0;
+    to_world(w, y, x);
+    return 1;
+}
+
+/* ---- connectivity ---- */
+
+static vm_status build_incidence(hx *w, vm_error *err) {
+    free(w->vs);
+    free(w->vi);
+    w->vs = calloc(w->np + 1, sizeof *w->vs);
+    w->vi = malloc((8 * w->nh + 1) * sizeof *w->vi);
+    if (!w->vs || !w->vi) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    for (size_t u = 0; u < 8 * w->nh; u++) w->vs[(size_t)w->h[u] + 1]++;
+    for (size_t i = 0; i < w->np; i++) w->vs[i + 1] += w->vs[i];
+    size_t *fill = malloc((w->np + 1) * sizeof *fill);
+    if (!fill) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    memcpy(fill, w->vs, (w->np + 1) * sizeof *fill);
+    for (size_t u = 0; u < 8 * w->nh; u++) w->vi[fill[w->h[u]]++] = u;
+    free(fill);
+    return VM_OK;
+}
+
+typedef struct face_rec {
+    vm_index key[4]; /* sorted nodes */
+    size_t hf;       /* 6 * hex + face */
+} face_rec;
+
+static int cmp_face(const void *a, const void *b) {
+    const face_rec *x = a, *y = b;
+    for (int k = 0; k < 4; k++)
+        if (x->key[k] != y->key[k]) return x->key[k] < y->key[k] ? -1 : 1;
+    return 0;
+}
+
+/* The boundary faces of the hexes t with in[t] (all hexes when in is NULL): the faces used
+ * by one of them, as 6 * hex + face. [out] *out (free it), *nout. */
+static vm_status boundary_faces(const hx *w, const uint8_t *in, size_t **out, size_t *nout,
+                                vm_error *err) {
+    size_t nf = 0;
+    face_rec *f = malloc((6 * w->nh + 1) * sizeof *f);
+    size_t *b = malloc((6 * w->nh + 1) * sizeof *b);
+    if (!f || !b) {
+        free(f);
+        free(b);
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    for (size_t hf = 0; hf < 6 * w->nh; hf++) {
+        if (in && !in[hf / 6]) continue;
+        size_t u = nf++;
+        vm_index *k = f[u].key;
+        for (int j = 0; j < 4; j++) k[j] = w->h[8 * (hf / 6) + (size_t)face_tab[hf % 6][j]];
+        for (int a = 1; a < 4; a++) /* insertion sort of four */
+            for (int c = a; c > 0 && k[c - 1] > k[c]; c--) {
+                vm_index tmp = k[c];
+                k[c] = k[c - 1];
+                k[c - 1] = tmp;
+            }
+        f[u].hf = hf;
+    }
+    qsort(f, nf, sizeof *f, cmp_face);
+    size_t n = 0;
+    for (size_t u = 0; u < nf;) {
+        size_t e = u + 1;
+        while (e < nf && cmp_face(&f[u], &f[e]) == 0) e++;
+        if (e - u == 1) b[n++] = f[u].hf;
+        u = e;
+    }
+    free(f);
+    *out = b;
+    *nout = n;
+    return VM_OK;
+}
+
+/* Which points are on the boundary, and how each may move. */
+static vm_status classify(hx *w, vm_error *err) {
+    size_t *bf = NULL, nb = 0;
+    vm_status s = boundary_faces(w, NULL, &bf, &nb, err);
+    if (s) return s;
+    free(w->cls);
+    free(w->planes);
+    w->cls = calloc(w->np + 1, 1);
+    w->planes = calloc(w->np + 1, 1);
+    if (!w->cls || !w->planes) {
+        free(bf);
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    free(w->nrm);
+    free(w->est0);
+    w->nrm = calloc(3 * w->np + 1, sizeof *w->nrm);
+    w->est0 = calloc(w->np + 1, sizeof *w->est0);
+    if (!w->nrm || !w->est0) {
+        free(bf);
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    for (size_t u = 0; u < nb; u++) {
+        const vm_index *c = w->h + 8 * (bf[u] / 6);
+        const int *fc = face_tab[bf[u] % 6];
+        const double *P0 = w->p + 3 * (size_t)c[fc[0]], *P1 = w->p + 3 * (size_t)c[fc[1]],
+                     *P2 = w->p + 3 * (size_t)c[fc[2]], *P3 = w->p + 3 * (size_t)c[fc[3]];
+        double d1[3], d2[3], n[3];
+        for (int a = 0; a < 3; a++) {
+            d1[a] = P2[a] - P0[a];
+            d2[a] = P3[a] - P1[a];
+        }
+        n[0] = d1[1] * d2[2] - d1[2] * d2[1];
+        n[1] = d1[2] * d2[0] - d1[0] * d2[2];
+        n[2] = d1[0] * d2[1] - d1[1] * d2[0];
+        for (int j = 0; j < 4; j++) {
+            size_t i = (size_t)c[fc[j]];
+            w->cls[i] = CLS_ISO;
+            for (int a = 0; a < 3; a++) w->nrm[3 * i + a] += n[a];
+        }
+    }
+    free(bf);
+    for (size_t i = 0; i < w->np; i++) {
+        double *n = w->nrm + 3 * i, l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        for (int a = 0; a < 3; a++) n[a] = l > 0.0 ? n[a] / l : 0.0;
+    }
+    for (size_t i = 0; i < w->np; i++) {
+        if (w->cls[i] == CLS_FREE) continue;
+        if (!w->v) {
+            w->cls[i] = CLS_FIXED;
+            continue;
+        }
+        double y[3];
+        to_index(w, w->p + 3 * i, y);
+        uint8_t bits = 0;
+        for (int a = 0; a < 3; a++) {
+            if (fabs(y[a]) < 1e-6) bits |= (uint8_t)(1u << (2 * a));
+            if (fabs(y[a] - (double)(w->v->dims[a] - 1)) < 1e-6) bits |= (uint8_t)(2u << (2 * a));
+        }
+        w->planes[i] = bits;
+        if (bits) w->cls[i] = CLS_PLANE;
+        w->est0[i] = iso_estimate(w, y);
+    }
+    return VM_OK;
+}
+
+/* ---- pillowing ---- */
+
+/* Where the boundary of the shrink set (the sheet) is not a manifold surface: a vertex with
+ * a sheet edge not in exactly two sheet faces, or with its sheet faces in more than one fan.
+ * The hexes of the set at such vertices leave it (in[t] = 0). Returns the number of such
+ * vertices. [in] bf, nb: the sheet faces, as 6 * hex + face. */
+static size_t sheet_defects(const hx *w, const size_t *bf, size_t nb, uint8_t *in) {
+    size_t *start = calloc(w->np + 2, sizeof *start), *list = malloc((4 * nb + 1) * sizeof *list);
+    uint8_t *bad = calloc(w->np + 1, 1);
+    size_t nbad = 0;
+    if (!start || !list || !bad) {
+        free(start);
+        free(list);
+        free(bad);
+        for (size_t t = 0; t < w->nh; t++) in[t] = 0; /* out of memory: no layer */
+        return 1;
+    }
+    for (size_t u = 0; u < nb; u++)
+        for (int j = 0; j < 4; j++)
+            start[(size_t)w->h[8 * (bf[u] / 6) + (size_t)face_tab[bf[u] % 6][j]] + 2]++;
+    for (size_t i = 0; i < w->np; i++) start[i + 2] += start[i + 1];
+    for (size_t u = 0; u < nb; u++)
+        for (int j = 0; j < 4; j++)
+            list[start[(size_t)w->h[8 * (bf[u] / 6) + (size_t)face_tab[bf[u] % 6][j]] + 1]++] = u;
+    for (size_t v = 0; v < w->np; v++) {
+        size_t k = start[v + 1] - start[v];
+        if (!k) continue;
+        if (k > 64) {
+            bad[v] = 1;
+            continue;
+        }
+        vm_index q[64][4];
+        int at[64], par[64];
+        for (size_t a = 0; a < k; a++) {
+            size_t u = list[start[v] + a];
+            for (int j = 0; j < 4; j++) {
+                q[a][j] = w->h[8 * (bf[u] / 6) + (size_t)face_tab[bf[u] % 6][j]];
+                if ((size_t)q[a][j] == v) at[a] = j;
+            }
+            par[a] = (int)a;
+        }
+        int ok = 1;
+        for (size_t a = 0; a < k && ok; a++)
+            for (int side = 1; side <= 3; side += 2) {
+                vm_index nbr = q[a][(at[a] + side) % 4];
+                int count = 0;
+                for (size_t b = 0; b < k; b++) {
+                    if (q[b][(at[b] + 1) % 4] != nbr && q[b][(at[b] + 3) % 4] != nbr) continue;
+                    count++;
+                    int x = (int)a, y = (int)b;
+                    while (par[x] != x) x = par[x];
+                    while (par[y] != y) y = par[y];
+                    par[x] = y;
+                }
+                if (count != 2) ok = 0;
+            }
+        int roots = 0;
+        for (size_t a = 0; a < k; a++) roots += par[a] == (int)a;
+        if (!ok || roots != 1) bad[v] = 1;
+    }
+    for (size_t v = 0; v < w->np; v++) nbad += bad[v];
+    if (nbad)
+        for (size_t t = 0; t < w->nh; t++)
+            for (int c = 0; c < 8; c++)
+                if (bad[w->h[8 * t + (size_t)c]]) in[t] = 0;
+    free(start);
+    free(list);
+    free(bad);
+    return nbad;
+}
+
+/* Pillowing (Mitchell and Tautges 1995) of the shrink set: the hexes t with in[t], all when
+ * in is NULL. Every point on the set's boundary (the sheet: its faces on the mesh boundary
+ * and those it shares with hexes outside it) gets an inner copy, the set's hexes take the
+ * copies, and one new hex joins each sheet face to its copy. With the whole mesh as the set,
+ * every hex touching the boundary afterwards has exactly one face on it, and the boundary
+ * itself (points, quads) is unchanged; with a smaller set, the sheet leaves the boundary and
+ * goes round the hexes outside the set, which keep their points (the mesh stays conforming).
+ * in is shrunk where its sheet would not be a manifold surface. */
+static vm_status pillow(hx *w, uint8_t *in, size_t *added, vm_error *err) {
+    size_t *bf = NULL, nb = 0;
+    vm_status s = VM_OK;
+    for (int round = 0;; round++) {
+        free(bf);
+        bf = NULL;
+        s = boundary_faces(w, in, &bf, &nb, err);
+        if (s) return s;
+        if (!in || !sheet_defects(w, bf, nb, in)) break;
+        if (round == 50) {
+            free(bf);
+            *added = 0;
+            return VM_OK; /* no clean sheet: no layer */
+        }
+    }
+    size_t np = w->np;
+    vm_index *copy = malloc((np + 1) * sizeof *copy);
+    double *ctr = calloc(3 * np + 1, sizeof *ctr);
+    size_t *cnt = calloc(np + 1, sizeof *cnt);
+    if (!copy || !ctr || !cnt) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        goto done;
+    }
+    for (size_t i = 0; i < np; i++) copy[i] = -1;
+    size_t ncopy = 0;
+    for (size_t u = 0; u < nb; u++)
+        for (int j = 0; j < 4; j++) {
+            size_t i = (size_t)w->h[8 * (bf[u] / 6) + (size_t)face_tab[bf[u] % 6][j]];
+            if (copy[i] < 0) copy[i] = (vm_index)(np + ncopy++);
+        }
+    size_t nh = w->nh;
+    double *p = realloc(w->p, 3 * (np + ncopy) * sizeof *p);
+    if (p) w->p = p;
+    double *p0 = realloc(w->p0, 3 * (np + ncopy) * sizeof *p0);
+    if (p0) w->p0 = p0;
+    vm_index *h = realloc(w->h, 8 * (nh + nb) * sizeof *h);
+    if (h) w->h = h;
+    int32_t *reg = realloc(w->region, (nh + nb) * sizeof *reg);
+    if (reg) w->region = reg;
+    if (!p || !p0 || !h || !reg) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory for the pillow layer");
+        goto done;
+    }
+    /* Each copy goes a third of the way from its point toward the mean centre of the hexes
+     * around it: inside the material even where it is one cell thick, unlike a step along
+     * the normal. */
+    for (size_t t = 0; t < nh; t++) {
+        if (in && !in[t]) continue;
+        double c[3] = {0, 0, 0};
+        for (int k = 0; k < 8; k++)
+            for (int a = 0; a < 3; a++) c[a] += 0.125 * w->p[3 * (size_t)w->h[8 * t + k] + a];
+        for (int k = 0; k < 8; k++) {
+            size_t i = (size_t)w->h[8 * t + k];
+            if (copy[i] < 0) continue;
+            for (int a = 0; a < 3; a++) ctr[3 * i + a] += c[a];
+            cnt[i]++;
+        }
+    }
+    for (size_t i = 0; i < np; i++) {
+        if (copy[i] < 0) continue;
+        double *q = w->p + 3 * (size_t)copy[i];
+        for (int a = 0; a < 3; a++)
+            q[a] = w->p[3 * i + a] + (ctr[3 * i + a] / (double)cnt[i] - w->p[3 * i + a]) / 3.0;
+        memcpy(w->p0 + 3 * (size_t)copy[i], q, 3 * sizeof *q);
+    }
+    for (size_t u = 0; u < 8 * nh; u++)
+        if (copy[w->h[u]] >= 0 && (!in || in[u / 8])) w->h[u] = copy[w->h[u]];
+    for (size_t u = 0; u < nb; u++) {
+        size_t t = bf[u] / 6;
+        const int *fc = face_tab[bf[u] % 6];
+        vm_index *c = w->h + 8 * t, *n = w->h + 8 * (nh + u);
+        /* The quad's right-hand normal points out, from the copies (bottom) to the boundary
+         * (top): the VTK order of a positive hex. c now holds the copies. */
+        for (int j = 0; j < 4; j++) n[j] = c[fc[j]];
+        w->region[nh + u] = w->region[t];
+    }
+    /* Original point of each copy, to fill the top quads. */
+    vm_index *orig = malloc((ncopy + 1) * sizeof *orig);
+    if (!orig) {
+        s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        goto done;
+    }
+    for (size_t i = 0; i < np; i++)
+        if (copy[i] >= 0) orig[(size_t)copy[i] - np] = (vm_index)i;
+    for (size_t u = 0; u < nb; u++) {
+        vm_index *n = w->h + 8 * (nh + u);
+        for (int j = 0; j < 4; j++) n[4 + j] = orig[(size_t)n[j] - np];
+    }
+    free(orig);
+    w->np = np + ncopy;
+    w->nh = nh + nb;
+    *added = nb;
+done:
+    free(bf);
+    free(copy);
+    free(ctr);
+    free(cnt);
+    return s;
+}
+
+/* ---- vertex moves ---- */
+
+#define R3 0.57735026918962576 /* 1 / sqrt(3) */
+#define R2 0.70710678118654752 /* 1 / sqrt(2) */
+/* 6 axis and 8 diagonal directions (unit length), then 12 face diagonals: smoothing uses the
+ * first 14, untangling all 26 (its penalty is piecewise linear, and a descent direction
+ * at a kink can lie in a narrow cone). */
+static const double dirs[26][3] = {
+    {1, 0, 0},     {-1, 0, 0},     {0, 1, 0},      {0, -1, 0},      {0, 0, 1},
+    {0, 0, -1},    {R3, R3, R3},   {-R3, R3, R3},  {R3, -R3, R3},   {-R3, -R3, R3},
+    {R3, R3, -R3}, {-R3, R3, -R3}, {R3, -R3, -R3}, {-R3, -R3, -R3}, {R2, R2, 0},
+    {-R2, R2, 0},  {R2, -R2, 0},   {-R2, -R2, 0},  {R2, 0, R2},     {-R2, 0, R2},
+    {R2, 0, -R2},  {-R2, 0, -R2},  {0, R2, R2},    {0, -R2, R2},    {0, R2, -R2},
+    {0, -R2, -R2}};
+
+/* Mean length of the edges at point i. */
+static double edge_scale(const hx *w, size_t i) {
+    double sum = 0.0;
+    size_t n = 0;
+    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
+        size_t t = w->vi[u] / 8;
+        int k = (int)(w->vi[u] % 8);
+        for (int j = 1; j < 4; j++) {
+            const double *q = w->p + 3 * (size_t)w->h[8 * t + (size_t)corner_tab[k][j]];
+            double d2 = 0.0;
+            for (int a = 0; a < 3; a++) d2 += (q[a] - w->p[3 * i + a]) * (q[a] - w->p[3 * i + a]);
+            sum += sqrt(d2);
+            n++;
+        }
+    }
+    return n ? sum / (double)n : 0.0;
+}
+
+/* Untangling without the layer (1): a higher worst determinant, the worst scaled Jacobian
+ * kept above floor (or where it was). Untangling the pillowed mesh (2): a lower penalty, or
+ * the same and a higher worst scaled Jacobian (the max-min determinant stalls there just
+ * below zero: several points share the worst corner). Smoothing (0): a higher worst scaled
+ * Jacobian, or the same and a higher sum. */
+static int better(const lq *n, const lq *o, double floor, int untangle) {
+    if (untangle == 1)
+        return n->det > o->det + 1e-12 * fabs(o->det) && n->min >= fmin(o->min, floor);
+    if (untangle == 2)
+        return n->pen < o->pen - 1e-9 || (n->pen <= o->pen && n->min > o->min + 1e-6);
+    return n->min > o->min + 1e-6 || (n->min >= o->min && n->sum > o->sum + 1e-4);
+}
+
+/* Compass search from point i's position for better figures around it; a surface point is
+ * first put back on its constraint when that costs at most down to floor. Returns 1 when it
+ * moved. */
+static int optimise(hx *w, size_t i, double floor, int untangle) {
+    if (w->cls[i] == CLS_FIXED || w->vs[i] == w->vs[i + 1]) return 0;
+    double x[3], buf[256], *norm = NULL;
+    size_t nc = 4 * (w->vs[i + 1] - w->vs[i]);
+    if (untangle == 2) {
+        norm = nc <= 256 ? buf : malloc(nc * sizeof *norm);
+        if (!norm) return 0;
+        corner_norms(w, i, norm);
+    }
+    lq cur;
+    memcpy(x, w->p + 3 * i, sizeof x);
+    local_q(w, i, x, norm, &cur);
+    int moved = 0;
+    double L = edge_scale(w, i);
+    for (double h = 0.25 * L; h > 0.01 * L; h *= 0.5) {
+        for (int rep = 0; rep < 4; rep++) {
+            int best = -1;
+            double bx[3];
+            lq bq = cur;
+            int slide = untangle == 3 && w->cls[i] == CLS_ISO;
+            for (int d = 0; d < (untangle >= 2 ? 26 : 14); d++)
+                for (int v = 0; v <= slide; v++) {
+                    double y[3];
+                    lq n;
+                    for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
+                    int mode = untangle == 1 || untangle == 2 ? MOVE_LOOSE
+                               : v                            ? MOVE_PROJECT
+                                                              : MOVE_TANGENT;
+                    if (!constrain(w, i, y, mode)) continue;
+                    local_q(w, i, y, norm, &n);
+                    if (better(&n, &bq, floor, untangle == 3 ? 0 : untangle)) {
+                        best = d;
+                        bq = n;
+                        memcpy(bx, y, sizeof bx);
+                    }
+                }
+            if (best < 0) break;
+            memcpy(x, bx, sizeof x);
+            cur = bq;
+            moved = 1;
+        }
+    }
+    if (moved) memcpy(w->p + 3 * i, x, sizeof x);
+    if (norm != buf) free(norm);
+    return moved;
+}
+
+typedef struct figs {
+    double min_sj, volume;
+    size_t inverted, below;
+} figs;
+
+static void measure(const hx *w, figs *f, double *q) {
+    f->min_sj = 1.0;
+    f->volume = 0.0;
+    f->inverted = f->below = 0;
+    for (size_t t = 0; t < w->nh; t++) {
+        double p[8][3];
+        hex_points(w, t, p);
+        double s = vm_hex_min_scaled_jacobian((const double(*)[3])p);
+        if (q) q[t] = s;
+        if (s < f->min_sj) f->min_sj = s;
+        if (s <= 0.0) f->inverted++;
+        if (s < 0.2) f->below++;
+        f->volume += vm_hex_volume((const double(*)[3])p);
+    }
+}
+
+/* Rounds of compass moves over the points of hexes below target, until the worst hex and
+ * the count below target stop improving. Surface points are put back on the surface first
+ * (at a cost down to floor at most). */
+static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int snap, double *q,
+                        uint8_t *active, size_t *moves, int *sweeps) {
+    /* active[np + i]: something around point i moved since it last failed to move */
+    uint8_t *dirty = active + w->np;
+    memset(dirty, 1, w->np);
+    double last = -INFINITY;
+    size_t last_below = SIZE_MAX;
+    int stale = 0;
+    for (int sw = 0; sw < max_sweeps; sw++) {
+        figs f;
+        measure(w, &f, q);
+        size_t below = 0;
+        memset(active, 0, w->np);
+        for (size_t t = 0; t < w->nh; t++)
+            if (q[t] < target) {
+                below++;
+                for (int k = 0; k < 8; k++) active[w->h[8 * t + k]] = 1;
+            }
+        if (w->focus)
+            for (size_t i = 0; i < w->np; i++) active[i] &= w->focus[i];
+        if (!below) break;
+        if (f.min_sj > last + 1e-4 || below + below / 100 < last_below) {
+            stale = 0;
+        } else if (++stale >= 3) {
+            break;
+        }
+        if (f.min_sj > last) last = f.min_sj;
+        if (below < last_below) last_below = below;
+        if (snap && sw == 0)
+            for (size_t i = 0; i < w->np; i++)
+                if ((w->cls[i] == CLS_ISO || w->cls[i] == CLS_PLANE) &&
+                    (!w->focus || w->focus[i]))
+                    active[i] = 1;
+        double floor = fmax(f.min_sj, 0.5 * target);
+        size_t mv = 0;
+        for (size_t i = 0; i < w->np; i++) {
+            if (!active[i] || !dirty[i]) continue;
+            dirty[i] = 0;
+            if (!optimise(w, i, floor, untangle)) continue;
+            mv++;
+            for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++)
+                for (int k = 0; k < 8; k++) dirty[w->h[8 * (w->vi[u] / 8) + (size_t)k]] = 1;
+        }
+        *moves += mv;
+        (*sweeps)++;
+        if (w->progress) /* half way after 8 sweeps, 3/4 after 16, ... */
+            w->progress("hex pass", 1.0 - pow(0.5, *sweeps / 8.0), 1.0, w->progress_user);
+        if (!mv) break;
+    }
+}
+
+/* Stage 0 untangles (the points of inverted hexes: by the concave max-min determinant, or on
+ * the pillowed mesh by the convex penalty, with more rounds and a second go after smoothing)
+ * and smooths to 0.2; stage 1 raises the bar a step at a time from 0.3 to the target: moves
+ * made for a high target too early lock poor hexes into worse local optima. */
+static void smooth(hx *w, const vm_hex_improve_options *o, int stage, double *q,
+                   uint8_t *active, size_t *moves, int *sweeps) {
+    if (stage == 0) {
+        if (!w->pillowed) {
+            sweep_stage(w, 0.02, 1, o->max_sweeps, 0, q, active, moves, sweeps);
+            sweep_stage(w, fmin(0.2, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
+            return;
+        }
+        sweep_stage(w, 0.02, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
+        sweep_stage(w, fmin(0.2, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
+        figs f;
+        measure(w, &f, q);
+        if (f.inverted) { /* the smoothing can free what the penalty could not reach */
+            sweep_stage(w, 0.02, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
+            sweep_stage(w, fmin(0.2, o->target), 0, o->max_sweeps, 0, q, active, moves, sweeps);
+        }
+        return;
+    }
+    for (double t = 0.3; t < o->target + 0.1 - 1e-9; t += 0.1)
+        sweep_stage(w, fmin(t, o->target), 0, o->max_sweeps, 0, q, active, moves, sweeps);
+}
+
+/* (Re)loads the points and hexes of m. */
+static vm_status load(hx *w, const vm_mesh *m, vm_error *err) {
+    free(w->p);
+    free(w->p0);
+    free(w->h);
+    free(w->region);
+    w->np = m->npoints;
+    w->nh = m->ncells;
+    w->p = malloc(3 * w->np * sizeof *w->p);
+    w->p0 = malloc(3 * w->np * sizeof *w->p0);
+    w->h = malloc(8 * w->nh * sizeof *w->h);
+    w->region = malloc(w->nh * sizeof *w->region);
+    if (!w->p || !w->p0 || !w->h || !w->region)
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    memcpy(w->p, m->points, 3 * w->np * sizeof *w->p);
+    memcpy(w->p0, m->points, 3 * w->np * sizeof *w->p0);
+    memcpy(w->h, m->cells, 8 * w->nh * sizeof *w->h);
+    for (size_t t = 0; t < w->nh; t++) w->region[t] = m->region ? m->region[t] : 0;
+    return VM_OK;
+}
+
+/* Loads m, pillowed (shrink set in) or not (in NULL), and runs stage 0 of the smoothing.
+ * [out] *q, *active (free them). */
+static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, uint8_t *in,
+                       const double *init, double **q, uint8_t **active, size_t *added,
+                       size_t *moves, int *sweeps, vm_error *err) {
+    free(*q);
+    free(*active);
+    *q = NULL;
+    *active = NULL;
+    *added = 0;
+    vm_status s = load(w, m, err);
+    if (!s && init) memcpy(w->p, init, 3 * w->np * sizeof *w->p);
+    size_t np0 = w->np, nh0 = w->nh;
+    if (!s && in) s = pillow(w, in, added, err);
+    w->pillowed = *added > 0;
+    free(w->focus);
+    w->focus = NULL;
+    if (!s && init && *added) {
+        /* a selective run: only the layer, the set's hexes and three rings of points round
+         * them move (the rest is at the local optimum the run without the layer found) */
+        w->focus = calloc(w->np + 1, 1);
+        if (!w->focus) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        for (size_t t = 0; t < w->nh; t++)
+            if (t >= nh0 || in[t])
+                for (int k = 0; k < 8; k++) w->focus[w->h[8 * t + (size_t)k]] = 1;
+        for (size_t i = np0; i < w->np; i++) w->focus[i] = 1;
+        for (int r = 0; r < 3; r++) {
+            uint8_t *grow = calloc(w->np + 1, 1);
+            if (!grow) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+            for (size_t t = 0; t < w->nh; t++) {
+                int hit = 0;
+                for (int k = 0; k < 8; k++) hit |= w->focus[w->h[8 * t + (size_t)k]];
+                if (hit)
+                    for (int k = 0; k < 8; k++) grow[w->h[8 * t + (size_t)k]] = 1;
+            }
+            free(w->focus);
+            w->focus = grow;
+        }
+    }
+    if (!s) s = build_incidence(w, err);
+    if (!s) s = classify(w, err);
+    if (s) return s;
+    *q = malloc((w->nh + 1) * sizeof **q);
+    *active = malloc(2 * w->np + 1);
+    if (!*q || !*active) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    smooth(w, o, 0, *q, *active, moves, sweeps);
+    return VM_OK;
+}
+
+/* Brings surface points that are more than 0.45 voxel off the isosurface (the mesher's
+ * relaxation can leave them up to a cell's half-diagonal away) the smallest part of the way
+ * to it that puts them within 0.45, where the hexes around allow (their worst corner kept at
+ * or above floor, or where it was). Points nearer stay: the mesher's points sit on sharp
+ * features, which the smooth trilinear isosurface rounds off. */
+static void final_snap(hx *w, double floor) {
+    for (size_t i = 0; i < w->np; i++) {
+        if (w->cls[i] != CLS_ISO) continue;
+        double y[3], x[3];
+        to_index(w, w->p + 3 * i, y);
+        if (iso_distance(w, y) <= 0.45) continue;
+        memcpy(x, w->p + 3 * i, sizeof x);
+        double target[3] = {x[0], x[1], x[2]};
+        if (!constrain(w, i, target, MOVE_PROJECT)) continue;
+        lq cur, n;
+        local_q(w, i, x, NULL, &cur);
+        for (double frac = 0.25; frac < 1.01; frac += 0.25) {
+            double z[3], zi[3];
+            for (int a = 0; a < 3; a++) z[a] = x[a] + frac * (target[a] - x[a]);
+            to_index(w, z, zi);
+            if (iso_distance(w, zi) > 0.45) continue;
+            local_q(w, i, z, NULL, &n);
+            if (n.min >= fmin(cur.min, floor)) memcpy(w->p + 3 * i, z, sizeof z);
+            break;
+        }
+    }
+}
+
+/* Grows the hex set in by rings layers (the hexes sharing a point with it). [in,out] in:
+ * one flag per hex; mark: room for one flag per point. */
+static void dilate(const hx *w, uint8_t *in, int rings, uint8_t *mark) {
+    for (int r = 0; r < rings; r++) {
+        memset(mark, 0, w->np);
+        for (size_t t = 0; t < w->nh; t++)
+            if (in[t])
+                for (int k = 0; k < 8; k++) mark[w->h[8 * t + (size_t)k]] = 1;
+        for (size_t t = 0; t < w->nh; t++)
+            for (int k = 0; k < 8 && !in[t]; k++)
+                if (mark[w->h[8 * t + (size_t)k]]) in[t] = 1;
+    }
+}
+
+static void hx_free(hx *w) {
+    free(w->p);
+    free(w->p0);
+    free(w->h);
+    free(w->region);
+    free(w->vs);
+    free(w->vi);
+    free(w->cls);
+    free(w->planes);
+    free(w->nrm);
+    free(w->est0);
+    free(w->focus);
+    w->nrm = w->est0 = NULL;
+    w->focus = NULL;
+    w->p = w->p0 = NULL;
+    w->h = NULL;
+    w->region = NULL;
+    w->vs = w->vi = NULL;
+    w->cls = w->planes = NULL;
+}
+
+/* Runs with more hexes than this below the bar are left to the selective layer unpolished
+ * (the polish is meant for a few spots). */
+#define POLISH_MAX 1000
+
+/* Flags (in act, cleared first) the points of the hexes whose quality q is below bar. */
+static void mark_below(const hx *w, const double *q, double bar, uint8_t *act) {
+    memset(act, 0, w->np);
+    for (size_t t = 0; t < w->nh; t++)
+        if (q[t] < bar)
+            for (int k = 0; k < 8; k++) act[w->h[8 * t + (size_t)k]] = 1;
+}
+
+/* Adds to `to` the points of every hex that has a point flagged in `from`. */
+static void grow_points(const hx *w, const uint8_t *from, uint8_t *to) {
+    for (size_t t = 0; t < w->nh; t++) {
+        int hit = 0;
+        for (int k = 0; k < 8; k++) hit |= from[w->h[8 * t + (size_t)k]];
+        if (hit)
+            for (int k = 0; k < 8; k++) to[w->h[8 * t + (size_t)k]] = 1;
+    }
+}
+
+/* A last stage, on the few hexes still below target: their points and one ring round
+ * them move by max-min compass search as in smoothing, except that boundary points may also
+ * slide along the surface, a step being put back on the isosurface (within the allowed
+ * distance of where the mesher put the point) instead of kept in its tangent plane: the
+ * boundary quads of valence 3 to 6 points need their points moved further than the tangent
+ * plane allows. Returns 0, or VM_ERR_NOMEM. */
+static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
+    double *q = malloc((w->nh + 1) * sizeof *q);
+    uint8_t *act = malloc(w->np + 1), *ring = malloc(w->np + 1);
+    if (!q || !act || !ring) {
+        free(q);
+        free(act);
+        free(ring);
+        return VM_ERR_NOMEM;
+    }
+    double last = -INFINITY;
+    for (int sw = 0; sw < 16; sw++) {
+        figs f;
+        measure(w, &f, q);
+        if (f.min_sj >= target || f.min_sj <= last + 1e-4) break;
+        last = f.min_sj;
+        mark_below(w, q, target, act);
+        memcpy(ring, act, w->np);
+        grow_points(w, act, ring);
+        size_t mv = 0;
+        for (int pass = 0; pass < 2; pass++) /* the worst hexes' own points first */
+            for (size_t i = 0; i < w->np; i++)
+                if ((pass ? ring[i] && !act[i] : act[i]) && optimise(w, i, f.min_sj, 3)) mv++;
+        *moves += mv;
+        (*sweeps)++;
+        if (!mv) break;
+    }
+    free(q);
+    free(act);
+    free(ring);
+    return VM_OK;
+}
+
+/* ---- repair of the last hexes below the bar ---- */
+
+/* The repair works on the hexes below this, when there are at most POLISH_MAX of them. */
+#define REPAIR_BAR 0.3
+
+/* Corners around point i with i at x: [out] *mn the worst scaled Jacobian, and the energy
+ * sum over them of (max(0, bar - sj))^2, which couples the moves of the points of a patch
+ * where the max-min search stalls (several points share the worst corner). */
+static double patch_energy(const hx *w, size_t i, const double x[3], double bar, double *mn) {
+    double e = 0.0;
+    *mn = INFINITY;
+    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
+        size_t t = w->vi[u] / 8;
+        int k = (int)(w->vi[u] % 8);
+        double p[8][3];
+        hex_points(w, t, p);
+        memcpy(p[k], x, sizeof p[k]);
+        for (int c = 0; c < 8; c++) {
+            double det, q = corner_sj((const double(*)[3])p, c, &det);
+            if (q < *mn) *mn = q;
+            if (q < bar) e += (bar - q) * (bar - q);
+        }
+    }
+    return e;
+}
+
+/* Compass search on patch_energy for point i, its worst corner kept at or above floor (or
+ * where it was). A boundary point may stay in its tangent plane, slide along the isosurface
+ * (as in the polish) or go anywhere within 0.4 voxel of it (as in untangling): the valence 3
+ * and 5 to 6 boundary points at the last hexes below 0.2 on avg152T1 need room off the
+ * trilinear isosurface (measured: 0.186 on it or in the tangent plane, 0.300 with the room).
+ * Returns 1 when it moved. */
+static int patch_move(hx *w, size_t i, double bar, double floor) {
+    if (w->cls[i] == CLS_FIXED || w->vs[i] == w->vs[i + 1]) return 0;
+    double x[3], mn;
+    memcpy(x, w->p + 3 * i, sizeof x);
+    double e = patch_energy(w, i, x, bar, &mn);
+    double keep = fmin(mn, floor);
+    int moved = 0;
+    double L = edge_scale(w, i);
+    for (double h = 0.25 * L; h > 0.005 * L; h *= 0.5) {
+        for (int rep = 0; rep < 4; rep++) {
+            int best = -1;
+            double bx[3], be = e;
+            int slide = w->cls[i] == CLS_ISO;
+            for (int d = 0; d < 26; d++)
+                for (int v = 0; v <= 2 * slide; v++) {
+                    double y[3], m2;
+                    for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
+                    int mode = v == 2 ? MOVE_LOOSE : v ? MOVE_PROJECT : MOVE_TANGENT;
+                    if (!constrain(w, i, y, mode)) continue;
+                    double ne = patch_energy(w, i, y, bar, &m2);
+                    if (ne < be - 1e-12 && m2 >= keep) {
+                        best = d;
+                        be = ne;
+                        memcpy(bx, y, sizeof bx);
+                    }
+                }
+            if (best < 0) break;
+            memcpy(x, bx, sizeof x);
+            e = be;
+            moved = 1;
+        }
+    }
+    if (moved) memcpy(w->p + 3 * i, x, sizeof x);
+    return moved;
+}
+
+/* The worst scaled Jacobian of the hexes at the points pts[0..n) (and their sum). */
+static double group_q(const hx *w, const size_t *pts, int n, double *sum) {
+    double mn = INFINITY;
+    *sum = 0.0;
+    for (int j = 0; j < n; j++)
+        for (size_t u = w->vs[pts[j]]; u < w->vs[pts[j] + 1]; u++) {
+            double q = hex_q(w, w->vi[u] / 8);
+            *sum += q;
+            if (q < mn) mn = q;
+        }
+    return mn;
+}
+
+/* Compass search moving the points pts[0..n) of one hex together (the same step for all,
+ * each then put back on its own constraint, with patch_move's three modes), for a
+ * higher worst hex round them: where the points of a patch share its worst corner, no move
+ * of one point alone raises it. Returns 1 when they moved. */
+static int group_move(hx *w, const size_t *pts, int n) {
+    double old[8][3], sum;
+    for (int j = 0; j < n; j++) {
+        if (w->cls[pts[j]] == CLS_FIXED) return 0;
+        memcpy(old[j], w->p + 3 * pts[j], sizeof old[j]);
+    }
+    double cur = group_q(w, pts, n, &sum), L = 0.0;
+    for (int j = 0; j < n; j++) L += edge_scale(w, pts[j]) / n;
+    int moved = 0;
+    double base[8][3];
+    for (int j = 0; j < n; j++) memcpy(base[j], old[j], sizeof base[j]);
+    for (double h = 0.2 * L; h > 0.005 * L; h *= 0.5)
+        for (int rep = 0; rep < 4; rep++) {
+            int best = -1;
+            double bq = cur, bs = sum, bp[8][3];
+            for (int d = 0; d < 26; d++)
+                for (int v = 0; v < 3; v++) {
+                    int ok = 1;
+                    for (int j = 0; j < n && ok; j++) {
+                        double y[3];
+                        for (int a = 0; a < 3; a++) y[a] = base[j][a] + h * dirs[d][a];
+                        int mode = w->cls[pts[j]] != CLS_ISO || !v ? MOVE_TANGENT
+                                   : v == 2                         ? MOVE_LOOSE
+                                                                    : MOVE_PROJECT;
+                        ok = constrain(w, pts[j], y, mode);
+                        if (ok) memcpy(w->p + 3 * pts[j], y, sizeof y);
+                    }
+                    double s2, q2 = ok ? group_q(w, pts, n, &s2) : -INFINITY;
+                    if (ok && (q2 > bq + 1e-6 || (q2 >= bq && s2 > bs + 1e-4))) {
+                        best = d;
+                        bq = q2;
+                        bs = s2;
+                        for (int j = 0; j < n; j++) memcpy(bp[j], w->p + 3 * pts[j], sizeof bp[j]);
+                    }
+                    for (int j = 0; j < n; j++) memcpy(w->p + 3 * pts[j], base[j], sizeof base[j]);
+                }
+            if (best < 0) break;
+            for (int j = 0; j < n; j++) {
+                memcpy(base[j], bp[j], sizeof base[j]);
+                memcpy(w->p + 3 * pts[j], bp[j], sizeof bp[j]);
+            }
+            cur = bq;
+            sum = bs;
+            moved = 1;
+        }
+    return moved;
+}
+
+/* Group moves on each hex below bar: its edges' point pairs, its faces' quads and the whole
+ * hex. Returns the number of groups moved. */
+static size_t group_sweep(hx *w, double bar) {
+    static const int edges[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
+                                     {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+    size_t mv = 0;
+    for (size_t t = 0; t < w->nh; t++) {
+        if (hex_q(w, t) >= bar) continue;
+        const vm_index *c = w->h + 8 * t;
+        size_t pts[8];
+        for (int e = 0; e < 12; e++) {
+            pts[0] = (size_t)c[edges[e][0]];
+            pts[1] = (size_t)c[edges[e][1]];
+            mv += (size_t)group_move(w, pts, 2);
+        }
+        for (int f = 0; f < 6; f++) {
+            for (int j = 0; j < 4; j++) pts[j] = (size_t)c[face_tab[f][j]];
+            mv += (size_t)group_move(w, pts, 4);
+        }
+        for (int k = 0; k < 8; k++) pts[k] = (size_t)c[k];
+        mv += (size_t)group_move(w, pts, 8);
+    }
+    return mv;
+}
+
+/* The hexes below bar and rings of hexes round them: their points get Gauss-Seidel sweeps
+ * of patch_move (the mesh's worst hex never gets worse), then the max-min polish. */
+static vm_status repair(hx *w, double bar, int rings, int nsweeps, size_t *moves, int *sweeps) {
+    double *q = malloc((w->nh + 1) * sizeof *q);
+    uint8_t *act = malloc(w->np + 1), *ring = malloc(w->np + 1);
+    if (!q || !act || !ring) {
+        free(q);
+        free(act);
+        free(ring);
+        return VM_ERR_NOMEM;
+    }
+    for (int sw = 0; sw < nsweeps; sw++) {
+        figs f;
+        measure(w, &f, q);
+        mark_below(w, q, bar, act);
+        for (int r = 0; r < rings; r++) {
+            memcpy(ring, act, w->np);
+            grow_points(w, ring, act);
+        }
+        size_t mv = 0;
+        for (size_t i = 0; i < w->np; i++)
+            if (act[i] && patch_move(w, i, bar, f.min_sj)) mv++;
+        *moves += mv;
+        (*sweeps)++;
+        if (!mv) break;
+    }
+    free(q);
+    free(act);
+    free(ring);
+    vm_status s = polish(w, bar, moves, sweeps);
+    for (int r = 0; r < 4 && !s; r++) {
+        size_t mv = group_sweep(w, 0.2);
+        *moves += mv;
+        (*sweeps)++;
+        if (!mv) break;
+        s = polish(w, bar, moves, sweeps);
+    }
+    return s;
+}
+
+/* The whole pass on a copy of m, with or without the pillow layer. [out] f: its figures. */
+static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, int with_pillow,
+                     const uint8_t *set, const double *init, size_t *added, size_t *moves,
+                     int *sweeps, figs *f, vm_error *err) {
+    double *q = NULL;
+    uint8_t *active = NULL, *in = NULL;
+    if (set) {
+        in = malloc(m->ncells + 1);
+        if (!in) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        memcpy(in, set, m->ncells);
+    } else if (with_pillow) {
+        in = malloc(m->ncells + 1);
+        if (!in) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        memset(in, 1, m->ncells);
+    }
+    vm_status s = start(w, m, o, in, init, &q, &active, added, moves, sweeps, err);
+    free(in);
+    if (!s && *added) {
+        /* a layer still tangled after untangling will not come right: stop here */
+        measure(w, f, NULL);
+        if (f->inverted) {
+            free(q);
+            free(active);
+            return VM_OK;
+        }
+    }
+    if (!s) {
+        smooth(w, o, 1, q, active, moves, sweeps);
+        measure(w, f, NULL);
+        if (w->v && f->min_sj < fmin(0.2, o->target) && f->below <= POLISH_MAX) {
+            free(w->focus); /* the polish reaches past a selective run's focus */
+            w->focus = NULL;
+            s = polish(w, fmin(0.3, o->target), moves, sweeps);
+            if (s) s = vm_error_set(err, s, "improve: out of memory");
+            measure(w, f, NULL);
+        }
+        if (w->v) final_snap(w, fmax(f->min_sj, 0.2));
+        measure(w, f, NULL);
+    }
+    free(q);
+    free(active);
+    return s;
+}
+
+vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_improve_options *o,
+                                vm_hex_improve_report *r, vm_error *err) {
+    double t0 = vm__now();
+    vm_hex_improve_options def;
+    if (!o) {
+        vm_hex_improve_options_default(&def);
+        o = &def;
+    }
+    if (m->kind != VM_HEX8)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "improve: hex improvement needs hex8, not %s",
+                            vm_cell_kind_name(m->kind));
+    if (o->pillow && (m->npoint_fields || m->ncell_fields))
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "improve: pillowing a hex mesh with fields is not supported");
+    if (m->ncells == 0) return vm_error_set(err, VM_ERR_EMPTY, "improve: the mesh has no cells");
+    if (v && !o->has_lo && !o->has_hi)
+        return vm_error_set(err, VM_ERR_ARG, "improve: a volume needs lo or hi material bounds");
+    if (!(o->target > 0.0) || !(o->max_surface_move >= 0.0))
+        return vm_error_set(err, VM_ERR_ARG, "improve: target and bounds must be positive");
+    for (size_t u = 0; u < 8 * m->ncells; u++)
+        if (m->cells[u] < 0 || (size_t)m->cells[u] >= m->npoints)
+            return vm_error_set(err, VM_ERR_ARG, "improve: cell %zu has node %lld outside 0..%zu",
+                                u / 8, (long long)m->cells[u], m->npoints - 1);
+    hx w;
+    memset(&w, 0, sizeof w);
+    w.np = m->npoints;
+    w.nh = m->ncells;
+    w.v = v;
+    w.lo = o->lo;
+    w.hi = o->hi;
+    w.has_lo = o->has_lo;
+    w.has_hi = o->has_hi;
+    w.max_move = o->max_surface_move;
+    w.progress = o->progress;
+    w.progress_user = o->progress_user;
+    vm_status s = VM_OK;
+    if (v) {
+        for (int a = 0; a < 3; a++) {
+            w.org[a] = v->origin[a];
+            for (int c = 0; c < 3; c++) w.A[a][c] = v->direction[a][c] * v->spacing[c];
+        }
+        if (!invert3(w.A, w.Ainv)) {
+            s = vm_error_set(err, VM_ERR_ARG, "improve: the volume's index frame is singular");
+            goto done;
+        }
+    }
+    figs before, after;
+    size_t added = 0, moves = 0;
+    int sweeps = 0, undone = 0;
+    hx base = w;
+    s = load(&w, m, err);
+    if (s) goto done;
+    measure(&w, &before, NULL);
+    /* A mesh the mesher could not make valid has folded boundaries (the heads), where the
+     * whole layer was measured to tangle or smooth worse than none: it goes straight to the
+     * run without it, then the selective layer below. */
+    int whole = o->pillow && before.min_sj < o->target && before.inverted == 0;
+    s = run(&w, m, o, whole, NULL, NULL, &added, &moves, &sweeps, &after, err);
+    if (!s && added && (after.inverted || after.min_sj < fmin(0.2, o->target))) {
+        /* Where the boundary folds (thin noisy features) some pillow corners have no valid
+         * position, or the layer smooths worse than none: when it stays tangled or below the
+         * bar (0.2), the pass runs again without the layer and keeps the better mesh. */
+        hx w2 = base;
+        figs f2;
+        size_t added2 = 0;
+        s = run(&w2, m, o, 0, NULL, NULL, &added2, &moves, &sweeps, &f2, err);
+        if (!s && (f2.inverted < after.inverted ||
+                   (f2.inverted == after.inverted && f2.min_sj > after.min_sj))) {
+            hx_free(&w);
+            w = w2;
+            after = f2;
+            added = 0;
+            undone = 1;
+        } else {
+            hx_free(&w2);
+        }
+    }
+    if (!s && o->pillow && !added && after.min_sj < fmin(0.2, o->target)) {
+        /* Selective pillowing: only the spots still below the bar get the layer, from the
+         * positions the pass without it reached; where the layer leaves hexes below the bar
+         * (at the sheet's edge, or on its own hexes) the set grows round them and the run
+         * starts again from those positions, up to three times. */
+        hx plain = w;
+        size_t np0 = plain.np, nh0 = plain.nh;
+        uint8_t *set = malloc(nh0 + 1), *mark = malloc(np0 + 1);
+        if (!set || !mark) {
+            free(set);
+            free(mark);
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+            goto done;
+        }
+        for (size_t t = 0; t < nh0; t++) set[t] = hex_q(&plain, t) < 0.2;
+        dilate(&plain, set, 1, mark);
+        int have = 0; /* w holds a selective result (else it is plain) */
+        for (int round = 0; round < 3 && !s; round++) {
+            hx w3 = base;
+            figs f3;
+            size_t added3 = 0;
+            s = run(&w3, m, o, 1, set, plain.p, &added3, &moves, &sweeps, &f3, err);
+            int good = !s && added3 && !f3.inverted && f3.min_sj > after.min_sj;
+            if (good) {
+                if (have) hx_free(&w);
+                w = w3;
+                after = f3;
+                added = added3;
+                undone = 0;
+                have = 1;
+            } else {
+                hx_free(&w3);
+            }
+            if (!good || after.min_sj >= fmin(0.2, o->target)) break;
+            /* grow the set round what is still below the bar */
+            memset(mark, 0, np0);
+            for (size_t t = 0; t < w.nh; t++) {
+                if (hex_q(&w, t) >= 0.2) continue;
+                if (t < nh0) set[t] = 1;
+                for (int k = 0; k < 8; k++)
+                    if ((size_t)w.h[8 * t + (size_t)k] < np0) mark[w.h[8 * t + (size_t)k]] = 1;
+            }
+            for (size_t t = 0; t < nh0; t++)
+                for (int k = 0; k < 8 && !set[t]; k++)
+                    if (mark[plain.h[8 * t + (size_t)k]]) set[t] = 1;
+            dilate(&plain, set, 1, mark);
+        }
+        if (have) hx_free(&plain);
+        free(set);
+        free(mark);
+    }
+    if (s) goto done;
+    if (v && after.min_sj < fmin(0.2, o->target) && after.below <= POLISH_MAX) {
+        /* once more on the kept result: the selective rounds' focus is gone */
+        free(w.focus);
+        w.focus = NULL;
+        if (polish(&w, fmin(0.3, o->target), &moves, &sweeps)) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+            goto done;
+        }
+        measure(&w, &after, NULL);
+    }
+    if (v && after.min_sj < fmin(REPAIR_BAR, o->target)) {
+        /* the last few hexes below 0.3: the patch repair (coupled moves, then the polish) */
+        size_t below = 0;
+        for (size_t t = 0; t < w.nh; t++) below += hex_q(&w, t) < REPAIR_BAR;
+        free(w.focus);
+        w.focus = NULL;
+        if (below <= POLISH_MAX &&
+            repair(&w, fmin(REPAIR_BAR, o->target), 1, 10, &moves, &sweeps)) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+            goto done;
+        }
+        measure(&w, &after, NULL);
+    }
+    double maxd = 0.0, maxd0 = 0.0;
+    if (v)
+        for (size_t i = 0; i < w.np; i++) {
+            if (w.cls[i] != CLS_ISO) continue;
+            double y[3];
+            to_index(&w, w.p + 3 * i, y);
+            maxd = fmax(maxd, iso_distance(&w, y));
+            to_index(&w, w.p0 + 3 * i, y);
+            maxd0 = fmax(maxd0, iso_distance(&w, y));
+        }
+    s = vm_mesh_reserve(m, w.np, w.nh, err);
+    if (s) goto done;
+    memcpy(m->points, w.p, 3 * w.np * sizeof *w.p);
+    memcpy(m->cells, w.h, 8 * w.nh * sizeof *w.h);
+    memcpy(m->region, w.region, w.nh * sizeof *w.region);
+    if (r) {
+        memset(r, 0, sizeof *r);
+        r->hexes_before = m->ncells;
+        r->points_before = m->npoints;
+        r->hexes_after = w.nh;
+        r->points_after = w.np;
+        r->pillow_hexes = added;
+        r->pillow_undone = undone;
+        r->min_sj_before = before.min_sj;
+        r->min_sj_after = after.min_sj;
+        r->inverted_before = before.inverted;
+        r->inverted_after = after.inverted;
+        r->below_02_before = before.below;
+        r->below_02_after = after.below;
+        r->volume_before = before.volume;
+        r->volume_after = after.volume;
+        r->max_surface_distance = maxd;
+        r->max_surface_distance_before = maxd0;
+        r->moves = moves;
+        r->sweeps = sweeps;
+    }
+    m->npoints = w.np;
+    m->ncells = w.nh;
+    if (r) r->seconds = vm__now() - t0;
+done:
+    hx_free(&w);
+    if (o->progress) o->progress("hex pass", 1.0, 1.0, o->progress_user);
+    return s;
+}
+

@@ -1,0 +1,223 @@
+/* improve/improve_internal.h — the working mesh shared by the improvement operations
+ * (improve.c drives; improve_mesh.c holds the adjacency and queries; improve_contract.c,
+ * improve_flip.c and improve_smooth.c are one operation each). Private. */
+#ifndef VM_IMPROVE_INTERNAL_H
+#define VM_IMPROVE_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "volmesh/improve.h"
+
+/* Vertex classes: how a vertex may move. */
+enum {
+    VM__IMP_INTERIOR = 0, /* free */
+    VM__IMP_SURF = 1,     /* on the isosurface: moves along it */
+    VM__IMP_FLAT = 2,     /* on one border plane, all its boundary faces on it: moves in it */
+    VM__IMP_FIXED = 3,    /* rim of a border plane, box edge or corner, junction, crease */
+    VM__IMP_IFACE = 4     /* inside, between exactly two regions, on a nearly flat piece of
+                             their interface: moves in its tangent plane, bounded */
+};
+
+/* The tets around one vertex (unordered). */
+typedef struct vm__imp_star {
+    vm_index *t;
+    int32_t n, cap;
+} vm__imp_star;
+
+typedef struct vm__imp {
+    /* tets: 4 nodes each, positively oriented; dead tets keep their slot */
+    vm_index *tet;
+    int32_t *region;
+    vm_index *parent;   /* input cell each tet descends from (for cell fields) */
+    double *q;          /* cached quality (see vm__imp_quality) */
+    uint8_t *dead;
+    size_t ntet, tet_cap;
+    /* vertices */
+    double *p;          /* world positions */
+    /* p0, nrm and bound hold only the vertices that may be constrained (on the boundary or
+     * between regions), vertex v at index ci[v] (-1 for the others): see vm__imp_p0 etc. */
+    int32_t *ci;
+    double *p0;         /* input positions */
+    uint8_t *cls;       /* VM__IMP_* */
+    uint8_t *planes;    /* border planes the vertex lies on (bit 2*axis + side) */
+    uint8_t *iso_hi;    /* SURF with a volume: lies on {f = hi} rather than {f = lo} */
+    uint8_t *pdead;
+    double *nrm;        /* FLAT: plane normal; SURF without a volume and IFACE: tangent-plane
+                           normal */
+    double *bound;      /* SURF/FLAT/IFACE: largest displacement from p0 (voxels or world) */
+    vm__imp_star *star;
+    size_t npt;
+    /* the volume, when given: world = org + A * ijk */
+    const vm_volume *v;
+    /* its planes held: plane k at fdata + (k - fk0) nx ny for fk0 <= k < fk1 (the whole
+     * volume, or the window a part reads, which holds every plane its vertices can sample;
+     * a read outside would be clamped to them) */
+    const float *fdata;
+    int64_t fk0, fk1;
+    double A[3][3], Ainv[3][3], org[3];
+    double lo, hi;
+    int has_lo, has_hi;
+    /* quality scales: q = min(min_dih/s_min, (180-max_dih)/s_max, vm/s_vm) */
+    double s_min, s_max, s_vm;
+    double s_fmin, s_fmax; /* and min(face angle)/s_fmin, (180-max face angle)/s_fmax */
+    const vm_improve_options *o;
+    /* counters */
+    size_t collapses, flips23, flips32, edge_removals, moves, perturbations, peels,
+        boundary_flips;
+    double max_move_seen;
+    unsigned rng;
+    /* scratch for local operations */
+    vm_index *buf;
+    size_t buf_cap;
+    int deep;           /* later rounds: also peel bad tets off the boundary */
+    size_t nfrozen;     /* input tets 0..nfrozen-1 have o->frozen flags */
+    /* tets whose quality was recomputed below 1 since the last bad list (may repeat, may
+     * have died since): with the last list they hold every tet below the targets */
+    vm_index *touched;
+    size_t ntouched, touched_cap;
+    /* while setting up: the boundary faces 4 t + f (face f opposite node f), in order */
+    size_t *bfaces, nbfaces;
+    int nomem;          /* sticky: an allocation inside an operation failed */
+    /* the boundary guard (improve_guard.c): boundary vertices in a hashed uniform grid and
+     * each vertex's boundary faces, cached until a tet around it is added or removed */
+    struct vm__imp_guard *g;
+    /* A part of a bigger mesh (improve_parts.c): input tets 0..nlock-1 with lock[t] set are
+     * locked (never killed or replaced) and vlock marks their vertices (never moved or
+     * removed); NULL for a whole mesh. */
+    const uint8_t *lock;
+    size_t nlock;
+    uint8_t *vlock;
+    uint8_t *below;     /* a part, at the end: per tet, 1 when its quality is below 1 */
+} vm__imp;
+
+/* 1 when tet t is locked / vertex a is locked (see vm__imp.lock). */
+static inline int vm__imp_locked(const vm__imp *w, size_t t) {
+    return t < w->nlock && w->lock[t];
+}
+static inline int vm__imp_vlocked(const vm__imp *w, vm_index a) {
+    return w->vlock && w->vlock[a];
+}
+
+/* Input position, constraint normal and bound of a constrained vertex a (ci[a] >= 0). */
+static inline double *vm__imp_p0(const vm__imp *w, vm_index a) {
+    return w->p0 + 3 * (size_t)w->ci[a];
+}
+static inline double *vm__imp_nrm(const vm__imp *w, vm_index a) {
+    return w->nrm + 3 * (size_t)w->ci[a];
+}
+static inline double vm__imp_bound(const vm__imp *w, vm_index a) { return w->bound[w->ci[a]]; }
+
+/* Normalised quality of a tet (>= 1 meets the targets, > 2/3 passes ABAQUS with the default
+ * targets); -1 when it is not clearly positive. */
+double vm__imp_quality(const vm__imp *w, const double p[4][3]);
+/* ABAQUS volume measure V / (volume of the regular tet with the same circumradius). */
+double vm__imp_volume_measure(const double p[4][3]);
+double vm__imp_tet_q(const vm__imp *w, size_t t);
+/* Recomputes w->q[t], noting t in w->touched when it is below the targets. */
+void vm__imp_requal(vm__imp *w, size_t t);
+/* Quality of tet t with vertex a replaced by position x (a must be in t). */
+double vm__imp_tet_q_moved(const vm__imp *w, size_t t, vm_index a, const double x[3]);
+
+/* Appends a tet (nodes positively oriented) and links it; returns its id or -1 (nomem). */
+long vm__imp_add_tet(vm__imp *w, const vm_index n[4], int32_t region, vm_index parent);
+void vm__imp_kill_tet(vm__imp *w, size_t t);
+int vm__imp_star_add(vm__imp *w, vm_index v, vm_index t);
+void vm__imp_star_remove(vm__imp *w, vm_index v, vm_index t);
+/* 1 when tet t contains vertex a. */
+int vm__imp_has(const vm__imp *w, size_t t, vm_index a);
+/* The tet other than t containing a, b and c, or -1 (boundary face). */
+long vm__imp_face_other(const vm__imp *w, size_t t, vm_index a, vm_index b, vm_index c);
+/* Grows the scratch buffer to hold n indices; 0 on failure. */
+int vm__imp_scratch(vm__imp *w, size_t n);
+unsigned vm__imp_rand(vm__imp *w);
+double vm__imp_rand01(vm__imp *w);
+
+/* Voxel (i, j, k) of the volume (in the grid) from the planes held. */
+static inline double vm__imp_voxel(const vm__imp *w, int64_t i, int64_t j, int64_t k) {
+    if (k < w->fk0) k = w->fk0;
+    if (k >= w->fk1) k = w->fk1 - 1;
+    return w->fdata[i + w->v->dims[0] * (j + w->v->dims[1] * (k - w->fk0))];
+}
+
+/* B = A^-1; 0 when A is singular. */
+int vm__imp_invert3(double A[3][3], double B[3][3]);
+
+/* World <-> index space and the trilinear field (with a volume). */
+void vm__imp_to_index(const vm__imp *w, const double x[3], double ijk[3]);
+void vm__imp_to_world(const vm__imp *w, const double ijk[3], double x[3]);
+/* Moves x (world) onto the isosurface of vertex a; returns 0 when Newton fails or the
+ * result is farther than the bound from p0[a]. */
+int vm__imp_project(const vm__imp *w, vm_index a, double x[3]);
+/* 1 when moving vertex a to x keeps its constraints (plane, surface bound). Projects x when
+ * a is a surface vertex and a volume is given. */
+/* Unit normal of the constraint of boundary vertex a: the field gradient (world) for a
+ * surface vertex with a volume, else the stored plane normal. */
+void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]);
+int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]);
+
+/* The boundary guard: no operation may make two boundary triangles cross. */
+int vm__imp_guard_init(vm__imp *w);           /* 0 on out-of-memory */
+void vm__imp_guard_free(vm__imp *w);
+/* Vertex a has moved (keeps the grid current). */
+void vm__imp_guard_moved(vm__imp *w, vm_index a);
+/* The boundary faces around v may have changed (a tet with v was added or removed). */
+void vm__imp_guard_touch(vm__imp *w, vm_index v);
+/* 1 when the triangles nt[0..nn) (vertex ids; vertex mv, when >= 0, taken at x) cross
+ * neither each other nor a current boundary face that stays: the faces with a vertex in
+ * exv[0..nexv) and the faces rem[0..nrem) are the ones the operation removes. */
+int vm__imp_guard_ok(vm__imp *w, const vm_index (*nt)[3], int nn, vm_index mv,
+                     const double x[3], const vm_index *exv, int nexv,
+                     const vm_index (*rem)[3], int nrem);
+/* 1 when moving vertex a to x makes no boundary triangles cross. */
+int vm__imp_guard_move_ok(vm__imp *w, vm_index a, const double x[3]);
+/* The boundary faces (a, e[2i], e[2i+1]) around vertex a, i < return value; -1 on nomem. */
+int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e);
+
+/* One part of a bigger mesh, for improve_parts.c: what vm__imp_sub_run needs beyond the
+ * submesh. The submesh's own bounding box is not the mesh's, nor are its vertices' starting
+ * positions the ones the surface bounds count from. */
+typedef struct vm__imp_sub {
+    const uint8_t *lock;   /* per submesh tet: 1 = locked */
+    double *p0;            /* per submesh point: its position when the whole pass began
+                              (freed by vm__imp_sub_run once copied, and set to NULL) */
+    const double *box;     /* the whole mesh's bounding box (min xyz, max xyz) */
+    unsigned seed;         /* of the random perturbations */
+    /* the volume's planes k0 <= k < k1, when the part reads a window of them (else NULL:
+     * the volume's data) */
+    const float *planes;
+    int64_t k0, k1;
+} vm__imp_sub;
+
+/* Improves submesh m (only its tets, points and regions are read; m is freed, as x->p0,
+ * once they are copied, so that they do not stay beside the working data) into *w, which the
+ * caller reads (tet, dead, region, parent = submesh tet each descends from, p, pdead, below)
+ * and frees with vm__imp_sub_free, also on error. Single-threaded apart from nested
+ * parallel set-up loops; o->progress is not called. *maxmove and *maxiface as in
+ * vm_improve_report. */
+vm_status vm__imp_sub_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
+                          const vm_improve_options *o, vm__imp_sub *x, int *passes,
+                          double *maxmove, double *maxiface, vm_error *err);
+void vm__imp_sub_free(vm__imp *w);
+
+/* The whole pass by parts (improve_parts.c), when vm__imp_parts_count says more than one:
+ * m is improved in place; counters, passes and moves go to r (figures are the caller's). */
+size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o);
+/* Reads planes k0 <= k < k1 of the volume info describes from src into a new buffer (*out:
+ * nx ny (k1 - k0) floats, the caller frees it), checked against the memory limit. */
+vm_status vm__imp_read_planes(const vm_volume *info, vm_plane_source src, void *user,
+                              int64_t k0, int64_t k1, float **out, vm_error *err);
+
+/* v: the volume, or with src its dims and geometry only, each part then reading the planes
+ * it reaches from src (one call at a time). */
+vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src, void *src_user,
+                            const vm_improve_options *o, size_t nparts, vm_improve_report *r,
+                            vm_error *err);
+
+/* The operations: each returns 1 when it changed the mesh. */
+int vm__imp_contract_tet(vm__imp *w, size_t t);
+int vm__imp_flip_tet(vm__imp *w, size_t t);
+int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters);
+int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries);
+int vm__imp_peel_tet(vm__imp *w, size_t t);
+
+#endif

@@ -1,0 +1,398 @@
+/* improve/improve_mesh.c — the working mesh of the improvement pass: element quality, the
+ * vertex-to-tet stars kept up to date under local changes, the volume field and the vertex
+ * constraints (isosurface projection, border planes, tangent planes). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "improve_internal.h"
+#include "../core/vec3.h"
+
+#define DEG (180.0 / 3.14159265358979323846)
+
+/* Faces opposite node i with outward normals for a positive tet. */
+static const int face_of[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+
+double vm__imp_volume_measure(const double p[4][3]) {
+    double a[3], b[3], c[3], bc[3], ca[3], ab[3];
+    vm__sub3(p[1], p[0], a);
+    vm__sub3(p[2], p[0], b);
+    vm__sub3(p[3], p[0], c);
+    vm__cross3(b, c, bc);
+    vm__cross3(c, a, ca);
+    vm__cross3(a, b, ab);
+    double vol6 = vm__dot3(a, bc);
+    if (!(vol6 > 0.0) || !isfinite(vol6)) return 0.0;
+    double la = vm__dot3(a, a), lb = vm__dot3(b, b), lc = vm__dot3(c, c), o[3];
+    for (int k = 0; k < 3; k++) o[k] = (la * bc[k] + lb * ca[k] + lc * ab[k]) / (2.0 * vol6);
+    double R = sqrt(vm__dot3(o, o));
+    if (!(R > 0.0)) return 0.0;
+    /* Regular tet of circumradius R: volume 8 R^3 / (9 sqrt 3). */
+    double r = (vol6 / 6.0) * 9.0 * sqrt(3.0) / (8.0 * R * R * R);
+    return isfinite(r) ? r : 0.0;
+}
+
+/* The angle (degrees) at corner k % 3 of face k / 3, exactly as atan2 gives it. */
+static double corner_angle(const double p[4][3], int k) {
+    int f = k / 3, c = k % 3;
+    double u[3], v[3], cr[3];
+    vm__sub3(p[face_of[f][(c + 1) % 3]], p[face_of[f][c]], u);
+    vm__sub3(p[face_of[f][(c + 2) % 3]], p[face_of[f][c]], v);
+    vm__cross3(u, v, cr);
+    return atan2(sqrt(vm__dot3(cr, cr)), vm__dot3(u, v)) * DEG;
+}
+
+double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
+    double lmax2 = 0.0;
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++) {
+            double e[3];
+            vm__sub3(p[j], p[i], e);
+            double l2 = vm__dot3(e, e);
+            if (l2 > lmax2) lmax2 = l2;
+        }
+    double a[3], b[3], c[3], t[3];
+    vm__sub3(p[1], p[0], a);
+    vm__sub3(p[2], p[0], b);
+    vm__sub3(p[3], p[0], c);
+    vm__cross3(b, c, t);
+    double vol6 = vm__dot3(a, t);
+    if (!isfinite(vol6) || !(vol6 > 1e-12 * lmax2 * sqrt(lmax2))) return -1.0;
+    double n[4][3], len[4];
+    for (int f = 0; f < 4; f++) {
+        double u[3], v[3];
+        vm__sub3(p[face_of[f][1]], p[face_of[f][0]], u);
+        vm__sub3(p[face_of[f][2]], p[face_of[f][0]], v);
+        vm__cross3(u, v, n[f]);
+        len[f] = sqrt(vm__dot3(n[f], n[f]));
+        if (!(len[f] > 0.0)) return -1.0;
+    }
+    double cmax = -2.0, cmin = 2.0;
+    for (int f = 0; f < 4; f++)
+        for (int g = f + 1; g < 4; g++) {
+            double cs = -vm__dot3(n[f], n[g]) / (len[f] * len[g]);
+            if (cs > cmax) cmax = cs;
+            if (cs < cmin) cmin = cs;
+        }
+    if (cmax > 1.0) cmax = 1.0;
+    if (cmin < -1.0) cmin = -1.0;
+    double dmin = acos(cmax) * DEG, dmax = acos(cmin) * DEG;
+    double q = dmin / w->s_min, q2 = (180.0 - dmax) / w->s_max;
+    if (q2 < q) q = q2;
+    double q3 = vm__imp_volume_measure(p) / w->s_vm;
+    if (q3 < q) q = q3;
+    /* Face angles: the smallest and the largest of the twelve found by their cosines (one
+     * square root per edge); only the corners within round-off of those are measured with
+     * atan2, so the result is the minimum (maximum) of the twelve atan2 angles. */
+    double el[4][4], fc[12];
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++) {
+            double e[3];
+            vm__sub3(p[j], p[i], e);
+            el[i][j] = el[j][i] = sqrt(vm__dot3(e, e));
+        }
+    double cfmax = -2.0, cfmin = 2.0;
+    for (int f = 0; f < 4; f++)
+        for (int k = 0; k < 3; k++) {
+            int o = face_of[f][k], i = face_of[f][(k + 1) % 3], j = face_of[f][(k + 2) % 3];
+            double u[3], v[3];
+            vm__sub3(p[i], p[o], u);
+            vm__sub3(p[j], p[o], v);
+            double cs = vm__dot3(u, v) / (el[o][i] * el[o][j]);
+            fc[3 * f + k] = cs;
+            if (cs > cfmax) cfmax = cs;
+            if (cs < cfmin) cfmin = cs;
+        }
+    double fmin = 180.0, fmax = 0.0;
+    for (int k = 0; k < 12; k++) {
+        if (!(fc[k] >= cfmax - 1e-12) && !(fc[k] <= cfmin + 1e-12)) continue;
+        double ang = corner_angle(p, k);
+        if (ang < fmin) fmin = ang;
+        if (ang > fmax) fmax = ang;
+    }
+    double q4 = fmin / w->s_fmin, q5 = (180.0 - fmax) / w->s_fmax;
+    if (q4 < q) q = q4;
+    if (q5 < q) q = q5;
+    return q;
+}
+
+static void tet_points(const vm__imp *w, size_t t, double p[4][3]) {
+    for (int k = 0; k < 4; k++) memcpy(p[k], w->p + 3 * (size_t)w->tet[4 * t + k], sizeof p[k]);
+}
+
+double vm__imp_tet_q(const vm__imp *w, size_t t) {
+    double p[4][3];
+    tet_points(w, t, p);
+    return vm__imp_quality(w, (const double(*)[3])p);
+}
+
+void vm__imp_requal(vm__imp *w, size_t t) {
+    double q = vm__imp_tet_q(w, t);
+    w->q[t] = q;
+    if (q >= 1.0) return;
+    if (w->ntouched == w->touched_cap) {
+        size_t cap = w->touched_cap ? 2 * w->touched_cap : 4096;
+        vm_index *nt = realloc(w->touched, cap * sizeof *nt);
+        if (!nt) {
+            w->nomem = 1;
+            return;
+        }
+        w->touched = nt;
+        w->touched_cap = cap;
+    }
+    w->touched[w->ntouched++] = (vm_index)t;
+}
+
+double vm__imp_tet_q_moved(const vm__imp *w, size_t t, vm_index a, const double x[3]) {
+    double p[4][3];
+    tet_points(w, t, p);
+    for (int k = 0; k < 4; k++)
+        if (w->tet[4 * t + k] == a) memcpy(p[k], x, sizeof p[k]);
+    return vm__imp_quality(w, (const double(*)[3])p);
+}
+
+int vm__imp_star_add(vm__imp *w, vm_index v, vm_index t) {
+    vm__imp_star *s = &w->star[v];
+    if (s->n == s->cap) {
+        int32_t cap = s->cap ? 2 * s->cap : 16;
+        vm_index *nt = realloc(s->t, (size_t)cap * sizeof *nt);
+        if (!nt) {
+            w->nomem = 1;
+            return 0;
+        }
+        s->t = nt;
+        s->cap = cap;
+    }
+    s->t[s->n++] = t;
+    return 1;
+}
+
+void vm__imp_star_remove(vm__imp *w, vm_index v, vm_index t) {
+    vm__imp_star *s = &w->star[v];
+    for (int32_t i = 0; i < s->n; i++)
+        if (s->t[i] == t) {
+            s->t[i] = s->t[--s->n];
+            return;
+        }
+}
+
+long vm__imp_add_tet(vm__imp *w, const vm_index n[4], int32_t region, vm_index parent) {
+    if (w->ntet == w->tet_cap) {
+        size_t cap = w->tet_cap + w->tet_cap / 2 + 1024;
+        vm_index *nt = realloc(w->tet, 4 * cap * sizeof *nt);
+        if (nt) w->tet = nt;
+        int32_t *nr = realloc(w->region, cap * sizeof *nr);
+        if (nr) w->region = nr;
+        vm_index *np = w->parent ? realloc(w->parent, cap * sizeof *np) : NULL;
+        if (np) w->parent = np;
+        double *nq = realloc(w->q, cap * sizeof *nq);
+        if (nq) w->q = nq;
+        uint8_t *nd = realloc(w->dead, cap);
+        if (nd) w->dead = nd;
+        if (!nt || !nr || (w->parent && !np) || !nq || !nd) {
+            w->nomem = 1;
+            return -1;
+        }
+        w->tet_cap = cap;
+    }
+    size_t t = w->ntet;
+    for (int k = 0; k < 4; k++) {
+        w->tet[4 * t + k] = n[k];
+        if (!vm__imp_star_add(w, n[k], (vm_index)t)) {
+            for (int j = 0; j < k; j++) vm__imp_star_remove(w, n[j], (vm_index)t);
+            return -1;
+        }
+    }
+    w->region[t] = region;
+    if (w->parent) w->parent[t] = parent;
+    w->dead[t] = 0;
+    w->ntet++;
+    vm__imp_requal(w, t);
+    for (int k = 0; k < 4; k++) vm__imp_guard_touch(w, n[k]);
+    return (long)t;
+}
+
+void vm__imp_kill_tet(vm__imp *w, size_t t) {
+    if (w->dead[t]) return;
+    for (int k = 0; k < 4; k++) {
+        vm__imp_star_remove(w, w->tet[4 * t + k], (vm_index)t);
+        vm__imp_guard_touch(w, w->tet[4 * t + k]);
+    }
+    w->dead[t] = 1;
+}
+
+int vm__imp_has(const vm__imp *w, size_t t, vm_index a) {
+    const vm_index *n = w->tet + 4 * t;
+    return n[0] == a || n[1] == a || n[2] == a || n[3] == a;
+}
+
+long vm__imp_face_other(const vm__imp *w, size_t t, vm_index a, vm_index b, vm_index c) {
+    /* Scan the smallest of the three stars. */
+    vm_index s = a, o1 = b, o2 = c;
+    if (w->star[b].n < w->star[s].n) { s = b; o1 = a; o2 = c; }
+    if (w->star[c].n < w->star[s].n) { s = c; o1 = a; o2 = b; }
+    const vm__imp_star *st = &w->star[s];
+    for (int32_t i = 0; i < st->n; i++) {
+        size_t u = (size_t)st->t[i];
+        if (u != t && vm__imp_has(w, u, o1) && vm__imp_has(w, u, o2)) return (long)u;
+    }
+    return -1;
+}
+
+int vm__imp_scratch(vm__imp *w, size_t n) {
+    if (n <= w->buf_cap) return 1;
+    size_t cap = n + n / 2 + 64;
+    vm_index *b = realloc(w->buf, cap * sizeof *b);
+    if (!b) {
+        w->nomem = 1;
+        return 0;
+    }
+    w->buf = b;
+    w->buf_cap = cap;
+    return 1;
+}
+
+unsigned vm__imp_rand(vm__imp *w) {
+    /* xorshift32: reproducible, enough for random directions. */
+    unsigned x = w->rng ? w->rng : 2463534242u;
+    x ^= x << 13;
+    x ^= x >> 17;
+    x ^= x << 5;
+    w->rng = x;
+    return x;
+}
+
+double vm__imp_rand01(vm__imp *w) { return (vm__imp_rand(w) >> 8) * (1.0 / 16777216.0); }
+
+void vm__imp_to_index(const vm__imp *w, const double x[3], double ijk[3]) {
+    double d[3];
+    vm__sub3(x, w->org, d);
+    for (int r = 0; r < 3; r++) ijk[r] = vm__dot3(w->Ainv[r], d);
+}
+
+void vm__imp_to_world(const vm__imp *w, const double ijk[3], double x[3]) {
+    for (int r = 0; r < 3; r++) x[r] = w->org[r] + vm__dot3(w->A[r], ijk);
+}
+
+/* Trilinear value and index-space gradient of the volume at ijk (clamped to the grid). */
+static double field(const vm__imp *w, const double ijk[3], double g[3]) {
+    const vm_volume *v = w->v;
+    int64_t i0[3];
+    double t[3];
+    for (int a = 0; a < 3; a++) {
+        double x = ijk[a], hi = (double)(v->dims[a] - 1);
+        if (x < 0.0) x = 0.0;
+        if (x > hi) x = hi;
+        int64_t k = (int64_t)floor(x);
+        if (k > v->dims[a] - 2) k = v->dims[a] - 2;
+        if (k < 0) k = 0;
+        i0[a] = k;
+        t[a] = v->dims[a] > 1 ? x - (double)k : 0.0;
+    }
+    double c[8];
+    for (int q = 0; q < 8; q++) {
+        int64_t ii = i0[0] + ((q & 1) && v->dims[0] > 1);
+        int64_t jj = i0[1] + (((q >> 1) & 1) && v->dims[1] > 1);
+        int64_t kk = i0[2] + ((q >> 2) && v->dims[2] > 1);
+        c[q] = vm__imp_voxel(w, ii, jj, kk);
+    }
+    double x0 = t[0], y0 = t[1], z0 = t[2];
+    double c00 = c[0] + (c[1] - c[0]) * x0, c10 = c[2] + (c[3] - c[2]) * x0;
+    double c01 = c[4] + (c[5] - c[4]) * x0, c11 = c[6] + (c[7] - c[6]) * x0;
+    double c0 = c00 + (c10 - c00) * y0, c1 = c01 + (c11 - c01) * y0;
+    if (g) {
+        double dx0 = (c[1] - c[0]) * (1 - y0) + (c[3] - c[2]) * y0;
+        double dx1 = (c[5] - c[4]) * (1 - y0) + (c[7] - c[6]) * y0;
+        g[0] = dx0 * (1 - z0) + dx1 * z0;
+        g[1] = (c10 - c00) * (1 - z0) + (c11 - c01) * z0;
+        g[2] = c1 - c0;
+    }
+    return c0 + (c1 - c0) * z0;
+}
+
+int vm__imp_project(const vm__imp *w, vm_index a, double x[3]) {
+    double ijk[3], ijk0[3], g[3];
+    vm__imp_to_index(w, x, ijk);
+    vm__imp_to_index(w, vm__imp_p0(w, a), ijk0);
+    double iso = w->iso_hi[a] ? w->hi : w->lo;
+    int ok = 0;
+    for (int it = 0; it < 10; it++) {
+        double f = field(w, ijk, g) - iso;
+        double g2 = vm__dot3(g, g);
+        if (!(g2 > 1e-30) || !isfinite(f)) return 0;
+        double step = f / g2, len = fabs(f) / sqrt(g2);
+        if (len < 1e-6) {
+            ok = 1;
+            break;
+        }
+        if (len > 0.5) step *= 0.5 / len;
+        for (int k = 0; k < 3; k++) ijk[k] -= step * g[k];
+    }
+    if (!ok) return 0;
+    double d[3];
+    vm__sub3(ijk, ijk0, d);
+    if (vm__dot3(d, d) > vm__imp_bound(w, a) * vm__imp_bound(w, a)) return 0;
+    vm__imp_to_world(w, ijk, x);
+    return 1;
+}
+
+/* With a surface band: x is kept as it is when it lies within the band around the
+ * isosurface of a (first-order distance |f - iso| / |grad f|, index space) and within a's
+ * bound; otherwise it goes back onto the isosurface. */
+static int band_constrain(const vm__imp *w, vm_index a, double x[3]) {
+    double band = w->o->surface_band;
+    if (band > 0.0) {
+        double ijk[3], ijk0[3], g[3], d[3];
+        vm__imp_to_index(w, x, ijk);
+        double f = field(w, ijk, g) - (w->iso_hi[a] ? w->hi : w->lo);
+        double gl = sqrt(vm__dot3(g, g));
+        if (gl > 1e-12 && isfinite(f) && fabs(f) <= band * gl) {
+            vm__imp_to_index(w, vm__imp_p0(w, a), ijk0);
+            vm__sub3(ijk, ijk0, d);
+            return vm__dot3(d, d) <= vm__imp_bound(w, a) * vm__imp_bound(w, a);
+        }
+    }
+    return vm__imp_project(w, a, x);
+}
+
+int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]) {
+    if (w->cls[a] == VM__IMP_INTERIOR) return 1;
+    if (w->cls[a] == VM__IMP_FIXED) return 0;
+    const double *p0 = vm__imp_p0(w, a), *n = vm__imp_nrm(w, a);
+    double d[3];
+    switch (w->cls[a]) {
+    case VM__IMP_FLAT:
+        vm__sub3(x, p0, d);
+        {
+            double s = vm__dot3(d, n);
+            for (int k = 0; k < 3; k++) x[k] -= s * n[k];
+        }
+        return 1;
+    case VM__IMP_SURF:
+    case VM__IMP_IFACE:
+        if (w->v && w->cls[a] == VM__IMP_SURF) return band_constrain(w, a, x);
+        vm__sub3(x, p0, d);
+        {
+            double s = vm__dot3(d, n);
+            for (int k = 0; k < 3; k++) {
+                x[k] -= s * n[k];
+                d[k] -= s * n[k];
+            }
+        }
+        return vm__dot3(d, d) <= vm__imp_bound(w, a) * vm__imp_bound(w, a);
+    default:
+        return 0;
+    }
+}
+
+void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]) {
+    memcpy(n, vm__imp_nrm(w, a), 3 * sizeof(double));
+    if (w->cls[a] != VM__IMP_SURF || !w->v) return;
+    double ijk[3], g[3], x[3];
+    vm__imp_to_index(w, w->p + 3 * (size_t)a, ijk);
+    field(w, ijk, g);
+    /* d f / d x = Ainv^T d f / d ijk */
+    for (int c = 0; c < 3; c++) x[c] = w->Ainv[0][c] * g[0] + w->Ainv[1][c] * g[1] + w->Ainv[2][c] * g[2];
+    double l = sqrt(vm__dot3(x, x));
+    if (l > 0.0 && isfinite(l))
+        for (int c = 0; c < 3; c++) n[c] = x[c] / l;
+}

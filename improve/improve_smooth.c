@@ -1,0 +1,143 @@
+/* improve/improve_smooth.c — optimisation-based vertex smoothing: raise the worst quality of
+ * the tets around a vertex by line searches along the gradient of a soft minimum (after
+ * Freitag and Ollivier-Gooch 1997, §2, and Klingner and Shewchuk 2007, §3), and random
+ * perturbations for what that leaves; moves are projected onto the vertex's constraint. */
+#include <math.h>
+#include <string.h>
+#include "improve_internal.h"
+
+/* Worst quality of the star of a (ids in ids[0..n)) with a at x; stops at floor_q. */
+static double star_min(const vm__imp *w, const vm_index *ids, int32_t n, vm_index a,
+                       const double x[3], double floor_q) {
+    double m = INFINITY;
+    for (int32_t i = 0; i < n; i++) {
+        double q = vm__imp_tet_q_moved(w, (size_t)ids[i], a, x);
+        if (q < m) m = q;
+        if (m <= floor_q) break;
+    }
+    return m;
+}
+
+static double shortest_edge(const vm__imp *w, vm_index a) {
+    const vm__imp_star *s = &w->star[a];
+    const double *pa = w->p + 3 * (size_t)a;
+    double best = INFINITY;
+    for (int32_t i = 0; i < s->n; i++)
+        for (int k = 0; k < 4; k++) {
+            vm_index b = w->tet[4 * (size_t)s->t[i] + k];
+            if (b == a) continue;
+            const double *pb = w->p + 3 * (size_t)b;
+            double d = (pa[0] - pb[0]) * (pa[0] - pb[0]) + (pa[1] - pb[1]) * (pa[1] - pb[1]) +
+                       (pa[2] - pb[2]) * (pa[2] - pb[2]);
+            if (d < best) best = d;
+        }
+    return sqrt(best);
+}
+
+/* Removes from g its component along the constraint normal of a (tangent moves only). */
+static void tangent(const vm__imp *w, vm_index a, double g[3]) {
+    if (w->cls[a] == VM__IMP_INTERIOR) return;
+    /* Surface vertices with a volume and a band may leave the isosurface a little. */
+    if (w->cls[a] == VM__IMP_SURF && w->v && w->o->surface_band > 0.0) return;
+    double n[3];
+    vm__imp_normal(w, a, n);
+    double s = g[0] * n[0] + g[1] * n[1] + g[2] * n[2];
+    for (int k = 0; k < 3; k++) g[k] -= s * n[k];
+}
+
+int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
+    if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || vm__imp_vlocked(w, a)) return 0;
+    const vm__imp_star *s = &w->star[a];
+    int32_t n = s->n;
+    if (n == 0 || !vm__imp_scratch(w, (size_t)n)) return 0;
+    vm_index *ids = w->buf;
+    memcpy(ids, s->t, (size_t)n * sizeof *ids);
+    double *pa = w->p + 3 * (size_t)a;
+    double cur = INFINITY;
+    for (int32_t i = 0; i < n; i++)
+        if (w->q[ids[i]] < cur) cur = w->q[ids[i]];
+    double L = shortest_edge(w, a);
+    if (!(L > 0.0)) return 0;
+    int moved = 0;
+    const double tau = 0.05;
+    for (int it = 0; it < iters; it++) {
+        /* Soft-min gradient by forward differences on the tets near the minimum. */
+        double g[3] = {0, 0, 0}, h = 1e-5 * L, gw[3] = {0, 0, 0}, worst_q = INFINITY;
+        for (int32_t i = 0; i < n; i++) {
+            double q = w->q[ids[i]];
+            if (q > cur + 4 * tau) continue;
+            double wt = exp(-(q - cur) / tau), gq[3];
+            for (int k = 0; k < 3; k++) {
+                double x[3] = {pa[0], pa[1], pa[2]};
+                x[k] += h;
+                gq[k] = (vm__imp_tet_q_moved(w, (size_t)ids[i], a, x) - q) / h;
+                g[k] += wt * gq[k];
+            }
+            if (q < worst_q) {
+                worst_q = q;
+                memcpy(gw, gq, sizeof gw);
+            }
+        }
+        int accepted = 0;
+        for (int dir = 0; dir < 2 && !accepted; dir++) {
+            double d[3];
+            memcpy(d, dir ? gw : g, sizeof d);
+            tangent(w, a, d);
+            double gl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            if (!(gl > 0.0) || !isfinite(gl)) continue;
+            for (double step = 0.3 * L; step > 1e-4 * L; step *= 0.5) {
+                double x[3];
+                for (int k = 0; k < 3; k++) x[k] = pa[k] + step * d[k] / gl;
+                if (!vm__imp_constrain(w, a, x)) continue;
+                double m = star_min(w, ids, n, a, x, cur + 1e-7);
+                if (m > cur + 1e-7 && vm__imp_guard_move_ok(w, a, x)) {
+                    memcpy(pa, x, sizeof x);
+                    vm__imp_guard_moved(w, a);
+                    for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)ids[i]);
+                    cur = m;
+                    accepted = 1;
+                    break;
+                }
+            }
+        }
+        if (!accepted) break;
+        moved = 1;
+    }
+    if (moved) w->moves++;
+    return moved;
+}
+
+int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries) {
+    if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || vm__imp_vlocked(w, a)) return 0;
+    const vm__imp_star *s = &w->star[a];
+    int32_t n = s->n;
+    if (n == 0 || !vm__imp_scratch(w, (size_t)n)) return 0;
+    vm_index *ids = w->buf;
+    memcpy(ids, s->t, (size_t)n * sizeof *ids);
+    double *pa = w->p + 3 * (size_t)a;
+    double cur = INFINITY;
+    for (int32_t i = 0; i < n; i++)
+        if (w->q[ids[i]] < cur) cur = w->q[ids[i]];
+    double L = shortest_edge(w, a);
+    int moved = 0;
+    for (int k = 0; k < tries; k++) {
+        double d[3], r = L * (k % 3 == 0 ? 0.3 : k % 3 == 1 ? 0.1 : 0.03);
+        for (int c = 0; c < 3; c++) d[c] = 2.0 * vm__imp_rand01(w) - 1.0;
+        tangent(w, a, d);
+        double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (!(dl > 1e-6)) continue;
+        double x[3];
+        for (int c = 0; c < 3; c++) x[c] = pa[c] + r * d[c] / dl;
+        if (!vm__imp_constrain(w, a, x)) continue;
+        double m = star_min(w, ids, n, a, x, cur + 1e-7);
+        if (m > cur + 1e-7 && vm__imp_guard_move_ok(w, a, x)) {
+            memcpy(pa, x, sizeof x);
+            vm__imp_guard_moved(w, a);
+            for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)ids[i]);
+            cur = m;
+            moved = 1;
+        }
+    }
+    if (moved) w->perturbations++;
+    return moved;
+}

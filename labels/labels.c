@@ -1,0 +1,1221 @@
+/* labels/labels.c — multi-material meshes of label volumes: one hex (or 6 tets) per labelled
+ * voxel whose corners are the shared vertices of the dual cells between voxel centres (seed
+ * 001, LBIE §4.3: "these eight minimizers can then be used to construct a hexahedron").
+ * Each label's boundary is made a 2-manifold first by removing the critical configurations of
+ * L. J. Latecki, "3D well-composed pictures" (Graph. Models Image Process. 59, 1997): a
+ * picture is well-composed (its boundary a manifold) iff no 2x2 square holds a label on one
+ * diagonal only (C1) and no 2x2x2 block holds it on exactly one antipodal pair, or on all
+ * but one (C2). Tets split each hex along its main diagonal (Kuhn/Freudenthal), which is
+ * translation invariant and so conforming across every shared face. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../core/core.h"
+#include "volmesh/labels.h"
+#include "volmesh/quality.h"
+
+void vm_label_options_default(vm_label_options *o) {
+    memset(o, 0, sizeof *o);
+    o->max_level = 4;
+    o->elements = VM_TET4;
+    o->cell_size = 1;
+    o->min_island = 1;
+    o->smooth = 1;
+}
+
+void vm_label_stats_free(vm_label_stats *stats) {
+    if (!stats) return;
+    free(stats->labels);
+    memset(stats, 0, sizeof *stats);
+}
+
+/* ---- labels present and chosen ------------------------------------------------------- */
+
+typedef struct label_set {
+    int32_t *val;
+    size_t *count;
+    size_t n, cap;
+} label_set;
+
+static long find_label(const int32_t *val, size_t n, int32_t x) {
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t md = (lo + hi) / 2;
+        if (val[md] < x)
+            lo = md + 1;
+        else
+            hi = md;
+    }
+    return lo < n && val[lo] == x ? (long)lo : -1;
+}
+
+static vm_status set_add(label_set *s, int32_t x, size_t *slot, vm_error *err) {
+    size_t lo = 0, hi = s->n;
+    while (lo < hi) {
+        size_t md = (lo + hi) / 2;
+        if (s->val[md] < x)
+            lo = md + 1;
+        else
+            hi = md;
+    }
+    if (lo == s->n || s->val[lo] != x) {
+        size_t cap = s->cap;
+        vm_status st = vm__grow((void **)&s->val, &cap, s->n + 1, sizeof *s->val, err);
+        if (!st) st = vm__grow((void **)&s->count, &s->cap, s->n + 1, sizeof *s->count, err);
+        if (st) return st;
+        memmove(s->val + lo + 1, s->val + lo, (s->n - lo) * sizeof *s->val);
+        memmove(s->count + lo + 1, s->count + lo, (s->n - lo) * sizeof *s->count);
+        s->val[lo] = x;
+        s->count[lo] = 0;
+        s->n++;
+    }
+    *slot = lo;
+    return VM_OK;
+}
+
+/* Distinct labels of v with their voxel counts; refuses values that are not labels. */
+static vm_status collect_labels(const vm_volume *v, label_set *s, vm_error *err) {
+    size_t n = vm_volume_count(v), last = 0;
+    int have_last = 0;
+    float last_value = 0;
+    for (size_t i = 0; i < n; i++) {
+        float f = v->data[i];
+        if (have_last && f == last_value) {
+            s->count[last]++;
+            continue;
+        }
+        if (!(f == floorf(f)) || f < -2147483648.0f || f > 2147483520.0f) {
+            size_t nx = (size_t)v->dims[0], ny = (size_t)v->dims[1];
+            return vm_error_set(err, VM_ERR_FORMAT,
+                                "mesh: voxel (%zu, %zu, %zu) holds %g, not an integer label "
+                                "(--labels needs a label volume)",
+                                i % nx, (i / nx) % ny, i / (nx * ny), (double)f);
+        }
+        vm_status st = set_add(s, (int32_t)f, &last, err);
+        if (st) return st;
+        s->count[last]++;
+        have_last = 1;
+        last_value = f;
+    }
+    return VM_OK;
+}
+
+/* "0-17, 20, 21" into out (cut with "..." when long). */
+static void format_labels(const label_set *s, char *out, size_t cap) {
+    size_t used = 0;
+    out[0] = 0;
+    for (size_t i = 0; i < s->n && used + 24 < cap; i++) {
+        size_t j = i;
+        while (j + 1 < s->n && s->val[j + 1] == s->val[j] + 1) j++;
+        int w = j > i + 1 ? snprintf(out + used, cap - used, "%s%ld-%ld", i ? ", " : "",
+                                     (long)s->val[i], (long)s->val[j])
+                          : snprintf(out + used, cap - used, "%s%ld", i ? ", " : "",
+                                     (long)s->val[i]);
+        if (w < 0) break;
+        used += (size_t)w;
+        if (j > i + 1) i = j;
+    }
+    if (used + 24 >= cap && used + 4 < cap) strcpy(out + used, "...");
+}
+
+/* ---- the padded code grid ------------------------------------------------------------ */
+
+/* Codes: 0 background, 1..K the chosen labels in ascending order. One voxel of background
+ * all around, so that material touching the volume border is closed there. */
+typedef struct lgrid {
+    int64_t m[3];
+    uint16_t *code;
+    int K;
+    int *rank; /* per code: who wins a topology repair (lower wins) */
+} lgrid;
+
+static size_t gidx(const lgrid *g, int64_t i, int64_t j, int64_t k) {
+    return (size_t)(i + g->m[0] * (j + g->m[1] * k));
+}
+
+static int is_pad(const lgrid *g, size_t p) {
+    int64_t i = (int64_t)(p % (size_t)g->m[0]), j = (int64_t)((p / (size_t)g->m[0]) % (size_t)g->m[1]),
+            k = (int64_t)(p / (size_t)(g->m[0] * g->m[1]));
+    return i == 0 || j == 0 || k == 0 || i == g->m[0] - 1 || j == g->m[1] - 1 || k == g->m[2] - 1;
+}
+
+/* Smaller labels rank first, so repairs grow thin and small tissues rather than erode them;
+ * background ranks last, so gaps fill with material. */
+static int rank_of(const lgrid *g, int code) {
+    return g->rank[code];
+}
+
+typedef struct code_count {
+    size_t count;
+    int code;
+} code_count;
+
+static int cmp_code_count(const void *a, const void *b) {
+    const code_count *x = a, *y = b;
+    if (x->count != y->count) return x->count < y->count ? -1 : 1;
+    return (x->code > y->code) - (x->code < y->code);
+}
+
+static vm_status make_ranks(lgrid *g, vm_error *err) {
+    size_t total = (size_t)(g->m[0] * g->m[1] * g->m[2]), K = (size_t)g->K;
+    code_count *cc = calloc(K + 1, sizeof *cc);
+    g->rank = malloc((K + 1) * sizeof *g->rank);
+    if (!cc || !g->rank) {
+        free(cc);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
+    for (size_t c = 0; c <= K; c++) cc[c].code = (int)c;
+    for (size_t p = 0; p < total; p++) cc[g->code[p]].count++;
+    qsort(cc + 1, K, sizeof *cc, cmp_code_count);
+    for (size_t c = 1; c <= K; c++) g->rank[cc[c].code] = (int)c;
+    g->rank[0] = g->K + 1;
+    free(cc);
+    return VM_OK;
+}
+
+/* S >= 1: each S^3 block votes; U > 1 (with S == 1): each voxel becomes U^3 cells. */
+static vm_status build_grid(const vm_volume *v, const int32_t *chosen, int K, int S, int U,
+                            lgrid *g, vm_error *err) {
+    int64_t c[3];
+    for (int a = 0; a < 3; a++) {
+        c[a] = U > 1 ? v->dims[a] * U : (v->dims[a] + S - 1) / S;
+        g->m[a] = c[a] + 2;
+    }
+    g->K = K;
+    size_t count;
+    vm_status st = vm__check_dims(g->m, sizeof(uint16_t), "mesh", &count, err);
+    if (st) return st;
+    g->code = calloc(count, sizeof(uint16_t));
+    uint32_t *votes = calloc((size_t)K + 1, sizeof(uint32_t));
+    uint16_t *touched = malloc((size_t)S * (size_t)S * (size_t)S * sizeof(uint16_t));
+    if (!g->code || !votes || !touched) {
+        free(votes);
+        free(touched);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the label grid");
+    }
+    const int64_t *n = v->dims;
+    int32_t last_value = 0;
+    uint16_t last_code = 0;
+    int have_last = 0;
+    if (U > 1) {
+        for (int64_t K2 = 0; K2 < c[2]; K2++)
+            for (int64_t J = 0; J < c[1]; J++)
+                for (int64_t I = 0; I < c[0]; I++) {
+                    int32_t x = (int32_t)v->data[I / U + n[0] * (J / U + n[1] * (K2 / U))];
+                    if (!have_last || x != last_value) {
+                        last_code = (uint16_t)(find_label(chosen, (size_t)K, x) + 1);
+                        last_value = x;
+                        have_last = 1;
+                    }
+                    g->code[gidx(g, I + 1, J + 1, K2 + 1)] = last_code;
+                }
+        free(votes);
+        free(touched);
+        return VM_OK;
+    }
+    for (int64_t K2 = 0; K2 < c[2]; K2++)
+        for (int64_t J = 0; J < c[1]; J++)
+            for (int64_t I = 0; I < c[0]; I++) {
+                size_t nt = 0;
+                for (int64_t k = K2 * S; k < K2 * S + S && k < n[2]; k++)
+                    for (int64_t j = J * S; j < J * S + S && j < n[1]; j++)
+                        for (int64_t i = I * S; i < I * S + S && i < n[0]; i++) {
+                            int32_t x = (int32_t)v->data[i + n[0] * (j + n[1] * k)];
+                            if (!have_last || x != last_value) {
+                                long f = find_label(chosen, (size_t)K, x);
+                                last_code = (uint16_t)(f + 1);
+                                last_value = x;
+                                have_last = 1;
+                            }
+                            if (votes[last_code]++ == 0) touched[nt++] = last_code;
+                        }
+                /* most frequent; ties go to material, then to the lower label */
+                uint16_t best = touched[0];
+                for (size_t t = 1; t < nt; t++) {
+                    uint16_t q = touched[t];
+                    if (votes[q] > votes[best] ||
+                        (votes[q] == votes[best] && (best == 0 || (q != 0 && q < best))))
+                        best = q;
+                }
+                for (size_t t = 0; t < nt; t++) votes[touched[t]] = 0;
+                g->code[gidx(g, I + 1, J + 1, K2 + 1)] = best;
+            }
+    free(votes);
+    free(touched);
+    return VM_OK;
+}
+
+/* ---- island floor -------------------------------------------------------------------- */
+
+static const int nb6[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+
+static vm_status remove_islands(lgrid *g, size_t floor_voxels, size_t *relabelled,
+                                vm_error *err) {
+    size_t total = (size_t)(g->m[0] * g->m[1] * g->m[2]);
+    uint8_t *seen = calloc(total, 1);
+    uint32_t *votes = calloc((size_t)g->K + 1, sizeof(uint32_t));
+    size_t *list = NULL, cap = 0;
+    if (!seen || !votes) {
+        free(seen);
+        free(votes);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for --min-island");
+    }
+    vm_status st = VM_OK;
+    int64_t step[3] = {1, g->m[0], g->m[0] * g->m[1]};
+    for (size_t p = 0; p < total && !st; p++) {
+        if (seen[p] || g->code[p] == 0) continue;
+        uint16_t c = g->code[p];
+        size_t n = 0;
+        if ((st = vm__grow((void **)&list, &cap, 1, sizeof *list, err))) break;
+        list[n++] = p;
+        seen[p] = 1;
+        for (size_t h = 0; h < n && !st; h++)
+            for (int d = 0; d < 6; d++) {
+                size_t q = (size_t)((int64_t)list[h] + nb6[d][0] * step[0] + nb6[d][1] * step[1] +
+                                    nb6[d][2] * step[2]);
+                if (seen[q] || g->code[q] != c) continue; /* padding is background: no wrap */
+                if ((st = vm__grow((void **)&list, &cap, n + 1, sizeof *list, err))) break;
+                seen[q] = 1;
+                list[n++] = q;
+            }
+        if (st || n >= floor_voxels) continue;
+        int best = -1;
+        for (size_t h = 0; h < n; h++)
+            for (int d = 0; d < 6; d++) {
+                size_t q = (size_t)((int64_t)list[h] + nb6[d][0] * step[0] + nb6[d][1] * step[1] +
+                                    nb6[d][2] * step[2]);
+                uint16_t x = g->code[q];
+                if (x == c) continue;
+                votes[x]++;
+                if (best < 0 || votes[x] > votes[best] || (votes[x] == votes[best] && x < best))
+                    best = x;
+            }
+        memset(votes, 0, ((size_t)g->K + 1) * sizeof(uint32_t));
+        for (size_t h = 0; h < n; h++) g->code[list[h]] = (uint16_t)(best < 0 ? 0 : best);
+        *relabelled += n;
+    }
+    free(seen);
+    free(votes);
+    free(list);
+    return st;
+}
+
+/* ---- well-composedness repair -------------------------------------------------------- */
+
+/* Corners of a 2x2x2 block are bit-indexed (x | y<<1 | z<<2); the six 2x2 squares, each in
+ * cyclic order so that (0,2) and (1,3) are its diagonals. */
+static const int square[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                                 {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
+
+typedef struct repair {
+    lgrid *g;
+    size_t bm[3];      /* blocks per axis (m - 1) */
+    uint8_t *queued;   /* per block */
+    size_t *queue, n, cap;
+    size_t changes, forced;
+} repair;
+
+static vm_status set_code(repair *r, size_t p, uint16_t code, vm_error *err) {
+    lgrid *g = r->g;
+    g->code[p] = code;
+    r->changes++;
+    int64_t i = (int64_t)(p % (size_t)g->m[0]), j = (int64_t)((p / (size_t)g->m[0]) % (size_t)g->m[1]),
+            k = (int64_t)(p / (size_t)(g->m[0] * g->m[1]));
+    for (int d = 0; d < 8; d++) {
+        int64_t a = i - (d & 1), b = j - ((d >> 1) & 1), c = k - (d >> 2);
+        if (a < 0 || b < 0 || c < 0 || a >= (int64_t)r->bm[0] || b >= (int64_t)r->bm[1] ||
+            c >= (int64_t)r->bm[2])
+            continue;
+        size_t blk = (size_t)a + r->bm[0] * ((size_t)b + r->bm[1] * (size_t)c);
+        if (r->queued[blk]) continue;
+        vm_status st = vm__grow((void **)&r->queue, &r->cap, r->n + 1, sizeof *r->queue, err);
+        if (st) return st;
+        r->queued[blk] = 1;
+        r->queue[r->n++] = blk;
+    }
+    return VM_OK;
+}
+
+/* Tries to give voxel p (corner `at` of the block) the code `to`: only when it is not
+ * padding and the change lowers its rank (so repairs terminate: the sum of ranks falls). */
+static int try_set(repair *r, const size_t vox[8], const uint16_t cd[8], int at, int to,
+                   int *done, vm_status *st, vm_error *err) {
+    if (*done || cd[at] == to || is_pad(r->g, vox[at])) return 0;
+    if (rank_of(r->g, to) >= rank_of(r->g, cd[at])) return 0;
+    *st = set_code(r, vox[at], (uint16_t)to, err);
+    *done = 1;
+    return 1;
+}
+
+/* Same without the rank condition, for the (never observed) case of no decreasing choice. */
+static void force_set(repair *r, const size_t vox[8], const uint16_t cd[8], int at, int to,
+                      int *done, vm_status *st, vm_error *err) {
+    if (*done || cd[at] == to || is_pad(r->g, vox[at])) return;
+    *st = set_code(r, vox[at], (uint16_t)to, err);
+    r->forced++;
+    *done = 1;
+}
+
+/* Finds one critical configuration in the block with lowest corner (a,b,c) and removes it by
+ * one relabelling. Returns 1 when something changed. */
+static int fix_block(repair *r, size_t a, size_t b, size_t c, vm_status *st, vm_error *err) {
+    lgrid *g = r->g;
+    size_t vox[8];
+    uint16_t cd[8];
+    for (int q = 0; q < 8; q++) {
+        vox[q] = gidx(g, (int64_t)a + (q & 1), (int64_t)b + ((q >> 1) & 1), (int64_t)c + (q >> 2));
+        cd[q] = g->code[vox[q]];
+    }
+    int done = 0;
+    for (int q0 = 0; q0 < 8 && !done; q0++) {
+        int L = cd[q0], first = 1;
+        for (int q = 0; q < q0; q++)
+            if (cd[q] == L) first = 0;
+        if (!first) continue;
+        int mask = 0;
+        for (int q = 0; q < 8; q++)
+            if (cd[q] == L) mask |= 1 << q;
+        int rL = rank_of(g, L);
+        /* C1: L on one diagonal of a square only */
+        for (int s = 0; s < 6 && !done; s++)
+            for (int d = 0; d < 2 && !done; d++) {
+                int pa = square[s][d], pb = square[s][d + 2];
+                int pc = square[s][1 - d], pd = square[s][3 - d];
+                if (!(mask >> pa & 1) || !(mask >> pb & 1) || (mask >> pc & 1) || (mask >> pd & 1))
+                    continue;
+                int hi = rank_of(g, cd[pc]) >= rank_of(g, cd[pd]) ? pc : pd, lo = hi == pc ? pd : pc;
+                try_set(r, vox, cd, hi, L, &done, st, err);
+                try_set(r, vox, cd, lo, L, &done, st, err);
+                if (rank_of(g, cd[lo]) < rL) {
+                    try_set(r, vox, cd, pa, cd[lo], &done, st, err);
+                    try_set(r, vox, cd, pb, cd[lo], &done, st, err);
+                }
+                force_set(r, vox, cd, pc, L, &done, st, err);
+                force_set(r, vox, cd, pd, L, &done, st, err);
+                force_set(r, vox, cd, pa, cd[lo], &done, st, err);
+                if (!done) r->forced++; /* unresolvable here: counted, left */
+            }
+        if (done) break;
+        /* C2: L on exactly one antipodal pair, or everywhere but one antipodal pair */
+        int pop = __builtin_popcount((unsigned)mask);
+        if (pop != 2 && pop != 6) continue;
+        int pair = pop == 2 ? mask : (~mask & 0xff);
+        int p = __builtin_ctz((unsigned)pair);
+        if (pair != (1 << p | 1 << (p ^ 7))) continue;
+        int pq[2] = {p, p ^ 7};
+        if (pop == 2) {
+            /* grow L into the highest-ranked other corner, else shrink L */
+            int best = -1, low = -1;
+            for (int q = 0; q < 8; q++) {
+                if (q == pq[0] || q == pq[1] || is_pad(g, vox[q])) continue;
+                if (best < 0 || rank_of(g, cd[q]) > rank_of(g, cd[best])) best = q;
+                if (low < 0 || rank_of(g, cd[q]) < rank_of(g, cd[low])) low = q;
+            }
+            if (best >= 0) try_set(r, vox, cd, best, L, &done, st, err);
+            for (int q = 0; q < 8 && !done; q++)
+                if (q != pq[0] && q != pq[1] && rank_of(g, cd[q]) < rL) {
+                    try_set(r, vox, cd, pq[0], cd[q], &done, st, err);
+                    try_set(r, vox, cd, pq[1], cd[q], &done, st, err);
+                }
+            if (best >= 0) force_set(r, vox, cd, best, L, &done, st, err);
+        } else {
+            try_set(r, vox, cd, pq[0], L, &done, st, err);
+            try_set(r, vox, cd, pq[1], L, &done, st, err);
+            for (int e = 0; e < 2 && !done; e++)
+                for (int bit = 1; bit < 8 && !done; bit <<= 1)
+                    try_set(r, vox, cd, pq[e] ^ bit, cd[pq[e]], &done, st, err);
+            force_set(r, vox, cd, pq[0], L, &done, st, err);
+            force_set(r, vox, cd, pq[1], L, &done, st, err);
+        }
+        if (!done) r->forced++;
+    }
+    return done;
+}
+
+static vm_status make_well_composed(lgrid *g, size_t *relabelled, vm_error *err) {
+    repair r;
+    memset(&r, 0, sizeof r);
+    r.g = g;
+    for (int a = 0; a < 3; a++) r.bm[a] = (size_t)g->m[a] - 1;
+    size_t nb = r.bm[0] * r.bm[1] * r.bm[2];
+    r.queued = calloc(nb, 1);
+    if (!r.queued) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (topology)");
+    vm_status st = VM_OK;
+    /* the change budget guards the forced (rank-raising) moves from cycling */
+    size_t budget = 4 * (size_t)(g->m[0] * g->m[1] * g->m[2]) + 1000;
+    for (size_t c = 0; c < r.bm[2] && !st; c++)
+        for (size_t b = 0; b < r.bm[1] && !st; b++)
+            for (size_t a = 0; a < r.bm[0] && !st; a++)
+                while (!st && fix_block(&r, a, b, c, &st, err)) {
+                }
+    while (!st && r.n > 0 && r.changes < budget) {
+        size_t blk = r.queue[--r.n];
+        r.queued[blk] = 0;
+        size_t a = blk % r.bm[0], b = (blk / r.bm[0]) % r.bm[1], c = blk / (r.bm[0] * r.bm[1]);
+        while (!st && fix_block(&r, a, b, c, &st, err)) {
+        }
+    }
+    if (!st && r.n > 0)
+        st = vm_error_set(err, VM_ERR_INTERNAL,
+                          "mesh: the label topology repair did not settle after %zu changes",
+                          r.changes);
+    *relabelled = r.changes;
+    free(r.queued);
+    free(r.queue);
+    return st;
+}
+
+/* ---- vertices and elements ----------------------------------------------------------- */
+
+/* VTK hex corner q at bit-indexed corner vtk_bit[q]. */
+static const int vtk_bit[8] = {0, 1, 3, 2, 4, 5, 7, 6};
+
+typedef struct lmesh {
+    const lgrid *g;
+    size_t cm[3];        /* dual cells per axis (m - 1) */
+    int32_t *vid;        /* per dual cell: vertex id or -1 */
+    size_t *vcell;       /* per vertex: its dual cell */
+    double *target;      /* per vertex: smooth position (coarse index space) */
+    double *lambda;      /* per vertex: 1 at target, 0 at the cell centre */
+    size_t nv, vcap, tcap, lcap; /* capacities of vcell, target, lambda */
+    int32_t *hex;        /* 8 vertex ids per labelled voxel, VTK order */
+    uint16_t *hcode;     /* per hex */
+    size_t nh, hcap, ccap; /* capacities of hex (ids), hcode */
+    const int8_t *lvl;   /* per padded cell: octree level (see build_leaves); NULL: all 0 */
+    int32_t *ct;         /* 4 vertex ids per tet of a coarse leaf */
+    uint16_t *ctcode;    /* per coarse tet */
+    size_t nct, ctcap, ctccap;
+    int kuhn[6][4];      /* bit-indexed corners of the 6 positive tets of a cube */
+    double scale[3];     /* world length of one coarse voxel per axis (quality is judged there) */
+} lmesh;
+
+static void vertex_pos(const lmesh *lm, size_t v, double out[3]) {
+    size_t cell = lm->vcell[v];
+    size_t a[3] = {cell % lm->cm[0], (cell / lm->cm[0]) % lm->cm[1], cell / (lm->cm[0] * lm->cm[1])};
+    for (int d = 0; d < 3; d++) {
+        double centre = (double)a[d] - 0.5;
+        out[d] = centre + lm->lambda[v] * (lm->target[3 * v + d] - centre);
+    }
+}
+
+/* Mean of the midpoints of the cell's label-change edges; the centre when there are none. */
+static void smooth_target(const lgrid *g, const size_t a[3], double out[3]) {
+    uint16_t cd[8];
+    for (int q = 0; q < 8; q++)
+        cd[q] = g->code[gidx(g, (int64_t)a[0] + (q & 1), (int64_t)a[1] + ((q >> 1) & 1),
+                             (int64_t)a[2] + (q >> 2))];
+    double s[3] = {0, 0, 0};
+    int n = 0;
+    for (int q = 0; q < 8; q++)
+        for (int bit = 1; bit < 8; bit <<= 1) {
+            int o = q | bit;
+            if (o == q || cd[o] == cd[q]) continue;
+            for (int d = 0; d < 3; d++) {
+                double x = (q >> d) & 1;
+                s[d] += (1 << d) == bit ? 0.5 : x;
+            }
+            n++;
+        }
+    for (int d = 0; d < 3; d++) out[d] = (double)a[d] - 1.0 + (n ? s[d] / n : 0.5);
+}
+
+static vm_status add_vertex(lmesh *lm, size_t cell, int smooth, int32_t *id, vm_error *err) {
+    if (lm->vid[cell] >= 0) {
+        *id = lm->vid[cell];
+        return VM_OK;
+    }
+    if (lm->nv >= (size_t)INT32_MAX)
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: more than 2^31 vertices");
+    vm_status st = vm__grow((void **)&lm->target, &lm->tcap, 3 * (lm->nv + 1), sizeof(double), err);
+    if (!st) st = vm__grow((void **)&lm->lambda, &lm->lcap, lm->nv + 1, sizeof(double), err);
+    if (!st) st = vm__grow((void **)&lm->vcell, &lm->vcap, lm->nv + 1, sizeof(size_t), err);
+    if (st) return st;
+    size_t a[3] = {cell % lm->cm[0], (cell / lm->cm[0]) % lm->cm[1], cell / (lm->cm[0] * lm->cm[1])};
+    smooth_target(lm->g, a, lm->target + 3 * lm->nv);
+    lm->lambda[lm->nv] = smooth ? 1.0 : 0.0;
+    lm->vcell[lm->nv] = cell;
+    lm->vid[cell] = (int32_t)lm->nv;
+    *id = (int32_t)lm->nv++;
+    return VM_OK;
+}
+
+static vm_status build_hexes(lmesh *lm, int smooth, vm_error *err) {
+    const lgrid *g = lm->g;
+    for (int a = 0; a < 3; a++) lm->cm[a] = (size_t)g->m[a] - 1;
+    size_t ncell = lm->cm[0] * lm->cm[1] * lm->cm[2];
+    lm->vid = malloc(ncell * sizeof *lm->vid);
+    if (!lm->vid) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (vertices)");
+    for (size_t i = 0; i < ncell; i++) lm->vid[i] = -1;
+    for (int64_t k = 1; k < g->m[2] - 1; k++)
+        for (int64_t j = 1; j < g->m[1] - 1; j++)
+            for (int64_t i = 1; i < g->m[0] - 1; i++) {
+                uint16_t c = g->code[gidx(g, i, j, k)];
+                if (!c || (lm->lvl && lm->lvl[gidx(g, i, j, k)] > 0)) continue;
+                vm_status st = vm__grow((void **)&lm->hex, &lm->hcap, 8 * (lm->nh + 1), sizeof(int32_t), err);
+                if (!st) st = vm__grow((void **)&lm->hcode, &lm->ccap, lm->nh + 1, sizeof(uint16_t), err);
+                if (st) return st;
+                for (int q = 0; q < 8; q++) {
+                    int b = vtk_bit[q];
+                    size_t cell = (size_t)(i - 1 + (b & 1)) +
+                                  lm->cm[0] * ((size_t)(j - 1 + ((b >> 1) & 1)) +
+                                               lm->cm[1] * (size_t)(k - 1 + (b >> 2)));
+                    st = add_vertex(lm, cell, smooth, lm->hex + 8 * lm->nh + q, err);
+                    if (st) return st;
+                }
+                lm->hcode[lm->nh++] = c;
+            }
+    return VM_OK;
+}
+
+/* ---- per-label sizes: an octree of interior leaves ---------------------------------- */
+
+/* Level of the leaf of every padded cell: -1 background, 0 a cell of size h, l > 0 a leaf of
+ * 2^l cells per axis. A cell may join a leaf only when it and its 26 neighbours hold its label
+ * and lmax of the label allows, so every point of a leaf, on its faces too, is a dual vertex
+ * away from the smoothed interfaces (at its lattice position). Leaves are aligned and grown
+ * bottom-up, then split until leaves touching at a face, edge or corner differ by at most one
+ * level (2:1). [out] *out (free it), *nleaves: leaves of level > 0. */
+static vm_status build_leaves(const lgrid *g, const int *lmax, int8_t **out, size_t *nleaves,
+                              vm_error *err) {
+    const int64_t *m = g->m;
+    size_t total = (size_t)(m[0] * m[1] * m[2]);
+    int64_t c[3] = {m[0] - 2, m[1] - 2, m[2] - 2};
+    int maxl = 0;
+    for (int q = 1; q <= g->K; q++)
+        if (lmax[q] > maxl) maxl = lmax[q];
+    int8_t *lv = malloc(total);
+    uint8_t *safe = calloc(total, 1);
+    if (!lv || !safe) {
+        free(lv);
+        free(safe);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the label octree");
+    }
+    for (size_t p = 0; p < total; p++) lv[p] = g->code[p] ? 0 : -1;
+    *nleaves = 0;
+    for (int64_t k = 1; k <= c[2] && maxl > 0; k++)
+        for (int64_t j = 1; j <= c[1]; j++)
+            for (int64_t i = 1; i <= c[0]; i++) {
+                size_t p = gidx(g, i, j, k);
+                uint16_t x = g->code[p];
+                if (!x || lmax[x] < 1) continue;
+                int ok = 1;
+                for (int d = 0; d < 27 && ok; d++)
+                    ok = g->code[gidx(g, i + d % 3 - 1, j + (d / 3) % 3 - 1, k + d / 9 - 1)] == x;
+                safe[p] = (uint8_t)ok;
+            }
+    for (int l = 1; l <= maxl; l++) {
+        int64_t sz = (int64_t)1 << l;
+        for (int64_t bz = 0; (bz + 1) * sz <= c[2]; bz++)
+            for (int64_t by = 0; (by + 1) * sz <= c[1]; by++)
+                for (int64_t bx = 0; (bx + 1) * sz <= c[0]; bx++) {
+                    int64_t o[3] = {bx * sz + 1, by * sz + 1, bz * sz + 1};
+                    uint16_t x = g->code[gidx(g, o[0], o[1], o[2])];
+                    if (!x || lmax[x] < l) continue;
+                    int ok = 1;
+                    for (int64_t k = 0; k < sz && ok; k++)
+                        for (int64_t j = 0; j < sz && ok; j++)
+                            for (int64_t i = 0; i < sz && ok; i++) {
+                                size_t p = gidx(g, o[0] + i, o[1] + j, o[2] + k);
+                                ok = g->code[p] == x && (l == 1 ? safe[p] : lv[p] == l - 1);
+                            }
+                    if (!ok) continue;
+                    for (int64_t k = 0; k < sz; k++)
+                        for (int64_t j = 0; j < sz; j++)
+                            for (int64_t i = 0; i < sz; i++)
+                                lv[gidx(g, o[0] + i, o[1] + j, o[2] + k)] = (int8_t)l;
+                }
+    }
+    free(safe);
+    /* 2:1 balance: split every leaf with a neighbour two or more levels finer */
+    for (int changed = maxl > 1; changed;) {
+        changed = 0;
+        for (int64_t k = 1; k <= c[2]; k++)
+            for (int64_t j = 1; j <= c[1]; j++)
+                for (int64_t i = 1; i <= c[0]; i++) {
+                    int l = lv[gidx(g, i, j, k)];
+                    int64_t sz = (int64_t)1 << (l > 0 ? l : 0);
+                    if (l < 2 || (i - 1) % sz || (j - 1) % sz || (k - 1) % sz) continue;
+                    int split = 0;
+                    for (int64_t z = -1; z <= sz && !split; z++)
+                        for (int64_t y = -1; y <= sz && !split; y++)
+                            for (int64_t x = -1; x <= sz && !split; x++) {
+                                if (x >= 0 && x < sz && y >= 0 && y < sz && z >= 0 && z < sz)
+                                    x = sz - 1; /* skip the inside of the leaf */
+                                else {
+                                    int q = lv[gidx(g, i + x, j + y, k + z)];
+                                    split = q >= 0 && q < l - 1;
+                                }
+                            }
+                    if (!split) continue;
+                    for (int64_t z = 0; z < sz; z++)
+                        for (int64_t y = 0; y < sz; y++)
+                            for (int64_t x = 0; x < sz; x++)
+                                lv[gidx(g, i + x, j + y, k + z)] = (int8_t)(l - 1);
+                    changed = 1;
+                }
+    }
+    for (int64_t k = 1; k <= c[2]; k++)
+        for (int64_t j = 1; j <= c[1]; j++)
+            for (int64_t i = 1; i <= c[0]; i++) {
+                int l = lv[gidx(g, i, j, k)];
+                int64_t sz = (int64_t)1 << (l > 0 ? l : 0);
+                if (l > 0 && (i - 1) % sz == 0 && (j - 1) % sz == 0 && (k - 1) % sz == 0)
+                    (*nleaves)++;
+            }
+    *out = lv;
+    return VM_OK;
+}
+
+/* 1 when dual point p (unpadded point coordinates: the corner between cells p - 1 and p) is a
+ * corner of some leaf. */
+static int is_leaf_corner(const lmesh *lm, const int64_t p[3]) {
+    const lgrid *g = lm->g;
+    for (int q = 0; q < 8; q++) {
+        int64_t cc[3] = {p[0] + (q & 1), p[1] + ((q >> 1) & 1), p[2] + (q >> 2)}; /* padded */
+        if (cc[0] >= g->m[0] || cc[1] >= g->m[1] || cc[2] >= g->m[2]) continue;
+        int l = lm->lvl[gidx(g, cc[0], cc[1], cc[2])];
+        if (l < 0) continue;
+        if (l == 0) return 1;
+        int64_t sz = (int64_t)1 << l;
+        int corner = 1;
+        for (int a = 0; a < 3 && corner; a++) {
+            int64_t u = cc[a] - 1, o = u - u % sz;
+            corner = p[a] == o || p[a] == o + sz;
+        }
+        if (corner) return 1;
+    }
+    return 0;
+}
+
+static vm_status point_vertex(lmesh *lm, const int64_t p[3], int32_t *id, vm_error *err) {
+    size_t cell = (size_t)p[0] + lm->cm[0] * ((size_t)p[1] + lm->cm[1] * (size_t)p[2]);
+    return add_vertex(lm, cell, 0, id, err);
+}
+
+static vm_status leaf_tet(lmesh *lm, const int64_t pts[4][3], uint16_t code, vm_error *err) {
+    int32_t n[4];
+    double x[4][3];
+    for (int q = 0; q < 4; q++) {
+        vm_status st = point_vertex(lm, pts[q], &n[q], err);
+        if (st) return st;
+        for (int d = 0; d < 3; d++) x[q][d] = (double)pts[q][d];
+    }
+    if (vm_tet_signed_volume((const double(*)[3])x) < 0) {
+        int32_t sw = n[1];
+        n[1] = n[2];
+        n[2] = sw;
+    }
+    vm_status st =
+        vm__grow((void **)&lm->ct, &lm->ctcap, 4 * (lm->nct + 1), sizeof(int32_t), err);
+    if (!st)
+        st = vm__grow((void **)&lm->ctcode, &lm->ctccap, lm->nct + 1, sizeof(uint16_t), err);
+    if (st) return st;
+    memcpy(lm->ct + 4 * lm->nct, n, sizeof n);
+    lm->ctcode[lm->nct++] = code;
+    return VM_OK;
+}
+
+/* The face square of a leaf in plane p[a] = pa from (u0, v0) (axes a+1, a+2) with side sz,
+ * coned to the leaf centre cpos. Its triangulation depends only on which points of the
+ * square are leaf corners, so the leaves on both sides cut it alike: with a corner at its
+ * centre (a finer neighbour: then its edge midpoints are corners too) it is four squares;
+ * with corners at some edge midpoints only, a fan from its centre (a new point inside the
+ * face, which no other face sees) over its corners and those midpoints; else the diagonal
+ * from its lowest corner (the diagonal a Kuhn cube cuts its faces along). */
+static vm_status leaf_square(lmesh *lm, int a, int64_t pa, int64_t u0, int64_t v0, int64_t sz,
+                             const int64_t cpos[3], uint16_t code, vm_error *err) {
+    int u = (a + 1) % 3, v = (a + 2) % 3;
+    /* boundary walk: corner, midpoint, corner, ... counterclockwise in (u, v) */
+    static const int ring[8][2] = {{0, 0}, {1, 0}, {2, 0}, {2, 1},
+                                   {2, 2}, {1, 2}, {0, 2}, {0, 1}};
+    int64_t pt[8][3], mid[3];
+    int have[8], nmid = 0;
+    int64_t h = sz / 2;
+    for (int q = 0; q < 8; q++) {
+        pt[q][a] = pa;
+        pt[q][u] = u0 + ring[q][0] * sz / 2; /* corners exact for sz = 1 too */
+        pt[q][v] = v0 + ring[q][1] * sz / 2;
+        have[q] = (q & 1) == 0 || (sz >= 2 && is_leaf_corner(lm, pt[q]));
+        nmid += (q & 1) && have[q];
+    }
+    mid[a] = pa;
+    mid[u] = u0 + h;
+    mid[v] = v0 + h;
+    if (sz >= 2 && is_leaf_corner(lm, mid)) {
+        for (int q = 0; q < 4; q++) {
+            vm_status st = leaf_square(lm, a, pa, u0 + (q & 1) * h, v0 + (q >> 1) * h, h, cpos,
+                                       code, err);
+            if (st) return st;
+        }
+        return VM_OK;
+    }
+    int64_t t[4][3];
+    memcpy(t[0], cpos, sizeof t[0]);
+    if (nmid == 0) {
+        static const int tri[2][2] = {{2, 4}, {4, 6}}; /* with ring[0]: diagonal 0-4 */
+        for (int k = 0; k < 2; k++) {
+            memcpy(t[1], pt[0], sizeof t[1]);
+            memcpy(t[2], pt[tri[k][0]], sizeof t[2]);
+            memcpy(t[3], pt[tri[k][1]], sizeof t[3]);
+            vm_status st = leaf_tet(lm, (const int64_t(*)[3])t, code, err);
+            if (st) return st;
+        }
+        return VM_OK;
+    }
+    memcpy(t[1], mid, sizeof t[1]);
+    for (int q = 0; q < 8; q++) {
+        if (!have[q]) continue;
+        int r = (q + 1) % 8;
+        if (!have[r]) r = (r + 1) % 8;
+        memcpy(t[2], pt[q], sizeof t[2]);
+        memcpy(t[3], pt[r], sizeof t[3]);
+        vm_status st = leaf_tet(lm, (const int64_t(*)[3])t, code, err);
+        if (st) return st;
+    }
+    return VM_OK;
+}
+
+/* Tets of every leaf of level > 0: its six faces (conforming with the neighbours' cuts) coned
+ * to its centre. All their points are at their lattice positions, so no tet is inverted. */
+static vm_status build_leaf_tets(lmesh *lm, vm_error *err) {
+    const lgrid *g = lm->g;
+    for (int64_t k = 1; k < g->m[2] - 1; k++)
+        for (int64_t j = 1; j < g->m[1] - 1; j++)
+            for (int64_t i = 1; i < g->m[0] - 1; i++) {
+                int l = lm->lvl[gidx(g, i, j, k)];
+                if (l <= 0) continue;
+                int64_t sz = (int64_t)1 << l, o[3] = {i - 1, j - 1, k - 1};
+                if (o[0] % sz || o[1] % sz || o[2] % sz) continue;
+                int64_t cpos[3] = {o[0] + sz / 2, o[1] + sz / 2, o[2] + sz / 2};
+                vm_status st = VM_OK;
+                uint16_t code = g->code[gidx(g, i, j, k)];
+                for (int a = 0; a < 3 && !st; a++)
+                    for (int side = 0; side < 2 && !st; side++)
+                        st = leaf_square(lm, a, o[a] + side * sz, o[(a + 1) % 3], o[(a + 2) % 3],
+                                         sz, cpos, code, err);
+                if (st) return st;
+            }
+    return VM_OK;
+}
+
+static void kuhn_table(int t[6][4]) {
+    static const int perm[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+    for (int p = 0; p < 6; p++) {
+        t[p][0] = 0;
+        t[p][1] = 1 << perm[p][0];
+        t[p][2] = (1 << perm[p][0]) | (1 << perm[p][1]);
+        t[p][3] = 7;
+        double x[4][3];
+        for (int v = 0; v < 4; v++)
+            for (int d = 0; d < 3; d++) x[v][d] = (t[p][v] >> d) & 1;
+        if (vm_tet_signed_volume((const double(*)[3])x) < 0) {
+            int s = t[p][1];
+            t[p][1] = t[p][2];
+            t[p][2] = s;
+        }
+    }
+}
+
+/* VTK position of bit-indexed corner b. */
+static int bit_to_vtk(int b) {
+    for (int q = 0; q < 8; q++)
+        if (vtk_bit[q] == b) return q;
+    return 0;
+}
+
+/* Smallest scaled Jacobian (world frame) an element may keep; below it its vertices move
+ * back toward the staircase, where a hex is a box (1) and a Kuhn tet has about 0.7. */
+#define VM_LABEL_MIN_HEX_SJ 0.2
+#define VM_LABEL_MIN_TET_SJ 0.2
+
+/* 1 when hex h (or its six tets) is clearly valid at the current positions. */
+static int hex_ok(const lmesh *lm, size_t h, int tets) {
+    double p[8][3];
+    for (int q = 0; q < 8; q++) {
+        vertex_pos(lm, (size_t)lm->hex[8 * h + q], p[q]);
+        for (int d = 0; d < 3; d++) p[q][d] *= lm->scale[d];
+    }
+    if (!tets) return vm_hex_min_scaled_jacobian((const double(*)[3])p) > VM_LABEL_MIN_HEX_SJ;
+    for (int t = 0; t < 6; t++) {
+        double x[4][3];
+        for (int v = 0; v < 4; v++) memcpy(x[v], p[bit_to_vtk(lm->kuhn[t][v])], sizeof x[v]);
+        if (vm_tet_scaled_jacobian((const double(*)[3])x) <= VM_LABEL_MIN_TET_SJ) return 0;
+    }
+    return 1;
+}
+
+/* Volume of hex h in coarse index units, as the output will have it (6 tets or trilinear). */
+static double hex_volume_now(const lmesh *lm, size_t h, int tets) {
+    double p[8][3];
+    for (int q = 0; q < 8; q++) vertex_pos(lm, (size_t)lm->hex[8 * h + q], p[q]);
+    if (!tets) return vm_hex_volume((const double(*)[3])p);
+    double s = 0;
+    for (int t = 0; t < 6; t++) {
+        double x[4][3];
+        for (int v = 0; v < 4; v++) memcpy(x[v], p[bit_to_vtk(lm->kuhn[t][v])], sizeof x[v]);
+        s += vm_tet_signed_volume((const double(*)[3])x);
+    }
+    return s;
+}
+
+/* Smoothing rounds convex corners and thins 1-voxel structures, so it costs volume. Per label,
+ * scale the smoothing of the vertices it touches until its volume is within tol of its voxel
+ * count (the error is close to linear in the smoothing amount); a vertex shared by several
+ * labels takes the smallest scale. */
+static vm_status keep_volumes(lmesh *lm, int K, int tets, double tol, vm_error *err) {
+    double *g = malloc(((size_t)K + 1) * sizeof *g), *vol = malloc(((size_t)K + 1) * sizeof *vol);
+    size_t *cnt = malloc(((size_t)K + 1) * sizeof *cnt);
+    if (!g || !vol || !cnt) {
+        free(g);
+        free(vol);
+        free(cnt);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
+    for (int L = 0; L <= K; L++) {
+        g[L] = 1;
+        cnt[L] = 0;
+    }
+    for (size_t h = 0; h < lm->nh; h++) cnt[lm->hcode[h]]++;
+    for (int round = 0; round < 6; round++) {
+        for (size_t v = 0; v < lm->nv; v++)
+            if (lm->lambda[v] > 0) lm->lambda[v] = 1;
+        for (size_t h = 0; h < lm->nh; h++)
+            for (int q = 0; q < 8; q++) {
+                size_t v = (size_t)lm->hex[8 * h + q];
+                if (lm->lambda[v] > g[lm->hcode[h]]) lm->lambda[v] = g[lm->hcode[h]];
+            }
+        if (round == 5) break;
+        for (int L = 0; L <= K; L++) vol[L] = 0;
+        for (size_t h = 0; h < lm->nh; h++) vol[lm->hcode[h]] += hex_volume_now(lm, h, tets);
+        int again = 0;
+        for (int L = 1; L <= K; L++) {
+            if (!cnt[L]) continue;
+            double e = fabs(vol[L] - (double)cnt[L]) / (double)cnt[L];
+            if (e <= tol) continue;
+            g[L] *= 0.9 * tol / e;
+            again = 1;
+        }
+        if (!again) break;
+    }
+    free(g);
+    free(vol);
+    free(cnt);
+    return VM_OK;
+}
+
+/* Pulls the vertices of every element that is not clearly valid toward their cell centres
+ * (halving, then all the way), where every element is a positive cube. */
+static size_t relax(lmesh *lm, int tets) {
+    uint8_t *moved = calloc(lm->nv ? lm->nv : 1, 1);
+    for (int round = 0; round < 64; round++) {
+        size_t bad = 0;
+        for (size_t h = 0; h < lm->nh; h++) {
+            if (hex_ok(lm, h, tets)) continue;
+            bad++;
+            for (int q = 0; q < 8; q++) {
+                size_t v = (size_t)lm->hex[8 * h + q];
+                if (lm->lambda[v] <= 0) continue;
+                lm->lambda[v] = round < 8 && lm->lambda[v] > 1.0 / 16 ? lm->lambda[v] * 0.5 : 0.0;
+                if (moved) moved[v] = 1;
+            }
+        }
+        if (!bad) break;
+    }
+    size_t n = 0;
+    for (size_t v = 0; moved && v < lm->nv; v++) n += moved[v];
+    free(moved);
+    return n;
+}
+
+/* ---- the public entry ---------------------------------------------------------------- */
+
+static int cmp_i32(const void *a, const void *b) {
+    int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+    return (x > y) - (x < y);
+}
+
+vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh *mesh,
+                         vm_label_stats *stats, vm_error *err) {
+    double t0 = vm__now();
+    int tets = o->elements != VM_HEX8;
+    vm_mesh_init(mesh, tets ? VM_TET4 : VM_HEX8);
+    if (stats) memset(stats, 0, sizeof *stats);
+    if (o->elements != VM_TET4 && o->elements != VM_HEX8)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: elements must be tetrahedra or hexahedra");
+    if (o->cell_size < 1 || o->cell_size > 1024)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: cell size %d is outside 1..1024", o->cell_size);
+    if (o->labels == NULL && o->nlabels > 0)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: %zu labels given without a list", o->nlabels);
+
+    label_set present;
+    memset(&present, 0, sizeof present);
+    int32_t *chosen = NULL;
+    lgrid g;
+    memset(&g, 0, sizeof g);
+    lmesh lm;
+    memset(&lm, 0, sizeof lm);
+    vm_label_info *info = NULL;
+    size_t K = 0, islands = 0, topo = 0, nleaves = 0;
+    double *lsize = NULL;
+    int *lmax = NULL;
+    int8_t *lvl = NULL;
+    vm_status st = collect_labels(v, &present, err);
+    if (st) goto done;
+    if (o->labels) {
+        chosen = malloc((o->nlabels ? o->nlabels : 1) * sizeof *chosen);
+        if (!chosen) {
+            st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+            goto done;
+        }
+        memcpy(chosen, o->labels, o->nlabels * sizeof *chosen);
+        qsort(chosen, o->nlabels, sizeof *chosen, cmp_i32);
+        for (size_t i = 0; i < o->nlabels; i++) {
+            if (K > 0 && chosen[K - 1] == chosen[i]) continue;
+            if (find_label(present.val, present.n, chosen[i]) < 0) {
+                char list[300];
+                format_labels(&present, list, sizeof list);
+                st = vm_error_set(err, VM_ERR_EMPTY,
+                                  "mesh: label %ld is not in the volume (labels present: %s)",
+                                  (long)chosen[i], list);
+                goto done;
+            }
+            chosen[K++] = chosen[i];
+        }
+    } else {
+        chosen = malloc((present.n ? present.n : 1) * sizeof *chosen);
+        if (!chosen) {
+            st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+            goto done;
+        }
+        for (size_t i = 0; i < present.n; i++)
+            if (present.val[i] != 0) chosen[K++] = present.val[i];
+    }
+    if (K == 0) {
+        st = vm_error_set(err, VM_ERR_EMPTY, "mesh: the volume holds no label other than 0");
+        goto done;
+    }
+    if (K > 65534) {
+        st = vm_error_set(err, VM_ERR_UNSUPPORTED, "mesh: %zu labels chosen; at most 65534", K);
+        goto done;
+    }
+    /* sizes: the finest h, and the octree level each label may reach */
+    if (o->adaptive && (o->max_level < 1 || o->max_level > 10)) {
+        st = vm_error_set(err, VM_ERR_ARG, "mesh: max level %d is outside 1..10", o->max_level);
+        goto done;
+    }
+    if (o->nsizes && !o->sizes) {
+        st = vm_error_set(err, VM_ERR_ARG, "mesh: %zu label sizes given without a list",
+                          o->nsizes);
+        goto done;
+    }
+    lsize = malloc((K + 1) * sizeof *lsize);
+    lmax = calloc(K + 1, sizeof *lmax);
+    if (!lsize || !lmax) {
+        st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
+    }
+    for (size_t c = 0; c <= K; c++) lsize[c] = -1;
+    double hmin = o->cell_size;
+    for (size_t i = 0; i < o->nsizes; i++) {
+        const vm_label_size *ls = &o->sizes[i];
+        long f = find_label(chosen, K, ls->label);
+        if (f < 0) {
+            st = vm_error_set(err, VM_ERR_ARG,
+                              "mesh: a size is given for label %ld, which is not meshed (not in "
+                              "the volume or not chosen)",
+                              (long)ls->label);
+            goto done;
+        }
+        if (!(ls->size > 0) || !isfinite(ls->size) || ls->size > 1024) {
+            st = vm_error_set(err, VM_ERR_ARG, "mesh: size %g of label %ld is not in (0, 1024]",
+                              ls->size, (long)ls->label);
+            goto done;
+        }
+        if (lsize[f + 1] > 0) {
+            st = vm_error_set(err, VM_ERR_ARG, "mesh: label %ld has two sizes", (long)ls->label);
+            goto done;
+        }
+        lsize[f + 1] = ls->size;
+        if (ls->size < hmin) hmin = ls->size;
+    }
+    int S = o->cell_size, U = 1;
+    double h = S;
+    if (hmin < 1) {
+        U = (int)ceil(1.0 / hmin - 1e-9);
+        if (U > 8) {
+            st = vm_error_set(err, VM_ERR_ARG,
+                              "mesh: sizes below 1/8 voxel (%g) are not supported", hmin);
+            goto done;
+        }
+        S = 1;
+        h = 1.0 / U;
+    } else if (hmin < S) {
+        S = (int)floor(hmin + 1e-9);
+        h = S;
+    }
+    int coarse = 0;
+    for (size_t c = 1; c <= K; c++) {
+        if (lsize[c] < 0)
+            lsize[c] = o->adaptive ? h * (double)(1 << o->max_level) : (double)o->cell_size;
+        int l = (int)floor(log2(lsize[c] / h) + 1e-9);
+        lmax[c] = l < 0 ? 0 : l > 10 ? 10 : l;
+        coarse |= lmax[c] > 0;
+    }
+    if (coarse && !tets) {
+        st = vm_error_set(err, VM_ERR_UNSUPPORTED,
+                          "mesh: labels with cells coarser than the finest (per-label sizes, "
+                          "adaptive) need tets, not hexes");
+        goto done;
+    }
+    if (o->progress) o->progress("labels", 0, 4, o->progress_user);
+    st = build_grid(v, chosen, (int)K, S, U, &g, err);
+    if (!st && o->min_island > 1) st = remove_islands(&g, o->min_island, &islands, err);
+    double t1 = vm__now();
+    if (!st) st = make_ranks(&g, err);
+    if (!st) st = make_well_composed(&g, &topo, err);
+    if (st) goto done;
+    if (coarse) st = build_leaves(&g, lmax, &lvl, &nleaves, err);
+    if (st) goto done;
+    double t2 = vm__now();
+    if (o->progress) o->progress("labels", 1, 4, o->progress_user);
+    lm.g = &g;
+    kuhn_table(lm.kuhn);
+    lm.lvl = lvl;
+    for (int d = 0; d < 3; d++) lm.scale[d] = h * v->spacing[d];
+    st = build_hexes(&lm, o->smooth, err);
+    if (!st && lvl) st = build_leaf_tets(&lm, err);
+    if (st) goto done;
+    if (lm.nh == 0 && lm.nct == 0) {
+        st = vm_error_set(err, VM_ERR_EMPTY,
+                          "mesh: no voxel of the chosen labels is left (--size or --min-island "
+                          "removed them all)");
+        goto done;
+    }
+    if (o->progress) o->progress("labels", 2, 4, o->progress_user);
+    if (o->smooth) st = keep_volumes(&lm, (int)K, tets, 0.01, err);
+    if (st) goto done;
+    size_t relaxed = relax(&lm, tets);
+    if (o->progress) o->progress("labels", 3, 4, o->progress_user);
+
+    /* the mesh in world coordinates */
+    size_t ncells = tets ? 6 * lm.nh + lm.nct : lm.nh;
+    st = vm_mesh_reserve(mesh, lm.nv, ncells, err);
+    if (st) goto done;
+    size_t smoothed = 0;
+    for (size_t i = 0; i < lm.nv; i++) {
+        double x[3], ijk[3];
+        vertex_pos(&lm, i, x);
+        if (lm.lambda[i] > 0) {
+            size_t cell = lm.vcell[i];
+            size_t a[3] = {cell % lm.cm[0], (cell / lm.cm[0]) % lm.cm[1], cell / (lm.cm[0] * lm.cm[1])};
+            for (int d = 0; d < 3; d++)
+                if (fabs(x[d] - ((double)a[d] - 0.5)) > 1e-12) {
+                    smoothed++;
+                    break;
+                }
+        }
+        for (int d = 0; d < 3; d++) ijk[d] = h * x[d] + 0.5 * (h - 1);
+        vm_volume_index_to_world(v, ijk, mesh->points + 3 * i);
+    }
+    mesh->npoints = lm.nv;
+    int flip = vm_volume_frame_determinant(v) < 0;
+    info = calloc(K, sizeof *info);
+    if (!info) {
+        st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        goto done;
+    }
+    for (size_t e = 0; e < lm.nh; e++) {
+        const int32_t *c = lm.hex + 8 * e;
+        int32_t region = chosen[lm.hcode[e] - 1];
+        vm_label_info *li = &info[lm.hcode[e] - 1];
+        for (int t = 0; t < (tets ? 6 : 1); t++) {
+            vm_index *dst = mesh->cells + (size_t)vm_cell_nodes(mesh->kind) * mesh->ncells;
+            double p[8][3];
+            if (tets) {
+                for (int q = 0; q < 4; q++) dst[q] = c[bit_to_vtk(lm.kuhn[t][q])];
+                if (flip) {
+                    vm_index s = dst[1];
+                    dst[1] = dst[2];
+                    dst[2] = s;
+                }
+                for (int q = 0; q < 4; q++) memcpy(p[q], mesh->points + 3 * (size_t)dst[q], sizeof p[q]);
+                li->mesh_volume += vm_tet_signed_volume((const double(*)[3])p);
+            } else {
+                for (int q = 0; q < 8; q++) dst[q] = c[q];
+                if (flip) {
+                    vm_index s = dst[1];
+                    dst[1] = dst[3];
+                    dst[3] = s;
+                    s = dst[5];
+                    dst[5] = dst[7];
+                    dst[7] = s;
+                }
+                for (int q = 0; q < 8; q++) memcpy(p[q], mesh->points + 3 * (size_t)dst[q], sizeof p[q]);
+                li->mesh_volume += vm_hex_volume((const double(*)[3])p);
+            }
+            mesh->region[mesh->ncells++] = region;
+            li->elements++;
+        }
+    }
+    for (size_t e = 0; e < lm.nct; e++) {
+        vm_index *dst = mesh->cells + 4 * mesh->ncells;
+        for (int q = 0; q < 4; q++) dst[q] = lm.ct[4 * e + q];
+        if (flip) {
+            vm_index sw = dst[1];
+            dst[1] = dst[2];
+            dst[2] = sw;
+        }
+        double p[4][3];
+        for (int q = 0; q < 4; q++) memcpy(p[q], mesh->points + 3 * (size_t)dst[q], sizeof p[q]);
+        vm_label_info *li = &info[lm.ctcode[e] - 1];
+        li->mesh_volume += vm_tet_signed_volume((const double(*)[3])p);
+        mesh->region[mesh->ncells++] = chosen[lm.ctcode[e] - 1];
+        li->elements++;
+    }
+    for (size_t p = 0; p < (size_t)(g.m[0] * g.m[1] * g.m[2]); p++)
+        if (g.code[p]) info[g.code[p] - 1].meshed_voxels++;
+    if (stats) {
+        double vox = fabs(vm_volume_frame_determinant(v)) * h * h * h;
+        for (size_t i = 0; i < K; i++) {
+            info[i].label = chosen[i];
+            long f = find_label(present.val, present.n, chosen[i]);
+            info[i].input_voxels = f >= 0 ? present.count[f] : 0;
+            info[i].voxel_volume = (double)info[i].meshed_voxels * vox;
+            info[i].size = lsize[i + 1];
+        }
+        stats->nlabels = K;
+        stats->labels = info;
+        info = NULL;
+        stats->island_voxels = islands;
+        stats->topology_voxels = topo;
+        stats->smoothed_vertices = smoothed;
+        stats->relaxed_vertices = relaxed;
+        stats->cell_size = h;
+        stats->coarse_cells = nleaves;
+        stats->seconds = vm__now() - t0;
+        stats->seconds_grid = t1 - t0;
+        stats->seconds_repair = t2 - t1;
+        stats->seconds_mesh = stats->seconds - (t2 - t0);
+    }
+    if (o->progress) o->progress("labels", 4, 4, o->progress_user);
+done:
+    free(present.val);
+    free(present.count);
+    free(chosen);
+    free(g.code);
+    free(g.rank);
+    free(lm.vid);
+    free(lm.vcell);
+    free(lm.target);
+    free(lm.lambda);
+    free(lm.hex);
+    free(lm.hcode);
+    free(lm.ct);
+    free(lm.ctcode);
+    free(lvl);
+    free(lsize);
+    free(lmax);
+    free(info);
+    if (st) vm_mesh_free(mesh);
+    return st;
+}
