@@ -23,6 +23,10 @@ vm_status vm__check_dims(const int64_t dims[3], size_t elem_size, const char *wh
 /* Grows *buf (elements of elem bytes) so that it holds at least need elements. */
 vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *err);
 
+/* Checks that every node of every cell of m is a point of m (0 .. npoints-1). On failure
+ * returns code, with the message "WHAT: cell C uses node N, outside 0..NPOINTS-1". */
+vm_status vm__check_nodes(const vm_mesh *m, vm_status code, const char *what, vm_error *err);
+
 /* Seconds from a monotonic clock. */
 double vm__now(void);
 

@@ -24,6 +24,15 @@ const char *vm_cell_kind_name(vm_cell_kind kind) {
     return "unknown";
 }
 
+vm_status vm__check_nodes(const vm_mesh *m, vm_status code, const char *what, vm_error *err) {
+    size_t nn = (size_t)vm_cell_nodes(m->kind);
+    for (size_t i = 0; i < m->ncells * nn; i++)
+        if (m->cells[i] < 0 || (uint64_t)m->cells[i] >= (uint64_t)m->npoints)
+            return vm_error_set(err, code, "%s: cell %zu uses node %lld, outside 0..%zu", what,
+                                i / nn, (long long)m->cells[i], m->npoints ? m->npoints - 1 : 0);
+    return VM_OK;
+}
+
 void vm_mesh_init(vm_mesh *m, vm_cell_kind kind) {
     memset(m, 0, sizeof *m);
     m->kind = kind;
