@@ -6,10 +6,10 @@ set -eu
 cd "$(dirname "$0")/.."
 bash scripts/deps.sh --tests
 dir=build
-flags=(-DCMAKE_BUILD_TYPE=Release)
+flags=(-DCMAKE_BUILD_TYPE=Release -DVOLMESH_WERROR=ON)
 if [ "${1:-}" = "--asan" ]; then
     dir=build-asan
-    flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DVOLMESH_SANITIZE=ON)
+    flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DVOLMESH_SANITIZE=ON -DVOLMESH_WERROR=ON)
     export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
     export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 fi
