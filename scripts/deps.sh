@@ -31,6 +31,8 @@ if [ "$want_tests" = 1 ]; then
     command -v mpirun >/dev/null 2>&1 || pkgs+=(openmpi-bin)
     # the HTML report is checked in a real browser
     command -v chromium >/dev/null 2>&1 || pkgs+=(chromium)
+    # tests/cli/test_configure.sh builds with clang as well as gcc
+    command -v clang >/dev/null 2>&1 || pkgs+=(clang)
 fi
 [ ${#pkgs[@]} -eq 0 ] && exit 0
 echo "volmesh: installing ${pkgs[*]}" >&2
