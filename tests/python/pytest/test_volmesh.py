@@ -1,0 +1,268 @@
+# SPDX-License-Identifier: BSD-3-Clause
+"""tests/python/pytest/test_volmesh.py — the volmesh Python API (docs/PYTHON.md), run by
+tests/python/test_python.sh on the package installed into a fresh venv: reading volumes with
+their geometry, meshing numpy arrays and label volumes, meshio round trips, writers, quality,
+errors, progress and the GIL released while the library works."""
+import json
+import os
+import subprocess
+import threading
+import time
+
+import meshio
+import numpy as np
+import pytest
+
+import volmesh
+
+DATA = os.environ.get("VM_SHARED_DATA", "")
+CLI = os.environ.get("VM_CLI", "")
+
+
+def ball(n=48, radius=0.5):
+    """A ball as a signed field (positive inside) on [-1, 1]^3, indexed [z, y, x]."""
+    z, y, x = np.mgrid[-1:1:n * 1j, -1:1:n * 1j, -1:1:n * 1j]
+    return (radius - np.sqrt(x * x + y * y + z * z)).astype(np.float32)
+
+
+def two_blocks(n=24):
+    """A label volume: label 1 in one block, label 2 in the block beside it, 0 around."""
+    a = np.zeros((n, n, n), dtype=np.uint8)
+    a[4:20, 4:20, 4:12] = 1
+    a[4:20, 4:20, 12:20] = 2
+    return a
+
+
+def shared(name):
+    path = os.path.join(DATA, name)
+    if not os.path.exists(path):
+        pytest.skip(f"{path} is absent")
+    return path
+
+
+def test_versionIsTheLibrarys():
+    assert volmesh.__version__.count(".") == 2
+
+
+def test_readKeepsSpacingOriginAndTheZYXLayout():
+    path = shared("ct_head_quarter.nrrd")
+    v = volmesh.read(path)
+    info = json.loads(subprocess.run([CLI, "info", path, "--json"], capture_output=True,
+                                     check=True, text=True).stdout)
+    nx, ny, nz = info["dims"]
+    assert v.array.shape == (nz, ny, nx)
+    assert v.array.dtype == np.float32
+    assert v.spacing == pytest.approx(tuple(info["spacing"]))
+    assert v.origin == pytest.approx(tuple(info["origin"]))
+    assert v.array.max() == pytest.approx(info["max"])
+    assert v.array.min() == pytest.approx(info["min"])
+    # the library's own memory, not a copy
+    assert not v.array.flags["OWNDATA"]
+    assert v.array.flags["WRITEABLE"]
+
+
+def test_meshOfANumpyBallIsValidWithItsVolumeAndWorldCoordinates():
+    m = volmesh.mesh(ball(), iso=0.0, spacing=(0.5, 0.5, 0.5), origin=(10, 20, 30))
+    assert list(m.cells) == ["tetra"]
+    assert m.points.shape[1] == 3 and m.points.dtype == np.float64
+    q = volmesh.quality(m)
+    assert q["inverted"] == 0 and q["boundary_closed"] and q["boundary_euler"] == 2
+    assert q["min_dihedral"] >= 15.0
+    # radius 0.5 of [-1, 1] over 47 cells = 11.75 voxels = 5.875 world units
+    assert q["volume"] == pytest.approx(4 / 3 * np.pi * 5.875 ** 3, rel=0.02)
+    centre = m.points.mean(axis=0)
+    assert centre == pytest.approx([10 + 23.5 * 0.5, 20 + 23.5 * 0.5, 30 + 23.5 * 0.5], abs=0.1)
+
+
+def test_meshioRoundTripKeepsPointsCellsAndRegions(tmp_path):
+    m = volmesh.mesh(ball(32), iso=0.0, improve=False)
+    path = tmp_path / "ball.vtu"
+    m.write(path)
+    r = meshio.read(path)
+    assert np.array_equal(r.points, m.points)
+    assert np.array_equal(r.cells_dict["tetra"], m.cells["tetra"])
+    back = volmesh.read_mesh(path)
+    assert np.array_equal(back.points, m.points)
+    mm = m.to_meshio()
+    assert isinstance(mm, meshio.Mesh)
+    mm.write(tmp_path / "via_meshio.vtu")
+    again = volmesh.read_mesh(tmp_path / "via_meshio.vtu")
+    assert np.array_equal(again.cells["tetra"], m.cells["tetra"])
+
+
+def test_labelsMeshEveryChosenLabelWithItsLabelAsCellData(tmp_path):
+    m = volmesh.mesh(two_blocks(), labels="all")
+    assert set(np.unique(m.cell_data["label"])) == {1, 2}
+    assert volmesh.quality(m)["inverted"] == 0
+    only2 = volmesh.mesh(two_blocks(), labels=[2])
+    assert set(np.unique(only2.cell_data["label"])) == {2}
+    path = tmp_path / "blocks.inp"
+    m.write(path)
+    text = path.read_text()
+    assert "*ELEMENT" in text.upper()
+    m.write(tmp_path / "blocks.vtu")
+    r = meshio.read(tmp_path / "blocks.vtu")
+    assert set(np.unique(r.cell_data["region"][0])) == {1, 2}
+
+
+def test_hexesTrianglesAndTheOtherElementKinds():
+    h = volmesh.mesh(ball(24), iso=0.0, elements="hex")
+    assert list(h.cells) == ["hexahedron"]
+    assert volmesh.quality(h)["inverted"] == 0
+    for method in ("dc", "mc", "asc", "cover"):
+        s = volmesh.mesh(ball(24), iso=0.0, elements="tri", method=method)
+        assert list(s.cells) == ["triangle"], method
+        assert volmesh.quality(s)["boundary_euler"] == 2, method
+    a = volmesh.mesh(ball(48), iso=0.0, adaptive=True)
+    u = volmesh.mesh(ball(48), iso=0.0)
+    assert len(a.cells["tetra"]) < len(u.cells["tetra"])
+
+
+def test_writeEveryFormatTheProgramWrites(tmp_path):
+    m = volmesh.mesh(ball(24), iso=0.0)
+    for ext in ("vtu", "vtk", "inp", "msh", "mesh"):
+        m.write(tmp_path / f"b.{ext}")
+        back = volmesh.read_mesh(tmp_path / f"b.{ext}")
+        assert len(back.cells["tetra"]) == len(m.cells["tetra"]), ext
+    m.write(tmp_path / "q.inp", order=2, deck="static")
+    assert "C3D10" in (tmp_path / "q.inp").read_text()
+    s = volmesh.mesh(ball(24), iso=0.0, elements="tri")
+    for ext in ("stl", "off", "ply", "obj"):
+        s.write(tmp_path / f"s.{ext}")
+        assert len(volmesh.read_mesh(tmp_path / f"s.{ext}").cells["triangle"]) == len(
+            s.cells["triangle"]), ext
+
+
+def test_qualityHasTheKeysOfTheProgramsJson(tmp_path):
+    m = volmesh.mesh(ball(24), iso=0.0)
+    path = tmp_path / "b.vtu"
+    m.write(path)
+    cli = json.loads(subprocess.run([CLI, "quality", str(path), "--json"], capture_output=True,
+                                    check=True, text=True).stdout)
+    q = volmesh.quality(m)
+    assert set(q) == set(cli)
+    assert q["min_dihedral"] == pytest.approx(cli["min_dihedral"])
+
+
+def test_errorsCarryTheLibrarysOneLineMessage(tmp_path):
+    missing = str(tmp_path / "missing.nrrd")
+    with pytest.raises(volmesh.Error, match="missing.nrrd"):
+        volmesh.read(missing)
+    assert issubclass(volmesh.Error, RuntimeError)
+    # an empty selection names the data's maximum
+    top = f"{float(ball(16).max()):g}"
+    with pytest.raises(volmesh.Error, match="data range is .* to " + top.replace(".", r"\.")):
+        volmesh.mesh(ball(16), iso=2.0)
+    with pytest.raises(volmesh.Error):
+        volmesh.mesh(two_blocks(), labels=[7])
+    with pytest.raises(volmesh.Error, match="no such folder|cannot|directory"):
+        volmesh.mesh(ball(16), iso=0.0).write(tmp_path / "nofolder" / "x.vtu")
+
+
+def test_badArgumentsRaiseValueErrorOrTypeError():
+    with pytest.raises(ValueError):
+        volmesh.mesh(ball(16))  # no material
+    with pytest.raises(ValueError):
+        volmesh.mesh(ball(16), iso=0.0, labels="all")
+    with pytest.raises(ValueError):
+        volmesh.mesh(ball(16), iso=0.0, elements="prism")
+    with pytest.raises(ValueError):
+        volmesh.mesh(np.zeros((4, 4)), iso=0.0)
+    with pytest.raises(ValueError):
+        volmesh.mesh(ball(16), iso=0.0, spacing=(1, 0, 1))
+    with pytest.raises(ValueError):
+        volmesh.mesh(ball(16), range=(None, None))
+    with pytest.raises(ValueError):
+        volmesh.mesh(ball(16), iso=0.0, size=0)
+    with pytest.raises(TypeError):
+        volmesh.mesh(ball(16), iso=0.0, progress=3)
+    with pytest.raises(TypeError):
+        volmesh.quality("mesh.vtu")
+    with pytest.raises(ValueError):
+        volmesh.mesh(ball(16), iso=0.0).write("x.inp", order=3)
+
+
+def test_progressIsCalledAndItsExceptionStopsTheCall():
+    seen = []
+    volmesh.mesh(ball(32), iso=0.0, progress=lambda s, d, t: seen.append((s, d, t)))
+    assert seen and all(0 <= d <= t for _, d, t in seen)
+    assert {"contour", "improve"} <= {s for s, _, _ in seen}
+
+    def boom(stage, done, total):
+        raise KeyError("stop here")
+
+    with pytest.raises(KeyError, match="stop here"):
+        volmesh.mesh(ball(32), iso=0.0, progress=boom)
+
+
+def test_theGilIsReleasedWhileA128CubedMeshRuns():
+    data = ball(128, radius=0.8)
+    count = [0]
+    stop = threading.Event()
+
+    def counter():
+        while not stop.is_set():
+            count[0] += 1
+            time.sleep(0.001)
+
+    t = threading.Thread(target=counter)
+    t.start()
+    time.sleep(0.05)
+    before = count[0]
+    m = volmesh.mesh(data, iso=0.0, improve=False)
+    during = count[0] - before
+    stop.set()
+    t.join()
+    assert len(m.cells["tetra"]) > 100000
+    # with the GIL held for the whole call the counter could not move at all
+    assert during >= 20, during
+
+
+def test_threadsKeywordGivesTheSameMesh():
+    one = volmesh.mesh(ball(32), iso=0.0, threads=1)
+    two = volmesh.mesh(ball(32), iso=0.0, threads=2)
+    assert np.array_equal(one.points, two.points)
+    assert np.array_equal(one.cells["tetra"], two.cells["tetra"])
+
+
+def write_nifti_gz(path, labels, spacing=(0.8, 0.8, 1.5), offset=(-10.0, 5.0, 20.0)):
+    """A NIfTI-1 .nii.gz of a uint8 label array [z, y, x], with its geometry in the sform."""
+    import gzip
+    import struct
+    nz, ny, nx = labels.shape
+    hdr = bytearray(348)
+    struct.pack_into("<i", hdr, 0, 348)
+    struct.pack_into("<8h", hdr, 40, 3, nx, ny, nz, 1, 1, 1, 1)
+    struct.pack_into("<hh", hdr, 70, 2, 8)                    # DT_UINT8, 8 bits
+    struct.pack_into("<8f", hdr, 76, 1.0, *spacing, 1, 1, 1, 1)
+    struct.pack_into("<f", hdr, 108, 352.0)                   # vox_offset
+    struct.pack_into("<hh", hdr, 252, 0, 1)                   # qform 0, sform 1 (scanner)
+    struct.pack_into("<4f", hdr, 280, spacing[0], 0, 0, offset[0])
+    struct.pack_into("<4f", hdr, 296, 0, spacing[1], 0, offset[1])
+    struct.pack_into("<4f", hdr, 312, 0, 0, spacing[2], offset[2])
+    hdr[344:348] = b"n+1\0"
+    with gzip.open(path, "wb") as fh:
+        fh.write(bytes(hdr) + b"\0" * 4 + labels.astype(np.uint8).tobytes())
+
+
+def test_theTenLinesOfDocsPythonRun(tmp_path, capsys):
+    """The example of docs/PYTHON.md, run as written on a segmentation it does not ship."""
+    src = os.environ.get("VM_SOURCE_DIR", "")
+    doc = open(os.path.join(src, "docs", "PYTHON.md")).read()
+    code = doc.split("```python\n", 1)[1].split("```", 1)[0]
+    assert 5 <= len(code.strip().splitlines()) <= 10
+    write_nifti_gz(tmp_path / "seg.nii.gz", two_blocks())
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        exec(compile(code, "docs/PYTHON.md", "exec"), {})
+    finally:
+        os.chdir(cwd)
+    out = capsys.readouterr().out
+    assert "labels [1, 2]" in out
+    assert "*ELEMENT" in (tmp_path / "seg.inp").read_text().upper()
+    r = meshio.read(tmp_path / "seg.vtu")
+    # RAS world coordinates: x is flipped by NIfTI's LPS convention or kept; the extent is
+    # 16 voxels of 0.8 along x either way
+    assert np.ptp(r.points[:, 0]) == pytest.approx(16 * 0.8, rel=0.1)
+    assert np.ptp(r.points[:, 2]) == pytest.approx(16 * 1.5, rel=0.1)
