@@ -176,127 +176,166 @@ static vm_status emit_pyramid(dc *d, int a, const int64_t apex_p[3], int apex_lo
     return emit_polygon(d, vm__dc_lattice_id(d, apex_p), apex_lower, poly, inserted, np, err);
 }
 
-/* The pyramid from apex over the polygon poly (counter-clockwise around the edge's axis;
- * inserted[i]: poly[i] is the vertex of an ambiguous face), split as a fan from the root
- * that gives the largest smallest volume, or from a new centre vertex. */
-static vm_status emit_polygon(dc *d, int64_t apex, int apex_lower, const int64_t *poly,
-                              const int *inserted, int np, vm_error *err) {
-    vm_status s = VM_OK;
-    if (np == 3)
-        return apex_lower ? emit(d, apex, poly[0], poly[1], poly[2], err)
-                          : emit(d, apex, poly[2], poly[1], poly[0], err);
-    if (np > 4) {
-        /* Fans from a neighbour of a face vertex would join the two cells it separates; try
-         * the other roots, and a fan from a new vertex at the polygon's centre. */
-        int best_root = -1;
-        double best = -INFINITY;
-        for (int root = 0; root < np; root++) {
-            if (inserted[(root + 1) % np] || inserted[(root + np - 1) % np]) continue;
-            double worst = INFINITY;
-            for (int i = 1; i + 1 < np; i++) {
-                int64_t t[4] = {apex, poly[root], poly[(root + i) % np],
-                                poly[(root + i + 1) % np]};
-                if (!apex_lower) t[1] = poly[(root + i + 1) % np], t[3] = poly[root];
-                worst = fmin(worst, tet_volume(d, t, 0));
-            }
-            if (worst > best) best = worst, best_root = root;
+/* Largest polygon round an edge: four cells and four ambiguous face vertices. */
+enum { MAX_POLY = 8 };
+/* Directions tried for a centre vertex: the centroid's, the normals' sum, up to seven side
+ * normals, and the perceptron's. */
+enum { MAX_CANDIDATES = 10 };
+/* Perceptron steps at most; it stops when every side normal is within 5 % of the
+ * direction's length of facing it, and steps half that length. */
+enum { PERCEPTRON_STEPS = 64 };
+static const double perceptron_margin = 0.05;
+/* A later candidate centre counts as better only beyond round-off (relative and absolute). */
+static const double better_rel = 1.000001, better_abs = 1e-12;
+/* A worst tet volume above this fraction of len^3 (len: the apex-centroid distance) is fine:
+ * no further candidate is taken. */
+static const double fine_volume = 1e-4;
+
+/* The root of the fan over poly with the largest smallest volume (*best), skipping roots next
+ * to a face vertex (their fans would join the two cells it separates); -1 when none. */
+static int best_fan_root(const dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                         const int *inserted, int np, double *best) {
+    int best_root = -1;
+    *best = -INFINITY;
+    for (int root = 0; root < np; root++) {
+        if (inserted[(root + 1) % np] || inserted[(root + np - 1) % np]) continue;
+        double worst = INFINITY;
+        for (int i = 1; i + 1 < np; i++) {
+            int64_t t[4] = {apex, poly[root], poly[(root + i) % np], poly[(root + i + 1) % np]};
+            if (!apex_lower) t[1] = poly[(root + i + 1) % np], t[3] = poly[root];
+            worst = fmin(worst, tet_volume(d, t, 0));
         }
-        double cpos[3] = {0, 0, 0};
+        if (worst > *best) *best = worst, best_root = root;
+    }
+    return best_root;
+}
+
+/* The side triangles' normals (apex at ap, poly[i], poly[i + 1]; signed so that a positive
+ * tet's is positive along its centre's direction) and the sum of their unit vectors. */
+static void side_normals(const dc *d, const double ap[3], int apex_lower, const int64_t *poly,
+                         int np, double nrm[MAX_POLY][3], double sum[3]) {
+    for (int k = 0; k < 3; k++)
+        sum[k] = 0;
+    for (int i = 0; i < np; i++) {
+        double x[3], y[3], u[3], w[3];
+        vm__dc_vertex_pos(d, poly[i], 0, x);
+        vm__dc_vertex_pos(d, poly[(i + 1) % np], 0, y);
+        for (int k = 0; k < 3; k++)
+            u[k] = x[k] - ap[k], w[k] = y[k] - ap[k];
+        double sgn = apex_lower ? 1.0 : -1.0;
+        nrm[i][0] = sgn * (u[1] * w[2] - u[2] * w[1]);
+        nrm[i][1] = sgn * (u[2] * w[0] - u[0] * w[2]);
+        nrm[i][2] = sgn * (u[0] * w[1] - u[1] * w[0]);
+        double nl = sqrt(nrm[i][0] * nrm[i][0] + nrm[i][1] * nrm[i][1] + nrm[i][2] * nrm[i][2]);
+        for (int k = 0; k < 3; k++)
+            sum[k] += nl > 0 ? nrm[i][k] / nl : 0;
+    }
+}
+
+/* A direction w that faces every side normal, by perceptron steps from sum toward the worst
+ * one. */
+static void perceptron_direction(const double nrm[MAX_POLY][3], int np, const double sum[3],
+                                 double w[3]) {
+    memcpy(w, sum, 3 * sizeof *w);
+    for (int it = 0; it < PERCEPTRON_STEPS; it++) {
+        int wi = -1;
+        double wv = INFINITY;
         for (int i = 0; i < np; i++) {
-            double p[3];
-            vm__dc_vertex_pos(d, poly[i], 0, p);
-            for (int k = 0; k < 3; k++)
-                cpos[k] += p[k] / np;
-        }
-        /* The signs of the centre's tets depend only on its direction from the apex: try
-         * the centroid, then directions along the side triangles' normals. */
-        double ap[3], nrm[8][3], sum[3] = {0, 0, 0}, len = 0;
-        vm__dc_vertex_pos(d, apex, 0, ap);
-        for (int i = 0; i < np; i++) {
-            double x[3], y[3], u[3], w[3];
-            vm__dc_vertex_pos(d, poly[i], 0, x);
-            vm__dc_vertex_pos(d, poly[(i + 1) % np], 0, y);
-            for (int k = 0; k < 3; k++)
-                u[k] = x[k] - ap[k], w[k] = y[k] - ap[k];
-            double sgn = apex_lower ? 1.0 : -1.0;
-            nrm[i][0] = sgn * (u[1] * w[2] - u[2] * w[1]);
-            nrm[i][1] = sgn * (u[2] * w[0] - u[0] * w[2]);
-            nrm[i][2] = sgn * (u[0] * w[1] - u[1] * w[0]);
             double nl =
                 sqrt(nrm[i][0] * nrm[i][0] + nrm[i][1] * nrm[i][1] + nrm[i][2] * nrm[i][2]);
-            for (int k = 0; k < 3; k++)
-                sum[k] += nl > 0 ? nrm[i][k] / nl : 0;
+            double dv =
+                nl > 0 ? (w[0] * nrm[i][0] + w[1] * nrm[i][1] + w[2] * nrm[i][2]) / nl : 0;
+            if (dv < wv) wv = dv, wi = i;
         }
+        double wl = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+        if (wi < 0 || wv > perceptron_margin * wl) break;
+        double nl =
+            sqrt(nrm[wi][0] * nrm[wi][0] + nrm[wi][1] * nrm[wi][1] + nrm[wi][2] * nrm[wi][2]);
         for (int k = 0; k < 3; k++)
-            len += (cpos[k] - ap[k]) * (cpos[k] - ap[k]);
-        len = sqrt(len);
-        double worst_c = -INFINITY, cand[10][3];
-        int ncand = 0;
-        for (int k = 0; k < 3; k++)
-            cand[ncand][k] = cpos[k] - ap[k];
-        ncand++;
-        memcpy(cand[ncand++], sum, sizeof sum);
-        for (int i = 0; i < np && ncand < 9; i++)
-            memcpy(cand[ncand++], nrm[i], sizeof nrm[i]);
-        { /* perceptron steps toward the worst side normal */
-            double w[3];
-            memcpy(w, sum, sizeof w);
-            for (int it = 0; it < 64; it++) {
-                int wi = -1;
-                double wv = INFINITY;
-                for (int i = 0; i < np; i++) {
-                    double nl = sqrt(nrm[i][0] * nrm[i][0] + nrm[i][1] * nrm[i][1] +
-                                     nrm[i][2] * nrm[i][2]);
-                    double dv =
-                        nl > 0 ? (w[0] * nrm[i][0] + w[1] * nrm[i][1] + w[2] * nrm[i][2]) / nl
-                               : 0;
-                    if (dv < wv) wv = dv, wi = i;
-                }
-                double wl = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-                if (wi < 0 || wv > 0.05 * wl) break;
-                double nl = sqrt(nrm[wi][0] * nrm[wi][0] + nrm[wi][1] * nrm[wi][1] +
-                                 nrm[wi][2] * nrm[wi][2]);
-                for (int k = 0; k < 3; k++)
-                    w[k] += (wl > 0 ? 0.5 * wl : 1.0) * nrm[wi][k] / (nl > 0 ? nl : 1);
-            }
-            memcpy(cand[ncand++], w, sizeof w);
-        }
-        for (int ci = 0; ci < ncand; ci++) {
-            double cl = sqrt(cand[ci][0] * cand[ci][0] + cand[ci][1] * cand[ci][1] +
-                             cand[ci][2] * cand[ci][2]);
-            if (!(cl > 0)) continue;
-            double worst = INFINITY;
-            for (int i = 0; i < np; i++)
-                worst = fmin(worst, (cand[ci][0] * nrm[i][0] + cand[ci][1] * nrm[i][1] +
-                                     cand[ci][2] * nrm[i][2]) *
-                                        len / cl / 6.0);
-            if (worst > worst_c * 1.000001 + 1e-12 || ci == 0) {
-                if (ci > 0 && worst_c > 1e-4 * len * len * len)
-                    break; /* the centroid is fine */
-                worst_c = worst;
-                for (int k = 0; k < 3; k++)
-                    cpos[k] = ap[k] + cand[ci][k] * len / cl;
-            }
-        }
-        if (best_root >= 0 && best >= worst_c) {
-            for (int i = 1; i + 1 < np && !s; i++) {
-                int64_t x = poly[best_root], y = poly[(best_root + i) % np];
-                int64_t z = poly[(best_root + i + 1) % np];
-                s = apex_lower ? emit(d, apex, x, y, z, err) : emit(d, apex, z, y, x, err);
-            }
-            return s;
-        }
-        s = vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + 1, 3 * sizeof(double),
-                     err);
-        if (s) return s;
-        memcpy(d->centre + 3 * d->ncentre, cpos, sizeof cpos);
-        int64_t cid = vm__dc_npoints_real(d) + (int64_t)(d->nreps + d->ncentre++);
-        for (int i = 0; i < np && !s; i++) {
-            int64_t x = poly[i], y = poly[(i + 1) % np];
-            s = apex_lower ? emit(d, apex, cid, x, y, err) : emit(d, apex, y, x, cid, err);
-        }
-        return s;
+            w[k] += (wl > 0 ? 0.5 * wl : 1.0) * nrm[wi][k] / (nl > 0 ? nl : 1);
     }
+}
+
+/* A new centre vertex cpos for a fan over poly, at the centroid's distance from the apex:
+ * the signs of its tets depend only on its direction from the apex, so the centroid's is
+ * tried, then directions along the side triangles' normals. Returns its fan's worst tet
+ * volume. */
+static double place_centre(const dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                           int np, double cpos[3]) {
+    for (int k = 0; k < 3; k++)
+        cpos[k] = 0;
+    for (int i = 0; i < np; i++) {
+        double p[3];
+        vm__dc_vertex_pos(d, poly[i], 0, p);
+        for (int k = 0; k < 3; k++)
+            cpos[k] += p[k] / np;
+    }
+    double ap[3], nrm[MAX_POLY][3], sum[3], len = 0;
+    vm__dc_vertex_pos(d, apex, 0, ap);
+    side_normals(d, ap, apex_lower, poly, np, nrm, sum);
+    for (int k = 0; k < 3; k++)
+        len += (cpos[k] - ap[k]) * (cpos[k] - ap[k]);
+    len = sqrt(len);
+    double worst_c = -INFINITY, cand[MAX_CANDIDATES][3];
+    int ncand = 0;
+    for (int k = 0; k < 3; k++)
+        cand[ncand][k] = cpos[k] - ap[k];
+    ncand++;
+    memcpy(cand[ncand++], sum, sizeof sum);
+    for (int i = 0; i < np && ncand < MAX_CANDIDATES - 1; i++)
+        memcpy(cand[ncand++], nrm[i], sizeof nrm[i]);
+    perceptron_direction((const double(*)[3])nrm, np, sum, cand[ncand++]);
+    for (int ci = 0; ci < ncand; ci++) {
+        double cl = sqrt(cand[ci][0] * cand[ci][0] + cand[ci][1] * cand[ci][1] +
+                         cand[ci][2] * cand[ci][2]);
+        if (!(cl > 0)) continue;
+        double worst = INFINITY;
+        for (int i = 0; i < np; i++)
+            worst = fmin(worst, (cand[ci][0] * nrm[i][0] + cand[ci][1] * nrm[i][1] +
+                                 cand[ci][2] * nrm[i][2]) *
+                                    len / cl / 6.0);
+        if (worst > worst_c * better_rel + better_abs || ci == 0) {
+            if (ci > 0 && worst_c > fine_volume * len * len * len)
+                break; /* the centroid is fine */
+            worst_c = worst;
+            for (int k = 0; k < 3; k++)
+                cpos[k] = ap[k] + cand[ci][k] * len / cl;
+        }
+    }
+    return worst_c;
+}
+
+/* The fan from poly[root] over poly, each triangle joined to apex. */
+static vm_status emit_fan(dc *d, int64_t apex, int apex_lower, const int64_t *poly, int np,
+                          int root, vm_error *err) {
+    vm_status s = VM_OK;
+    for (int i = 1; i + 1 < np && !s; i++) {
+        int64_t x = poly[root], y = poly[(root + i) % np];
+        int64_t z = poly[(root + i + 1) % np];
+        s = apex_lower ? emit(d, apex, x, y, z, err) : emit(d, apex, z, y, x, err);
+    }
+    return s;
+}
+
+/* The fan from a new centre vertex at cpos over poly's edges, each triangle joined to apex. */
+static vm_status emit_centre_fan(dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                                 int np, const double cpos[3], vm_error *err) {
+    vm_status s =
+        vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + 1, 3 * sizeof(double), err);
+    if (s) return s;
+    memcpy(d->centre + 3 * d->ncentre, cpos, 3 * sizeof *cpos);
+    int64_t cid = vm__dc_npoints_real(d) + (int64_t)(d->nreps + d->ncentre++);
+    for (int i = 0; i < np && !s; i++) {
+        int64_t x = poly[i], y = poly[(i + 1) % np];
+        s = apex_lower ? emit(d, apex, cid, x, y, err) : emit(d, apex, y, x, cid, err);
+    }
+    return s;
+}
+
+/* The quad poly's pyramid: the diagonal split whose smaller tet is larger. */
+static vm_status emit_quad(dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                           vm_error *err) {
+    vm_status s = VM_OK;
     int64_t ta[2][4] = {{apex, poly[0], poly[1], poly[2]}, {apex, poly[0], poly[2], poly[3]}};
     int64_t tb[2][4] = {{apex, poly[1], poly[2], poly[3]}, {apex, poly[1], poly[3], poly[0]}};
     if (!apex_lower)
@@ -311,6 +350,23 @@ static vm_status emit_polygon(dc *d, int64_t apex, int apex_lower, const int64_t
     for (int t = 0; t < 2 && !s; t++)
         s = emit(d, best[t][0], best[t][1], best[t][2], best[t][3], err);
     return s;
+}
+
+/* The pyramid from apex over the polygon poly (counter-clockwise around the edge's axis;
+ * inserted[i]: poly[i] is the vertex of an ambiguous face), split as a fan from the root
+ * that gives the largest smallest volume, or from a new centre vertex. */
+static vm_status emit_polygon(dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                              const int *inserted, int np, vm_error *err) {
+    if (np == 3)
+        return apex_lower ? emit(d, apex, poly[0], poly[1], poly[2], err)
+                          : emit(d, apex, poly[2], poly[1], poly[0], err);
+    if (np <= 4) return emit_quad(d, apex, apex_lower, poly, err);
+    double best, cpos[3];
+    int best_root = best_fan_root(d, apex, apex_lower, poly, inserted, np, &best);
+    double worst_c = place_centre(d, apex, apex_lower, poly, np, cpos);
+    if (best_root >= 0 && best >= worst_c)
+        return emit_fan(d, apex, apex_lower, poly, np, best_root, err);
+    return emit_centre_fan(d, apex, apex_lower, poly, np, cpos, err);
 }
 
 /* A leaf seen from a position around an edge: 0 exterior cell, 1 fine boundary cell, 2 coarse
