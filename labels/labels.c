@@ -867,6 +867,11 @@ static double hex_volume_now(const lmesh *lm, size_t h, int tets) {
     return s;
 }
 
+/* Volume-keeping rounds (the last only applies the scales), and how far each aims below the
+ * tolerance (90 %: the error is only close to linear in the smoothing). */
+enum { KEEP_ROUNDS = 6 };
+static const double undershoot = 0.9;
+
 /* Smoothing rounds convex corners and thins 1-voxel structures, so it costs volume. Per label,
  * scale the smoothing of the vertices it touches until its volume is within tol of its voxel
  * count (the error is close to linear in the smoothing amount); a vertex shared by several
@@ -885,7 +890,7 @@ static vm_status keep_volumes(lmesh *lm, int K, int tets, double tol, vm_error *
         cnt[L] = 0;
     }
     for (size_t h = 0; h < lm->nh; h++) cnt[lm->hcode[h]]++;
-    for (int round = 0; round < 6; round++) {
+    for (int round = 0; round < KEEP_ROUNDS; round++) {
         for (size_t v = 0; v < lm->nv; v++)
             if (lm->lambda[v] > 0) lm->lambda[v] = 1;
         for (size_t h = 0; h < lm->nh; h++)
@@ -893,7 +898,7 @@ static vm_status keep_volumes(lmesh *lm, int K, int tets, double tol, vm_error *
                 size_t v = (size_t)lm->hex[8 * h + q];
                 if (lm->lambda[v] > g[lm->hcode[h]]) lm->lambda[v] = g[lm->hcode[h]];
             }
-        if (round == 5) break;
+        if (round == KEEP_ROUNDS - 1) break;
         for (int L = 0; L <= K; L++) vol[L] = 0;
         for (size_t h = 0; h < lm->nh; h++) vol[lm->hcode[h]] += hex_volume_now(lm, h, tets);
         int again = 0;
@@ -901,7 +906,7 @@ static vm_status keep_volumes(lmesh *lm, int K, int tets, double tol, vm_error *
             if (!cnt[L]) continue;
             double e = fabs(vol[L] - (double)cnt[L]) / (double)cnt[L];
             if (e <= tol) continue;
-            g[L] *= 0.9 * tol / e;
+            g[L] *= undershoot * tol / e;
             again = 1;
         }
         if (!again) break;
@@ -912,11 +917,16 @@ static vm_status keep_volumes(lmesh *lm, int K, int tets, double tol, vm_error *
     return VM_OK;
 }
 
+/* Relaxation rounds at most; the first RELAX_HALVINGS halve a vertex's smoothing, down to
+ * relax_floor (1/16), then it goes all the way to the cell centre. */
+enum { RELAX_ROUNDS = 64, RELAX_HALVINGS = 8 };
+static const double relax_floor = 1.0 / 16;
+
 /* Pulls the vertices of every element that is not clearly valid toward their cell centres
  * (halving, then all the way), where every element is a positive cube. */
 static size_t relax(lmesh *lm, int tets) {
     uint8_t *moved = calloc(lm->nv ? lm->nv : 1, 1);
-    for (int round = 0; round < 64; round++) {
+    for (int round = 0; round < RELAX_ROUNDS; round++) {
         size_t bad = 0;
         for (size_t h = 0; h < lm->nh; h++) {
             if (hex_ok(lm, h, tets)) continue;
@@ -924,7 +934,8 @@ static size_t relax(lmesh *lm, int tets) {
             for (int q = 0; q < 8; q++) {
                 size_t v = (size_t)lm->hex[8 * h + q];
                 if (lm->lambda[v] <= 0) continue;
-                lm->lambda[v] = round < 8 && lm->lambda[v] > 1.0 / 16 ? lm->lambda[v] * 0.5 : 0.0;
+                lm->lambda[v] =
+                    round < RELAX_HALVINGS && lm->lambda[v] > relax_floor ? lm->lambda[v] * 0.5 : 0.0;
                 if (moved) moved[v] = 1;
             }
         }

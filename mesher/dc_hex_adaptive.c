@@ -185,6 +185,27 @@ static void bcoord(const blocks *B, int64_t b, int64_t c[3]) {
     c[2] = b / (B->nb[0] * B->nb[1]);
 }
 
+/* A copy node steps one cell along each axis carrying more than this share of its sheet
+ * faces' summed normal (an axis-aligned face's normal has all of it, a diagonal's ~0.7). */
+static const double copy_axis_share = 0.3;
+
+/* The inward normal (into hex h) of its face f from the current positions, as the cross
+ * product of the face's diagonals; returns its length. */
+static double face_normal(const tmesh *t, size_t h, int f, double nrm[3]) {
+    const int32_t *c = t->conn + 8 * h;
+    double u[3], v[3];
+    const double *p0 = t->pos + 3 * c[hex_face[f][0]], *p1 = t->pos + 3 * c[hex_face[f][1]],
+                 *p2 = t->pos + 3 * c[hex_face[f][2]], *p3 = t->pos + 3 * c[hex_face[f][3]];
+    for (int a = 0; a < 3; a++) {
+        u[a] = p2[a] - p0[a];
+        v[a] = p3[a] - p1[a];
+    }
+    nrm[0] = -(u[1] * v[2] - u[2] * v[1]);
+    nrm[1] = -(u[2] * v[0] - u[0] * v[2]);
+    nrm[2] = -(u[0] * v[1] - u[1] * v[0]);
+    return sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+}
+
 /* One pillowing round along axis d: every non-coarse hex of block layer k is in the shrink
  * set S_k; the sheet is the set's faces toward a coarse hex or another layer. */
 static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_error *err) {
@@ -214,21 +235,8 @@ static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_er
             sheet[2 * ns] = (int32_t)h;
             sheet[2 * ns + 1] = f;
             ns++;
-            /* inward normal of the face (into h) from the current positions */
             const int32_t *c = t->conn + 8 * h;
-            double u[3], v[3], nrm[3];
-            const double *p0 = t->pos + 3 * c[hex_face[f][0]],
-                         *p1 = t->pos + 3 * c[hex_face[f][1]],
-                         *p2 = t->pos + 3 * c[hex_face[f][2]],
-                         *p3 = t->pos + 3 * c[hex_face[f][3]];
-            for (int a = 0; a < 3; a++) {
-                u[a] = p2[a] - p0[a];
-                v[a] = p3[a] - p1[a];
-            }
-            nrm[0] = -(u[1] * v[2] - u[2] * v[1]);
-            nrm[1] = -(u[2] * v[0] - u[0] * v[2]);
-            nrm[2] = -(u[0] * v[1] - u[1] * v[0]);
-            double l = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+            double nrm[3], l = face_normal(t, h, f, nrm);
             for (int i = 0; !s && i < 4; i++) {
                 int32_t node = c[hex_face[f][i]];
                 int64_t key = (int64_t)node * B->nb[d] + bc[d];
@@ -257,7 +265,7 @@ static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_er
         const double *q = acc + 3 * (i - nn0);
         double l = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
         for (int a = 0; a < 3 && l > 0; a++)
-            if (fabs(q[a]) > 0.3 * l) t->pos[3 * i + a] += q[a] > 0 ? sc : -sc;
+            if (fabs(q[a]) > copy_axis_share * l) t->pos[3 * i + a] += q[a] > 0 ? sc : -sc;
     }
     /* pillow hexes: the copy of each sheet face below, the face itself on top */
     for (size_t e = 0; !s && e < ns; e++) {
@@ -424,6 +432,13 @@ static double star_eval(star *S, const double x[3], double bound) {
     return worst < -1.0 ? -1.0 : worst;
 }
 
+/* The compass search: at most OPT_ROUNDS rounds, the first step a quarter cell shrinking by
+ * 0.9 per round, halved down to a hundredth of a cell; nodes whose worst corner is already
+ * above 0.3 stay; a move must gain more than round-off (1e-9). */
+enum { OPT_ROUNDS = 20 };
+static const double opt_first_step = 0.25, opt_step_decay = 0.9, opt_last_step = 0.01;
+static const double opt_good_sj = 0.3, opt_gain = 1e-9;
+
 /* Moves each free node (flag == 1) by compass search to raise the worst corner scaled
  * Jacobian of the hexes around it; a move is kept only if that worst corner goes up. Only
  * the four corners of each hex that move with the node are evaluated, and a trial stops at
@@ -462,15 +477,15 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
         {1, -1, 0},  {-1, 1, 0}, {-1, -1, 0}, {1, 0, 1},   {1, 0, -1},  {-1, 0, 1}, {-1, 0, -1},
         {0, 1, 1},   {0, 1, -1}, {0, -1, 1},  {0, -1, -1}, {1, 1, 1},   {1, 1, -1}, {1, -1, 1},
         {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1}, {-1, -1, 1}, {-1, -1, -1}};
-    for (int round = 0; round < 20; round++) {
-        double stepmax = 0.25 * sc * pow(0.9, round);
+    for (int round = 0; round < OPT_ROUNDS; round++) {
+        double stepmax = opt_first_step * sc * pow(opt_step_decay, round);
         size_t moved = 0;
         for (size_t v = 0; v < t->nn; v++) {
             if (!(flag[v] & 5) || (flag[v] & 2) || start[v] == start[v + 1]) continue;
             double best = star_load(&S, t, inc, start, (int32_t)v);
-            if (best > 0.3) continue;
+            if (best > opt_good_sj) continue;
             double *p = t->pos + 3 * v;
-            for (double step = stepmax; step > 0.01 * sc; step *= 0.5) {
+            for (double step = stepmax; step > opt_last_step * sc; step *= 0.5) {
                 int improved = 1;
                 while (improved) {
                     improved = 0;
@@ -479,8 +494,8 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
                         memcpy(x, p, sizeof x);
                         for (int a = 0; a < 3; a++)
                             x[a] += step * dir[d][a];
-                        double q = star_eval(&S, x, best + 1e-9);
-                        if (q > best + 1e-9) {
+                        double q = star_eval(&S, x, best + opt_gain);
+                        if (q > best + opt_gain) {
                             best = q;
                             improved = 1;
                             moved++;

@@ -8,6 +8,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* A representative's smoothing (lambda, then mu) stops halving below this and drops to 0:
+ * its vertex goes the rest of the way to the cell centre at once. */
+static const double relax_floor = 1.0 / 64;
+/* Rounds at most of relaxing non-positive tets, and of untangling crossing patches. */
+enum { RELAX_ROUNDS = 24, UNTANGLE_ROUNDS = 40 };
+
 static double orient(const double a[3], const double b[3], const double c[3],
                      const double e[3]) {
     double u[3], v[3], w[3];
@@ -1023,7 +1029,7 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     }
     size_t bad = 0;
-    for (int round = 0; round < 24; round++) {
+    for (int round = 0; round < RELAX_ROUNDS; round++) {
         bad = 0;
         memset(now, 0, d->nreps);
         for (size_t t = 0; t < d->ntets; t++) {
@@ -1034,12 +1040,12 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
             for (int k = 0; k < 4; k++)
                 if (v[k] >= N && (size_t)(v[k] - N) < d->nreps) {
                     size_t r = (size_t)(v[k] - N);
-                    d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * 0.5f : 0.0f;
+                    d->lambda[r] = d->lambda[r] > relax_floor ? d->lambda[r] * 0.5f : 0.0f;
                     /* A coarse leaf's vertex also moves toward the block centre: its mass
                      * point may lie outside the wedge that the grid edges on its faces
                      * leave it (the centre lies inside every one of them). */
                     if (d->ncoarse && r >= d->coarse_base)
-                        d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * 0.5f : 0.0f;
+                        d->mu[r] = d->mu[r] > relax_floor ? d->mu[r] * 0.5f : 0.0f;
                     touched[r] = now[r] = 1;
                 }
         }
@@ -1080,21 +1086,15 @@ static int bface_cmp(const void *x, const void *y) {
     return 0;
 }
 
-/* Counts the intersecting pairs of boundary triangles of the current tets (index space)
- * and marks the representatives at the corners of those triangles in mark[]. A grid point
- * off the box border is surrounded by tets, so only faces without such a corner are
- * candidates; of those, the ones used by a single tet are the boundary. */
-static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, vm_error *err) {
+/* The boundary faces of the tets (the faces of surface vertices that occur once), *nb of
+ * them, in *out (the caller frees it). */
+static vm_status boundary_faces(const dc *d, bface **out, size_t *nb_out, vm_error *err) {
     static const int tf[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
     int64_t N = vm__dc_npoints_real(d);
     bface *f = NULL;
-    int64_t *ids = NULL;
-    vm_index *tri = NULL;
-    double *pos = NULL;
-    uint8_t *flag = NULL;
     size_t nf = 0, cap = 0, nb = 0;
-    vm_status s = VM_OK;
-    *pairs = 0;
+    *out = NULL;
+    *nb_out = 0;
     for (size_t t = 0; t < d->ntets; t++) {
         int64_t v[4];
         tet_get(d, t, v);
@@ -1103,7 +1103,11 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
             surf[k] = v[k] >= N || vm__dc_vertex_planes(d, v[k]) != 0;
         for (int q = 0; q < 4; q++) {
             if (!surf[tf[q][0]] || !surf[tf[q][1]] || !surf[tf[q][2]]) continue;
-            if ((s = vm__grow((void **)&f, &cap, nf + 1, sizeof *f, err))) goto done;
+            vm_status s = vm__grow((void **)&f, &cap, nf + 1, sizeof *f, err);
+            if (s) {
+                free(f);
+                return s;
+            }
             bface *b = &f[nf++];
             int ord[3] = {0, 1, 2}; /* corners in increasing id order */
             for (int i = 1; i < 3; i++)
@@ -1126,11 +1130,30 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
         if (j == i + 1) f[nb++] = f[i];
         i = j;
     }
-    if (nb < 2) goto done;
-    if (nb < nf) { /* give back the faces dropped before the check's own arrays come */
+    if (nb >= 2 && nb < nf) { /* give back the faces dropped before the check's arrays come */
         bface *fit = realloc(f, nb * sizeof *f);
         if (fit) f = fit;
     }
+    *out = f;
+    *nb_out = nb;
+    return VM_OK;
+}
+
+/* Counts the intersecting pairs of boundary triangles of the current tets (index space)
+ * and marks the representatives at the corners of those triangles in mark[]. A grid point
+ * off the box border is surrounded by tets, so only faces without such a corner are
+ * candidates; of those, the ones used by a single tet are the boundary. */
+static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, vm_error *err) {
+    int64_t N = vm__dc_npoints_real(d);
+    bface *f = NULL;
+    int64_t *ids = NULL;
+    vm_index *tri = NULL;
+    double *pos = NULL;
+    uint8_t *flag = NULL;
+    size_t nb = 0;
+    *pairs = 0;
+    vm_status s = boundary_faces(d, &f, &nb, err);
+    if (s || nb < 2) goto done;
     /* The faces' corners as indices into their sorted distinct ids; then the faces go
      * before the positions and the check's own arrays come (a corner's id is ids[index]). */
     ids = malloc(3 * nb * sizeof *ids);
@@ -1205,7 +1228,7 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
         goto done;
     }
-    for (int round = 0; round < 40; round++) {
+    for (int round = 0; round < UNTANGLE_ROUNDS; round++) {
         memset(mark, 0, nr);
         if ((s = boundary_crossings(d, mark, &pairs, err)) || !pairs) break;
         size_t step = 0;
@@ -1214,9 +1237,9 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
             /* a quarter of the way at first; vertices that keep crossing go faster */
             float keep = ever[r] == 0 ? 0.75f : ever[r] == 1 ? 0.5f : 0.25f;
             if (d->lambda[r] > 0) {
-                d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * keep : 0.0f;
+                d->lambda[r] = d->lambda[r] > relax_floor ? d->lambda[r] * keep : 0.0f;
             } else if (d->mu[r] > 0 && vm__dc_rep_centre(d, r, NULL)) {
-                d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * keep : 0.0f;
+                d->mu[r] = d->mu[r] > relax_floor ? d->mu[r] * keep : 0.0f;
             } else {
                 continue;
             }

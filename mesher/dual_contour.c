@@ -294,6 +294,10 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
     return VM_OK;
 }
 
+/* Crossings keep this fraction of an edge away from its ends (2 %): no vertex on a grid
+ * point, no zero-length edge. */
+static const double crossing_margin = 0.02;
+
 /* Where the material boundary crosses the grid edge p0-p1 (one end inside): linear
  * interpolation against the bound the outside end violates, kept 2% away from the ends;
  * the normal is the interpolated gradient. Absolute index coordinates. */
@@ -305,8 +309,8 @@ static void edge_crossing(const dc *d, const int64_t p0[3], const int64_t p1[3],
     double fo = in0 ? f1 : f0;
     double bound = (g->has_hi && fo > g->hi) ? g->hi : g->lo;
     double t = (f1 != f0) ? (bound - f0) / (f1 - f0) : 0.5;
-    if (!(t >= 0.02)) t = 0.02;
-    if (t > 0.98) t = 0.98;
+    if (!(t >= crossing_margin)) t = crossing_margin;
+    if (t > 1 - crossing_margin) t = 1 - crossing_margin;
     double g0[3], g1[3];
     gradient(d, p0, g0);
     gradient(d, p1, g1);
