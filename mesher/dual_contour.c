@@ -167,22 +167,29 @@ static uint64_t grid_word(const dc *d, int64_t w, const int64_t dims[3], size_t 
     return word;
 }
 
+/* Fills the bit set bits over a grid of dims (n entries) with bit(d, c, count) per entry,
+ * word by word in parallel (threads never share a word); returns the sum of the counts. */
+static size_t fill_bits(const dc *d, uint64_t *bits, const int64_t dims[3], size_t n,
+                        int (*bit)(const dc *, const int64_t[3], size_t *)) {
+    size_t total = 0;
+    int64_t nw = (int64_t)(n / 64 + 1);
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static) reduction(+ : total)
+#endif
+    for (int64_t w = 0; w < nw; w++) {
+        size_t cnt = 0;
+        bits[w] = grid_word(d, w, dims, n, bit, &cnt);
+        total += cnt;
+    }
+    return total;
+}
+
 /* Marks the grid points in the material (d->in), word by word in parallel. */
 static vm_status classify(dc *d, vm_mesh_stats *st, vm_error *err) {
     size_t np = (size_t)(d->P[0] * d->P[1] * d->P[2]);
     d->in = bits_new(np);
     if (!d->in) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu points)", np);
-    size_t inside = 0;
-    int64_t nw = (int64_t)(np / 64 + 1);
-    /* word by word, so that threads never share a word */
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static) reduction(+ : inside)
-#endif
-    for (int64_t w = 0; w < nw; w++) {
-        size_t cnt = 0;
-        d->in[w] = grid_word(d, w, d->P, np, point_in, &cnt);
-        inside += cnt;
-    }
+    size_t inside = fill_bits(d, d->in, d->P, np, point_in);
     st->inside_voxels = inside;
     if (!inside) return vm_error_set(err, VM_ERR_EMPTY, "no grid point is in the material");
     return VM_OK;
@@ -220,17 +227,9 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
     d->bnd_rank = malloc((size_t)nw * sizeof *d->bnd_rank);
     if (!d->bnd || !d->bnd_rank)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
-    size_t reps = 0, interior = 0;
     /* The cell kinds first, in parallel word by word, then the boundary cells in order. The
      * last plane along each axis holds no cell (cells share the points' strides). */
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static) reduction(+ : interior)
-#endif
-    for (int64_t w = 0; w < nw; w++) {
-        size_t cnt = 0;
-        d->bnd[w] = grid_word(d, w, d->C, nc, cell_on_boundary, &cnt);
-        interior += cnt;
-    }
+    size_t reps = 0, interior = fill_bits(d, d->bnd, d->C, nc, cell_on_boundary);
     st->interior_cells += interior;
     uint32_t before = 0;
     for (int64_t w = 0; w < nw; w++) {
@@ -894,24 +893,23 @@ int32_t vm__dc_coarse_find(const dc *d, int64_t ci) {
     return lo < d->ncoarse && d->coarse_key[lo] == key ? (int32_t)lo : -1;
 }
 
+/* Puts cell c's code into the octree: coarse or fine boundary, interior, or none. */
+static void put_cell_code(void *ctx, const int64_t c[3]) {
+    dc *d = ctx;
+    int64_t ci = vm__dc_cidx(d, c[0], c[1], c[2]);
+    int code = d->coarse && vm__dc_bit(d->coarse, ci) ? VM_OCT_COARSE
+               : vm__dc_bit(d->bnd, ci)               ? VM_OCT_FINE
+               : vm__dc_in(d, ci)                     ? VM_OCT_LEVEL
+                                                      : VM_OCT_NONE;
+    if (code != VM_OCT_NONE) vm__octree_put(&d->oct, c, code);
+}
+
+/* Adaptive mode: the octree of interior leaves over the cells' kinds (d->oct). */
 static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error *err) {
     int64_t nc[3] = {d->n[0] - 1, d->n[1] - 1, d->n[2] - 1};
     vm_status s = vm__octree_init(&d->oct, nc, err);
     if (s) return s;
-    /* z layers start on a byte of the octree's codes: filled in parallel */
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static)
-#endif
-    for (int64_t k = 0; k < nc[2]; k++)
-        for (int64_t j = 0; j < nc[1]; j++)
-            for (int64_t i = 0; i < nc[0]; i++) {
-                int64_t ci = vm__dc_cidx(d, i, j, k);
-                int code = d->coarse && vm__dc_bit(d->coarse, ci) ? VM_OCT_COARSE
-                           : vm__dc_bit(d->bnd, ci)               ? VM_OCT_FINE
-                           : vm__dc_in(d, ci)                     ? VM_OCT_LEVEL
-                                                                  : VM_OCT_NONE;
-                if (code != VM_OCT_NONE) vm__octree_put(&d->oct, (int64_t[3]){i, j, k}, code);
-            }
+    vm__octree_each_cell(nc, put_cell_code, d); /* z layers in parallel */
     size_t leaves = 0;
     s = vm__octree_build(&d->oct, max_level, &leaves, err);
     d->adaptive = s == VM_OK;

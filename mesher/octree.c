@@ -150,10 +150,9 @@ typedef struct oct_pass {
     int64_t kb[3];       /* blocks per axis of keep */
 } oct_pass;
 
-/* Calls fn on every cell c, z layers in parallel: fn writes only at c (and so the same for
- * any thread count). */
-static void each_cell(const oct_pass *P, void (*fn)(const oct_pass *, const int64_t[3])) {
-    const int64_t *nc = P->o->nc;
+/* Calls fn on every cell, z layers in parallel (see mesher_internal.h). */
+void vm__octree_each_cell(const int64_t nc[3], void (*fn)(void *ctx, const int64_t c[3]),
+                          void *ctx) {
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
 #endif
@@ -161,12 +160,13 @@ static void each_cell(const oct_pass *P, void (*fn)(const oct_pass *, const int6
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
                 int64_t c[3] = {x, y, z};
-                fn(P, c);
+                fn(ctx, c);
             }
 }
 
 /* full at an inside cell: 1 (a cube of one cell). */
-static void seed_full(const oct_pass *P, const int64_t c[3]) {
+static void seed_full(void *ctx, const int64_t c[3]) {
+    const oct_pass *P = ctx;
     if (vm__octree_get(P->o, c) == VM_OCT_LEVEL) vm__octree_put(P->full, c, 1);
 }
 
@@ -174,7 +174,7 @@ static void seed_full(const oct_pass *P, const int64_t c[3]) {
  * inside (each level reads only the one below). */
 static void full_levels(const oct_pass *P) {
     const int64_t *nc = P->o->nc;
-    each_cell(P, seed_full);
+    vm__octree_each_cell(nc, seed_full, (void *)P);
     for (int l = 1; l <= P->max_level; l++) {
         int64_t s2 = (int64_t)1 << l, h = s2 / 2;
 #ifdef VM_HAVE_OPENMP
@@ -195,7 +195,8 @@ static void full_levels(const oct_pass *P) {
 }
 
 /* An inside cell's leaf: the largest inside cube holding it. */
-static void pick_leaf(const oct_pass *P, const int64_t c[3]) {
+static void pick_leaf(void *ctx, const int64_t c[3]) {
+    const oct_pass *P = ctx;
     if (vm__octree_get(P->o, c) != VM_OCT_LEVEL) return;
     int l = P->max_level;
     for (; l > 0; l--) {
@@ -274,7 +275,8 @@ static void leaf_costs(const vm__octree *o, uint8_t *keep, const int64_t kb[3]) 
 }
 
 /* A cell of a 2x2x2 leaf not kept returns to a single cell. */
-static void drop_costly(const oct_pass *P, const int64_t c[3]) {
+static void drop_costly(void *ctx, const int64_t c[3]) {
+    const oct_pass *P = ctx;
     if (vm__octree_get(P->o, c) != VM_OCT_LEVEL + 1) return;
     if (!P->keep[c[0] / 2 + P->kb[0] * (c[1] / 2 + P->kb[1] * (c[2] / 2))])
         vm__octree_put(P->o, c, VM_OCT_LEVEL);
@@ -308,7 +310,7 @@ vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_erro
     if (s) return s;
     oct_pass P = {.o = o, .full = &full, .max_level = max_level};
     full_levels(&P);
-    each_cell(&P, pick_leaf);
+    vm__octree_each_cell(nc, pick_leaf, &P);
     vm__octree_free(&full);
     P.full = NULL;
     balance(o);
@@ -323,7 +325,7 @@ vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_erro
     if (!keep) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
     leaf_costs(o, keep, P.kb);
     P.keep = keep;
-    each_cell(&P, drop_costly);
+    vm__octree_each_cell(nc, drop_costly, &P);
     free(keep);
     size_t count = count_leaves(o);
     if (leaves) *leaves = count;
