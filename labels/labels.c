@@ -29,6 +29,9 @@ void vm_label_stats_free(vm_label_stats *stats) {
     memset(stats, 0, sizeof *stats);
 }
 
+/* The floats that convert to an int32 label: -2^31, and the largest float below 2^31. */
+static const float label_min_f = -2147483648.0f, label_max_f = 2147483520.0f;
+
 /* ---- labels present and chosen ------------------------------------------------------- */
 
 typedef struct label_set {
@@ -84,7 +87,7 @@ static vm_status collect_labels(const vm_volume *v, label_set *s, vm_error *err)
             s->count[last]++;
             continue;
         }
-        if (!(f == floorf(f)) || f < -2147483648.0f || f > 2147483520.0f) {
+        if (!(f == floorf(f)) || f < label_min_f || f > label_max_f) {
             size_t nx = (size_t)v->dims[0], ny = (size_t)v->dims[1];
             return vm_error_set(err, VM_ERR_FORMAT,
                                 "mesh: voxel (%zu, %zu, %zu) holds %g, not an integer label "
@@ -443,6 +446,11 @@ static vm_status fix_until_clean(repair *r, size_t a, size_t b, size_t c, vm_err
     return VM_OK;
 }
 
+/* The topology repair's change budget: changes per voxel, and slack for tiny grids. */
+enum { REPAIR_CHANGES_PER_VOXEL = 4, REPAIR_CHANGES_SLACK = 1000 };
+
+/* Removes every critical configuration (C1, C2) by relabelling voxels, block by block, then
+ * the blocks the changes queued; *relabelled: the changes. */
 static vm_status make_well_composed(lgrid *g, size_t *relabelled, vm_error *err) {
     repair r;
     memset(&r, 0, sizeof r);
@@ -453,7 +461,8 @@ static vm_status make_well_composed(lgrid *g, size_t *relabelled, vm_error *err)
     if (!r.queued) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (topology)");
     vm_status st = VM_OK;
     /* the change budget guards the forced (rank-raising) moves from cycling */
-    size_t budget = 4 * (size_t)(g->m[0] * g->m[1] * g->m[2]) + 1000;
+    size_t budget = REPAIR_CHANGES_PER_VOXEL * (size_t)(g->m[0] * g->m[1] * g->m[2]) +
+                    REPAIR_CHANGES_SLACK;
     for (size_t c = 0; c < r.bm[2] && !st; c++)
         for (size_t b = 0; b < r.bm[1] && !st; b++)
             for (size_t a = 0; a < r.bm[0] && !st; a++)
