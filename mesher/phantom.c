@@ -29,6 +29,7 @@ static double torus(double x, double y, double z, double R, double r) {
     return r - sqrt(q * q + z * z);
 }
 
+/* The signed distance (> 0 inside) of shape s at index position (x, y, z). */
 static double field(const shape *s, double x, double y, double z) {
     double n1 = s->n1, dx = x - s->c[0], dy = y - s->c[1], dz = z - s->c[2];
     switch (s->kind) {
@@ -55,6 +56,7 @@ static double field(const shape *s, double x, double y, double z) {
     return -1.0;
 }
 
+/* The shape of a phantom of n^3 points: its size and centre. */
 static void make_shape(vm_phantom_kind kind, int n, shape *s) {
     s->kind = kind;
     s->n1 = n - 1;
@@ -74,6 +76,7 @@ static double numeric_volume(const shape *s, int sub) {
     return count * h * h * h;
 }
 
+/* The shape's volume inside the index box: closed form, numeric for the genus-3 solid. */
 static double exact_volume(const shape *s, int n) {
     double n1 = s->n1;
     switch (s->kind) {

@@ -52,6 +52,7 @@ static float select_kth(float *a, size_t n, size_t k) {
     return a[k];
 }
 
+/* The noise sigma: the MAD of the voxels' Laplacians (see volmesh/preprocess.h). */
 vm_status vm_denoise_noise_sigma(const vm_volume *v, double *sigma, vm_error *err) {
     const int64_t nx = v->dims[0], ny = v->dims[1], nz = v->dims[2];
     const int64_t n[3] = {nx, ny, nz};
@@ -115,6 +116,7 @@ double vm_denoise_diffusion_max_dt(const vm_volume *v) {
     return s > 0 ? 1.0 / (2.0 * s) : INFINITY;
 }
 
+/* Parameters from the noise and the spacing (see volmesh/preprocess.h). */
 vm_status vm_denoise_defaults(const vm_volume *v, vm_denoise_params *p, vm_error *err) {
     memset(p, 0, sizeof *p);
     vm_status st = vm_denoise_noise_sigma(v, &p->noise_sigma, err);
@@ -199,6 +201,7 @@ static void bilateral_slab(const vm_volume *in, const tap *taps, size_t ntap, co
     }
 }
 
+/* The bilateral filter (see volmesh/preprocess.h). */
 vm_status vm_denoise_bilateral(const vm_volume *in, double sigma_space, double sigma_range,
                                vm_volume *out, vm_progress_fn progress, void *user,
                                vm_error *err) {
@@ -352,6 +355,7 @@ static void diffuse_at(const diffusion *D, const int64_t idx[3], int64_t p) {
     D->next[p] = v;
 }
 
+/* Perona-Malik diffusion, explicit steps (see volmesh/preprocess.h). */
 vm_status vm_denoise_diffusion(const vm_volume *in, double kappa, double dt, int iterations,
                                vm_volume *out, vm_progress_fn progress, void *user,
                                vm_error *err) {
