@@ -29,6 +29,9 @@ void vm_label_stats_free(vm_label_stats *stats) {
     memset(stats, 0, sizeof *stats);
 }
 
+/* The floats that convert to an int32 label: -2^31, and the largest float below 2^31. */
+static const float label_min_f = -2147483648.0f, label_max_f = 2147483520.0f;
+
 /* ---- labels present and chosen ------------------------------------------------------- */
 
 typedef struct label_set {
@@ -37,16 +40,16 @@ typedef struct label_set {
     size_t n, cap;
 } label_set;
 
+/* Orders int32 values ascending (qsort, bsearch). */
+static int cmp_i32(const void *a, const void *b) {
+    int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Index of label x among the n distinct ascending labels val, -1 when absent. */
 static long find_label(const int32_t *val, size_t n, int32_t x) {
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t md = (lo + hi) / 2;
-        if (val[md] < x)
-            lo = md + 1;
-        else
-            hi = md;
-    }
-    return lo < n && val[lo] == x ? (long)lo : -1;
+    const int32_t *at = n ? bsearch(&x, val, n, sizeof *val, cmp_i32) : NULL;
+    return at ? (long)(at - val) : -1;
 }
 
 static vm_status set_add(label_set *s, int32_t x, size_t *slot, vm_error *err) {
@@ -84,7 +87,7 @@ static vm_status collect_labels(const vm_volume *v, label_set *s, vm_error *err)
             s->count[last]++;
             continue;
         }
-        if (!(f == floorf(f)) || f < -2147483648.0f || f > 2147483520.0f) {
+        if (!(f == floorf(f)) || f < label_min_f || f > label_max_f) {
             size_t nx = (size_t)v->dims[0], ny = (size_t)v->dims[1];
             return vm_error_set(err, VM_ERR_FORMAT,
                                 "mesh: voxel (%zu, %zu, %zu) holds %g, not an integer label "
@@ -338,13 +341,12 @@ static vm_status set_code(repair *r, size_t p, uint16_t code, vm_error *err) {
 
 /* Tries to give voxel p (corner `at` of the block) the code `to`: only when it is not
  * padding and the change lowers its rank (so repairs terminate: the sum of ranks falls). */
-static int try_set(repair *r, const size_t vox[8], const uint16_t cd[8], int at, int to,
-                   int *done, vm_status *st, vm_error *err) {
-    if (*done || cd[at] == to || is_pad(r->g, vox[at])) return 0;
-    if (rank_of(r->g, to) >= rank_of(r->g, cd[at])) return 0;
+static void try_set(repair *r, const size_t vox[8], const uint16_t cd[8], int at, int to,
+                    int *done, vm_status *st, vm_error *err) {
+    if (*done || cd[at] == to || is_pad(r->g, vox[at])) return;
+    if (rank_of(r->g, to) >= rank_of(r->g, cd[at])) return;
     *st = set_code(r, vox[at], (uint16_t)to, err);
     *done = 1;
-    return 1;
 }
 
 /* Same without the rank condition, for the (never observed) case of no decreasing choice. */
@@ -357,9 +359,11 @@ static void force_set(repair *r, const size_t vox[8], const uint16_t cd[8], int 
 }
 
 /* Finds one critical configuration in the block with lowest corner (a,b,c) and removes it by
- * one relabelling. Returns 1 when something changed. */
-static int fix_block(repair *r, size_t a, size_t b, size_t c, vm_status *st, vm_error *err) {
+ * one relabelling; *changed: whether something changed. */
+static vm_status fix_block(repair *r, size_t a, size_t b, size_t c, int *changed,
+                           vm_error *err) {
     lgrid *g = r->g;
+    vm_status status = VM_OK, *st = &status;
     size_t vox[8];
     uint16_t cd[8];
     for (int q = 0; q < 8; q++) {
@@ -429,9 +433,24 @@ static int fix_block(repair *r, size_t a, size_t b, size_t c, vm_status *st, vm_
         }
         if (!done) r->forced++;
     }
-    return done;
+    *changed = done;
+    return status;
 }
 
+/* Fixes the block with lowest corner (a, b, c) until it holds no critical configuration. */
+static vm_status fix_until_clean(repair *r, size_t a, size_t b, size_t c, vm_error *err) {
+    for (int changed = 1; changed;) {
+        vm_status st = fix_block(r, a, b, c, &changed, err);
+        if (st) return st;
+    }
+    return VM_OK;
+}
+
+/* The topology repair's change budget: changes per voxel, and slack for tiny grids. */
+enum { REPAIR_CHANGES_PER_VOXEL = 4, REPAIR_CHANGES_SLACK = 1000 };
+
+/* Removes every critical configuration (C1, C2) by relabelling voxels, block by block, then
+ * the blocks the changes queued; *relabelled: the changes. */
 static vm_status make_well_composed(lgrid *g, size_t *relabelled, vm_error *err) {
     repair r;
     memset(&r, 0, sizeof r);
@@ -442,18 +461,17 @@ static vm_status make_well_composed(lgrid *g, size_t *relabelled, vm_error *err)
     if (!r.queued) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (topology)");
     vm_status st = VM_OK;
     /* the change budget guards the forced (rank-raising) moves from cycling */
-    size_t budget = 4 * (size_t)(g->m[0] * g->m[1] * g->m[2]) + 1000;
+    size_t budget = REPAIR_CHANGES_PER_VOXEL * (size_t)(g->m[0] * g->m[1] * g->m[2]) +
+                    REPAIR_CHANGES_SLACK;
     for (size_t c = 0; c < r.bm[2] && !st; c++)
         for (size_t b = 0; b < r.bm[1] && !st; b++)
             for (size_t a = 0; a < r.bm[0] && !st; a++)
-                while (!st && fix_block(&r, a, b, c, &st, err)) {
-                }
+                st = fix_until_clean(&r, a, b, c, err);
     while (!st && r.n > 0 && r.changes < budget) {
         size_t blk = r.queue[--r.n];
         r.queued[blk] = 0;
         size_t a = blk % r.bm[0], b = (blk / r.bm[0]) % r.bm[1], c = blk / (r.bm[0] * r.bm[1]);
-        while (!st && fix_block(&r, a, b, c, &st, err)) {
-        }
+        st = fix_until_clean(&r, a, b, c, err);
     }
     if (!st && r.n > 0)
         st = vm_error_set(err, VM_ERR_INTERNAL,
@@ -858,6 +876,11 @@ static double hex_volume_now(const lmesh *lm, size_t h, int tets) {
     return s;
 }
 
+/* Volume-keeping rounds (the last only applies the scales), and how far each aims below the
+ * tolerance (90 %: the error is only close to linear in the smoothing). */
+enum { KEEP_ROUNDS = 6 };
+static const double undershoot = 0.9;
+
 /* Smoothing rounds convex corners and thins 1-voxel structures, so it costs volume. Per label,
  * scale the smoothing of the vertices it touches until its volume is within tol of its voxel
  * count (the error is close to linear in the smoothing amount); a vertex shared by several
@@ -876,7 +899,7 @@ static vm_status keep_volumes(lmesh *lm, int K, int tets, double tol, vm_error *
         cnt[L] = 0;
     }
     for (size_t h = 0; h < lm->nh; h++) cnt[lm->hcode[h]]++;
-    for (int round = 0; round < 6; round++) {
+    for (int round = 0; round < KEEP_ROUNDS; round++) {
         for (size_t v = 0; v < lm->nv; v++)
             if (lm->lambda[v] > 0) lm->lambda[v] = 1;
         for (size_t h = 0; h < lm->nh; h++)
@@ -884,7 +907,7 @@ static vm_status keep_volumes(lmesh *lm, int K, int tets, double tol, vm_error *
                 size_t v = (size_t)lm->hex[8 * h + q];
                 if (lm->lambda[v] > g[lm->hcode[h]]) lm->lambda[v] = g[lm->hcode[h]];
             }
-        if (round == 5) break;
+        if (round == KEEP_ROUNDS - 1) break;
         for (int L = 0; L <= K; L++) vol[L] = 0;
         for (size_t h = 0; h < lm->nh; h++) vol[lm->hcode[h]] += hex_volume_now(lm, h, tets);
         int again = 0;
@@ -892,7 +915,7 @@ static vm_status keep_volumes(lmesh *lm, int K, int tets, double tol, vm_error *
             if (!cnt[L]) continue;
             double e = fabs(vol[L] - (double)cnt[L]) / (double)cnt[L];
             if (e <= tol) continue;
-            g[L] *= 0.9 * tol / e;
+            g[L] *= undershoot * tol / e;
             again = 1;
         }
         if (!again) break;
@@ -903,11 +926,16 @@ static vm_status keep_volumes(lmesh *lm, int K, int tets, double tol, vm_error *
     return VM_OK;
 }
 
+/* Relaxation rounds at most; the first RELAX_HALVINGS halve a vertex's smoothing, down to
+ * relax_floor (1/16), then it goes all the way to the cell centre. */
+enum { RELAX_ROUNDS = 64, RELAX_HALVINGS = 8 };
+static const double relax_floor = 1.0 / 16;
+
 /* Pulls the vertices of every element that is not clearly valid toward their cell centres
  * (halving, then all the way), where every element is a positive cube. */
 static size_t relax(lmesh *lm, int tets) {
     uint8_t *moved = calloc(lm->nv ? lm->nv : 1, 1);
-    for (int round = 0; round < 64; round++) {
+    for (int round = 0; round < RELAX_ROUNDS; round++) {
         size_t bad = 0;
         for (size_t h = 0; h < lm->nh; h++) {
             if (hex_ok(lm, h, tets)) continue;
@@ -915,7 +943,8 @@ static size_t relax(lmesh *lm, int tets) {
             for (int q = 0; q < 8; q++) {
                 size_t v = (size_t)lm->hex[8 * h + q];
                 if (lm->lambda[v] <= 0) continue;
-                lm->lambda[v] = round < 8 && lm->lambda[v] > 1.0 / 16 ? lm->lambda[v] * 0.5 : 0.0;
+                lm->lambda[v] =
+                    round < RELAX_HALVINGS && lm->lambda[v] > relax_floor ? lm->lambda[v] * 0.5 : 0.0;
                 if (moved) moved[v] = 1;
             }
         }
@@ -929,219 +958,285 @@ static size_t relax(lmesh *lm, int tets) {
 
 /* ---- the public entry ---------------------------------------------------------------- */
 
-static int cmp_i32(const void *a, const void *b) {
-    int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
-    return (x > y) - (x < y);
+/* Largest cell size, and largest size of one label, in voxels. */
+enum { MAX_CELL_SIZE = 1024 };
+/* Most labels: codes are uint16_t with 0 the background (one value kept spare). */
+enum { MAX_LABELS = 65534 };
+/* Deepest octree level a label may reach. */
+enum { MAX_LEVEL = 10 };
+/* Finest refinement of a voxel per axis (sizes down to 1/8 voxel). */
+enum { MAX_REFINE = 8 };
+/* Round-off guard when sizes given as decimals are rounded to whole ratios (1/0.2 is 5). */
+static const double ratio_eps = 1e-9;
+/* Each label's volume is kept to within this fraction by the smoothing (1 %). */
+static const double keep_volume_tol = 0.01;
+/* A vertex this close (in cells) to its cell centre counts as not smoothed. */
+static const double centre_eps = 1e-12;
+
+/* One vm_mesh_labels run: what each stage hands to the next. */
+typedef struct lrun {
+    const vm_volume *v;
+    const vm_label_options *o;
+    int tets;          /* tets, else hexes */
+    label_set present; /* the labels in the volume, with their voxel counts */
+    int32_t *chosen;   /* the K labels meshed, ascending (code c is chosen[c - 1]) */
+    size_t K;
+    double *lsize;    /* per code: the label's cell size, in voxels */
+    int *lmax;        /* per code: the deepest octree level the label may reach */
+    int S, U, coarse; /* voxels per cell (S) or cells per voxel (U); some label coarser */
+    double h;         /* the finest cell size, in voxels */
+    lgrid g;
+    int8_t *lvl; /* octree levels (build_leaves); NULL when nothing is coarser */
+    lmesh lm;
+    vm_label_info *info; /* per code - 1 */
+    size_t islands, topo, nleaves, relaxed, smoothed;
+} lrun;
+
+/* Frees what the stages allocated (not the mesh). */
+static void lrun_free(lrun *R) {
+    free(R->present.val);
+    free(R->present.count);
+    free(R->chosen);
+    free(R->g.code);
+    free(R->g.rank);
+    free(R->lm.vid);
+    free(R->lm.vcell);
+    free(R->lm.target);
+    free(R->lm.lambda);
+    free(R->lm.hex);
+    free(R->lm.hcode);
+    free(R->lm.ct);
+    free(R->lm.ctcode);
+    free(R->lvl);
+    free(R->lsize);
+    free(R->lmax);
+    free(R->info);
 }
 
-vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh *mesh,
-                         vm_label_stats *stats, vm_error *err) {
-    double t0 = vm__now();
-    int tets = o->elements != VM_HEX8;
-    vm_mesh_init(mesh, tets ? VM_TET4 : VM_HEX8);
-    if (stats) memset(stats, 0, sizeof *stats);
+/* Checks the options that need no volume. */
+static vm_status check_options(const vm_label_options *o, vm_error *err) {
     if (o->elements != VM_TET4 && o->elements != VM_HEX8)
         return vm_error_set(err, VM_ERR_ARG, "mesh: elements must be tetrahedra or hexahedra");
-    if (o->cell_size < 1 || o->cell_size > 1024)
-        return vm_error_set(err, VM_ERR_ARG, "mesh: cell size %d is outside 1..1024", o->cell_size);
+    if (o->cell_size < 1 || o->cell_size > MAX_CELL_SIZE)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: cell size %d is outside 1..1024",
+                            o->cell_size);
     if (o->labels == NULL && o->nlabels > 0)
-        return vm_error_set(err, VM_ERR_ARG, "mesh: %zu labels given without a list", o->nlabels);
+        return vm_error_set(err, VM_ERR_ARG, "mesh: %zu labels given without a list",
+                            o->nlabels);
+    return VM_OK;
+}
 
-    label_set present;
-    memset(&present, 0, sizeof present);
-    int32_t *chosen = NULL;
-    lgrid g;
-    memset(&g, 0, sizeof g);
-    lmesh lm;
-    memset(&lm, 0, sizeof lm);
-    vm_label_info *info = NULL;
-    size_t K = 0, islands = 0, topo = 0, nleaves = 0;
-    double *lsize = NULL;
-    int *lmax = NULL;
-    int8_t *lvl = NULL;
-    vm_status st = collect_labels(v, &present, err);
-    if (st) goto done;
+/* The labels to mesh (R->chosen, R->K of them, ascending): the listed ones, each of which
+ * must be in the volume, or else every label in it but 0. */
+static vm_status choose_labels(lrun *R, vm_error *err) {
+    const vm_label_options *o = R->o;
+    const label_set *present = &R->present;
+    vm_status st = collect_labels(R->v, &R->present, err);
+    if (st) return st;
+    size_t K = 0;
     if (o->labels) {
-        chosen = malloc((o->nlabels ? o->nlabels : 1) * sizeof *chosen);
-        if (!chosen) {
-            st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-            goto done;
-        }
+        R->chosen = malloc((o->nlabels ? o->nlabels : 1) * sizeof *R->chosen);
+        if (!R->chosen) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        int32_t *chosen = R->chosen;
         memcpy(chosen, o->labels, o->nlabels * sizeof *chosen);
         qsort(chosen, o->nlabels, sizeof *chosen, cmp_i32);
         for (size_t i = 0; i < o->nlabels; i++) {
             if (K > 0 && chosen[K - 1] == chosen[i]) continue;
-            if (find_label(present.val, present.n, chosen[i]) < 0) {
+            if (find_label(present->val, present->n, chosen[i]) < 0) {
                 char list[300];
-                format_labels(&present, list, sizeof list);
-                st = vm_error_set(err, VM_ERR_EMPTY,
-                                  "mesh: label %ld is not in the volume (labels present: %s)",
-                                  (long)chosen[i], list);
-                goto done;
+                format_labels(present, list, sizeof list);
+                return vm_error_set(err, VM_ERR_EMPTY,
+                                    "mesh: label %ld is not in the volume (labels present: %s)",
+                                    (long)chosen[i], list);
             }
             chosen[K++] = chosen[i];
         }
     } else {
-        chosen = malloc((present.n ? present.n : 1) * sizeof *chosen);
-        if (!chosen) {
-            st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-            goto done;
-        }
-        for (size_t i = 0; i < present.n; i++)
-            if (present.val[i] != 0) chosen[K++] = present.val[i];
+        R->chosen = malloc((present->n ? present->n : 1) * sizeof *R->chosen);
+        if (!R->chosen) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        for (size_t i = 0; i < present->n; i++)
+            if (present->val[i] != 0) R->chosen[K++] = present->val[i];
     }
-    if (K == 0) {
-        st = vm_error_set(err, VM_ERR_EMPTY, "mesh: the volume holds no label other than 0");
-        goto done;
-    }
-    if (K > 65534) {
-        st = vm_error_set(err, VM_ERR_UNSUPPORTED, "mesh: %zu labels chosen; at most 65534", K);
-        goto done;
-    }
-    /* sizes: the finest h, and the octree level each label may reach */
-    if (o->adaptive && (o->max_level < 1 || o->max_level > 10)) {
-        st = vm_error_set(err, VM_ERR_ARG, "mesh: max level %d is outside 1..10", o->max_level);
-        goto done;
-    }
-    if (o->nsizes && !o->sizes) {
-        st = vm_error_set(err, VM_ERR_ARG, "mesh: %zu label sizes given without a list",
-                          o->nsizes);
-        goto done;
-    }
-    lsize = malloc((K + 1) * sizeof *lsize);
-    lmax = calloc(K + 1, sizeof *lmax);
-    if (!lsize || !lmax) {
-        st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-        goto done;
-    }
-    for (size_t c = 0; c <= K; c++) lsize[c] = -1;
-    double hmin = o->cell_size;
+    R->K = K;
+    if (K == 0)
+        return vm_error_set(err, VM_ERR_EMPTY, "mesh: the volume holds no label other than 0");
+    if (K > MAX_LABELS)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "mesh: %zu labels chosen; at most 65534",
+                            K);
+    return VM_OK;
+}
+
+/* Reads the per-label sizes into R->lsize (-1 where none is given); *hmin: the smallest
+ * size, the cell size when it is smaller. */
+static vm_status read_sizes(lrun *R, double *hmin, vm_error *err) {
+    const vm_label_options *o = R->o;
+    for (size_t c = 0; c <= R->K; c++)
+        R->lsize[c] = -1;
+    *hmin = o->cell_size;
     for (size_t i = 0; i < o->nsizes; i++) {
         const vm_label_size *ls = &o->sizes[i];
-        long f = find_label(chosen, K, ls->label);
-        if (f < 0) {
-            st = vm_error_set(err, VM_ERR_ARG,
-                              "mesh: a size is given for label %ld, which is not meshed (not in "
-                              "the volume or not chosen)",
-                              (long)ls->label);
-            goto done;
-        }
-        if (!(ls->size > 0) || !isfinite(ls->size) || ls->size > 1024) {
-            st = vm_error_set(err, VM_ERR_ARG, "mesh: size %g of label %ld is not in (0, 1024]",
-                              ls->size, (long)ls->label);
-            goto done;
-        }
-        if (lsize[f + 1] > 0) {
-            st = vm_error_set(err, VM_ERR_ARG, "mesh: label %ld has two sizes", (long)ls->label);
-            goto done;
-        }
-        lsize[f + 1] = ls->size;
-        if (ls->size < hmin) hmin = ls->size;
+        long f = find_label(R->chosen, R->K, ls->label);
+        if (f < 0)
+            return vm_error_set(err, VM_ERR_ARG,
+                                "mesh: a size is given for label %ld, which is not meshed (not "
+                                "in the volume or not chosen)",
+                                (long)ls->label);
+        if (!(ls->size > 0) || !isfinite(ls->size) || ls->size > MAX_CELL_SIZE)
+            return vm_error_set(err, VM_ERR_ARG,
+                                "mesh: size %g of label %ld is not in (0, 1024]", ls->size,
+                                (long)ls->label);
+        if (R->lsize[f + 1] > 0)
+            return vm_error_set(err, VM_ERR_ARG, "mesh: label %ld has two sizes",
+                                (long)ls->label);
+        R->lsize[f + 1] = ls->size;
+        if (ls->size < *hmin) *hmin = ls->size;
     }
+    return VM_OK;
+}
+
+/* The finest cell size R->h (from S voxels per cell or U cells per voxel), then each label's
+ * size and the octree level it may reach (R->lmax; R->coarse when some is above 0). */
+static vm_status label_sizes(lrun *R, vm_error *err) {
+    const vm_label_options *o = R->o;
+    if (o->adaptive && (o->max_level < 1 || o->max_level > MAX_LEVEL))
+        return vm_error_set(err, VM_ERR_ARG, "mesh: max level %d is outside 1..10",
+                            o->max_level);
+    if (o->nsizes && !o->sizes)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: %zu label sizes given without a list",
+                            o->nsizes);
+    R->lsize = malloc((R->K + 1) * sizeof *R->lsize);
+    R->lmax = calloc(R->K + 1, sizeof *R->lmax);
+    if (!R->lsize || !R->lmax) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    double hmin;
+    vm_status st = read_sizes(R, &hmin, err);
+    if (st) return st;
     int S = o->cell_size, U = 1;
     double h = S;
     if (hmin < 1) {
-        U = (int)ceil(1.0 / hmin - 1e-9);
-        if (U > 8) {
-            st = vm_error_set(err, VM_ERR_ARG,
-                              "mesh: sizes below 1/8 voxel (%g) are not supported", hmin);
-            goto done;
-        }
+        U = (int)ceil(1.0 / hmin - ratio_eps);
+        if (U > MAX_REFINE)
+            return vm_error_set(err, VM_ERR_ARG,
+                                "mesh: sizes below 1/8 voxel (%g) are not supported", hmin);
         S = 1;
         h = 1.0 / U;
     } else if (hmin < S) {
-        S = (int)floor(hmin + 1e-9);
+        S = (int)floor(hmin + ratio_eps);
         h = S;
     }
-    int coarse = 0;
-    for (size_t c = 1; c <= K; c++) {
-        if (lsize[c] < 0)
-            lsize[c] = o->adaptive ? h * (double)(1 << o->max_level) : (double)o->cell_size;
-        int l = (int)floor(log2(lsize[c] / h) + 1e-9);
-        lmax[c] = l < 0 ? 0 : l > 10 ? 10 : l;
-        coarse |= lmax[c] > 0;
+    R->S = S;
+    R->U = U;
+    R->h = h;
+    for (size_t c = 1; c <= R->K; c++) {
+        if (R->lsize[c] < 0)
+            R->lsize[c] = o->adaptive ? h * (double)(1 << o->max_level) : (double)o->cell_size;
+        int l = (int)floor(log2(R->lsize[c] / h) + ratio_eps);
+        R->lmax[c] = l < 0 ? 0 : l > MAX_LEVEL ? MAX_LEVEL : l;
+        R->coarse |= R->lmax[c] > 0;
     }
-    if (coarse && !tets) {
-        st = vm_error_set(err, VM_ERR_UNSUPPORTED,
-                          "mesh: labels with cells coarser than the finest (per-label sizes, "
-                          "adaptive) need tets, not hexes");
-        goto done;
-    }
-    if (o->progress) o->progress("labels", 0, 4, o->progress_user);
-    st = build_grid(v, chosen, (int)K, S, U, &g, err);
-    if (!st && o->min_island > 1) st = remove_islands(&g, o->min_island, &islands, err);
-    double t1 = vm__now();
-    if (!st) st = make_ranks(&g, err);
-    if (!st) st = make_well_composed(&g, &topo, err);
-    if (st) goto done;
-    if (coarse) st = build_leaves(&g, lmax, &lvl, &nleaves, err);
-    if (st) goto done;
-    double t2 = vm__now();
-    if (o->progress) o->progress("labels", 1, 4, o->progress_user);
-    lm.g = &g;
-    kuhn_table(lm.kuhn);
-    lm.lvl = lvl;
-    for (int d = 0; d < 3; d++) lm.scale[d] = h * v->spacing[d];
-    st = build_hexes(&lm, o->smooth, err);
-    if (!st && lvl) st = build_leaf_tets(&lm, err);
-    if (st) goto done;
-    if (lm.nh == 0 && lm.nct == 0) {
-        st = vm_error_set(err, VM_ERR_EMPTY,
-                          "mesh: no voxel of the chosen labels is left (--size or --min-island "
-                          "removed them all)");
-        goto done;
-    }
-    if (o->progress) o->progress("labels", 2, 4, o->progress_user);
-    if (o->smooth) st = keep_volumes(&lm, (int)K, tets, 0.01, err);
-    if (st) goto done;
-    size_t relaxed = relax(&lm, tets);
-    if (o->progress) o->progress("labels", 3, 4, o->progress_user);
+    if (R->coarse && !R->tets)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "mesh: labels with cells coarser than the finest (per-label sizes, "
+                            "adaptive) need tets, not hexes");
+    return VM_OK;
+}
 
-    /* the mesh in world coordinates */
-    size_t ncells = tets ? 6 * lm.nh + lm.nct : lm.nh;
-    st = vm_mesh_reserve(mesh, lm.nv, ncells, err);
-    if (st) goto done;
-    size_t smoothed = 0;
-    for (size_t i = 0; i < lm.nv; i++) {
+/* Stage 1 (stats->seconds_grid): the labels and their sizes, and the code grid without the
+ * islands below min_island voxels. */
+static vm_status stage_grid(lrun *R, vm_error *err) {
+    const vm_label_options *o = R->o;
+    vm_status st = choose_labels(R, err);
+    if (!st) st = label_sizes(R, err);
+    if (st) return st;
+    if (o->progress) o->progress("labels", 0, 4, o->progress_user);
+    st = build_grid(R->v, R->chosen, (int)R->K, R->S, R->U, &R->g, err);
+    if (!st && o->min_island > 1) st = remove_islands(&R->g, o->min_island, &R->islands, err);
+    return st;
+}
+
+/* Stage 2 (stats->seconds_repair): the repair ranks, the well-composed repair, and the octree
+ * leaves of the coarser labels. */
+static vm_status stage_repair(lrun *R, vm_error *err) {
+    vm_status st = make_ranks(&R->g, err);
+    if (!st) st = make_well_composed(&R->g, &R->topo, err);
+    if (!st && R->coarse) st = build_leaves(&R->g, R->lmax, &R->lvl, &R->nleaves, err);
+    return st;
+}
+
+/* The elements: one hex per labelled voxel (split into tets when written), the tets of the
+ * coarse leaves. */
+static vm_status build_elements(lrun *R, vm_error *err) {
+    lmesh *lm = &R->lm;
+    lm->g = &R->g;
+    kuhn_table(lm->kuhn);
+    lm->lvl = R->lvl;
+    for (int d = 0; d < 3; d++)
+        lm->scale[d] = R->h * R->v->spacing[d];
+    vm_status st = build_hexes(lm, R->o->smooth, err);
+    if (!st && R->lvl) st = build_leaf_tets(lm, err);
+    if (st) return st;
+    if (lm->nh == 0 && lm->nct == 0)
+        return vm_error_set(
+            err, VM_ERR_EMPTY,
+            "mesh: no voxel of the chosen labels is left (--size or --min-island "
+            "removed them all)");
+    return VM_OK;
+}
+
+/* Writes the vertices in world coordinates (room reserved for the cells too); counts in
+ * R->smoothed those that smoothing moved off their cell centre. */
+static vm_status write_points(lrun *R, vm_mesh *mesh, vm_error *err) {
+    const lmesh *lm = &R->lm;
+    double h = R->h;
+    size_t ncells = R->tets ? 6 * lm->nh + lm->nct : lm->nh;
+    vm_status st = vm_mesh_reserve(mesh, lm->nv, ncells, err);
+    if (st) return st;
+    for (size_t i = 0; i < lm->nv; i++) {
         double x[3], ijk[3];
-        vertex_pos(&lm, i, x);
-        if (lm.lambda[i] > 0) {
-            size_t cell = lm.vcell[i];
-            size_t a[3] = {cell % lm.cm[0], (cell / lm.cm[0]) % lm.cm[1], cell / (lm.cm[0] * lm.cm[1])};
+        vertex_pos(lm, i, x);
+        if (lm->lambda[i] > 0) {
+            size_t cell = lm->vcell[i];
+            size_t a[3] = {cell % lm->cm[0], (cell / lm->cm[0]) % lm->cm[1],
+                           cell / (lm->cm[0] * lm->cm[1])};
             for (int d = 0; d < 3; d++)
-                if (fabs(x[d] - ((double)a[d] - 0.5)) > 1e-12) {
-                    smoothed++;
+                if (fabs(x[d] - ((double)a[d] - 0.5)) > centre_eps) {
+                    R->smoothed++;
                     break;
                 }
         }
-        for (int d = 0; d < 3; d++) ijk[d] = h * x[d] + 0.5 * (h - 1);
-        vm_volume_index_to_world(v, ijk, mesh->points + 3 * i);
+        for (int d = 0; d < 3; d++)
+            ijk[d] = h * x[d] + 0.5 * (h - 1);
+        vm_volume_index_to_world(R->v, ijk, mesh->points + 3 * i);
     }
-    mesh->npoints = lm.nv;
-    int flip = vm_volume_frame_determinant(v) < 0;
-    info = calloc(K, sizeof *info);
-    if (!info) {
-        st = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-        goto done;
-    }
-    for (size_t e = 0; e < lm.nh; e++) {
-        const int32_t *c = lm.hex + 8 * e;
-        int32_t region = chosen[lm.hcode[e] - 1];
-        vm_label_info *li = &info[lm.hcode[e] - 1];
+    mesh->npoints = lm->nv;
+    return VM_OK;
+}
+
+/* Appends the hexes (6 Kuhn tets each with tets), adding to each label's elements and
+ * volume; flip: the volume's frame is left-handed. */
+static void write_hexes(const lrun *R, vm_mesh *mesh, int flip) {
+    const lmesh *lm = &R->lm;
+    int tets = R->tets;
+    for (size_t e = 0; e < lm->nh; e++) {
+        const int32_t *c = lm->hex + 8 * e;
+        int32_t region = R->chosen[lm->hcode[e] - 1];
+        vm_label_info *li = &R->info[lm->hcode[e] - 1];
         for (int t = 0; t < (tets ? 6 : 1); t++) {
             vm_index *dst = mesh->cells + (size_t)vm_cell_nodes(mesh->kind) * mesh->ncells;
             double p[8][3];
             if (tets) {
-                for (int q = 0; q < 4; q++) dst[q] = c[bit_to_vtk(lm.kuhn[t][q])];
+                for (int q = 0; q < 4; q++)
+                    dst[q] = c[bit_to_vtk(lm->kuhn[t][q])];
                 if (flip) {
                     vm_index s = dst[1];
                     dst[1] = dst[2];
                     dst[2] = s;
                 }
-                for (int q = 0; q < 4; q++) memcpy(p[q], mesh->points + 3 * (size_t)dst[q], sizeof p[q]);
+                for (int q = 0; q < 4; q++)
+                    memcpy(p[q], mesh->points + 3 * (size_t)dst[q], sizeof p[q]);
                 li->mesh_volume += vm_tet_signed_volume((const double(*)[3])p);
             } else {
-                for (int q = 0; q < 8; q++) dst[q] = c[q];
+                for (int q = 0; q < 8; q++)
+                    dst[q] = c[q];
                 if (flip) {
                     vm_index s = dst[1];
                     dst[1] = dst[3];
@@ -1150,72 +1245,112 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
                     dst[5] = dst[7];
                     dst[7] = s;
                 }
-                for (int q = 0; q < 8; q++) memcpy(p[q], mesh->points + 3 * (size_t)dst[q], sizeof p[q]);
+                for (int q = 0; q < 8; q++)
+                    memcpy(p[q], mesh->points + 3 * (size_t)dst[q], sizeof p[q]);
                 li->mesh_volume += vm_hex_volume((const double(*)[3])p);
             }
             mesh->region[mesh->ncells++] = region;
             li->elements++;
         }
     }
-    for (size_t e = 0; e < lm.nct; e++) {
+}
+
+/* Appends the coarse leaves' tets, adding to each label's elements and volume. */
+static void write_leaf_tets(const lrun *R, vm_mesh *mesh, int flip) {
+    const lmesh *lm = &R->lm;
+    for (size_t e = 0; e < lm->nct; e++) {
         vm_index *dst = mesh->cells + 4 * mesh->ncells;
-        for (int q = 0; q < 4; q++) dst[q] = lm.ct[4 * e + q];
+        for (int q = 0; q < 4; q++)
+            dst[q] = lm->ct[4 * e + q];
         if (flip) {
             vm_index sw = dst[1];
             dst[1] = dst[2];
             dst[2] = sw;
         }
         double p[4][3];
-        for (int q = 0; q < 4; q++) memcpy(p[q], mesh->points + 3 * (size_t)dst[q], sizeof p[q]);
-        vm_label_info *li = &info[lm.ctcode[e] - 1];
+        for (int q = 0; q < 4; q++)
+            memcpy(p[q], mesh->points + 3 * (size_t)dst[q], sizeof p[q]);
+        vm_label_info *li = &R->info[lm->ctcode[e] - 1];
         li->mesh_volume += vm_tet_signed_volume((const double(*)[3])p);
-        mesh->region[mesh->ncells++] = chosen[lm.ctcode[e] - 1];
+        mesh->region[mesh->ncells++] = R->chosen[lm->ctcode[e] - 1];
         li->elements++;
     }
-    for (size_t p = 0; p < (size_t)(g.m[0] * g.m[1] * g.m[2]); p++)
-        if (g.code[p]) info[g.code[p] - 1].meshed_voxels++;
-    if (stats) {
-        double vox = fabs(vm_volume_frame_determinant(v)) * h * h * h;
-        for (size_t i = 0; i < K; i++) {
-            info[i].label = chosen[i];
-            long f = find_label(present.val, present.n, chosen[i]);
-            info[i].input_voxels = f >= 0 ? present.count[f] : 0;
-            info[i].voxel_volume = (double)info[i].meshed_voxels * vox;
-            info[i].size = lsize[i + 1];
-        }
-        stats->nlabels = K;
-        stats->labels = info;
-        info = NULL;
-        stats->island_voxels = islands;
-        stats->topology_voxels = topo;
-        stats->smoothed_vertices = smoothed;
-        stats->relaxed_vertices = relaxed;
-        stats->cell_size = h;
-        stats->coarse_cells = nleaves;
-        stats->seconds = vm__now() - t0;
-        stats->seconds_grid = t1 - t0;
-        stats->seconds_repair = t2 - t1;
-        stats->seconds_mesh = stats->seconds - (t2 - t0);
+}
+
+/* Stage 3 (stats->seconds_mesh): the elements, smoothed keeping each label's volume and
+ * relaxed where not valid, written to mesh with each label's counts in R->info. */
+static vm_status stage_mesh(lrun *R, vm_mesh *mesh, vm_error *err) {
+    const vm_label_options *o = R->o;
+    if (o->progress) o->progress("labels", 1, 4, o->progress_user);
+    vm_status st = build_elements(R, err);
+    if (st) return st;
+    if (o->progress) o->progress("labels", 2, 4, o->progress_user);
+    if (o->smooth) st = keep_volumes(&R->lm, (int)R->K, R->tets, keep_volume_tol, err);
+    if (st) return st;
+    R->relaxed = relax(&R->lm, R->tets);
+    if (o->progress) o->progress("labels", 3, 4, o->progress_user);
+    st = write_points(R, mesh, err);
+    if (st) return st;
+    int flip = vm_volume_frame_determinant(R->v) < 0;
+    R->info = calloc(R->K, sizeof *R->info);
+    if (!R->info) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    write_hexes(R, mesh, flip);
+    write_leaf_tets(R, mesh, flip);
+    const lgrid *g = &R->g;
+    for (size_t p = 0; p < (size_t)(g->m[0] * g->m[1] * g->m[2]); p++)
+        if (g->code[p]) R->info[g->code[p] - 1].meshed_voxels++;
+    return VM_OK;
+}
+
+/* Fills stats from the run (it takes R->info); t0..t2: the stages' start times. */
+static void fill_stats(lrun *R, vm_label_stats *stats, double t0, double t1, double t2) {
+    vm_label_info *info = R->info;
+    double h = R->h;
+    double vox = fabs(vm_volume_frame_determinant(R->v)) * h * h * h;
+    for (size_t i = 0; i < R->K; i++) {
+        info[i].label = R->chosen[i];
+        long f = find_label(R->present.val, R->present.n, R->chosen[i]);
+        info[i].input_voxels = f >= 0 ? R->present.count[f] : 0;
+        info[i].voxel_volume = (double)info[i].meshed_voxels * vox;
+        info[i].size = R->lsize[i + 1];
     }
-    if (o->progress) o->progress("labels", 4, 4, o->progress_user);
-done:
-    free(present.val);
-    free(present.count);
-    free(chosen);
-    free(g.code);
-    free(g.rank);
-    free(lm.vid);
-    free(lm.vcell);
-    free(lm.target);
-    free(lm.lambda);
-    free(lm.hex);
-    free(lm.hcode);
-    free(lm.ct);
-    free(lm.ctcode);
-    free(lvl);
-    free(lsize);
-    free(lmax);
-    free(info);
+    stats->nlabels = R->K;
+    stats->labels = info;
+    R->info = NULL;
+    stats->island_voxels = R->islands;
+    stats->topology_voxels = R->topo;
+    stats->smoothed_vertices = R->smoothed;
+    stats->relaxed_vertices = R->relaxed;
+    stats->cell_size = h;
+    stats->coarse_cells = R->nleaves;
+    stats->seconds = vm__now() - t0;
+    stats->seconds_grid = t1 - t0;
+    stats->seconds_repair = t2 - t1;
+    stats->seconds_mesh = stats->seconds - (t2 - t0);
+}
+
+/* Meshes the chosen labels of v (see volmesh/labels.h), in three timed stages. */
+vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh *mesh,
+                         vm_label_stats *stats, vm_error *err) {
+    double t0 = vm__now();
+    int tets = o->elements != VM_HEX8;
+    vm_mesh_init(mesh, tets ? VM_TET4 : VM_HEX8);
+    if (stats) memset(stats, 0, sizeof *stats);
+    vm_status st = check_options(o, err);
+    if (st) return st;
+    lrun R;
+    memset(&R, 0, sizeof R);
+    R.v = v;
+    R.o = o;
+    R.tets = tets;
+    st = stage_grid(&R, err);
+    double t1 = vm__now();
+    if (!st) st = stage_repair(&R, err);
+    double t2 = vm__now();
+    if (!st) st = stage_mesh(&R, mesh, err);
+    if (!st && stats) fill_stats(&R, stats, t0, t1, t2);
+    if (!st && o->progress) o->progress("labels", 4, 4, o->progress_user);
+    lrun_free(&R);
     if (st) vm_mesh_free(mesh);
     return st;
 }

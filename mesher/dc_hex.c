@@ -25,6 +25,13 @@ typedef struct hexes {
     size_t centre_cap;
 } hexes;
 
+/* A hex is clearly valid when its worst scaled corner Jacobian is above this (a corner
+ * about 0.06 degrees from flat); make_valid relaxes the others, at most VALID_ROUNDS times. */
+static const double clear_sj = 1e-3;
+enum { VALID_ROUNDS = 40 };
+/* A pulled vertex is close enough to the isosurface within this many voxels (first order). */
+static const double surface_tol = 0.35;
+
 static void hex_pos(const dc *d, const hexes *h, int64_t id, double out[3]) {
     int64_t first = vm__dc_npoints_real(d) + (int64_t)d->nreps;
     if (id < first) {
@@ -38,7 +45,7 @@ static void hex_pos(const dc *d, const hexes *h, int64_t id, double out[3]) {
 
 /* Smallest scaled corner Jacobian of hex c (1 for a cube, <= 0 when inverted). [out] *bad
  * (NULL allowed): bit k set when corner k is one of the four points of a corner at or below
- * 1e-3. */
+ * clear_sj. */
 static double hex_quality(const dc *d, const hexes *h, const int64_t *c, unsigned *bad) {
     double p[8][3], worst = INFINITY;
     for (int k = 0; k < 8; k++) hex_pos(d, h, c[k], p[k]);
@@ -57,7 +64,7 @@ static double hex_quality(const dc *d, const hexes *h, const int64_t *c, unsigne
                      e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
         double q = len > 0 ? det / len : -1;
         if (q < worst) worst = q;
-        if (bad && q <= 1e-3)
+        if (bad && q <= clear_sj)
             *bad |= 1u << k | 1u << corner_nb[k][0] | 1u << corner_nb[k][1] |
                     1u << corner_nb[k][2];
     }
@@ -160,7 +167,7 @@ static size_t pull_to_surface(dc *d) {
                 double l = k / 8.0, x[3];
                 for (int a = 0; a < 3; a++) x[a] = m[a] + l * (q[a] - m[a]);
                 double e = bound_distance(d, x);
-                if (e <= 0.35) {
+                if (e <= surface_tol) {
                     best_l = l;
                     break;
                 }
@@ -183,15 +190,14 @@ static size_t pull_to_surface(dc *d) {
  * each corner that is not (pulling all eight took 2.7 times as many vertices off the surface
  * on the MR head, the centres up to 0.87 voxel from it, for as many hexes left inverted). */
 static size_t make_valid(dc *d, const hexes *h, size_t *relaxed) {
-    const double eps = 1e-3;
     int64_t N = vm__dc_npoints_real(d);
     size_t bad = 0, moved = 0;
-    for (int round = 0; round < 40; round++) {
+    for (int round = 0; round < VALID_ROUNDS; round++) {
         bad = 0;
         for (size_t t = 0; t < h->n; t++) {
             const int64_t *c = h->cells + 8 * t;
             unsigned worst = 0;
-            if (hex_quality(d, h, c, &worst) > eps) continue;
+            if (hex_quality(d, h, c, &worst) > clear_sj) continue;
             bad++;
             for (int k = 0; k < 8; k++) {
                 if (!((worst >> k) & 1)) continue;

@@ -185,6 +185,27 @@ static void bcoord(const blocks *B, int64_t b, int64_t c[3]) {
     c[2] = b / (B->nb[0] * B->nb[1]);
 }
 
+/* A copy node steps one cell along each axis carrying more than this share of its sheet
+ * faces' summed normal (an axis-aligned face's normal has all of it, a diagonal's ~0.7). */
+static const double copy_axis_share = 0.3;
+
+/* The inward normal (into hex h) of its face f from the current positions, as the cross
+ * product of the face's diagonals; returns its length. */
+static double face_normal(const tmesh *t, size_t h, int f, double nrm[3]) {
+    const int32_t *c = t->conn + 8 * h;
+    double u[3], v[3];
+    const double *p0 = t->pos + 3 * c[hex_face[f][0]], *p1 = t->pos + 3 * c[hex_face[f][1]],
+                 *p2 = t->pos + 3 * c[hex_face[f][2]], *p3 = t->pos + 3 * c[hex_face[f][3]];
+    for (int a = 0; a < 3; a++) {
+        u[a] = p2[a] - p0[a];
+        v[a] = p3[a] - p1[a];
+    }
+    nrm[0] = -(u[1] * v[2] - u[2] * v[1]);
+    nrm[1] = -(u[2] * v[0] - u[0] * v[2]);
+    nrm[2] = -(u[0] * v[1] - u[1] * v[0]);
+    return sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+}
+
 /* One pillowing round along axis d: every non-coarse hex of block layer k is in the shrink
  * set S_k; the sheet is the set's faces toward a coarse hex or another layer. */
 static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_error *err) {
@@ -214,21 +235,8 @@ static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_er
             sheet[2 * ns] = (int32_t)h;
             sheet[2 * ns + 1] = f;
             ns++;
-            /* inward normal of the face (into h) from the current positions */
             const int32_t *c = t->conn + 8 * h;
-            double u[3], v[3], nrm[3];
-            const double *p0 = t->pos + 3 * c[hex_face[f][0]],
-                         *p1 = t->pos + 3 * c[hex_face[f][1]],
-                         *p2 = t->pos + 3 * c[hex_face[f][2]],
-                         *p3 = t->pos + 3 * c[hex_face[f][3]];
-            for (int a = 0; a < 3; a++) {
-                u[a] = p2[a] - p0[a];
-                v[a] = p3[a] - p1[a];
-            }
-            nrm[0] = -(u[1] * v[2] - u[2] * v[1]);
-            nrm[1] = -(u[2] * v[0] - u[0] * v[2]);
-            nrm[2] = -(u[0] * v[1] - u[1] * v[0]);
-            double l = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+            double nrm[3], l = face_normal(t, h, f, nrm);
             for (int i = 0; !s && i < 4; i++) {
                 int32_t node = c[hex_face[f][i]];
                 int64_t key = (int64_t)node * B->nb[d] + bc[d];
@@ -257,7 +265,7 @@ static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_er
         const double *q = acc + 3 * (i - nn0);
         double l = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
         for (int a = 0; a < 3 && l > 0; a++)
-            if (fabs(q[a]) > 0.3 * l) t->pos[3 * i + a] += q[a] > 0 ? sc : -sc;
+            if (fabs(q[a]) > copy_axis_share * l) t->pos[3 * i + a] += q[a] > 0 ? sc : -sc;
     }
     /* pillow hexes: the copy of each sheet face below, the face itself on top */
     for (size_t e = 0; !s && e < ns; e++) {
@@ -424,6 +432,13 @@ static double star_eval(star *S, const double x[3], double bound) {
     return worst < -1.0 ? -1.0 : worst;
 }
 
+/* The compass search: at most OPT_ROUNDS rounds, the first step a quarter cell shrinking by
+ * 0.9 per round, halved down to a hundredth of a cell; nodes whose worst corner is already
+ * above 0.3 stay; a move must gain more than round-off (1e-9). */
+enum { OPT_ROUNDS = 20 };
+static const double opt_first_step = 0.25, opt_step_decay = 0.9, opt_last_step = 0.01;
+static const double opt_good_sj = 0.3, opt_gain = 1e-9;
+
 /* Moves each free node (flag == 1) by compass search to raise the worst corner scaled
  * Jacobian of the hexes around it; a move is kept only if that worst corner goes up. Only
  * the four corners of each hex that move with the node are evaluated, and a trial stops at
@@ -462,15 +477,15 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
         {1, -1, 0},  {-1, 1, 0}, {-1, -1, 0}, {1, 0, 1},   {1, 0, -1},  {-1, 0, 1}, {-1, 0, -1},
         {0, 1, 1},   {0, 1, -1}, {0, -1, 1},  {0, -1, -1}, {1, 1, 1},   {1, 1, -1}, {1, -1, 1},
         {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1}, {-1, -1, 1}, {-1, -1, -1}};
-    for (int round = 0; round < 20; round++) {
-        double stepmax = 0.25 * sc * pow(0.9, round);
+    for (int round = 0; round < OPT_ROUNDS; round++) {
+        double stepmax = opt_first_step * sc * pow(opt_step_decay, round);
         size_t moved = 0;
         for (size_t v = 0; v < t->nn; v++) {
             if (!(flag[v] & 5) || (flag[v] & 2) || start[v] == start[v + 1]) continue;
             double best = star_load(&S, t, inc, start, (int32_t)v);
-            if (best > 0.3) continue;
+            if (best > opt_good_sj) continue;
             double *p = t->pos + 3 * v;
-            for (double step = stepmax; step > 0.01 * sc; step *= 0.5) {
+            for (double step = stepmax; step > opt_last_step * sc; step *= 0.5) {
                 int improved = 1;
                 while (improved) {
                     improved = 0;
@@ -479,8 +494,8 @@ static vm_status optimise(tmesh *t, const blocks *B, const uint8_t *flag, double
                         memcpy(x, p, sizeof x);
                         for (int a = 0; a < 3; a++)
                             x[a] += step * dir[d][a];
-                        double q = star_eval(&S, x, best + 1e-9);
-                        if (q > best + 1e-9) {
+                        double q = star_eval(&S, x, best + opt_gain);
+                        if (q > best + opt_gain) {
                             best = q;
                             improved = 1;
                             moved++;
@@ -657,325 +672,436 @@ static size_t classify(const blocks *B, const cube_pos *ci, size_t ncube, const 
     return ncoarse;
 }
 
-vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, int64_t org[3],
-                        vm_mesh_stats *st, vm_error *err) {
-    double sc = (double)scale;
-    blocks B;
-    memset(&B, 0, sizeof B);
-    int64_t real[3];
+/* Laplacian sweeps at most per smoothing; it converges well before (about 8x per 25 sweeps). */
+enum { SMOOTH_SWEEPS = 400 };
+/* Smoothing stops when no node moved more than this many cells: far below the compass
+ * search's smallest step. */
+static const double smooth_tol = 1e-7;
+/* Rebuilds after dropping the coarse blocks round an inverted transition hex, at most. */
+enum { MAX_REBUILDS = 3 };
+/* Relative tolerance of the check that the hexes fill their blocks' volume (round-off of the
+ * trilinear volumes, far below a wrong fill's error). */
+static const double fill_rel_tol = 1e-6;
+/* Initial capacity of the cell -> fine vertex map (it grows). */
+enum { CELLS_EXPECT = 1024 };
+
+/* One level's adaptation: the block grid with its scratch, and the coarse mesh being built. */
+typedef struct adapt {
+    const int64_t *n; /* the lattice's grid size */
+    int64_t scale;    /* this level's cube size, in cells */
+    double sc;        /* scale, as a double */
+    int64_t *org;     /* [in,out] the block grid's origin; moved by the chosen offset */
+    int64_t real[3];  /* whole blocks of cubes per axis */
+    blocks B;         /* the block grid, two frame blocks each side */
+    size_t nblk;
+    uint8_t *count, *cube; /* nblk bytes of scratch each */
+    size_t ncoarse;        /* coarse blocks marked in B */
+    tmesh t;               /* the coarse, transition and frame hexes */
+    int32_t *corner;       /* block grid corner -> node of t */
+    uint8_t *flag;         /* per node of t: 1 kept, 2 frame, 4 coarse */
+} adapt;
+
+/* Sets up the block grid of the cubes of this scale from org and its scratch. */
+static vm_status adapt_init(adapt *A, const int64_t n[3], int64_t scale, int64_t org[3],
+                            vm_error *err) {
+    memset(A, 0, sizeof *A);
+    A->n = n;
+    A->scale = scale;
+    A->sc = (double)scale;
+    A->org = org;
     for (int a = 0; a < 3; a++) {
-        real[a] = n[a] - 1 > org[a] ? (n[a] - 1 - org[a]) / scale / 3 : 0;
-        B.nb[a] = real[a] + 4;
+        A->real[a] = n[a] - 1 > org[a] ? (n[a] - 1 - org[a]) / scale / 3 : 0;
+        A->B.nb[a] = A->real[a] + 4;
     }
-    size_t nblk = (size_t)(B.nb[0] * B.nb[1] * B.nb[2]);
-    uint8_t *count = calloc(nblk, 1);
-    B.role = calloc(nblk, 1);
-    uint8_t *cube = calloc(nblk, 1);
-    tmesh t;
-    memset(&t, 0, sizeof t);
-    imap cells, nodeid;
-    memset(&cells, 0, sizeof cells);
-    memset(&nodeid, 0, sizeof nodeid);
-    int32_t *corner = NULL;
-    uint8_t *drop = NULL, *flag = NULL;
-    cube_pos *cidx = NULL;
-    vm_status s = VM_OK;
-    if (!count || !B.role || !cube) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-        goto done;
-    }
-    /* The cubes of this scale (indices from org); then the block grid's offset, 0..2 cubes
-     * per axis, that makes the most coarse blocks. */
-    size_t ncube = 0;
-    cidx = malloc((sp->ntets ? sp->ntets : 1) * sizeof *cidx);
-    if (!cidx) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-        goto done;
-    }
+    A->nblk = (size_t)(A->B.nb[0] * A->B.nb[1] * A->B.nb[2]);
+    A->count = calloc(A->nblk, 1);
+    A->B.role = calloc(A->nblk, 1);
+    A->cube = calloc(A->nblk, 1);
+    if (!A->count || !A->B.role || !A->cube)
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    return VM_OK;
+}
+
+/* Frees what adapt_init and the builds allocated. */
+static void adapt_free(adapt *A) {
+    free(A->flag);
+    free(A->count);
+    free(A->cube);
+    free(A->B.role);
+    free(A->corner);
+    free(A->t.conn);
+    free(A->t.blk);
+    free(A->t.pos);
+}
+
+/* The cubes of this scale in the soup, as indices from org (*out, *ncube of them). */
+static vm_status list_cubes(const vm__tet_soup *sp, const adapt *A, cube_pos **out,
+                            size_t *ncube, vm_error *err) {
+    cube_pos *cidx = malloc((sp->ntets ? sp->ntets : 1) * sizeof *cidx);
+    *out = cidx;
+    *ncube = 0;
+    if (!cidx) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     for (size_t h = 0; h < sp->ntets; h++)
-        if (cube_index(sp, n, h, sc, org, cidx[ncube].p)) ncube++;
-    /* Two modes: first the permissive one (lone coarse blocks allowed, the best of the 27
-     * offsets); when its transition keeps an inverted hex or does not fill its blocks'
-     * volume exactly (thin coarse configurations can pillow badly), the conservative one of
-     * the first version (coarse blocks only in 2x2x2 groups, offset 0) instead. */
-    const int64_t org0[3] = {org[0], org[1], org[2]};
-    size_t ncoarse = 0;
+        if (cube_index(sp, A->n, h, A->sc, A->org, cidx[*ncube].p)) (*ncube)++;
+    return VM_OK;
+}
+
+/* Marks the coarse blocks with the block grid's offset (0..2 cubes per axis; only 0 with
+ * group) that makes the most of them, and moves org (from org0) by that offset. */
+static void choose_offset(adapt *A, const cube_pos *cidx, size_t ncube, const int64_t org0[3],
+                          int group) {
+    int best_k = -1;
+    A->ncoarse = 0;
+    for (int pass = 0; pass < 2; pass++)
+        for (int k = 0; k < 27; k++) {
+            if ((pass && k != best_k) || (group && k)) continue;
+            int64_t off[3] = {k % 3, (k / 3) % 3, k / 9};
+            size_t nc =
+                classify(&A->B, cidx, ncube, off, A->real, group, A->count, A->cube, A->nblk);
+            if (!pass && (best_k < 0 || nc > A->ncoarse)) {
+                best_k = k;
+                A->ncoarse = nc;
+            }
+        }
+    for (int a = 0; a < 3; a++)
+        A->org[a] = org0[a] + A->scale * (best_k / (a == 0 ? 1 : a == 1 ? 3 : 9) % 3);
+}
+
+/* Marks the transition blocks round the coarse ones, then a frame of virtual blocks round
+ * those. */
+static void mark_transition(blocks *B) {
+    for (int pass = 0; pass < 2; pass++) {
+        uint8_t from = pass ? ROLE_TRANS : ROLE_COARSE, to = pass ? ROLE_FRAME : ROLE_TRANS;
+        for (int64_t z = 1; z + 1 < B->nb[2]; z++)
+            for (int64_t y = 1; y + 1 < B->nb[1]; y++)
+                for (int64_t x = 1; x + 1 < B->nb[0]; x++) {
+                    if (B->role[bidx(B, x, y, z)] != from) continue;
+                    for (int dz = -1; dz <= 1; dz++)
+                        for (int dy = -1; dy <= 1; dy++)
+                            for (int dx = -1; dx <= 1; dx++) {
+                                int64_t o = bidx(B, x + dx, y + dy, z + dz);
+                                if (B->role[o] == ROLE_NONE) B->role[o] = to;
+                            }
+                }
+    }
+}
+
+/* Builds the coarse mesh, one hex per coarse, transition and frame block, and pillows it. */
+static vm_status build_coarse_mesh(adapt *A, vm_error *err) {
+    blocks *B = &A->B;
+    size_t ncorner = (size_t)((B->nb[0] + 1) * (B->nb[1] + 1) * (B->nb[2] + 1));
+    A->corner = malloc(ncorner * sizeof *A->corner);
+    if (!A->corner) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    for (size_t i = 0; i < ncorner; i++)
+        A->corner[i] = -1;
+    vm_status s = VM_OK;
+    for (int64_t b = 0; !s && b < (int64_t)A->nblk; b++) {
+        if (B->role[b] == ROLE_NONE) continue;
+        int64_t bc[3];
+        bcoord(B, b, bc);
+        int32_t c[8];
+        for (int q = 0; !s && q < 8; q++) {
+            int64_t k[3];
+            for (int a = 0; a < 3; a++)
+                k[a] = bc[a] + hex_off[q][a];
+            size_t ci = (size_t)(k[0] + (B->nb[0] + 1) * (k[1] + (B->nb[1] + 1) * k[2]));
+            if (A->corner[ci] < 0) {
+                double p[3];
+                for (int a = 0; a < 3; a++)
+                    p[a] = A->sc * (double)(3 * (k[a] - 2)) + 0.5 + (double)A->org[a];
+                A->corner[ci] = (int32_t)A->t.nn;
+                s = add_node(&A->t, p, err);
+            }
+            c[q] = A->corner[ci];
+        }
+        if (!s) s = add_hex(&A->t, c, (int32_t)b, err);
+    }
+    for (int d = 0; !s && d < 3; d++)
+        s = pillow_round(&A->t, B, d, A->sc, err);
+    return s;
+}
+
+/* Flags the nodes kept: fixed where coarse or shared with the frame (they are fine cube
+ * corners). */
+static vm_status flag_nodes(adapt *A, vm_error *err) {
+    const tmesh *t = &A->t;
+    A->flag = calloc(t->nn ? t->nn : 1, 1);
+    if (!A->flag) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    for (size_t h = 0; h < t->nh; h++) {
+        uint8_t r = A->B.role[t->blk[h]];
+        uint8_t f = r == ROLE_FRAME ? 2 : r == ROLE_COARSE ? 4 : 1;
+        for (int q = 0; q < 8; q++)
+            A->flag[t->conn[8 * h + q]] |= f;
+    }
+    return VM_OK;
+}
+
+/* Laplacian smoothing of the free transition nodes (a fixed-boundary linear system, so the
+ * initial copy positions only speed it up). */
+static vm_status smooth_transition(adapt *A, vm_error *err) {
+    tmesh *t = &A->t;
+    const uint8_t *flag = A->flag;
+    size_t ne = 0;
+    int32_t *ed = malloc((12 * t->nh + 1) * 2 * sizeof *ed);
+    double *sum = malloc(4 * (t->nn ? t->nn : 1) * sizeof *sum);
+    if (!ed || !sum) {
+        free(ed);
+        free(sum);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
+    for (size_t h = 0; h < t->nh; h++) {
+        if (A->B.role[t->blk[h]] == ROLE_FRAME) continue;
+        for (int e = 0; e < 12; e++) {
+            /* an edge between two fixed nodes moves nothing */
+            if (flag[t->conn[8 * h + hex_edge[e][0]]] != 1 &&
+                flag[t->conn[8 * h + hex_edge[e][1]]] != 1)
+                continue;
+            ed[2 * ne] = t->conn[8 * h + hex_edge[e][0]];
+            ed[2 * ne + 1] = t->conn[8 * h + hex_edge[e][1]];
+            ne++;
+        }
+    }
+    for (int it = 0; it < SMOOTH_SWEEPS; it++) {
+        memset(sum, 0, 4 * t->nn * sizeof *sum);
+        for (size_t e = 0; e < ne; e++)
+            for (int side = 0; side < 2; side++) {
+                int32_t a = ed[2 * e + side], b = ed[2 * e + 1 - side];
+                for (int x = 0; x < 3; x++)
+                    sum[4 * a + x] += t->pos[3 * b + x];
+                sum[4 * a + 3] += 1;
+            }
+        double moved = 0;
+        for (size_t i = 0; i < t->nn; i++)
+            if (flag[i] == 1 && sum[4 * i + 3] > 0)
+                for (int x = 0; x < 3; x++) {
+                    double nv = sum[4 * i + x] / sum[4 * i + 3];
+                    if (fabs(nv - t->pos[3 * i + x]) > moved)
+                        moved = fabs(nv - t->pos[3 * i + x]);
+                    t->pos[3 * i + x] = nv;
+                }
+        if (moved < smooth_tol * A->sc) break;
+    }
+    free(ed);
+    free(sum);
+    return VM_OK;
+}
+
+/* Drops the coarse blocks round every inverted transition hex; returns how many there are. */
+static size_t drop_inverted(adapt *A) {
+    const tmesh *t = &A->t;
+    blocks *B = &A->B;
+    size_t inverted = 0;
+    for (size_t h = 0; h < t->nh; h++) {
+        if (B->role[t->blk[h]] == ROLE_FRAME) continue;
+        double p[8][3];
+        for (int q = 0; q < 8; q++)
+            memcpy(p[q], t->pos + 3 * t->conn[8 * h + q], sizeof p[q]);
+        if (hex_min_sj(p) > 0) continue;
+        inverted++;
+        int64_t bc[3];
+        bcoord(B, t->blk[h], bc);
+        for (int dz = -1; dz <= 1; dz++)
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    int64_t o = bidx(B, bc[0] + dx, bc[1] + dy, bc[2] + dz);
+                    if (B->role[o] == ROLE_COARSE) {
+                        B->role[o] = ROLE_NONE;
+                        A->ncoarse--;
+                    }
+                }
+    }
+    return inverted;
+}
+
+/* Builds, smooths and optimises the level's hexes; where a transition hex stays inverted,
+ * drops the coarse blocks round it and builds again (at most MAX_REBUILDS times).
+ * *inverted: the last build's inverted hexes; *none set when no coarse block is left. */
+static vm_status build_level(adapt *A, int group, size_t *inverted, int *none, vm_error *err) {
+    for (int attempt = 0;; attempt++) {
+        for (size_t b = 0; b < A->nblk; b++)
+            if (A->B.role[b] != ROLE_COARSE) A->B.role[b] = ROLE_NONE;
+        free(A->corner);
+        A->corner = NULL;
+        free(A->flag);
+        A->flag = NULL;
+        A->t.nh = A->t.nn = 0;
+        if (!A->ncoarse) {
+            *none = 1;
+            return VM_OK;
+        }
+        mark_transition(&A->B);
+        vm_status s = build_coarse_mesh(A, err);
+        if (!s) s = flag_nodes(A, err);
+        if (!s) s = smooth_transition(A, err);
+        if (!s) s = optimise(&A->t, &A->B, A->flag, A->sc, err);
+        if (s) return s;
+        *inverted = drop_inverted(A);
+        if (!*inverted || attempt == MAX_REBUILDS) break;
+        prune_coarse(&A->B, group, A->cube, &A->ncoarse);
+    }
+    return VM_OK;
+}
+
+/* 1 when the coarse and transition hexes fill their blocks exactly (trilinear volumes of
+ * hexes sharing faces add up to the region's). */
+static int fills_blocks(const adapt *A) {
+    const tmesh *t = &A->t;
+    double vol = 0, blocks_vol = 0, side = 3 * A->sc;
+    for (size_t h = 0; h < t->nh; h++) {
+        if (A->B.role[t->blk[h]] == ROLE_FRAME) continue;
+        double p[8][3];
+        for (int q = 0; q < 8; q++)
+            memcpy(p[q], t->pos + 3 * t->conn[8 * h + q], sizeof p[q]);
+        vol += vm_hex_volume((const double(*)[3])p);
+    }
+    for (size_t b = 0; b < A->nblk; b++)
+        if (A->B.role[b] == ROLE_COARSE || A->B.role[b] == ROLE_TRANS)
+            blocks_vol += side * side * side;
+    return fabs(vol - blocks_vol) <= fill_rel_tol * blocks_vol;
+}
+
+/* Two modes: first the permissive one (lone coarse blocks allowed, the best of the 27
+ * offsets); when its transition keeps an inverted hex or does not fill its blocks' volume
+ * exactly (thin coarse configurations can pillow badly), the conservative one of the first
+ * version (coarse blocks only in 2x2x2 groups, offset 0) instead. *none: no coarse block. */
+static vm_status build_modes(adapt *A, const cube_pos *cidx, size_t ncube, int *none,
+                             vm_error *err) {
+    const int64_t org0[3] = {A->org[0], A->org[1], A->org[2]};
     for (int mode = 0; mode < 2; mode++) {
         int group = mode == 1;
-        int best_k = -1;
-        ncoarse = 0;
-        for (int pass = 0; pass < 2; pass++)
-            for (int k = 0; k < 27; k++) {
-                if ((pass && k != best_k) || (group && k)) continue;
-                int64_t off[3] = {k % 3, (k / 3) % 3, k / 9};
-                size_t nc = classify(&B, cidx, ncube, off, real, group, count, cube, nblk);
-                if (!pass && (best_k < 0 || nc > ncoarse)) {
-                    best_k = k;
-                    ncoarse = nc;
-                }
-            }
-        for (int a = 0; a < 3; a++)
-            org[a] = org0[a] + scale * (best_k / (a == 0 ? 1 : a == 1 ? 3 : 9) % 3);
-        /* Build, smooth, and where the smoothing leaves a transition hex inverted drop the
-         * coarse blocks round it and build again (at most three times). */
+        choose_offset(A, cidx, ncube, org0, group);
         size_t inverted = 0;
-        for (int attempt = 0;; attempt++) {
-            for (size_t b = 0; b < nblk; b++)
-                if (B.role[b] != ROLE_COARSE) B.role[b] = ROLE_NONE;
-            free(corner);
-            corner = NULL;
-            free(flag);
-            flag = NULL;
-            t.nh = t.nn = 0;
-            if (!ncoarse) goto done;
-            /* transition blocks round the coarse ones, then a frame of virtual blocks round
-             * those
-             */
-            for (int pass = 0; pass < 2; pass++) {
-                uint8_t from = pass ? ROLE_TRANS : ROLE_COARSE,
-                        to = pass ? ROLE_FRAME : ROLE_TRANS;
-                for (int64_t z = 1; z + 1 < B.nb[2]; z++)
-                    for (int64_t y = 1; y + 1 < B.nb[1]; y++)
-                        for (int64_t x = 1; x + 1 < B.nb[0]; x++) {
-                            if (B.role[bidx(&B, x, y, z)] != from) continue;
-                            for (int dz = -1; dz <= 1; dz++)
-                                for (int dy = -1; dy <= 1; dy++)
-                                    for (int dx = -1; dx <= 1; dx++) {
-                                        int64_t o = bidx(&B, x + dx, y + dy, z + dz);
-                                        if (B.role[o] == ROLE_NONE) B.role[o] = to;
-                                    }
-                        }
-            }
-            /* the coarse mesh over the coarse, transition and frame blocks */
-            size_t ncorner = (size_t)((B.nb[0] + 1) * (B.nb[1] + 1) * (B.nb[2] + 1));
-            corner = malloc(ncorner * sizeof *corner);
-            if (!corner) {
-                s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-                goto done;
-            }
-            for (size_t i = 0; i < ncorner; i++)
-                corner[i] = -1;
-            for (int64_t b = 0; !s && b < (int64_t)nblk; b++) {
-                if (B.role[b] == ROLE_NONE) continue;
-                int64_t bc[3];
-                bcoord(&B, b, bc);
-                int32_t c[8];
-                for (int q = 0; !s && q < 8; q++) {
-                    int64_t k[3];
-                    for (int a = 0; a < 3; a++)
-                        k[a] = bc[a] + hex_off[q][a];
-                    size_t ci = (size_t)(k[0] + (B.nb[0] + 1) * (k[1] + (B.nb[1] + 1) * k[2]));
-                    if (corner[ci] < 0) {
-                        double p[3];
-                        for (int a = 0; a < 3; a++)
-                            p[a] = sc * (double)(3 * (k[a] - 2)) + 0.5 + (double)org[a];
-                        corner[ci] = (int32_t)t.nn;
-                        s = add_node(&t, p, err);
-                    }
-                    c[q] = corner[ci];
-                }
-                if (!s) s = add_hex(&t, c, (int32_t)b, err);
-            }
-            for (int d = 0; !s && d < 3; d++)
-                s = pillow_round(&t, &B, d, sc, err);
-            if (s) goto done;
-
-            /* nodes kept: fixed where coarse or shared with the frame (they are fine cube
-             * corners)
-             */
-            flag = calloc(t.nn ? t.nn : 1, 1); /* 1 kept, 2 frame, 4 coarse */
-            if (!flag) {
-                s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-                goto done;
-            }
-            for (size_t h = 0; h < t.nh; h++) {
-                uint8_t r = B.role[t.blk[h]];
-                uint8_t f = r == ROLE_FRAME ? 2 : r == ROLE_COARSE ? 4 : 1;
-                for (int q = 0; q < 8; q++)
-                    flag[t.conn[8 * h + q]] |= f;
-            }
-            /* Laplacian smoothing of the free transition nodes (a fixed-boundary linear system,
-             * so the initial copy positions only speed it up) */
-            {
-                size_t ne = 0;
-                int32_t *ed = malloc((12 * t.nh + 1) * 2 * sizeof *ed);
-                double *sum = malloc(4 * (t.nn ? t.nn : 1) * sizeof *sum);
-                if (!ed || !sum) {
-                    free(ed);
-                    free(sum);
-                    s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-                    goto done;
-                }
-                for (size_t h = 0; h < t.nh; h++) {
-                    if (B.role[t.blk[h]] == ROLE_FRAME) continue;
-                    for (int e = 0; e < 12; e++) {
-                        /* an edge between two fixed nodes moves nothing */
-                        if (flag[t.conn[8 * h + hex_edge[e][0]]] != 1 &&
-                            flag[t.conn[8 * h + hex_edge[e][1]]] != 1)
-                            continue;
-                        ed[2 * ne] = t.conn[8 * h + hex_edge[e][0]];
-                        ed[2 * ne + 1] = t.conn[8 * h + hex_edge[e][1]];
-                        ne++;
-                    }
-                }
-                for (int it = 0; it < 400; it++) {
-                    memset(sum, 0, 4 * t.nn * sizeof *sum);
-                    for (size_t e = 0; e < ne; e++)
-                        for (int side = 0; side < 2; side++) {
-                            int32_t a = ed[2 * e + side], b = ed[2 * e + 1 - side];
-                            for (int x = 0; x < 3; x++)
-                                sum[4 * a + x] += t.pos[3 * b + x];
-                            sum[4 * a + 3] += 1;
-                        }
-                    double moved = 0;
-                    for (size_t i = 0; i < t.nn; i++)
-                        if (flag[i] == 1 && sum[4 * i + 3] > 0)
-                            for (int x = 0; x < 3; x++) {
-                                double nv = sum[4 * i + x] / sum[4 * i + 3];
-                                if (fabs(nv - t.pos[3 * i + x]) > moved)
-                                    moved = fabs(nv - t.pos[3 * i + x]);
-                                t.pos[3 * i + x] = nv;
-                            }
-                    /* converged (it shrinks about 8x per 25 sweeps): 1e-7 cell is far below
-                     * the compass search's smallest step */
-                    if (moved < 1e-7 * sc) break;
-                }
-                free(ed);
-                free(sum);
-            }
-            s = optimise(&t, &B, flag, sc, err);
-            if (s) goto done;
-            inverted = 0;
-            for (size_t h = 0; h < t.nh; h++) {
-                if (B.role[t.blk[h]] == ROLE_FRAME) continue;
-                double p[8][3];
-                for (int q = 0; q < 8; q++)
-                    memcpy(p[q], t.pos + 3 * t.conn[8 * h + q], sizeof p[q]);
-                if (hex_min_sj(p) > 0) continue;
-                inverted++;
-                int64_t bc[3];
-                bcoord(&B, t.blk[h], bc);
-                for (int dz = -1; dz <= 1; dz++)
-                    for (int dy = -1; dy <= 1; dy++)
-                        for (int dx = -1; dx <= 1; dx++) {
-                            int64_t o = bidx(&B, bc[0] + dx, bc[1] + dy, bc[2] + dz);
-                            if (B.role[o] == ROLE_COARSE) {
-                                B.role[o] = ROLE_NONE;
-                                ncoarse--;
-                            }
-                        }
-            }
-            if (!inverted || attempt == 3) break;
-            prune_coarse(&B, group, cube, &ncoarse);
-        }
-        /* the coarse and transition hexes fill their blocks exactly (trilinear volumes of hexes
-         * sharing faces add up to the region's) */
-        double vol = 0, blocks_vol = 0, side = 3 * sc;
-        for (size_t h = 0; h < t.nh; h++) {
-            if (B.role[t.blk[h]] == ROLE_FRAME) continue;
-            double p[8][3];
-            for (int q = 0; q < 8; q++)
-                memcpy(p[q], t.pos + 3 * t.conn[8 * h + q], sizeof p[q]);
-            vol += vm_hex_volume((const double(*)[3])p);
-        }
-        for (size_t b = 0; b < nblk; b++)
-            if (B.role[b] == ROLE_COARSE || B.role[b] == ROLE_TRANS)
-                blocks_vol += side * side * side;
-        if (inverted || !(fabs(vol - blocks_vol) <= 1e-6 * blocks_vol)) continue;
+        vm_status s = build_level(A, group, &inverted, none, err);
+        if (s || *none) return s;
+        if (inverted || !fills_blocks(A)) continue;
         break;
     }
+    return VM_OK;
+}
 
-    /* the fine cube corners by cell, to share the frame-side nodes */
-    s = imap_init(&cells, 1024, err);
-    drop = calloc(sp->ntets ? sp->ntets : 1, 1);
-    if (!s && !drop) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-    size_t dropped = 0;
+/* Marks (drop) the fine hexes inside the coarse and transition blocks, *dropped of them, and
+ * maps their corners by cell (cells), to share the frame-side nodes. */
+static vm_status drop_fine(const adapt *A, const vm__tet_soup *sp, imap *cells, uint8_t *drop,
+                           size_t *dropped, vm_error *err) {
+    vm_status s = VM_OK;
     for (size_t h = 0; !s && h < sp->ntets; h++) {
         int64_t b[3];
-        if (!cube_block(sp, n, h, sc, org, real, b)) continue;
-        uint8_t r = B.role[bidx(&B, b[0] + 2, b[1] + 2, b[2] + 2)];
+        if (!cube_block(sp, A->n, h, A->sc, A->org, A->real, b)) continue;
+        uint8_t r = A->B.role[bidx(&A->B, b[0] + 2, b[1] + 2, b[2] + 2)];
         if (r != ROLE_COARSE && r != ROLE_TRANS) continue;
         drop[h] = 1;
-        dropped++;
+        (*dropped)++;
         for (int q = 0; !s && q < 8; q++) {
             double qp[3];
-            soup_pos(sp, n, sp->tets[8 * h + q], qp);
-            s = imap_put(&cells, corner_key(n, sc, org, qp), sp->tets[8 * h + q], err);
+            soup_pos(sp, A->n, sp->tets[8 * h + q], qp);
+            s = imap_put(cells, corner_key(A->n, A->sc, A->org, qp), sp->tets[8 * h + q], err);
         }
     }
-    /* number the kept nodes: frame-side ones are existing fine vertices */
-    int64_t *id = malloc((t.nn ? t.nn : 1) * sizeof *id);
-    size_t nkept = 0, nnew = 0, missing = 0;
-    if (!s && !id) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-    int64_t first = sp->nlattice + (int64_t)sp->nreps;
-    for (size_t i = 0; !s && i < t.nn; i++) {
+    return s;
+}
+
+/* Numbers the kept nodes (id, per node of t): frame-side ones are existing fine vertices
+ * (from cells), the *nnew others new vertices from first on. */
+static vm_status number_nodes(const adapt *A, const imap *cells, int64_t first, int64_t *id,
+                              size_t *nnew, vm_error *err) {
+    size_t missing = 0;
+    for (size_t i = 0; i < A->t.nn; i++) {
         id[i] = -1;
-        if (!(flag[i] & 5)) continue;
-        if (flag[i] & 2) {
-            int64_t k = corner_key(n, sc, org, t.pos + 3 * i);
-            id[i] = k < 0 ? -1 : imap_get(&cells, k);
+        if (!(A->flag[i] & 5)) continue;
+        if (A->flag[i] & 2) {
+            int64_t k = corner_key(A->n, A->sc, A->org, A->t.pos + 3 * i);
+            id[i] = k < 0 ? -1 : imap_get(cells, k);
             if (id[i] < 0) missing++;
         } else {
-            id[i] = first + (int64_t)nnew++;
+            id[i] = first + (int64_t)(*nnew)++;
         }
     }
-    for (size_t h = 0; h < t.nh; h++)
-        if (B.role[t.blk[h]] != ROLE_FRAME) nkept++;
-    if (!s && missing)
-        s = vm_error_set(err, VM_ERR_INTERNAL,
-                         "mesh: adaptive hexes: %zu transition nodes match no fine vertex",
-                         missing);
-    /* rebuild the soup: fine hexes outside the coarse and transition blocks, then those —
-     * unless the level saves nothing (a few coarse blocks whose transitions cost more) */
-    if (!s && sp->ntets - dropped + nkept < sp->ntets) {
-        size_t nt = sp->ntets - dropped + nkept, w = 0;
-        int64_t *cells_out = malloc(8 * nt * sizeof *cells_out);
-        double *rp = realloc(sp->rep_pos, 3 * (sp->nreps + nnew + 1) * sizeof *rp);
-        if (!cells_out || !rp) {
-            free(cells_out);
-            if (rp) sp->rep_pos = rp;
-            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-        } else {
-            sp->rep_pos = rp;
-            for (size_t h = 0; h < sp->ntets; h++)
-                if (!drop[h])
-                    memcpy(cells_out + 8 * w++, sp->tets + 8 * h, 8 * sizeof(int64_t));
-            size_t bad = 0;
-            for (size_t h = 0; h < t.nh; h++) {
-                if (B.role[t.blk[h]] == ROLE_FRAME) continue;
-                double p[8][3];
-                for (int q = 0; q < 8; q++) {
-                    int32_t v = t.conn[8 * h + q];
-                    cells_out[8 * w + q] = id[v];
-                    memcpy(p[q], t.pos + 3 * v, sizeof p[q]);
-                }
-                if (hex_min_sj(p) <= 0) bad++;
-                w++;
-            }
-            for (size_t i = 0; i < t.nn; i++)
-                if (id[i] >= first)
-                    memcpy(sp->rep_pos + 3 * (sp->nreps + (size_t)(id[i] - first)),
-                           t.pos + 3 * i, 3 * sizeof(double));
-            sp->nreps += nnew;
-            free(sp->tets);
-            sp->tets = cells_out;
-            sp->ntets = w;
-            if (st) st->inverted_cells += bad;
-        }
+    if (missing)
+        return vm_error_set(err, VM_ERR_INTERNAL,
+                            "mesh: adaptive hexes: %zu transition nodes match no fine vertex",
+                            missing);
+    return VM_OK;
+}
+
+/* Replaces the dropped fine hexes in the soup by the coarse and transition ones (ids from
+ * number_nodes, new vertices from first on) — unless the level saves nothing (a few coarse
+ * blocks whose transitions cost more). */
+static vm_status replace_hexes(const adapt *A, vm__tet_soup *sp, const uint8_t *drop,
+                               size_t dropped, const int64_t *id, int64_t first, size_t nnew,
+                               vm_mesh_stats *st, vm_error *err) {
+    const tmesh *t = &A->t;
+    size_t nkept = 0;
+    for (size_t h = 0; h < t->nh; h++)
+        if (A->B.role[t->blk[h]] != ROLE_FRAME) nkept++;
+    if (!(sp->ntets - dropped + nkept < sp->ntets)) return VM_OK;
+    size_t nt = sp->ntets - dropped + nkept, w = 0;
+    int64_t *cells_out = malloc(8 * nt * sizeof *cells_out);
+    double *rp = realloc(sp->rep_pos, 3 * (sp->nreps + nnew + 1) * sizeof *rp);
+    if (rp) sp->rep_pos = rp;
+    if (!cells_out || !rp) {
+        free(cells_out);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     }
+    for (size_t h = 0; h < sp->ntets; h++)
+        if (!drop[h]) memcpy(cells_out + 8 * w++, sp->tets + 8 * h, 8 * sizeof(int64_t));
+    size_t bad = 0;
+    for (size_t h = 0; h < t->nh; h++) {
+        if (A->B.role[t->blk[h]] == ROLE_FRAME) continue;
+        double p[8][3];
+        for (int q = 0; q < 8; q++) {
+            int32_t v = t->conn[8 * h + q];
+            cells_out[8 * w + q] = id[v];
+            memcpy(p[q], t->pos + 3 * v, sizeof p[q]);
+        }
+        if (hex_min_sj(p) <= 0) bad++;
+        w++;
+    }
+    for (size_t i = 0; i < t->nn; i++)
+        if (id[i] >= first)
+            memcpy(sp->rep_pos + 3 * (sp->nreps + (size_t)(id[i] - first)), t->pos + 3 * i,
+                   3 * sizeof(double));
+    sp->nreps += nnew;
+    free(sp->tets);
+    sp->tets = cells_out;
+    sp->ntets = w;
+    if (st) st->inverted_cells += bad;
+    return VM_OK;
+}
+
+/* Rebuilds the soup with the level's hexes: drops the fine hexes they cover, numbers their
+ * nodes, and replaces. */
+static vm_status rebuild_soup(const adapt *A, vm__tet_soup *sp, vm_mesh_stats *st,
+                              vm_error *err) {
+    imap cells;
+    memset(&cells, 0, sizeof cells);
+    vm_status s = imap_init(&cells, CELLS_EXPECT, err);
+    uint8_t *drop = calloc(sp->ntets ? sp->ntets : 1, 1);
+    if (!s && !drop) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    size_t dropped = 0, nnew = 0;
+    if (!s) s = drop_fine(A, sp, &cells, drop, &dropped, err);
+    int64_t *id = malloc((A->t.nn ? A->t.nn : 1) * sizeof *id);
+    if (!s && !id) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    int64_t first = sp->nlattice + (int64_t)sp->nreps;
+    if (!s) s = number_nodes(A, &cells, first, id, &nnew, err);
+    if (!s) s = replace_hexes(A, sp, drop, dropped, id, first, nnew, st, err);
     free(id);
-done:
-    free(cidx);
-    free(flag);
-    free(count);
-    free(cube);
-    free(B.role);
-    free(corner);
     free(drop);
-    free(t.conn);
-    free(t.blk);
-    free(t.pos);
     imap_free(&cells);
-    imap_free(&nodeid);
+    return s;
+}
+
+/* One coarsening level of the soup's hexes at this scale (see mesher_internal.h). */
+vm_status vm__hex_adapt(vm__tet_soup *sp, const int64_t n[3], int64_t scale, int64_t org[3],
+                        vm_mesh_stats *st, vm_error *err) {
+    adapt A;
+    cube_pos *cidx = NULL;
+    size_t ncube = 0;
+    int none = 0;
+    vm_status s = adapt_init(&A, n, scale, org, err);
+    if (!s) s = list_cubes(sp, &A, &cidx, &ncube, err);
+    if (!s) s = build_modes(&A, cidx, ncube, &none, err);
+    if (!s && !none) s = rebuild_soup(&A, sp, st, err);
+    free(cidx);
+    adapt_free(&A);
     return s;
 }

@@ -8,6 +8,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* A representative's smoothing (lambda, then mu) stops halving below this and drops to 0:
+ * its vertex goes the rest of the way to the cell centre at once. */
+static const double relax_floor = 1.0 / 64;
+/* Rounds at most of relaxing non-positive tets, and of untangling crossing patches. */
+enum { RELAX_ROUNDS = 24, UNTANGLE_ROUNDS = 40 };
+
 static double orient(const double a[3], const double b[3], const double c[3],
                      const double e[3]) {
     double u[3], v[3], w[3];
@@ -176,127 +182,166 @@ static vm_status emit_pyramid(dc *d, int a, const int64_t apex_p[3], int apex_lo
     return emit_polygon(d, vm__dc_lattice_id(d, apex_p), apex_lower, poly, inserted, np, err);
 }
 
-/* The pyramid from apex over the polygon poly (counter-clockwise around the edge's axis;
- * inserted[i]: poly[i] is the vertex of an ambiguous face), split as a fan from the root
- * that gives the largest smallest volume, or from a new centre vertex. */
-static vm_status emit_polygon(dc *d, int64_t apex, int apex_lower, const int64_t *poly,
-                              const int *inserted, int np, vm_error *err) {
-    vm_status s = VM_OK;
-    if (np == 3)
-        return apex_lower ? emit(d, apex, poly[0], poly[1], poly[2], err)
-                          : emit(d, apex, poly[2], poly[1], poly[0], err);
-    if (np > 4) {
-        /* Fans from a neighbour of a face vertex would join the two cells it separates; try
-         * the other roots, and a fan from a new vertex at the polygon's centre. */
-        int best_root = -1;
-        double best = -INFINITY;
-        for (int root = 0; root < np; root++) {
-            if (inserted[(root + 1) % np] || inserted[(root + np - 1) % np]) continue;
-            double worst = INFINITY;
-            for (int i = 1; i + 1 < np; i++) {
-                int64_t t[4] = {apex, poly[root], poly[(root + i) % np],
-                                poly[(root + i + 1) % np]};
-                if (!apex_lower) t[1] = poly[(root + i + 1) % np], t[3] = poly[root];
-                worst = fmin(worst, tet_volume(d, t, 0));
-            }
-            if (worst > best) best = worst, best_root = root;
+/* Largest polygon round an edge: four cells and four ambiguous face vertices. */
+enum { MAX_POLY = 8 };
+/* Directions tried for a centre vertex: the centroid's, the normals' sum, up to seven side
+ * normals, and the perceptron's. */
+enum { MAX_CANDIDATES = 10 };
+/* Perceptron steps at most; it stops when every side normal is within 5 % of the
+ * direction's length of facing it, and steps half that length. */
+enum { PERCEPTRON_STEPS = 64 };
+static const double perceptron_margin = 0.05;
+/* A later candidate centre counts as better only beyond round-off (relative and absolute). */
+static const double better_rel = 1.000001, better_abs = 1e-12;
+/* A worst tet volume above this fraction of len^3 (len: the apex-centroid distance) is fine:
+ * no further candidate is taken. */
+static const double fine_volume = 1e-4;
+
+/* The root of the fan over poly with the largest smallest volume (*best), skipping roots next
+ * to a face vertex (their fans would join the two cells it separates); -1 when none. */
+static int best_fan_root(const dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                         const int *inserted, int np, double *best) {
+    int best_root = -1;
+    *best = -INFINITY;
+    for (int root = 0; root < np; root++) {
+        if (inserted[(root + 1) % np] || inserted[(root + np - 1) % np]) continue;
+        double worst = INFINITY;
+        for (int i = 1; i + 1 < np; i++) {
+            int64_t t[4] = {apex, poly[root], poly[(root + i) % np], poly[(root + i + 1) % np]};
+            if (!apex_lower) t[1] = poly[(root + i + 1) % np], t[3] = poly[root];
+            worst = fmin(worst, tet_volume(d, t, 0));
         }
-        double cpos[3] = {0, 0, 0};
+        if (worst > *best) *best = worst, best_root = root;
+    }
+    return best_root;
+}
+
+/* The side triangles' normals (apex at ap, poly[i], poly[i + 1]; signed so that a positive
+ * tet's is positive along its centre's direction) and the sum of their unit vectors. */
+static void side_normals(const dc *d, const double ap[3], int apex_lower, const int64_t *poly,
+                         int np, double nrm[MAX_POLY][3], double sum[3]) {
+    for (int k = 0; k < 3; k++)
+        sum[k] = 0;
+    for (int i = 0; i < np; i++) {
+        double x[3], y[3], u[3], w[3];
+        vm__dc_vertex_pos(d, poly[i], 0, x);
+        vm__dc_vertex_pos(d, poly[(i + 1) % np], 0, y);
+        for (int k = 0; k < 3; k++)
+            u[k] = x[k] - ap[k], w[k] = y[k] - ap[k];
+        double sgn = apex_lower ? 1.0 : -1.0;
+        nrm[i][0] = sgn * (u[1] * w[2] - u[2] * w[1]);
+        nrm[i][1] = sgn * (u[2] * w[0] - u[0] * w[2]);
+        nrm[i][2] = sgn * (u[0] * w[1] - u[1] * w[0]);
+        double nl = sqrt(nrm[i][0] * nrm[i][0] + nrm[i][1] * nrm[i][1] + nrm[i][2] * nrm[i][2]);
+        for (int k = 0; k < 3; k++)
+            sum[k] += nl > 0 ? nrm[i][k] / nl : 0;
+    }
+}
+
+/* A direction w that faces every side normal, by perceptron steps from sum toward the worst
+ * one. */
+static void perceptron_direction(const double nrm[MAX_POLY][3], int np, const double sum[3],
+                                 double w[3]) {
+    memcpy(w, sum, 3 * sizeof *w);
+    for (int it = 0; it < PERCEPTRON_STEPS; it++) {
+        int wi = -1;
+        double wv = INFINITY;
         for (int i = 0; i < np; i++) {
-            double p[3];
-            vm__dc_vertex_pos(d, poly[i], 0, p);
-            for (int k = 0; k < 3; k++)
-                cpos[k] += p[k] / np;
-        }
-        /* The signs of the centre's tets depend only on its direction from the apex: try
-         * the centroid, then directions along the side triangles' normals. */
-        double ap[3], nrm[8][3], sum[3] = {0, 0, 0}, len = 0;
-        vm__dc_vertex_pos(d, apex, 0, ap);
-        for (int i = 0; i < np; i++) {
-            double x[3], y[3], u[3], w[3];
-            vm__dc_vertex_pos(d, poly[i], 0, x);
-            vm__dc_vertex_pos(d, poly[(i + 1) % np], 0, y);
-            for (int k = 0; k < 3; k++)
-                u[k] = x[k] - ap[k], w[k] = y[k] - ap[k];
-            double sgn = apex_lower ? 1.0 : -1.0;
-            nrm[i][0] = sgn * (u[1] * w[2] - u[2] * w[1]);
-            nrm[i][1] = sgn * (u[2] * w[0] - u[0] * w[2]);
-            nrm[i][2] = sgn * (u[0] * w[1] - u[1] * w[0]);
             double nl =
                 sqrt(nrm[i][0] * nrm[i][0] + nrm[i][1] * nrm[i][1] + nrm[i][2] * nrm[i][2]);
-            for (int k = 0; k < 3; k++)
-                sum[k] += nl > 0 ? nrm[i][k] / nl : 0;
+            double dv =
+                nl > 0 ? (w[0] * nrm[i][0] + w[1] * nrm[i][1] + w[2] * nrm[i][2]) / nl : 0;
+            if (dv < wv) wv = dv, wi = i;
         }
+        double wl = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+        if (wi < 0 || wv > perceptron_margin * wl) break;
+        double nl =
+            sqrt(nrm[wi][0] * nrm[wi][0] + nrm[wi][1] * nrm[wi][1] + nrm[wi][2] * nrm[wi][2]);
         for (int k = 0; k < 3; k++)
-            len += (cpos[k] - ap[k]) * (cpos[k] - ap[k]);
-        len = sqrt(len);
-        double worst_c = -INFINITY, cand[10][3];
-        int ncand = 0;
-        for (int k = 0; k < 3; k++)
-            cand[ncand][k] = cpos[k] - ap[k];
-        ncand++;
-        memcpy(cand[ncand++], sum, sizeof sum);
-        for (int i = 0; i < np && ncand < 9; i++)
-            memcpy(cand[ncand++], nrm[i], sizeof nrm[i]);
-        { /* perceptron steps toward the worst side normal */
-            double w[3];
-            memcpy(w, sum, sizeof w);
-            for (int it = 0; it < 64; it++) {
-                int wi = -1;
-                double wv = INFINITY;
-                for (int i = 0; i < np; i++) {
-                    double nl = sqrt(nrm[i][0] * nrm[i][0] + nrm[i][1] * nrm[i][1] +
-                                     nrm[i][2] * nrm[i][2]);
-                    double dv =
-                        nl > 0 ? (w[0] * nrm[i][0] + w[1] * nrm[i][1] + w[2] * nrm[i][2]) / nl
-                               : 0;
-                    if (dv < wv) wv = dv, wi = i;
-                }
-                double wl = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-                if (wi < 0 || wv > 0.05 * wl) break;
-                double nl = sqrt(nrm[wi][0] * nrm[wi][0] + nrm[wi][1] * nrm[wi][1] +
-                                 nrm[wi][2] * nrm[wi][2]);
-                for (int k = 0; k < 3; k++)
-                    w[k] += (wl > 0 ? 0.5 * wl : 1.0) * nrm[wi][k] / (nl > 0 ? nl : 1);
-            }
-            memcpy(cand[ncand++], w, sizeof w);
-        }
-        for (int ci = 0; ci < ncand; ci++) {
-            double cl = sqrt(cand[ci][0] * cand[ci][0] + cand[ci][1] * cand[ci][1] +
-                             cand[ci][2] * cand[ci][2]);
-            if (!(cl > 0)) continue;
-            double worst = INFINITY;
-            for (int i = 0; i < np; i++)
-                worst = fmin(worst, (cand[ci][0] * nrm[i][0] + cand[ci][1] * nrm[i][1] +
-                                     cand[ci][2] * nrm[i][2]) *
-                                        len / cl / 6.0);
-            if (worst > worst_c * 1.000001 + 1e-12 || ci == 0) {
-                if (ci > 0 && worst_c > 1e-4 * len * len * len)
-                    break; /* the centroid is fine */
-                worst_c = worst;
-                for (int k = 0; k < 3; k++)
-                    cpos[k] = ap[k] + cand[ci][k] * len / cl;
-            }
-        }
-        if (best_root >= 0 && best >= worst_c) {
-            for (int i = 1; i + 1 < np && !s; i++) {
-                int64_t x = poly[best_root], y = poly[(best_root + i) % np];
-                int64_t z = poly[(best_root + i + 1) % np];
-                s = apex_lower ? emit(d, apex, x, y, z, err) : emit(d, apex, z, y, x, err);
-            }
-            return s;
-        }
-        s = vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + 1, 3 * sizeof(double),
-                     err);
-        if (s) return s;
-        memcpy(d->centre + 3 * d->ncentre, cpos, sizeof cpos);
-        int64_t cid = vm__dc_npoints_real(d) + (int64_t)(d->nreps + d->ncentre++);
-        for (int i = 0; i < np && !s; i++) {
-            int64_t x = poly[i], y = poly[(i + 1) % np];
-            s = apex_lower ? emit(d, apex, cid, x, y, err) : emit(d, apex, y, x, cid, err);
-        }
-        return s;
+            w[k] += (wl > 0 ? 0.5 * wl : 1.0) * nrm[wi][k] / (nl > 0 ? nl : 1);
     }
+}
+
+/* A new centre vertex cpos for a fan over poly, at the centroid's distance from the apex:
+ * the signs of its tets depend only on its direction from the apex, so the centroid's is
+ * tried, then directions along the side triangles' normals. Returns its fan's worst tet
+ * volume. */
+static double place_centre(const dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                           int np, double cpos[3]) {
+    for (int k = 0; k < 3; k++)
+        cpos[k] = 0;
+    for (int i = 0; i < np; i++) {
+        double p[3];
+        vm__dc_vertex_pos(d, poly[i], 0, p);
+        for (int k = 0; k < 3; k++)
+            cpos[k] += p[k] / np;
+    }
+    double ap[3], nrm[MAX_POLY][3], sum[3], len = 0;
+    vm__dc_vertex_pos(d, apex, 0, ap);
+    side_normals(d, ap, apex_lower, poly, np, nrm, sum);
+    for (int k = 0; k < 3; k++)
+        len += (cpos[k] - ap[k]) * (cpos[k] - ap[k]);
+    len = sqrt(len);
+    double worst_c = -INFINITY, cand[MAX_CANDIDATES][3];
+    int ncand = 0;
+    for (int k = 0; k < 3; k++)
+        cand[ncand][k] = cpos[k] - ap[k];
+    ncand++;
+    memcpy(cand[ncand++], sum, sizeof sum);
+    for (int i = 0; i < np && ncand < MAX_CANDIDATES - 1; i++)
+        memcpy(cand[ncand++], nrm[i], sizeof nrm[i]);
+    perceptron_direction((const double(*)[3])nrm, np, sum, cand[ncand++]);
+    for (int ci = 0; ci < ncand; ci++) {
+        double cl = sqrt(cand[ci][0] * cand[ci][0] + cand[ci][1] * cand[ci][1] +
+                         cand[ci][2] * cand[ci][2]);
+        if (!(cl > 0)) continue;
+        double worst = INFINITY;
+        for (int i = 0; i < np; i++)
+            worst = fmin(worst, (cand[ci][0] * nrm[i][0] + cand[ci][1] * nrm[i][1] +
+                                 cand[ci][2] * nrm[i][2]) *
+                                    len / cl / 6.0);
+        if (worst > worst_c * better_rel + better_abs || ci == 0) {
+            if (ci > 0 && worst_c > fine_volume * len * len * len)
+                break; /* the centroid is fine */
+            worst_c = worst;
+            for (int k = 0; k < 3; k++)
+                cpos[k] = ap[k] + cand[ci][k] * len / cl;
+        }
+    }
+    return worst_c;
+}
+
+/* The fan from poly[root] over poly, each triangle joined to apex. */
+static vm_status emit_fan(dc *d, int64_t apex, int apex_lower, const int64_t *poly, int np,
+                          int root, vm_error *err) {
+    vm_status s = VM_OK;
+    for (int i = 1; i + 1 < np && !s; i++) {
+        int64_t x = poly[root], y = poly[(root + i) % np];
+        int64_t z = poly[(root + i + 1) % np];
+        s = apex_lower ? emit(d, apex, x, y, z, err) : emit(d, apex, z, y, x, err);
+    }
+    return s;
+}
+
+/* The fan from a new centre vertex at cpos over poly's edges, each triangle joined to apex. */
+static vm_status emit_centre_fan(dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                                 int np, const double cpos[3], vm_error *err) {
+    vm_status s =
+        vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + 1, 3 * sizeof(double), err);
+    if (s) return s;
+    memcpy(d->centre + 3 * d->ncentre, cpos, 3 * sizeof *cpos);
+    int64_t cid = vm__dc_npoints_real(d) + (int64_t)(d->nreps + d->ncentre++);
+    for (int i = 0; i < np && !s; i++) {
+        int64_t x = poly[i], y = poly[(i + 1) % np];
+        s = apex_lower ? emit(d, apex, cid, x, y, err) : emit(d, apex, y, x, cid, err);
+    }
+    return s;
+}
+
+/* The quad poly's pyramid: the diagonal split whose smaller tet is larger. */
+static vm_status emit_quad(dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                           vm_error *err) {
+    vm_status s = VM_OK;
     int64_t ta[2][4] = {{apex, poly[0], poly[1], poly[2]}, {apex, poly[0], poly[2], poly[3]}};
     int64_t tb[2][4] = {{apex, poly[1], poly[2], poly[3]}, {apex, poly[1], poly[3], poly[0]}};
     if (!apex_lower)
@@ -311,6 +356,23 @@ static vm_status emit_polygon(dc *d, int64_t apex, int apex_lower, const int64_t
     for (int t = 0; t < 2 && !s; t++)
         s = emit(d, best[t][0], best[t][1], best[t][2], best[t][3], err);
     return s;
+}
+
+/* The pyramid from apex over the polygon poly (counter-clockwise around the edge's axis;
+ * inserted[i]: poly[i] is the vertex of an ambiguous face), split as a fan from the root
+ * that gives the largest smallest volume, or from a new centre vertex. */
+static vm_status emit_polygon(dc *d, int64_t apex, int apex_lower, const int64_t *poly,
+                              const int *inserted, int np, vm_error *err) {
+    if (np == 3)
+        return apex_lower ? emit(d, apex, poly[0], poly[1], poly[2], err)
+                          : emit(d, apex, poly[2], poly[1], poly[0], err);
+    if (np <= 4) return emit_quad(d, apex, apex_lower, poly, err);
+    double best, cpos[3];
+    int best_root = best_fan_root(d, apex, apex_lower, poly, inserted, np, &best);
+    double worst_c = place_centre(d, apex, apex_lower, poly, np, cpos);
+    if (best_root >= 0 && best >= worst_c)
+        return emit_fan(d, apex, apex_lower, poly, np, best_root, err);
+    return emit_centre_fan(d, apex, apex_lower, poly, np, cpos, err);
 }
 
 /* A leaf seen from a position around an edge: 0 exterior cell, 1 fine boundary cell, 2 coarse
@@ -967,7 +1029,7 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     }
     size_t bad = 0;
-    for (int round = 0; round < 24; round++) {
+    for (int round = 0; round < RELAX_ROUNDS; round++) {
         bad = 0;
         memset(now, 0, d->nreps);
         for (size_t t = 0; t < d->ntets; t++) {
@@ -978,12 +1040,12 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
             for (int k = 0; k < 4; k++)
                 if (v[k] >= N && (size_t)(v[k] - N) < d->nreps) {
                     size_t r = (size_t)(v[k] - N);
-                    d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * 0.5f : 0.0f;
+                    d->lambda[r] = d->lambda[r] > relax_floor ? d->lambda[r] * 0.5f : 0.0f;
                     /* A coarse leaf's vertex also moves toward the block centre: its mass
                      * point may lie outside the wedge that the grid edges on its faces
                      * leave it (the centre lies inside every one of them). */
                     if (d->ncoarse && r >= d->coarse_base)
-                        d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * 0.5f : 0.0f;
+                        d->mu[r] = d->mu[r] > relax_floor ? d->mu[r] * 0.5f : 0.0f;
                     touched[r] = now[r] = 1;
                 }
         }
@@ -1024,21 +1086,15 @@ static int bface_cmp(const void *x, const void *y) {
     return 0;
 }
 
-/* Counts the intersecting pairs of boundary triangles of the current tets (index space)
- * and marks the representatives at the corners of those triangles in mark[]. A grid point
- * off the box border is surrounded by tets, so only faces without such a corner are
- * candidates; of those, the ones used by a single tet are the boundary. */
-static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, vm_error *err) {
+/* The boundary faces of the tets (the faces of surface vertices that occur once), *nb of
+ * them, in *out (the caller frees it). */
+static vm_status boundary_faces(const dc *d, bface **out, size_t *nb_out, vm_error *err) {
     static const int tf[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
     int64_t N = vm__dc_npoints_real(d);
     bface *f = NULL;
-    int64_t *ids = NULL;
-    vm_index *tri = NULL;
-    double *pos = NULL;
-    uint8_t *flag = NULL;
     size_t nf = 0, cap = 0, nb = 0;
-    vm_status s = VM_OK;
-    *pairs = 0;
+    *out = NULL;
+    *nb_out = 0;
     for (size_t t = 0; t < d->ntets; t++) {
         int64_t v[4];
         tet_get(d, t, v);
@@ -1047,7 +1103,11 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
             surf[k] = v[k] >= N || vm__dc_vertex_planes(d, v[k]) != 0;
         for (int q = 0; q < 4; q++) {
             if (!surf[tf[q][0]] || !surf[tf[q][1]] || !surf[tf[q][2]]) continue;
-            if ((s = vm__grow((void **)&f, &cap, nf + 1, sizeof *f, err))) goto done;
+            vm_status s = vm__grow((void **)&f, &cap, nf + 1, sizeof *f, err);
+            if (s) {
+                free(f);
+                return s;
+            }
             bface *b = &f[nf++];
             int ord[3] = {0, 1, 2}; /* corners in increasing id order */
             for (int i = 1; i < 3; i++)
@@ -1070,11 +1130,30 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, v
         if (j == i + 1) f[nb++] = f[i];
         i = j;
     }
-    if (nb < 2) goto done;
-    if (nb < nf) { /* give back the faces dropped before the check's own arrays come */
+    if (nb >= 2 && nb < nf) { /* give back the faces dropped before the check's arrays come */
         bface *fit = realloc(f, nb * sizeof *f);
         if (fit) f = fit;
     }
+    *out = f;
+    *nb_out = nb;
+    return VM_OK;
+}
+
+/* Counts the intersecting pairs of boundary triangles of the current tets (index space)
+ * and marks the representatives at the corners of those triangles in mark[]. A grid point
+ * off the box border is surrounded by tets, so only faces without such a corner are
+ * candidates; of those, the ones used by a single tet are the boundary. */
+static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, vm_error *err) {
+    int64_t N = vm__dc_npoints_real(d);
+    bface *f = NULL;
+    int64_t *ids = NULL;
+    vm_index *tri = NULL;
+    double *pos = NULL;
+    uint8_t *flag = NULL;
+    size_t nb = 0;
+    *pairs = 0;
+    vm_status s = boundary_faces(d, &f, &nb, err);
+    if (s || nb < 2) goto done;
     /* The faces' corners as indices into their sorted distinct ids; then the faces go
      * before the positions and the check's own arrays come (a corner's id is ids[index]). */
     ids = malloc(3 * nb * sizeof *ids);
@@ -1149,7 +1228,7 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
         goto done;
     }
-    for (int round = 0; round < 40; round++) {
+    for (int round = 0; round < UNTANGLE_ROUNDS; round++) {
         memset(mark, 0, nr);
         if ((s = boundary_crossings(d, mark, &pairs, err)) || !pairs) break;
         size_t step = 0;
@@ -1158,9 +1237,9 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
             /* a quarter of the way at first; vertices that keep crossing go faster */
             float keep = ever[r] == 0 ? 0.75f : ever[r] == 1 ? 0.5f : 0.25f;
             if (d->lambda[r] > 0) {
-                d->lambda[r] = d->lambda[r] > 1.0 / 64 ? d->lambda[r] * keep : 0.0f;
+                d->lambda[r] = d->lambda[r] > relax_floor ? d->lambda[r] * keep : 0.0f;
             } else if (d->mu[r] > 0 && vm__dc_rep_centre(d, r, NULL)) {
-                d->mu[r] = d->mu[r] > 1.0 / 64 ? d->mu[r] * keep : 0.0f;
+                d->mu[r] = d->mu[r] > relax_floor ? d->mu[r] * keep : 0.0f;
             } else {
                 continue;
             }

@@ -135,6 +135,7 @@ static void unflatten(int64_t i, const int64_t dims[3], int64_t out[3]) {
     out[2] = i / (dims[0] * dims[1]);
 }
 
+/* Steps c to the next entry of a grid of dims, x fastest. */
 static void step_coords(int64_t c[3], const int64_t dims[3]) {
     if (++c[0] < dims[0]) return;
     c[0] = 0;
@@ -143,32 +144,52 @@ static void step_coords(int64_t c[3], const int64_t dims[3]) {
     c[2]++;
 }
 
-static vm_status classify(dc *d, vm_mesh_stats *st, vm_error *err) {
+/* Bit of padded grid point c in the material (counted in *inside); the padding is outside. */
+static int point_in(const dc *d, const int64_t c[3], size_t *inside) {
     const vm__grid *g = d->g;
+    int64_t i = c[0] - 1, j = c[1] - 1, k = c[2] - 1;
+    if (i < 0 || j < 0 || k < 0 || i >= d->n[0] || j >= d->n[1] || k >= d->n[2]) return 0;
+    float f = vm__dc_fval(d, i, j, k);
+    int is = (!g->has_lo || f >= g->lo) && (!g->has_hi || f <= g->hi);
+    *inside += (size_t)is;
+    return is;
+}
+
+/* Word w of a bit set over a grid of dims (n entries, x fastest): bit b is bit(d, c, count)
+ * at the coordinates c of entry 64 w + b, which may add to *count. */
+static uint64_t grid_word(const dc *d, int64_t w, const int64_t dims[3], size_t n,
+                          int (*bit)(const dc *, const int64_t[3], size_t *), size_t *count) {
+    int64_t c[3], first = 64 * w;
+    unflatten(first, dims, c);
+    uint64_t word = 0;
+    for (int b = 0; b < 64 && first + b < (int64_t)n; b++, step_coords(c, dims))
+        word |= (uint64_t)bit(d, c, count) << b;
+    return word;
+}
+
+/* Fills the bit set bits over a grid of dims (n entries) with bit(d, c, count) per entry,
+ * word by word in parallel (threads never share a word); returns the sum of the counts. */
+static size_t fill_bits(const dc *d, uint64_t *bits, const int64_t dims[3], size_t n,
+                        int (*bit)(const dc *, const int64_t[3], size_t *)) {
+    size_t total = 0;
+    int64_t nw = (int64_t)(n / 64 + 1);
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static) reduction(+ : total)
+#endif
+    for (int64_t w = 0; w < nw; w++) {
+        size_t cnt = 0;
+        bits[w] = grid_word(d, w, dims, n, bit, &cnt);
+        total += cnt;
+    }
+    return total;
+}
+
+/* Marks the grid points in the material (d->in), word by word in parallel. */
+static vm_status classify(dc *d, vm_mesh_stats *st, vm_error *err) {
     size_t np = (size_t)(d->P[0] * d->P[1] * d->P[2]);
     d->in = bits_new(np);
     if (!d->in) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu points)", np);
-    size_t inside = 0;
-    int64_t nw = (int64_t)(np / 64 + 1);
-    /* word by word, so that threads never share a word */
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static) reduction(+ : inside)
-#endif
-    for (int64_t w = 0; w < nw; w++) {
-        int64_t c[3], first = 64 * w;
-        unflatten(first, d->P, c);
-        uint64_t word = 0;
-        for (int b = 0; b < 64 && first + b < (int64_t)np; b++, step_coords(c, d->P)) {
-            int64_t i = c[0] - 1, j = c[1] - 1, k = c[2] - 1;
-            if (i < 0 || j < 0 || k < 0 || i >= d->n[0] || j >= d->n[1] || k >= d->n[2])
-                continue;
-            float f = vm__dc_fval(d, i, j, k);
-            int is = (!g->has_lo || f >= g->lo) && (!g->has_hi || f <= g->hi);
-            word |= (uint64_t)is << b;
-            inside += (size_t)is;
-        }
-        d->in[w] = word;
-    }
+    size_t inside = fill_bits(d, d->in, d->P, np, point_in);
     st->inside_voxels = inside;
     if (!inside) return vm_error_set(err, VM_ERR_EMPTY, "no grid point is in the material");
     return VM_OK;
@@ -189,6 +210,16 @@ static void free_cells(dc *d) {
     d->bnd_rank = NULL;
 }
 
+/* Bit of padded cell c on the boundary (its corners mix); interior cells are counted in
+ * *interior. The last plane along each axis holds no cell. */
+static int cell_on_boundary(const dc *d, const int64_t c[3], size_t *interior) {
+    if (c[0] == d->C[0] - 1 || c[1] == d->C[1] - 1 || c[2] == d->C[2] - 1) return 0;
+    int mask = cell_mask(d, c[0] - 1, c[1] - 1, c[2] - 1);
+    if (mask == 0xff) (*interior)++;
+    return mask != 0 && mask != 0xff;
+}
+
+/* Marks the boundary cells (d->bnd) and ranks them (d->bnd_rank). */
 static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
     size_t nc = (size_t)(d->C[0] * d->C[1] * d->C[2]);
     int64_t nw = (int64_t)(nc / 64 + 1);
@@ -196,24 +227,9 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
     d->bnd_rank = malloc((size_t)nw * sizeof *d->bnd_rank);
     if (!d->bnd || !d->bnd_rank)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory (%zu cells)", nc);
-    size_t reps = 0, interior = 0;
     /* The cell kinds first, in parallel word by word, then the boundary cells in order. The
      * last plane along each axis holds no cell (cells share the points' strides). */
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static) reduction(+ : interior)
-#endif
-    for (int64_t w = 0; w < nw; w++) {
-        int64_t c[3], first = 64 * w;
-        unflatten(first, d->C, c);
-        uint64_t wb = 0;
-        for (int b = 0; b < 64 && first + b < (int64_t)nc; b++, step_coords(c, d->C)) {
-            if (c[0] == d->C[0] - 1 || c[1] == d->C[1] - 1 || c[2] == d->C[2] - 1) continue;
-            int mask = cell_mask(d, c[0] - 1, c[1] - 1, c[2] - 1);
-            if (mask == 0xff) interior++;
-            else if (mask) wb |= (uint64_t)1 << b;
-        }
-        d->bnd[w] = wb;
-    }
+    size_t reps = 0, interior = fill_bits(d, d->bnd, d->C, nc, cell_on_boundary);
     st->interior_cells += interior;
     uint32_t before = 0;
     for (int64_t w = 0; w < nw; w++) {
@@ -277,6 +293,10 @@ static vm_status find_cells(dc *d, vm_mesh_stats *st, vm_error *err) {
     return VM_OK;
 }
 
+/* Crossings keep this fraction of an edge away from its ends (2 %): no vertex on a grid
+ * point, no zero-length edge. */
+static const double crossing_margin = 0.02;
+
 /* Where the material boundary crosses the grid edge p0-p1 (one end inside): linear
  * interpolation against the bound the outside end violates, kept 2% away from the ends;
  * the normal is the interpolated gradient. Absolute index coordinates. */
@@ -288,8 +308,8 @@ static void edge_crossing(const dc *d, const int64_t p0[3], const int64_t p1[3],
     double fo = in0 ? f1 : f0;
     double bound = (g->has_hi && fo > g->hi) ? g->hi : g->lo;
     double t = (f1 != f0) ? (bound - f0) / (f1 - f0) : 0.5;
-    if (!(t >= 0.02)) t = 0.02;
-    if (t > 0.98) t = 0.98;
+    if (!(t >= crossing_margin)) t = crossing_margin;
+    if (t > 1 - crossing_margin) t = 1 - crossing_margin;
     double g0[3], g1[3];
     gradient(d, p0, g0);
     gradient(d, p1, g1);
@@ -301,6 +321,113 @@ static void edge_crossing(const dc *d, const int64_t p0[3], const int64_t p1[3],
     if (len > 0)
         for (int a = 0; a < 3; a++)
             nrm[a] /= len;
+}
+
+/* Eigenvalues of a patch's QEF below this fraction of the largest are dropped: flat and
+ * cylindrical patches keep their vertex near the mass point. */
+static const double qef_cutoff = 0.05;
+/* An ambiguous face's vertex relaxes toward the corner it cuts off, to this fraction of the
+ * way from that corner to its crossings' midpoint. */
+static const double amb_pull = 0.35;
+
+/* The minimiser and mass point of each patch of boundary cell bi (and the centre of a
+ * special cell); writes only its own representatives. */
+static void place_cell_reps(dc *d, size_t bi) {
+    const bcell *b = &d->bc[bi];
+    const vm__dc_kind *kind = vm__dc_kind_of(b);
+    int64_t cm[3];
+    vm__dc_cell_coords(d, b->cell, cm);
+    int fixed[3] = {0, 0, 0};
+    double fixval[3] = {0, 0, 0};
+    uint8_t planes = 0;
+    for (int a = 0; a < 3; a++) {
+        if (cm[a] < 0) { /* spans [-1, 0]: pinned to plane 0, relative 1 */
+            fixed[a] = 1;
+            fixval[a] = 1.0;
+            planes |= (uint8_t)(1 << (2 * a));
+        } else if (cm[a] + 1 >= d->n[a]) { /* spans [n-1, n] */
+            fixed[a] = 1;
+            fixval[a] = 0.0;
+            planes |= (uint8_t)(1 << (2 * a + 1));
+        }
+    }
+    for (int p = 0; p < kind->npatch; p++) {
+        vm_qef q;
+        vm__qef_init(&q);
+        for (int e = 0; e < 12; e++) {
+            if (kind->edge_patch[e] != p) continue;
+            int64_t p0[3], p1[3];
+            for (int a = 0; a < 3; a++) {
+                p0[a] = cm[a] + ((vm__dc_edge_c0[e] >> a) & 1);
+                p1[a] = cm[a] + ((vm__dc_edge_c1[e] >> a) & 1);
+            }
+            if (!vm__dc_real_point(d, p0) || !vm__dc_real_point(d, p1)) continue;
+            double pt[3], nrm[3];
+            edge_crossing(d, p0, p1, pt, nrm);
+            for (int a = 0; a < 3; a++)
+                pt[a] -= vm__dc_coord(d, cm[a], a);
+            vm__qef_add(&q, pt, nrm);
+        }
+        double x[3], m[3];
+        if (q.count == 0) {
+            for (int a = 0; a < 3; a++)
+                x[a] = m[a] = fixed[a] ? fixval[a] : 0.5;
+        } else {
+            vm__qef_solve(&q, qef_cutoff, fixed, fixval, x, m);
+        }
+        size_t r = (size_t)b->base + (size_t)p;
+        for (int a = 0; a < 3; a++) {
+            if (x[a] < 0) x[a] = 0;
+            if (x[a] > 1) x[a] = 1;
+            d->qpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + x[a];
+            d->mpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + m[a];
+        }
+        d->lambda[r] = 1.0f;
+        d->rep_planes[r] = planes;
+        d->mu[r] = 1.0f;
+    }
+    if (kind->special) {
+        size_t r = (size_t)b->base + kind->npatch;
+        for (int a = 0; a < 3; a++)
+            d->qpos[3 * r + a] = d->mpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + 0.5;
+        d->lambda[r] = 1.0f;
+        d->rep_planes[r] = 0;
+        d->mu[r] = 1.0f;
+    }
+}
+
+/* The vertices of ambiguous face fi: one per boundary segment, midway between its two
+ * crossings; writes only its own representatives. */
+static void place_face_reps(dc *d, size_t fi) {
+    int64_t cm[3];
+    int a = (int)(d->amb[fi] % 3);
+    vm__dc_cell_coords(d, d->amb[fi] / 3, cm);
+    const int *fc = vm__dc_face_corner[2 * a + 1];
+    int64_t pc[4][3];
+    for (int q = 0; q < 4; q++)
+        for (int k = 0; k < 3; k++)
+            pc[q][k] = cm[k] + ((fc[q] >> k) & 1);
+    int first = vm__dc_in(d, vm__dc_pidx(d, pc[0][0], pc[0][1], pc[0][2])) ? 0 : 1;
+    for (int h = 0; h < 2; h++) {
+        int q = first + 2 * h;
+        double x0[3], x1[3], nrm[3];
+        edge_crossing(d, pc[q], pc[(q + 1) & 3], x0, nrm);
+        edge_crossing(d, pc[q], pc[(q + 3) & 3], x1, nrm);
+        size_t r = d->amb_base + 2 * fi + (size_t)h;
+        /* relaxation pulls it toward the corner it cuts off */
+        for (int k = 0; k < 3; k++) {
+            d->qpos[3 * r + k] = 0.5 * (x0[k] + x1[k]);
+            d->mpos[3 * r + k] =
+                vm__dc_coord(d, pc[q][k], k) +
+                amb_pull * (d->qpos[3 * r + k] - vm__dc_coord(d, pc[q][k], k));
+        }
+        d->lambda[r] = 1.0f;
+        d->mu[r] = 1.0f;
+        uint8_t planes = 0;
+        if (pc[0][a] == 0) planes |= (uint8_t)(1 << (2 * a));
+        if (pc[0][a] == d->n[a] - 1) planes |= (uint8_t)(1 << (2 * a + 1));
+        d->rep_planes[r] = planes;
+    }
 }
 
 /* Places the minimiser and mass point of every patch (index coordinates). Cells reaching
@@ -319,104 +446,13 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 4096)
 #endif
-    for (size_t bi = 0; bi < d->nbc; bi++) {
-        const bcell *b = &d->bc[bi];
-        const vm__dc_kind *kind = vm__dc_kind_of(b);
-        int64_t cm[3];
-        vm__dc_cell_coords(d, b->cell, cm);
-        int fixed[3] = {0, 0, 0};
-        double fixval[3] = {0, 0, 0};
-        uint8_t planes = 0;
-        for (int a = 0; a < 3; a++) {
-            if (cm[a] < 0) { /* spans [-1, 0]: pinned to plane 0, relative 1 */
-                fixed[a] = 1;
-                fixval[a] = 1.0;
-                planes |= (uint8_t)(1 << (2 * a));
-            } else if (cm[a] + 1 >= d->n[a]) { /* spans [n-1, n] */
-                fixed[a] = 1;
-                fixval[a] = 0.0;
-                planes |= (uint8_t)(1 << (2 * a + 1));
-            }
-        }
-        for (int p = 0; p < kind->npatch; p++) {
-            vm_qef q;
-            vm__qef_init(&q);
-            for (int e = 0; e < 12; e++) {
-                if (kind->edge_patch[e] != p) continue;
-                int64_t p0[3], p1[3];
-                for (int a = 0; a < 3; a++) {
-                    p0[a] = cm[a] + ((vm__dc_edge_c0[e] >> a) & 1);
-                    p1[a] = cm[a] + ((vm__dc_edge_c1[e] >> a) & 1);
-                }
-                if (!vm__dc_real_point(d, p0) || !vm__dc_real_point(d, p1)) continue;
-                double pt[3], nrm[3];
-                edge_crossing(d, p0, p1, pt, nrm);
-                for (int a = 0; a < 3; a++)
-                    pt[a] -= vm__dc_coord(d, cm[a], a);
-                vm__qef_add(&q, pt, nrm);
-            }
-            double x[3], m[3];
-            if (q.count == 0) {
-                for (int a = 0; a < 3; a++)
-                    x[a] = m[a] = fixed[a] ? fixval[a] : 0.5;
-            } else {
-                vm__qef_solve(&q, 0.05, fixed, fixval, x, m);
-            }
-            size_t r = (size_t)b->base + (size_t)p;
-            for (int a = 0; a < 3; a++) {
-                if (x[a] < 0) x[a] = 0;
-                if (x[a] > 1) x[a] = 1;
-                d->qpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + x[a];
-                d->mpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + m[a];
-            }
-            d->lambda[r] = 1.0f;
-            d->rep_planes[r] = planes;
-            d->mu[r] = 1.0f;
-        }
-        if (kind->special) {
-            size_t r = (size_t)b->base + kind->npatch;
-            for (int a = 0; a < 3; a++)
-                d->qpos[3 * r + a] = d->mpos[3 * r + a] = vm__dc_coord(d, cm[a], a) + 0.5;
-            d->lambda[r] = 1.0f;
-            d->rep_planes[r] = 0;
-            d->mu[r] = 1.0f;
-        }
-    }
-    /* Ambiguous faces: one vertex per boundary segment, midway between its two crossings. */
+    for (size_t bi = 0; bi < d->nbc; bi++)
+        place_cell_reps(d, bi);
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
 #endif
-    for (size_t fi = 0; fi < d->namb; fi++) {
-        int64_t cm[3];
-        int a = (int)(d->amb[fi] % 3);
-        vm__dc_cell_coords(d, d->amb[fi] / 3, cm);
-        const int *fc = vm__dc_face_corner[2 * a + 1];
-        int64_t pc[4][3];
-        for (int q = 0; q < 4; q++)
-            for (int k = 0; k < 3; k++)
-                pc[q][k] = cm[k] + ((fc[q] >> k) & 1);
-        int first = vm__dc_in(d, vm__dc_pidx(d, pc[0][0], pc[0][1], pc[0][2])) ? 0 : 1;
-        for (int h = 0; h < 2; h++) {
-            int q = first + 2 * h;
-            double x0[3], x1[3], nrm[3];
-            edge_crossing(d, pc[q], pc[(q + 1) & 3], x0, nrm);
-            edge_crossing(d, pc[q], pc[(q + 3) & 3], x1, nrm);
-            size_t r = d->amb_base + 2 * fi + (size_t)h;
-            /* relaxation pulls it toward the corner it cuts off */
-            for (int k = 0; k < 3; k++) {
-                d->qpos[3 * r + k] = 0.5 * (x0[k] + x1[k]);
-                d->mpos[3 * r + k] =
-                    vm__dc_coord(d, pc[q][k], k) +
-                    0.35 * (d->qpos[3 * r + k] - vm__dc_coord(d, pc[q][k], k));
-            }
-            d->lambda[r] = 1.0f;
-            d->mu[r] = 1.0f;
-            uint8_t planes = 0;
-            if (pc[0][a] == 0) planes |= (uint8_t)(1 << (2 * a));
-            if (pc[0][a] == d->n[a] - 1) planes |= (uint8_t)(1 << (2 * a + 1));
-            d->rep_planes[r] = planes;
-        }
-    }
+    for (size_t fi = 0; fi < d->namb; fi++)
+        place_face_reps(d, fi);
     for (size_t l = 0; l < d->ncoarse; l++) { /* coarse boundary leaves: one patch each */
         size_t r = d->coarse_base + l;
         for (int a = 0; a < 3; a++) {
@@ -546,47 +582,28 @@ static int in_material(const dc *d, double f) {
     return (!d->g->has_lo || f >= d->g->lo) && (!d->g->has_hi || f <= d->g->hi);
 }
 
-/* Whether the aligned 2x2x2 block of cells at o (its 3x3x3 grid points s) can be one
- * boundary leaf without changing the topology of the boundary, and the coarse leaf's
- * QEF minimiser and mass point (relative to o) when it can. The criterion, on the signs:
- *  - the eight corners mix; the coarse cell has one patch, is not special and has no
- *    ambiguous face;
- *  - every coarse edge crosses at most once (a midpoint differs from its ends only when
- *    the ends differ);
- *  - on a coarse face whose corners agree all nine points agree; otherwise the face centre
- *    agrees with one of the face's edge midpoints (so each side of the one crossing curve
- *    is 4-connected and the face carries the same curve as the coarse face);
- *  - the block centre agrees with one of the face centres (no bubble);
- *  - no cell of the block or around it (the 4x4x4 cells) is special or has an ambiguous
- *    face, so only one-patch cells and plain faces meet the coarse leaf.
- * Then the inside points on the block's surface form one disk and the outside points the
- * other, the fine surface inside the block is one disk with the same boundary curve as the
- * coarse leaf's fan, and dropping the block's inner points keeps the topology.
- * The error (voxels) is the larger of two distances, and the block merges when it is at
- * most d->error:
- *  - the seed's EDerror terms |f - f_tri| / |grad f| (f_tri: the coarse cell's trilinear
- *    interpolant) at those of the 19 non-corner points that f_tri puts on the other side
- *    of the material bound: features (thin plates, tips) the coarse cell would cut off.
- *    Elsewhere the coarse leaf keeps the fine crossings (its vertex is their QEF
- *    minimiser), so EDerror there measures the trilinear cell, not the mesh;
- *  - the flatness (a curvature measure): the largest distance of a fine crossing from the
- *    plane through the minimiser normal to the crossings' mean normal, which bounds how
- *    far the fine surface lies from the leaf's fan. */
-static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double m[3]) {
+/* Floor of a gradient's length (per voxel) in the EDerror terms: a flat spot is no divide by
+ * zero, its term just large. */
+static const double min_gradient = 1e-12;
+/* The crossings' mean unit normal must be at least this long: below, they face every way
+ * and the block is no flat patch. */
+static const double min_mean_normal = 0.5;
+/* Fine edges of a 2x2x2 block: 3 axes x 3 x 3 lines x 2 edges, each crossed at most once. */
+enum { BLOCK_EDGES = 54 };
+
+/* The corner mask of the 2x2x2 block of cells at o (bit c: its corner c is in the material). */
+static int block_mask(const dc *d, const int64_t o[3]) {
     int mask = 0;
     for (int c = 0; c < 8; c++)
         mask |= vm__dc_in(d, vm__dc_pidx(d, o[0] + 2 * (c & 1), o[1] + 2 * ((c >> 1) & 1),
                                          o[2] + 2 * (c >> 2)))
                 << c;
-    if (mask == 0 || mask == 0xff || has_ambiguous_face(mask)) return 0;
-    int s[3][3][3];
-    for (int k = 0; k < 3; k++)
-        for (int j = 0; j < 3; j++)
-            for (int i = 0; i < 3; i++)
-                s[i][j][k] = vm__dc_in(d, vm__dc_pidx(d, o[0] + i, o[1] + j, o[2] + k));
-    const vm__dc_kind *cb = &vm__dc_kinds[mask];
-    if (cb->npatch != 1 || cb->special) return 0;
-    for (int a = 0; a < 3; a++) { /* coarse edges */
+    return mask;
+}
+
+/* 1 when every coarse edge of the block's signs s crosses at most once. */
+static int edges_cross_once(const int s[3][3][3]) {
+    for (int a = 0; a < 3; a++) {
         int b = (a + 1) % 3, c = (a + 2) % 3;
         for (int u = 0; u <= 2; u += 2)
             for (int v = 0; v <= 2; v += 2) {
@@ -601,8 +618,14 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
                 if (s0 == s2 && s1 != s0) return 0;
             }
     }
+    return 1;
+}
+
+/* 1 when every coarse face of the signs s is uniform or carries one crossing curve, and the
+ * block centre agrees with a face centre (no bubble). */
+static int faces_plain(const int s[3][3][3]) {
     int face_centre[6];
-    for (int a = 0; a < 3; a++) { /* coarse faces */
+    for (int a = 0; a < 3; a++) {
         int b = (a + 1) % 3, c = (a + 2) % 3;
         for (int side = 0; side < 2; side++) {
             int pts[3][3], all = 1;
@@ -631,15 +654,27 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
     int ok = 0;
     for (int f = 0; f < 6; f++)
         ok |= face_centre[f] == s[1][1][1];
-    if (!ok) return 0;
-    for (int64_t k = o[2] - 1; k <= o[2] + 2; k++) /* the cells of the block and around it */
+    return ok;
+}
+
+/* 1 when no cell of the block at o or around it (the 4x4x4 cells) is special or has an
+ * ambiguous face. */
+static int around_plain(const dc *d, const int64_t o[3]) {
+    for (int64_t k = o[2] - 1; k <= o[2] + 2; k++)
         for (int64_t j = o[1] - 1; j <= o[1] + 2; j++)
             for (int64_t i = o[0] - 1; i <= o[0] + 2; i++) {
                 int32_t code = vm__dc_code(d, vm__dc_cidx(d, i, j, k));
                 if (code < 0) continue;
-                if (vm__dc_kind_of(&d->bc[code])->special || has_ambiguous_face(cell_mask(d, i, j, k))) return 0;
+                if (vm__dc_kind_of(&d->bc[code])->special ||
+                    has_ambiguous_face(cell_mask(d, i, j, k)))
+                    return 0;
             }
-    /* EDerror of the trilinear coarse cell at the non-corner points near the surface */
+    return 1;
+}
+
+/* The largest EDerror of the block's trilinear coarse cell at its non-corner points that it
+ * puts on the other side of the material bound. */
+static double trilinear_error(const dc *d, const int64_t o[3]) {
     double fc[8], edmax = 0;
     for (int c = 0; c < 8; c++)
         fc[c] =
@@ -656,16 +691,19 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
                 double gr[3], f = vm__dc_fval(d, p[0], p[1], p[2]);
                 gradient(d, p, gr);
                 double gn = sqrt(gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]);
-                if (!(gn > 1e-12)) gn = 1e-12;
+                if (!(gn > min_gradient)) gn = min_gradient;
                 if (in_material(d, f) == in_material(d, ft)) continue;
                 if (fabs(f - ft) / gn > edmax) edmax = fabs(f - ft) / gn;
             }
-    if (edmax > d->error) return 0;
-    /* the coarse QEF over every fine crossing of the block, and its flatness */
-    vm_qef q;
-    vm__qef_init(&q);
-    double pts[54][3], nrms[54][3];
+    return edmax;
+}
+
+/* The fine crossings of the block at o with signs s (relative to o), their normals, and the
+ * QEF over them; returns their count. */
+static int block_crossings(const dc *d, const int64_t o[3], const int s[3][3][3],
+                           double pts[BLOCK_EDGES][3], double nrms[BLOCK_EDGES][3], vm_qef *q) {
     int np = 0;
+    vm__qef_init(q);
     for (int a = 0; a < 3; a++)
         for (int k = 0; k < 3; k++)
             for (int j = 0; j < 3; j++)
@@ -680,22 +718,28 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
                     edge_crossing(d, p0, p1, pts[np], nrms[np]);
                     for (int t = 0; t < 3; t++)
                         pts[np][t] -= vm__dc_coord(d, o[t], t);
-                    vm__qef_add(&q, pts[np], nrms[np]);
+                    vm__qef_add(q, pts[np], nrms[np]);
                     np++;
                 }
-    if (!np) return 0;
-    /* The leaf's vertex: the mass point moved along the crossings' mean normal onto the
-     * plane that fits their tangent planes best (the QEF restricted to that line). A full
-     * QEF minimiser slides along a curved patch toward the tangent planes' intersection,
-     * off the surface; the flat patches that merge need no sharp-feature placement. */
+    return np;
+}
+
+/* The leaf's vertex x and mass point m from the np crossings: the mass point moved along the
+ * crossings' mean normal onto the plane that fits their tangent planes best (the QEF
+ * restricted to that line). A full QEF minimiser slides along a curved patch toward the
+ * tangent planes' intersection, off the surface; the flat patches that merge need no
+ * sharp-feature placement. Returns the flatness (the crossings' largest distance from the
+ * plane through x normal to the mean), or -1 when the crossings face every way. */
+static double fit_leaf_vertex(const double pts[][3], const double nrms[][3], int np,
+                              const vm_qef *q, double x[3], double m[3]) {
     double nm[3] = {0, 0, 0};
     for (int a = 0; a < 3; a++)
-        m[a] = q.mass[a] / q.count;
+        m[a] = q->mass[a] / q->count;
     for (int i = 0; i < np; i++)
         for (int a = 0; a < 3; a++)
             nm[a] += nrms[i][a];
     double nl = sqrt(nm[0] * nm[0] + nm[1] * nm[1] + nm[2] * nm[2]);
-    if (!(nl > 0.5)) return 0; /* crossings facing every way */
+    if (!(nl > min_mean_normal)) return -1;
     for (int a = 0; a < 3; a++)
         nm[a] /= nl;
     double num = 0, den = 0;
@@ -713,7 +757,6 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
         x[a] = m[a] + t * nm[a];
         x[a] = x[a] < 0 ? 0 : x[a] > 2 ? 2 : x[a];
     }
-    /* flatness: the crossings' distance from the plane through x normal to the mean */
     double flat = 0;
     for (int i = 0; i < np; i++) {
         double dist = 0;
@@ -721,7 +764,57 @@ static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double 
             dist += nm[a] * (pts[i][a] - x[a]);
         if (fabs(dist) > flat) flat = fabs(dist);
     }
-    return flat <= d->error;
+    return flat;
+}
+
+/* Whether the aligned 2x2x2 block of cells at o (its 3x3x3 grid points s) can be one
+ * boundary leaf without changing the topology of the boundary, and the coarse leaf's
+ * QEF minimiser and mass point (relative to o) when it can. The criterion, on the signs:
+ *  - the eight corners mix; the coarse cell has one patch, is not special and has no
+ *    ambiguous face;
+ *  - every coarse edge crosses at most once (a midpoint differs from its ends only when
+ *    the ends differ);
+ *  - on a coarse face whose corners agree all nine points agree; otherwise the face centre
+ *    agrees with one of the face's edge midpoints (so each side of the one crossing curve
+ *    is 4-connected and the face carries the same curve as the coarse face);
+ *  - the block centre agrees with one of the face centres (no bubble);
+ *  - no cell of the block or around it (the 4x4x4 cells) is special or has an ambiguous
+ *    face, so only one-patch cells and plain faces meet the coarse leaf.
+ * Then the inside points on the block's surface form one disk and the outside points the
+ * other, the fine surface inside the block is one disk with the same boundary curve as the
+ * coarse leaf's fan, and dropping the block's inner points keeps the topology.
+ * The error (voxels) is the larger of two distances, and the block merges when it is at
+ * most d->error:
+ *  - the seed's EDerror terms |f - f_tri| / |grad f| (f_tri: the coarse cell's trilinear
+ *    interpolant) at those of the 19 non-corner points that f_tri puts on the other side
+ *    of the material bound: features (thin plates, tips) the coarse cell would cut off.
+ *    Elsewhere the coarse leaf keeps the fine crossings (its vertex is their QEF
+ *    minimiser), so EDerror there measures the trilinear cell, not the mesh;
+ *  - the flatness (a curvature measure): the largest distance of a fine crossing from the
+ *    plane through the minimiser normal to the crossings' mean normal, which bounds how
+ *    far the fine surface lies from the leaf's fan. */
+static int block_mergeable(const dc *d, const int64_t o[3], double x[3], double m[3]) {
+    int mask = block_mask(d, o);
+    if (mask == 0 || mask == 0xff || has_ambiguous_face(mask)) return 0;
+    int s[3][3][3];
+    for (int k = 0; k < 3; k++)
+        for (int j = 0; j < 3; j++)
+            for (int i = 0; i < 3; i++)
+                s[i][j][k] = vm__dc_in(d, vm__dc_pidx(d, o[0] + i, o[1] + j, o[2] + k));
+    const vm__dc_kind *cb = &vm__dc_kinds[mask];
+    if (cb->npatch != 1 || cb->special) return 0;
+    if (!edges_cross_once((const int(*)[3][3])s) || !faces_plain((const int(*)[3][3])s) ||
+        !around_plain(d, o))
+        return 0;
+    if (trilinear_error(d, o) > d->error) return 0;
+    /* the coarse QEF over every fine crossing of the block, and its flatness */
+    vm_qef q;
+    double pts[BLOCK_EDGES][3], nrms[BLOCK_EDGES][3];
+    int np = block_crossings(d, o, (const int(*)[3][3])s, pts, nrms, &q);
+    if (!np) return 0;
+    double flat = fit_leaf_vertex((const double(*)[3])pts, (const double(*)[3])nrms, np, &q,
+                                  x, m);
+    return flat >= 0 && flat <= d->error;
 }
 
 /* Adaptive mode: merges aligned 2x2x2 blocks of boundary cells into coarse boundary leaves
@@ -800,24 +893,23 @@ int32_t vm__dc_coarse_find(const dc *d, int64_t ci) {
     return lo < d->ncoarse && d->coarse_key[lo] == key ? (int32_t)lo : -1;
 }
 
+/* Puts cell c's code into the octree: coarse or fine boundary, interior, or none. */
+static void put_cell_code(void *ctx, const int64_t c[3]) {
+    dc *d = ctx;
+    int64_t ci = vm__dc_cidx(d, c[0], c[1], c[2]);
+    int code = d->coarse && vm__dc_bit(d->coarse, ci) ? VM_OCT_COARSE
+               : vm__dc_bit(d->bnd, ci)               ? VM_OCT_FINE
+               : vm__dc_in(d, ci)                     ? VM_OCT_LEVEL
+                                                      : VM_OCT_NONE;
+    if (code != VM_OCT_NONE) vm__octree_put(&d->oct, c, code);
+}
+
+/* Adaptive mode: the octree of interior leaves over the cells' kinds (d->oct). */
 static vm_status build_octree(dc *d, int max_level, vm_mesh_stats *st, vm_error *err) {
     int64_t nc[3] = {d->n[0] - 1, d->n[1] - 1, d->n[2] - 1};
     vm_status s = vm__octree_init(&d->oct, nc, err);
     if (s) return s;
-    /* z layers start on a byte of the octree's codes: filled in parallel */
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static)
-#endif
-    for (int64_t k = 0; k < nc[2]; k++)
-        for (int64_t j = 0; j < nc[1]; j++)
-            for (int64_t i = 0; i < nc[0]; i++) {
-                int64_t ci = vm__dc_cidx(d, i, j, k);
-                int code = d->coarse && vm__dc_bit(d->coarse, ci) ? VM_OCT_COARSE
-                           : vm__dc_bit(d->bnd, ci)               ? VM_OCT_FINE
-                           : vm__dc_in(d, ci)                     ? VM_OCT_LEVEL
-                                                                  : VM_OCT_NONE;
-                if (code != VM_OCT_NONE) vm__octree_put(&d->oct, (int64_t[3]){i, j, k}, code);
-            }
+    vm__octree_each_cell(nc, put_cell_code, d); /* z layers in parallel */
     size_t leaves = 0;
     s = vm__octree_build(&d->oct, max_level, &leaves, err);
     d->adaptive = s == VM_OK;

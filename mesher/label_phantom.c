@@ -4,6 +4,10 @@
 #include <string.h>
 #include "volmesh/labels.h"
 
+/* Outer radii of the nested phantom's three shells, as fractions of n: each at least 0.12 n
+ * (4 voxels at n = 32) thick, all inside the box. */
+static const double shell_r[3] = {0.2, 0.32, 0.44};
+
 /* Label of voxel (i, j, k) of an n^3 phantom of the given kind. */
 static int phantom_label(int kind, int n, int i, int j, int k) {
     int q = n / 4, h = n / 2, e = 3 * n / 4;
@@ -11,7 +15,7 @@ static int phantom_label(int kind, int n, int i, int j, int k) {
     case 0: {
         double c = 0.5 * (n - 1), dx = i - c, dy = j - c, dz = k - c;
         double r = sqrt(dx * dx + dy * dy + dz * dz) / n;
-        return r < 0.2 ? 1 : r < 0.32 ? 2 : r < 0.44 ? 3 : 0;
+        return r < shell_r[0] ? 1 : r < shell_r[1] ? 2 : r < shell_r[2] ? 3 : 0;
     }
     case 1:
         if (j < q || j >= e || k < q || k >= e || i < q || i >= e) return 0;

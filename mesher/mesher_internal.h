@@ -83,6 +83,11 @@ static inline void vm__octree_put(vm__octree *o, const int64_t c[3], int code) {
  * VM_OCT_COARSE on boundary cells and VM_OCT_LEVEL on interior cells (disjoint z layers
  * may be filled in parallel). */
 vm_status vm__octree_init(vm__octree *o, const int64_t nc[3], vm_error *err);
+/* Calls fn(ctx, c) on every cell c of a grid of nc cells, z layers in parallel: fn writes only
+ * what belongs to c (the octree's codes of one z layer share no byte with another's), so the
+ * result is the same for any thread count. */
+void vm__octree_each_cell(const int64_t nc[3], void (*fn)(void *ctx, const int64_t c[3]),
+                          void *ctx);
 /* Builds the interior leaves from the codes put after vm__octree_init: neighbouring leaves
  * differ by at most two levels; 2x2x2 interior leaves are returned to single cells.
  * max_level <= 10. [out] leaves: interior leaves. On failure o stays to be freed. */

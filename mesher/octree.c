@@ -133,15 +133,26 @@ static vm_status to_blocks(vm__octree *o, vm_error *err) {
     return VM_OK;
 }
 
-vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_error *err) {
-    const int64_t *nc = o->nc;
-    /* full: per cell 1 + the largest l such that the aligned cube of 2^l cells at origin c
-     * is inside (0: not inside), in the layout of o */
-    vm__octree full;
-    vm_status s = vm__octree_init(&full, nc, err);
-    if (s) return s;
-    /* Every loop over cells below reads and writes disjoint z layers (or per level, reading
-     * the level below): parallel and the same for any thread count. */
+/* Neighbouring leaves differ by at most this many levels: 2 keeps nearly all the saving of
+ * unbalanced leaves on the shared volumes while bounding size jumps to 4x. */
+enum { OCT_GRADE = 2 };
+/* Tets of a 2x2x2 leaf per face next to single cells, and next to a leaf of its size or
+ * larger (2-4, taken as 3); its eight cells as single cells cost 40 tets. */
+enum { LEAF_FACE_FINE = 8, LEAF_FACE_COARSE = 3, CELLS_2X2X2_TETS = 40 };
+
+/* What the per-cell steps of vm__octree_build read and write. */
+typedef struct oct_pass {
+    vm__octree *o;
+    vm__octree *full; /* per cell 1 + the largest l such that the aligned cube of 2^l cells
+                       * at origin c is inside (0: not inside), in the layout of o */
+    int max_level;
+    const uint8_t *keep; /* per aligned 2x2x2 block: whether a 2x2x2 leaf there stays */
+    int64_t kb[3];       /* blocks per axis of keep */
+} oct_pass;
+
+/* Calls fn on every cell, z layers in parallel (see mesher_internal.h). */
+void vm__octree_each_cell(const int64_t nc[3], void (*fn)(void *ctx, const int64_t c[3]),
+                          void *ctx) {
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
 #endif
@@ -149,9 +160,22 @@ vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_erro
         for (int64_t y = 0; y < nc[1]; y++)
             for (int64_t x = 0; x < nc[0]; x++) {
                 int64_t c[3] = {x, y, z};
-                if (vm__octree_get(o, c) == VM_OCT_LEVEL) vm__octree_put(&full, c, 1);
+                fn(ctx, c);
             }
-    for (int l = 1; l <= max_level; l++) {
+}
+
+/* full at an inside cell: 1 (a cube of one cell). */
+static void seed_full(void *ctx, const int64_t c[3]) {
+    const oct_pass *P = ctx;
+    if (vm__octree_get(P->o, c) == VM_OCT_LEVEL) vm__octree_put(P->full, c, 1);
+}
+
+/* Fills P->full: the inside cells, then per level the aligned cubes whose eight halves are
+ * inside (each level reads only the one below). */
+static void full_levels(const oct_pass *P) {
+    const int64_t *nc = P->o->nc;
+    vm__octree_each_cell(nc, seed_full, (void *)P);
+    for (int l = 1; l <= P->max_level; l++) {
         int64_t s2 = (int64_t)1 << l, h = s2 / 2;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
@@ -163,37 +187,49 @@ vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_erro
                     for (int k = 0; k < 8 && ok; k++) {
                         int64_t c[3] = {x + h * (k & 1), y + h * ((k >> 1) & 1),
                                         z + h * (k >> 2)};
-                        ok = vm__octree_get(&full, c) >= l;
+                        ok = vm__octree_get(P->full, c) >= l;
                     }
-                    if (ok) vm__octree_put(&full, (int64_t[3]){x, y, z}, l + 1);
+                    if (ok) vm__octree_put(P->full, (int64_t[3]){x, y, z}, l + 1);
                 }
     }
-    /* leaves: the largest inside cube holding each cell */
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static)
-#endif
-    for (int64_t z = 0; z < nc[2]; z++)
-        for (int64_t y = 0; y < nc[1]; y++)
-            for (int64_t x = 0; x < nc[0]; x++) {
-                int64_t c[3] = {x, y, z};
-                if (vm__octree_get(o, c) != VM_OCT_LEVEL) continue;
-                int l = max_level;
-                for (; l > 0; l--) {
-                    int64_t m = ~(((int64_t)1 << l) - 1), org[3] = {x & m, y & m, z & m};
-                    if (vm__octree_get(&full, org) >= l + 1) break;
+}
+
+/* An inside cell's leaf: the largest inside cube holding it. */
+static void pick_leaf(void *ctx, const int64_t c[3]) {
+    const oct_pass *P = ctx;
+    if (vm__octree_get(P->o, c) != VM_OCT_LEVEL) return;
+    int l = P->max_level;
+    for (; l > 0; l--) {
+        int64_t m = ~(((int64_t)1 << l) - 1), org[3] = {c[0] & m, c[1] & m, c[2] & m};
+        if (vm__octree_get(P->full, org) >= l + 1) break;
+    }
+    vm__octree_put(P->o, c, VM_OCT_LEVEL + l);
+}
+
+/* 1 when a cell in the shell round the leaf of 2^l cells at (x, y, z) is in a leaf more than
+ * OCT_GRADE levels finer. */
+static int needs_split(const vm__octree *o, int64_t x, int64_t y, int64_t z, int l) {
+    int64_t sz = (int64_t)1 << l;
+    for (int64_t k = -1; k <= sz; k++)
+        for (int64_t j = -1; j <= sz; j++)
+            for (int64_t i = -1; i <= sz; i++) {
+                if (i >= 0 && i < sz && j >= 0 && j < sz && k >= 0 && k < sz) {
+                    i = sz - 1; /* skip the inside of the cube */
+                    continue;
                 }
-                vm__octree_put(o, c, VM_OCT_LEVEL + l);
+                int64_t q[3] = {x + i, y + j, z + k};
+                if (neighbour_level(o, q) < l - OCT_GRADE) return 1;
             }
-    vm__octree_free(&full);
-    /* Balance across faces, edges and corners: split any leaf that touches a leaf more than
-     * `grade` levels finer, until nothing changes. */
-    /* Neighbouring leaves differ by at most `grade` levels: 2 keeps nearly all the saving of
-     * unbalanced leaves on the shared volumes while bounding size jumps to 4x. */
-    /* Only leaves above `grade` can split, and their origins are multiples of
-     * 2^(grade+1): the sweep visits just those positions, in the order of a full raster
-     * scan, so the result is the same as scanning every cell. */
-    const int grade = 2;
-    const int64_t step = (int64_t)1 << (grade + 1);
+    return 0;
+}
+
+/* Balance across faces, edges and corners: splits any leaf that touches a leaf more than
+ * OCT_GRADE levels finer, until nothing changes. Only leaves above OCT_GRADE can split, and
+ * their origins are multiples of 2^(OCT_GRADE+1): the sweep visits just those positions, in
+ * the order of a full raster scan, so the result is the same as scanning every cell. */
+static void balance(vm__octree *o) {
+    const int64_t *nc = o->nc;
+    const int64_t step = (int64_t)1 << (OCT_GRADE + 1);
     for (int changed = 1; changed;) {
         changed = 0;
         for (int64_t z = 0; z < nc[2]; z += step)
@@ -201,20 +237,9 @@ vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_erro
                 for (int64_t x = 0; x < nc[0]; x += step) {
                     int64_t c[3] = {x, y, z}, org[3];
                     int l = vm__octree_leaf(o, c, org);
-                    if (l <= grade || org[0] != x || org[1] != y || org[2] != z) continue;
+                    if (l <= OCT_GRADE || org[0] != x || org[1] != y || org[2] != z) continue;
+                    if (!needs_split(o, x, y, z, l)) continue;
                     int64_t sz = (int64_t)1 << l;
-                    int split = 0;
-                    for (int64_t k = -1; k <= sz && !split; k++)
-                        for (int64_t j = -1; j <= sz && !split; j++)
-                            for (int64_t i = -1; i <= sz && !split; i++) {
-                                if (i >= 0 && i < sz && j >= 0 && j < sz && k >= 0 && k < sz) {
-                                    i = sz - 1; /* skip the inside of the cube */
-                                    continue;
-                                }
-                                int64_t q[3] = {x + i, y + j, z + k};
-                                if (neighbour_level(o, q) < l - grade) split = 1;
-                            }
-                    if (!split) continue;
                     for (int64_t k = 0; k < sz; k++)
                         for (int64_t j = 0; j < sz; j++)
                             for (int64_t i = 0; i < sz; i++)
@@ -223,14 +248,12 @@ vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_erro
                     changed = 1;
                 }
     }
-    /* A leaf of 2x2x2 cells costs 8 tets on a face next to single cells and 2-4 on a face
-     * next to a leaf of its size or larger; its eight cells cost 40. Leaves that would cost
-     * more (mostly those with finer neighbours) return to cells. The faces of coarse leaves
-     * accept any finer neighbour, so this keeps the mesh conforming. */
-    /* keep: one byte per aligned 2x2x2 block (bytes: blocks of different z layers apart) */
-    const int64_t kb[3] = {(nc[0] + 1) / 2, (nc[1] + 1) / 2, (nc[2] + 1) / 2};
-    uint8_t *keep = malloc((size_t)(kb[0] * kb[1] * kb[2]) + 1);
-    if (!keep) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+}
+
+/* Per aligned 2x2x2 block (keep, kb blocks per axis): 0 where a 2x2x2 leaf there costs more
+ * tets than its eight cells. */
+static void leaf_costs(const vm__octree *o, uint8_t *keep, const int64_t kb[3]) {
+    const int64_t *nc = o->nc;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
 #endif
@@ -245,22 +268,23 @@ vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_erro
                     int64_t q[3] = {x, y, z};
                     q[f >> 1] += (f & 1) ? 2 : -1;
                     int64_t sz = vm__octree_size(o, q);
-                    cost += sz == 1 ? 8 : 3;
+                    cost += sz == 1 ? LEAF_FACE_FINE : LEAF_FACE_COARSE;
                 }
-                keep[bi] = cost < 40;
+                keep[bi] = cost < CELLS_2X2X2_TETS;
             }
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static)
-#endif
-    for (int64_t z = 0; z < nc[2]; z++)
-        for (int64_t y = 0; y < nc[1]; y++)
-            for (int64_t x = 0; x < nc[0]; x++) {
-                int64_t c[3] = {x, y, z};
-                if (vm__octree_get(o, c) != VM_OCT_LEVEL + 1) continue;
-                if (!keep[x / 2 + kb[0] * (y / 2 + kb[1] * (z / 2))])
-                    vm__octree_put(o, c, VM_OCT_LEVEL);
-            }
-    free(keep);
+}
+
+/* A cell of a 2x2x2 leaf not kept returns to a single cell. */
+static void drop_costly(void *ctx, const int64_t c[3]) {
+    const oct_pass *P = ctx;
+    if (vm__octree_get(P->o, c) != VM_OCT_LEVEL + 1) return;
+    if (!P->keep[c[0] / 2 + P->kb[0] * (c[1] / 2 + P->kb[1] * (c[2] / 2))])
+        vm__octree_put(P->o, c, VM_OCT_LEVEL);
+}
+
+/* The number of leaves of interior cubes (counted at their origins). */
+static size_t count_leaves(const vm__octree *o) {
+    const int64_t *nc = o->nc;
     size_t count = 0;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static) reduction(+ : count)
@@ -274,6 +298,36 @@ vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_erro
                 int64_t m = ((int64_t)1 << l) - 1;
                 if (!(x & m) && !(y & m) && !(z & m)) count++;
             }
+    return count;
+}
+
+/* Builds the leaves of the interior cells (see mesher_internal.h): the largest inside cubes,
+ * balanced, then 2x2x2 leaves that cost more tets than their cells returned to cells. */
+vm_status vm__octree_build(vm__octree *o, int max_level, size_t *leaves, vm_error *err) {
+    const int64_t *nc = o->nc;
+    vm__octree full;
+    vm_status s = vm__octree_init(&full, nc, err);
+    if (s) return s;
+    oct_pass P = {.o = o, .full = &full, .max_level = max_level};
+    full_levels(&P);
+    vm__octree_each_cell(nc, pick_leaf, &P);
+    vm__octree_free(&full);
+    P.full = NULL;
+    balance(o);
+    /* A leaf of 2x2x2 cells costs 8 tets on a face next to single cells and 2-4 on a face
+     * next to a leaf of its size or larger; its eight cells cost 40. Leaves that would cost
+     * more (mostly those with finer neighbours) return to cells. The faces of coarse leaves
+     * accept any finer neighbour, so this keeps the mesh conforming. */
+    /* keep: one byte per aligned 2x2x2 block (bytes: blocks of different z layers apart) */
+    for (int a = 0; a < 3; a++)
+        P.kb[a] = (nc[a] + 1) / 2;
+    uint8_t *keep = malloc((size_t)(P.kb[0] * P.kb[1] * P.kb[2]) + 1);
+    if (!keep) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+    leaf_costs(o, keep, P.kb);
+    P.keep = keep;
+    vm__octree_each_cell(nc, drop_costly, &P);
+    free(keep);
+    size_t count = count_leaves(o);
     if (leaves) *leaves = count;
     return to_blocks(o, err);
 }

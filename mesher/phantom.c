@@ -7,6 +7,17 @@
 
 #define PI 3.14159265358979323846
 
+/* The shapes' sizes, as fractions of the index box's extent n - 1 (the plate's thickness in
+ * voxels). All are centred in the box and inside it, but the cut sphere, whose centre sits
+ * near the x = 0 face so that the border cuts it. */
+static const double sphere_r = 0.35;                     /* sphere, cut sphere */
+static const double torus_R = 0.28, torus_r = 0.12;      /* ring and tube radii */
+static const double genus3_R = 0.13, genus3_r = 0.055;   /* each of the three tori */
+static const double genus3_gap = 1.9;                    /* centre spacing, in ring radii */
+static const double spheres_r = 0.2, spheres_off = 0.25; /* two spheres, centres at +-off */
+static const double plate_half = 0.35, plate_half_thick = 0.6; /* half side; half thickness */
+static const double cut_centre = 0.15;                         /* the cut sphere's centre x */
+
 typedef struct {
     vm_phantom_kind kind;
     double n1;   /* n - 1: the extent of the index box */
@@ -18,38 +29,40 @@ static double torus(double x, double y, double z, double R, double r) {
     return r - sqrt(q * q + z * z);
 }
 
+/* The signed distance (> 0 inside) of shape s at index position (x, y, z). */
 static double field(const shape *s, double x, double y, double z) {
     double n1 = s->n1, dx = x - s->c[0], dy = y - s->c[1], dz = z - s->c[2];
     switch (s->kind) {
-    case VM_PHANTOM_SPHERE: return 0.35 * n1 - sqrt(dx * dx + dy * dy + dz * dz);
-    case VM_PHANTOM_TORUS: return torus(dx, dy, dz, 0.28 * n1, 0.12 * n1);
+    case VM_PHANTOM_SPHERE: return sphere_r * n1 - sqrt(dx * dx + dy * dy + dz * dz);
+    case VM_PHANTOM_TORUS: return torus(dx, dy, dz, torus_R * n1, torus_r * n1);
     case VM_PHANTOM_GENUS3: {
-        double R = 0.13 * n1, r = 0.055 * n1, d = 1.9 * R;
+        double R = genus3_R * n1, r = genus3_r * n1, d = genus3_gap * R;
         double a = torus(dx + d, dy, dz, R, r), b = torus(dx, dy, dz, R, r);
         double e = torus(dx - d, dy, dz, R, r);
         return fmax(a, fmax(b, e));
     }
     case VM_PHANTOM_TWO_SPHERES: {
-        double r = 0.2 * n1, o = 0.25 * n1;
+        double r = spheres_r * n1, o = spheres_off * n1;
         double a = r - sqrt((dx + o) * (dx + o) + dy * dy + dz * dz);
         double b = r - sqrt((dx - o) * (dx - o) + dy * dy + dz * dz);
         return fmax(a, b);
     }
     case VM_PHANTOM_PLATE: {
-        double a = 0.35 * n1;
-        return fmin(0.6 - fabs(dz), fmin(a - fabs(dx), a - fabs(dy)));
+        double a = plate_half * n1;
+        return fmin(plate_half_thick - fabs(dz), fmin(a - fabs(dx), a - fabs(dy)));
     }
-    case VM_PHANTOM_CUT_SPHERE: return 0.35 * n1 - sqrt(dx * dx + dy * dy + dz * dz);
+    case VM_PHANTOM_CUT_SPHERE: return sphere_r * n1 - sqrt(dx * dx + dy * dy + dz * dz);
     }
     return -1.0;
 }
 
+/* The shape of a phantom of n^3 points: its size and centre. */
 static void make_shape(vm_phantom_kind kind, int n, shape *s) {
     s->kind = kind;
     s->n1 = n - 1;
     s->c[0] = s->c[1] = s->c[2] = 0.5 * (n - 1);
     if (kind == VM_PHANTOM_PLATE) s->c[2] = floor(0.5 * (n - 1)); /* plate on a voxel layer */
-    if (kind == VM_PHANTOM_CUT_SPHERE) s->c[0] = 0.15 * (n - 1);
+    if (kind == VM_PHANTOM_CUT_SPHERE) s->c[0] = cut_centre * (n - 1);
 }
 
 /* Volume inside the index box [0, n-1]^3 by the midpoint rule on a grid `sub` times finer. */
@@ -63,15 +76,16 @@ static double numeric_volume(const shape *s, int sub) {
     return count * h * h * h;
 }
 
+/* The shape's volume inside the index box: closed form, numeric for the genus-3 solid. */
 static double exact_volume(const shape *s, int n) {
     double n1 = s->n1;
     switch (s->kind) {
-    case VM_PHANTOM_SPHERE: return 4.0 / 3.0 * PI * pow(0.35 * n1, 3);
-    case VM_PHANTOM_TORUS: return 2.0 * PI * PI * 0.28 * n1 * pow(0.12 * n1, 2);
-    case VM_PHANTOM_TWO_SPHERES: return 2.0 * 4.0 / 3.0 * PI * pow(0.2 * n1, 3);
-    case VM_PHANTOM_PLATE: return pow(0.7 * n1, 2) * 1.2;
+    case VM_PHANTOM_SPHERE: return 4.0 / 3.0 * PI * pow(sphere_r * n1, 3);
+    case VM_PHANTOM_TORUS: return 2.0 * PI * PI * torus_R * n1 * pow(torus_r * n1, 2);
+    case VM_PHANTOM_TWO_SPHERES: return 2.0 * 4.0 / 3.0 * PI * pow(spheres_r * n1, 3);
+    case VM_PHANTOM_PLATE: return pow(2 * plate_half * n1, 2) * (2 * plate_half_thick);
     case VM_PHANTOM_CUT_SPHERE: {
-        double r = 0.35 * n1, h = r - s->c[0];
+        double r = sphere_r * n1, h = r - s->c[0];
         return 4.0 / 3.0 * PI * r * r * r - PI * h * h * (3 * r - h) / 3.0;
     }
     case VM_PHANTOM_GENUS3: return numeric_volume(s, n <= 96 ? 3 : 2);

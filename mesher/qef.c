@@ -17,16 +17,22 @@ void vm__qef_add(vm_qef *q, const double p[3], const double n[3]) {
     q->count++;
 }
 
+/* Jacobi sweeps at most (a 3x3 converges in a handful); the rotations stop when the
+ * off-diagonal sum is below jacobi_done, and skip an entry below jacobi_tiny, whose angle
+ * would overflow (both far below any QEF entry: squared normals of unit order). */
+enum { JACOBI_SWEEPS = 32 };
+static const double jacobi_done = 1e-30, jacobi_tiny = 1e-300;
+
 /* Cyclic Jacobi rotations: a = V diag(w) V^T for a symmetric 3x3 a. */
 static void jacobi3(double a[3][3], double w[3], double v[3][3]) {
     memset(v, 0, 9 * sizeof(double));
     for (int i = 0; i < 3; i++) v[i][i] = 1.0;
-    for (int sweep = 0; sweep < 32; sweep++) {
+    for (int sweep = 0; sweep < JACOBI_SWEEPS; sweep++) {
         double off = fabs(a[0][1]) + fabs(a[0][2]) + fabs(a[1][2]);
-        if (off < 1e-30) break;
+        if (off < jacobi_done) break;
         for (int p = 0; p < 2; p++)
             for (int r = p + 1; r < 3; r++) {
-                if (fabs(a[p][r]) < 1e-300) continue;
+                if (fabs(a[p][r]) < jacobi_tiny) continue;
                 double theta = (a[r][r] - a[p][p]) / (2.0 * a[p][r]);
                 double t = (theta >= 0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
                 double c = 1.0 / sqrt(t * t + 1.0), s = t * c;

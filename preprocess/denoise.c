@@ -5,9 +5,24 @@
 #include <string.h>
 #include "../core/core.h"
 #include "volmesh/preprocess.h"
+#include "preprocess_internal.h"
 
 #define BILATERAL_REACH 3.0 /* kernel radius in units of sigma_space */
 #define BILATERAL_MAX_RADIUS 64
+
+/* MAD to standard deviation for Gaussian noise: 1 / Phi^-1(3/4). */
+static const double mad_to_sigma = 1.4826;
+/* Noise below this fraction of the value range counts as none (a clean image) ... */
+static const double clean_noise_fraction = 1e-6;
+/* ... and is then taken as this fraction of the range (1 %). */
+static const double fallback_noise_fraction = 0.01;
+/* The default range sigma and conductance scale, in noise sigmas: edges stronger than about
+ * two noise sigmas are kept. */
+static const double noise_sigmas = 2.0;
+/* The default time step, as a fraction of the explicit scheme's stability limit. */
+static const double dt_fraction = 0.5;
+/* Default and largest number of diffusion iterations. */
+enum { DEFAULT_ITERATIONS = 10, MAX_ITERATIONS = 100000 };
 
 /* k-th smallest of a[0..n-1] (a is reordered), Hoare's selection. */
 static float select_kth(float *a, size_t n, size_t k) {
@@ -37,6 +52,7 @@ static float select_kth(float *a, size_t n, size_t k) {
     return a[k];
 }
 
+/* The noise sigma: the MAD of the voxels' Laplacians (see volmesh/preprocess.h). */
 vm_status vm_denoise_noise_sigma(const vm_volume *v, double *sigma, vm_error *err) {
     const int64_t nx = v->dims[0], ny = v->dims[1], nz = v->dims[2];
     const int64_t n[3] = {nx, ny, nz};
@@ -75,7 +91,7 @@ vm_status vm_denoise_noise_sigma(const vm_volume *v, double *sigma, vm_error *er
         for (size_t q = 0; q < kept; q++) lap[q] = fabsf(lap[q] - med);
         double mad = select_kth(lap, kept, kept / 2);
         /* Var of the Laplacian of unit white noise: (2m)^2 for the centre + 2m neighbours. */
-        *sigma = 1.4826 * mad / sqrt(4.0 * m * m + 2.0 * m);
+        *sigma = mad_to_sigma * mad / sqrt(4.0 * m * m + 2.0 * m);
     }
     free(lap);
     return VM_OK;
@@ -100,6 +116,7 @@ double vm_denoise_diffusion_max_dt(const vm_volume *v) {
     return s > 0 ? 1.0 / (2.0 * s) : INFINITY;
 }
 
+/* Parameters from the noise and the spacing (see volmesh/preprocess.h). */
 vm_status vm_denoise_defaults(const vm_volume *v, vm_denoise_params *p, vm_error *err) {
     memset(p, 0, sizeof *p);
     vm_status st = vm_denoise_noise_sigma(v, &p->noise_sigma, err);
@@ -108,35 +125,39 @@ vm_status vm_denoise_defaults(const vm_volume *v, vm_denoise_params *p, vm_error
     vm_volume_stats(v, &lo, &hi, NULL);
     double range = isfinite(lo) ? hi - lo : 0.0;
     /* A clean image shows no noise: fall back to a small fraction of the contrast. */
-    if (!(p->noise_sigma > 1e-6 * range)) p->noise_sigma = 0.01 * range;
+    if (!(p->noise_sigma > clean_noise_fraction * range))
+        p->noise_sigma = fallback_noise_fraction * range;
     const double *h = v->spacing;
     p->sigma_space = cbrt(h[0] * h[1] * h[2]);
-    p->sigma_range = 2.0 * p->noise_sigma;
+    p->sigma_range = noise_sigmas * p->noise_sigma;
     double q = 0;
     for (int a = 0; a < 3; a++)
         if (v->dims[a] > 1) q += 1.0 / (2.0 * h[a] * h[a]);
-    p->kappa = 2.0 * p->noise_sigma * sqrt(q);
+    p->kappa = noise_sigmas * p->noise_sigma * sqrt(q);
     if (!(p->kappa > 0)) p->kappa = 1.0; /* constant volume: nothing flows anyway */
     if (!(p->sigma_range > 0)) p->sigma_range = 1.0;
     p->max_dt = vm_denoise_diffusion_max_dt(v);
-    p->dt = isfinite(p->max_dt) ? 0.5 * p->max_dt : 1.0;
-    p->iterations = 10;
+    p->dt = isfinite(p->max_dt) ? dt_fraction * p->max_dt : 1.0;
+    p->iterations = DEFAULT_ITERATIONS;
     return VM_OK;
 }
 
-/* Inverse of the index-to-world matrix M = D diag(spacing); 0 when M is singular. */
-static int frame_inverse(const vm_volume *v, double inv[3][3]) {
+/* The inverse of the index-to-world matrix (see preprocess_internal.h). */
+vm_status vm__frame_inverse(const vm_volume *v, const char *who, double inv[3][3], double *det,
+                            vm_error *err) {
     double m[3][3];
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++) m[r][c] = v->direction[r][c] * v->spacing[c];
-    double det = vm_volume_frame_determinant(v);
-    if (!(fabs(det) > 0) || !isfinite(det)) return 0;
+    *det = vm_volume_frame_determinant(v);
+    if (!(fabs(*det) > 0) || !isfinite(*det))
+        return vm_error_set(err, VM_ERR_ARG,
+                            "%s: the volume's index-to-world frame is degenerate", who);
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++) {
             int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
-            inv[r][c] = (m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]) / det;
+            inv[r][c] = (m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]) / *det;
         }
-    return 1;
+    return VM_OK;
 }
 
 typedef struct {
@@ -180,6 +201,7 @@ static void bilateral_slab(const vm_volume *in, const tap *taps, size_t ntap, co
     }
 }
 
+/* The bilateral filter (see volmesh/preprocess.h). */
 vm_status vm_denoise_bilateral(const vm_volume *in, double sigma_space, double sigma_range,
                                vm_volume *out, vm_progress_fn progress, void *user,
                                vm_error *err) {
@@ -192,10 +214,9 @@ vm_status vm_denoise_bilateral(const vm_volume *in, double sigma_space, double s
         if (!(sigma_space > 0) || !isfinite(sigma_space)) sigma_space = def.sigma_space;
         if (!(sigma_range > 0) || !isfinite(sigma_range)) sigma_range = def.sigma_range;
     }
-    double inv[3][3];
-    if (!frame_inverse(in, inv))
-        return vm_error_set(err, VM_ERR_ARG,
-                            "bilateral: the volume's index-to-world frame is degenerate");
+    double inv[3][3], det;
+    vm_status st = vm__frame_inverse(in, "bilateral", inv, &det, err);
+    if (st) return st;
     /* |index offset along a| <= |row a of M^-1| * world distance, so this radius holds the
      * whole ball of world radius reach whatever the direction matrix. */
     double reach = BILATERAL_REACH * sigma_space;
@@ -232,7 +253,7 @@ vm_status vm_denoise_bilateral(const vm_volume *in, double sigma_space, double s
                 taps[ntap++] = t;
             }
     vm_volume res;
-    vm_status st = alloc_like(in, &res, err);
+    st = alloc_like(in, &res, err);
     if (st) {
         free(taps);
         return st;
@@ -254,28 +275,6 @@ vm_status vm_denoise_bilateral(const vm_volume *in, double sigma_space, double s
     return VM_OK;
 }
 
-/* Central differences (one-sided on the border, 0 next to non-finite samples) / spacing. */
-static void gradients(const float *f, const int64_t n[3], const double h[3], float *g[3]) {
-    const int64_t stride[3] = {1, n[0], n[0] * n[1]};
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static)
-#endif
-    for (int64_t k = 0; k < n[2]; k++)
-        for (int64_t j = 0; j < n[1]; j++)
-            for (int64_t i = 0; i < n[0]; i++) {
-                const int64_t idx[3] = {i, j, k};
-                int64_t p = i + n[0] * (j + n[1] * k);
-                for (int a = 0; a < 3; a++) {
-                    int64_t lo = idx[a] > 0 ? p - stride[a] : p;
-                    int64_t hi = idx[a] < n[a] - 1 ? p + stride[a] : p;
-                    float d = f[hi] - f[lo];
-                    g[a][p] = (hi != lo && isfinite(d)) ? (float)(d / ((double)(hi - lo) /
-                                                                       stride[a] * h[a]))
-                                                        : 0.0f;
-                }
-            }
-}
-
 /* Flux through the face between voxel p and its a-neighbour q = p + e_a: Perona-Malik
  * conductance 1 / (1 + |grad|^2 / kappa^2), with the normal derivative across the face and
  * the tangential ones averaged from both sides. 0 when either value is not finite. */
@@ -294,6 +293,69 @@ static double face_flux(const float *cur, float *const g[3], int64_t p, int64_t 
     return coef[a] * d / (1.0 + s2 * inv_k2);
 }
 
+/* One diffusion step: what its per-voxel work reads and writes. */
+typedef struct diffusion {
+    const float *cur;  /* the values before the step */
+    float *next;       /* after it */
+    float *g[3];       /* the gradient of cur per axis */
+    int64_t n[3], stride[3];
+    const double *h;   /* the spacing */
+    double coef[3];    /* dt / h^2 per axis */
+    double inv_k2;     /* 1 / kappa^2 */
+} diffusion;
+
+/* Calls fn on every voxel (idx its index, p its offset), z slabs in parallel: fn writes
+ * only at p, so the result is the same for any thread count. */
+static void each_voxel(const diffusion *D,
+                       void (*fn)(const diffusion *, const int64_t[3], int64_t)) {
+    const int64_t *n = D->n;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (int64_t k = 0; k < n[2]; k++)
+        for (int64_t j = 0; j < n[1]; j++)
+            for (int64_t i = 0; i < n[0]; i++) {
+                const int64_t idx[3] = {i, j, k};
+                fn(D, idx, i + n[0] * (j + n[1] * k));
+            }
+}
+
+/* The gradient of cur at voxel p: central differences (one-sided on the border, 0 next to
+ * non-finite samples) / spacing. */
+static void gradient_at(const diffusion *D, const int64_t idx[3], int64_t p) {
+    const float *f = D->cur;
+    for (int a = 0; a < 3; a++) {
+        int64_t lo = idx[a] > 0 ? p - D->stride[a] : p;
+        int64_t hi = idx[a] < D->n[a] - 1 ? p + D->stride[a] : p;
+        float d = f[hi] - f[lo];
+        D->g[a][p] = (hi != lo && isfinite(d))
+                         ? (float)(d / ((double)(hi - lo) / D->stride[a] * D->h[a]))
+                         : 0.0f;
+    }
+}
+
+/* Voxel p after the step. Each face (p, p + e_a) moves the same amount out of one voxel and
+ * into the other; every voxel gathers its six faces in the order a sequential sweep would
+ * add them (lower neighbours z, y, x, then its own faces x, y, z), so slabs run in parallel
+ * with the same result. */
+static void diffuse_at(const diffusion *D, const int64_t idx[3], int64_t p) {
+    float v = D->cur[p];
+    if (!isfinite(v)) {
+        D->next[p] = v;
+        return;
+    }
+    for (int a = 2; a >= 0; a--)
+        if (idx[a] > 0)
+            v -= (float)face_flux(D->cur, D->g, p - D->stride[a], p, a, D->coef, D->inv_k2,
+                                  D->h);
+    for (int a = 0; a < 3; a++)
+        if (idx[a] < D->n[a] - 1)
+            v += (float)face_flux(D->cur, D->g, p, p + D->stride[a], a, D->coef, D->inv_k2,
+                                  D->h);
+    D->next[p] = v;
+}
+
+/* Perona-Malik diffusion, explicit steps (see volmesh/preprocess.h). */
 vm_status vm_denoise_diffusion(const vm_volume *in, double kappa, double dt, int iterations,
                                vm_volume *out, vm_progress_fn progress, void *user,
                                vm_error *err) {
@@ -303,11 +365,11 @@ vm_status vm_denoise_diffusion(const vm_volume *in, double kappa, double dt, int
                             "diffusion: time step %g is above the stability limit %.6g for "
                             "spacing %g %g %g (explicit scheme: dt <= 1/(2 sum 1/h^2))",
                             dt, max_dt, in->spacing[0], in->spacing[1], in->spacing[2]);
-    if (!(dt > 0) || !isfinite(dt)) dt = isfinite(max_dt) ? 0.5 * max_dt : 1.0;
-    if (iterations > 100000)
+    if (!(dt > 0) || !isfinite(dt)) dt = isfinite(max_dt) ? dt_fraction * max_dt : 1.0;
+    if (iterations > MAX_ITERATIONS)
         return vm_error_set(err, VM_ERR_ARG, "diffusion: %d iterations (at most 100000)",
                             iterations);
-    if (iterations <= 0) iterations = 10;
+    if (iterations <= 0) iterations = DEFAULT_ITERATIONS;
     const double *h = in->spacing;
     if (!(kappa > 0) || !isfinite(kappa)) {
         vm_denoise_params def;
@@ -328,41 +390,20 @@ vm_status vm_denoise_diffusion(const vm_volume *in, double kappa, double dt, int
         return vm_error_set(err, VM_ERR_NOMEM, "diffusion: out of memory for %zu voxels",
                             count);
     }
-    float *g[3] = {grad, grad + count, grad + 2 * count};
     const int64_t n[3] = {in->dims[0], in->dims[1], in->dims[2]};
-    const int64_t stride[3] = {1, n[0], n[0] * n[1]};
-    const double inv_k2 = 1.0 / (kappa * kappa);
-    double coef[3];
-    for (int a = 0; a < 3; a++) coef[a] = dt / (h[a] * h[a]);
+    diffusion D = {.n = {n[0], n[1], n[2]},
+                   .stride = {1, n[0], n[0] * n[1]},
+                   .g = {grad, grad + count, grad + 2 * count},
+                   .h = h,
+                   .inv_k2 = 1.0 / (kappa * kappa)};
+    for (int a = 0; a < 3; a++) D.coef[a] = dt / (h[a] * h[a]);
     float *cur = res.data;
     memcpy(cur, in->data, count * sizeof *cur);
     for (int it = 0; it < iterations; it++) {
-        gradients(cur, n, h, g);
-        /* Each face (p, p + e_a) moves the same amount out of one voxel and into the other;
-         * every voxel gathers its six faces in the order a sequential sweep would add them
-         * (lower neighbours z, y, x, then its own faces x, y, z), so slabs run in parallel
-         * with the same result. */
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(static)
-#endif
-        for (int64_t k = 0; k < n[2]; k++)
-            for (int64_t j = 0; j < n[1]; j++)
-                for (int64_t i = 0; i < n[0]; i++) {
-                    const int64_t idx[3] = {i, j, k};
-                    int64_t p = i + n[0] * (j + n[1] * k);
-                    float v = cur[p];
-                    if (!isfinite(v)) {
-                        next[p] = v;
-                        continue;
-                    }
-                    for (int a = 2; a >= 0; a--)
-                        if (idx[a] > 0)
-                            v -= (float)face_flux(cur, g, p - stride[a], p, a, coef, inv_k2, h);
-                    for (int a = 0; a < 3; a++)
-                        if (idx[a] < n[a] - 1)
-                            v += (float)face_flux(cur, g, p, p + stride[a], a, coef, inv_k2, h);
-                    next[p] = v;
-                }
+        D.cur = cur;
+        D.next = next;
+        each_voxel(&D, gradient_at);
+        each_voxel(&D, diffuse_at);
         float *t = cur;
         cur = next;
         next = t;

@@ -5,6 +5,7 @@
 #include <string.h>
 #include "../core/core.h"
 #include "volmesh/preprocess.h"
+#include "preprocess_internal.h"
 
 /* Index of the last isovalue <= x, or -1 when x is below them all. iso is increasing. */
 static int last_at_or_below(const double *iso, int n, double lo, double hi, double x) {
@@ -239,23 +240,15 @@ static void fill_suggestion(const vm_spectrum *s, double pos, double strength,
     out->strength = strength;
 }
 
-/* Material classes (valleys of the smoothed mean gradient), the boundaries between them and
- * the intervals they delimit; see preprocess.h. */
-static vm_status suggest(vm_spectrum *s, vm_error *err) {
+/* The smoothing's standard deviation is n / smooth_div samples (at least one): wide enough
+ * to drop noise, narrow enough to keep the valleys of a few percent of the range. */
+static const double smooth_div = 128.0;
+
+/* The smoothed mean gradient m (NAN where the smoothed area is below SUGGEST_MIN_AREA of its
+ * largest); returns its range (0 when flat). sa, sg: scratch of n doubles each. */
+static double mean_gradient(const vm_spectrum *s, double *sa, double *sg, double *m) {
     const int n = s->n;
-    double *sa = malloc((size_t)n * sizeof *sa), *sg = malloc((size_t)n * sizeof *sg);
-    double *m = malloc((size_t)n * sizeof *m);
-    material_class *cls = malloc((size_t)n * sizeof *cls);
-    vm_spectrum_suggestion *cand = malloc((size_t)(n + 1) * sizeof *cand);
-    if (!sa || !sg || !m || !cls || !cand) {
-        free(sa);
-        free(sg);
-        free(m);
-        free(cls);
-        free(cand);
-        return vm_error_set(err, VM_ERR_NOMEM, "spectrum: out of memory");
-    }
-    double sigma = n / 128.0 > 1.0 ? n / 128.0 : 1.0;
+    double sigma = n / smooth_div > 1.0 ? n / smooth_div : 1.0;
     smooth(s->area, n, sigma, sa);
     smooth(s->gradient_integral, n, sigma, sg);
     double amax = 0, mmax = -INFINITY, mmin = INFINITY;
@@ -267,7 +260,12 @@ static vm_status suggest(vm_spectrum *s, vm_error *err) {
             mmin = fmin(mmin, m[k]);
         }
     }
-    double range = mmax > mmin ? mmax - mmin : 0.0;
+    return mmax > mmin ? mmax - mmin : 0.0;
+}
+
+/* The material classes: the local minima (runs) of m at least SUGGEST_MIN_DEPTH of its range
+ * deep, into cls; returns their count. */
+static int find_classes(const double *m, int n, double range, material_class *cls) {
     int nc = 0;
     for (int k = 0; k < n && range > 0; k++) {
         if (isnan(m[k]) || (k > 0 && !isnan(m[k - 1]) && m[k - 1] <= m[k])) continue;
@@ -293,7 +291,11 @@ static vm_status suggest(vm_spectrum *s, vm_error *err) {
         }
         k = e;
     }
-    /* Each class ends where m has risen by half of min(depth, the rise toward the next class). */
+    return nc;
+}
+
+/* Each class ends where m has risen by half of min(depth, the rise toward the next class). */
+static void class_edges(const double *m, int n, material_class *cls, int nc) {
     for (int c = 0; c < nc; c++) {
         for (int side = 0; side < 2; side++) {
             int dir = side ? +1 : -1;
@@ -307,6 +309,12 @@ static vm_status suggest(vm_spectrum *s, vm_error *err) {
             if (level > base) cls[c].edge[side] = crossing(m, n, from, dir, stop, level);
         }
     }
+}
+
+/* One suggestion per gap between classes (and below the first, above the last) that has an
+ * edge, into cand; returns their count. */
+static int gap_suggestions(const vm_spectrum *s, const material_class *cls, int nc,
+                           double range, vm_spectrum_suggestion *cand) {
     int ns = 0;
     for (int c = 0; c <= nc; c++) {
         /* The gap below class c (or above the last class). */
@@ -333,28 +341,19 @@ static vm_status suggest(vm_spectrum *s, vm_error *err) {
             continue;
         fill_suggestion(s, pos, strength / range, &cand[ns++]);
     }
-    qsort(cand, (size_t)ns, sizeof *cand, by_strength);
-    if (ns > VM_SPECTRUM_MAX_SUGGESTIONS) ns = VM_SPECTRUM_MAX_SUGGESTIONS;
-    qsort(cand, (size_t)ns, sizeof *cand, by_isovalue);
-    s->suggestions = malloc((size_t)(ns > 0 ? ns : 1) * sizeof *s->suggestions);
-    s->intervals = malloc((size_t)(ns + 1) * sizeof *s->intervals);
-    if (!s->suggestions || !s->intervals) {
-        free(sa);
-        free(sg);
-        free(m);
-        free(cls);
-        free(cand);
-        return vm_error_set(err, VM_ERR_NOMEM, "spectrum: out of memory");
-    }
-    memcpy(s->suggestions, cand, (size_t)ns * sizeof *cand);
-    s->n_suggestions = ns;
-    s->n_intervals = ns + 1;
-    double step = (s->hi - s->lo) / (n - 1);
+    return ns;
+}
+
+/* The intervals between the ns suggestions, each with its volume and the centre of the
+ * class inside it (NAN when none). */
+static void fill_intervals(vm_spectrum *s, const material_class *cls, int nc, int ns) {
+    double step = (s->hi - s->lo) / (s->n - 1);
     for (int q = 0; q <= ns; q++) {
         vm_spectrum_interval *iv = &s->intervals[q];
         iv->lo = q == 0 ? s->lo : s->suggestions[q - 1].isovalue;
         iv->hi = q == ns ? s->hi : s->suggestions[q].isovalue;
-        double top = (q == ns && s->hi >= s->value_max) ? 0.0 : vm_spectrum_at(s, s->volume, iv->hi);
+        double top =
+            (q == ns && s->hi >= s->value_max) ? 0.0 : vm_spectrum_at(s, s->volume, iv->hi);
         iv->volume = vm_spectrum_at(s, s->volume, iv->lo) - top;
         iv->center = NAN;
         for (int c = 0; c < nc; c++) {
@@ -362,12 +361,45 @@ static vm_status suggest(vm_spectrum *s, vm_error *err) {
             if (v >= iv->lo && v <= iv->hi) iv->center = v;
         }
     }
+}
+
+/* Material classes (valleys of the smoothed mean gradient), the boundaries between them and
+ * the intervals they delimit; see preprocess.h. */
+static vm_status suggest(vm_spectrum *s, vm_error *err) {
+    const int n = s->n;
+    double *sa = malloc((size_t)n * sizeof *sa), *sg = malloc((size_t)n * sizeof *sg);
+    double *m = malloc((size_t)n * sizeof *m);
+    material_class *cls = malloc((size_t)n * sizeof *cls);
+    vm_spectrum_suggestion *cand = malloc((size_t)(n + 1) * sizeof *cand);
+    vm_status st = VM_OK;
+    if (!sa || !sg || !m || !cls || !cand) {
+        st = vm_error_set(err, VM_ERR_NOMEM, "spectrum: out of memory");
+        goto done;
+    }
+    double range = mean_gradient(s, sa, sg, m);
+    int nc = find_classes(m, n, range, cls);
+    class_edges(m, n, cls, nc);
+    int ns = gap_suggestions(s, cls, nc, range, cand);
+    qsort(cand, (size_t)ns, sizeof *cand, by_strength);
+    if (ns > VM_SPECTRUM_MAX_SUGGESTIONS) ns = VM_SPECTRUM_MAX_SUGGESTIONS;
+    qsort(cand, (size_t)ns, sizeof *cand, by_isovalue);
+    s->suggestions = malloc((size_t)(ns > 0 ? ns : 1) * sizeof *s->suggestions);
+    s->intervals = malloc((size_t)(ns + 1) * sizeof *s->intervals);
+    if (!s->suggestions || !s->intervals) {
+        st = vm_error_set(err, VM_ERR_NOMEM, "spectrum: out of memory");
+        goto done;
+    }
+    memcpy(s->suggestions, cand, (size_t)ns * sizeof *cand);
+    s->n_suggestions = ns;
+    s->n_intervals = ns + 1;
+    fill_intervals(s, cls, nc, ns);
+done:
     free(sa);
     free(sg);
     free(m);
     free(cls);
     free(cand);
-    return VM_OK;
+    return st;
 }
 
 /* ---- the pass over the cells ----------------------------------------------------------------- */
@@ -394,17 +426,26 @@ void vm_spectrum_free(vm_spectrum *s) {
     memset(s, 0, sizeof *s);
 }
 
-vm_status vm_spectrum_compute(const vm_volume *v, int n, vm_spectrum *out, vm_error *err) {
-    double lo, hi;
-    memset(out, 0, sizeof *out);
-    vm_volume_stats(v, &lo, &hi, NULL);
-    if (!isfinite(lo))
+/* The volume's smallest and largest finite samples (*lo, *hi); an error when it has none or
+ * they are equal (no isosurface). */
+static vm_status value_range(const vm_volume *v, double *lo, double *hi, vm_error *err) {
+    vm_volume_stats(v, lo, hi, NULL);
+    if (!isfinite(*lo))
         return vm_error_set(err, VM_ERR_EMPTY, "spectrum: the volume has no finite sample");
-    if (!(hi > lo))
+    if (!(*hi > *lo))
         return vm_error_set(err, VM_ERR_EMPTY,
                             "spectrum: the volume is constant (every sample is %g): it has no "
                             "isosurfaces",
-                            lo);
+                            *lo);
+    return VM_OK;
+}
+
+/* The spectrum over the volume's whole value range (see volmesh/preprocess.h). */
+vm_status vm_spectrum_compute(const vm_volume *v, int n, vm_spectrum *out, vm_error *err) {
+    double lo, hi;
+    memset(out, 0, sizeof *out);
+    vm_status st = value_range(v, &lo, &hi, err);
+    if (st) return st;
     return vm_spectrum_compute_range(v, n, lo, hi, NULL, NULL, out, err);
 }
 
@@ -470,37 +511,77 @@ static double add_layer(const vm_volume *v, accum *ac, const double inv[3][3],
     return total;
 }
 
+/* Most isovalues of a spectrum (the limit volmesh/preprocess.h documents). */
+enum { MAX_ISOVALUES = 1000000 };
+/* Layers summed per parallel batch, at most, and the bytes their partial sums may take. */
+enum { LAYER_BATCH = 16 };
+#define BATCH_BYTES ((size_t)64 << 20)
+
+/* Adds every z layer's cells to ac; *total: the world volume of the cells with finite
+ * corners. cell_volume: one cell's world volume. */
+static vm_status sum_layers(const vm_volume *v, accum *ac, const double inv[3][3],
+                            double cell_volume, vm_progress_fn progress, void *user,
+                            double *total, vm_error *err) {
+    const int64_t nz = v->dims[2];
+    const int n = ac->n;
+    const size_t sz = (size_t)n;
+    const double lo = ac->lo, hi = ac->hi;
+    /* Layers in parallel, each into its own sums, added in layer order: the same bits for any
+     * thread count. A batch of layers at a time (16, fewer when 4 n + 1 doubles per layer would
+     * pass 64 MB; never depending on the threads) bounds the memory and gives the progress
+     * reports (from this thread only). */
+    const size_t per = 4 * sz + 1;
+    size_t fit = BATCH_BYTES / (per * sizeof(double));
+    const int64_t batch = fit >= LAYER_BATCH ? LAYER_BATCH : fit >= 1 ? (int64_t)fit : 1;
+    double *part = malloc((size_t)batch * per * sizeof *part);
+    if (!part)
+        return vm_error_set(err, VM_ERR_NOMEM, "spectrum: out of memory for %d isovalues", n);
+    double sum = 0.0;
+    for (int64_t k0 = 0; k0 + 1 < nz; k0 += batch) {
+        int64_t k1 = k0 + batch < nz - 1 ? k0 + batch : nz - 1;
+        memset(part, 0, (size_t)(k1 - k0) * per * sizeof *part);
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+        for (int64_t k = k0; k < k1; k++) {
+            double *q = part + (size_t)(k - k0) * per;
+            accum lac = {ac->iso, n, lo, hi, q, q + sz, q + 2 * sz, q + 3 * sz};
+            q[4 * sz] = add_layer(v, &lac, inv, cell_volume, k);
+        }
+        for (int64_t k = k0; k < k1; k++) {
+            const double *q = part + (size_t)(k - k0) * per;
+            for (size_t i = 0; i < sz; i++) {
+                ac->area[i] += q[i];
+                ac->volume[i] += q[sz + i];
+                ac->grad[i] += q[2 * sz + i];
+                ac->full[i] += q[3 * sz + i];
+            }
+            sum += q[4 * sz];
+        }
+        if (progress) progress("spectrum", (double)k1, (double)(nz - 1), user);
+    }
+    free(part);
+    *total = sum;
+    return VM_OK;
+}
+
+/* The spectrum over [lo, hi] (see volmesh/preprocess.h). */
 vm_status vm_spectrum_compute_range(const vm_volume *v, int n, double lo, double hi,
                                     vm_progress_fn progress, void *user, vm_spectrum *out,
                                     vm_error *err) {
     double t0 = vm__now();
     memset(out, 0, sizeof *out);
-    if (n < 2 || n > 1000000)
+    if (n < 2 || n > MAX_ISOVALUES)
         return vm_error_set(err, VM_ERR_ARG, "spectrum: %d isovalues (2 to 1000000)", n);
     if (!isfinite(lo) || !isfinite(hi) || !(lo < hi))
         return vm_error_set(err, VM_ERR_ARG, "spectrum: range %g:%g is empty (need lo < hi)",
                             lo, hi);
     double dmin, dmax;
-    vm_volume_stats(v, &dmin, &dmax, NULL);
-    if (!isfinite(dmin))
-        return vm_error_set(err, VM_ERR_EMPTY, "spectrum: the volume has no finite sample");
-    if (!(dmax > dmin))
-        return vm_error_set(err, VM_ERR_EMPTY,
-                            "spectrum: the volume is constant (every sample is %g): it has no "
-                            "isosurfaces",
-                            dmin);
-    double inv[3][3], m[3][3];
-    for (int r = 0; r < 3; r++)
-        for (int c = 0; c < 3; c++) m[r][c] = v->direction[r][c] * v->spacing[c];
-    double det = vm_volume_frame_determinant(v);
-    if (!(fabs(det) > 0) || !isfinite(det))
-        return vm_error_set(err, VM_ERR_ARG,
-                            "spectrum: the volume's index-to-world frame is degenerate");
-    for (int r = 0; r < 3; r++)
-        for (int c = 0; c < 3; c++) {
-            int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
-            inv[r][c] = (m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]) / det;
-        }
+    vm_status st = value_range(v, &dmin, &dmax, err);
+    if (st) return st;
+    double inv[3][3], det;
+    st = vm__frame_inverse(v, "spectrum", inv, &det, err);
+    if (st) return st;
     out->n = n;
     out->lo = lo;
     out->hi = hi;
@@ -522,45 +603,12 @@ vm_status vm_spectrum_compute_range(const vm_volume *v, int n, double lo, double
     out->isovalue[n - 1] = hi;
     accum ac = {out->isovalue, n, lo, hi, out->area, out->volume, out->gradient_integral, full};
 
-    const int64_t nz = v->dims[2];
-    const double cell_volume = fabs(det);
-    /* Layers in parallel, each into its own sums, added in layer order: the same bits for any
-     * thread count. A batch of layers at a time (16, fewer when 4 n + 1 doubles per layer would
-     * pass 64 MB; never depending on the threads) bounds the memory and gives the progress
-     * reports (from this thread only). */
-    const size_t per = 4 * sz + 1;
-    size_t fit = ((size_t)64 << 20) / (per * sizeof(double));
-    const int64_t batch = fit >= 16 ? 16 : fit >= 1 ? (int64_t)fit : 1;
-    double *part = malloc((size_t)batch * per * sizeof *part);
-    if (!part) {
-        free(full);
-        return vm_error_set(err, VM_ERR_NOMEM, "spectrum: out of memory for %d isovalues", n);
-    }
     double total = 0.0;
-    for (int64_t k0 = 0; k0 + 1 < nz; k0 += batch) {
-        int64_t k1 = k0 + batch < nz - 1 ? k0 + batch : nz - 1;
-        memset(part, 0, (size_t)(k1 - k0) * per * sizeof *part);
-#ifdef VM_HAVE_OPENMP
-#pragma omp parallel for schedule(dynamic, 1)
-#endif
-        for (int64_t k = k0; k < k1; k++) {
-            double *q = part + (size_t)(k - k0) * per;
-            accum lac = {ac.iso, n, lo, hi, q, q + sz, q + 2 * sz, q + 3 * sz};
-            q[4 * sz] = add_layer(v, &lac, (const double(*)[3])inv, cell_volume, k);
-        }
-        for (int64_t k = k0; k < k1; k++) {
-            const double *q = part + (size_t)(k - k0) * per;
-            for (size_t i = 0; i < sz; i++) {
-                ac.area[i] += q[i];
-                ac.volume[i] += q[sz + i];
-                ac.grad[i] += q[2 * sz + i];
-                ac.full[i] += q[3 * sz + i];
-            }
-            total += q[4 * sz];
-        }
-        if (progress) progress("spectrum", (double)k1, (double)(nz - 1), user);
+    st = sum_layers(v, &ac, (const double(*)[3])inv, fabs(det), progress, user, &total, err);
+    if (st) {
+        free(full);
+        return st;
     }
-    free(part);
     double run = 0;
     for (int k = n - 1; k >= 0; k--) {
         run += full[k];
@@ -568,7 +616,7 @@ vm_status vm_spectrum_compute_range(const vm_volume *v, int n, double lo, double
     }
     free(full);
     out->total_volume = total;
-    vm_status st = count_components(v, out->isovalue, n, lo, hi, out->components, err);
+    st = count_components(v, out->isovalue, n, lo, hi, out->components, err);
     if (st) return st;
     st = suggest(out, err);
     if (st) return st;
