@@ -12,6 +12,7 @@
 #include <string.h>
 #include "io_util.h"
 #include "mesh_util.h"
+#include "../core/core.h"
 
 #ifdef VM_HAVE_EXODUS
 #include <dlfcn.h>
@@ -92,7 +93,7 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
                             "%s: cannot load the Exodus II library %s (install libexodusii)",
                             path, exo_name());
-    vm_status st = vm__check_cells(path, m, err);
+    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) return st;
     if (m->npoints > INT32_MAX || m->ncells > INT32_MAX)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: too large for 32-bit Exodus ids",

@@ -60,7 +60,7 @@ static vm_status write_msh(const char *path, const vm_mesh *m, int version,
     if (!type)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
                             (int)m->kind);
-    vm_status st = vm__check_cells(path, m, err);
+    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) return st;
     int dim = m->kind == VM_TET4 || m->kind == VM_HEX8 ? 3 : 2;
     size_t nn = (size_t)vm_cell_nodes(m->kind), nreg = 0;
@@ -241,7 +241,7 @@ static vm_status read_format(msh_reader *r) {
     if (!vm__cur_token(&r->c, &t, &n))
         return vm__cur_fail(&r->c, VM_ERR_FORMAT, "file ends in $MeshFormat");
     double v;
-    if (!vm__parse_double_tok(t, n, &v))
+    if (vm__parse_double_tok(t, n, &v) != VM_OK)
         return vm__cur_fail(&r->c, VM_ERR_FORMAT, "bad MSH version \"%.*s\"",
                             (int)(n > 20 ? 20 : n), t);
     if (v == 2.2 || v == 2.1 || v == 2.0)
@@ -289,7 +289,7 @@ static vm_status read_physical_names(msh_reader *r) {
         msh_name *nm = &r->names[r->nnames++];
         nm->dim = (int)dim;
         nm->tag = tag;
-        nm->is_region = vm__region_parse(q1 + 1, (size_t)(q2 - q1 - 1), &nm->region);
+        nm->is_region = vm__region_parse(q1 + 1, (size_t)(q2 - q1 - 1), &nm->region) == VM_OK;
     }
     return st ? st : expect(r, "$EndPhysicalNames");
 }
@@ -498,7 +498,7 @@ static vm_status build_mesh(msh_reader *r) {
         return vm_error_set(r->c.err, VM_ERR_FORMAT, "%s: no triangles, quadrangles, "
                             "tetrahedra or hexahedra", path);
     int64_t dup = 0;
-    if (!vm__idmap_finish(&r->nodes, &dup))
+    if (vm__idmap_finish(&r->nodes, &dup) != VM_OK)
         return vm_error_set(r->c.err, VM_ERR_FORMAT, "%s: node %" PRId64 " is defined twice",
                             path, dup);
     int vol = have[4] || have[5];
