@@ -302,7 +302,7 @@ static vm_status read_entities(msh_reader *r) {
     for (int d = 0; d < 4 && !st; d++) {
         st = vm__check_count(&r->c, (uint64_t)cnt[d], 8, "entities");
         for (int64_t i = 0; i < cnt[d] && !st; i++) {
-            int64_t tag, np, ph, nb, dummy;
+            int64_t tag, np = 0, ph, nb, dummy;
             double x;
             st = vm__cur_int(&r->c, INT32_MIN, INT32_MAX, "entity tag", &tag);
             for (int k = 0; k < (d == 0 ? 3 : 6) && !st; k++)
@@ -363,7 +363,7 @@ static vm_status read_nodes(msh_reader *r) {
     int64_t *tags = NULL;
     size_t captags = 0;
     for (int64_t b = 0; b < nblocks && !st; b++) {
-        int64_t dim, etag, param, n;
+        int64_t dim, etag, param, n = 0;
         st = vm__cur_int(&r->c, 0, 3, "entity dimension", &dim);
         if (!st) st = vm__cur_int(&r->c, INT32_MIN, INT32_MAX, "entity tag", &etag);
         if (!st) st = vm__cur_int(&r->c, 0, 1, "parametric flag", &param);
@@ -429,7 +429,7 @@ static vm_status read_elements(msh_reader *r) {
         st = vm__cur_int(&r->c, 0, INT64_MAX, "number of elements", &n);
         if (!st) st = vm__check_count(&r->c, (uint64_t)n, 8, "elements");
         for (int64_t i = 0; i < n && !st; i++) {
-            int64_t tag, type, ntags, t0 = 0, t1 = 0, x;
+            int64_t tag, type, ntags = 0, t0 = 0, t1 = 0, x;
             st = vm__cur_int(&r->c, 1, INT64_MAX, "element tag", &tag);
             if (!st) st = vm__cur_int(&r->c, 1, 31, "element type", &type);
             if (!st) st = vm__cur_int(&r->c, 0, 64, "number of tags", &ntags);

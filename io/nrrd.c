@@ -103,8 +103,9 @@ static vm_status parse_ll(const char *s, long long *out) {
     return VM_OK;
 }
 
-/* White-space separated integers; returns the count, or -1 when malformed or more than max. */
-static int parse_int_list(const char *s, int64_t *out, int max) {
+/* White-space separated numbers: integers into ints, or (ints NULL) doubles into reals, nan
+ * allowed. Returns the count, or -1 when malformed or more than max. */
+static int parse_list(const char *s, int64_t *ints, double *reals, int max) {
     int n = 0;
     for (;;) {
         while (isspace((unsigned char)*s)) s++;
@@ -112,24 +113,13 @@ static int parse_int_list(const char *s, int64_t *out, int max) {
         if (n == max) return -1;
         char *end;
         errno = 0;
-        long long x = strtoll(s, &end, 10);
-        if (end == s || errno == ERANGE || (*end && !isspace((unsigned char)*end))) return -1;
-        out[n++] = x;
-        s = end;
-    }
-}
-
-/* White-space separated numbers (nan allowed); returns the count, or -1. */
-static int parse_double_list(const char *s, double *out, int max) {
-    int n = 0;
-    for (;;) {
-        while (isspace((unsigned char)*s)) s++;
-        if (!*s) return n;
-        if (n == max) return -1;
-        char *end;
-        double x = strtod(s, &end);
-        if (end == s || (*end && !isspace((unsigned char)*end))) return -1;
-        out[n++] = x;
+        if (ints)
+            ints[n] = strtoll(s, &end, 10);
+        else
+            reals[n] = strtod(s, &end);
+        if (end == s || (ints && errno == ERANGE) || (*end && !isspace((unsigned char)*end)))
+            return -1;
+        n++;
         s = end;
     }
 }
@@ -312,7 +302,7 @@ static vm_status interpret_layout(const char *path, const nrrd_fields *f, nrrd_i
         return fail(err, VM_ERR_FORMAT, path, "bad dimension '%s' (must be 1..%d)",
                     show(f->dimension, tmp), NRRD_DIM_MAX);
     int64_t sizes[NRRD_DIM_MAX];
-    int ns = parse_int_list(f->sizes, sizes, NRRD_DIM_MAX);
+    int ns = parse_list(f->sizes, sizes, NULL, NRRD_DIM_MAX);
     if (ns != *dim)
         return fail(err, VM_ERR_FORMAT, path, "sizes '%s' must be %lld integers",
                     show(f->sizes, tmp), *dim);
@@ -451,7 +441,7 @@ static vm_status interpret_spacings(const char *path, const nrrd_fields *f, long
                                     int first, nrrd_info *h, vm_error *err) {
     char tmp[48];
     double sp[NRRD_DIM_MAX];
-    if (parse_double_list(f->spacings, sp, NRRD_DIM_MAX) != dim)
+    if (parse_list(f->spacings, NULL, sp, NRRD_DIM_MAX) != dim)
         return fail(err, VM_ERR_FORMAT, path, "spacings '%s' must be %lld numbers",
                     show(f->spacings, tmp), dim);
     for (int a = 0; a < 3; a++) {

@@ -50,20 +50,37 @@ static vm_status begin_surface(const char *path, const vm_mesh *m, vm_mesh *tmp,
     return vm__surface_of(path, m, tmp, s, err);
 }
 
+/* A text or PLY surface writer's output: the surface (m itself, or its boundary held in tmp)
+ * with its nodes per face, and the file. */
+typedef struct surface_out {
+    vm_mesh tmp;
+    const vm_mesh *s;
+    size_t nn;
+    vm_outfile o;
+} surface_out;
+
 /* begin_surface, then the output file opened (the surface freed again if that fails) with
  * its progress over the surface's points and faces. */
 static vm_status begin_surface_file(const char *path, const vm_mesh *m,
-                                    const vm_mesh_write_options *opt, vm_mesh *tmp,
-                                    const vm_mesh **s, vm_outfile *o, vm_error *err) {
-    vm_status st = begin_surface(path, m, tmp, s, err);
+                                    const vm_mesh_write_options *opt, surface_out *so,
+                                    vm_error *err) {
+    vm_status st = begin_surface(path, m, &so->tmp, &so->s, err);
     if (st) return st;
-    st = vm__out_open(o, path, err);
+    st = vm__out_open(&so->o, path, err);
     if (st) {
-        vm_mesh_free(tmp);
+        vm_mesh_free(&so->tmp);
         return st;
     }
-    vm__out_meter(o, opt->progress, opt->progress_user, (double)(*s)->npoints + (*s)->ncells);
+    so->nn = (size_t)vm_cell_nodes(so->s->kind);
+    vm__out_meter(&so->o, opt->progress, opt->progress_user,
+                  (double)so->s->npoints + so->s->ncells);
     return VM_OK;
+}
+
+/* Frees the surface, then checks and renames the file. */
+static vm_status end_surface_file(surface_out *so, vm_error *err) {
+    vm_mesh_free(&so->tmp);
+    return vm__out_commit(&so->o, err);
 }
 
 /* One text line per point: prefix, then the coordinates, exactly (%.17g). */
@@ -306,25 +323,23 @@ vm_status vm_mesh_write_off(const char *path, const vm_mesh *m, vm_error *err) {
 
 vm_status vm__write_off(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
                         vm_error *err) {
-    vm_mesh tmp;
-    const vm_mesh *s = NULL;
-    vm_outfile o;
-    vm_status st = begin_surface_file(path, m, opt, &tmp, &s, &o, err);
+    surface_out so;
+    vm_status st = begin_surface_file(path, m, opt, &so, err);
     if (st) return st;
-    FILE *fp = o.fp;
-    size_t nn = (size_t)vm_cell_nodes(s->kind);
+    const vm_mesh *s = so.s;
+    FILE *fp = so.o.fp;
+    size_t nn = so.nn;
     fprintf(fp, "OFF\n# volmesh %s surface\n%zu %zu 0\n", vm_cell_kind_name(s->kind),
             s->npoints, s->ncells);
-    put_points_text(&o, s, "");
+    put_points_text(&so.o, s, "");
     for (size_t c = 0; c < s->ncells; c++) {
         fprintf(fp, "%zu", nn);
         for (size_t k = 0; k < nn; k++)
             fprintf(fp, " %lld", (long long)s->cells[c * nn + k]);
         fputc('\n', fp);
-        vm__out_step(&o, 1.0);
+        vm__out_step(&so.o, 1.0);
     }
-    vm_mesh_free(&tmp);
-    return vm__out_commit(&o, err);
+    return end_surface_file(&so, err);
 }
 
 /* Adds a polygon of k >= 3 vertices: triangles and quads as they are, larger ones as a fan. */
@@ -404,26 +419,25 @@ vm_status vm_mesh_write_ply(const char *path, const vm_mesh *m, int ascii, vm_er
 vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
                         vm_error *err) {
     int ascii = opt->ascii;
-    vm_mesh tmp;
-    const vm_mesh *s = NULL;
-    vm_outfile o;
-    vm_status st = begin_surface_file(path, m, opt, &tmp, &s, &o, err);
+    surface_out so;
+    vm_status st = begin_surface_file(path, m, opt, &so, err);
     if (st) return st;
-    FILE *fp = o.fp;
-    size_t nn = (size_t)vm_cell_nodes(s->kind);
+    const vm_mesh *s = so.s;
+    FILE *fp = so.o.fp;
+    size_t nn = so.nn;
     fprintf(fp, "ply\nformat %s 1.0\ncomment volmesh %s surface\nelement vertex %zu\n"
                 "property double x\nproperty double y\nproperty double z\nelement face %zu\n"
                 "property list uchar int vertex_indices\nproperty int region\nend_header\n",
             ascii ? "ascii" : "binary_little_endian", vm_cell_kind_name(s->kind), s->npoints,
             s->ncells);
     if (ascii) {
-        put_points_text(&o, s, "");
+        put_points_text(&so.o, s, "");
         for (size_t c = 0; c < s->ncells; c++) {
             fprintf(fp, "%zu", nn);
             for (size_t k = 0; k < nn; k++)
                 fprintf(fp, " %lld", (long long)s->cells[c * nn + k]);
             fprintf(fp, " %ld\n", (long)s->region[c]);
-            vm__out_step(&o, 1.0);
+            vm__out_step(&so.o, 1.0);
         }
     } else {
         for (size_t i = 0; i < s->npoints; i++) {
@@ -431,7 +445,7 @@ vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_
             for (int d = 0; d < 3; d++)
                 vm__put_le64(b + 8 * d, vm__double_bits(s->points[3 * i + (size_t)d]));
             fwrite(b, 1, 24, fp);
-            vm__out_step(&o, 1.0);
+            vm__out_step(&so.o, 1.0);
         }
         for (size_t c = 0; c < s->ncells; c++) {
             unsigned char b[1 + 4 * 8 + 4];
@@ -440,11 +454,10 @@ vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_
                 vm__put_le32(b + 1 + 4 * k, (uint32_t)(int32_t)s->cells[c * nn + k]);
             vm__put_le32(b + 1 + 4 * nn, (uint32_t)s->region[c]);
             fwrite(b, 1, 1 + 4 * nn + 4, fp);
-            vm__out_step(&o, 1.0);
+            vm__out_step(&so.o, 1.0);
         }
     }
-    vm_mesh_free(&tmp);
-    return vm__out_commit(&o, err);
+    return end_surface_file(&so, err);
 }
 
 enum { PLY_ASCII, PLY_LE, PLY_BE };
@@ -714,16 +727,15 @@ vm_status vm_mesh_write_obj(const char *path, const vm_mesh *m, vm_error *err) {
 
 vm_status vm__write_obj(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
                         vm_error *err) {
-    vm_mesh tmp;
-    const vm_mesh *s = NULL;
-    vm_outfile o;
-    vm_status st = begin_surface_file(path, m, opt, &tmp, &s, &o, err);
+    surface_out so;
+    vm_status st = begin_surface_file(path, m, opt, &so, err);
     if (st) return st;
-    FILE *fp = o.fp;
-    size_t nn = (size_t)vm_cell_nodes(s->kind);
+    const vm_mesh *s = so.s;
+    FILE *fp = so.o.fp;
+    size_t nn = so.nn;
     fprintf(fp, "# volmesh %s surface: %zu vertices, %zu faces; g REGION_r groups\n",
             vm_cell_kind_name(s->kind), s->npoints, s->ncells);
-    put_points_text(&o, s, "v ");
+    put_points_text(&so.o, s, "v ");
     for (size_t c = 0; c < s->ncells; c++) {
         if (c == 0 || s->region[c] != s->region[c - 1]) {
             char name[32];
@@ -734,10 +746,9 @@ vm_status vm__write_obj(const char *path, const vm_mesh *m, const vm_mesh_write_
         for (size_t k = 0; k < nn; k++)
             fprintf(fp, " %lld", (long long)s->cells[c * nn + k] + 1);
         fputc('\n', fp);
-        vm__out_step(&o, 1.0);
+        vm__out_step(&so.o, 1.0);
     }
-    vm_mesh_free(&tmp);
-    return vm__out_commit(&o, err);
+    return end_surface_file(&so, err);
 }
 
 /* Reads OBJ line by line: v and f statements, g groups as regions. */
