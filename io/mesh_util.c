@@ -5,6 +5,7 @@
 #include "io_util.h"
 #include <ctype.h>
 #include <errno.h>
+#include <float.h>
 #include <inttypes.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -112,6 +113,7 @@ int vm__tok_is(const char *tok, size_t len, const char *word) {
     return 1;
 }
 
+/* A whole token as a decimal integer (sign allowed) that fits in int64. */
 vm_status vm__parse_int_tok(const char *tok, size_t len, int64_t *v) {
     char b[32];
     if (len == 0 || len >= sizeof b) return VM_ERR_FORMAT;
@@ -128,6 +130,7 @@ vm_status vm__parse_int_tok(const char *tok, size_t len, int64_t *v) {
     return VM_OK;
 }
 
+/* A whole token as a finite double. */
 vm_status vm__parse_double_tok(const char *tok, size_t len, double *v) {
     char b[80];
     if (len == 0 || len >= sizeof b) return VM_ERR_FORMAT;
@@ -139,8 +142,7 @@ vm_status vm__parse_double_tok(const char *tok, size_t len, double *v) {
     char *e;
     errno = 0;
     double x = strtod(b, &e);
-    if (e == b || *e || errno == ERANGE || x != x || x > 1.7976931348623157e308 ||
-        x < -1.7976931348623157e308)
+    if (e == b || *e || errno == ERANGE || x != x || x > DBL_MAX || x < -DBL_MAX)
         return VM_ERR_FORMAT;
     *v = x;
     return VM_OK;
@@ -211,6 +213,7 @@ static int cmp_pair(const void *a, const void *b) {
     return (x > y) - (x < y);
 }
 
+/* Sorts by id (qsort, or insertion sort without scratch memory), then looks for repeats. */
 vm_status vm__idmap_finish(vm__idmap *m, int64_t *dup) {
     int sorted = 1;
     for (size_t i = 1; i < m->n && sorted; i++)
@@ -447,6 +450,7 @@ void vm__region_name(int32_t r, char *out, size_t cap) {
         snprintf(out, cap, "REGION_%ld", (long)r);
 }
 
+/* "REGION_<n>" or "REGION_M<n>" (negative), n of at most 10 digits within int32. */
 vm_status vm__region_parse(const char *s, size_t len, int32_t *r) {
     if (len < 8) return VM_ERR_FORMAT;
     for (int i = 0; i < 7; i++)
