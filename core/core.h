@@ -50,4 +50,11 @@ void vm__meter_start(vm__meter *mt, vm_progress_fn fn, void *user, const char *s
 void vm__meter_add(vm__meter *mt, double units);
 void vm__meter_end(vm__meter *mt);
 
+/* The index of xyz among m's points, appending it to m when new (an exact-coordinate
+ * merge, the first of equal points winning). pi starts as {0, NULL} and grows with m; free
+ * it with vm_point_index_free (volmesh/slabs.h). Returns -1 on out of memory (err filled). */
+struct vm_point_index;
+vm_index vm__point_index_add(struct vm_point_index *pi, vm_mesh *m, const double xyz[3],
+                             vm_error *err);
+
 #endif

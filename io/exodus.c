@@ -12,6 +12,7 @@
 #include <string.h>
 #include "io_util.h"
 #include "mesh_util.h"
+#include "../core/core.h"
 
 #ifdef VM_HAVE_EXODUS
 #include <dlfcn.h>
@@ -41,13 +42,14 @@ static struct {
     int (*close)(int);
 } exo;
 
-/* ISO C cannot convert an object pointer (dlsym's) to a function pointer; POSIX guarantees
- * the representation, so the bytes are copied. */
-static int exo_sym(void *lib, const char *name, void *fn, size_t size) {
+/* Looks up name in lib into the function pointer fn (VM_ERR_UNSUPPORTED when missing). ISO C
+ * cannot convert an object pointer (dlsym's) to a function pointer; POSIX guarantees the
+ * representation, so the bytes are copied. */
+static vm_status exo_sym(void *lib, const char *name, void *fn, size_t size) {
     void *p = dlsym(lib, name);
-    if (!p) return 0;
+    if (!p) return VM_ERR_UNSUPPORTED;
     memcpy(fn, &p, size);
-    return 1;
+    return VM_OK;
 }
 
 /* The library to open: $VOLMESH_EXODUS_LIBRARY when set (a path or a name, for an
@@ -64,7 +66,7 @@ static int exo_load(void) {
     exo.tried = 1;
     void *lib = dlopen(exo_name(), RTLD_NOW | RTLD_LOCAL);
     if (!lib) return 0;
-#define EXO_SYM(field, name) exo_sym(lib, name, &exo.field, sizeof exo.field)
+#define EXO_SYM(field, name) (exo_sym(lib, name, &exo.field, sizeof exo.field) == VM_OK)
     exo.ok = EXO_SYM(opts, "ex_opts") && EXO_SYM(create_int, "ex_create_int") &&
              EXO_SYM(put_init, "ex_put_init") && EXO_SYM(put_coord, "ex_put_coord") &&
              EXO_SYM(put_block, "ex_put_block") && EXO_SYM(put_conn, "ex_put_conn") &&
@@ -92,7 +94,7 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
                             "%s: cannot load the Exodus II library %s (install libexodusii)",
                             path, exo_name());
-    vm_status st = vm__check_cells(path, m, err);
+    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) return st;
     if (m->npoints > INT32_MAX || m->ncells > INT32_MAX)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: too large for 32-bit Exodus ids",

@@ -90,14 +90,11 @@ static size_t sort_unique(int64_t *v, size_t n) {
     return k;
 }
 
-/* Union-find over nodes, to treat each connected piece of the mesh in the static deck. */
-static size_t uf_find(size_t *parent, size_t x) {
-    while (parent[x] != x) {
-        parent[x] = parent[parent[x]];
-        x = parent[x];
-    }
-    return x;
-}
+/* The static deck's slabs: nodes within this fraction of the z extent of the lowest (fixed)
+ * and highest (loaded) z; a piece needs this many fixed nodes (three points not on a line
+ * hold a body against rigid motion). */
+static const double DECK_SLAB_FRACTION = 0.01;
+enum { DECK_MIN_FIXED = 3 };
 
 typedef struct deck_sets {
     int64_t *fixed, *loaded; /* node ids (1-based) */
@@ -127,13 +124,13 @@ static vm_status make_deck_sets(const char *path, const vm_mesh *m, const double
     for (size_t i = 0; i < nnodes; i++)
         parent[i] = i;
     for (size_t c = 0; c < m->ncells; c++) {
-        size_t r0 = uf_find(parent, (size_t)m->cells[c * nn]);
+        size_t r0 = vm__uf_find(parent, (size_t)m->cells[c * nn]);
         used[m->cells[c * nn]] = 1;
         for (size_t k = 1; k < nn + (size_t)nmid_per_cell; k++) {
             size_t v = k < nn ? (size_t)m->cells[c * nn + k]
                               : (size_t)mid[c * (size_t)nmid_per_cell + (k - nn)];
             used[v] = 1;
-            size_t r = uf_find(parent, v);
+            size_t r = vm__uf_find(parent, v);
             if (r != r0) parent[r] = r0;
         }
     }
@@ -144,20 +141,20 @@ static vm_status make_deck_sets(const char *path, const vm_mesh *m, const double
             zmax = zs[i] > zmax ? zs[i] : zmax;
         }
     if (zmin > zmax) goto done; /* no cells */
-    double slab = 0.01 * (zmax - zmin);
+    double slab = DECK_SLAB_FRACTION * (zmax - zmin);
     for (size_t i = 0; i < nnodes; i++)
         cmin[i] = INFINITY;
     for (size_t i = 0; i < nnodes; i++)
         if (used[i]) {
-            size_t r = uf_find(parent, i);
+            size_t r = vm__uf_find(parent, i);
             if (zs[i] < cmin[r]) cmin[r] = zs[i];
             if (zs[i] <= zmin + slab) cfix[r]++;
         }
     /* cfix of a root: nodes in the global slab; pieces with < 3 use their own slab. */
     for (size_t i = 0; i < nnodes; i++)
         if (used[i]) {
-            size_t r = uf_find(parent, i);
-            if (cfix[r] >= 3 ? zs[i] <= zmin + slab : zs[i] <= cmin[r] + slab)
+            size_t r = vm__uf_find(parent, i);
+            if (cfix[r] >= DECK_MIN_FIXED ? zs[i] <= zmin + slab : zs[i] <= cmin[r] + slab)
                 d->fixed[d->nfixed++] = (int64_t)i + 1;
             if (zs[i] >= zmax - slab) d->loaded[d->nloaded++] = (int64_t)i + 1;
         }
@@ -165,10 +162,10 @@ static vm_status make_deck_sets(const char *path, const vm_mesh *m, const double
     for (size_t i = 0; i < nnodes; i++)
         cfix[i] = 0;
     for (size_t k = 0; k < d->nfixed; k++)
-        cfix[uf_find(parent, (size_t)(d->fixed[k] - 1))]++;
+        cfix[vm__uf_find(parent, (size_t)(d->fixed[k] - 1))]++;
     for (size_t i = 0; i < nnodes; i++)
-        if (used[i] && cfix[uf_find(parent, i)] < 3 && !(zs[i] <= zmin + slab) &&
-            !(zs[i] <= cmin[uf_find(parent, i)] + slab))
+        if (used[i] && cfix[vm__uf_find(parent, i)] < DECK_MIN_FIXED &&
+            !(zs[i] <= zmin + slab) && !(zs[i] <= cmin[vm__uf_find(parent, i)] + slab))
             d->fixed[d->nfixed++] = (int64_t)i + 1;
     d->nfixed = sort_unique(d->fixed, d->nfixed);
 done:
@@ -179,6 +176,241 @@ done:
     return st;
 }
 
+/* Abaqus element face / edge counts: S1..S4 of a tet, S1..S6 of a hex; 6 and 12 mid-edge
+ * nodes of C3D10 / C3D20 (Abaqus Analysis User's Guide, 28.1.4). */
+enum { TET_FACES = 4, HEX_FACES = 6, TET_EDGES = 6, HEX_EDGES = 12 };
+
+/* Most entries on one Abaqus data line, and the first mid-edge node of C3D20 that goes on
+ * the continuation line (8 corners + 7 mid-edge nodes = 15 entries after the element id). */
+enum { C3D20_FIRST_CONTINUED = 7 };
+
+/* Room for the ids of one face (at most 8 nodes, with mid-edge nodes) before deduplicating. */
+#define FACE_ID_ROOM 16
+
+/* Placeholder load of the static deck: a total force in -z (model units) spread evenly. */
+static const double DECK_TOTAL_FORCE = 100.0;
+
+/* A mesh on its way to a deck: what the sections need besides the mesh itself. */
+typedef struct inp_writer {
+    const char *path;
+    const vm_mesh *m;
+    const vm_mesh_write_options *opt;
+    vm_error *err;
+    FILE *fp;
+    vm_outfile o;
+    int volume, order2, ne, nf;
+    size_t nn, nnodes;
+    const char *etype;
+    vm_index *mid; /* order 2: mid-edge node of cell*ne + edge */
+    size_t nmid, nb, nregions, nif, idcap;
+    uint64_t *bfaces;
+    vm__iface *ifaces;
+    int32_t *regions;
+    int64_t *ids; /* scratch list of node / element ids */
+    deck_sets deck;
+} inp_writer;
+
+/* Frees what prepare_deck_data allocated. */
+static void inp_writer_free(inp_writer *w) {
+    free(w->mid);
+    free(w->bfaces);
+    free(w->ifaces);
+    free(w->regions);
+    free(w->ids);
+    free(w->deck.fixed);
+    free(w->deck.loaded);
+}
+
+/* The static deck's node sets, from the z of every node (a mid-edge node at the middle). */
+static vm_status prepare_static_deck(inp_writer *w) {
+    const vm_mesh *m = w->m;
+    double *zs = malloc((w->nnodes ? w->nnodes : 1) * sizeof *zs);
+    if (!zs) return vm_error_set(w->err, VM_ERR_NOMEM, "%s: out of memory", w->path);
+    for (size_t i = 0; i < m->npoints; i++)
+        zs[i] = m->points[3 * i + 2];
+    const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
+    for (size_t c = 0; c < m->ncells && w->order2; c++)
+        for (int k = 0; k < w->ne; k++)
+            zs[w->mid[c * (size_t)w->ne + (size_t)k]] =
+                0.5 * (m->points[3 * (size_t)m->cells[c * w->nn + (size_t)edges[k][0]] + 2] +
+                       m->points[3 * (size_t)m->cells[c * w->nn + (size_t)edges[k][1]] + 2]);
+    vm_status st = make_deck_sets(w->path, m, zs, w->mid, w->ne, w->nnodes, &w->deck, w->err);
+    free(zs);
+    return st;
+}
+
+/* Mid-edge nodes, boundary and interface faces, regions, the id scratch and the deck sets. */
+static vm_status prepare_deck_data(inp_writer *w) {
+    const vm_mesh *m = w->m;
+    vm_status st = VM_OK;
+    if (w->order2) st = make_mid_nodes(w->path, m, &w->mid, &w->nmid, w->err);
+    if (st) return st;
+    w->nnodes = m->npoints + w->nmid;
+    if (w->volume) st = vm__boundary_faces(w->path, m, &w->bfaces, &w->nb, w->err);
+    if (!st) st = vm__distinct_regions(w->path, m, &w->regions, &w->nregions, w->err);
+    if (!st && w->volume && w->nregions > 1)
+        st = vm__interface_faces(w->path, m, &w->ifaces, &w->nif, w->err);
+    if (st) return st;
+    /* room for every node once, and slack beyond the one face's ids checked before each */
+    w->idcap = (m->ncells > w->nnodes ? m->ncells : w->nnodes) + 4 * FACE_ID_ROOM;
+    w->ids = malloc((w->idcap ? w->idcap : 1) * sizeof *w->ids);
+    if (!w->ids) return vm_error_set(w->err, VM_ERR_NOMEM, "%s: out of memory", w->path);
+    if (w->opt->deck == VM_DECK_STATIC) st = prepare_static_deck(w);
+    return st;
+}
+
+/* *NODE: the mesh points, then (order 2) each mid-edge node at the middle of its edge, in
+ * id order (straight-sided elements). */
+static vm_status write_nodes(inp_writer *w) {
+    const vm_mesh *m = w->m;
+    FILE *fp = w->fp;
+    fprintf(fp, "*NODE, NSET=NALL\n");
+    for (size_t i = 0; i < m->npoints; i++) {
+        const double *p = m->points + 3 * i;
+        fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", i + 1, p[0], p[1], p[2]);
+        vm__out_step(&w->o, 1.0);
+    }
+    if (!w->order2) return VM_OK;
+    const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
+    size_t ne = (size_t)w->ne, nn = w->nn;
+    size_t *slot_of = malloc((w->nmid ? w->nmid : 1) * sizeof *slot_of);
+    if (!slot_of) return vm_error_set(w->err, VM_ERR_NOMEM, "%s: out of memory", w->path);
+    for (size_t sl = 0; sl < m->ncells * ne; sl++)
+        slot_of[(size_t)w->mid[sl] - m->npoints] = sl;
+    for (size_t i = 0; i < w->nmid; i++) {
+        size_t c = slot_of[i] / ne;
+        int k = (int)(slot_of[i] % ne);
+        const double *a = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][0]];
+        const double *b = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][1]];
+        fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", m->npoints + i + 1, 0.5 * (a[0] + b[0]),
+                0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]));
+        vm__out_step(&w->o, 1.0);
+    }
+    free(slot_of);
+    return VM_OK;
+}
+
+/* *ELEMENT: the corner order of C3D4/C3D8/S3/S4 (and the edge order of C3D10/C3D20) is
+ * VTK's; then one *ELSET per region. */
+static void write_elements(inp_writer *w) {
+    const vm_mesh *m = w->m;
+    FILE *fp = w->fp;
+    int ne = w->ne;
+    fprintf(fp, "*ELEMENT, TYPE=%s, ELSET=EALL\n", w->etype);
+    for (size_t c = 0; c < m->ncells; c++) {
+        fprintf(fp, "%zu", c + 1);
+        for (size_t k = 0; k < w->nn; k++)
+            fprintf(fp, ", %lld", (long long)m->cells[c * w->nn + k] + 1);
+        for (int k = 0; k < ne; k++) {
+            int continued = ne == HEX_EDGES && k == C3D20_FIRST_CONTINUED;
+            if (continued) fprintf(fp, ",\n");
+            fprintf(fp, continued ? "%lld" : ", %lld",
+                    (long long)w->mid[c * (size_t)ne + (size_t)k] + 1);
+        }
+        fputc('\n', fp);
+        vm__out_step(&w->o, 1.0);
+    }
+    for (size_t r = 0; r < w->nregions; r++) {
+        char name[32];
+        vm__region_name(w->regions[r], name, sizeof name);
+        size_t n = 0;
+        for (size_t c = 0; c < m->ncells; c++)
+            if (m->region[c] == w->regions[r]) w->ids[n++] = (int64_t)c + 1;
+        fprintf(fp, "*ELSET, ELSET=%s\n", name);
+        write_id_list(fp, w->ids, n);
+    }
+}
+
+/* Appends to ids[*n] the nodes of local face f of cell c: its corners and, at order 2, the
+ * mid-edge node of each of its edges. */
+static void face_node_ids(const inp_writer *w, size_t c, int f, int64_t *ids, size_t *n) {
+    const vm_mesh *m = w->m;
+    int fk = m->kind == VM_TET4 ? 3 : 4;
+    const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
+    for (int j = 0; j < fk; j++) {
+        int a = fk == 3 ? vm__tet_faces[f][j] : vm__hex_faces[f][j];
+        int b = fk == 3 ? vm__tet_faces[f][(j + 1) % 3] : vm__hex_faces[f][(j + 1) % 4];
+        ids[(*n)++] = (int64_t)m->cells[c * w->nn + (size_t)a] + 1;
+        if (!w->order2) continue;
+        for (int k = 0; k < w->ne; k++)
+            if ((edges[k][0] == a && edges[k][1] == b) ||
+                (edges[k][0] == b && edges[k][1] == a))
+                ids[(*n)++] = (int64_t)w->mid[c * (size_t)w->ne + (size_t)k] + 1;
+    }
+}
+
+/* Per region, the *NSET NB_ of its boundary nodes and the *SURFACE SURF_ of its boundary
+ * faces; per touching pair of regions, the *SURFACE IFACE_ on the lower region's side. */
+static void write_boundary_sets(inp_writer *w) {
+    const vm_mesh *m = w->m;
+    FILE *fp = w->fp;
+    uint64_t nf = (uint64_t)w->nf;
+    for (size_t r = 0; r < w->nregions; r++) {
+        char name[32];
+        vm__region_name(w->regions[r], name, sizeof name);
+        size_t n = 0;
+        for (size_t i = 0; i < w->nb; i++) {
+            size_t c = (size_t)(w->bfaces[i] / nf);
+            if (m->region[c] != w->regions[r]) continue;
+            if (n + FACE_ID_ROOM > w->idcap) n = sort_unique(w->ids, n);
+            face_node_ids(w, c, (int)(w->bfaces[i] % nf), w->ids, &n);
+        }
+        n = sort_unique(w->ids, n);
+        if (n == 0) continue;
+        fprintf(fp, "*NSET, NSET=NB_%s\n", name);
+        write_id_list(fp, w->ids, n);
+    }
+    for (size_t r = 0; r < w->nregions; r++) {
+        char name[32];
+        vm__region_name(w->regions[r], name, sizeof name);
+        int any = 0;
+        for (size_t i = 0; i < w->nb; i++) {
+            size_t c = (size_t)(w->bfaces[i] / nf);
+            if (m->region[c] != w->regions[r]) continue;
+            if (!any) fprintf(fp, "*SURFACE, NAME=SURF_%s, TYPE=ELEMENT\n", name);
+            any = 1;
+            fprintf(fp, "%zu, S%d\n", c + 1, (int)(w->bfaces[i] % nf) + 1);
+        }
+    }
+    for (size_t i = 0; i < w->nif; i++) {
+        const vm__iface *f = &w->ifaces[i];
+        if (i == 0 || f->region != f[-1].region || f->other != f[-1].other) {
+            char a[32], b[32];
+            vm__region_name(f->region, a, sizeof a);
+            vm__region_name(f->other, b, sizeof b);
+            fprintf(fp, "*SURFACE, NAME=IFACE_%s_%s, TYPE=ELEMENT\n", a, b);
+        }
+        fprintf(fp, "%zu, S%d\n", (size_t)(f->face / nf) + 1, (int)(f->face % nf) + 1);
+    }
+}
+
+/* The placeholder material, one section per region, and the static step when asked. */
+static void write_material_and_step(inp_writer *w) {
+    FILE *fp = w->fp;
+    fprintf(fp, "** placeholder material (steel-like, units N, mm, t): replace with yours\n"
+                "*MATERIAL, NAME=PLACEHOLDER_STEEL\n*ELASTIC\n210000, 0.3\n"
+                "*DENSITY\n7.85e-09\n");
+    for (size_t r = 0; r < w->nregions; r++) {
+        char name[32];
+        vm__region_name(w->regions[r], name, sizeof name);
+        if (w->volume)
+            fprintf(fp, "*SOLID SECTION, ELSET=%s, MATERIAL=PLACEHOLDER_STEEL\n", name);
+        else
+            fprintf(fp, "*SHELL SECTION, ELSET=%s, MATERIAL=PLACEHOLDER_STEEL\n1.0\n", name);
+    }
+    if (w->opt->deck != VM_DECK_STATIC) return;
+    fprintf(fp, "** static deck: nodes of the lowest z slab (1%% of the z extent) fixed,\n"
+                "** a total force of 100 in -z spread over the nodes of the top slab\n");
+    fprintf(fp, "*NSET, NSET=FIXED\n");
+    write_id_list(fp, w->deck.fixed, w->deck.nfixed);
+    fprintf(fp, "*NSET, NSET=LOADED\n");
+    write_id_list(fp, w->deck.loaded, w->deck.nloaded);
+    fprintf(fp, "*STEP\n*STATIC\n*BOUNDARY\nFIXED, 1, 3\n*CLOAD\nLOADED, 3, %.17g\n",
+            -DECK_TOTAL_FORCE / (double)w->deck.nloaded);
+    fprintf(fp, "*NODE FILE\nU\n*EL FILE\nS\n*NODE PRINT, NSET=LOADED\nU\n*END STEP\n");
+}
+
+/* Checks the mesh, gathers the sets, then writes the deck section by section. */
 vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
                             const vm_mesh_write_options *opt, vm_error *err) {
     vm_mesh_write_options def;
@@ -186,231 +418,59 @@ vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
         vm_mesh_write_options_init(&def);
         opt = &def;
     }
-    int volume = m->kind == VM_TET4 || m->kind == VM_HEX8;
-    int order2 = opt->order == 2;
+    inp_writer w;
+    memset(&w, 0, sizeof w);
+    w.path = path;
+    w.m = m;
+    w.opt = opt;
+    w.err = err;
+    w.volume = m->kind == VM_TET4 || m->kind == VM_HEX8;
+    w.order2 = opt->order == 2;
     if (vm_cell_nodes(m->kind) == 0)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
                             (int)m->kind);
-    if (order2 && !volume)
+    if (w.order2 && !w.volume)
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
                             "%s: second-order elements are written for tet4 and hex8 meshes, "
                             "not %s", path, vm_cell_kind_name(m->kind));
-    vm_status st = vm__check_cells(path, m, err);
+    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) return st;
-    const char *etype = m->kind == VM_TET4   ? (order2 ? "C3D10" : "C3D4")
-                        : m->kind == VM_HEX8 ? (order2 ? "C3D20" : "C3D8")
-                        : m->kind == VM_TRI3 ? "S3"
-                                             : "S4";
-    size_t nn = (size_t)vm_cell_nodes(m->kind);
-    int ne = !order2 ? 0 : m->kind == VM_TET4 ? 6 : 12;
-    int nf = m->kind == VM_TET4 ? 4 : 6;
-    vm_index *mid = NULL;
-    size_t nmid = 0, nb = 0, nregions = 0;
-    uint64_t *bfaces = NULL;
-    vm__iface *ifaces = NULL;
-    size_t nif = 0;
-    int32_t *regions = NULL;
-    int64_t *ids = NULL;
-    double *zs = NULL;
-    deck_sets deck = {NULL, NULL, 0, 0};
-    vm_outfile o;
-    int opened = 0;
-    if (order2) {
-        st = make_mid_nodes(path, m, &mid, &nmid, err);
-        if (st) goto fail;
+    w.etype = m->kind == VM_TET4   ? (w.order2 ? "C3D10" : "C3D4")
+              : m->kind == VM_HEX8 ? (w.order2 ? "C3D20" : "C3D8")
+              : m->kind == VM_TRI3 ? "S3"
+                                   : "S4";
+    w.nn = (size_t)vm_cell_nodes(m->kind);
+    w.ne = !w.order2 ? 0 : m->kind == VM_TET4 ? TET_EDGES : HEX_EDGES;
+    w.nf = m->kind == VM_TET4 ? TET_FACES : HEX_FACES;
+    st = prepare_deck_data(&w);
+    if (!st) st = vm__out_open(&w.o, path, err);
+    if (!st && opt->deck == VM_DECK_STATIC && !(w.deck.nfixed > 0 && w.deck.nloaded > 0)) {
+        vm__out_abort(&w.o);
+        st = vm_error_set(err, VM_ERR_EMPTY, "%s: the mesh has no elements to load", path);
     }
-    size_t nnodes = m->npoints + nmid;
-    if (volume) {
-        st = vm__boundary_faces(path, m, &bfaces, &nb, err);
-        if (st) goto fail;
+    if (st) {
+        inp_writer_free(&w);
+        return st;
     }
-    st = vm__distinct_regions(path, m, &regions, &nregions, err);
-    if (st) goto fail;
-    if (volume && nregions > 1) {
-        st = vm__interface_faces(path, m, &ifaces, &nif, err);
-        if (st) goto fail;
-    }
-    /* room for every node once plus one face's ids (at most 8) before deduplicating */
-    size_t idcap = (m->ncells > nnodes ? m->ncells : nnodes) + 64;
-    ids = malloc((idcap ? idcap : 1) * sizeof *ids);
-    if (!ids) {
-        st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
-        goto fail;
-    }
-    if (opt->deck == VM_DECK_STATIC) {
-        zs = malloc((nnodes ? nnodes : 1) * sizeof *zs);
-        if (!zs) {
-            st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
-            goto fail;
-        }
-        for (size_t i = 0; i < m->npoints; i++)
-            zs[i] = m->points[3 * i + 2];
-        for (size_t c = 0; c < m->ncells && order2; c++)
-            for (int k = 0; k < ne; k++) {
-                const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
-                zs[mid[c * (size_t)ne + (size_t)k]] =
-                    0.5 * (m->points[3 * (size_t)m->cells[c * nn + (size_t)edges[k][0]] + 2] +
-                           m->points[3 * (size_t)m->cells[c * nn + (size_t)edges[k][1]] + 2]);
-            }
-        st = make_deck_sets(path, m, zs, mid, ne, nnodes, &deck, err);
-        if (st) goto fail;
-    }
-
-    st = vm__out_open(&o, path, err);
-    if (st) goto fail;
-    opened = 1;
-    FILE *fp = o.fp;
+    w.fp = w.o.fp;
     /* Progress: node by node (mid-edge nodes too), element by element, then the sets as one
      * tenth of the elements. */
-    vm__out_meter(&o, opt->progress, opt->progress_user,
-                  (double)nnodes + 1.1 * (double)m->ncells);
-    fprintf(fp, "*HEADING\nvolmesh %s mesh: %zu nodes, %zu %s elements, %zu regions\n",
-            vm_cell_kind_name(m->kind), nnodes, m->ncells, etype, nregions);
-    fprintf(fp, "** written by volmesh %s; node and element order as in the source mesh\n",
+    vm__out_meter(&w.o, opt->progress, opt->progress_user,
+                  (double)w.nnodes + 1.1 * (double)m->ncells);
+    fprintf(w.fp, "*HEADING\nvolmesh %s mesh: %zu nodes, %zu %s elements, %zu regions\n",
+            vm_cell_kind_name(m->kind), w.nnodes, m->ncells, w.etype, w.nregions);
+    fprintf(w.fp, "** written by volmesh %s; node and element order as in the source mesh\n",
             vm_version());
-    fprintf(fp, "*NODE, NSET=NALL\n");
-    for (size_t i = 0; i < m->npoints; i++) {
-        const double *p = m->points + 3 * i;
-        fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", i + 1, p[0], p[1], p[2]);
-        vm__out_step(&o, 1.0);
+    st = write_nodes(&w);
+    if (!st) {
+        write_elements(&w);
+        if (w.volume) write_boundary_sets(&w);
+        write_material_and_step(&w);
+        st = vm__out_commit(&w.o, err);
+    } else {
+        vm__out_abort(&w.o);
     }
-    if (order2) {
-        /* Straight-sided: each mid-edge node at the middle of its edge, in id order. */
-        const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
-        size_t *slot_of = malloc((nmid ? nmid : 1) * sizeof *slot_of);
-        if (!slot_of) {
-            st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
-            goto fail;
-        }
-        for (size_t sl = 0; sl < m->ncells * (size_t)ne; sl++)
-            slot_of[(size_t)mid[sl] - m->npoints] = sl;
-        for (size_t i = 0; i < nmid; i++) {
-            size_t c = slot_of[i] / (size_t)ne;
-            int k = (int)(slot_of[i] % (size_t)ne);
-            const double *a = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][0]];
-            const double *b = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][1]];
-            fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", m->npoints + i + 1, 0.5 * (a[0] + b[0]),
-                    0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]));
-            vm__out_step(&o, 1.0);
-        }
-        free(slot_of);
-    }
-    /* The corner order of C3D4/C3D8/S3/S4 (and the edge order of C3D10/C3D20) is VTK's. */
-    fprintf(fp, "*ELEMENT, TYPE=%s, ELSET=EALL\n", etype);
-    for (size_t c = 0; c < m->ncells; c++) {
-        fprintf(fp, "%zu", c + 1);
-        for (size_t k = 0; k < nn; k++)
-            fprintf(fp, ", %lld", (long long)m->cells[c * nn + k] + 1);
-        for (int k = 0; k < ne; k++) {
-            /* C3D20 takes 15 entries on the first line, the rest on a continuation line. */
-            if (ne == 12 && k == 7) fprintf(fp, ",\n");
-            fprintf(fp, k == 7 && ne == 12 ? "%lld" : ", %lld",
-                    (long long)mid[c * (size_t)ne + (size_t)k] + 1);
-        }
-        fputc('\n', fp);
-        vm__out_step(&o, 1.0);
-    }
-    for (size_t r = 0; r < nregions; r++) {
-        char name[32];
-        vm__region_name(regions[r], name, sizeof name);
-        size_t n = 0;
-        for (size_t c = 0; c < m->ncells; c++)
-            if (m->region[c] == regions[r]) ids[n++] = (int64_t)c + 1;
-        fprintf(fp, "*ELSET, ELSET=%s\n", name);
-        write_id_list(fp, ids, n);
-    }
-    if (volume) {
-        int fk = m->kind == VM_TET4 ? 3 : 4;
-        for (size_t r = 0; r < nregions; r++) {
-            char name[32];
-            vm__region_name(regions[r], name, sizeof name);
-            size_t n = 0;
-            for (size_t i = 0; i < nb; i++) {
-                size_t c = (size_t)(bfaces[i] / (uint64_t)nf);
-                int f = (int)(bfaces[i] % (uint64_t)nf);
-                if (m->region[c] != regions[r]) continue;
-                if (n + 16 > idcap) n = sort_unique(ids, n);
-                for (int j = 0; j < fk; j++) {
-                    int a = fk == 3 ? vm__tet_faces[f][j] : vm__hex_faces[f][j];
-                    int b = fk == 3 ? vm__tet_faces[f][(j + 1) % 3] : vm__hex_faces[f][(j + 1) % 4];
-                    ids[n++] = (int64_t)m->cells[c * nn + (size_t)a] + 1;
-                    if (!order2) continue;
-                    const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
-                    for (int k = 0; k < ne; k++)
-                        if ((edges[k][0] == a && edges[k][1] == b) ||
-                            (edges[k][0] == b && edges[k][1] == a))
-                            ids[n++] = (int64_t)mid[c * (size_t)ne + (size_t)k] + 1;
-                }
-            }
-            n = sort_unique(ids, n);
-            if (n == 0) continue;
-            fprintf(fp, "*NSET, NSET=NB_%s\n", name);
-            write_id_list(fp, ids, n);
-        }
-        for (size_t r = 0; r < nregions; r++) {
-            char name[32];
-            vm__region_name(regions[r], name, sizeof name);
-            int any = 0;
-            for (size_t i = 0; i < nb; i++) {
-                size_t c = (size_t)(bfaces[i] / (uint64_t)nf);
-                if (m->region[c] != regions[r]) continue;
-                if (!any) fprintf(fp, "*SURFACE, NAME=SURF_%s, TYPE=ELEMENT\n", name);
-                any = 1;
-                fprintf(fp, "%zu, S%d\n", c + 1, (int)(bfaces[i] % (uint64_t)nf) + 1);
-            }
-        }
-        /* between materials: one surface per touching pair, on the lower region's side */
-        for (size_t i = 0; i < nif; i++) {
-            if (i == 0 || ifaces[i].region != ifaces[i - 1].region ||
-                ifaces[i].other != ifaces[i - 1].other) {
-                char a[32], b[32];
-                vm__region_name(ifaces[i].region, a, sizeof a);
-                vm__region_name(ifaces[i].other, b, sizeof b);
-                fprintf(fp, "*SURFACE, NAME=IFACE_%s_%s, TYPE=ELEMENT\n", a, b);
-            }
-            fprintf(fp, "%zu, S%d\n", (size_t)(ifaces[i].face / (uint64_t)nf) + 1,
-                    (int)(ifaces[i].face % (uint64_t)nf) + 1);
-        }
-    }
-    fprintf(fp, "** placeholder material (steel-like, units N, mm, t): replace with yours\n"
-                "*MATERIAL, NAME=PLACEHOLDER_STEEL\n*ELASTIC\n210000, 0.3\n"
-                "*DENSITY\n7.85e-09\n");
-    for (size_t r = 0; r < nregions; r++) {
-        char name[32];
-        vm__region_name(regions[r], name, sizeof name);
-        if (volume)
-            fprintf(fp, "*SOLID SECTION, ELSET=%s, MATERIAL=PLACEHOLDER_STEEL\n", name);
-        else
-            fprintf(fp, "*SHELL SECTION, ELSET=%s, MATERIAL=PLACEHOLDER_STEEL\n1.0\n", name);
-    }
-    if (opt->deck == VM_DECK_STATIC && deck.nfixed > 0 && deck.nloaded > 0) {
-        fprintf(fp, "** static deck: nodes of the lowest z slab (1%% of the z extent) fixed,\n"
-                    "** a total force of 100 in -z spread over the nodes of the top slab\n");
-        fprintf(fp, "*NSET, NSET=FIXED\n");
-        write_id_list(fp, deck.fixed, deck.nfixed);
-        fprintf(fp, "*NSET, NSET=LOADED\n");
-        write_id_list(fp, deck.loaded, deck.nloaded);
-        fprintf(fp, "*STEP\n*STATIC\n*BOUNDARY\nFIXED, 1, 3\n*CLOAD\nLOADED, 3, %.17g\n",
-                -100.0 / (double)deck.nloaded);
-        fprintf(fp, "*NODE FILE\nU\n*EL FILE\nS\n*NODE PRINT, NSET=LOADED\nU\n*END STEP\n");
-    } else if (opt->deck == VM_DECK_STATIC) {
-        vm__out_abort(&o);
-        opened = 0;
-        st = vm_error_set(err, VM_ERR_EMPTY, "%s: the mesh has no elements to load", path);
-        goto fail;
-    }
-    opened = 0;
-    st = vm__out_commit(&o, err);
-fail:
-    if (opened) vm__out_abort(&o);
-    free(mid);
-    free(bfaces);
-    free(ifaces);
-    free(regions);
-    free(ids);
-    free(zs);
-    free(deck.fixed);
-    free(deck.loaded);
+    inp_writer_free(&w);
     return st;
 }
 
@@ -497,7 +557,7 @@ static int split_ints(const char *s, size_t len, int64_t *out, int max, const ch
         while (b > a && isspace((unsigned char)b[-1]))
             b--;
         if (a < b) {
-            if (n == max || !vm__parse_int_tok(a, (size_t)(b - a), &out[n])) {
+            if (n == max || vm__parse_int_tok(a, (size_t)(b - a), &out[n]) != VM_OK) {
                 *bad = a;
                 *badlen = (size_t)(b - a);
                 return -1;
@@ -539,22 +599,31 @@ static int elem_kind(const char *type, int *nodes, int *corners) {
     return EK_NONE;
 }
 
-static vm_status read_nodes(inp_reader *r) {
-    const char *s;
-    size_t len;
+/* Next data line of the current keyword's block, blank and "**" comment lines skipped.
+ * Returns 0 at the next keyword line (left for the keyword loop) or at the end of the file.
+ * [out] *save: where the line starts (the cursor goes back there for a message about it). */
+static int next_data_line(inp_reader *r, const char **s, size_t *len, const char **save) {
     for (;;) {
-        const char *save = r->c.p;
-        if (!vm__cur_line(&r->c, &s, &len)) return VM_OK;
+        *save = r->c.p;
+        if (!vm__cur_line(&r->c, s, len)) return 0;
         size_t k = 0;
-        while (k < len && isspace((unsigned char)s[k]))
+        while (k < *len && isspace((unsigned char)(*s)[k]))
             k++;
-        if (k == len) continue;
-        if (s[k] == '*') {
-            if (k + 1 < len && s[k + 1] == '*') continue;
-            r->c.p = save;
-            return VM_OK;
+        if (k == *len) continue;
+        if ((*s)[k] == '*') {
+            if (k + 1 < *len && (*s)[k + 1] == '*') continue;
+            r->c.p = *save;
+            return 0;
         }
-        /* id, x, y[, z] */
+        return 1;
+    }
+}
+
+/* *NODE data lines: id, x, y[, z]. */
+static vm_status read_nodes(inp_reader *r) {
+    const char *s, *save;
+    size_t len;
+    while (next_data_line(r, &s, &len, &save)) {
         double v[4] = {0, 0, 0, 0};
         int n = 0;
         const char *p = s, *end = s + len;
@@ -566,10 +635,10 @@ static vm_status read_nodes(inp_reader *r) {
                 a++;
             while (b > a && isspace((unsigned char)b[-1]))
                 b--;
-            int ok = n == 0 ? vm__parse_int_tok(a, (size_t)(b - a), &id)
-                            : vm__parse_double_tok(a, (size_t)(b - a), &v[n - 1]);
+            vm_status ok = n == 0 ? vm__parse_int_tok(a, (size_t)(b - a), &id)
+                                  : vm__parse_double_tok(a, (size_t)(b - a), &v[n - 1]);
             if (a < b || n == 0) {
-                if (!ok) {
+                if (ok != VM_OK) {
                     r->c.p = save;
                     return vm__cur_fail(&r->c, VM_ERR_FORMAT, "bad node line \"%.*s\"",
                                         (int)(len > 60 ? 60 : len), s);
@@ -588,28 +657,23 @@ static vm_status read_nodes(inp_reader *r) {
         vm_status st = vm__idmap_add(&r->nodes, id, ix, r->c.err);
         if (st) return vm__cur_fail(&r->c, st, "out of memory for nodes");
     }
+    return VM_OK;
 }
 
+/* Most integers of one element entry with its continuation lines (id and 20 nodes of a
+ * C3D20 fit with room to spare). */
+enum { ELEMENT_MAX_VALUES = 40 };
+
+/* *ELEMENT data lines: id, then the nodes (continued on the next lines when many). */
 static vm_status read_elements(inp_reader *r, int kind, int nodes, int corners, int32_t ordinal) {
-    int64_t vals[40];
+    int64_t vals[ELEMENT_MAX_VALUES];
     int have = 0;
-    const char *s;
+    const char *s, *save;
     size_t len;
-    for (;;) {
-        const char *save = r->c.p;
-        if (!vm__cur_line(&r->c, &s, &len)) break;
-        size_t k = 0;
-        while (k < len && isspace((unsigned char)s[k]))
-            k++;
-        if (k == len) continue;
-        if (s[k] == '*') {
-            if (k + 1 < len && s[k + 1] == '*') continue;
-            r->c.p = save;
-            break;
-        }
+    while (next_data_line(r, &s, &len, &save)) {
         const char *bad = NULL;
         size_t badlen = 0;
-        int n = split_ints(s, len, vals + have, 40 - have, &bad, &badlen);
+        int n = split_ints(s, len, vals + have, ELEMENT_MAX_VALUES - have, &bad, &badlen);
         if (n < 0) {
             r->c.p = save;
             return vm__cur_fail(&r->c, VM_ERR_FORMAT, "bad element entry \"%.*s\"",
@@ -649,26 +713,22 @@ static vm_status read_elements(inp_reader *r, int kind, int nodes, int corners, 
     return VM_OK;
 }
 
+/* Most element numbers on one *ELSET data line (Abaqus data lines hold at most 16). */
+enum { ELSET_LINE_MAX = 16 };
+/* Longest GENERATE range accepted, a bound against a typo that would fill memory. */
+#define GENERATE_MAX_RANGE 100000000u
+
+/* *ELSET data lines (element numbers, or first, last[, step] with GENERATE): recorded when
+ * the set is a region's. */
 static vm_status read_elset(inp_reader *r, int32_t region, int is_region, int generate) {
-    const char *s;
+    const char *s, *save;
     size_t len;
-    for (;;) {
-        const char *save = r->c.p;
-        if (!vm__cur_line(&r->c, &s, &len)) return VM_OK;
-        size_t k = 0;
-        while (k < len && isspace((unsigned char)s[k]))
-            k++;
-        if (k == len) continue;
-        if (s[k] == '*') {
-            if (k + 1 < len && s[k + 1] == '*') continue;
-            r->c.p = save;
-            return VM_OK;
-        }
+    while (next_data_line(r, &s, &len, &save)) {
         if (!is_region) continue;
-        int64_t v[16];
+        int64_t v[ELSET_LINE_MAX];
         const char *bad = NULL;
         size_t badlen = 0;
-        int n = split_ints(s, len, v, 16, &bad, &badlen);
+        int n = split_ints(s, len, v, ELSET_LINE_MAX, &bad, &badlen);
         if (n < 0) {
             r->c.p = save;
             return vm__cur_fail(&r->c, VM_ERR_UNSUPPORTED,
@@ -677,7 +737,7 @@ static vm_status read_elset(inp_reader *r, int32_t region, int is_region, int ge
         }
         if (generate) {
             if (n < 2 || n > 3 || (n == 3 && v[2] <= 0) || v[1] < v[0] ||
-                (uint64_t)(v[1] - v[0]) / (uint64_t)(n == 3 ? v[2] : 1) > 100000000u) {
+                (uint64_t)(v[1] - v[0]) / (uint64_t)(n == 3 ? v[2] : 1) > GENERATE_MAX_RANGE) {
                 r->c.p = save;
                 return vm__cur_fail(&r->c, VM_ERR_FORMAT, "bad GENERATE range");
             }
@@ -694,22 +754,16 @@ static vm_status read_elset(inp_reader *r, int32_t region, int is_region, int ge
             if (st) return vm__cur_fail(&r->c, st, "out of memory for element sets");
         }
     }
+    return VM_OK;
 }
 
+/* Skips the data lines of a keyword volmesh does not read. */
 static vm_status skip_data(inp_reader *r) {
-    const char *s;
+    const char *s, *save;
     size_t len;
-    for (;;) {
-        const char *save = r->c.p;
-        if (!vm__cur_line(&r->c, &s, &len)) return VM_OK;
-        size_t k = 0;
-        while (k < len && isspace((unsigned char)s[k]))
-            k++;
-        if (k < len && s[k] == '*' && !(k + 1 < len && s[k + 1] == '*')) {
-            r->c.p = save;
-            return VM_OK;
-        }
+    while (next_data_line(r, &s, &len, &save)) {
     }
+    return VM_OK;
 }
 
 static int32_t elset_ordinal(inp_reader *r, const char *name, vm_status *st) {
@@ -738,10 +792,10 @@ static vm_status build_mesh(inp_reader *r) {
         return vm_error_set(r->c.err, VM_ERR_FORMAT, "%s: no *ELEMENT of a supported type",
                             path);
     int64_t dup = 0;
-    if (!vm__idmap_finish(&r->nodes, &dup))
+    if (vm__idmap_finish(&r->nodes, &dup) != VM_OK)
         return vm_error_set(r->c.err, VM_ERR_FORMAT, "%s: node %" PRId64 " is defined twice",
                             path, dup);
-    if (!vm__idmap_finish(&r->regions, &dup))
+    if (vm__idmap_finish(&r->regions, &dup) != VM_OK)
         return vm_error_set(r->c.err, VM_ERR_FORMAT,
                             "%s: element %" PRId64 " is in two REGION_ element sets", path, dup);
     int shells_mixed = kind >= EK_TRI && have[EK_TRI] && have[EK_QUAD];
@@ -883,7 +937,7 @@ vm_status vm_mesh_read_inp(const char *path, vm_mesh *m, vm_error *err) {
         } else if (strcmp(kw, "ELSET") == 0) {
             int32_t region = 0;
             int is_region = kw_param(s, n, "ELSET", val, sizeof val) &&
-                            vm__region_parse(val, strlen(val), &region);
+                            vm__region_parse(val, strlen(val), &region) == VM_OK;
             st = read_elset(&r, region, is_region, kw_param(s, n, "GENERATE", val, sizeof val));
         } else if (strcmp(kw, "INCLUDE") == 0) {
             r.c.p = save;

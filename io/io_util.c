@@ -231,6 +231,16 @@ char *vm__trim(char *s) {
     return s;
 }
 
+/* The base64 alphabet: A-Z, a-z, 0-9, '+', '/' in that order. */
+int vm__base64_value(int c) {
+    if (c >= 'A' && c <= 'Z') return c - 'A';
+    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+    if (c >= '0' && c <= '9') return c - '0' + 52;
+    if (c == '+') return 62;
+    if (c == '/') return 63;
+    return -1;
+}
+
 int vm__parse_doubles(const char *s, double *out, int max) {
     int count = 0;
     while (*s) {

@@ -107,6 +107,18 @@ void vm__slab_release(vm_volume *v, const vm__slab *rq);
 vm_status vm__samples_decode(const vm__samples *s, const vm__slab *rq, size_t first, size_t n,
                              float *dst, vm_error *err);
 
+/* The samples of the slab rq into v (its header set): nothing for a header-only request,
+ * else v->data from vm__slab_alloc filled by vm__samples_decode of samples first ..
+ * first+n-1. The caller then calls vm__slab_finish (after any scaling of the samples). */
+vm_status vm__slab_read(const char *path, const vm__slab *rq, const vm__samples *src,
+                        size_t first, size_t n, vm_volume *v, vm_error *err);
+
+/* Sets v's header as a file states it: dims, sample type, spacing, origin, direction
+ * (columns: the axes' unit vectors) and the format name. */
+void vm__volume_set_header(vm_volume *v, const int64_t dims[3], vm_scalar_type type,
+                           const double spacing[3], const double origin[3],
+                           const double direction[3][3], const char *format);
+
 /* Turns v (the whole volume's header, dims and geometry set, data NULL) into the slab rq:
  * dims[2] = z1 - z0, origin moved to the world position of voxel (0, 0, z0). */
 void vm__slab_finish(vm_volume *v, const vm__slab *rq);
@@ -127,6 +139,9 @@ char *vm__trim(char *s);
 /* Parses up to max doubles separated by spaces, commas or parentheses; returns the count
  * parsed, or -1 on a malformed number. */
 int vm__parse_doubles(const char *s, double *out, int max);
+
+/* Value 0..63 of a base64 character (RFC 4648, section 4), or -1 for any other. */
+int vm__base64_value(int c);
 
 /* The format readers behind vm_volume_read*, reading what rq asks for. */
 vm_status vm__read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err);

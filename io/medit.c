@@ -30,7 +30,7 @@ vm_status vm__write_medit(const char *path, const vm_mesh *m,
     if (!sec)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
                             (int)m->kind);
-    vm_status st = vm__check_cells(path, m, err);
+    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) return st;
     vm_outfile o;
     st = vm__out_open(&o, path, err);
@@ -82,155 +82,182 @@ static const struct {
     {"TangentAtEdges", 3, 0, 0},
 };
 
-vm_status vm_mesh_read_medit(const char *path, vm_mesh *m, vm_error *err) {
-    vm_mesh_init(m, VM_TET4);
-    unsigned char *buf = NULL;
-    size_t len = 0;
-    vm_status st = vm__read_file(path, VM__MESH_MAX_FILE, &buf, &len, err);
+/* Element kinds a MEDIT file may hold, in the slots the reader keeps them in. */
+enum { SLOT_TRI, SLOT_QUAD, SLOT_TET, SLOT_HEX, NSLOTS };
+static const vm_cell_kind slot_kinds[NSLOTS] = {VM_TRI3, VM_QUAD4, VM_TET4, VM_HEX8};
+
+/* Elements of every kind as read (the highest dimension present is kept later). */
+typedef struct medit_cells {
+    vm_index *cells[NSLOTS];
+    int32_t *regs[NSLOTS];
+    size_t ncells[NSLOTS];
+} medit_cells;
+
+/* Smallest bytes of text per number in a section ("1 " or "1\n"), to bound counts. */
+enum { MIN_BYTES_PER_NUMBER = 2 };
+
+/* Vertices: count, then x y z ref per vertex (the reference is read and dropped). */
+static vm_status read_vertices(vm__cursor *c, vm_mesh *m) {
+    int64_t nv;
+    vm_status st = vm__cur_int(c, 0, INT64_MAX, "number of vertices", &nv);
+    if (!st) st = vm__check_count(c, (uint64_t)nv, 8, "vertices");
+    if (!st) st = vm_mesh_reserve(m, (size_t)nv, 0, c->err);
+    for (int64_t i = 0; i < nv && !st; i++) {
+        double p[3];
+        int64_t ref;
+        for (int d = 0; d < 3 && !st; d++)
+            st = vm__cur_double(c, "vertex coordinate", &p[d]);
+        if (!st) st = vm__cur_int(c, INT64_MIN, INT64_MAX, "vertex reference", &ref);
+        if (!st) vm_mesh_add_point(m, p, NULL);
+    }
+    return st;
+}
+
+/* The entries of section s: element sections fill their slot of d, others are skipped. */
+static vm_status read_section(vm__cursor *c, size_t s, const vm_mesh *m, medit_cells *d) {
+    int64_t ne;
+    vm_status st = vm__cur_int(c, 0, INT64_MAX, "number of entries", &ne);
+    if (!st)
+        st = vm__check_count(c, (uint64_t)ne,
+                             MIN_BYTES_PER_NUMBER *
+                                 (size_t)(sections[s].ints + sections[s].reals),
+                             sections[s].name);
     if (st) return st;
-    vm__cursor c;
-    vm__cur_init(&c, path, buf, len, '#', err);
+    int slot = -1;
+    for (int k = 0; k < NSLOTS; k++)
+        if ((int)slot_kinds[k] == sections[s].kind) slot = k;
+    if (slot >= 0 && d->ncells[slot])
+        return vm__cur_fail(c, VM_ERR_FORMAT, "%s given twice", sections[s].name);
+    size_t nn = slot >= 0 ? (size_t)vm_cell_nodes(slot_kinds[slot]) : 0;
+    if (slot >= 0 && ne > 0) {
+        size_t total;
+        if (!vm__mul_size((size_t)ne, nn * sizeof(vm_index), &total) ||
+            !(d->cells[slot] = malloc(total)) ||
+            !(d->regs[slot] = malloc((size_t)ne * sizeof(int32_t))))
+            return vm__cur_fail(c, VM_ERR_NOMEM, "out of memory for %" PRId64 " %s", ne,
+                                sections[s].name);
+    }
+    for (int64_t i = 0; i < ne && !st; i++) {
+        for (int k = 0; k < sections[s].ints && !st; k++) {
+            int64_t v;
+            int is_ref = slot >= 0 && k == sections[s].ints - 1;
+            st = vm__cur_int(c, is_ref ? INT32_MIN : 1, is_ref ? INT32_MAX : INT64_MAX,
+                             is_ref ? "reference" : "vertex number", &v);
+            if (st || slot < 0) continue;
+            if (is_ref)
+                d->regs[slot][i] = (int32_t)v;
+            else if (v > (int64_t)m->npoints)
+                st = vm__cur_fail(c, VM_ERR_FORMAT, "vertex %" PRId64 " of %zu", v,
+                                  m->npoints);
+            else
+                d->cells[slot][(size_t)i * nn + (size_t)k] = (vm_index)(v - 1);
+        }
+        for (int k = 0; k < sections[s].reals && !st; k++) {
+            double v;
+            st = vm__cur_double(c, "value", &v);
+        }
+    }
+    if (!st && slot >= 0) d->ncells[slot] = (size_t)ne;
+    return st;
+}
+
+/* MeshVersionFormatted, Dimension 3, then sections up to End (or the end of the file). */
+static vm_status read_keywords(vm__cursor *c, vm_mesh *m, medit_cells *d) {
     const char *t;
     size_t n;
     int version = 0, dim = 0, seen_vertices = 0;
-    /* Elements of every kind are gathered; the highest dimension present is kept. */
-    vm_index *cells[4] = {NULL, NULL, NULL, NULL};
-    int32_t *regs[4] = {NULL, NULL, NULL, NULL};
-    size_t ncells[4] = {0, 0, 0, 0};
-    static const vm_cell_kind kinds[4] = {VM_TRI3, VM_QUAD4, VM_TET4, VM_HEX8};
-    while (!st && vm__cur_token(&c, &t, &n)) {
+    vm_status st = VM_OK;
+    while (!st && vm__cur_token(c, &t, &n)) {
         if (!version) {
-            if (!vm__tok_is(t, n, "MeshVersionFormatted")) {
-                st = vm__cur_fail(&c, VM_ERR_FORMAT, "not a MEDIT mesh (no "
-                                  "MeshVersionFormatted)");
-                break;
-            }
+            if (!vm__tok_is(t, n, "MeshVersionFormatted"))
+                return vm__cur_fail(c, VM_ERR_FORMAT, "not a MEDIT mesh (no "
+                                    "MeshVersionFormatted)");
             int64_t v;
-            st = vm__cur_int(&c, 1, 4, "MeshVersionFormatted", &v);
+            st = vm__cur_int(c, 1, 4, "MeshVersionFormatted", &v);
             version = (int)v;
             continue;
         }
         if (vm__tok_is(t, n, "Dimension")) {
-            int64_t d;
-            st = vm__cur_int(&c, 2, 3, "dimension", &d);
-            if (!st && d != 3)
-                st = vm__cur_fail(&c, VM_ERR_UNSUPPORTED, "2-D meshes are not supported");
+            int64_t dd;
+            st = vm__cur_int(c, 2, 3, "dimension", &dd);
+            if (!st && dd != 3)
+                st = vm__cur_fail(c, VM_ERR_UNSUPPORTED, "2-D meshes are not supported");
             dim = 3;
             continue;
         }
         if (vm__tok_is(t, n, "End")) break;
-        if (!dim) {
-            st = vm__cur_fail(&c, VM_ERR_FORMAT, "\"%.*s\" before Dimension",
-                              (int)(n > 40 ? 40 : n), t);
-            break;
-        }
+        if (!dim)
+            return vm__cur_fail(c, VM_ERR_FORMAT, "\"%.*s\" before Dimension",
+                                (int)(n > 40 ? 40 : n), t);
         if (vm__tok_is(t, n, "Vertices")) {
-            int64_t nv;
-            if (seen_vertices++) {
-                st = vm__cur_fail(&c, VM_ERR_FORMAT, "Vertices given twice");
-                break;
-            }
-            st = vm__cur_int(&c, 0, INT64_MAX, "number of vertices", &nv);
-            if (!st) st = vm__check_count(&c, (uint64_t)nv, 8, "vertices");
-            if (!st) st = vm_mesh_reserve(m, (size_t)nv, 0, err);
-            for (int64_t i = 0; i < nv && !st; i++) {
-                double p[3];
-                int64_t ref;
-                for (int d = 0; d < 3 && !st; d++)
-                    st = vm__cur_double(&c, "vertex coordinate", &p[d]);
-                if (!st) st = vm__cur_int(&c, INT64_MIN, INT64_MAX, "vertex reference", &ref);
-                if (!st) vm_mesh_add_point(m, p, NULL);
-            }
+            if (seen_vertices++) return vm__cur_fail(c, VM_ERR_FORMAT, "Vertices given twice");
+            st = read_vertices(c, m);
             continue;
         }
         size_t s = 0;
         for (; s < sizeof sections / sizeof sections[0]; s++)
             if (vm__tok_is(t, n, sections[s].name)) break;
-        if (s == sizeof sections / sizeof sections[0]) {
-            st = vm__cur_fail(&c, VM_ERR_UNSUPPORTED, "section \"%.*s\" is not supported",
-                              (int)(n > 40 ? 40 : n), t);
-            break;
-        }
-        int64_t ne;
-        st = vm__cur_int(&c, 0, INT64_MAX, "number of entries", &ne);
-        if (!st) st = vm__check_count(&c, (uint64_t)ne, 2 * (size_t)(sections[s].ints + sections[s].reals), sections[s].name);
-        if (st) break;
-        int slot = -1;
-        for (int k = 0; k < 4; k++)
-            if ((int)kinds[k] == sections[s].kind) slot = k;
-        if (slot >= 0 && ncells[slot]) {
-            st = vm__cur_fail(&c, VM_ERR_FORMAT, "%s given twice", sections[s].name);
-            break;
-        }
-        if (slot >= 0 && ne > 0) {
-            size_t nn = (size_t)vm_cell_nodes(kinds[slot]), total;
-            if (!vm__mul_size((size_t)ne, nn * sizeof(vm_index), &total) ||
-                !(cells[slot] = malloc(total)) ||
-                !(regs[slot] = malloc((size_t)ne * sizeof(int32_t)))) {
-                st = vm__cur_fail(&c, VM_ERR_NOMEM, "out of memory for %" PRId64 " %s", ne,
-                                  sections[s].name);
-                break;
-            }
-        }
-        for (int64_t i = 0; i < ne && !st; i++) {
-            for (int k = 0; k < sections[s].ints && !st; k++) {
-                int64_t v;
-                int is_ref = slot >= 0 && k == sections[s].ints - 1;
-                st = vm__cur_int(&c, is_ref ? INT32_MIN : 1,
-                                 is_ref ? INT32_MAX : INT64_MAX,
-                                 is_ref ? "reference" : "vertex number", &v);
-                if (st || slot < 0) continue;
-                size_t nn = (size_t)vm_cell_nodes(kinds[slot]);
-                if (is_ref)
-                    regs[slot][i] = (int32_t)v;
-                else if (v > (int64_t)m->npoints)
-                    st = vm__cur_fail(&c, VM_ERR_FORMAT, "vertex %" PRId64 " of %zu", v,
-                                      m->npoints);
-                else
-                    cells[slot][(size_t)i * nn + (size_t)k] = (vm_index)(v - 1);
-            }
-            for (int k = 0; k < sections[s].reals && !st; k++) {
-                double v;
-                st = vm__cur_double(&c, "value", &v);
-            }
-        }
-        if (!st && slot >= 0) ncells[slot] = (size_t)ne;
+        if (s == sizeof sections / sizeof sections[0])
+            return vm__cur_fail(c, VM_ERR_UNSUPPORTED, "section \"%.*s\" is not supported",
+                                (int)(n > 40 ? 40 : n), t);
+        st = read_section(c, s, m, d);
     }
     if (!st && !version)
-        st = vm_error_set(err, VM_ERR_FORMAT, "%s: not a MEDIT mesh (empty)", path);
-    int pick = -1;
-    if (!st) {
-        if (ncells[2] && ncells[3])
-            st = vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: mixes tetrahedra and hexahedra "
-                              "(one element kind per mesh)", path);
-        else
-            pick = ncells[2] ? 2 : ncells[3] ? 3 : ncells[0] ? 0 : ncells[1] ? 1 : -1;
-        if (!st && pick < 0)
-            st = vm_error_set(err, VM_ERR_FORMAT, "%s: no Tetrahedra, Hexahedra, Triangles or "
-                              "Quadrilaterals", path);
-    }
-    if (!st && pick <= 1 && ncells[0] && ncells[1]) {
-        /* Triangles and quads together: one tri3 mesh, quads split. */
+        st = vm_error_set(c->err, VM_ERR_FORMAT, "%s: not a MEDIT mesh (empty)", c->path);
+    return st;
+}
+
+/* Keeps the elements of the highest dimension: tets or hexes, else triangles and quads (both
+ * together as one tri3 mesh, quads split). */
+static vm_status assemble_cells(const char *path, const medit_cells *d, vm_mesh *m,
+                                vm_error *err) {
+    const size_t *nc = d->ncells;
+    if (nc[SLOT_TET] && nc[SLOT_HEX])
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: mixes tetrahedra and hexahedra "
+                            "(one element kind per mesh)", path);
+    int pick = nc[SLOT_TET]    ? SLOT_TET
+               : nc[SLOT_HEX]  ? SLOT_HEX
+               : nc[SLOT_TRI]  ? SLOT_TRI
+               : nc[SLOT_QUAD] ? SLOT_QUAD
+                               : -1;
+    if (pick < 0)
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: no Tetrahedra, Hexahedra, Triangles or "
+                            "Quadrilaterals", path);
+    vm_status st = VM_OK;
+    if (pick <= SLOT_QUAD && nc[SLOT_TRI] && nc[SLOT_QUAD]) {
         vm__polys polys;
         memset(&polys, 0, sizeof polys);
-        for (int k = 0; k < 2 && !st; k++)
-            for (size_t i = 0; i < ncells[k] && !st; i++)
-                st = vm__polys_add(&polys, cells[k] + i * (size_t)(k ? 4 : 3), k ? 4 : 3,
-                                   regs[k][i], err);
-        if (!st) st = vm__polys_finish(path, &polys, m, err);
-        else vm__polys_free(&polys);
-    } else if (!st) {
-        m->kind = kinds[pick];
-        st = vm_mesh_reserve(m, m->npoints, ncells[pick], err);
-        for (size_t i = 0; i < ncells[pick] && !st; i++)
-            st = vm_mesh_add_cell(m, cells[pick] + i * (size_t)vm_cell_nodes(m->kind),
-                                  regs[pick][i], err);
+        for (int k = SLOT_TRI; k <= SLOT_QUAD && !st; k++)
+            for (size_t i = 0; i < nc[k] && !st; i++)
+                st = vm__polys_add(&polys, d->cells[k] + i * (size_t)(k ? 4 : 3), k ? 4 : 3,
+                                   d->regs[k][i], err);
+        if (!st)
+            st = vm__polys_finish(path, &polys, m, err);
+        else
+            vm__polys_free(&polys);
+        return st;
     }
-    for (int k = 0; k < 4; k++) {
-        free(cells[k]);
-        free(regs[k]);
-    }
-    free(buf);
-    if (st) vm_mesh_free(m);
+    m->kind = slot_kinds[pick];
+    st = vm_mesh_reserve(m, m->npoints, nc[pick], err);
+    for (size_t i = 0; i < nc[pick] && !st; i++)
+        st = vm_mesh_add_cell(m, d->cells[pick] + i * (size_t)vm_cell_nodes(m->kind),
+                              d->regs[pick][i], err);
     return st;
+}
+
+/* Reads the keywords and sections, then keeps one element kind. */
+vm_status vm_mesh_read_medit(const char *path, vm_mesh *m, vm_error *err) {
+    unsigned char *buf = NULL;
+    vm__cursor c;
+    vm_status st = vm__mesh_read_begin(path, m, VM_TET4, '#', &buf, &c, err);
+    if (st) return st;
+    medit_cells d;
+    memset(&d, 0, sizeof d);
+    st = read_keywords(&c, m, &d);
+    if (!st) st = assemble_cells(path, &d, m, err);
+    for (int k = 0; k < NSLOTS; k++) {
+        free(d.cells[k]);
+        free(d.regs[k]);
+    }
+    return vm__mesh_read_end(m, buf, st);
 }

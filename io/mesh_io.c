@@ -27,14 +27,6 @@ static const struct {
     {".obj", VM_MESH_OBJ},  {".exo", VM_MESH_EXODUS}, {".e", VM_MESH_EXODUS},
 };
 
-void vm_mesh_write_options_init(vm_mesh_write_options *o) {
-    memset(o, 0, sizeof *o);
-    o->format = VM_MESH_AUTO;
-    o->order = 1;
-    o->deck = VM_DECK_NONE;
-    o->compress = 1;
-}
-
 vm_mesh_format vm_mesh_format_parse(const char *name) {
     for (size_t i = 0; i < sizeof format_names / sizeof format_names[0]; i++)
         if (vm__ends_with(name, format_names[i].name) &&

@@ -1,9 +1,11 @@
 /* io/mesh_util.c — shared pieces of the mesh format readers and writers: text cursor,
- * id maps, exact point merging, boundary faces with element/face ids (ABAQUS face numbering,
+ * id maps, boundary faces with element/face ids (ABAQUS face numbering,
  * "Abaqus Analysis User's Guide", 28.1.4 three-dimensional solid element library). */
 #include "mesh_util.h"
+#include "io_util.h"
 #include <ctype.h>
 #include <errno.h>
+#include <float.h>
 #include <inttypes.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -20,6 +22,25 @@ void vm__cur_init(vm__cursor *c, const char *path, const void *buf, size_t len, 
     c->end = c->start + len;
     c->comment = comment;
     c->err = err;
+}
+
+/* Empties m, reads the file whole and puts the cursor at its start. */
+vm_status vm__mesh_read_begin(const char *path, vm_mesh *m, vm_cell_kind kind, char comment,
+                              unsigned char **buf, vm__cursor *c, vm_error *err) {
+    vm_mesh_init(m, kind);
+    size_t len = 0;
+    *buf = NULL;
+    vm_status st = vm__read_file(path, VM__MESH_MAX_FILE, buf, &len, err);
+    if (st) return st;
+    vm__cur_init(c, path, *buf, len, comment, err);
+    return VM_OK;
+}
+
+/* Frees the file's bytes, and the mesh when the read failed. */
+vm_status vm__mesh_read_end(vm_mesh *m, unsigned char *buf, vm_status st) {
+    free(buf);
+    if (st) vm_mesh_free(m);
+    return st;
 }
 
 vm_status vm__cur_fail(const vm__cursor *c, vm_status status, const char *fmt, ...) {
@@ -92,25 +113,27 @@ int vm__tok_is(const char *tok, size_t len, const char *word) {
     return 1;
 }
 
-int vm__parse_int_tok(const char *tok, size_t len, int64_t *v) {
+/* A whole token as a decimal integer (sign allowed) that fits in int64. */
+vm_status vm__parse_int_tok(const char *tok, size_t len, int64_t *v) {
     char b[32];
-    if (len == 0 || len >= sizeof b) return 0;
+    if (len == 0 || len >= sizeof b) return VM_ERR_FORMAT;
     memcpy(b, tok, len);
     b[len] = 0;
     const char *q = b;
     if (*q == '+' || *q == '-') q++;
-    if (!isdigit((unsigned char)*q)) return 0;
+    if (!isdigit((unsigned char)*q)) return VM_ERR_FORMAT;
     char *e;
     errno = 0;
     long long x = strtoll(b, &e, 10);
-    if (errno || *e) return 0;
+    if (errno || *e) return VM_ERR_FORMAT;
     *v = (int64_t)x;
-    return 1;
+    return VM_OK;
 }
 
-int vm__parse_double_tok(const char *tok, size_t len, double *v) {
+/* A whole token as a finite double. */
+vm_status vm__parse_double_tok(const char *tok, size_t len, double *v) {
     char b[80];
-    if (len == 0 || len >= sizeof b) return 0;
+    if (len == 0 || len >= sizeof b) return VM_ERR_FORMAT;
     memcpy(b, tok, len);
     b[len] = 0;
     /* Fortran-style exponents (1.5D+02) appear in decks written by older codes. */
@@ -119,11 +142,10 @@ int vm__parse_double_tok(const char *tok, size_t len, double *v) {
     char *e;
     errno = 0;
     double x = strtod(b, &e);
-    if (e == b || *e || errno == ERANGE || x != x || x > 1.7976931348623157e308 ||
-        x < -1.7976931348623157e308)
-        return 0;
+    if (e == b || *e || errno == ERANGE || x != x || x > DBL_MAX || x < -DBL_MAX)
+        return VM_ERR_FORMAT;
     *v = x;
-    return 1;
+    return VM_OK;
 }
 
 vm_status vm__cur_int(vm__cursor *c, int64_t lo, int64_t hi, const char *what, int64_t *v) {
@@ -131,7 +153,7 @@ vm_status vm__cur_int(vm__cursor *c, int64_t lo, int64_t hi, const char *what, i
     size_t n;
     if (!vm__cur_token(c, &t, &n))
         return vm__cur_fail(c, VM_ERR_FORMAT, "file ends where %s was expected", what);
-    if (!vm__parse_int_tok(t, n, v) || *v < lo || *v > hi)
+    if (vm__parse_int_tok(t, n, v) != VM_OK || *v < lo || *v > hi)
         return vm__cur_fail(c, VM_ERR_FORMAT, "bad %s \"%.*s\"", what, (int)(n > 40 ? 40 : n),
                             t);
     return VM_OK;
@@ -142,7 +164,7 @@ vm_status vm__cur_double(vm__cursor *c, const char *what, double *v) {
     size_t n;
     if (!vm__cur_token(c, &t, &n))
         return vm__cur_fail(c, VM_ERR_FORMAT, "file ends where %s was expected", what);
-    if (!vm__parse_double_tok(t, n, v))
+    if (vm__parse_double_tok(t, n, v) != VM_OK)
         return vm__cur_fail(c, VM_ERR_FORMAT, "bad %s \"%.*s\"", what, (int)(n > 40 ? 40 : n),
                             t);
     return VM_OK;
@@ -191,7 +213,8 @@ static int cmp_pair(const void *a, const void *b) {
     return (x > y) - (x < y);
 }
 
-int vm__idmap_finish(vm__idmap *m, int64_t *dup) {
+/* Sorts by id (qsort, or insertion sort without scratch memory), then looks for repeats. */
+vm_status vm__idmap_finish(vm__idmap *m, int64_t *dup) {
     int sorted = 1;
     for (size_t i = 1; i < m->n && sorted; i++)
         if (m->ids[i - 1] >= m->ids[i]) sorted = 0;
@@ -226,9 +249,9 @@ int vm__idmap_finish(vm__idmap *m, int64_t *dup) {
     for (size_t i = 1; i < m->n; i++)
         if (m->ids[i - 1] == m->ids[i]) {
             *dup = m->ids[i];
-            return 0;
+            return VM_ERR_FORMAT;
         }
-    return 1;
+    return VM_OK;
 }
 
 vm_index vm__idmap_find(const vm__idmap *m, int64_t id) {
@@ -247,61 +270,6 @@ void vm__idmap_free(vm__idmap *m) {
     free(m->ids);
     free(m->index);
     memset(m, 0, sizeof *m);
-}
-
-/* --- point merging ------------------------------------------------------------------------ */
-
-static uint64_t hash_point(const double *p) {
-    uint64_t h = 0x9e3779b97f4a7c15ull;
-    for (int d = 0; d < 3; d++) {
-        double v = p[d] == 0 ? 0.0 : p[d]; /* -0 and +0 are the same point */
-        uint64_t u;
-        memcpy(&u, &v, 8);
-        h ^= u + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
-        h *= 0xff51afd7ed558ccdull;
-    }
-    return h ^ (h >> 33);
-}
-
-static vm_status merge_rehash(vm__pointmerge *pm, const vm_mesh *m, size_t cap, vm_error *err) {
-    vm_index *s = malloc(cap * sizeof *s);
-    if (!s) return vm_error_set(err, VM_ERR_NOMEM, "out of memory merging points");
-    for (size_t i = 0; i < cap; i++)
-        s[i] = -1;
-    for (size_t i = 0; i < m->npoints; i++) {
-        size_t k = (size_t)hash_point(m->points + 3 * i) & (cap - 1);
-        while (s[k] >= 0)
-            k = (k + 1) & (cap - 1);
-        s[k] = (vm_index)i;
-    }
-    free(pm->slots);
-    pm->slots = s;
-    pm->cap = cap;
-    return VM_OK;
-}
-
-vm_index vm__pointmerge_add(vm__pointmerge *pm, vm_mesh *m, const double xyz[3], vm_error *err) {
-    if ((m->npoints + 1) * 2 > pm->cap) {
-        size_t cap = pm->cap ? pm->cap : 1024;
-        while ((m->npoints + 1) * 2 > cap)
-            cap *= 2;
-        if (merge_rehash(pm, m, cap, err)) return -1;
-    }
-    size_t k = (size_t)hash_point(xyz) & (pm->cap - 1);
-    while (pm->slots[k] >= 0) {
-        const double *q = m->points + 3 * (size_t)pm->slots[k];
-        if (q[0] == xyz[0] && q[1] == xyz[1] && q[2] == xyz[2]) return pm->slots[k];
-        k = (k + 1) & (pm->cap - 1);
-    }
-    vm_index i = vm_mesh_add_point(m, xyz, err);
-    if (i >= 0) pm->slots[k] = i;
-    return i;
-}
-
-void vm__pointmerge_free(vm__pointmerge *pm) {
-    free(pm->slots);
-    pm->slots = NULL;
-    pm->cap = 0;
 }
 
 /* --- faces ------------------------------------------------------------------------------ */
@@ -475,15 +443,6 @@ long vm__region_slot(const int32_t *regions, size_t n, int32_t r) {
     return lo < n && regions[lo] == r ? (long)lo : -1;
 }
 
-vm_status vm__check_cells(const char *path, const vm_mesh *m, vm_error *err) {
-    size_t nn = (size_t)vm_cell_nodes(m->kind);
-    for (size_t i = 0; i < m->ncells * nn; i++)
-        if (m->cells[i] < 0 || (size_t)m->cells[i] >= m->npoints)
-            return vm_error_set(err, VM_ERR_FORMAT, "%s: cell %zu uses node %lld of %zu", path,
-                                i / nn, (long long)m->cells[i], m->npoints);
-    return VM_OK;
-}
-
 void vm__region_name(int32_t r, char *out, size_t cap) {
     if (r < 0)
         snprintf(out, cap, "REGION_M%lld", -(long long)r);
@@ -491,10 +450,11 @@ void vm__region_name(int32_t r, char *out, size_t cap) {
         snprintf(out, cap, "REGION_%ld", (long)r);
 }
 
-int vm__region_parse(const char *s, size_t len, int32_t *r) {
-    if (len < 8) return 0;
+/* "REGION_<n>" or "REGION_M<n>" (negative), n of at most 10 digits within int32. */
+vm_status vm__region_parse(const char *s, size_t len, int32_t *r) {
+    if (len < 8) return VM_ERR_FORMAT;
     for (int i = 0; i < 7; i++)
-        if (toupper((unsigned char)s[i]) != "REGION_"[i]) return 0;
+        if (toupper((unsigned char)s[i]) != "REGION_"[i]) return VM_ERR_FORMAT;
     s += 7;
     len -= 7;
     int neg = 0;
@@ -503,16 +463,16 @@ int vm__region_parse(const char *s, size_t len, int32_t *r) {
         s++;
         len--;
     }
-    if (len == 0 || len > 10) return 0;
+    if (len == 0 || len > 10) return VM_ERR_FORMAT;
     int64_t v = 0;
     for (size_t i = 0; i < len; i++) {
-        if (!isdigit((unsigned char)s[i])) return 0;
+        if (!isdigit((unsigned char)s[i])) return VM_ERR_FORMAT;
         v = v * 10 + (s[i] - '0');
     }
     if (neg) v = -v;
-    if (v < INT32_MIN || v > INT32_MAX) return 0;
+    if (v < INT32_MIN || v > INT32_MAX) return VM_ERR_FORMAT;
     *r = (int32_t)v;
-    return 1;
+    return VM_OK;
 }
 
 vm_status vm__surface_of(const char *path, const vm_mesh *m, vm_mesh *tmp,
@@ -575,7 +535,7 @@ vm_status vm__polys_finish(const char *path, vm__polys *p, vm_mesh *m, vm_error 
         }
     }
     vm__polys_free(p);
-    return vm__check_cells(path, m, err);
+    return vm__check_nodes(m, VM_ERR_FORMAT, path, err);
 }
 
 void vm__polys_free(vm__polys *p) {
@@ -587,53 +547,33 @@ void vm__polys_free(vm__polys *p) {
 
 /* --- byte order ---------------------------------------------------------------------------- */
 
-void vm__put_be32(unsigned char *b, uint32_t v) {
-    for (int i = 0; i < 4; i++)
-        b[i] = (unsigned char)(v >> (24 - 8 * i));
-}
-void vm__put_be64(unsigned char *b, uint64_t v) {
-    for (int i = 0; i < 8; i++)
-        b[i] = (unsigned char)(v >> (56 - 8 * i));
-}
-uint32_t vm__get_be32(const unsigned char *b) {
-    uint32_t v = 0;
-    for (int i = 0; i < 4; i++)
-        v = (v << 8) | b[i];
-    return v;
-}
-uint64_t vm__get_be64(const unsigned char *b) {
+/* The n-byte unsigned integer at b, most significant byte first (big) or last. */
+static uint64_t get_bytes(const unsigned char *b, int n, int big) {
     uint64_t v = 0;
-    for (int i = 0; i < 8; i++)
-        v = (v << 8) | b[i];
+    for (int i = 0; i < n; i++)
+        v = (v << 8) | b[big ? i : n - 1 - i];
     return v;
 }
-void vm__put_le16(unsigned char *b, uint16_t v) {
-    b[0] = (unsigned char)v;
-    b[1] = (unsigned char)(v >> 8);
+
+/* Stores the low n bytes of v at b, most significant byte first (big) or last. */
+static void put_bytes(unsigned char *b, uint64_t v, int n, int big) {
+    for (int i = 0; i < n; i++)
+        b[big ? n - 1 - i : i] = (unsigned char)(v >> (8 * i));
 }
-void vm__put_le32(unsigned char *b, uint32_t v) {
-    for (int i = 0; i < 4; i++)
-        b[i] = (unsigned char)(v >> (8 * i));
-}
-void vm__put_le64(unsigned char *b, uint64_t v) {
-    for (int i = 0; i < 8; i++)
-        b[i] = (unsigned char)(v >> (8 * i));
-}
-uint16_t vm__get_le16(const unsigned char *b) {
-    return (uint16_t)(b[0] | (b[1] << 8));
-}
-uint32_t vm__get_le32(const unsigned char *b) {
-    uint32_t v = 0;
-    for (int i = 3; i >= 0; i--)
-        v = (v << 8) | b[i];
-    return v;
-}
-uint64_t vm__get_le64(const unsigned char *b) {
-    uint64_t v = 0;
-    for (int i = 7; i >= 0; i--)
-        v = (v << 8) | b[i];
-    return v;
-}
+
+/* Fixed-width big- and little-endian stores and loads, on get_bytes / put_bytes. */
+void vm__put_be32(unsigned char *b, uint32_t v) { put_bytes(b, v, 4, 1); }
+void vm__put_be64(unsigned char *b, uint64_t v) { put_bytes(b, v, 8, 1); }
+uint32_t vm__get_be32(const unsigned char *b) { return (uint32_t)get_bytes(b, 4, 1); }
+uint64_t vm__get_be64(const unsigned char *b) { return get_bytes(b, 8, 1); }
+void vm__put_le16(unsigned char *b, uint16_t v) { put_bytes(b, v, 2, 0); }
+void vm__put_le32(unsigned char *b, uint32_t v) { put_bytes(b, v, 4, 0); }
+void vm__put_le64(unsigned char *b, uint64_t v) { put_bytes(b, v, 8, 0); }
+uint16_t vm__get_le16(const unsigned char *b) { return (uint16_t)get_bytes(b, 2, 0); }
+uint32_t vm__get_le32(const unsigned char *b) { return (uint32_t)get_bytes(b, 4, 0); }
+uint64_t vm__get_le64(const unsigned char *b) { return get_bytes(b, 8, 0); }
+
+/* Bit casts between floating-point values and their IEEE 754 words. */
 double vm__bits_double(uint64_t u) {
     double d;
     memcpy(&d, &u, 8);

@@ -1,6 +1,6 @@
 /* io/mesh_util.h — private helpers of the finite-element and surface mesh formats: a text
  * cursor with strict number parsing and "PATH: line N: problem" errors, id-to-index maps,
- * exact point merging, boundary faces with their element and local face, region lists. */
+ * boundary faces with their element and local face, region lists. */
 #ifndef VM_MESH_UTIL_H
 #define VM_MESH_UTIL_H
 
@@ -49,6 +49,14 @@ typedef struct vm__cursor {
 void vm__cur_init(vm__cursor *c, const char *path, const void *buf, size_t len, char comment,
                   vm_error *err);
 
+/* Starts a mesh reader: m empty (of kind), the whole file (at most VM__MESH_MAX_FILE bytes)
+ * in *buf, c a cursor over it (comment as in vm__cur_init). On failure *buf is NULL. */
+vm_status vm__mesh_read_begin(const char *path, vm_mesh *m, vm_cell_kind kind, char comment,
+                              unsigned char **buf, vm__cursor *c, vm_error *err);
+
+/* Ends a mesh reader with status st: frees buf, and m too when st is an error. Returns st. */
+vm_status vm__mesh_read_end(vm_mesh *m, unsigned char *buf, vm_status st);
+
 /* Records "PATH: line N: MESSAGE" (N = line of the cursor) and returns status. */
 vm_status vm__cur_fail(const vm__cursor *c, vm_status status, const char *fmt, ...)
 #if defined(__GNUC__)
@@ -77,9 +85,9 @@ size_t vm__cur_left(const vm__cursor *c);
 /* Token equality, case-insensitive. */
 int vm__tok_is(const char *tok, size_t len, const char *word);
 
-/* Parses a whole token as an integer / finite double; 1 on success. */
-int vm__parse_int_tok(const char *tok, size_t len, int64_t *v);
-int vm__parse_double_tok(const char *tok, size_t len, double *v);
+/* Parses a whole token as an integer / finite double; VM_ERR_FORMAT when it is not one. */
+vm_status vm__parse_int_tok(const char *tok, size_t len, int64_t *v);
+vm_status vm__parse_double_tok(const char *tok, size_t len, double *v);
 
 /* Refuses a count that cannot fit in the remaining bytes (each item needs at least
  * min_bytes) or in memory. */
@@ -96,22 +104,12 @@ typedef struct vm__idmap {
 } vm__idmap;
 
 vm_status vm__idmap_add(vm__idmap *m, int64_t id, vm_index index, vm_error *err);
-/* Sorts the map; returns the first duplicated id through *dup (and 0) when ids repeat. */
-int vm__idmap_finish(vm__idmap *m, int64_t *dup);
+/* Sorts the map; when ids repeat, returns VM_ERR_FORMAT with the first duplicated id in
+ * *dup (the caller writes the message). */
+vm_status vm__idmap_finish(vm__idmap *m, int64_t *dup);
 /* Index of id, or -1. */
 vm_index vm__idmap_find(const vm__idmap *m, int64_t id);
 void vm__idmap_free(vm__idmap *m);
-
-/* --- merging points by exact coordinates (STL) ------------------------------------------- */
-
-typedef struct vm__pointmerge {
-    vm_index *slots; /* open addressing over m->points; -1 empty */
-    size_t cap;
-} vm__pointmerge;
-
-/* Index of xyz in m, appending it when new. Returns -1 on out of memory (err filled). */
-vm_index vm__pointmerge_add(vm__pointmerge *pm, vm_mesh *m, const double xyz[3], vm_error *err);
-void vm__pointmerge_free(vm__pointmerge *pm);
 
 /* --- mesh helpers ----------------------------------------------------------------------- */
 
@@ -143,16 +141,13 @@ vm_status vm__interface_faces(const char *path, const vm_mesh *m, vm__iface **fa
 vm_status vm__distinct_regions(const char *path, const vm_mesh *m, int32_t **regions,
                                size_t *n, vm_error *err);
 
-/* Checks every node index of every cell lies in 0..npoints-1. */
-vm_status vm__check_cells(const char *path, const vm_mesh *m, vm_error *err);
-
 /* Index of r in the sorted list, or -1. */
 long vm__region_slot(const int32_t *regions, size_t n, int32_t r);
 
 /* Writes "REGION_<r>" (negative: "REGION_M<|r|>") into out. */
 void vm__region_name(int32_t r, char *out, size_t cap);
 /* Parses a region name as written by vm__region_name (case-insensitive); 1 on success. */
-int vm__region_parse(const char *s, size_t len, int32_t *r);
+vm_status vm__region_parse(const char *s, size_t len, int32_t *r);
 
 /* The surface a surface format writes: m itself when tri3/quad4, else its boundary (owned by
  * *tmp, free with vm_mesh_free). [out] *surf points to m or to tmp. */

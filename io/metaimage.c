@@ -36,16 +36,17 @@ typedef struct meta_hdr {
     size_t data_start;        /* offset just after the ElementDataFile line */
 } meta_hdr;
 
-static int parse_bool(const char *s, int *out) {
+/* A MetaIO boolean: True/False or 1/0. */
+static vm_status parse_bool(const char *s, int *out) {
     if (strcasecmp(s, "true") == 0 || strcmp(s, "1") == 0) {
         *out = 1;
-        return 0;
+        return VM_OK;
     }
     if (strcasecmp(s, "false") == 0 || strcmp(s, "0") == 0) {
         *out = 0;
-        return 0;
+        return VM_OK;
     }
-    return -1;
+    return VM_ERR_FORMAT;
 }
 
 static int key_is(const char *key, const char *name) {
@@ -138,15 +139,15 @@ static vm_status parse_header(const char *path, const unsigned char *buf, size_t
                    key_is(key, "Orientation")) {
             st = parse_numbers(path, key, value, h->matrix, 9, &h->n_matrix, err);
         } else if (key_is(key, "BinaryDataByteOrderMSB") || key_is(key, "ElementByteOrderMSB")) {
-            if (parse_bool(value, &h->msb))
+            if (parse_bool(value, &h->msb) != VM_OK)
                 return vm_error_set(err, VM_ERR_FORMAT, "%s: %s must be True or False, not "
                                     "'%.40s'", path, key, value);
         } else if (key_is(key, "BinaryData")) {
-            if (parse_bool(value, &h->binary))
+            if (parse_bool(value, &h->binary) != VM_OK)
                 return vm_error_set(err, VM_ERR_FORMAT, "%s: BinaryData must be True or False, "
                                     "not '%.40s'", path, value);
         } else if (key_is(key, "CompressedData")) {
-            if (parse_bool(value, &h->compressed))
+            if (parse_bool(value, &h->compressed) != VM_OK)
                 return vm_error_set(err, VM_ERR_FORMAT, "%s: CompressedData must be True or "
                                     "False, not '%.40s'", path, value);
         } else if (key_is(key, "CompressedDataSize")) {
@@ -178,8 +179,8 @@ static vm_status parse_header(const char *path, const unsigned char *buf, size_t
     return VM_OK;
 }
 
-/* MetaIO element type name → volmesh scalar type; 0 on success. */
-static int map_type(const char *name, vm_scalar_type *t) {
+/* MetaIO element type name → volmesh scalar type; VM_ERR_FORMAT for an unknown name. */
+static vm_status map_type(const char *name, vm_scalar_type *t) {
     static const struct {
         const char *name;
         vm_scalar_type type;
@@ -191,10 +192,10 @@ static int map_type(const char *name, vm_scalar_type *t) {
     for (size_t i = 0; i < sizeof table / sizeof table[0]; i++) {
         if (strcasecmp(name, table[i].name) == 0) {
             *t = table[i].type;
-            return 0;
+            return VM_OK;
         }
     }
-    return -1;
+    return VM_ERR_FORMAT;
 }
 
 /* Validates the header and fills everything of v except data. */
@@ -218,7 +219,7 @@ static vm_status check_header(const char *path, const meta_hdr *h, vm_scalar_typ
     }
     if (!h->element_type[0])
         return vm_error_set(err, VM_ERR_FORMAT, "%s: header has no ElementType", path);
-    if (map_type(h->element_type, type))
+    if (map_type(h->element_type, type) != VM_OK)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: ElementType %s is not supported "
                             "(MET_UCHAR, MET_CHAR, MET_USHORT, MET_SHORT, MET_UINT, MET_INT, "
                             "MET_ULONG_LONG, MET_LONG_LONG, MET_FLOAT, MET_DOUBLE)", path,
@@ -378,15 +379,9 @@ static vm_status read_metaimage(const char *path, const vm__slab *rq, vm_volume 
         src.p = data + start;
         src.avail = avail - start;
     }
-    memcpy(v->dims, dims, sizeof v->dims);
-    v->type = type;
-    memcpy(v->spacing, geo.spacing, sizeof v->spacing);
-    memcpy(v->origin, geo.origin, sizeof v->origin);
-    memcpy(v->direction, geo.direction, sizeof v->direction);
-    snprintf(v->format, sizeof v->format, "metaimage");
-    if (rq->header_only) goto done;
-    st = vm__slab_alloc(path, rq, n, v, err);
-    if (!st) st = vm__samples_decode(&src, rq, first, n, v->data, err);
+    vm__volume_set_header(v, dims, type, geo.spacing, geo.origin,
+                          (const double(*)[3])geo.direction, "metaimage");
+    st = vm__slab_read(path, rq, &src, first, n, v, err);
     if (!st) vm__slab_finish(v, rq);
 
 done:

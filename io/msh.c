@@ -60,7 +60,7 @@ static vm_status write_msh(const char *path, const vm_mesh *m, int version,
     if (!type)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
                             (int)m->kind);
-    vm_status st = vm__check_cells(path, m, err);
+    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) return st;
     int dim = m->kind == VM_TET4 || m->kind == VM_HEX8 ? 3 : 2;
     size_t nn = (size_t)vm_cell_nodes(m->kind), nreg = 0;
@@ -241,7 +241,7 @@ static vm_status read_format(msh_reader *r) {
     if (!vm__cur_token(&r->c, &t, &n))
         return vm__cur_fail(&r->c, VM_ERR_FORMAT, "file ends in $MeshFormat");
     double v;
-    if (!vm__parse_double_tok(t, n, &v))
+    if (vm__parse_double_tok(t, n, &v) != VM_OK)
         return vm__cur_fail(&r->c, VM_ERR_FORMAT, "bad MSH version \"%.*s\"",
                             (int)(n > 20 ? 20 : n), t);
     if (v == 2.2 || v == 2.1 || v == 2.0)
@@ -289,7 +289,7 @@ static vm_status read_physical_names(msh_reader *r) {
         msh_name *nm = &r->names[r->nnames++];
         nm->dim = (int)dim;
         nm->tag = tag;
-        nm->is_region = vm__region_parse(q1 + 1, (size_t)(q2 - q1 - 1), &nm->region);
+        nm->is_region = vm__region_parse(q1 + 1, (size_t)(q2 - q1 - 1), &nm->region) == VM_OK;
     }
     return st ? st : expect(r, "$EndPhysicalNames");
 }
@@ -302,7 +302,7 @@ static vm_status read_entities(msh_reader *r) {
     for (int d = 0; d < 4 && !st; d++) {
         st = vm__check_count(&r->c, (uint64_t)cnt[d], 8, "entities");
         for (int64_t i = 0; i < cnt[d] && !st; i++) {
-            int64_t tag, np, ph, nb, dummy;
+            int64_t tag, np = 0, ph, nb, dummy;
             double x;
             st = vm__cur_int(&r->c, INT32_MIN, INT32_MAX, "entity tag", &tag);
             for (int k = 0; k < (d == 0 ? 3 : 6) && !st; k++)
@@ -363,7 +363,7 @@ static vm_status read_nodes(msh_reader *r) {
     int64_t *tags = NULL;
     size_t captags = 0;
     for (int64_t b = 0; b < nblocks && !st; b++) {
-        int64_t dim, etag, param, n;
+        int64_t dim, etag, param, n = 0;
         st = vm__cur_int(&r->c, 0, 3, "entity dimension", &dim);
         if (!st) st = vm__cur_int(&r->c, INT32_MIN, INT32_MAX, "entity tag", &etag);
         if (!st) st = vm__cur_int(&r->c, 0, 1, "parametric flag", &param);
@@ -429,7 +429,7 @@ static vm_status read_elements(msh_reader *r) {
         st = vm__cur_int(&r->c, 0, INT64_MAX, "number of elements", &n);
         if (!st) st = vm__check_count(&r->c, (uint64_t)n, 8, "elements");
         for (int64_t i = 0; i < n && !st; i++) {
-            int64_t tag, type, ntags, t0 = 0, t1 = 0, x;
+            int64_t tag, type, ntags = 0, t0 = 0, t1 = 0, x;
             st = vm__cur_int(&r->c, 1, INT64_MAX, "element tag", &tag);
             if (!st) st = vm__cur_int(&r->c, 1, 31, "element type", &type);
             if (!st) st = vm__cur_int(&r->c, 0, 64, "number of tags", &ntags);
@@ -498,7 +498,7 @@ static vm_status build_mesh(msh_reader *r) {
         return vm_error_set(r->c.err, VM_ERR_FORMAT, "%s: no triangles, quadrangles, "
                             "tetrahedra or hexahedra", path);
     int64_t dup = 0;
-    if (!vm__idmap_finish(&r->nodes, &dup))
+    if (vm__idmap_finish(&r->nodes, &dup) != VM_OK)
         return vm_error_set(r->c.err, VM_ERR_FORMAT, "%s: node %" PRId64 " is defined twice",
                             path, dup);
     int vol = have[4] || have[5];

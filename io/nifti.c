@@ -158,20 +158,34 @@ static vm_status parse_header(const char *path, const unsigned char *buf, size_t
     return VM_OK;
 }
 
-/* NIfTI datatype code → volmesh scalar type; 0 on success. */
-static int map_datatype(int code, vm_scalar_type *t) {
+/* NIfTI datatype codes volmesh reads (nifti1.h, DT_*). */
+enum {
+    DT_UINT8 = 2,
+    DT_INT16 = 4,
+    DT_INT32 = 8,
+    DT_FLOAT32 = 16,
+    DT_FLOAT64 = 64,
+    DT_INT8 = 256,
+    DT_UINT16 = 512,
+    DT_UINT32 = 768,
+    DT_INT64 = 1024,
+    DT_UINT64 = 1280
+};
+
+/* NIfTI datatype code → volmesh scalar type; VM_ERR_UNSUPPORTED for other codes. */
+static vm_status map_datatype(int code, vm_scalar_type *t) {
     switch (code) {
-    case 2: *t = VM_SCALAR_UINT8; return 0;
-    case 256: *t = VM_SCALAR_INT8; return 0;
-    case 4: *t = VM_SCALAR_INT16; return 0;
-    case 512: *t = VM_SCALAR_UINT16; return 0;
-    case 8: *t = VM_SCALAR_INT32; return 0;
-    case 768: *t = VM_SCALAR_UINT32; return 0;
-    case 1024: *t = VM_SCALAR_INT64; return 0;
-    case 1280: *t = VM_SCALAR_UINT64; return 0;
-    case 16: *t = VM_SCALAR_FLOAT32; return 0;
-    case 64: *t = VM_SCALAR_FLOAT64; return 0;
-    default: return -1;
+    case DT_UINT8: *t = VM_SCALAR_UINT8; return VM_OK;
+    case DT_INT8: *t = VM_SCALAR_INT8; return VM_OK;
+    case DT_INT16: *t = VM_SCALAR_INT16; return VM_OK;
+    case DT_UINT16: *t = VM_SCALAR_UINT16; return VM_OK;
+    case DT_INT32: *t = VM_SCALAR_INT32; return VM_OK;
+    case DT_UINT32: *t = VM_SCALAR_UINT32; return VM_OK;
+    case DT_INT64: *t = VM_SCALAR_INT64; return VM_OK;
+    case DT_UINT64: *t = VM_SCALAR_UINT64; return VM_OK;
+    case DT_FLOAT32: *t = VM_SCALAR_FLOAT32; return VM_OK;
+    case DT_FLOAT64: *t = VM_SCALAR_FLOAT64; return VM_OK;
+    default: return VM_ERR_UNSUPPORTED;
     }
 }
 
@@ -194,15 +208,16 @@ static int finite3(const double *a) {
 }
 
 /* Splits M = D * diag(spacing) (columns of m are the index axes in world space): spacing =
- * column norms, direction = normalised columns. Returns 0 when a column is zero or not finite. */
-static int split_matrix(double m[3][3], vm_volume *v) {
+ * column norms, direction = normalised columns. VM_ERR_FORMAT when a column is zero or not
+ * finite. */
+static vm_status split_matrix(double m[3][3], vm_volume *v) {
     for (int c = 0; c < 3; c++) {
         double n = sqrt(m[0][c] * m[0][c] + m[1][c] * m[1][c] + m[2][c] * m[2][c]);
-        if (!isfinite(n) || n <= 0.0) return 0;
+        if (!isfinite(n) || n <= 0.0) return VM_ERR_FORMAT;
         v->spacing[c] = n;
         for (int r = 0; r < 3; r++) v->direction[r][c] = m[r][c] / n;
     }
-    return 1;
+    return VM_OK;
 }
 
 /* Positive pixdim, or 1 where the header leaves it zero, negative or not finite (as the
@@ -227,7 +242,7 @@ static void set_geometry(const nifti_hdr *h, vm_volume *v) {
             for (int c = 0; c < 3; c++) m[r][c] = h->srow[r][c];
             if (!isfinite(h->srow[r][3])) ok = 0;
         }
-        if (ok && split_matrix(m, v)) {
+        if (ok && split_matrix(m, v) == VM_OK) {
             for (int r = 0; r < 3; r++) v->origin[r] = h->srow[r][3];
             return;
         }
@@ -259,7 +274,7 @@ static void set_geometry(const nifti_hdr *h, vm_volume *v) {
             m[r][1] = R[r][1] * dy;
             m[r][2] = R[r][2] * dz * qfac;
         }
-        if (split_matrix(m, v)) {
+        if (split_matrix(m, v) == VM_OK) {
             for (int r = 0; r < 3; r++) v->origin[r] = h->quatern[3 + r];
             return;
         }
@@ -387,7 +402,7 @@ static vm_status read_nifti(const char *path, const vm__slab *rq, vm_volume *v, 
     if (st) goto done;
 
     vm_scalar_type type;
-    if (map_datatype(h.datatype, &type)) {
+    if (map_datatype(h.datatype, &type) != VM_OK) {
         st = vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: NIfTI datatype %d (%s) is not supported "
                           "(only integer and real scalars)", path, h.datatype,
                           datatype_name(h.datatype));
@@ -470,10 +485,8 @@ static vm_status read_nifti(const char *path, const vm__slab *rq, vm_volume *v, 
     v->type = type;
     set_geometry(&h, v);
     snprintf(v->format, sizeof v->format, "nifti");
-    if (rq->header_only) goto done;
-    st = vm__slab_alloc(path, rq, n, v, err);
-    if (!st) st = vm__samples_decode(&src, rq, first, n, v->data, err);
-    if (st) goto done;
+    st = vm__slab_read(path, rq, &src, first, n, v, err);
+    if (st || rq->header_only) goto done;
 
     /* scl_slope = 0 means "no scaling" (nifti1.h); (1, 0) is the identity. */
     double a = h.scl_slope, b = h.scl_inter;

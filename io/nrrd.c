@@ -35,24 +35,26 @@ typedef struct nrrd_fields {
 
 /* Field identifiers with spaces removed and lower-cased, so that "data file" and "datafile",
  * "byte skip" and "byteskip" (both spellings appear in the spec's history) match alike. */
+#define FIELD(key, member) {key, offsetof(nrrd_fields, member)}
 static const struct {
     const char *key;
     size_t offset;
 } field_table[] = {
-    {"dimension", offsetof(nrrd_fields, dimension)},
-    {"type", offsetof(nrrd_fields, type)},
-    {"encoding", offsetof(nrrd_fields, encoding)},
-    {"endian", offsetof(nrrd_fields, endian)},
-    {"sizes", offsetof(nrrd_fields, sizes)},
-    {"spacings", offsetof(nrrd_fields, spacings)},
-    {"space", offsetof(nrrd_fields, space)},
-    {"spacedimension", offsetof(nrrd_fields, space_dimension)},
-    {"spacedirections", offsetof(nrrd_fields, space_directions)},
-    {"spaceorigin", offsetof(nrrd_fields, space_origin)},
-    {"byteskip", offsetof(nrrd_fields, byte_skip)},
-    {"lineskip", offsetof(nrrd_fields, line_skip)},
-    {"datafile", offsetof(nrrd_fields, data_file)},
+    FIELD("dimension", dimension),
+    FIELD("type", type),
+    FIELD("encoding", encoding),
+    FIELD("endian", endian),
+    FIELD("sizes", sizes),
+    FIELD("spacings", spacings),
+    FIELD("space", space),
+    FIELD("spacedimension", space_dimension),
+    FIELD("spacedirections", space_directions),
+    FIELD("spaceorigin", space_origin),
+    FIELD("byteskip", byte_skip),
+    FIELD("lineskip", line_skip),
+    FIELD("datafile", data_file),
 };
+#undef FIELD
 
 /* The header, interpreted. */
 typedef struct nrrd_info {
@@ -89,19 +91,21 @@ static const char *show(const char *s, char out[48]) {
     return out;
 }
 
-static int parse_ll(const char *s, long long *out) {
+/* One whole decimal integer (white space around it allowed). */
+static vm_status parse_ll(const char *s, long long *out) {
     char *end;
     errno = 0;
     long long x = strtoll(s, &end, 10);
-    if (end == s || errno == ERANGE) return -1;
+    if (end == s || errno == ERANGE) return VM_ERR_FORMAT;
     while (isspace((unsigned char)*end)) end++;
-    if (*end) return -1;
+    if (*end) return VM_ERR_FORMAT;
     *out = x;
-    return 0;
+    return VM_OK;
 }
 
-/* White-space separated integers; returns the count, or -1 when malformed or more than max. */
-static int parse_int_list(const char *s, int64_t *out, int max) {
+/* White-space separated numbers: integers into ints, or (ints NULL) doubles into reals, nan
+ * allowed. Returns the count, or -1 when malformed or more than max. */
+static int parse_list(const char *s, int64_t *ints, double *reals, int max) {
     int n = 0;
     for (;;) {
         while (isspace((unsigned char)*s)) s++;
@@ -109,24 +113,13 @@ static int parse_int_list(const char *s, int64_t *out, int max) {
         if (n == max) return -1;
         char *end;
         errno = 0;
-        long long x = strtoll(s, &end, 10);
-        if (end == s || errno == ERANGE || (*end && !isspace((unsigned char)*end))) return -1;
-        out[n++] = x;
-        s = end;
-    }
-}
-
-/* White-space separated numbers (nan allowed); returns the count, or -1. */
-static int parse_double_list(const char *s, double *out, int max) {
-    int n = 0;
-    for (;;) {
-        while (isspace((unsigned char)*s)) s++;
-        if (!*s) return n;
-        if (n == max) return -1;
-        char *end;
-        double x = strtod(s, &end);
-        if (end == s || (*end && !isspace((unsigned char)*end))) return -1;
-        out[n++] = x;
+        if (ints)
+            ints[n] = strtoll(s, &end, 10);
+        else
+            reals[n] = strtod(s, &end);
+        if (end == s || (ints && errno == ERANGE) || (*end && !isspace((unsigned char)*end)))
+            return -1;
+        n++;
         s = end;
     }
 }
@@ -198,7 +191,7 @@ static vm_status parse_header(const char *path, unsigned char *buf, size_t len,
 }
 
 /* NRRD type spellings (format definition, "type"); vm_scalar_type_parse catches the rest. */
-static int parse_type(const char *s, vm_scalar_type *t) {
+static vm_status parse_type(const char *s, vm_scalar_type *t) {
     static const struct {
         const char *name;
         vm_scalar_type t;
@@ -247,9 +240,9 @@ static int parse_type(const char *s, vm_scalar_type *t) {
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
         if (strcmp(s, names[i].name) == 0) {
             *t = names[i].t;
-            return 0;
+            return VM_OK;
         }
-    return vm_scalar_type_parse(s, t);
+    return vm_scalar_type_parse(s, t) == 0 ? VM_OK : VM_ERR_FORMAT;
 }
 
 /* Dimension of a named space (format definition, "space"); 0 when unknown. */
@@ -294,56 +287,55 @@ static int parse_vector(const char **s, double *out, int n) {
     return 1;
 }
 
-static vm_status interpret(const char *path, const nrrd_fields *f, nrrd_info *h,
-                           vm_error *err) {
+/* Required fields, dimension and sizes: h->dims and [out] *dim (the array's dimension) and
+ * *first (the axis holding x: 1 when a leading axis of one sample is tolerated). */
+static vm_status interpret_layout(const char *path, const nrrd_fields *f, nrrd_info *h,
+                                  long long *dim, int *first, vm_error *err) {
     char tmp[48];
-    memset(h, 0, sizeof *h);
-    h->big_endian = -1;
-    for (int a = 0; a < 3; a++) {
-        h->spacing[a] = 1.0;
-        h->direction[a][a] = 1.0;
-    }
     const char *missing = !f->dimension ? "dimension"
                           : !f->type    ? "type"
                           : !f->sizes   ? "sizes"
                           : !f->encoding ? "encoding"
                                          : NULL;
     if (missing) return fail(err, VM_ERR_FORMAT, path, "missing '%s' field", missing);
-
-    long long dim;
-    if (parse_ll(f->dimension, &dim) != 0 || dim < 1 || dim > NRRD_DIM_MAX)
+    if (parse_ll(f->dimension, dim) != VM_OK || *dim < 1 || *dim > NRRD_DIM_MAX)
         return fail(err, VM_ERR_FORMAT, path, "bad dimension '%s' (must be 1..%d)",
                     show(f->dimension, tmp), NRRD_DIM_MAX);
     int64_t sizes[NRRD_DIM_MAX];
-    int ns = parse_int_list(f->sizes, sizes, NRRD_DIM_MAX);
-    if (ns != dim)
+    int ns = parse_list(f->sizes, sizes, NULL, NRRD_DIM_MAX);
+    if (ns != *dim)
         return fail(err, VM_ERR_FORMAT, path, "sizes '%s' must be %lld integers",
-                    show(f->sizes, tmp), dim);
+                    show(f->sizes, tmp), *dim);
     for (int a = 0; a < ns; a++)
         if (sizes[a] < 1)
             return fail(err, VM_ERR_FORMAT, path, "size %lld of axis %d must be >= 1",
                         (long long)sizes[a], a);
     /* Axes holding x, y, z: all three of a 3-D array; a leading axis of one sample is
      * tolerated (a scalar stored as a 1-vector). */
-    int first = 0;
-    if (dim == 4 && sizes[0] == 1) {
-        first = 1;
-    } else if (dim == 4) {
+    *first = 0;
+    if (*dim == 4 && sizes[0] == 1) {
+        *first = 1;
+    } else if (*dim == 4) {
         return fail(err, VM_ERR_UNSUPPORTED, path,
                     "dimension 4 with %lld samples on the first axis (vectors or time "
                     "series) is not supported; volmesh reads scalar 3-D volumes",
                     (long long)sizes[0]);
-    } else if (dim != 3) {
+    } else if (*dim != 3) {
         return fail(err, VM_ERR_UNSUPPORTED, path,
-                    "dimension %lld is not supported; volmesh reads 3-D volumes", dim);
+                    "dimension %lld is not supported; volmesh reads 3-D volumes", *dim);
     }
-    for (int a = 0; a < 3; a++) h->dims[a] = sizes[first + a];
+    for (int a = 0; a < 3; a++) h->dims[a] = sizes[*first + a];
+    return VM_OK;
+}
 
+/* Sample storage: type, encoding, endianness, byte and line skips. */
+static vm_status interpret_storage(const char *path, const nrrd_fields *f, nrrd_info *h,
+                                   vm_error *err) {
+    char tmp[48];
     if (strcmp(f->type, "block") == 0)
         return fail(err, VM_ERR_UNSUPPORTED, path, "type 'block' is not supported");
-    if (parse_type(f->type, &h->type) != 0)
+    if (parse_type(f->type, &h->type) != VM_OK)
         return fail(err, VM_ERR_FORMAT, path, "unknown type '%s'", show(f->type, tmp));
-
     const char *enc = f->encoding;
     if (strcasecmp(enc, "raw") == 0)
         h->encoding = ENC_RAW;
@@ -358,7 +350,6 @@ static vm_status interpret(const char *path, const nrrd_fields *f, nrrd_info *h,
                     "encoding '%s' is not supported (use raw, gzip or ascii)", enc);
     else
         return fail(err, VM_ERR_FORMAT, path, "unknown encoding '%s'", show(enc, tmp));
-
     if (f->endian) {
         if (strcasecmp(f->endian, "little") == 0)
             h->big_endian = 0;
@@ -371,93 +362,113 @@ static vm_status interpret(const char *path, const nrrd_fields *f, nrrd_info *h,
         return fail(err, VM_ERR_FORMAT, path, "missing 'endian' field (needed for %s data)",
                     vm_scalar_type_name(h->type));
     }
-
-    if (f->byte_skip && (parse_ll(f->byte_skip, &h->byte_skip) != 0 || h->byte_skip < -1))
+    if (f->byte_skip && (parse_ll(f->byte_skip, &h->byte_skip) != VM_OK || h->byte_skip < -1))
         return fail(err, VM_ERR_FORMAT, path, "bad byte skip '%s' (must be -1 or >= 0)",
                     show(f->byte_skip, tmp));
     if (h->byte_skip == -1 && h->encoding != ENC_RAW)
         return fail(err, VM_ERR_FORMAT, path, "byte skip -1 is only allowed with raw encoding");
-    if (f->line_skip && (parse_ll(f->line_skip, &h->line_skip) != 0 || h->line_skip < 0))
+    if (f->line_skip && (parse_ll(f->line_skip, &h->line_skip) != VM_OK || h->line_skip < 0))
         return fail(err, VM_ERR_FORMAT, path, "bad line skip '%s' (must be >= 0)",
                     show(f->line_skip, tmp));
+    return VM_OK;
+}
 
-    /* Geometry: space directions (with space or space dimension) or else spacings. */
-    int sdim = 0;
+/* The world space's dimension from 'space' and 'space dimension' (which must agree and be
+ * 3 when given; 0 when neither is). */
+static vm_status interpret_space(const char *path, const nrrd_fields *f, int *sdim,
+                                 vm_error *err) {
+    char tmp[48];
+    *sdim = 0;
     if (f->space) {
-        sdim = space_dimension_of(f->space);
-        if (!sdim)
+        *sdim = space_dimension_of(f->space);
+        if (!*sdim)
             return fail(err, VM_ERR_FORMAT, path, "unknown space '%s'", show(f->space, tmp));
     }
     if (f->space_dimension) {
         long long sd;
-        if (parse_ll(f->space_dimension, &sd) != 0 || sd < 1 || sd > NRRD_DIM_MAX)
+        if (parse_ll(f->space_dimension, &sd) != VM_OK || sd < 1 || sd > NRRD_DIM_MAX)
             return fail(err, VM_ERR_FORMAT, path, "bad space dimension '%s'",
                         show(f->space_dimension, tmp));
-        if (sdim && sd != sdim)
+        if (*sdim && sd != *sdim)
             return fail(err, VM_ERR_FORMAT, path,
                         "space dimension %lld contradicts space '%s'", sd,
                         show(f->space, tmp));
-        sdim = (int)sd;
+        *sdim = (int)sd;
     }
-    if (sdim && sdim != 3)
+    if (*sdim && *sdim != 3)
         return fail(err, VM_ERR_UNSUPPORTED, path,
-                    "space dimension %d is not supported (volmesh needs 3)", sdim);
-    if ((f->space_directions || f->space_origin) && !sdim)
+                    "space dimension %d is not supported (volmesh needs 3)", *sdim);
+    if ((f->space_directions || f->space_origin) && !*sdim)
         return fail(err, VM_ERR_FORMAT, path,
                     "'space directions' and 'space origin' need a 'space' or 'space "
                     "dimension' field");
-    if (f->space_directions) {
-        const char *s = f->space_directions;
-        for (int a = 0; a < dim; a++) {
-            double col[3];
-            int r = parse_vector(&s, col, 3);
-            if (r < 0)
-                return fail(err, VM_ERR_FORMAT, path,
-                            "space directions '%s': axis %d is not '(x,y,z)' or 'none'",
-                            show(f->space_directions, tmp), a);
-            if (a < first) continue;
-            if (r == 0)
-                return fail(err, VM_ERR_FORMAT, path,
-                            "space directions: spatial axis %d has no direction", a);
-            double norm = sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2]);
-            if (!(norm > 0.0) || !isfinite(norm))
-                return fail(err, VM_ERR_FORMAT, path,
-                            "space directions: axis %d has a zero-length direction", a);
-            h->spacing[a - first] = norm;
-            for (int i = 0; i < 3; i++) h->direction[i][a - first] = col[i] / norm;
-        }
-        while (isspace((unsigned char)*s)) s++;
-        if (*s)
+    return VM_OK;
+}
+
+/* 'space directions': one "(x,y,z)" or "none" per axis; each spatial axis's length is its
+ * spacing, its unit vector a column of h->direction. */
+static vm_status interpret_directions(const char *path, const nrrd_fields *f, long long dim,
+                                      int first, nrrd_info *h, vm_error *err) {
+    char tmp[48];
+    const char *s = f->space_directions;
+    for (int a = 0; a < dim; a++) {
+        double col[3];
+        int r = parse_vector(&s, col, 3);
+        if (r < 0)
             return fail(err, VM_ERR_FORMAT, path,
-                        "space directions '%s' must have %lld entries",
-                        show(f->space_directions, tmp), dim);
-    } else if (f->spacings) {
-        double sp[NRRD_DIM_MAX];
-        if (parse_double_list(f->spacings, sp, NRRD_DIM_MAX) != dim)
-            return fail(err, VM_ERR_FORMAT, path, "spacings '%s' must be %lld numbers",
-                        show(f->spacings, tmp), dim);
-        for (int a = 0; a < 3; a++) {
-            double s = sp[first + a];
-            if (isnan(s)) continue; /* NaN: spacing unknown (format definition); keep 1 */
-            if (!isfinite(s) || s == 0.0)
-                return fail(err, VM_ERR_FORMAT, path,
-                            "spacing of axis %d must be a non-zero number", first + a);
-            /* A negative spacing flips the axis: keep spacing > 0 as vm_volume requires. */
-            h->spacing[a] = fabs(s);
-            h->direction[a][a] = s < 0 ? -1.0 : 1.0;
-        }
+                        "space directions '%s': axis %d is not '(x,y,z)' or 'none'",
+                        show(f->space_directions, tmp), a);
+        if (a < first) continue;
+        if (r == 0)
+            return fail(err, VM_ERR_FORMAT, path,
+                        "space directions: spatial axis %d has no direction", a);
+        double norm = sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2]);
+        if (!(norm > 0.0) || !isfinite(norm))
+            return fail(err, VM_ERR_FORMAT, path,
+                        "space directions: axis %d has a zero-length direction", a);
+        h->spacing[a - first] = norm;
+        for (int i = 0; i < 3; i++) h->direction[i][a - first] = col[i] / norm;
     }
+    while (isspace((unsigned char)*s)) s++;
+    if (*s)
+        return fail(err, VM_ERR_FORMAT, path, "space directions '%s' must have %lld entries",
+                    show(f->space_directions, tmp), dim);
+    return VM_OK;
+}
+
+/* 'spacings' (used without 'space directions'): one number per axis, NaN for unknown. */
+static vm_status interpret_spacings(const char *path, const nrrd_fields *f, long long dim,
+                                    int first, nrrd_info *h, vm_error *err) {
+    char tmp[48];
+    double sp[NRRD_DIM_MAX];
+    if (parse_list(f->spacings, NULL, sp, NRRD_DIM_MAX) != dim)
+        return fail(err, VM_ERR_FORMAT, path, "spacings '%s' must be %lld numbers",
+                    show(f->spacings, tmp), dim);
+    for (int a = 0; a < 3; a++) {
+        double s = sp[first + a];
+        if (isnan(s)) continue; /* NaN: spacing unknown (format definition); keep 1 */
+        if (!isfinite(s) || s == 0.0)
+            return fail(err, VM_ERR_FORMAT, path,
+                        "spacing of axis %d must be a non-zero number", first + a);
+        /* A negative spacing flips the axis: keep spacing > 0 as vm_volume requires. */
+        h->spacing[a] = fabs(s);
+        h->direction[a][a] = s < 0 ? -1.0 : 1.0;
+    }
+    return VM_OK;
+}
+
+/* 'space origin' "(x,y,z)" and 'data file' (a detached single file beside the header). */
+static vm_status interpret_origin_and_data(const char *path, const nrrd_fields *f,
+                                           nrrd_info *h, vm_error *err) {
+    char tmp[48];
     if (f->space_origin) {
         const char *s = f->space_origin;
-        if (parse_vector(&s, h->origin, 3) != 1)
-            return fail(err, VM_ERR_FORMAT, path, "space origin '%s' is not '(x,y,z)'",
-                        show(f->space_origin, tmp));
-        while (isspace((unsigned char)*s)) s++;
-        if (*s)
+        int r = parse_vector(&s, h->origin, 3);
+        while (r == 1 && isspace((unsigned char)*s)) s++;
+        if (r != 1 || *s)
             return fail(err, VM_ERR_FORMAT, path, "space origin '%s' is not '(x,y,z)'",
                         show(f->space_origin, tmp));
     }
-
     if (f->data_file) {
         const char *df = f->data_file;
         if (strcmp(df, "LIST") == 0 || strncmp(df, "LIST ", 5) == 0 ||
@@ -472,14 +483,37 @@ static vm_status interpret(const char *path, const nrrd_fields *f, nrrd_info *h,
     return VM_OK;
 }
 
-/* Skips n lines of data text; returns 0, or -1 when the data ends first. */
-static int skip_lines(const unsigned char **p, const unsigned char *end, long long n) {
+/* The header fields as a volume: layout, storage, then geometry (space directions, or
+ * else spacings; identity directions and unit spacing by default). */
+static vm_status interpret(const char *path, const nrrd_fields *f, nrrd_info *h,
+                           vm_error *err) {
+    memset(h, 0, sizeof *h);
+    h->big_endian = -1;
+    for (int a = 0; a < 3; a++) {
+        h->spacing[a] = 1.0;
+        h->direction[a][a] = 1.0;
+    }
+    long long dim = 0;
+    int first = 0, sdim = 0;
+    vm_status st = interpret_layout(path, f, h, &dim, &first, err);
+    if (!st) st = interpret_storage(path, f, h, err);
+    if (!st) st = interpret_space(path, f, &sdim, err);
+    if (!st && f->space_directions)
+        st = interpret_directions(path, f, dim, first, h, err);
+    else if (!st && f->spacings)
+        st = interpret_spacings(path, f, dim, first, h, err);
+    if (!st) st = interpret_origin_and_data(path, f, h, err);
+    return st;
+}
+
+/* Skips n lines of data text; VM_ERR_FORMAT when the data ends first. */
+static vm_status skip_lines(const unsigned char **p, const unsigned char *end, long long n) {
     for (long long i = 0; i < n; i++) {
         const unsigned char *nl = memchr(*p, '\n', (size_t)(end - *p));
-        if (!nl) return -1;
+        if (!nl) return VM_ERR_FORMAT;
         *p = nl + 1;
     }
-    return 0;
+    return VM_OK;
 }
 
 /* Reads the planes rq asks for (vm__slab_whole: all of them). */
@@ -524,7 +558,7 @@ static vm_status read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, v
         p = buf + data_at;
         end = buf + len;
     }
-    if (skip_lines(&p, end, h.line_skip) != 0) {
+    if (skip_lines(&p, end, h.line_skip) != VM_OK) {
         st = fail(err, VM_ERR_FORMAT, path, "line skip %lld goes past the end of the data",
                   h.line_skip);
         goto done;
@@ -582,15 +616,9 @@ static vm_status read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, v
         src.skip = (size_t)h.byte_skip;
     }
 
-    memcpy(v->dims, h.dims, sizeof v->dims);
-    v->type = h.type;
-    memcpy(v->spacing, h.spacing, sizeof v->spacing);
-    memcpy(v->origin, h.origin, sizeof v->origin);
-    memcpy(v->direction, h.direction, sizeof v->direction);
-    snprintf(v->format, sizeof v->format, "nrrd");
-    if (rq->header_only) goto done;
-    st = vm__slab_alloc(path, rq, n, v, err);
-    if (!st) st = vm__samples_decode(&src, rq, first, n, v->data, err);
+    vm__volume_set_header(v, h.dims, h.type, h.spacing, h.origin,
+                          (const double(*)[3])h.direction, "nrrd");
+    st = vm__slab_read(path, rq, &src, first, n, v, err);
     if (!st) vm__slab_finish(v, rq);
 done:
     vm__map_free(&hm);
@@ -617,23 +645,31 @@ static void floats_le(const float *src, size_t n, unsigned char *dst) {
     }
 }
 
+/* Floats converted per write: 64 KiB of staging on the stack. */
 enum { CHUNK_FLOATS = 16384 };
 
-static int write_raw(FILE *fp, const float *data, size_t n) {
+/* The floats as raw little-endian bytes. */
+static vm_status write_raw(FILE *fp, const float *data, size_t n) {
     unsigned char stage[4 * CHUNK_FLOATS];
     for (size_t i = 0; i < n; i += CHUNK_FLOATS) {
         size_t m = n - i < CHUNK_FLOATS ? n - i : CHUNK_FLOATS;
         floats_le(data + i, m, stage);
-        if (fwrite(stage, 4, m, fp) != m) return -1;
+        if (fwrite(stage, 4, m, fp) != m) return VM_ERR_IO;
     }
-    return 0;
+    return VM_OK;
 }
 
-/* gzip stream (deflate with a gzip wrapper: windowBits 15 + 16, zlib manual). */
-static int write_gzip(FILE *fp, const float *data, size_t n) {
+/* deflateInit2 settings (zlib manual): zlib's default level and memory level; the largest
+ * window (15 bits), + 16 for a gzip wrapper instead of zlib's. */
+enum { GZIP_LEVEL = 6, GZIP_WINDOW_BITS = 15 + 16, GZIP_MEM_LEVEL = 8 };
+
+/* gzip stream of the floats, little endian. */
+static vm_status write_gzip(FILE *fp, const float *data, size_t n) {
     z_stream zs;
     memset(&zs, 0, sizeof zs);
-    if (deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) return -1;
+    if (deflateInit2(&zs, GZIP_LEVEL, Z_DEFLATED, GZIP_WINDOW_BITS, GZIP_MEM_LEVEL,
+                     Z_DEFAULT_STRATEGY) != Z_OK)
+        return VM_ERR_IO;
     unsigned char stage[4 * CHUNK_FLOATS], out[1 << 16];
     size_t i = 0;
     int r = Z_OK;
@@ -654,7 +690,7 @@ static int write_gzip(FILE *fp, const float *data, size_t n) {
         } while (r != Z_ERRNO && zs.avail_out == 0);
     } while (i < n && r != Z_ERRNO && r != Z_STREAM_ERROR);
     deflateEnd(&zs);
-    return r == Z_STREAM_END ? 0 : -1;
+    return r == Z_STREAM_END ? VM_OK : VM_ERR_IO;
 }
 
 vm_status vm_volume_write_nrrd(const char *path, const vm_volume *v, int gzip, vm_error *err) {
@@ -684,8 +720,8 @@ vm_status vm_volume_write_nrrd(const char *path, const vm_volume *v, int gzip, v
             "encoding: %s\n"
             "space origin: (%.17g,%.17g,%.17g)\n\n",
             gzip ? "gzip" : "raw", v->origin[0], v->origin[1], v->origin[2]);
-    int bad = gzip ? write_gzip(o.fp, v->data, count) : write_raw(o.fp, v->data, count);
-    if (bad || ferror(o.fp)) {
+    st = gzip ? write_gzip(o.fp, v->data, count) : write_raw(o.fp, v->data, count);
+    if (st != VM_OK || ferror(o.fp)) {
         vm__out_abort(&o);
         return fail(err, VM_ERR_IO, path, "write failed");
     }

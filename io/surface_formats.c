@@ -45,19 +45,51 @@ static vm_status begin_surface(const char *path, const vm_mesh *m, vm_mesh *tmp,
     if (vm_cell_nodes(m->kind) == 0)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
                             (int)m->kind);
-    vm_status st = vm__check_cells(path, m, err);
+    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) return st;
     return vm__surface_of(path, m, tmp, s, err);
 }
 
-/* begin_surface, then the output file opened (the surface freed again if that fails). */
-static vm_status begin_surface_file(const char *path, const vm_mesh *m, vm_mesh *tmp,
-                                    const vm_mesh **s, vm_outfile *o, vm_error *err) {
-    vm_status st = begin_surface(path, m, tmp, s, err);
+/* A text or PLY surface writer's output: the surface (m itself, or its boundary held in tmp)
+ * with its nodes per face, and the file. */
+typedef struct surface_out {
+    vm_mesh tmp;
+    const vm_mesh *s;
+    size_t nn;
+    vm_outfile o;
+} surface_out;
+
+/* begin_surface, then the output file opened (the surface freed again if that fails) with
+ * its progress over the surface's points and faces. */
+static vm_status begin_surface_file(const char *path, const vm_mesh *m,
+                                    const vm_mesh_write_options *opt, surface_out *so,
+                                    vm_error *err) {
+    vm_status st = begin_surface(path, m, &so->tmp, &so->s, err);
     if (st) return st;
-    st = vm__out_open(o, path, err);
-    if (st) vm_mesh_free(tmp);
-    return st;
+    st = vm__out_open(&so->o, path, err);
+    if (st) {
+        vm_mesh_free(&so->tmp);
+        return st;
+    }
+    so->nn = (size_t)vm_cell_nodes(so->s->kind);
+    vm__out_meter(&so->o, opt->progress, opt->progress_user,
+                  (double)so->s->npoints + so->s->ncells);
+    return VM_OK;
+}
+
+/* Frees the surface, then checks and renames the file. */
+static vm_status end_surface_file(surface_out *so, vm_error *err) {
+    vm_mesh_free(&so->tmp);
+    return vm__out_commit(&so->o, err);
+}
+
+/* One text line per point: prefix, then the coordinates, exactly (%.17g). */
+static void put_points_text(vm_outfile *o, const vm_mesh *s, const char *prefix) {
+    for (size_t i = 0; i < s->npoints; i++) {
+        const double *p = s->points + 3 * i;
+        fprintf(o->fp, "%s%.17g %.17g %.17g\n", prefix, p[0], p[1], p[2]);
+        vm__out_step(o, 1.0);
+    }
 }
 
 /* ======================================================================================= */
@@ -165,7 +197,7 @@ static vm_status stl_read_binary(const char *path, const unsigned char *b, size_
         return vm_error_set(err, VM_ERR_FORMAT, "%s: binary STL of %" PRIu32 " triangles needs "
                             "%" PRIu64 " bytes, file has %zu", path, n, 84 + 50 * (uint64_t)n,
                             len);
-    vm__pointmerge pm = {NULL, 0};
+    vm_point_index pm = {0, NULL};
     vm_status st = vm_mesh_reserve(m, 0, n, err);
     for (uint32_t i = 0; i < n && !st; i++) {
         const unsigned char *rec = b + 84 + 50 * (size_t)i;
@@ -178,11 +210,11 @@ static vm_status stl_read_binary(const char *path, const unsigned char *b, size_
                     st = vm_error_set(err, VM_ERR_FORMAT, "%s: triangle %" PRIu32 " has a "
                                       "non-finite coordinate", path, i);
             }
-            if (!st && (v[k] = vm__pointmerge_add(&pm, m, p, err)) < 0) st = VM_ERR_NOMEM;
+            if (!st && (v[k] = vm__point_index_add(&pm, m, p, err)) < 0) st = VM_ERR_NOMEM;
         }
         if (!st) st = vm_mesh_add_cell(m, v, (int32_t)vm__get_le16(rec + 48), err);
     }
-    vm__pointmerge_free(&pm);
+    vm_point_index_free(&pm);
     return st;
 }
 
@@ -190,7 +222,7 @@ static vm_status stl_read_ascii(const char *path, const unsigned char *b, size_t
                                 vm_mesh *m, vm_error *err) {
     vm__cursor c;
     vm__cur_init(&c, path, b, len, 0, err);
-    vm__pointmerge pm = {NULL, 0};
+    vm_point_index pm = {0, NULL};
     const char *t;
     size_t n;
     vm_status st = VM_OK;
@@ -213,7 +245,7 @@ static vm_status stl_read_ascii(const char *path, const unsigned char *b, size_t
             size_t w = 0;
             while (w < sl && s[w] != ' ' && s[w] != '\t')
                 w++;
-            if (!vm__region_parse(s, w, &region)) region = nsolids;
+            if (vm__region_parse(s, w, &region) != VM_OK) region = nsolids;
             nsolids++;
         } else if (vm__tok_is(t, n, "endsolid")) {
             const char *s;
@@ -240,7 +272,7 @@ static vm_status stl_read_ascii(const char *path, const unsigned char *b, size_t
                 }
                 for (int d = 0; d < 3 && !st; d++)
                     st = vm__cur_double(&c, "vertex coordinate", &p[d]);
-                if (!st && (v[k] = vm__pointmerge_add(&pm, m, p, err)) < 0) st = VM_ERR_NOMEM;
+                if (!st && (v[k] = vm__point_index_add(&pm, m, p, err)) < 0) st = VM_ERR_NOMEM;
             }
             if (!st && (!vm__cur_token(&c, &t, &n) || !vm__tok_is(t, n, "endloop") ||
                         !vm__cur_token(&c, &t, &n) || !vm__tok_is(t, n, "endfacet")))
@@ -252,7 +284,7 @@ static vm_status stl_read_ascii(const char *path, const unsigned char *b, size_t
         }
     }
     if (!st && !nsolids) st = vm_error_set(err, VM_ERR_FORMAT, "%s: not an STL file", path);
-    vm__pointmerge_free(&pm);
+    vm_point_index_free(&pm);
     return st;
 }
 
@@ -291,30 +323,23 @@ vm_status vm_mesh_write_off(const char *path, const vm_mesh *m, vm_error *err) {
 
 vm_status vm__write_off(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
                         vm_error *err) {
-    vm_mesh tmp;
-    const vm_mesh *s = NULL;
-    vm_outfile o;
-    vm_status st = begin_surface_file(path, m, &tmp, &s, &o, err);
+    surface_out so;
+    vm_status st = begin_surface_file(path, m, opt, &so, err);
     if (st) return st;
-    FILE *fp = o.fp;
-    vm__out_meter(&o, opt->progress, opt->progress_user, (double)s->npoints + s->ncells);
-    size_t nn = (size_t)vm_cell_nodes(s->kind);
+    const vm_mesh *s = so.s;
+    FILE *fp = so.o.fp;
+    size_t nn = so.nn;
     fprintf(fp, "OFF\n# volmesh %s surface\n%zu %zu 0\n", vm_cell_kind_name(s->kind),
             s->npoints, s->ncells);
-    for (size_t i = 0; i < s->npoints; i++) {
-        const double *p = s->points + 3 * i;
-        fprintf(fp, "%.17g %.17g %.17g\n", p[0], p[1], p[2]);
-        vm__out_step(&o, 1.0);
-    }
+    put_points_text(&so.o, s, "");
     for (size_t c = 0; c < s->ncells; c++) {
         fprintf(fp, "%zu", nn);
         for (size_t k = 0; k < nn; k++)
             fprintf(fp, " %lld", (long long)s->cells[c * nn + k]);
         fputc('\n', fp);
-        vm__out_step(&o, 1.0);
+        vm__out_step(&so.o, 1.0);
     }
-    vm_mesh_free(&tmp);
-    return vm__out_commit(&o, err);
+    return end_surface_file(&so, err);
 }
 
 /* Adds a polygon of k >= 3 vertices: triangles and quads as they are, larger ones as a fan. */
@@ -329,14 +354,12 @@ static vm_status add_polygon(vm__polys *p, const vm_index *v, size_t k, int32_t 
     return VM_OK;
 }
 
+/* Reads OFF: counts, vertices, then faces (polygons of 3 or more vertices). */
 vm_status vm_mesh_read_off(const char *path, vm_mesh *m, vm_error *err) {
-    vm_mesh_init(m, VM_TRI3);
     unsigned char *buf = NULL;
-    size_t len = 0;
-    vm_status st = vm__read_file(path, VM__MESH_MAX_FILE, &buf, &len, err);
-    if (st) return st;
     vm__cursor c;
-    vm__cur_init(&c, path, buf, len, '#', err);
+    vm_status st = vm__mesh_read_begin(path, m, VM_TRI3, '#', &buf, &c, err);
+    if (st) return st;
     vm__polys polys;
     memset(&polys, 0, sizeof polys);
     vm_index *v = NULL;
@@ -379,9 +402,7 @@ vm_status vm_mesh_read_off(const char *path, vm_mesh *m, vm_error *err) {
 done:
     vm__polys_free(&polys);
     free(v);
-    free(buf);
-    if (st) vm_mesh_free(m);
-    return st;
+    return vm__mesh_read_end(m, buf, st);
 }
 
 /* ======================================================================================= */
@@ -398,31 +419,25 @@ vm_status vm_mesh_write_ply(const char *path, const vm_mesh *m, int ascii, vm_er
 vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
                         vm_error *err) {
     int ascii = opt->ascii;
-    vm_mesh tmp;
-    const vm_mesh *s = NULL;
-    vm_outfile o;
-    vm_status st = begin_surface_file(path, m, &tmp, &s, &o, err);
+    surface_out so;
+    vm_status st = begin_surface_file(path, m, opt, &so, err);
     if (st) return st;
-    FILE *fp = o.fp;
-    vm__out_meter(&o, opt->progress, opt->progress_user, (double)s->npoints + s->ncells);
-    size_t nn = (size_t)vm_cell_nodes(s->kind);
+    const vm_mesh *s = so.s;
+    FILE *fp = so.o.fp;
+    size_t nn = so.nn;
     fprintf(fp, "ply\nformat %s 1.0\ncomment volmesh %s surface\nelement vertex %zu\n"
                 "property double x\nproperty double y\nproperty double z\nelement face %zu\n"
                 "property list uchar int vertex_indices\nproperty int region\nend_header\n",
             ascii ? "ascii" : "binary_little_endian", vm_cell_kind_name(s->kind), s->npoints,
             s->ncells);
     if (ascii) {
-        for (size_t i = 0; i < s->npoints; i++) {
-            const double *p = s->points + 3 * i;
-            fprintf(fp, "%.17g %.17g %.17g\n", p[0], p[1], p[2]);
-            vm__out_step(&o, 1.0);
-        }
+        put_points_text(&so.o, s, "");
         for (size_t c = 0; c < s->ncells; c++) {
             fprintf(fp, "%zu", nn);
             for (size_t k = 0; k < nn; k++)
                 fprintf(fp, " %lld", (long long)s->cells[c * nn + k]);
             fprintf(fp, " %ld\n", (long)s->region[c]);
-            vm__out_step(&o, 1.0);
+            vm__out_step(&so.o, 1.0);
         }
     } else {
         for (size_t i = 0; i < s->npoints; i++) {
@@ -430,7 +445,7 @@ vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_
             for (int d = 0; d < 3; d++)
                 vm__put_le64(b + 8 * d, vm__double_bits(s->points[3 * i + (size_t)d]));
             fwrite(b, 1, 24, fp);
-            vm__out_step(&o, 1.0);
+            vm__out_step(&so.o, 1.0);
         }
         for (size_t c = 0; c < s->ncells; c++) {
             unsigned char b[1 + 4 * 8 + 4];
@@ -439,14 +454,17 @@ vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_
                 vm__put_le32(b + 1 + 4 * k, (uint32_t)(int32_t)s->cells[c * nn + k]);
             vm__put_le32(b + 1 + 4 * nn, (uint32_t)s->region[c]);
             fwrite(b, 1, 1 + 4 * nn + 4, fp);
-            vm__out_step(&o, 1.0);
+            vm__out_step(&so.o, 1.0);
         }
     }
-    vm_mesh_free(&tmp);
-    return vm__out_commit(&o, err);
+    return end_surface_file(&so, err);
 }
 
 enum { PLY_ASCII, PLY_LE, PLY_BE };
+
+/* volmesh's bounds on a PLY header and its lists (the format sets none): elements, properties
+ * of one element, entries of one list (a face of more vertices is refused). */
+enum { PLY_MAX_ELEMENTS = 8, PLY_MAX_PROPS = 16, PLY_MAX_LIST = 64 };
 
 typedef struct ply_prop {
     char name[32];
@@ -459,7 +477,7 @@ typedef struct ply_prop {
 typedef struct ply_elem {
     char name[32];
     uint64_t count;
-    ply_prop prop[16];
+    ply_prop prop[PLY_MAX_PROPS];
     int nprop;
 } ply_elem;
 
@@ -501,168 +519,200 @@ static vm_status ply_value(vm__cursor *c, int fmt, int type, int real, double *o
     return VM_OK;
 }
 
-vm_status vm_mesh_read_ply(const char *path, vm_mesh *m, vm_error *err) {
-    vm_mesh_init(m, VM_TRI3);
-    unsigned char *buf = NULL;
-    size_t len = 0;
-    vm_status st = vm__read_file(path, VM__MESH_MAX_FILE, &buf, &len, err);
-    if (st) return st;
-    vm__cursor c;
-    vm__cur_init(&c, path, buf, len, 0, err);
-    ply_elem el[8];
-    int nel = 0, fmt = -1;
-    vm__polys polys;
-    memset(&polys, 0, sizeof polys);
+/* The header: the format and the elements with their properties. */
+typedef struct ply_header {
+    ply_elem el[PLY_MAX_ELEMENTS];
+    int nel, fmt;
+} ply_header;
+
+/* "format ascii|binary_little_endian|binary_big_endian 1.0" (lc: the rest of the line). */
+static vm_status ply_header_format(vm__cursor *c, vm__cursor *lc, ply_header *h) {
+    const char *t, *ver;
+    size_t n, vl;
+    vm__cur_token(lc, &t, &n);
+    if (!vm__cur_token(lc, &ver, &vl) || !vm__tok_is(ver, vl, "1.0"))
+        return vm__cur_fail(c, VM_ERR_UNSUPPORTED, "PLY format version is not 1.0");
+    h->fmt = vm__tok_is(t, n, "ascii")                  ? PLY_ASCII
+             : vm__tok_is(t, n, "binary_little_endian") ? PLY_LE
+             : vm__tok_is(t, n, "binary_big_endian")    ? PLY_BE
+                                                        : -1;
+    if (h->fmt < 0) return vm__cur_fail(c, VM_ERR_FORMAT, "unknown PLY format");
+    return VM_OK;
+}
+
+/* "element NAME COUNT". */
+static vm_status ply_header_element(vm__cursor *c, vm__cursor *lc, ply_header *h) {
+    const char *t;
+    size_t n;
+    int64_t cnt;
+    if (h->nel == PLY_MAX_ELEMENTS)
+        return vm__cur_fail(c, VM_ERR_UNSUPPORTED, "more than 8 elements");
+    ply_elem *e = &h->el[h->nel++];
+    memset(e, 0, sizeof *e);
+    if (!vm__cur_token(lc, &t, &n)) n = 0;
+    snprintf(e->name, sizeof e->name, "%.*s", (int)n, t);
+    if (vm__cur_int(lc, 0, INT64_MAX, "element count", &cnt))
+        return vm__cur_fail(c, VM_ERR_FORMAT, "bad element count");
+    e->count = (uint64_t)cnt;
+    return VM_OK;
+}
+
+/* "property TYPE NAME" or "property list CTYPE TYPE NAME", of the last element. */
+static vm_status ply_header_property(vm__cursor *c, vm__cursor *lc, ply_header *h) {
+    const char *t;
+    size_t n;
+    if (h->nel == 0 || h->el[h->nel - 1].nprop == PLY_MAX_PROPS)
+        return vm__cur_fail(c, VM_ERR_FORMAT, "property outside an element, or more than 16");
+    ply_prop *p = &h->el[h->nel - 1].prop[h->el[h->nel - 1].nprop++];
+    memset(p, 0, sizeof *p);
+    vm__cur_token(lc, &t, &n);
+    if (vm__tok_is(t, n, "list")) {
+        p->list = 1;
+        if (!vm__cur_token(lc, &t, &n) || !(p->ctype = ply_type(t, n, &p->creal)) || p->creal)
+            return vm__cur_fail(c, VM_ERR_FORMAT, "bad list count type");
+        vm__cur_token(lc, &t, &n);
+    }
+    if (!(p->type = ply_type(t, n, &p->real)))
+        return vm__cur_fail(c, VM_ERR_FORMAT, "unknown property type \"%.*s\"",
+                            (int)(n > 20 ? 20 : n), t);
+    if (!vm__cur_token(lc, &t, &n)) n = 0;
+    snprintf(p->name, sizeof p->name, "%.*s", (int)n, t);
+    return VM_OK;
+}
+
+/* The header lines from "ply" to "end_header", one by one. */
+static vm_status ply_read_header(vm__cursor *c, ply_header *h) {
     const char *s, *t;
     size_t n, sl;
-    if (!vm__cur_line(&c, &s, &sl) || sl != 3 || memcmp(s, "ply", 3) != 0) {
-        st = vm_error_set(err, VM_ERR_FORMAT, "%s: not a PLY file", path);
-        goto done;
-    }
+    h->nel = 0;
+    h->fmt = -1;
+    if (!vm__cur_line(c, &s, &sl) || sl != 3 || memcmp(s, "ply", 3) != 0)
+        return vm_error_set(c->err, VM_ERR_FORMAT, "%s: not a PLY file", c->path);
     for (;;) {
-        if (!vm__cur_line(&c, &s, &sl)) {
-            st = vm__cur_fail(&c, VM_ERR_FORMAT, "header has no end_header");
-            goto done;
-        }
+        vm_status st = VM_OK;
+        if (!vm__cur_line(c, &s, &sl))
+            return vm__cur_fail(c, VM_ERR_FORMAT, "header has no end_header");
         vm__cursor lc;
-        vm__cur_init(&lc, path, s, sl, 0, err);
+        vm__cur_init(&lc, c->path, s, sl, 0, c->err);
         if (!vm__cur_token(&lc, &t, &n)) continue;
         if (vm__tok_is(t, n, "end_header")) break;
         if (vm__tok_is(t, n, "comment") || vm__tok_is(t, n, "obj_info")) continue;
-        if (vm__tok_is(t, n, "format")) {
-            vm__cur_token(&lc, &t, &n);
-            const char *ver;
-            size_t vl;
-            if (!vm__cur_token(&lc, &ver, &vl) || !vm__tok_is(ver, vl, "1.0")) {
-                st = vm__cur_fail(&c, VM_ERR_UNSUPPORTED, "PLY format version is not 1.0");
-                goto done;
-            }
-            fmt = vm__tok_is(t, n, "ascii") ? PLY_ASCII
-                  : vm__tok_is(t, n, "binary_little_endian") ? PLY_LE
-                  : vm__tok_is(t, n, "binary_big_endian") ? PLY_BE : -1;
-            if (fmt < 0) {
-                st = vm__cur_fail(&c, VM_ERR_FORMAT, "unknown PLY format");
-                goto done;
-            }
-        } else if (vm__tok_is(t, n, "element")) {
-            int64_t cnt;
-            if (nel == 8) {
-                st = vm__cur_fail(&c, VM_ERR_UNSUPPORTED, "more than 8 elements");
-                goto done;
-            }
-            ply_elem *e = &el[nel++];
-            memset(e, 0, sizeof *e);
-            if (!vm__cur_token(&lc, &t, &n)) n = 0;
-            snprintf(e->name, sizeof e->name, "%.*s", (int)n, t);
-            if (vm__cur_int(&lc, 0, INT64_MAX, "element count", &cnt)) {
-                st = vm__cur_fail(&c, VM_ERR_FORMAT, "bad element count");
-                goto done;
-            }
-            e->count = (uint64_t)cnt;
-        } else if (vm__tok_is(t, n, "property")) {
-            if (nel == 0 || el[nel - 1].nprop == 16) {
-                st = vm__cur_fail(&c, VM_ERR_FORMAT, "property outside an element, or more "
-                                  "than 16");
-                goto done;
-            }
-            ply_prop *p = &el[nel - 1].prop[el[nel - 1].nprop++];
-            memset(p, 0, sizeof *p);
-            vm__cur_token(&lc, &t, &n);
-            if (vm__tok_is(t, n, "list")) {
-                p->list = 1;
-                if (!vm__cur_token(&lc, &t, &n) || !(p->ctype = ply_type(t, n, &p->creal)) ||
-                    p->creal) {
-                    st = vm__cur_fail(&c, VM_ERR_FORMAT, "bad list count type");
-                    goto done;
-                }
-                vm__cur_token(&lc, &t, &n);
-            }
-            if (!(p->type = ply_type(t, n, &p->real))) {
-                st = vm__cur_fail(&c, VM_ERR_FORMAT, "unknown property type \"%.*s\"",
-                                  (int)(n > 20 ? 20 : n), t);
-                goto done;
-            }
-            if (!vm__cur_token(&lc, &t, &n)) n = 0;
-            snprintf(p->name, sizeof p->name, "%.*s", (int)n, t);
-        } else {
-            st = vm__cur_fail(&c, VM_ERR_FORMAT, "unknown header line \"%.*s\"",
+        if (vm__tok_is(t, n, "format"))
+            st = ply_header_format(c, &lc, h);
+        else if (vm__tok_is(t, n, "element"))
+            st = ply_header_element(c, &lc, h);
+        else if (vm__tok_is(t, n, "property"))
+            st = ply_header_property(c, &lc, h);
+        else
+            st = vm__cur_fail(c, VM_ERR_FORMAT, "unknown header line \"%.*s\"",
                               (int)(sl > 30 ? 30 : sl), s);
-            goto done;
+        if (st) return st;
+    }
+    if (h->fmt < 0) return vm__cur_fail(c, VM_ERR_FORMAT, "header has no format line");
+    return VM_OK;
+}
+
+/* Which properties of an element volmesh uses: x, y, z of "vertex"; the index list and the
+ * region of "face" (-1: absent). */
+typedef struct ply_roles {
+    int is_vertex, is_face;
+    int ix[3], ilist, iregion;
+} ply_roles;
+
+/* Finds the roles of e's properties; fails when a vertex lacks a coordinate or a face
+ * its index list. */
+static vm_status ply_find_roles(vm__cursor *c, const ply_elem *e, ply_roles *r) {
+    r->is_vertex = strcmp(e->name, "vertex") == 0;
+    r->is_face = strcmp(e->name, "face") == 0;
+    r->ix[0] = r->ix[1] = r->ix[2] = r->ilist = r->iregion = -1;
+    for (int k = 0; k < e->nprop; k++) {
+        const char *pn = e->prop[k].name;
+        if (r->is_vertex && !e->prop[k].list && pn[0] && !pn[1] && pn[0] >= 'x' &&
+            pn[0] <= 'z')
+            r->ix[pn[0] - 'x'] = k;
+        if (r->is_face && e->prop[k].list &&
+            (strcmp(pn, "vertex_indices") == 0 || strcmp(pn, "vertex_index") == 0))
+            r->ilist = k;
+        if (r->is_face && !e->prop[k].list && strcmp(pn, "region") == 0) r->iregion = k;
+    }
+    if (r->is_vertex && (r->ix[0] < 0 || r->ix[1] < 0 || r->ix[2] < 0))
+        return vm__cur_fail(c, VM_ERR_FORMAT, "vertex element lacks x, y or z");
+    if (r->is_face && r->ilist < 0)
+        return vm__cur_fail(c, VM_ERR_FORMAT, "face element lacks vertex_indices");
+    return VM_OK;
+}
+
+/* One list property (count, then entries); the face's index list goes to v[*nv]. */
+static vm_status ply_read_list(vm__cursor *c, int fmt, const ply_prop *pp, int is_list,
+                               const vm_mesh *m, vm_index v[PLY_MAX_LIST], size_t *nv) {
+    double cnt, x;
+    vm_status st = ply_value(c, fmt, pp->ctype, 0, &cnt);
+    if (!st && (cnt < 0 || cnt > PLY_MAX_LIST || cnt != floor(cnt) || (is_list && cnt < 3)))
+        st = vm__cur_fail(c, VM_ERR_FORMAT, "list of %g entries", cnt);
+    for (int q = 0; q < (int)cnt && !st; q++) {
+        st = ply_value(c, fmt, pp->type, pp->real, &x);
+        if (!st && is_list) {
+            if (x < 0 || x >= (double)m->npoints || x != floor(x))
+                st = vm__cur_fail(c, VM_ERR_FORMAT, "face uses vertex %g of %zu", x,
+                                  m->npoints);
+            else
+                v[(*nv)++] = (vm_index)x;
         }
     }
-    if (fmt < 0) {
-        st = vm__cur_fail(&c, VM_ERR_FORMAT, "header has no format line");
-        goto done;
+    return st;
+}
+
+/* One record of element e: a vertex becomes a point of m, a face a polygon. */
+static vm_status ply_read_record(vm__cursor *c, int fmt, const ply_elem *e,
+                                 const ply_roles *r, vm_mesh *m, vm__polys *polys) {
+    double p[3] = {0, 0, 0}, region = 0;
+    vm_index v[PLY_MAX_LIST];
+    size_t nv = 0;
+    vm_status st = VM_OK;
+    for (int k = 0; k < e->nprop && !st; k++) {
+        const ply_prop *pp = &e->prop[k];
+        double x;
+        if (pp->list) {
+            st = ply_read_list(c, fmt, pp, k == r->ilist, m, v, &nv);
+            continue;
+        }
+        st = ply_value(c, fmt, pp->type, pp->real, &x);
+        if (st) break;
+        if (r->is_vertex && (k == r->ix[0] || k == r->ix[1] || k == r->ix[2]))
+            p[k == r->ix[0] ? 0 : k == r->ix[1] ? 1 : 2] = x;
+        if (k == r->iregion) region = x;
     }
-    for (int i = 0; i < nel && !st; i++) {
-        ply_elem *e = &el[i];
-        int is_vertex = strcmp(e->name, "vertex") == 0, is_face = strcmp(e->name, "face") == 0;
-        int ix[3] = {-1, -1, -1}, ilist = -1, iregion = -1;
-        for (int k = 0; k < e->nprop; k++) {
-            const char *pn = e->prop[k].name;
-            if (is_vertex && !e->prop[k].list && pn[0] && !pn[1] && pn[0] >= 'x' && pn[0] <= 'z')
-                ix[pn[0] - 'x'] = k;
-            if (is_face && e->prop[k].list &&
-                (strcmp(pn, "vertex_indices") == 0 || strcmp(pn, "vertex_index") == 0))
-                ilist = k;
-            if (is_face && !e->prop[k].list && strcmp(pn, "region") == 0) iregion = k;
-        }
-        if (is_vertex && (ix[0] < 0 || ix[1] < 0 || ix[2] < 0)) {
-            st = vm__cur_fail(&c, VM_ERR_FORMAT, "vertex element lacks x, y or z");
-            break;
-        }
-        if (is_face && ilist < 0) {
-            st = vm__cur_fail(&c, VM_ERR_FORMAT, "face element lacks vertex_indices");
-            break;
-        }
-        st = vm__check_count(&c, e->count, 1, "PLY elements");
-        if (!st && is_vertex) st = vm_mesh_reserve(m, (size_t)e->count, 0, err);
-        for (uint64_t j = 0; j < e->count && !st; j++) {
-            double p[3] = {0, 0, 0}, region = 0;
-            vm_index v[64];
-            size_t nv = 0;
-            for (int k = 0; k < e->nprop && !st; k++) {
-                ply_prop *pp = &e->prop[k];
-                double x;
-                if (!pp->list) {
-                    st = ply_value(&c, fmt, pp->type, pp->real, &x);
-                    if (st) break;
-                    if (is_vertex && (k == ix[0] || k == ix[1] || k == ix[2]))
-                        p[k == ix[0] ? 0 : k == ix[1] ? 1 : 2] = x;
-                    if (k == iregion) region = x;
-                    continue;
-                }
-                double cnt;
-                st = ply_value(&c, fmt, pp->ctype, 0, &cnt);
-                if (!st && (cnt < 0 || cnt > 64 || cnt != floor(cnt) ||
-                            (k == ilist && cnt < 3)))
-                    st = vm__cur_fail(&c, VM_ERR_FORMAT, "list of %g entries", cnt);
-                for (int q = 0; q < (int)cnt && !st; q++) {
-                    st = ply_value(&c, fmt, pp->type, pp->real, &x);
-                    if (!st && k == ilist) {
-                        if (x < 0 || x >= (double)m->npoints || x != floor(x))
-                            st = vm__cur_fail(&c, VM_ERR_FORMAT, "face uses vertex %g of %zu",
-                                              x, m->npoints);
-                        else
-                            v[nv++] = (vm_index)x;
-                    }
-                }
-            }
-            if (st) break;
-            if (is_vertex) vm_mesh_add_point(m, p, NULL);
-            if (is_face) {
-                if (region != floor(region) || region < INT32_MIN || region > INT32_MAX)
-                    region = 0;
-                st = add_polygon(&polys, v, nv, (int32_t)region, err);
-            }
-        }
+    if (st) return st;
+    if (r->is_vertex) vm_mesh_add_point(m, p, NULL);
+    if (r->is_face) {
+        if (region != floor(region) || region < INT32_MIN || region > INT32_MAX) region = 0;
+        st = add_polygon(polys, v, nv, (int32_t)region, c->err);
+    }
+    return st;
+}
+
+/* Reads the header, then every element's records in order. */
+vm_status vm_mesh_read_ply(const char *path, vm_mesh *m, vm_error *err) {
+    unsigned char *buf = NULL;
+    vm__cursor c;
+    vm_status st = vm__mesh_read_begin(path, m, VM_TRI3, 0, &buf, &c, err);
+    if (st) return st;
+    ply_header h;
+    vm__polys polys;
+    memset(&polys, 0, sizeof polys);
+    st = ply_read_header(&c, &h);
+    for (int i = 0; i < h.nel && !st; i++) {
+        const ply_elem *e = &h.el[i];
+        ply_roles r;
+        st = ply_find_roles(&c, e, &r);
+        if (!st) st = vm__check_count(&c, e->count, 1, "PLY elements");
+        if (!st && r.is_vertex) st = vm_mesh_reserve(m, (size_t)e->count, 0, err);
+        for (uint64_t j = 0; j < e->count && !st; j++)
+            st = ply_read_record(&c, h.fmt, e, &r, m, &polys);
     }
     if (!st) st = vm__polys_finish(path, &polys, m, err);
-done:
     vm__polys_free(&polys);
-    free(buf);
-    if (st) vm_mesh_free(m);
-    return st;
+    return vm__mesh_read_end(m, buf, st);
 }
 
 /* ======================================================================================= */
@@ -677,21 +727,15 @@ vm_status vm_mesh_write_obj(const char *path, const vm_mesh *m, vm_error *err) {
 
 vm_status vm__write_obj(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
                         vm_error *err) {
-    vm_mesh tmp;
-    const vm_mesh *s = NULL;
-    vm_outfile o;
-    vm_status st = begin_surface_file(path, m, &tmp, &s, &o, err);
+    surface_out so;
+    vm_status st = begin_surface_file(path, m, opt, &so, err);
     if (st) return st;
-    FILE *fp = o.fp;
-    vm__out_meter(&o, opt->progress, opt->progress_user, (double)s->npoints + s->ncells);
-    size_t nn = (size_t)vm_cell_nodes(s->kind);
+    const vm_mesh *s = so.s;
+    FILE *fp = so.o.fp;
+    size_t nn = so.nn;
     fprintf(fp, "# volmesh %s surface: %zu vertices, %zu faces; g REGION_r groups\n",
             vm_cell_kind_name(s->kind), s->npoints, s->ncells);
-    for (size_t i = 0; i < s->npoints; i++) {
-        const double *p = s->points + 3 * i;
-        fprintf(fp, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
-        vm__out_step(&o, 1.0);
-    }
+    put_points_text(&so.o, s, "v ");
     for (size_t c = 0; c < s->ncells; c++) {
         if (c == 0 || s->region[c] != s->region[c - 1]) {
             char name[32];
@@ -702,20 +746,17 @@ vm_status vm__write_obj(const char *path, const vm_mesh *m, const vm_mesh_write_
         for (size_t k = 0; k < nn; k++)
             fprintf(fp, " %lld", (long long)s->cells[c * nn + k] + 1);
         fputc('\n', fp);
-        vm__out_step(&o, 1.0);
+        vm__out_step(&so.o, 1.0);
     }
-    vm_mesh_free(&tmp);
-    return vm__out_commit(&o, err);
+    return end_surface_file(&so, err);
 }
 
+/* Reads OBJ line by line: v and f statements, g groups as regions. */
 vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err) {
-    vm_mesh_init(m, VM_TRI3);
     unsigned char *buf = NULL;
-    size_t len = 0;
-    vm_status st = vm__read_file(path, VM__MESH_MAX_FILE, &buf, &len, err);
-    if (st) return st;
     vm__cursor c;
-    vm__cur_init(&c, path, buf, len, 0, err);
+    vm_status st = vm__mesh_read_begin(path, m, VM_TRI3, 0, &buf, &c, err);
+    if (st) return st;
     vm__polys polys;
     memset(&polys, 0, sizeof polys);
     vm_index *v = NULL;
@@ -732,7 +773,7 @@ vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err) {
             double p[3];
             int ok = 1;
             for (int d = 0; d < 3 && ok; d++)
-                ok = vm__cur_token(&lc, &t, &n) && vm__parse_double_tok(t, n, &p[d]);
+                ok = vm__cur_token(&lc, &t, &n) && vm__parse_double_tok(t, n, &p[d]) == VM_OK;
             if (!ok) {
                 c.p = s;
                 st = vm__cur_fail(&c, VM_ERR_FORMAT, "bad vertex line");
@@ -749,7 +790,7 @@ vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err) {
                 while (w < n && t[w] != '/')
                     w++;
                 int64_t x;
-                if (!vm__parse_int_tok(t, w, &x) || x == 0 ||
+                if (vm__parse_int_tok(t, w, &x) != VM_OK || x == 0 ||
                     (x > 0 && (uint64_t)x > m->npoints) ||
                     (x < 0 && (uint64_t)(-(x + 1)) >= m->npoints)) {
                     c.p = s;
@@ -769,7 +810,7 @@ vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err) {
         } else if (vm__tok_is(t, n, "g") || vm__tok_is(t, n, "o")) {
             int is_g = vm__tok_is(t, n, "g");
             if (vm__cur_token(&lc, &t, &n) && is_g) {
-                if (!vm__region_parse(t, n, &region)) region = ++ngroups;
+                if (vm__region_parse(t, n, &region) != VM_OK) region = ++ngroups;
             }
         } else if (n > 16) {
             c.p = s;
@@ -781,7 +822,5 @@ vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err) {
     if (!st) st = vm__polys_finish(path, &polys, m, err);
     vm__polys_free(&polys);
     free(v);
-    free(buf);
-    if (st) vm_mesh_free(m);
-    return st;
+    return vm__mesh_read_end(m, buf, st);
 }

@@ -9,6 +9,7 @@
 #include <float.h>
 #include <limits.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
@@ -157,6 +158,28 @@ static int resume_here(vm__resume *c, const vm__samples *s, size_t from) {
     return 0;
 }
 
+/* Allocates the slab's floats and decodes them, unless only the header is asked for. */
+vm_status vm__slab_read(const char *path, const vm__slab *rq, const vm__samples *src,
+                        size_t first, size_t n, vm_volume *v, vm_error *err) {
+    if (rq->header_only) return VM_OK;
+    vm_status st = vm__slab_alloc(path, rq, n, v, err);
+    if (!st) st = vm__samples_decode(src, rq, first, n, v->data, err);
+    return st;
+}
+
+/* Copies a header's dims, type and geometry into v and names the format. */
+void vm__volume_set_header(vm_volume *v, const int64_t dims[3], vm_scalar_type type,
+                           const double spacing[3], const double origin[3],
+                           const double direction[3][3], const char *format) {
+    memcpy(v->dims, dims, sizeof v->dims);
+    v->type = type;
+    memcpy(v->spacing, spacing, sizeof v->spacing);
+    memcpy(v->origin, origin, sizeof v->origin);
+    memcpy(v->direction, direction, sizeof v->direction);
+    snprintf(v->format, sizeof v->format, "%s", format);
+}
+
+/* Moves v's origin to the slab's first plane and its dims to the slab's planes. */
 void vm__slab_finish(vm_volume *v, const vm__slab *rq) {
     if (rq->all || rq->header_only) return;
     for (int r = 0; r < 3; r++)

@@ -156,20 +156,12 @@ static int next_tag(const char *b, size_t len, size_t *pos, tag *t) {
 /* ---- base64: concatenated streams (each may end with '=' padding) decode back to back,
  * which is how VTK writes a compressed array's header and its blocks ---- */
 
-static int b64_value(int c) {
-    if (c >= 'A' && c <= 'Z') return c - 'A';
-    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
-    if (c >= '0' && c <= '9') return c - '0' + 52;
-    if (c == '+') return 62;
-    if (c == '/') return 63;
-    return -1;
-}
-
 /* Decodes s up to its end or the first '<'. [out] *out (malloc'd), *out_len.
- * Returns 0, -1 for an invalid character or padding (*bad_at = its offset), -2 no memory. */
-static int b64_decode(span s, unsigned char **out, size_t *out_len, size_t *bad_at) {
+ * VM_ERR_FORMAT for an invalid character or padding (*bad_at = its offset), VM_ERR_NOMEM
+ * when out of memory (the caller writes the message). */
+static vm_status b64_decode(span s, unsigned char **out, size_t *out_len, size_t *bad_at) {
     unsigned char *o = malloc(s.n / 4 * 3 + 4);
-    if (!o) return -2;
+    if (!o) return VM_ERR_NOMEM;
     size_t n = 0;
     int quad[4], q = 0, pad = 0;
     size_t i;
@@ -187,7 +179,7 @@ static int b64_decode(span s, unsigned char **out, size_t *out_len, size_t *bad_
             }
             continue;
         }
-        int val = b64_value(c);
+        int val = vm__base64_value(c);
         if (val < 0 || pad) goto bad;
         quad[q++] = val;
         if (q == 4) {
@@ -203,11 +195,11 @@ static int b64_decode(span s, unsigned char **out, size_t *out_len, size_t *bad_
     if (q == 3) o[n++] = (unsigned char)((quad[1] & 15) << 4 | quad[2] >> 2);
     *out = o;
     *out_len = n;
-    return 0;
+    return VM_OK;
 bad:
     free(o);
     *bad_at = i;
-    return -1;
+    return VM_ERR_FORMAT;
 }
 
 /* ---- the file ---- */
@@ -580,8 +572,9 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
                        f->len - f->appended_start - (size_t)a->offset};
         }
         size_t bad_at = 0;
-        int r = b64_decode(s, &decoded, &blen, &bad_at);
-        if (r == -2) return vm_error_set(f->err, VM_ERR_NOMEM, "%s: out of memory", path);
+        vm_status r = b64_decode(s, &decoded, &blen, &bad_at);
+        if (r == VM_ERR_NOMEM)
+            return vm_error_set(f->err, VM_ERR_NOMEM, "%s: out of memory", path);
         if (r < 0)
             return vm_error_set(f->err, VM_ERR_FORMAT, "%s: DataArray '%s' has invalid base64 "
                                 "data at byte %zu", path, aname, (size_t)(s.p - f->buf) + bad_at);

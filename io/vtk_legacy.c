@@ -101,8 +101,8 @@ static vm_status read_double3(reader *r, const char *what, double out[3]) {
 }
 
 /* Legacy type names (vtkDataReader spellings plus the vtktype* fixed-width names). long is
- * read as 8 bytes, as written by VTK on LP64 machines. Returns 0 for an unknown name. */
-static int parse_type(const char *name, vm_scalar_type *t) {
+ * read as 8 bytes, as written by VTK on LP64 machines. VM_ERR_FORMAT for an unknown name. */
+static vm_status parse_type(const char *name, vm_scalar_type *t) {
     static const struct {
         const char *name;
         vm_scalar_type type;
@@ -123,9 +123,9 @@ static int parse_type(const char *name, vm_scalar_type *t) {
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
         if (strcasecmp(name, names[i].name) == 0) {
             *t = names[i].type;
-            return 1;
+            return VM_OK;
         }
-    return 0;
+    return VM_ERR_FORMAT;
 }
 
 /* Skips count values: ASCII words, or count*size bytes after the end of the current line. */
@@ -159,7 +159,7 @@ static vm_status skip_typed(reader *r, uint64_t count, const char *type, const c
         if (!r->binary) return skip_values(r, count, 1, what);
         return skip_values(r, (count + 7) / 8, 1, what);
     }
-    if (!parse_type(type, &t))
+    if (parse_type(type, &t) != VM_OK)
         return vm_error_set(r->err, VM_ERR_UNSUPPORTED, "%s: %s has unknown data type '%s'",
                             r->path, what, type);
     return skip_values(r, count, vm_scalar_type_size(t), what);
@@ -330,7 +330,23 @@ static vm_status scalars_header(reader *r, int64_t *ncomp) {
     return VM_OK;
 }
 
-static vm_status parse(reader *r, vm_volume *v) {
+/* Components per tuple of the attribute arrays that are skipped (VTK File Formats,
+ * "Dataset attribute format"). */
+enum { TENSOR_COMPONENTS = 9, TENSOR6_COMPONENTS = 6, VECTOR_COMPONENTS = 3 };
+/* A LOOKUP_TABLE entry is rgba. */
+enum { LOOKUP_ENTRY_VALUES = 4 };
+
+/* What the header and attribute loop has met so far. */
+typedef struct sp_header {
+    int64_t dims[3];
+    double spacing[3], origin[3];
+    int have_dims;
+    int64_t point_count, mode_count; /* POINT_DATA count (-1: none yet); the section's count */
+    int in_points, in_attributes;    /* which attribute section the loop is in */
+} sp_header;
+
+/* The first lines: version, title, ASCII/BINARY, DATASET STRUCTURED_POINTS. */
+static vm_status read_preamble(reader *r) {
     const char *path = r->path;
     vm_error *err = r->err;
     char line[TOKEN_MAX], tok[TOKEN_MAX];
@@ -366,129 +382,164 @@ static vm_status parse(reader *r, vm_volume *v) {
     if (strcasecmp(tok, "STRUCTURED_POINTS") != 0)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: dataset %.40s is not supported (only "
                             "STRUCTURED_POINTS volumes are read)", path, tok);
+    return VM_OK;
+}
 
-    int64_t dims[3] = {0, 0, 0};
-    double spacing[3] = {1, 1, 1}, origin[3] = {0, 0, 0};
-    int have_dims = 0;
-    int64_t point_count = -1, mode_count = 0;
-    int in_points = 0; /* which attribute section the loop is in */
-    int in_attributes = 0;
+/* The error for a file that ends (or holds an over-long word, bad) before point scalars. */
+static vm_status end_of_header(const reader *r, const sp_header *h, int bad) {
+    if (bad)
+        return vm_error_set(r->err, VM_ERR_FORMAT, "%s: over-long word in the header", r->path);
+    if (!h->have_dims)
+        return vm_error_set(r->err, VM_ERR_FORMAT, "%s: no DIMENSIONS line", r->path);
+    if (h->point_count < 0)
+        return vm_error_set(r->err, VM_ERR_UNSUPPORTED, "%s: no POINT_DATA section (cell "
+                            "data alone is not a volume)", r->path);
+    return vm_error_set(r->err, VM_ERR_UNSUPPORTED, "%s: POINT_DATA has no SCALARS array",
+                        r->path);
+}
+
+/* POINT_DATA / CELL_DATA count: starts an attribute section. */
+static vm_status data_section(reader *r, sp_header *h, const char *tok) {
+    int pts = strcasecmp(tok, "POINT_DATA") == 0;
+    vm_status st;
+    if (!h->have_dims)
+        return vm_error_set(r->err, VM_ERR_FORMAT, "%s: %s before DIMENSIONS", r->path, tok);
+    if ((st = read_int64(r, tok, 0, &h->mode_count))) return st;
+    if (pts) {
+        if (h->point_count >= 0)
+            return vm_error_set(r->err, VM_ERR_FORMAT, "%s: two POINT_DATA sections", r->path);
+        h->point_count = h->mode_count;
+    }
+    h->in_points = pts;
+    h->in_attributes = 1;
+    return VM_OK;
+}
+
+/* SCALARS name type [ncomp]: point scalars are the volume (*taken = 1), cell scalars are
+ * skipped. */
+static vm_status scalars_section(reader *r, sp_header *h, vm_volume *v, int *taken) {
+    char name[TOKEN_MAX], type[TOKEN_MAX];
+    int64_t ncomp;
+    vm_scalar_type t;
+    vm_status st;
+    if ((st = expect_token(r, name, "SCALARS name"))) return st;
+    if ((st = expect_token(r, type, "SCALARS type"))) return st;
+    if ((st = scalars_header(r, &ncomp))) return st;
+    if (!h->in_points) {
+        uint64_t count = 0;
+        if ((st = mul_count(r, h->mode_count, ncomp, &count))) return st;
+        return skip_typed(r, count, type, "CELL_DATA SCALARS");
+    }
+    *taken = 1;
+    if (parse_type(type, &t) != VM_OK)
+        return vm_error_set(r->err, strcasecmp(type, "bit") == 0 ? VM_ERR_UNSUPPORTED
+                                                                 : VM_ERR_FORMAT,
+                            "%s: SCALARS %.60s has unsupported type '%.40s'", r->path, name,
+                            type);
+    if (ncomp != 1)
+        return vm_error_set(r->err, VM_ERR_UNSUPPORTED, "%s: SCALARS %.60s has %lld "
+                            "components (only 1 is supported)", r->path, name,
+                            (long long)ncomp);
+    return take_scalars(r, v, h->dims, h->point_count, h->spacing, h->origin, t, 0);
+}
+
+/* COLOR_SCALARS name n: one value per point is taken as the volume (*taken = 1), as VTK
+ * writes unsigned char scalars so and its reader takes them; others are skipped. */
+static vm_status color_scalars_section(reader *r, sp_header *h, vm_volume *v, int *taken) {
+    char tok[TOKEN_MAX];
+    int64_t nvalues;
+    uint64_t count = 0;
+    vm_status st;
+    if ((st = expect_token(r, tok, "array name"))) return st;
+    if ((st = read_int64(r, "COLOR_SCALARS size", 1, &nvalues))) return st;
+    if (h->in_points && nvalues == 1) {
+        *taken = 1; /* the values start after this line */
+        return take_scalars(r, v, h->dims, h->point_count, h->spacing, h->origin,
+                            VM_SCALAR_UINT8, 1);
+    }
+    if ((st = mul_count(r, h->mode_count, nvalues, &count))) return st;
+    return skip_values(r, count, 1, "COLOR_SCALARS");
+}
+
+/* Skips an attribute array volmesh does not use (LOOKUP_TABLE, VECTORS, NORMALS, TENSORS,
+ * TENSORS6, GLOBAL_IDS, PEDIGREE_IDS, TEXTURE_COORDINATES); *known = 0 when tok is none. */
+static vm_status skip_attribute(reader *r, const sp_header *h, const char *tok, int *known) {
+    char name[TOKEN_MAX], type[TOKEN_MAX];
+    uint64_t count = 0;
+    vm_status st;
+    *known = 1;
+    if (strcasecmp(tok, "LOOKUP_TABLE") == 0) {
+        int64_t size;
+        if ((st = expect_token(r, name, "LOOKUP_TABLE name"))) return st;
+        if ((st = read_int64(r, "LOOKUP_TABLE size", 0, &size))) return st;
+        if ((st = mul_count(r, size, LOOKUP_ENTRY_VALUES, &count))) return st;
+        return skip_values(r, count, 1, "LOOKUP_TABLE");
+    }
+    if (strcasecmp(tok, "TEXTURE_COORDINATES") == 0) {
+        int64_t dim;
+        if ((st = expect_token(r, name, "array name"))) return st;
+        if ((st = read_int64(r, "TEXTURE_COORDINATES dimension", 1, &dim))) return st;
+        if ((st = expect_token(r, type, "array type"))) return st;
+        if ((st = mul_count(r, h->mode_count, dim, &count))) return st;
+        return skip_typed(r, count, type, "TEXTURE_COORDINATES");
+    }
+    int64_t ncomp = strcasecmp(tok, "TENSORS") == 0       ? TENSOR_COMPONENTS
+                    : strcasecmp(tok, "TENSORS6") == 0    ? TENSOR6_COMPONENTS
+                    : strcasecmp(tok, "GLOBAL_IDS") == 0  ? 1
+                    : strcasecmp(tok, "PEDIGREE_IDS") == 0 ? 1
+                    : (strcasecmp(tok, "VECTORS") == 0 || strcasecmp(tok, "NORMALS") == 0)
+                        ? VECTOR_COMPONENTS
+                        : 0;
+    if (!ncomp) {
+        *known = 0;
+        return VM_OK;
+    }
+    if ((st = expect_token(r, name, "array name"))) return st;
+    if ((st = expect_token(r, type, "array type"))) return st;
+    if ((st = mul_count(r, h->mode_count, ncomp, &count))) return st;
+    return skip_typed(r, count, type, tok);
+}
+
+/* The whole file: preamble, then header keywords and attribute sections until the point
+ * scalars, which become v. */
+static vm_status parse(reader *r, vm_volume *v) {
+    char tok[TOKEN_MAX];
+    vm_status st = read_preamble(r);
+    if (st) return st;
+    sp_header h = {{0, 0, 0}, {1, 1, 1}, {0, 0, 0}, 0, -1, 0, 0, 0};
     int bad;
     for (;;) {
-        if (!next_token(r, tok, &bad)) {
-            if (bad)
-                return vm_error_set(err, VM_ERR_FORMAT, "%s: over-long word in the header",
-                                    path);
-            if (!have_dims)
-                return vm_error_set(err, VM_ERR_FORMAT, "%s: no DIMENSIONS line", path);
-            if (point_count < 0)
-                return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: no POINT_DATA section (cell "
-                                    "data alone is not a volume)", path);
-            return vm_error_set(err, VM_ERR_UNSUPPORTED,
-                                "%s: POINT_DATA has no SCALARS array", path);
-        }
-        if (!in_attributes && strcasecmp(tok, "DIMENSIONS") == 0) {
-            for (int a = 0; a < 3 && !st; a++) st = read_int64(r, "DIMENSIONS", 1, &dims[a]);
-            if (st) return st;
-            have_dims = 1;
-        } else if (!in_attributes && (strcasecmp(tok, "SPACING") == 0 ||
-                                      strcasecmp(tok, "ASPECT_RATIO") == 0)) {
-            if ((st = read_double3(r, "SPACING", spacing))) return st;
-        } else if (!in_attributes && strcasecmp(tok, "ORIGIN") == 0) {
-            if ((st = read_double3(r, "ORIGIN", origin))) return st;
+        if (!next_token(r, tok, &bad)) return end_of_header(r, &h, bad);
+        int taken = 0, known = 1;
+        if (!h.in_attributes && strcasecmp(tok, "DIMENSIONS") == 0) {
+            for (int a = 0; a < 3 && !st; a++) st = read_int64(r, "DIMENSIONS", 1, &h.dims[a]);
+            h.have_dims = 1;
+        } else if (!h.in_attributes && (strcasecmp(tok, "SPACING") == 0 ||
+                                        strcasecmp(tok, "ASPECT_RATIO") == 0)) {
+            st = read_double3(r, "SPACING", h.spacing);
+        } else if (!h.in_attributes && strcasecmp(tok, "ORIGIN") == 0) {
+            st = read_double3(r, "ORIGIN", h.origin);
         } else if (strcasecmp(tok, "FIELD") == 0) {
-            if ((st = skip_field(r))) return st;
+            st = skip_field(r);
         } else if (strcasecmp(tok, "METADATA") == 0) {
             skip_metadata(r);
         } else if (strcasecmp(tok, "POINT_DATA") == 0 || strcasecmp(tok, "CELL_DATA") == 0) {
-            int pts = strcasecmp(tok, "POINT_DATA") == 0;
-            if (!have_dims)
-                return vm_error_set(err, VM_ERR_FORMAT, "%s: %s before DIMENSIONS", path, tok);
-            if ((st = read_int64(r, tok, 0, &mode_count))) return st;
-            if (pts) {
-                if (point_count >= 0)
-                    return vm_error_set(err, VM_ERR_FORMAT, "%s: two POINT_DATA sections",
-                                        path);
-                point_count = mode_count;
-            }
-            in_points = pts;
-            in_attributes = 1;
-        } else if (in_attributes && strcasecmp(tok, "SCALARS") == 0) {
-            char name[TOKEN_MAX], type[TOKEN_MAX];
-            int64_t ncomp;
-            vm_scalar_type t;
-            if ((st = expect_token(r, name, "SCALARS name"))) return st;
-            if ((st = expect_token(r, type, "SCALARS type"))) return st;
-            if ((st = scalars_header(r, &ncomp))) return st;
-            if (!in_points) {
-                uint64_t count = 0;
-                if ((st = mul_count(r, mode_count, ncomp, &count))) return st;
-                if ((st = skip_typed(r, count, type, "CELL_DATA SCALARS"))) return st;
-                continue;
-            }
-            if (!parse_type(type, &t))
-                return vm_error_set(err, strcasecmp(type, "bit") == 0 ? VM_ERR_UNSUPPORTED
-                                                                      : VM_ERR_FORMAT,
-                                    "%s: SCALARS %.60s has unsupported type '%.40s'", path,
-                                    name, type);
-            if (ncomp != 1)
-                return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: SCALARS %.60s has %lld "
-                                    "components (only 1 is supported)", path, name,
-                                    (long long)ncomp);
-            return take_scalars(r, v, dims, point_count, spacing, origin, t, 0);
-        } else if (in_attributes && strcasecmp(tok, "LOOKUP_TABLE") == 0) {
-            int64_t size;
-            if ((st = expect_token(r, tok, "LOOKUP_TABLE name"))) return st;
-            if ((st = read_int64(r, "LOOKUP_TABLE size", 0, &size))) return st;
-            uint64_t count = 0;
-            if ((st = mul_count(r, size, 4, &count))) return st;
-            if ((st = skip_values(r, count, 1, "LOOKUP_TABLE"))) return st;
-        } else if (in_attributes && (strcasecmp(tok, "VECTORS") == 0 ||
-                                     strcasecmp(tok, "NORMALS") == 0 ||
-                                     strcasecmp(tok, "TENSORS") == 0 ||
-                                     strcasecmp(tok, "TENSORS6") == 0 ||
-                                     strcasecmp(tok, "GLOBAL_IDS") == 0 ||
-                                     strcasecmp(tok, "PEDIGREE_IDS") == 0)) {
-            char what[TOKEN_MAX], type[TOKEN_MAX];
-            int64_t ncomp = strcasecmp(tok, "TENSORS") == 0    ? 9
-                            : strcasecmp(tok, "TENSORS6") == 0 ? 6
-                            : (strcasecmp(tok, "GLOBAL_IDS") == 0 ||
-                               strcasecmp(tok, "PEDIGREE_IDS") == 0)
-                                ? 1
-                                : 3;
-            uint64_t count = 0;
-            snprintf(what, sizeof what, "%s", tok);
-            if ((st = expect_token(r, tok, "array name"))) return st;
-            if ((st = expect_token(r, type, "array type"))) return st;
-            if ((st = mul_count(r, mode_count, ncomp, &count))) return st;
-            if ((st = skip_typed(r, count, type, what))) return st;
-        } else if (in_attributes && strcasecmp(tok, "TEXTURE_COORDINATES") == 0) {
-            char type[TOKEN_MAX];
-            int64_t dim;
-            uint64_t count = 0;
-            if ((st = expect_token(r, tok, "array name"))) return st;
-            if ((st = read_int64(r, "TEXTURE_COORDINATES dimension", 1, &dim))) return st;
-            if ((st = expect_token(r, type, "array type"))) return st;
-            if ((st = mul_count(r, mode_count, dim, &count))) return st;
-            if ((st = skip_typed(r, count, type, "TEXTURE_COORDINATES"))) return st;
-        } else if (in_attributes && strcasecmp(tok, "COLOR_SCALARS") == 0) {
-            int64_t nvalues;
-            uint64_t count = 0;
-            if ((st = expect_token(r, tok, "array name"))) return st;
-            if ((st = read_int64(r, "COLOR_SCALARS size", 1, &nvalues))) return st;
-            if (in_points && nvalues == 1) {
-                /* VTK writes unsigned char scalars this way; its reader takes them as the
-                 * point scalars. The values start after this line. */
-                return take_scalars(r, v, dims, point_count, spacing, origin, VM_SCALAR_UINT8,
-                                    1);
-            }
-            if ((st = mul_count(r, mode_count, nvalues, &count))) return st;
-            if ((st = skip_values(r, count, 1, "COLOR_SCALARS"))) return st;
+            st = data_section(r, &h, tok);
+        } else if (h.in_attributes && strcasecmp(tok, "SCALARS") == 0) {
+            st = scalars_section(r, &h, v, &taken);
+        } else if (h.in_attributes && strcasecmp(tok, "COLOR_SCALARS") == 0) {
+            st = color_scalars_section(r, &h, v, &taken);
+        } else if (h.in_attributes) {
+            st = skip_attribute(r, &h, tok, &known);
         } else {
-            return vm_error_set(err, VM_ERR_FORMAT, "%s: unexpected keyword '%.40s'%s", path,
-                                tok, in_attributes ? " in the attribute data"
-                                                   : " in the STRUCTURED_POINTS header");
+            known = 0;
         }
+        if (st || taken) return st;
+        if (!known)
+            return vm_error_set(r->err, VM_ERR_FORMAT, "%s: unexpected keyword '%.40s'%s",
+                                r->path, tok, h.in_attributes
+                                                  ? " in the attribute data"
+                                                  : " in the STRUCTURED_POINTS header");
     }
 }
 

@@ -75,7 +75,7 @@ vm_status vm__write_vtk(const char *path, const vm_mesh *m, const vm_mesh_write_
     if (!nn)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
                             (int)m->kind);
-    vm_status st = vm__check_cells(path, m, err);
+    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) return st;
     if (m->ncells > (size_t)INT32_MAX / (size_t)(nn + 1) || m->npoints > (size_t)INT32_MAX)
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
@@ -266,7 +266,7 @@ static vm_status read_attributes(vtk_reader *r, size_t count, attrs *out) {
             /* optional component count, then an optional LOOKUP_TABLE line */
             const char *s2 = r->c.p, *t2;
             size_t n2;
-            if (vm__cur_token(&r->c, &t2, &n2) && vm__parse_int_tok(t2, n2, &nc)) {
+            if (vm__cur_token(&r->c, &t2, &n2) && vm__parse_int_tok(t2, n2, &nc) == VM_OK) {
                 if (nc < 1 || nc > 4)
                     return vm__cur_fail(&r->c, VM_ERR_FORMAT, "SCALARS with %" PRId64
                                         " components", nc);
@@ -354,220 +354,287 @@ static vm_status read_attributes(vtk_reader *r, size_t count, attrs *out) {
     }
 }
 
-vm_status vm_mesh_read_vtk(const char *path, vm_mesh *m, vm_error *err) {
-    vm_mesh_init(m, VM_TET4);
-    unsigned char *buf = NULL;
-    size_t len = 0;
-    vm_status st = vm__read_file(path, VM__MESH_MAX_FILE, &buf, &len, err);
-    if (st) return st;
-    vtk_reader r;
-    memset(&r, 0, sizeof r);
-    vm__cur_init(&r.c, path, buf, len, 0, err);
+/* VTK cell type numbers ("VTK File Formats", Figure 2 and vtkCellType.h). */
+enum {
+    VTK_VERTEX = 1,
+    VTK_POLY_VERTEX = 2,
+    VTK_LINE = 3,
+    VTK_POLY_LINE = 4,
+    VTK_TRIANGLE = 5,
+    VTK_PIXEL = 8,
+    VTK_QUAD = 9,
+    VTK_TETRA = 10,
+    VTK_VOXEL = 11,
+    VTK_HEXAHEDRON = 12,
+    VTK_TYPE_MAX = 100 /* larger numbers are refused as bad types */
+};
+
+/* Largest number of FIELD arrays / components of one, a sanity bound on the header. */
+#define FIELD_MAX_ARRAYS 100000
+#define FIELD_MAX_COMPONENTS 1024
+/* Longest counted point list of one cell (CELLS, <= 4.2 layout), a sanity bound: the cells
+ * volmesh reads have at most 8. */
+#define LIST_MAX_POINTS 64
+
+/* The sections of a legacy file as read, before they become a mesh. */
+typedef struct vtk_data {
+    double *pts, *conn, *offs, *types;
+    size_t npts, ncells, nconn;
+    int v5; /* 5.1 layout: OFFSETS and CONNECTIVITY instead of counted lists */
+    int seen_points, seen_cells, seen_types;
+    attrs pattr, cattr;
+} vtk_data;
+
+/* Frees what the sections hold. */
+static void vtk_data_free(vtk_data *d) {
+    free(d->pts);
+    free(d->conn);
+    free(d->offs);
+    free(d->types);
+    attrs_free(&d->pattr);
+    attrs_free(&d->cattr);
+}
+
+/* The first lines: version, title, ASCII/BINARY, DATASET UNSTRUCTURED_GRID. */
+static vm_status read_header(vtk_reader *r) {
     const char *s, *t;
     size_t n;
-    double *pts = NULL, *conn = NULL, *offs = NULL, *types = NULL;
-    size_t npts = 0, ncells = 0, nconn = 0;
-    int v5 = 0;
-    attrs pattr = {NULL, 0, 0}, cattr = {NULL, 0, 0};
-    int64_t *keep = NULL;
-    if (!vm__cur_line(&r.c, &s, &n) || n < 22 || memcmp(s, "# vtk DataFile Version", 22) != 0) {
-        st = vm_error_set(err, VM_ERR_FORMAT, "%s: not a legacy VTK file", path);
-        goto done;
+    if (!vm__cur_line(&r->c, &s, &n) || n < 22 || memcmp(s, "# vtk DataFile Version", 22) != 0)
+        return vm_error_set(r->c.err, VM_ERR_FORMAT, "%s: not a legacy VTK file", r->c.path);
+    vm__cur_line(&r->c, &s, &n); /* title */
+    if (!vm__cur_token(&r->c, &t, &n) ||
+        !(vm__tok_is(t, n, "ASCII") || vm__tok_is(t, n, "BINARY")))
+        return vm__cur_fail(&r->c, VM_ERR_FORMAT, "third line must be ASCII or BINARY");
+    r->binary = vm__tok_is(t, n, "BINARY");
+    if (!vm__cur_token(&r->c, &t, &n) || !vm__tok_is(t, n, "DATASET") ||
+        !vm__cur_token(&r->c, &t, &n))
+        return vm__cur_fail(&r->c, VM_ERR_FORMAT, "expected DATASET");
+    if (!vm__tok_is(t, n, "UNSTRUCTURED_GRID"))
+        return vm__cur_fail(&r->c, VM_ERR_UNSUPPORTED, "dataset %.*s is not a mesh volmesh "
+                            "reads (UNSTRUCTURED_GRID is)", (int)(n > 30 ? 30 : n), t);
+    return VM_OK;
+}
+
+/* POINTS n type, then the coordinates. */
+static vm_status read_points(vtk_reader *r, vtk_data *d) {
+    int64_t np;
+    const char *ty;
+    size_t tyl;
+    vm_status st = vm__cur_int(&r->c, 0, INT64_MAX, "number of points", &np);
+    if (!st && !vm__cur_token(&r->c, &ty, &tyl))
+        st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "POINTS needs a type");
+    if (!st && (uint64_t)np > UINT64_MAX / 3)
+        st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "too many points");
+    if (!st) st = alloc_doubles(r, 3 * (uint64_t)np, r->binary ? 4 : 2, &d->pts);
+    if (!st) st = read_values(r, ty, tyl, 3 * (size_t)np, d->pts);
+    d->npts = (size_t)np;
+    return st;
+}
+
+/* CELLS a b: either counted lists (<= 4.2) or OFFSETS a + CONNECTIVITY b (5.1). */
+static vm_status read_cells(vtk_reader *r, vtk_data *d) {
+    int64_t a, b;
+    const char *t, *ty;
+    size_t n, tyl;
+    vm_status st = vm__cur_int(&r->c, 0, INT64_MAX, "number of cells", &a);
+    if (!st) st = vm__cur_int(&r->c, 0, INT64_MAX, "cell list size", &b);
+    if (st) return st;
+    const char *save = r->c.p;
+    d->nconn = (size_t)b;
+    if (!(vm__cur_token(&r->c, &t, &n) && vm__tok_is(t, n, "OFFSETS"))) {
+        r->c.p = save;
+        d->ncells = (size_t)a;
+        st = alloc_doubles(r, (uint64_t)b, r->binary ? 4 : 2, &d->conn);
+        if (!st) st = read_values(r, "int", 3, (size_t)b, d->conn);
+        return st;
     }
-    vm__cur_line(&r.c, &s, &n); /* title */
-    if (!vm__cur_token(&r.c, &t, &n) ||
-        !(vm__tok_is(t, n, "ASCII") || vm__tok_is(t, n, "BINARY"))) {
-        st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "third line must be ASCII or BINARY");
-        goto done;
+    d->v5 = 1;
+    d->ncells = (size_t)a - 1;
+    if (!vm__cur_token(&r->c, &ty, &tyl))
+        st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "OFFSETS needs a type");
+    if (!st && a < 1) st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "OFFSETS needs >= 1");
+    if (!st) st = alloc_doubles(r, (uint64_t)a, 1, &d->offs);
+    if (!st) st = read_values(r, ty, tyl, (size_t)a, d->offs);
+    if (!st && (!vm__cur_token(&r->c, &t, &n) || !vm__tok_is(t, n, "CONNECTIVITY") ||
+                !vm__cur_token(&r->c, &ty, &tyl)))
+        st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "expected CONNECTIVITY");
+    if (!st) st = alloc_doubles(r, (uint64_t)b, 1, &d->conn);
+    if (!st) st = read_values(r, ty, tyl, (size_t)b, d->conn);
+    return st;
+}
+
+/* CELL_TYPES a, one type per cell. */
+static vm_status read_cell_types(vtk_reader *r, vtk_data *d) {
+    int64_t a;
+    vm_status st = vm__cur_int(&r->c, 0, INT64_MAX, "number of cell types", &a);
+    if (!st && (size_t)a != d->ncells)
+        st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "CELL_TYPES %" PRId64 " for %zu cells", a,
+                          d->ncells);
+    if (!st) st = alloc_doubles(r, (uint64_t)a, r->binary ? 4 : 2, &d->types);
+    if (!st) st = read_values(r, "int", 3, (size_t)a, d->types);
+    return st;
+}
+
+/* POINT_DATA / CELL_DATA count (pd: which), then its attributes. */
+static vm_status read_data_section(vtk_reader *r, vtk_data *d, int pd) {
+    int64_t a;
+    vm_status st = vm__cur_int(&r->c, 0, INT64_MAX, "count", &a);
+    if (!st && (size_t)a != (pd ? d->npts : d->ncells))
+        st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "%s %" PRId64 " does not match %zu",
+                          pd ? "POINT_DATA" : "CELL_DATA", a, pd ? d->npts : d->ncells);
+    if (!st) st = read_attributes(r, (size_t)a, pd ? &d->pattr : &d->cattr);
+    return st;
+}
+
+/* Dataset-level FIELD data (TIME, CYCLE, ...): read and dropped. */
+static vm_status skip_field(vtk_reader *r) {
+    const char *name;
+    size_t nl;
+    int64_t narr = 0;
+    vm_status st = VM_OK;
+    if (!vm__cur_token(&r->c, &name, &nl))
+        st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "FIELD needs a name");
+    if (!st) st = vm__cur_int(&r->c, 0, FIELD_MAX_ARRAYS, "number of FIELD arrays", &narr);
+    for (int64_t i = 0; i < narr && !st; i++) {
+        int64_t nc, nt;
+        const char *ty;
+        size_t tyl;
+        double *v = NULL;
+        if (!vm__cur_token(&r->c, &name, &nl))
+            st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "FIELD array needs a name");
+        if (!st) st = vm__cur_int(&r->c, 1, FIELD_MAX_COMPONENTS, "number of components", &nc);
+        if (!st) st = vm__cur_int(&r->c, 0, INT64_MAX, "number of tuples", &nt);
+        if (!st && !vm__cur_token(&r->c, &ty, &tyl))
+            st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "FIELD array needs a type");
+        if (!st && (uint64_t)nt > UINT64_MAX / FIELD_MAX_COMPONENTS)
+            st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "too many tuples");
+        if (!st) st = alloc_doubles(r, (uint64_t)nt * (uint64_t)nc, 1, &v);
+        if (!st) st = read_values(r, ty, tyl, (size_t)(nt * nc), v);
+        free(v);
     }
-    r.binary = vm__tok_is(t, n, "BINARY");
-    if (!vm__cur_token(&r.c, &t, &n) || !vm__tok_is(t, n, "DATASET") ||
-        !vm__cur_token(&r.c, &t, &n)) {
-        st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "expected DATASET");
-        goto done;
+    return st;
+}
+
+/* The sections after the header, each keyword once; POINTS, CELLS, CELL_TYPES required. */
+static vm_status read_sections(vtk_reader *r, vtk_data *d) {
+    const char *t;
+    size_t n;
+    vm_status st = VM_OK;
+    while (!st && vm__cur_token(&r->c, &t, &n)) {
+        if (vm__tok_is(t, n, "POINTS") && !d->seen_points++)
+            st = read_points(r, d);
+        else if (vm__tok_is(t, n, "CELLS") && !d->seen_cells++)
+            st = read_cells(r, d);
+        else if (vm__tok_is(t, n, "CELL_TYPES") && !d->seen_types++)
+            st = read_cell_types(r, d);
+        else if (vm__tok_is(t, n, "POINT_DATA") || vm__tok_is(t, n, "CELL_DATA"))
+            st = read_data_section(r, d, vm__tok_is(t, n, "POINT_DATA"));
+        else if (vm__tok_is(t, n, "METADATA"))
+            skip_metadata(r);
+        else if (vm__tok_is(t, n, "FIELD"))
+            st = skip_field(r);
+        else
+            st = vm__cur_fail(&r->c, VM_ERR_FORMAT, "unexpected \"%.*s\"",
+                              (int)(n > 30 ? 30 : n), t);
     }
-    if (!vm__tok_is(t, n, "UNSTRUCTURED_GRID")) {
-        st = vm__cur_fail(&r.c, VM_ERR_UNSUPPORTED, "dataset %.*s is not a mesh volmesh reads "
-                          "(UNSTRUCTURED_GRID is)", (int)(n > 30 ? 30 : n), t);
-        goto done;
-    }
-    int seen_points = 0, seen_cells = 0, seen_types = 0;
-    while (!st && vm__cur_token(&r.c, &t, &n)) {
-        if (vm__tok_is(t, n, "POINTS") && !seen_points++) {
-            int64_t np;
-            const char *ty;
-            size_t tyl;
-            st = vm__cur_int(&r.c, 0, INT64_MAX, "number of points", &np);
-            if (!st && !vm__cur_token(&r.c, &ty, &tyl))
-                st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "POINTS needs a type");
-            if (!st && (uint64_t)np > UINT64_MAX / 3)
-                st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "too many points");
-            if (!st) st = alloc_doubles(&r, 3 * (uint64_t)np, r.binary ? 4 : 2, &pts);
-            if (!st) st = read_values(&r, ty, tyl, 3 * (size_t)np, pts);
-            npts = (size_t)np;
-        } else if (vm__tok_is(t, n, "CELLS") && !seen_cells++) {
-            int64_t a, b;
-            st = vm__cur_int(&r.c, 0, INT64_MAX, "number of cells", &a);
-            if (!st) st = vm__cur_int(&r.c, 0, INT64_MAX, "cell list size", &b);
-            if (st) break;
-            const char *save = r.c.p;
-            if (vm__cur_token(&r.c, &t, &n) && vm__tok_is(t, n, "OFFSETS")) {
-                const char *ty;
-                size_t tyl;
-                v5 = 1;
-                if (!vm__cur_token(&r.c, &ty, &tyl))
-                    st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "OFFSETS needs a type");
-                if (!st && a < 1) st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "OFFSETS needs >= 1");
-                if (!st) st = alloc_doubles(&r, (uint64_t)a, 1, &offs);
-                if (!st) st = read_values(&r, ty, tyl, (size_t)a, offs);
-                if (!st && (!vm__cur_token(&r.c, &t, &n) || !vm__tok_is(t, n, "CONNECTIVITY") ||
-                            !vm__cur_token(&r.c, &ty, &tyl)))
-                    st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "expected CONNECTIVITY");
-                if (!st) st = alloc_doubles(&r, (uint64_t)b, 1, &conn);
-                if (!st) st = read_values(&r, ty, tyl, (size_t)b, conn);
-                ncells = (size_t)a - 1;
-                nconn = (size_t)b;
-            } else {
-                r.c.p = save;
-                st = alloc_doubles(&r, (uint64_t)b, r.binary ? 4 : 2, &conn);
-                if (!st) st = read_values(&r, "int", 3, (size_t)b, conn);
-                ncells = (size_t)a;
-                nconn = (size_t)b;
-            }
-        } else if (vm__tok_is(t, n, "CELL_TYPES") && !seen_types++) {
-            int64_t a;
-            st = vm__cur_int(&r.c, 0, INT64_MAX, "number of cell types", &a);
-            if (!st && (size_t)a != ncells)
-                st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "CELL_TYPES %" PRId64 " for %zu cells",
-                                  a, ncells);
-            if (!st) st = alloc_doubles(&r, (uint64_t)a, r.binary ? 4 : 2, &types);
-            if (!st) st = read_values(&r, "int", 3, (size_t)a, types);
-        } else if (vm__tok_is(t, n, "POINT_DATA") || vm__tok_is(t, n, "CELL_DATA")) {
-            int pd = vm__tok_is(t, n, "POINT_DATA");
-            int64_t a;
-            st = vm__cur_int(&r.c, 0, INT64_MAX, "count", &a);
-            if (!st && (size_t)a != (pd ? npts : ncells))
-                st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "%s %" PRId64 " does not match %zu",
-                                  pd ? "POINT_DATA" : "CELL_DATA", a, pd ? npts : ncells);
-            if (!st) st = read_attributes(&r, (size_t)a, pd ? &pattr : &cattr);
-        } else if (vm__tok_is(t, n, "METADATA")) {
-            skip_metadata(&r);
-        } else if (vm__tok_is(t, n, "FIELD")) {
-            /* dataset-level field data (TIME, CYCLE, ...): read and dropped */
-            const char *name;
-            size_t nl;
-            int64_t narr = 0;
-            if (!vm__cur_token(&r.c, &name, &nl))
-                st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "FIELD needs a name");
-            if (!st) st = vm__cur_int(&r.c, 0, 100000, "number of FIELD arrays", &narr);
-            for (int64_t i = 0; i < narr && !st; i++) {
-                int64_t nc, nt;
-                const char *ty;
-                size_t tyl;
-                double *d = NULL;
-                if (!vm__cur_token(&r.c, &name, &nl))
-                    st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "FIELD array needs a name");
-                if (!st) st = vm__cur_int(&r.c, 1, 1024, "number of components", &nc);
-                if (!st) st = vm__cur_int(&r.c, 0, INT64_MAX, "number of tuples", &nt);
-                if (!st && !vm__cur_token(&r.c, &ty, &tyl))
-                    st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "FIELD array needs a type");
-                if (!st && (uint64_t)nt > UINT64_MAX / 1024)
-                    st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "too many tuples");
-                if (!st) st = alloc_doubles(&r, (uint64_t)nt * (uint64_t)nc, 1, &d);
-                if (!st) st = read_values(&r, ty, tyl, (size_t)(nt * nc), d);
-                free(d);
-            }
-        } else {
-            st = vm__cur_fail(&r.c, VM_ERR_FORMAT, "unexpected \"%.*s\"", (int)(n > 30 ? 30 : n),
-                              t);
-        }
-    }
-    if (st) goto done;
-    if (!seen_points || !seen_cells || !seen_types) {
-        st = vm_error_set(err, VM_ERR_FORMAT, "%s: needs POINTS, CELLS and CELL_TYPES", path);
-        goto done;
-    }
-    /* Pick the kind: volume cells win over surface cells; vertices and lines are skipped. */
+    if (st) return st;
+    if (!d->seen_points || !d->seen_cells || !d->seen_types)
+        return vm_error_set(r->c.err, VM_ERR_FORMAT, "%s: needs POINTS, CELLS and CELL_TYPES",
+                            r->c.path);
+    return VM_OK;
+}
+
+/* Picks m->kind: volume cells win over surface cells; vertices and lines are skipped.
+ * [out] *vol: whether the mesh is of volume cells. */
+static vm_status pick_kind(const char *path, const vtk_data *d, vm_mesh *m, int *vol,
+                           vm_error *err) {
     int have[16] = {0};
-    for (size_t c = 0; c < ncells; c++) {
-        double ty = types[c];
-        if (!is_whole(ty, 0, 100)) {
-            st = vm_error_set(err, VM_ERR_FORMAT, "%s: bad cell type %g", path, ty);
-            goto done;
-        }
+    for (size_t c = 0; c < d->ncells; c++) {
+        double ty = d->types[c];
+        if (!is_whole(ty, 0, VTK_TYPE_MAX))
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: bad cell type %g", path, ty);
         int k = (int)ty;
-        if (k == 1 || k == 2 || k == 3 || k == 4) continue;
-        if (k != 5 && k != 8 && k != 9 && k != 10 && k != 11 && k != 12) {
-            st = vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: cell type %d is not supported "
-                              "(tetra, hexahedron, voxel, triangle, quad, pixel are)", path, k);
-            goto done;
-        }
+        if (k == VTK_VERTEX || k == VTK_POLY_VERTEX || k == VTK_LINE || k == VTK_POLY_LINE)
+            continue;
+        if (k != VTK_TRIANGLE && k != VTK_PIXEL && k != VTK_QUAD && k != VTK_TETRA &&
+            k != VTK_VOXEL && k != VTK_HEXAHEDRON)
+            return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                                "%s: cell type %d is not supported (tetra, hexahedron, voxel, "
+                                "triangle, quad, pixel are)", path, k);
         have[k] = 1;
     }
-    int vol = have[10] || have[11] || have[12];
-    if (have[10] && (have[11] || have[12])) {
-        st = vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: mixes tetrahedra and hexahedra (one "
-                          "element kind per mesh)", path);
-        goto done;
+    *vol = have[VTK_TETRA] || have[VTK_VOXEL] || have[VTK_HEXAHEDRON];
+    if (have[VTK_TETRA] && (have[VTK_VOXEL] || have[VTK_HEXAHEDRON]))
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: mixes tetrahedra and hexahedra (one "
+                            "element kind per mesh)", path);
+    int quads = !*vol && (have[VTK_PIXEL] || have[VTK_QUAD]);
+    if (quads && have[VTK_TRIANGLE])
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: mixes triangles and quads", path);
+    m->kind = have[VTK_TETRA] ? VM_TET4 : *vol ? VM_HEX8 : quads ? VM_QUAD4 : VM_TRI3;
+    return VM_OK;
+}
+
+/* The point list of cell c: [out] *first (into d->conn) and *cnt; *at walks the counted
+ * lists of the <= 4.2 layout. */
+static vm_status cell_span(const char *path, const vtk_data *d, size_t c, size_t *at,
+                           size_t *first, size_t *cnt, vm_error *err) {
+    if (d->v5) {
+        if (!is_whole(d->offs[c], 0, (double)d->nconn) ||
+            !is_whole(d->offs[c + 1], d->offs[c], (double)d->nconn))
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: bad OFFSETS at cell %zu", path, c);
+        *first = (size_t)d->offs[c];
+        *cnt = (size_t)d->offs[c + 1] - *first;
+        return VM_OK;
     }
-    int quads = !vol && (have[8] || have[9]);
-    if (quads && have[5]) {
-        st = vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: mixes triangles and quads", path);
-        goto done;
-    }
-    m->kind = have[10] ? VM_TET4 : vol ? VM_HEX8 : quads ? VM_QUAD4 : VM_TRI3;
-    int nn = vm_cell_nodes(m->kind);
-    keep = malloc((ncells ? ncells : 1) * sizeof *keep);
-    if (!keep || vm_mesh_reserve(m, npts, ncells, err)) {
-        st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
-        goto done;
-    }
-    memcpy(m->points, pts, 3 * npts * sizeof(double));
-    m->npoints = npts;
+    if (*at >= d->nconn || !is_whole(d->conn[*at], 0, LIST_MAX_POINTS) ||
+        d->conn[*at] > (double)(d->nconn - *at - 1))
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: CELLS list is inconsistent at cell %zu",
+                            path, c);
+    *cnt = (size_t)d->conn[*at];
+    *first = *at + 1;
+    *at = *first + *cnt;
+    return VM_OK;
+}
+
+/* Points per cell of VTK type k as volmesh reads it, or -1 for a skipped type. */
+static int type_points(int k) {
+    if (k == VTK_TETRA || k == VTK_PIXEL || k == VTK_QUAD) return 4;
+    if (k == VTK_TRIANGLE) return 3;
+    if (k == VTK_VOXEL || k == VTK_HEXAHEDRON) return 8;
+    return -1;
+}
+
+/* Copies the points and adds the cells of m's kind; [out] keep[c]: the mesh cell of file
+ * cell c, or -1 when skipped. */
+static vm_status build_cells(const char *path, const vtk_data *d, int vol, vm_mesh *m,
+                             int64_t *keep, vm_error *err) {
+    memcpy(m->points, d->pts, 3 * d->npts * sizeof(double));
+    m->npoints = d->npts;
     size_t at = 0, kept = 0;
-    for (size_t c = 0; c < ncells; c++) {
-        size_t first, cnt;
-        if (v5) {
-            if (!is_whole(offs[c], 0, (double)nconn) || !is_whole(offs[c + 1], offs[c], (double)nconn)) {
-                st = vm_error_set(err, VM_ERR_FORMAT, "%s: bad OFFSETS at cell %zu", path, c);
-                goto done;
-            }
-            first = (size_t)offs[c];
-            cnt = (size_t)offs[c + 1] - first;
-        } else {
-            if (at >= nconn || !is_whole(conn[at], 0, 64) || conn[at] > (double)(nconn - at - 1)) {
-                st = vm_error_set(err, VM_ERR_FORMAT, "%s: CELLS list is inconsistent at cell "
-                                  "%zu", path, c);
-                goto done;
-            }
-            cnt = (size_t)conn[at];
-            first = at + 1;
-            at = first + cnt;
-        }
-        int k = (int)types[c];
-        int want = k == 10 ? 4 : k == 5 ? 3 : (k == 8 || k == 9) ? 4 : (k == 11 || k == 12) ? 8 : -1;
+    for (size_t c = 0; c < d->ncells; c++) {
+        size_t first = 0, cnt = 0;
+        vm_status st = cell_span(path, d, c, &at, &first, &cnt, err);
+        if (st) return st;
+        int k = (int)d->types[c];
+        int want = type_points(k);
         keep[c] = -1;
-        if (want < 0 || (vol ? (k < 10) : 0)) continue;
-        if ((int)cnt != want) {
-            st = vm_error_set(err, VM_ERR_FORMAT, "%s: cell %zu of type %d has %zu points", path,
-                              c, k, cnt);
-            goto done;
-        }
+        if (want < 0 || (vol ? (k < VTK_TETRA) : 0)) continue;
+        if ((int)cnt != want)
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: cell %zu of type %d has %zu points",
+                                path, c, k, cnt);
         vm_index v[8];
         for (int j = 0; j < want; j++) {
-            double x = conn[first + (size_t)j];
-            if (!is_whole(x, 0, (double)npts - 1)) {
-                st = vm_error_set(err, VM_ERR_FORMAT, "%s: cell %zu uses point %g of %zu", path,
-                                  c, x, npts);
-                goto done;
-            }
+            double x = d->conn[first + (size_t)j];
+            if (!is_whole(x, 0, (double)d->npts - 1))
+                return vm_error_set(err, VM_ERR_FORMAT, "%s: cell %zu uses point %g of %zu",
+                                    path, c, x, d->npts);
             v[j] = (vm_index)x;
         }
-        if (k == 8 || k == 11) { /* pixel / voxel: swap to quad / hexahedron order */
+        if (k == VTK_PIXEL || k == VTK_VOXEL) { /* swap to quad / hexahedron order */
             vm_index tmp = v[2];
             v[2] = v[3];
             v[3] = tmp;
-            if (k == 11) {
+            if (k == VTK_VOXEL) {
                 tmp = v[6];
                 v[6] = v[7];
                 v[7] = tmp;
@@ -576,16 +643,21 @@ vm_status vm_mesh_read_vtk(const char *path, vm_mesh *m, vm_error *err) {
         vm_mesh_add_cell(m, v, 0, NULL);
         keep[c] = (int64_t)kept++;
     }
-    if (!v5 && at != nconn) {
-        st = vm_error_set(err, VM_ERR_FORMAT, "%s: CELLS size %zu, lists use %zu", path, nconn,
-                          at);
-        goto done;
-    }
-    (void)nn;
-    for (size_t i = 0; i < cattr.n && !st; i++) {
-        attr *a = &cattr.a[i];
+    if (!d->v5 && at != d->nconn)
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: CELLS size %zu, lists use %zu", path,
+                            d->nconn, at);
+    return VM_OK;
+}
+
+/* Cell attributes ("region" becomes the regions, others fields, of the kept cells only)
+ * and point attributes (fields) into m. */
+static vm_status set_attributes(const char *path, vtk_data *d, const int64_t *keep,
+                                vm_mesh *m, vm_error *err) {
+    vm_status st = VM_OK;
+    for (size_t i = 0; i < d->cattr.n && !st; i++) {
+        attr *a = &d->cattr.a[i];
         if (strcmp(a->name, "region") == 0 && a->ncomp == 1) {
-            for (size_t c = 0; c < ncells; c++) {
+            for (size_t c = 0; c < d->ncells; c++) {
                 if (keep[c] < 0) continue;
                 if (!is_whole(a->data[c], INT32_MIN, INT32_MAX)) {
                     st = vm_error_set(err, VM_ERR_FORMAT, "%s: region of cell %zu is %g", path,
@@ -597,21 +669,43 @@ vm_status vm_mesh_read_vtk(const char *path, vm_mesh *m, vm_error *err) {
             continue;
         }
         size_t nc = (size_t)a->ncomp;
-        for (size_t c = 0; c < ncells; c++)
+        for (size_t c = 0; c < d->ncells; c++)
             if (keep[c] >= 0)
                 memmove(a->data + (size_t)keep[c] * nc, a->data + c * nc, nc * sizeof(double));
         st = vm_mesh_set_field(m, 1, a->name, a->ncomp, a->data, err);
     }
-    for (size_t i = 0; i < pattr.n && !st; i++)
-        st = vm_mesh_set_field(m, 0, pattr.a[i].name, pattr.a[i].ncomp, pattr.a[i].data, err);
-done:
-    free(pts);
-    free(conn);
-    free(offs);
-    free(types);
+    for (size_t i = 0; i < d->pattr.n && !st; i++)
+        st = vm_mesh_set_field(m, 0, d->pattr.a[i].name, d->pattr.a[i].ncomp,
+                               d->pattr.a[i].data, err);
+    return st;
+}
+
+/* Reads the whole file, then turns its sections into m. */
+vm_status vm_mesh_read_vtk(const char *path, vm_mesh *m, vm_error *err) {
+    vm_mesh_init(m, VM_TET4);
+    unsigned char *buf = NULL;
+    size_t len = 0;
+    vm_status st = vm__read_file(path, VM__MESH_MAX_FILE, &buf, &len, err);
+    if (st) return st;
+    vtk_reader r;
+    memset(&r, 0, sizeof r);
+    vm__cur_init(&r.c, path, buf, len, 0, err);
+    vtk_data d;
+    memset(&d, 0, sizeof d);
+    int64_t *keep = NULL;
+    int vol = 0;
+    st = read_header(&r);
+    if (!st) st = read_sections(&r, &d);
+    if (!st) st = pick_kind(path, &d, m, &vol, err);
+    if (!st) {
+        keep = malloc((d.ncells ? d.ncells : 1) * sizeof *keep);
+        if (!keep || vm_mesh_reserve(m, d.npts, d.ncells, err))
+            st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
+    }
+    if (!st) st = build_cells(path, &d, vol, m, keep, err);
+    if (!st) st = set_attributes(path, &d, keep, m, err);
+    vtk_data_free(&d);
     free(keep);
-    attrs_free(&pattr);
-    attrs_free(&cattr);
     free(buf);
     if (st) vm_mesh_free(m);
     return st;

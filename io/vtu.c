@@ -175,118 +175,53 @@ vm_status vm_mesh_write_vtu(const char *path, const vm_mesh *m, int compress, vm
     return vm__write_vtu(path, m, &opt, err);
 }
 
-vm_status vm__write_vtu(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
-                        vm_error *err) {
-    int compress = opt->compress;
+/* Describes the next array of arr (*na counts them); name is XML-escaped into it. */
+static out_array *next_array(out_array *arr, size_t *na, const char *type, const char *name,
+                             int ncomp, size_t count, size_t esize, src_kind kind,
+                             const void *src) {
+    out_array *a = &arr[(*na)++];
+    a->type = type;
+    xml_escape(name, a->name, sizeof a->name);
+    a->ncomp = ncomp;
+    a->count = count;
+    a->esize = esize;
+    a->kind = kind;
+    a->src = src;
+    return a;
+}
+
+/* The arrays in file order: point data, cell data (region first), points, cells. Returns
+ * their number; [out] *first_cell_data, *first_points: where those groups start. */
+static size_t describe_arrays(const vm_mesh *m, size_t nconn, out_array *arr,
+                              size_t *first_cell_data, size_t *first_points) {
+    size_t na = 0;
     int nn = vm_cell_nodes(m->kind);
-    if (nn == 0)
-        return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
-                            (int)m->kind);
-    size_t nconn;
-    if (!vm__mul_size(m->ncells, (size_t)nn, &nconn) || nconn > (size_t)INT64_MAX)
-        return vm_error_set(err, VM_ERR_ARG, "%s: too many cells", path);
-    size_t narr = 5 + m->ncell_fields + m->npoint_fields;
-    out_array *arr = calloc(narr, sizeof *arr);
-    unsigned char *buf = malloc(VTU_BLOCK);
-    vm_status st = VM_OK;
-    vm_outfile o;
-    int opened = 0;
-    if (!arr || !buf) {
-        st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
-        goto fail;
-    }
-    /* Order in the file: point data, cell data (region first), points, cells. */
-    size_t na = 0, first_cell_data, first_points;
     for (size_t f = 0; f < m->npoint_fields; f++) {
-        out_array *a = &arr[na++];
         const vm_field *fl = &m->point_fields[f];
-        a->type = "Float64";
-        xml_escape(fl->name, a->name, sizeof a->name);
-        a->ncomp = fl->ncomp;
-        a->count = m->npoints * (size_t)fl->ncomp;
-        a->esize = 8;
-        a->src = fl->data;
+        next_array(arr, &na, "Float64", fl->name, fl->ncomp, m->npoints * (size_t)fl->ncomp,
+                   8, SRC_COPY, fl->data);
     }
-    first_cell_data = na;
-    {
-        out_array *a = &arr[na++];
-        a->type = "Int32";
-        strcpy(a->name, "region");
-        a->ncomp = 1;
-        a->count = m->ncells;
-        a->esize = 4;
-        a->src = m->region;
-    }
+    *first_cell_data = na;
+    next_array(arr, &na, "Int32", "region", 1, m->ncells, 4, SRC_COPY, m->region);
     for (size_t f = 0; f < m->ncell_fields; f++) {
         const vm_field *fl = &m->cell_fields[f];
         if (strcmp(fl->name, "region") == 0) continue; /* the region ids take that name */
-        out_array *a = &arr[na++];
-        a->type = "Float64";
-        xml_escape(fl->name, a->name, sizeof a->name);
-        a->ncomp = fl->ncomp;
-        a->count = m->ncells * (size_t)fl->ncomp;
-        a->esize = 8;
-        a->src = fl->data;
+        next_array(arr, &na, "Float64", fl->name, fl->ncomp, m->ncells * (size_t)fl->ncomp, 8,
+                   SRC_COPY, fl->data);
     }
-    first_points = na;
-    {
-        out_array *a = &arr[na++];
-        a->type = "Float64";
-        strcpy(a->name, "Points");
-        a->ncomp = 3;
-        a->count = 3 * m->npoints;
-        a->esize = 8;
-        a->src = m->points;
-        a = &arr[na++];
-        a->type = "Int64";
-        strcpy(a->name, "connectivity");
-        a->ncomp = 1;
-        a->count = nconn;
-        a->esize = 8;
-        a->kind = SRC_INDEX;
-        a->src = m->cells;
-        a = &arr[na++];
-        a->type = "Int64";
-        strcpy(a->name, "offsets");
-        a->ncomp = 1;
-        a->count = m->ncells;
-        a->esize = 8;
-        a->kind = SRC_OFFSETS;
-        a->aux = nn;
-        a = &arr[na++];
-        a->type = "UInt8";
-        strcpy(a->name, "types");
-        a->ncomp = 1;
-        a->count = m->ncells;
-        a->esize = 1;
-        a->kind = SRC_TYPES;
-        a->aux = (int64_t)m->kind;
-    }
-    double total_bytes = 0.0;
-    for (size_t i = 0; i < na; i++) {
-        size_t bytes;
-        if (!vm__mul_size(arr[i].count, arr[i].esize, &bytes)) {
-            st = vm_error_set(err, VM_ERR_ARG, "%s: array %s is too large", path, arr[i].name);
-            goto fail;
-        }
-        total_bytes += (double)bytes;
-    }
-    st = vm__out_open(&o, path, err);
-    if (st) goto fail;
-    opened = 1;
-    vm__out_meter(&o, opt->progress, opt->progress_user, total_bytes);
-    uint64_t off = 0;
-    for (size_t i = 0; i < na; i++) {
-        arr[i].offset = off;
-        if (compress) {
-            st = compress_array(path, &arr[i], &o, err);
-            if (st) goto fail;
-            off += arr[i].blob_len;
-        } else {
-            off += 8 + (uint64_t)(arr[i].count * arr[i].esize);
-        }
-    }
-    FILE *fp = o.fp;
+    *first_points = na;
+    next_array(arr, &na, "Float64", "Points", 3, 3 * m->npoints, 8, SRC_COPY, m->points);
+    next_array(arr, &na, "Int64", "connectivity", 1, nconn, 8, SRC_INDEX, m->cells);
+    next_array(arr, &na, "Int64", "offsets", 1, m->ncells, 8, SRC_OFFSETS, NULL)->aux = nn;
+    next_array(arr, &na, "UInt8", "types", 1, m->ncells, 1, SRC_TYPES, NULL)->aux =
+        (int64_t)m->kind;
+    return na;
+}
+
+/* The XML part: the piece's sizes and one DataArray per array, then the appended data's
+ * opening (the bytes follow). */
+static void write_vtu_xml(FILE *fp, const vm_mesh *m, const out_array *arr, size_t na,
+                          size_t first_cell_data, size_t first_points, int compress) {
     fprintf(fp,
             "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
             "byte_order=\"%s\" header_type=\"UInt64\"%s>\n",
@@ -308,6 +243,67 @@ vm_status vm__write_vtu(const char *path, const vm_mesh *m, const vm_mesh_write_
         write_array_xml(fp, &arr[i]);
     fprintf(fp, "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n"
                 "  <AppendedData encoding=\"raw\">\n   _");
+}
+
+/* Sets each array's offset in the appended data, compressing the arrays first when asked
+ * (uncompressed: a UInt64 byte count, then the bytes). */
+static vm_status place_arrays(const char *path, out_array *arr, size_t na, int compress,
+                              vm_outfile *o, vm_error *err) {
+    uint64_t off = 0;
+    for (size_t i = 0; i < na; i++) {
+        arr[i].offset = off;
+        if (compress) {
+            vm_status st = compress_array(path, &arr[i], o, err);
+            if (st) return st;
+            off += arr[i].blob_len;
+        } else {
+            off += 8 + (uint64_t)(arr[i].count * arr[i].esize);
+        }
+    }
+    return VM_OK;
+}
+
+/* Describes the arrays, sizes the progress by their bytes, then writes XML and data. */
+vm_status vm__write_vtu(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                        vm_error *err) {
+    int compress = opt->compress;
+    int nn = vm_cell_nodes(m->kind);
+    if (nn == 0)
+        return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
+                            (int)m->kind);
+    size_t nconn;
+    if (!vm__mul_size(m->ncells, (size_t)nn, &nconn) || nconn > (size_t)INT64_MAX)
+        return vm_error_set(err, VM_ERR_ARG, "%s: too many cells", path);
+    /* region, Points, connectivity, offsets, types, and the fields */
+    size_t narr = 5 + m->ncell_fields + m->npoint_fields;
+    out_array *arr = calloc(narr, sizeof *arr);
+    unsigned char *buf = malloc(VTU_BLOCK);
+    vm_status st = VM_OK;
+    vm_outfile o;
+    int opened = 0;
+    if (!arr || !buf) {
+        st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
+        goto fail;
+    }
+    size_t first_cell_data, first_points;
+    size_t na = describe_arrays(m, nconn, arr, &first_cell_data, &first_points);
+    double total_bytes = 0.0;
+    for (size_t i = 0; i < na; i++) {
+        size_t bytes;
+        if (!vm__mul_size(arr[i].count, arr[i].esize, &bytes)) {
+            st = vm_error_set(err, VM_ERR_ARG, "%s: array %s is too large", path, arr[i].name);
+            goto fail;
+        }
+        total_bytes += (double)bytes;
+    }
+    st = vm__out_open(&o, path, err);
+    if (st) goto fail;
+    opened = 1;
+    vm__out_meter(&o, opt->progress, opt->progress_user, total_bytes);
+    st = place_arrays(path, arr, na, compress, &o, err);
+    if (st) goto fail;
+    FILE *fp = o.fp;
+    write_vtu_xml(fp, m, arr, na, first_cell_data, first_points, compress);
     for (size_t i = 0; i < na; i++) {
         if (compress)
             fwrite(arr[i].blob, 1, arr[i].blob_len, fp);
@@ -742,15 +738,6 @@ typedef struct bsrc {
     int npend, ipend;
 } bsrc;
 
-static int b64_value(int c) {
-    if (c >= 'A' && c <= 'Z') return c - 'A';
-    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
-    if (c >= '0' && c <= '9') return c - '0' + 52;
-    if (c == '+') return 62;
-    if (c == '/') return 63;
-    return -1;
-}
-
 /* Decodes the next 4-character group into s->pend. Returns 1, 0 at end of data, -1 on bad
  * characters. Groups ending in '=' padding decode to fewer bytes; decoding continues after
  * them, because VTK encodes the header and the data as separate base64 runs. */
@@ -768,7 +755,7 @@ static int b64_group(bsrc *s) {
             continue;
         }
         if (pad) return -1;
-        int d = b64_value(c);
+        int d = vm__base64_value(c);
         if (d < 0) return -1;
         v[n++] = d;
     }
@@ -788,23 +775,23 @@ static size_t bsrc_left(const bsrc *s) {
     return s->b64 ? n / 4 * 3 + 3 + (size_t)(s->npend - s->ipend) : n;
 }
 
-/* Reads exactly n bytes; returns 0 when the data ends early or is not valid base64. */
-static int bsrc_read(bsrc *s, void *out, size_t n) {
+/* Reads exactly n bytes; VM_ERR_FORMAT when the data end early or are not valid base64. */
+static vm_status bsrc_read(bsrc *s, void *out, size_t n) {
     unsigned char *o = out;
     if (!s->b64) {
-        if ((size_t)(s->end - s->p) < n) return 0;
+        if ((size_t)(s->end - s->p) < n) return VM_ERR_FORMAT;
         memcpy(o, s->p, n);
         s->p += n;
-        return 1;
+        return VM_OK;
     }
     while (n > 0) {
-        if (s->ipend == s->npend && b64_group(s) != 1) return 0;
+        if (s->ipend == s->npend && b64_group(s) != 1) return VM_ERR_FORMAT;
         while (n > 0 && s->ipend < s->npend) {
             *o++ = s->pend[s->ipend++];
             n--;
         }
     }
-    return 1;
+    return VM_OK;
 }
 
 static uint64_t load_uint(const unsigned char *b, int bytes, int swap) {
@@ -847,7 +834,7 @@ static vm_status read_payload(const vtu_file *f, const in_array *a, bsrc *s,
     *out = NULL;
     *out_len = 0;
     if (!f->compressed) {
-        if (!bsrc_read(s, hbuf, (size_t)hb))
+        if (bsrc_read(s, hbuf, (size_t)hb) != VM_OK)
             return vm_error_set(err, VM_ERR_FORMAT, "%s: array %s: header is truncated",
                                 f->path, a->name);
         uint64_t nb = load_uint(hbuf, hb, f->swap);
@@ -857,7 +844,7 @@ static vm_status read_payload(const vtu_file *f, const in_array *a, bsrc *s,
                                 f->path, a->name, (unsigned long long)nb);
         unsigned char *b = malloc(nb ? (size_t)nb : 1);
         if (!b) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", f->path);
-        if (!bsrc_read(s, b, (size_t)nb)) {
+        if (bsrc_read(s, b, (size_t)nb) != VM_OK) {
             free(b);
             return vm_error_set(err, VM_ERR_FORMAT, "%s: array %s: data is truncated or bad",
                                 f->path, a->name);
@@ -867,7 +854,7 @@ static vm_status read_payload(const vtu_file *f, const in_array *a, bsrc *s,
         return VM_OK;
     }
     unsigned char h3[24];
-    if (!bsrc_read(s, h3, 3 * (size_t)hb))
+    if (bsrc_read(s, h3, 3 * (size_t)hb) != VM_OK)
         return vm_error_set(err, VM_ERR_FORMAT, "%s: array %s: compression header is truncated",
                             f->path, a->name);
     uint64_t nblocks = load_uint(h3, hb, f->swap), bs = load_uint(h3 + hb, hb, f->swap),
@@ -898,7 +885,7 @@ static vm_status read_payload(const vtu_file *f, const in_array *a, bsrc *s,
     if (!cs) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", f->path);
     uint64_t cmax = 0, csum = 0;
     for (size_t b = 0; b < nbk; b++) {
-        if (!bsrc_read(s, hbuf, (size_t)hb)) {
+        if (bsrc_read(s, hbuf, (size_t)hb) != VM_OK) {
             st = vm_error_set(err, VM_ERR_FORMAT, "%s: array %s: block sizes are truncated",
                               f->path, a->name);
             goto done;
@@ -929,7 +916,7 @@ static vm_status read_payload(const vtu_file *f, const in_array *a, bsrc *s,
     size_t pos = 0;
     for (size_t b = 0; b < nbk; b++) {
         size_t ub = (size_t)((b + 1 == nbk && last) ? last : bs);
-        if (!bsrc_read(s, cb, (size_t)cs[b])) {
+        if (bsrc_read(s, cb, (size_t)cs[b]) != VM_OK) {
             st = vm_error_set(err, VM_ERR_FORMAT, "%s: array %s: compressed data is truncated",
                               f->path, a->name);
             goto done;

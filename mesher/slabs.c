@@ -1,6 +1,6 @@
 /* mesher/slabs.c — meshing by slabs along z: the slab geometry (blocks, ghost band, planes),
- * ownership of tets by centroid, the exact-coordinate point index that merges the pieces,
- * and vm_mesh_volume_slabs, which meshes slab after slab in one process (docs/ALGORITHMS.md,
+ * ownership of tets by centroid, and vm_mesh_volume_slabs (pieces merged by the point index
+ * of core/point_index.c), which meshes slab after slab in one process (docs/ALGORITHMS.md,
  * "Meshing by slabs"; the same decomposition as volmesh_mpi, docs/MPI.md). */
 #include "volmesh/slabs.h"
 #include "../core/core.h"
@@ -85,58 +85,6 @@ int vm_slab_count_within(const vm_slab_grid *g, int64_t max_planes) {
     for (int64_t n = 1; n <= g->blocks && n <= 1 << 30; n++)
         if (vm_slab_planes_held(g, (int)n) <= max_planes) return (int)n;
     return 0;
-}
-
-/* ---- the point index ---- */
-
-static size_t point_hash(const double p[3]) {
-    uint64_t h = 1469598103934665603ull;
-    for (int a = 0; a < 3; a++) {
-        uint64_t b;
-        double x = p[a] == 0 ? 0.0 : p[a]; /* -0 and +0 alike */
-        memcpy(&b, &x, sizeof b);
-        h = (h ^ b) * 1099511628211ull;
-        h ^= h >> 29;
-    }
-    return (size_t)h;
-}
-
-vm_index vm_point_index_find(const vm_point_index *pi, const double *points, const double p[3],
-                             size_t *at) {
-    size_t i = point_hash(p) & (pi->cap - 1);
-    while (pi->slot[i] >= 0) {
-        const double *q = points + 3 * (size_t)pi->slot[i];
-        if (q[0] == p[0] && q[1] == p[1] && q[2] == p[2]) return pi->slot[i];
-        i = (i + 1) & (pi->cap - 1);
-    }
-    *at = i;
-    return -1;
-}
-
-vm_status vm_point_index_build(vm_point_index *pi, const double *points, size_t n, size_t room,
-                               vm_error *err) {
-    pi->cap = 1;
-    if (room < n) room = n;
-    while (pi->cap < 2 * room + 16)
-        pi->cap <<= 1;
-    pi->slot = malloc(pi->cap * sizeof *pi->slot);
-    if (!pi->slot)
-        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for a point index");
-    for (size_t i = 0; i < pi->cap; i++)
-        pi->slot[i] = -1;
-    for (size_t i = 0; i < n; i++) {
-        size_t at;
-        if (vm_point_index_find(pi, points, points + 3 * i, &at) < 0)
-            pi->slot[at] = (vm_index)i;
-    }
-    return VM_OK;
-}
-
-void vm_point_index_free(vm_point_index *pi) {
-    if (!pi) return;
-    free(pi->slot);
-    pi->slot = NULL;
-    pi->cap = 0;
 }
 
 void vm_mesh_index_to_world(vm_mesh *m, const vm_volume *frame) {

@@ -81,7 +81,8 @@ int vm_slab_count_within(const vm_slab_grid *g, int64_t max_planes);
  * An index of points by their exact coordinates (the bits of the three doubles, -0 and +0
  * alike) over a points array the caller owns: the slots hold point numbers, and each lookup
  * reads the array the caller passes (it may have grown or moved since). The index does not
- * grow: it is sized for `room` points when built. */
+ * grow: it is sized for `room` points when built. One implementation (core/point_index.c)
+ * serves the slab and MPI merges and the STL readers. */
 typedef struct vm_point_index {
     size_t cap;     /* slots, a power of two, at least 2 * room + 16 */
     vm_index *slot; /* point numbers; -1: empty */
