@@ -8,6 +8,11 @@
 /* Exit codes (DESIGN.md): 0 ok, 1 a requested check failed, 2 bad input or usage. */
 enum { VM_EXIT_OK = 0, VM_EXIT_CHECK = 1, VM_EXIT_INPUT = 2 };
 
+/* Helpers return 0 or, after printing why, the exit code to return (VM_EXIT_INPUT); the
+ * predicates vm_cli_is and vm_cli_ends_with return 1 or 0. */
+
+/* ---- cli/output.c: messages, status line, progress bar, stage times ---- */
+
 /* Prints "volmesh: MESSAGE" on stderr and returns VM_EXIT_INPUT. */
 int vm_cli_fail(const char *fmt, ...)
 #if defined(__GNUC__)
@@ -18,12 +23,29 @@ int vm_cli_fail(const char *fmt, ...)
 /* Prints err's message as "volmesh: ..." and returns VM_EXIT_INPUT. */
 int vm_cli_fail_err(const vm_error *err);
 
-/* For a mesh that could not be read from path: when path is an image volume (a volume
- * extension, or legacy VTK image data), says so and how to mesh it; otherwise prints err.
- * Returns VM_EXIT_INPUT. */
-int vm_cli_fail_mesh_read(const char *path, const vm_error *err);
+/* For a stage whose length is not known in advance (writing a file, the final checks): on a
+ * terminal and unless quiet, shows "WHAT NAME ..." on stderr until vm_cli_status_clear. */
+void vm_cli_status(const char *what, const char *name, int quiet);
+void vm_cli_status_clear(int quiet);
 
-/* 1 when argument a equals one of the given flag spellings. */
+/* Progress callback drawing a bar on stderr when it is a terminal (user: quiet flag). */
+void vm_cli_progress(const char *stage, double done, double total, void *user);
+
+/* Seconds on a monotonic clock (differences only). */
+double vm_cli_clock(void);
+
+/* --verbose: prints "volmesh: STAGE  SECONDS s" on stderr when verbose. */
+void vm_cli_stage_line(int verbose, const char *stage, double seconds);
+
+/* --verbose: prints stage's line with the time since *t, then sets *t to now. */
+void vm_cli_stage_done(int verbose, const char *stage, double *t);
+
+/* Prints the opening of a mesh summary in JSON: {"output": "OUT", (the fields follow). */
+void vm_cli_json_summary_open(const char *out);
+
+/* ---- cli/args.c: flags, numbers, option values, the input volume ---- */
+
+/* 1 when argument a equals one of the given flag spellings (flag2 may be NULL). */
 int vm_cli_is(const char *a, const char *flag1, const char *flag2);
 
 /* 0 when option argv[i] of command cmd has a value after it. Otherwise prints
@@ -32,20 +54,52 @@ int vm_cli_is(const char *a, const char *flag1, const char *flag2);
  * or '.' follows (negative numbers) or when it is "-" alone. */
 int vm_cli_need_value(const char *cmd, int i, int argc, char **argv);
 
-/* Parses a number argument of option opt; on error prints and returns -1. */
+/* Parses a number argument s of option opt into *out: 0, or prints and returns
+ * VM_EXIT_INPUT (not a finite number; not a whole number from lo to hi). */
 int vm_cli_double(const char *opt, const char *s, double *out);
 int vm_cli_int(const char *opt, const char *s, long lo, long hi, long *out);
 
 /* 1 when s ends with tail, ignoring case (".nrrd" matches "A.NRRD"). */
 int vm_cli_ends_with(const char *s, const char *tail);
 
-/* For a stage whose length is not known in advance (writing a file, the final checks): on a
- * terminal and unless quiet, shows "WHAT NAME ..." on stderr until vm_cli_status_clear. */
-void vm_cli_status(const char *what, const char *name, int quiet);
-void vm_cli_status_clear(int quiet);
+/* For a mesh that could not be read from path: when path is an image volume (a volume
+ * extension, or legacy VTK image data), says so and how to mesh it; otherwise prints err.
+ * Returns VM_EXIT_INPUT. */
+int vm_cli_fail_mesh_read(const char *path, const vm_error *err);
 
-/* Progress callback drawing a bar on stderr when it is a terminal (user: quiet flag). */
-void vm_cli_progress(const char *stage, double done, double total, void *user);
+/* The input of a command that reads one volume: the file, and how to read it when raw. */
+typedef struct {
+    const char *cmd;    /* the command, in messages */
+    const char *path;   /* the input file; NULL until given */
+    vm_raw_options raw; /* the --raw-* options (--raw-dims NXxNYxNZ --raw-type T
+                         * --raw-endian big|little --raw-spacing SX,SY,SZ --raw-origin X,Y,Z
+                         * --raw-header N) */
+    int is_raw;         /* 1 once a --raw-* option is given: the file is raw data */
+} vm_cli_input;
+
+/* [out] in: no file yet, raw defaults (uint8, little-endian); cmd names the command. */
+void vm_cli_input_init(vm_cli_input *in, const char *cmd);
+
+/* Takes argv[*i] when it is a --raw-* option (with its value: *i advances) or the input
+ * file: *taken 1. Any other option is left to the command: *taken 0. Returns 0, or prints
+ * and returns VM_EXIT_INPUT (a bad raw value, a second input file). */
+int vm_cli_input_arg(vm_cli_input *in, int argc, char **argv, int *i, int *taken);
+
+/* 0 when an input file was given, else prints "CMD: no input file ..." and returns
+ * VM_EXIT_INPUT. */
+int vm_cli_input_given(const vm_cli_input *in);
+
+/* 0 unless the input is raw without --raw-dims: then prints and returns VM_EXIT_INPUT. */
+int vm_cli_input_check_raw(const vm_cli_input *in);
+
+/* The raw description of the input, or NULL when its file has a header. */
+const vm_raw_options *vm_cli_input_raw(const vm_cli_input *in);
+
+/* Reads the input volume ([out] v, free it with vm_volume_free): 0, or prints and returns
+ * VM_EXIT_INPUT (raw without --raw-dims, a read error). */
+int vm_cli_input_read(const vm_cli_input *in, vm_volume *v);
+
+/* ---- the commands (cli/CMD.c) and what they share ---- */
 
 int vm_cmd_info(int argc, char **argv);
 int vm_cmd_mesh(int argc, char **argv);
@@ -61,14 +115,6 @@ int vm_cmd_quality(int argc, char **argv);
 int vm_cmd_convert(int argc, char **argv);
 int vm_cmd_denoise(int argc, char **argv);
 int vm_cmd_spectrum(int argc, char **argv);
-
-/* Reads a volume: a regular file by extension, or raw with the options already parsed. */
-int vm_cli_read_volume(const char *path, const vm_raw_options *raw, vm_volume *v);
-
-/* Parses the raw-file options (--raw-dims NXxNYxNZ --raw-type T --raw-endian big|little
- * --raw-spacing SX,SY,SZ --raw-header N) at argv[*i]; returns 1 when consumed, 0 when the
- * argument is not a raw option, -1 on error. */
-int vm_cli_raw_option(int argc, char **argv, int *i, vm_raw_options *raw, int *is_raw);
 
 /* Prints the one-line summary (or JSON) of a mesh already checked (checked: its
  * vm_mesh_check report); returns an exit code. */

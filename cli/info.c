@@ -20,65 +20,7 @@ static const char *info_help =
     "  --raw-origin X,Y,Z      world position of the first voxel (default 0,0,0)\n"
     "  --raw-header N          bytes to skip before the data\n";
 
-int vm_cli_raw_option(int argc, char **argv, int *i, vm_raw_options *raw, int *is_raw) {
-    const char *a = argv[*i];
-    if (strncmp(a, "--raw-", 6) != 0) return 0;
-    if (vm_cli_need_value("raw input", *i, argc, argv)) return -1;
-    const char *val = argv[++*i];
-    *is_raw = 1;
-    if (strcmp(a, "--raw-dims") == 0) {
-        long long d[3];
-        char tail;
-        if (sscanf(val, "%lldx%lldx%lld%c", &d[0], &d[1], &d[2], &tail) != 3 || d[0] < 1 ||
-            d[1] < 1 || d[2] < 1) {
-            vm_cli_fail("--raw-dims: '%s' is not NXxNYxNZ with positive sizes", val);
-            return -1;
-        }
-        for (int k = 0; k < 3; k++) raw->dims[k] = d[k];
-    } else if (strcmp(a, "--raw-type") == 0) {
-        if (vm_scalar_type_parse(val, &raw->type) != 0) {
-            vm_cli_fail("--raw-type: unknown type '%s'", val);
-            return -1;
-        }
-    } else if (strcmp(a, "--raw-endian") == 0) {
-        if (strcmp(val, "big") == 0)
-            raw->big_endian = 1;
-        else if (strcmp(val, "little") == 0)
-            raw->big_endian = 0;
-        else {
-            vm_cli_fail("--raw-endian: '%s' is not big or little", val);
-            return -1;
-        }
-    } else if (strcmp(a, "--raw-spacing") == 0 || strcmp(a, "--raw-origin") == 0) {
-        double *dst = strcmp(a, "--raw-spacing") == 0 ? raw->spacing : raw->origin;
-        char tail;
-        if (sscanf(val, "%lf,%lf,%lf%c", &dst[0], &dst[1], &dst[2], &tail) != 3) {
-            vm_cli_fail("%s: '%s' is not X,Y,Z", a, val);
-            return -1;
-        }
-        if (dst == raw->spacing && !(dst[0] > 0 && dst[1] > 0 && dst[2] > 0)) {
-            vm_cli_fail("--raw-spacing: spacings must be positive");
-            return -1;
-        }
-    } else if (strcmp(a, "--raw-header") == 0) {
-        long n;
-        if (vm_cli_int(a, val, 0, 1L << 40, &n)) return -1;
-        raw->header_bytes = (uint64_t)n;
-    } else {
-        vm_cli_fail("unknown raw option %s", a);
-        return -1;
-    }
-    return 1;
-}
-
-int vm_cli_read_volume(const char *path, const vm_raw_options *raw, vm_volume *v) {
-    vm_error err;
-    vm_error_clear(&err);
-    vm_status st = raw ? vm_volume_read_raw(path, raw, v, &err) : vm_volume_read(path, v, &err);
-    if (st) return vm_cli_fail_err(&err);
-    return VM_EXIT_OK;
-}
-
+/* A 16-bin histogram of v's finite values from lo to hi. */
 static void histogram(const vm_volume *v, double lo, double hi, size_t bins[16]) {
     memset(bins, 0, 16 * sizeof bins[0]);
     size_t n = vm_volume_count(v);
@@ -149,12 +91,11 @@ void vm_cli_print_info(FILE *out, const char *path, const vm_volume *v, int json
     }
 }
 
+/* volmesh info: prints what the volume file holds. */
 int vm_cmd_info(int argc, char **argv) {
-    const char *path = NULL;
-    int json = 0, is_raw = 0;
-    vm_raw_options raw;
-    memset(&raw, 0, sizeof raw);
-    raw.type = VM_SCALAR_UINT8;
+    vm_cli_input in;
+    vm_cli_input_init(&in, "info");
+    int json = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (vm_cli_is(a, "--help", "-h")) {
@@ -165,20 +106,15 @@ int vm_cmd_info(int argc, char **argv) {
             json = 1;
             continue;
         }
-        int r = vm_cli_raw_option(argc, argv, &i, &raw, &is_raw);
-        if (r < 0) return VM_EXIT_INPUT;
-        if (r > 0) continue;
-        if (a[0] == '-' && a[1]) return vm_cli_fail("info: unknown option %s", a);
-        if (path) return vm_cli_fail("info: more than one input file ('%s', '%s')", path, a);
-        path = a;
+        int taken, rc = vm_cli_input_arg(&in, argc, argv, &i, &taken);
+        if (rc) return rc;
+        if (!taken) return vm_cli_fail("info: unknown option %s", a);
     }
-    if (!path) return vm_cli_fail("info: no input file (see volmesh info --help)");
-    if (is_raw && raw.dims[0] == 0)
-        return vm_cli_fail("%s: raw input needs --raw-dims NXxNYxNZ", path);
+    int rc = vm_cli_input_given(&in);
     vm_volume v;
-    int rc = vm_cli_read_volume(path, is_raw ? &raw : NULL, &v);
+    if (!rc) rc = vm_cli_input_read(&in, &v);
     if (rc) return rc;
-    vm_cli_print_info(stdout, path, &v, json);
+    vm_cli_print_info(stdout, in.path, &v, json);
     vm_volume_free(&v);
     return VM_EXIT_OK;
 }

@@ -5,21 +5,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include "cli.h"
-
-/* --verbose: one line per stage with its wall time, on stderr. */
-static double stage_clock(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static void stage_done(int verbose, const char *stage, double *t) {
-    double now = stage_clock();
-    if (verbose) fprintf(stderr, "volmesh: %-8s %8.3f s\n", stage, now - *t);
-    *t = now;
-}
 
 static const char *mesh_help =
     "usage: volmesh mesh FILE -o OUT.vtu (--iso V | --range A:B | --labels L) [options]\n"
@@ -121,17 +107,19 @@ static int parse_range(const char *s, vm_mesh_options *o) {
     return 0;
 }
 
+/* The summary of a checked mesh, one line or JSON; exit 1 when elements are inverted. */
 int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
                           const vm_mesh_stats *st, int json, const char *out) {
     const vm_mesh_report r = *checked;
     if (json) {
-        printf("{\"output\": \"%s\", \"elements\": %zu, \"points\": %zu, \"inverted\": %zu, "
+        vm_cli_json_summary_open(out);
+        printf("\"elements\": %zu, \"points\": %zu, \"inverted\": %zu, "
                "\"boundary_faces\": %zu, \"boundary_closed\": %s, \"boundary_euler\": %ld, "
                "\"boundary_self_intersections\": %zu, \"components\": %zu, "
                "\"volume\": %.17g, \"min_dihedral\": %.6f, \"max_dihedral\": %.6f, "
                "\"slivers_5\": %zu, \"slivers_10\": %zu, \"min_scaled_jacobian\": %.6f, "
                "\"repaired_points\": %zu, \"seconds\": %.3f}\n",
-               out, m->ncells, m->npoints, r.inverted, r.boundary_faces,
+               m->ncells, m->npoints, r.inverted, r.boundary_faces,
                r.boundary_closed ? "true" : "false", r.boundary_euler,
                r.boundary_self_intersections, r.components, r.volume, r.min_dihedral,
                r.max_dihedral, r.slivers_5, r.slivers_10, r.min_scaled_jacobian,
@@ -160,6 +148,21 @@ int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
     return VM_EXIT_OK;
 }
 
+/* Sizes for --max-memory (its suffixes are powers of 1024) and for the messages. */
+#define KIB 1024.0
+#define MIB 1048576.0
+#define GIB 1073741824.0
+#define TIB 1099511627776.0
+/* --max-memory's least value: no run fits in less. */
+#define MIN_MAX_MEMORY MIB
+/* Bytes of one sample: volumes are float32 in memory. */
+#define SAMPLE_BYTES 4.0
+/* --slabs auto: the planes of a slab get this share (1/N) of --max-memory; the mesh, the
+ * mesher's grid and the quality pass take the rest. */
+#define SLAB_PLANES_SHARE 4
+/* The most --slabs and --improve-parts accept (far beyond any useful count). */
+enum { MAX_SLABS = 1 << 20, MAX_IMPROVE_PARTS = 1 << 16 };
+
 /* Parses a byte count with an optional K, M, G or T suffix (powers of 1024, "iB"/"B" allowed
  * after it): "4G", "512MiB", "1000000". 0 on success. */
 static int parse_bytes(const char *s, double *bytes) {
@@ -168,10 +171,10 @@ static int parse_bytes(const char *s, double *bytes) {
     if (end == s || !isfinite(v) || v <= 0) return -1;
     double unit = 1;
     switch (*end) {
-    case 'K': case 'k': unit = 1024.0; end++; break;
-    case 'M': case 'm': unit = 1048576.0; end++; break;
-    case 'G': case 'g': unit = 1073741824.0; end++; break;
-    case 'T': case 't': unit = 1099511627776.0; end++; break;
+    case 'K': case 'k': unit = KIB; end++; break;
+    case 'M': case 'm': unit = MIB; end++; break;
+    case 'G': case 'g': unit = GIB; end++; break;
+    case 'T': case 't': unit = TIB; end++; break;
     default: break;
     }
     if (strcmp(end, "iB") == 0 || strcmp(end, "B") == 0) end += strlen(end);
@@ -232,7 +235,7 @@ static int check_memory(const char *in, const vm_volume *v, const vm_mesh_option
     for (size_t i = 0; i < n; i++)
         inside += in_range(o, v->data[i]);
     double s3 = (double)o->cell_size * o->cell_size * o->cell_size;
-    double cells = (double)inside / s3, need = (denoise ? 2.0 : 1.0) * 4.0 * (double)n;
+    double cells = (double)inside / s3, need = (denoise ? 2.0 : 1.0) * SAMPLE_BYTES * (double)n;
     if (o->adaptive && o->elements == VM_TET4) {
         double grid = 1;
         for (int a = 0; a < 3; a++)
@@ -246,8 +249,8 @@ static int check_memory(const char *in, const vm_volume *v, const vm_mesh_option
     }
     if (need <= limit) return 0;
     /* MiB below a GiB, so that small limits do not read "0.00 GiB" */
-    int gib = limit >= 1073741824.0;
-    double unit = gib ? 1073741824.0 : 1048576.0;
+    int gib = limit >= GIB;
+    double unit = gib ? GIB : MIB;
     return vm_cli_fail("%s: meshing needs about %.*f %s (%zu voxels in the material), more "
                        "than --max-memory %.*f %s: try --size %d (about 8x less)%s",
                        in, gib ? 2 : 1, need / unit, gib ? "GiB" : "MiB", inside, gib ? 2 : 1,
@@ -269,432 +272,552 @@ static int fail_reading(const char *in, const vm_error *err) {
                                                       : vm_cli_fail("%s: %s", in, err->message);
 }
 
-/* --slabs N (0: auto) of in (raw: its description or NULL): meshes slab after slab, each
- * read on its own ([out] m, st). Returns 0, an exit code > 0 after printing why, or -1 when
- * the volume goes in one slab (the caller reads it whole, as without --slabs). */
-static int mesh_slabs(const char *in, const vm_raw_options *raw, const vm_mesh_options *o,
-                      int n, double max_memory, int verbose, vm_mesh *m, vm_mesh_stats *st,
-                      double *t) {
-    vm_volume info;
-    vm_volume_reader *r = NULL;
-    vm_error err;
-    vm_error_clear(&err);
-    if (vm_volume_reader_open(in, raw, &info, &r, &err)) return vm_cli_fail_err(&err);
-    if (n == 0 && max_memory > 0 && info.dims[2] >= 2) {
-        /* the planes of a slab within a quarter of the limit: the mesh, the mesher's grid
-         * and the quality pass take the rest */
-        vm_slab_grid g;
-        vm_slab_grid_init(info.dims[2], o, 0, &g);
-        double plane = 4.0 * (double)info.dims[0] * (double)info.dims[1];
-        n = vm_slab_count_within(&g, (int64_t)(max_memory / 4 / plane));
-        if (n == 0) {
-            int64_t least = vm_slab_planes_held(&g, (int)g.blocks);
-            vm_volume_reader_close(r);
-            vm_volume_free(&info);
-            return vm_cli_fail(
-                "%s: --slabs auto: the thinnest slabs hold %lld planes (%.1f MiB), "
-                "more than a quarter of --max-memory (%.1f MiB)",
-                in, (long long)least, (double)least * plane / 1048576.0,
-                max_memory / 4 / 1048576.0);
-        }
-        if (verbose)
-            fprintf(stderr, "volmesh: --slabs auto: %d slab%s of at most %lld planes\n", n,
-                    n == 1 ? "" : "s", (long long)vm_slab_planes_held(&g, n));
-    }
-    if (n <= 1) {
-        vm_volume_reader_close(r);
-        vm_volume_free(&info);
-        return -1;
-    }
-    vm_slab_options so = {n, 0, read_planes, r};
-    vm_status s = vm_mesh_volume_slabs(&info, o, &so, m, st, &err);
-    vm_volume_reader_close(r);
-    vm_volume_free(&info);
-    if (s) return fail_reading(in, &err);
-    stage_done(verbose, "mesh", t);
+/* ---- the command line ------------------------------------------------------------------ */
+
+/* What `volmesh mesh` takes from its command line. */
+typedef struct {
+    vm_cli_input in;
+    const char *out, *surface, *report, *denoise, *labels_arg;
+    int json, quiet, verbose, invert, compress, quality_fields, improve, improve_parts;
+    int have_iso, have_range, have_labels, have_method, have_error, have_slabs, slabs;
+    int surface_elements;       /* --elements tri|quad: VM_TRI3 or VM_QUAD4, else 0 */
+    double max_memory;          /* --max-memory in bytes; 0: no limit */
+    vm_mesh_options o;          /* the material, the elements, the cells */
+    vm_surface_options so;      /* --elements tri|quad */
+    vm_label_options lo;        /* --labels */
+    vm_mesh_write_options wo;   /* -o */
+    vm_label_size *label_sizes; /* --size-per-label (owned) */
+    int32_t *labels;            /* --labels' list (owned; NULL for all) */
+} mesh_args;
+
+/* The options that take a value (checked to have one before they are read). */
+static const char *const mesh_valued[] = {
+    "-o",         "--output",       "--iso",        "--range",          "--size",
+    "--surface",  "--max-level",    "--elements",   "--denoise",        "--report",
+    "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
+    "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts"};
+
+/* 1 when option a takes a value. */
+static int mesh_takes_value(const char *a) {
+    for (size_t k = 0; k < sizeof mesh_valued / sizeof mesh_valued[0]; k++)
+        if (strcmp(a, mesh_valued[k]) == 0) return 1;
     return 0;
 }
 
-int vm_cmd_mesh(int argc, char **argv) {
-    const char *in = NULL, *out = NULL, *surface = NULL;
-    int json = 0, quiet = 0, invert = 0, have_iso = 0, have_range = 0, is_raw = 0, compress = 1;
-    int improve = 1, improve_parts = 0, quality_fields = 0, verbose = 0, have_labels = 0;
-    int surface_elements = 0, have_method = 0, have_error = 0, slabs = 1, have_slabs = 0;
-    vm_surface_options so;
-    vm_surface_options_default(&so);
-    const char *labels_arg = NULL;
-    vm_label_size *label_sizes = NULL;
-    vm_label_options lo;
-    vm_label_options_default(&lo);
-    vm_mesh_write_options wo;
-    vm_mesh_write_options_init(&wo);
-    wo.progress = vm_cli_progress;
-    wo.progress_user = &quiet;
-    const char *denoise = NULL, *report = NULL;
-    double max_memory = 0;
-    vm_mesh_options o;
-    vm_mesh_options_default(&o);
-    vm_raw_options raw;
-    memset(&raw, 0, sizeof raw);
-    raw.type = VM_SCALAR_UINT8;
+/* The defaults: tets of f >= V, improved, written compressed. */
+static void mesh_args_init(mesh_args *m) {
+    memset(m, 0, sizeof *m);
+    vm_cli_input_init(&m->in, "mesh");
+    m->compress = 1;
+    m->improve = 1;
+    m->slabs = 1;
+    vm_surface_options_default(&m->so);
+    vm_label_options_default(&m->lo);
+    vm_mesh_write_options_init(&m->wo);
+    m->wo.progress = vm_cli_progress;
+    m->wo.progress_user = &m->quiet;
+    vm_mesh_options_default(&m->o);
+}
+
+/* --elements tet|hex|tri|quad. */
+static int parse_elements(mesh_args *m, const char *e) {
+    if (strcmp(e, "tet") == 0)
+        m->o.elements = VM_TET4;
+    else if (strcmp(e, "hex") == 0)
+        m->o.elements = VM_HEX8;
+    else if (strcmp(e, "tri") == 0)
+        m->surface_elements = VM_TRI3;
+    else if (strcmp(e, "quad") == 0)
+        m->surface_elements = VM_QUAD4;
+    else
+        return vm_cli_fail("--elements: '%s' is not tet, hex, tri or quad", e);
+    return VM_EXIT_OK;
+}
+
+/* What is meshed and with what: --iso, --range, --invert, --size, --elements, --method,
+ * --error, --adaptive, --max-level (*taken 0 for any other argv[*i]). */
+static int shape_option(mesh_args *m, char **argv, int *i, int *taken) {
+    const char *a = argv[*i];
+    *taken = 1;
+    if (vm_cli_is(a, "--iso", NULL)) {
+        if (vm_cli_double(a, argv[++*i], &m->o.lo)) return VM_EXIT_INPUT;
+        m->have_iso = 1;
+    } else if (vm_cli_is(a, "--range", NULL)) {
+        int rc = parse_range(argv[++*i], &m->o);
+        if (rc) return rc;
+        m->have_range = 1;
+    } else if (vm_cli_is(a, "--invert", NULL)) {
+        m->invert = 1;
+    } else if (vm_cli_is(a, "--size", NULL)) {
+        long s = 0;
+        if (vm_cli_int(a, argv[++*i], 1, 1024, &s)) return VM_EXIT_INPUT;
+        m->o.cell_size = (int)s;
+    } else if (vm_cli_is(a, "--elements", NULL)) {
+        return parse_elements(m, argv[++*i]);
+    } else if (vm_cli_is(a, "--method", NULL)) {
+        if (vm_surface_method_parse(argv[++*i], &m->so.method))
+            return vm_cli_fail("--method: '%s' is not dc, mc, asc or cover", argv[*i]);
+        m->have_method = 1;
+    } else if (vm_cli_is(a, "--error", NULL)) {
+        if (vm_cli_double(a, argv[++*i], &m->so.error)) return VM_EXIT_INPUT;
+        m->o.error = m->so.error; /* checked later, once the kind of output is known */
+        m->have_error = 1;
+    } else if (vm_cli_is(a, "--adaptive", NULL)) {
+        m->o.adaptive = 1;
+    } else if (vm_cli_is(a, "--max-level", NULL)) {
+        long l = 0;
+        if (vm_cli_int(a, argv[++*i], 1, 10, &l)) return VM_EXIT_INPUT;
+        m->o.max_level = (int)l;
+        m->so.max_level = (int)l;
+    } else {
+        *taken = 0;
+    }
+    return VM_EXIT_OK;
+}
+
+/* The label volume's options: --labels, --min-island, --size-per-label, --no-smooth. */
+static int labels_option(mesh_args *m, char **argv, int *i, int *taken) {
+    const char *a = argv[*i];
+    *taken = 1;
+    if (vm_cli_is(a, "--labels", NULL)) {
+        m->labels_arg = argv[++*i];
+        m->have_labels = 1;
+    } else if (vm_cli_is(a, "--min-island", NULL)) {
+        long n = 0;
+        if (vm_cli_int(a, argv[++*i], 1, 2147483647L, &n)) return VM_EXIT_INPUT;
+        m->lo.min_island = (size_t)n;
+    } else if (vm_cli_is(a, "--size-per-label", NULL)) {
+        free(m->label_sizes);
+        if (vm_cli_parse_label_sizes(argv[++*i], &m->label_sizes, &m->lo.nsizes))
+            return VM_EXIT_INPUT;
+        m->lo.sizes = m->label_sizes;
+    } else if (vm_cli_is(a, "--no-smooth", NULL)) {
+        m->lo.smooth = 0;
+    } else {
+        *taken = 0;
+    }
+    return VM_EXIT_OK;
+}
+
+/* --max-memory SIZE: a byte count of at least 1 MiB. */
+static int parse_max_memory(mesh_args *m, const char *s) {
+    if (parse_bytes(s, &m->max_memory) || m->max_memory < MIN_MAX_MEMORY)
+        return vm_cli_fail("--max-memory: '%s' is not a size of at least 1M (e.g. 4G)", s);
+    return VM_EXIT_OK;
+}
+
+/* --slabs or --improve-parts: "auto" (0) or a count from 1 to most. */
+static int parse_count_or_auto(const char *a, const char *s, long most, int *count) {
+    long n = 0; /* 0: auto */
+    if (strcmp(s, "auto") != 0 && vm_cli_int(a, s, 1, most, &n)) return VM_EXIT_INPUT;
+    *count = (int)n;
+    return VM_EXIT_OK;
+}
+
+/* The stages run: --denoise, --max-memory, --slabs, --no-improve, --improve-parts. */
+static int stages_option(mesh_args *m, char **argv, int *i, int *taken) {
+    const char *a = argv[*i];
+    *taken = 1;
+    if (vm_cli_is(a, "--denoise", NULL)) {
+        m->denoise = argv[++*i];
+        if (strcmp(m->denoise, "bilateral") != 0 && strcmp(m->denoise, "diffusion") != 0)
+            return vm_cli_fail("--denoise: '%s' is not bilateral or diffusion", m->denoise);
+    } else if (vm_cli_is(a, "--max-memory", NULL)) {
+        return parse_max_memory(m, argv[++*i]);
+    } else if (vm_cli_is(a, "--slabs", NULL)) {
+        m->have_slabs = 1;
+        return parse_count_or_auto(a, argv[++*i], MAX_SLABS, &m->slabs);
+    } else if (vm_cli_is(a, "--no-improve", NULL)) {
+        m->improve = 0;
+    } else if (vm_cli_is(a, "--improve-parts", NULL)) {
+        return parse_count_or_auto(a, argv[++*i], MAX_IMPROVE_PARTS, &m->improve_parts);
+    } else {
+        *taken = 0;
+    }
+    return VM_EXIT_OK;
+}
+
+/* What is written and printed: -o, --surface, --report, --deck, --order, --no-compress,
+ * --quality-fields, --json, --quiet, --verbose. */
+static int output_option(mesh_args *m, char **argv, int *i, int *taken) {
+    const char *a = argv[*i];
+    *taken = 1;
+    if (vm_cli_is(a, "-o", "--output")) {
+        m->out = argv[++*i];
+    } else if (vm_cli_is(a, "--surface", NULL)) {
+        m->surface = argv[++*i];
+    } else if (vm_cli_is(a, "--report", NULL)) {
+        m->report = argv[++*i];
+    } else if (vm_cli_is(a, "--deck", NULL)) {
+        if (strcmp(argv[++*i], "static") != 0)
+            return vm_cli_fail("--deck: '%s' is not static", argv[*i]);
+        m->wo.deck = VM_DECK_STATIC;
+    } else if (vm_cli_is(a, "--order", NULL)) {
+        long ord = 0;
+        if (vm_cli_int(a, argv[++*i], 1, 2, &ord)) return VM_EXIT_INPUT;
+        m->wo.order = (int)ord;
+    } else if (vm_cli_is(a, "--no-compress", NULL)) {
+        m->compress = 0;
+    } else if (vm_cli_is(a, "--quality-fields", NULL)) {
+        m->quality_fields = 1;
+    } else if (vm_cli_is(a, "--json", NULL)) {
+        m->json = 1;
+    } else if (vm_cli_is(a, "--quiet", "-q")) {
+        m->quiet = 1;
+    } else if (vm_cli_is(a, "--verbose", "-v")) {
+        m->verbose = 1;
+    } else {
+        *taken = 0;
+    }
+    return VM_EXIT_OK;
+}
+
+/* Reads the command line into m; *help 1 when --help was printed. */
+static int mesh_parse(mesh_args *m, int argc, char **argv, int *help) {
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (vm_cli_is(a, "--help", "-h")) {
             fputs(mesh_help, stdout);
             fputs(mesh_help2, stdout);
+            *help = 1;
             return VM_EXIT_OK;
         }
-        int needs = vm_cli_is(a, "-o", "--output") || vm_cli_is(a, "--iso", NULL) ||
-                    vm_cli_is(a, "--range", NULL) || vm_cli_is(a, "--size", NULL) ||
-                    vm_cli_is(a, "--surface", NULL) || vm_cli_is(a, "--max-level", NULL) ||
-                    vm_cli_is(a, "--elements", NULL) || vm_cli_is(a, "--denoise", NULL) ||
-                    vm_cli_is(a, "--report", NULL) || vm_cli_is(a, "--deck", NULL) ||
-                    vm_cli_is(a, "--order", NULL) || vm_cli_is(a, "--labels", NULL) ||
-                    vm_cli_is(a, "--min-island", NULL) || vm_cli_is(a, "--max-memory", NULL) ||
-                    vm_cli_is(a, "--size-per-label", NULL) || vm_cli_is(a, "--method", NULL) ||
-                    vm_cli_is(a, "--error", NULL) || vm_cli_is(a, "--slabs", NULL) ||
-                    vm_cli_is(a, "--improve-parts", NULL);
-        if (needs && vm_cli_need_value("mesh", i, argc, argv)) return VM_EXIT_INPUT;
-        if (vm_cli_is(a, "-o", "--output")) {
-            out = argv[++i];
-        } else if (vm_cli_is(a, "--surface", NULL)) {
-            surface = argv[++i];
-        } else if (vm_cli_is(a, "--iso", NULL)) {
-            if (vm_cli_double(a, argv[++i], &o.lo)) return VM_EXIT_INPUT;
-            have_iso = 1;
-        } else if (vm_cli_is(a, "--range", NULL)) {
-            int rc = parse_range(argv[++i], &o);
-            if (rc) return rc;
-            have_range = 1;
-        } else if (vm_cli_is(a, "--size", NULL)) {
-            long s;
-            if (vm_cli_int(a, argv[++i], 1, 1024, &s)) return VM_EXIT_INPUT;
-            o.cell_size = (int)s;
-        } else if (vm_cli_is(a, "--elements", NULL)) {
-            const char *e = argv[++i];
-            if (strcmp(e, "tet") == 0)
-                o.elements = VM_TET4;
-            else if (strcmp(e, "hex") == 0)
-                o.elements = VM_HEX8;
-            else if (strcmp(e, "tri") == 0)
-                surface_elements = VM_TRI3;
-            else if (strcmp(e, "quad") == 0)
-                surface_elements = VM_QUAD4;
-            else
-                return vm_cli_fail("--elements: '%s' is not tet, hex, tri or quad", e);
-        } else if (vm_cli_is(a, "--method", NULL)) {
-            if (vm_surface_method_parse(argv[++i], &so.method))
-                return vm_cli_fail("--method: '%s' is not dc, mc, asc or cover", argv[i]);
-            have_method = 1;
-        } else if (vm_cli_is(a, "--error", NULL)) {
-            if (vm_cli_double(a, argv[++i], &so.error)) return VM_EXIT_INPUT;
-            o.error = so.error; /* checked below, once the kind of output is known */
-            have_error = 1;
-        } else if (vm_cli_is(a, "--labels", NULL)) {
-            labels_arg = argv[++i];
-            have_labels = 1;
-        } else if (vm_cli_is(a, "--min-island", NULL)) {
-            long n;
-            if (vm_cli_int(a, argv[++i], 1, 2147483647L, &n)) return VM_EXIT_INPUT;
-            lo.min_island = (size_t)n;
-        } else if (vm_cli_is(a, "--size-per-label", NULL)) {
-            free(label_sizes);
-            if (vm_cli_parse_label_sizes(argv[++i], &label_sizes, &lo.nsizes))
-                return VM_EXIT_INPUT;
-            lo.sizes = label_sizes;
-        } else if (vm_cli_is(a, "--no-smooth", NULL)) {
-            lo.smooth = 0;
-        } else if (vm_cli_is(a, "--adaptive", NULL)) {
-            o.adaptive = 1;
-        } else if (vm_cli_is(a, "--max-level", NULL)) {
-            long l;
-            if (vm_cli_int(a, argv[++i], 1, 10, &l)) return VM_EXIT_INPUT;
-            o.max_level = (int)l;
-            so.max_level = (int)l;
-        } else if (vm_cli_is(a, "--denoise", NULL)) {
-            denoise = argv[++i];
-            if (strcmp(denoise, "bilateral") != 0 && strcmp(denoise, "diffusion") != 0)
-                return vm_cli_fail("--denoise: '%s' is not bilateral or diffusion", denoise);
-        } else if (vm_cli_is(a, "--report", NULL)) {
-            report = argv[++i];
-        } else if (vm_cli_is(a, "--deck", NULL)) {
-            if (strcmp(argv[++i], "static") != 0)
-                return vm_cli_fail("--deck: '%s' is not static", argv[i]);
-            wo.deck = VM_DECK_STATIC;
-        } else if (vm_cli_is(a, "--order", NULL)) {
-            long ord;
-            if (vm_cli_int(a, argv[++i], 1, 2, &ord)) return VM_EXIT_INPUT;
-            wo.order = (int)ord;
-        } else if (vm_cli_is(a, "--max-memory", NULL)) {
-            if (parse_bytes(argv[++i], &max_memory) || max_memory < 1048576.0)
-                return vm_cli_fail("--max-memory: '%s' is not a size of at least 1M (e.g. 4G)",
-                                   argv[i]);
-        } else if (vm_cli_is(a, "--slabs", NULL)) {
-            long n = 0; /* 0: auto */
-            if (strcmp(argv[++i], "auto") != 0 && vm_cli_int(a, argv[i], 1, 1 << 20, &n))
-                return VM_EXIT_INPUT;
-            slabs = (int)n;
-            have_slabs = 1;
-        } else if (vm_cli_is(a, "--verbose", "-v")) {
-            verbose = 1;
-        } else if (vm_cli_is(a, "--no-improve", NULL)) {
-            improve = 0;
-        } else if (vm_cli_is(a, "--improve-parts", NULL)) {
-            long n = 0; /* 0: auto */
-            if (strcmp(argv[++i], "auto") != 0 && vm_cli_int(a, argv[i], 1, 1 << 16, &n))
-                return VM_EXIT_INPUT;
-            improve_parts = (int)n;
-        } else if (vm_cli_is(a, "--quality-fields", NULL)) {
-            quality_fields = 1;
-        } else if (vm_cli_is(a, "--invert", NULL)) {
-            invert = 1;
-        } else if (vm_cli_is(a, "--json", NULL)) {
-            json = 1;
-        } else if (vm_cli_is(a, "--quiet", "-q")) {
-            quiet = 1;
-        } else if (vm_cli_is(a, "--no-compress", NULL)) {
-            compress = 0;
-        } else {
-            int r = vm_cli_raw_option(argc, argv, &i, &raw, &is_raw);
-            if (r < 0) return VM_EXIT_INPUT;
-            if (r > 0) continue;
-            if (a[0] == '-' && a[1]) return vm_cli_fail("mesh: unknown option %s", a);
-            if (in) return vm_cli_fail("mesh: more than one input file ('%s', '%s')", in, a);
-            in = a;
-        }
+        if (mesh_takes_value(a) && vm_cli_need_value("mesh", i, argc, argv))
+            return VM_EXIT_INPUT;
+        int taken = 0, rc = shape_option(m, argv, &i, &taken);
+        if (!rc && !taken) rc = labels_option(m, argv, &i, &taken);
+        if (!rc && !taken) rc = stages_option(m, argv, &i, &taken);
+        if (!rc && !taken) rc = output_option(m, argv, &i, &taken);
+        if (!rc && !taken) rc = vm_cli_input_arg(&m->in, argc, argv, &i, &taken);
+        if (rc) return rc;
+        if (!taken) return vm_cli_fail("mesh: unknown option %s", a);
     }
-    if (!in) return vm_cli_fail("mesh: no input file (see volmesh mesh --help)");
-    if (!out) return vm_cli_fail("mesh: no output file (-o OUT.vtu)");
-    if (have_iso + have_range + have_labels != 1)
-        return vm_cli_fail("mesh: give exactly one of --iso V, --range A:B or --labels L");
-    if (have_labels && denoise) {
-        free(label_sizes);
+    return VM_EXIT_OK;
+}
+
+/* Options given together that do not go together (the first such pair found). */
+static int option_conflicts(const mesh_args *m) {
+    const vm_mesh_options *o = &m->o;
+    if (m->have_labels && m->denoise)
         return vm_cli_fail("mesh: --denoise does not go with --labels");
+    if (!m->have_labels && (m->lo.min_island != 1 || !m->lo.smooth || m->lo.nsizes))
+        return vm_cli_fail(
+            "mesh: --min-island, --no-smooth and --size-per-label go with --labels");
+    if (m->invert && !m->have_iso) return vm_cli_fail("mesh: --invert goes with --iso");
+    if (!m->surface_elements && m->have_method)
+        return vm_cli_fail("mesh: --method goes with --elements tri or quad");
+    if (m->have_error && !m->surface_elements && !o->adaptive)
+        return vm_cli_fail("mesh: --error goes with --adaptive or --elements tri|quad");
+    if (m->have_error && m->surface_elements && !(m->so.error > 0))
+        return vm_cli_fail("--error: %g must be > 0 (voxels)", m->so.error);
+    if (m->have_error && !m->surface_elements && !(o->error >= 0))
+        return vm_cli_fail("--error: %g must be >= 0 (voxels)", o->error);
+    if (m->surface_elements && (m->have_labels || o->adaptive || m->surface || m->report ||
+                                m->wo.deck || m->wo.order != 1))
+        return vm_cli_fail("mesh: --elements %s writes a surface: no --labels, --adaptive, "
+                           "--surface, --report, --deck or --order",
+                           m->surface_elements == VM_QUAD4 ? "quad" : "tri");
+    if (m->have_slabs &&
+        (m->have_labels || m->denoise || m->surface_elements || o->elements != VM_TET4))
+        return vm_cli_fail("mesh: --slabs meshes tetrahedra: not with --labels, --denoise or "
+                           "--elements hex|tri|quad");
+    return VM_EXIT_OK;
+}
+
+/* The options that must be there or go together; --invert turns --iso V into f <= V. */
+static int mesh_check(mesh_args *m) {
+    int rc = vm_cli_input_given(&m->in);
+    if (rc) return rc;
+    if (!m->out) return vm_cli_fail("mesh: no output file (-o OUT.vtu)");
+    if (m->have_iso + m->have_range + m->have_labels != 1)
+        return vm_cli_fail("mesh: give exactly one of --iso V, --range A:B or --labels L");
+    rc = option_conflicts(m);
+    if (rc) return rc;
+    if (m->have_iso && m->invert) {
+        m->o.has_lo = 0;
+        m->o.has_hi = 1;
+        m->o.hi = m->o.lo;
     }
-    if (!have_labels && (lo.min_island != 1 || !lo.smooth || lo.nsizes)) {
-        free(label_sizes);
-        return vm_cli_fail("mesh: --min-island, --no-smooth and --size-per-label go with --labels");
-    }
-    char problem[200] = "";
-    if (invert && !have_iso)
-        snprintf(problem, sizeof problem, "mesh: --invert goes with --iso");
-    else if (!surface_elements && have_method)
-        snprintf(problem, sizeof problem, "mesh: --method goes with --elements tri or quad");
-    else if (have_error && !surface_elements && !o.adaptive)
-        snprintf(problem, sizeof problem,
-                 "mesh: --error goes with --adaptive or --elements tri|quad");
-    else if (have_error && surface_elements && !(so.error > 0))
-        snprintf(problem, sizeof problem, "--error: %g must be > 0 (voxels)", so.error);
-    else if (have_error && !surface_elements && !(o.error >= 0))
-        snprintf(problem, sizeof problem, "--error: %g must be >= 0 (voxels)", o.error);
-    else if (surface_elements && (have_labels || o.adaptive || surface || report || wo.deck ||
-                                  wo.order != 1))
-        snprintf(problem, sizeof problem,
-                 "mesh: --elements %s writes a surface: no --labels, --adaptive, --surface, "
-                 "--report, --deck or --order",
-                 surface_elements == VM_QUAD4 ? "quad" : "tri");
-    else if (have_slabs &&
-             (have_labels || denoise || surface_elements || o.elements != VM_TET4))
-        snprintf(problem, sizeof problem,
-                 "mesh: --slabs meshes tetrahedra: not with --labels, --denoise or --elements "
-                 "hex|tri|quad");
-    if (problem[0]) {
-        free(label_sizes);
-        return vm_cli_fail("%s", problem);
-    }
-    if (have_iso && invert) {
-        o.has_lo = 0;
-        o.has_hi = 1;
-        o.hi = o.lo;
-    }
-    if (is_raw && raw.dims[0] == 0) return vm_cli_fail("%s: raw input needs --raw-dims NXxNYxNZ", in);
-    if (max_memory > 0) {
+    return vm_cli_input_check_raw(&m->in);
+}
+
+/* Hands the options to the stages: the memory limit, the labels' list, the progress bars. */
+static int mesh_prepare(mesh_args *m) {
+    if (m->max_memory > 0) {
         /* Every large allocation (the volume while reading, the mesher's arrays) checks this
          * limit too, so a run the estimate lets through still stops cleanly. */
         char lim[32];
-        snprintf(lim, sizeof lim, "%.0f", max_memory);
+        snprintf(lim, sizeof lim, "%.0f", m->max_memory);
         setenv("VOLMESH_MAX_MEMORY", lim, 1);
     }
-    int32_t *labels = NULL;
-    if (have_labels) {
-        int lrc = vm_cli_parse_labels(labels_arg, &labels, &lo.nlabels);
-        if (lrc) return lrc;
-        lo.labels = labels;
-        lo.elements = o.elements;
-        lo.cell_size = o.cell_size;
-        lo.adaptive = o.adaptive;
-        lo.max_level = o.max_level;
+    if (m->have_labels) {
+        int rc = vm_cli_parse_labels(m->labels_arg, &m->labels, &m->lo.nlabels);
+        if (rc) return rc;
+        m->lo.labels = m->labels;
+        m->lo.elements = m->o.elements;
+        m->lo.cell_size = m->o.cell_size;
+        m->lo.adaptive = m->o.adaptive;
+        m->lo.max_level = m->o.max_level;
+        m->lo.progress = vm_cli_progress;
+        m->lo.progress_user = &m->quiet;
     }
-    vm_volume v;
-    memset(&v, 0, sizeof v);
+    m->o.progress = vm_cli_progress;
+    m->o.progress_user = &m->quiet;
+    m->wo.compress = m->compress;
+    return VM_EXIT_OK;
+}
+
+/* ---- the stages ------------------------------------------------------------------------ */
+
+/* Copies the material's bounds from the mesher's options o to another stage's options
+ * (the quality passes', the surface's), which name them alike. */
+#define COPY_BOUNDS(dst, o)                                                                 \
+    ((dst).lo = (o).lo, (dst).hi = (o).hi, (dst).has_lo = (o).has_lo, (dst).has_hi = (o).has_hi)
+
+/* The state of one run between its stages. */
+typedef struct {
+    vm_volume v;              /* the input (--slabs with the quality pass: its header only) */
+    vm_volume_reader *planes; /* --slabs: the quality pass reads its planes from it */
     vm_mesh m;
     vm_mesh_stats st;
+    vm_improve_report ir;     /* the tets' quality pass, when improved */
+    vm_hex_improve_report hr; /* the hexes', when hex_improved */
+    int improved, hex_improved;
+    double t; /* --verbose: when the last stage ended */
+} mesh_job;
+
+/* --slabs auto: the fewest slabs whose planes fit in their share of --max-memory.
+ * [out] *n: the count. */
+static int auto_slabs(const mesh_args *m, const vm_volume *info, int *n) {
+    vm_slab_grid g;
+    vm_slab_grid_init(info->dims[2], &m->o, 0, &g);
+    double plane = SAMPLE_BYTES * (double)info->dims[0] * (double)info->dims[1];
+    *n = vm_slab_count_within(&g, (int64_t)(m->max_memory / SLAB_PLANES_SHARE / plane));
+    if (*n == 0) {
+        int64_t least = vm_slab_planes_held(&g, (int)g.blocks);
+        return vm_cli_fail("%s: --slabs auto: the thinnest slabs hold %lld planes (%.1f MiB), "
+                           "more than a quarter of --max-memory (%.1f MiB)",
+                           m->in.path, (long long)least, (double)least * plane / MIB,
+                           m->max_memory / SLAB_PLANES_SHARE / MIB);
+    }
+    if (m->verbose)
+        fprintf(stderr, "volmesh: --slabs auto: %d slab%s of at most %lld planes\n", *n,
+                *n == 1 ? "" : "s", (long long)vm_slab_planes_held(&g, *n));
+    return VM_EXIT_OK;
+}
+
+/* --slabs: meshes slab after slab, each read on its own ([out] j->m, j->st), and opens the
+ * reader the quality pass takes its planes from; *whole 1 when the volume goes in one slab
+ * (then it is read whole, as without --slabs). */
+static int mesh_slabs(const mesh_args *m, mesh_job *j, int *whole) {
+    const char *in = m->in.path;
+    const vm_raw_options *raw = vm_cli_input_raw(&m->in);
+    vm_volume info;
+    vm_volume_reader *r = NULL;
     vm_error err;
     vm_error_clear(&err);
-    vm_status s = VM_OK;
-    o.progress = vm_cli_progress;
-    o.progress_user = &quiet;
-    double t = stage_clock();
-    int rc = -1;
-    vm_volume_reader *planes = NULL; /* --slabs: the quality pass reads its planes from it */
-    if (have_slabs) {
-        rc = mesh_slabs(in, is_raw ? &raw : NULL, &o, slabs, max_memory, verbose, &m, &st, &t);
-        if (rc > 0) return rc;
-        /* the quality pass projects onto the isosurface: by parts, each part reads the
-         * planes it reaches (v: the header only) */
-        if (rc == 0 && improve &&
-            vm_volume_reader_open(in, is_raw ? &raw : NULL, &v, &planes, &err) != VM_OK) {
-            vm_mesh_free(&m);
-            return vm_cli_fail_err(&err);
-        }
+    if (vm_volume_reader_open(in, raw, &info, &r, &err)) return vm_cli_fail_err(&err);
+    int n = m->slabs, rc = VM_EXIT_OK;
+    if (n == 0 && m->max_memory > 0 && info.dims[2] >= 2) rc = auto_slabs(m, &info, &n);
+    *whole = !rc && n <= 1;
+    if (rc || *whole) {
+        vm_volume_reader_close(r);
+        vm_volume_free(&info);
+        return rc;
     }
-    if (rc < 0) { /* one slab: the whole volume, as without --slabs */
-        rc = vm_cli_read_volume(in, is_raw ? &raw : NULL, &v);
+    vm_slab_options so = {n, 0, read_planes, r};
+    vm_status s = vm_mesh_volume_slabs(&info, &m->o, &so, &j->m, &j->st, &err);
+    vm_volume_reader_close(r);
+    vm_volume_free(&info);
+    if (s) return fail_reading(in, &err);
+    vm_cli_stage_done(m->verbose, "mesh", &j->t);
+    /* the quality pass projects onto the isosurface: by parts, each part reads the planes
+     * it reaches (v: the header only) */
+    if (m->improve && vm_volume_reader_open(in, raw, &j->v, &j->planes, &err) != VM_OK) {
+        vm_mesh_free(&j->m);
+        return vm_cli_fail_err(&err);
+    }
+    return VM_EXIT_OK;
+}
+
+/* --max-memory's estimate, then --denoise: the volume as the mesher sees it (j->v is freed
+ * on failure). */
+static int prepare_volume(mesh_args *m, mesh_job *j) {
+    if (m->max_memory > 0) {
+        int rc = check_memory(m->in.path, &j->v, &m->o, m->denoise != NULL, m->max_memory);
         if (rc) {
-            free(labels);
+            vm_volume_free(&j->v);
             return rc;
-        }
-        stage_done(verbose, "read", &t);
-        if (have_labels) {
-            lo.progress = vm_cli_progress;
-            lo.progress_user = &quiet;
-            wo.compress = compress;
-            rc = vm_cli_mesh_labels(&v, in, out, surface, &lo, &wo, json, quality_fields,
-                                    report, improve, verbose);
-            free(labels);
-            free(label_sizes);
-            vm_volume_free(&v);
-            return rc;
-        }
-        if (max_memory > 0 &&
-            (rc = check_memory(in, &v, &o, denoise != NULL, max_memory)) != 0) {
-            vm_volume_free(&v);
-            return rc;
-        }
-        if (denoise) {
-            vm_volume den;
-            s = strcmp(denoise, "diffusion") == 0
-                    ? vm_denoise_diffusion(&v, 0, 0, 0, &den, vm_cli_progress, &quiet, &err)
-                    : vm_denoise_bilateral(&v, 0, 0, &den, vm_cli_progress, &quiet, &err);
-            if (s) {
-                vm_volume_free(&v);
-                return vm_cli_fail("%s: %s", in, err.message);
-            }
-            vm_volume_free(&v);
-            v = den;
-            stage_done(verbose, "denoise", &t);
-        }
-        if (surface_elements) {
-            so.lo = o.lo;
-            so.hi = o.hi;
-            so.has_lo = o.has_lo;
-            so.has_hi = o.has_hi;
-            so.elements = (vm_cell_kind)surface_elements;
-            so.cell_size = o.cell_size;
-            so.improve = improve;
-            so.progress = vm_cli_progress;
-            so.progress_user = &quiet;
-            wo.compress = compress;
-            rc = vm_cli_mesh_surface(&v, in, out, &so, &wo, json, quality_fields);
-            vm_volume_free(&v);
-            if (!rc) stage_done(verbose, "surface", &t);
-            return rc;
-        }
-        s = vm_mesh_volume(&v, &o, &m, &st, &err);
-        if (!s) stage_done(verbose, "mesh", &t);
-        if (s) {
-            vm_volume_free(&v);
-            /* name the input, the library names the stage */
-            return vm_cli_fail("%s: %s", in, err.message);
         }
     }
-    vm_improve_report ir;
-    int improved = 0;
-    if (improve && m.kind == VM_TET4) {
+    if (!m->denoise) return VM_EXIT_OK;
+    vm_volume den;
+    vm_error err;
+    vm_error_clear(&err);
+    vm_status s;
+    if (strcmp(m->denoise, "diffusion") == 0)
+        s = vm_denoise_diffusion(&j->v, 0, 0, 0, &den, vm_cli_progress, &m->quiet, &err);
+    else
+        s = vm_denoise_bilateral(&j->v, 0, 0, &den, vm_cli_progress, &m->quiet, &err);
+    vm_volume_free(&j->v);
+    if (s) return vm_cli_fail("%s: %s", m->in.path, err.message);
+    j->v = den;
+    vm_cli_stage_done(m->verbose, "denoise", &j->t);
+    return VM_EXIT_OK;
+}
+
+/* --elements tri|quad: the surface of the material, written and summed up (frees j->v). */
+static int mesh_surface_only(mesh_args *m, mesh_job *j) {
+    vm_surface_options *so = &m->so;
+    COPY_BOUNDS(*so, m->o);
+    so->elements = (vm_cell_kind)m->surface_elements;
+    so->cell_size = m->o.cell_size;
+    so->improve = m->improve;
+    so->progress = vm_cli_progress;
+    so->progress_user = &m->quiet;
+    int rc = vm_cli_mesh_surface(&j->v, m->in.path, m->out, so, &m->wo, m->json,
+                                 m->quality_fields);
+    vm_volume_free(&j->v);
+    if (!rc) vm_cli_stage_done(m->verbose, "surface", &j->t);
+    return rc;
+}
+
+/* The volume read whole: labels and surfaces go their own way to the end (*done 1); tets and
+ * hexes are meshed here ([out] j->m, j->st). */
+static int mesh_whole(mesh_args *m, mesh_job *j, int *done) {
+    int rc = vm_cli_input_read(&m->in, &j->v);
+    if (rc) return rc;
+    vm_cli_stage_done(m->verbose, "read", &j->t);
+    *done = m->have_labels || m->surface_elements;
+    if (m->have_labels) {
+        rc = vm_cli_mesh_labels(&j->v, m->in.path, m->out, m->surface, &m->lo, &m->wo, m->json,
+                                m->quality_fields, m->report, m->improve, m->verbose);
+        vm_volume_free(&j->v);
+        return rc;
+    }
+    rc = prepare_volume(m, j);
+    if (rc) return rc;
+    if (m->surface_elements) return mesh_surface_only(m, j);
+    vm_error err;
+    vm_error_clear(&err);
+    if (vm_mesh_volume(&j->v, &m->o, &j->m, &j->st, &err)) {
+        vm_volume_free(&j->v);
+        /* name the input, the library names the stage */
+        return vm_cli_fail("%s: %s", m->in.path, err.message);
+    }
+    vm_cli_stage_done(m->verbose, "mesh", &j->t);
+    return VM_EXIT_OK;
+}
+
+/* The quality pass of tets (by parts over --slabs' planes) or of hexes; closes the reader. */
+static int improve_mesh(mesh_args *m, mesh_job *j) {
+    vm_error err;
+    vm_error_clear(&err);
+    if (m->improve && j->m.kind == VM_TET4) {
         vm_improve_options io;
         vm_improve_options_default(&io);
-        io.lo = o.lo;
-        io.hi = o.hi;
-        io.has_lo = o.has_lo;
-        io.has_hi = o.has_hi;
-        io.parts = improve_parts;
+        COPY_BOUNDS(io, m->o);
+        io.parts = m->improve_parts;
         io.progress = vm_cli_progress;
-        io.progress_user = &quiet;
-        s = planes ? vm_mesh_improve_planes(&m, &v, read_planes, planes, &io, &ir, &err)
-                   : vm_mesh_improve(&m, &v, &io, &ir, &err);
-        vm_volume_reader_close(planes);
-        planes = NULL;
-        if (s) {
-            vm_volume_free(&v);
-            vm_mesh_free(&m);
-            return fail_reading(in, &err);
-        }
-        improved = 1;
-        st.seconds += ir.seconds;
-        stage_done(verbose, "improve", &t);
+        io.progress_user = &m->quiet;
+        vm_status s;
+        if (j->planes)
+            s = vm_mesh_improve_planes(&j->m, &j->v, read_planes, j->planes, &io, &j->ir, &err);
+        else
+            s = vm_mesh_improve(&j->m, &j->v, &io, &j->ir, &err);
+        vm_volume_reader_close(j->planes);
+        j->planes = NULL;
+        if (s) return fail_reading(m->in.path, &err);
+        j->improved = 1;
+        j->st.seconds += j->ir.seconds;
+        vm_cli_stage_done(m->verbose, "improve", &j->t);
     }
-    vm_hex_improve_report hr;
-    int hex_improved = 0;
-    if (improve && m.kind == VM_HEX8) {
+    if (m->improve && j->m.kind == VM_HEX8) {
         vm_hex_improve_options ho;
         vm_hex_improve_options_default(&ho);
         ho.progress = vm_cli_progress;
-        ho.progress_user = &quiet;
-        ho.lo = o.lo;
-        ho.hi = o.hi;
-        ho.has_lo = o.has_lo;
-        ho.has_hi = o.has_hi;
-        s = vm_mesh_improve_hexes(&m, &v, &ho, &hr, &err);
-        if (s) {
-            vm_volume_free(&v);
-            vm_mesh_free(&m);
-            return vm_cli_fail("%s: %s", in, err.message);
-        }
-        hex_improved = 1;
-        st.seconds += hr.seconds;
-        stage_done(verbose, "improve", &t);
+        ho.progress_user = &m->quiet;
+        COPY_BOUNDS(ho, m->o);
+        if (vm_mesh_improve_hexes(&j->m, &j->v, &ho, &j->hr, &err))
+            return vm_cli_fail("%s: %s", m->in.path, err.message);
+        j->hex_improved = 1;
+        j->st.seconds += j->hr.seconds;
+        vm_cli_stage_done(m->verbose, "improve", &j->t);
     }
-    vm_volume_free(&v);
-    if (quality_fields && (s = vm_mesh_add_quality_fields(&m, NULL, &err)) != VM_OK) {
-        vm_mesh_free(&m);
+    return VM_EXIT_OK;
+}
+
+/* Writes the mesh (with --quality-fields' arrays) and --surface's boundary triangles. */
+static int write_mesh(mesh_args *m, mesh_job *j) {
+    vm_error err;
+    vm_error_clear(&err);
+    if (m->quality_fields && vm_mesh_add_quality_fields(&j->m, NULL, &err) != VM_OK)
         return vm_cli_fail_err(&err);
-    }
-    wo.compress = compress;
-    s = vm_mesh_write_as(out, &m, &wo, &err);
-    if (!s && surface) {
+    vm_status s = vm_mesh_write_as(m->out, &j->m, &m->wo, &err);
+    if (!s && m->surface) {
         vm_mesh surf;
         vm_mesh_write_options sw;
         vm_mesh_write_options_init(&sw);
         sw.progress = vm_cli_progress;
-        sw.progress_user = &quiet;
-        s = vm_mesh_boundary(&m, &surf, &err);
-        if (!s) s = vm_mesh_write_as(surface, &surf, &sw, &err);
+        sw.progress_user = &m->quiet;
+        s = vm_mesh_boundary(&j->m, &surf, &err);
+        if (!s) s = vm_mesh_write_as(m->surface, &surf, &sw, &err);
         vm_mesh_free(&surf);
     }
-    if (s) {
-        vm_mesh_free(&m);
-        return vm_cli_fail_err(&err);
-    }
-    stage_done(verbose, "write", &t);
+    if (s) return vm_cli_fail_err(&err);
+    vm_cli_stage_done(m->verbose, "write", &j->t);
+    return VM_EXIT_OK;
+}
+
+/* Checks the mesh written, prints the summary, writes --report, and notes the elements the
+ * quality pass left below its targets. */
+static int check_and_report(mesh_args *m, mesh_job *j) {
     vm_mesh_report checked;
     vm_error cerr;
-    int checked_ok = vm_mesh_check_with(&m, vm_cli_progress, &quiet, &checked, &cerr) == VM_OK;
-    if (!checked_ok) {
-        vm_mesh_free(&m);
+    if (vm_mesh_check_with(&j->m, vm_cli_progress, &m->quiet, &checked, &cerr) != VM_OK)
         return vm_cli_fail_err(&cerr);
+    vm_cli_stage_done(m->verbose, "check", &j->t);
+    int rc = vm_cli_report_checked(&j->m, &checked, &j->st, m->json, m->out);
+    if (!rc && m->report) {
+        rc = vm_cli_write_report(m->report, &j->m, m->out, &checked, m->quiet);
+        if (!rc) vm_cli_stage_done(m->verbose, "report", &j->t);
     }
-    stage_done(verbose, "check", &t);
-    rc = vm_cli_report_checked(&m, &checked, &st, json, out);
-    if (!rc && report) {
-        rc = vm_cli_write_report(report, &m, out, &checked, quiet);
-        if (!rc) stage_done(verbose, "report", &t);
-    }
-    if (!rc && improved && !json && ir.unfixed)
+    if (!rc && j->improved && !m->json && j->ir.unfixed)
         printf("quality pass: %zu tets still below the targets (min dihedral 15, max 150, "
-               "ABAQUS); see volmesh quality\n", ir.unfixed);
-    if (!rc && hex_improved && !json && hr.below_02_after)
+               "ABAQUS); see volmesh quality\n", j->ir.unfixed);
+    if (!rc && j->hex_improved && !m->json && j->hr.below_02_after)
         printf("quality pass: %zu hexes still below scaled Jacobian 0.2 (worst %.3f); see "
-               "volmesh quality\n", hr.below_02_after, hr.min_sj_after);
-    vm_mesh_free(&m);
+               "volmesh quality\n", j->hr.below_02_after, j->hr.min_sj_after);
+    return rc;
+}
+
+/* Meshes (by slabs or whole), improves, writes and checks, as m says. */
+static int mesh_run(mesh_args *m) {
+    mesh_job j;
+    memset(&j, 0, sizeof j);
+    j.t = vm_cli_clock();
+    int whole = 1, done = 0, rc = VM_EXIT_OK;
+    if (m->have_slabs) rc = mesh_slabs(m, &j, &whole);
+    if (!rc && whole) rc = mesh_whole(m, &j, &done);
+    if (rc || done) return rc;
+    rc = improve_mesh(m, &j);
+    vm_volume_free(&j.v);
+    if (!rc) rc = write_mesh(m, &j);
+    if (!rc) rc = check_and_report(m, &j);
+    vm_mesh_free(&j.m);
+    return rc;
+}
+
+/* volmesh mesh: a volume in, a mesh of its material (or labels, or surface) out. */
+int vm_cmd_mesh(int argc, char **argv) {
+    mesh_args m;
+    mesh_args_init(&m);
+    int help = 0;
+    int rc = mesh_parse(&m, argc, argv, &help);
+    if (!rc && !help) rc = mesh_check(&m);
+    if (!rc && !help) rc = mesh_prepare(&m);
+    if (!rc && !help) rc = mesh_run(&m);
+    free(m.labels);
+    free(m.label_sizes);
     return rc;
 }

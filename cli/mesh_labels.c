@@ -1,18 +1,10 @@
 /* cli/mesh_labels.c — `volmesh mesh --labels`: a label volume (segmentation) in, one
  * conforming multi-material mesh out, with a summary line per label. */
-#define _POSIX_C_SOURCE 200809L
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include "cli.h"
-
-static double cli_clock(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 int vm_cli_parse_labels(const char *s, int32_t **labels, size_t *n) {
     *labels = NULL;
@@ -105,13 +97,14 @@ static int report(const vm_mesh *m, const vm_mesh_report *checked, const vm_labe
     const vm_mesh_report r = *checked;
     const char *kind = m->kind == VM_HEX8 ? "hexes" : "tets";
     if (json) {
-        printf("{\"output\": \"%s\", \"elements\": %zu, \"points\": %zu, \"inverted\": %zu, "
+        vm_cli_json_summary_open(out);
+        printf("\"elements\": %zu, \"points\": %zu, \"inverted\": %zu, "
                "\"overshared_faces\": %zu, \"boundary_faces\": %zu, \"boundary_closed\": %s, "
                "\"boundary_euler\": %ld, \"components\": %zu, \"volume\": %.17g, "
                "\"min_scaled_jacobian\": %.6f, \"island_voxels\": %zu, "
                "\"topology_voxels\": %zu, \"relaxed_vertices\": %zu, \"seconds\": %.3f, "
                "\"cell_size\": %.6g, \"coarse_cells\": %zu, ",
-               out, m->ncells, m->npoints, r.inverted, r.overshared_faces, r.boundary_faces,
+               m->ncells, m->npoints, r.inverted, r.overshared_faces, r.boundary_faces,
                r.boundary_closed ? "true" : "false", r.boundary_euler, r.components, r.volume,
                r.min_scaled_jacobian, st->island_voxels, st->topology_voxels,
                st->relaxed_vertices, st->seconds, st->cell_size, st->coarse_cells);
@@ -165,11 +158,6 @@ static int report(const vm_mesh *m, const vm_mesh_report *checked, const vm_labe
     return VM_EXIT_OK;
 }
 
-/* --verbose: one line per stage on stderr, as cli/mesh.c prints them. */
-static void stage_line(int verbose, const char *stage, double seconds) {
-    if (verbose) fprintf(stderr, "volmesh: %-8s %8.3f s\n", stage, seconds);
-}
-
 /* Element counts and volumes per label, measured again after the quality pass. */
 static void recount(const vm_mesh *m, vm_label_stats *st) {
     for (size_t i = 0; i < st->nlabels; i++) {
@@ -194,6 +182,7 @@ static void recount(const vm_mesh *m, vm_label_stats *st) {
     }
 }
 
+/* --labels: meshes, improves per material, writes, checks and sums up per label. */
 int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, const char *surface,
                        const vm_label_options *lo, const vm_mesh_write_options *wo, int json,
                        int quality_fields, const char *html, int improve, int verbose) {
@@ -202,9 +191,9 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
     vm_error err;
     vm_error_clear(&err);
     if (vm_mesh_labels(v, lo, &m, &st, &err)) return vm_cli_fail("%s: %s", in, err.message);
-    stage_line(verbose, "labels", st.seconds_grid);
-    stage_line(verbose, "repair", st.seconds_repair);
-    stage_line(verbose, "mesh", st.seconds_mesh);
+    vm_cli_stage_line(verbose, "labels", st.seconds_grid);
+    vm_cli_stage_line(verbose, "repair", st.seconds_repair);
+    vm_cli_stage_line(verbose, "mesh", st.seconds_mesh);
     vm_status s = VM_OK;
     vm_improve_report ir;
     int improved = 0;
@@ -223,9 +212,9 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
         improved = 1;
         st.seconds += ir.seconds;
         recount(&m, &st);
-        stage_line(verbose, "improve", ir.seconds);
+        vm_cli_stage_line(verbose, "improve", ir.seconds);
     }
-    double t = cli_clock();
+    double t = vm_cli_clock();
     if (quality_fields) s = vm_mesh_add_quality_fields(&m, NULL, &err);
     if (!s) s = vm_mesh_write_as(out, &m, wo, &err);
     if (!s && surface) {
@@ -238,7 +227,7 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
         if (!s) s = vm_mesh_write_as(surface, &surf, &so, &err);
         vm_mesh_free(&surf);
     }
-    if (!s) stage_line(verbose, "write", cli_clock() - t);
+    if (!s) vm_cli_stage_line(verbose, "write", vm_cli_clock() - t);
     /* one check serves the summary and the HTML report */
     vm_mesh_report checked;
     if (!s) s = vm_mesh_check_with(&m, lo->progress, lo->progress_user, &checked, &err);

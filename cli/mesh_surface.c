@@ -3,6 +3,7 @@
 #include "cli.h"
 #include <string.h>
 
+/* --elements tri|quad: extracts, writes and sums up the surface on one line (or JSON). */
 int vm_cli_mesh_surface(const vm_volume *v, const char *in, const char *out,
                         const vm_surface_options *so, const vm_mesh_write_options *wo, int json,
                         int quality_fields) {
@@ -30,20 +31,21 @@ int vm_cli_mesh_surface(const vm_volume *v, const char *in, const char *out,
     vm_quality_lookup(&q, "aspect_ratio.max", &worst_aspect);
     const vm_mesh_report *r = &q.check;
     const char *method = vm_surface_method_name(so->method);
-    const char *kind = so->elements == VM_QUAD4 ? "quads" : "triangles";
     if (json) {
-        printf("{\"output\": \"%s\", \"method\": \"%s\", \"kind\": \"%s\", \"faces\": %zu, "
+        vm_cli_json_summary_open(out);
+        printf("\"method\": \"%s\", \"kind\": \"%s\", \"faces\": %zu, "
                "\"points\": %zu, \"closed\": %s, \"open_edges\": %zu, "
                "\"nonmanifold_edges\": %zu, \"nonmanifold_vertices\": %zu, \"euler\": %ld, "
                "\"components\": %zu, \"self_intersections\": %zu, \"degenerate\": %zu, "
                "\"volume\": %.17g, \"min_angle\": %.6f, \"max_aspect_ratio\": %.6g, "
                "\"centre_vertices\": %zu, \"seconds\": %.4f}\n",
-               out, method, so->elements == VM_QUAD4 ? "quad4" : "tri3", r->cells, r->points,
+               method, so->elements == VM_QUAD4 ? "quad4" : "tri3", r->cells, r->points,
                r->boundary_closed ? "true" : "false", r->boundary_open_edges,
                r->boundary_nonmanifold_edges, r->boundary_nonmanifold_vertices,
                r->boundary_euler, r->components, r->boundary_self_intersections, r->degenerate,
                r->volume, min_angle, worst_aspect, st.centre_vertices, st.seconds);
     } else {
+        const char *kind = so->elements == VM_QUAD4 ? "quads" : "triangles";
         printf("%s: %s %zu %s, %zu points, %s (Euler %ld), %zu component%s, "
                "%zu self-intersection%s, min angle %.2f deg, worst aspect ratio %.3g, "
                "volume %.6g, %.3f s\n",

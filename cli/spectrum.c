@@ -115,6 +115,28 @@ static void json_array(FILE *fp, const char *name, const double *x, int n) {
     fputc(']', fp);
 }
 
+/* One member of a JSON object: a number, or a count when is_count. */
+typedef struct {
+    const char *key;
+    double x;
+    long long count;
+    int is_count;
+} json_field;
+
+/* Writes {"key": value, ...} (after ", " when not first in its array). */
+static void json_object(FILE *fp, int after, const json_field *f, size_t n) {
+    fputs(after ? ", {" : "{", fp);
+    for (size_t i = 0; i < n; i++) {
+        fprintf(fp, "%s\"%s\": ", i ? ", " : "", f[i].key);
+        if (f[i].is_count)
+            fprintf(fp, "%lld", f[i].count);
+        else
+            json_number(fp, f[i].x);
+    }
+    fputc('}', fp);
+}
+
+/* --json: the whole spectrum as one object on one line. */
 static void write_json(FILE *fp, const char *path, const vm_spectrum *s) {
     fputs("{\"file\": ", fp);
     json_string(fp, path);
@@ -138,28 +160,21 @@ static void write_json(FILE *fp, const char *path, const vm_spectrum *s) {
     fputs("], \"suggestions\": [", fp);
     for (int q = 0; q < s->n_suggestions; q++) {
         const vm_spectrum_suggestion *g = &s->suggestions[q];
-        fputs(q ? ", {\"isovalue\": " : "{\"isovalue\": ", fp);
-        json_number(fp, g->isovalue);
-        fputs(", \"mean_gradient\": ", fp);
-        json_number(fp, g->mean_gradient);
-        fputs(", \"area\": ", fp);
-        json_number(fp, g->area);
-        fprintf(fp, ", \"components\": %lld, \"strength\": ", (long long)g->components);
-        json_number(fp, g->strength);
-        fputc('}', fp);
+        const json_field f[] = {{"isovalue", g->isovalue, 0, 0},
+                                {"mean_gradient", g->mean_gradient, 0, 0},
+                                {"area", g->area, 0, 0},
+                                {"components", 0, (long long)g->components, 1},
+                                {"strength", g->strength, 0, 0}};
+        json_object(fp, q > 0, f, sizeof f / sizeof f[0]);
     }
     fputs("], \"intervals\": [", fp);
     for (int q = 0; q < s->n_intervals; q++) {
         const vm_spectrum_interval *iv = &s->intervals[q];
-        fputs(q ? ", {\"lo\": " : "{\"lo\": ", fp);
-        json_number(fp, iv->lo);
-        fputs(", \"hi\": ", fp);
-        json_number(fp, iv->hi);
-        fputs(", \"volume\": ", fp);
-        json_number(fp, iv->volume);
-        fputs(", \"center\": ", fp);
-        json_number(fp, iv->center);
-        fputc('}', fp);
+        const json_field f[] = {{"lo", iv->lo, 0, 0},
+                                {"hi", iv->hi, 0, 0},
+                                {"volume", iv->volume, 0, 0},
+                                {"center", iv->center, 0, 0}};
+        json_object(fp, q > 0, f, sizeof f / sizeof f[0]);
     }
     fputs("]}\n", fp);
 }
@@ -335,6 +350,7 @@ static void write_table(FILE *fp, const char *path, const vm_spectrum *s) {
 
 /* ---- the command -------------------------------------------------------------------------- */
 
+/* --range A:B: both bounds, A < B. */
 static int parse_range(const char *s, double *lo, double *hi) {
     const char *colon = strchr(s, ':');
     char a[128];
@@ -343,113 +359,132 @@ static int parse_range(const char *s, double *lo, double *hi) {
         return vm_cli_fail("--range: '%s' is not A:B", s);
     memcpy(a, s, la);
     a[la] = '\0';
-    if (vm_cli_double("--range", a, lo) || vm_cli_double("--range", colon + 1, hi)) return -1;
+    if (vm_cli_double("--range", a, lo) || vm_cli_double("--range", colon + 1, hi))
+        return VM_EXIT_INPUT;
     if (!(*lo < *hi)) return vm_cli_fail("--range: '%s' is empty (need A < B)", s);
     return 0;
 }
 
-int vm_cmd_spectrum(int argc, char **argv) {
-    const char *path = NULL, *csv = NULL, *svg = NULL;
-    long n = 256;
-    int json = 0, quiet = 0, is_raw = 0, has_range = 0;
-    double lo = 0, hi = 0;
-    vm_raw_options raw;
-    memset(&raw, 0, sizeof raw);
-    raw.type = VM_SCALAR_UINT8;
+/* What `volmesh spectrum` takes from its command line. */
+typedef struct {
+    vm_cli_input in;
+    const char *csv, *svg;
+    long n;
+    int json, quiet, has_range;
+    double lo, hi;
+} spectrum_args;
+
+/* One option a of those with a value (--n, --range, --csv, --svg), with its value val. */
+static int spectrum_value(spectrum_args *p, const char *a, const char *val) {
+    if (strcmp(a, "--n") == 0) {
+        if (vm_cli_int(a, val, 2, 1000000, &p->n)) return VM_EXIT_INPUT;
+    } else if (strcmp(a, "--range") == 0) {
+        if (parse_range(val, &p->lo, &p->hi)) return VM_EXIT_INPUT;
+        p->has_range = 1;
+    } else if (strcmp(a, "--csv") == 0) {
+        p->csv = val;
+    } else {
+        p->svg = val;
+    }
+    return VM_EXIT_OK;
+}
+
+/* Reads the command line into p; *help 1 when --help was printed. */
+static int spectrum_parse(spectrum_args *p, int argc, char **argv, int *help) {
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (vm_cli_is(a, "--help", "-h")) {
             fputs(spectrum_help, stdout);
+            *help = 1;
             return VM_EXIT_OK;
         }
         if (strcmp(a, "--json") == 0) {
-            json = 1;
-            continue;
-        }
-        if (strcmp(a, "--quiet") == 0) {
-            quiet = 1;
-            continue;
-        }
-        int r = vm_cli_raw_option(argc, argv, &i, &raw, &is_raw);
-        if (r < 0) return VM_EXIT_INPUT;
-        if (r > 0) continue;
-        if (strcmp(a, "--n") == 0 || strcmp(a, "--range") == 0 || strcmp(a, "--csv") == 0 ||
-            strcmp(a, "--svg") == 0) {
+            p->json = 1;
+        } else if (strcmp(a, "--quiet") == 0) {
+            p->quiet = 1;
+        } else if (strcmp(a, "--n") == 0 || strcmp(a, "--range") == 0 ||
+                   strcmp(a, "--csv") == 0 || strcmp(a, "--svg") == 0) {
             if (vm_cli_need_value("spectrum", i, argc, argv)) return VM_EXIT_INPUT;
-            const char *val = argv[++i];
-            if (strcmp(a, "--n") == 0) {
-                if (vm_cli_int(a, val, 2, 1000000, &n)) return VM_EXIT_INPUT;
-            } else if (strcmp(a, "--range") == 0) {
-                if (parse_range(val, &lo, &hi)) return VM_EXIT_INPUT;
-                has_range = 1;
-            } else if (strcmp(a, "--csv") == 0) {
-                csv = val;
-            } else {
-                svg = val;
-            }
-            continue;
-        }
-        if (a[0] == '-' && a[1])
-            return vm_cli_fail("spectrum: unknown option %s (see volmesh spectrum --help)", a);
-        if (path) return vm_cli_fail("spectrum: more than one input file ('%s', '%s')", path, a);
-        path = a;
-    }
-    if (!path) return vm_cli_fail("spectrum: no input file (see volmesh spectrum --help)");
-    if (is_raw && raw.dims[0] == 0)
-        return vm_cli_fail("%s: raw input needs --raw-dims NXxNYxNZ", path);
-    vm_volume v;
-    int rc = vm_cli_read_volume(path, is_raw ? &raw : NULL, &v);
-    if (rc) return rc;
-    vm_error err;
-    vm_error_clear(&err);
-    vm_spectrum s;
-    vm_status st;
-    if (!has_range) {
-        vm_volume_stats(&v, &lo, &hi, NULL);
-        if (!isfinite(lo)) {
-            vm_volume_free(&v);
-            return vm_cli_fail("%s: the volume has no finite sample", path);
-        }
-        if (!(hi > lo)) {
-            vm_volume_free(&v);
-            return vm_cli_fail("%s: the volume is constant (every sample is %g): it has no "
-                               "isosurfaces and no spectrum",
-                               path, lo);
+            int rc = spectrum_value(p, a, argv[++i]);
+            if (rc) return rc;
+        } else {
+            int taken, rc = vm_cli_input_arg(&p->in, argc, argv, &i, &taken);
+            if (rc) return rc;
+            if (!taken)
+                return vm_cli_fail("spectrum: unknown option %s (see volmesh spectrum --help)",
+                                   a);
         }
     }
-    st = vm_spectrum_compute_range(&v, (int)n, lo, hi, vm_cli_progress, &quiet, &s, &err);
-    vm_volume_free(&v);
-    if (st) {
-        vm_spectrum_free(&s);
-        return vm_cli_fail("%s: %s", path, err.message);
-    }
-    rc = VM_EXIT_OK;
-    const char *files[2] = {csv, svg};
-    for (int f = 0; f < 2 && rc == VM_EXIT_OK; f++) {
+    return vm_cli_input_given(&p->in);
+}
+
+/* Without --range: the isovalues span v's finite values, which must not be constant. */
+static int value_range(spectrum_args *p, const vm_volume *v) {
+    if (p->has_range) return VM_EXIT_OK;
+    vm_volume_stats(v, &p->lo, &p->hi, NULL);
+    if (!isfinite(p->lo)) return vm_cli_fail("%s: the volume has no finite sample", p->in.path);
+    if (!(p->hi > p->lo))
+        return vm_cli_fail("%s: the volume is constant (every sample is %g): it has no "
+                           "isosurfaces and no spectrum",
+                           p->in.path, p->lo);
+    return VM_EXIT_OK;
+}
+
+/* Writes the --csv and --svg files asked for, each whole or not at all. */
+static int write_files(const spectrum_args *p, const vm_spectrum *s) {
+    const char *files[2] = {p->csv, p->svg};
+    for (int f = 0; f < 2; f++) {
         if (!files[f]) continue;
         out_file o;
-        if (out_open(&o, files[f])) {
-            rc = VM_EXIT_INPUT;
-            break;
-        }
+        if (out_open(&o, files[f])) return VM_EXIT_INPUT;
         int bad = 0;
         if (f == 0)
-            write_csv(o.fp, &s);
+            write_csv(o.fp, s);
         else
-            bad = write_svg(o.fp, path, &s);
+            bad = write_svg(o.fp, p->in.path, s);
         if (bad) {
             fclose(o.fp);
             unlink(o.tmp);
-            rc = VM_EXIT_INPUT;
-        } else if (out_close(&o)) {
-            rc = VM_EXIT_INPUT;
+            return VM_EXIT_INPUT;
         }
+        if (out_close(&o)) return VM_EXIT_INPUT;
     }
+    return VM_EXIT_OK;
+}
+
+/* volmesh spectrum: the contour spectrum of a volume, its files and its table or JSON. */
+int vm_cmd_spectrum(int argc, char **argv) {
+    spectrum_args p;
+    memset(&p, 0, sizeof p);
+    vm_cli_input_init(&p.in, "spectrum");
+    p.n = 256;
+    int help = 0;
+    int rc = spectrum_parse(&p, argc, argv, &help);
+    if (rc || help) return rc;
+    vm_volume v;
+    rc = vm_cli_input_read(&p.in, &v);
+    if (rc) return rc;
+    rc = value_range(&p, &v);
+    if (rc) {
+        vm_volume_free(&v);
+        return rc;
+    }
+    vm_error err;
+    vm_error_clear(&err);
+    vm_spectrum s;
+    vm_status st = vm_spectrum_compute_range(&v, (int)p.n, p.lo, p.hi, vm_cli_progress,
+                                             &p.quiet, &s, &err);
+    vm_volume_free(&v);
+    if (st) {
+        vm_spectrum_free(&s);
+        return vm_cli_fail("%s: %s", p.in.path, err.message);
+    }
+    rc = write_files(&p, &s);
     if (rc == VM_EXIT_OK) {
-        if (json)
-            write_json(stdout, path, &s);
+        if (p.json)
+            write_json(stdout, p.in.path, &s);
         else
-            write_table(stdout, path, &s);
+            write_table(stdout, p.in.path, &s);
     }
     vm_spectrum_free(&s);
     return rc;

@@ -660,6 +660,218 @@ done:
 
 enum { TET_DOUBLES = 13 }; /* 4 corners, then 1 (improve it) or 0 (context) */
 
+/* improve_cuts' marks of a point: on an owned tet (P_OWN), on a tet of the rank below (P_LO)
+ * or above (P_HI), within one ring of the shared vertices of the lower (P_S1LO) or upper cut
+ * (P_S1HI), on a tet that goes down (P_SENT). */
+enum { P_OWN = 1, P_LO = 2, P_HI = 4, P_S1LO = 8, P_S1HI = 16, P_SENT = 32 };
+/* ... and of a tet: in the band at the lower (T_BANDLO) or upper cut (T_BANDHI), the lower
+ * band's context (T_CTXLO), a copy of a tet of the rank below (T_RING_LO) or above
+ * (T_RING_HI). */
+enum { T_BANDLO = 1, T_BANDHI = 2, T_CTXLO = 4, T_RING_LO = 8, T_RING_HI = 16 };
+
+/* Marks the owned tets' points and the other tets (the rings of the ranks below and above,
+ * told apart by their centroid against this rank's z0). */
+static void mark_rings(const vm_mesh *m, double z0, uint8_t *pf, uint8_t *tf) {
+    vm_slab below; /* the tets of the ranks below: centroid under this rank's z0 */
+    memset(&below, 0, sizeof below);
+    below.z0 = -INFINITY;
+    below.z1 = z0;
+    for (size_t t = 0; t < m->ncells; t++) {
+        const vm_index *c = m->cells + 4 * t;
+        uint8_t bit = P_OWN;
+        if (m->region[t] != 1) {
+            int lower = vm_slab_owns(&below, m, t);
+            tf[t] = lower ? T_RING_LO : T_RING_HI;
+            bit = lower ? P_LO : P_HI;
+        }
+        for (int k = 0; k < 4; k++)
+            pf[c[k]] |= bit;
+    }
+}
+
+/* The bands: the owned tets with a vertex within one ring (S1) of a cut's shared vertices,
+ * S1 being the shared vertices and their neighbours over owned tets. */
+static void mark_bands(const vm_mesh *m, uint8_t *pf, uint8_t *tf) {
+    for (int side = 0; side < 2; side++) {
+        uint8_t ring = side ? P_HI : P_LO, s1 = side ? P_S1HI : P_S1LO;
+        for (size_t t = 0; t < m->ncells; t++) {
+            const vm_index *c = m->cells + 4 * t;
+            if (m->region[t] != 1) continue;
+            int touch = 0;
+            for (int k = 0; k < 4; k++)
+                touch |= (pf[c[k]] & P_OWN) && (pf[c[k]] & ring);
+            if (touch)
+                for (int k = 0; k < 4; k++)
+                    pf[c[k]] |= s1;
+        }
+        for (size_t t = 0; t < m->ncells; t++) {
+            const vm_index *c = m->cells + 4 * t;
+            if (m->region[t] != 1) continue;
+            for (int k = 0; k < 4; k++)
+                if (pf[c[k]] & s1) tf[t] |= side ? T_BANDHI : T_BANDLO;
+        }
+    }
+}
+
+/* Marks with P_SENT the points of the tets marked with any bit of tmask. */
+static void mark_sent_points(const vm_mesh *m, const uint8_t *tf, uint8_t tmask, uint8_t *pf) {
+    for (size_t t = 0; t < m->ncells; t++)
+        if (tf[t] & tmask)
+            for (int k = 0; k < 4; k++)
+                pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
+}
+
+/* The context of the lower band (the owned tets touching it); returns how many tets go
+ * down, band and context. */
+static unsigned long long mark_context(const vm_mesh *m, uint8_t *pf, uint8_t *tf) {
+    mark_sent_points(m, tf, T_BANDLO, pf);
+    unsigned long long nsend = 0;
+    for (size_t t = 0; t < m->ncells; t++) {
+        const vm_index *c = m->cells + 4 * t;
+        if (m->region[t] != 1 || (tf[t] & T_BANDLO)) continue;
+        int touch = 0;
+        for (int k = 0; k < 4; k++)
+            touch |= pf[c[k]] & P_SENT ? 1 : 0;
+        if (touch) tf[t] |= T_CTXLO;
+    }
+    for (size_t t = 0; t < m->ncells; t++)
+        if (tf[t] & (T_BANDLO | T_CTXLO)) nsend++;
+    return nsend;
+}
+
+/* 1 when the upper band touches what goes down: a slab too thin for the two bands to stay
+ * apart, which cannot be improved this way. */
+static int bands_touch(const vm_mesh *m, uint8_t *pf, const uint8_t *tf) {
+    mark_sent_points(m, tf, T_BANDLO, pf);
+    mark_sent_points(m, tf, T_CTXLO, pf);
+    int thin = 0;
+    for (size_t t = 0; t < m->ncells && !thin; t++)
+        if (tf[t] & T_BANDHI)
+            for (int k = 0; k < 4; k++)
+                thin |= pf[m->cells[4 * t + (size_t)k]] & P_SENT;
+    return thin;
+}
+
+/* The nsend tets that go down, TET_DOUBLES each: corners, then 1 (band) or 0 (context).
+ * NULL when out of memory. */
+static double *pack_band(const vm_mesh *m, const uint8_t *tf, unsigned long long nsend) {
+    double *buf = malloc((size_t)nsend * TET_DOUBLES * sizeof *buf);
+    if (!buf) return NULL;
+    size_t k = 0;
+    for (size_t t = 0; t < m->ncells; t++) {
+        if (!(tf[t] & (T_BANDLO | T_CTXLO))) continue;
+        double *b = buf + TET_DOUBLES * k++;
+        for (int q = 0; q < 4; q++)
+            memcpy(b + 3 * q, m->points + 3 * (size_t)m->cells[4 * t + (size_t)q],
+                   3 * sizeof(double));
+        b[12] = (tf[t] & T_BANDLO) ? 1 : 0;
+    }
+    return buf;
+}
+
+/* Collective: every rank learns whether any could not take part (out of memory, too thin);
+ * then each fails, those with a problem saying why, the others secondarily. */
+static vm_status agree_on_cuts(int local_ok, int thin, int *secondary, vm_error *err) {
+    int flags[2] = {local_ok ? 0 : 1, thin}, any[2];
+    MPI_Allreduce(flags, any, 2, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    if (!any[0] && !any[1]) return VM_OK;
+    if (!local_ok)
+        return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
+    if (thin)
+        return vm_error_set(err, VM_ERR_ARG,
+                            "--improve: the slab of rank %d is too thin for the quality pass "
+                            "across its cuts (use fewer ranks)",
+                            rank_);
+    *secondary = 1;
+    return VM_ERR_INTERNAL;
+}
+
+/* Collective: sends this rank's nsend tets (send) down, receives the rank above's ([out]
+ * *recv, malloc'd, *nrecv tets; none on the top rank). */
+static vm_status exchange_bands(const double *send, unsigned long long nsend, double **recv,
+                                unsigned long long *nrecv, vm_error *err) {
+    int down = rank_ > 0 ? rank_ - 1 : MPI_PROC_NULL;
+    int up = rank_ < nranks_ - 1 ? rank_ + 1 : MPI_PROC_NULL;
+    MPI_Sendrecv(&nsend, 1, MPI_UNSIGNED_LONG_LONG, down, 1, nrecv, 1, MPI_UNSIGNED_LONG_LONG,
+                 up, 1, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    if (up == MPI_PROC_NULL) *nrecv = 0;
+    double *buf = malloc(((size_t)*nrecv * TET_DOUBLES + 1) * sizeof *buf);
+    /* the sizes are sent either way; a rank out of memory fails after the exchange */
+    MPI_Sendrecv(send, (int)(nsend * TET_DOUBLES), MPI_DOUBLE, down, 2, buf ? buf : NULL,
+                 buf ? (int)(*nrecv * TET_DOUBLES) : 0, MPI_DOUBLE, up, 2, MPI_COMM_WORLD,
+                 MPI_STATUS_IGNORE);
+    *recv = buf;
+    if (!buf) return vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
+    return VM_OK;
+}
+
+/* Adds m's tets to m2 but the copies of the upper neighbour's (the received tets replace
+ * them): the upper band region 1, every other tet a region of its own from *next, odd when
+ * this rank keeps it, even when not. */
+static vm_status add_own_tets(const vm_mesh *m, const uint8_t *tf, vm_mesh *m2, int32_t *next,
+                              vm_error *err) {
+    vm_status s = VM_OK;
+    for (size_t t = 0; t < m->ncells && !s; t++) {
+        if (tf[t] & T_RING_HI) continue;
+        int32_t r;
+        if (tf[t] & T_RING_LO)
+            r = *next; /* the lower neighbour's: context */
+        else if (tf[t] & T_BANDLO)
+            r = *next; /* now the lower neighbour's */
+        else if (tf[t] & T_BANDHI)
+            r = 1; /* improved here */
+        else
+            r = *next + 1; /* kept as it is */
+        if (r != 1) *next += 2;
+        s = vm_mesh_add_cell(m2, m->cells + 4 * t, r, err);
+    }
+    return s;
+}
+
+/* Adds the nrecv received tets to m2 on its points where they match exactly: the band
+ * region 1, the context a region of its own from *next (even: not kept). */
+static vm_status add_received_tets(const double *recv, unsigned long long nrecv, vm_mesh *m2,
+                                   int32_t *next, vm_error *err) {
+    vm_point_index pm = {0, NULL};
+    vm_status s =
+        vm_point_index_build(&pm, m2->points, m2->npoints, m2->npoints + 4 * (size_t)nrecv, err);
+    for (size_t t = 0; t < (size_t)nrecv && !s; t++) {
+        const double *b = recv + TET_DOUBLES * t;
+        vm_index n[4];
+        for (int q = 0; q < 4 && !s; q++) {
+            size_t at;
+            n[q] = vm_point_index_find(&pm, m2->points, b + 3 * q, &at);
+            if (n[q] < 0) {
+                n[q] = vm_mesh_add_point(m2, b + 3 * q, err);
+                if (n[q] < 0)
+                    s = VM_ERR_NOMEM;
+                else
+                    pm.slot[at] = n[q];
+            }
+        }
+        int32_t r = b[12] != 0 ? 1 : *next;
+        if (r != 1) *next += 2;
+        if (!s) s = vm_mesh_add_cell(m2, n, r, err);
+    }
+    vm_point_index_free(&pm);
+    return s;
+}
+
+/* The phase-2 mesh ([out] m2, initialised): this rank's points, its tets (add_own_tets),
+ * then the received ones. Regions: 1 improved; every other tet its own. */
+static vm_status phase2_mesh(const vm_mesh *m, const uint8_t *tf, const double *recv,
+                             unsigned long long nrecv, vm_mesh *m2, vm_error *err) {
+    size_t np = m->npoints;
+    vm_status s = vm_mesh_reserve(m2, np + 4 * (size_t)nrecv, m->ncells + (size_t)nrecv, err);
+    if (s) return s;
+    memcpy(m2->points, m->points, 3 * np * sizeof(double));
+    m2->npoints = np;
+    int32_t next = 2;
+    s = add_own_tets(m, tf, m2, &next, err);
+    if (!s) s = add_received_tets(recv, nrecv, m2, &next, err);
+    return s;
+}
+
 /* The second quality pass, across the cuts (collective: every rank calls it once). The
  * first pass left the tets at each cut as the mesher made them, their shared vertices
  * fixed. Now each rank r > 0 sends rank r - 1 its "band" (owned tets within two vertex
@@ -675,176 +887,29 @@ static vm_status improve_cuts(const args *A, const vm_volume *v, vm_mesh *m, dou
     uint8_t *pf = calloc(np ? np : 1, 1), *tf = calloc(nc ? nc : 1, 1);
     double *sendbuf = NULL, *recvbuf = NULL;
     unsigned long long nsend = 0, nrecv = 0;
-    vm_mesh m2;
-    vm_mesh_init(&m2, VM_TET4);
-    int local_ok = pf && tf;
-    enum { P_OWN = 1, P_LO = 2, P_HI = 4, P_S1LO = 8, P_S1HI = 16, P_SENT = 32 };
-    enum { T_BANDLO = 1, T_BANDHI = 2, T_CTXLO = 4, T_RING_LO = 8, T_RING_HI = 16 };
-    vm_slab below; /* the tets of the ranks below: centroid under this rank's z0 */
-    memset(&below, 0, sizeof below);
-    below.z0 = -INFINITY;
-    below.z1 = z0;
+    int local_ok = pf && tf, thin = 0;
     if (local_ok) {
-        for (size_t t = 0; t < nc; t++) {
-            const vm_index *c = m->cells + 4 * t;
-            uint8_t bit = P_OWN;
-            if (m->region[t] != 1) {
-                int lower = vm_slab_owns(&below, m, t);
-                tf[t] = lower ? T_RING_LO : T_RING_HI;
-                bit = lower ? P_LO : P_HI;
-            }
-            for (int k = 0; k < 4; k++)
-                pf[c[k]] |= bit;
-        }
-        /* S1: the shared vertices of a cut and their neighbours over owned tets */
-        for (int side = 0; side < 2; side++) {
-            uint8_t ring = side ? P_HI : P_LO, s1 = side ? P_S1HI : P_S1LO;
-            for (size_t t = 0; t < nc; t++) {
-                const vm_index *c = m->cells + 4 * t;
-                if (m->region[t] != 1) continue;
-                int touch = 0;
-                for (int k = 0; k < 4; k++)
-                    touch |= (pf[c[k]] & P_OWN) && (pf[c[k]] & ring);
-                if (touch)
-                    for (int k = 0; k < 4; k++)
-                        pf[c[k]] |= s1;
-            }
-            for (size_t t = 0; t < nc; t++) {
-                const vm_index *c = m->cells + 4 * t;
-                if (m->region[t] != 1) continue;
-                for (int k = 0; k < 4; k++)
-                    if (pf[c[k]] & s1) tf[t] |= side ? T_BANDHI : T_BANDLO;
-            }
-        }
-        /* context of the lower band: owned tets touching it; all that goes down is P_SENT */
-        for (size_t t = 0; t < nc; t++)
-            if (tf[t] & T_BANDLO)
-                for (int k = 0; k < 4; k++)
-                    pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
-        for (size_t t = 0; t < nc; t++) {
-            const vm_index *c = m->cells + 4 * t;
-            if (m->region[t] != 1 || (tf[t] & T_BANDLO)) continue;
-            int touch = 0;
-            for (int k = 0; k < 4; k++)
-                touch |= pf[c[k]] & P_SENT ? 1 : 0;
-            if (touch) tf[t] |= T_CTXLO;
-        }
-        for (size_t t = 0; t < nc; t++)
-            if (tf[t] & (T_BANDLO | T_CTXLO)) nsend++;
-    }
-    /* A slab too thin for the two bands to stay apart cannot be improved this way. */
-    int thin = 0;
-    if (local_ok) {
-        for (size_t t = 0; t < nc; t++)
-            if (tf[t] & T_BANDLO)
-                for (int k = 0; k < 4; k++)
-                    pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
-        for (size_t t = 0; t < nc; t++)
-            if (tf[t] & T_CTXLO)
-                for (int k = 0; k < 4; k++)
-                    pf[m->cells[4 * t + (size_t)k]] |= P_SENT;
-        for (size_t t = 0; t < nc && !thin; t++)
-            if (tf[t] & T_BANDHI)
-                for (int k = 0; k < 4; k++)
-                    thin |= pf[m->cells[4 * t + (size_t)k]] & P_SENT;
+        mark_rings(m, z0, pf, tf);
+        mark_bands(m, pf, tf);
+        nsend = mark_context(m, pf, tf);
+        thin = bands_touch(m, pf, tf);
         if (nsend > (unsigned long long)(INT32_MAX / TET_DOUBLES)) local_ok = 0;
     }
     if (local_ok && !thin && nsend) {
-        sendbuf = malloc((size_t)nsend * TET_DOUBLES * sizeof *sendbuf);
+        sendbuf = pack_band(m, tf, nsend);
         if (!sendbuf) local_ok = 0;
     }
-    if (local_ok && sendbuf) {
-        size_t k = 0;
-        for (size_t t = 0; t < nc; t++) {
-            if (!(tf[t] & (T_BANDLO | T_CTXLO))) continue;
-            double *b = sendbuf + TET_DOUBLES * k++;
-            for (int q = 0; q < 4; q++)
-                memcpy(b + 3 * q, m->points + 3 * (size_t)m->cells[4 * t + (size_t)q],
-                       3 * sizeof(double));
-            b[12] = (tf[t] & T_BANDLO) ? 1 : 0;
-        }
-    }
-    int flags[2] = {local_ok ? 0 : 1, thin}, any[2];
-    MPI_Allreduce(flags, any, 2, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-    vm_status s = VM_OK;
-    if (any[0] || any[1]) {
-        if (!local_ok)
-            s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
-        else if (thin)
-            s = vm_error_set(err, VM_ERR_ARG,
-                             "--improve: the slab of rank %d is too thin for the quality pass "
-                             "across its cuts (use fewer ranks)",
-                             rank_);
-        else
-            *secondary = 1, s = VM_ERR_INTERNAL;
-        goto done;
-    }
-    int down = rank_ > 0 ? rank_ - 1 : MPI_PROC_NULL;
-    int up = rank_ < nranks_ - 1 ? rank_ + 1 : MPI_PROC_NULL;
-    MPI_Sendrecv(&nsend, 1, MPI_UNSIGNED_LONG_LONG, down, 1, &nrecv, 1, MPI_UNSIGNED_LONG_LONG,
-                 up, 1, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-    if (up == MPI_PROC_NULL) nrecv = 0;
-    recvbuf = malloc(((size_t)nrecv * TET_DOUBLES + 1) * sizeof *recvbuf);
-    /* the sizes are sent either way; a rank out of memory fails after the exchange */
-    MPI_Sendrecv(sendbuf, (int)(nsend * TET_DOUBLES), MPI_DOUBLE, down, 2,
-                 recvbuf ? recvbuf : NULL, recvbuf ? (int)(nrecv * TET_DOUBLES) : 0, MPI_DOUBLE,
-                 up, 2, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-    if (!recvbuf) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "volmesh_mpi: out of memory for --improve");
-        goto done;
-    }
-    /* The phase-2 mesh: this rank's points, its tets but the copies of the upper neighbour's
-     * (the received tets replace them), then the received ones. Regions: 1 improved; every
-     * other tet its own, odd when this rank keeps it, even when not. */
-    s = vm_mesh_reserve(&m2, np + 4 * (size_t)nrecv, nc + (size_t)nrecv, err);
-    if (s) goto done;
-    memcpy(m2.points, m->points, 3 * np * sizeof(double));
-    m2.npoints = np;
-    int32_t next = 2;
-    for (size_t t = 0; t < nc && !s; t++) {
-        if (tf[t] & T_RING_HI) continue;
-        int32_t r;
-        if (tf[t] & T_RING_LO)
-            r = next; /* the lower neighbour's: context */
-        else if (tf[t] & T_BANDLO)
-            r = next; /* now the lower neighbour's */
-        else if (tf[t] & T_BANDHI)
-            r = 1; /* improved here */
-        else
-            r = next + 1; /* kept as it is */
-        if (r != 1) next += 2;
-        s = vm_mesh_add_cell(&m2, m->cells + 4 * t, r, err);
-    }
-    vm_point_index pm = {0, NULL};
-    if (!s)
-        s = vm_point_index_build(&pm, m2.points, m2.npoints, m2.npoints + 4 * (size_t)nrecv,
-                                 err);
-    for (size_t t = 0; t < (size_t)nrecv && !s; t++) {
-        const double *b = recvbuf + TET_DOUBLES * t;
-        vm_index n[4];
-        for (int q = 0; q < 4 && !s; q++) {
-            size_t at;
-            n[q] = vm_point_index_find(&pm, m2.points, b + 3 * q, &at);
-            if (n[q] < 0) {
-                n[q] = vm_mesh_add_point(&m2, b + 3 * q, err);
-                if (n[q] < 0)
-                    s = VM_ERR_NOMEM;
-                else
-                    pm.slot[at] = n[q];
-            }
-        }
-        int32_t r = b[12] != 0 ? 1 : next;
-        if (r != 1) next += 2;
-        if (!s) s = vm_mesh_add_cell(&m2, n, r, err);
-    }
-    vm_point_index_free(&pm);
+    vm_mesh m2;
+    vm_mesh_init(&m2, VM_TET4);
+    vm_status s = agree_on_cuts(local_ok, thin, secondary, err);
+    if (!s) s = exchange_bands(sendbuf, nsend, &recvbuf, &nrecv, err);
+    if (!s) s = phase2_mesh(m, tf, recvbuf, nrecv, &m2, err);
     if (!s) s = improve_region1(A, v, &m2, err);
     if (!s) {
         vm_mesh_free(m);
         *m = m2;
         vm_mesh_init(&m2, VM_TET4);
     }
-done:
     vm_mesh_free(&m2);
     free(pf);
     free(tf);
