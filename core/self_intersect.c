@@ -185,6 +185,7 @@ typedef struct box3 {
     double lo[3], hi[3];
 } box3;
 
+/* The cell (0..n-1) of coordinate x along an axis of cells of size h from lo. */
 static size_t cell_of(double x, double lo, double h, size_t n) {
     double c = floor((x - lo) / h);
     if (!(c > 0)) return 0;
@@ -192,18 +193,26 @@ static size_t cell_of(double x, double lo, double h, size_t n) {
     return (size_t)c;
 }
 
-vm_status vm__self_intersections(const double *pts, const vm_index *tri, size_t nt,
-                                 size_t *pairs, uint8_t *flags, vm_error *err) {
-    *pairs = 0;
-    if (flags) memset(flags, 0, nt);
-    if (nt < 2) return VM_OK;
-    size_t bytes;
-    if (!vm__mul_size(nt, sizeof(box3), &bytes) || bytes > vm__memory_limit())
-        return vm_error_set(err, VM_ERR_NOMEM, "self-intersection: %zu triangles", nt);
-    box3 *bx = malloc(bytes);
-    if (!bx) return vm_error_set(err, VM_ERR_NOMEM, "self-intersection: out of memory");
-    double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
+#define GRID_MAX_SIDE 4096   /* cells per axis of the broad-phase grid at most */
+#define GRID_GROWTH 1.25     /* the cell size grows by this until the grid is small enough */
+
+/* The broad-phase grid: n cells of size h from glo per axis; the triangles of cell c are
+ * ent[start[c] .. start[c+1]). */
+typedef struct tri_grid {
+    double glo[3], h;
+    size_t n[3], ncell;
+    size_t *start, *ent;
+} tri_grid;
+
+/* The bounding boxes of the nt triangles into bx, the box of them all into glo..ghi;
+ * returns the sum over the triangles of their largest box side. */
+static double tri_boxes(const double *pts, const vm_index *tri, size_t nt, box3 *bx,
+                        double glo[3], double ghi[3]) {
     double ext = 0.0;
+    for (int a = 0; a < 3; a++) {
+        glo[a] = INFINITY;
+        ghi[a] = -INFINITY;
+    }
     for (size_t t = 0; t < nt; t++) {
         double big = 0.0;
         for (int a = 0; a < 3; a++) {
@@ -221,34 +230,47 @@ vm_status vm__self_intersections(const double *pts, const vm_index *tri, size_t 
         }
         ext += big;
     }
-    /* Cells about the size of a typical triangle, at most ~2 per triangle. */
+    return ext;
+}
+
+/* Sizes g for nt triangles of mean largest side ext / nt within glo..ghi: cells about the
+ * size of a typical triangle, at most ~2 per triangle. */
+static void grid_size(tri_grid *g, const double glo[3], const double ghi[3], double ext,
+                      size_t nt) {
     double h = ext / (double)nt;
     double span = fmax(ghi[0] - glo[0], fmax(ghi[1] - glo[1], ghi[2] - glo[2]));
     if (!(h > 0) || !isfinite(h)) h = span > 0 && isfinite(span) ? span : 1.0;
-    size_t n[3], ncell;
     for (;;) {
-        ncell = 1;
+        g->ncell = 1;
         for (int a = 0; a < 3; a++) {
             double c = floor((ghi[a] - glo[a]) / h) + 1;
-            n[a] = c < 4096.0 ? (size_t)c : 4096;
-            ncell *= n[a];
+            g->n[a] = c < (double)GRID_MAX_SIDE ? (size_t)c : GRID_MAX_SIDE;
+            g->ncell *= g->n[a];
         }
-        if (ncell <= 2 * nt + 64) break;
-        h *= 1.25;
+        if (g->ncell <= 2 * nt + 64) break;
+        h *= GRID_GROWTH;
     }
-    vm_status st = VM_OK;
-    size_t *start = calloc(ncell + 1, sizeof *start), *ent = NULL;
-    if (!start) {
-        free(bx);
-        return vm_error_set(err, VM_ERR_NOMEM, "self-intersection: out of memory");
+    g->h = h;
+    memcpy(g->glo, glo, sizeof g->glo);
+}
+
+/* The cells c0..c1 (per axis) that box b covers in g. */
+static void box_cells(const tri_grid *g, const box3 *b, size_t c0[3], size_t c1[3]) {
+    for (int a = 0; a < 3; a++) {
+        c0[a] = cell_of(b->lo[a], g->glo[a], g->h, g->n[a]);
+        c1[a] = cell_of(b->hi[a], g->glo[a], g->h, g->n[a]);
     }
-    size_t total = 0;
+}
+
+/* Bins the nt boxes into the cells of g (g->start, g->ent; a counting sort). */
+static vm_status grid_fill(tri_grid *g, const box3 *bx, size_t nt, vm_error *err) {
+    const size_t *n = g->n;
+    g->start = calloc(g->ncell + 1, sizeof *g->start);
+    if (!g->start) return vm_error_set(err, VM_ERR_NOMEM, "self-intersection: out of memory");
+    size_t *start = g->start, total = 0, bytes;
     for (size_t t = 0; t < nt; t++) {
         size_t c0[3], c1[3];
-        for (int a = 0; a < 3; a++) {
-            c0[a] = cell_of(bx[t].lo[a], glo[a], h, n[a]);
-            c1[a] = cell_of(bx[t].hi[a], glo[a], h, n[a]);
-        }
+        box_cells(g, &bx[t], c0, c1);
         for (size_t z = c0[2]; z <= c1[2]; z++)
             for (size_t y = c0[1]; y <= c1[1]; y++)
                 for (size_t x = c0[0]; x <= c1[0]; x++) {
@@ -256,65 +278,87 @@ vm_status vm__self_intersections(const double *pts, const vm_index *tri, size_t 
                     total++;
                 }
     }
-    if (!vm__mul_size(total, sizeof *ent, &bytes) || bytes > vm__memory_limit() ||
-        !(ent = malloc(bytes ? bytes : 1))) {
-        st = vm_error_set(err, VM_ERR_NOMEM, "self-intersection: out of memory for %zu entries",
-                          total);
-        goto done;
-    }
-    for (size_t c = 0; c < ncell; c++)
+    if (!vm__mul_size(total, sizeof *g->ent, &bytes) || bytes > vm__memory_limit() ||
+        !(g->ent = malloc(bytes ? bytes : 1)))
+        return vm_error_set(err, VM_ERR_NOMEM,
+                            "self-intersection: out of memory for %zu entries", total);
+    for (size_t c = 0; c < g->ncell; c++)
         start[c + 1] += start[c];
     for (size_t t = 0; t < nt; t++) { /* start[c] runs ahead while filling */
         size_t c0[3], c1[3];
-        for (int a = 0; a < 3; a++) {
-            c0[a] = cell_of(bx[t].lo[a], glo[a], h, n[a]);
-            c1[a] = cell_of(bx[t].hi[a], glo[a], h, n[a]);
-        }
+        box_cells(g, &bx[t], c0, c1);
         for (size_t z = c0[2]; z <= c1[2]; z++)
             for (size_t y = c0[1]; y <= c1[1]; y++)
                 for (size_t x = c0[0]; x <= c1[0]; x++)
-                    ent[start[x + n[0] * (y + n[1] * z)]++] = t;
+                    g->ent[start[x + n[0] * (y + n[1] * z)]++] = t;
     }
-    for (size_t c = ncell; c > 0; c--) /* shift back: start[c] is the cell's first entry */
+    for (size_t c = g->ncell; c > 0; c--) /* shift back: start[c] is the cell's first entry */
         start[c] = start[c - 1];
     start[0] = 0;
-    for (size_t z = 0; z < n[2]; z++)
-        for (size_t y = 0; y < n[1]; y++)
-            for (size_t x = 0; x < n[0]; x++) {
-                size_t c = x + n[0] * (y + n[1] * z);
-                for (size_t p = start[c]; p < start[c + 1]; p++)
-                    for (size_t q = p + 1; q < start[c + 1]; q++) {
-                        size_t s = ent[p], t = ent[q];
-                        const box3 *A = &bx[s], *B = &bx[t];
-                        int apart = 0;
-                        double corner[3];
-                        for (int a = 0; a < 3; a++) {
-                            if (A->lo[a] > B->hi[a] || B->lo[a] > A->hi[a]) apart = 1;
-                            corner[a] = fmax(A->lo[a], B->lo[a]);
-                        }
-                        if (apart) continue;
-                        /* each pair once: in the cell of the low corner of the overlap */
-                        if (cell_of(corner[0], glo[0], h, n[0]) != x ||
-                            cell_of(corner[1], glo[1], h, n[1]) != y ||
-                            cell_of(corner[2], glo[2], h, n[2]) != z)
-                            continue;
-                        const double *pa[3], *pb[3];
-                        vm_index ia[3], ib[3];
-                        for (int k = 0; k < 3; k++) {
-                            ia[k] = tri[3 * s + (size_t)k];
-                            ib[k] = tri[3 * t + (size_t)k];
-                            pa[k] = pts + 3 * (size_t)ia[k];
-                            pb[k] = pts + 3 * (size_t)ib[k];
-                        }
-                        if (vm__tri_pair_intersects(pa, ia, pb, ib)) {
-                            (*pairs)++;
-                            if (flags) flags[s] = flags[t] = 1;
-                        }
-                    }
+    return VM_OK;
+}
+
+/* Tests the pairs of triangles in cell (x, y, z) of g whose boxes overlap, each pair in the
+ * cell of the low corner of the overlap only (so once); counts them as
+ * vm__self_intersections does. */
+static void cell_pairs(const tri_grid *g, size_t x, size_t y, size_t z, const box3 *bx,
+                       const double *pts, const vm_index *tri, size_t *pairs, uint8_t *flags) {
+    const size_t *n = g->n;
+    size_t c = x + n[0] * (y + n[1] * z);
+    for (size_t p = g->start[c]; p < g->start[c + 1]; p++)
+        for (size_t q = p + 1; q < g->start[c + 1]; q++) {
+            size_t s = g->ent[p], t = g->ent[q];
+            const box3 *A = &bx[s], *B = &bx[t];
+            int apart = 0;
+            double corner[3];
+            for (int a = 0; a < 3; a++) {
+                if (A->lo[a] > B->hi[a] || B->lo[a] > A->hi[a]) apart = 1;
+                corner[a] = fmax(A->lo[a], B->lo[a]);
             }
-done:
+            if (apart) continue;
+            if (cell_of(corner[0], g->glo[0], g->h, n[0]) != x ||
+                cell_of(corner[1], g->glo[1], g->h, n[1]) != y ||
+                cell_of(corner[2], g->glo[2], g->h, n[2]) != z)
+                continue;
+            const double *pa[3], *pb[3];
+            vm_index ia[3], ib[3];
+            for (int k = 0; k < 3; k++) {
+                ia[k] = tri[3 * s + (size_t)k];
+                ib[k] = tri[3 * t + (size_t)k];
+                pa[k] = pts + 3 * (size_t)ia[k];
+                pb[k] = pts + 3 * (size_t)ib[k];
+            }
+            if (vm__tri_pair_intersects(pa, ia, pb, ib)) {
+                (*pairs)++;
+                if (flags) flags[s] = flags[t] = 1;
+            }
+        }
+}
+
+/* The intersecting pairs (self_intersect.h): boxes, a uniform grid over them, the pairs
+ * tested cell by cell. */
+vm_status vm__self_intersections(const double *pts, const vm_index *tri, size_t nt,
+                                 size_t *pairs, uint8_t *flags, vm_error *err) {
+    *pairs = 0;
+    if (flags) memset(flags, 0, nt);
+    if (nt < 2) return VM_OK;
+    size_t bytes;
+    if (!vm__mul_size(nt, sizeof(box3), &bytes) || bytes > vm__memory_limit())
+        return vm_error_set(err, VM_ERR_NOMEM, "self-intersection: %zu triangles", nt);
+    box3 *bx = malloc(bytes);
+    if (!bx) return vm_error_set(err, VM_ERR_NOMEM, "self-intersection: out of memory");
+    double glo[3], ghi[3];
+    double ext = tri_boxes(pts, tri, nt, bx, glo, ghi);
+    tri_grid g;
+    memset(&g, 0, sizeof g);
+    grid_size(&g, glo, ghi, ext, nt);
+    vm_status st = grid_fill(&g, bx, nt, err);
+    for (size_t z = 0; !st && z < g.n[2]; z++)
+        for (size_t y = 0; y < g.n[1]; y++)
+            for (size_t x = 0; x < g.n[0]; x++)
+                cell_pairs(&g, x, y, z, bx, pts, tri, pairs, flags);
     free(bx);
-    free(start);
-    free(ent);
+    free(g.start);
+    free(g.ent);
     return st;
 }

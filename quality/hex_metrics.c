@@ -51,24 +51,26 @@ double vm_hex_corner_scaled_jacobian(const double p[8][3], int c) {
     return normalized_det(e[0], e[1], e[2]);
 }
 
+/* s clamped to the scaled Jacobian's full range, which starts at -1. */
+static double clamp_scaled_jacobian(double s) { return s < -1.0 ? -1.0 : s; }
+
+/* The smallest corner scaled Jacobian. */
 double vm_hex_min_scaled_jacobian(const double p[8][3]) {
     double smin = 1.0;
     for (int c = 0; c < 8; c++) {
         double s = vm_hex_corner_scaled_jacobian(p, c);
         if (s < smin) smin = s;
     }
-    if (smin < -1.0) smin = -1.0;
-    return smin;
+    return clamp_scaled_jacobian(smin);
 }
 
+/* The smallest of the corner scaled Jacobians and the centre's. */
 double vm_hex_scaled_jacobian(const double p[8][3]) {
     double x[6][3];
     hex_axes(p, x);
     double s = normalized_det(x[0], x[1], x[2]);
     double smin = vm_hex_min_scaled_jacobian(p);
-    if (s < smin) smin = s;
-    if (smin < -1.0) smin = -1.0;
-    return smin;
+    return clamp_scaled_jacobian(s < smin ? s : smin);
 }
 
 double vm_hex_jacobian(const double p[8][3]) {

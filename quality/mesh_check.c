@@ -4,6 +4,7 @@
  * their sorted node pairs (open addressing with linear probing); connectivity uses
  * union-find with path halving. Everything is O(n). */
 #include "../core/core.h"
+#include "../core/hash.h"
 #include "volmesh/quality.h"
 #include "../core/self_intersect.h"
 #include "tet_internal.h"
@@ -11,6 +12,10 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* A cell is degenerate when its volume (area for surfaces) is at most this fraction of the
+ * mean (relative, so in any unit): far below any real element, well above rounding (1e-16). */
+#define DEGENERATE_FRACTION 1e-12
 
 /* Faces of each volume kind, ordered so that normals point out of a positive cell. */
 static const int tet_faces[4][4] = {{1, 2, 3, 0}, {0, 3, 2, 0}, {0, 1, 3, 0}, {0, 2, 1, 0}};
@@ -26,6 +31,7 @@ typedef struct faceset {
     size_t npoints;        /* node indices are below this */
 } faceset;
 
+/* The k nodes of face instance inst (cell inst / nf, local face inst % nf). */
 static void face_nodes(const faceset *fs, uint64_t inst, int64_t out[4]) {
     uint64_t c = inst / (uint64_t)fs->nf;
     int lf = (int)(inst % (uint64_t)fs->nf);
@@ -34,6 +40,7 @@ static void face_nodes(const faceset *fs, uint64_t inst, int64_t out[4]) {
         out[i] = cn[fs->faces[lf][i]];
 }
 
+/* Sorts a[0..n) ascending (insertion sort: n is at most 4). */
 static void sort_small(int64_t *a, int n) {
     for (int i = 1; i < n; i++) {
         int64_t v = a[i];
@@ -46,21 +53,10 @@ static void sort_small(int64_t *a, int n) {
     }
 }
 
-static uint64_t hash_key(const int64_t *key, int n) {
-    uint64_t h = 0x9E3779B97F4A7C15ull;
-    for (int i = 0; i < n; i++) {
-        h ^= (uint64_t)key[i];
-        h *= 0xFF51AFD7ED558CCDull;
-        h ^= h >> 32;
-    }
-    h ^= h >> 33;
-    h *= 0xC4CEB9FE1A85EC53ull;
-    h ^= h >> 29;
-    return h;
-}
-
 /* --- checked allocation ------------------------------------------------------------------ */
 
+/* n elements of elem bytes (zeroed or not), or NULL with *st set when too large or out of
+ * memory; what names the array in the message. */
 static void *alloc_array(size_t n, size_t elem, int zeroed, const char *what, vm_status *st,
                          vm_error *err) {
     size_t bytes;
@@ -95,6 +91,7 @@ typedef struct bucket_face {
     uint64_t inst;
 } bucket_face;
 
+/* 1 when a comes before b: by the n keys, then by instance. */
 static int bucket_less(const bucket_face *a, const bucket_face *b, int n) {
     for (int i = 0; i < n; i++)
         if (a->key[i] != b->key[i]) return a->key[i] < b->key[i];
@@ -114,56 +111,56 @@ static void sort_bucket(bucket_face *f, size_t n, int nk) {
     }
 }
 
-/* Matches all cell faces. Faces are grouped by their smallest node (a counting sort over
- * the points, so memory is read nearly in order) and matched within each group by their
- * other nodes. [out] *binst (malloc'd) lists the boundary face instances in cell order;
- * *overshared counts faces used by more than two cells; when parent != NULL, cells sharing
- * a face are united in it. */
-static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
-                             size_t *overshared, uint64_t **binst, size_t *nb, vm__meter *mt,
-                             double share, vm_error *err) {
-    vm_status st = VM_OK;
-    *binst = NULL;
-    *nb = 0;
-    *overshared = 0;
-    size_t ninst;
-    if (!vm__mul_size(ncells, (size_t)fs->nf, &ninst))
-        return vm_error_set(err, VM_ERR_NOMEM, "mesh check: %zu cells overflow", ncells);
+/* The smallest node of face instance inst: the bucket it is matched in. */
+static int64_t face_low(const faceset *fs, uint64_t inst) {
+    int64_t key[4] = {0, 0, 0, 0}; /* fs->k of them are set */
+    face_nodes(fs, inst, key);
+    int64_t lo = key[0];
+    for (int j = 1; j < fs->k; j++)
+        if (key[j] < lo) lo = key[j];
+    return lo;
+}
+
+/* Sorts bucket ord[0..b) by the faces' other nodes (tbf: b entries of scratch), writes it
+ * back in that order and marks each instance: bit 0 a boundary face (counted in *n), bit 1
+ * the same face as the one before it; *over counts faces of more than two instances. */
+static void match_bucket(const faceset *fs, uint64_t *ord, size_t b, bucket_face *tbf,
+                         unsigned char *mark, size_t *n, size_t *over) {
     int k = fs->k;
-    size_t np = fs->npoints;
-    size_t *start = alloc_array(np + 1, sizeof *start, 1, "face buckets", &st, err);
-    if (!start) return st;
-    for (size_t i = 0; i < ninst; i++) {
+    for (size_t q = 0; q < b; q++) {
         int64_t key[4];
-        face_nodes(fs, i, key);
-        int64_t lo = key[0];
-        for (int j = 1; j < k; j++)
-            if (key[j] < lo) lo = key[j];
-        start[lo + 1]++;
+        face_nodes(fs, ord[q], key);
+        sort_small(key, k);
+        memcpy(tbf[q].key, key + 1, (size_t)(k - 1) * sizeof key[0]);
+        tbf[q].inst = ord[q];
     }
-    for (size_t v = 0; v < np; v++) start[v + 1] += start[v];
-    if (mt) vm__meter_add(mt, share / 3.0);
-    uint64_t *order = alloc_array(ninst, sizeof *order, 0, "face order", &st, err);
-    size_t *fill = alloc_array(np, sizeof *fill, 0, "face buckets", &st, err);
-    unsigned char *mark = alloc_array(ninst, 1, 1, "face marks", &st, err);
-    if (!order || !fill || !mark) goto done;
-    memcpy(fill, start, np * sizeof *fill);
-    for (size_t i = 0; i < ninst; i++) {
-        int64_t key[4];
-        face_nodes(fs, i, key);
-        int64_t lo = key[0];
-        for (int j = 1; j < k; j++)
-            if (key[j] < lo) lo = key[j];
-        order[fill[lo]++] = i;
+    sort_bucket(tbf, b, k - 1);
+    for (size_t q = 0; q < b;) {
+        size_t e = q + 1;
+        while (e < b && memcmp(tbf[e].key, tbf[q].key, (size_t)(k - 1) * sizeof(int64_t)) == 0)
+            e++;
+        if (e - q == 1) {
+            mark[tbf[q].inst] = 1;
+            (*n)++;
+        } else if (e - q > 2) {
+            (*over)++;
+        }
+        for (size_t r = q + 1; r < e; r++)
+            mark[tbf[r].inst] = 2;
+        q = e;
     }
-    free(fill);
-    fill = NULL;
-    if (mt) vm__meter_add(mt, share / 3.0);
-    /* Each bucket is sorted and matched on its own, so buckets run on threads; a bucket's
-     * instances go back into order sorted, with bit 1 of mark set on each instance that has
-     * the same face as the one before it, and bit 0 on boundary faces. The cells are united
-     * afterwards in one pass in order, so the result does not depend on the threads. */
-    size_t n = 0, over = 0;
+    for (size_t q = 0; q < b; q++)
+        ord[q] = tbf[q].inst;
+}
+
+/* Matches the buckets of every node (start: np + 1 offsets into order), in slabs of nodes
+ * whose buckets run on threads (each bucket on its own, so the result does not depend on
+ * the threads). *n counts boundary faces, *over faces of more than two cells. Returns
+ * VM_ERR_NOMEM when a thread's scratch could not be allocated, else VM_OK. */
+static vm_status match_buckets(const faceset *fs, const size_t *start, uint64_t *order,
+                               unsigned char *mark, size_t *nb, size_t *nover, vm__meter *mt,
+                               double share) {
+    size_t np = fs->npoints, n = 0, over = 0;
     int failed = 0;
     const size_t nslab = 16;
     for (size_t sl = 0; sl < nslab && !failed; sl++) {
@@ -190,32 +187,7 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
                         continue;
                     }
                 }
-                uint64_t *ord = order + start[v];
-                for (size_t q = 0; q < b; q++) {
-                    int64_t key[4];
-                    face_nodes(fs, ord[q], key);
-                    sort_small(key, k);
-                    memcpy(tbf[q].key, key + 1, (size_t)(k - 1) * sizeof key[0]);
-                    tbf[q].inst = ord[q];
-                }
-                sort_bucket(tbf, b, k - 1);
-                for (size_t q = 0; q < b;) {
-                    size_t e = q + 1;
-                    while (e < b &&
-                           memcmp(tbf[e].key, tbf[q].key, (size_t)(k - 1) * sizeof(int64_t)) == 0)
-                        e++;
-                    if (e - q == 1) {
-                        mark[tbf[q].inst] = 1;
-                        n++;
-                    } else if (e - q > 2) {
-                        over++;
-                    }
-                    for (size_t r = q + 1; r < e; r++)
-                        mark[tbf[r].inst] = 2;
-                    q = e;
-                }
-                for (size_t q = 0; q < b; q++)
-                    ord[q] = tbf[q].inst;
+                match_bucket(fs, order + start[v], b, tbf, mark, &n, &over);
             }
             free(tbf);
             if (lost) {
@@ -227,8 +199,47 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
         }
         if (mt) vm__meter_add(mt, share / 3.0 / (double)nslab);
     }
-    *overshared = over;
-    if (failed) {
+    *nb = n;
+    *nover = over;
+    return failed ? VM_ERR_NOMEM : VM_OK;
+}
+
+/* Matches all cell faces. Faces are grouped by their smallest node (a counting sort over
+ * the points, so memory is read nearly in order) and matched within each group by their
+ * other nodes. [out] *binst (malloc'd) lists the boundary face instances in cell order;
+ * *overshared counts faces used by more than two cells; when parent != NULL, cells sharing
+ * a face are united in it. */
+static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
+                             size_t *overshared, uint64_t **binst, size_t *nb, vm__meter *mt,
+                             double share, vm_error *err) {
+    vm_status st = VM_OK;
+    *binst = NULL;
+    *nb = 0;
+    *overshared = 0;
+    size_t ninst;
+    if (!vm__mul_size(ncells, (size_t)fs->nf, &ninst))
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh check: %zu cells overflow", ncells);
+    size_t np = fs->npoints;
+    size_t *start = alloc_array(np + 1, sizeof *start, 1, "face buckets", &st, err);
+    if (!start) return st;
+    for (size_t i = 0; i < ninst; i++)
+        start[face_low(fs, i) + 1]++;
+    for (size_t v = 0; v < np; v++) start[v + 1] += start[v];
+    if (mt) vm__meter_add(mt, share / 3.0);
+    uint64_t *order = alloc_array(ninst, sizeof *order, 0, "face order", &st, err);
+    size_t *fill = alloc_array(np, sizeof *fill, 0, "face buckets", &st, err);
+    unsigned char *mark = alloc_array(ninst, 1, 1, "face marks", &st, err);
+    if (!order || !fill || !mark) goto done;
+    memcpy(fill, start, np * sizeof *fill);
+    for (size_t i = 0; i < ninst; i++)
+        order[fill[face_low(fs, i)]++] = i;
+    free(fill);
+    fill = NULL;
+    if (mt) vm__meter_add(mt, share / 3.0);
+    /* a bucket's instances go back into order sorted, marked (match_bucket); the cells are
+     * united afterwards in one pass in order */
+    size_t n = 0;
+    if (match_buckets(fs, start, order, mark, &n, overshared, mt, share)) {
         st = vm_error_set(err, VM_ERR_NOMEM, "mesh check: out of memory for a face bucket");
         goto done;
     }
@@ -260,6 +271,86 @@ typedef struct edge_slot {
     uint32_t tag;
 } edge_slot;
 
+/* Node a of edge instance i of faces (k nodes each) and node b, the next one around the
+ * face. */
+static void edge_ends(const vm_index *faces, int k, size_t i, int64_t *a, int64_t *b) {
+    size_t f = i / (size_t)k, j = i % (size_t)k;
+    *a = faces[i];
+    *b = faces[f * (size_t)k + (j + 1) % (size_t)k];
+}
+
+/* Enters every edge instance of the faces into tab (mask + 1 slots, open addressing):
+ * each edge keeps its first two instances and its count; faces sharing an edge are united
+ * in fparent; vflag bit 1 marks the used vertices. */
+static void hash_edges(const vm_index *faces, size_t ninst, int k, edge_slot *tab,
+                       size_t mask, size_t *fparent, unsigned char *vflag) {
+    for (size_t i = 0; i < ninst; i++) {
+        size_t f = i / (size_t)k;
+        int64_t a, b;
+        edge_ends(faces, k, i, &a, &b);
+        vflag[a] |= 1;
+        int64_t key[2] = {a < b ? a : b, a < b ? b : a};
+        uint64_t h = vm__hash_add(vm__hash_add(0, (uint64_t)key[0]), (uint64_t)key[1]);
+        uint32_t tag = (uint32_t)(h >> 32);
+        size_t pos = (size_t)h & mask;
+        for (;;) {
+            edge_slot *s = &tab[pos];
+            if (s->c1 == 0) {
+                s->c1 = (uint64_t)i + 1;
+                s->count = 1;
+                s->tag = tag;
+                break;
+            }
+            if (s->tag == tag) {
+                int64_t a1, b1;
+                edge_ends(faces, k, (size_t)(s->c1 - 1), &a1, &b1);
+                if ((a1 < b1 ? a1 : b1) == key[0] && (a1 < b1 ? b1 : a1) == key[1]) {
+                    if (s->count == 1) s->c2 = (uint64_t)i + 1;
+                    if (s->count < UINT32_MAX) s->count++;
+                    vm__uf_union(fparent, (size_t)(s->c1 - 1) / (size_t)k, f);
+                    break;
+                }
+            }
+            pos = (pos + 1) & mask;
+        }
+    }
+}
+
+/* Counts the edges of tab (cap slots) and the open and non-manifold ones into r (their
+ * vertices get vflag bit 2); at a manifold edge the corners of the two faces at each end
+ * are united in cparent, into one fan. Returns the number of edges. */
+static size_t edge_fans(const edge_slot *tab, size_t cap, const vm_index *faces, int k,
+                        size_t *cparent, unsigned char *vflag, vm_mesh_report *r) {
+    size_t nedges = 0;
+    for (size_t s = 0; s < cap; s++) {
+        if (tab[s].c1 == 0) continue;
+        nedges++;
+        size_t i1 = (size_t)(tab[s].c1 - 1), f1 = i1 / (size_t)k, j1 = i1 % (size_t)k;
+        size_t i1n = f1 * (size_t)k + (j1 + 1) % (size_t)k;
+        int64_t a = faces[i1], b = faces[i1n];
+        if (tab[s].count != 2) {
+            if (tab[s].count == 1)
+                r->boundary_open_edges++;
+            else
+                r->boundary_nonmanifold_edges++;
+            vflag[a] |= 2;
+            vflag[b] |= 2;
+            continue;
+        }
+        /* Two faces meet here: join their corners at each end of the edge into one fan. */
+        size_t i2 = (size_t)(tab[s].c2 - 1), f2 = i2 / (size_t)k, j2 = i2 % (size_t)k;
+        size_t i2n = f2 * (size_t)k + (j2 + 1) % (size_t)k;
+        if (faces[i2] == a) {
+            vm__uf_union(cparent, i1, i2);
+            vm__uf_union(cparent, i1n, i2n);
+        } else {
+            vm__uf_union(cparent, i1, i2n);
+            vm__uf_union(cparent, i1n, i2);
+        }
+    }
+    return nedges;
+}
+
 /* Analyses a surface of nf faces with k nodes each (faces[f*k + j]): closedness, manifold
  * edges and vertices, Euler characteristic and edge-connected components. */
 static vm_status analyse_surface(const vm_index *faces, size_t nf, int k, size_t npoints,
@@ -289,64 +380,8 @@ static vm_status analyse_surface(const vm_index *faces, size_t nf, int k, size_t
     for (size_t v = 0; v < npoints; v++)
         first_root[v] = SIZE_MAX;
 
-    size_t mask = cap - 1;
-    for (size_t i = 0; i < ninst; i++) {
-        size_t f = i / (size_t)k, j = i % (size_t)k;
-        int64_t a = faces[i], b = faces[f * (size_t)k + (j + 1) % (size_t)k];
-        vflag[a] |= 1;
-        int64_t key[2] = {a < b ? a : b, a < b ? b : a};
-        uint64_t h = hash_key(key, 2);
-        uint32_t tag = (uint32_t)(h >> 32);
-        size_t pos = (size_t)h & mask;
-        for (;;) {
-            edge_slot *s = &tab[pos];
-            if (s->c1 == 0) {
-                s->c1 = (uint64_t)i + 1;
-                s->count = 1;
-                s->tag = tag;
-                break;
-            }
-            if (s->tag == tag) {
-                size_t i1 = (size_t)(s->c1 - 1), f1 = i1 / (size_t)k, j1 = i1 % (size_t)k;
-                int64_t a1 = faces[i1], b1 = faces[f1 * (size_t)k + (j1 + 1) % (size_t)k];
-                if ((a1 < b1 ? a1 : b1) == key[0] && (a1 < b1 ? b1 : a1) == key[1]) {
-                    if (s->count == 1) s->c2 = (uint64_t)i + 1;
-                    if (s->count < UINT32_MAX) s->count++;
-                    vm__uf_union(fparent, f1, f);
-                    break;
-                }
-            }
-            pos = (pos + 1) & mask;
-        }
-    }
-
-    size_t nedges = 0;
-    for (size_t s = 0; s < cap; s++) {
-        if (tab[s].c1 == 0) continue;
-        nedges++;
-        size_t i1 = (size_t)(tab[s].c1 - 1), f1 = i1 / (size_t)k, j1 = i1 % (size_t)k;
-        size_t i1n = f1 * (size_t)k + (j1 + 1) % (size_t)k;
-        int64_t a = faces[i1], b = faces[i1n];
-        if (tab[s].count != 2) {
-            if (tab[s].count == 1)
-                r->boundary_open_edges++;
-            else
-                r->boundary_nonmanifold_edges++;
-            vflag[a] |= 2;
-            vflag[b] |= 2;
-            continue;
-        }
-        /* Two faces meet here: join their corners at each end of the edge into one fan. */
-        size_t i2 = (size_t)(tab[s].c2 - 1), f2 = i2 / (size_t)k, j2 = i2 % (size_t)k;
-        size_t i2n = f2 * (size_t)k + (j2 + 1) % (size_t)k;
-        if (faces[i2] == a) {
-            vm__uf_union(cparent, i1, i2);
-            vm__uf_union(cparent, i1n, i2n);
-        } else {
-            vm__uf_union(cparent, i1, i2n);
-            vm__uf_union(cparent, i1n, i2);
-        }
-    }
+    hash_edges(faces, ninst, k, tab, cap - 1, fparent, vflag);
+    size_t nedges = edge_fans(tab, cap, faces, k, cparent, vflag, r);
     /* A vertex is manifold when all its corners form one fan and none of its edges is open
      * or non-manifold (a fan that closes into a single cycle). */
     for (size_t c = 0; c < ninst; c++) {
@@ -379,24 +414,14 @@ done:
 
 /* --- the checks -------------------------------------------------------------------------- */
 
-static vm_status check_indices(const vm_mesh *m, const char *what, vm_error *err) {
-    size_t n = m->ncells * (size_t)vm_cell_nodes(m->kind);
-    for (size_t i = 0; i < n; i++) {
-        vm_index v = m->cells[i];
-        if (v < 0 || (uint64_t)v >= (uint64_t)m->npoints)
-            return vm_error_set(err, VM_ERR_ARG, "%s: cell %zu uses node %lld, outside 0..%zu",
-                                what, i / (size_t)vm_cell_nodes(m->kind), (long long)v,
-                                m->npoints ? m->npoints - 1 : 0);
-    }
-    return VM_OK;
-}
-
+/* The nn corner points of cell c. */
 static void cell_points(const vm_mesh *m, size_t c, int nn, double p[8][3]) {
     const vm_index *cn = m->cells + c * (size_t)nn;
     for (int i = 0; i < nn; i++)
         memcpy(p[i], m->points + 3 * (size_t)cn[i], sizeof p[i]);
 }
 
+/* The face table of volume mesh m (tets or hexes). */
 static faceset faceset_of(const vm_mesh *m) {
     faceset fs;
     fs.cells = m->cells;
@@ -463,7 +488,7 @@ static vm_status cell_metrics(const vm_mesh *m, vm_mesh_report *r, vm__meter *mt
         r->volume += vol[c];
         sum_abs += fabs(vol[c]);
     }
-    double floor = m->ncells ? 1e-12 * sum_abs / (double)m->ncells : 0.0;
+    double floor = m->ncells ? DEGENERATE_FRACTION * sum_abs / (double)m->ncells : 0.0;
     for (size_t c = 0; c < m->ncells; c++)
         if (fabs(vol[c]) <= floor) r->degenerate++;
     free(vol);
@@ -558,7 +583,7 @@ static vm_status check_surface_mesh(const vm_mesh *m, vm_mesh_report *r, vm_erro
         area[c] = sqrt(an[0] * an[0] + an[1] * an[1] + an[2] * an[2]);
         sum_area += area[c];
     }
-    double floor = m->ncells ? 1e-12 * sum_area / (double)m->ncells : 0.0;
+    double floor = m->ncells ? DEGENERATE_FRACTION * sum_area / (double)m->ncells : 0.0;
     for (size_t c = 0; c < m->ncells; c++)
         if (area[c] <= floor) r->degenerate++;
     free(area);
@@ -584,7 +609,7 @@ vm_status vm_mesh_check_with(const vm_mesh *m, vm_progress_fn progress, void *us
     if (vm_cell_nodes(m->kind) == 0)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "mesh check: unknown cell kind %d",
                             (int)m->kind);
-    vm_status st = check_indices(m, "mesh check", err);
+    vm_status st = vm__check_nodes(m, VM_ERR_ARG, "mesh check", err);
     if (st) return st;
     vm__meter mt;
     vm__meter_start(&mt, progress, user, "check", 1.0);
@@ -602,7 +627,7 @@ vm_status vm_mesh_boundary(const vm_mesh *m, vm_mesh *surf, vm_error *err) {
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
                             "mesh boundary: needs a tet4 or hex8 mesh, not %s",
                             vm_cell_kind_name(m->kind));
-    vm_status st = check_indices(m, "mesh boundary", err);
+    vm_status st = vm__check_nodes(m, VM_ERR_ARG, "mesh boundary", err);
     if (st) return st;
     faceset fs = faceset_of(m);
     uint64_t *binst = NULL;

@@ -15,6 +15,16 @@
 #include <string.h>
 
 #define DEG2RAD (3.14159265358979323846 / 180.0)
+#define HALF_FOV_DEG 15.0 /* half the perspective field of view (30 degrees, a normal lens) */
+/* Option ranges (include/volmesh/render.h documents them). */
+#define MAX_IMAGE_SIDE 16384 /* pixels per side */
+#define MAX_SUPERSAMPLE 4    /* samples per pixel side: 16 per pixel at most */
+#define MIN_EDGE_WIDTH 0.25  /* pixels */
+#define MAX_EDGE_WIDTH 8.0
+/* Hidden highlighted cells: the sample becomes HIDDEN_KEEP of its colour plus HIDDEN_TINT of
+ * the highlight colour (over half the tint, so it reads through the surface in front). */
+#define HIDDEN_KEEP 0.45f
+#define HIDDEN_TINT 0.55f
 
 void vm_render_options_default(vm_render_options *o) {
     memset(o, 0, sizeof *o);
@@ -138,10 +148,13 @@ static int camera_fit(camera *c, const vm_mesh *m, const vm_render_options *o, i
     }
     vm__cross3(c->right, c->fwd, c->up);
     /* The eye sits on the sphere seen under a 30 degree field of view. */
-    c->dist = radius / sin(15.0 * DEG2RAD);
+    c->dist = radius / sin(HALF_FOV_DEG * DEG2RAD);
     c->scale = 1.0;
     return 1;
 }
+
+/* The framed points fill this fraction of the image: a 4 per cent margin on each side. */
+#define FRAME_FILL 0.92
 
 /* Zooms and centres the view on points (nidx indices into them, or all npoints when idx is
  * NULL), leaving a 4 per cent margin. */
@@ -166,7 +179,8 @@ static void camera_frame(camera *c, const double *points, size_t npoints, const 
     }
     if (plo[0] > phi[0]) return; /* nothing finite: keep the frame */
     double ex = phi[0] - plo[0], ey = phi[1] - plo[1];
-    double sx = ex > 0 ? 0.92 * c->w / ex : DBL_MAX, sy = ey > 0 ? 0.92 * c->h / ey : DBL_MAX;
+    double sx = ex > 0 ? FRAME_FILL * c->w / ex : DBL_MAX;
+    double sy = ey > 0 ? FRAME_FILL * c->h / ey : DBL_MAX;
     c->scale = sx < sy ? sx : sy;
     if (c->scale == DBL_MAX) c->scale = 1.0; /* a single point */
     c->cx = 0.5 * (plo[0] + phi[0]);
@@ -198,17 +212,6 @@ static void cell_centroid(const vm_mesh *m, size_t c, double out[3]) {
         for (int d = 0; d < 3; d++)
             out[d] += p[d] / nn;
     }
-}
-
-static vm_status check_nodes(const vm_mesh *m, vm_error *err) {
-    size_t total = m->ncells * (size_t)vm_cell_nodes(m->kind);
-    for (size_t i = 0; i < total; i++)
-        if (m->cells[i] < 0 || (size_t)m->cells[i] >= m->npoints)
-            return vm_error_set(err, VM_ERR_ARG,
-                                "render: cell %zu uses node %lld, outside 0..%zu",
-                                i / (size_t)vm_cell_nodes(m->kind), (long long)m->cells[i],
-                                m->npoints ? m->npoints - 1 : 0);
-    return VM_OK;
 }
 
 /* The faces of the kept cells (keep == NULL: all): for a volume mesh the boundary of the kept
@@ -373,6 +376,8 @@ typedef struct raster {
     unsigned char *mask; /* hidden-highlight marks, or NULL */
 } raster;
 
+#define EDGE_DARK 0.3f /* an edge line is the face colour at 30 per cent */
+
 /* One triangle (screen coordinates and depth keys in v) in colour col. Edges whose bit is set
  * in edge_mask (bit i: v[i] to v[i+1]) are darkened within half_width samples, with opacity
  * edge_alpha. mark_hidden != 0: instead of drawing, marks the samples where the triangle
@@ -402,7 +407,7 @@ static void raster_tri(raster *r, const double v[3][3], const float col[3], int 
         len[i] = sqrt(a[i] * a[i] + b[i] * b[i]);
     }
     double ew = edge_alpha > 0 ? half_width : -1.0;
-    float dark[3] = {col[0] * 0.3f, col[1] * 0.3f, col[2] * 0.3f};
+    float dark[3] = {col[0] * EDGE_DARK, col[1] * EDGE_DARK, col[2] * EDGE_DARK};
     for (int y = y0; y <= y1; y++) {
         double py = y + 0.5;
         for (int x = x0; x <= x1; x++) {
@@ -437,6 +442,19 @@ static void raster_tri(raster *r, const double v[3][3], const float col[3], int 
     }
 }
 
+/* The lights of shade(), set by eye for shaded meshes that stay readable: luminance
+ * AMBIENT + HEADLIGHT cos(view) + KEY_LIGHT cos(key), plus SPECULAR cos(view)^SHININESS on
+ * glossy faces; the key light shines from the left, above and in front of the eye (the
+ * KEY_* weights on the camera's right, up and forward axes). */
+#define AMBIENT 0.22
+#define HEADLIGHT 0.5
+#define KEY_LIGHT 0.33
+#define SPECULAR 0.16
+#define SHININESS 40.0
+#define KEY_LEFT 0.45
+#define KEY_UP 0.6
+#define KEY_FRONT 0.66
+
 /* Flat shading of a face with unit normal n seen along view (unit, towards the eye):
  * ambient, a headlight, a key light above-left and a faint specular highlight. */
 static void shade(const camera *c, const double n_in[3], const double view[3],
@@ -450,12 +468,12 @@ static void shade(const camera *c, const double n_in[3], const double view[3],
     }
     double key[3];
     for (int i = 0; i < 3; i++)
-        key[i] = -0.45 * c->right[i] + 0.6 * c->up[i] - 0.66 * c->fwd[i];
+        key[i] = -KEY_LEFT * c->right[i] + KEY_UP * c->up[i] - KEY_FRONT * c->fwd[i];
     double kn = vm__norm3(key);
     double kd = vm__dot3(n, key) / kn;
     if (kd < 0) kd = 0;
-    double lum = 0.22 + 0.5 * hd + 0.33 * kd;
-    double spec = gloss ? 0.16 * pow(hd, 40.0) : 0.0;
+    double lum = AMBIENT + HEADLIGHT * hd + KEY_LIGHT * kd;
+    double spec = gloss ? SPECULAR * pow(hd, SHININESS) : 0.0;
     for (int i = 0; i < 3; i++)
         out[i] = (float)(base[i] * lum + 255.0 * spec);
 }
@@ -482,6 +500,12 @@ static void face_normal(const double p[4][3], int k, double n[3]) {
     }
 }
 
+/* Edges fade in as a face's mean edge grows from EDGE_FADE_FROM pixels over EDGE_FADE_SPAN
+ * more, to opacity EDGE_ALPHA (never quite black). */
+#define EDGE_FADE_FROM 4.0
+#define EDGE_FADE_SPAN 8.0
+#define EDGE_ALPHA 0.85
+
 /* Draws a triangle or quad given by its corners p (k of them) in colour col. */
 static void draw_polygon(raster *r, const camera *cam, const double p[4][3], int k,
                          const float col[3], int show_edges, double half_width, int ss,
@@ -500,8 +524,8 @@ static void draw_polygon(raster *r, const camera *cam, const double p[4][3], int
             const double *a = s[i], *b = s[(i + 1) % k];
             lsum += hypot(b[0] - a[0], b[1] - a[1]) / ss;
         }
-        alpha = (lsum / k - 4.0) / 8.0;
-        alpha = 0.85 * (alpha < 0 ? 0 : alpha > 1 ? 1 : alpha);
+        alpha = (lsum / k - EDGE_FADE_FROM) / EDGE_FADE_SPAN;
+        alpha = EDGE_ALPHA * (alpha < 0 ? 0 : alpha > 1 ? 1 : alpha);
     }
     if (k == 3) {
         raster_tri(r, (const double(*)[3])s, col, 7, alpha, half_width, mark_hidden);
@@ -549,6 +573,156 @@ static void mark_hidden_cell(raster *r, const camera *cam, const vm_mesh *m, siz
 
 /* ---- the entry point -------------------------------------------------------------------- */
 
+/* Checks the options o and the mesh m before any work. */
+static vm_status check_render_args(const vm_mesh *m, const vm_render_options *o,
+                                   vm_error *err) {
+    if (o->width < 1 || o->width > MAX_IMAGE_SIDE || o->height < 1 ||
+        o->height > MAX_IMAGE_SIDE)
+        return vm_error_set(err, VM_ERR_ARG, "render: image size %d x %d is not in 1..16384",
+                            o->width, o->height);
+    if (o->supersample < 1 || o->supersample > MAX_SUPERSAMPLE)
+        return vm_error_set(err, VM_ERR_ARG, "render: supersample %d is not in 1..4",
+                            o->supersample);
+    if (o->show_edges && !(o->edge_width >= MIN_EDGE_WIDTH && o->edge_width <= MAX_EDGE_WIDTH))
+        return vm_error_set(err, VM_ERR_ARG, "render: edge width %g is not in 0.25..8",
+                            o->edge_width);
+    if (!isfinite(o->azimuth) || !(o->elevation >= -90.0 && o->elevation <= 90.0))
+        return vm_error_set(err, VM_ERR_ARG,
+                            "render: elevation %g is not in -90..90 (or azimuth not finite)",
+                            o->elevation);
+    if (!isfinite(o->up[0]) || !isfinite(o->up[1]) || !isfinite(o->up[2]))
+        return vm_error_set(err, VM_ERR_ARG, "render: the up direction is not finite");
+    if (vm_cell_nodes(m->kind) == 0)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "render: unknown cell kind %d",
+                            (int)m->kind);
+    if (m->ncells == 0) return vm_error_set(err, VM_ERR_EMPTY, "render: the mesh has no cells");
+    return vm__check_nodes(m, VM_ERR_ARG, "render", err);
+}
+
+/* Cut-away: *keep (per cell, 1 kept) for the cells whose centroid lies on the kept side of
+ * the cut plane; NULL when o->cut is VM_CUT_NONE. */
+static vm_status cut_mask(const vm_mesh *m, const vm_render_options *o, const camera *cam,
+                          unsigned char **keep, vm_error *err) {
+    *keep = NULL;
+    if (o->cut == VM_CUT_NONE) return VM_OK;
+    double n[3], off;
+    if (o->cut == VM_CUT_AUTO) {
+        for (int d = 0; d < 3; d++)
+            n[d] = cam->right[d] - cam->fwd[d];
+        off = vm__dot3(n, cam->centre);
+    } else {
+        memcpy(n, o->cut_normal, sizeof n);
+        off = o->cut_offset;
+        if (!(vm__norm3(n) > 0) || !isfinite(off))
+            return vm_error_set(err, VM_ERR_ARG,
+                                "render: cut normal (%g, %g, %g) offset %g is not a plane",
+                                n[0], n[1], n[2], off);
+    }
+    *keep = malloc(m->ncells);
+    if (!*keep) return vm_error_set(err, VM_ERR_NOMEM, "render: out of memory");
+    for (size_t c = 0; c < m->ncells; c++) {
+        double ctr[3];
+        cell_centroid(m, c, ctr);
+        (*keep)[c] = !(vm__dot3(n, ctr) > off);
+    }
+    return VM_OK;
+}
+
+/* Allocates the sample grid r (sw x sh, background colour, far depth; a hidden-highlight
+ * mask when with_mask) and the output pixels of img. */
+static vm_status raster_init(raster *r, int sw, int sh, const unsigned char background[3],
+                             int with_mask, vm_image *img, int width, int height,
+                             vm_error *err) {
+    size_t nsamples = (size_t)sw * (size_t)sh;
+    memset(r, 0, sizeof *r);
+    r->w = sw;
+    r->h = sh;
+    r->rgb = malloc(3 * nsamples);
+    r->z = malloc(nsamples * sizeof(float));
+    if (with_mask) r->mask = calloc(nsamples, 1);
+    img->pixels = malloc(3 * (size_t)width * (size_t)height);
+    if (!r->rgb || !r->z || !img->pixels || (with_mask && !r->mask))
+        return vm_error_set(err, VM_ERR_NOMEM, "render: out of memory for %d x %d samples", sw,
+                            sh);
+    for (size_t i = 0; i < nsamples; i++) {
+        memcpy(r->rgb + 3 * i, background, 3);
+        r->z[i] = FLT_MAX;
+    }
+    return VM_OK;
+}
+
+/* Draws the faces f, shaded in their region's colour, or the highlight colour where their
+ * cell of m is highlighted (hl_on). */
+static void draw_faces(raster *r, const camera *cam, const vm_mesh *m, const faces *f,
+                       const highlight *hl, int hl_on, const vm_render_options *o) {
+    int ss = o->supersample;
+    double half_width = 0.5 * o->edge_width * ss;
+    for (size_t i = 0; i < f->n; i++) {
+        double p[4][3], ctr[3] = {0, 0, 0};
+        for (int j = 0; j < f->k; j++) {
+            memcpy(p[j], f->points + 3 * (size_t)f->nodes[i * (size_t)f->k + (size_t)j],
+                   sizeof p[j]);
+            for (int d = 0; d < 3; d++)
+                ctr[d] += p[j][d] / f->k;
+        }
+        double n[3], view[3];
+        face_normal((const double(*)[3])p, f->k, n);
+        to_eye(cam, ctr, view);
+        unsigned char base[3];
+        int red = hl_on && highlighted(m, hl, face_cell(f, i));
+        if (red) {
+            base[0] = VM_RENDER_HIGHLIGHT_R;
+            base[1] = VM_RENDER_HIGHLIGHT_G;
+            base[2] = VM_RENDER_HIGHLIGHT_B;
+        } else {
+            vm_render_region_color(f->region[i], base);
+        }
+        float col[3];
+        shade(cam, n, view, base, !red, col);
+        draw_polygon(r, cam, (const double(*)[3])p, f->k, col, o->show_edges, half_width, ss,
+                     0);
+    }
+}
+
+/* Tints the samples where a kept highlighted cell lies behind what is drawn. */
+static void tint_hidden(raster *r, const camera *cam, const vm_mesh *m,
+                        const unsigned char *keep, const highlight *hl) {
+    for (size_t c = 0; c < m->ncells; c++)
+        if ((!keep || keep[c]) && highlighted(m, hl, c)) mark_hidden_cell(r, cam, m, c);
+    static const float tint[3] = {VM_RENDER_HIGHLIGHT_R, VM_RENDER_HIGHLIGHT_G,
+                                  VM_RENDER_HIGHLIGHT_B};
+    size_t nsamples = (size_t)r->w * (size_t)r->h;
+    for (size_t i = 0; i < nsamples; i++) {
+        if (!r->mask[i]) continue;
+        unsigned char *px = r->rgb + 3 * i;
+        for (int k = 0; k < 3; k++)
+            px[k] = (unsigned char)(HIDDEN_KEEP * px[k] + HIDDEN_TINT * tint[k] + 0.5f);
+    }
+}
+
+/* Box filter of the samples r (ss x ss per pixel) down to img (width x height). */
+static void downsample(const raster *r, int ss, vm_image *img, int width, int height) {
+    img->width = width;
+    img->height = height;
+    for (int y = 0; y < height; y++)
+        for (int x = 0; x < width; x++) {
+            unsigned sum[3] = {0, 0, 0};
+            for (int j = 0; j < ss; j++) {
+                const unsigned char *row =
+                    r->rgb + 3 * ((size_t)(y * ss + j) * (size_t)r->w + (size_t)x * (size_t)ss);
+                for (int i = 0; i < ss; i++)
+                    for (int k = 0; k < 3; k++)
+                        sum[k] += row[3 * i + k];
+            }
+            unsigned char *out = img->pixels + 3 * ((size_t)y * (size_t)width + (size_t)x);
+            unsigned nsub = (unsigned)(ss * ss);
+            for (int k = 0; k < 3; k++)
+                out[k] = (unsigned char)((sum[k] + nsub / 2) / nsub);
+        }
+}
+
+/* Renders m into img (see render.h): checks, camera, cut-away, faces, raster, highlight
+ * tint, box filter. */
 vm_status vm_render_mesh(const vm_mesh *m, const vm_render_options *o_in, vm_image *img,
                          vm_error *err) {
     memset(img, 0, sizeof *img);
@@ -557,26 +731,7 @@ vm_status vm_render_mesh(const vm_mesh *m, const vm_render_options *o_in, vm_ima
         o = *o_in;
     else
         vm_render_options_default(&o);
-    if (o.width < 1 || o.width > 16384 || o.height < 1 || o.height > 16384)
-        return vm_error_set(err, VM_ERR_ARG, "render: image size %d x %d is not in 1..16384",
-                            o.width, o.height);
-    if (o.supersample < 1 || o.supersample > 4)
-        return vm_error_set(err, VM_ERR_ARG, "render: supersample %d is not in 1..4",
-                            o.supersample);
-    if (o.show_edges && !(o.edge_width >= 0.25 && o.edge_width <= 8.0))
-        return vm_error_set(err, VM_ERR_ARG, "render: edge width %g is not in 0.25..8",
-                            o.edge_width);
-    if (!isfinite(o.azimuth) || !(o.elevation >= -90.0 && o.elevation <= 90.0))
-        return vm_error_set(err, VM_ERR_ARG,
-                            "render: elevation %g is not in -90..90 (or azimuth not finite)",
-                            o.elevation);
-    if (!isfinite(o.up[0]) || !isfinite(o.up[1]) || !isfinite(o.up[2]))
-        return vm_error_set(err, VM_ERR_ARG, "render: the up direction is not finite");
-    if (vm_cell_nodes(m->kind) == 0)
-        return vm_error_set(err, VM_ERR_UNSUPPORTED, "render: unknown cell kind %d",
-                            (int)m->kind);
-    if (m->ncells == 0) return vm_error_set(err, VM_ERR_EMPTY, "render: the mesh has no cells");
-    vm_status st = check_nodes(m, err);
+    vm_status st = check_render_args(m, &o, err);
     if (st) return st;
     highlight hl;
     int hl_on = 0;
@@ -595,30 +750,9 @@ vm_status vm_render_mesh(const vm_mesh *m, const vm_render_options *o_in, vm_ima
         return vm_error_set(err, VM_ERR_EMPTY, "render: the mesh has no finite point");
     camera_frame(&cam, m->points, m->npoints, NULL, 0);
 
-    /* Cut-away: a mask of kept cells. */
     unsigned char *keep = NULL;
-    if (o.cut != VM_CUT_NONE) {
-        double n[3], off;
-        if (o.cut == VM_CUT_AUTO) {
-            for (int d = 0; d < 3; d++)
-                n[d] = cam.right[d] - cam.fwd[d];
-            off = vm__dot3(n, cam.centre);
-        } else {
-            memcpy(n, o.cut_normal, sizeof n);
-            off = o.cut_offset;
-            if (!(vm__norm3(n) > 0) || !isfinite(off))
-                return vm_error_set(err, VM_ERR_ARG,
-                                    "render: cut normal (%g, %g, %g) offset %g is not a plane",
-                                    n[0], n[1], n[2], off);
-        }
-        keep = malloc(m->ncells);
-        if (!keep) return vm_error_set(err, VM_ERR_NOMEM, "render: out of memory");
-        for (size_t c = 0; c < m->ncells; c++) {
-            double ctr[3];
-            cell_centroid(m, c, ctr);
-            keep[c] = !(vm__dot3(n, ctr) > off);
-        }
-    }
+    st = cut_mask(m, &o, &cam, &keep, err);
+    if (st) return st;
     faces f;
     st = collect_faces(m, keep, &f, err);
     if (st) {
@@ -629,81 +763,13 @@ vm_status vm_render_mesh(const vm_mesh *m, const vm_render_options *o_in, vm_ima
     if (f.n) camera_frame(&cam, f.points, f.npoints, f.nodes, f.n * (size_t)f.k);
 
     raster r;
-    memset(&r, 0, sizeof r);
-    r.w = sw;
-    r.h = sh;
-    r.rgb = malloc(3 * nsamples);
-    r.z = malloc(nsamples * sizeof(float));
-    if (o.highlight_hidden && hl_on) r.mask = calloc(nsamples, 1);
-    img->pixels = malloc(3 * (size_t)o.width * (size_t)o.height);
-    if (!r.rgb || !r.z || !img->pixels || (o.highlight_hidden && hl_on && !r.mask)) {
-        st = vm_error_set(err, VM_ERR_NOMEM, "render: out of memory for %d x %d samples", sw,
-                          sh);
-        goto done;
+    st = raster_init(&r, sw, sh, o.background, o.highlight_hidden && hl_on, img, o.width,
+                     o.height, err);
+    if (!st) {
+        draw_faces(&r, &cam, m, &f, &hl, hl_on, &o);
+        if (r.mask) tint_hidden(&r, &cam, m, keep, &hl);
+        downsample(&r, ss, img, o.width, o.height);
     }
-    for (size_t i = 0; i < nsamples; i++) {
-        memcpy(r.rgb + 3 * i, o.background, 3);
-        r.z[i] = FLT_MAX;
-    }
-
-    double half_width = 0.5 * o.edge_width * ss;
-    for (size_t i = 0; i < f.n; i++) {
-        double p[4][3], ctr[3] = {0, 0, 0};
-        for (int j = 0; j < f.k; j++) {
-            memcpy(p[j], f.points + 3 * (size_t)f.nodes[i * (size_t)f.k + (size_t)j],
-                   sizeof p[j]);
-            for (int d = 0; d < 3; d++)
-                ctr[d] += p[j][d] / f.k;
-        }
-        double n[3], view[3];
-        face_normal((const double(*)[3])p, f.k, n);
-        to_eye(&cam, ctr, view);
-        unsigned char base[3];
-        int red = hl_on && highlighted(m, &hl, face_cell(&f, i));
-        if (red) {
-            base[0] = VM_RENDER_HIGHLIGHT_R;
-            base[1] = VM_RENDER_HIGHLIGHT_G;
-            base[2] = VM_RENDER_HIGHLIGHT_B;
-        } else {
-            vm_render_region_color(f.region[i], base);
-        }
-        float col[3];
-        shade(&cam, n, view, base, !red, col);
-        draw_polygon(&r, &cam, (const double(*)[3])p, f.k, col, o.show_edges, half_width, ss,
-                     0);
-    }
-    if (r.mask) {
-        for (size_t c = 0; c < m->ncells; c++)
-            if ((!keep || keep[c]) && highlighted(m, &hl, c)) mark_hidden_cell(&r, &cam, m, c);
-        static const float tint[3] = {VM_RENDER_HIGHLIGHT_R, VM_RENDER_HIGHLIGHT_G,
-                                      VM_RENDER_HIGHLIGHT_B};
-        for (size_t i = 0; i < nsamples; i++) {
-            if (!r.mask[i]) continue;
-            unsigned char *px = r.rgb + 3 * i;
-            for (int k = 0; k < 3; k++)
-                px[k] = (unsigned char)(0.45f * px[k] + 0.55f * tint[k] + 0.5f);
-        }
-    }
-
-    /* Box filter down to the output size. */
-    img->width = o.width;
-    img->height = o.height;
-    for (int y = 0; y < o.height; y++)
-        for (int x = 0; x < o.width; x++) {
-            unsigned sum[3] = {0, 0, 0};
-            for (int j = 0; j < ss; j++) {
-                const unsigned char *row =
-                    r.rgb + 3 * ((size_t)(y * ss + j) * (size_t)sw + (size_t)x * (size_t)ss);
-                for (int i = 0; i < ss; i++)
-                    for (int k = 0; k < 3; k++)
-                        sum[k] += row[3 * i + k];
-            }
-            unsigned char *out = img->pixels + 3 * ((size_t)y * (size_t)o.width + (size_t)x);
-            unsigned nsub = (unsigned)(ss * ss);
-            for (int k = 0; k < 3; k++)
-                out[k] = (unsigned char)((sum[k] + nsub / 2) / nsub);
-        }
-done:
     free(r.rgb);
     free(r.z);
     free(r.mask);

@@ -10,6 +10,13 @@
 #include "volmesh/quality.h"
 #include "volmesh/render.h"
 
+/* The worst elements drawn in red (the captions say the same): tets with a dihedral angle
+ * below 10 degrees (the report's slivers_10), hexes with a scaled Jacobian
+ * below 0.2 (verdict's acceptable range starts at 0.5; 0.2 leaves only the poor ones). */
+#define WORST_TET_DIHEDRAL 10.0
+#define WORST_HEX_JACOBIAN 0.2
+
+/* Writes s with the HTML special characters escaped. */
 static void put_escaped(FILE *fp, const char *s) {
     for (; s && *s; s++) {
         if (*s == '<') fputs("&lt;", fp);
@@ -20,6 +27,7 @@ static void put_escaped(FILE *fp, const char *s) {
     }
 }
 
+/* Writes b[0..n) in base64. */
 static void put_base64(FILE *fp, const unsigned char *b, size_t n) {
     static const char tab[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     for (size_t i = 0; i < n; i += 3) {
@@ -145,7 +153,7 @@ vm_status vm_quality_write_html(const char *path, const vm_mesh *m, const char *
     if (!s && (tets || hexes)) {
         o.cut = VM_CUT_AUTO;
         o.highlight = tets ? "min_dihedral" : "scaled_jacobian";
-        o.highlight_threshold = tets ? 10.0 : 0.2;
+        o.highlight_threshold = tets ? WORST_TET_DIHEDRAL : WORST_HEX_JACOBIAN;
         o.highlight_hidden = 1;
         s = put_picture(fp, m, &o,
                         tets ? "cut-away; red: tets with a dihedral angle below 10 degrees"

@@ -28,6 +28,7 @@
  * Material outside the grid is outside (value -1), so the surface is closed at the border:
  * the grid is padded by one sample on every side, pressed onto the box at the output. */
 #include "../core/core.h"
+#include "../core/hash.h"
 #include "surface_internal.h"
 #include <math.h>
 #include <stdlib.h>
@@ -35,6 +36,18 @@
 
 /* How far outside the box (in voxels, per voxel of the padding layer) the closing faces lie. */
 #define BORDER_SQUEEZE 0.01
+/* Loop triangulation, lengths in voxels: a loop whose Newell normal is shorter than
+ * ASC_FLAT_LOOP has no plane (fanned from its centroid); ears are convex, and free of other
+ * points, beyond ASC_EAR_EPS (rounding of the projected cross products, voxel^2). */
+#define ASC_FLAT_LOOP 1e-12
+#define ASC_EAR_EPS 1e-12
+/* The bulge fan (file comment): the surface point found along the loop's normal at least
+ * ASC_BULGE_TOL voxels inside the box, used when it lies more than ASC_BULGE_FRACTION of
+ * the error (the header's o->error / 4) from the loop's plane and the loop is star-shaped
+ * from it beyond ASC_STAR_EPS. */
+#define ASC_BULGE_TOL 0.05
+#define ASC_BULGE_FRACTION 0.25
+#define ASC_STAR_EPS 1e-9
 
 /* Padded grid: sample p (padded) is sample p-1 of g; everything outside g is outside. */
 typedef struct asc_ctx {
@@ -308,15 +321,7 @@ typedef struct asc_points {
     size_t xyz_cap, n;
 } asc_points;
 
-static uint64_t hash64(uint64_t x) {
-    x ^= x >> 33;
-    x *= 0xff51afd7ed558ccdULL;
-    x ^= x >> 33;
-    x *= 0xc4ceb9fe1a85ec53ULL;
-    x ^= x >> 33;
-    return x;
-}
-
+/* Appends point x to P; *id is its index. */
 static vm_status add_xyz(asc_points *P, const double x[3], int32_t *id, vm_error *err) {
     if (P->n >= (size_t)INT32_MAX)
         return vm_error_set(err, VM_ERR_NOMEM, "surface asc: too many points");
@@ -341,7 +346,7 @@ static vm_status edge_point(asc_ctx *c, asc_points *P, const int64_t p[3], int a
         }
         for (size_t i = 0; i < P->cap; i++) {
             if (!P->keys[i]) continue;
-            size_t h = hash64(P->keys[i]) & (ncap - 1);
+            size_t h = vm__hash_mix(P->keys[i]) & (ncap - 1);
             while (nk[h])
                 h = (h + 1) & (ncap - 1);
             nk[h] = P->keys[i];
@@ -354,7 +359,7 @@ static vm_status edge_point(asc_ctx *c, asc_points *P, const int64_t p[3], int a
         P->cap = ncap;
     }
     uint64_t key = ((uint64_t)(p[0] + c->n[0] * (p[1] + c->n[1] * p[2])) * 3 + (uint64_t)a) + 1;
-    size_t h = hash64(key) & (P->cap - 1);
+    size_t h = vm__hash_mix(key) & (P->cap - 1);
     while (P->keys[h]) {
         if (P->keys[h] == key) {
             *id = P->ids[h];
@@ -569,6 +574,7 @@ static int on_common_face(const asc_box *b, const double *x, const double *y) {
     return 0;
 }
 
+/* The smallest angle (radians) of triangle a b c. */
 static double tri_min_angle(const double *a, const double *b, const double *c) {
     const double *p[3] = {a, b, c};
     double best = 4;
@@ -592,6 +598,7 @@ static double tri_min_angle(const double *a, const double *b, const double *c) {
     return best;
 }
 
+/* Twice the signed area of the 2-D triangle o a b (positive counter-clockwise). */
 static double cross2(const double *o, const double *a, const double *b) {
     return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
 }
@@ -688,15 +695,12 @@ static double project_inside(const asc_ctx *c, const asc_box *b, double x[3], co
     return best;
 }
 
-/* Triangulates loop ids[0..n) (counter-clockwise seen from outside the material) inside
- * box b: ears in the projection on the loop's Newell plane, or a fan from the centroid. */
-static vm_status triangulate(const asc_ctx *c, asc_points *P, const asc_box *b,
-                             const int32_t *ids, size_t n, asc_loopbuf *lb, asc_tris *T,
-                             vm_error *err) {
-    if (n < 3) return vm_error_set(err, VM_ERR_INTERNAL, "surface asc: loop of %zu points", n);
-    int unit = b->sz[0] == 1 && b->sz[1] == 1 && b->sz[2] == 1;
-    if (n == 3 && unit) return push_tri(T, ids[0], ids[1], ids[2], err);
-    double nrm[3] = {0, 0, 0}, cen[3] = {0, 0, 0};
+/* The Newell normal nrm (not normalised; its length is returned) and the centroid cen of
+ * loop ids[0..n). */
+static double loop_normal(const asc_points *P, const int32_t *ids, size_t n, double nrm[3],
+                          double cen[3]) {
+    for (int a = 0; a < 3; a++)
+        nrm[a] = cen[a] = 0;
     for (size_t i = 0; i < n; i++) {
         const double *p = P->xyz + 3 * ids[i], *q = P->xyz + 3 * ids[(i + 1) % n];
         nrm[0] += (p[1] - q[1]) * (p[2] + q[2]);
@@ -707,171 +711,201 @@ static vm_status triangulate(const asc_ctx *c, asc_points *P, const asc_box *b,
     }
     for (int a = 0; a < 3; a++)
         cen[a] /= (double)n;
-    double nl = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
-    size_t t0 = T->n;
-    int ok = nl > 1e-12;
-    if (ok) {
-        /* an orthonormal frame (e1, e2, nrm) */
-        for (int a = 0; a < 3; a++)
-            nrm[a] /= nl;
-        double e1[3], e2[3];
-        int m = fabs(nrm[0]) < fabs(nrm[1]) ? (fabs(nrm[0]) < fabs(nrm[2]) ? 0 : 2)
-                                            : (fabs(nrm[1]) < fabs(nrm[2]) ? 1 : 2);
-        double ax[3] = {0, 0, 0};
-        ax[m] = 1;
-        e1[0] = ax[1] * nrm[2] - ax[2] * nrm[1];
-        e1[1] = ax[2] * nrm[0] - ax[0] * nrm[2];
-        e1[2] = ax[0] * nrm[1] - ax[1] * nrm[0];
-        double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-        for (int a = 0; a < 3; a++)
-            e1[a] /= l1;
-        e2[0] = nrm[1] * e1[2] - nrm[2] * e1[1];
-        e2[1] = nrm[2] * e1[0] - nrm[0] * e1[2];
-        e2[2] = nrm[0] * e1[1] - nrm[1] * e1[0];
-        if (vm__grow((void **)&lb->uv, &lb->uvcap, 2 * n, sizeof(double), err) ||
-            vm__grow((void **)&lb->live, &lb->livecap, n, sizeof(int32_t), err))
-            return VM_ERR_NOMEM;
-        for (size_t i = 0; i < n; i++) {
-            const double *p = P->xyz + 3 * ids[i];
-            double d[3] = {p[0] - cen[0], p[1] - cen[1], p[2] - cen[2]};
-            lb->uv[2 * i] = d[0] * e1[0] + d[1] * e1[1] + d[2] * e1[2];
-            lb->uv[2 * i + 1] = d[0] * e2[0] + d[1] * e2[1] + d[2] * e2[2];
-            lb->live[i] = (int32_t)i;
+    return sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+}
+
+/* The loop's points projected on the plane through cen with unit normal nrm, in an
+ * orthonormal frame (e1, e2, nrm): lb->uv (2 n); lb->live = 0..n-1. */
+static vm_status loop_project(const asc_points *P, const int32_t *ids, size_t n,
+                              const double nrm[3], const double cen[3], asc_loopbuf *lb,
+                              vm_error *err) {
+    double e1[3], e2[3];
+    int m = fabs(nrm[0]) < fabs(nrm[1]) ? (fabs(nrm[0]) < fabs(nrm[2]) ? 0 : 2)
+                                        : (fabs(nrm[1]) < fabs(nrm[2]) ? 1 : 2);
+    double ax[3] = {0, 0, 0};
+    ax[m] = 1;
+    e1[0] = ax[1] * nrm[2] - ax[2] * nrm[1];
+    e1[1] = ax[2] * nrm[0] - ax[0] * nrm[2];
+    e1[2] = ax[0] * nrm[1] - ax[1] * nrm[0];
+    double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    for (int a = 0; a < 3; a++)
+        e1[a] /= l1;
+    e2[0] = nrm[1] * e1[2] - nrm[2] * e1[1];
+    e2[1] = nrm[2] * e1[0] - nrm[0] * e1[2];
+    e2[2] = nrm[0] * e1[1] - nrm[1] * e1[0];
+    if (vm__grow((void **)&lb->uv, &lb->uvcap, 2 * n, sizeof(double), err) ||
+        vm__grow((void **)&lb->live, &lb->livecap, n, sizeof(int32_t), err))
+        return VM_ERR_NOMEM;
+    for (size_t i = 0; i < n; i++) {
+        const double *p = P->xyz + 3 * ids[i];
+        double d[3] = {p[0] - cen[0], p[1] - cen[1], p[2] - cen[2]};
+        lb->uv[2 * i] = d[0] * e1[0] + d[1] * e1[1] + d[2] * e1[2];
+        lb->uv[2 * i + 1] = d[0] * e2[0] + d[1] * e2[1] + d[2] * e2[2];
+        lb->live[i] = (int32_t)i;
+    }
+    return VM_OK;
+}
+
+/* The live ear (index into lb->live[0..m_live)) whose triangle has the largest smallest
+ * angle: convex in the projection, not a chord along one box face, no other live point
+ * inside; -1 when there is none. */
+static long best_ear(const asc_points *P, const asc_box *b, const int32_t *ids,
+                     const asc_loopbuf *lb, size_t m_live) {
+    double best = -1;
+    size_t bi = 0;
+    for (size_t i = 0; i < m_live; i++) {
+        int32_t ia = lb->live[(i + m_live - 1) % m_live], ib = lb->live[i],
+                ic = lb->live[(i + 1) % m_live];
+        const double *A = lb->uv + 2 * ia, *B = lb->uv + 2 * ib, *C = lb->uv + 2 * ic;
+        if (cross2(A, B, C) <= ASC_EAR_EPS) continue;
+        if (on_common_face(b, P->xyz + 3 * ids[ia], P->xyz + 3 * ids[ic])) continue;
+        int clear = 1;
+        for (size_t j = 0; j < m_live && clear; j++) {
+            int32_t ij = lb->live[j];
+            if (ij == ia || ij == ib || ij == ic) continue;
+            const double *Q = lb->uv + 2 * ij;
+            if (cross2(A, B, Q) >= -ASC_EAR_EPS && cross2(B, C, Q) >= -ASC_EAR_EPS &&
+                cross2(C, A, Q) >= -ASC_EAR_EPS)
+                clear = 0;
         }
-        /* where the surface bulges away from the loop, a vertex on the surface inside the
-         * box, fanned to the loop, follows it better than the loop's own triangles */
-        double sp[3] = {cen[0], cen[1], cen[2]};
-        double moved = project_inside(c, b, sp, nrm, 0.05);
-        if (!unit && !isnan(moved) && fabs(moved) > 0.25 * c->error) {
-            int star = 1;
-            for (size_t i = 0; i < n && star; i++)
-                star = cross2((const double[2]){0, 0}, lb->uv + 2 * i,
-                              lb->uv + 2 * ((i + 1) % n)) > 1e-9;
-            if (star) {
-                int32_t sid = -1;
-                vm_status s = add_xyz(P, sp, &sid, err);
-                for (size_t i = 0; !s && i < n; i++)
-                    s = push_tri(T, sid, ids[i], ids[(i + 1) % n], err);
-                return s;
-            }
-        }
-        size_t m_live = n;
-        while (ok && m_live > 3) {
-            double best = -1;
-            size_t bi = 0;
-            for (size_t i = 0; i < m_live; i++) {
-                int32_t ia = lb->live[(i + m_live - 1) % m_live], ib = lb->live[i],
-                        ic = lb->live[(i + 1) % m_live];
-                const double *A = lb->uv + 2 * ia, *B = lb->uv + 2 * ib, *C = lb->uv + 2 * ic;
-                if (cross2(A, B, C) <= 1e-12) continue;
-                if (on_common_face(b, P->xyz + 3 * ids[ia], P->xyz + 3 * ids[ic])) continue;
-                int clear = 1;
-                for (size_t j = 0; j < m_live && clear; j++) {
-                    int32_t ij = lb->live[j];
-                    if (ij == ia || ij == ib || ij == ic) continue;
-                    const double *Q = lb->uv + 2 * ij;
-                    if (cross2(A, B, Q) >= -1e-12 && cross2(B, C, Q) >= -1e-12 &&
-                        cross2(C, A, Q) >= -1e-12)
-                        clear = 0;
-                }
-                if (!clear) continue;
-                double q = tri_min_angle(P->xyz + 3 * ids[ia], P->xyz + 3 * ids[ib],
-                                         P->xyz + 3 * ids[ic]);
-                if (q > best) {
-                    best = q;
-                    bi = i;
-                }
-            }
-            if (best < 0) {
-                ok = 0;
-                break;
-            }
-            int32_t ia = lb->live[(bi + m_live - 1) % m_live], ib = lb->live[bi],
-                    ic = lb->live[(bi + 1) % m_live];
-            vm_status s = push_tri(T, ids[ia], ids[ib], ids[ic], err);
-            if (s) return s;
-            memmove(lb->live + bi, lb->live + bi + 1, (m_live - bi - 1) * sizeof(int32_t));
-            m_live--;
-        }
-        if (ok && cross2(lb->uv + 2 * lb->live[0], lb->uv + 2 * lb->live[1],
-                         lb->uv + 2 * lb->live[2]) <= 1e-12)
-            ok = 0;
-        if (ok) {
-            vm_status s =
-                push_tri(T, ids[lb->live[0]], ids[lb->live[1]], ids[lb->live[2]], err);
-            if (s) return s;
+        if (!clear) continue;
+        double q =
+            tri_min_angle(P->xyz + 3 * ids[ia], P->xyz + 3 * ids[ib], P->xyz + 3 * ids[ic]);
+        if (q > best) {
+            best = q;
+            bi = i;
         }
     }
-    if (ok) return VM_OK;
-    /* fan from the centroid, which lies inside the box: a loop never runs on one face */
-    T->n = t0;
+    return best < 0 ? -1 : (long)bi;
+}
+
+/* Ear removal on the projected loop (loop_project): triangles into T; *ok = 0 when the ears
+ * run out or the last one is flat (T then holds a partial triangulation). */
+static vm_status clip_ears(const asc_points *P, const asc_box *b, const int32_t *ids, size_t n,
+                           asc_loopbuf *lb, asc_tris *T, int *ok, vm_error *err) {
+    size_t m_live = n;
+    while (*ok && m_live > 3) {
+        long e = best_ear(P, b, ids, lb, m_live);
+        if (e < 0) {
+            *ok = 0;
+            break;
+        }
+        size_t bi = (size_t)e;
+        int32_t ia = lb->live[(bi + m_live - 1) % m_live], ib = lb->live[bi],
+                ic = lb->live[(bi + 1) % m_live];
+        vm_status s = push_tri(T, ids[ia], ids[ib], ids[ic], err);
+        if (s) return s;
+        memmove(lb->live + bi, lb->live + bi + 1, (m_live - bi - 1) * sizeof(int32_t));
+        m_live--;
+    }
+    if (*ok && cross2(lb->uv + 2 * lb->live[0], lb->uv + 2 * lb->live[1],
+                      lb->uv + 2 * lb->live[2]) <= ASC_EAR_EPS)
+        *ok = 0;
+    if (*ok) return push_tri(T, ids[lb->live[0]], ids[lb->live[1]], ids[lb->live[2]], err);
+    return VM_OK;
+}
+
+/* Fans loop ids[0..n) from a new point at x. */
+static vm_status fan_from(asc_points *P, const double x[3], const int32_t *ids, size_t n,
+                          asc_tris *T, vm_error *err) {
     int32_t cid = -1;
-    vm_status s = add_xyz(P, cen, &cid, err);
+    vm_status s = add_xyz(P, x, &cid, err);
     for (size_t i = 0; !s && i < n; i++)
         s = push_tri(T, cid, ids[i], ids[(i + 1) % n], err);
     return s;
 }
 
+/* Triangulates loop ids[0..n) (counter-clockwise seen from outside the material) inside
+ * box b: ears in the projection on the loop's Newell plane, or a fan from the centroid. */
+static vm_status triangulate(const asc_ctx *c, asc_points *P, const asc_box *b,
+                             const int32_t *ids, size_t n, asc_loopbuf *lb, asc_tris *T,
+                             vm_error *err) {
+    if (n < 3) return vm_error_set(err, VM_ERR_INTERNAL, "surface asc: loop of %zu points", n);
+    int unit = b->sz[0] == 1 && b->sz[1] == 1 && b->sz[2] == 1;
+    if (n == 3 && unit) return push_tri(T, ids[0], ids[1], ids[2], err);
+    double nrm[3], cen[3];
+    double nl = loop_normal(P, ids, n, nrm, cen);
+    size_t t0 = T->n;
+    int ok = nl > ASC_FLAT_LOOP;
+    if (ok) {
+        for (int a = 0; a < 3; a++)
+            nrm[a] /= nl;
+        vm_status s = loop_project(P, ids, n, nrm, cen, lb, err);
+        if (s) return s;
+        /* where the surface bulges away from the loop, a vertex on the surface inside the
+         * box, fanned to the loop, follows it better than the loop's own triangles */
+        double sp[3] = {cen[0], cen[1], cen[2]};
+        double moved = project_inside(c, b, sp, nrm, ASC_BULGE_TOL);
+        if (!unit && !isnan(moved) && fabs(moved) > ASC_BULGE_FRACTION * c->error) {
+            int star = 1;
+            for (size_t i = 0; i < n && star; i++)
+                star = cross2((const double[2]){0, 0}, lb->uv + 2 * i,
+                              lb->uv + 2 * ((i + 1) % n)) > ASC_STAR_EPS;
+            if (star) return fan_from(P, sp, ids, n, T, err);
+        }
+        s = clip_ears(P, b, ids, n, lb, T, &ok, err);
+        if (s) return s;
+    }
+    if (ok) return VM_OK;
+    /* fan from the centroid, which lies inside the box: a loop never runs on one face */
+    T->n = t0;
+    return fan_from(P, cen, ids, n, T, err);
+}
+
 /* ---- the driver ------------------------------------------------------------------------ */
 
-vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o, vm_mesh *surf,
-                          vm_surface_stats *st, vm_error *err) {
-    asc_ctx c;
-    memset(&c, 0, sizeof c);
-    c.g = g;
-    c.error = o->error;
+/* Sets up c for grid g: the padded sizes, the block-aligned domain and the inside flags;
+ * *B is the block size 2^max_level. */
+static vm_status asc_grid_init(asc_ctx *c, const vm__surface_grid *g,
+                               const vm_surface_options *o, int32_t *B, vm_error *err) {
+    memset(c, 0, sizeof *c);
+    c->g = g;
+    c->error = o->error;
     int level = o->max_level < 0 ? 0 : o->max_level;
-    int32_t B = (int32_t)1 << level;
+    *B = (int32_t)1 << level;
     size_t count = 1;
     for (int a = 0; a < 3; a++) {
-        c.n[a] = g->n[a] + 2;
-        if (c.n[a] > INT32_MAX / 2)
+        c->n[a] = g->n[a] + 2;
+        if (c->n[a] > INT32_MAX / 2)
             return vm_error_set(err, VM_ERR_UNSUPPORTED, "surface asc: grid too large");
-        c.dom[a] = ((c.n[a] - 1 + B - 1) / B) * B;
+        c->dom[a] = ((c->n[a] - 1 + *B - 1) / *B) * *B;
     }
-    if (vm__check_dims(c.n, 1, "surface asc", &count, err)) return VM_ERR_NOMEM;
-    c.in = malloc(count);
-    if (!c.in) return vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
-    for (int64_t k = 0; k < c.n[2]; k++)
-        for (int64_t j = 0; j < c.n[1]; j++)
-            for (int64_t i = 0; i < c.n[0]; i++)
-                c.in[i + c.n[0] * (j + c.n[1] * k)] =
+    if (vm__check_dims(c->n, 1, "surface asc", &count, err)) return VM_ERR_NOMEM;
+    c->in = malloc(count);
+    if (!c->in) return vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
+    for (int64_t k = 0; k < c->n[2]; k++)
+        for (int64_t j = 0; j < c->n[1]; j++)
+            for (int64_t i = 0; i < c->n[0]; i++)
+                c->in[i + c->n[0] * (j + c->n[1] * k)] =
                     vm__surface_at(g, i - 1, j - 1, k - 1) >= 0;
+    return VM_OK;
+}
 
-    asc_boxes boxes = {0};
-    asc_points P;
-    memset(&P, 0, sizeof P);
-    asc_segs S = {0};
-    asc_tris T = {0};
-    asc_face *faces = NULL;
-    int32_t *mapA = NULL, *mapB = NULL, *next = NULL, *start = NULL;
-    asc_scratch sc;
-    memset(&sc, 0, sizeof sc);
-    asc_loopbuf lb;
-    memset(&lb, 0, sizeof lb);
+/* 3-skeleton: the simple boxes of every block of B^3 cells, appended to boxes. */
+static vm_status climb_blocks(asc_ctx *c, int32_t B, asc_boxes *boxes, vm_error *err) {
     vm_status s = VM_OK;
-
-    /* 3-skeleton: simple boxes, block by block */
-    for (int32_t bz = 0; !s && bz < c.dom[2]; bz += B)
-        for (int32_t by = 0; !s && by < c.dom[1]; by += B)
-            for (int32_t bx = 0; !s && bx < c.dom[0]; bx += B) {
+    for (int32_t bz = 0; !s && bz < c->dom[2]; bz += B)
+        for (int32_t by = 0; !s && by < c->dom[1]; by += B)
+            for (int32_t bx = 0; !s && bx < c->dom[0]; bx += B) {
                 int32_t lo[3] = {bx, by, bz}, sz[3] = {B, B, B};
-                s = build(&c, lo, sz, -1, 0, &boxes, err);
+                s = build(c, lo, sz, -1, 0, boxes, err);
             }
-    if (!s && boxes.n > (size_t)INT32_MAX / 6)
+    if (!s && boxes->n > (size_t)INT32_MAX / 6)
         s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: too many boxes");
+    return s;
+}
 
-    /* information sharing: box faces on each plane, overlaid */
-    size_t nf = 0;
-    if (!s) {
-        faces = malloc((6 * boxes.n + 1) * sizeof *faces);
-        if (!faces) s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
-    }
-    for (size_t i = 0; !s && i < boxes.n; i++) {
-        const asc_box *b = boxes.v + i;
+/* The six faces of every box, sorted by plane (face_cmp) into *faces (6 boxes->n). */
+static vm_status box_faces(const asc_boxes *boxes, asc_face **faces, size_t *nf,
+                           vm_error *err) {
+    *nf = 0;
+    *faces = malloc((6 * boxes->n + 1) * sizeof **faces);
+    if (!*faces) return vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
+    for (size_t i = 0; i < boxes->n; i++) {
+        const asc_box *b = boxes->v + i;
         for (int w = 0; w < 3; w++)
             for (int side = 0; side < 2; side++) {
-                asc_face *f = faces + nf++;
+                asc_face *f = *faces + (*nf)++;
                 f->w = w;
                 f->c = b->lo[w] + (side ? b->sz[w] : 0);
                 f->box = (int32_t)i;
@@ -882,10 +916,63 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
                 f->sv = b->sz[(w + 2) % 3];
             }
     }
-    if (!s) qsort(faces, nf, sizeof *faces, face_cmp);
+    qsort(*faces, *nf, sizeof **faces, face_cmp);
+    return VM_OK;
+}
+
+/* Writes value (the face's index, or -1 to clear) into the cells of faces f0..f1 of one
+ * plane: mapA for faces above the plane, mapB below; du is the map's row length. */
+static void paint_faces(const asc_face *faces, size_t f0, size_t f1, int64_t du, int32_t *mapA,
+                        int32_t *mapB, int clear) {
+    for (size_t f = f0; f < f1; f++) {
+        int32_t *map = faces[f].above ? mapA : mapB;
+        for (int32_t v = 0; v < faces[f].sv; v++)
+            for (int32_t u = 0; u < faces[f].su; u++)
+                map[(faces[f].u0 + u) + du * (faces[f].v0 + v)] = clear ? -1 : (int32_t)f;
+    }
+}
+
+/* The padis of one plane (faces f0..f1, painted into mapB): every face pair (above, below)
+ * meets in one rectangle, visited at its corner, whose iso lines go to S. */
+static vm_status plane_padis(asc_ctx *c, asc_points *P, asc_segs *S, asc_scratch *sc,
+                             const asc_face *faces, size_t f0, size_t f1, int64_t du,
+                             const int32_t *mapB, vm_error *err) {
+    vm_status s = VM_OK;
+    int w = faces[f0].w;
+    for (size_t f = f0; !s && f < f1; f++) {
+        const asc_face *fa = faces + f;
+        if (!fa->above) continue;
+        for (int32_t v = 0; !s && v < fa->sv; v++)
+            for (int32_t u = 0; !s && u < fa->su; u++) {
+                int64_t cell = (fa->u0 + u) + du * (fa->v0 + v);
+                int32_t ib = mapB[cell];
+                if (ib < 0) continue;
+                const asc_face *fb = faces + ib;
+                int32_t pu = fa->u0 > fb->u0 ? fa->u0 : fb->u0;
+                int32_t pv = fa->v0 > fb->v0 ? fa->v0 : fb->v0;
+                if (fa->u0 + u != pu || fa->v0 + v != pv) continue;
+                int32_t eu =
+                    fa->u0 + fa->su < fb->u0 + fb->su ? fa->u0 + fa->su : fb->u0 + fb->su;
+                int32_t ev =
+                    fa->v0 + fa->sv < fb->v0 + fb->sv ? fa->v0 + fa->sv : fb->v0 + fb->sv;
+                s = padi_lines(c, P, S, sc, w, fa->c, pu, pv, eu - pu, ev - pv, fa->box,
+                               fb->box, err);
+            }
+    }
+    return s;
+}
+
+/* Information sharing: the box faces on each plane overlaid, the iso lines of their padis
+ * appended to S (points to P). */
+static vm_status share_faces(asc_ctx *c, const asc_boxes *boxes, asc_points *P, asc_segs *S,
+                             asc_scratch *sc, vm_error *err) {
+    asc_face *faces = NULL;
+    int32_t *mapA = NULL, *mapB = NULL;
+    size_t nf = 0;
+    vm_status s = box_faces(boxes, &faces, &nf, err);
     int64_t mapn = 0;
     for (int w = 0; w < 3; w++) {
-        int64_t area = c.dom[(w + 1) % 3] * c.dom[(w + 2) % 3];
+        int64_t area = c->dom[(w + 1) % 3] * c->dom[(w + 2) % 3];
         if (area > mapn) mapn = area;
     }
     if (!s) {
@@ -902,115 +989,111 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
         size_t f1 = f0;
         while (f1 < nf && faces[f1].w == faces[f0].w && faces[f1].c == faces[f0].c)
             f1++;
-        int w = faces[f0].w;
-        int64_t du = c.dom[(w + 1) % 3];
-        for (size_t f = f0; f < f1; f++) {
-            int32_t *map = faces[f].above ? mapA : mapB;
-            for (int32_t v = 0; v < faces[f].sv; v++)
-                for (int32_t u = 0; u < faces[f].su; u++)
-                    map[(faces[f].u0 + u) + du * (faces[f].v0 + v)] = (int32_t)f;
-        }
-        /* every face pair (above, below) meets in one rectangle; visit it at its corner */
-        for (size_t f = f0; !s && f < f1; f++) {
-            const asc_face *fa = faces + f;
-            if (!fa->above) continue;
-            for (int32_t v = 0; !s && v < fa->sv; v++)
-                for (int32_t u = 0; !s && u < fa->su; u++) {
-                    int64_t cell = (fa->u0 + u) + du * (fa->v0 + v);
-                    int32_t ib = mapB[cell];
-                    if (ib < 0) continue;
-                    const asc_face *fb = faces + ib;
-                    int32_t pu = fa->u0 > fb->u0 ? fa->u0 : fb->u0;
-                    int32_t pv = fa->v0 > fb->v0 ? fa->v0 : fb->v0;
-                    if (fa->u0 + u != pu || fa->v0 + v != pv) continue;
-                    int32_t eu =
-                        fa->u0 + fa->su < fb->u0 + fb->su ? fa->u0 + fa->su : fb->u0 + fb->su;
-                    int32_t ev =
-                        fa->v0 + fa->sv < fb->v0 + fb->sv ? fa->v0 + fa->sv : fb->v0 + fb->sv;
-                    s = padi_lines(&c, &P, &S, &sc, w, fa->c, pu, pv, eu - pu, ev - pv, fa->box,
-                                   fb->box, err);
-                }
-        }
+        int64_t du = c->dom[(faces[f0].w + 1) % 3];
+        paint_faces(faces, f0, f1, du, mapA, mapB, 0);
+        s = plane_padis(c, P, S, sc, faces, f0, f1, du, mapB, err);
         /* a face region with no box on the other side borders a box without surface,
          * whose samples all have one sign: no iso line there */
-        for (size_t f = f0; f < f1; f++) {
-            int32_t *map = faces[f].above ? mapA : mapB;
-            for (int32_t v = 0; v < faces[f].sv; v++)
-                for (int32_t u = 0; u < faces[f].su; u++)
-                    map[(faces[f].u0 + u) + du * (faces[f].v0 + v)] = -1;
-        }
+        paint_faces(faces, f0, f1, du, mapA, mapB, 1);
         f0 = f1;
     }
+    free(faces);
+    free(mapA);
+    free(mapB);
+    return s;
+}
 
-    /* loops per box, then triangles */
-    if (!s) {
-        start = calloc(boxes.n + 1, sizeof *start);
-        next = malloc((P.n + 1) * sizeof *next);
-        if (!start || !next) s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
+/* The segments of S bucketed by box: those of box b are sorted[start[b] .. start[b+1]). */
+static vm_status bucket_segs(const asc_segs *S, size_t nboxes, int32_t *start, asc_seg *sorted,
+                             vm_error *err) {
+    for (size_t i = 0; i < S->n; i++)
+        start[S->v[i].box + 1]++;
+    for (size_t i = 0; i < nboxes; i++)
+        start[i + 1] += start[i];
+    int32_t *fill = malloc((nboxes + 1) * sizeof *fill);
+    if (!fill) return vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
+    memcpy(fill, start, (nboxes + 1) * sizeof *fill);
+    for (size_t i = 0; i < S->n; i++)
+        sorted[fill[S->v[i].box]++] = S->v[i];
+    free(fill);
+    return VM_OK;
+}
+
+/* Closes the segments sg[0..n) of box b into loops (next: all -1 on entry and on return)
+ * and triangulates each loop into T. */
+static vm_status box_loops(const asc_ctx *c, asc_points *P, const asc_box *b,
+                           const asc_seg *sg, int32_t n, int32_t *next, asc_loopbuf *lb,
+                           asc_tris *T, vm_error *err) {
+    vm_status s = VM_OK;
+    for (int32_t i = 0; i < n && !s; i++) {
+        if (next[sg[i].a] >= 0)
+            s = vm_error_set(err, VM_ERR_INTERNAL, "surface asc: two iso lines leave a point");
+        next[sg[i].a] = sg[i].b;
     }
+    for (int32_t i = 0; i < n && !s; i++) {
+        int32_t v0 = sg[i].a;
+        if (next[v0] < 0) continue; /* already on a loop */
+        size_t m = 0;
+        int32_t v = v0;
+        while (v >= 0 && next[v] >= 0) {
+            if (vm__grow((void **)&lb->ids, &lb->cap, m + 1, sizeof(int32_t), err)) {
+                s = VM_ERR_NOMEM;
+                break;
+            }
+            lb->ids[m++] = v;
+            int32_t nx = next[v];
+            next[v] = -1;
+            v = nx;
+        }
+        if (s) break;
+        if (v != v0) {
+            s = vm_error_set(err, VM_ERR_INTERNAL, "surface asc: open iso line in a box");
+            break;
+        }
+        s = triangulate(c, P, b, lb->ids, m, lb, T, err);
+    }
+    for (int32_t i = 0; i < n; i++)
+        next[sg[i].a] = -1;
+    return s;
+}
+
+/* Loops per box, then their triangles into T. */
+static vm_status all_loops(const asc_ctx *c, const asc_boxes *boxes, asc_points *P,
+                           const asc_segs *S, asc_tris *T, asc_loopbuf *lb, vm_error *err) {
+    vm_status s = VM_OK;
+    int32_t *start = calloc(boxes->n + 1, sizeof *start);
+    int32_t *next = malloc((P->n + 1) * sizeof *next);
     asc_seg *sorted = NULL;
+    if (!start || !next) s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
     if (!s) {
-        sorted = malloc((S.n + 1) * sizeof *sorted);
+        sorted = malloc((S->n + 1) * sizeof *sorted);
         if (!sorted) s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
     }
     if (!s) {
-        for (size_t i = 0; i < S.n; i++)
-            start[S.v[i].box + 1]++;
-        for (size_t i = 0; i < boxes.n; i++)
-            start[i + 1] += start[i];
-        int32_t *fill = malloc((boxes.n + 1) * sizeof *fill);
-        if (!fill)
-            s = vm_error_set(err, VM_ERR_NOMEM, "surface asc: out of memory");
-        else {
-            memcpy(fill, start, (boxes.n + 1) * sizeof *fill);
-            for (size_t i = 0; i < S.n; i++)
-                sorted[fill[S.v[i].box]++] = S.v[i];
-            free(fill);
-        }
-        for (size_t i = 0; i < P.n; i++)
+        s = bucket_segs(S, boxes->n, start, sorted, err);
+        for (size_t i = 0; i < P->n; i++)
             next[i] = -1;
     }
-    for (size_t bi = 0; !s && bi < boxes.n; bi++) {
+    /* P grows in triangulate, past the P->n that sized next, only by points on no segment */
+    for (size_t bi = 0; !s && bi < boxes->n; bi++) {
         int32_t s0 = start[bi], s1 = start[bi + 1];
         if (s0 == s1) continue;
-        for (int32_t i = s0; i < s1 && !s; i++) {
-            if (next[sorted[i].a] >= 0)
-                s = vm_error_set(err, VM_ERR_INTERNAL,
-                                 "surface asc: two iso lines leave a point");
-            next[sorted[i].a] = sorted[i].b;
-        }
-        for (int32_t i = s0; i < s1 && !s; i++) {
-            int32_t v0 = sorted[i].a;
-            if (next[v0] < 0) continue; /* already on a loop */
-            size_t m = 0;
-            int32_t v = v0;
-            while (v >= 0 && next[v] >= 0) {
-                if (vm__grow((void **)&lb.ids, &lb.cap, m + 1, sizeof(int32_t), err)) {
-                    s = VM_ERR_NOMEM;
-                    break;
-                }
-                lb.ids[m++] = v;
-                int32_t nx = next[v];
-                next[v] = -1;
-                v = nx;
-            }
-            if (s) break;
-            if (v != v0) {
-                s = vm_error_set(err, VM_ERR_INTERNAL, "surface asc: open iso line in a box");
-                break;
-            }
-            s = triangulate(&c, &P, boxes.v + bi, lb.ids, m, &lb, &T, err);
-        }
-        for (int32_t i = s0; i < s1; i++)
-            next[sorted[i].a] = -1;
+        s = box_loops(c, P, boxes->v + bi, sorted + s0, s1 - s0, next, lb, T, err);
     }
     free(sorted);
+    free(next);
+    free(start);
+    return s;
+}
 
-    /* output, back to unpadded grid index coordinates */
-    if (!s) s = vm_mesh_reserve(surf, surf->npoints + P.n, surf->ncells + T.n, err);
+/* Appends the points of P (back to unpadded grid index coordinates) and the triangles of T
+ * to surf. */
+static vm_status emit_surface(const vm__surface_grid *g, const asc_points *P, const asc_tris *T,
+                              vm_mesh *surf, vm_error *err) {
+    vm_status s = vm_mesh_reserve(surf, surf->npoints + P->n, surf->ncells + T->n, err);
     size_t base = surf->npoints;
-    for (size_t i = 0; !s && i < P.n; i++) {
-        double x[3] = {P.xyz[3 * i] - 1, P.xyz[3 * i + 1] - 1, P.xyz[3 * i + 2] - 1};
+    for (size_t i = 0; !s && i < P->n; i++) {
+        double x[3] = {P->xyz[3 * i] - 1, P->xyz[3 * i + 1] - 1, P->xyz[3 * i + 2] - 1};
         /* The points between the border samples and the padding close the material; the
          * padding layer is pressed onto the box, x -> BORDER_SQUEEZE x outside [0, n-1]
          * per axis (monotone, so the surface stays embedded), and the closing faces lie
@@ -1022,12 +1105,37 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
         }
         if (vm_mesh_add_point(surf, x, err) < 0) s = VM_ERR_NOMEM;
     }
-    for (size_t t = 0; !s && t < T.n; t++) {
+    for (size_t t = 0; !s && t < T->n; t++) {
         vm_index f[3];
         for (int k = 0; k < 3; k++)
-            f[k] = (vm_index)(base + (size_t)T.v[3 * t + k]);
+            f[k] = (vm_index)(base + (size_t)T->v[3 * t + k]);
         s = vm_mesh_add_cell(surf, f, 1, err);
     }
+    return s;
+}
+
+/* The surface of g by adaptive skeleton climbing, appended to surf: simple boxes, the iso
+ * lines they share, their loops triangulated. */
+vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o, vm_mesh *surf,
+                          vm_surface_stats *st, vm_error *err) {
+    asc_ctx c;
+    int32_t B = 1;
+    vm_status s = asc_grid_init(&c, g, o, &B, err);
+    if (s) return s;
+    asc_boxes boxes = {0};
+    asc_points P;
+    memset(&P, 0, sizeof P);
+    asc_segs S = {0};
+    asc_tris T = {0};
+    asc_scratch sc;
+    memset(&sc, 0, sizeof sc);
+    asc_loopbuf lb;
+    memset(&lb, 0, sizeof lb);
+
+    s = climb_blocks(&c, B, &boxes, err);
+    if (!s) s = share_faces(&c, &boxes, &P, &S, &sc, err);
+    if (!s) s = all_loops(&c, &boxes, &P, &S, &T, &lb, err);
+    if (!s) s = emit_surface(g, &P, &T, surf, err);
     if (st) st->cells_visited = c.visited;
 
     free(c.in);
@@ -1040,11 +1148,6 @@ vm_status vm__surface_asc(const vm__surface_grid *g, const vm_surface_options *o
     free(P.xyz);
     free(S.v);
     free(T.v);
-    free(faces);
-    free(mapA);
-    free(mapB);
-    free(next);
-    free(start);
     free(sc.m);
     free(sc.q);
     free(lb.ids);

@@ -9,6 +9,7 @@
 #include "../core/core.h"
 #include "surface_cover_internal.h"
 #include "../core/self_intersect.h"
+#include "../core/vec3.h"
 
 #define LEVELS 48      /* radii R_g / 2^l, l = 0 .. LEVELS-1 */
 #define FORCED 255     /* level of a forced seed (a vertex of the fine surface kept as is) */
@@ -17,6 +18,8 @@
 #define EXTRA 0        /* levels below the 1-ring rule a topological repair may go (the aspect
                           bound holds only with 0) */
 #define ASPECT 0.32    /* refine triangles whose shortest / longest edge is below this */
+#define PAPER_RATIO 0.3 /* the paper's bound on shortest / longest edge (sec. 3.9) */
+#define LEVEL_MARGIN 1e-9 /* relative rounding margin: a disk holds a 1-ring of its radius */
 
 typedef struct {
     double d;
@@ -76,6 +79,11 @@ typedef struct {
     int32_t *fps_hi;     /* per fine component: the smallest count whose dual failed, 0 none */
     uint8_t *thin;       /* per fine component: a farthest-point triangle below ASPECT */
 } cover;
+
+/* The error of a failed allocation. */
+static vm_status cover_nomem(vm_error *err) {
+    return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+}
 
 static double radius(const cover *c, int l) { return ldexp(c->rg, -l); }
 
@@ -368,11 +376,13 @@ static vm_status voronoi(cover *c, vm_error *err) {
     return s;
 }
 
+/* qsort order of uint64_t. */
 static int cmp_u64(const void *a, const void *b) {
     uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
     return x < y ? -1 : x > y;
 }
 
+/* The key of half-edge (a, b): a in the high word, so keys sort by tail. */
 static uint64_t hkey(int32_t a, int32_t b) { return (uint64_t)(uint32_t)a << 32 | (uint32_t)b; }
 
 /* Index of half-edge (a, b) in the sorted list, or -1. */
@@ -387,13 +397,10 @@ static long find_half(const cover *c, int32_t a, int32_t b) {
     return lo < 3 * c->ntri && c->half[lo] == k ? (long)lo : -1;
 }
 
-/* The dual triangles of the Voronoi covering (one per fine face whose three corners lie in
- * three neighbourhoods), and the seeds where they fail to make a closed oriented manifold
- * with the Euler characteristic and the components of the fine surface. Returns the number
- * of bad seeds (marked in c->bad). */
-static vm_status dual(cover *c, size_t *nbad, vm_error *err) {
+/* The dual triangles of the Voronoi covering into c->tri: one per fine face whose three
+ * corners lie in three neighbourhoods. */
+static vm_status dual_triangles(cover *c, vm_error *err) {
     const vm__cover_fine *m = c->m;
-    size_t ns = c->nseeds;
     c->ntri = 0;
     vm_status s = VM_OK;
     for (size_t f = 0; !s && f < m->nf; f++) {
@@ -407,8 +414,12 @@ static vm_status dual(cover *c, size_t *nbad, vm_error *err) {
         c->tri[3 * c->ntri + 2] = d;
         c->ntri++;
     }
-    if (s) return s;
-    size_t nh = 3 * c->ntri;
+    return s;
+}
+
+/* The dual's half-edges sorted (c->half) and its triangles per seed (c->toff, c->tlist). */
+static vm_status dual_index(cover *c, vm_error *err) {
+    size_t ns = c->nseeds, nh = 3 * c->ntri;
     free(c->half);
     free(c->toff);
     free(c->tlist);
@@ -423,15 +434,47 @@ static vm_status dual(cover *c, size_t *nbad, vm_error *err) {
             c->toff[c->tri[3 * t + e] + 1]++;
         }
     for (size_t i = 0; i < ns; i++) c->toff[i + 1] += c->toff[i];
-    {
-        size_t *fill = malloc((ns + 1) * sizeof *fill);
-        if (!fill) return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
-        memcpy(fill, c->toff, ns * sizeof *fill);
-        for (size_t t = 0; t < c->ntri; t++)
-            for (int e = 0; e < 3; e++) c->tlist[fill[c->tri[3 * t + e]]++] = (int32_t)t;
-        free(fill);
-    }
+    size_t *fill = malloc((ns + 1) * sizeof *fill);
+    if (!fill) return cover_nomem(err);
+    memcpy(fill, c->toff, ns * sizeof *fill);
+    for (size_t t = 0; t < c->ntri; t++)
+        for (int e = 0; e < 3; e++) c->tlist[fill[c->tri[3 * t + e]]++] = (int32_t)t;
+    free(fill);
     qsort(c->half, nh, sizeof *c->half, cmp_u64);
+    return VM_OK;
+}
+
+/* 1 when the triangles at seed a form one fan around it (deg of them). */
+static int one_fan(const cover *c, size_t a, size_t deg) {
+    int32_t t = c->tlist[c->toff[a]];
+    size_t steps = 0;
+    int32_t t0 = t;
+    do {
+        int e = 0;
+        while (c->tri[3 * (size_t)t + e] != (int32_t)a) e++;
+        int32_t prevv = c->tri[3 * (size_t)t + (e + 2) % 3];
+        /* the next triangle around a holds the half-edge (a, prevv) */
+        long h = find_half(c, (int32_t)a, prevv);
+        if (h < 0) break;
+        int32_t nt = -1;
+        for (size_t q = c->toff[a]; q < c->toff[a + 1]; q++) {
+            int32_t u = c->tlist[q];
+            for (int k = 0; k < 3; k++)
+                if (c->tri[3 * (size_t)u + k] == (int32_t)a &&
+                    c->tri[3 * (size_t)u + (k + 1) % 3] == prevv)
+                    nt = u;
+        }
+        if (nt < 0) break;
+        t = nt;
+        steps++;
+    } while (t != t0 && steps <= deg);
+    return t == t0 && steps == deg;
+}
+
+/* Marks in c->bad the seeds of a directed edge that is not there once with its twin once,
+ * and the seeds whose triangles are not one fan of at least 3. */
+static void mark_edges_fans(cover *c) {
+    size_t ns = c->nseeds, nh = 3 * c->ntri;
     memset(c->bad, 0, ns);
     /* every directed edge once, and its twin once */
     for (size_t h = 0; h < nh; h++) {
@@ -447,62 +490,42 @@ static vm_status dual(cover *c, size_t *nbad, vm_error *err) {
             continue;
         }
         if (c->bad[a]) continue;
-        int32_t t = c->tlist[c->toff[a]];
-        size_t steps = 0;
-        int32_t t0 = t;
-        do {
-            int e = 0;
-            while (c->tri[3 * (size_t)t + e] != (int32_t)a) e++;
-            int32_t prevv = c->tri[3 * (size_t)t + (e + 2) % 3];
-            /* the next triangle around a holds the half-edge (a, prevv) */
-            long h = find_half(c, (int32_t)a, prevv);
-            if (h < 0) break;
-            int32_t nt = -1;
-            for (size_t q = c->toff[a]; q < c->toff[a + 1]; q++) {
-                int32_t u = c->tlist[q];
-                for (int k = 0; k < 3; k++)
-                    if (c->tri[3 * (size_t)u + k] == (int32_t)a &&
-                        c->tri[3 * (size_t)u + (k + 1) % 3] == prevv)
-                        nt = u;
-            }
-            if (nt < 0) break;
-            t = nt;
-            steps++;
-        } while (t != t0 && steps <= deg);
-        if (t != t0 || steps != deg) c->bad[a] = 1;
+        if (!one_fan(c, a, deg)) c->bad[a] = 1;
     }
-    /* The closed-ball property: every Voronoi neighbourhood is a disk, Euler characteristic 1
-     * (V - E + F of the fine vertices, edges and faces inside it). A neighbourhood wrapped
-     * around a small handle (0) or holding a small component (2) hides topology from the
-     * dual. */
-    {
-        long *cchi = calloc(ns + 1, sizeof *cchi);
-        if (!cchi) return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
-        for (size_t x = 0; x < m->nv; x++) {
-            int32_t a = c->label[x];
-            cchi[a] += 1;
-            for (size_t h = m->off[x]; h < m->off[x + 1]; h++)
-                if ((size_t)m->nbr[h] > x && c->label[m->nbr[h]] == a) cchi[a] -= 1;
-        }
-        for (size_t f = 0; f < m->nf; f++) {
-            int32_t a = c->label[m->f[3 * f]];
-            if (c->label[m->f[3 * f + 1]] == a && c->label[m->f[3 * f + 2]] == a) cchi[a] += 1;
-        }
-        for (size_t i = 0; i < ns; i++)
-            if (cchi[i] != 1) c->bad[i] = 1;
-        free(cchi);
+}
+
+/* The closed-ball property: every Voronoi neighbourhood is a disk, Euler characteristic 1
+ * (V - E + F of the fine vertices, edges and faces inside it). A neighbourhood wrapped
+ * around a small handle (0) or holding a small component (2) hides topology from the
+ * dual; its seed is marked bad. */
+static vm_status mark_balls(cover *c, vm_error *err) {
+    const vm__cover_fine *m = c->m;
+    size_t ns = c->nseeds;
+    long *cchi = calloc(ns + 1, sizeof *cchi);
+    if (!cchi) return cover_nomem(err);
+    for (size_t x = 0; x < m->nv; x++) {
+        int32_t a = c->label[x];
+        cchi[a] += 1;
+        for (size_t h = m->off[x]; h < m->off[x + 1]; h++)
+            if ((size_t)m->nbr[h] > x && c->label[m->nbr[h]] == a) cchi[a] -= 1;
     }
-    /* Euler characteristic and connectedness per component of the fine surface; when they
-     * fail with no local defect found, every seed of the component is refined */
-    size_t nc = m->ncomp;
-    long *chi = calloc(nc + 1, sizeof *chi);
-    int32_t *uf = malloc((ns + 1) * sizeof *uf);
-    int32_t *croot = malloc((nc + 1) * sizeof *croot);
-    uint8_t *cbad = calloc(nc + 1, 1);
-    if (!chi || !uf || !croot || !cbad) {
-        free(chi), free(uf), free(croot), free(cbad);
-        return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    for (size_t f = 0; f < m->nf; f++) {
+        int32_t a = c->label[m->f[3 * f]];
+        if (c->label[m->f[3 * f + 1]] == a && c->label[m->f[3 * f + 2]] == a) cchi[a] += 1;
     }
+    for (size_t i = 0; i < ns; i++)
+        if (cchi[i] != 1) c->bad[i] = 1;
+    free(cchi);
+    return VM_OK;
+}
+
+/* Euler characteristic and connectedness per component of the fine surface: cbad[k] = 1
+ * where the dual's part of component k differs (chi, uf, croot: scratch of nc + 1, ns + 1,
+ * nc + 1 entries). */
+static void check_components(const cover *c, long *chi, int32_t *uf, int32_t *croot,
+                             uint8_t *cbad) {
+    const vm__cover_fine *m = c->m;
+    size_t ns = c->nseeds, nc = m->ncomp;
     for (size_t i = 0; i < ns; i++) uf[i] = (int32_t)i;
     for (size_t i = 0; i < ns; i++) chi[m->comp[c->seeds[i]]] += 2;
     for (size_t t = 0; t < c->ntri; t++) {
@@ -525,19 +548,53 @@ static vm_status dual(cover *c, size_t *nbad, vm_error *err) {
         if (croot[k] < 0) croot[k] = a;
         else if (croot[k] != a) cbad[k] = 1;
     }
-    uint8_t *clocal = calloc(nc + 1, 1);
+}
+
+/* Where a component of the fine surface fails its Euler characteristic or connectedness
+ * (check_components) with no local defect found, every seed of the component is marked. */
+static vm_status mark_components(cover *c, vm_error *err) {
+    const vm__cover_fine *m = c->m;
+    size_t ns = c->nseeds, nc = m->ncomp;
+    long *chi = calloc(nc + 1, sizeof *chi);
+    int32_t *uf = malloc((ns + 1) * sizeof *uf);
+    int32_t *croot = malloc((nc + 1) * sizeof *croot);
+    uint8_t *cbad = calloc(nc + 1, 1);
+    uint8_t *clocal = NULL;
+    vm_status s = VM_OK;
+    if (!chi || !uf || !croot || !cbad) {
+        s = cover_nomem(err);
+        goto done;
+    }
+    check_components(c, chi, uf, croot, cbad);
+    clocal = calloc(nc + 1, 1);
     if (!clocal) {
-        free(chi), free(uf), free(croot), free(cbad);
-        return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+        s = cover_nomem(err);
+        goto done;
     }
     for (size_t i = 0; i < ns; i++)
         if (c->bad[i]) clocal[m->comp[c->seeds[i]]] = 1;
     for (size_t i = 0; i < ns; i++)
         if (cbad[m->comp[c->seeds[i]]] && !clocal[m->comp[c->seeds[i]]]) c->bad[i] = 1;
+done:
     free(clocal);
     free(chi), free(uf), free(croot), free(cbad);
+    return s;
+}
+
+/* The dual triangles of the Voronoi covering (one per fine face whose three corners lie in
+ * three neighbourhoods), and the seeds where they fail to make a closed oriented manifold
+ * with the Euler characteristic and the components of the fine surface. Returns the number
+ * of bad seeds (marked in c->bad). */
+static vm_status dual(cover *c, size_t *nbad, vm_error *err) {
+    vm_status s = dual_triangles(c, err);
+    if (!s) s = dual_index(c, err);
+    if (s) return s;
+    mark_edges_fans(c);
+    s = mark_balls(c, err);
+    if (!s) s = mark_components(c, err);
+    if (s) return s;
     size_t n = 0;
-    for (size_t i = 0; i < ns; i++) n += c->bad[i];
+    for (size_t i = 0; i < c->nseeds; i++) n += c->bad[i];
     *nbad = n;
     return VM_OK;
 }
@@ -581,15 +638,16 @@ static double point_tri(const double *p, const double *a, const double *b, const
 }
 
 /* Fine faces of every Voronoi neighbourhood (by the label of their first corner):
- * faces of seed i are (*flist)[(*foff)[i] .. (*foff)[i+1]-1]. 0 when out of memory. */
-static int cell_faces(const vm__cover_fine *m, const int32_t *label, size_t ns, size_t **foff_out,
-                      int32_t **flist_out) {
+ * faces of seed i are (*flist)[(*foff)[i] .. (*foff)[i+1]-1]. VM_ERR_NOMEM (no message set:
+ * the callers without an error holder skip their work) when out of memory. */
+static vm_status cell_faces(const vm__cover_fine *m, const int32_t *label, size_t ns,
+                            size_t **foff_out, int32_t **flist_out) {
     size_t *foff = calloc(ns + 2, sizeof *foff);
     int32_t *flist = malloc((m->nf + 1) * sizeof *flist);
     if (!foff || !flist) {
         free(foff);
         free(flist);
-        return 0;
+        return VM_ERR_NOMEM;
     }
     for (size_t f = 0; f < m->nf; f++) foff[label[m->f[3 * f]] + 1]++;
     for (size_t i = 0; i < ns; i++) foff[i + 1] += foff[i];
@@ -598,7 +656,7 @@ static int cell_faces(const vm__cover_fine *m, const int32_t *label, size_t ns, 
     foff[0] = 0;
     *foff_out = foff;
     *flist_out = flist;
-    return 1;
+    return VM_OK;
 }
 
 /* 1 when a point of triangle p (centroid, edge midpoints, halfway from the centroid to the
@@ -663,7 +721,7 @@ static void refine(cover *c) {
      * fine faces of the three neighbourhoods refine the triangle's seeds. */
     size_t ns = c->nseeds, *foff = NULL;
     int32_t *flist = NULL;
-    if (cell_faces(m, c->label, ns, &foff, &flist)) {
+    if (!cell_faces(m, c->label, ns, &foff, &flist)) {
         for (size_t t = 0; t < c->ntri; t++) {
             const int32_t *v = c->tri + 3 * t;
             if (c->bad[v[0]] && c->bad[v[1]] && c->bad[v[2]]) continue;
@@ -727,8 +785,13 @@ static void refine(cover *c) {
 
 /* -- the final edge flips ---------------------------------------------------------------- */
 
-/* Quality of a triangle for the flips: min(shortest / longest edge / 0.33, smallest angle /
- * 20 deg); 1 and above is good on both counts. */
+#define FLIP_RATIO 0.33 /* edge ratio a flip aims for: the paper's 0.3 with a margin */
+#define FLIP_ANGLE 20.0 /* degrees: the smallest angle a flip aims for */
+#define FLIP_GAIN 1e-9  /* a flip must raise the worse quality by more than rounding */
+#define FLIP_ROUNDS 20  /* flip rounds at most */
+
+/* Quality of a triangle for the flips: min(shortest / longest edge / FLIP_RATIO, smallest
+ * angle / FLIP_ANGLE); 1 and above is good on both counts. */
 static double tri_quality(const double *a, const double *b, const double *c) {
     double l[3], l2[3];
     const double *p[3] = {a, b, c};
@@ -748,16 +811,16 @@ static double tri_quality(const double *a, const double *b, const double *c) {
         if (cs < -1) cs = -1;
         amin = fmin(amin, acos(cs) * 180.0 / 3.14159265358979323846);
     }
-    return fmin(lmin / lmax / 0.33, amin / 20.0);
+    return fmin(lmin / lmax / FLIP_RATIO, amin / FLIP_ANGLE);
 }
 
+/* Unit normal of triangle (a, b, c); 0, 0, 0 when degenerate. */
 static void unit_normal(const double *a, const double *b, const double *c, double n[3]) {
-    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-    double w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    n[0] = u[1] * w[2] - u[2] * w[1];
-    n[1] = u[2] * w[0] - u[0] * w[2];
-    n[2] = u[0] * w[1] - u[1] * w[0];
-    double l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    double u[3], w[3];
+    vm__sub3(b, a, u);
+    vm__sub3(c, a, w);
+    vm__cross3(u, w, n);
+    double l = vm__norm3(n);
     for (int k = 0; k < 3; k++) n[k] = l > 0 ? n[k] / l : 0;
 }
 
@@ -794,13 +857,13 @@ static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, const ui
     hedge *h = malloc((3 * nt + 1) * sizeof *h);
     uint8_t *touched = malloc(ns + 1);
     size_t flips = 0;
-    if (!h || !touched || !cell_faces(m, label, ns, &foff, &flist)) {
+    if (!h || !touched || cell_faces(m, label, ns, &foff, &flist)) {
         free(h);
         free(touched);
         return 0;
     }
     const double cos30 = 0.86602540378443865;
-    for (int round = 0; round < 20; round++) {
+    for (int round = 0; round < FLIP_ROUNDS; round++) {
         for (size_t t = 0; t < nt; t++)
             for (int e = 0; e < 3; e++) {
                 h[3 * t + e].key = hkey(tri[3 * t + e], tri[3 * t + (e + 1) % 3]);
@@ -831,7 +894,7 @@ static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, const ui
                 double qold = fmin(tri_quality(pa, pb, pc), tri_quality(pb, pa, pd));
                 if (qold >= 1.0) continue;
                 double qnew = fmin(tri_quality(pa, pd, pc), tri_quality(pd, pb, pc));
-                if (qnew <= qold + 1e-9) continue;
+                if (qnew <= qold + FLIP_GAIN) continue;
                 if (min_ratio > 0) {
                     int32_t t1[3] = {a, d, c}, t2n[3] = {d, b, c};
                     if (edge_ratio(m, seeds, t1) < min_ratio) continue;
@@ -842,13 +905,11 @@ static size_t flip_edges(const vm__cover_fine *m, const int32_t *seeds, const ui
                 unit_normal(pb, pa, pd, n2);
                 unit_normal(pa, pd, pc, n3);
                 unit_normal(pd, pb, pc, n4);
-#define DOT3(u, v) ((u)[0] * (v)[0] + (u)[1] * (v)[1] + (u)[2] * (v)[2])
-                double bend_old = DOT3(n1, n2), bend_new = DOT3(n3, n4);
+                double bend_old = vm__dot3(n1, n2), bend_new = vm__dot3(n3, n4);
                 if (bend_new < fmin(bend_old, cos30)) continue;
-                if (DOT3(n3, n1) <= 0 || DOT3(n3, n2) <= 0 || DOT3(n4, n1) <= 0 ||
-                    DOT3(n4, n2) <= 0)
+                if (vm__dot3(n3, n1) <= 0 || vm__dot3(n3, n2) <= 0 || vm__dot3(n4, n1) <= 0 ||
+                    vm__dot3(n4, n2) <= 0)
                     continue;
-#undef DOT3
                 int32_t cells[4] = {a, b, c, d};
                 const double *p1[3] = {pa, pd, pc}, *p2[3] = {pd, pb, pc};
                 if (tri_far(m, foff, flist, p1, cells, 4, eps) ||
@@ -1034,7 +1095,7 @@ static vm_status untangle(cover *c, const int32_t *tri, size_t nt, size_t *pairs
     double *pts = malloc((3 * c->nseeds + 1) * sizeof *pts);
     uint8_t *cf = calloc(m->ncomp + 1, 1);
     vm_status s = VM_OK;
-    if (!t || !flags || !pts || !cf) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    if (!t || !flags || !pts || !cf) s = cover_nomem(err);
     if (!s) {
         for (size_t i = 0; i < 3 * nt; i++) t[i] = (vm_index)tri[i];
         for (size_t i = 0; i < c->nseeds; i++)
@@ -1100,8 +1161,11 @@ static vm_status local_cells(cover *c, size_t k, int32_t n, int32_t *rep, vm_err
     return s;
 }
 
-/* 1 when dual triangle t (seed indices) has next to no area: twice its area at most 1e-9
- * of its longest edge squared (a seam triangle whose corners lie on one grid line). */
+#define FLAT_AREA 1e-9 /* relative to the longest edge squared: rounding, not geometry */
+
+/* 1 when dual triangle t (seed indices) has next to no area: twice its area at most
+ * FLAT_AREA of its longest edge squared (a seam triangle whose corners lie on one grid
+ * line). */
 static int flat(const vm__cover_fine *m, const int32_t *seeds, const int32_t *t) {
     const double *a = m->x + 3 * (size_t)seeds[t[0]], *b = m->x + 3 * (size_t)seeds[t[1]];
     const double *d = m->x + 3 * (size_t)seeds[t[2]];
@@ -1111,7 +1175,259 @@ static int flat(const vm__cover_fine *m, const int32_t *seeds, const int32_t *t)
                    u[0] * w[1] - u[1] * w[0]};
     double l = fmax(euclid(m, seeds[t[0]], seeds[t[1]]), euclid(m, seeds[t[1]], seeds[t[2]]));
     l = fmax(l, euclid(m, seeds[t[2]], seeds[t[0]]));
-    return sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) <= 1e-9 * l * l;
+    return sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) <= FLAT_AREA * l * l;
+}
+
+/* The scratch of one local fallback and the dual it builds. */
+typedef struct lfb {
+    cover *c;
+    const vm__cover_fine *m;
+    size_t nv, nc;
+    uint8_t *local;   /* per fine component: cut into local cells */
+    size_t *nforced;  /* per fine component: forced vertices, then: components to replace */
+    int32_t *rep;     /* per fine vertex: the seed vertex of its cell */
+    int32_t *idx;     /* per fine vertex: its seed index when it is a seed, else -1 */
+    int32_t *cnt;     /* per seed: vertices in its cell */
+    uint8_t *split;   /* per seed: its cell is split into one-vertex cells */
+    int32_t *out;     /* 3 nt: the triangles (seed indices) */
+    vm_index *vt;     /* 3 nt: out as vm_index, for the crossing test */
+    uint8_t *flags;   /* nt: the triangle crosses another */
+    double *pts;      /* 3 nseeds: the seeds' points */
+    size_t nt, tcap;
+} lfb;
+
+/* Frees the scratch of a local fallback. */
+static void lfb_free(lfb *L) {
+    free(L->local), free(L->nforced), free(L->rep), free(L->idx), free(L->cnt), free(L->split);
+    free(L->out), free(L->vt), free(L->pts), free(L->flags);
+}
+
+/* Allocates L's per-vertex scratch and marks the local components: those of at least
+ * LOCAL_MIN vertices all forced (kept fine) on entry; *nlocal counts them. */
+static vm_status lfb_init(lfb *L, cover *c, const uint8_t *pforced, size_t *nlocal,
+                          vm_error *err) {
+    memset(L, 0, sizeof *L);
+    const vm__cover_fine *m = c->m;
+    L->c = c;
+    L->m = m;
+    L->nv = m->nv;
+    L->nc = m->ncomp;
+    size_t nv = L->nv, nc = L->nc;
+    L->local = calloc(nc + 1, 1);
+    L->nforced = calloc(nc + 1, sizeof *L->nforced);
+    L->rep = malloc((nv + 1) * sizeof *L->rep);
+    L->idx = malloc((nv + 1) * sizeof *L->idx);
+    L->cnt = malloc((nv + 1) * sizeof *L->cnt);
+    L->split = malloc(nv + 1);
+    *nlocal = 0;
+    if (!L->local || !L->nforced || !L->rep || !L->idx || !L->cnt || !L->split)
+        return vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
+    for (size_t v = 0; v < nv; v++) L->nforced[m->comp[v]] += pforced[v] == 1;
+    for (size_t k = 0; k < nc; k++)
+        if (L->nforced[k] == c->csize[k] && c->csize[k] >= LOCAL_MIN)
+            L->local[k] = 1, (*nlocal)++;
+    return VM_OK;
+}
+
+/* The first partition: the entry's cells, and farthest-point cells on local components
+ * (about one per LOCAL_SPACING vertices, enough for the genus, at most half the vertices). */
+static vm_status lfb_first_cells(lfb *L, const int32_t *seeds, const int32_t *label,
+                                 vm_error *err) {
+    cover *c = L->c;
+    const vm__cover_fine *m = L->m;
+    vm_status s = VM_OK;
+    for (size_t v = 0; v < L->nv; v++) L->rep[v] = seeds[label[v]];
+    for (size_t k = 0; !s && k < L->nc; k++) {
+        if (!L->local[k]) continue;
+        long genus = (2 - m->comp_euler[k]) / 2;
+        int32_t n = (int32_t)(c->csize[k] / LOCAL_SPACING);
+        if (n < 4 + 8 * genus) n = (int32_t)(4 + 8 * (genus > 0 ? genus : 0));
+        if ((size_t)n > c->csize[k] / 2) n = (int32_t)(c->csize[k] / 2);
+        if (n < 1) n = 1;
+        s = local_cells(c, k, n, L->rep, err);
+    }
+    return s;
+}
+
+/* The partition rep as seeds and labels (c->seeds, c->label), and its dual (c->tri). */
+static vm_status lfb_dual(lfb *L, vm_error *err) {
+    cover *c = L->c;
+    size_t ns = 0;
+    for (size_t v = 0; v < L->nv; v++) L->idx[v] = -1;
+    for (size_t v = 0; v < L->nv; v++) {
+        int32_t r = L->rep[v];
+        if (L->idx[r] < 0) L->idx[r] = (int32_t)ns, c->seeds[ns++] = r;
+        c->label[v] = L->idx[r];
+    }
+    c->nseeds = ns;
+    size_t nbad = 0;
+    return dual(c, &nbad, err);
+}
+
+/* The triangles L->out: the dual's on local components, the entry's (seeds, tri, nt0)
+ * elsewhere, renumbered to the new seeds; L->pts, L->cnt for them, and L->flags marking the
+ * crossing ones. */
+static vm_status lfb_triangles(lfb *L, const int32_t *seeds, const int32_t *tri, size_t nt0,
+                               vm_error *err) {
+    cover *c = L->c;
+    const vm__cover_fine *m = L->m;
+    size_t ns = c->nseeds, nt = 0;
+    for (size_t t = 0; t < c->ntri; t++)
+        if (L->local[m->comp[c->seeds[c->tri[3 * t]]]]) nt++;
+    for (size_t t = 0; t < nt0; t++)
+        if (!L->local[m->comp[seeds[tri[3 * t]]]]) nt++;
+    L->nt = nt;
+    if (nt > L->tcap) {
+        free(L->out), free(L->vt), free(L->flags);
+        L->tcap = nt;
+        L->out = malloc((3 * L->tcap + 1) * sizeof *L->out);
+        L->vt = malloc((3 * L->tcap + 1) * sizeof *L->vt);
+        L->flags = malloc(L->tcap + 1);
+    }
+    free(L->pts);
+    L->pts = malloc((3 * ns + 1) * sizeof *L->pts);
+    if (!L->out || !L->vt || !L->flags || !L->pts)
+        return vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
+    nt = 0;
+    for (size_t t = 0; t < c->ntri; t++)
+        if (L->local[m->comp[c->seeds[c->tri[3 * t]]]])
+            memcpy(L->out + 3 * nt++, c->tri + 3 * t, 3 * sizeof *L->out);
+    for (size_t t = 0; t < nt0; t++)
+        if (!L->local[m->comp[seeds[tri[3 * t]]]]) {
+            for (int e = 0; e < 3; e++) L->out[3 * nt + e] = L->idx[seeds[tri[3 * t + e]]];
+            nt++;
+        }
+    for (size_t i = 0; i < ns; i++) {
+        memcpy(L->pts + 3 * i, m->x + 3 * (size_t)c->seeds[i], 3 * sizeof *L->pts);
+        L->cnt[i] = 0;
+    }
+    for (size_t v = 0; v < L->nv; v++) L->cnt[c->label[v]]++;
+    for (size_t i = 0; i < 3 * nt; i++) L->vt[i] = (vm_index)L->out[i];
+    size_t pairs = 0;
+    return vm__self_intersections(L->pts, L->vt, nt, &pairs, L->flags, err);
+}
+
+/* Marks the cells to split: failing cells and their neighbours along fine edges, corners
+ * (of more than one vertex) of crossing triangles and of thin covered triangles; a crossing
+ * triangle of a covered component with no such corner marks its component in nforced. */
+static void lfb_mark_failing(lfb *L) {
+    cover *c = L->c;
+    const vm__cover_fine *m = L->m;
+    const uint8_t *local = L->local;
+    const int32_t *cnt = L->cnt;
+    memset(L->split, 0, c->nseeds);
+    memset(L->nforced, 0, L->nc * sizeof *L->nforced); /* now: components to replace */
+    for (size_t v = 0; v < L->nv; v++) {
+        int32_t a = c->label[v];
+        if (!local[m->comp[v]] || !c->bad[a]) continue;
+        L->split[a] = 1;
+        for (size_t h = m->off[v]; h < m->off[v + 1]; h++) L->split[c->label[m->nbr[h]]] = 1;
+    }
+    for (size_t t = 0; t < L->nt; t++) {
+        const int32_t *q = L->out + 3 * t;
+        int32_t w = c->seeds[q[0]];
+        int thin = 0;
+        if (!L->flags[t] && local[m->comp[w]]) {
+            int one = cnt[q[0]] == 1 || cnt[q[1]] == 1 || cnt[q[2]] == 1;
+            thin = !one && edge_ratio(m, c->seeds, q) < LOCAL_RATIO;
+            thin = thin || flat(m, c->seeds, q);
+        }
+        if (!L->flags[t] && !thin) continue;
+        int any = 0;
+        for (int e = 0; e < 3; e++)
+            if (local[m->comp[w]] && cnt[q[e]] > 1) L->split[q[e]] = 1, any = 1;
+        if (!any && !local[m->comp[w]]) L->nforced[m->comp[w]] = 1;
+    }
+}
+
+/* The maximum-distance metric both ways (sec. 3.5), as refine() measures it: splits the cell
+ * of a fine vertex farther than eps from the triangles at its cell's seed, and the cells of a
+ * triangle with a point farther than eps from the fine faces of its three cells. */
+static vm_status lfb_mark_far(lfb *L, vm_error *err) {
+    cover *c = L->c;
+    const vm__cover_fine *m = L->m;
+    const int32_t *cnt = L->cnt;
+    uint8_t *split = L->split;
+    for (size_t v = 0; v < L->nv; v++) {
+        int32_t a = c->label[v];
+        if (!L->local[m->comp[v]] || cnt[a] == 1 || split[a]) continue;
+        double best = INFINITY;
+        for (size_t q = c->toff[a]; q < c->toff[a + 1] && best > c->eps; q++) {
+            const int32_t *t = c->tri + 3 * (size_t)c->tlist[q];
+            best = fmin(best, point_tri(m->x + 3 * v, m->x + 3 * (size_t)c->seeds[t[0]],
+                                        m->x + 3 * (size_t)c->seeds[t[1]],
+                                        m->x + 3 * (size_t)c->seeds[t[2]]));
+        }
+        if (best > c->eps) split[a] = 1;
+    }
+    size_t *foff = NULL;
+    int32_t *flist = NULL;
+    if (cell_faces(m, c->label, c->nseeds, &foff, &flist))
+        return vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
+    for (size_t t = 0; t < c->ntri; t++) {
+        const int32_t *q = c->tri + 3 * t;
+        if (!L->local[m->comp[c->seeds[q[0]]]]) continue;
+        int open = 0;
+        for (int e = 0; e < 3; e++) open |= cnt[q[e]] > 1 && !split[q[e]];
+        if (!open) continue;
+        const double *p[3];
+        for (int e = 0; e < 3; e++) p[e] = m->x + 3 * (size_t)c->seeds[q[e]];
+        if (tri_far(m, foff, flist, p, q, 3, c->eps))
+            for (int e = 0; e < 3; e++) split[q[e]] = 1;
+    }
+    free(foff);
+    free(flist);
+    return VM_OK;
+}
+
+/* Splits the marked cells into one-vertex cells; when none is marked, a covered component
+ * marked in nforced becomes local, all of it one-vertex cells (its fine surface). Returns
+ * the number of vertices or components changed (0: the fixpoint). */
+static size_t lfb_split(lfb *L) {
+    cover *c = L->c;
+    const vm__cover_fine *m = L->m;
+    size_t nsplit = 0;
+    for (size_t v = 0; v < L->nv; v++)
+        if (L->local[m->comp[v]] && L->split[c->label[v]] && L->cnt[c->label[v]] > 1)
+            L->rep[v] = (int32_t)v, nsplit++;
+    /* a covered component elsewhere at a crossing that no split removes becomes local,
+     * all of it one-vertex cells (its fine surface) */
+    for (size_t v = 0; nsplit == 0 && v < L->nv; v++)
+        if (L->nforced[m->comp[v]]) L->rep[v] = (int32_t)v;
+    for (size_t k = 0; nsplit == 0 && k < L->nc; k++)
+        if (L->nforced[k]) L->local[k] = 1, nsplit++;
+    return nsplit;
+}
+
+/* The final flips on the covered triangles, none below LOCAL_RATIO (a flip trades edge
+ * ratio for angle), all undone if they made a crossing or a thin triangle. */
+static vm_status lfb_flip(lfb *L, const uint8_t *pforced, vm_error *err) {
+    cover *c = L->c;
+    const vm__cover_fine *m = L->m;
+    size_t nt = L->nt;
+    int32_t *out = L->out;
+    vm_status s = VM_OK;
+    int32_t *save = malloc((3 * nt + 1) * sizeof *save);
+    if (!save) return VM_OK;
+    memcpy(save, out, 3 * nt * sizeof *save);
+    size_t nflip =
+        flip_edges(m, c->seeds, pforced, c->nseeds, out, nt, c->label, c->eps, LOCAL_RATIO);
+    if (nflip > 0) {
+        int ok = 1;
+        for (size_t t = 0; ok && t < nt; t++) {
+            const int32_t *q = out + 3 * t;
+            int one = L->cnt[q[0]] == 1 || L->cnt[q[1]] == 1 || L->cnt[q[2]] == 1;
+            one = one || !L->local[m->comp[c->seeds[q[0]]]];
+            if (!one && edge_ratio(m, c->seeds, q) < LOCAL_RATIO) ok = 0;
+            if (!one && flat(m, c->seeds, q)) ok = 0;
+        }
+        size_t pairs = 0;
+        for (size_t i = 0; ok && i < 3 * nt; i++) L->vt[i] = (vm_index)out[i];
+        if (ok) s = vm__self_intersections(L->pts, L->vt, nt, &pairs, NULL, err);
+        if (!ok || pairs > 0) memcpy(out, save, 3 * nt * sizeof *out);
+    }
+    free(save);
+    return s;
 }
 
 /* Where a component kept its fine surface whole (its farthest-point duals failed), keep
@@ -1132,187 +1448,27 @@ static int flat(const vm__cover_fine *m, const int32_t *seeds, const int32_t *t)
 static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, size_t *pns,
                                 int32_t **ptri, size_t *pnt, const int32_t *label,
                                 size_t *iterations, vm_error *err) {
-    const vm__cover_fine *m = c->m;
-    size_t nv = m->nv, nc = m->ncomp;
-    uint8_t *local = calloc(nc + 1, 1);
-    size_t *nforced = calloc(nc + 1, sizeof *nforced);
-    int32_t *rep = malloc((nv + 1) * sizeof *rep), *idx = malloc((nv + 1) * sizeof *idx);
-    int32_t *cnt = malloc((nv + 1) * sizeof *cnt), *out = NULL;
-    uint8_t *split = malloc(nv + 1);
-    vm_index *vt = NULL;
-    double *pts = NULL;
-    uint8_t *flags = NULL;
-    vm_status s = VM_OK;
-    if (!local || !nforced || !rep || !idx || !cnt || !split)
-        s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
+    lfb L;
     size_t nlocal = 0;
-    for (size_t v = 0; !s && v < nv; v++) nforced[m->comp[v]] += pforced[v] == 1;
-    for (size_t k = 0; !s && k < nc; k++)
-        if (nforced[k] == c->csize[k] && c->csize[k] >= LOCAL_MIN) local[k] = 1, nlocal++;
+    vm_status s = lfb_init(&L, c, pforced, &nlocal, err);
     if (!s && nlocal == 0) goto done;
-    for (size_t v = 0; !s && v < nv; v++) rep[v] = (*pseeds)[label[v]];
-    for (size_t k = 0; !s && k < nc; k++) {
-        if (!local[k]) continue;
-        long genus = (2 - m->comp_euler[k]) / 2;
-        int32_t n = (int32_t)(c->csize[k] / LOCAL_SPACING);
-        if (n < 4 + 8 * genus) n = (int32_t)(4 + 8 * (genus > 0 ? genus : 0));
-        if ((size_t)n > c->csize[k] / 2) n = (int32_t)(c->csize[k] / 2);
-        if (n < 1) n = 1;
-        s = local_cells(c, k, n, rep, err);
-    }
-    size_t nt = 0, tcap = 0;
+    if (!s) s = lfb_first_cells(&L, *pseeds, label, err);
     for (size_t it = 0; !s; it++) {
-        /* the partition as seeds and labels */
-        size_t ns = 0;
-        for (size_t v = 0; v < nv; v++) idx[v] = -1;
-        for (size_t v = 0; v < nv; v++) {
-            int32_t r = rep[v];
-            if (idx[r] < 0) idx[r] = (int32_t)ns, c->seeds[ns++] = r;
-            c->label[v] = idx[r];
-        }
-        c->nseeds = ns;
-        size_t nbad = 0;
-        s = dual(c, &nbad, err);
+        s = lfb_dual(&L, err);
+        if (!s) s = lfb_triangles(&L, *pseeds, *ptri, *pnt, err);
         if (s) break;
-        /* the triangles: the dual's on local components, the entry's elsewhere */
-        nt = 0;
-        for (size_t t = 0; t < c->ntri; t++)
-            if (local[m->comp[c->seeds[c->tri[3 * t]]]]) nt++;
-        for (size_t t = 0; t < *pnt; t++)
-            if (!local[m->comp[(*pseeds)[(*ptri)[3 * t]]]]) nt++;
-        if (nt > tcap) {
-            free(out), free(vt), free(flags);
-            tcap = nt;
-            out = malloc((3 * tcap + 1) * sizeof *out);
-            vt = malloc((3 * tcap + 1) * sizeof *vt);
-            flags = malloc(tcap + 1);
-        }
-        free(pts);
-        pts = malloc((3 * ns + 1) * sizeof *pts);
-        if (!out || !vt || !flags || !pts) {
-            s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
-            break;
-        }
-        nt = 0;
-        for (size_t t = 0; t < c->ntri; t++)
-            if (local[m->comp[c->seeds[c->tri[3 * t]]]])
-                memcpy(out + 3 * nt++, c->tri + 3 * t, 3 * sizeof *out);
-        for (size_t t = 0; t < *pnt; t++)
-            if (!local[m->comp[(*pseeds)[(*ptri)[3 * t]]]]) {
-                for (int e = 0; e < 3; e++)
-                    out[3 * nt + e] = idx[(*pseeds)[(*ptri)[3 * t + e]]];
-                nt++;
-            }
-        for (size_t i = 0; i < ns; i++) {
-            memcpy(pts + 3 * i, m->x + 3 * (size_t)c->seeds[i], 3 * sizeof *pts);
-            cnt[i] = 0;
-        }
-        for (size_t v = 0; v < nv; v++) cnt[c->label[v]]++;
-        for (size_t i = 0; i < 3 * nt; i++) vt[i] = (vm_index)out[i];
-        size_t pairs = 0;
-        s = vm__self_intersections(pts, vt, nt, &pairs, flags, err);
+        lfb_mark_failing(&L);
+        s = lfb_mark_far(&L, err);
         if (s) break;
-        /* what to split: failing cells and their neighbours, corners of crossing triangles
-         * and of thin covered triangles */
-        memset(split, 0, ns);
-        memset(nforced, 0, nc * sizeof *nforced); /* now: components to replace */
-        size_t nsplit = 0;
-        for (size_t v = 0; v < nv; v++) {
-            int32_t a = c->label[v];
-            if (!local[m->comp[v]] || !c->bad[a]) continue;
-            split[a] = 1;
-            for (size_t h = m->off[v]; h < m->off[v + 1]; h++) split[c->label[m->nbr[h]]] = 1;
-        }
-        for (size_t t = 0; t < nt; t++) {
-            const int32_t *q = out + 3 * t;
-            int32_t w = c->seeds[q[0]];
-            int thin = 0;
-            if (!flags[t] && local[m->comp[w]]) {
-                int one = cnt[q[0]] == 1 || cnt[q[1]] == 1 || cnt[q[2]] == 1;
-                thin = !one && edge_ratio(m, c->seeds, q) < LOCAL_RATIO;
-                thin = thin || flat(m, c->seeds, q);
-            }
-            if (!flags[t] && !thin) continue;
-            int any = 0;
-            for (int e = 0; e < 3; e++)
-                if (local[m->comp[w]] && cnt[q[e]] > 1) split[q[e]] = 1, any = 1;
-            if (!any && !local[m->comp[w]]) nforced[m->comp[w]] = 1;
-        }
-        /* the maximum-distance metric both ways (sec. 3.5), as refine() measures it: a fine
-         * vertex farther than eps from the triangles at its cell's seed, a point of a triangle
-         * farther than eps from the fine faces of its three cells */
-        for (size_t v = 0; v < nv; v++) {
-            int32_t a = c->label[v];
-            if (!local[m->comp[v]] || cnt[a] == 1 || split[a]) continue;
-            double best = INFINITY;
-            for (size_t q = c->toff[a]; q < c->toff[a + 1] && best > c->eps; q++) {
-                const int32_t *t = c->tri + 3 * (size_t)c->tlist[q];
-                best = fmin(best, point_tri(m->x + 3 * v, m->x + 3 * (size_t)c->seeds[t[0]],
-                                            m->x + 3 * (size_t)c->seeds[t[1]],
-                                            m->x + 3 * (size_t)c->seeds[t[2]]));
-            }
-            if (best > c->eps) split[a] = 1;
-        }
-        {
-            size_t *foff = NULL;
-            int32_t *flist = NULL;
-            if (!cell_faces(m, c->label, ns, &foff, &flist)) {
-                s = vm_error_set(err, VM_ERR_NOMEM, NOMEM_LOCAL);
-                break;
-            }
-            for (size_t t = 0; t < c->ntri; t++) {
-                const int32_t *q = c->tri + 3 * t;
-                if (!local[m->comp[c->seeds[q[0]]]]) continue;
-                int open = 0;
-                for (int e = 0; e < 3; e++) open |= cnt[q[e]] > 1 && !split[q[e]];
-                if (!open) continue;
-                const double *p[3];
-                for (int e = 0; e < 3; e++) p[e] = m->x + 3 * (size_t)c->seeds[q[e]];
-                if (tri_far(m, foff, flist, p, q, 3, c->eps))
-                    for (int e = 0; e < 3; e++) split[q[e]] = 1;
-            }
-            free(foff);
-            free(flist);
-        }
-        for (size_t v = 0; v < nv; v++)
-            if (local[m->comp[v]] && split[c->label[v]] && cnt[c->label[v]] > 1)
-                rep[v] = (int32_t)v, nsplit++;
-        /* a covered component elsewhere at a crossing that no split removes becomes local,
-         * all of it one-vertex cells (its fine surface) */
-        for (size_t v = 0; nsplit == 0 && v < nv; v++)
-            if (nforced[m->comp[v]]) rep[v] = (int32_t)v;
-        for (size_t k = 0; nsplit == 0 && k < nc; k++)
-            if (nforced[k]) local[k] = 1, nsplit++;
-        if (nsplit == 0) {
+        if (lfb_split(&L) == 0) {
             *iterations = it + 1;
             break;
         }
     }
     if (!s) {
-        for (size_t v = 0; v < nv; v++)
-            if (local[m->comp[v]]) pforced[v] = cnt[c->label[v]] == 1 ? 1 : 2;
-        /* the final flips on the covered triangles, none below LOCAL_RATIO (a flip trades
-         * edge ratio for angle), all undone if they made a crossing or a thin triangle */
-        int32_t *save = malloc((3 * nt + 1) * sizeof *save);
-        if (save) {
-            memcpy(save, out, 3 * nt * sizeof *save);
-            if (flip_edges(m, c->seeds, pforced, c->nseeds, out, nt, c->label, c->eps,
-                           LOCAL_RATIO) > 0) {
-                int ok = 1;
-                for (size_t t = 0; ok && t < nt; t++) {
-                    const int32_t *q = out + 3 * t;
-                    int one = cnt[q[0]] == 1 || cnt[q[1]] == 1 || cnt[q[2]] == 1;
-                    one = one || !local[m->comp[c->seeds[q[0]]]];
-                    if (!one && edge_ratio(m, c->seeds, q) < LOCAL_RATIO) ok = 0;
-                    if (!one && flat(m, c->seeds, q)) ok = 0;
-                }
-                size_t pairs = 0;
-                for (size_t i = 0; ok && i < 3 * nt; i++) vt[i] = (vm_index)out[i];
-                if (ok) s = vm__self_intersections(pts, vt, nt, &pairs, NULL, err);
-                if (!ok || pairs > 0) memcpy(out, save, 3 * nt * sizeof *out);
-            }
-            free(save);
-        }
+        for (size_t v = 0; v < L.nv; v++)
+            if (L.local[L.m->comp[v]]) pforced[v] = L.cnt[c->label[v]] == 1 ? 1 : 2;
+        s = lfb_flip(&L, pforced, err);
     }
     if (!s) { /* the result */
         int32_t *seeds = malloc((c->nseeds + 1) * sizeof *seeds);
@@ -1324,14 +1480,13 @@ static vm_status local_fallback(cover *c, int32_t **pseeds, uint8_t *pforced, si
             free(*ptri);
             *pseeds = seeds;
             *pns = c->nseeds;
-            *ptri = out;
-            *pnt = nt;
-            out = NULL;
+            *ptri = L.out;
+            *pnt = L.nt;
+            L.out = NULL;
         }
     }
 done:
-    free(local), free(nforced), free(rep), free(idx), free(cnt), free(split);
-    free(out), free(vt), free(pts), free(flags);
+    lfb_free(&L);
     return s;
 }
 
@@ -1361,7 +1516,7 @@ static vm_status emit(const double *x, size_t np, const double *scale, const int
         s = vm_mesh_add_cell(surf, nodes, 1, err);
     }
     double *f = s ? NULL : malloc((surf->ncells + 1) * sizeof *f);
-    if (!s && !f) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    if (!s && !f) s = cover_nomem(err);
     if (!s) {
         for (size_t t = 0; t < surf->ncells; t++) f[t] = 0;
         for (size_t t = 0; t < ntri; t++) f[surf->ncells - ntri + t] = kept[t];
@@ -1381,7 +1536,7 @@ static vm_status finish(const vm__cover_fine *m, const double *scale, const int3
     double *x = malloc((3 * ns + 1) * sizeof *x);
     uint8_t *kept = malloc(ntri + 1);
     vm_status s = VM_OK;
-    if (!x || !kept) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    if (!x || !kept) s = cover_nomem(err);
     size_t any = 0;
     for (size_t i = 0; !s && i < ns; i++)
         memcpy(x + 3 * i, m->x + 3 * (size_t)(seeds ? seeds[i] : (int32_t)i), 3 * sizeof *x);
@@ -1398,6 +1553,183 @@ static vm_status finish(const vm__cover_fine *m, const double *scale, const int3
     free(x);
     free(kept);
     return s;
+}
+
+/* The last valid dual of a covering: seeds (ns), triangles (3 nt, seed indices), and per
+ * fine vertex its label and forced value. */
+typedef struct cover_best {
+    int32_t *seeds, *tri, *label;
+    uint8_t *forced;
+    size_t ns, nt;
+} cover_best;
+
+/* Sets up c over the fine surface m of g (lengths scaled by scale): R_g, the per-vertex and
+ * per-component arrays, and the finest level lmax whose disk holds each 1-ring. */
+static vm_status cover_init(cover *c, const vm__cover_fine *m, const vm__surface_grid *g,
+                            const vm_surface_options *o, const double scale[3], vm_error *err) {
+    memset(c, 0, sizeof *c);
+    c->m = m;
+    c->eps = o->error;
+    double nmax = 0;
+    for (int a = 0; a < 3; a++) nmax = fmax(nmax, (double)g->n[a] * scale[a]);
+    c->rg = 0.5 * nmax + 1.0; /* R_g: half the volume, the first disk may cover it all */
+    size_t nv = m->nv, nc = m->ncomp;
+    c->dist = malloc(nv * sizeof *c->dist);
+    c->touched = malloc(nv * sizeof *c->touched);
+    c->order = malloc(nv * sizeof *c->order);
+    c->lmax = malloc(nv);
+    c->cap = calloc(nv, 1);
+    c->hint = calloc(nv, 1);
+    c->lfloor = malloc(nv + 1);
+    c->comp_fails = calloc(nc + 1, 1);
+    c->nfps = calloc(nc + 1, sizeof *c->nfps);
+    c->grow = calloc(nc + 1, 1);
+    c->fd = malloc((nv + 1) * sizeof *c->fd);
+    c->csize = calloc(nc + 1, sizeof *c->csize);
+    c->fps_ok = calloc(nc + 1, sizeof *c->fps_ok);
+    c->frozen = calloc(nc + 1, 1);
+    c->fps_hi = calloc(nc + 1, sizeof *c->fps_hi);
+    c->thin = calloc(nc + 1, 1);
+    if (c->csize)
+        for (size_t v = 0; v < nv; v++) c->csize[m->comp[v]]++;
+    c->forced = calloc(nv, 1);
+    c->forb = malloc(nv);
+    c->binl = malloc(nv * sizeof *c->binl);
+    c->seedlev = malloc(nv * sizeof *c->seedlev);
+    c->bcnt = malloc(nv * sizeof *c->bcnt);
+    c->fmark = calloc(m->nf, 1);
+    c->fqueue = malloc(m->nf * sizeof *c->fqueue);
+    c->label = malloc(nv * sizeof *c->label);
+    c->seeds = malloc(nv * sizeof *c->seeds);
+    c->prev = malloc(nv * sizeof *c->prev);
+    c->prevlev = malloc(nv);
+    c->bad = malloc(nv);
+    if (!c->dist || !c->touched || !c->order || !c->lmax || !c->cap || !c->hint ||
+        !c->lfloor || !c->comp_fails || !c->nfps || !c->grow || !c->fd || !c->csize ||
+        !c->fps_ok || !c->frozen || !c->fps_hi || !c->thin || !c->forced || !c->forb ||
+        !c->binl || !c->seedlev || !c->bcnt || !c->fmark || !c->fqueue || !c->label ||
+        !c->seeds || !c->prev || !c->prevlev || !c->bad)
+        return vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (%zu vertices)",
+                            nv);
+    for (size_t v = 0; v < nv; v++) {
+        c->dist[v] = INFINITY;
+        double emax = 0;
+        for (size_t h = m->off[v]; h < m->off[v + 1]; h++)
+            if (m->len[h] > emax) emax = m->len[h];
+        int l = 0;
+        while (l + 1 < LEVELS && radius(c, l + 1) > emax * (1 + LEVEL_MARGIN)) l++;
+        c->lmax[v] = c->lfloor[v] = (uint8_t)l;
+    }
+    return VM_OK;
+}
+
+/* Copies c's current (valid) dual into b. */
+static vm_status keep_best(const cover *c, cover_best *b, vm_error *err) {
+    size_t nv = c->m->nv;
+    free(b->seeds);
+    free(b->tri);
+    b->seeds = malloc((c->nseeds + 1) * sizeof *b->seeds);
+    b->tri = malloc((3 * c->ntri + 1) * sizeof *b->tri);
+    if (!b->seeds || !b->tri) return cover_nomem(err);
+    memcpy(b->seeds, c->seeds, c->nseeds * sizeof *b->seeds);
+    memcpy(b->tri, c->tri, 3 * c->ntri * sizeof *b->tri);
+    memcpy(b->label, c->label, nv * sizeof *b->label);
+    memcpy(b->forced, c->forced, nv);
+    b->ns = c->nseeds;
+    b->nt = c->ntri;
+    return VM_OK;
+}
+
+/* After a valid dual (kept in b): refinement, farthest-point coverings grown where too
+ * coarse; when nothing changes, flips and the crossing test on b, and *done once no
+ * triangle crosses and no covering grows. */
+static vm_status after_valid(cover *c, cover_best *b, int *done, vm_error *err) {
+    const vm__cover_fine *m = c->m;
+    for (size_t k = 0; k < m->ncomp; k++)
+        if (c->nfps[k] > 0) c->fps_ok[k] = c->nfps[k];
+    refine(c);
+    /* a farthest-point covering too coarse for the error or the edge ratio grows */
+    for (size_t i = 0; i < c->nseeds; i++)
+        if (c->bad[i] && c->forced[c->seeds[i]] == 2) c->grow[m->comp[c->seeds[i]]] = 1;
+    for (size_t t = 0; t < c->ntri; t++) {
+        int32_t w = c->seeds[c->tri[3 * t]];
+        if (c->forced[w] == 2 && edge_ratio(m, c->seeds, c->tri + 3 * t) < ASPECT)
+            c->thin[m->comp[w]] = 1, c->grow[m->comp[w]] = 1;
+    }
+    vm_status s = fps_apply(c, GROW_REFINE, err);
+    if (s || c->changed) return s;
+    size_t pairs = 0;
+    flip_edges(m, b->seeds, b->forced, b->ns, b->tri, b->nt, b->label, c->eps, 0);
+    s = untangle(c, b->tri, b->nt, &pairs, err);
+    if (s) return s;
+    if (pairs > 0) {
+        c->untangles++;
+        return VM_OK;
+    }
+    /* after the flips, a triangle still below the paper's 0.3 (its seeds at their floor):
+     * its component is covered by farthest points instead */
+    for (size_t t = 0; t < b->nt; t++) {
+        int32_t w = b->seeds[b->tri[3 * t]];
+        if (b->forced[w] != 1 && edge_ratio(m, b->seeds, b->tri + 3 * t) < PAPER_RATIO)
+            c->grow[m->comp[w]] = 1, c->thin[m->comp[w]] = 1;
+    }
+    c->changed = 0;
+    s = fps_apply(c, GROW_REFINE, err);
+    if (!s && !c->changed) *done = 1;
+    return s;
+}
+
+/* The next pass starts from these seeds: new disks one level coarser than the
+ * neighbourhood they replace, and the unforced seeds as the previous covering. */
+static void next_pass_hints(cover *c) {
+    for (size_t v = 0; v < c->m->nv; v++) {
+        int l = c->seedlev[c->seeds[c->label[v]]];
+        c->hint[v] = (uint8_t)(l == FORCED || l < 1 ? 0 : l - 1);
+    }
+    c->nprev = 0;
+    for (size_t i = 0; i < c->nseeds; i++) {
+        int32_t w = c->seeds[i];
+        if (c->seedlev[w] == FORCED) continue;
+        c->prev[c->nprev] = w;
+        c->prevlev[c->nprev++] = (uint8_t)c->seedlev[w];
+    }
+}
+
+/* One pass: covering, Voronoi neighbourhoods, dual; a failed dual is repaired, a valid one
+ * kept in b and refined (after_valid). */
+static vm_status cover_pass(cover *c, cover_best *b, int *done, vm_error *err) {
+    c->changed = 0;
+    c->passes++;
+    vm_status s = covering(c, err);
+    if (!s) s = voronoi(c, err);
+    size_t nbad = 0;
+    if (!s) s = dual(c, &nbad, err);
+    if (s) return s;
+    if (nbad > 0) {
+        c->repairs++;
+        s = repair(c, err);
+    } else {
+        s = keep_best(c, b, err);
+        if (!s) s = after_valid(c, b, done, err);
+    }
+    if (s) return s;
+    next_pass_hints(c);
+    return VM_OK;
+}
+
+/* No valid covering: the fine surface m itself, which is one, as b (every vertex a forced
+ * seed). */
+static vm_status fine_as_best(const vm__cover_fine *m, cover_best *b, vm_error *err) {
+    size_t nv = m->nv;
+    b->seeds = malloc((nv + 1) * sizeof *b->seeds);
+    b->tri = malloc((3 * m->nf + 1) * sizeof *b->tri);
+    if (!b->seeds || !b->tri) return cover_nomem(err);
+    for (size_t v = 0; v < nv; v++) b->seeds[v] = b->label[v] = (int32_t)v;
+    memcpy(b->tri, m->f, 3 * m->nf * sizeof *b->tri);
+    memset(b->forced, 1, nv);
+    b->ns = nv;
+    b->nt = m->nf;
+    return VM_OK;
 }
 
 /* One extraction on the samples of g, lengths measured with index steps scale[a] (in
@@ -1417,174 +1749,36 @@ static vm_status cover_once(const vm__surface_grid *g, const vm_surface_options 
         return VM_OK; /* the dispatcher reports the empty material */
     }
     cover c;
-    memset(&c, 0, sizeof c);
-    c.m = &m;
-    c.eps = o->error;
-    double nmax = 0;
-    for (int a = 0; a < 3; a++) nmax = fmax(nmax, (double)g->n[a] * scale[a]);
-    c.rg = 0.5 * nmax + 1.0; /* R_g: half the volume, the first disk may cover it all */
+    s = cover_init(&c, &m, g, o, scale, err);
     size_t nv = m.nv;
-    c.dist = malloc(nv * sizeof *c.dist);
-    c.touched = malloc(nv * sizeof *c.touched);
-    c.order = malloc(nv * sizeof *c.order);
-    c.lmax = malloc(nv);
-    c.cap = calloc(nv, 1);
-    c.hint = calloc(nv, 1);
-    c.lfloor = malloc(nv + 1);
-    c.comp_fails = calloc(m.ncomp + 1, 1);
-    c.nfps = calloc(m.ncomp + 1, sizeof *c.nfps);
-    c.grow = calloc(m.ncomp + 1, 1);
-    c.fd = malloc((nv + 1) * sizeof *c.fd);
-    c.csize = calloc(m.ncomp + 1, sizeof *c.csize);
-    c.fps_ok = calloc(m.ncomp + 1, sizeof *c.fps_ok);
-    c.frozen = calloc(m.ncomp + 1, 1);
-    c.fps_hi = calloc(m.ncomp + 1, sizeof *c.fps_hi);
-    c.thin = calloc(m.ncomp + 1, 1);
-    if (c.csize)
-        for (size_t v = 0; v < nv; v++) c.csize[m.comp[v]]++;
-    c.forced = calloc(nv, 1);
-    c.forb = malloc(nv);
-    c.binl = malloc(nv * sizeof *c.binl);
-    c.seedlev = malloc(nv * sizeof *c.seedlev);
-    c.bcnt = malloc(nv * sizeof *c.bcnt);
-    c.fmark = calloc(m.nf, 1);
-    c.fqueue = malloc(m.nf * sizeof *c.fqueue);
-    c.label = malloc(nv * sizeof *c.label);
-    c.seeds = malloc(nv * sizeof *c.seeds);
-    c.prev = malloc(nv * sizeof *c.prev);
-    c.prevlev = malloc(nv);
-    c.bad = malloc(nv);
-    if (!c.dist || !c.touched || !c.order || !c.lmax || !c.cap || !c.hint || !c.lfloor || !c.comp_fails || !c.nfps || !c.grow || !c.fd || !c.csize || !c.fps_ok || !c.frozen || !c.fps_hi || !c.thin || !c.forced || !c.forb || !c.binl ||
-        !c.seedlev || !c.bcnt || !c.fmark || !c.fqueue || !c.label || !c.seeds || !c.prev ||
-        !c.prevlev || !c.bad)
-        s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory (%zu vertices)", nv);
-    for (size_t v = 0; !s && v < nv; v++) {
-        c.dist[v] = INFINITY;
-        double emax = 0;
-        for (size_t h = m.off[v]; h < m.off[v + 1]; h++)
-            if (m.len[h] > emax) emax = m.len[h];
-        int l = 0;
-        while (l + 1 < LEVELS && radius(&c, l + 1) > emax * (1 + 1e-9)) l++;
-        c.lmax[v] = c.lfloor[v] = (uint8_t)l;
-    }
-    /* the last valid dual */
-    int32_t *best_seeds = NULL, *best_tri = NULL, *best_label = malloc((nv + 1) * sizeof(int32_t));
-    uint8_t *best_forced = malloc(nv + 1);
-    if (!best_label || !best_forced)
-        s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
-    size_t best_ns = 0, best_nt = 0;
+    cover_best b = {0};
+    b.label = malloc((nv + 1) * sizeof(int32_t));
+    b.forced = malloc(nv + 1);
+    if (!s && (!b.label || !b.forced))
+        s = cover_nomem(err);
     int done = 0;
-    size_t flips = 0;
     uint8_t *all_forced = NULL;
-    for (size_t pass = 0; !s && pass < MAX_PASSES && !done; pass++) {
-        c.changed = 0;
-        c.passes++;
-        s = covering(&c, err);
-        if (!s) s = voronoi(&c, err);
-        size_t nbad = 0;
-        if (!s) s = dual(&c, &nbad, err);
-        if (s) break;
-        if (nbad > 0) {
-            c.repairs++;
-            s = repair(&c, err);
-            if (s) break;
-        } else {
-            free(best_seeds);
-            free(best_tri);
-            best_seeds = malloc((c.nseeds + 1) * sizeof *best_seeds);
-            best_tri = malloc((3 * c.ntri + 1) * sizeof *best_tri);
-            if (!best_seeds || !best_tri) {
-                s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
-                break;
-            }
-            memcpy(best_seeds, c.seeds, c.nseeds * sizeof *best_seeds);
-            memcpy(best_tri, c.tri, 3 * c.ntri * sizeof *best_tri);
-            memcpy(best_label, c.label, nv * sizeof *best_label);
-            memcpy(best_forced, c.forced, nv);
-            best_ns = c.nseeds;
-            best_nt = c.ntri;
-            for (size_t k = 0; k < m.ncomp; k++)
-                if (c.nfps[k] > 0) c.fps_ok[k] = c.nfps[k];
-            refine(&c);
-            /* a farthest-point covering too coarse for the error or the edge ratio grows */
-            for (size_t i = 0; i < c.nseeds; i++)
-                if (c.bad[i] && c.forced[c.seeds[i]] == 2) c.grow[m.comp[c.seeds[i]]] = 1;
-            for (size_t t = 0; t < c.ntri; t++) {
-                int32_t w = c.seeds[c.tri[3 * t]];
-                if (c.forced[w] == 2 && edge_ratio(&m, c.seeds, c.tri + 3 * t) < ASPECT)
-                    c.thin[m.comp[w]] = 1, c.grow[m.comp[w]] = 1;
-            }
-            s = fps_apply(&c, GROW_REFINE, err);
-            if (s) break;
-            if (!c.changed) {
-                size_t pairs = 0;
-                flips += flip_edges(&m, best_seeds, best_forced, best_ns, best_tri, best_nt,
-                                    best_label, c.eps, 0);
-                s = untangle(&c, best_tri, best_nt, &pairs, err);
-                if (s) break;
-                if (pairs == 0) {
-                    /* after the flips, a triangle still below the paper's 0.3 (its seeds at
-                     * their floor): its component is covered by farthest points instead */
-                    for (size_t t = 0; t < best_nt; t++) {
-                        int32_t w = best_seeds[best_tri[3 * t]];
-                        if (best_forced[w] != 1 && edge_ratio(&m, best_seeds, best_tri + 3 * t) < 0.3)
-                            c.grow[m.comp[w]] = 1, c.thin[m.comp[w]] = 1;
-                    }
-                    c.changed = 0;
-                    s = fps_apply(&c, GROW_REFINE, err);
-                    if (s) break;
-                    if (!c.changed) done = 1;
-                } else {
-                    c.untangles++;
-                }
-            }
-        }
-        /* the next pass starts from these seeds */
-        for (size_t v = 0; v < nv; v++) {
-            int l = c.seedlev[c.seeds[c.label[v]]];
-            c.hint[v] = (uint8_t)(l == FORCED || l < 1 ? 0 : l - 1);
-        }
-        c.nprev = 0;
-        for (size_t i = 0; i < c.nseeds; i++) {
-            int32_t w = c.seeds[i];
-            if (c.seedlev[w] == FORCED) continue;
-            c.prev[c.nprev] = w;
-            c.prevlev[c.nprev++] = (uint8_t)c.seedlev[w];
-        }
-    }
-    if (!s && !best_tri) { /* no valid covering: the fine surface itself, which is one */
-        best_seeds = malloc((nv + 1) * sizeof *best_seeds);
-        best_tri = malloc((3 * m.nf + 1) * sizeof *best_tri);
-        if (!best_seeds || !best_tri) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
-        } else {
-            for (size_t v = 0; v < nv; v++) best_seeds[v] = best_label[v] = (int32_t)v;
-            memcpy(best_tri, m.f, 3 * m.nf * sizeof *best_tri);
-            memset(best_forced, 1, nv);
-            best_ns = nv;
-            best_nt = m.nf;
-        }
-    }
+    for (size_t pass = 0; !s && pass < MAX_PASSES && !done; pass++)
+        s = cover_pass(&c, &b, &done, err);
+    if (!s && !b.tri) s = fine_as_best(&m, &b, err);
     if (!s) {
         size_t iters = 0;
-        s = local_fallback(&c, &best_seeds, best_forced, &best_ns, &best_tri, &best_nt,
-                           best_label, &iters, err);
+        s = local_fallback(&c, &b.seeds, b.forced, &b.ns, &b.tri, &b.nt, b.label, &iters, err);
     }
     if (!s) {
-        if (best_tri)
-            s = finish(&m, out_scale, best_seeds, best_forced, best_ns, best_tri, best_nt, surf,
-                       kept, err);
+        if (b.tri)
+            s = finish(&m, out_scale, b.seeds, b.forced, b.ns, b.tri, b.nt, surf, kept, err);
         else if (!(all_forced = malloc(nv + 1)))
-            s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+            s = cover_nomem(err);
         else { /* no valid covering: the fine surface itself, which is one */
             memset(all_forced, 1, nv);
             s = finish(&m, out_scale, NULL, all_forced, m.nv, m.f, m.nf, surf, kept, err);
         }
     }
-    free(best_seeds);
-    free(best_tri);
-    free(best_label);
-    free(best_forced);
+    free(b.seeds);
+    free(b.tri);
+    free(b.label);
+    free(b.forced);
     free(all_forced);
     cover_free(&c);
     vm__cover_fine_free(&m);
@@ -1614,7 +1808,7 @@ static vm_status improve_result(const vm__surface_grid *g, const vm_surface_opti
     double *x = malloc((3 * nv + 1) * sizeof *x);
     int32_t *tri = malloc((3 * nt + 1) * sizeof *tri);
     uint8_t *kept = malloc(nt + 1);
-    if (!x || !tri || !kept) s = vm_error_set(err, VM_ERR_NOMEM, "surface cover: out of memory");
+    if (!x || !tri || !kept) s = cover_nomem(err);
     for (size_t v = 0; !s && v < nv; v++)
         for (int a = 0; a < 3; a++) x[3 * v + a] = surf->points[3 * v + a] * scale[a];
     for (size_t t = 0; !s && t < nt; t++) {

@@ -693,31 +693,13 @@ static vm_status fewest_crossings(mc *m, const cube_pieces *cp, int p, size_t cu
 /* Searched candidates per cube before giving up on a crossing-free triangulation. */
 #define MC_SEARCH_BUDGET 20000
 
-static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
-    const cube_geom *cg = &m->cg;
-    double s[8];
-    int in[8], mask = 0;
-    for (int c = 0; c < 8; c++) {
-        s[c] = value(m, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
-        in[c] = s[c] > 0;
-        mask |= in[c] << c;
-    }
-    if (mask == 0 || mask == 255) return VM_OK;
-    m->cube0[0] = (double)i;
-    m->cube0[1] = (double)j;
-    m->cube0[2] = (double)k;
-
-    int parent[8];
-    for (int c = 0; c < 8; c++)
-        parent[c] = c;
-    for (int e = 0; e < 12; e++)
-        if (in[cg->edge_c[e][0]] == in[cg->edge_c[e][1]])
-            uf_union(parent, cg->edge_c[e][0], cg->edge_c[e][1]);
-
-    /* Face segments, entry -> exit: walking a face counter-clockwise from outside, an edge
-     * from an outside to an inside corner is an entry; the segment keeps the inside on its
-     * right, as the boundary of a piece of surface whose normal points outside. */
-    int next[12];
+/* The face segments of a cube with corner values s (in: corner inside), entry -> exit, as
+ * next[entry edge] = exit edge (-1: no crossing): walking a face counter-clockwise from
+ * outside, an edge from an outside to an inside corner is an entry; the segment keeps the
+ * inside on its right, as the boundary of a piece of surface whose normal points outside.
+ * The corners a face joins through its inside are united in parent. */
+static void face_segments(const cube_geom *cg, const double s[8], const int in[8],
+                          int parent[8], int next[12]) {
     for (int e = 0; e < 12; e++)
         next[e] = -1;
     for (int f = 0; f < 6; f++) {
@@ -747,25 +729,98 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
             next[fe[q]] = fe[x];
         }
     }
-    interior_joins(s, parent);
+}
 
-    /* Loops, each with the inside and outside region it separates. */
-    int loop_e[6][12], loop_n[6], loop_key[6], nloops = 0, seen = 0;
+/* The iso-line loops of a cube: the edges of each (e, n), and the inside and outside
+ * regions it separates (key = inside root * 8 + outside root). */
+typedef struct cube_loops {
+    int e[6][12], n[6], key[6], count;
+} cube_loops;
+
+/* Follows next into loops L, each keyed by the regions of parent it separates. */
+static vm_status follow_loops(mc *m, const int in[8], const int next[12], int parent[8],
+                              cube_loops *L) {
+    const cube_geom *cg = &m->cg;
+    int seen = 0;
+    L->count = 0;
     for (int e = 0; e < 12; e++) {
         if (next[e] < 0 || (seen & (1 << e))) continue;
-        if (nloops == 6) return vm_error_set(m->err, VM_ERR_INTERNAL, "surface mc: loops");
+        if (L->count == 6) return vm_error_set(m->err, VM_ERR_INTERNAL, "surface mc: loops");
         int n = 0, x = e;
         do {
             seen |= 1 << x;
-            loop_e[nloops][n++] = x;
+            L->e[L->count][n++] = x;
             x = next[x];
         } while (x != e && x >= 0 && n < 12);
         if (x != e) return vm_error_set(m->err, VM_ERR_INTERNAL, "surface mc: open loop");
         int c0 = cg->edge_c[e][0], c1 = cg->edge_c[e][1];
         int cin = in[c0] ? c0 : c1, cout = in[c0] ? c1 : c0;
-        loop_key[nloops] = uf_find(parent, cin) * 8 + uf_find(parent, cout);
-        loop_n[nloops++] = n;
+        L->key[L->count] = uf_find(parent, cin) * 8 + uf_find(parent, cout);
+        L->n[L->count++] = n;
     }
+    return VM_OK;
+}
+
+/* Pieces: the loops of L between the same inside and outside region of the cube (vertex
+ * ids vid per edge), the disks first, then the tunnels (*tunnels counts them). */
+static vm_status group_pieces(mc *m, const cube_loops *L, const vm_index vid[12],
+                              cube_pieces *cp, int *tunnels) {
+    const cube_geom *cg = &m->cg;
+    int done = 0;
+    cp->n = 0;
+    *tunnels = 0;
+    for (int pass = 0; pass < 2; pass++) /* the disks first, then the tunnels */
+        for (int l = 0; l < L->count; l++) {
+            if (done & (1 << l)) continue;
+            int np = 0;
+            for (int l2 = 0; l2 < L->count; l2++)
+                np += L->key[l2] == L->key[l];
+            if ((np > 1) != pass) continue;
+            if (np > 4) return vm_error_set(m->err, VM_ERR_INTERNAL, "surface mc: pieces");
+            np = 0;
+            for (int l2 = l; l2 < L->count; l2++) {
+                if ((done & (1 << l2)) || L->key[l2] != L->key[l]) continue;
+                done |= 1 << l2;
+                for (int q = 0; q < L->n[l2]; q++) {
+                    cp->v[cp->n][np][q] = vid[L->e[l2][q]];
+                    cp->fm[cp->n][np][q] = cg->edge_faces[L->e[l2][q]];
+                }
+                cp->len[cp->n][np++] = L->n[l2];
+            }
+            *tunnels += np > 1;
+            cp->k[cp->n++] = np;
+        }
+    return VM_OK;
+}
+
+/* The surface in cube (i, j, k): face segments, loops, their vertices, pieces, and each
+ * piece's triangulation. */
+static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
+    const cube_geom *cg = &m->cg;
+    double s[8];
+    int in[8], mask = 0;
+    for (int c = 0; c < 8; c++) {
+        s[c] = value(m, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
+        in[c] = s[c] > 0;
+        mask |= in[c] << c;
+    }
+    if (mask == 0 || mask == 255) return VM_OK;
+    m->cube0[0] = (double)i;
+    m->cube0[1] = (double)j;
+    m->cube0[2] = (double)k;
+
+    int parent[8];
+    for (int c = 0; c < 8; c++)
+        parent[c] = c;
+    for (int e = 0; e < 12; e++)
+        if (in[cg->edge_c[e][0]] == in[cg->edge_c[e][1]])
+            uf_union(parent, cg->edge_c[e][0], cg->edge_c[e][1]);
+    int next[12];
+    face_segments(cg, s, in, parent, next);
+    interior_joins(s, parent);
+    cube_loops L;
+    vm_status st = follow_loops(m, in, next, parent, &L);
+    if (st) return st;
 
     /* Vertex ids of the crossings. */
     vm_index vid[12] = {0};
@@ -777,35 +832,14 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
         if (vid[e] < 0) return fail(m);
     }
 
-    /* Pieces: the loops between the same inside and outside region of the cube; the disks
-     * first, then the tunnels. When the cube has more than one piece or a tunnel, each
-     * piece takes the first of its candidate triangulations that crosses neither itself
-     * nor the pieces made before it (a thin, twisted tunnel may need a ring of vertices
-     * inside the cube, or a centre vertex). */
+    /* When the cube has more than one piece or a tunnel, each piece takes the first of its
+     * candidate triangulations that crosses neither itself nor the pieces made before it
+     * (a thin, twisted tunnel may need a ring of vertices inside the cube, or a centre
+     * vertex). */
     cube_pieces cp;
-    cp.n = 0;
-    int done = 0, tunnels = 0;
-    for (int pass = 0; pass < 2; pass++) /* the disks first, then the tunnels */
-        for (int l = 0; l < nloops; l++) {
-            if (done & (1 << l)) continue;
-            int np = 0;
-            for (int l2 = 0; l2 < nloops; l2++)
-                np += loop_key[l2] == loop_key[l];
-            if ((np > 1) != pass) continue;
-            if (np > 4) return vm_error_set(m->err, VM_ERR_INTERNAL, "surface mc: pieces");
-            np = 0;
-            for (int l2 = l; l2 < nloops; l2++) {
-                if ((done & (1 << l2)) || loop_key[l2] != loop_key[l]) continue;
-                done |= 1 << l2;
-                for (int q = 0; q < loop_n[l2]; q++) {
-                    cp.v[cp.n][np][q] = vid[loop_e[l2][q]];
-                    cp.fm[cp.n][np][q] = cg->edge_faces[loop_e[l2][q]];
-                }
-                cp.len[cp.n][np++] = loop_n[l2];
-            }
-            tunnels += np > 1;
-            cp.k[cp.n++] = np;
-        }
+    int tunnels = 0;
+    st = group_pieces(m, &L, vid, &cp, &tunnels);
+    if (st) return st;
     size_t cube_first = m->surf->ncells;
     int check = tunnels > 0 || cp.n > 1;
     if (check) {
@@ -815,7 +849,7 @@ static vm_status do_cube(mc *m, int64_t i, int64_t j, int64_t k) {
         if (r > 0) return VM_OK;
     }
     for (int p = 0; p < cp.n; p++) {
-        vm_status st = fewest_crossings(m, &cp, p, cube_first, check);
+        st = fewest_crossings(m, &cp, p, cube_first, check);
         if (st) return st;
     }
     return VM_OK;

@@ -327,10 +327,10 @@ int vm_quality_lookup(const vm_quality_summary *q, const char *key, double *valu
  * (counts and the first failing cells) and metrics: {NAME: {label, unit, ideal, acceptable,
  * full, min, mean, max, argmin, argmax, unacceptable, histogram: {lo, hi, below, above,
  * counts}}}. Infinite range ends are null. abaqus != 0 adds the list of failing tets to
- * the text. Returns 0, or -1 when writing failed. */
-int vm_quality_write_text(FILE *out, const char *name, const vm_quality_summary *q,
-                          int abaqus);
-int vm_quality_write_json(FILE *out, const char *name, const vm_quality_summary *q);
+ * the text. Returns VM_OK, or VM_ERR_IO (-1) when writing failed. */
+vm_status vm_quality_write_text(FILE *out, const char *name, const vm_quality_summary *q,
+                                int abaqus);
+vm_status vm_quality_write_json(FILE *out, const char *name, const vm_quality_summary *q);
 
 /* Writes an SVG picture: one histogram panel per metric with axes labelled, the acceptable
  * range shaded green and the ideal value marked. Written to PATH.tmp-PID and renamed. */
