@@ -22,6 +22,66 @@ static const int face_tab[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
 
 enum { CLS_FREE = 0, CLS_ISO = 1, CLS_PLANE = 2, CLS_FIXED = 3 };
 
+/* ---- the pass's targets (worst-corner scaled Jacobians) ---- */
+/* The bar: a hex whose worst corner is below it counts as poor (the report's below_02); the
+ * pass works on such hexes first and pillows selectively round them. */
+#define SJ_BAR 0.2
+/* The polish's target, and the first of stage 1's rising targets. */
+#define POLISH_TARGET 0.3
+/* Stage 1 raises its target by this much a step, from POLISH_TARGET to o->target. */
+#define TARGET_STEP 0.1
+/* The untangling sweeps work on the hexes below this: inverted or nearly flat. */
+#define UNTANGLE_TARGET 0.02
+
+/* ---- distances from the isosurface (voxels) ---- */
+/* Below this first-order estimate, iso_distance takes it as it is. */
+#define ISO_EXACT_BELOW 0.05
+/* iso_distance walks the gradient line in steps of ISO_WALK_STEP up to ISO_WALK_MAX. */
+#define ISO_WALK_STEP 0.02
+#define ISO_WALK_MAX 2.0
+/* MOVE_TANGENT keeps a surface point within this of the isosurface (or within its starting
+ * estimate plus ISO_TANGENT_SLACK); final_snap brings points beyond it back within it. */
+#define ISO_TANGENT_MAX 0.45
+#define ISO_TANGENT_SLACK 0.01
+/* Past ISO_CHECK_FROM by the estimate, the measured distance must stay within ISO_CHECK_MAX
+ * (or where it was): the estimate can miss a crossing the gradient does not point at. */
+#define ISO_CHECK_FROM 0.2
+#define ISO_CHECK_MAX 0.5
+/* MOVE_LOOSE lets a surface point go anywhere within this of the isosurface. */
+#define ISO_LOOSE_MAX 0.4
+/* A box-plane point moves at most this far (it need not follow the isosurface). */
+#define PLANE_MOVE_MAX 0.5
+/* MOVE_PROJECT: Newton steps (at most PROJECT_ITERS, each at most PROJECT_STEP_MAX long)
+ * until the estimate is below PROJECT_TOL; a point that does not converge is still kept
+ * within PROJECT_ACCEPT. */
+#define PROJECT_ITERS 8
+#define PROJECT_STEP_MAX 0.5
+#define PROJECT_TOL 1e-4
+#define PROJECT_ACCEPT 0.02
+
+/* ---- compass searches ---- */
+/* Steps from STEP_FIRST to STEP_LAST (STEP_LAST_FINE for the patch repair, which starts the
+ * group moves at GROUP_STEP_FIRST) times the mean edge length at the point, halving. */
+#define STEP_FIRST 0.25
+#define STEP_LAST 0.01
+#define STEP_LAST_FINE 0.005
+#define GROUP_STEP_FIRST 0.2
+/* Margins a candidate must beat the current figures by (round-off would otherwise count as
+ * progress): relative on the determinant, absolute on the penalty, the worst scaled
+ * Jacobian, the sum of scaled Jacobians and the patch energy. */
+#define DET_REL_MARGIN 1e-12
+#define PEN_MARGIN 1e-9
+#define SJ_MARGIN 1e-6
+#define SUM_MARGIN 1e-4
+#define ENERGY_MARGIN 1e-12
+/* A sweep whose worst hex rises by less than this makes no progress. */
+#define SWEEP_PROGRESS 1e-4
+/* Smallest edge-length product a corner's determinant is normalised by (a degenerate
+ * corner would divide by zero). */
+#define NORM_FLOOR 1e-300
+/* A vertex within this of a grid face (index units) lies on that border plane. */
+#define GRID_FACE_TOL 1e-6
+
 typedef struct hx {
     size_t np, nh;
     double *p, *p0; /* world positions: current, and where the mesher put them */
@@ -135,7 +195,7 @@ static void corner_norms(const hx *w, size_t i, double *norm) {
                     l2 += (p[ct[e]][a] - p[ct[0]][a]) * (p[ct[e]][a] - p[ct[0]][a]);
                 len *= sqrt(l2);
             }
-            norm[c] = len > 1e-300 ? len : 1e-300;
+            norm[c] = len > NORM_FLOOR ? len : NORM_FLOOR;
         }
     }
 }
@@ -213,9 +273,9 @@ static double iso_distance(const hx *w, const double x[3]) {
     double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
     double d = fabs(f - iso);
     double est = gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
-    if (est < 0.05 || !(gn > 0.0)) return est;
+    if (est < ISO_EXACT_BELOW || !(gn > 0.0)) return est;
     double sgn = f > iso ? -1.0 : 1.0;
-    for (double t = 0.02; t <= 2.0; t += 0.02) {
+    for (double t = ISO_WALK_STEP; t <= ISO_WALK_MAX; t += ISO_WALK_STEP) {
         double y[3];
         for (int a = 0; a < 3; a++) y[a] = x[a] + sgn * t * g[a] / gn;
         double fy = field(w->v, y, g2);
@@ -257,34 +317,35 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
     if (w->cls[i] == CLS_PLANE) {
         for (int a = 0; a < 3; a++)
             if (w->planes[i] & (3u << (2 * a))) y[a] = y0[a];
-        limit = fmin(limit, 0.5);
+        limit = fmin(limit, PLANE_MOVE_MAX);
     } else if (mode == MOVE_TANGENT) {
         double est = iso_estimate(w, y);
-        if (!(est <= fmax(0.45, w->est0[i] + 0.01))) return 0;
+        if (!(est <= fmax(ISO_TANGENT_MAX, w->est0[i] + ISO_TANGENT_SLACK))) return 0;
         /* the first-order estimate can miss a crossing the gradient does not point at (the
          * genus-3 tubes: 0.45 by it, 0.68 along the gradient): past 0.2, the distance the
          * report measures must stay within 0.5 or where it was */
-        if (est > 0.2 && iso_distance(w, y) > 0.5 && iso_distance(w, y) > iso_distance(w, y0))
+        if (est > ISO_CHECK_FROM && iso_distance(w, y) > ISO_CHECK_MAX &&
+            iso_distance(w, y) > iso_distance(w, y0))
             return 0;
     } else if (mode == MOVE_LOOSE) {
-        if (!(iso_distance(w, y) <= 0.4)) return 0;
+        if (!(iso_distance(w, y) <= ISO_LOOSE_MAX)) return 0;
     } else {
         int ok = 0;
-        for (int it = 0; it < 8; it++) {
+        for (int it = 0; it < PROJECT_ITERS; it++) {
             double g[3];
             double f = field(w->v, y, g);
             double r = f - iso_for(w, f);
             double g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
             if (!(g2 > 0.0)) return 0;
-            if (fabs(r) / sqrt(g2) < 1e-4) {
+            if (fabs(r) / sqrt(g2) < PROJECT_TOL) {
                 ok = 1;
                 break;
             }
             double step = r / g2, len = fabs(step) * sqrt(g2);
-            if (len > 0.5) step *= 0.5 / len;
+            if (len > PROJECT_STEP_MAX) step *= PROJECT_STEP_MAX / len;
             for (int a = 0; a < 3; a++) y[a] -= step * g[a];
         }
-        if (!ok && iso_distance(w, y) > 0.02) return 0;
+        if (!ok && iso_distance(w, y) > PROJECT_ACCEPT) return 0;
     }
     double d2 = 0.0;
     for (int a = 0; a < 3; a++) d2 += (y[a] - y0[a]) * (y[a] - y0[a]);
@@ -417,8 +478,9 @@ static vm_status classify(hx *w, vm_error *err) {
         to_index(w, w->p + 3 * i, y);
         uint8_t bits = 0;
         for (int a = 0; a < 3; a++) {
-            if (fabs(y[a]) < 1e-6) bits |= (uint8_t)(1u << (2 * a));
-            if (fabs(y[a] - (double)(w->v->dims[a] - 1)) < 1e-6) bits |= (uint8_t)(2u << (2 * a));
+            if (fabs(y[a]) < GRID_FACE_TOL) bits |= (uint8_t)(1u << (2 * a));
+            if (fabs(y[a] - (double)(w->v->dims[a] - 1)) < GRID_FACE_TOL)
+                bits |= (uint8_t)(2u << (2 * a));
         }
         w->planes[i] = bits;
         if (bits) w->cls[i] = CLS_PLANE;
@@ -552,11 +614,12 @@ static vm_status pillow(hx *w, uint8_t *in, size_t *added, vm_error *err) {
     /* Each copy goes a third of the way from its point toward the mean centre of the hexes
      * around it: inside the material even where it is one cell thick, unlike a step along
      * the normal. */
+    const double HEX_CORNER_WEIGHT = 0.125; /* 1/8: the centre is the mean of 8 corners */
     for (size_t t = 0; t < nh; t++) {
         if (in && !in[t]) continue;
         double c[3] = {0, 0, 0};
         for (int k = 0; k < 8; k++)
-            for (int a = 0; a < 3; a++) c[a] += 0.125 * w->p[3 * (size_t)w->h[8 * t + k] + a];
+            for (int a = 0; a < 3; a++) c[a] += HEX_CORNER_WEIGHT * w->p[3 * (size_t)w->h[8 * t + k] + a];
         for (int k = 0; k < 8; k++) {
             size_t i = (size_t)w->h[8 * t + k];
             if (copy[i] < 0) continue;
@@ -646,10 +709,10 @@ static double edge_scale(const hx *w, size_t i) {
  * Jacobian, or the same and a higher sum. */
 static int better(const lq *n, const lq *o, double floor, int untangle) {
     if (untangle == 1)
-        return n->det > o->det + 1e-12 * fabs(o->det) && n->min >= fmin(o->min, floor);
+        return n->det > o->det + DET_REL_MARGIN * fabs(o->det) && n->min >= fmin(o->min, floor);
     if (untangle == 2)
-        return n->pen < o->pen - 1e-9 || (n->pen <= o->pen && n->min > o->min + 1e-6);
-    return n->min > o->min + 1e-6 || (n->min >= o->min && n->sum > o->sum + 1e-4);
+        return n->pen < o->pen - PEN_MARGIN || (n->pen <= o->pen && n->min > o->min + SJ_MARGIN);
+    return n->min > o->min + SJ_MARGIN || (n->min >= o->min && n->sum > o->sum + SUM_MARGIN);
 }
 
 /* Compass search from point i's position for better figures around it; a surface point is
@@ -669,7 +732,7 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
     local_q(w, i, x, norm, &cur);
     int moved = 0;
     double L = edge_scale(w, i);
-    for (double h = 0.25 * L; h > 0.01 * L; h *= 0.5) {
+    for (double h = STEP_FIRST * L; h > STEP_LAST * L; h *= 0.5) {
         for (int rep = 0; rep < 4; rep++) {
             int best = -1;
             double bx[3];
@@ -718,10 +781,14 @@ static void measure(const hx *w, figs *f, double *q) {
         if (q) q[t] = s;
         if (s < f->min_sj) f->min_sj = s;
         if (s <= 0.0) f->inverted++;
-        if (s < 0.2) f->below++;
+        if (s < SJ_BAR) f->below++;
         f->volume += vm_hex_volume((const double(*)[3])p);
     }
 }
+
+/* A sweep's moves may lower the worst hex round a point down to this share of the target
+ * (or the worst hex of the mesh, if higher). */
+#define FLOOR_SHARE 0.5
 
 /* Rounds of compass moves over the points of hexes below target, until the worst hex and
  * the count below target stop improving. Surface points are put back on the surface first
@@ -747,7 +814,7 @@ static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int 
         if (w->focus)
             for (size_t i = 0; i < w->np; i++) active[i] &= w->focus[i];
         if (!below) break;
-        if (f.min_sj > last + 1e-4 || below + below / 100 < last_below) {
+        if (f.min_sj > last + SWEEP_PROGRESS || below + below / 100 < last_below) {
             stale = 0;
         } else if (++stale >= 3) {
             break;
@@ -759,7 +826,7 @@ static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int 
                 if ((w->cls[i] == CLS_ISO || w->cls[i] == CLS_PLANE) &&
                     (!w->focus || w->focus[i]))
                     active[i] = 1;
-        double floor = fmax(f.min_sj, 0.5 * target);
+        double floor = fmax(f.min_sj, FLOOR_SHARE * target);
         size_t mv = 0;
         for (size_t i = 0; i < w->np; i++) {
             if (!active[i] || !dirty[i]) continue;
@@ -785,21 +852,23 @@ static void smooth(hx *w, const vm_hex_improve_options *o, int stage, double *q,
                    uint8_t *active, size_t *moves, int *sweeps) {
     if (stage == 0) {
         if (!w->pillowed) {
-            sweep_stage(w, 0.02, 1, o->max_sweeps, 0, q, active, moves, sweeps);
-            sweep_stage(w, fmin(0.2, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
+            sweep_stage(w, UNTANGLE_TARGET, 1, o->max_sweeps, 0, q, active, moves, sweeps);
+            sweep_stage(w, fmin(SJ_BAR, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
             return;
         }
-        sweep_stage(w, 0.02, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
-        sweep_stage(w, fmin(0.2, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
+        sweep_stage(w, UNTANGLE_TARGET, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
+        sweep_stage(w, fmin(SJ_BAR, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
         figs f;
         measure(w, &f, q);
         if (f.inverted) { /* the smoothing can free what the penalty could not reach */
-            sweep_stage(w, 0.02, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
-            sweep_stage(w, fmin(0.2, o->target), 0, o->max_sweeps, 0, q, active, moves, sweeps);
+            sweep_stage(w, UNTANGLE_TARGET, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
+            sweep_stage(w, fmin(SJ_BAR, o->target), 0, o->max_sweeps, 0, q, active, moves,
+                        sweeps);
         }
         return;
     }
-    for (double t = 0.3; t < o->target + 0.1 - 1e-9; t += 0.1)
+    /* (the 1e-9 keeps round-off in the sum from adding a step past the target) */
+    for (double t = POLISH_TARGET; t < o->target + TARGET_STEP - 1e-9; t += TARGET_STEP)
         sweep_stage(w, fmin(t, o->target), 0, o->max_sweeps, 0, q, active, moves, sweeps);
 }
 
@@ -873,6 +942,9 @@ static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o,
     return VM_OK;
 }
 
+/* final_snap tries the way to the isosurface in steps of this share of it. */
+#define SNAP_STEP 0.25
+
 /* Brings surface points that are more than 0.45 voxel off the isosurface (the mesher's
  * relaxation can leave them up to a cell's half-diagonal away) the smallest part of the way
  * to it that puts them within 0.45, where the hexes around allow (their worst corner kept at
@@ -883,17 +955,18 @@ static void final_snap(hx *w, double floor) {
         if (w->cls[i] != CLS_ISO) continue;
         double y[3], x[3];
         to_index(w, w->p + 3 * i, y);
-        if (iso_distance(w, y) <= 0.45) continue;
+        if (iso_distance(w, y) <= ISO_TANGENT_MAX) continue;
         memcpy(x, w->p + 3 * i, sizeof x);
         double target[3] = {x[0], x[1], x[2]};
         if (!constrain(w, i, target, MOVE_PROJECT)) continue;
         lq cur, n;
         local_q(w, i, x, NULL, &cur);
-        for (double frac = 0.25; frac < 1.01; frac += 0.25) {
+        /* a quarter of the way at a time, up to the whole way (1.01: round-off slack) */
+        for (double frac = SNAP_STEP; frac < 1.01; frac += SNAP_STEP) {
             double z[3], zi[3];
             for (int a = 0; a < 3; a++) z[a] = x[a] + frac * (target[a] - x[a]);
             to_index(w, z, zi);
-            if (iso_distance(w, zi) > 0.45) continue;
+            if (iso_distance(w, zi) > ISO_TANGENT_MAX) continue;
             local_q(w, i, z, NULL, &n);
             if (n.min >= fmin(cur.min, floor)) memcpy(w->p + 3 * i, z, sizeof z);
             break;
@@ -977,7 +1050,7 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
     for (int sw = 0; sw < 16; sw++) {
         figs f;
         measure(w, &f, q);
-        if (f.min_sj >= target || f.min_sj <= last + 1e-4) break;
+        if (f.min_sj >= target || f.min_sj <= last + SWEEP_PROGRESS) break;
         last = f.min_sj;
         mark_below(w, q, target, act);
         memcpy(ring, act, w->np);
@@ -999,7 +1072,7 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
 /* ---- repair of the last hexes below the bar ---- */
 
 /* The repair works on the hexes below this, when there are at most POLISH_MAX of them. */
-#define REPAIR_BAR 0.3
+#define REPAIR_BAR POLISH_TARGET
 
 /* Corners around point i with i at x: [out] *mn the worst scaled Jacobian, and the energy
  * sum over them of (max(0, bar - sj))^2, which couples the moves of the points of a patch
@@ -1036,7 +1109,7 @@ static int patch_move(hx *w, size_t i, double bar, double floor) {
     double keep = fmin(mn, floor);
     int moved = 0;
     double L = edge_scale(w, i);
-    for (double h = 0.25 * L; h > 0.005 * L; h *= 0.5) {
+    for (double h = STEP_FIRST * L; h > STEP_LAST_FINE * L; h *= 0.5) {
         for (int rep = 0; rep < 4; rep++) {
             int best = -1;
             double bx[3], be = e;
@@ -1048,7 +1121,7 @@ static int patch_move(hx *w, size_t i, double bar, double floor) {
                     int mode = v == 2 ? MOVE_LOOSE : v ? MOVE_PROJECT : MOVE_TANGENT;
                     if (!constrain(w, i, y, mode)) continue;
                     double ne = patch_energy(w, i, y, bar, &m2);
-                    if (ne < be - 1e-12 && m2 >= keep) {
+                    if (ne < be - ENERGY_MARGIN && m2 >= keep) {
                         best = d;
                         be = ne;
                         memcpy(bx, y, sizeof bx);
@@ -1092,7 +1165,7 @@ static int group_move(hx *w, const size_t *pts, int n) {
     int moved = 0;
     double base[8][3];
     for (int j = 0; j < n; j++) memcpy(base[j], old[j], sizeof base[j]);
-    for (double h = 0.2 * L; h > 0.005 * L; h *= 0.5)
+    for (double h = GROUP_STEP_FIRST * L; h > STEP_LAST_FINE * L; h *= 0.5)
         for (int rep = 0; rep < 4; rep++) {
             int best = -1;
             double bq = cur, bs = sum, bp[8][3];
@@ -1109,7 +1182,7 @@ static int group_move(hx *w, const size_t *pts, int n) {
                         if (ok) memcpy(w->p + 3 * pts[j], y, sizeof y);
                     }
                     double s2, q2 = ok ? group_q(w, pts, n, &s2) : -INFINITY;
-                    if (ok && (q2 > bq + 1e-6 || (q2 >= bq && s2 > bs + 1e-4))) {
+                    if (ok && (q2 > bq + SJ_MARGIN || (q2 >= bq && s2 > bs + SUM_MARGIN))) {
                         best = d;
                         bq = q2;
                         bs = s2;
@@ -1185,7 +1258,7 @@ static vm_status repair(hx *w, double bar, int rings, int nsweeps, size_t *moves
     free(ring);
     vm_status s = polish(w, bar, moves, sweeps);
     for (int r = 0; r < 4 && !s; r++) {
-        size_t mv = group_sweep(w, 0.2);
+        size_t mv = group_sweep(w, SJ_BAR);
         *moves += mv;
         (*sweeps)++;
         if (!mv) break;
@@ -1223,14 +1296,14 @@ static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, i
     if (!s) {
         smooth(w, o, 1, q, active, moves, sweeps);
         measure(w, f, NULL);
-        if (w->v && f->min_sj < fmin(0.2, o->target) && f->below <= POLISH_MAX) {
+        if (w->v && f->min_sj < fmin(SJ_BAR, o->target) && f->below <= POLISH_MAX) {
             free(w->focus); /* the polish reaches past a selective run's focus */
             w->focus = NULL;
-            s = polish(w, fmin(0.3, o->target), moves, sweeps);
+            s = polish(w, fmin(POLISH_TARGET, o->target), moves, sweeps);
             if (s) s = vm_error_set(err, s, "improve: out of memory");
             measure(w, f, NULL);
         }
-        if (w->v) final_snap(w, fmax(f->min_sj, 0.2));
+        if (w->v) final_snap(w, fmax(f->min_sj, SJ_BAR));
         measure(w, f, NULL);
     }
     free(q);
@@ -1238,14 +1311,9 @@ static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, i
     return s;
 }
 
-vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_improve_options *o,
-                                vm_hex_improve_report *r, vm_error *err) {
-    double t0 = vm__now();
-    vm_hex_improve_options def;
-    if (!o) {
-        vm_hex_improve_options_default(&def);
-        o = &def;
-    }
+/* The hex pass's arguments: a hex8 mesh with cells, nodes in range, sensible targets. */
+static vm_status hex_check(const vm_mesh *m, const vm_volume *v,
+                           const vm_hex_improve_options *o, vm_error *err) {
     if (m->kind != VM_HEX8)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "improve: hex improvement needs hex8, not %s",
                             vm_cell_kind_name(m->kind));
@@ -1257,181 +1325,234 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
         return vm_error_set(err, VM_ERR_ARG, "improve: a volume needs lo or hi material bounds");
     if (!(o->target > 0.0) || !(o->max_surface_move >= 0.0))
         return vm_error_set(err, VM_ERR_ARG, "improve: target and bounds must be positive");
-    for (size_t u = 0; u < 8 * m->ncells; u++)
-        if (m->cells[u] < 0 || (size_t)m->cells[u] >= m->npoints)
-            return vm_error_set(err, VM_ERR_ARG, "improve: cell %zu has node %lld outside 0..%zu",
-                                u / 8, (long long)m->cells[u], m->npoints - 1);
-    hx w;
-    memset(&w, 0, sizeof w);
-    w.np = m->npoints;
-    w.nh = m->ncells;
-    w.v = v;
-    w.lo = o->lo;
-    w.hi = o->hi;
-    w.has_lo = o->has_lo;
-    w.has_hi = o->has_hi;
-    w.max_move = o->max_surface_move;
-    w.progress = o->progress;
-    w.progress_user = o->progress_user;
-    vm_status s = VM_OK;
+    return vm__check_nodes(m, VM_ERR_ARG, "improve", err);
+}
+
+/* What the hex pass carries from one phase to the next. */
+typedef struct hex_pass {
+    hx w;      /* the result kept so far */
+    hx base;   /* w as set up, before a mesh is loaded: each rerun starts from it */
+    figs before, after;
+    size_t added, moves;
+    int sweeps, undone;
+} hex_pass;
+
+/* Sets w up for the options and the volume's index frame (no mesh loaded yet). */
+static vm_status hx_setup(hx *w, const vm_mesh *m, const vm_volume *v,
+                          const vm_hex_improve_options *o, vm_error *err) {
+    memset(w, 0, sizeof *w);
+    w->np = m->npoints;
+    w->nh = m->ncells;
+    w->v = v;
+    w->lo = o->lo;
+    w->hi = o->hi;
+    w->has_lo = o->has_lo;
+    w->has_hi = o->has_hi;
+    w->max_move = o->max_surface_move;
+    w->progress = o->progress;
+    w->progress_user = o->progress_user;
     if (v) {
         for (int a = 0; a < 3; a++) {
-            w.org[a] = v->origin[a];
-            for (int c = 0; c < 3; c++) w.A[a][c] = v->direction[a][c] * v->spacing[c];
+            w->org[a] = v->origin[a];
+            for (int c = 0; c < 3; c++) w->A[a][c] = v->direction[a][c] * v->spacing[c];
         }
-        if (!invert3(w.A, w.Ainv)) {
-            s = vm_error_set(err, VM_ERR_ARG, "improve: the volume's index frame is singular");
-            goto done;
-        }
+        if (!invert3(w->A, w->Ainv))
+            return vm_error_set(err, VM_ERR_ARG, "improve: the volume's index frame is singular");
     }
-    figs before, after;
-    size_t added = 0, moves = 0;
-    int sweeps = 0, undone = 0;
-    hx base = w;
-    s = load(&w, m, err);
-    if (s) goto done;
-    measure(&w, &before, NULL);
+    return VM_OK;
+}
+
+/* The first run, with the whole layer where it may help, and, when the layer stays tangled
+ * or below the bar, a second run without it: the better mesh is kept. */
+static vm_status first_runs(hex_pass *P, const vm_mesh *m, const vm_hex_improve_options *o,
+                            vm_error *err) {
+    measure(&P->w, &P->before, NULL);
     /* A mesh the mesher could not make valid has folded boundaries (the heads), where the
      * whole layer was measured to tangle or smooth worse than none: it goes straight to the
      * run without it, then the selective layer below. */
-    int whole = o->pillow && before.min_sj < o->target && before.inverted == 0;
-    s = run(&w, m, o, whole, NULL, NULL, &added, &moves, &sweeps, &after, err);
-    if (!s && added && (after.inverted || after.min_sj < fmin(0.2, o->target))) {
-        /* Where the boundary folds (thin noisy features) some pillow corners have no valid
-         * position, or the layer smooths worse than none: when it stays tangled or below the
-         * bar (0.2), the pass runs again without the layer and keeps the better mesh. */
-        hx w2 = base;
-        figs f2;
-        size_t added2 = 0;
-        s = run(&w2, m, o, 0, NULL, NULL, &added2, &moves, &sweeps, &f2, err);
-        if (!s && (f2.inverted < after.inverted ||
-                   (f2.inverted == after.inverted && f2.min_sj > after.min_sj))) {
-            hx_free(&w);
-            w = w2;
-            after = f2;
-            added = 0;
-            undone = 1;
-        } else {
-            hx_free(&w2);
-        }
+    int whole = o->pillow && P->before.min_sj < o->target && P->before.inverted == 0;
+    vm_status s = run(&P->w, m, o, whole, NULL, NULL, &P->added, &P->moves, &P->sweeps,
+                      &P->after, err);
+    if (s || !P->added || !(P->after.inverted || P->after.min_sj < fmin(SJ_BAR, o->target)))
+        return s;
+    /* Where the boundary folds (thin noisy features) some pillow corners have no valid
+     * position, or the layer smooths worse than none: when it stays tangled or below the
+     * bar, the pass runs again without the layer and keeps the better mesh. */
+    hx w2 = P->base;
+    figs f2;
+    size_t added2 = 0;
+    s = run(&w2, m, o, 0, NULL, NULL, &added2, &P->moves, &P->sweeps, &f2, err);
+    if (!s && (f2.inverted < P->after.inverted ||
+               (f2.inverted == P->after.inverted && f2.min_sj > P->after.min_sj))) {
+        hx_free(&P->w);
+        P->w = w2;
+        P->after = f2;
+        P->added = 0;
+        P->undone = 1;
+    } else {
+        hx_free(&w2);
     }
-    if (!s && o->pillow && !added && after.min_sj < fmin(0.2, o->target)) {
-        /* Selective pillowing: only the spots still below the bar get the layer, from the
-         * positions the pass without it reached; where the layer leaves hexes below the bar
-         * (at the sheet's edge, or on its own hexes) the set grows round them and the run
-         * starts again from those positions, up to three times. */
-        hx plain = w;
-        size_t np0 = plain.np, nh0 = plain.nh;
-        uint8_t *set = malloc(nh0 + 1), *mark = malloc(np0 + 1);
-        if (!set || !mark) {
-            free(set);
-            free(mark);
-            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-            goto done;
-        }
-        for (size_t t = 0; t < nh0; t++) set[t] = hex_q(&plain, t) < 0.2;
-        dilate(&plain, set, 1, mark);
-        int have = 0; /* w holds a selective result (else it is plain) */
-        for (int round = 0; round < 3 && !s; round++) {
-            hx w3 = base;
-            figs f3;
-            size_t added3 = 0;
-            s = run(&w3, m, o, 1, set, plain.p, &added3, &moves, &sweeps, &f3, err);
-            int good = !s && added3 && !f3.inverted && f3.min_sj > after.min_sj;
-            if (good) {
-                if (have) hx_free(&w);
-                w = w3;
-                after = f3;
-                added = added3;
-                undone = 0;
-                have = 1;
-            } else {
-                hx_free(&w3);
-            }
-            if (!good || after.min_sj >= fmin(0.2, o->target)) break;
-            /* grow the set round what is still below the bar */
-            memset(mark, 0, np0);
-            for (size_t t = 0; t < w.nh; t++) {
-                if (hex_q(&w, t) >= 0.2) continue;
-                if (t < nh0) set[t] = 1;
-                for (int k = 0; k < 8; k++)
-                    if ((size_t)w.h[8 * t + (size_t)k] < np0) mark[w.h[8 * t + (size_t)k]] = 1;
-            }
-            for (size_t t = 0; t < nh0; t++)
-                for (int k = 0; k < 8 && !set[t]; k++)
-                    if (mark[plain.h[8 * t + (size_t)k]]) set[t] = 1;
-            dilate(&plain, set, 1, mark);
-        }
-        if (have) hx_free(&plain);
-        free(set);
-        free(mark);
-    }
-    if (s) goto done;
-    if (v && after.min_sj < fmin(0.2, o->target) && after.below <= POLISH_MAX) {
-        /* once more on the kept result: the selective rounds' focus is gone */
-        free(w.focus);
-        w.focus = NULL;
-        if (polish(&w, fmin(0.3, o->target), &moves, &sweeps)) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-            goto done;
-        }
-        measure(&w, &after, NULL);
-    }
-    if (v && after.min_sj < fmin(REPAIR_BAR, o->target)) {
-        /* the last few hexes below 0.3: the patch repair (coupled moves, then the polish) */
-        size_t below = 0;
-        for (size_t t = 0; t < w.nh; t++) below += hex_q(&w, t) < REPAIR_BAR;
-        free(w.focus);
-        w.focus = NULL;
-        if (below <= POLISH_MAX &&
-            repair(&w, fmin(REPAIR_BAR, o->target), 1, 10, &moves, &sweeps)) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-            goto done;
-        }
-        measure(&w, &after, NULL);
-    }
-    double maxd = 0.0, maxd0 = 0.0;
-    if (v)
-        for (size_t i = 0; i < w.np; i++) {
-            if (w.cls[i] != CLS_ISO) continue;
-            double y[3];
-            to_index(&w, w.p + 3 * i, y);
-            maxd = fmax(maxd, iso_distance(&w, y));
-            to_index(&w, w.p0 + 3 * i, y);
-            maxd0 = fmax(maxd0, iso_distance(&w, y));
-        }
-    s = vm_mesh_reserve(m, w.np, w.nh, err);
-    if (s) goto done;
-    memcpy(m->points, w.p, 3 * w.np * sizeof *w.p);
-    memcpy(m->cells, w.h, 8 * w.nh * sizeof *w.h);
-    memcpy(m->region, w.region, w.nh * sizeof *w.region);
-    if (r) {
-        memset(r, 0, sizeof *r);
-        r->hexes_before = m->ncells;
-        r->points_before = m->npoints;
-        r->hexes_after = w.nh;
-        r->points_after = w.np;
-        r->pillow_hexes = added;
-        r->pillow_undone = undone;
-        r->min_sj_before = before.min_sj;
-        r->min_sj_after = after.min_sj;
-        r->inverted_before = before.inverted;
-        r->inverted_after = after.inverted;
-        r->below_02_before = before.below;
-        r->below_02_after = after.below;
-        r->volume_before = before.volume;
-        r->volume_after = after.volume;
-        r->max_surface_distance = maxd;
-        r->max_surface_distance_before = maxd0;
-        r->moves = moves;
-        r->sweeps = sweeps;
-    }
-    m->npoints = w.np;
-    m->ncells = w.nh;
-    if (r) r->seconds = vm__now() - t0;
-done:
-    hx_free(&w);
-    if (o->progress) o->progress("hex pass", 1.0, 1.0, o->progress_user);
     return s;
 }
 
+/* Grows the selective set round the hexes of w still below the bar (mark: scratch over the
+ * points of plain, the mesh without the layer the set indexes). */
+static void grow_set(const hx *w, const hx *plain, uint8_t *set, uint8_t *mark) {
+    size_t np0 = plain->np, nh0 = plain->nh;
+    memset(mark, 0, np0);
+    for (size_t t = 0; t < w->nh; t++) {
+        if (hex_q(w, t) >= SJ_BAR) continue;
+        if (t < nh0) set[t] = 1;
+        for (int k = 0; k < 8; k++)
+            if ((size_t)w->h[8 * t + (size_t)k] < np0) mark[w->h[8 * t + (size_t)k]] = 1;
+    }
+    for (size_t t = 0; t < nh0; t++)
+        for (int k = 0; k < 8 && !set[t]; k++)
+            if (mark[plain->h[8 * t + (size_t)k]]) set[t] = 1;
+    dilate(plain, set, 1, mark);
+}
+
+/* Selective pillowing starts the run again at most this many times. */
+#define SELECTIVE_ROUNDS 3
+
+/* Selective pillowing: only the spots still below the bar get the layer, from the positions
+ * the pass without it reached; where the layer leaves hexes below the bar (at the sheet's
+ * edge, or on its own hexes) the set grows round them and the run starts again from those
+ * positions, up to three times. */
+static vm_status selective_pillow(hex_pass *P, const vm_mesh *m,
+                                  const vm_hex_improve_options *o, vm_error *err) {
+    hx plain = P->w;
+    size_t np0 = plain.np, nh0 = plain.nh;
+    uint8_t *set = malloc(nh0 + 1), *mark = malloc(np0 + 1);
+    if (!set || !mark) {
+        free(set);
+        free(mark);
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    for (size_t t = 0; t < nh0; t++) set[t] = hex_q(&plain, t) < SJ_BAR;
+    dilate(&plain, set, 1, mark);
+    int have = 0; /* P->w holds a selective result (else it is plain) */
+    vm_status s = VM_OK;
+    for (int round = 0; round < SELECTIVE_ROUNDS && !s; round++) {
+        hx w3 = P->base;
+        figs f3;
+        size_t added3 = 0;
+        s = run(&w3, m, o, 1, set, plain.p, &added3, &P->moves, &P->sweeps, &f3, err);
+        int good = !s && added3 && !f3.inverted && f3.min_sj > P->after.min_sj;
+        if (good) {
+            if (have) hx_free(&P->w);
+            P->w = w3;
+            P->after = f3;
+            P->added = added3;
+            P->undone = 0;
+            have = 1;
+        } else {
+            hx_free(&w3);
+        }
+        if (!good || P->after.min_sj >= fmin(SJ_BAR, o->target)) break;
+        grow_set(&P->w, &plain, set, mark);
+    }
+    if (have) hx_free(&plain);
+    free(set);
+    free(mark);
+    return s;
+}
+
+/* With a volume, on the kept result: the polish once more, then the patch repair of the last
+ * hexes below REPAIR_BAR (coupled moves, then the polish). */
+static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_error *err) {
+    hx *w = &P->w;
+    if (P->after.min_sj < fmin(SJ_BAR, o->target) && P->after.below <= POLISH_MAX) {
+        /* the selective rounds' focus is gone */
+        free(w->focus);
+        w->focus = NULL;
+        if (polish(w, fmin(POLISH_TARGET, o->target), &P->moves, &P->sweeps))
+            return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        measure(w, &P->after, NULL);
+    }
+    if (P->after.min_sj < fmin(REPAIR_BAR, o->target)) {
+        size_t below = 0;
+        for (size_t t = 0; t < w->nh; t++) below += hex_q(w, t) < REPAIR_BAR;
+        free(w->focus);
+        w->focus = NULL;
+        if (below <= POLISH_MAX &&
+            repair(w, fmin(REPAIR_BAR, o->target), 1, 10, &P->moves, &P->sweeps))
+            return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        measure(w, &P->after, NULL);
+    }
+    return VM_OK;
+}
+
+/* The largest distances of isosurface points from the isosurface (voxels), now and where
+ * the mesher put them. */
+static void surface_distances(const hx *w, double *maxd, double *maxd0) {
+    for (size_t i = 0; i < w->np; i++) {
+        if (w->cls[i] != CLS_ISO) continue;
+        double y[3];
+        to_index(w, w->p + 3 * i, y);
+        *maxd = fmax(*maxd, iso_distance(w, y));
+        to_index(w, w->p0 + 3 * i, y);
+        *maxd0 = fmax(*maxd0, iso_distance(w, y));
+    }
+}
+
+/* Writes the kept result into m and, when r is given, the figures into r. */
+static vm_status write_result(hex_pass *P, vm_mesh *m, vm_hex_improve_report *r,
+                              vm_error *err) {
+    const hx *w = &P->w;
+    double maxd = 0.0, maxd0 = 0.0;
+    if (w->v) surface_distances(w, &maxd, &maxd0);
+    vm_status s = vm_mesh_reserve(m, w->np, w->nh, err);
+    if (s) return s;
+    memcpy(m->points, w->p, 3 * w->np * sizeof *w->p);
+    memcpy(m->cells, w->h, 8 * w->nh * sizeof *w->h);
+    memcpy(m->region, w->region, w->nh * sizeof *w->region);
+    if (r)
+        *r = (vm_hex_improve_report){.hexes_before = m->ncells,
+                                     .points_before = m->npoints,
+                                     .hexes_after = w->nh,
+                                     .points_after = w->np,
+                                     .pillow_hexes = P->added,
+                                     .pillow_undone = P->undone,
+                                     .min_sj_before = P->before.min_sj,
+                                     .min_sj_after = P->after.min_sj,
+                                     .inverted_before = P->before.inverted,
+                                     .inverted_after = P->after.inverted,
+                                     .below_02_before = P->before.below,
+                                     .below_02_after = P->after.below,
+                                     .volume_before = P->before.volume,
+                                     .volume_after = P->after.volume,
+                                     .max_surface_distance = maxd,
+                                     .max_surface_distance_before = maxd0,
+                                     .moves = P->moves,
+                                     .sweeps = P->sweeps};
+    m->npoints = w->np;
+    m->ncells = w->nh;
+    return VM_OK;
+}
+
+vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_improve_options *o,
+                                vm_hex_improve_report *r, vm_error *err) {
+    double t0 = vm__now();
+    vm_hex_improve_options def;
+    if (!o) {
+        vm_hex_improve_options_default(&def);
+        o = &def;
+    }
+    vm_status s = hex_check(m, v, o, err);
+    if (s) return s;
+    hex_pass P;
+    memset(&P, 0, sizeof P);
+    s = hx_setup(&P.w, m, v, o, err);
+    P.base = P.w;
+    if (!s) s = load(&P.w, m, err);
+    if (!s) s = first_runs(&P, m, o, err);
+    if (!s && o->pillow && !P.added && P.after.min_sj < fmin(SJ_BAR, o->target))
+        s = selective_pillow(&P, m, o, err);
+    if (!s && v) s = last_repairs(&P, o, err);
+    if (!s) s = write_result(&P, m, r, err);
+    if (!s && r) r->seconds = vm__now() - t0;
+    hx_free(&P.w);
+    if (o->progress) o->progress("hex pass", 1.0, 1.0, o->progress_user);
+    return s;
+}

@@ -190,6 +190,9 @@ static void tri_normal(const double *p, const double *q, const double *r, double
     n[2] = u[0] * v[1] - u[1] * v[0];
 }
 
+/* cos 30 degrees: how far a surviving boundary face may turn when a vertex moves. */
+#define COS_30 0.866
+
 /* Boundary faces of tets around b that survive keep their orientation within 30 degrees
  * when b moves to x (no fold or crease of the surface). */
 static int boundary_keeps_normals(const vm__imp *w, vm_index b, vm_index a, const double x[3]) {
@@ -214,7 +217,7 @@ static int boundary_keeps_normals(const vm__imp *w, vm_index b, vm_index a, cons
             double d = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
             double l = sqrt((n0[0] * n0[0] + n0[1] * n0[1] + n0[2] * n0[2]) *
                             (n1[0] * n1[0] + n1[1] * n1[1] + n1[2] * n1[2]));
-            if (!(d > 0.866 * l)) return 0;
+            if (!(d > COS_30 * l)) return 0;
         }
     }
     return 1;
@@ -320,7 +323,7 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
             if (w->q[t] < old) old = w->q[t];
         }
     }
-    double floor_q = old + 1e-9;
+    double floor_q = old + VM__IMP_GAIN;
     double best = floor_q, bx[3];
     int choice = -1;
     const double *pa = w->p + 3 * (size_t)a, *pb = w->p + 3 * (size_t)b;
@@ -360,7 +363,7 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     /* Apply: keep = survivor, gone = removed vertex. */
     vm_index keep = choice == 1 ? b : a, gone = choice == 1 ? a : b;
     const vm__imp_star *sg = &w->star[gone];
-    if (!vm__imp_scratch(w, (size_t)sg->n)) return 0;
+    if (vm__imp_scratch(w, (size_t)sg->n) != VM_OK) return 0;
     int32_t ng = sg->n;
     memcpy(w->buf, sg->t, (size_t)ng * sizeof *w->buf);
     /* Make room in the survivor's star first, so nothing fails half-way. */

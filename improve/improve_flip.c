@@ -65,7 +65,7 @@ static int flip23(vm__imp *w, size_t t, int i) {
     double old = w->q[t] < w->q[u] ? w->q[t] : w->q[u];
     vm_index nw[3][4] = {{a, b, e, d}, {b, c, e, d}, {c, a, e, d}};
     for (int k = 0; k < 3; k++)
-        if (!(quality_of(w, nw[k]) > old + 1e-9)) return 0;
+        if (!(quality_of(w, nw[k]) > old + VM__IMP_GAIN)) return 0;
     size_t oldt[2] = {t, (size_t)u};
     if (!replace(w, oldt, 2, nw, 3)) return 0;
     w->flips23++;
@@ -238,7 +238,7 @@ static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
                 }
             }
         }
-    if (!(best[0][np - 1] > old + 1e-9)) return 0;
+    if (!(best[0][np - 1] > old + VM__IMP_GAIN)) return 0;
     if (open && !boundary_flip_ok(w, d, e, a[0], a[n], a[1], a[n - 1], a[cut[0][n]]))
         return 0;
     if (open) {

@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "../core/core.h"
+#include "../core/hash.h"
 #include "../core/self_intersect.h"
 #include "improve_internal.h"
 
@@ -76,17 +77,21 @@ struct vm__imp_guard {
     double elo[3], ehi[3];
 };
 
+/* Bucket of grid cell (i, j, k): core's hash of the three indices. */
 static size_t hash3(int64_t i, int64_t j, int64_t k, size_t mask) {
-    uint64_t h = (uint64_t)i * 0x9E3779B97F4A7C15ull ^ (uint64_t)j * 0xC2B2AE3D27D4EB4Full ^
-                 (uint64_t)k * 0x165667B19E3779F9ull;
-    h ^= h >> 29;
+    uint64_t h = vm__hash_add(vm__hash_add(vm__hash_add(0, (uint64_t)i), (uint64_t)j),
+                              (uint64_t)k);
     return (size_t)h & mask;
 }
 
+/* Cell indices are clamped to +-CELL_CLAMP (far inside int64_t; NaN goes to the low end). */
+#define CELL_CLAMP 1e15
+
+/* Index of the grid cell of size h holding coordinate x. */
 static int64_t cell_of(double x, double h) {
     double c = floor(x / h);
-    if (!(c > -1e15)) c = -1e15;
-    if (!(c < 1e15)) c = 1e15;
+    if (!(c > -CELL_CLAMP)) c = -CELL_CLAMP;
+    if (!(c < CELL_CLAMP)) c = CELL_CLAMP;
     return (int64_t)c;
 }
 

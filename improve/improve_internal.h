@@ -1,6 +1,8 @@
 /* improve/improve_internal.h — the working mesh shared by the improvement operations
- * (improve.c drives; improve_mesh.c holds the adjacency and queries; improve_contract.c,
- * improve_flip.c and improve_smooth.c are one operation each). Private. */
+ * (improve.c is the public entry and dispatches; improve_run.c runs the pass over a working
+ * mesh, improve_parts.c drives it part by part; improve_mesh.c holds the adjacency and
+ * queries; improve_contract.c, improve_flip.c, improve_smooth.c and improve_peel.c are one
+ * operation each, improve_guard.c the boundary guard). Private. */
 #ifndef VM_IMPROVE_INTERNAL_H
 #define VM_IMPROVE_INTERNAL_H
 
@@ -98,6 +100,14 @@ static inline int vm__imp_vlocked(const vm__imp *w, vm_index a) {
     return w->vlock && w->vlock[a];
 }
 
+/* Quality levels (see vm__imp_quality): 1 meets the targets; above VM__IMP_Q_ABAQUS a tet
+ * passes ABAQUS's check with the default targets (each term's scale puts ABAQUS's limit at
+ * 2/3). */
+#define VM__IMP_Q_ABAQUS (2.0 / 3.0)
+/* An operation must raise the worst quality it touches by more than this (round-off is no
+ * gain, and a zero-gain change could cycle). */
+#define VM__IMP_GAIN 1e-9
+
 /* Input position, constraint normal and bound of a constrained vertex a (ci[a] >= 0). */
 static inline double *vm__imp_p0(const vm__imp *w, vm_index a) {
     return w->p0 + 3 * (size_t)w->ci[a];
@@ -127,8 +137,8 @@ void vm__imp_star_remove(vm__imp *w, vm_index v, vm_index t);
 int vm__imp_has(const vm__imp *w, size_t t, vm_index a);
 /* The tet other than t containing a, b and c, or -1 (boundary face). */
 long vm__imp_face_other(const vm__imp *w, size_t t, vm_index a, vm_index b, vm_index c);
-/* Grows the scratch buffer to hold n indices; 0 on failure. */
-int vm__imp_scratch(vm__imp *w, size_t n);
+/* Grows the scratch buffer to hold n indices; VM_ERR_NOMEM (and w->nomem set) on failure. */
+vm_status vm__imp_scratch(vm__imp *w, size_t n);
 unsigned vm__imp_rand(vm__imp *w);
 double vm__imp_rand01(vm__imp *w);
 
@@ -173,13 +183,13 @@ int vm__imp_guard_move_ok(vm__imp *w, vm_index a, const double x[3]);
 /* The boundary faces (a, e[2i], e[2i+1]) around vertex a, i < return value; -1 on nomem. */
 int vm__imp_guard_faces(vm__imp *w, vm_index a, const vm_index **e);
 
-/* One part of a bigger mesh, for improve_parts.c: what vm__imp_sub_run needs beyond the
+/* One part of a bigger mesh, for improve_parts.c: what vm__imp_run needs beyond the
  * submesh. The submesh's own bounding box is not the mesh's, nor are its vertices' starting
  * positions the ones the surface bounds count from. */
 typedef struct vm__imp_sub {
     const uint8_t *lock;   /* per submesh tet: 1 = locked */
     double *p0;            /* per submesh point: its position when the whole pass began
-                              (freed by vm__imp_sub_run once copied, and set to NULL) */
+                              (freed by vm__imp_run once copied, and set to NULL) */
     const double *box;     /* the whole mesh's bounding box (min xyz, max xyz) */
     unsigned seed;         /* of the random perturbations */
     /* the volume's planes k0 <= k < k1, when the part reads a window of them (else NULL:
@@ -188,30 +198,43 @@ typedef struct vm__imp_sub {
     int64_t k0, k1;
 } vm__imp_sub;
 
-/* Improves submesh m (only its tets, points and regions are read; m is freed, as x->p0,
- * once they are copied, so that they do not stay beside the working data) into *w, which the
- * caller reads (tet, dead, region, parent = submesh tet each descends from, p, pdead, below)
- * and frees with vm__imp_sub_free, also on error. Single-threaded apart from nested
- * parallel set-up loops; o->progress is not called. *maxmove and *maxiface as in
- * vm_improve_report. */
-vm_status vm__imp_sub_run(vm__imp *w, vm_mesh *m, const vm_volume *v,
-                          const vm_improve_options *o, vm__imp_sub *x, int *passes,
-                          double *maxmove, double *maxiface, vm_error *err);
-void vm__imp_sub_free(vm__imp *w);
+/* One run of the pass (improve_run.c): sets *w up for m, runs the rounds and measures the
+ * moves; the rounds' data is freed, the mesh data stays in *w, which the caller reads and
+ * frees with vm__imp_free, also on error. x NULL: m is the whole mesh (the caller writes *w
+ * back). x set: m is a part (only its tets, points and regions are read; m is freed, as
+ * x->p0, once they are copied, so that they do not stay beside the working data), and the
+ * caller reads tet, dead, region, parent (= submesh tet each descends from), p, pdead and
+ * below; single-threaded apart from nested parallel set-up loops, o->progress not called.
+ * *maxmove and *maxiface as in vm_improve_report. */
+vm_status vm__imp_run(vm__imp *w, vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
+                      vm__imp_sub *x, int *passes, double *maxmove, double *maxiface,
+                      vm_error *err);
+void vm__imp_free(vm__imp *w);
+/* Reads planes k0 <= k < k1 of the volume info describes from src into a new buffer (*out:
+ * nx ny (k1 - k0) floats, the caller frees it), checked against the memory limit
+ * (improve_run.c). */
+vm_status vm__imp_read_planes(const vm_volume *info, vm_plane_source src, void *user,
+                              int64_t k0, int64_t k1, float **out, vm_error *err);
 
 /* The whole pass by parts (improve_parts.c), when vm__imp_parts_count says more than one:
  * m is improved in place; counters, passes and moves go to r (figures are the caller's). */
 size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o);
-/* Reads planes k0 <= k < k1 of the volume info describes from src into a new buffer (*out:
- * nx ny (k1 - k0) floats, the caller frees it), checked against the memory limit. */
-vm_status vm__imp_read_planes(const vm_volume *info, vm_plane_source src, void *user,
-                              int64_t k0, int64_t k1, float **out, vm_error *err);
 
 /* v: the volume, or with src its dims and geometry only, each part then reading the planes
  * it reaches from src (one call at a time). */
 vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src, void *src_user,
                             const vm_improve_options *o, size_t nparts, vm_improve_report *r,
                             vm_error *err);
+
+/* The bar of the pass: the set-up (figures, stars and qualities, boundary guard: about 40 %
+ * of the time on a big mesh that needs little work) fills the first VM__IMP_SETUP_SHARE, the final
+ * figures the last VM__IMP_FINAL_SHARE, the rounds what is between; the end of the pass, whatever
+ * its outcome, reports 1 of 1. */
+#define VM__IMP_SETUP_SHARE 0.25
+#define VM__IMP_FINAL_SHARE 0.1
+static inline void vm__imp_show(const vm_improve_options *o, double done) {
+    if (o->progress) o->progress("improve", done, 1.0, o->progress_user);
+}
 
 /* The operations: each returns 1 when it changed the mesh. */
 int vm__imp_contract_tet(vm__imp *w, size_t t);

@@ -5,25 +5,32 @@
 #include <stdlib.h>
 #include <string.h>
 #include "improve_internal.h"
+#include "../quality/tet_internal.h"
 #include "../core/vec3.h"
 
 #define DEG (180.0 / 3.14159265358979323846)
+
+/* Face-angle cosines within this of the extremes are measured (ties in round-off). */
+#define COS_TIE 1e-12
+/* Projection onto the isosurface (index space): at most NEWTON_ITERS Newton steps, each at
+ * most NEWTON_STEP_MAX voxels, until the first-order distance is below NEWTON_TOL voxels; a
+ * squared gradient below GRAD2_MIN (or a gradient below GRAD_MIN) is flat. */
+#define NEWTON_ITERS 10
+#define NEWTON_STEP_MAX 0.5
+#define NEWTON_TOL 1e-6
+#define GRAD2_MIN 1e-30
+#define GRAD_MIN 1e-12
 
 /* Faces opposite node i with outward normals for a positive tet. */
 static const int face_of[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 
 double vm__imp_volume_measure(const double p[4][3]) {
-    double a[3], b[3], c[3], bc[3], ca[3], ab[3];
-    vm__sub3(p[1], p[0], a);
-    vm__sub3(p[2], p[0], b);
-    vm__sub3(p[3], p[0], c);
-    vm__cross3(b, c, bc);
-    vm__cross3(c, a, ca);
-    vm__cross3(a, b, ab);
+    double a[3], bc[3], w12[3];
+    vm__tet_circum_vector(p, a, bc, w12);
     double vol6 = vm__dot3(a, bc);
     if (!(vol6 > 0.0) || !isfinite(vol6)) return 0.0;
-    double la = vm__dot3(a, a), lb = vm__dot3(b, b), lc = vm__dot3(c, c), o[3];
-    for (int k = 0; k < 3; k++) o[k] = (la * bc[k] + lb * ca[k] + lc * ab[k]) / (2.0 * vol6);
+    double o[3];
+    for (int k = 0; k < 3; k++) o[k] = w12[k] / (2.0 * vol6);
     double R = sqrt(vm__dot3(o, o));
     if (!(R > 0.0)) return 0.0;
     /* Regular tet of circumradius R: volume 8 R^3 / (9 sqrt 3). */
@@ -104,7 +111,7 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
         }
     double fmin = 180.0, fmax = 0.0;
     for (int k = 0; k < 12; k++) {
-        if (!(fc[k] >= cfmax - 1e-12) && !(fc[k] <= cfmin + 1e-12)) continue;
+        if (!(fc[k] >= cfmax - COS_TIE) && !(fc[k] <= cfmin + COS_TIE)) continue;
         double ang = corner_angle(p, k);
         if (ang < fmin) fmin = ang;
         if (ang > fmax) fmax = ang;
@@ -238,17 +245,18 @@ long vm__imp_face_other(const vm__imp *w, size_t t, vm_index a, vm_index b, vm_i
     return -1;
 }
 
-int vm__imp_scratch(vm__imp *w, size_t n) {
-    if (n <= w->buf_cap) return 1;
+/* Grows w->buf to hold n indices (by half again, plus 64, to amortise). */
+vm_status vm__imp_scratch(vm__imp *w, size_t n) {
+    if (n <= w->buf_cap) return VM_OK;
     size_t cap = n + n / 2 + 64;
     vm_index *b = realloc(w->buf, cap * sizeof *b);
     if (!b) {
         w->nomem = 1;
-        return 0;
+        return VM_ERR_NOMEM;
     }
     w->buf = b;
     w->buf_cap = cap;
-    return 1;
+    return VM_OK;
 }
 
 unsigned vm__imp_rand(vm__imp *w) {
@@ -315,16 +323,16 @@ int vm__imp_project(const vm__imp *w, vm_index a, double x[3]) {
     vm__imp_to_index(w, vm__imp_p0(w, a), ijk0);
     double iso = w->iso_hi[a] ? w->hi : w->lo;
     int ok = 0;
-    for (int it = 0; it < 10; it++) {
+    for (int it = 0; it < NEWTON_ITERS; it++) {
         double f = field(w, ijk, g) - iso;
         double g2 = vm__dot3(g, g);
-        if (!(g2 > 1e-30) || !isfinite(f)) return 0;
+        if (!(g2 > GRAD2_MIN) || !isfinite(f)) return 0;
         double step = f / g2, len = fabs(f) / sqrt(g2);
-        if (len < 1e-6) {
+        if (len < NEWTON_TOL) {
             ok = 1;
             break;
         }
-        if (len > 0.5) step *= 0.5 / len;
+        if (len > NEWTON_STEP_MAX) step *= NEWTON_STEP_MAX / len;
         for (int k = 0; k < 3; k++) ijk[k] -= step * g[k];
     }
     if (!ok) return 0;
@@ -345,7 +353,7 @@ static int band_constrain(const vm__imp *w, vm_index a, double x[3]) {
         vm__imp_to_index(w, x, ijk);
         double f = field(w, ijk, g) - (w->iso_hi[a] ? w->hi : w->lo);
         double gl = sqrt(vm__dot3(g, g));
-        if (gl > 1e-12 && isfinite(f) && fabs(f) <= band * gl) {
+        if (gl > GRAD_MIN && isfinite(f) && fabs(f) <= band * gl) {
             vm__imp_to_index(w, vm__imp_p0(w, a), ijk0);
             vm__sub3(ijk, ijk0, d);
             return vm__dot3(d, d) <= vm__imp_bound(w, a) * vm__imp_bound(w, a);

@@ -30,6 +30,21 @@
 #define RINGS 2       /* rings of free tets around each of them */
 #define GRID 128      /* cells a side of the grid that finds the tets near a part */
 
+/* A part's box grows by this share of its longest edge beyond its vertices' bounds. */
+#define BOX_SLACK 0.05
+/* A part's window of planes: its vertices' planes, plus twice the surface bound, plus
+ * WINDOW_MARGIN planes each side (the trilinear cells and the gradient's neighbours), plus
+ * WINDOW_TOP planes above (k1 is exclusive, and the cell above the top vertex). */
+#define WINDOW_MARGIN 3.0
+#define WINDOW_TOP 2.0
+/* Round-off slack on the world length of one index step along each axis. */
+#define ROW_SLACK 1.01
+/* The rounds' share of the bar: the even slabs up to BAR_EVENS, the odd ones up to
+ * BAR_SLABS, then the band rounds each halving what is left of the next BAR_BANDS. */
+#define BAR_EVENS 0.35
+#define BAR_SLABS 0.7
+#define BAR_BANDS 0.2
+
 size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o) {
     /* slots are 32-bit; the tets flips add stay far below the slack */
     if (o->frozen || o->parts == 1 || !m->region || m->ncells > UINT32_MAX / 2 ||
@@ -373,7 +388,7 @@ static int job_scan(const pstate *S, const zindex *C, const zindex *K, job *J) {
     for (int k = 0; k < 3; k++) {
         double bound =
             S->v ? S->o.max_surface_move * S->row[k] : S->o.max_surface_move_free * L;
-        M[k] = 2.0 * bound + 0.05 * L;
+        M[k] = 2.0 * bound + BOX_SLACK * L;
         lo[k] -= M[k];
         hi[k] += M[k];
     }
@@ -452,8 +467,8 @@ static float *part_planes(pstate *S, job *J, const vm_mesh *sub, vm__imp_sub *x)
         if (k < kmin) kmin = k;
         if (k > kmax) kmax = k;
     }
-    double grow = 2.0 * S->o.max_surface_move + 3.0;
-    double lo = floor(kmin - grow), hi = ceil(kmax + grow) + 2.0, nz = (double)v->dims[2];
+    double grow = 2.0 * S->o.max_surface_move + WINDOW_MARGIN;
+    double lo = floor(kmin - grow), hi = ceil(kmax + grow) + WINDOW_TOP, nz = (double)v->dims[2];
     int64_t k0 = lo < 0.0 ? 0 : lo > nz - 1.0 ? v->dims[2] - 1 : (int64_t)lo;
     int64_t k1 = hi > nz ? v->dims[2] : hi < (double)(k0 + 1) ? k0 + 1 : (int64_t)hi;
     float *planes;
@@ -523,8 +538,8 @@ static void job_run(pstate *S, job *J) {
     vm__imp_sub x = {lock, sp0, S->box, J->seed, NULL, 0, 0};
     if (S->src && !(planes = part_planes(S, J, &sub, &x))) goto done;
     sp0 = NULL; /* the run frees it and the submesh once it has copied them */
-    J->s = vm__imp_sub_run(&w, &sub, S->v, &S->o, &x, &J->passes, &J->maxmove, &J->maxiface,
-                           &J->err);
+    J->s = vm__imp_run(&w, &sub, S->v, &S->o, &x, &J->passes, &J->maxmove, &J->maxiface,
+                       &J->err);
     if (J->s != VM_OK) goto done;
     for (size_t t = J->nps; t < nc; t++)
         if (w.dead[t]) {
@@ -585,7 +600,7 @@ nomem:
     J->s = vm_error_set(&J->err, VM_ERR_NOMEM, "improve: out of memory for a part");
 done:
     free(planes);
-    vm__imp_sub_free(&w);
+    vm__imp_free(&w);
     vm_mesh_free(&sub);
     free(sp0);
     free(tpar);
@@ -953,7 +968,7 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
             double a = v->direction[k][c] * v->spacing[c];
             f += a * a;
         }
-        S.row[k] = 1.01 * sqrt(f);
+        S.row[k] = ROW_SLACK * sqrt(f);
     }
     S.p0 = malloc((3 * m->npoints + 1) * sizeof *S.p0);
     if (m->ncell_fields) S.par = malloc((m->ncells + 1) * sizeof *S.par);
@@ -1000,8 +1015,8 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
     }
     /* evens, then odds: the parts of a call are all scanned before they run */
     size_t ne = (ns + 1) / 2;
-    if (s == VM_OK) s = run_jobs(&S, jobs, order, ne, 0.0, 0.35, err);
-    if (s == VM_OK && no > ne) s = run_jobs(&S, jobs, order + ne, no - ne, 0.35, 0.7, err);
+    if (s == VM_OK) s = run_jobs(&S, jobs, order, ne, 0.0, BAR_EVENS, err);
+    if (s == VM_OK && no > ne) s = run_jobs(&S, jobs, order + ne, no - ne, BAR_EVENS, BAR_SLABS, err);
     compact_slots(&S);
     /* Then rounds over the tets still below the targets, anywhere, with two rings of tets
      * around them: first by the slabs shifted by half a slab (their borders were locked in
@@ -1039,8 +1054,8 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
             order[no++] = k;
         for (size_t k = 1; k < nj; k += 2)
             order[no++] = k;
-        double f0 = 0.7 + 0.2 * (1.0 - pow(0.5, round)),
-               f1 = 0.7 + 0.2 * (1.0 - pow(0.5, round + 1));
+        double f0 = BAR_SLABS + BAR_BANDS * (1.0 - pow(0.5, round)),
+               f1 = BAR_SLABS + BAR_BANDS * (1.0 - pow(0.5, round + 1));
         size_t nje = (nj + 1) / 2;
         s = run_jobs(&S, jobs, order, nje, f0, 0.5 * (f0 + f1), err);
         if (s == VM_OK && no > nje)

@@ -6,6 +6,23 @@
 #include <string.h>
 #include "improve_internal.h"
 
+/* Soft-minimum temperature (quality units): tets within 4 tau of the worst steer the
+ * gradient, with weight exp(-(q - worst) / tau). */
+#define SOFTMIN_TAU 0.05
+/* Forward-difference step of the gradient, times the shortest edge at the vertex. */
+#define GRAD_STEP 1e-5
+/* Line search: from LINE_FIRST down to LINE_LAST times the shortest edge, halving. */
+#define LINE_FIRST 0.3
+#define LINE_LAST 1e-4
+/* A move must raise the star's worst quality by more than this (round-off is no gain). */
+#define GAIN_MIN 1e-7
+/* Perturbation radii, times the shortest edge: tries cycle through the three. */
+#define PERTURB_FAR 0.3
+#define PERTURB_MID 0.1
+#define PERTURB_NEAR 0.03
+/* A random direction shorter than this (after the tangent projection) is skipped. */
+#define DIR_MIN 1e-6
+
 /* Worst quality of the star of a (ids in ids[0..n)) with a at x; stops at floor_q. */
 static double star_min(const vm__imp *w, const vm_index *ids, int32_t n, vm_index a,
                        const double x[3], double floor_q) {
@@ -18,6 +35,7 @@ static double star_min(const vm__imp *w, const vm_index *ids, int32_t n, vm_inde
     return m;
 }
 
+/* Length of the shortest edge at vertex a. */
 static double shortest_edge(const vm__imp *w, vm_index a) {
     const vm__imp_star *s = &w->star[a];
     const double *pa = w->p + 3 * (size_t)a;
@@ -45,24 +63,43 @@ static void tangent(const vm__imp *w, vm_index a, double g[3]) {
     for (int k = 0; k < 3; k++) g[k] -= s * n[k];
 }
 
-int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
+/* Copies the star of vertex a into w->buf (the moves change the stars' tets' qualities, not
+ * the stars) and sets *cur to its worst quality; returns its size, 0 when a may not move or
+ * the copy found no memory. */
+static int32_t star_begin(vm__imp *w, vm_index a, double *cur) {
     if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || vm__imp_vlocked(w, a)) return 0;
     const vm__imp_star *s = &w->star[a];
     int32_t n = s->n;
-    if (n == 0 || !vm__imp_scratch(w, (size_t)n)) return 0;
+    if (n == 0 || vm__imp_scratch(w, (size_t)n) != VM_OK) return 0;
     vm_index *ids = w->buf;
     memcpy(ids, s->t, (size_t)n * sizeof *ids);
-    double *pa = w->p + 3 * (size_t)a;
-    double cur = INFINITY;
+    *cur = INFINITY;
     for (int32_t i = 0; i < n; i++)
-        if (w->q[ids[i]] < cur) cur = w->q[ids[i]];
+        if (w->q[ids[i]] < *cur) *cur = w->q[ids[i]];
+    return n;
+}
+
+/* Moves vertex a to x and updates the guard and the qualities of its star ids[0..n). */
+static void move_vertex(vm__imp *w, vm_index a, const double x[3], const vm_index *ids,
+                        int32_t n) {
+    memcpy(w->p + 3 * (size_t)a, x, 3 * sizeof *x);
+    vm__imp_guard_moved(w, a);
+    for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)ids[i]);
+}
+
+int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
+    double cur;
+    int32_t n = star_begin(w, a, &cur);
+    if (n == 0) return 0;
+    const vm_index *ids = w->buf;
+    double *pa = w->p + 3 * (size_t)a;
     double L = shortest_edge(w, a);
     if (!(L > 0.0)) return 0;
     int moved = 0;
-    const double tau = 0.05;
+    const double tau = SOFTMIN_TAU;
     for (int it = 0; it < iters; it++) {
         /* Soft-min gradient by forward differences on the tets near the minimum. */
-        double g[3] = {0, 0, 0}, h = 1e-5 * L, gw[3] = {0, 0, 0}, worst_q = INFINITY;
+        double g[3] = {0, 0, 0}, h = GRAD_STEP * L, gw[3] = {0, 0, 0}, worst_q = INFINITY;
         for (int32_t i = 0; i < n; i++) {
             double q = w->q[ids[i]];
             if (q > cur + 4 * tau) continue;
@@ -85,15 +122,13 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
             tangent(w, a, d);
             double gl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
             if (!(gl > 0.0) || !isfinite(gl)) continue;
-            for (double step = 0.3 * L; step > 1e-4 * L; step *= 0.5) {
+            for (double step = LINE_FIRST * L; step > LINE_LAST * L; step *= 0.5) {
                 double x[3];
                 for (int k = 0; k < 3; k++) x[k] = pa[k] + step * d[k] / gl;
                 if (!vm__imp_constrain(w, a, x)) continue;
-                double m = star_min(w, ids, n, a, x, cur + 1e-7);
-                if (m > cur + 1e-7 && vm__imp_guard_move_ok(w, a, x)) {
-                    memcpy(pa, x, sizeof x);
-                    vm__imp_guard_moved(w, a);
-                    for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)ids[i]);
+                double m = star_min(w, ids, n, a, x, cur + GAIN_MIN);
+                if (m > cur + GAIN_MIN && vm__imp_guard_move_ok(w, a, x)) {
+                    move_vertex(w, a, x, ids, n);
                     cur = m;
                     accepted = 1;
                     break;
@@ -108,32 +143,25 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
 }
 
 int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries) {
-    if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || vm__imp_vlocked(w, a)) return 0;
-    const vm__imp_star *s = &w->star[a];
-    int32_t n = s->n;
-    if (n == 0 || !vm__imp_scratch(w, (size_t)n)) return 0;
-    vm_index *ids = w->buf;
-    memcpy(ids, s->t, (size_t)n * sizeof *ids);
+    double cur;
+    int32_t n = star_begin(w, a, &cur);
+    if (n == 0) return 0;
+    const vm_index *ids = w->buf;
     double *pa = w->p + 3 * (size_t)a;
-    double cur = INFINITY;
-    for (int32_t i = 0; i < n; i++)
-        if (w->q[ids[i]] < cur) cur = w->q[ids[i]];
     double L = shortest_edge(w, a);
     int moved = 0;
     for (int k = 0; k < tries; k++) {
-        double d[3], r = L * (k % 3 == 0 ? 0.3 : k % 3 == 1 ? 0.1 : 0.03);
+        double d[3], r = L * (k % 3 == 0 ? PERTURB_FAR : k % 3 == 1 ? PERTURB_MID : PERTURB_NEAR);
         for (int c = 0; c < 3; c++) d[c] = 2.0 * vm__imp_rand01(w) - 1.0;
         tangent(w, a, d);
         double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        if (!(dl > 1e-6)) continue;
+        if (!(dl > DIR_MIN)) continue;
         double x[3];
         for (int c = 0; c < 3; c++) x[c] = pa[c] + r * d[c] / dl;
         if (!vm__imp_constrain(w, a, x)) continue;
-        double m = star_min(w, ids, n, a, x, cur + 1e-7);
-        if (m > cur + 1e-7 && vm__imp_guard_move_ok(w, a, x)) {
-            memcpy(pa, x, sizeof x);
-            vm__imp_guard_moved(w, a);
-            for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)ids[i]);
+        double m = star_min(w, ids, n, a, x, cur + GAIN_MIN);
+        if (m > cur + GAIN_MIN && vm__imp_guard_move_ok(w, a, x)) {
+            move_vertex(w, a, x, ids, n);
             cur = m;
             moved = 1;
         }

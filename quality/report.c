@@ -24,9 +24,9 @@ static const vm_metric_info tet_metrics[] = {
     M("max_dihedral", "maximum dihedral angle", "deg", VM_TET4, vm_tet_max_dihedral,
       70.528779, 70.528779, 165.0, 70.528779, 180.0, 60.0, 180.0),
     M("min_face_angle", "minimum face angle", "deg", VM_TET4, vm_tet_min_face_angle, 60.0,
-      10.0, 60.0, 0.0, 60.0, 0.0, 60.0),
+      VM__ABAQUS_SMALL_FACE_ANGLE, 60.0, 0.0, 60.0, 0.0, 60.0),
     M("max_face_angle", "maximum face angle", "deg", VM_TET4, vm_tet_max_face_angle, 60.0,
-      60.0, 160.0, 60.0, 180.0, 60.0, 180.0),
+      60.0, VM__ABAQUS_LARGE_FACE_ANGLE, 60.0, 180.0, 60.0, 180.0),
     M("radius_ratio", "radius ratio R/(3r)", "", VM_TET4, vm_tet_radius_ratio, 1.0, 1.0, 3.0,
       1.0, INF, 1.0, 5.0),
     M("aspect_ratio", "aspect ratio hmax/(2 sqrt6 r)", "", VM_TET4, vm_tet_aspect_ratio, 1.0,
@@ -35,8 +35,8 @@ static const vm_metric_info tet_metrics[] = {
       INF, 1.0, 5.0),
     M("scaled_jacobian", "scaled Jacobian", "", VM_TET4, vm_tet_scaled_jacobian, 1.0, 0.5, 1.0,
       -1.0, 1.0, -1.0, 1.0),
-    M("volume_measure", "ABAQUS volume measure", "", VM_TET4, vm_tet_volume_measure, 1.0, 0.02,
-      1.0, -1.0, 1.0, 0.0, 1.0),
+    M("volume_measure", "ABAQUS volume measure", "", VM_TET4, vm_tet_volume_measure, 1.0,
+      VM__ABAQUS_VOLUME_MEASURE, 1.0, -1.0, 1.0, 0.0, 1.0),
     M("volume", "signed volume", "", VM_TET4, vm_tet_signed_volume, NAN, 0.0, INF, -INF, INF,
       0.0, 0.0),
 };
@@ -110,18 +110,12 @@ const vm_metric_info *vm_quality_find_metric(vm_cell_kind kind, const char *name
 
 /* ---- helpers ---------------------------------------------------------------------------- */
 
+/* A known cell kind, and every cell's nodes in range (what names the caller). */
 static vm_status check_nodes(const vm_mesh *m, const char *what, vm_error *err) {
-    int nn = vm_cell_nodes(m->kind);
-    if (nn == 0)
+    if (vm_cell_nodes(m->kind) == 0)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: unknown cell kind %d", what,
                             (int)m->kind);
-    size_t n = m->ncells * (size_t)nn;
-    for (size_t i = 0; i < n; i++)
-        if (m->cells[i] < 0 || (uint64_t)m->cells[i] >= (uint64_t)m->npoints)
-            return vm_error_set(err, VM_ERR_ARG, "%s: cell %zu uses node %lld, outside 0..%zu",
-                                what, i / (size_t)nn, (long long)m->cells[i],
-                                m->npoints ? m->npoints - 1 : 0);
-    return VM_OK;
+    return vm__check_nodes(m, VM_ERR_ARG, what, err);
 }
 
 static void cell_points(const vm_mesh *m, size_t c, int nn, double p[8][3]) {
@@ -150,11 +144,6 @@ static void add_to_histogram(vm_metric_stats *s, double q) {
     }
     s->bins[b]++;
 }
-
-/* ABAQUS thresholds for tetrahedra. */
-#define ABAQUS_VOLUME_MEASURE 0.02
-#define ABAQUS_SMALL_ANGLE 10.0
-#define ABAQUS_LARGE_ANGLE 160.0
 
 /* ---- the report ------------------------------------------------------------------------- */
 
@@ -271,13 +260,11 @@ static void fold_chunk(const report_job *j, size_t c0, size_t c1, chunk_stats *c
             if (s->hi > s->lo) add_to_histogram(s, x);
         }
         if (!j->bins_only && j->iv >= 0 && j->ia >= 0 && j->ib >= 0) {
-            int bad_v = v[j->iv] < ABAQUS_VOLUME_MEASURE;
-            int bad_a = v[j->ia] < ABAQUS_SMALL_ANGLE;
-            int bad_b = v[j->ib] > ABAQUS_LARGE_ANGLE;
-            cs->ab_volume += (size_t)bad_v;
-            cs->ab_small += (size_t)bad_a;
-            cs->ab_large += (size_t)bad_b;
-            if (bad_v || bad_a || bad_b) {
+            unsigned bad = vm__tet_abaqus_fails(v[j->iv], v[j->ia], v[j->ib]);
+            cs->ab_volume += (size_t)((bad & VM__ABAQUS_FAILS_VOLUME) != 0);
+            cs->ab_small += (size_t)((bad & VM__ABAQUS_FAILS_SMALL) != 0);
+            cs->ab_large += (size_t)((bad & VM__ABAQUS_FAILS_LARGE) != 0);
+            if (bad) {
                 if (cs->nlist < VM_QUALITY_LIST) cs->list[cs->nlist++] = c;
                 cs->ab_failures++;
             }

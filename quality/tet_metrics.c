@@ -97,16 +97,20 @@ void vm__tet_dihedral_range(const double p[4][3], double *min_deg, double *max_d
     angle_extremes(6, (const double(*)[3])u, (const double(*)[3])w, len, min_deg, max_deg);
 }
 
+/* One end of the range a range function gives for p: the low end, or the high end (hi). */
+static double range_end(void (*range)(const double p[4][3], double *lo, double *hi),
+                        const double p[4][3], int hi) {
+    double r[2];
+    range(p, &r[0], &r[1]);
+    return r[hi];
+}
+
 double vm_tet_min_dihedral(const double p[4][3]) {
-    double lo, hi;
-    vm__tet_dihedral_range(p, &lo, &hi);
-    return lo;
+    return range_end(vm__tet_dihedral_range, p, 0);
 }
 
 double vm_tet_max_dihedral(const double p[4][3]) {
-    double lo, hi;
-    vm__tet_dihedral_range(p, &lo, &hi);
-    return hi;
+    return range_end(vm__tet_dihedral_range, p, 1);
 }
 
 double vm_tet_scaled_jacobian(const double p[4][3]) {
@@ -141,10 +145,8 @@ static double face_area_sum(const double p[4][3]) {
     return s;
 }
 
-/* Circumradius times 12V: |a^2 (b x c) + b^2 (c x a) + c^2 (a x b)| with a, b, c the edges
- * from node 0 (the circumcentre relative to node 0 is that vector over 12V). */
-static double circumradius_12v(const double p[4][3]) {
-    double a[3], b[3], c[3], bc[3], ca[3], ab[3], w[3];
+void vm__tet_circum_vector(const double p[4][3], double a[3], double bc[3], double w[3]) {
+    double b[3], c[3], ca[3], ab[3];
     vm__sub3(p[1], p[0], a);
     vm__sub3(p[2], p[0], b);
     vm__sub3(p[3], p[0], c);
@@ -154,6 +156,12 @@ static double circumradius_12v(const double p[4][3]) {
     double la = vm__dot3(a, a), lb = vm__dot3(b, b), lc = vm__dot3(c, c);
     for (int d = 0; d < 3; d++)
         w[d] = la * bc[d] + lb * ca[d] + lc * ab[d];
+}
+
+/* Circumradius times 12V: the length of vm__tet_circum_vector's w. */
+static double circumradius_12v(const double p[4][3]) {
+    double a[3], bc[3], w[3];
+    vm__tet_circum_vector(p, a, bc, w);
     return vm__norm3(w);
 }
 
@@ -200,15 +208,11 @@ void vm__tet_face_angle_range(const double p[4][3], double *min_deg, double *max
 }
 
 double vm_tet_min_face_angle(const double p[4][3]) {
-    double lo, hi;
-    vm__tet_face_angle_range(p, &lo, &hi);
-    return lo;
+    return range_end(vm__tet_face_angle_range, p, 0);
 }
 
 double vm_tet_max_face_angle(const double p[4][3]) {
-    double lo, hi;
-    vm__tet_face_angle_range(p, &lo, &hi);
-    return hi;
+    return range_end(vm__tet_face_angle_range, p, 1);
 }
 
 double vm_tet_volume_measure(const double p[4][3]) {
@@ -223,4 +227,13 @@ double vm_tet_volume_measure(const double p[4][3]) {
     if (q > 1.0) q = 1.0;
     if (q < -1.0) q = -1.0;
     return q;
+}
+
+unsigned vm__tet_abaqus_fails(double volume_measure, double min_face_angle,
+                              double max_face_angle) {
+    unsigned f = 0;
+    if (volume_measure < VM__ABAQUS_VOLUME_MEASURE) f |= VM__ABAQUS_FAILS_VOLUME;
+    if (min_face_angle < VM__ABAQUS_SMALL_FACE_ANGLE) f |= VM__ABAQUS_FAILS_SMALL;
+    if (max_face_angle > VM__ABAQUS_LARGE_FACE_ANGLE) f |= VM__ABAQUS_FAILS_LARGE;
+    return f;
 }
