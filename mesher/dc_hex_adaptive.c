@@ -549,7 +549,7 @@ static int window_pinches(unsigned m) {
 
 /* Drops coarse blocks until no two meet only along an edge within an axis plane or only at
  * a corner (the shrink sets' boundaries must be manifold), and with group set until they
- * come in 2x2x2 groups (the conservative rule: see vm__hex_adapt). cube: nblk bytes of
+ * come in 2x2x2 groups (the conservative rule: see build_modes). cube: nblk bytes of
  * scratch. */
 static void prune_coarse(const blocks *Bp, int group, uint8_t *cube, size_t *ncoarse_p) {
     blocks B = *Bp; /* the same role array */
