@@ -102,13 +102,13 @@ typedef struct hx {
     void *progress_user;
 } hx;
 
+/* The defaults volmesh/improve.h documents (every other field 0 or NULL). */
+static const vm_hex_improve_options hex_defaults = {
+    .has_lo = 1, .target = 0.5, .max_surface_move = 1.0, .pillow = 1, .max_sweeps = 8};
+
 void vm_hex_improve_options_default(vm_hex_improve_options *o) {
     memset(o, 0, sizeof *o);
-    o->has_lo = 1;
-    o->target = 0.5;
-    o->max_surface_move = 1.0;
-    o->pillow = 1;
-    o->max_sweeps = 8;
+    *o = hex_defaults;
 }
 
 /* ---- geometry ---- */
@@ -619,7 +619,8 @@ static vm_status pillow(hx *w, uint8_t *in, size_t *added, vm_error *err) {
         if (in && !in[t]) continue;
         double c[3] = {0, 0, 0};
         for (int k = 0; k < 8; k++)
-            for (int a = 0; a < 3; a++) c[a] += HEX_CORNER_WEIGHT * w->p[3 * (size_t)w->h[8 * t + k] + a];
+            for (int a = 0; a < 3; a++)
+                c[a] += HEX_CORNER_WEIGHT * w->p[3 * (size_t)w->h[8 * t + k] + a];
         for (int k = 0; k < 8; k++) {
             size_t i = (size_t)w->h[8 * t + k];
             if (copy[i] < 0) continue;
@@ -711,7 +712,8 @@ static int better(const lq *n, const lq *o, double floor, int untangle) {
     if (untangle == 1)
         return n->det > o->det + DET_REL_MARGIN * fabs(o->det) && n->min >= fmin(o->min, floor);
     if (untangle == 2)
-        return n->pen < o->pen - PEN_MARGIN || (n->pen <= o->pen && n->min > o->min + SJ_MARGIN);
+        return n->pen < o->pen - PEN_MARGIN ||
+               (n->pen <= o->pen && n->min > o->min + SJ_MARGIN);
     return n->min > o->min + SJ_MARGIN || (n->min >= o->min && n->sum > o->sum + SUM_MARGIN);
 }
 
@@ -853,7 +855,8 @@ static void smooth(hx *w, const vm_hex_improve_options *o, int stage, double *q,
     if (stage == 0) {
         if (!w->pillowed) {
             sweep_stage(w, UNTANGLE_TARGET, 1, o->max_sweeps, 0, q, active, moves, sweeps);
-            sweep_stage(w, fmin(SJ_BAR, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
+            sweep_stage(w, fmin(SJ_BAR, o->target), 0, o->max_sweeps, 1, q, active, moves,
+                        sweeps);
             return;
         }
         sweep_stage(w, UNTANGLE_TARGET, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);

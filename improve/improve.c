@@ -136,7 +136,8 @@ static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, s
                 }
             exact = !isfinite(cmax) || !isfinite(cmin) || !isfinite(fcmax) ||
                     !isfinite(fcmin) || near_cos(cmax, COS5) || near_cos(cmax, COS10) ||
-                    near_cos(cmin, COS165) || near_cos(fcmax, VM__ABAQUS_COS_SMALL_FACE_ANGLE) ||
+                    near_cos(cmin, COS165) ||
+                    near_cos(fcmax, VM__ABAQUS_COS_SMALL_FACE_ANGLE) ||
                     near_cos(fcmin, VM__ABAQUS_COS_LARGE_FACE_ANGLE);
         }
         int bad;

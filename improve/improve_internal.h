@@ -227,9 +227,9 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
                             vm_error *err);
 
 /* The bar of the pass: the set-up (figures, stars and qualities, boundary guard: about 40 %
- * of the time on a big mesh that needs little work) fills the first VM__IMP_SETUP_SHARE, the final
- * figures the last VM__IMP_FINAL_SHARE, the rounds what is between; the end of the pass, whatever
- * its outcome, reports 1 of 1. */
+ * of the time on a big mesh that needs little work) fills the first VM__IMP_SETUP_SHARE,
+ * the final figures the last VM__IMP_FINAL_SHARE, the rounds what is between; the end of
+ * the pass, whatever its outcome, reports 1 of 1. */
 #define VM__IMP_SETUP_SHARE 0.25
 #define VM__IMP_FINAL_SHARE 0.1
 static inline void vm__imp_show(const vm_improve_options *o, double done) {

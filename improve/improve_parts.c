@@ -468,7 +468,8 @@ static float *part_planes(pstate *S, job *J, const vm_mesh *sub, vm__imp_sub *x)
         if (k > kmax) kmax = k;
     }
     double grow = 2.0 * S->o.max_surface_move + WINDOW_MARGIN;
-    double lo = floor(kmin - grow), hi = ceil(kmax + grow) + WINDOW_TOP, nz = (double)v->dims[2];
+    double lo = floor(kmin - grow), hi = ceil(kmax + grow) + WINDOW_TOP;
+    double nz = (double)v->dims[2];
     int64_t k0 = lo < 0.0 ? 0 : lo > nz - 1.0 ? v->dims[2] - 1 : (int64_t)lo;
     int64_t k1 = hi > nz ? v->dims[2] : hi < (double)(k0 + 1) ? k0 + 1 : (int64_t)hi;
     float *planes;
@@ -1016,7 +1017,8 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
     /* evens, then odds: the parts of a call are all scanned before they run */
     size_t ne = (ns + 1) / 2;
     if (s == VM_OK) s = run_jobs(&S, jobs, order, ne, 0.0, BAR_EVENS, err);
-    if (s == VM_OK && no > ne) s = run_jobs(&S, jobs, order + ne, no - ne, BAR_EVENS, BAR_SLABS, err);
+    if (s == VM_OK && no > ne)
+        s = run_jobs(&S, jobs, order + ne, no - ne, BAR_EVENS, BAR_SLABS, err);
     compact_slots(&S);
     /* Then rounds over the tets still below the targets, anywhere, with two rings of tets
      * around them: first by the slabs shifted by half a slab (their borders were locked in

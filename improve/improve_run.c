@@ -1,6 +1,7 @@
-/* improve/improve_run.c — one run of the improvement pass over a working mesh (the whole mesh,
- * or one part of it for improve_parts.c): setting up the stars, classes and constraints, the
- * rounds (schedule after Klingner and Shewchuk 2007), measuring the moves; and reading planes. */
+/* improve/improve_run.c — one run of the improvement pass over a working mesh (the whole
+ * mesh, or one part of it for improve_parts.c): setting up the stars, classes and
+ * constraints, the rounds (schedule after Klingner and Shewchuk 2007), measuring the moves;
+ * and reading planes. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,6 +45,7 @@ static void imp_free_rounds(vm__imp *w) {
     vm__imp_guard_free(w);
 }
 
+/* B = A^-1 by cofactors; 0 (B untouched) when A is singular or not finite. */
 int vm__imp_invert3(double A[3][3], double B[3][3]) {
     double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
                  A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
@@ -351,8 +353,10 @@ static vm_status imp_border_planes(vm__imp *w, const vm_volume *v, const vm__imp
             }
         } else {
             for (int a = 0; a < 3; a++) {
-                if (w->p[3 * i + a] - bmin[a] <= BOX_FACE_TOL * ext) bits |= (uint8_t)(1u << (2 * a));
-                if (bmax[a] - w->p[3 * i + a] <= BOX_FACE_TOL * ext) bits |= (uint8_t)(2u << (2 * a));
+                if (w->p[3 * i + a] - bmin[a] <= BOX_FACE_TOL * ext)
+                    bits |= (uint8_t)(1u << (2 * a));
+                if (bmax[a] - w->p[3 * i + a] <= BOX_FACE_TOL * ext)
+                    bits |= (uint8_t)(2u << (2 * a));
             }
         }
         w->planes[i] = bits;
@@ -755,6 +759,7 @@ void vm__imp_free(vm__imp *w) {
     free(w->below);
 }
 
+/* Planes k0 <= k < k1 from src into a new buffer, within the memory limit. */
 vm_status vm__imp_read_planes(const vm_volume *info, vm_plane_source src, void *user,
                               int64_t k0, int64_t k1, float **out, vm_error *err) {
     *out = NULL;

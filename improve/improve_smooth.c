@@ -87,6 +87,19 @@ static void move_vertex(vm__imp *w, vm_index a, const double x[3], const vm_inde
     for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)ids[i]);
 }
 
+/* Tries vertex a at x: kept (1) when x satisfies a's constraint (x is projected onto it),
+ * raises the star's worst quality *cur by more than GAIN_MIN (*cur is updated) and makes no
+ * boundary triangles cross. */
+static int try_move(vm__imp *w, vm_index a, double x[3], const vm_index *ids, int32_t n,
+                    double *cur) {
+    if (!vm__imp_constrain(w, a, x)) return 0;
+    double m = star_min(w, ids, n, a, x, *cur + GAIN_MIN);
+    if (!(m > *cur + GAIN_MIN) || !vm__imp_guard_move_ok(w, a, x)) return 0;
+    move_vertex(w, a, x, ids, n);
+    *cur = m;
+    return 1;
+}
+
 int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
     double cur;
     int32_t n = star_begin(w, a, &cur);
@@ -125,11 +138,7 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
             for (double step = LINE_FIRST * L; step > LINE_LAST * L; step *= 0.5) {
                 double x[3];
                 for (int k = 0; k < 3; k++) x[k] = pa[k] + step * d[k] / gl;
-                if (!vm__imp_constrain(w, a, x)) continue;
-                double m = star_min(w, ids, n, a, x, cur + GAIN_MIN);
-                if (m > cur + GAIN_MIN && vm__imp_guard_move_ok(w, a, x)) {
-                    move_vertex(w, a, x, ids, n);
-                    cur = m;
+                if (try_move(w, a, x, ids, n, &cur)) {
                     accepted = 1;
                     break;
                 }
@@ -151,20 +160,15 @@ int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries) {
     double L = shortest_edge(w, a);
     int moved = 0;
     for (int k = 0; k < tries; k++) {
-        double d[3], r = L * (k % 3 == 0 ? PERTURB_FAR : k % 3 == 1 ? PERTURB_MID : PERTURB_NEAR);
+        double d[3],
+            r = L * (k % 3 == 0 ? PERTURB_FAR : k % 3 == 1 ? PERTURB_MID : PERTURB_NEAR);
         for (int c = 0; c < 3; c++) d[c] = 2.0 * vm__imp_rand01(w) - 1.0;
         tangent(w, a, d);
         double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         if (!(dl > DIR_MIN)) continue;
         double x[3];
         for (int c = 0; c < 3; c++) x[c] = pa[c] + r * d[c] / dl;
-        if (!vm__imp_constrain(w, a, x)) continue;
-        double m = star_min(w, ids, n, a, x, cur + GAIN_MIN);
-        if (m > cur + GAIN_MIN && vm__imp_guard_move_ok(w, a, x)) {
-            move_vertex(w, a, x, ids, n);
-            cur = m;
-            moved = 1;
-        }
+        if (try_move(w, a, x, ids, n, &cur)) moved = 1;
     }
     if (moved) w->perturbations++;
     return moved;
