@@ -25,13 +25,14 @@ void vm_surface_options_default(vm_surface_options *o) {
 
 static const char *const method_names[] = {"dc", "mc", "asc", "cover"};
 
-int vm_surface_method_parse(const char *name, vm_surface_method *method) {
+/* The method named name (surface.h). */
+vm_status vm_surface_method_parse(const char *name, vm_surface_method *method) {
     for (int i = 0; i < 4; i++)
         if (strcmp(name, method_names[i]) == 0) {
             *method = (vm_surface_method)i;
-            return 0;
+            return VM_OK;
         }
-    return -1;
+    return VM_ERR_ARG;
 }
 
 const char *vm_surface_method_name(vm_surface_method method) {

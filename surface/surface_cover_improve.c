@@ -18,7 +18,17 @@
 #define BEND_MAX 1.5    /* 1 - cos 120 deg: sharper only where a crease was already */
 #define ROUNDS 8        /* contract, flip, smooth rounds at most */
 #define MAXS 96         /* largest star a change may touch */
-#define MAX_CELLS ((double)2e6)
+#define MAX_CELLS ((double)2e6) /* cells of the lookup grid at most */
+/* The gain each change must bring to the star's worst quality q0 (else it only churns):
+ * a contraction keeps CONTRACT_GAIN q0 (or 1), a flip reaches FLIP_GAIN q0, a move
+ * q0 + MOVE_GAIN. */
+#define CONTRACT_GAIN 1.02
+#define FLIP_GAIN 1.05
+#define MOVE_GAIN 1e-3
+#define TINY 1e-9 /* rounding margin of lengths and qualities near 1 */
+#define FLAT_NORMAL 1e-12 /* a normal shorter than this times the edges squared: degenerate */
+#define BEND_ROUND 1e-12 /* a bend equal to the old one up to rounding is no sharper */
+#define CROSS_PAD 1e-9   /* the box of a triangle looked up for crossings, padded for rounding */
 
 typedef struct {
     int32_t *v;
@@ -51,15 +61,17 @@ typedef struct {
     int newbad; /* new triangles below the edge ratio 0.3 */
 } imp;
 
-static int vl_push(vlist *l, int32_t x) {
+/* The helpers below that allocate return VM_ERR_NOMEM without a message: the caller
+ * sets it. Appends x to l. */
+static vm_status vl_push(vlist *l, int32_t x) {
     if (l->n == l->cap) {
         int32_t cap = l->cap ? 2 * l->cap : 8;
         int32_t *p = realloc(l->v, (size_t)cap * sizeof *p);
-        if (!p) return -1;
+        if (!p) return VM_ERR_NOMEM;
         l->v = p, l->cap = cap;
     }
     l->v[l->n++] = x;
-    return 0;
+    return VM_OK;
 }
 
 static void vl_remove(vlist *l, int32_t x) {
@@ -92,7 +104,7 @@ static int normal(const double *a, const double *b, const double *c, double n[3]
     double l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     double scale =
         u[0] * u[0] + u[1] * u[1] + u[2] * u[2] + w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-    if (!(l > 1e-12 * scale) || !(l > 0)) return 0;
+    if (!(l > FLAT_NORMAL * scale) || !(l > 0)) return 0;
     for (int k = 0; k < 3; k++) n[k] /= l;
     return 1;
 }
@@ -184,23 +196,24 @@ static void tri_box(const double *const p[3], double r, double lo[3], double hi[
     }
 }
 
-static int grid_insert(imp *s, int32_t t) {
+/* Enters triangle t in the cells of the lookup grid its box covers. */
+static vm_status grid_insert(imp *s, int32_t t) {
     const int32_t *v = s->t + 3 * (size_t)t;
     const double *p[3] = {P(s, v[0]), P(s, v[1]), P(s, v[2])};
     double lo[3], hi[3];
     int64_t i0[3], i1[3];
     tri_box(p, 0, lo, hi);
     grange(s, lo, hi, i0, i1);
-    FOR_CELLS(s, i0, i1, c) if (vl_push(&s->cell[c], t)) return -1;
-    return 0;
+    FOR_CELLS(s, i0, i1, c) if (vl_push(&s->cell[c], t)) return VM_ERR_NOMEM;
+    return VM_OK;
 }
 
 /* Static lists of the fine faces (by bounding box) or vertices per cell. */
-static int grid_static(imp *s, int faces, size_t **off_out, int32_t **item_out) {
+static vm_status grid_static(imp *s, int faces, size_t **off_out, int32_t **item_out) {
     const vm__cover_fine *m = s->m;
     size_t ncell = (size_t)(s->gn[0] * s->gn[1] * s->gn[2]), n = faces ? m->nf : m->nv;
     size_t *off = calloc(ncell + 1, sizeof *off);
-    if (!off) return -1;
+    if (!off) return VM_ERR_NOMEM;
     int32_t *item = NULL;
     for (int pass = 0; pass < 2; pass++) {
         for (size_t f = 0; f < n; f++) {
@@ -224,7 +237,7 @@ static int grid_static(imp *s, int faces, size_t **off_out, int32_t **item_out) 
             for (size_t c = 0; c < ncell; c++) off[c + 1] += off[c];
             if (!(item = malloc((off[ncell] + 1) * sizeof *item))) {
                 free(off);
-                return -1;
+                return VM_ERR_NOMEM;
             }
         } else {
             for (size_t c = ncell; c > 0; c--) off[c] = off[c - 1];
@@ -233,7 +246,7 @@ static int grid_static(imp *s, int faces, size_t **off_out, int32_t **item_out) 
     }
     *off_out = off;
     *item_out = item;
-    return 0;
+    return VM_OK;
 }
 
 /* 1 when a fine face lies within r of p */
@@ -369,15 +382,10 @@ static int crosses(const imp *s, const double *const a[3], const int32_t *ia,
     return vm__tri_pair_intersects(a, ja, b, jb);
 }
 
-/* Whether the change S -> N passes: no degenerate or turned triangle, every new triangle's
- * quality at least qfloor (covered ones also keep the edge ratio 0.3), a manifold without
- * duplicate edges, no sharper crease; when full, also the error both ways and no crossing
- * (the costly part). Sets s->newq and s->newbad. */
-static int acceptable(imp *s, double qfloor, int full) {
-    static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3}, {.5, .5, 0}, {0, .5, .5},
-                                      {.5, 0, .5}, {2. / 3, 1. / 6, 1. / 6},
-                                      {1. / 6, 2. / 3, 1. / 6}, {1. / 6, 1. / 6, 2. / 3}};
-    double nn[3 * MAXS];
+/* The new triangles N: 1 when none is degenerate, turned past TURN_COS from its reference
+ * normal or below qfloor, and the covered ones keep the edge ratio ASPECT; their unit
+ * normals into nn, s->newq and s->newbad set. */
+static int new_triangles_ok(imp *s, double qfloor, double *nn) {
     s->newq = INFINITY;
     s->newbad = 0;
     for (int i = 0; i < s->nn; i++) {
@@ -393,7 +401,13 @@ static int acceptable(imp *s, double qfloor, int full) {
         s->newbad += er < ASPECT;
         s->newq = fmin(s->newq, q);
     }
-    /* every edge once each way; the bend across it */
+    return 1;
+}
+
+/* 1 when every edge of N is there once each way (with the triangles outside the star) and
+ * the sharpest bend across them (1 - cos, normals nn) is no sharper than the old star's
+ * where above BEND_FREE, and above BEND_MAX only where the old star bent as much. */
+static int manifold_no_sharper(imp *s, const double *nn) {
     double bend = 0;
     for (int i = 0; i < s->nn; i++) {
         const int32_t *v = s->N + 3 * i;
@@ -420,10 +434,17 @@ static int acceptable(imp *s, double qfloor, int full) {
     if (bend > BEND_FREE) {
         double one, two;
         old_bend(s, &one, &two);
-        if (bend > two + 1e-12 || (bend > BEND_MAX && bend > one + 1e-12)) return 0;
+        if (bend > two + BEND_ROUND || (bend > BEND_MAX && bend > one + BEND_ROUND)) return 0;
     }
-    if (!full) return 1;
-    /* the mesh within eps of the fine surface (sampled as in the refinement) */
+    return 1;
+}
+
+/* 1 when N lies within eps of the fine surface (sampled as in the refinement) and the fine
+ * vertices the old star covered lie within eps of N or of the triangles around. */
+static int within_error(imp *s) {
+    static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3}, {.5, .5, 0}, {0, .5, .5},
+                                      {.5, 0, .5}, {2. / 3, 1. / 6, 1. / 6},
+                                      {1. / 6, 2. / 3, 1. / 6}, {1. / 6, 1. / 6, 2. / 3}};
     for (int i = 0; i < s->nn; i++) {
         const int32_t *v = s->N + 3 * i;
         const double *p[3] = {P(s, v[0]), P(s, v[1]), P(s, v[2])};
@@ -450,12 +471,18 @@ static int acceptable(imp *s, double qfloor, int full) {
             !other_near(s, p, s->eps))
             return 0;
     }
-    /* no crossing with the triangles around, nor among the new ones */
+    return 1;
+}
+
+/* 1 when no triangle of N crosses a live triangle around (outside the star) or another
+ * triangle of N. */
+static int no_crossing(imp *s) {
     for (int i = 0; i < s->nn; i++) {
         const int32_t *v = s->N + 3 * i;
         const double *p[3] = {P(s, v[0]), P(s, v[1]), P(s, v[2])};
         double blo[3], bhi[3];
-        tri_box(p, 1e-9, blo, bhi);
+        int64_t i0[3], i1[3];
+        tri_box(p, CROSS_PAD, blo, bhi);
         grange(s, blo, bhi, i0, i1);
         s->now++;
         FOR_CELLS(s, i0, i1, c) for (int32_t j = 0; j < s->cell[c].n; j++) {
@@ -473,6 +500,17 @@ static int acceptable(imp *s, double qfloor, int full) {
         }
     }
     return 1;
+}
+
+/* Whether the change S -> N passes: no degenerate or turned triangle, every new triangle's
+ * quality at least qfloor (covered ones also keep the edge ratio 0.3), a manifold without
+ * duplicate edges, no sharper crease; when full, also the error both ways and no crossing
+ * (the costly part). Sets s->newq and s->newbad. */
+static int acceptable(imp *s, double qfloor, int full) {
+    double nn[3 * MAXS];
+    if (!new_triangles_ok(s, qfloor, nn) || !manifold_no_sharper(s, nn)) return 0;
+    if (!full) return 1;
+    return within_error(s) && no_crossing(s);
 }
 
 /* -- the changes ------------------------------------------------------------------------ */
@@ -567,7 +605,7 @@ static void contract_star(imp *s, int32_t a, int32_t b, int32_t t1, int32_t t2) 
 }
 
 /* Makes N the triangles norig (they replace S; the others of S die). */
-static int apply(imp *s) {
+static vm_status apply(imp *s) {
     for (int i = 0; i < s->ns; i++) {
         int32_t t = s->S[i];
         for (int e = 0; e < 3; e++) vl_remove(&s->vt[s->t[3 * (size_t)t + e]], t);
@@ -580,10 +618,10 @@ static int apply(imp *s) {
         memcpy(s->t + 3 * (size_t)t, s->N + 3 * i, 3 * sizeof(int32_t));
         s->tdead[t] = 0;
         for (int e = 0; e < 3; e++)
-            if (vl_push(&s->vt[s->N[3 * i + e]], t)) return -1;
-        if (grid_insert(s, t)) return -1;
+            if (vl_push(&s->vt[s->N[3 * i + e]], t)) return VM_ERR_NOMEM;
+        if (grid_insert(s, t)) return VM_ERR_NOMEM;
     }
-    return 0;
+    return VM_OK;
 }
 
 /* Tries to contract a-b (both triangles at it kept fine) into the best of a, b and the
@@ -623,7 +661,7 @@ static int try_contract(imp *s, int32_t a, int32_t b) {
         s->ov = keep;
         memcpy(s->op, cand == 0 ? s->x + 3 * (size_t)a : cand == 1 ? s->x + 3 * (size_t)b : q,
                sizeof s->op);
-        if (acceptable(s, qfloor, 0) && (s->newq >= fmin(1, 1.02 * q0) || s->newbad < bad0))
+        if (acceptable(s, qfloor, 0) && (s->newq >= fmin(1, CONTRACT_GAIN * q0) || s->newbad < bad0))
             cq[cand] = s->newq;
         s->ov = -1;
     }
@@ -665,9 +703,9 @@ static int try_flip(imp *s, int32_t a, int32_t b) {
     double avg[3] = {n1[0] + n2[0], n1[1] + n2[1], n1[2] + n2[2]};
     double l = sqrt(avg[0] * avg[0] + avg[1] * avg[1] + avg[2] * avg[2]);
     int done = 0;
-    if (ok && l > 1e-9) {
+    if (ok && l > TINY) {
         for (int k = 0; k < 3; k++) s->nref[k] = s->nref[3 + k] = avg[k] / l;
-        if (acceptable(s, q0 * 1.05 + 1e-9, 1)) done = apply(s) ? -1 : 1;
+        if (acceptable(s, q0 * FLIP_GAIN + TINY, 1)) done = apply(s) ? -1 : 1;
     }
     star_clear(s);
     return done;
@@ -720,7 +758,7 @@ static int try_move(imp *s, int32_t v) {
         }
         s->ov = v;
         memcpy(s->op, q, sizeof q);
-        if (acceptable(s, q0 + 1e-3, 1)) done = apply(s) ? -1 : 1;
+        if (acceptable(s, q0 + MOVE_GAIN, 1)) done = apply(s) ? -1 : 1;
         s->ov = -1;
     }
     star_clear(s);

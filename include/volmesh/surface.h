@@ -67,8 +67,9 @@ void vm_surface_options_default(vm_surface_options *o);
 vm_status vm_surface_extract(const vm_volume *v, const vm_surface_options *o, vm_mesh *surf,
                              vm_surface_stats *stats, vm_error *err);
 
-/* Parses "dc", "mc", "asc", "cover". 0 on success, -1 for an unknown name. */
-int vm_surface_method_parse(const char *name, vm_surface_method *method);
+/* Parses "dc", "mc", "asc", "cover". VM_OK, or VM_ERR_ARG for an unknown name (no message:
+ * the caller names the option). */
+vm_status vm_surface_method_parse(const char *name, vm_surface_method *method);
 
 /* Name of a method ("dc", ...); "?" for an unknown value. */
 const char *vm_surface_method_name(vm_surface_method method);
