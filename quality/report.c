@@ -406,7 +406,7 @@ vm_status vm_quality_report_with(const vm_mesh *m, const vm_quality_options *o,
     return VM_OK;
 }
 
-int vm_quality_lookup(const vm_quality_summary *q, const char *key, double *value) {
+vm_status vm_quality_lookup(const vm_quality_summary *q, const char *key, double *value) {
     const vm_mesh_report *r = &q->check;
     struct {
         const char *name;
@@ -434,12 +434,12 @@ int vm_quality_lookup(const vm_quality_summary *q, const char *key, double *valu
     };
     for (size_t i = 0; i < sizeof keys / sizeof keys[0]; i++)
         if (strcmp(key, keys[i].name) == 0) {
-            if (!keys[i].ok) return -1;
+            if (!keys[i].ok) return VM_ERR_ARG;
             *value = keys[i].v;
-            return 0;
+            return VM_OK;
         }
     const char *dot = strrchr(key, '.');
-    if (!dot) return -1;
+    if (!dot) return VM_ERR_ARG;
     for (size_t k = 0; k < q->nmetrics; k++) {
         const vm_metric_stats *s = &q->metrics[k];
         size_t len = strlen(s->info->name);
@@ -454,10 +454,10 @@ int vm_quality_lookup(const vm_quality_summary *q, const char *key, double *valu
         else if (strcmp(f, "unacceptable") == 0)
             *value = (double)s->unacceptable;
         else
-            return -1;
-        return 0;
+            return VM_ERR_ARG;
+        return VM_OK;
     }
-    return -1;
+    return VM_ERR_ARG;
 }
 
 /* ---- text ------------------------------------------------------------------------------- */
@@ -482,7 +482,7 @@ static void fmt_num(char *buf, size_t cap, double x) {
         snprintf(buf, cap, "%.4g", x);
 }
 
-int vm_quality_write_text(FILE *out, const char *name, const vm_quality_summary *q,
+vm_status vm_quality_write_text(FILE *out, const char *name, const vm_quality_summary *q,
                           int abaqus) {
     const vm_mesh_report *r = &q->check;
     int vol = q->kind == VM_TET4 || q->kind == VM_HEX8;
@@ -560,7 +560,7 @@ int vm_quality_write_text(FILE *out, const char *name, const vm_quality_summary 
         }
     }
     fflush(out);
-    return ferror(out) ? -1 : 0;
+    return ferror(out) ? VM_ERR_IO : VM_OK;
 }
 
 /* ---- JSON ------------------------------------------------------------------------------- */
@@ -586,7 +586,7 @@ static void json_num(FILE *out, double x) {
         fputs("null", out);
 }
 
-int vm_quality_write_json(FILE *out, const char *name, const vm_quality_summary *q) {
+vm_status vm_quality_write_json(FILE *out, const char *name, const vm_quality_summary *q) {
     const vm_mesh_report *r = &q->check;
     int tet = q->kind == VM_TET4;
     fputs("{\"file\": ", out);
@@ -664,7 +664,7 @@ int vm_quality_write_json(FILE *out, const char *name, const vm_quality_summary 
     }
     fputs("}}\n", out);
     fflush(out);
-    return ferror(out) ? -1 : 0;
+    return ferror(out) ? VM_ERR_IO : VM_OK;
 }
 
 /* ---- SVG -------------------------------------------------------------------------------- */

@@ -317,9 +317,9 @@ vm_status vm_quality_report_with(const vm_mesh *m, const vm_quality_options *o,
  * boundary_faces, boundary_closed (0/1), boundary_euler, components, boundary_components,
  * boundary_self_intersections, volume, min_dihedral, max_dihedral, slivers_5, slivers_10,
  * min_scaled_jacobian, abaqus_failures) and METRIC.min, METRIC.mean, METRIC.max, METRIC.unacceptable for each
- * metric of the kind. Returns 0 and sets *value, or -1 when the key is unknown for this
- * mesh (e.g. min_dihedral or abaqus_failures of a hex mesh). */
-int vm_quality_lookup(const vm_quality_summary *q, const char *key, double *value);
+ * metric of the kind. Returns VM_OK and sets *value, or VM_ERR_ARG when the key is unknown
+ * for this mesh (e.g. min_dihedral or abaqus_failures of a hex mesh). */
+vm_status vm_quality_lookup(const vm_quality_summary *q, const char *key, double *value);
 
 /* Writes the report as a readable table (text) or one JSON object (json). name is the mesh
  * file shown in the output (may be NULL). JSON keys: file, kind, the keys listed for

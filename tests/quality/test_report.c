@@ -109,14 +109,14 @@ static void reportOfKuhnCubeHasExactStatistics(void) {
     }
     CHECK(q.abaqus_failures == 0 && q.check.slivers_10 == 0);
     double x;
-    CHECK(vm_quality_lookup(&q, "elements", &x) == 0 && x == 6);
-    CHECK(vm_quality_lookup(&q, "min_dihedral", &x) == 0 && fabs(x - 45.0) < 1e-9);
-    CHECK(vm_quality_lookup(&q, "radius_ratio.max", &x) == 0 && x > 1.0);
-    CHECK(vm_quality_lookup(&q, "abaqus_failures", &x) == 0 && x == 0);
-    CHECK(vm_quality_lookup(&q, "boundary_closed", &x) == 0 && x == 1);
-    CHECK(vm_quality_lookup(&q, "radius_ratio.median", &x) == -1);
-    CHECK(vm_quality_lookup(&q, "nonsense", &x) == -1);
-    CHECK(vm_quality_lookup(&q, "skew.max", &x) == -1);
+    CHECK(vm_quality_lookup(&q, "elements", &x) == VM_OK && x == 6);
+    CHECK(vm_quality_lookup(&q, "min_dihedral", &x) == VM_OK && fabs(x - 45.0) < 1e-9);
+    CHECK(vm_quality_lookup(&q, "radius_ratio.max", &x) == VM_OK && x > 1.0);
+    CHECK(vm_quality_lookup(&q, "abaqus_failures", &x) == VM_OK && x == 0);
+    CHECK(vm_quality_lookup(&q, "boundary_closed", &x) == VM_OK && x == 1);
+    CHECK(vm_quality_lookup(&q, "radius_ratio.median", &x) == VM_ERR_ARG);
+    CHECK(vm_quality_lookup(&q, "nonsense", &x) == VM_ERR_ARG);
+    CHECK(vm_quality_lookup(&q, "skew.max", &x) == VM_ERR_ARG);
     vm_mesh_free(&m);
 }
 
@@ -137,7 +137,7 @@ static void sliversAndAbaqusFailuresAreCounted(void) {
     const vm_metric_stats *r = stats_of(&q, "radius_ratio");
     CHECK(r && r->argmax == 6 && r->above == 1 && r->bins[VM_QUALITY_BINS - 1] >= 1);
     double x;
-    CHECK(vm_quality_lookup(&q, "slivers_10", &x) == 0 && x == 1);
+    CHECK(vm_quality_lookup(&q, "slivers_10", &x) == VM_OK && x == 1);
     vm_mesh_free(&m);
 }
 
@@ -152,10 +152,10 @@ static void hexReportHasNoDihedralsOrAbaqus(void) {
     CHECK_OK(vm_quality_report(&m, &q, &err), &err);
     CHECK(q.nmetrics == 6 && !q.has_abaqus);
     double x;
-    CHECK(vm_quality_lookup(&q, "min_dihedral", &x) == -1);
-    CHECK(vm_quality_lookup(&q, "abaqus_failures", &x) == -1);
-    CHECK(vm_quality_lookup(&q, "skew.max", &x) == 0 && x == 0);
-    CHECK(vm_quality_lookup(&q, "min_scaled_jacobian", &x) == 0 && x == 1);
+    CHECK(vm_quality_lookup(&q, "min_dihedral", &x) == VM_ERR_ARG);
+    CHECK(vm_quality_lookup(&q, "abaqus_failures", &x) == VM_ERR_ARG);
+    CHECK(vm_quality_lookup(&q, "skew.max", &x) == VM_OK && x == 0);
+    CHECK(vm_quality_lookup(&q, "min_scaled_jacobian", &x) == VM_OK && x == 1);
     FILE *fp = fopen(vm_test_tmp("report_hex.json"), "w");
     CHECK(fp && vm_quality_write_json(fp, "cube", &q) == 0);
     if (fp) fclose(fp);
