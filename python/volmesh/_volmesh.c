@@ -410,6 +410,11 @@ static int request_parse(PyObject *kw, mesh_request *r) {
     return 0;
 }
 
+/* The material bounds and the progress hook, as every option struct of the library has them. */
+#define SET_BOUNDS(o, r) ((o).lo = (r)->lo, (o).hi = (r)->hi, (o).has_lo = (r)->has_lo, \
+                          (o).has_hi = (r)->has_hi)
+#define SET_PROGRESS(o, fn, p) ((o).progress = (fn), (o).progress_user = (p))
+
 /* The meshing pipeline of volmesh mesh (no GIL): labels, surface or volume, then the pass. */
 static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ctx *p,
                           vm_mesh *m, vm_error *err) {
@@ -426,8 +431,7 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
         lo.max_level = r->max_level;
         lo.min_island = r->min_island;
         lo.smooth = r->smooth;
-        lo.progress = fn;
-        lo.progress_user = p;
+        SET_PROGRESS(lo, fn, p);
         vm_label_stats st;
         s = vm_mesh_labels(v, &lo, m, &st, err);
         if (s) return s;
@@ -435,63 +439,46 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
         if (!r->improve || m->kind != VM_TET4) return VM_OK;
         vm_improve_options io;
         vm_improve_options_default(&io);
-        io.progress = fn;
-        io.progress_user = p;
+        SET_PROGRESS(io, fn, p);
         vm_improve_report ir;
         return vm_mesh_improve(m, NULL, &io, &ir, err);
     }
     if (r->surface_method >= 0) {
         vm_surface_options so;
         vm_surface_options_default(&so);
-        so.lo = r->lo;
-        so.hi = r->hi;
-        so.has_lo = r->has_lo;
-        so.has_hi = r->has_hi;
+        SET_BOUNDS(so, r);
         so.method = (vm_surface_method)r->surface_method;
         so.elements = r->elements;
         so.cell_size = r->size;
         so.error = r->error;
         so.max_level = r->max_level;
         so.improve = r->improve;
-        so.progress = fn;
-        so.progress_user = p;
+        SET_PROGRESS(so, fn, p);
         return vm_surface_extract(v, &so, m, NULL, err);
     }
     vm_mesh_options o;
     vm_mesh_options_default(&o);
-    o.lo = r->lo;
-    o.hi = r->hi;
-    o.has_lo = r->has_lo;
-    o.has_hi = r->has_hi;
+    SET_BOUNDS(o, r);
     o.elements = r->elements;
     o.cell_size = r->size;
     o.adaptive = r->adaptive;
     o.error = r->error;
     o.max_level = r->max_level;
-    o.progress = fn;
-    o.progress_user = p;
+    SET_PROGRESS(o, fn, p);
     s = vm_mesh_volume(v, &o, m, NULL, err);
     if (s || !r->improve) return s;
     if (m->kind == VM_TET4) {
         vm_improve_options io;
         vm_improve_options_default(&io);
-        io.lo = r->lo;
-        io.hi = r->hi;
-        io.has_lo = r->has_lo;
-        io.has_hi = r->has_hi;
-        io.progress = fn;
-        io.progress_user = p;
+        SET_BOUNDS(io, r);
+        SET_PROGRESS(io, fn, p);
         vm_improve_report ir;
         s = vm_mesh_improve(m, v, &io, &ir, err);
     } else if (m->kind == VM_HEX8) {
         vm_hex_improve_options ho;
         vm_hex_improve_options_default(&ho);
-        ho.lo = r->lo;
-        ho.hi = r->hi;
-        ho.has_lo = r->has_lo;
-        ho.has_hi = r->has_hi;
-        ho.progress = fn;
-        ho.progress_user = p;
+        SET_BOUNDS(ho, r);
+        SET_PROGRESS(ho, fn, p);
         vm_hex_improve_report hr;
         s = vm_mesh_improve_hexes(m, v, &ho, &hr, err);
     }
