@@ -9,7 +9,8 @@
 
 enum {
     RLE_HEADER = 64,       /* PS3.5 G.3.1: segment count and 15 offsets, 32 bits each */
-    RLE_MAX_SEGMENTS = 15
+    RLE_MAX_SEGMENTS = 15,
+    RLE_RUN_MAX = 128      /* PackBits: one run header byte covers at most 128 bytes */
 };
 
 vm_scalar_type vm__dcm_stored_type(const dcm_file *f) {
@@ -56,13 +57,23 @@ static vm_status check_storage(const dcm_file *f, vm_error *err) {
         return vm_error_set(err, VM_ERR_FORMAT, "%s: pixel data is %s but the transfer syntax "
                             "%s says otherwise", p, f->encapsulated ? "encapsulated" : "native",
                             f->syntax_uid[0] ? f->syntax_uid : "(none)");
+    size_t plane, frame, all;
     if (f->encapsulated) {
         if (f->n_fragments < (size_t)f->frames)
             return vm_error_set(err, VM_ERR_FORMAT, "%s: RLE pixel data has %zu fragments for "
                                 "%lld frames", p, f->n_fragments, (long long)f->frames);
+        /* PackBits turns 2 bytes into at most 128: a shorter fragment cannot hold a frame */
+        size_t nseg = (size_t)f->bits_allocated / 8;
+        plane = (size_t)f->rows * (size_t)f->cols;
+        for (int64_t k = 0; k < f->frames; k++)
+            if ((f->fragments[k].length - (f->fragments[k].length > RLE_HEADER ? RLE_HEADER : 0))
+                    / 2 < nseg * ((plane + RLE_RUN_MAX - 1) / RLE_RUN_MAX))
+                return vm_error_set(err, VM_ERR_FORMAT, "%s: RLE fragment of frame %lld (%zu "
+                                    "bytes) is too short for %lldx%lld pixels", p,
+                                    (long long)k + 1, f->fragments[k].length,
+                                    (long long)f->cols, (long long)f->rows);
         return VM_OK;
     }
-    size_t plane, frame, all;
     if (!vm__mul_size((size_t)f->rows, (size_t)f->cols, &plane) ||
         !vm__mul_size(plane, (size_t)f->bits_allocated / 8, &frame) ||
         !vm__mul_size(frame, (size_t)f->frames, &all) || all > f->pixel_length)

@@ -321,10 +321,13 @@ static vm_status check_stack(const dcm_set *set, const dcm_slice *sl, int64_t n,
                                 "the slice normal (gantry tilt of about %.2f degrees: %s is %.4g "
                                 "mm off the line through %s); tilted stacks are not supported",
                                 pk, atan2(off, along) * DEG_PER_RAD, pk, off, first);
-        double gap = sl[k].d - sl[k - 1].d;
-        if (gap <= 1e-6 * (mean > 1 ? mean : 1))
+        if (sl[k].d - sl[k - 1].d <= 1e-6 * (mean > 1 ? mean : 1))
             return vm_error_set(err, VM_ERR_FORMAT, "%s: at the same position as %s (two "
                                 "acquisitions in one series?)", pk, pp);
+    }
+    for (int64_t k = 1; k < n; k++) {
+        const char *pk = set->files[sl[k].file].path, *pp = set->files[sl[k - 1].file].path;
+        double gap = sl[k].d - sl[k - 1].d;
         if (fabs(gap - mean) > GAP_TOLERANCE * mean)
             return vm_error_set(err, VM_ERR_FORMAT, "%s: uneven slice gaps: %.6g mm after %s "
                                 "against %.6g mm on average (more than 1 %% off; missing "
