@@ -131,6 +131,7 @@ static vm_status read_planes(const char *path, const dicom_job *j, const vm__sla
 static vm_status read_series(const char *path, const char *choice, const vm__slab *rq,
                              vm_volume *v, vm_error *err) {
     dicom_job j;
+    memset(v, 0, sizeof *v);
     vm_status st = job_open(path, choice, &j, v, err);
     if (st) return st;
     size_t count, first, n;

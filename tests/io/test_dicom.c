@@ -429,26 +429,40 @@ static void dicomReadsTheFolderOfADicomdir(void) {
     vm_volume_free(&v);
 }
 
-/* Writes a CT folder with slice k at position step(k) along the normal plus shift(k) along
- * the rows, and expects vm_volume_read to refuse it with code and phrase. */
-static void expect_stack_refused(const char *name, const double *along, const double *shift,
-                                 vm_status code, const char *phrase) {
+/* Writes n slices of the CT series into dir (files s0, s1, ...): slice k at along[k] on the
+ * normal (NULL: k * GAP) plus shift[k] along the rows (NULL: 0); the last one narrower by a
+ * column when narrow_last. */
+static void write_stack(const char *dir, int n, const double *along, const double *shift,
+                        int narrow_last) {
     fill_words();
-    const char *dir = fresh_dir(name);
-    for (int k = 0; k < 4; k++) {
+    for (int k = 0; k < n; k++) {
         dw_spec s = ct_slice(0, TS_EXPLICIT);
         for (int a = 0; a < 3; a++)
-            s.position[a] = ORIGIN[a] + along[k] * NORMAL[a] + shift[k] * ROW[a];
+            s.position[a] = ORIGIN[a] + (along ? along[k] : k * GAP) * NORMAL[a] +
+                            (shift ? shift[k] : 0) * ROW[a];
+        if (narrow_last && k == n - 1) s.cols = NX - 1;
         char fname[16];
         snprintf(fname, sizeof fname, "s%d", k);
         CHECK(dw_write(join(dir, fname), &s) == 0);
     }
+}
+
+/* Expects a read of dir refused with code and phrase, the message naming a file in dir. */
+static void expect_dir_refused(const char *dir, vm_status code, const char *phrase) {
     vm_volume v;
     vm_error err;
     vm_status st = vm_volume_read(dir, &v, &err);
     CHECK_MSG(st == code && strstr(err.message, phrase) && strstr(err.message, dir),
-              "%s: %d %s", name, (int)st, err.message);
+              "%s: %d %s", dir, (int)st, err.message);
     CHECK(v.data == NULL);
+}
+
+/* Four slices at along[k] on the normal and shift[k] along the rows, refused. */
+static void expect_stack_refused(const char *name, const double *along, const double *shift,
+                                 vm_status code, const char *phrase) {
+    const char *dir = fresh_dir(name);
+    write_stack(dir, 4, along, shift, 0);
+    expect_dir_refused(dir, code, phrase);
 }
 
 static void dicomRefusesUnevenGapsAndGantryTilt(void) {
@@ -458,16 +472,9 @@ static void dicomRefusesUnevenGapsAndGantryTilt(void) {
     expect_stack_refused("dicom_twin", twin, none, VM_ERR_FORMAT, "at the same position");
     expect_stack_refused("dicom_tilt", even, tilt, VM_ERR_UNSUPPORTED, "gantry tilt");
     /* within 1 %: read */
-    fill_words();
     const char *dir = fresh_dir("dicom_nearly");
     const double nearly[4] = {0, 1.004, 2, 3};
-    for (int k = 0; k < 4; k++) {
-        dw_spec s = ct_slice(0, TS_EXPLICIT);
-        for (int a = 0; a < 3; a++) s.position[a] = ORIGIN[a] + nearly[k] * NORMAL[a];
-        char fname[16];
-        snprintf(fname, sizeof fname, "s%d", k);
-        CHECK(dw_write(join(dir, fname), &s) == 0);
-    }
+    write_stack(dir, 4, nearly, NULL, 0);
     vm_volume v;
     vm_error err;
     CHECK_OK(vm_volume_read(dir, &v, &err), &err);
@@ -528,20 +535,9 @@ static void dicomRefusesJpegColourAndAbsurdSizes(void) {
 }
 
 static void dicomRefusesMixedDimsWithinASeries(void) {
-    fill_words();
     const char *dir = fresh_dir("dicom_mixed");
-    for (int k = 0; k < 3; k++) {
-        dw_spec s = ct_slice(k, TS_EXPLICIT);
-        if (k == 2) s.cols = NX - 1;
-        char fname[16];
-        snprintf(fname, sizeof fname, "s%d", k);
-        CHECK(dw_write(join(dir, fname), &s) == 0);
-    }
-    vm_volume v;
-    vm_error err;
-    vm_status st = vm_volume_read(dir, &v, &err);
-    CHECK_MSG(st == VM_ERR_FORMAT && strstr(err.message, "s2: 5x5 pixels, but"), "%s",
-              err.message);
+    write_stack(dir, 3, NULL, NULL, 1);
+    expect_dir_refused(dir, VM_ERR_FORMAT, "s2: 5x5 pixels, but");
 }
 
 TEST_MAIN(T(dicomReadsShuffledMixedSyntaxObliqueSeriesExactly),
