@@ -18,6 +18,7 @@ typedef struct dicom_job {
     dcm_slice *slices;
 } dicom_job;
 
+/* Frees what a job holds. */
 static void job_free(dicom_job *j) {
     vm__dcm_series_free(j->list, j->count);
     vm__dcm_set_free(&j->set);
@@ -44,6 +45,7 @@ typedef struct open_file {
     dcm_bytes b;
 } open_file;
 
+/* Releases the open file, if any. */
 static void close_file(open_file *o) {
     if (o->index != (size_t)-1) {
         vm__dcm_file_free(&o->f);
@@ -144,16 +146,19 @@ static vm_status read_series(const char *path, const char *choice, const vm__sla
     return st;
 }
 
+/* The default series of path, as rq asks (vm_volume_read and its slab calls). */
 vm_status vm__read_dicom(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
     return read_series(path, NULL, rq, v, err);
 }
 
+/* Reads series choice under path whole. */
 vm_status vm_volume_read_dicom(const char *path, const char *series, vm_volume *v,
                                vm_error *err) {
     assert(path && v);
     return read_series(path, series, &vm__slab_whole, v, err);
 }
 
+/* Reads the header of series choice under path, no pixel. */
 vm_status vm_volume_read_dicom_info(const char *path, const char *series, vm_volume *v,
                                     vm_error *err) {
     assert(path && v);
@@ -161,6 +166,7 @@ vm_status vm_volume_read_dicom_info(const char *path, const char *series, vm_vol
     return read_series(path, series, &rq, v, err);
 }
 
+/* Lists the series under path from their files' headers. */
 vm_status vm_dicom_list_series(const char *path, vm_dicom_series_info **list, size_t *count,
                                vm_error *err) {
     assert(path && list && count);
@@ -185,4 +191,5 @@ vm_status vm_dicom_list_series(const char *path, vm_dicom_series_info **list, si
     return st;
 }
 
+/* Frees a list of series. */
 void vm_dicom_series_free(vm_dicom_series_info *list) { free(list); }

@@ -58,6 +58,7 @@ static const char *const LONG_VRS[] = {"OB", "OD", "OF", "OL", "OV", "OW", "SQ",
 static const char ALL_VRS[] = "AE AS AT CS DA DS DT FL FD IS LO LT OB OD OF OL OV OW PN SH SL "
                               "SQ SS ST SV TM UC UI UL UN UR US UT UV";
 
+/* The name of a transfer syntax UID, NULL when unknown. */
 const char *vm__dcm_syntax_name(const char *uid) {
     for (size_t i = 0; i < sizeof syntaxes / sizeof syntaxes[0]; i++)
         if (strcmp(uid, syntaxes[i].uid) == 0) return syntaxes[i].name;
@@ -72,16 +73,19 @@ static int is_vr(const unsigned char *p) {
     return 0;
 }
 
+/* 1 when an explicit VR has the 32-bit length form. */
 static int is_long_vr(const char *vr) {
     for (size_t i = 0; i < sizeof LONG_VRS / sizeof LONG_VRS[0]; i++)
         if (strcmp(vr, LONG_VRS[i]) == 0) return 1;
     return 0;
 }
 
+/* A 16-bit value in the given byte order. */
 static uint32_t get16(const unsigned char *p, int big) {
     return big ? (uint32_t)p[0] << 8 | p[1] : (uint32_t)p[1] << 8 | p[0];
 }
 
+/* A 32-bit value in the given byte order. */
 static uint32_t get32(const unsigned char *p, int big) {
     return big ? (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3]
                : (uint32_t)p[3] << 24 | (uint32_t)p[2] << 16 | (uint32_t)p[1] << 8 | p[0];
@@ -109,12 +113,14 @@ static int bare_start(const unsigned char *p, size_t len, int *big, int *explici
     return -1;
 }
 
+/* 1 when the first bytes of a file look like DICOM. */
 int vm__dcm_sniff(const unsigned char *p, size_t len) {
     if (len >= PREAMBLE + 4 && memcmp(p + PREAMBLE, "DICM", 4) == 0) return 1;
     int big, ex;
     return bare_start(p, len, &big, &ex) == 0;
 }
 
+/* 1 when the file at path looks like DICOM from its first 132 bytes. */
 int vm__dcm_sniff_path(const char *path) {
     FILE *fp = fopen(path, "rb");
     if (!fp) return 0;
@@ -601,6 +607,7 @@ static vm_status find_dataset(walk *w, dcm_file *f, size_t *pos, vm_error *err) 
     return VM_OK;
 }
 
+/* Parses one file: meta group, dataset (inflated when deflated), up to the pixel data. */
 vm_status vm__dcm_parse(const char *path, dcm_file *f, dcm_bytes *keep, vm_error *err) {
     memset(f, 0, sizeof *f);
     f->frames = f->samples = 1;
@@ -630,12 +637,14 @@ vm_status vm__dcm_parse(const char *path, dcm_file *f, dcm_bytes *keep, vm_error
     return st;
 }
 
+/* Releases the bytes a parse kept. */
 void vm__dcm_bytes_free(dcm_bytes *b) {
     vm__map_free(&b->map);
     free(b->inflated);
     memset(b, 0, sizeof *b);
 }
 
+/* Frees what a parsed file owns. */
 void vm__dcm_file_free(dcm_file *f) {
     free(f->path);
     free(f->frame_positions);

@@ -13,6 +13,7 @@ enum {
     RLE_RUN_MAX = 128      /* PackBits: one run header byte covers at most 128 bytes */
 };
 
+/* The stored sample type from BitsAllocated and PixelRepresentation. */
 vm_scalar_type vm__dcm_stored_type(const dcm_file *f) {
     int s = f->pixel_rep == 1;
     if (f->bits_allocated == 8) return s ? VM_SCALAR_INT8 : VM_SCALAR_UINT8;
@@ -84,6 +85,7 @@ static vm_status check_storage(const dcm_file *f, vm_error *err) {
     return VM_OK;
 }
 
+/* Checks that f's frames can be decoded: syntax first, then layout and sizes. */
 vm_status vm__dcm_check_pixels(dcm_file *f, vm_error *err) {
     if (!f->has_pixels)
         return vm_error_set(err, VM_ERR_FORMAT, "%s: no pixel data (7FE0,0010): not an image",
@@ -200,6 +202,7 @@ static void to_values(const dcm_file *f, int64_t frame, const uint32_t *raw, siz
     }
 }
 
+/* Decodes one frame of f into modality values. */
 vm_status vm__dcm_decode_frame(const dcm_file *f, const dcm_bytes *b, int64_t frame,
                                float *dst, vm_error *err) {
     size_t n = (size_t)f->rows * (size_t)f->cols, bytes;

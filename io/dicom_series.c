@@ -32,6 +32,7 @@ static vm_status set_add(dcm_set *set, size_t *cap, dcm_file *f, vm_error *err) 
     return VM_OK;
 }
 
+/* Orders names by strcmp. */
 static int cmp_names(const void *a, const void *b) {
     return strcmp(*(char *const *)a, *(char *const *)b);
 }
@@ -90,6 +91,7 @@ static vm_status walk_folder(const char *dir, int depth, dcm_set *set, size_t *c
     return st;
 }
 
+/* Finds and parses the headers of the DICOM images under path. */
 vm_status vm__dcm_scan(const char *path, dcm_set *set, vm_error *err) {
     memset(set, 0, sizeof *set);
     size_t cap = 0;
@@ -127,18 +129,21 @@ vm_status vm__dcm_scan(const char *path, dcm_set *set, vm_error *err) {
     return st;
 }
 
+/* Frees a set of files. */
 void vm__dcm_set_free(dcm_set *set) {
     for (size_t i = 0; i < set->n; i++) vm__dcm_file_free(&set->files[i]);
     free(set->files);
     memset(set, 0, sizeof *set);
 }
 
+/* Orders series by slices (most first), then UID. */
 static int cmp_series(const void *a, const void *b) {
     const dcm_series *x = a, *y = b;
     if (x->slices != y->slices) return x->slices > y->slices ? -1 : 1;
     return strcmp(x->uid, y->uid);
 }
 
+/* Groups the files of set by SeriesInstanceUID. */
 vm_status vm__dcm_group(const char *path, const dcm_set *set, dcm_series **list,
                         size_t *count, vm_error *err) {
     *list = calloc(set->n ? set->n : 1, sizeof **list);
@@ -166,12 +171,14 @@ vm_status vm__dcm_group(const char *path, const dcm_set *set, dcm_series **list,
     return VM_OK;
 }
 
+/* Frees a list of series. */
 void vm__dcm_series_free(dcm_series *list, size_t count) {
     if (!list) return;
     for (size_t i = 0; i < count; i++) free(list[i].members);
     free(list);
 }
 
+/* Finds the series a choice names. */
 vm_status vm__dcm_choose(const char *path, const dcm_series *list, size_t count,
                          const char *choice, size_t *which, vm_error *err) {
     *which = 0;
@@ -296,6 +303,7 @@ static vm_status frame_position(const dcm_file *f, int64_t k, int64_t total,
     return VM_OK;
 }
 
+/* Orders slices by their position along the normal. */
 static int cmp_slices(const void *a, const void *b) {
     const dcm_slice *x = a, *y = b;
     return x->d < y->d ? -1 : x->d > y->d ? 1 : 0;
@@ -354,6 +362,7 @@ static vm_status collect_slices(const dcm_set *set, const dcm_series *s, const d
     return VM_OK;
 }
 
+/* The volume header of series s and its sorted slices. */
 vm_status vm__dcm_geometry(const char *path, dcm_set *set, const dcm_series *s, vm_volume *v,
                            dcm_slice **slices, vm_error *err) {
     memset(v, 0, sizeof *v);

@@ -48,6 +48,7 @@ typedef struct dw_buf {
     int big, explicit_vr;
 } dw_buf;
 
+/* Appends len bytes. */
 static void dw_put(dw_buf *b, const void *src, size_t len) {
     if (b->n + len > b->cap) {
         b->cap = (b->n + len) * 2 + 256;
@@ -57,11 +58,13 @@ static void dw_put(dw_buf *b, const void *src, size_t len) {
     b->n += len;
 }
 
+/* Appends a 16-bit value in the buffer's byte order. */
 static void dw_u16(dw_buf *b, unsigned v) {
     unsigned char q[2] = {(unsigned char)(b->big ? v >> 8 : v), (unsigned char)(b->big ? v : v >> 8)};
     dw_put(b, q, 2);
 }
 
+/* Appends a 32-bit value in the buffer's byte order. */
 static void dw_u32(dw_buf *b, uint32_t v) {
     unsigned char q[4];
     for (int i = 0; i < 4; i++) q[b->big ? 3 - i : i] = (unsigned char)(v >> (8 * i));
@@ -95,6 +98,7 @@ static void dw_str(dw_buf *b, unsigned g, unsigned e, const char *vr, const char
     if (even > len) dw_put(b, strcmp(vr, "UI") == 0 ? "" : " ", 1);
 }
 
+/* A US element. */
 static void dw_us(dw_buf *b, unsigned g, unsigned e, unsigned v) {
     dw_head(b, g, e, "US", 2);
     dw_u16(b, v);

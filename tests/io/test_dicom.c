@@ -28,6 +28,7 @@ static uint32_t blob_word(int i, int j, int k) {
 
 static uint32_t words[NZ][PLANE];
 
+/* Fills the stored words of the CT series. */
 static void fill_words(void) {
     for (int k = 0; k < NZ; k++)
         for (int j = 0; j < NY; j++)
@@ -81,6 +82,7 @@ static const char *fresh_dir(const char *name) {
     return dir;
 }
 
+/* dir/name in a rotating static buffer. */
 static const char *join(const char *dir, const char *name) {
     static char buf[4][4200];
     static int slot;
@@ -137,6 +139,7 @@ static int same_mesh(const vm_mesh *a, const vm_mesh *b, double tol) {
     return 1;
 }
 
+/* The default tet mesh of v. */
 static void mesh_of(const vm_volume *v, vm_mesh *m) {
     vm_mesh_options o;
     vm_mesh_options_default(&o);
