@@ -211,9 +211,13 @@ static void dicomListsSeriesAndReadsTheOneChosen(void) {
     CHECK(st == VM_ERR_ARG && strstr(err.message, "series 3 does not exist"));
     st = vm_volume_read_dicom(dir, "1.2.3", &v, &err);
     CHECK(st == VM_ERR_ARG && strstr(err.message, "no series with SeriesInstanceUID 1.2.3"));
-    /* one file alone is its own one-slice volume */
+    /* one file alone is its own one-slice volume, recognised by content whatever its name */
     CHECK_OK(vm_volume_read(join(dir, "m"), &v, &err), &err);
     CHECK(v.dims[2] == 1);
+    vm_volume_free(&v);
+    CHECK(rename(join(dir, "m"), join(dir, "m.nrrd")) == 0);
+    CHECK_OK(vm_volume_read(join(dir, "m.nrrd"), &v, &err), &err);
+    CHECK(strcmp(v.format, "dicom") == 0 && v.dims[2] == 1);
     vm_volume_free(&v);
 }
 
