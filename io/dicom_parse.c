@@ -68,8 +68,8 @@ const char *vm__dcm_syntax_name(const char *uid) {
 /* 1 when the two bytes are a VR of PS3.5 table 6.2-1. */
 static int is_vr(const unsigned char *p) {
     if (!isupper(p[0]) || !isupper(p[1])) return 0;
-    for (const char *s = ALL_VRS; *s; s += 3)
-        if (s[0] == p[0] && s[1] == p[1]) return 1;
+    for (size_t i = 0; i + 2 < sizeof ALL_VRS; i += 3) /* "XX " entries, the last "XX\0" */
+        if (ALL_VRS[i] == p[0] && ALL_VRS[i + 1] == p[1]) return 1;
     return 0;
 }
 
