@@ -229,10 +229,13 @@ static vm_status check_members(dcm_set *set, const dcm_series *s, vm_error *err)
         if (f->bits_allocated != a->bits_allocated || f->pixel_rep != a->pixel_rep)
             return vm_error_set(err, VM_ERR_FORMAT, "%s: sample type differs from %s of the "
                                 "same series", f->path, a->path);
-        if (f->has_orientation != a->has_orientation || f->has_spacing != a->has_spacing ||
-            !agree(f->orientation, a->orientation, 6) || !agree(f->spacing, a->spacing, 2))
-            return vm_error_set(err, VM_ERR_FORMAT, "%s: orientation or pixel spacing differs "
-                                "from %s of the same series", f->path, a->path);
+        if (f->has_orientation != a->has_orientation || !agree(f->orientation, a->orientation, 6))
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: ImageOrientationPatient differs from "
+                                "%s of the same series (a localizer or radial series is not "
+                                "a stack)", f->path, a->path);
+        if (f->has_spacing != a->has_spacing || !agree(f->spacing, a->spacing, 2))
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: PixelSpacing differs from %s of the "
+                                "same series", f->path, a->path);
     }
     return VM_OK;
 }
