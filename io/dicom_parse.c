@@ -32,7 +32,8 @@ static const struct {
     {"1.2.840.10008.1.2.5", "RLE Lossless", DCM_RLE},
     {"1.2.840.10008.1.2.4.50", "JPEG Baseline (Process 1)", DCM_ENCAPSULATED},
     {"1.2.840.10008.1.2.4.51", "JPEG Extended (Process 2 & 4)", DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.57", "JPEG Lossless, Non-Hierarchical (Process 14)", DCM_ENCAPSULATED},
+    {"1.2.840.10008.1.2.4.57", "JPEG Lossless, Non-Hierarchical (Process 14)",
+     DCM_ENCAPSULATED},
     {"1.2.840.10008.1.2.4.70", "JPEG Lossless, Non-Hierarchical, First-Order Prediction",
      DCM_ENCAPSULATED},
     {"1.2.840.10008.1.2.4.80", "JPEG-LS Lossless", DCM_ENCAPSULATED},
@@ -345,7 +346,9 @@ static vm_status take_top(walk *w, const elem *e, vm_error *err) {
         break;
     }
     case DCM_MODALITY: take_string(w, e, f->modality, sizeof f->modality); break;
-    case DCM_SERIES_DESCRIPTION: take_string(w, e, f->description, sizeof f->description); break;
+    case DCM_SERIES_DESCRIPTION:
+        take_string(w, e, f->description, sizeof f->description);
+        break;
     case DCM_SERIES_UID: take_string(w, e, f->series_uid, sizeof f->series_uid); break;
     case DCM_IMAGE_POSITION:
         f->has_position = 1;

@@ -67,8 +67,10 @@ static vm_status check_storage(const dcm_file *f, vm_error *err) {
         size_t nseg = (size_t)f->bits_allocated / 8;
         plane = (size_t)f->rows * (size_t)f->cols;
         for (int64_t k = 0; k < f->frames; k++)
-            if ((f->fragments[k].length - (f->fragments[k].length > RLE_HEADER ? RLE_HEADER : 0))
-                    / 2 < nseg * ((plane + RLE_RUN_MAX - 1) / RLE_RUN_MAX))
+            if ((f->fragments[k].length -
+                 (f->fragments[k].length > RLE_HEADER ? RLE_HEADER : 0)) /
+                    2 <
+                nseg * ((plane + RLE_RUN_MAX - 1) / RLE_RUN_MAX))
                 return vm_error_set(err, VM_ERR_FORMAT, "%s: RLE fragment of frame %lld (%zu "
                                     "bytes) is too short for %lldx%lld pixels", p,
                                     (long long)k + 1, f->fragments[k].length,
@@ -188,7 +190,8 @@ static void to_values(const dcm_file *f, int64_t frame, const uint32_t *raw, siz
     double slope = f->slope, intercept = f->intercept;
     if (f->frame_rescale && frame < f->n_frame_positions) {
         if (!isnan(f->frame_rescale[2 * frame])) slope = f->frame_rescale[2 * frame];
-        if (!isnan(f->frame_rescale[2 * frame + 1])) intercept = f->frame_rescale[2 * frame + 1];
+        if (!isnan(f->frame_rescale[2 * frame + 1]))
+            intercept = f->frame_rescale[2 * frame + 1];
     }
     int64_t pad = sign ? (int64_t)(int16_t)(uint16_t)f->padding_raw : (int64_t)f->padding_raw;
     for (size_t i = 0; i < n; i++) {

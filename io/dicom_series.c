@@ -1,6 +1,6 @@
 /* io/dicom_series.c — DICOM files to series and series to a volume's geometry: the folder
  * search, grouping by SeriesInstanceUID, slices sorted along the normal of the image plane.
- * Follows DICOM PS3.3 C.7.6.2 (image plane), C.7.6.16 (functional groups), C.8.8.3 (RT dose). */
+ * Follows DICOM PS3.3 C.7.6.2 (image plane), C.7.6.16 (functional groups), C.8.8.3 (dose). */
 #define _POSIX_C_SOURCE 200809L
 #include <ctype.h>
 #include <dirent.h>
@@ -229,7 +229,8 @@ static vm_status check_members(dcm_set *set, const dcm_series *s, vm_error *err)
         if (f->bits_allocated != a->bits_allocated || f->pixel_rep != a->pixel_rep)
             return vm_error_set(err, VM_ERR_FORMAT, "%s: sample type differs from %s of the "
                                 "same series", f->path, a->path);
-        if (f->has_orientation != a->has_orientation || !agree(f->orientation, a->orientation, 6))
+        if (f->has_orientation != a->has_orientation ||
+            !agree(f->orientation, a->orientation, 6))
             return vm_error_set(err, VM_ERR_FORMAT, "%s: ImageOrientationPatient differs from "
                                 "%s of the same series (a localizer or radial series is not "
                                 "a stack)", f->path, a->path);
@@ -256,7 +257,8 @@ static vm_status plane_axes(const dcm_file *a, int64_t slices, double axes[3][3]
     memcpy(c, a->orientation + 3, sizeof c);
     double nr = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
     double nc = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-    if (!(nr > 0.5 && nc > 0.5 && fabs(r[0] * c[0] + r[1] * c[1] + r[2] * c[2]) < 0.01 * nr * nc))
+    if (!(nr > 0.5 && nc > 0.5 &&
+          fabs(r[0] * c[0] + r[1] * c[1] + r[2] * c[2]) < 0.01 * nr * nc))
         return vm_error_set(err, VM_ERR_FORMAT, "%s: ImageOrientationPatient does not hold two "
                             "perpendicular directions", a->path);
     for (int i = 0; i < 3; i++) axes[0][i] = r[i] / nr, axes[1][i] = c[i] / nc;
@@ -275,16 +277,18 @@ static vm_status frame_position(const dcm_file *f, int64_t k, int64_t total,
                                 const double n[3], double pos[3], vm_error *err) {
     if (f->n_frame_positions > 0) {
         if (k >= f->n_frame_positions || isnan(f->frame_positions[3 * k]))
-            return vm_error_set(err, VM_ERR_FORMAT, "%s: frame %lld has no PlanePositionSequence",
-                                f->path, (long long)k + 1);
+            return vm_error_set(err, VM_ERR_FORMAT,
+                                "%s: frame %lld has no PlanePositionSequence", f->path,
+                                (long long)k + 1);
         memcpy(pos, f->frame_positions + 3 * k, 3 * sizeof(double));
         return VM_OK;
     }
     if (f->n_offsets > 0 || f->frames > 1) {
         if (f->n_offsets < f->frames || !f->has_position)
-            return vm_error_set(err, VM_ERR_FORMAT, "%s: %lld frames but %lld grid frame offsets "
-                                "and %s image position; their positions are unknown", f->path,
-                                (long long)f->frames, (long long)f->n_offsets,
+            return vm_error_set(err, VM_ERR_FORMAT,
+                                "%s: %lld frames but %lld grid frame offsets "
+                                "and %s image position; their positions are unknown",
+                                f->path, (long long)f->frames, (long long)f->n_offsets,
                                 f->has_position ? "an" : "no");
         /* PS3.3 C.8.8.3.2 (files cut to fewer frames keep the whole vector: the first
          * entries are used): a first offset of 0 makes them relative to the image position
@@ -328,10 +332,12 @@ static vm_status check_stack(const dcm_set *set, const dcm_slice *sl, int64_t n,
         }
         off = sqrt(off);
         if (off > TILT_TOLERANCE * mean + 1e-6)
-            return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: slice positions are not along "
-                                "the slice normal (gantry tilt of about %.2f degrees: %s is %.4g "
-                                "mm off the line through %s); tilted stacks are not supported",
-                                pk, atan2(off, along) * DEG_PER_RAD, pk, off, first);
+            return vm_error_set(
+                err, VM_ERR_UNSUPPORTED,
+                "%s: slice positions are not along "
+                "the slice normal (gantry tilt of about %.2f degrees: %s is %.4g "
+                "mm off the line through %s); tilted stacks are not supported",
+                pk, atan2(off, along) * DEG_PER_RAD, pk, off, first);
         if (sl[k].d - sl[k - 1].d <= 1e-6 * (mean > 1 ? mean : 1))
             return vm_error_set(err, VM_ERR_FORMAT, "%s: at the same position as %s (two "
                                 "acquisitions in one series?)", pk, pp);

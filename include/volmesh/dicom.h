@@ -31,7 +31,7 @@ typedef struct vm_dicom_series_info {
     char description[65];  /* SeriesDescription (0008,103E), cut to 64 characters */
     char modality[17];     /* Modality (0008,0060): "CT", "MR", "RTDOSE", ... */
     int64_t files;         /* files of the series */
-    int64_t slices;        /* slices: one per single-frame file, NumberOfFrames per multi-frame */
+    int64_t slices;        /* one per single-frame file, NumberOfFrames per multi-frame */
     int64_t dims[3];       /* Columns, Rows, slices (of the first file; a series whose files
                               disagree is listed but refused when read) */
 } vm_dicom_series_info;

@@ -60,7 +60,8 @@ static void dw_put(dw_buf *b, const void *src, size_t len) {
 
 /* Appends a 16-bit value in the buffer's byte order. */
 static void dw_u16(dw_buf *b, unsigned v) {
-    unsigned char q[2] = {(unsigned char)(b->big ? v >> 8 : v), (unsigned char)(b->big ? v : v >> 8)};
+    unsigned char q[2] = {(unsigned char)(b->big ? v >> 8 : v),
+                          (unsigned char)(b->big ? v : v >> 8)};
     dw_put(b, q, 2);
 }
 
@@ -130,7 +131,8 @@ static void dw_macro(dw_buf *b, unsigned g, unsigned e, unsigned vg, unsigned ve
 }
 
 /* Wraps items (each a buffer) into a sequence element. */
-static void dw_sequence(dw_buf *b, unsigned g, unsigned e, dw_buf *items, int n, int undefined) {
+static void dw_sequence(dw_buf *b, unsigned g, unsigned e, dw_buf *items, int n,
+                        int undefined) {
     size_t total = 0;
     for (int i = 0; i < n; i++) total += items[i].n + 8;
     dw_head(b, g, e, "SQ", undefined ? 0xFFFFFFFFu : (uint32_t)total);
@@ -172,8 +174,9 @@ static void dw_packbits(dw_buf *b, const unsigned char *x, size_t n) {
             continue;
         }
         size_t lit = 0;
-        while (i + lit < n && lit < 128 &&
-               !(i + lit + 2 < n && x[i + lit] == x[i + lit + 1] && x[i + lit] == x[i + lit + 2]))
+        while (
+            i + lit < n && lit < 128 &&
+            !(i + lit + 2 < n && x[i + lit] == x[i + lit + 1] && x[i + lit] == x[i + lit + 2]))
             lit++;
         unsigned char h = (unsigned char)(lit - 1);
         dw_put(b, &h, 1);
@@ -188,7 +191,8 @@ static void dw_rle_frame(dw_buf *b, const uint32_t *w, size_t n, int bytes) {
     unsigned char *plane = malloc(n);
     for (int s = 0; s < bytes; s++) {
         memset(&segs[s], 0, sizeof segs[s]);
-        for (size_t i = 0; i < n; i++) plane[i] = (unsigned char)(w[i] >> (8 * (bytes - 1 - s)));
+        for (size_t i = 0; i < n; i++)
+            plane[i] = (unsigned char)(w[i] >> (8 * (bytes - 1 - s)));
         dw_packbits(&segs[s], plane, n);
         if (segs[s].n & 1) dw_put(&segs[s], "", 1);
     }
@@ -213,7 +217,8 @@ static void dw_rle_frame(dw_buf *b, const uint32_t *w, size_t n, int bytes) {
 static void dw_pixels(dw_buf *b, const dw_spec *s) {
     int bytes = s->bits_allocated / 8;
     size_t n = (size_t)s->rows * (size_t)s->cols, frames = (size_t)(s->frames ? s->frames : 1);
-    int rle = strcmp(s->syntax, TS_RLE) == 0, jpeg = strncmp(s->syntax, "1.2.840.10008.1.2.4.", 20) == 0;
+    int rle = strcmp(s->syntax, TS_RLE) == 0,
+        jpeg = strncmp(s->syntax, "1.2.840.10008.1.2.4.", 20) == 0;
     if (rle || jpeg) {
         dw_head(b, 0x7FE0, 0x0010, "OB", 0xFFFFFFFFu);
         dw_head(b, 0xFFFE, 0xE000, "", 0); /* empty basic offset table */

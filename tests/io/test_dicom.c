@@ -1,8 +1,8 @@
-/* tests/io/test_dicom.c — the DICOM reader against files written here (tests/io/dicom_writer.h):
- * an oblique CT series in shuffled, mixed-syntax files beside a second series reads to the
- * exact voxels and geometry and meshes like the same voxels given directly; every decoded
- * syntax; values (rescale, sign, BitsStored, padding, dose); multi-frame; series choice; and
- * every kind of bad input refused as "PATH: problem". */
+/* tests/io/test_dicom.c — the DICOM reader against files written here
+ * (tests/io/dicom_writer.h): an oblique CT series in shuffled, mixed-syntax files beside a
+ * second series reads to the exact voxels and geometry and meshes like the same voxels given
+ * directly; every decoded syntax; values (rescale, sign, BitsStored, padding, dose);
+ * multi-frame; series choice; and every kind of bad input refused as "PATH: problem". */
 #define _POSIX_C_SOURCE 200809L
 #include <stdint.h>
 #include <string.h>
@@ -69,7 +69,8 @@ static void expected_ct(vm_volume *v) {
     v->spacing[0] = PIXEL_SPACING[1], v->spacing[1] = PIXEL_SPACING[0], v->spacing[2] = GAP;
     for (int a = 0; a < 3; a++) {
         v->origin[a] = ORIGIN[a];
-        v->direction[a][0] = ROW[a], v->direction[a][1] = COL[a], v->direction[a][2] = NORMAL[a];
+        v->direction[a][0] = ROW[a], v->direction[a][1] = COL[a],
+        v->direction[a][2] = NORMAL[a];
     }
 }
 
@@ -92,7 +93,8 @@ static const char *join(const char *dir, const char *name) {
 }
 
 /* Voxels equal exactly, geometry to tol. */
-static void expect_same(const vm_volume *got, const vm_volume *want, double tol, const char *what) {
+static void expect_same(const vm_volume *got, const vm_volume *want, double tol,
+                        const char *what) {
     CHECK_MSG(memcmp(got->dims, want->dims, sizeof got->dims) == 0, "%s: dims %lld %lld %lld",
               what, (long long)got->dims[0], (long long)got->dims[1], (long long)got->dims[2]);
     if (memcmp(got->dims, want->dims, sizeof got->dims) != 0 || !got->data) return;
@@ -104,7 +106,8 @@ static void expect_same(const vm_volume *got, const vm_volume *want, double tol,
     for (int a = 0; a < 3; a++) {
         CHECK_NEAR(got->spacing[a], want->spacing[a], tol);
         CHECK_NEAR(got->origin[a], want->origin[a], tol);
-        for (int c = 0; c < 3; c++) CHECK_NEAR(got->direction[a][c], want->direction[a][c], tol);
+        for (int c = 0; c < 3; c++)
+            CHECK_NEAR(got->direction[a][c], want->direction[a][c], tol);
     }
 }
 
@@ -195,7 +198,8 @@ static void dicomListsSeriesAndReadsTheOneChosen(void) {
         CHECK(strcmp(list[0].uid, "1.2.826.0.1.3680043.2.1125.1.1") == 0);
         CHECK(list[0].slices == NZ && list[0].files == NZ && list[0].dims[0] == NX &&
               list[0].dims[1] == NY && list[0].dims[2] == NZ);
-        CHECK(strcmp(list[0].modality, "CT") == 0 && strcmp(list[0].description, "oblique CT") == 0);
+        CHECK(strcmp(list[0].modality, "CT") == 0 &&
+              strcmp(list[0].description, "oblique CT") == 0);
         CHECK(strcmp(list[1].description, "scout") == 0 && list[1].slices == 1);
     }
     vm_dicom_series_free(list);
@@ -295,25 +299,34 @@ static void dicomMasksBitsStoredAndSignExtends(void) {
     vm_error err;
     CHECK_OK(vm_volume_read(one_file("dicom_mask.dcm", TS_EXPLICIT, 16, 12, 11, 1, w, 6), &v,
                             &err), &err);
-    for (int i = 0; v.data && i < 6; i++) CHECK_MSG(v.data[i] == want[i], "signed %d: %g", i, v.data[i]);
+    for (int i = 0; v.data && i < 6; i++)
+        CHECK_MSG(v.data[i] == want[i], "signed %d: %g", i, v.data[i]);
     CHECK(v.type == VM_SCALAR_INT16);
     vm_volume_free(&v);
     /* unsigned 12 bits; and stored bits below a HighBit of 13 (shifted by 2) */
     const float want_u[6] = {2047, 2048, 4095, 1, 0, 4095};
-    CHECK_OK(vm_volume_read(one_file("dicom_mask_u.dcm", TS_BIG, 16, 12, 11, 0, w, 6), &v, &err), &err);
-    for (int i = 0; v.data && i < 6; i++) CHECK_MSG(v.data[i] == want_u[i], "unsigned %d: %g", i, v.data[i]);
+    CHECK_OK(
+        vm_volume_read(one_file("dicom_mask_u.dcm", TS_BIG, 16, 12, 11, 0, w, 6), &v, &err),
+        &err);
+    for (int i = 0; v.data && i < 6; i++)
+        CHECK_MSG(v.data[i] == want_u[i], "unsigned %d: %g", i, v.data[i]);
     vm_volume_free(&v);
     const uint32_t hw[2] = {0x3FFC, 0x0004};
-    CHECK_OK(vm_volume_read(one_file("dicom_mask_h.dcm", TS_IMPLICIT, 16, 12, 13, 0, hw, 2), &v, &err), &err);
+    CHECK_OK(vm_volume_read(one_file("dicom_mask_h.dcm", TS_IMPLICIT, 16, 12, 13, 0, hw, 2), &v,
+                            &err),
+             &err);
     if (v.data) CHECK(v.data[0] == 4095 && v.data[1] == 1);
     vm_volume_free(&v);
     /* 8 and 32 bits, signed */
     const uint32_t b8[3] = {0x80, 0x7F, 0xFF}, b32[3] = {0x80000000u, 0x7FFFFFFFu, 0xFFFFFFFEu};
-    CHECK_OK(vm_volume_read(one_file("dicom_8.dcm", TS_RLE, 8, 8, 7, 1, b8, 3), &v, &err), &err);
+    CHECK_OK(vm_volume_read(one_file("dicom_8.dcm", TS_RLE, 8, 8, 7, 1, b8, 3), &v, &err),
+             &err);
     if (v.data) CHECK(v.data[0] == -128 && v.data[1] == 127 && v.data[2] == -1);
     vm_volume_free(&v);
-    CHECK_OK(vm_volume_read(one_file("dicom_32.dcm", TS_RLE, 32, 32, 31, 1, b32, 3), &v, &err), &err);
-    if (v.data) CHECK(v.data[0] == -2147483648.0f && v.data[1] == 2147483648.0f && v.data[2] == -2);
+    CHECK_OK(vm_volume_read(one_file("dicom_32.dcm", TS_RLE, 32, 32, 31, 1, b32, 3), &v, &err),
+             &err);
+    if (v.data)
+        CHECK(v.data[0] == -2147483648.0f && v.data[1] == 2147483648.0f && v.data[2] == -2);
     CHECK(v.type == VM_SCALAR_INT32);
     vm_volume_free(&v);
 }
@@ -405,7 +418,8 @@ static void dicomReadsEnhancedMultiFramePositions(void) {
         vm_error err;
         expected_ct(&want);
         CHECK_OK(vm_volume_read(path, &v, &err), &err);
-        if (v.data) expect_same(&v, &want, 1e-12, u ? "enhanced, undefined lengths" : "enhanced");
+        if (v.data)
+            expect_same(&v, &want, 1e-12, u ? "enhanced, undefined lengths" : "enhanced");
         vm_volume_free(&v);
         vm_volume_free(&want);
     }
