@@ -35,6 +35,7 @@ typedef struct dw_spec {
     const double *grid_offsets; /* RT dose, frames of them */
     double dose_scaling;      /* written when non-zero */
     const double *frame_positions; /* enhanced: 3 per frame in functional groups */
+    const double *frame_rescale;   /* enhanced: (slope, intercept) per frame, or NULL */
     int undefined_lengths;    /* sequences and items with undefined lengths */
     int no_pixels;
     int lie_rows, lie_cols, lie_frames; /* non-zero: announced instead of the real sizes */
@@ -156,6 +157,12 @@ static void dw_functional_groups(dw_buf *b, const dw_spec *s) {
     for (int k = 0; k < s->frames; k++) {
         frames[k].big = b->big, frames[k].explicit_vr = b->explicit_vr;
         dw_macro(&frames[k], 0x0020, 0x9113, 0x0020, 0x0032, s->frame_positions + 3 * k, 3, u);
+        if (s->frame_rescale) { /* PixelValueTransformationSequence: intercept, slope */
+            dw_buf item = {NULL, 0, 0, b->big, b->explicit_vr};
+            dw_ds(&item, 0x0028, 0x1052, s->frame_rescale + 2 * k + 1, 1);
+            dw_ds(&item, 0x0028, 0x1053, s->frame_rescale + 2 * k, 1);
+            dw_sequence(&frames[k], 0x0028, 0x9145, &item, 1, u);
+        }
     }
     dw_sequence(b, 0x5200, 0x9230, frames, s->frames, u);
     free(frames);

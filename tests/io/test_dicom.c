@@ -405,21 +405,28 @@ static void dicomReadsEnhancedMultiFramePositions(void) {
         memcpy(w + f * PLANE, words[k], sizeof words[k]);
         for (int a = 0; a < 3; a++) pos[3 * f + a] = ORIGIN[a] + k * GAP * NORMAL[a];
     }
-    for (int u = 0; u < 2; u++) {
+    /* per-frame rescale: the CT's everywhere but frame 0 (slice NZ-1): 2, -1000 */
+    double rescale[2 * NZ];
+    for (int f = 0; f < NZ; f++) rescale[2 * f] = SLOPE, rescale[2 * f + 1] = INTERCEPT;
+    rescale[0] = 2.0, rescale[1] = -1000.0;
+    static const char *const names[3] = {"dicom_enh.dcm", "dicom_enh_u.dcm", "dicom_enh_r.dcm"};
+    for (int u = 0; u < 3; u++) {
         dw_spec s = ct_slice(0, u ? TS_EXPLICIT : TS_IMPLICIT);
         s.has_position = s.has_orientation = 0;
         s.frames = NZ;
         s.frame_positions = pos;
-        s.undefined_lengths = u;
+        s.undefined_lengths = u == 1;
         s.words = w;
-        const char *path = vm_test_tmp(u ? "dicom_enh_u.dcm" : "dicom_enh.dcm");
-        CHECK(dw_write(path, &s) == 0);
+        if (u == 2) s.frame_rescale = rescale, s.has_rescale = 0;
+        CHECK(dw_write(vm_test_tmp(names[u]), &s) == 0);
         vm_volume v, want;
         vm_error err;
         expected_ct(&want);
-        CHECK_OK(vm_volume_read(path, &v, &err), &err);
-        if (v.data)
-            expect_same(&v, &want, 1e-12, u ? "enhanced, undefined lengths" : "enhanced");
+        if (u == 2)
+            for (int p = 0; p < PLANE; p++)
+                want.data[(NZ - 1) * PLANE + p] = (float)(words[NZ - 1][p] * 2.0 - 1000.0);
+        CHECK_OK(vm_volume_read(vm_test_tmp(names[u]), &v, &err), &err);
+        if (v.data) expect_same(&v, &want, 1e-12, names[u]);
         vm_volume_free(&v);
         vm_volume_free(&want);
     }
