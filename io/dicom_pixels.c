@@ -16,7 +16,7 @@ enum {
 /* The stored sample type from BitsAllocated and PixelRepresentation. */
 vm_scalar_type vm__dcm_stored_type(const dcm_file *f) {
     int s = f->pixel_rep == 1;
-    if (f->bits_allocated == 8) return s ? VM_SCALAR_INT8 : VM_SCALAR_UINT8;
+    if (f->bits_allocated <= 8) return s ? VM_SCALAR_INT8 : VM_SCALAR_UINT8;
     if (f->bits_allocated == 32) return s ? VM_SCALAR_INT32 : VM_SCALAR_UINT32;
     return s ? VM_SCALAR_INT16 : VM_SCALAR_UINT16;
 }
@@ -32,12 +32,13 @@ static vm_status check_layout(dcm_file *f, vm_error *err) {
     if (f->rows < 1 || f->cols < 1)
         return vm_error_set(err, VM_ERR_FORMAT, "%s: Rows %lld and Columns %lld must be >= 1",
                             p, (long long)f->rows, (long long)f->cols);
-    if (f->bits_allocated == 1)
-        return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: BitsAllocated 1 (a binary "
-                            "segmentation) is not supported", p);
-    if (f->bits_allocated != 8 && f->bits_allocated != 16 && f->bits_allocated != 32)
+    if (f->bits_allocated == 1 && (f->encapsulated || f->pixel_rep != 0))
+        return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: BitsAllocated 1 is supported in "
+                            "native, unsigned pixel data only", p);
+    if (f->bits_allocated != 1 && f->bits_allocated != 8 && f->bits_allocated != 16 &&
+        f->bits_allocated != 32)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: BitsAllocated %lld is not "
-                            "supported (8, 16 or 32)", p, (long long)f->bits_allocated);
+                            "supported (1, 8, 16 or 32)", p, (long long)f->bits_allocated);
     if (f->bits_stored == 0) f->bits_stored = f->bits_allocated;
     if (f->high_bit < 0) f->high_bit = f->bits_stored - 1;
     if (f->bits_stored > f->bits_allocated || f->high_bit >= f->bits_allocated ||
@@ -77,9 +78,11 @@ static vm_status check_storage(const dcm_file *f, vm_error *err) {
                                     (long long)f->cols, (long long)f->rows);
         return VM_OK;
     }
+    /* 1-bit frames follow each other bit after bit (PS3.5 8.1.1): bits, then bytes */
+    size_t per = f->bits_allocated == 1 ? 1 : (size_t)f->bits_allocated / 8;
     if (!vm__mul_size((size_t)f->rows, (size_t)f->cols, &plane) ||
-        !vm__mul_size(plane, (size_t)f->bits_allocated / 8, &frame) ||
-        !vm__mul_size(frame, (size_t)f->frames, &all) || all > f->pixel_length)
+        !vm__mul_size(plane, per, &frame) || !vm__mul_size(frame, (size_t)f->frames, &all) ||
+        (f->bits_allocated == 1 ? (all + 7) / 8 : all) > f->pixel_length)
         return vm_error_set(err, VM_ERR_FORMAT, "%s: pixel data holds %zu bytes, fewer than "
                             "%lld frame(s) of %lldx%lld at %lld bits need", p, f->pixel_length,
                             (long long)f->frames, (long long)f->cols, (long long)f->rows,
@@ -106,9 +109,17 @@ vm_status vm__dcm_check_pixels(dcm_file *f, vm_error *err) {
 }
 
 /* Native samples of one frame as unsigned words (PS3.5 8.1.1: OW words in the syntax's byte
- * order; OB bytes as they are). */
+ * order; OB bytes as they are; 1-bit pixels packed from the least significant bit, frames
+ * not byte-aligned, as segmentations store them, PS3.5 8.1.1 and PS3.3 C.8.20.2). */
 static void native_words(const dcm_file *f, const dcm_bytes *b, int64_t frame, size_t n,
                          uint32_t *raw) {
+    if (f->bits_allocated == 1) {
+        const unsigned char *bits = b->p + f->pixel_offset;
+        size_t first = (size_t)frame * n;
+        for (size_t i = 0, at = first; i < n; i++, at++)
+            raw[i] = bits[at >> 3] >> (at & 7) & 1u;
+        return;
+    }
     size_t bytes = (size_t)f->bits_allocated / 8;
     const unsigned char *s = b->p + f->pixel_offset + (size_t)frame * n * bytes;
     for (size_t i = 0; i < n; i++, s += bytes) {

@@ -338,9 +338,12 @@ static vm_status check_stack(const dcm_set *set, const dcm_slice *sl, int64_t n,
                 "the slice normal (gantry tilt of about %.2f degrees: %s is %.4g "
                 "mm off the line through %s); tilted stacks are not supported",
                 pk, atan2(off, along) * DEG_PER_RAD, pk, off, first);
+        int seg = strcmp(set->files[sl[k].file].modality, "SEG") == 0;
         if (sl[k].d - sl[k - 1].d <= 1e-6 * (mean > 1 ? mean : 1))
-            return vm_error_set(err, VM_ERR_FORMAT, "%s: at the same position as %s (two "
-                                "acquisitions in one series?)", pk, pp);
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: %s at the same position as %s (%s)",
+                                pk, seg ? "frames" : "slice", pp,
+                                seg ? "a segmentation of several segments is not supported"
+                                    : "two acquisitions in one series?");
     }
     for (int64_t k = 1; k < n; k++) {
         const char *pk = set->files[sl[k].file].path, *pp = set->files[sl[k - 1].file].path;

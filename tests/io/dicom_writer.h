@@ -236,6 +236,16 @@ static void dw_pixels(dw_buf *b, const dw_spec *s) {
         dw_head(b, 0xFFFE, 0xE0DD, "", 0);
         return;
     }
+    if (s->bits_allocated == 1) { /* bits of all frames in a row, least significant first */
+        size_t nbytes = (n * frames + 7) / 8;
+        unsigned char *packed = calloc(nbytes + 1, 1);
+        for (size_t i = 0; i < n * frames; i++)
+            packed[i >> 3] |= (unsigned char)((s->words[i] & 1u) << (i & 7));
+        dw_head(b, 0x7FE0, 0x0010, "OB", (uint32_t)(nbytes + (nbytes & 1)));
+        dw_put(b, packed, nbytes + (nbytes & 1));
+        free(packed);
+        return;
+    }
     size_t len = n * frames * (size_t)bytes;
     dw_head(b, 0x7FE0, 0x0010, bytes == 1 ? "OB" : "OW", (uint32_t)(len + (len & 1)));
     for (size_t i = 0; i < n * frames; i++) {

@@ -432,6 +432,31 @@ static void dicomReadsEnhancedMultiFramePositions(void) {
     }
 }
 
+static void dicomReadsOneBitSegmentationFrames(void) {
+    enum { F = 3 };
+    static uint32_t bits[F * PLANE]; /* 30 bits a frame: frames are not byte-aligned */
+    for (int i = 0; i < F * PLANE; i++) bits[i] = (uint32_t)((i * 7 + i / 5) % 3 == 0);
+    double pos[3 * F];
+    for (int f = 0; f < F; f++)
+        for (int a = 0; a < 3; a++) pos[3 * f + a] = ORIGIN[a] + f * GAP * NORMAL[a];
+    dw_spec s = ct_slice(0, TS_EXPLICIT);
+    s.modality = "SEG";
+    s.has_position = s.has_orientation = s.has_rescale = 0;
+    s.bits_allocated = s.bits_stored = 1, s.high_bit = 0;
+    s.frames = F, s.frame_positions = pos, s.words = bits;
+    const char *path = vm_test_tmp("dicom_seg.dcm");
+    CHECK(dw_write(path, &s) == 0);
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_volume_read(path, &v, &err), &err);
+    if (!v.data) return;
+    CHECK(v.dims[2] == F && v.type == VM_SCALAR_UINT8);
+    int bad = 0;
+    for (int i = 0; i < F * PLANE; i++) bad += v.data[i] != (float)bits[i];
+    CHECK_MSG(bad == 0, "%d voxels differ", bad);
+    vm_volume_free(&v);
+}
+
 static void dicomReadsTheFolderOfADicomdir(void) {
     fill_words();
     const char *dir = fresh_dir("dicom_dir");
@@ -576,6 +601,7 @@ TEST_MAIN(T(dicomReadsShuffledMixedSyntaxObliqueSeriesExactly),
           T(dicomFillsPaddingWithTheMinimumOfTheOtherValues),
           T(dicomReadsRtDoseGridOffsetsWithDoseScaling),
           T(dicomReadsEnhancedMultiFramePositions),
+          T(dicomReadsOneBitSegmentationFrames),
           T(dicomReadsTheFolderOfADicomdir),
           T(dicomRefusesUnevenGapsAndGantryTilt),
           T(dicomRefusesTruncatedEmptyAndPixellessFiles),

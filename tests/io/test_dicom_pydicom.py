@@ -82,7 +82,8 @@ def expected_values(ds):
         pad = int(ds.PixelPaddingValue)
         if int(ds.PixelRepresentation) == 1 and pad >= 32768:
             pad -= 65536
-    v = u * float(getattr(ds, "RescaleSlope", 1) or 1) + float(getattr(ds, "RescaleIntercept", 0) or 0)
+    slope = float(getattr(ds, "RescaleSlope", 1) or 1)
+    v = u * slope + float(getattr(ds, "RescaleIntercept", 0) or 0)
     v = v * float(getattr(ds, "DoseGridScaling", 1) or 1)
     v = v.astype(np.float32)
     if pad is not None:
@@ -94,12 +95,28 @@ def expected_values(ds):
 def expected_geometry(ds, nframes):
     """Origin, spacing, direction and frame order from the image plane attributes (one
     slice without them: origin 0, identity, spacing from PixelSpacing or 1)."""
-    if "ImageOrientationPatient" not in ds:
+    enhanced = "SharedFunctionalGroupsSequence" in ds
+    if "ImageOrientationPatient" not in ds and not enhanced:
         ps = [float(x) for x in getattr(ds, "PixelSpacing", [1, 1])]
         return np.zeros(3), [ps[1], ps[0], 1.0], np.eye(3), np.arange(nframes)
-    iop = np.array([float(x) for x in ds.ImageOrientationPatient])
+    if enhanced:  # shared orientation and spacing, per-frame positions (PS3.3 C.7.6.16)
+        shared = ds.SharedFunctionalGroupsSequence[0]
+        iop = shared.PlaneOrientationSequence[0].ImageOrientationPatient
+        ps_enh = shared.PixelMeasuresSequence[0].PixelSpacing
+        per = ds.PerFrameFunctionalGroupsSequence
+        frames_pos = np.array([[float(x) for x in per[k].PlanePositionSequence[0]
+                                .ImagePositionPatient] for k in range(nframes)])
+    else:
+        iop = ds.ImageOrientationPatient
+    iop = np.array([float(x) for x in iop])
     r, c = iop[:3] / np.linalg.norm(iop[:3]), iop[3:] / np.linalg.norm(iop[3:])
     n = np.cross(r, c)
+    if enhanced:
+        order = np.argsort(frames_pos @ n, kind="stable")
+        ps = [float(x) for x in ps_enh]
+        dz = ((frames_pos[order[-1]] - frames_pos[order[0]]) @ n / (nframes - 1)
+              if nframes > 1 else 1.0)
+        return frames_pos[order[0]], [ps[1], ps[0], dz], np.column_stack([r, c, n]), order
     ipp = np.array([float(x) for x in ds.ImagePositionPatient])
     if nframes > 1:
         off = np.array([float(x) for x in ds.GridFrameOffsetVector])
@@ -129,13 +146,14 @@ for path in files:
         refused += 1
         continue
     if (ts not in DECODED or int(getattr(ds, "SamplesPerPixel", 1)) != 1
-            or int(getattr(ds, "BitsAllocated", 0)) not in (8, 16, 32)):
+            or int(getattr(ds, "BitsAllocated", 0)) not in (1, 8, 16, 32)):
         continue
     try:
         multi = int(getattr(ds, "NumberOfFrames", 1) or 1) > 1
     except ValueError:
         continue  # pydicom's deliberately broken files
-    if multi and "GridFrameOffsetVector" not in ds:
+    positioned = "GridFrameOffsetVector" in ds or "PerFrameFunctionalGroupsSequence" in ds
+    if multi and not positioned:
         continue  # multi-frame files without positions are refused (tested in C)
     try:
         want = expected_values(ds)
@@ -156,9 +174,11 @@ for path in files:
         bad = np.argwhere(got["data"] != want)[0]
         failures.append(f"{name}: voxel {tuple(bad)}: {got['data'][tuple(bad)]} != "
                         f"{want[tuple(bad)]}")
-    if not (np.allclose(got["origin"], origin, atol=1e-6) and np.allclose(got["spacing"], spacing, rtol=1e-6)
+    if not (np.allclose(got["origin"], origin, atol=1e-6)
+            and np.allclose(got["spacing"], spacing, rtol=1e-6)
             and np.allclose(got["direction"], direction, atol=1e-9)):
-        failures.append(f"{name}: geometry {got['origin']} {got['spacing']} != {origin} {spacing}")
+        failures.append(f"{name}: geometry {got['origin']} {got['spacing']} != "
+                        f"{origin} {spacing}")
     print(f"  {name}: {ts}, {got['dims']}, values and geometry agree")
     checked += 1
 
