@@ -361,6 +361,15 @@ static void dicomFillsPaddingWithTheMinimumOfTheOtherValues(void) {
     vm_volume_free(&v);
 }
 
+/* Writes s as the temp file name and reads it back into v; 1 when it read. */
+static int write_and_read(const char *name, const dw_spec *s, vm_volume *v) {
+    const char *path = vm_test_tmp(name);
+    vm_error err;
+    CHECK(dw_write(path, s) == 0);
+    CHECK_OK(vm_volume_read(path, v, &err), &err);
+    return v->data != NULL;
+}
+
 static void dicomReadsRtDoseGridOffsetsWithDoseScaling(void) {
     enum { F = 4 };
     static uint32_t w[F * PLANE];
@@ -379,12 +388,8 @@ static void dicomReadsRtDoseGridOffsetsWithDoseScaling(void) {
     s.grid_offsets = offsets;
     s.dose_scaling = 0.001;
     s.words = w;
-    const char *path = vm_test_tmp("dicom_dose.dcm");
-    CHECK(dw_write(path, &s) == 0);
     vm_volume v;
-    vm_error err;
-    CHECK_OK(vm_volume_read(path, &v, &err), &err);
-    if (!v.data) return;
+    if (!write_and_read("dicom_dose.dcm", &s, &v)) return;
     CHECK(v.dims[2] == F && v.type == VM_SCALAR_UINT32);
     CHECK_NEAR(v.spacing[0], 3, 1e-12);
     CHECK_NEAR(v.spacing[1], 2, 1e-12);
@@ -444,12 +449,8 @@ static void dicomReadsOneBitSegmentationFrames(void) {
     s.has_position = s.has_orientation = s.has_rescale = 0;
     s.bits_allocated = s.bits_stored = 1, s.high_bit = 0;
     s.frames = F, s.frame_positions = pos, s.words = bits;
-    const char *path = vm_test_tmp("dicom_seg.dcm");
-    CHECK(dw_write(path, &s) == 0);
     vm_volume v;
-    vm_error err;
-    CHECK_OK(vm_volume_read(path, &v, &err), &err);
-    if (!v.data) return;
+    if (!write_and_read("dicom_seg.dcm", &s, &v)) return;
     CHECK(v.dims[2] == F && v.type == VM_SCALAR_UINT8);
     int bad = 0;
     for (int i = 0; i < F * PLANE; i++) bad += v.data[i] != (float)bits[i];
