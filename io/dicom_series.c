@@ -124,7 +124,8 @@ vm_status vm__dcm_scan(const char *path, dcm_set *set, vm_error *err) {
         }
     }
     if (!st && set->n == 0)
-        st = vm_error_set(err, VM_ERR_FORMAT, "%s: no DICOM images found", path);
+        st = vm_error_set(err, VM_ERR_FORMAT, "%s: no DICOM images found%s", path,
+                          S_ISDIR(sb.st_mode) ? " (a folder is read as a DICOM series)" : "");
     if (st) vm__dcm_set_free(set);
     return st;
 }
