@@ -100,7 +100,8 @@ typedef struct dcm_bytes {
  * element in either byte order. */
 int vm__dcm_sniff(const unsigned char *p, size_t len);
 
-/* 1 when the file at path is DICOM by vm__dcm_sniff (reads its first bytes only). */
+/* 1 when the file at path is a regular file and DICOM by vm__dcm_sniff (reads its first
+ * bytes only; pipes and devices are left alone for the other readers). */
 int vm__dcm_sniff_path(const char *path);
 
 /* Parses the file at path into f (zeroed first; f->path is a copy of path). keep NULL: the

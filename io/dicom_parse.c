@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <zlib.h>
 #include "dicom_internal.h"
 
@@ -123,6 +124,9 @@ int vm__dcm_sniff(const unsigned char *p, size_t len) {
 
 /* 1 when the file at path looks like DICOM from its first 132 bytes. */
 int vm__dcm_sniff_path(const char *path) {
+    /* regular files only: reading the start of a pipe would take it from the real reader */
+    struct stat sb;
+    if (stat(path, &sb) != 0 || !S_ISREG(sb.st_mode)) return 0;
     FILE *fp = fopen(path, "rb");
     if (!fp) return 0;
     unsigned char head[PREAMBLE + 4];
