@@ -1,5 +1,8 @@
-/* io/volume_read.c — picks the volume reader from the file name; whole, header-only and
- * slab reads all go through the same reader of each format. */
+/* io/volume_read.c — picks the volume reader from the file name (a folder, or a file whose
+ * content is DICOM, from the content); whole, header-only and slab reads all go through the
+ * same reader of each format. */
+#include <sys/stat.h>
+#include "dicom_internal.h"
 #include "io_util.h"
 #include "volmesh/io.h"
 #include <assert.h>
@@ -8,6 +11,9 @@
 
 static vm_status read_any(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
     memset(v, 0, sizeof *v);
+    struct stat sb;
+    if ((stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) || vm__dcm_sniff_path(path))
+        return vm__read_dicom(path, rq, v, err);
     if (vm__ends_with(path, ".nrrd") || vm__ends_with(path, ".nhdr"))
         return vm__read_nrrd(path, rq, v, err);
     if (vm__ends_with(path, ".nii") || vm__ends_with(path, ".nii.gz") ||
@@ -20,7 +26,7 @@ static vm_status read_any(const char *path, const vm__slab *rq, vm_volume *v, vm
     if (vm__ends_with(path, ".vti")) return vm__read_vti(path, rq, v, err);
     return vm_error_set(err, VM_ERR_UNSUPPORTED,
                         "%s: unknown volume format (expected .nrrd .nhdr .nii .nii.gz .hdr .img "
-                        ".mha .mhd .vtk .vti, or a raw file with --raw-dims)",
+                        ".mha .mhd .vtk .vti, DICOM, or a raw file with --raw-dims)",
                         path);
 }
 

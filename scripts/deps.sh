@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what building and testing volmesh needs on Debian, when it is missing:
 # the compiler and CMake, zlib, and (for the tests' independent judges) Debian's python3 with
-# VTK, meshio, numpy and pytest, the Python package's build (python3-dev, -setuptools, -venv), CalculiX (ccx), gmsh, libexodusii-dev and Open MPI (libopenmpi-dev,
+# VTK, meshio, numpy, pydicom and pytest, the Python package's build (python3-dev, -setuptools, -venv), CalculiX (ccx), gmsh, libexodusii-dev and Open MPI (libopenmpi-dev,
 # openmpi-bin). Usage: scripts/deps.sh [--tests]
 set -eu
 want_tests=0
@@ -15,6 +15,8 @@ if [ "$want_tests" = 1 ]; then
     /usr/bin/python3 -c 'import vtk' >/dev/null 2>&1 || pkgs+=(python3-vtk9)
     /usr/bin/python3 -c 'import meshio' >/dev/null 2>&1 || pkgs+=(python3-meshio)
     /usr/bin/python3 -c 'import numpy' >/dev/null 2>&1 || pkgs+=(python3-numpy)
+    # tests/io/test_dicom_pydicom.py: pydicom judges the DICOM reader on its own test files
+    /usr/bin/python3 -c 'import pydicom' >/dev/null 2>&1 || pkgs+=(python3-pydicom)
     # tests/python: the package built offline into a fresh venv, then pytest
     /usr/bin/python3 -c 'import pytest' >/dev/null 2>&1 || pkgs+=(python3-pytest)
     /usr/bin/python3 -c 'import setuptools' >/dev/null 2>&1 || pkgs+=(python3-setuptools)

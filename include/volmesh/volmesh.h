@@ -4,6 +4,7 @@
 
 #define VOLMESH_VERSION "0.1.0"
 
+#include "dicom.h"
 #include "error.h"
 #include "improve.h"
 #include "io.h"
