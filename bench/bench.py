@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """bench.py — the timing half of issue 9, driven by bench/run (see there for usage).
 
 Times volmesh (uniform and --adaptive), TetGen, CGAL Mesh_3 and VTK's flying edges on the same

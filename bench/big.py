@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """big.py — big volumes (issue #12): 256³ and 512³ sphere phantoms meshed end to end.
 
     /usr/bin/python3 bench/big.py --cli build/volmesh [--sizes 256,512] [--work DIR]

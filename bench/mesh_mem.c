@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* bench/mesh_mem.c — peak resident set after each stage of a `volmesh mesh` run (read, mesh,
  * quality pass, write, checks), so that the peak of the mesher stage is told from the pass's
  * and the writer's (issue #12). Build beside the library (docs/BENCHMARKS.md, "Memory of the

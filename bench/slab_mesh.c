@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* bench/slab_mesh.c — the mesh stage alone, whole or by slabs: reads a volume (whole, or slab
  * after slab through a vm_volume_reader) and meshes it (vm_mesh_volume or
  * vm_mesh_volume_slabs), nothing else, in a process of its own so that the peak resident set

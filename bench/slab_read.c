@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* bench/slab_read.c — time and peak memory of reading a volume whole, its header, or one
  * slab of planes (vm_volume_read_slab), in a process of its own so that the peak is that
  * read's. Build beside the library (see docs/BENCHMARKS.md, "Reading by slabs"):

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """slabs.py — `volmesh mesh --slabs` against the whole-volume run (issue #12): peak memory
 and CPU time of the same meshes made slab after slab.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """surfaces.py — the comparison table of docs/SURFACES.md (issue 10).
 
 Runs every surface method of `volmesh mesh --elements tri|quad --method M --json` on the

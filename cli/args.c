@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/args.c — the command line pieces every command shares: flags, numbers, option values,
  * the input volume (a file, or raw data described by the --raw-* options). */
 #include <ctype.h>

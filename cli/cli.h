@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/cli.h — shared pieces of the volmesh program's subcommands. */
 #ifndef VM_CLI_H
 #define VM_CLI_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/convert.c — `volmesh convert IN OUT`: reads any mesh format volmesh reads and writes
  * any it writes, with the FE deck options of the .inp writer. */
 #include <string.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/demo.c — `volmesh demo`: a built-in phantom through the pipeline, no input needed. */
 #include <string.h>
 #include "cli.h"

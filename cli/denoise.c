@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/denoise.c — `volmesh denoise`: bilateral filter or anisotropic diffusion, written as
  * NRRD with the input's geometry. */
 #include <math.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/info.c — `volmesh info`: what a volume file holds, as text or JSON. */
 #include <math.h>
 #include <stdlib.h>

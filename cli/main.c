@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/main.c — the volmesh program: the global options (--threads, --help, --version) and
  * the dispatch to a command (cli/CMD.c); the pieces they share: cli/args.c, cli/output.c. */
 #include <string.h>

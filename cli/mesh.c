@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/mesh.c — `volmesh mesh`: volume in, tetrahedral mesh (and its surface) out; with
  * --labels a segmentation in, one multi-material mesh out (cli/mesh_labels.c); with
  * --elements tri|quad the surface alone, by one of four methods (cli/mesh_surface.c). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/mesh_labels.c — `volmesh mesh --labels`: a label volume (segmentation) in, one
  * conforming multi-material mesh out, with a summary line per label. */
 #include <errno.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/mesh_surface.c — `volmesh mesh --elements tri|quad`: a volume in, the boundary surface
  * of its material out (dual contouring, marching cubes, ...), with its checks on one line. */
 #include "cli.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/output.c — what every command prints besides its results: error lines, the status
  * line and progress bar on a terminal, --verbose stage times, the JSON summary's opening. */
 #define _POSIX_C_SOURCE 200809L

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/quality.c — `volmesh quality`: element metrics, histograms and mesh checks of any mesh
  * vm_mesh_read reads, as text, JSON, SVG or per-cell CSV, with --require checks. */
 #include <errno.h>

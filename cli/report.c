@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/report.c — `volmesh report`: the HTML quality report of any mesh we read. */
 #include <string.h>
 #include "cli.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cli/spectrum.c — `volmesh spectrum`: the contour spectrum of a volume as a table, CSV, SVG
  * plot or JSON, with suggested isovalues and material intervals (Bajaj et al. 1997). */
 #define _POSIX_C_SOURCE 200809L

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 # vm_probe(NAME RESULT WHY [cmake args...]): configures and builds cmake/probe/NAME in
 # ${CMAKE_BINARY_DIR}/probe/NAME with this build's C compiler. RESULT is ON when both steps
 # succeed; otherwise OFF, and WHY holds the first error line, for the one status line that

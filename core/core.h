@@ -1,15 +1,18 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/core.h — private helpers shared by io/, mesher/ and quality/: checked sizes, the
  * memory limit, growable arrays. Not part of the public API. */
 #ifndef VM_CORE_H
 #define VM_CORE_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 #include "volmesh/error.h"
 #include "volmesh/mesh.h"
 
-/* a*b into *out; returns 0 on overflow. */
-int vm__mul_size(size_t a, size_t b, size_t *out);
+/* a*b into *out; returns true, leaving *out alone, when the product overflows size_t
+ * (a predicate: `if (vm__mul_overflows(n, size, &bytes)) return ...nomem...`). */
+bool vm__mul_overflows(size_t a, size_t b, size_t *out);
 
 /* Largest number of bytes one allocation may take: VOLMESH_MAX_MEMORY (bytes, env) when
  * set, else the machine's physical memory. */

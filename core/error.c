@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/error.c — the vm_status/vm_error convention (see volmesh/error.h). */
 #include <stdarg.h>
 #include <stdio.h>

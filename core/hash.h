@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/hash.h — one hash mix for every hash table of the library: the 64-bit finaliser of
  * MurmurHash3 (fmix64, Appleby), which spreads every input bit over the whole word. */
 #ifndef VM_CORE_HASH_H

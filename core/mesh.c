@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/mesh.c — vm_mesh storage: points, cells, regions and named fields. */
 #include <stdlib.h>
 #include <string.h>
@@ -93,7 +94,7 @@ vm_status vm_mesh_set_field(vm_mesh *m, int on_cells, const char *name, int ncom
     vm_field **list = on_cells ? &m->cell_fields : &m->point_fields;
     size_t *count = on_cells ? &m->ncell_fields : &m->npoint_fields;
     size_t n = on_cells ? m->ncells : m->npoints, bytes;
-    if (ncomp < 1 || !vm__mul_size(n, (size_t)ncomp * sizeof(double), &bytes))
+    if (ncomp < 1 || vm__mul_overflows(n, (size_t)ncomp * sizeof(double), &bytes))
         return vm_error_set(err, VM_ERR_ARG, "field %s: bad size", name);
     double *copy = malloc(bytes ? bytes : 1);
     if (!copy) return vm_error_set(err, VM_ERR_NOMEM, "field %s: out of memory", name);

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/point_index.c — the one index of points by exact coordinates (open addressing with
  * linear probing, core/hash.h's point hash): the slabs and MPI merges, and the STL readers. */
 #include <stdlib.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/self_intersect.c — intersecting triangle pairs of a surface: a uniform grid over
  * the bounding boxes as broad phase, then a triangle–triangle test built from orientation
  * predicates as in Guigue & Devillers, "Fast and robust triangle-triangle overlap test using
@@ -278,7 +279,7 @@ static vm_status grid_fill(tri_grid *g, const box3 *bx, size_t nt, vm_error *err
                     total++;
                 }
     }
-    if (!vm__mul_size(total, sizeof *g->ent, &bytes) || bytes > vm__memory_limit() ||
+    if (vm__mul_overflows(total, sizeof *g->ent, &bytes) || bytes > vm__memory_limit() ||
         !(g->ent = malloc(bytes ? bytes : 1)))
         return vm_error_set(err, VM_ERR_NOMEM,
                             "self-intersection: out of memory for %zu entries", total);
@@ -343,7 +344,7 @@ vm_status vm__self_intersections(const double *pts, const vm_index *tri, size_t 
     if (flags) memset(flags, 0, nt);
     if (nt < 2) return VM_OK;
     size_t bytes;
-    if (!vm__mul_size(nt, sizeof(box3), &bytes) || bytes > vm__memory_limit())
+    if (vm__mul_overflows(nt, sizeof(box3), &bytes) || bytes > vm__memory_limit())
         return vm_error_set(err, VM_ERR_NOMEM, "self-intersection: %zu triangles", nt);
     box3 *bx = malloc(bytes);
     if (!bx) return vm_error_set(err, VM_ERR_NOMEM, "self-intersection: out of memory");

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/self_intersect.h — private: counting intersecting triangle pairs of a surface,
  * used by vm_mesh_check and by the mesher's own checks. Not part of the public API. */
 #ifndef VM_QUALITY_SELF_INTERSECT_H

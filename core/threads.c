@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/threads.c — how many threads the parallel stages use (OpenMP when built with it). */
 #include "volmesh/volmesh.h"
 #ifdef VM_HAVE_OPENMP

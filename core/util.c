@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/util.c — checked sizes, the memory limit, growable arrays, clock. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdlib.h>
@@ -6,10 +7,11 @@
 #include <unistd.h>
 #include "core.h"
 
-int vm__mul_size(size_t a, size_t b, size_t *out) {
-    if (a != 0 && b > SIZE_MAX / a) return 0;
+/* A predicate, not a status: true (and *out untouched) when a*b overflows size_t. */
+bool vm__mul_overflows(size_t a, size_t b, size_t *out) {
+    if (a != 0 && b > SIZE_MAX / a) return true;
     *out = a * b;
-    return 1;
+    return false;
 }
 
 size_t vm__memory_limit(void) {
@@ -22,7 +24,7 @@ size_t vm__memory_limit(void) {
     long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
     if (pages <= 0 || page <= 0) return (size_t)1 << 34;
     size_t total;
-    if (!vm__mul_size((size_t)pages, (size_t)page, &total)) return SIZE_MAX;
+    if (vm__mul_overflows((size_t)pages, (size_t)page, &total)) return SIZE_MAX;
     return total;
 }
 
@@ -33,13 +35,13 @@ vm_status vm__check_dims(const int64_t dims[3], size_t elem_size, const char *wh
         if (dims[a] < 1)
             return vm_error_set(err, VM_ERR_FORMAT, "%s: dimension %d is %lld (must be >= 1)",
                                 what, a, (long long)dims[a]);
-        if ((uint64_t)dims[a] > SIZE_MAX || !vm__mul_size(n, (size_t)dims[a], &n))
+        if ((uint64_t)dims[a] > SIZE_MAX || vm__mul_overflows(n, (size_t)dims[a], &n))
             return vm_error_set(err, VM_ERR_NOMEM, "%s: dimensions %lldx%lldx%lld overflow",
                                 what, (long long)dims[0], (long long)dims[1],
                                 (long long)dims[2]);
     }
     size_t bytes;
-    if (!vm__mul_size(n, elem_size, &bytes) || bytes > vm__memory_limit()) {
+    if (vm__mul_overflows(n, elem_size, &bytes) || bytes > vm__memory_limit()) {
         /* MiB below a GiB, so that a small limit does not read "0.0 GiB, more than 0.0" */
         double need = (double)n * (double)elem_size, lim = (double)vm__memory_limit();
         int gib = lim >= 1073741824.0;
@@ -65,7 +67,7 @@ vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *
         ncap *= 2;
     }
     size_t bytes;
-    if (!vm__mul_size(ncap, elem, &bytes))
+    if (vm__mul_overflows(ncap, elem, &bytes))
         return vm_error_set(err, VM_ERR_NOMEM, "array of %zu elements overflows", ncap);
     void *p = realloc(*buf, bytes);
     if (!p) return vm_error_set(err, VM_ERR_NOMEM, "out of memory (%zu bytes)", bytes);

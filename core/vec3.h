@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/vec3.h — private 3-vector helpers shared by the metric files of quality/.
  * Not part of the public API. */
 #ifndef VM_QUALITY_VEC3_H

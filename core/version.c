@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/version.c — library version. */
 #include "volmesh/volmesh.h"
 

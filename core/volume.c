@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* core/volume.c — vm_volume allocation, geometry and statistics. */
 #include <math.h>
 #include <stdlib.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* examples/mesh_file.c — read a volume, fill {f >= iso} with tetrahedra, check the mesh and
  * write it as VTU, using only the public API.  Usage: mesh_file IN ISO OUT.vtu */
 #include <stdio.h>

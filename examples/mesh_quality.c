@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* examples/mesh_quality.c — the quality of an existing mesh, from any format volmesh reads
  * (VTU, legacy VTK, INP, MSH, MEDIT, ...), also meshes made by other programs: the checks,
  * the ABAQUS element test and the worst value of each metric.

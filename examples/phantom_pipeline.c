@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* examples/phantom_pipeline.c — the whole pipeline through the public API: make a torus
  * phantom, mesh it without the quality pass, improve it against the volume, report the
  * quality before and after, and write a CalculiX/ABAQUS deck with a static step.

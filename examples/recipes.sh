@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # examples/recipes.sh — the common jobs, one command each, on a phantom volume (no data
 # needed). Run it in an empty folder:  bash examples/recipes.sh [path/to/volmesh]
 # Each step is a recipe to copy; replace phantom.nrrd and the isovalues with your own.

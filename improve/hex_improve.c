@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/hex_improve.c — hexahedral mesh improvement: a pillow layer on the boundary (Mitchell
  * and Tautges 1995, "Pillowing doublets"), then untangling and smoothing by local max-min
  * optimisation of the corner scaled Jacobians (after Knupp 2001, "Hexahedral and tetrahedral

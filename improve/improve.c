@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve.c — the quality-improvement pass: rounds of edge contraction (seed 001 §6),
  * flips, optimisation-based smoothing and random perturbation over the tets below the targets
  * (schedule after Klingner and Shewchuk 2007, "Aggressive tetrahedral mesh improvement"). */

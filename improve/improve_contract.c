@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve_contract.c — edge contraction of bad tets: seed 001 (LBIE) §6 (contract the
  * shortest edge of a tet failing the ABAQUS check), made safe by the link condition of
  * Dey–Edelsbrunner–Guha–Nekhayev (1999) on the mesh closed by a vertex at infinity, so the

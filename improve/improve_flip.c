@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve_flip.c — 2-3 and 3-2 flips of interior faces and edges around bad tets,
  * accepted when they raise the worst quality of the tets they replace (Freitag and
  * Ollivier-Gooch 1997, §3; Klingner and Shewchuk 2007, §3); in later rounds also boundary edges. */

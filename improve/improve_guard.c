@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve_guard.c — the boundary guard of the improvement pass: before an operation
  * moves a boundary vertex or changes boundary faces, its new boundary triangles are tested
  * against each other and against the boundary triangles near them (vm__tri_pair_intersects),

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve_internal.h — the working mesh shared by the improvement operations
  * (improve.c is the public entry and dispatches; improve_run.c runs the pass over a working
  * mesh, improve_parts.c drives it part by part; improve_mesh.c holds the adjacency and

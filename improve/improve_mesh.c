@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve_mesh.c — the working mesh of the improvement pass: element quality, the
  * vertex-to-tet stars kept up to date under local changes, the volume field and the vertex
  * constraints (isosurface projection, border planes, tangent planes). */

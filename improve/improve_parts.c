@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve_parts.c — the quality pass by parts (issue #12): slabs of the mesh along z
  * improved a few at a time on OpenMP threads, each with every tet near it locked, then bands
  * over the slab borders and a last round around the tets still failing ABAQUS's check.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve_peel.c — peeling bad tets off the boundary: a tet with two boundary faces is
  * removed (a 2-2 flip of the surface edge between them), a tet with three boundary faces is
  * removed with its apex (the three faces become one), when the surface moves by less than the

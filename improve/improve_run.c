@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve_run.c — one run of the improvement pass over a working mesh (the whole
  * mesh, or one part of it for improve_parts.c): setting up the stars, classes and
  * constraints, the rounds (schedule after Klingner and Shewchuk 2007), measuring the moves;
@@ -764,8 +765,8 @@ vm_status vm__imp_read_planes(const vm_volume *info, vm_plane_source src, void *
                               int64_t k0, int64_t k1, float **out, vm_error *err) {
     *out = NULL;
     size_t n, bytes;
-    if (!vm__mul_size((size_t)info->dims[0] * (size_t)info->dims[1], (size_t)(k1 - k0), &n) ||
-        !vm__mul_size(n, sizeof **out, &bytes) || bytes > vm__memory_limit())
+    if (vm__mul_overflows((size_t)info->dims[0] * (size_t)info->dims[1], (size_t)(k1 - k0), &n) ||
+        vm__mul_overflows(n, sizeof **out, &bytes) || bytes > vm__memory_limit())
         return vm_error_set(err, VM_ERR_NOMEM,
                             "improve: planes %lld..%lld are over the memory limit",
                             (long long)k0, (long long)k1 - 1);

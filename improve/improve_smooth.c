@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve_smooth.c — optimisation-based vertex smoothing: raise the worst quality of
  * the tets around a vertex by line searches along the gradient of a soft minimum (after
  * Freitag and Ollivier-Gooch 1997, §2, and Klingner and Shewchuk 2007, §3), and random

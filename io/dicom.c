@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/dicom.c — the DICOM reader's entry: lists the series under a path, reads one as a
  * volume (whole, header only, or by slabs), filling PixelPaddingValue voxels. Follows DICOM
  * PS3.3 C.7.5.1.1.2 (padding) and the series model of PS3.3 C.7.3; see docs/FORMATS.md. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/dicom_internal.h — private types of the DICOM reader (io/dicom*.c): one parsed file,
  * its bytes, the transfer syntaxes and the tags used. Follows DICOM PS3.5 (encoding), PS3.6
  * (the tags and their VRs) and PS3.3 (image plane, image pixel, multi-frame, RT dose). */

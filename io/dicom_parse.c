@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/dicom_parse.c — reads one DICOM file's data elements into a dcm_file: the file meta
  * group, the dataset in its transfer syntax, sequences and encapsulated pixel data. Follows
  * DICOM PS3.10 section 7 (preamble, meta group) and PS3.5 sections 7, 8.2, A.4, A.5. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/dicom_pixels.c — one frame of DICOM pixel data to modality values: native samples in
  * either byte order, RLE lossless, BitsStored masking, sign, padding, rescale and dose
  * scaling. Follows DICOM PS3.5 section 8 and annex G, PS3.3 C.7.6.3, C.11.1 and C.8.8.3. */
@@ -80,8 +81,8 @@ static vm_status check_storage(const dcm_file *f, vm_error *err) {
     }
     /* 1-bit frames follow each other bit after bit (PS3.5 8.1.1): bits, then bytes */
     size_t per = f->bits_allocated == 1 ? 1 : (size_t)f->bits_allocated / 8;
-    if (!vm__mul_size((size_t)f->rows, (size_t)f->cols, &plane) ||
-        !vm__mul_size(plane, per, &frame) || !vm__mul_size(frame, (size_t)f->frames, &all) ||
+    if (vm__mul_overflows((size_t)f->rows, (size_t)f->cols, &plane) ||
+        vm__mul_overflows(plane, per, &frame) || vm__mul_overflows(frame, (size_t)f->frames, &all) ||
         (f->bits_allocated == 1 ? (all + 7) / 8 : all) > f->pixel_length)
         return vm_error_set(err, VM_ERR_FORMAT, "%s: pixel data holds %zu bytes, fewer than "
                             "%lld frame(s) of %lldx%lld at %lld bits need", p, f->pixel_length,
@@ -220,7 +221,7 @@ static void to_values(const dcm_file *f, int64_t frame, const uint32_t *raw, siz
 vm_status vm__dcm_decode_frame(const dcm_file *f, const dcm_bytes *b, int64_t frame,
                                float *dst, vm_error *err) {
     size_t n = (size_t)f->rows * (size_t)f->cols, bytes;
-    if (!vm__mul_size(n, sizeof(uint32_t), &bytes) || bytes > vm__memory_limit())
+    if (vm__mul_overflows(n, sizeof(uint32_t), &bytes) || bytes > vm__memory_limit())
         return vm_error_set(err, VM_ERR_NOMEM, "%s: a frame of %lldx%lld is larger than "
                             "allowed", f->path, (long long)f->cols, (long long)f->rows);
     uint32_t *raw = malloc(bytes ? bytes : 1);

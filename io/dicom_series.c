@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/dicom_series.c — DICOM files to series and series to a volume's geometry: the folder
  * search, grouping by SeriesInstanceUID, slices sorted along the normal of the image plane.
  * Follows DICOM PS3.3 C.7.6.2 (image plane), C.7.6.16 (functional groups), C.8.8.3 (dose). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/exodus.c — Exodus II writer (through libexodusii, when the build found its header): one
  * element block per region, an element number map keeping the mesh's element numbers, and one
  * side set of the boundary faces. Follows "EXODUS II: A Finite Element Data Model" (Sandia,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/inp.c — ABAQUS / CalculiX input decks (.inp): writer with element sets, boundary node
  * sets and element-face surfaces per region and per interface between two regions,
  * placeholder material and an optional static step; reader for the mesh part. Follows the
@@ -39,8 +40,8 @@ static vm_status make_mid_nodes(const char *path, const vm_mesh *m, vm_index **m
     size_t nn = (size_t)vm_cell_nodes(m->kind), total, bytes;
     *mid = NULL;
     *nmid = 0;
-    if (!vm__mul_size(m->ncells, (size_t)ne, &total) ||
-        !vm__mul_size(total ? total : 1, sizeof(edge_rec), &bytes) ||
+    if (vm__mul_overflows(m->ncells, (size_t)ne, &total) ||
+        vm__mul_overflows(total ? total : 1, sizeof(edge_rec), &bytes) ||
         bytes > vm__memory_limit())
         return vm_error_set(err, VM_ERR_NOMEM, "%s: too many edges", path);
     edge_rec *e = malloc(bytes);

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/io_util.c — file reading, zlib inflation, sample conversion and atomic output files
  * shared by every reader and writer (zlib manual: inflateInit2 windowBits 15+32 detects
  * zlib and gzip headers). */

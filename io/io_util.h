@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/io_util.h — private helpers shared by the readers and writers: whole-file reads,
  * zlib/gzip inflation, sample conversion, header-line parsing, atomic output files. */
 #ifndef VM_IO_UTIL_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/medit.c — MEDIT .mesh files (ASCII): Vertices and one element section with
  * references = region. Follows P. Frey, "MEDIT: an interactive mesh visualization software",
  * INRIA RT-0253 (2001), appendix on the .mesh format, and the libMeshb keyword list. */
@@ -131,7 +132,7 @@ static vm_status read_section(vm__cursor *c, size_t s, const vm_mesh *m, medit_c
     size_t nn = slot >= 0 ? (size_t)vm_cell_nodes(slot_kinds[slot]) : 0;
     if (slot >= 0 && ne > 0) {
         size_t total;
-        if (!vm__mul_size((size_t)ne, nn * sizeof(vm_index), &total) ||
+        if (vm__mul_overflows((size_t)ne, nn * sizeof(vm_index), &total) ||
             !(d->cells[slot] = malloc(total)) ||
             !(d->regs[slot] = malloc((size_t)ne * sizeof(int32_t))))
             return vm__cur_fail(c, VM_ERR_NOMEM, "out of memory for %" PRId64 " %s", ne,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/mesh_io.c — picks the mesh reader/writer from the file name or a format name, and
  * checks that the write options apply to the chosen format. */
 #include <string.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/mesh_util.c — shared pieces of the mesh format readers and writers: text cursor,
  * id maps, boundary faces with element/face ids (ABAQUS face numbering,
  * "Abaqus Analysis User's Guide", 28.1.4 three-dimensional solid element library). */
@@ -180,7 +181,7 @@ vm_status vm__check_count(const vm__cursor *c, uint64_t count, size_t min_bytes,
         return vm__cur_fail(c, VM_ERR_UNSUPPORTED, "%" PRIu64 " %s need 64-bit indices", count,
                             what);
     size_t bytes;
-    if (count > SIZE_MAX / 64 || !vm__mul_size((size_t)count, 64, &bytes) ||
+    if (count > SIZE_MAX / 64 || vm__mul_overflows((size_t)count, 64, &bytes) ||
         bytes > vm__memory_limit())
         return vm__cur_fail(c, VM_ERR_NOMEM, "%" PRIu64 " %s are more than memory allows",
                             count, what);
@@ -309,8 +310,8 @@ static vm_status face_keys(const char *path, const vm_mesh *m, face_key **keys, 
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: boundary faces need tet4 or hex8",
                             path);
     size_t bytes;
-    if (!vm__mul_size(m->ncells, (size_t)nf, total) ||
-        !vm__mul_size(*total ? *total : 1, sizeof(face_key), &bytes) ||
+    if (vm__mul_overflows(m->ncells, (size_t)nf, total) ||
+        vm__mul_overflows(*total ? *total : 1, sizeof(face_key), &bytes) ||
         bytes > vm__memory_limit())
         return vm_error_set(err, VM_ERR_NOMEM, "%s: too many faces", path);
     face_key *k = malloc(bytes);

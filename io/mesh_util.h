@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/mesh_util.h — private helpers of the finite-element and surface mesh formats: a text
  * cursor with strict number parsing and "PATH: line N: problem" errors, id-to-index maps,
  * boundary faces with their element and local face, region lists. */

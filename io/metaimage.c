@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/metaimage.c — MetaImage reader (.mha with LOCAL data, .mhd with a detached file).
  * Follows the MetaIO documentation (ITK wiki "MetaIO/Documentation", MetaImage tags) and, for
  * the meaning of TransformMatrix, ITK's MetaImageIO (axis i's direction = numbers 3i..3i+2). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/msh.c — Gmsh MSH files, ASCII versions 4.1 and 2.2: writer with one elementary entity
  * and one named physical group per region, reader for both versions. Follows the Gmsh
  * reference manual, section "MSH file format" (4.1) and its "Legacy formats" (2.2). */

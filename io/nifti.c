@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/nifti.c — NIfTI-1 and NIfTI-2 volume reader (.nii, .nii.gz, .hdr/.img pairs).
  * Follows the field documentation of nifti1.h (NIfTI-1, 348-byte header) and nifti2.h
  * (NIfTI-2, 540-byte header); the header layouts below are written from those offsets. */

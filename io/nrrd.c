@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/nrrd.c — NRRD volumes: reads attached (.nrrd) and detached (.nhdr + data file) volumes,
  * writes attached float volumes. Follows the NRRD0001-0005 format definition
  * (teem.sourceforge.net/nrrd/format.html); world coordinates are the file's NRRD space. */

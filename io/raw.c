@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/raw.c — headerless raw volumes: the caller describes dims, sample type, byte order,
  * geometry and a header to skip (vm_raw_options); the file must hold at least that much. */
 #include <math.h>

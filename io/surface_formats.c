@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/surface_formats.c — triangle/quad surface files: STL (binary and ASCII), OFF, PLY
  * (binary little endian and ASCII), Wavefront OBJ; writers and readers. A volume mesh is
  * written as its boundary. Follows the 3D Systems "StereoLithography Interface

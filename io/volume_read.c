@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/volume_read.c — picks the volume reader from the file name (a folder, or a file whose
  * content is DICOM, from the content); whole, header-only and slab reads all go through the
  * same reader of each format. */

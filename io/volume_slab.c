@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/volume_slab.c — reading a volume by slabs of z planes: mapped files, and the sample
  * decoders every reader ends with (raw by seeking, zlib/gzip by streaming inflate that
  * discards what precedes the slab, ASCII by a streaming parse); zlib manual for inflate. */
@@ -103,10 +104,10 @@ vm_status vm__slab_check(const char *path, const vm__slab *rq, const int64_t dim
         if (dims[a] < 1)
             return vm_error_set(err, VM_ERR_FORMAT, "%s: dimension %d is %lld (must be >= 1)",
                                 path, a, (long long)dims[a]);
-        if ((uint64_t)dims[a] > SIZE_MAX || !vm__mul_size(c, (size_t)dims[a], &c))
+        if ((uint64_t)dims[a] > SIZE_MAX || vm__mul_overflows(c, (size_t)dims[a], &c))
             c = 0;
     }
-    if (c == 0 || !vm__mul_size(c, tsize + sizeof(float), &bytes))
+    if (c == 0 || vm__mul_overflows(c, tsize + sizeof(float), &bytes))
         return vm_error_set(err, VM_ERR_NOMEM, "%s: dimensions %lldx%lldx%lld overflow", path,
                             (long long)dims[0], (long long)dims[1], (long long)dims[2]);
     *count = c;

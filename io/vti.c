@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/vti.c — reads VTK XML ImageData (.vti): one piece, one scalar point-data array, in ascii,
  * inline base64 or appended (raw or base64) form, optionally zlib-compressed in blocks.
  * Follows "VTK File Formats", section "XML File Formats" (VTKFile attributes, DataArray

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/vtk_legacy.c — reads VTK legacy STRUCTURED_POINTS files (ASCII or big-endian BINARY).
  * Follows "VTK File Formats", section "Simple Legacy Formats" (dataset, attribute and field
  * data sections; keywords are case-insensitive, binary data follows the line of its keyword). */
@@ -134,7 +135,7 @@ static vm_status skip_values(reader *r, uint64_t count, size_t size, const char 
         char line[8];
         rest_of_line(r, line, sizeof line);
         size_t bytes;
-        if (count > SIZE_MAX || !vm__mul_size((size_t)count, size, &bytes) ||
+        if (count > SIZE_MAX || vm__mul_overflows((size_t)count, size, &bytes) ||
             bytes > r->len - r->pos)
             return vm_error_set(r->err, VM_ERR_FORMAT, "%s: %s data is truncated (needs %llu "
                                 "values of %zu bytes, %zu bytes left)", r->path, what,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/vtk_mesh.c — legacy VTK UNSTRUCTURED_GRID (.vtk) meshes: writer (ASCII or big-endian
  * BINARY, region as int CELL_DATA, fields as FIELD arrays) and reader (version <= 4.2 CELLS
  * and 5.1 OFFSETS/CONNECTIVITY layouts). Follows "VTK File Formats", Simple Legacy Formats
@@ -281,7 +282,7 @@ static vm_status read_attributes(vtk_reader *r, size_t count, attrs *out) {
             }
             double *d;
             size_t total;
-            if (!vm__mul_size(count, (size_t)nc, &total))
+            if (vm__mul_overflows(count, (size_t)nc, &total))
                 return vm__cur_fail(&r->c, VM_ERR_FORMAT, "too many values");
             st = alloc_doubles(r, total, r->binary ? 1 : 2, &d);
             if (!st) st = read_values(r, ty, tylen, total, d);

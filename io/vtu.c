@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/vtu.c — VTK XML UnstructuredGrid (.vtu) writer and reader.
  * Follows "VTK File Formats" (VTK User's Guide, XML formats: appended/inline data, header_type,
  * vtkZLibDataCompressor block header [nblocks][blocksize][lastblocksize][csize...]). */
@@ -272,7 +273,7 @@ vm_status vm__write_vtu(const char *path, const vm_mesh *m, const vm_mesh_write_
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
                             (int)m->kind);
     size_t nconn;
-    if (!vm__mul_size(m->ncells, (size_t)nn, &nconn) || nconn > (size_t)INT64_MAX)
+    if (vm__mul_overflows(m->ncells, (size_t)nn, &nconn) || nconn > (size_t)INT64_MAX)
         return vm_error_set(err, VM_ERR_ARG, "%s: too many cells", path);
     /* region, Points, connectivity, offsets, types, and the fields */
     size_t narr = 5 + m->ncell_fields + m->npoint_fields;
@@ -290,7 +291,7 @@ vm_status vm__write_vtu(const char *path, const vm_mesh *m, const vm_mesh_write_
     double total_bytes = 0.0;
     for (size_t i = 0; i < na; i++) {
         size_t bytes;
-        if (!vm__mul_size(arr[i].count, arr[i].esize, &bytes)) {
+        if (vm__mul_overflows(arr[i].count, arr[i].esize, &bytes)) {
             st = vm_error_set(err, VM_ERR_ARG, "%s: array %s is too large", path, arr[i].name);
             goto fail;
         }
@@ -820,7 +821,7 @@ typedef struct values {
 static vm_status check_alloc(const vtu_file *f, const in_array *a, size_t n, size_t elem,
                              vm_error *err) {
     size_t bytes;
-    if (!vm__mul_size(n, elem, &bytes) || bytes > vm__memory_limit())
+    if (vm__mul_overflows(n, elem, &bytes) || bytes > vm__memory_limit())
         return vm_error_set(err, VM_ERR_NOMEM, "%s: array %s of %zu values is too large",
                             f->path, a->name, n);
     return VM_OK;

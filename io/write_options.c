@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* io/write_options.c — the defaults of the mesh write options, shared by the dispatch
  * (io/mesh_io.c) and the writers' public shortcuts, so that calls run one way:
  * dispatch -> writers -> this file. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* labels/labels.c — multi-material meshes of label volumes: one hex (or 6 tets) per labelled
  * voxel whose corners are the shared vertices of the dual cells between voxel centres (seed
  * 001, LBIE §4.3: "these eight minimizers can then be used to construct a hexahedron").

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/dc_hex.c — hexahedra by dual contouring: seed 001 (LBIE) §4.3, "each vertex is
  * shared by eight cells ... these eight minimizers can then be used to construct a
  * hexahedron": one hex per inside grid point, its corners the vertices of the eight cells

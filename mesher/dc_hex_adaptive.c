@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/dc_hex_adaptive.c — adaptive hexahedra, one coarsening level per call: interior 3x3x3
  * blocks of cubes (the unit cubes, then the coarse hexes of the level before) become one hex;
  * the transition around them is made by pillowing (sheet

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/dc_internal.h — state shared by the dual-contouring stages (private): grid
  * classification, boundary cells with their patches and vertices, the interior octree. */
 #ifndef VM_DC_INTERNAL_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/dc_tets.c — tetrahedra filling the material by dual contouring: seed 001 (LBIE,
  * Zhang–Bajaj–Sohn) §4.1.2 and §4.2.2, over the cells analysed in dual_contour.c. */
 #include "../core/core.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/dual_contour.c — the cell analysis of dual contouring shared by the tet and hex
  * meshers (seed 001, LBIE §4): grid classification against {lo <= f <= hi}, boundary cells
  * split into surface patches (one minimiser each, so ambiguous cells stay manifold), patch

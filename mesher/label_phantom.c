@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/label_phantom.c — small label volumes with known materials and topology, for the
  * multi-material tests: nested, face-sharing, a three-material junction, diagonal contacts. */
 #include <math.h>

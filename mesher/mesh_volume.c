@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/mesh_volume.c — vm_mesh_volume: checks the request, prepares the sampling grid,
  * runs dual contouring and returns the mesh in world coordinates. */
 #include <math.h>

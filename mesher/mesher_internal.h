@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/mesher_internal.h — data passed between the mesher's stages (private). */
 #ifndef VM_MESHER_INTERNAL_H
 #define VM_MESHER_INTERNAL_H

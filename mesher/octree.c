@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/octree.c — the adaptive octree of interior cells: aligned cubes of 2^l grid cells
  * whose every grid point is in the material, taken as large as allowed and split until
  * neighbouring leaves (sharing a face, an edge or a corner) differ by at most two levels,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/phantom.c — analytic test volumes with known volume, Euler characteristic and
  * component count: sphere, torus, genus-3 (three fused tori), two spheres, a one-voxel
  * plate and a sphere cut by the volume border. Fields are signed distances (> 0 inside). */

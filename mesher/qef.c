@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/qef.c — the QEF minimiser of dual contouring (Ju et al., "Dual contouring of
  * Hermite data", SIGGRAPH 2002, §2.3), solved by a symmetric eigen-decomposition with
  * truncated small eigenvalues around the mass point, as LBIE (seed 001, §4) uses it. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/qef.h — quadratic error function of dual contouring (private). */
 #ifndef VM_QEF_H
 #define VM_QEF_H

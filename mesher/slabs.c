@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/slabs.c — meshing by slabs along z: the slab geometry (blocks, ghost band, planes),
  * ownership of tets by centroid, and vm_mesh_volume_slabs (pieces merged by the point index
  * of core/point_index.c), which meshes slab after slab in one process (docs/ALGORITHMS.md,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* mpi/volmesh_mpi.c — `volmesh_mpi`: one tetrahedral mesh over several MPI ranks, written as
  * a partitioned VTK XML grid (.pvtu + one .vtu piece per rank). Design: docs/MPI.md.
  *

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* preprocess/denoise.c — bilateral filter and Perona–Malik anisotropic diffusion, spacing-aware.
  * Seed 001 (LBIE) §3; Tomasi and Manduchi 1998; Perona and Malik 1990; noise by MAD. */
 #include <math.h>

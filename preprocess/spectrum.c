@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* preprocess/spectrum.c — the contour spectrum: area, enclosed volume, gradient integral and
  * component count for many isovalues in one pass. Bajaj, Pascucci, Schikore, IEEE Vis 1997. */
 #include <math.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/hex_metrics.c — hexahedron metrics: scaled Jacobian, Jacobian, skew, taper, edge
  * ratio and exact trilinear volume (Verdict manual SAND2007-1751 ch. 7). */
 #include "volmesh/quality.h"

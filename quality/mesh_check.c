@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/mesh_check.c — whole-mesh invariants: inverted cells, face conformity, boundary
  * closedness and manifoldness, Euler characteristic, components, volume and element quality.
  * Faces are matched within buckets of their smallest node (a counting sort), edges by hashing
@@ -60,7 +61,7 @@ static void sort_small(int64_t *a, int n) {
 static void *alloc_array(size_t n, size_t elem, int zeroed, const char *what, vm_status *st,
                          vm_error *err) {
     size_t bytes;
-    if (!vm__mul_size(n, elem, &bytes) || bytes > vm__memory_limit()) {
+    if (vm__mul_overflows(n, elem, &bytes) || bytes > vm__memory_limit()) {
         *st = vm_error_set(err, VM_ERR_NOMEM, "mesh check: %s of %zu entries is too large",
                            what, n);
         return NULL;
@@ -217,7 +218,7 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
     *nb = 0;
     *overshared = 0;
     size_t ninst;
-    if (!vm__mul_size(ncells, (size_t)fs->nf, &ninst))
+    if (vm__mul_overflows(ncells, (size_t)fs->nf, &ninst))
         return vm_error_set(err, VM_ERR_NOMEM, "mesh check: %zu cells overflow", ncells);
     size_t np = fs->npoints;
     size_t *start = alloc_array(np + 1, sizeof *start, 1, "face buckets", &st, err);
@@ -357,7 +358,7 @@ static vm_status analyse_surface(const vm_index *faces, size_t nf, int k, size_t
                                  vm_mesh_report *r, vm_error *err) {
     vm_status st = VM_OK;
     size_t ninst;
-    if (!vm__mul_size(nf, (size_t)k, &ninst))
+    if (vm__mul_overflows(nf, (size_t)k, &ninst))
         return vm_error_set(err, VM_ERR_NOMEM, "mesh check: %zu faces overflow", nf);
     size_t cap = table_size(ninst);
     if (!cap) return vm_error_set(err, VM_ERR_NOMEM, "mesh check: edge table overflows");
@@ -529,7 +530,7 @@ static vm_status check_volume_mesh(const vm_mesh *m, vm_mesh_report *r, vm__mete
     r->boundary_faces = nb;
     size_t nidx;
     vm_index *bf = NULL;
-    if (!vm__mul_size(nb, (size_t)fs.k, &nidx) ||
+    if (vm__mul_overflows(nb, (size_t)fs.k, &nidx) ||
         !(bf = alloc_array(nidx, sizeof *bf, 0, "boundary faces", &st, err))) {
         free(binst);
         return st ? st : vm_error_set(err, VM_ERR_NOMEM, "mesh check: boundary overflows");

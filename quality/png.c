@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/png.c — PNG encoding of RGB images (8-bit truecolour, adaptive per-row filters).
  * Follows the PNG specification (ISO/IEC 15948:2003, W3C PNG 2nd ed.): sections 5 (chunks,
  * CRC-32), 9 (filter types 0-4 and the Paeth predictor) and 10 (zlib/deflate compression). */
@@ -76,7 +77,7 @@ vm_status vm_image_encode_png(const vm_image *img, unsigned char **buf, size_t *
     if (!img || !img->pixels || img->width <= 0 || img->height <= 0)
         return vm_error_set(err, VM_ERR_ARG, "png: the image is empty");
     size_t w = (size_t)img->width, h = (size_t)img->height, row, raw;
-    if (!vm__mul_size(w, 3, &row) || !vm__mul_size(row + 1, h, &raw) || raw > 0x7f000000u ||
+    if (vm__mul_overflows(w, 3, &row) || vm__mul_overflows(row + 1, h, &raw) || raw > 0x7f000000u ||
         w > 0x7fffffffu || h > 0x7fffffffu)
         return vm_error_set(err, VM_ERR_NOMEM, "png: a %d x %d image is too large",
                             img->width, img->height);

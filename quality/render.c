@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/render.c — software rendering of a mesh to an RGB image: camera fit, crinkle
  * cut-away, z-buffered half-space triangle rasterisation with flat Lambert shading, edges
  * from the distance to the face's edges, and box-filtered supersampling.
@@ -272,7 +273,7 @@ static vm_status collect_faces(const vm_mesh *m, const unsigned char *keep, face
     sub.npoints = m->npoints;
     sub.points = m->points;
     size_t nidx;
-    if (!vm__mul_size(nkept, (size_t)nn, &nidx) || nidx > SIZE_MAX / sizeof(vm_index))
+    if (vm__mul_overflows(nkept, (size_t)nn, &nidx) || nidx > SIZE_MAX / sizeof(vm_index))
         return vm_error_set(err, VM_ERR_NOMEM, "render: too many cells");
     vm_field idf;
     memset(&idf, 0, sizeof idf);
@@ -741,7 +742,7 @@ vm_status vm_render_mesh(const vm_mesh *m, const vm_render_options *o_in, vm_ima
     int ss = o.supersample;
     int sw = o.width * ss, sh = o.height * ss;
     size_t nsamples = (size_t)sw * (size_t)sh, bytes;
-    if (!vm__mul_size(nsamples, 3 + sizeof(float) + (o.highlight_hidden ? 1 : 0), &bytes) ||
+    if (vm__mul_overflows(nsamples, 3 + sizeof(float) + (o.highlight_hidden ? 1 : 0), &bytes) ||
         bytes > vm__memory_limit())
         return vm_error_set(err, VM_ERR_NOMEM, "render: %d x %d at supersample %d is too large",
                             o.width, o.height, ss);

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/report.c — the quality report over a mesh: metric tables, per-metric statistics and
  * histograms, the ABAQUS element check, text/JSON/SVG/CSV output and per-cell quality fields.
  * Metric definitions and ranges: Verdict manual (SAND2007-1751); the ABAQUS thresholds are
@@ -836,7 +837,7 @@ vm_status vm_mesh_add_quality_fields(vm_mesh *m, const char *const *names, vm_er
             return vm_error_set(err, VM_ERR_ARG, "quality fields: no metric '%s' for %s cells",
                                 names[i], vm_cell_kind_name(m->kind));
     size_t bytes;
-    if (!vm__mul_size(m->ncells, sizeof(double), &bytes) || bytes > vm__memory_limit())
+    if (vm__mul_overflows(m->ncells, sizeof(double), &bytes) || bytes > vm__memory_limit())
         return vm_error_set(err, VM_ERR_NOMEM, "quality fields: %zu cells are too many",
                             m->ncells);
     double *d = malloc(bytes ? bytes : 1);

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/report_html.c — the HTML quality report: one self-contained page (no network)
  * with the mesh summary, the quality histograms (inline SVG) and pictures of the mesh drawn
  * by the built-in renderer (inline PNG), the worst elements highlighted. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/tet_internal.h — tet metrics shared inside quality/ and with improve/ (private). */
 #ifndef VM_TET_INTERNAL_H
 #define VM_TET_INTERNAL_H

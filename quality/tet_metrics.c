@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/tet_metrics.c — tetrahedron metrics: volume, dihedral and face angles, scaled
  * Jacobian, radius/aspect/edge ratios (Verdict manual SAND2007-1751 ch. 6) and the ABAQUS
  * volume measure (ABAQUS/CAE "Verify Mesh" element check). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/tri_metrics.c — triangle and quadrilateral metrics in 3-D: aspect ratio, corner
  * angles, scaled Jacobian, edge ratio (Verdict manual SAND2007-1751 ch. 4 and 5). */
 #include "volmesh/quality.h"

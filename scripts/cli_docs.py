@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: BSD-3-Clause
 """Keeps docs/CLI.md in step with the program: every fenced block that starts with
 "usage: volmesh [COMMAND]" is the --help text of that command.
 

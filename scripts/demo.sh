@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # Builds volmesh (Release) and runs `volmesh demo` in ./demo-out: a torus phantom meshed
 # into tetrahedra (demo.vtu), its surface (demo-surface.vtu) and the volume (phantom.nrrd).
 set -eu

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # Builds volmesh (Release) and runs every test with ctest. Tests that need ../shared/data
 # skip with a message when it is absent. With --asan: the same in a separate
 # AddressSanitizer + UndefinedBehaviorSanitizer build (build-asan).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* surface/surface.c — vm_surface_extract: checks the request, runs one surface method
  * (dual contouring, marching cubes, adaptive skeleton climbing, disk covering) and returns
  * the surface in world coordinates. */

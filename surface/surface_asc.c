@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* surface/surface_asc.c — adaptive skeleton climbing: iso points on grid edges (1-skeleton),
  * iso lines on rectangles (2-skeleton), surfaces in boxes (3-skeleton), after Poston, Wong,
  * Heng, "Multiresolution isosurface extraction with adaptive skeleton climbing" (EG 1998).

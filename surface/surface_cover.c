@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* surface/surface_cover.c — disk-covering surfaces (Gavriliu, Carranza, Breen, Barr, "Fast
  * extraction of adaptive multiresolution meshes with guaranteed properties from volumetric
  * data", seed 000): a simple independent disk covering of the candidate graph with radii

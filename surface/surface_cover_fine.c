@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* surface/surface_cover_fine.c — the candidate surface of the disk-covering mesher: the zero
  * set of the piecewise-linear interpolant on the Kuhn subdivision of the padded grid (marching
  * tetrahedra), with its half-edge adjacency, components and Euler characteristics. */

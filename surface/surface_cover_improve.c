@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* surface/surface_cover_improve.c — the improvement pass over the triangles the disk covering
  * kept from the fine surface (cell field cover_fine): edge contraction under the link
  * condition (Dey, Edelsbrunner, Guha, Nekhayev, "Topology preserving edge contraction",

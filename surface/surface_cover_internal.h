@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* surface/surface_cover_internal.h — what the two files of the disk-covering mesher share
  * (private): the fine candidate surface and its adjacency. */
 #ifndef VM_SURFACE_COVER_INTERNAL_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* surface/surface_internal.h — what the surface methods share (private): the sampled field
  * as a signed material value, and one entry point per method in grid index coordinates. */
 #ifndef VM_SURFACE_INTERNAL_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* surface/surface_mc.c — marching cubes (Lorensen & Cline 1987) with the topology of the
  * trilinear interpolant: face ambiguities by the asymptotic decider (Nielson & Hamann 1991),
  * the interior ambiguity by sweeping each cube with planes (derived in docs/ALGORITHMS.md).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/test.h — a small test harness: CHECK macros, a runner that prints
  * "N passed, N failed", helpers for shared data, temp files and the CLI. */
 #ifndef VM_TEST_H

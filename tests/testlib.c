@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/testlib.c — the harness behind tests/test.h. */
 #define _POSIX_C_SOURCE 200809L
 #include <string.h>

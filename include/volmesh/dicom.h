@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/dicom.h — DICOM series (CT, MR, RT dose, enhanced multi-frame) read as volumes.
  *
  * Files are recognised by content (128-byte preamble + "DICM", or a bare dataset starting

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/error.h — one status convention for the whole library.
  *
  * Every fallible function returns a vm_status (VM_OK == 0, errors negative) and, when the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/improve.h — the quality-improvement pass over tetrahedral meshes.
  *
  * vm_mesh_improve raises the worst element quality of a tet4 mesh in place by edge

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/io.h — reading volumes and reading/writing meshes.
  *
  * Readers check every size before allocating, never trust a header, and report problems as
@@ -14,8 +15,10 @@
 extern "C" {
 #endif
 
-/* Reads any supported volume, choosing the format from the extension (.nrrd .nhdr .nii
- * .nii.gz .hdr .img .mha .mhd .vtk .vti). [out] v, free with vm_volume_free. */
+/* Reads any supported volume. A folder, or a file whose content is DICOM, is read as a DICOM
+ * series (volmesh/dicom.h: the series with the most slices); other files by their extension
+ * (.nrrd .nhdr .nii .nii.gz .hdr .img .mha .mhd .vtk .vti). [out] v, free with
+ * vm_volume_free. */
 vm_status vm_volume_read(const char *path, vm_volume *v, vm_error *err);
 
 /* Format-specific readers (same contract as vm_volume_read). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/labels.h — multi-material meshing of a label volume (a segmentation): one
  * conforming mesh of all chosen labels, each element's region = its label.
  *

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/mesh.h — unstructured meshes: one element kind per mesh, VTK node order.
  *
  * Points are double; connectivity uses vm_index (32-bit, or 64-bit with VM_INDEX64).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/mesher.h — volume to mesh: material selection, octree dual contouring, phantoms.
  *
  * The material is {x : lo <= f(x) <= hi} where either bound may be open. Meshes come out in

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/preprocess.h — stages before meshing: denoising and the contour spectrum.
  *
  * Denoising (preprocess/denoise.c) follows seed 001 (LBIE, Zhang, Bajaj and Sohn, §3): a bilateral

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/quality.h — element metrics and whole-mesh checks.
  *
  * Metrics follow the Verdict manual's definitions (Stimpson et al., "The Verdict Geometric

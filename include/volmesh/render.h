@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/render.h — a small software renderer: pictures of a mesh as RGB images, and a PNG
  * encoder, with no graphics library (only zlib).
  *

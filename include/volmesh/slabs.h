@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/slabs.h — meshing a volume by slabs along z, one slab in memory at a time.
  *
  * The cells of the sampling grid along z are cut into slabs of whole blocks (one cell, or

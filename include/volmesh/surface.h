@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/surface.h — volume to surface mesh: the boundary of the material as triangles
  * (or quads), by one of four methods.
  *

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/volmesh.h — the whole public API of libvolmesh. */
 #ifndef VOLMESH_H
 #define VOLMESH_H

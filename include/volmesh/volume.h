@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* volmesh/volume.h — the scalar volume every stage reads.
  *
  * Data is stored as float, x fastest: value(i,j,k) = data[i + nx*(j + ny*k)].

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* python/volmesh/_volmesh.c — the CPython binding of libvolmesh: volumes and meshes cross as
  * buffers (no copy where the layout allows), every library call runs with the GIL released.
  * The Python API (python/volmesh/__init__.py) is built on these few functions. */

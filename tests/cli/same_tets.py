@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """tests/cli/same_tets.py — independent judge (VTK + numpy) that two tet meshes in VTU files
 are the same mesh: the same points, each once, and the same tets (four corners in node
 order, and the region), in any order. Prints "same" and exits 0, or says how they differ

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 # tests/cli/test_cli.sh — the volmesh program as a user meets it: help and version, `info --json`
 # on the shared volumes against data/README.md, bad input (exit 2, one "volmesh: " line), `demo`.
 #

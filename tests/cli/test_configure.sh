@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # The build on a user's machine (issue 28): optional parts never fail the configure.
 # 1. A broken MPI: an mpicc first on PATH whose include folder does not exist (what Debian's
 #    python3-vtk9 leaves: openmpi-bin without libopenmpi-dev). Configure and build succeed,

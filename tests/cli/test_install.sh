@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # Installs volmesh into a scratch prefix, builds examples/ against it with find_package and
 # with pkg-config, and runs the examples on phantoms (mesh_file, mesh_quality, phantom_pipeline).
 set -u

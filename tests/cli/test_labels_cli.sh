@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # `volmesh mesh --labels` as a user runs it: a small segmentation (three blocks meeting on one
 # line, plus a separate block of label 7) meshed into every format with the labels carried,
 # a subset of labels, and the refusals (absent label, bad list, mixed options).

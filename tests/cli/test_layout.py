@@ -1,8 +1,9 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """tests/cli/test_layout.py — the source tree keeps the layout of docs/ARCHITECTURE.md (issue 27):
 no folder of library code holds more than 35 % of its C lines; no two library files (nor two
 files of the volmesh program) call each other, read off the built objects' symbol tables with
 nm; at most 5 functions run over 150 lines; every library source file opens with a comment
-naming itself."""
+naming itself; every source file carries the licence's SPDX line."""
 import collections
 import glob
 import os
@@ -110,11 +111,28 @@ def call_cycles(objdir, label):
 
 
 def file_headers():
+    """Library and program files open with a comment naming themselves; every source file
+    of the project (C, headers, Python, shell, CMake) carries the licence's SPDX line."""
     for p in sources(LIB_DIRS + ["cli", "mpi"]):
         rel = os.path.relpath(p, SRC)
         head = "\n".join(lines_of(p)[:3])
         if rel not in head:
             failures.append(f"{rel} does not open with a comment naming itself")
+    tracked = subprocess.run(["git", "-C", SRC, "ls-files"], capture_output=True, text=True)
+    if tracked.returncode != 0:
+        print("not a git checkout: the SPDX lines are not checked")
+        return
+    missing = []
+    for rel in tracked.stdout.split():
+        if "/corpus/" in rel or not (rel.endswith((".c", ".h", ".cpp", ".py", ".sh", ".cmake"))
+                                     or os.path.basename(rel) == "CMakeLists.txt"):
+            continue
+        if "SPDX-License-Identifier: BSD-3-Clause" not in "\n".join(lines_of(
+                os.path.join(SRC, rel))[:3]):
+            missing.append(rel)
+    for rel in missing:
+        failures.append(f"{rel} has no SPDX-License-Identifier line in its first 3 lines")
+    print(f"SPDX lines: {len(missing)} files without one")
 
 
 folder_shares()

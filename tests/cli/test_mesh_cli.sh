@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # `volmesh mesh` as a user runs it: the quality pass on by default, --no-improve, adaptive,
 # hexahedra, --quality-fields, --denoise, interval volumes, and bad options.
 set -u

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 # tests/cli/test_preprocess.sh — `volmesh denoise` and `volmesh spectrum` as a user meets them:
 # help, bad input (exit 2, one "volmesh: " line, no output file left), outputs (NRRD with the
 # input's geometry, CSV rows, SVG and JSON that parse), the CT head's suggested isovalues.

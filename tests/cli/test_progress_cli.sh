@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # Progress bars as a user sees them on a terminal (run under `script`, which gives the
 # program a pseudo-terminal): every stage of `mesh --report --surface`, `quality`, `report`
 # and `convert` draws a bar that only moves forward and ends at 100 %; nothing is drawn with

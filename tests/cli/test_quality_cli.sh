@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 # tests/cli/test_quality_cli.sh — `volmesh quality` as a user meets it: --help, the text table,
 # --json keys (checked with python), --svg, --per-cell-csv, --require (met, unmet, unknown key,
 # malformed), --abaqus, and bad input (exit 2, one "volmesh: " line).

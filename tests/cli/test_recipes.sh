@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # Runs examples/recipes.sh (the shell recipes of the user guide) in a scratch folder and
 # checks that every recipe wrote what it promises and that each mesh passes the checks.
 set -u

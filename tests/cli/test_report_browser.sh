@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # The HTML report as a user sees it: `volmesh demo` writes demo-report.html; headless
 # Chromium renders it to a screenshot, which must show the mesh pictures (mesh-coloured
 # pixels in the picture area) and no broken images.

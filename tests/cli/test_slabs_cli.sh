@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # `volmesh mesh --slabs N|auto`: meshing slab after slab writes the whole volume's mesh tet
 # for tet (judged by VTK + numpy: the same points, the same tets with the same node order and
 # regions, in any order) from a gzip NRRD (the demo phantom), uniform, adaptive and at

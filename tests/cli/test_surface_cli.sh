@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # `volmesh mesh --elements tri|quad --method M`: every surface format written and read back
 # (by volmesh convert and, for VTU/STL/PLY/OBJ, by VTK), the JSON summary of a closed surface
 # with the torus's Euler characteristic, and bad requests refused with exit 2, one line and

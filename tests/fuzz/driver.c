@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/driver.c — runs a libFuzzer-style target without libFuzzer: every file of a
  * seed corpus as is, then N seeded mutations of them (bit flips, byte changes, truncation,
  * duplication of a chunk). Usage: driver CORPUS_DIR [MUTATIONS] */

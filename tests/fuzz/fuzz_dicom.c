@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_dicom.c — fuzz target for the DICOM reader: the input bytes become one file
  * (a single-file series) that must be read or refused with a one-line message. */
 #include <stdint.h>

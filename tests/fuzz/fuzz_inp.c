@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_inp.c — fuzz target for the ABAQUS/CalculiX .inp reader: the input bytes become a
  * .inp file that must be read (every node index in range) or refused with a one-line message. */
 #include <stdint.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_medit.c — fuzz target for the MEDIT .mesh reader: the input bytes become a
  * .mesh file that must be read (every node index in range) or refused with a one-line message. */
 #include <stdint.h>

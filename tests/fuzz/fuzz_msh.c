@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_msh.c — fuzz target for the Gmsh .msh reader: the input bytes become a
  * .msh file that must be read (every node index in range) or refused with a one-line message. */
 #include <stdint.h>

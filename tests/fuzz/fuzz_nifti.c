@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_nifti.c — fuzz target for the NIfTI reader (plain or gzip: detected by magic): the input
  * bytes become a .nii file that must be read or refused with a one-line message. */
 #include <stdint.h>

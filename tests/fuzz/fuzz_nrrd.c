@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_nrrd.c — fuzz target for the NRRD reader (detached data files named by a mutated header resolve beside it): the input
  * bytes become a .nrrd file that must be read or refused with a one-line message. */
 #include <stdint.h>

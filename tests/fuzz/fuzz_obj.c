@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_obj.c — fuzz target for the OBJ reader: the input bytes become a
  * .obj file that must be read (every node index in range) or refused with a one-line message. */
 #include <stdint.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_off.c — fuzz target for the OFF reader: the input bytes become a
  * .off file that must be read (every node index in range) or refused with a one-line message. */
 #include <stdint.h>

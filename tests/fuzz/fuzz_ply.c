@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_ply.c — fuzz target for the PLY reader: the input bytes become a
  * .ply file that must be read (every node index in range) or refused with a one-line message. */
 #include <stdint.h>

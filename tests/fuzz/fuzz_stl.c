@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_stl.c — fuzz target for the STL reader: the input bytes become a
  * .stl file that must be read (every node index in range) or refused with a one-line message. */
 #include <stdint.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_vti.c — fuzz target for the VTK XML ImageData reader: the input
  * bytes become a .vti file that must be read or refused with a one-line message. */
 #include <stdint.h>

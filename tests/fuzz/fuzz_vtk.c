@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/fuzz/fuzz_vtk.c — fuzz target for the VTK legacy reader: the input
  * bytes become a .vtk file that must be read or refused with a one-line message. */
 #include <stdint.h>

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # Longer fuzzing than CI's 2000 mutations per reader. Usage: tests/fuzz/run_long.sh [MUTATIONS]
 # Uses the corpus-and-mutation drivers of an ASan+UBSan build (build-asan); with clang and
 # -DVOLMESH_FUZZ=ON the libFuzzer targets fuzz_<reader> can be run on the same corpora.

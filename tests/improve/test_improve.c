@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/improve/test_improve.c — the quality-improvement pass: on phantoms and the shared
  * volumes it meets the issue-6 bar (min dihedral >= 10, max <= 165, no ABAQUS failure, none
  * inverted) while keeping every mesh invariant and the boundary topology, keeps the surface

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/improve/test_improve_frozen.c — vm_improve_options.frozen: with every tet frozen the
  * quality pass tries nothing and returns the mesh as it was (while without flags it changes
  * it); flags that are all zero give exactly the pass without flags; freezing the tets of

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/improve/test_improve_parts.c — the quality pass by parts (issue #12): forced into 2, 3
  * and 4 slabs it keeps every invariant of the one pass (none inverted, conforming, closed
  * boundary with the same Euler characteristic and components, volume, surface bound, no

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/dicom_writer.h — a tiny DICOM writer for the tests of the DICOM reader: one image
  * (or multi-frame) file in any of the five decoded transfer syntaxes, after PS3.10 7.1 and
  * PS3.5 7, 8.2, A.4, A.5, G. Written for the tests only; writes what the tests need. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/mesh_fixtures.h — small hand-made meshes and checks shared by the mesh-format
  * tests (tests/io/test_inp.c, test_msh.c, test_medit.c, test_vtk_mesh.c,
  * test_surface_formats.c): exact round trips, malformed inputs, truncations. */

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # tests/io/test_calculix.sh — CalculiX solves the static decks volmesh writes: the CT head bone
 # (shared data, iso 1150, size 3) in tetrahedra, and an adaptive hexahedral sphere (C3D8, the
 # transitions made by pillowing) from a built-in phantom. Each mesh is converted with --deck

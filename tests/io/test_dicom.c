@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_dicom.c — the DICOM reader against files written here
  * (tests/io/dicom_writer.h): an oblique CT series in shuffled, mixed-syntax files beside a
  * second series reads to the exact voxels and geometry and meshes like the same voxels given

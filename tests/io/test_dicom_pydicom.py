@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """tests/io/test_dicom_pydicom.py — the DICOM reader judged by pydicom (Debian's
 python3-pydicom): every grayscale test file it ships in a syntax volmesh decodes (implicit,
 explicit little and big endian, deflated, RLE) must read to the values pydicom computes

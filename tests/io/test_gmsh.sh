@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # tests/io/test_gmsh.sh — gmsh reads the MSH 4.1 and 2.2 files volmesh writes (the demo torus
 # and a converted surface) and reports the node and element counts we wrote; `gmsh -check`
 # also runs its coherence checks (duplicate nodes/elements). Skips (77) when gmsh is absent;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_inp.c — ABAQUS/CalculiX .inp writer and reader: exact round trips for tet,
  * hex, tri and quad meshes (also through C3D10/C3D20 and a static deck), the boundary
  * surfaces name the right element faces, the static deck's sets are the z slabs, malformed

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """tests/io/test_interop_meshio.py — meshio and VTK, as independent judges, read every mesh
 format `volmesh convert` writes from the demo torus (demo.vtu, tets) and find the same counts,
 coordinates, connectivity and regions, and positive tet volumes in their (VTK) convention.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_medit.c — MEDIT .mesh writer and reader: exact round trips for every kind
  * with references = regions, files with the extra sections Mmg/MEDIT write, malformed files. */
 #include "mesh_fixtures.h"

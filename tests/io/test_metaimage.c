@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_metaimage.c — the MetaImage reader: the shared head and frog volumes against
  * VTK's statistics, .mha/.mhd files written here (every element type, MSB order, zlib,
  * TransformMatrix) and every kind of bad input. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_msh.c — Gmsh MSH 4.1 and 2.2 writer and reader: exact round trips for every
  * kind, physical groups named per region, files in gmsh's own layouts (points and lines
  * skipped, sparse tags, several node blocks), malformed files refused. (test_gmsh.sh has gmsh

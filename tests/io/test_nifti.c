@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_nifti.c — the NIfTI-1/NIfTI-2 reader: the shared MNI brain against VTK's
  * statistics, files written here for every datatype, byte order, container and geometry
  * method, and every kind of bad input. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_nrrd.c — the NRRD reader against the shared CT head and files written here
  * (every type spelling x endian x encoding, detached data, geometry, skips), the writer's
  * exact round trip, and every kind of bad input reported as "PATH: problem". */

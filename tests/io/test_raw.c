@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_raw.c — the raw reader: every sample type in both byte orders, header skip,
  * geometry from the options, and files too short for what the options describe. */
 #define _POSIX_C_SOURCE 200809L

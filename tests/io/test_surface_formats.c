@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_surface_formats.c — STL, OFF, PLY and OBJ writers and readers: exact round
  * trips for triangle and quad surfaces (regions where the format holds them), a volume mesh
  * written as its boundary, other writers' layouts, malformed files. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_volume_slab.c — reading volumes by slabs: for every format and encoding,
  * the slabs concatenated along z equal the whole read value for value, each slab's origin is
  * the world position of its first plane, the header-only read has the whole dims, and bad

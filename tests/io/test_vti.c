@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_vti.c — the VTK XML ImageData reader: the shared hydrogen volume against VTK's
  * statistics; files written here in every encoding (ascii, inline base64 with UInt32/UInt64
  * headers, appended raw and base64, zlib in several blocks via compress2, big endian); the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """tests/io/test_vti_vtk.py — VTK itself as the judge of the .vti and legacy .vtk readers.
 
 Writes volumes with VTK's own writers (vtkXMLImageDataWriter: ascii, inline binary,

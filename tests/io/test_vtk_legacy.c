@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_vtk_legacy.c — the VTK legacy STRUCTURED_POINTS reader: the shared ironProt
  * volume against VTK's statistics, files written here (ASCII and big-endian binary, every
  * type), unsupported datasets, and every kind of bad input. */

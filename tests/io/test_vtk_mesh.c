@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_vtk_mesh.c — legacy VTK UNSTRUCTURED_GRID writer and reader: exact round
  * trips (ASCII and binary, with point and cell fields), the 5.1 OFFSETS/CONNECTIVITY layout
  * VTK 9 writes, malformed files. */

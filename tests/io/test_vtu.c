@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_vtu.c — VTU writer/reader: exact round trips, files in the encodings other
  * VTK writers use (built here by an independent little generator), malformed files, atomic
  * output. Also leaves vtu_judge_*.vtu in VM_TEST_TMP for tests/io/test_vtu_vtk.py. */

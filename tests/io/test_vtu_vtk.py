@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """tests/io/test_vtu_vtk.py — VTK and meshio, as independent judges, read the VTU files that
 tests/io/test_vtu.c writes (vtu_judge_tets.vtu: compressed, a ring of 8 unit cubes as 48 Kuhn
 tets; vtu_judge_hex.vtu: uncompressed, a 3x2x1 slab of unit hexes shifted by (10, 20, 30)).

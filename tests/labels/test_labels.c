@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/labels/test_labels.c — multi-material meshes of label volumes: on phantoms with
  * nested, face-sharing, junction and diagonal-contact materials, the whole mesh is valid and
  * conforming, each label's boundary (its faces against anything else) is a closed manifold

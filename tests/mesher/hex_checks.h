@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/hex_checks.h — the checks test_mesh_hexes*.c share: a valid hex mesh with its
  * topology and volume, and what the quality pass (vm_mesh_improve_hexes) promises. */
 #ifndef VM_TESTS_HEX_CHECKS_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_crop.c — cropped volumes (vm_mesh_options z_offset, full_nz): the
  * planes z0..z1 of a phantom meshed on their own give, away from the crop's first and last
  * planes, exactly the tets of the whole volume's mesh (the same doubles, tet for tet), also

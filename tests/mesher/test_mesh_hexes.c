@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_hexes.c — what the hexahedral mesher guarantees: on the phantoms and
  * the shared volumes, no inverted hex, every interior quad shared by exactly two hexes, a
  * closed manifold boundary with the known Euler characteristic, and the volume; after the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_hexes_adaptive.c — the adaptive hex mesher (mesher/dc_hex_adaptive.c,
  * which makes its transitions conforming by pillowing: see docs/ALGORITHMS.md, "Adaptive
  * hexahedra") on the phantoms, and its refusal of bad options. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_hexes_adaptive_levels.c — nested coarsening of adaptive hexahedra
  * (mesher/dc_hex_adaptive.c, --max-level 2): the second level on the 128^3 sphere. Apart from
  * test_mesh_hexes_adaptive.c so that each stays within a minute. */

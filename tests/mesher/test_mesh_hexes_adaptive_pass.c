@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_hexes_adaptive_pass.c — the quality pass on the adaptive hex mesh of
  * the sphere at 64^3 (its transition is the largest of the phantoms'): no inverted hex, the
  * phantom's topology and volume, min scaled Jacobian at least 0.2 (measured 0.374). Apart

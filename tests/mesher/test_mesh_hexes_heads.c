@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_hexes_heads.c — the hex quality pass on the two biggest shared
  * volumes (the CT head at the skin isovalue, 145 000 hexes, and avg152T1, 356 000), apart
  * from test_mesh_hexes.c so that the two run side by side: 0 inverted after the pass, the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_hexes_surface.c — where the hexahedral mesher puts the boundary: the
  * distance of each boundary point (off the volume's box) from the trilinear isosurface, on
  * the MR head and on a noisy sphere, measured by brute force (the nearest point of a

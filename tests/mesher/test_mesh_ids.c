@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_ids.c — the tet mesher keeps its vertex ids in 32 bits while they
  * fit and widens the list to 64 bits when one does not (mesher/dc_tets.c), and the hand-over
  * renumbers either width in place (vm__soup_to_mesh): forcing the wide list from the start,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_padded.c — the mesher's compact per-cell state (bit sets with
  * ranks, coarse-leaf keys, octree codes in 8^3 blocks) indexes cells by their position in
  * the padded grid: a phantom on an odd grid, and the same field with exterior planes added

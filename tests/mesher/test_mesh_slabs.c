@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_slabs.c — vm_mesh_volume_slabs: meshing slab after slab from a
  * source of planes gives the whole volume's mesh tet for tet (the same point coordinates,
  * the same tets with the same node order and regions) on the sphere, torus, two spheres and

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_tets.c — invariants of the tetrahedral mesher: every mesh is valid
  * (no inverted, degenerate or over-shared cells, a closed manifold boundary), has the topology
  * of its voxels (Euler characteristic and components counted independently on the grid) and

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_threads.c — the parallel stages give the same bytes for any thread count:
  * denoising (bilateral, diffusion), tet meshing (uniform and adaptive: classification, octree,
  * patch vertices, slab emission), VTU compression, the mesh checks and the tet quality pass. */

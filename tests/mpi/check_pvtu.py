@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """tests/mpi/check_pvtu.py — independent judge of a volmesh_mpi result (VTK + numpy).
 
 Reads OUT.pvtu with VTK's own reader, merges the pieces by bit-identical coordinates and

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 # tests/mpi/common.sh — sourced by the tests/mpi/test_mpi*.sh scripts: skips (77) when
 # volmesh_mpi was not built, sets Open MPI up for a container (root, fewer cores than ranks),
 # makes the torus, genus-3 and sphere phantoms (40^3, 28^3 under the sanitizers) in a scratch

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # volmesh_mpi under `mpiexec -np 2` (and 3): the pieces of OUT.pvtu, read by VTK and merged by
 # coincident points, form a conforming tet mesh with the invariants of the single-process
 # mesh (0 inverted, interior faces shared by exactly two tets, closed boundary, Euler

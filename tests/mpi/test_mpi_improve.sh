@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # volmesh_mpi --improve under mpiexec: the quality pass on each slab with the vertices it
 # shares held fixed (the neighbours' rings and the cut's tets frozen), then across each cut
 # on the lower rank (the bands and their ring only); the merged pieces conform, keep the

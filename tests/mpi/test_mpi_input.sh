@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # volmesh_mpi input: each rank reads only its planes (vm_volume_read_slab) of a gzip NRRD
 # and meshes them as a crop, on 3 ranks (and the torus on 2 outside the sanitizers), the
 # merged pieces checked against volmesh mesh; bad input gives exit 2, one line and no file.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/preprocess/test_denoise.c — the bilateral filter and anisotropic diffusion on phantoms with
  * seeded Gaussian noise: PSNR gains, the isosurface stays put, constants stay constant,
  * anisotropic spacing, the stability limit of the time step, the noise estimate. */

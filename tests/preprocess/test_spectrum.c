@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/preprocess/test_spectrum.c — the contour spectrum against analytic answers: sphere area,
  * volume and gradient integral for several radii and spacings, planes (exact), frames that
  * rotate the grid, component counts of the phantoms, CT head suggestions, bad input. */

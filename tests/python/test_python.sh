@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # The Python package (issue 28), as a user installs it: a fresh venv that sees Debian's
 # python3-numpy, python3-meshio and python3-pytest, `pip install --no-build-isolation
 # --no-index` of the source tree (offline), then the pytest cases of tests/python/pytest,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/quality/test_mesh_check.c — element metrics and vm_mesh_check on meshes with known
  * answers (regular, inverted, flat tets; cubes split into tets; voxel rings; hex blocks;
  * non-manifold contacts; closed and open surfaces). */

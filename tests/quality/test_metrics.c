@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/quality/test_metrics.c — every element metric on golden elements (regular, flat,
  * inverted, degenerate and a few with hand-computed values), the never-NaN promise on
  * non-finite input, and invariance under rigid motion and scaling. */

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """tests/quality/test_metrics_vtk.py — volmesh's element metrics against VTK's vtkMeshQuality.
 
 An independent judge: random and degenerate tets, hexes, triangles and quads are built here

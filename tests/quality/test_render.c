@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/quality/test_render.c — vm_render_mesh and the PNG encoder on meshes whose pictures
  * are known in outline: a single tet, a block of hexes, a tet ball, a hex torus; the PNG is
  * decoded here with zlib (chunks, CRCs, filters) and written with a raw dump beside it for

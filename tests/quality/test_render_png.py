@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """tests/quality/test_render_png.py — an independent judge of volmesh's PNG encoder.
 
 Runs tests/quality/test_render.c (its binary) with a private VM_TEST_TMP so that it writes

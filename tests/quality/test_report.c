@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/quality/test_report.c — vm_quality_report, its lookup keys and writers (text, JSON,
  * SVG, per-cell CSV), and vm_mesh_add_quality_fields, on meshes with known answers: a cube
  * cut into six Kuhn tets, the same with a sliver glued on, a hex block, a triangle fan, an

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/quality/test_self_intersect_tetgen.c — the boundary self-intersection count of
  * vm_mesh_check against an independent judge: TetGen's `-d` (detect intersecting facets) on
  * the same surface. Skips when tetgen or ../shared/data is absent. */

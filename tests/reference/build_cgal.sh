@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
 # build_cgal.sh OUTDIR — compiles tests/reference/cgal_mesh3.cpp into OUTDIR/cgal_mesh3 when
 # CGAL's headers (Debian libcgal-dev) and g++ are installed, and prints the program's path.
 # Rebuilds only when the source changed (its checksum is kept beside the program); the first

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // cgal_mesh3 — the CGAL Mesh_3 reference for tests/reference and bench/run.
 //
 // Meshes a labeled image (an .inr written by tests/reference/refstats.py: label 1 = material,

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """reference.py — runs volmesh, TetGen and CGAL Mesh_3 on the same inputs and tabulates them.
 
 Used by tests/reference/test_reference.sh (prints the tables, checks what volmesh promises) and

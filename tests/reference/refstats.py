@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """refstats — one statistics module for every mesher in the reference comparison.
 
 Everything the tables in docs/REFERENCE.md report is computed here, with the same code for

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 # tests/reference/test_reference.sh — volmesh beside the reference meshers (issue 9).
 #
 # For each phantom (volmesh demo, 48^3) and each shared volume, meshes the same input with

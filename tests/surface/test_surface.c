@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/surface/test_surface.c — what every surface method (vm_surface_extract) guarantees, as
  * one table of methods run over the phantoms: a closed, manifold, consistently oriented
  * surface without self-intersections, with the phantom's Euler characteristic, components

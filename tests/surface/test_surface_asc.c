@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/surface/test_surface_asc.c — adaptive skeleton climbing surfaces: closed, manifold,
  * outward, free of self-intersections, with the phantom's Euler characteristic, components
  * and volume, near the analytic surface, and with far fewer triangles at max level 4 than

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/surface/test_surface_asc_export.c — writes volumes and their adaptive skeleton
  * climbing surfaces (max levels 0 and 4) into the test temp folder, for
  * test_surface_asc_vtk.py to compare with VTK's marching cubes: asc_NAME.nrrd (the volume),

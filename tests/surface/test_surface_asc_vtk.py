@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """tests/surface/test_surface_asc_vtk.py — VTK as the judge of adaptive skeleton climbing.
 
 Runs mesher_test_surface_asc_export (beside $VM_CLI in the build tree), which writes each

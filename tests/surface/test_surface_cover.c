@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/surface/test_surface_cover.c — the disk-covering surface mesher (--method cover): closed,
  * consistently oriented manifolds with the phantom's (or the interpolant's) Euler characteristic
  * and components, no self-intersections, the analytic volume, distance to the interpolant and to

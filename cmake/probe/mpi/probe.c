@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* cmake/probe/mpi/probe.c — the smallest MPI program: it must compile and link. */
 #include <mpi.h>
 
