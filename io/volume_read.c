@@ -10,21 +10,32 @@
 #include <stdlib.h>
 #include <string.h>
 
-static vm_status read_any(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
-    memset(v, 0, sizeof *v);
-    struct stat sb;
-    if ((stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) || vm__dcm_sniff_path(path))
-        return vm__read_dicom(path, rq, v, err);
-    if (vm__ends_with(path, ".nrrd") || vm__ends_with(path, ".nhdr"))
-        return vm__read_nrrd(path, rq, v, err);
+typedef vm_status (*reader_fn)(const char *path, const vm__slab *rq, vm_volume *v,
+                               vm_error *err);
+
+/* The reader a file name's extension asks for, or NULL. */
+static reader_fn reader_of_name(const char *path) {
+    if (vm__ends_with(path, ".nrrd") || vm__ends_with(path, ".nhdr")) return vm__read_nrrd;
     if (vm__ends_with(path, ".nii") || vm__ends_with(path, ".nii.gz") ||
         vm__ends_with(path, ".hdr") || vm__ends_with(path, ".img") ||
         vm__ends_with(path, ".img.gz"))
-        return vm__read_nifti(path, rq, v, err);
-    if (vm__ends_with(path, ".mha") || vm__ends_with(path, ".mhd"))
-        return vm__read_metaimage(path, rq, v, err);
-    if (vm__ends_with(path, ".vtk")) return vm__read_vtk(path, rq, v, err);
-    if (vm__ends_with(path, ".vti")) return vm__read_vti(path, rq, v, err);
+        return vm__read_nifti;
+    if (vm__ends_with(path, ".mha") || vm__ends_with(path, ".mhd")) return vm__read_metaimage;
+    if (vm__ends_with(path, ".vtk")) return vm__read_vtk;
+    if (vm__ends_with(path, ".vti")) return vm__read_vti;
+    return NULL;
+}
+
+/* A folder is a DICOM series unless its name is a volume file's (then that reader says it
+ * is a folder); a file whose content is DICOM is read as DICOM whatever its name. */
+static vm_status read_any(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
+    memset(v, 0, sizeof *v);
+    reader_fn by_name = reader_of_name(path);
+    struct stat sb;
+    int is_dir = stat(path, &sb) == 0 && S_ISDIR(sb.st_mode);
+    if ((is_dir && !by_name) || (!is_dir && vm__dcm_sniff_path(path)))
+        return vm__read_dicom(path, rq, v, err);
+    if (by_name) return by_name(path, rq, v, err);
     return vm_error_set(err, VM_ERR_UNSUPPORTED,
                         "%s: unknown volume format (expected .nrrd .nhdr .nii .nii.gz .hdr .img "
                         ".mha .mhd .vtk .vti, DICOM, or a raw file with --raw-dims)",
