@@ -148,6 +148,11 @@ static int tri_tri(const double *const a[3], const double *const b[3]) {
 
 int vm__tri_pair_intersects(const double *const a[3], const vm_index ia[3],
                             const double *const b[3], const vm_index ib[3]) {
+    /* A triangle that repeats a node is a segment or a point: the checks count it as
+     * degenerate, and the shared-corner logic below needs three distinct corners. */
+    if (ia[0] == ia[1] || ia[1] == ia[2] || ia[0] == ia[2] || ib[0] == ib[1] ||
+        ib[1] == ib[2] || ib[0] == ib[2])
+        return 0;
     int shared = 0, pa[3] = {-1, -1, -1}; /* pa[k]: corner of b equal to corner k of a */
     for (int k = 0; k < 3; k++)
         for (int l = 0; l < 3; l++)

@@ -627,7 +627,42 @@ static void aTetBlockHasNoSelfIntersectionAndTwoOverlappingTetsHave(void) {
     vm_mesh_free(&m);
 }
 
+/* Degenerate input is normal input (issue 31): a triangle that repeats a node, against a
+ * good triangle sharing none, one or two of its nodes, in every order. The check counts it
+ * as degenerate and never reads past a triangle's three corners (ASan sees that); the quality
+ * report of the same surface also completes. */
+static void trianglesRepeatingANodeAreCountedNotACrash(void) {
+    static const double pts[5][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
+    int cases = 0;
+    for (int x = 0; x < 5; x++)
+        for (int y = 0; y < 5; y++)
+            for (int z = 0; z < 5; z++) {
+                if (x != y && y != z && x != z) continue;
+                vm_mesh m;
+                vm_error err;
+                vm_mesh_init(&m, VM_TRI3);
+                CHECK_OK(vm_mesh_reserve(&m, 5, 2, &err), &err);
+                memcpy(m.points, pts, sizeof pts);
+                m.npoints = 5;
+                const vm_index good[3] = {0, 1, 2}, bad[3] = {x, y, z};
+                CHECK_OK(vm_mesh_add_cell(&m, good, 0, &err), &err);
+                CHECK_OK(vm_mesh_add_cell(&m, bad, 0, &err), &err);
+                vm_mesh_report r;
+                CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
+                CHECK_MSG(r.degenerate == 1, "(%d %d %d): %zu degenerate", x, y, z,
+                          r.degenerate);
+                CHECK_MSG(r.boundary_self_intersections == 0, "(%d %d %d): %zu crossings", x,
+                          y, z, r.boundary_self_intersections);
+                vm_quality_summary q;
+                CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+                vm_mesh_free(&m);
+                cases++;
+            }
+    CHECK(cases == 65);
+}
+
 TEST_MAIN(T(everyGoldenMeshGetsItsKnownReport),
+          T(trianglesRepeatingANodeAreCountedNotACrash),
           T(tetMetricsMatchVerdictOnRegularFlatAndDegenerateTets),
           T(hexScaledJacobianIsOneForABoxAndFallsForAShearedHex),
           T(boundaryOfATetBlockIsAnOutwardClosedSurface),
