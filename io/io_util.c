@@ -141,14 +141,39 @@ vm_status vm__inflate_exact(const char *path, const unsigned char *src, size_t s
             break;
         }
     }
-    inflateEnd(&zs);
-    if (out_done < dst_len) {
-        if (r == Z_DATA_ERROR || r == Z_NEED_DICT || r == Z_STREAM_ERROR)
-            return vm_error_set(err, VM_ERR_FORMAT, "%s: corrupt compressed data", path);
-        return vm_error_set(err, VM_ERR_FORMAT,
-                            "%s: compressed data is truncated (got %zu of %zu bytes)", path,
-                            out_done, dst_len);
+    /* The output is full: inflate on to the end of the stream, so that zlib reads the trailer
+     * and checks it (Adler-32 for zlib, CRC-32 and ISIZE for gzip; RFC 1950, 1952). */
+    size_t extra = 0;
+    while (out_done == dst_len && r == Z_OK) {
+        unsigned char spill[64];
+        size_t in_chunk = src_len - in_done;
+        if (in_chunk > (1u << 30)) in_chunk = 1u << 30;
+        zs.next_in = (unsigned char *)src + in_done;
+        zs.avail_in = (uInt)in_chunk;
+        zs.next_out = spill;
+        zs.avail_out = sizeof spill;
+        r = inflate(&zs, Z_NO_FLUSH);
+        in_done += in_chunk - zs.avail_in;
+        extra += sizeof spill - zs.avail_out;
+        if (r == Z_OK && zs.avail_out == sizeof spill && in_done == src_len) r = Z_BUF_ERROR;
     }
+    const char *why = zs.msg;
+    inflateEnd(&zs);
+    if (out_done < dst_len || r != Z_STREAM_END) {
+        if (r == Z_DATA_ERROR || r == Z_NEED_DICT || r == Z_STREAM_ERROR)
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: corrupt compressed data (%s)", path,
+                                why ? why : "zlib error");
+        if (out_done < dst_len)
+            return vm_error_set(err, VM_ERR_FORMAT,
+                                "%s: compressed data is truncated (got %zu of %zu bytes)", path,
+                                out_done, dst_len);
+        return vm_error_set(err, VM_ERR_FORMAT,
+                            "%s: compressed data is truncated (its checksum is missing)", path);
+    }
+    if (extra)
+        return vm_error_set(err, VM_ERR_FORMAT,
+                            "%s: compressed data holds %zu bytes more than the %zu expected",
+                            path, extra, dst_len);
     return VM_OK;
 }
 
