@@ -25,7 +25,10 @@ esac
 exec cc -I/nonexistent/volmesh-test/openmpi/include "$@"
 WRAP
 chmod +x "$work/bin/mpicc"
-out=$(PATH="$work/bin:$PATH" cmake -S "$src" -B "$work/mpi" -DVOLMESH_TESTS=OFF 2>&1)
+# The wrapper is named as the C MPI compiler too, so that FindMPI cannot fall back on a
+# working Open MPI of the machine (CI installs one for tests/mpi).
+out=$(PATH="$work/bin:$PATH" cmake -S "$src" -B "$work/mpi" -DVOLMESH_TESTS=OFF \
+      -DMPI_C_COMPILER="$work/bin/mpicc" 2>&1)
 if [ $? -ne 0 ]; then
     echo "configure failed with a broken mpicc first on PATH:"; echo "$out" | tail -20
     fail=$((fail+1))

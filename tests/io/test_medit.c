@@ -43,8 +43,8 @@ static void medit_reader_refuses_malformed_files(void) {
         "MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\n",
         "MeshVersionFormatted 2\nDimension 3\nVertices\n1\nx 0 0 0\nTriangles\n1\n1 1 1 0\n",
         "MeshVersionFormatted 2\nDimension 3\nVertices\n123456789012\n0 0 0 0\n",
-        "MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\nTriangles\n1\n1 1 1 "
-        "99999999999\n",
+        ("MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\nTriangles\n1\n1 1 1 "
+         "99999999999\n"),
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         fx_expect_error(vm_mesh_read_medit, "bad.mesh", bad[i], strlen(bad[i]));
