@@ -168,8 +168,8 @@ static void readers_refuse_malformed_files(void) {
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
         "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
         "0 0 0\n200 0 0 0\n",
-        "ply\nformat binary_little_endian 1.0\nelement vertex 9999999\nproperty float x\n"
-        "property float y\nproperty float z\nend_header\n",
+        ("ply\nformat binary_little_endian 1.0\nelement vertex 9999999\nproperty float x\n"
+         "property float y\nproperty float z\nend_header\n"),
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n"};
     for (size_t i = 0; i < sizeof bad_ply / sizeof bad_ply[0]; i++)
         fx_expect_error(vm_mesh_read_ply, "bad.ply", bad_ply[i], strlen(bad_ply[i]));
