@@ -442,7 +442,9 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
         vm_improve_options_default(&io);
         SET_PROGRESS(io, fn, p);
         vm_improve_report ir;
-        return vm_mesh_improve(m, NULL, &io, &ir, err);
+        s = vm_mesh_improve(m, NULL, &io, &ir, err);
+        if (s) vm_mesh_free(m);
+        return s;
     }
     if (r->surface_method >= 0) {
         vm_surface_options so;
