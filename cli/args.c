@@ -117,6 +117,20 @@ static int raw_option(const char *a, const char *val, vm_raw_options *raw) {
     return VM_EXIT_OK;
 }
 
+/* --spacing SX,SY,SZ: three finite spacings within the readers' limits. */
+static int spacing_option(const char *val, vm_cli_input *in) {
+    char tail;
+    double *s = in->spacing;
+    if (sscanf(val, "%lf,%lf,%lf%c", &s[0], &s[1], &s[2], &tail) != 3)
+        return vm_cli_fail("--spacing: '%s' is not SX,SY,SZ", val);
+    for (int a = 0; a < 3; a++)
+        if (!(s[a] >= VM_SPACING_MIN && s[a] <= VM_SPACING_MAX))
+            return vm_cli_fail("--spacing: '%s': each spacing must be a number from %g to %g",
+                               val, VM_SPACING_MIN, VM_SPACING_MAX);
+    in->has_spacing = 1;
+    return VM_EXIT_OK;
+}
+
 /* No input yet, raw data of unsigned bytes unless --raw-type says otherwise. */
 void vm_cli_input_init(vm_cli_input *in, const char *cmd) {
     memset(in, 0, sizeof *in);
@@ -132,6 +146,14 @@ int vm_cli_input_arg(vm_cli_input *in, int argc, char **argv, int *i, int *taken
         if (vm_cli_need_value("raw input", *i, argc, argv)) return VM_EXIT_INPUT;
         in->is_raw = 1;
         return raw_option(a, argv[++*i], &in->raw);
+    }
+    if (strcmp(a, "--series") == 0 || strcmp(a, "--spacing") == 0) {
+        if (vm_cli_need_value(in->cmd, *i, argc, argv)) return VM_EXIT_INPUT;
+        const char *val = argv[++*i];
+        if (a[3] == 'p') return spacing_option(val, in);
+        if (!val[0]) return vm_cli_fail("--series: empty series");
+        in->series = val;
+        return VM_EXIT_OK;
     }
     if (a[0] == '-' && a[1]) {
         *taken = 0; /* an option: the command's, or unknown */
@@ -162,15 +184,44 @@ const vm_raw_options *vm_cli_input_raw(const vm_cli_input *in) {
     return in->is_raw ? &in->raw : NULL;
 }
 
+/* How to read in's file: its raw description, series and spacing. */
+void vm_cli_input_options(const vm_cli_input *in, vm_volume_read_options *o) {
+    vm_volume_read_options_init(o);
+    o->raw = vm_cli_input_raw(in);
+    o->series = in->series;
+    o->has_spacing = in->has_spacing;
+    memcpy(o->spacing, in->spacing, sizeof o->spacing);
+}
+
+/* The default DICOM series was read: names it and the others, when there are others. */
+void vm_cli_input_note_series(const vm_cli_input *in, const char *format) {
+    if (in->series || in->is_raw || strcmp(format, "dicom") != 0) return;
+    vm_dicom_series_info *list = NULL;
+    size_t n = 0;
+    vm_error err;
+    vm_error_clear(&err);
+    if (vm_dicom_list_series(in->path, &list, &n, &err) != VM_OK || n < 2) {
+        vm_dicom_series_free(list);
+        return;
+    }
+    fprintf(stderr, "volmesh: %s holds %zu DICOM series; read series 1 (%lld slices, "
+            "UID %s); choose another with --series UID|N:\n", in->path, n,
+            (long long)list[0].slices, list[0].uid);
+    for (size_t i = 1; i < n; i++)
+        fprintf(stderr, "volmesh:   %zu  %s  \"%s\"  %lld slice%s\n", i + 1, list[i].uid,
+                list[i].description, (long long)list[i].slices, list[i].slices == 1 ? "" : "s");
+    vm_dicom_series_free(list);
+}
+
 /* Reads the input volume (checked by vm_cli_input_check_raw first). */
 int vm_cli_input_read(const vm_cli_input *in, vm_volume *v) {
     int rc = vm_cli_input_check_raw(in);
     if (rc) return rc;
     vm_error err;
     vm_error_clear(&err);
-    const vm_raw_options *raw = vm_cli_input_raw(in);
-    vm_status st = raw ? vm_volume_read_raw(in->path, raw, v, &err)
-                       : vm_volume_read(in->path, v, &err);
-    if (st) return vm_cli_fail_err(&err);
+    vm_volume_read_options o;
+    vm_cli_input_options(in, &o);
+    if (vm_volume_read_with(in->path, &o, v, &err)) return vm_cli_fail_err(&err);
+    vm_cli_input_note_series(in, v->format);
     return VM_EXIT_OK;
 }

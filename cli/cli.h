@@ -76,13 +76,16 @@ typedef struct {
                          * --raw-endian big|little --raw-spacing SX,SY,SZ --raw-origin X,Y,Z
                          * --raw-header N) */
     int is_raw;         /* 1 once a --raw-* option is given: the file is raw data */
+    const char *series; /* --series UID|N: the DICOM series to read (NULL: the most slices) */
+    int has_spacing;    /* --spacing X,Y,Z given: replaces the file's spacing */
+    double spacing[3];
 } vm_cli_input;
 
 /* [out] in: no file yet, raw defaults (uint8, little-endian); cmd names the command. */
 void vm_cli_input_init(vm_cli_input *in, const char *cmd);
 
-/* Takes argv[*i] when it is a --raw-* option (with its value: *i advances) or the input
- * file: *taken 1. Any other option is left to the command: *taken 0. Returns 0, or prints
+/* Takes argv[*i] when it is a --raw-* option, --series or --spacing (with its value: *i
+ * advances) or the input file: *taken 1. Any other option is left to the command: *taken 0. Returns 0, or prints
  * and returns VM_EXIT_INPUT (a bad raw value, a second input file). */
 int vm_cli_input_arg(vm_cli_input *in, int argc, char **argv, int *i, int *taken);
 
@@ -96,9 +99,18 @@ int vm_cli_input_check_raw(const vm_cli_input *in);
 /* The raw description of the input, or NULL when its file has a header. */
 const vm_raw_options *vm_cli_input_raw(const vm_cli_input *in);
 
+/* [out] o: how to read the input (raw description, series, spacing); points into in. */
+void vm_cli_input_options(const vm_cli_input *in, vm_volume_read_options *o);
+
 /* Reads the input volume ([out] v, free it with vm_volume_free): 0, or prints and returns
- * VM_EXIT_INPUT (raw without --raw-dims, a read error). */
+ * VM_EXIT_INPUT (raw without --raw-dims, a read error). A DICOM input read without --series
+ * that holds other series gets a note on stderr listing them (vm_cli_input_note_series). */
 int vm_cli_input_read(const vm_cli_input *in, vm_volume *v);
+
+/* After the input was read as format (v->format): when it is DICOM, no --series was given
+ * and the path holds more than one series, prints on stderr which series was read and the
+ * others (UID, description, slices) with how to choose one. */
+void vm_cli_input_note_series(const vm_cli_input *in, const char *format);
 
 /* ---- the commands (cli/CMD.c) and what they share ---- */
 

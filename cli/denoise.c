@@ -32,7 +32,8 @@ static const char *denoise_help =
     "  --iterations N          number of steps (1..100000, default 10); smoothing grows like\n"
     "                          a Gaussian of standard deviation sqrt(2 N T)\n"
     "raw files (no header): --raw-dims NXxNYxNZ --raw-type T --raw-endian E\n"
-    "                       --raw-spacing SX,SY,SZ --raw-origin X,Y,Z --raw-header N\n";
+    "                       --raw-spacing SX,SY,SZ --raw-origin X,Y,Z --raw-header N\n"
+    "input: --series UID|N (DICOM series) --spacing SX,SY,SZ (replaces the file's)\n";
 
 /* What `volmesh denoise` takes from its command line (0: chosen from the data). */
 typedef struct {

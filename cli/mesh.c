@@ -78,6 +78,7 @@ static const char *mesh_help2 =
     "                          write, check, report) on stderr\n"
     "  raw input: --raw-dims NXxNYxNZ --raw-type T [--raw-endian E] [--raw-spacing S]\n"
     "             [--raw-origin O] [--raw-header N]   (see volmesh info --help)\n"
+    "  input: --series UID|N (DICOM series) --spacing SX,SY,SZ (replaces the file's)\n"
     "\n"
     "After meshing, a quality pass (edge contraction, flips, optimising smoothing; the\n"
     "boundary stays within half a voxel of the isosurface) raises the worst tets. Prints\n"
@@ -612,12 +613,13 @@ static int auto_slabs(const mesh_args *m, const vm_volume *info, int *n) {
  * (then it is read whole, as without --slabs). */
 static int mesh_slabs(const mesh_args *m, mesh_job *j, int *whole) {
     const char *in = m->in.path;
-    const vm_raw_options *raw = vm_cli_input_raw(&m->in);
+    vm_volume_read_options ro;
+    vm_cli_input_options(&m->in, &ro);
     vm_volume info;
     vm_volume_reader *r = NULL;
     vm_error err;
     vm_error_clear(&err);
-    if (vm_volume_reader_open(in, raw, &info, &r, &err)) return vm_cli_fail_err(&err);
+    if (vm_volume_reader_open_with(in, &ro, &info, &r, &err)) return vm_cli_fail_err(&err);
     int n = m->slabs, rc = VM_EXIT_OK;
     if (n == 0 && m->max_memory > 0 && info.dims[2] >= 2) rc = auto_slabs(m, &info, &n);
     *whole = !rc && n <= 1;
@@ -626,6 +628,7 @@ static int mesh_slabs(const mesh_args *m, mesh_job *j, int *whole) {
         vm_volume_free(&info);
         return rc;
     }
+    vm_cli_input_note_series(&m->in, info.format);
     vm_slab_options so = {n, 0, read_planes, r};
     vm_status s = vm_mesh_volume_slabs(&info, &m->o, &so, &j->m, &j->st, &err);
     vm_volume_reader_close(r);
@@ -634,7 +637,7 @@ static int mesh_slabs(const mesh_args *m, mesh_job *j, int *whole) {
     vm_cli_stage_done(m->verbose, "mesh", &j->t);
     /* the quality pass projects onto the isosurface: by parts, each part reads the planes
      * it reaches (v: the header only) */
-    if (m->improve && vm_volume_reader_open(in, raw, &j->v, &j->planes, &err) != VM_OK) {
+    if (m->improve && vm_volume_reader_open_with(in, &ro, &j->v, &j->planes, &err) != VM_OK) {
         vm_mesh_free(&j->m);
         return vm_cli_fail_err(&err);
     }

@@ -30,7 +30,8 @@ static const char *spectrum_help =
     "                          of the table\n"
     "  --quiet                 no progress bar\n"
     "raw files (no header): --raw-dims NXxNYxNZ --raw-type T --raw-endian E\n"
-    "                       --raw-spacing SX,SY,SZ --raw-origin X,Y,Z --raw-header N\n";
+    "                       --raw-spacing SX,SY,SZ --raw-origin X,Y,Z --raw-header N\n"
+    "input: --series UID|N (DICOM series) --spacing SX,SY,SZ (replaces the file's)\n";
 
 /* ---- output files: written to a temporary name in the same folder, then renamed --------- */
 

@@ -147,9 +147,10 @@ static vm_status read_series(const char *path, const char *choice, const vm__sla
     return st;
 }
 
-/* The default series of path, as rq asks (vm_volume_read and its slab calls). */
+/* Series rq->series of path (NULL: the default), as rq asks (vm_volume_read_with and its
+ * slab calls). */
 vm_status vm__read_dicom(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
-    return read_series(path, NULL, rq, v, err);
+    return read_series(path, rq->series, rq, v, err);
 }
 
 /* Reads series choice under path whole. */
@@ -163,7 +164,7 @@ vm_status vm_volume_read_dicom(const char *path, const char *series, vm_volume *
 vm_status vm_volume_read_dicom_info(const char *path, const char *series, vm_volume *v,
                                     vm_error *err) {
     assert(path && v);
-    vm__slab rq = {0, 0, 0, 1, NULL, NULL};
+    vm__slab rq = {0, 0, 0, 1, NULL, NULL, NULL, NULL};
     return read_series(path, series, &rq, v, err);
 }
 

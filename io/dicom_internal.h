@@ -175,7 +175,7 @@ vm_status vm__dcm_choose(const char *path, const dcm_series *list, size_t count,
 vm_status vm__dcm_geometry(const char *path, dcm_set *set, const dcm_series *s, vm_volume *v,
                            dcm_slice **slices, vm_error *err);
 
-/* The reader behind vm_volume_read (path: file, folder or DICOMDIR; default series). */
+/* The reader behind vm_volume_read (path: file, folder or DICOMDIR; series rq->series). */
 vm_status vm__read_dicom(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err);
 
 #endif

@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include "../core/core.h"
 #include "volmesh/error.h"
+#include "volmesh/io.h"
 #include "volmesh/volume.h"
 
 /* Reads the whole file (refusing directories and files above max_bytes).
@@ -62,12 +63,16 @@ void vm__resume_end(vm__resume *c);
 /* Which planes a reader returns: z0 <= k < z1, or (all = 1) the whole volume; header_only
  * sets the header and dims of the whole volume and reads no sample. into (NULL: allocate)
  * is where the slab's floats go, owned by the caller; cursor (NULL: none) lets a gzip stream
- * or ASCII text go on from where the previous read of the same file stopped. */
+ * or ASCII text go on from where the previous read of the same file stopped. spacing (NULL:
+ * the file's) replaces the voxel spacing, applied by vm__slab_finish before it moves the
+ * origin; series (NULL: the default) is the DICOM series choice. */
 typedef struct vm__slab {
     int64_t z0, z1;
     int all, header_only;
     float *into;
     vm__resume *cursor;
+    const double *spacing;
+    const char *series;
 } vm__slab;
 extern const vm__slab vm__slab_whole;
 
@@ -120,8 +125,14 @@ void vm__volume_set_header(vm_volume *v, const int64_t dims[3], vm_scalar_type t
                            const double spacing[3], const double origin[3],
                            const double direction[3][3], const char *format);
 
+/* 1 when s is a voxel spacing every reader accepts (finite, VM_SPACING_MIN..MAX). */
+static inline int vm__spacing_in_range(double s) {
+    return s >= VM_SPACING_MIN && s <= VM_SPACING_MAX; /* false for NaN */
+}
+
 /* Turns v (the whole volume's header, dims and geometry set, data NULL) into the slab rq:
- * dims[2] = z1 - z0, origin moved to the world position of voxel (0, 0, z0). */
+ * spacing replaced by rq->spacing when given, then dims[2] = z1 - z0, origin moved to the
+ * world position of voxel (0, 0, z0). */
 void vm__slab_finish(vm_volume *v, const vm__slab *rq);
 
 /* 1 when this machine is little endian. */

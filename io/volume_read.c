@@ -33,43 +33,90 @@ static vm_status read_any(const char *path, const vm__slab *rq, vm_volume *v, vm
     reader_fn by_name = reader_of_name(path);
     struct stat sb;
     int is_dir = stat(path, &sb) == 0 && S_ISDIR(sb.st_mode);
+    vm_status st;
     if ((is_dir && !by_name) || (!is_dir && vm__dcm_sniff_path(path)))
-        return vm__read_dicom(path, rq, v, err);
-    if (by_name) return by_name(path, rq, v, err);
-    return vm_error_set(err, VM_ERR_UNSUPPORTED,
-                        "%s: unknown volume format (expected .nrrd .nhdr .nii .nii.gz .hdr .img "
-                        ".mha .mhd .vtk .vti, DICOM, or a raw file with --raw-dims)",
-                        path);
+        st = vm__read_dicom(path, rq, v, err);
+    else if (by_name)
+        st = by_name(path, rq, v, err);
+    else
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "%s: unknown volume format (expected .nrrd .nhdr .nii .nii.gz .hdr "
+                            ".img .mha .mhd .vtk .vti, DICOM, or a raw file with --raw-dims)",
+                            path);
+    /* a header-only read may stop before vm__slab_finish */
+    if (!st && rq->spacing) memcpy(v->spacing, rq->spacing, sizeof v->spacing);
+    return st;
+}
+
+/* Reads path as rq asks: raw when raw is not NULL, else by its name or content. */
+static vm_status read_rq(const char *path, const vm_raw_options *raw, const vm__slab *rq,
+                         vm_volume *v, vm_error *err) {
+    if (!raw) return read_any(path, rq, v, err);
+    memset(v, 0, sizeof *v);
+    vm_status st = vm__read_raw(path, raw, rq, v, err);
+    if (!st && rq->spacing) memcpy(v->spacing, rq->spacing, sizeof v->spacing);
+    return st;
+}
+
+/* opt's spacing is one every reader accepts, or VM_ERR_ARG naming path. */
+static vm_status check_options(const char *path, const vm_volume_read_options *opt,
+                               vm_error *err) {
+    if (!opt || !opt->has_spacing) return VM_OK;
+    for (int a = 0; a < 3; a++)
+        if (!vm__spacing_in_range(opt->spacing[a]))
+            return vm_error_set(err, VM_ERR_ARG,
+                                "%s: spacing %g of axis %c is not a number from %g to %g", path,
+                                opt->spacing[a], "xyz"[a], VM_SPACING_MIN, VM_SPACING_MAX);
+    return VM_OK;
+}
+
+void vm_volume_read_options_init(vm_volume_read_options *o) {
+    assert(o);
+    memset(o, 0, sizeof *o);
 }
 
 vm_status vm_volume_read(const char *path, vm_volume *v, vm_error *err) {
     return read_any(path, &vm__slab_whole, v, err);
 }
 
+vm_status vm_volume_read_with(const char *path, const vm_volume_read_options *opt,
+                              vm_volume *v, vm_error *err) {
+    assert(path && v);
+    memset(v, 0, sizeof *v);
+    vm_status st = check_options(path, opt, err);
+    if (st) return st;
+    vm__slab rq = vm__slab_whole;
+    if (opt) {
+        rq.spacing = opt->has_spacing ? opt->spacing : NULL;
+        rq.series = opt->series;
+    }
+    return read_rq(path, opt ? opt->raw : NULL, &rq, v, err);
+}
+
 vm_status vm_volume_read_info(const char *path, vm_volume *v, vm_error *err) {
     assert(path && v);
-    vm__slab rq = {0, 0, 0, 1, NULL, NULL};
+    vm__slab rq = {0, 0, 0, 1, NULL, NULL, NULL, NULL};
     return read_any(path, &rq, v, err);
 }
 
 vm_status vm_volume_read_slab(const char *path, int64_t z0, int64_t z1, vm_volume *v,
                               vm_error *err) {
     assert(path && v);
-    vm__slab rq = {z0, z1, 0, 0, NULL, NULL};
+    vm__slab rq = {z0, z1, 0, 0, NULL, NULL, NULL, NULL};
     return read_any(path, &rq, v, err);
 }
 
 vm_status vm_volume_read_raw_info(const char *path, const vm_raw_options *opt, vm_volume *v,
                                   vm_error *err) {
     assert(path && opt && v);
-    vm__slab rq = {0, 0, 0, 1, NULL, NULL};
+    vm__slab rq = {0, 0, 0, 1, NULL, NULL, NULL, NULL};
     return vm__read_raw(path, opt, &rq, v, err);
 }
 
 vm_status vm_volume_read_raw_slab(const char *path, const vm_raw_options *opt, int64_t z0,
                                   int64_t z1, vm_volume *v, vm_error *err) {
     assert(path && opt && v);
-    vm__slab rq = {z0, z1, 0, 0, NULL, NULL};
+    vm__slab rq = {z0, z1, 0, 0, NULL, NULL, NULL, NULL};
     return vm__read_raw(path, opt, &rq, v, err);
 }
 
@@ -77,38 +124,53 @@ struct vm_volume_reader {
     char *path;
     int is_raw;
     vm_raw_options raw;
+    char *series;       /* owned copy, or NULL */
+    int has_spacing;
+    double spacing[3];
     int64_t dims[3];
     vm__resume cursor;
 };
 
-static vm_status reader_read(vm_volume_reader *r, const vm__slab *rq, vm_volume *v,
-                             vm_error *err) {
-    if (r->is_raw) {
-        memset(v, 0, sizeof *v);
-        return vm__read_raw(r->path, &r->raw, rq, v, err);
-    }
-    return read_any(r->path, rq, v, err);
+/* Reads what rq asks with the reader's choices. */
+static vm_status reader_read(vm_volume_reader *r, vm__slab *rq, vm_volume *v, vm_error *err) {
+    rq->spacing = r->has_spacing ? r->spacing : NULL;
+    rq->series = r->series;
+    return read_rq(r->path, r->is_raw ? &r->raw : NULL, rq, v, err);
 }
 
-vm_status vm_volume_reader_open(const char *path, const vm_raw_options *raw, vm_volume *info,
-                                vm_volume_reader **out, vm_error *err) {
+/* A malloc'd copy of s, or NULL when out of memory. */
+static char *copy_string(const char *s) {
+    size_t len = strlen(s);
+    char *c = malloc(len + 1);
+    if (c) memcpy(c, s, len + 1);
+    return c;
+}
+
+vm_status vm_volume_reader_open_with(const char *path, const vm_volume_read_options *opt,
+                                     vm_volume *info, vm_volume_reader **out, vm_error *err) {
     assert(path && out);
     *out = NULL;
+    vm_status st = check_options(path, opt, err);
+    if (st) return st;
     vm_volume_reader *r = calloc(1, sizeof *r);
-    size_t len = strlen(path);
-    if (r) r->path = malloc(len + 1);
+    if (r) r->path = copy_string(path);
+    if (r && r->path && opt && opt->series && !(r->series = copy_string(opt->series)))
+        free(r->path), r->path = NULL;
     if (!r || !r->path) {
         free(r);
         return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
     }
-    memcpy(r->path, path, len + 1);
-    if (raw) {
+    if (opt && opt->raw) {
         r->is_raw = 1;
-        r->raw = *raw;
+        r->raw = *opt->raw;
+    }
+    if (opt && opt->has_spacing) {
+        r->has_spacing = 1;
+        memcpy(r->spacing, opt->spacing, sizeof r->spacing);
     }
     vm_volume v;
-    vm__slab rq = {0, 0, 0, 1, NULL, NULL};
-    vm_status st = reader_read(r, &rq, &v, err);
+    vm__slab rq = {0, 0, 0, 1, NULL, NULL, NULL, NULL};
+    st = reader_read(r, &rq, &v, err);
     if (st) {
         vm_volume_reader_close(r);
         return st;
@@ -122,10 +184,18 @@ vm_status vm_volume_reader_open(const char *path, const vm_raw_options *raw, vm_
     return VM_OK;
 }
 
+vm_status vm_volume_reader_open(const char *path, const vm_raw_options *raw, vm_volume *info,
+                                vm_volume_reader **out, vm_error *err) {
+    vm_volume_read_options o;
+    vm_volume_read_options_init(&o);
+    o.raw = raw;
+    return vm_volume_reader_open_with(path, &o, info, out, err);
+}
+
 vm_status vm_volume_reader_read(vm_volume_reader *r, int64_t z0, int64_t z1, float *dst,
                                 vm_error *err) {
     assert(r && dst);
-    vm__slab rq = {z0, z1, 0, 0, dst, &r->cursor};
+    vm__slab rq = {z0, z1, 0, 0, dst, &r->cursor, NULL, NULL};
     vm_volume v;
     vm_status st = reader_read(r, &rq, &v, err);
     v.data = NULL; /* the caller's */
@@ -136,6 +206,7 @@ vm_status vm_volume_reader_read(vm_volume_reader *r, int64_t z0, int64_t z1, flo
 void vm_volume_reader_close(vm_volume_reader *r) {
     if (!r) return;
     vm__resume_end(&r->cursor);
+    free(r->series);
     free(r->path);
     free(r);
 }

@@ -20,7 +20,7 @@
 #include "../core/core.h"
 #include "io_util.h"
 
-const vm__slab vm__slab_whole = {0, 0, 1, 0, NULL, NULL};
+const vm__slab vm__slab_whole = {0, 0, 1, 0, NULL, NULL, NULL, NULL};
 
 static size_t page_size(void) {
     long pg = sysconf(_SC_PAGESIZE);
@@ -182,6 +182,7 @@ void vm__volume_set_header(vm_volume *v, const int64_t dims[3], vm_scalar_type t
 
 /* Moves v's origin to the slab's first plane and its dims to the slab's planes. */
 void vm__slab_finish(vm_volume *v, const vm__slab *rq) {
+    if (rq->spacing) memcpy(v->spacing, rq->spacing, sizeof v->spacing);
     if (rq->all || rq->header_only) return;
     for (int r = 0; r < 3; r++)
         v->origin[r] += v->direction[r][2] * (double)rq->z0 * v->spacing[2];

@@ -21,6 +21,34 @@ extern "C" {
  * vm_volume_free. */
 vm_status vm_volume_read(const char *path, vm_volume *v, vm_error *err);
 
+/* The limits of every voxel spacing a reader accepts, from a file or from the caller
+ * (--spacing): finite and VM_SPACING_MIN <= s <= VM_SPACING_MAX, in the file's unit. Wide
+ * enough for metres and for micrometres; outside, physical coordinates lose their digits. */
+#define VM_SPACING_MIN 1e-9
+#define VM_SPACING_MAX 1e9
+
+/* What a file does not say, or what replaces what it says, for vm_volume_read_with and
+ * vm_volume_reader_open_with. Fill with vm_volume_read_options_init, then set fields. */
+typedef struct vm_volume_read_options {
+    const vm_raw_options *raw; /* NULL, or a headerless raw file's description (not copied:
+                                  it must live as long as the call) */
+    const char *series;        /* DICOM: NULL for the series with the most slices, a
+                                  SeriesInstanceUID, or a 1-based index in decimal ("2") as
+                                  listed by vm_dicom_list_series; other formats: ignored */
+    int has_spacing;           /* 1: spacing replaces the file's voxel spacing (origin and
+                                  direction stay the file's) */
+    double spacing[3];         /* sx, sy, sz: finite, VM_SPACING_MIN..VM_SPACING_MAX, else
+                                  VM_ERR_ARG "PATH: spacing ... " */
+} vm_volume_read_options;
+
+/* Fills o with the defaults: no raw description, default series, the file's spacing. */
+void vm_volume_read_options_init(vm_volume_read_options *o);
+
+/* vm_volume_read (or vm_volume_read_raw when opt->raw) with opt's choices; opt may be NULL
+ * (then exactly vm_volume_read). [out] v, free with vm_volume_free. */
+vm_status vm_volume_read_with(const char *path, const vm_volume_read_options *opt,
+                              vm_volume *v, vm_error *err);
+
 /* Format-specific readers (same contract as vm_volume_read). */
 vm_status vm_volume_read_nrrd(const char *path, vm_volume *v, vm_error *err);
 vm_status vm_volume_read_nifti(const char *path, vm_volume *v, vm_error *err);
@@ -69,6 +97,10 @@ vm_status vm_volume_read_raw_slab(const char *path, const vm_raw_options *opt, i
 typedef struct vm_volume_reader vm_volume_reader;
 vm_status vm_volume_reader_open(const char *path, const vm_raw_options *raw, vm_volume *info,
                                 vm_volume_reader **r, vm_error *err);
+/* The same with opt's choices (series, spacing, raw; opt may be NULL), kept for every
+ * later vm_volume_reader_read (opt->raw and opt->series are copied). */
+vm_status vm_volume_reader_open_with(const char *path, const vm_volume_read_options *opt,
+                                     vm_volume *info, vm_volume_reader **r, vm_error *err);
 vm_status vm_volume_reader_read(vm_volume_reader *r, int64_t z0, int64_t z1, float *dst,
                                 vm_error *err);
 void vm_volume_reader_close(vm_volume_reader *r);
