@@ -164,6 +164,10 @@ vm_status vm__read_vtk(const char *path, const vm__slab *rq, vm_volume *v, vm_er
 vm_status vm__read_vti(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err);
 vm_status vm__read_raw(const char *path, const vm_raw_options *opt, const vm__slab *rq,
                        vm_volume *v, vm_error *err);
+/* TIFF (io/tiff.c): a file, or a folder of slices; without libtiff, VM_ERR_UNSUPPORTED. */
+vm_status vm__read_tiff(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err);
+/* 1 when path is a folder with a .tif or .tiff file at its top level. */
+int vm__tiff_folder(const char *path);
 
 /* Atomic output: opens PATH.tmp-PID for writing; commit renames it over path, abort
  * removes it. */

@@ -23,25 +23,30 @@ static reader_fn reader_of_name(const char *path) {
     if (vm__ends_with(path, ".mha") || vm__ends_with(path, ".mhd")) return vm__read_metaimage;
     if (vm__ends_with(path, ".vtk")) return vm__read_vtk;
     if (vm__ends_with(path, ".vti")) return vm__read_vti;
+    if (vm__ends_with(path, ".tif") || vm__ends_with(path, ".tiff")) return vm__read_tiff;
     return NULL;
 }
 
-/* A folder is a DICOM series unless its name is a volume file's (then that reader says it
- * is a folder); a file whose content is DICOM is read as DICOM whatever its name. */
+/* A folder is a TIFF stack when it holds .tif files, else a DICOM series, unless its name is
+ * a volume file's (then that reader says it is a folder); a file whose content is DICOM is
+ * read as DICOM whatever its name. */
 static vm_status read_any(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err) {
     memset(v, 0, sizeof *v);
     reader_fn by_name = reader_of_name(path);
     struct stat sb;
     int is_dir = stat(path, &sb) == 0 && S_ISDIR(sb.st_mode);
     vm_status st;
-    if ((is_dir && !by_name) || (!is_dir && vm__dcm_sniff_path(path)))
+    if (is_dir && !by_name && vm__tiff_folder(path))
+        st = vm__read_tiff(path, rq, v, err);
+    else if ((is_dir && !by_name) || (!is_dir && vm__dcm_sniff_path(path)))
         st = vm__read_dicom(path, rq, v, err);
     else if (by_name)
         st = by_name(path, rq, v, err);
     else
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
                             "%s: unknown volume format (expected .nrrd .nhdr .nii .nii.gz .hdr "
-                            ".img .mha .mhd .vtk .vti, DICOM, or a raw file with --raw-dims)",
+                            ".img .mha .mhd .vtk .vti .tif .tiff, DICOM, or a raw file with "
+                            "--raw-dims)",
                             path);
     /* a header-only read may stop before vm__slab_finish */
     if (!st && rq->spacing) memcpy(v->spacing, rq->spacing, sizeof v->spacing);

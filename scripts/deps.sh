@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: BSD-3-Clause
 # Installs what building and testing volmesh needs on Debian, when it is missing:
 # the compiler and CMake, zlib, and (for the tests' independent judges) Debian's python3 with
-# VTK, meshio, numpy, pydicom and pytest, the Python package's build (python3-dev, -setuptools, -venv), CalculiX (ccx), gmsh, libexodusii-dev and Open MPI (libopenmpi-dev,
+# VTK, meshio, numpy, pydicom and pytest, the Python package's build (python3-dev, -setuptools, -venv), CalculiX (ccx), gmsh, libexodusii-dev, libtiff-dev and Open MPI (libopenmpi-dev,
 # openmpi-bin). Usage: scripts/deps.sh [--tests]
 set -eu
 want_tests=0
@@ -34,6 +34,9 @@ if [ "$want_tests" = 1 ]; then
     command -v ccx >/dev/null 2>&1 || pkgs+=(calculix-ccx)
     command -v gmsh >/dev/null 2>&1 || pkgs+=(gmsh)
     dpkg -s libexodusii-dev >/dev/null 2>&1 || pkgs+=(libexodusii-dev)
+    # the optional TIFF reader (io/tiff.c) is built when libtiff-dev is present; its tests
+    # write their TIFF files with libtiff
+    dpkg -s libtiff-dev >/dev/null 2>&1 || pkgs+=(libtiff-dev)
     # volmesh_mpi (docs/MPI.md) is built against Open MPI and run by tests/mpi under mpirun
     dpkg -s libopenmpi-dev >/dev/null 2>&1 || pkgs+=(libopenmpi-dev)
     command -v mpirun >/dev/null 2>&1 || pkgs+=(openmpi-bin)

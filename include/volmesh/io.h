@@ -15,9 +15,10 @@
 extern "C" {
 #endif
 
-/* Reads any supported volume. A folder, or a file whose content is DICOM, is read as a DICOM
- * series (volmesh/dicom.h: the series with the most slices); other files by their extension
- * (.nrrd .nhdr .nii .nii.gz .hdr .img .mha .mhd .vtk .vti). [out] v, free with
+/* Reads any supported volume. A folder with .tif/.tiff files at its top level is a TIFF
+ * stack; any other folder, or a file whose content is DICOM, is read as a DICOM series
+ * (volmesh/dicom.h: the series with the most slices); other files by their extension
+ * (.nrrd .nhdr .nii .nii.gz .hdr .img .mha .mhd .vtk .vti .tif .tiff). [out] v, free with
  * vm_volume_free. */
 vm_status vm_volume_read(const char *path, vm_volume *v, vm_error *err);
 
@@ -57,6 +58,16 @@ vm_status vm_volume_read_vtk(const char *path, vm_volume *v, vm_error *err);
 vm_status vm_volume_read_vti(const char *path, vm_volume *v, vm_error *err);
 vm_status vm_volume_read_raw(const char *path, const vm_raw_options *opt, vm_volume *v,
                              vm_error *err);
+/* TIFF (needs a build with libtiff, else VM_ERR_UNSUPPORTED): path is a multi-page file or
+ * a folder whose .tif/.tiff files are its slices in natural name order ("s2" before "s10");
+ * every page one channel of the same size and sample type (8, 16, 32-bit integers, 32 or
+ * 64-bit floats), any compression libtiff decodes, strips or tiles. Spacing from ImageJ's
+ * description (1/XResolution, 1/YResolution, spacing=) or OME-XML PhysicalSizeX/Y/Z, in the
+ * file's unit (not converted), else 1; origin 0, direction the identity; format "tiff". */
+vm_status vm_volume_read_tiff(const char *path, vm_volume *v, vm_error *err);
+
+/* 1 when volmesh was built with libtiff (TIFF inputs are read). */
+int vm_tiff_available(void);
 
 /* ---- Reading by slabs -----------------------------------------------------------------
  *
