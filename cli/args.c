@@ -61,7 +61,7 @@ int vm_cli_need_value(const char *cmd, int i, int argc, char **argv) {
 int vm_cli_fail_mesh_read(const char *path, const vm_error *err) {
     static const char *const volume_tails[] = {".nrrd", ".nhdr", ".nii", ".nii.gz", ".hdr",
                                                ".img",  ".mha",  ".mhd", ".vti",    ".raw",
-                                               ".tif",  ".tiff"};
+                                               ".tif",  ".tiff", ".inr", ".inr.gz"};
     int volume = strstr(err->message, "STRUCTURED_POINTS") != NULL;
     for (size_t i = 0; i < sizeof volume_tails / sizeof volume_tails[0]; i++)
         volume |= vm_cli_ends_with(path, volume_tails[i]);

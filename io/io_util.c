@@ -115,6 +115,26 @@ vm_status vm__read_gz_file(const char *path, size_t max_bytes, unsigned char **b
     return VM_OK;
 }
 
+/* Inflates the start of a gzip or zlib stream: at most cap bytes (a header to parse). */
+vm_status vm__gz_prefix(const char *path, const unsigned char *p, size_t n, unsigned char *out,
+                        size_t cap, size_t *got, vm_error *err) {
+    z_stream zs;
+    memset(&zs, 0, sizeof zs);
+    *got = 0;
+    if (inflateInit2(&zs, 15 + 32) != Z_OK)
+        return vm_error_set(err, VM_ERR_NOMEM, "%s: cannot start zlib", path);
+    zs.next_in = (unsigned char *)p;
+    zs.avail_in = (uInt)(n < (1u << 30) ? n : (1u << 30));
+    zs.next_out = out;
+    zs.avail_out = (uInt)cap;
+    int r = inflate(&zs, Z_SYNC_FLUSH);
+    *got = cap - zs.avail_out;
+    inflateEnd(&zs);
+    if (r != Z_OK && r != Z_STREAM_END && r != Z_BUF_ERROR)
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: corrupt compressed data", path);
+    return VM_OK;
+}
+
 vm_status vm__inflate_exact(const char *path, const unsigned char *src, size_t src_len,
                             unsigned char *dst, size_t dst_len, vm_error *err) {
     z_stream zs;

@@ -26,6 +26,12 @@ vm_status vm__read_gz_file(const char *path, size_t max_bytes, unsigned char **b
 vm_status vm__inflate_exact(const char *path, const unsigned char *src, size_t src_len,
                             unsigned char *dst, size_t dst_len, vm_error *err);
 
+/* Inflates the first up to cap bytes of the gzip or zlib stream at p (n bytes) into out, to
+ * parse a header inside the stream. [out] *got: bytes inflated (fewer when the stream ends
+ * or is cut short); corrupt data is VM_ERR_FORMAT "PATH: corrupt compressed data". */
+vm_status vm__gz_prefix(const char *path, const unsigned char *p, size_t n, unsigned char *out,
+                        size_t cap, size_t *got, vm_error *err);
+
 /* Converts n samples of type t at src (native or swapped byte order) into floats; with
  * OpenMP, blocks of samples on several threads (elementwise, so the same for any count). */
 void vm__samples_to_float(const void *src, vm_scalar_type t, int swap, size_t n, float *dst);
@@ -164,6 +170,8 @@ vm_status vm__read_vtk(const char *path, const vm__slab *rq, vm_volume *v, vm_er
 vm_status vm__read_vti(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err);
 vm_status vm__read_raw(const char *path, const vm_raw_options *opt, const vm__slab *rq,
                        vm_volume *v, vm_error *err);
+vm_status vm__read_inrimage(const char *path, const vm__slab *rq, vm_volume *v,
+                            vm_error *err);
 /* TIFF (io/tiff.c): a file, or a folder of slices; without libtiff, VM_ERR_UNSUPPORTED. */
 vm_status vm__read_tiff(const char *path, const vm__slab *rq, vm_volume *v, vm_error *err);
 /* 1 when path is a folder with a .tif or .tiff file at its top level. */

@@ -7,7 +7,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <zlib.h>
 #include "../core/core.h"
 #include "io_util.h"
 #include "volmesh/io.h"
@@ -322,26 +321,6 @@ static vm_status read_partner(const char *owner, const char *what, size_t stem_l
     return VM_OK;
 }
 
-/* The first up to cap bytes of the gzip stream at p (n bytes). [out] *got. */
-static vm_status gz_prefix(const char *path, const unsigned char *p, size_t n,
-                           unsigned char *out, size_t cap, size_t *got, vm_error *err) {
-    z_stream zs;
-    memset(&zs, 0, sizeof zs);
-    *got = 0;
-    if (inflateInit2(&zs, 15 + 32) != Z_OK)
-        return vm_error_set(err, VM_ERR_NOMEM, "%s: cannot start zlib", path);
-    zs.next_in = (unsigned char *)p;
-    zs.avail_in = (uInt)(n < (1u << 30) ? n : (1u << 30));
-    zs.next_out = out;
-    zs.avail_out = (uInt)cap;
-    int r = inflate(&zs, Z_SYNC_FLUSH);
-    *got = cap - zs.avail_out;
-    inflateEnd(&zs);
-    if (r != Z_OK && r != Z_STREAM_END && r != Z_BUF_ERROR)
-        return vm_error_set(err, VM_ERR_FORMAT, "%s: corrupt compressed data", path);
-    return VM_OK;
-}
-
 static int is_gzip(const vm__map *m) { return m->len >= 2 && m->p[0] == 0x1f && m->p[1] == 0x8b; }
 
 /* Maps the partner file stem+ext for the first ext of exts[] that exists (the first one
@@ -392,7 +371,7 @@ static vm_status read_nifti(const char *path, const vm__slab *rq, vm_volume *v, 
         hdr = fm.p;
         hlen = fm.len;
         if (!st && is_gzip(&fm)) {
-            st = gz_prefix(path, fm.p, fm.len, hpre, sizeof hpre, &hlen, err);
+            st = vm__gz_prefix(path, fm.p, fm.len, hpre, sizeof hpre, &hlen, err);
             hdr = hpre;
         }
     }

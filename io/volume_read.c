@@ -24,6 +24,7 @@ static reader_fn reader_of_name(const char *path) {
     if (vm__ends_with(path, ".vtk")) return vm__read_vtk;
     if (vm__ends_with(path, ".vti")) return vm__read_vti;
     if (vm__ends_with(path, ".tif") || vm__ends_with(path, ".tiff")) return vm__read_tiff;
+    if (vm__ends_with(path, ".inr") || vm__ends_with(path, ".inr.gz")) return vm__read_inrimage;
     return NULL;
 }
 
@@ -45,8 +46,8 @@ static vm_status read_any(const char *path, const vm__slab *rq, vm_volume *v, vm
     else
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
                             "%s: unknown volume format (expected .nrrd .nhdr .nii .nii.gz .hdr "
-                            ".img .mha .mhd .vtk .vti .tif .tiff, DICOM, or a raw file with "
-                            "--raw-dims)",
+                            ".img .mha .mhd .vtk .vti .tif .tiff .inr .inr.gz, DICOM, or a raw "
+                            "file with --raw-dims)",
                             path);
     /* a header-only read may stop before vm__slab_finish */
     if (!st && rq->spacing) memcpy(v->spacing, rq->spacing, sizeof v->spacing);

@@ -18,8 +18,8 @@ extern "C" {
 /* Reads any supported volume. A folder with .tif/.tiff files at its top level is a TIFF
  * stack; any other folder, or a file whose content is DICOM, is read as a DICOM series
  * (volmesh/dicom.h: the series with the most slices); other files by their extension
- * (.nrrd .nhdr .nii .nii.gz .hdr .img .mha .mhd .vtk .vti .tif .tiff). [out] v, free with
- * vm_volume_free. */
+ * (.nrrd .nhdr .nii .nii.gz .hdr .img .mha .mhd .vtk .vti .tif .tiff .inr .inr.gz). [out] v,
+ * free with vm_volume_free. */
 vm_status vm_volume_read(const char *path, vm_volume *v, vm_error *err);
 
 /* The limits of every voxel spacing a reader accepts, from a file or from the caller
@@ -58,6 +58,12 @@ vm_status vm_volume_read_vtk(const char *path, vm_volume *v, vm_error *err);
 vm_status vm_volume_read_vti(const char *path, vm_volume *v, vm_error *err);
 vm_status vm_volume_read_raw(const char *path, const vm_raw_options *opt, vm_volume *v,
                              vm_error *err);
+/* INRIMAGE-4 (.inr, .inr.gz: the whole file gzipped), as CGAL and MedInria write it: the
+ * header's XDIM YDIM ZDIM (VDIM 1), TYPE (unsigned fixed, signed fixed, float) with PIXSIZE
+ * (8..64 bits), CPU (decm, alpha, pc: little endian; sun, sgi: big endian), VX VY VZ
+ * spacing; SCALE is not applied; origin 0, direction the identity; format "inrimage". */
+vm_status vm_volume_read_inrimage(const char *path, vm_volume *v, vm_error *err);
+
 /* TIFF (needs a build with libtiff, else VM_ERR_UNSUPPORTED): path is a multi-page file or
  * a folder whose .tif/.tiff files are its slices in natural name order ("s2" before "s10");
  * every page one channel of the same size and sample type (8, 16, 32-bit integers, 32 or
