@@ -8,6 +8,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include <ctype.h>
 #include <dirent.h>
+#include <errno.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -318,7 +319,9 @@ static vm_status ome_meta(const char *file, const char *desc, int64_t pages, dou
 /* The files of path: itself, or a folder's .tif/.tiff files in natural order. */
 static vm_status list_files(const char *path, tiff_stack *s, vm_error *err) {
     struct stat sb;
-    if (stat(path, &sb) != 0 || !S_ISDIR(sb.st_mode)) {
+    if (stat(path, &sb) != 0)
+        return vm_error_set(err, VM_ERR_IO, "%s: cannot open (%s)", path, strerror(errno));
+    if (!S_ISDIR(sb.st_mode)) {
         s->files = malloc(sizeof *s->files);
         if (s->files) s->files[0] = malloc(strlen(path) + 1);
         if (!s->files || !s->files[0]) {

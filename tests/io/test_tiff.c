@@ -349,6 +349,7 @@ static void tiffRefusesTruncatedAndLyingFilesInOneLine(void) {
     const char *text = vm_test_tmp("tiff_text.tif");
     CHECK(vm_test_write_file(text, "hello, not a TIFF\n", 18) == 0);
     expect_cli_refusal(text, "not a readable TIFF file");
+    expect_cli_refusal(vm_test_tmp("tiff_absent.tif"), "cannot open (No such file");
     const char *empty = vm_test_tmp("tiff_empty.tif");
     CHECK(vm_test_write_file(empty, "", 0) == 0);
     expect_cli_refusal(empty, "not a readable TIFF file");
