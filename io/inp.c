@@ -260,6 +260,15 @@ static vm_status prepare_deck_data(inp_writer *w) {
     return st;
 }
 
+/* One *NODE data line; every coordinate at most VM__INP_FIELD characters. */
+static void write_node_line(FILE *fp, size_t id, double x, double y, double z) {
+    char a[32], b[32], c[32];
+    vm__format_real(x, VM__INP_FIELD, 0, a, sizeof a);
+    vm__format_real(y, VM__INP_FIELD, 0, b, sizeof b);
+    vm__format_real(z, VM__INP_FIELD, 0, c, sizeof c);
+    fprintf(fp, "%zu, %s, %s, %s\n", id, a, b, c);
+}
+
 /* *NODE: the mesh points, then (order 2) each mid-edge node at the middle of its edge, in
  * id order (straight-sided elements). */
 static vm_status write_nodes(inp_writer *w) {
@@ -268,7 +277,7 @@ static vm_status write_nodes(inp_writer *w) {
     fprintf(fp, "*NODE, NSET=NALL\n");
     for (size_t i = 0; i < m->npoints; i++) {
         const double *p = m->points + 3 * i;
-        fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", i + 1, p[0], p[1], p[2]);
+        write_node_line(fp, i + 1, p[0], p[1], p[2]);
         vm__out_step(&w->o, 1.0);
     }
     if (!w->order2) return VM_OK;
@@ -283,8 +292,8 @@ static vm_status write_nodes(inp_writer *w) {
         int k = (int)(slot_of[i] % ne);
         const double *a = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][0]];
         const double *b = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][1]];
-        fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", m->npoints + i + 1, 0.5 * (a[0] + b[0]),
-                0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]));
+        write_node_line(fp, m->npoints + i + 1, 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]),
+                        0.5 * (a[2] + b[2]));
         vm__out_step(&w->o, 1.0);
     }
     free(slot_of);
@@ -406,8 +415,10 @@ static void write_material_and_step(inp_writer *w) {
     write_id_list(fp, w->deck.fixed, w->deck.nfixed);
     fprintf(fp, "*NSET, NSET=LOADED\n");
     write_id_list(fp, w->deck.loaded, w->deck.nloaded);
-    fprintf(fp, "*STEP\n*STATIC\n*BOUNDARY\nFIXED, 1, 3\n*CLOAD\nLOADED, 3, %.17g\n",
-            -DECK_TOTAL_FORCE / (double)w->deck.nloaded);
+    char load[32];
+    vm__format_real(-DECK_TOTAL_FORCE / (double)w->deck.nloaded, VM__INP_FIELD, 0, load,
+                    sizeof load);
+    fprintf(fp, "*STEP\n*STATIC\n*BOUNDARY\nFIXED, 1, 3\n*CLOAD\nLOADED, 3, %s\n", load);
     fprintf(fp, "*NODE FILE\nU\n*EL FILE\nS\n*NODE PRINT, NSET=LOADED\nU\n*END STEP\n");
 }
 

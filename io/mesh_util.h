@@ -38,6 +38,19 @@ vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_
 vm_status vm__write_obj(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
                         vm_error *err);
 
+/* --- numbers as text (io/number_text.c) ------------------------------------------------- */
+
+/* Deck field width limits: CalculiX / ABAQUS read at most 20 characters per number; Nastran
+ * large-field and LS-DYNA fixed node fields hold 16. */
+enum { VM__INP_FIELD = 20, VM__WIDE_FIELD = 16 };
+
+/* Writes v into out (cap >= 32) as the shortest text among %.15g, %.16g, %.17g (and their
+ * exponent forms, exponent written "E-7") at the first precision that reads back exactly;
+ * when that is wider than width characters, the most significant digits (15 or fewer) whose
+ * text fits. need_point: always with a decimal point (Nastran reads "12" as an integer).
+ * Returns the length written. Non-finite values are written as %g gives them. */
+int vm__format_real(double v, int width, int need_point, char *out, size_t cap);
+
 /* --- text cursor ------------------------------------------------------------------------- */
 
 typedef struct vm__cursor {

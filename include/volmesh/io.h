@@ -89,7 +89,8 @@ vm_status vm_mesh_read_vtu(const char *path, vm_mesh *m, vm_error *err);
  *
  * Every writer: node order converted to the format's own (positive volumes in its reader's
  * convention), coordinates written losslessly (%.17g, or binary doubles; binary STL can only
- * hold float32), output written to PATH.tmp-PID and renamed. Every reader: one-line errors
+ * hold float32; .inp fields hold 20 characters: the shortest exact text, else 15 digits),
+ * output written to PATH.tmp-PID and renamed. Every reader: one-line errors
  * "PATH: [line N: ]problem", sizes checked against the file before allocating; [out] m is a
  * mesh to free with vm_mesh_free (left empty on error). Details per format in docs/FORMATS.md.
  * Surface formats (STL, OFF, PLY, OBJ) given a tet4/hex8 mesh write its boundary

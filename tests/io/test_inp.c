@@ -4,6 +4,10 @@
  * surfaces name the right element faces, the static deck's sets are the z slabs, malformed
  * decks are refused with one-line errors. (test_calculix.sh runs ccx on a deck.) */
 #include "mesh_fixtures.h"
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include "io/mesh_util.h"
 
 static vm_mesh_write_options opts(int order, vm_deck_kind deck) {
     vm_mesh_write_options o;
@@ -16,16 +20,16 @@ static vm_mesh_write_options opts(int order, vm_deck_kind deck) {
 static void inp_round_trip_is_exact_for_every_kind(void) {
     vm_mesh m;
     fx_block(&m, 2, 0);
-    fx_round_trip(&m, "rt_tet.inp", NULL, vm_mesh_read_inp, 1);
+    fx_round_trip_within(&m, "rt_tet.inp", NULL, vm_mesh_read_inp, 1, FX_DIGITS15_TOL);
     vm_mesh_free(&m);
     fx_block(&m, 2, 1);
-    fx_round_trip(&m, "rt_hex.inp", NULL, vm_mesh_read_inp, 1);
+    fx_round_trip_within(&m, "rt_hex.inp", NULL, vm_mesh_read_inp, 1, FX_DIGITS15_TOL);
     vm_mesh_free(&m);
     fx_surface(&m, 0);
-    fx_round_trip(&m, "rt_tri.inp", NULL, vm_mesh_read_inp, 1);
+    fx_round_trip_within(&m, "rt_tri.inp", NULL, vm_mesh_read_inp, 1, FX_DIGITS15_TOL);
     vm_mesh_free(&m);
     fx_surface(&m, 1);
-    fx_round_trip(&m, "rt_quad.inp", NULL, vm_mesh_read_inp, 1);
+    fx_round_trip_within(&m, "rt_quad.inp", NULL, vm_mesh_read_inp, 1, FX_DIGITS15_TOL);
     vm_mesh_free(&m);
 }
 
@@ -34,11 +38,86 @@ static void inp_second_order_and_deck_read_back_as_the_first_order_mesh(void) {
         vm_mesh m;
         fx_block(&m, 2, hex);
         vm_mesh_write_options o = opts(2, VM_DECK_STATIC);
-        fx_round_trip(&m, hex ? "rt_c3d20.inp" : "rt_c3d10.inp", &o, vm_mesh_read_inp, 1);
+        fx_round_trip_within(&m, hex ? "rt_c3d20.inp" : "rt_c3d10.inp", &o, vm_mesh_read_inp,
+                             1, FX_DIGITS15_TOL);
         o = opts(1, VM_DECK_STATIC);
-        fx_round_trip(&m, hex ? "rt_deck_hex.inp" : "rt_deck_tet.inp", &o, vm_mesh_read_inp, 1);
+        fx_round_trip_within(&m, hex ? "rt_deck_hex.inp" : "rt_deck_tet.inp", &o,
+                             vm_mesh_read_inp, 1, FX_DIGITS15_TOL);
         vm_mesh_free(&m);
     }
+}
+
+/* Deck numbers: at most 20 characters (16 for the wide fields, with a point when asked), the
+ * exact double whenever some text of 15 to 17 digits fits, else 15 digits or fewer. */
+static void inp_numbers_fit_twenty_characters_and_read_back(void) {
+    static const struct {
+        double v;
+        int exact; /* 1: the shortest exact text fits 20 characters */
+    } cases[] = {
+        {-9.9999999991773336E-07, 0}, {1.6859956894443818e-05, 0}, {0.1, 1},
+        {1.0 / 3.0, 1},               {-1e-3 / 7.0, 0},             {-0.0, 1},
+        {123456789.0, 1},             {-1.2345678901234567e-100, 0}, {DBL_MAX, 0},
+        {5e-324, 1},                  {-0.61353052273411679, 1},     {1e22, 1},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        double v = cases[i].v;
+        char s[32];
+        int n = vm__format_real(v, VM__INP_FIELD, 0, s, sizeof s);
+        double back = strtod(s, NULL);
+        CHECK_MSG(n == (int)strlen(s) && n <= VM__INP_FIELD, "%.17g written \"%s\"", v, s);
+        /* 15 digits; 13 when the exponent takes three */
+        double tol = fabs(v) > 1e-99 && fabs(v) < 1e99 ? 1e-14 : 1e-12;
+        CHECK_MSG(fabs(back - v) <= tol * fabs(v), "%.17g read back as %.17g (\"%s\")", v,
+                  back, s);
+        CHECK_MSG(!cases[i].exact || (back == v && signbit(back) == signbit(v)),
+                  "%.17g not exact: \"%s\"", v, s);
+        n = vm__format_real(v, VM__WIDE_FIELD, 1, s, sizeof s);
+        CHECK_MSG(n <= VM__WIDE_FIELD && strchr(s, '.') != NULL, "wide: %.17g as \"%s\"", v, s);
+        CHECK_MSG(fabs(strtod(s, NULL) - v) <= 1e-10 * fabs(v), "wide: %.17g as \"%s\"", v, s);
+    }
+    char s[32];
+    vm__format_real(0.1, VM__INP_FIELD, 0, s, sizeof s);
+    CHECK_MSG(strcmp(s, "0.1") == 0, "0.1 written \"%s\"", s);
+    vm__format_real(12.0, VM__WIDE_FIELD, 1, s, sizeof s);
+    CHECK_MSG(strcmp(s, "12.") == 0, "12 written \"%s\" for Nastran", s);
+}
+
+/* A mesh whose nodes sit near zero (exponent numbers) gives *NODE fields of at most 20
+ * characters, the width CalculiX reads. */
+static void inp_node_fields_near_zero_fit_calculix(void) {
+    vm_mesh m;
+    fx_block(&m, 2, 0);
+    for (size_t i = 0; i < 3 * m.npoints; i++)
+        m.points[i] = (m.points[i] - 1.0) * -9.9999999991773336E-07;
+    const char *path = vm_test_tmp("near_zero.inp");
+    vm_mesh_write_options o = opts(2, VM_DECK_STATIC);
+    CHECK_OK(vm_mesh_write_as(path, &m, &o, NULL), NULL);
+    FILE *fp = fopen(path, "r");
+    CHECK(fp != NULL);
+    char line[512];
+    int in_nodes = 0;
+    size_t widest = 0, nodes = 0;
+    while (fp && fgets(line, sizeof line, fp)) {
+        if (line[0] == '*') {
+            in_nodes = strncmp(line, "*NODE,", 6) == 0;
+            continue;
+        }
+        if (!in_nodes) continue;
+        nodes++;
+        for (char *f = strtok(line, ",\n"); f; f = strtok(NULL, ",\n")) {
+            while (*f == ' ')
+                f++;
+            if (strlen(f) > widest) widest = strlen(f);
+        }
+    }
+    if (fp) fclose(fp);
+    CHECK(nodes > m.npoints);
+    CHECK_MSG(widest <= VM__INP_FIELD, "widest node field %zu characters", widest);
+    vm_mesh back;
+    CHECK_OK(vm_mesh_read_inp(path, &back, NULL), NULL);
+    CHECK(fx_same_mesh_within(&m, &back, 1, FX_DIGITS15_TOL * 1e-4));
+    vm_mesh_free(&back);
+    vm_mesh_free(&m);
 }
 
 /* Reads the whole text of a file. */
@@ -309,7 +388,9 @@ static void convert_cli_round_trips_and_refuses_bad_usage(void) {
         CHECK(vm_test_cli(args, NULL) == 0);
         vm_mesh b;
         CHECK_OK(vm_mesh_read(back, &b, NULL), NULL);
-        CHECK_MSG(fx_same_mesh(&m, &b, 1), "convert via .%s", exts[i]);
+        /* .inp fields hold 20 characters: 15 digits where the exact text is wider */
+        CHECK_MSG(fx_same_mesh_within(&m, &b, 1, strcmp(exts[i], "inp") ? 0 : FX_DIGITS15_TOL),
+                  "convert via .%s", exts[i]);
         vm_mesh_free(&b);
     }
     char args[1024];
@@ -337,6 +418,9 @@ static void convert_cli_round_trips_and_refuses_bad_usage(void) {
 
 int main(void) {
     static const vm_test_case cases[] = {
+        {"inp_numbers_fit_twenty_characters_and_read_back",
+         inp_numbers_fit_twenty_characters_and_read_back},
+        {"inp_node_fields_near_zero_fit_calculix", inp_node_fields_near_zero_fit_calculix},
         {"inp_round_trip_is_exact_for_every_kind", inp_round_trip_is_exact_for_every_kind},
         {"inp_second_order_and_deck_read_back_as_the_first_order_mesh",
          inp_second_order_and_deck_read_back_as_the_first_order_mesh},
