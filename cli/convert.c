@@ -6,6 +6,7 @@
 
 static const char *convert_help =
     "usage: volmesh convert IN OUT [--format F] [--deck static] [--order 2] [--ascii]\n"
+    "                              [--materials FILE]\n"
     "\n"
     "Converts a mesh between formats, chosen by the file extensions:\n"
     "  read and write: .vtu .vtk (legacy) .inp (ABAQUS/CalculiX) .msh (Gmsh 4.1; reads 2.2)\n"
@@ -18,11 +19,14 @@ static const char *convert_help =
     "  --deck static   .inp: add a static step (lowest z slab fixed, top slab loaded in -z,\n"
     "                  displacements and stresses requested)\n"
     "  --order 2       .inp: second-order elements (C3D10 / C3D20, shared mid-edge nodes)\n"
+    "  --materials FILE  decks (.inp): CSV rows label,name,E,nu,density, one material\n"
+    "                  and section per region (placeholders for regions without a row)\n"
     "  --ascii         ASCII STL, PLY or legacy VTK instead of binary\n"
     "  -q, --quiet     no progress bar (shown on a terminal while writing)\n";
 
-int vm_cmd_convert(int argc, char **argv) {
-    const char *in = NULL, *out = NULL;
+/* Converts as the options say; [out] *materials: --materials' rows (the caller frees). */
+static int convert_run(int argc, char **argv, vm_material **materials) {
+    const char *in = NULL, *out = NULL, *materials_path = NULL;
     vm_mesh_write_options o;
     vm_mesh_write_options_init(&o);
     vm_mesh_format in_fmt = VM_MESH_AUTO;
@@ -36,7 +40,8 @@ int vm_cmd_convert(int argc, char **argv) {
             return VM_EXIT_OK;
         }
         int takes_value = strcmp(a, "--format") == 0 || strcmp(a, "--in-format") == 0 ||
-                          strcmp(a, "--deck") == 0 || strcmp(a, "--order") == 0;
+                          strcmp(a, "--deck") == 0 || strcmp(a, "--order") == 0 ||
+                          strcmp(a, "--materials") == 0;
         if (takes_value && vm_cli_need_value("convert", i, argc, argv)) return VM_EXIT_INPUT;
         if (strcmp(a, "--format") == 0 || strcmp(a, "--in-format") == 0) {
             vm_mesh_format f = vm_mesh_format_parse(argv[++i]);
@@ -53,6 +58,8 @@ int vm_cmd_convert(int argc, char **argv) {
             long v;
             if (vm_cli_int(a, argv[++i], 1, 2, &v)) return VM_EXIT_INPUT;
             o.order = (int)v;
+        } else if (strcmp(a, "--materials") == 0) {
+            materials_path = argv[++i];
         } else if (strcmp(a, "--ascii") == 0) {
             o.ascii = 1;
         } else if (vm_cli_is(a, "-q", "--quiet")) {
@@ -89,6 +96,12 @@ int vm_cmd_convert(int argc, char **argv) {
         return vm_cli_fail("--ascii applies to stl, ply and vtk output only");
     vm_error err;
     vm_error_clear(&err);
+    if (materials_path) {
+        if (vm_materials_read(materials_path, materials, &o.nmaterials, &err))
+            return vm_cli_fail_err(&err);
+        o.materials = *materials;
+    }
+    if (vm_mesh_write_check(out, &o, &err)) return vm_cli_fail_err(&err);
     vm_mesh m;
     vm_cli_status("reading", in, quiet);
     vm_status rs = vm_mesh_read_as(in, in_fmt, &m, &err);
@@ -103,4 +116,11 @@ int vm_cmd_convert(int argc, char **argv) {
            vm_cell_kind_name(m.kind), out, vm_mesh_format_name(of));
     vm_mesh_free(&m);
     return VM_EXIT_OK;
+}
+
+int vm_cmd_convert(int argc, char **argv) {
+    vm_material *materials = NULL;
+    int rc = convert_run(argc, argv, &materials);
+    vm_materials_free(materials);
+    return rc;
 }

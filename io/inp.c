@@ -349,8 +349,36 @@ static void face_node_ids(const inp_writer *w, size_t c, int f, int64_t *ids, si
     }
 }
 
+/* *NSET name of the nodes (mid-edge nodes too) of the n faces faces[i] (cell*nf + face). */
+static void write_face_nset(inp_writer *w, const char *name, const uint64_t *faces,
+                            size_t stride, size_t n) {
+    uint64_t nf = (uint64_t)w->nf;
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t f = *(const uint64_t *)(const void *)((const char *)faces + i * stride);
+        if (k + FACE_ID_ROOM > w->idcap) k = sort_unique(w->ids, k);
+        face_node_ids(w, (size_t)(f / nf), (int)(f % nf), w->ids, &k);
+    }
+    k = sort_unique(w->ids, k);
+    if (k == 0) return;
+    fprintf(w->fp, "*NSET, NSET=%s\n", name);
+    write_id_list(w->fp, w->ids, k);
+}
+
+/* The outer boundary as a whole: *NSET NB_OUTER and *SURFACE OUTER. */
+static void write_outer_boundary(inp_writer *w) {
+    uint64_t nf = (uint64_t)w->nf;
+    if (w->nb == 0) return;
+    write_face_nset(w, "NB_OUTER", w->bfaces, sizeof *w->bfaces, w->nb);
+    fprintf(w->fp, "*SURFACE, NAME=OUTER, TYPE=ELEMENT\n");
+    for (size_t i = 0; i < w->nb; i++)
+        fprintf(w->fp, "%zu, S%d\n", (size_t)(w->bfaces[i] / nf) + 1,
+                (int)(w->bfaces[i] % nf) + 1);
+}
+
 /* Per region, the *NSET NB_ of its boundary nodes and the *SURFACE SURF_ of its boundary
- * faces; per touching pair of regions, the *SURFACE IFACE_ on the lower region's side. */
+ * faces; the whole outer boundary; per touching pair of regions, the *SURFACE IFACE_ on the
+ * lower region's side and the *NSET NIF_ of its nodes. */
 static void write_boundary_sets(inp_writer *w) {
     const vm_mesh *m = w->m;
     FILE *fp = w->fp;
@@ -382,31 +410,47 @@ static void write_boundary_sets(inp_writer *w) {
             fprintf(fp, "%zu, S%d\n", c + 1, (int)(w->bfaces[i] % nf) + 1);
         }
     }
-    for (size_t i = 0; i < w->nif; i++) {
+    write_outer_boundary(w);
+    for (size_t i = 0, first = 0; i < w->nif; i++) {
         const vm__iface *f = &w->ifaces[i];
-        if (i == 0 || f->region != f[-1].region || f->other != f[-1].other) {
-            char a[32], b[32];
-            vm__region_name(f->region, a, sizeof a);
-            vm__region_name(f->other, b, sizeof b);
-            fprintf(fp, "*SURFACE, NAME=IFACE_%s_%s, TYPE=ELEMENT\n", a, b);
-        }
+        char a[32], b[32], name[80];
+        vm__region_name(f->region, a, sizeof a);
+        vm__region_name(f->other, b, sizeof b);
+        if (i == first) fprintf(fp, "*SURFACE, NAME=IFACE_%s_%s, TYPE=ELEMENT\n", a, b);
         fprintf(fp, "%zu, S%d\n", (size_t)(f->face / nf) + 1, (int)(f->face % nf) + 1);
+        if (i + 1 < w->nif && f[1].region == f->region && f[1].other == f->other) continue;
+        snprintf(name, sizeof name, "NIF_%s_%s", a, b);
+        write_face_nset(w, name, &w->ifaces[first].face, sizeof *w->ifaces, i + 1 - first);
+        first = i + 1;
     }
 }
 
-/* The placeholder material, one section per region, and the static step when asked. */
+/* A number of a material line (at most VM__INP_FIELD characters). */
+static const char *inp_real(double v, char *buf, size_t cap) {
+    vm__format_real(v, VM__INP_FIELD, 0, buf, cap);
+    return buf;
+}
+
+/* One material per region, named after it or from opt's table, each with its section; then
+ * the static step when asked. */
 static void write_material_and_step(inp_writer *w) {
     FILE *fp = w->fp;
-    fprintf(fp, "** placeholder material (steel-like, units N, mm, t): replace with yours\n"
-                "*MATERIAL, NAME=PLACEHOLDER_STEEL\n*ELASTIC\n210000, 0.3\n"
-                "*DENSITY\n7.85e-09\n");
+    char e[32], nu[32], rho[32];
     for (size_t r = 0; r < w->nregions; r++) {
         char name[32];
+        vm_material mat;
         vm__region_name(w->regions[r], name, sizeof name);
+        vm__material_of_region(w->opt, w->regions[r], &mat);
+        if (vm__material_is_placeholder(w->opt, w->regions[r]))
+            fprintf(fp, "** placeholder material of %s (steel-like, units N, mm, t): replace it "
+                        "or give --materials\n", name);
+        fprintf(fp, "*MATERIAL, NAME=%s\n*ELASTIC\n%s, %s\n*DENSITY\n%s\n", mat.name,
+                inp_real(mat.young, e, sizeof e), inp_real(mat.poisson, nu, sizeof nu),
+                inp_real(mat.density, rho, sizeof rho));
         if (w->volume)
-            fprintf(fp, "*SOLID SECTION, ELSET=%s, MATERIAL=PLACEHOLDER_STEEL\n", name);
+            fprintf(fp, "*SOLID SECTION, ELSET=%s, MATERIAL=%s\n", name, mat.name);
         else
-            fprintf(fp, "*SHELL SECTION, ELSET=%s, MATERIAL=PLACEHOLDER_STEEL\n1.0\n", name);
+            fprintf(fp, "*SHELL SECTION, ELSET=%s, MATERIAL=%s\n1.0\n", name, mat.name);
     }
     if (w->opt->deck != VM_DECK_STATIC) return;
     fprintf(fp, "** static deck: nodes of the lowest z slab (1%% of the z extent) fixed,\n"

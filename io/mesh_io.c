@@ -62,8 +62,13 @@ const char *vm_mesh_format_name(vm_mesh_format f) {
 
 static const char *known_exts = ".vtu .vtk .inp .msh .msh2 .mesh .stl .off .ply .obj .exo";
 
-vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
-                           const vm_mesh_write_options *opt, vm_error *err) {
+/* 1 when format f writes one material per region (a solver deck). */
+static int has_materials(vm_mesh_format f) {
+    return f == VM_MESH_INP;
+}
+
+vm_status vm_mesh_write_check(const char *path, const vm_mesh_write_options *opt,
+                              vm_error *err) {
     vm_mesh_write_options def;
     if (!opt) {
         vm_mesh_write_options_init(&def);
@@ -83,10 +88,27 @@ vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
     if (f != VM_MESH_INP && opt->deck != VM_DECK_NONE)
         return vm_error_set(err, VM_ERR_ARG, "%s: an analysis deck needs .inp, not %s", path,
                             vm_mesh_format_name(f));
+    if (opt->nmaterials && !has_materials(f))
+        return vm_error_set(err, VM_ERR_ARG,
+                            "%s: materials are written to the solver decks (.inp), not %s",
+                            path, vm_mesh_format_name(f));
     if (opt->ascii && f != VM_MESH_STL && f != VM_MESH_PLY && f != VM_MESH_VTK)
         return vm_error_set(err, VM_ERR_ARG,
                             "%s: --ascii applies to stl, ply and vtk, not %s (always ASCII or "
                             "always binary)", path, vm_mesh_format_name(f));
+    return VM_OK;
+}
+
+vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
+                           const vm_mesh_write_options *opt, vm_error *err) {
+    vm_mesh_write_options def;
+    if (!opt) {
+        vm_mesh_write_options_init(&def);
+        opt = &def;
+    }
+    vm_status st = vm_mesh_write_check(path, opt, err);
+    if (st) return st;
+    vm_mesh_format f = opt->format != VM_MESH_AUTO ? opt->format : vm_mesh_format_of_path(path);
     vm_mesh_write_options o = *opt;
     o.format = f;
     switch (f) {

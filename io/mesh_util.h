@@ -51,6 +51,15 @@ enum { VM__INP_FIELD = 20, VM__WIDE_FIELD = 16 };
  * Returns the length written. Non-finite values are written as %g gives them. */
 int vm__format_real(double v, int width, int need_point, char *out, size_t cap);
 
+/* --- materials (io/materials.c) --------------------------------------------------------- */
+
+/* The material a deck writes for region: opt's row for it, else the placeholder named
+ * MAT_REGION_r (steel-like, N mm t). opt may be NULL. [out] out. */
+void vm__material_of_region(const vm_mesh_write_options *opt, int32_t region,
+                            vm_material *out);
+/* 1 when opt has no row for region (the deck says so in a comment). */
+int vm__material_is_placeholder(const vm_mesh_write_options *opt, int32_t region);
+
 /* --- text cursor ------------------------------------------------------------------------- */
 
 typedef struct vm__cursor {

@@ -117,6 +117,24 @@ typedef enum vm_deck_kind {
     VM_DECK_STATIC = 1 /* plus *STEP *STATIC: lowest z slab fixed, top slab loaded in -z */
 } vm_deck_kind;
 
+/* One row of a materials table: the material of the elements of region (label) `label`.
+ * Linear elastic: Young's modulus E, Poisson's ratio nu, density, in the mesh's units (the
+ * placeholder of a region without a row is steel-like in N, mm, t: 210000, 0.3, 7.85e-9). */
+typedef struct vm_material {
+    int32_t label;
+    char name[64]; /* a letter, then letters, digits and '_' */
+    double young, poisson, density;
+} vm_material;
+
+/* Reads a materials table: CSV rows "label,name,E,nu,density" (an optional first line
+ * starting "label" is a header; blank lines and lines starting '#' are skipped). Checked
+ * whole: 5 fields a row, an integer label, a name as above, E > 0, -1 < nu < 0.5,
+ * density >= 0, no label or name (case-insensitive) twice, at least one row; else
+ * VM_ERR_FORMAT / VM_ERR_EMPTY "PATH: line N: problem". [out] *out (free with
+ * vm_materials_free), *n. */
+vm_status vm_materials_read(const char *path, vm_material **out, size_t *n, vm_error *err);
+void vm_materials_free(vm_material *m);
+
 typedef struct vm_mesh_write_options {
     vm_mesh_format format; /* VM_MESH_AUTO: from the extension */
     int ascii;             /* 1: ASCII STL / PLY / VTK instead of binary (default 0) */
@@ -124,6 +142,10 @@ typedef struct vm_mesh_write_options {
                               one shared mid-edge node per edge */
     vm_deck_kind deck;     /* INP only (default VM_DECK_NONE) */
     int compress;          /* VTU: zlib-compress arrays (default 1) */
+    const vm_material *materials; /* the decks (inp, bdf, k, feb): one material per region,
+                                     from this table where it has the region's row (not
+                                     owned; may be NULL: placeholders) */
+    size_t nmaterials;
     vm_progress_fn progress; /* stage "write" (every format but Exodus); may be NULL */
     void *progress_user;
 } vm_mesh_write_options;
@@ -151,16 +173,23 @@ int vm_exodus_available(void);
 vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
                            const vm_mesh_write_options *opt, vm_error *err);
 
+/* The checks of vm_mesh_write_as that need no mesh (the format known, the options apply to
+ * it), so that a program refuses a bad output before meshing. opt may be NULL. */
+vm_status vm_mesh_write_check(const char *path, const vm_mesh_write_options *opt,
+                              vm_error *err);
+
 /* Reads path as format f (VM_MESH_AUTO: from the extension). */
 vm_status vm_mesh_read_as(const char *path, vm_mesh_format f, vm_mesh *m, vm_error *err);
 
 /* ABAQUS / CalculiX .inp. Writes *HEADING, *NODE, *ELEMENT (C3D4, C3D8, C3D10/C3D20 with
  * order 2, S3, S4), per region r: *ELSET REGION_r, and for volume meshes *NSET NB_REGION_r
  * (nodes of the region's boundary faces) and *SURFACE SURF_REGION_r, TYPE=ELEMENT (element,
- * face S1..S6 in ABAQUS face numbering), for each pair of regions r < q that share faces
- * *SURFACE IFACE_REGION_r_REGION_q (those faces, from the side of r), a *SOLID SECTION (shells: *SHELL SECTION, thickness
- * 1) with the placeholder material PLACEHOLDER_STEEL (E 210000, nu 0.3, density 7.85e-9);
- * opt->deck adds the analysis step. opt may be NULL. Reading takes *NODE, *ELEMENT of types
+ * face S1..S6 in ABAQUS face numbering); the outer boundary as *NSET NB_OUTER and *SURFACE
+ * OUTER; for each pair of regions r < q that share faces *SURFACE IFACE_REGION_r_REGION_q
+ * (those faces, from the side of r) and *NSET NIF_REGION_r_REGION_q; per region a *MATERIAL
+ * (opt->materials' row, else MAT_REGION_r with E 210000, nu 0.3, density 7.85e-9) and a
+ * *SOLID SECTION (shells: *SHELL SECTION, thickness 1). Numbers take at most 20 characters
+ * (the shortest exact text, else 15 significant digits). opt->deck adds the analysis step. opt may be NULL. Reading takes *NODE, *ELEMENT of types
  * C3D4*, C3D8*, C3D10*, C3D20* (their corner nodes; nodes used only as mid-edge nodes are
  * dropped), S3*, S4* (volume elements win over shells), region = r of the ELSET REGION_r
  * holding the element, else the ordinal of the ELSET= named on its *ELEMENT line, else 0. */

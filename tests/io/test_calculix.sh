@@ -91,6 +91,41 @@ for order in 1 2; do
     [ "$exps" -gt 0 ] || { echo "$job: no node near zero (the case this checks)"; fail=$((fail+1)); }
     solve $job ready
 done
+# Two labels stacked in z, each with its material from --materials: two *MATERIAL, two
+# sections, one interface surface; ccx solves it.
+/usr/bin/python3 - <<'PY' || exit 1
+n = 16
+out = bytearray(n * n * n)
+for k in range(2, 14):
+    for j in range(2, 14):
+        for i in range(2, 14):
+            out[i + n * (j + n * k)] = 1 if k < 8 else 2
+open("two.raw", "wb").write(bytes(out))
+PY
+raw="--raw-dims 16x16x16 --raw-type uint8"
+printf 'label,name,E,nu,density\n1,Bone,17000,0.3,1.9e-9\n2,Cartilage,10,0.45,1.1e-9\n' >mats.csv
+if "$VM_CLI" mesh two.raw $raw --labels all --deck static --materials mats.csv -o two.inp -q \
+        >two.mesh.log 2>&1; then
+    [ "$(grep -c '^\*MATERIAL' two.inp)" = 2 ] && grep -q 'ELSET=REGION_1, MATERIAL=Bone' two.inp &&
+        grep -q 'ELSET=REGION_2, MATERIAL=Cartilage' two.inp &&
+        grep -q '^\*SURFACE, NAME=IFACE_REGION_1_REGION_2' two.inp ||
+        { echo "two.inp: not one material and section per label"; fail=$((fail+1)); }
+    solve two ready
+else
+    cat two.mesh.log; fail=$((fail+1))
+fi
+# Bad materials files and outputs are refused before meshing: exit 2, one line, no file.
+printf '1,Bone,17000\n' >short.csv
+printf '1,Bone,17000,0.7,1\n' >nu.csv
+for args in "--materials short.csv -o bad.inp" "--materials nu.csv -o bad.inp" \
+        "--materials missing.csv -o bad.inp" "--materials mats.csv -o bad.vtu" "-o bad.xyz"; do
+    out=$("$VM_CLI" mesh two.raw $raw --labels all $args -q 2>&1 >/dev/null); rc=$?
+    file=${args##* }
+    if [ $rc != 2 ] || [ "$(printf '%s\n' "$out" | wc -l)" != 1 ] || [ -e "$file" ] ||
+        ! printf '%s' "$out" | grep -qE 'short.csv: line 1|nu.csv: line 1: nu|missing.csv|bad.vtu|bad.xyz'; then
+        echo "mesh $args: exit $rc, \"$out\""; fail=$((fail+1))
+    fi
+done
 if [ -f "$data" ]; then
     "$VM_CLI" mesh "$data" --iso 1150 --size 3 -o bone.vtu >mesh.log 2>&1 || { cat mesh.log; exit 1; }
     solve bone
