@@ -11,16 +11,18 @@ static const char *convert_help =
     "Converts a mesh between formats, chosen by the file extensions:\n"
     "  read and write: .vtu .vtk (legacy) .inp (ABAQUS/CalculiX) .msh (Gmsh 4.1; reads 2.2)\n"
     "                  .msh2 (Gmsh 2.2) .mesh (MEDIT) .stl .off .ply .obj\n"
-    "  write only:     .exo (Exodus II, when built with libexodusii)\n"
+    "  write only:     .exo (Exodus II, when built with libexodusii); solver decks, one\n"
+    "                  part and material per region: .bdf (Nastran), .k (LS-DYNA),\n"
+    "                  .feb (FEBio 4.0), .mphtxt (COMSOL mesh, no materials)\n"
     "Surface formats (stl, off, ply, obj) given a volume mesh write its boundary.\n"
     "  --format F      output format regardless of OUT's extension: vtu, vtk, inp, msh,\n"
-    "                  msh2, mesh, stl, off, ply, obj, exo\n"
+    "                  msh2, mesh, stl, off, ply, obj, exo, bdf, k, mphtxt, feb\n"
     "  --in-format F   input format regardless of IN's extension\n"
-    "  --deck static   .inp: add a static step (lowest z slab fixed, top slab loaded in -z,\n"
-    "                  displacements and stresses requested)\n"
+    "  --deck static   .inp, .feb: add a static step (lowest z slab fixed, top slab loaded\n"
+    "                  in -z, displacements and stresses requested)\n"
     "  --order 2       .inp: second-order elements (C3D10 / C3D20, shared mid-edge nodes)\n"
-    "  --materials FILE  decks (.inp): CSV rows label,name,E,nu,density, one material\n"
-    "                  and section per region (placeholders for regions without a row)\n"
+    "  --materials FILE  decks (.inp .bdf .k .feb): CSV rows label,name,E,nu,density, one\n"
+    "                  material per region (placeholders for regions without a row)\n"
     "  --ascii         ASCII STL, PLY or legacy VTK instead of binary\n"
     "  -q, --quiet     no progress bar (shown on a terminal while writing)\n";
 
@@ -47,7 +49,7 @@ static int convert_run(int argc, char **argv, vm_material **materials) {
             vm_mesh_format f = vm_mesh_format_parse(argv[++i]);
             if (f == VM_MESH_AUTO)
                 return vm_cli_fail("%s: unknown format '%s' (vtu, vtk, inp, msh, msh2, mesh, "
-                                   "stl, off, ply, obj, exo)", a, argv[i]);
+                                   "stl, off, ply, obj, exo, bdf, k, mphtxt, feb)", a, argv[i]);
             if (a[2] == 'f') o.format = f;
             else in_fmt = f;
         } else if (strcmp(a, "--deck") == 0) {
@@ -84,14 +86,18 @@ static int convert_run(int argc, char **argv, vm_material **materials) {
                      "%s: unknown input format (use a known extension or --in-format)", in);
         return vm_cli_fail_mesh_read(in, &unknown);
     }
-    if (in_fmt == VM_MESH_EXODUS || (in_fmt == VM_MESH_AUTO &&
-                                     vm_mesh_format_of_path(in) == VM_MESH_EXODUS))
+    vm_mesh_format inf = in_fmt != VM_MESH_AUTO ? in_fmt : vm_mesh_format_of_path(in);
+    if (inf == VM_MESH_EXODUS)
         return vm_cli_fail("%s: volmesh writes Exodus II but does not read it", in);
+    if (inf == VM_MESH_NASTRAN || inf == VM_MESH_LSDYNA || inf == VM_MESH_COMSOL ||
+        inf == VM_MESH_FEBIO)
+        return vm_cli_fail("%s: volmesh writes .%s but does not read it", in,
+                           vm_mesh_format_name(inf));
     /* Refuse option mismatches before reading a possibly large input. */
     if (o.order == 2 && of != VM_MESH_INP)
         return vm_cli_fail("--order 2: second-order elements are written to .inp only");
-    if (o.deck != VM_DECK_NONE && of != VM_MESH_INP)
-        return vm_cli_fail("--deck: an analysis deck needs an .inp output");
+    if (o.deck != VM_DECK_NONE && of != VM_MESH_INP && of != VM_MESH_FEBIO)
+        return vm_cli_fail("--deck: an analysis deck needs an .inp or .feb output");
     if (o.ascii && of != VM_MESH_STL && of != VM_MESH_PLY && of != VM_MESH_VTK)
         return vm_cli_fail("--ascii applies to stl, ply and vtk output only");
     vm_error err;

@@ -37,6 +37,17 @@ vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_
                         vm_error *err);
 vm_status vm__write_obj(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
                         vm_error *err);
+/* The solver decks of tet4 / hex8 meshes, one part and material per region: Nastran bulk
+ * data (io/nastran.c), LS-DYNA keywords (io/lsdyna.c), COMSOL text mesh (io/comsol.c,
+ * no materials), FEBio 4.0 (io/febio.c, with opt->deck). */
+vm_status vm__write_nastran(const char *path, const vm_mesh *m,
+                            const vm_mesh_write_options *opt, vm_error *err);
+vm_status vm__write_lsdyna(const char *path, const vm_mesh *m,
+                           const vm_mesh_write_options *opt, vm_error *err);
+vm_status vm__write_comsol(const char *path, const vm_mesh *m,
+                           const vm_mesh_write_options *opt, vm_error *err);
+vm_status vm__write_febio(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                          vm_error *err);
 
 /* --- numbers as text (io/number_text.c) ------------------------------------------------- */
 
@@ -50,6 +61,21 @@ enum { VM__INP_FIELD = 20, VM__WIDE_FIELD = 16 };
  * text fits. need_point: always with a decimal point (Nastran reads "12" as an integer).
  * Returns the length written. Non-finite values are written as %g gives them. */
 int vm__format_real(double v, int width, int need_point, char *out, size_t cap);
+
+/* --- the static decks' node sets (io/deck_sets.c) ------------------------------------ */
+
+typedef struct vm__deck_nodes {
+    int64_t *fixed, *loaded; /* node ids (1-based), sorted; free both */
+    size_t nfixed, nloaded;
+} vm__deck_nodes;
+
+/* Fixed: nodes within 1% of the z extent above the lowest z (a piece reaching it at fewer
+ * than 3 nodes gets its own lowest slab, or all its nodes); loaded: within 1% below the
+ * highest z. zs: z of each of nnodes nodes (corners, then mid-edge nodes mid[cell *
+ * nmid_per_cell + k] when nmid_per_cell > 0). [out] *d (free its arrays even on error). */
+vm_status vm__deck_sets(const char *path, const vm_mesh *m, const double *zs,
+                        const vm_index *mid, int nmid_per_cell, size_t nnodes,
+                        vm__deck_nodes *d, vm_error *err);
 
 /* --- materials (io/materials.c) --------------------------------------------------------- */
 

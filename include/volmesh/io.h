@@ -77,7 +77,7 @@ void vm_volume_reader_close(vm_volume_reader *r);
 vm_status vm_volume_write_nrrd(const char *path, const vm_volume *v, int gzip, vm_error *err);
 
 /* Mesh writing: format from the extension (.vtu .vtk .inp .msh .msh2 .mesh .stl .off .ply .obj
- * .exo), with the default options of vm_mesh_write_as. */
+ * .exo .bdf .k .mphtxt .feb), with the default options of vm_mesh_write_as. */
 vm_status vm_mesh_write(const char *path, const vm_mesh *m, vm_error *err);
 vm_status vm_mesh_write_vtu(const char *path, const vm_mesh *m, int compress, vm_error *err);
 
@@ -108,7 +108,11 @@ typedef enum vm_mesh_format {
     VM_MESH_OFF,      /* .off  Geomview OFF */
     VM_MESH_PLY,      /* .ply  binary little endian by default */
     VM_MESH_OBJ,      /* .obj  Wavefront OBJ */
-    VM_MESH_EXODUS    /* .exo .e  Exodus II (write only; needs a build with libexodusii) */
+    VM_MESH_EXODUS,   /* .exo .e  Exodus II (write only; needs a build with libexodusii) */
+    VM_MESH_NASTRAN,  /* .bdf  Nastran bulk data (write only; tet4, hex8) */
+    VM_MESH_LSDYNA,   /* .k    LS-DYNA keyword deck (write only; tet4, hex8) */
+    VM_MESH_COMSOL,   /* .mphtxt COMSOL text mesh (write only; tet4, hex8) */
+    VM_MESH_FEBIO     /* .feb  FEBio input, febio_spec 4.0 (write only; tet4, hex8) */
 } vm_mesh_format;
 
 /* Analysis deck added to an .inp file. */
@@ -140,7 +144,7 @@ typedef struct vm_mesh_write_options {
     int ascii;             /* 1: ASCII STL / PLY / VTK instead of binary (default 0) */
     int order;             /* 1 (default) or 2: INP only, C3D10 (tet) / C3D20 (hex) with
                               one shared mid-edge node per edge */
-    vm_deck_kind deck;     /* INP only (default VM_DECK_NONE) */
+    vm_deck_kind deck;     /* INP and FEBio (default VM_DECK_NONE) */
     int compress;          /* VTU: zlib-compress arrays (default 1) */
     const vm_material *materials; /* the decks (inp, bdf, k, feb): one material per region,
                                      from this table where it has the region's row (not
@@ -154,8 +158,8 @@ typedef struct vm_mesh_write_options {
 void vm_mesh_write_options_init(vm_mesh_write_options *o);
 
 /* Format of a name as given to --format ("vtu", "vtk", "inp", "abaqus", "msh", "msh4",
- * "msh2", "mesh", "medit", "stl", "off", "ply", "obj", "exo", "exodus"), or VM_MESH_AUTO
- * when unknown. */
+ * "msh2", "mesh", "medit", "stl", "off", "ply", "obj", "exo", "exodus", "bdf", "nastran", "k",
+ * "lsdyna", "mphtxt", "comsol", "feb", "febio"), or VM_MESH_AUTO when unknown. */
 vm_mesh_format vm_mesh_format_parse(const char *name);
 
 /* Format from the extension of path (case-insensitive), or VM_MESH_AUTO when unknown. */
