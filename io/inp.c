@@ -19,59 +19,6 @@
 /* Writer                                                                                   */
 /* ======================================================================================= */
 
-typedef struct edge_rec {
-    vm_index a, b; /* a < b */
-    uint64_t slot; /* cell * nedges + local edge */
-} edge_rec;
-
-static int cmp_edge(const void *x, const void *y) {
-    const edge_rec *p = x, *q = y;
-    if (p->a != q->a) return p->a < q->a ? -1 : 1;
-    if (p->b != q->b) return p->b < q->b ? -1 : 1;
-    return (p->slot > q->slot) - (p->slot < q->slot);
-}
-
-/* Mid-edge nodes for order 2: mid[cell*ne + e] = 0-based node number (after the corners);
- * [out] *mid, *nmid (distinct edges). */
-static vm_status make_mid_nodes(const char *path, const vm_mesh *m, vm_index **mid,
-                                size_t *nmid, vm_error *err) {
-    int ne = m->kind == VM_TET4 ? 6 : 12;
-    const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
-    size_t nn = (size_t)vm_cell_nodes(m->kind), total, bytes;
-    *mid = NULL;
-    *nmid = 0;
-    if (vm__mul_overflows(m->ncells, (size_t)ne, &total) ||
-        vm__mul_overflows(total ? total : 1, sizeof(edge_rec), &bytes) ||
-        bytes > vm__memory_limit())
-        return vm_error_set(err, VM_ERR_NOMEM, "%s: too many edges", path);
-    edge_rec *e = malloc(bytes);
-    vm_index *out = malloc((total ? total : 1) * sizeof *out);
-    if (!e || !out) {
-        free(e);
-        free(out);
-        return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu edges", path, total);
-    }
-    for (size_t c = 0; c < m->ncells; c++)
-        for (int k = 0; k < ne; k++) {
-            vm_index a = m->cells[c * nn + (size_t)edges[k][0]];
-            vm_index b = m->cells[c * nn + (size_t)edges[k][1]];
-            edge_rec *r = &e[c * (size_t)ne + (size_t)k];
-            r->a = a < b ? a : b;
-            r->b = a < b ? b : a;
-            r->slot = (uint64_t)c * (uint64_t)ne + (uint64_t)k;
-        }
-    qsort(e, total, sizeof *e, cmp_edge);
-    size_t next = m->npoints;
-    for (size_t i = 0; i < total; i++) {
-        if (i > 0 && (e[i].a != e[i - 1].a || e[i].b != e[i - 1].b)) next++;
-        out[e[i].slot] = (vm_index)next;
-    }
-    *nmid = total ? next + 1 - m->npoints : 0;
-    free(e);
-    *mid = out;
-    return VM_OK;
-}
-
 /* Writes a list of ids, 16 per line (Abaqus data lines hold at most 16 entries). */
 static void write_id_list(FILE *fp, const int64_t *ids, size_t n) {
     for (size_t i = 0; i < n; i++)
@@ -158,7 +105,7 @@ static vm_status prepare_static_deck(inp_writer *w) {
 static vm_status prepare_deck_data(inp_writer *w) {
     const vm_mesh *m = w->m;
     vm_status st = VM_OK;
-    if (w->order2) st = make_mid_nodes(w->path, m, &w->mid, &w->nmid, w->err);
+    if (w->order2) st = vm__mid_nodes(w->path, m, &w->mid, &w->nmid, w->err);
     if (st) return st;
     w->nnodes = m->npoints + w->nmid;
     if (w->volume) st = vm__boundary_faces(w->path, m, &w->bfaces, &w->nb, w->err);

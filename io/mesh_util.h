@@ -77,6 +77,32 @@ vm_status vm__deck_sets(const char *path, const vm_mesh *m, const double *zs,
                         const vm_index *mid, int nmid_per_cell, size_t nnodes,
                         vm__deck_nodes *d, vm_error *err);
 
+/* --- second-order elements (io/mid_nodes.c) -------------------------------------------- */
+
+/* Mid-edge nodes of a tet4 / hex8 mesh: mid[cell * ne + e] (ne 6 or 12, edges in the order
+ * of vm__tet_edges / vm__hex_edges, which is VTK's and Abaqus's) = node number npoints + k,
+ * one k per distinct edge. [out] *mid (malloc'd, free it), *nmid (distinct edges). */
+vm_status vm__mid_nodes(const char *path, const vm_mesh *m, vm_index **mid, size_t *nmid,
+                        vm_error *err);
+/* out[(npoints + nmid) * ncomp]: vals (npoints * ncomp) followed by each mid-edge node's
+ * mean of its edge's two ends (coordinates: the straight edge's middle). */
+void vm__mid_average(const vm_mesh *m, const vm_index *mid, const double *vals, int ncomp,
+                     double *out);
+
+/* A second-order view of m: view.cells holds nn + ne nodes a cell (view.kind stays m's:
+ * callers use the counts), in the order order[k] (k-th written = corner j < nn or mid-edge
+ * node j - nn of vm__*_edges; NULL: corners then edges, VTK's order); view.points and the
+ * point fields are extended to the mid-edge nodes (each the mean of its edge's ends); cell
+ * fields and regions are m's. Tet4 / hex8 only (else VM_ERR_UNSUPPORTED). [out] q, free
+ * with vm__quadratic_free (owns everything in view but what m owns). */
+typedef struct vm__quadratic {
+    vm_mesh view;
+    vm_index *mid;
+} vm__quadratic;
+vm_status vm__quadratic_make(const char *path, const vm_mesh *m, const int *order,
+                             vm__quadratic *q, vm_error *err);
+void vm__quadratic_free(vm__quadratic *q);
+
 /* --- materials (io/materials.c) --------------------------------------------------------- */
 
 /* The material a deck writes for region: opt's row for it, else the placeholder named

@@ -468,7 +468,9 @@ static void inp_writer_refuses_what_it_cannot_write(void) {
     vm_error err;
     CHECK(vm_mesh_write_as(vm_test_tmp("o2.inp"), &m, &o, &err) == VM_ERR_UNSUPPORTED);
     o = opts(2, VM_DECK_NONE);
-    CHECK(vm_mesh_write_as(vm_test_tmp("o2.msh"), &m, &o, &err) == VM_ERR_ARG);
+    CHECK(vm_mesh_write_as(vm_test_tmp("o2.mesh"), &m, &o, &err) == VM_ERR_ARG);
+    CHECK(vm_mesh_write_as(vm_test_tmp("o2.msh"), &m, &o, &err) == VM_ERR_UNSUPPORTED);
+    CHECK(!vm_test_exists(vm_test_tmp("o2.msh")));
     o = opts(1, VM_DECK_STATIC);
     CHECK(vm_mesh_write_as(vm_test_tmp("deck.vtk"), &m, &o, &err) == VM_ERR_ARG);
     vm_mesh_free(&m);
@@ -504,7 +506,7 @@ static void convert_cli_round_trips_and_refuses_bad_usage(void) {
     }
     char args[1024];
     static const char *const bad[] = {"convert", "convert a.vtu", "convert a.vtu b.xyz",
-                                      "convert a.vtu b.vtu --order 2",
+                                      "convert a.vtu b.mesh --order 2",
                                       "convert a.vtu b.msh --deck static",
                                       "convert a.vtu b.inp --deck dynamic",
                                       "convert a.vtu b.inp --order 3", "convert a.vtu b.inp --bogus",
