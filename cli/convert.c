@@ -20,7 +20,7 @@ static const char *convert_help =
     "  --in-format F   input format regardless of IN's extension\n"
     "  --deck static   .inp, .feb: add a static step (lowest z slab fixed, top slab loaded\n"
     "                  in -z, displacements and stresses requested)\n"
-    "  --order 2       .inp .vtu .msh .msh2: second-order elements (C3D10 / C3D20,\n"
+    "  --order 2       .inp .vtu .msh .msh2 .feb: second-order elements (C3D10 / C3D20,\n"
     "                  tetra10 / hexahedron20, tet10 / hex20), one shared mid-edge node\n"
     "                  per edge at its middle (straight edges)\n"
     "  --materials FILE  decks (.inp .bdf .k .feb): CSV rows label,name,E,nu,density, one\n"
@@ -97,9 +97,9 @@ static int convert_run(int argc, char **argv, vm_material **materials) {
                            vm_mesh_format_name(inf));
     /* Refuse option mismatches before reading a possibly large input. */
     if (o.order == 2 && of != VM_MESH_INP && of != VM_MESH_VTU && of != VM_MESH_MSH &&
-        of != VM_MESH_MSH2)
-        return vm_cli_fail("--order 2: second-order elements are written to .inp, .vtu and "
-                           ".msh only");
+        of != VM_MESH_MSH2 && of != VM_MESH_FEBIO)
+        return vm_cli_fail("--order 2: second-order elements are written to .inp, .vtu, .msh "
+                           "and .feb only");
     if (o.deck != VM_DECK_NONE && of != VM_MESH_INP && of != VM_MESH_FEBIO)
         return vm_cli_fail("--deck: an analysis deck needs an .inp or .feb output");
     if (o.ascii && of != VM_MESH_STL && of != VM_MESH_PLY && of != VM_MESH_VTK)

@@ -2,7 +2,7 @@
 /* io/febio.c — FEBio input files (.feb, febio_spec 4.0): Module solid, a Material per region
  * (isotropic elastic), Mesh (Nodes, an Elements block per region, the outer Surface),
  * MeshDomains (a SolidDomain per region); with the static deck a fixed bottom and a loaded
- * top as in the .inp deck. Follows the FEBio User's Manual 4.0, chapter 3 (the input file). */
+ * top as in the .inp deck; order 2: tet10 / hex20 (straight mid-edge nodes). Follows the FEBio User's Manual 4.0, chapter 3 (the input file). */
 #include <stdlib.h>
 #include <string.h>
 #include "../core/core.h"
@@ -45,9 +45,10 @@ static void write_head(FILE *fp, const vm_mesh *m, const vm_mesh_write_options *
     fprintf(fp, "\t</Material>\n");
 }
 
-/* Nodes, then one Elements block per region (ids run on across the blocks). */
-static void write_mesh(FILE *fp, vm_outfile *o, const vm_mesh *m, const int32_t *regions,
-                       size_t nregions) {
+/* Nodes, then one Elements block per region (ids run on across the blocks); m's cells have
+ * nn nodes (10 or 20 for the second-order view). */
+static void write_mesh(FILE *fp, vm_outfile *o, const vm_mesh *m, size_t nn,
+                       const int32_t *regions, size_t nregions) {
     char x[40], y[40], z[40];
     fprintf(fp, "\t<Mesh>\n\t\t<Nodes name=\"NODES\">\n");
     for (size_t i = 0; i < m->npoints; i++) {
@@ -57,13 +58,14 @@ static void write_mesh(FILE *fp, vm_outfile *o, const vm_mesh *m, const int32_t 
         vm__out_step(o, 1.0);
     }
     fprintf(fp, "\t\t</Nodes>\n");
-    size_t nn = (size_t)vm_cell_nodes(m->kind), id = 0;
+    size_t id = 0;
+    /* tet4, hex8 and their tet10, hex20 number corners and edges as VTK does */
+    const char *type = m->kind == VM_TET4 ? (nn == 10 ? "tet10" : "tet4")
+                                          : (nn == 20 ? "hex20" : "hex8");
     for (size_t r = 0; r < nregions; r++) {
         char rn[32];
         vm__region_name(regions[r], rn, sizeof rn);
-        /* tet4 and hex8 number their corners as VTK does */
-        fprintf(fp, "\t\t<Elements type=\"%s\" name=\"%s\">\n",
-                m->kind == VM_TET4 ? "tet4" : "hex8", rn);
+        fprintf(fp, "\t\t<Elements type=\"%s\" name=\"%s\">\n", type, rn);
         for (size_t c = 0; c < m->ncells; c++) {
             if (m->region[c] != regions[r]) continue;
             fprintf(fp, "\t\t\t<elem id=\"%zu\">", ++id);
@@ -76,21 +78,36 @@ static void write_mesh(FILE *fp, vm_outfile *o, const vm_mesh *m, const int32_t 
     }
 }
 
-/* The outer boundary as Surface OUTER (tri3 / quad4, outward). */
-static void write_outer(FILE *fp, const vm_mesh *m, const uint64_t *bf, size_t nb) {
+/* The mid-edge node of the edge between local corners a and b of cell c (mid: NULL at order
+ * 1, else vm__mid_nodes'). */
+static long long edge_node(const vm_mesh *m, const vm_index *mid, size_t c, int a, int b) {
+    int tet = m->kind == VM_TET4, ne = tet ? 6 : 12;
+    const int(*edges)[2] = tet ? vm__tet_edges : vm__hex_edges;
+    for (int k = 0; k < ne; k++)
+        if ((edges[k][0] == a && edges[k][1] == b) || (edges[k][0] == b && edges[k][1] == a))
+            return (long long)mid[c * (size_t)ne + (size_t)k];
+    return -1;
+}
+
+/* The outer boundary as Surface OUTER (tri3 / quad4, outward; at order 2 tri6 / quad8 with
+ * the mid-edge nodes of the face's edges 0-1, 1-2, ... after its corners). */
+static void write_outer(FILE *fp, const vm_mesh *m, const vm_index *mid, const uint64_t *bf,
+                        size_t nb) {
     int tet = m->kind == VM_TET4;
     size_t nn = (size_t)vm_cell_nodes(m->kind), fk = tet ? 3 : 4, nf = tet ? 4 : 6;
+    const char *type = tet ? (mid ? "tri6" : "tri3") : (mid ? "quad8" : "quad4");
     fprintf(fp, "\t\t<Surface name=\"OUTER\">\n");
     for (size_t i = 0; i < nb; i++) {
         size_t c = (size_t)(bf[i] / nf);
-        int f = (int)(bf[i] % nf);
-        fprintf(fp, "\t\t\t<%s id=\"%zu\">", tet ? "tri3" : "quad4", i + 1);
+        int f = (int)(bf[i] % nf), pos[4];
+        fprintf(fp, "\t\t\t<%s id=\"%zu\">", type, i + 1);
         for (size_t j = 0; j < fk; j++) {
-            int pos = tet ? vm__tet_faces[f][j] : vm__hex_faces[f][j];
-            fprintf(fp, "%lld%s", (long long)m->cells[c * nn + (size_t)pos] + 1,
-                    j + 1 < fk ? "," : "");
+            pos[j] = tet ? vm__tet_faces[f][j] : vm__hex_faces[f][j];
+            fprintf(fp, "%s%lld", j ? "," : "", (long long)m->cells[c * nn + (size_t)pos[j]] + 1);
         }
-        fprintf(fp, "</%s>\n", tet ? "tri3" : "quad4");
+        for (size_t j = 0; mid && j < fk; j++)
+            fprintf(fp, ",%lld", edge_node(m, mid, c, pos[j], pos[(j + 1) % fk]) + 1);
+        fprintf(fp, "</%s>\n", type);
     }
     fprintf(fp, "\t\t</Surface>\n");
 }
@@ -120,14 +137,16 @@ static void write_deck(FILE *fp, const vm__deck_nodes *d) {
                 "\t\t\t<var type=\"stress\"/>\n\t\t</plotfile>\n\t</Output>\n");
 }
 
-/* The static deck's node sets from the points' z. */
-static vm_status deck_nodes(const char *path, const vm_mesh *m, vm__deck_nodes *d,
-                            vm_error *err) {
-    double *zs = malloc((m->npoints ? m->npoints : 1) * sizeof *zs);
+/* The static deck's node sets from the z of the nodes (q: the second-order view, or NULL). */
+static vm_status deck_nodes(const char *path, const vm_mesh *m, const vm__quadratic *q,
+                            vm__deck_nodes *d, vm_error *err) {
+    const vm_mesh *all = q ? &q->view : m;
+    double *zs = malloc((all->npoints ? all->npoints : 1) * sizeof *zs);
     if (!zs) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
-    for (size_t i = 0; i < m->npoints; i++)
-        zs[i] = m->points[3 * i + 2];
-    vm_status st = vm__deck_sets(path, m, zs, NULL, 0, m->npoints, d, err);
+    for (size_t i = 0; i < all->npoints; i++)
+        zs[i] = all->points[3 * i + 2];
+    vm_status st = vm__deck_sets(path, m, zs, q ? q->mid : NULL,
+                                 q ? (m->kind == VM_TET4 ? 6 : 12) : 0, all->npoints, d, err);
     free(zs);
     if (!st && !(d->nfixed > 0 && d->nloaded > 0))
         st = vm_error_set(err, VM_ERR_EMPTY, "%s: the mesh has no elements to load", path);
@@ -147,17 +166,23 @@ vm_status vm__write_febio(const char *path, const vm_mesh *m, const vm_mesh_writ
     size_t nregions = 0, nb = 0;
     vm__deck_nodes d;
     memset(&d, 0, sizeof d);
+    vm__quadratic q;
+    memset(&q, 0, sizeof q);
+    int order2 = opt->order == 2;
+    size_t nn = (size_t)vm_cell_nodes(m->kind) + (order2 ? (m->kind == VM_TET4 ? 6 : 12) : 0);
     vm_outfile o;
     st = vm__distinct_regions(path, m, &regions, &nregions, err);
     if (!st) st = vm__boundary_faces(path, m, &bf, &nb, err);
-    if (!st && opt->deck == VM_DECK_STATIC) st = deck_nodes(path, m, &d, err);
+    if (!st && order2) st = vm__quadratic_make(path, m, NULL, &q, err);
+    if (!st && opt->deck == VM_DECK_STATIC) st = deck_nodes(path, m, order2 ? &q : NULL, &d, err);
     if (!st) st = vm__out_open(&o, path, err);
     if (!st) {
         FILE *fp = o.fp;
-        vm__out_meter(&o, opt->progress, opt->progress_user, (double)m->npoints + m->ncells);
+        const vm_mesh *w = order2 ? &q.view : m;
+        vm__out_meter(&o, opt->progress, opt->progress_user, (double)w->npoints + m->ncells);
         write_head(fp, m, opt, regions, nregions);
-        write_mesh(fp, &o, m, regions, nregions);
-        write_outer(fp, m, bf, nb);
+        write_mesh(fp, &o, w, nn, regions, nregions);
+        write_outer(fp, m, order2 ? q.mid : NULL, bf, nb);
         if (opt->deck == VM_DECK_STATIC) {
             write_node_set(fp, "FIXED", d.fixed, d.nfixed);
             write_node_set(fp, "LOADED", d.loaded, d.nloaded);
@@ -179,5 +204,6 @@ vm_status vm__write_febio(const char *path, const vm_mesh *m, const vm_mesh_writ
     free(bf);
     free(d.fixed);
     free(d.loaded);
+    if (order2) vm__quadratic_free(&q);
     return st;
 }

@@ -93,10 +93,10 @@ vm_status vm_mesh_write_check(const char *path, const vm_mesh_write_options *opt
         return vm_error_set(err, VM_ERR_ARG, "%s: element order %d (expected 1 or 2)", path,
                             opt->order);
     if (f != VM_MESH_INP && f != VM_MESH_VTU && f != VM_MESH_MSH && f != VM_MESH_MSH2 &&
-        opt->order != 1)
+        f != VM_MESH_FEBIO && opt->order != 1)
         return vm_error_set(err, VM_ERR_ARG,
-                            "%s: second-order elements are written to .inp, .vtu and .msh, "
-                            "not %s", path, vm_mesh_format_name(f));
+                            "%s: second-order elements are written to .inp, .vtu, .msh and "
+                            ".feb, not %s", path, vm_mesh_format_name(f));
     if (f != VM_MESH_INP && f != VM_MESH_FEBIO && opt->deck != VM_DECK_NONE)
         return vm_error_set(err, VM_ERR_ARG, "%s: an analysis deck needs .inp or .feb, not %s",
                             path, vm_mesh_format_name(f));

@@ -143,8 +143,8 @@ typedef struct vm_mesh_write_options {
     vm_mesh_format format; /* VM_MESH_AUTO: from the extension */
     int ascii;             /* 1: ASCII STL / PLY / VTK instead of binary (default 0) */
     int order;             /* 1 (default) or 2: INP (C3D10 / C3D20), VTU (tetra10 /
-                              hexahedron20), MSH (tet10 / hex20), tet4 and hex8 meshes: one
-                              shared mid-edge node per edge, at its middle */
+                              hexahedron20), MSH and FEBio (tet10 / hex20), tet4 and hex8
+                              meshes: one shared mid-edge node per edge, at its middle */
     vm_deck_kind deck;     /* INP and FEBio (default VM_DECK_NONE) */
     int compress;          /* VTU: zlib-compress arrays (default 1) */
     const vm_material *materials; /* the decks (inp, bdf, k, feb): one material per region,
@@ -173,7 +173,7 @@ const char *vm_mesh_format_name(vm_mesh_format f);
 int vm_exodus_available(void);
 
 /* Writes m in the format opt->format (or from the extension). opt may be NULL (defaults).
- * An option that does not apply to the format (order 2 outside .inp .vtu .msh, a deck
+ * An option that does not apply to the format (order 2 outside .inp .vtu .msh .feb, a deck
  * outside .inp .feb, materials outside the decks) is VM_ERR_ARG. [in] m is not modified. */
 vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
                            const vm_mesh_write_options *opt, vm_error *err);

@@ -234,8 +234,27 @@ def main():
                     f = float(load.find("value").text.split(",")[2]) * sets.get("LOADED", 0)
                     check(abs(f + 100) < 1e-9, f"{out}: total load {f}")
             print(f"{out}: {npts} nodes, {ncells} elements, blocks {want_blocks}: read back")
+    # FEBio second order: tet10 blocks, tri6 outer faces, mid-edge nodes at the edge middles
+    run("convert", "tet.vtu", "tet10.feb", "--order", "2", "--deck", "static")
+    if os.path.exists("tet10.feb"):
+        mesh = ET.parse("tet10.feb").getroot().find("Mesh")
+        p = np.array([[float(v) for v in n.text.split(",")] for n in mesh.find("Nodes")])
+        blocks = mesh.findall("Elements")
+        e = np.array([[int(v) - 1 for v in x.text.split(",")] for b in blocks for x in b])
+        f = np.array([[int(v) - 1 for v in x.text.split(",")] for x in mesh.find("Surface")])
+        tet_edges = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)]
+        check({b.get("type") for b in blocks} == {"tet10"} and e.shape[1] == 10 and
+              f.shape[1] == 6, f"tet10.feb: {[b.get('type') for b in blocks]}, {e.shape}, {f.shape}")
+        if e.shape[1] == 10 and f.shape[1] == 6:
+            off = max(np.abs(p[e[:, 4 + k]] - 0.5 * (p[e[:, a]] + p[e[:, b]])).max()
+                      for k, (a, b) in enumerate(tet_edges))
+            off = max(off, max(np.abs(p[f[:, 3 + k]] - 0.5 * (p[f[:, a]] + p[f[:, b]])).max()
+                               for k, (a, b) in enumerate([(0, 1), (1, 2), (2, 0)])))
+            check(off < 1e-12, f"tet10.feb: a mid-edge node is {off} off its edge's middle")
+        print(f"tet10.feb: {len(p)} nodes, {len(e)} tet10, {len(f)} tri6 faces")
     # refusals: one line naming the file, exit 2, no file left
     for args in (["tet.vtu", "bad.bdf", "--deck", "static"], ["tet.vtu", "bad.k", "--order", "2"],
+                 ["tet.vtu", "bad.mphtxt", "--order", "2"], ["tet.vtu", "bad.feb", "--order", "3"],
                  ["tet.vtu", "bad.mphtxt", "--materials", "mats.csv"], ["tet.bdf", "bad.vtu"]):
         r = run("convert", *args, expect=2)
         check(r.stderr.count("\n") == 1 and r.stderr.startswith("volmesh: ")
