@@ -252,6 +252,18 @@ def main():
                                for k, (a, b) in enumerate([(0, 1), (1, 2), (2, 0)])))
             check(off < 1e-12, f"tet10.feb: a mid-edge node is {off} off its edge's middle")
         print(f"tet10.feb: {len(p)} nodes, {len(e)} tet10, {len(f)} tri6 faces")
+    # bad materials files and outputs are refused before meshing: exit 2, one line naming the
+    # file and the problem, no output file
+    open("short.csv", "w").write("1,Bone,17000\n")
+    open("nu.csv", "w").write("label,name,E,nu,density\n1,Bone,17000,0.7,1\n")
+    for args, says in ((["--materials", "short.csv", "-o", "bad.inp"], "short.csv: line 1: expected 5"),
+                       (["--materials", "nu.csv", "-o", "bad.feb"], "nu.csv: line 2: nu"),
+                       (["--materials", "missing.csv", "-o", "bad.inp"], "missing.csv"),
+                       (["--materials", "mats.csv", "-o", "bad.vtu"], "bad.vtu: materials"),
+                       (["-o", "bad.xyz"], "bad.xyz: unknown mesh format")):
+        r = run("mesh", "two.raw", *raw, *args, expect=2)
+        check(r.stderr.count("\n") == 1 and says in r.stderr and not os.path.exists(args[-1]),
+              f"mesh {args}: {r.stderr!r}")
     # refusals: one line naming the file, exit 2, no file left
     for args in (["tet.vtu", "bad.bdf", "--deck", "static"], ["tet.vtu", "bad.k", "--order", "2"],
                  ["tet.vtu", "bad.mphtxt", "--order", "2"], ["tet.vtu", "bad.feb", "--order", "3"],
