@@ -2,7 +2,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
 # tests/io/test_calculix.sh — CalculiX solves the static decks volmesh writes: a sphere phantom
 # centred on the origin (64^3 on [-1, 1], --range :0 --size 4; nodes near zero need exponent
-# numbers, which must fit CalculiX's 20-character fields) as C3D4 and C3D10, the CT head bone
+# numbers, which must fit CalculiX's 20-character fields) as C3D4 and C3D10, a two-label
+# volume with a material per label from --materials, the CT head bone
 # (shared data, iso 1150, size 3; skipped when absent) in tetrahedra, and an adaptive
 # hexahedral sphere (C3D8, the transitions made by pillowing) from a built-in phantom. Each
 # deck is run through ccx, and its .dat/.frd must hold finite, non-zero displacements. Skips
