@@ -61,9 +61,13 @@ static const char *mesh_help2 =
     "  --quality-fields        add per-cell quality arrays (min_dihedral, radius_ratio, ...)\n"
     "  --report REPORT.html    also write the HTML quality report (see volmesh report)\n"
     "  --no-compress           write the VTU without zlib\n"
-    "  --deck static           with -o X.inp: a complete static step (bottom fixed, top\n"
-    "                          loaded) that CalculiX/ABAQUS solve as is\n"
-    "  --order 2               with -o X.inp: quadratic elements (C3D10)\n"
+    "  --deck static           with -o X.inp or X.feb: a complete static step (bottom\n"
+    "                          fixed, top loaded) that CalculiX/ABAQUS (FEBio) solve as is\n"
+    "  --order 2               with -o X.inp .vtu .msh .feb: quadratic elements (C3D10,\n"
+    "                          tetra10, tet10; mid-edge nodes at the edge middles)\n"
+    "  --materials FILE        with a deck (-o X.inp .bdf .k .feb): CSV rows label,name,E,\n"
+    "                          nu,density, one material per label (checked before\n"
+    "                          meshing; labels without a row get a placeholder)\n"
     "  --max-memory SIZE       refuse (exit 2) before reading or meshing when the run would\n"
     "                          need more than SIZE bytes (suffix K, M, G, T: powers of 1024)\n"
     "  --slabs N|auto          tets: mesh by N slabs along z, each read and meshed on its own\n"
@@ -290,6 +294,8 @@ typedef struct {
     vm_mesh_write_options wo;   /* -o */
     vm_label_size *label_sizes; /* --size-per-label (owned) */
     int32_t *labels;            /* --labels' list (owned; NULL for all) */
+    const char *materials_path; /* --materials */
+    vm_material *materials;     /* its rows (owned) */
 } mesh_args;
 
 /* The options that take a value (checked to have one before they are read). */
@@ -297,7 +303,8 @@ static const char *const mesh_valued[] = {
     "-o",         "--output",       "--iso",        "--range",          "--size",
     "--surface",  "--max-level",    "--elements",   "--denoise",        "--report",
     "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
-    "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts"};
+    "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts",
+    "--materials"};
 
 /* 1 when option a takes a value. */
 static int mesh_takes_value(const char *a) {
@@ -439,8 +446,8 @@ static int stages_option(mesh_args *m, char **argv, int *i, int *taken) {
     return VM_EXIT_OK;
 }
 
-/* What is written and printed: -o, --surface, --report, --deck, --order, --no-compress,
- * --quality-fields, --json, --quiet, --verbose. */
+/* What is written and printed: -o, --surface, --report, --deck, --order, --materials,
+ * --no-compress, --quality-fields, --json, --quiet, --verbose. */
 static int output_option(mesh_args *m, char **argv, int *i, int *taken) {
     const char *a = argv[*i];
     *taken = 1;
@@ -458,6 +465,8 @@ static int output_option(mesh_args *m, char **argv, int *i, int *taken) {
         long ord = 0;
         if (vm_cli_int(a, argv[++*i], 1, 2, &ord)) return VM_EXIT_INPUT;
         m->wo.order = (int)ord;
+    } else if (vm_cli_is(a, "--materials", NULL)) {
+        m->materials_path = argv[++*i];
     } else if (vm_cli_is(a, "--no-compress", NULL)) {
         m->compress = 0;
     } else if (vm_cli_is(a, "--quality-fields", NULL)) {
@@ -515,9 +524,9 @@ static int option_conflicts(const mesh_args *m) {
     if (m->have_error && !m->surface_elements && !(o->error >= 0))
         return vm_cli_fail("--error: %g must be >= 0 (voxels)", o->error);
     if (m->surface_elements && (m->have_labels || o->adaptive || m->surface || m->report ||
-                                m->wo.deck || m->wo.order != 1))
+                                m->wo.deck || m->wo.order != 1 || m->materials_path))
         return vm_cli_fail("mesh: --elements %s writes a surface: no --labels, --adaptive, "
-                           "--surface, --report, --deck or --order",
+                           "--surface, --report, --deck, --order or --materials",
                            m->surface_elements == VM_QUAD4 ? "quad" : "tri");
     if (m->have_slabs &&
         (m->have_labels || m->denoise || m->surface_elements || o->elements != VM_TET4))
@@ -543,6 +552,20 @@ static int mesh_check(mesh_args *m) {
     return vm_cli_input_check_raw(&m->in);
 }
 
+/* Reads --materials and checks that -o takes the write options, before any meshing. */
+static int check_output(mesh_args *m) {
+    vm_error err;
+    vm_error_clear(&err);
+    if (m->materials_path) {
+        if (vm_materials_read(m->materials_path, &m->materials, &m->wo.nmaterials, &err))
+            return vm_cli_fail_err(&err);
+        m->wo.materials = m->materials;
+    }
+    if (vm_mesh_write_check(m->out, &m->wo, &err))
+        return vm_cli_fail_err(&err);
+    return VM_EXIT_OK;
+}
+
 /* Hands the options to the stages: the memory limit, the labels' list, the progress bars. */
 static int mesh_prepare(mesh_args *m) {
     if (m->max_memory > 0) {
@@ -566,7 +589,7 @@ static int mesh_prepare(mesh_args *m) {
     m->o.progress = vm_cli_progress;
     m->o.progress_user = &m->quiet;
     m->wo.compress = m->compress;
-    return VM_EXIT_OK;
+    return check_output(m);
 }
 
 /* ---- the stages ------------------------------------------------------------------------ */
@@ -823,5 +846,6 @@ int vm_cmd_mesh(int argc, char **argv) {
     if (!rc && !help) rc = mesh_run(&m);
     free(m.labels);
     free(m.label_sizes);
+    vm_materials_free(m.materials);
     return rc;
 }

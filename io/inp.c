@@ -19,59 +19,6 @@
 /* Writer                                                                                   */
 /* ======================================================================================= */
 
-typedef struct edge_rec {
-    vm_index a, b; /* a < b */
-    uint64_t slot; /* cell * nedges + local edge */
-} edge_rec;
-
-static int cmp_edge(const void *x, const void *y) {
-    const edge_rec *p = x, *q = y;
-    if (p->a != q->a) return p->a < q->a ? -1 : 1;
-    if (p->b != q->b) return p->b < q->b ? -1 : 1;
-    return (p->slot > q->slot) - (p->slot < q->slot);
-}
-
-/* Mid-edge nodes for order 2: mid[cell*ne + e] = 0-based node number (after the corners);
- * [out] *mid, *nmid (distinct edges). */
-static vm_status make_mid_nodes(const char *path, const vm_mesh *m, vm_index **mid,
-                                size_t *nmid, vm_error *err) {
-    int ne = m->kind == VM_TET4 ? 6 : 12;
-    const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
-    size_t nn = (size_t)vm_cell_nodes(m->kind), total, bytes;
-    *mid = NULL;
-    *nmid = 0;
-    if (vm__mul_overflows(m->ncells, (size_t)ne, &total) ||
-        vm__mul_overflows(total ? total : 1, sizeof(edge_rec), &bytes) ||
-        bytes > vm__memory_limit())
-        return vm_error_set(err, VM_ERR_NOMEM, "%s: too many edges", path);
-    edge_rec *e = malloc(bytes);
-    vm_index *out = malloc((total ? total : 1) * sizeof *out);
-    if (!e || !out) {
-        free(e);
-        free(out);
-        return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for %zu edges", path, total);
-    }
-    for (size_t c = 0; c < m->ncells; c++)
-        for (int k = 0; k < ne; k++) {
-            vm_index a = m->cells[c * nn + (size_t)edges[k][0]];
-            vm_index b = m->cells[c * nn + (size_t)edges[k][1]];
-            edge_rec *r = &e[c * (size_t)ne + (size_t)k];
-            r->a = a < b ? a : b;
-            r->b = a < b ? b : a;
-            r->slot = (uint64_t)c * (uint64_t)ne + (uint64_t)k;
-        }
-    qsort(e, total, sizeof *e, cmp_edge);
-    size_t next = m->npoints;
-    for (size_t i = 0; i < total; i++) {
-        if (i > 0 && (e[i].a != e[i - 1].a || e[i].b != e[i - 1].b)) next++;
-        out[e[i].slot] = (vm_index)next;
-    }
-    *nmid = total ? next + 1 - m->npoints : 0;
-    free(e);
-    *mid = out;
-    return VM_OK;
-}
-
 /* Writes a list of ids, 16 per line (Abaqus data lines hold at most 16 entries). */
 static void write_id_list(FILE *fp, const int64_t *ids, size_t n) {
     for (size_t i = 0; i < n; i++)
@@ -89,92 +36,6 @@ static size_t sort_unique(int64_t *v, size_t n) {
     for (size_t i = 0; i < n; i++)
         if (k == 0 || v[k - 1] != v[i]) v[k++] = v[i];
     return k;
-}
-
-/* The static deck's slabs: nodes within this fraction of the z extent of the lowest (fixed)
- * and highest (loaded) z; a piece needs this many fixed nodes (three points not on a line
- * hold a body against rigid motion). */
-static const double DECK_SLAB_FRACTION = 0.01;
-enum { DECK_MIN_FIXED = 3 };
-
-typedef struct deck_sets {
-    int64_t *fixed, *loaded; /* node ids (1-based) */
-    size_t nfixed, nloaded;
-} deck_sets;
-
-/* Fixed set: nodes within 1% of the z extent above the lowest z. A piece of the mesh that
- * does not reach that slab (or touches it at fewer than 3 nodes) gets its own lowest slab
- * fixed instead, or all its nodes when even that has fewer than 3, so the system is never
- * singular. Loaded set: nodes within 1% of the extent below the highest z. */
-static vm_status make_deck_sets(const char *path, const vm_mesh *m, const double *zs,
-                                const vm_index *mid, int nmid_per_cell, size_t nnodes,
-                                deck_sets *d, vm_error *err) {
-    size_t nn = (size_t)vm_cell_nodes(m->kind);
-    size_t *parent = malloc(nnodes * sizeof *parent);
-    unsigned char *used = calloc(nnodes, 1);
-    double *cmin = malloc(nnodes * sizeof *cmin);
-    size_t *cfix = calloc(nnodes, sizeof *cfix);
-    d->fixed = malloc(nnodes * sizeof *d->fixed);
-    d->loaded = malloc(nnodes * sizeof *d->loaded);
-    d->nfixed = d->nloaded = 0;
-    vm_status st = VM_OK;
-    if (!parent || !used || !cmin || !cfix || !d->fixed || !d->loaded) {
-        st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for the deck", path);
-        goto done;
-    }
-    for (size_t i = 0; i < nnodes; i++)
-        parent[i] = i;
-    for (size_t c = 0; c < m->ncells; c++) {
-        size_t r0 = vm__uf_find(parent, (size_t)m->cells[c * nn]);
-        used[m->cells[c * nn]] = 1;
-        for (size_t k = 1; k < nn + (size_t)nmid_per_cell; k++) {
-            size_t v = k < nn ? (size_t)m->cells[c * nn + k]
-                              : (size_t)mid[c * (size_t)nmid_per_cell + (k - nn)];
-            used[v] = 1;
-            size_t r = vm__uf_find(parent, v);
-            if (r != r0) parent[r] = r0;
-        }
-    }
-    double zmin = INFINITY, zmax = -INFINITY;
-    for (size_t i = 0; i < nnodes; i++)
-        if (used[i]) {
-            zmin = zs[i] < zmin ? zs[i] : zmin;
-            zmax = zs[i] > zmax ? zs[i] : zmax;
-        }
-    if (zmin > zmax) goto done; /* no cells */
-    double slab = DECK_SLAB_FRACTION * (zmax - zmin);
-    for (size_t i = 0; i < nnodes; i++)
-        cmin[i] = INFINITY;
-    for (size_t i = 0; i < nnodes; i++)
-        if (used[i]) {
-            size_t r = vm__uf_find(parent, i);
-            if (zs[i] < cmin[r]) cmin[r] = zs[i];
-            if (zs[i] <= zmin + slab) cfix[r]++;
-        }
-    /* cfix of a root: nodes in the global slab; pieces with < 3 use their own slab. */
-    for (size_t i = 0; i < nnodes; i++)
-        if (used[i]) {
-            size_t r = vm__uf_find(parent, i);
-            if (cfix[r] >= DECK_MIN_FIXED ? zs[i] <= zmin + slab : zs[i] <= cmin[r] + slab)
-                d->fixed[d->nfixed++] = (int64_t)i + 1;
-            if (zs[i] >= zmax - slab) d->loaded[d->nloaded++] = (int64_t)i + 1;
-        }
-    /* Pieces whose own slab still has < 3 nodes are clamped whole. */
-    for (size_t i = 0; i < nnodes; i++)
-        cfix[i] = 0;
-    for (size_t k = 0; k < d->nfixed; k++)
-        cfix[vm__uf_find(parent, (size_t)(d->fixed[k] - 1))]++;
-    for (size_t i = 0; i < nnodes; i++)
-        if (used[i] && cfix[vm__uf_find(parent, i)] < DECK_MIN_FIXED &&
-            !(zs[i] <= zmin + slab) && !(zs[i] <= cmin[vm__uf_find(parent, i)] + slab))
-            d->fixed[d->nfixed++] = (int64_t)i + 1;
-    d->nfixed = sort_unique(d->fixed, d->nfixed);
-done:
-    free(parent);
-    free(used);
-    free(cmin);
-    free(cfix);
-    return st;
 }
 
 /* Abaqus element face / edge counts: S1..S4 of a tet, S1..S6 of a hex; 6 and 12 mid-edge
@@ -208,7 +69,7 @@ typedef struct inp_writer {
     vm__iface *ifaces;
     int32_t *regions;
     int64_t *ids; /* scratch list of node / element ids */
-    deck_sets deck;
+    vm__deck_nodes deck;
 } inp_writer;
 
 /* Frees what prepare_deck_data allocated. */
@@ -235,7 +96,7 @@ static vm_status prepare_static_deck(inp_writer *w) {
             zs[w->mid[c * (size_t)w->ne + (size_t)k]] =
                 0.5 * (m->points[3 * (size_t)m->cells[c * w->nn + (size_t)edges[k][0]] + 2] +
                        m->points[3 * (size_t)m->cells[c * w->nn + (size_t)edges[k][1]] + 2]);
-    vm_status st = make_deck_sets(w->path, m, zs, w->mid, w->ne, w->nnodes, &w->deck, w->err);
+    vm_status st = vm__deck_sets(w->path, m, zs, w->mid, w->ne, w->nnodes, &w->deck, w->err);
     free(zs);
     return st;
 }
@@ -244,7 +105,7 @@ static vm_status prepare_static_deck(inp_writer *w) {
 static vm_status prepare_deck_data(inp_writer *w) {
     const vm_mesh *m = w->m;
     vm_status st = VM_OK;
-    if (w->order2) st = make_mid_nodes(w->path, m, &w->mid, &w->nmid, w->err);
+    if (w->order2) st = vm__mid_nodes(w->path, m, &w->mid, &w->nmid, w->err);
     if (st) return st;
     w->nnodes = m->npoints + w->nmid;
     if (w->volume) st = vm__boundary_faces(w->path, m, &w->bfaces, &w->nb, w->err);
@@ -260,6 +121,15 @@ static vm_status prepare_deck_data(inp_writer *w) {
     return st;
 }
 
+/* One *NODE data line; every coordinate at most VM__INP_FIELD characters. */
+static void write_node_line(FILE *fp, size_t id, double x, double y, double z) {
+    char a[32], b[32], c[32];
+    vm__format_real(x, VM__INP_FIELD, 0, a, sizeof a);
+    vm__format_real(y, VM__INP_FIELD, 0, b, sizeof b);
+    vm__format_real(z, VM__INP_FIELD, 0, c, sizeof c);
+    fprintf(fp, "%zu, %s, %s, %s\n", id, a, b, c);
+}
+
 /* *NODE: the mesh points, then (order 2) each mid-edge node at the middle of its edge, in
  * id order (straight-sided elements). */
 static vm_status write_nodes(inp_writer *w) {
@@ -268,7 +138,7 @@ static vm_status write_nodes(inp_writer *w) {
     fprintf(fp, "*NODE, NSET=NALL\n");
     for (size_t i = 0; i < m->npoints; i++) {
         const double *p = m->points + 3 * i;
-        fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", i + 1, p[0], p[1], p[2]);
+        write_node_line(fp, i + 1, p[0], p[1], p[2]);
         vm__out_step(&w->o, 1.0);
     }
     if (!w->order2) return VM_OK;
@@ -283,8 +153,8 @@ static vm_status write_nodes(inp_writer *w) {
         int k = (int)(slot_of[i] % ne);
         const double *a = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][0]];
         const double *b = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][1]];
-        fprintf(fp, "%zu, %.17g, %.17g, %.17g\n", m->npoints + i + 1, 0.5 * (a[0] + b[0]),
-                0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]));
+        write_node_line(fp, m->npoints + i + 1, 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]),
+                        0.5 * (a[2] + b[2]));
         vm__out_step(&w->o, 1.0);
     }
     free(slot_of);
@@ -340,8 +210,36 @@ static void face_node_ids(const inp_writer *w, size_t c, int f, int64_t *ids, si
     }
 }
 
+/* *NSET name of the nodes (mid-edge nodes too) of the n faces faces[i] (cell*nf + face). */
+static void write_face_nset(inp_writer *w, const char *name, const uint64_t *faces,
+                            size_t stride, size_t n) {
+    uint64_t nf = (uint64_t)w->nf;
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t f = *(const uint64_t *)(const void *)((const char *)faces + i * stride);
+        if (k + FACE_ID_ROOM > w->idcap) k = sort_unique(w->ids, k);
+        face_node_ids(w, (size_t)(f / nf), (int)(f % nf), w->ids, &k);
+    }
+    k = sort_unique(w->ids, k);
+    if (k == 0) return;
+    fprintf(w->fp, "*NSET, NSET=%s\n", name);
+    write_id_list(w->fp, w->ids, k);
+}
+
+/* The outer boundary as a whole: *NSET NB_OUTER and *SURFACE OUTER. */
+static void write_outer_boundary(inp_writer *w) {
+    uint64_t nf = (uint64_t)w->nf;
+    if (w->nb == 0) return;
+    write_face_nset(w, "NB_OUTER", w->bfaces, sizeof *w->bfaces, w->nb);
+    fprintf(w->fp, "*SURFACE, NAME=OUTER, TYPE=ELEMENT\n");
+    for (size_t i = 0; i < w->nb; i++)
+        fprintf(w->fp, "%zu, S%d\n", (size_t)(w->bfaces[i] / nf) + 1,
+                (int)(w->bfaces[i] % nf) + 1);
+}
+
 /* Per region, the *NSET NB_ of its boundary nodes and the *SURFACE SURF_ of its boundary
- * faces; per touching pair of regions, the *SURFACE IFACE_ on the lower region's side. */
+ * faces; the whole outer boundary; per touching pair of regions, the *SURFACE IFACE_ on the
+ * lower region's side and the *NSET NIF_ of its nodes. */
 static void write_boundary_sets(inp_writer *w) {
     const vm_mesh *m = w->m;
     FILE *fp = w->fp;
@@ -373,31 +271,47 @@ static void write_boundary_sets(inp_writer *w) {
             fprintf(fp, "%zu, S%d\n", c + 1, (int)(w->bfaces[i] % nf) + 1);
         }
     }
-    for (size_t i = 0; i < w->nif; i++) {
+    write_outer_boundary(w);
+    for (size_t i = 0, first = 0; i < w->nif; i++) {
         const vm__iface *f = &w->ifaces[i];
-        if (i == 0 || f->region != f[-1].region || f->other != f[-1].other) {
-            char a[32], b[32];
-            vm__region_name(f->region, a, sizeof a);
-            vm__region_name(f->other, b, sizeof b);
-            fprintf(fp, "*SURFACE, NAME=IFACE_%s_%s, TYPE=ELEMENT\n", a, b);
-        }
+        char a[32], b[32], name[80];
+        vm__region_name(f->region, a, sizeof a);
+        vm__region_name(f->other, b, sizeof b);
+        if (i == first) fprintf(fp, "*SURFACE, NAME=IFACE_%s_%s, TYPE=ELEMENT\n", a, b);
         fprintf(fp, "%zu, S%d\n", (size_t)(f->face / nf) + 1, (int)(f->face % nf) + 1);
+        if (i + 1 < w->nif && f[1].region == f->region && f[1].other == f->other) continue;
+        snprintf(name, sizeof name, "NIF_%s_%s", a, b);
+        write_face_nset(w, name, &w->ifaces[first].face, sizeof *w->ifaces, i + 1 - first);
+        first = i + 1;
     }
 }
 
-/* The placeholder material, one section per region, and the static step when asked. */
+/* A number of a material line (at most VM__INP_FIELD characters). */
+static const char *inp_real(double v, char *buf, size_t cap) {
+    vm__format_real(v, VM__INP_FIELD, 0, buf, cap);
+    return buf;
+}
+
+/* One material per region, named after it or from opt's table, each with its section; then
+ * the static step when asked. */
 static void write_material_and_step(inp_writer *w) {
     FILE *fp = w->fp;
-    fprintf(fp, "** placeholder material (steel-like, units N, mm, t): replace with yours\n"
-                "*MATERIAL, NAME=PLACEHOLDER_STEEL\n*ELASTIC\n210000, 0.3\n"
-                "*DENSITY\n7.85e-09\n");
+    char e[32], nu[32], rho[32];
     for (size_t r = 0; r < w->nregions; r++) {
         char name[32];
+        vm_material mat;
         vm__region_name(w->regions[r], name, sizeof name);
+        vm__material_of_region(w->opt, w->regions[r], &mat);
+        if (vm__material_is_placeholder(w->opt, w->regions[r]))
+            fprintf(fp, "** placeholder material of %s (steel-like, units N, mm, t): replace it "
+                        "or give --materials\n", name);
+        fprintf(fp, "*MATERIAL, NAME=%s\n*ELASTIC\n%s, %s\n*DENSITY\n%s\n", mat.name,
+                inp_real(mat.young, e, sizeof e), inp_real(mat.poisson, nu, sizeof nu),
+                inp_real(mat.density, rho, sizeof rho));
         if (w->volume)
-            fprintf(fp, "*SOLID SECTION, ELSET=%s, MATERIAL=PLACEHOLDER_STEEL\n", name);
+            fprintf(fp, "*SOLID SECTION, ELSET=%s, MATERIAL=%s\n", name, mat.name);
         else
-            fprintf(fp, "*SHELL SECTION, ELSET=%s, MATERIAL=PLACEHOLDER_STEEL\n1.0\n", name);
+            fprintf(fp, "*SHELL SECTION, ELSET=%s, MATERIAL=%s\n1.0\n", name, mat.name);
     }
     if (w->opt->deck != VM_DECK_STATIC) return;
     fprintf(fp, "** static deck: nodes of the lowest z slab (1%% of the z extent) fixed,\n"
@@ -406,8 +320,10 @@ static void write_material_and_step(inp_writer *w) {
     write_id_list(fp, w->deck.fixed, w->deck.nfixed);
     fprintf(fp, "*NSET, NSET=LOADED\n");
     write_id_list(fp, w->deck.loaded, w->deck.nloaded);
-    fprintf(fp, "*STEP\n*STATIC\n*BOUNDARY\nFIXED, 1, 3\n*CLOAD\nLOADED, 3, %.17g\n",
-            -DECK_TOTAL_FORCE / (double)w->deck.nloaded);
+    char load[32];
+    vm__format_real(-DECK_TOTAL_FORCE / (double)w->deck.nloaded, VM__INP_FIELD, 0, load,
+                    sizeof load);
+    fprintf(fp, "*STEP\n*STATIC\n*BOUNDARY\nFIXED, 1, 3\n*CLOAD\nLOADED, 3, %s\n", load);
     fprintf(fp, "*NODE FILE\nU\n*EL FILE\nS\n*NODE PRINT, NSET=LOADED\nU\n*END STEP\n");
 }
 

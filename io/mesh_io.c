@@ -16,6 +16,9 @@ static const struct {
     {"gmsh2", VM_MESH_MSH2}, {"mesh", VM_MESH_MEDIT},  {"medit", VM_MESH_MEDIT},
     {"stl", VM_MESH_STL},    {"off", VM_MESH_OFF},     {"ply", VM_MESH_PLY},
     {"obj", VM_MESH_OBJ},    {"exo", VM_MESH_EXODUS},  {"exodus", VM_MESH_EXODUS},
+    {"bdf", VM_MESH_NASTRAN}, {"nastran", VM_MESH_NASTRAN}, {"k", VM_MESH_LSDYNA},
+    {"lsdyna", VM_MESH_LSDYNA}, {"mphtxt", VM_MESH_COMSOL}, {"comsol", VM_MESH_COMSOL},
+    {"feb", VM_MESH_FEBIO},  {"febio", VM_MESH_FEBIO},
 };
 
 static const struct {
@@ -26,6 +29,8 @@ static const struct {
     {".msh2", VM_MESH_MSH2}, {".msh", VM_MESH_MSH},   {".mesh", VM_MESH_MEDIT},
     {".stl", VM_MESH_STL},  {".off", VM_MESH_OFF},    {".ply", VM_MESH_PLY},
     {".obj", VM_MESH_OBJ},  {".exo", VM_MESH_EXODUS}, {".e", VM_MESH_EXODUS},
+    {".bdf", VM_MESH_NASTRAN}, {".k", VM_MESH_LSDYNA}, {".mphtxt", VM_MESH_COMSOL},
+    {".feb", VM_MESH_FEBIO},
 };
 
 vm_mesh_format vm_mesh_format_parse(const char *name) {
@@ -56,14 +61,25 @@ const char *vm_mesh_format_name(vm_mesh_format f) {
     case VM_MESH_PLY: return "ply";
     case VM_MESH_OBJ: return "obj";
     case VM_MESH_EXODUS: return "exo";
+    case VM_MESH_NASTRAN: return "bdf";
+    case VM_MESH_LSDYNA: return "k";
+    case VM_MESH_COMSOL: return "mphtxt";
+    case VM_MESH_FEBIO: return "feb";
     }
     return "unknown";
 }
 
-static const char *known_exts = ".vtu .vtk .inp .msh .msh2 .mesh .stl .off .ply .obj .exo";
+static const char *known_exts =
+    ".vtu .vtk .inp .msh .msh2 .mesh .stl .off .ply .obj .exo .bdf .k .mphtxt .feb";
 
-vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
-                           const vm_mesh_write_options *opt, vm_error *err) {
+/* 1 when format f writes one material per region (a solver deck). */
+static int has_materials(vm_mesh_format f) {
+    return f == VM_MESH_INP || f == VM_MESH_NASTRAN || f == VM_MESH_LSDYNA ||
+           f == VM_MESH_FEBIO;
+}
+
+vm_status vm_mesh_write_check(const char *path, const vm_mesh_write_options *opt,
+                              vm_error *err) {
     vm_mesh_write_options def;
     if (!opt) {
         vm_mesh_write_options_init(&def);
@@ -76,17 +92,36 @@ vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
     if (opt->order != 1 && opt->order != 2)
         return vm_error_set(err, VM_ERR_ARG, "%s: element order %d (expected 1 or 2)", path,
                             opt->order);
-    if (f != VM_MESH_INP && opt->order != 1)
+    if (f != VM_MESH_INP && f != VM_MESH_VTU && f != VM_MESH_MSH && f != VM_MESH_MSH2 &&
+        f != VM_MESH_FEBIO && opt->order != 1)
         return vm_error_set(err, VM_ERR_ARG,
-                            "%s: second-order elements are written to .inp only, not %s",
+                            "%s: second-order elements are written to .inp, .vtu, .msh and "
+                            ".feb, not %s", path, vm_mesh_format_name(f));
+    if (f != VM_MESH_INP && f != VM_MESH_FEBIO && opt->deck != VM_DECK_NONE)
+        return vm_error_set(err, VM_ERR_ARG, "%s: an analysis deck needs .inp or .feb, not %s",
                             path, vm_mesh_format_name(f));
-    if (f != VM_MESH_INP && opt->deck != VM_DECK_NONE)
-        return vm_error_set(err, VM_ERR_ARG, "%s: an analysis deck needs .inp, not %s", path,
-                            vm_mesh_format_name(f));
+    if (opt->nmaterials && !has_materials(f))
+        return vm_error_set(err, VM_ERR_ARG,
+                            "%s: materials are written to the solver decks (.inp .bdf .k .feb), "
+                            "not %s",
+                            path, vm_mesh_format_name(f));
     if (opt->ascii && f != VM_MESH_STL && f != VM_MESH_PLY && f != VM_MESH_VTK)
         return vm_error_set(err, VM_ERR_ARG,
                             "%s: --ascii applies to stl, ply and vtk, not %s (always ASCII or "
                             "always binary)", path, vm_mesh_format_name(f));
+    return VM_OK;
+}
+
+vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
+                           const vm_mesh_write_options *opt, vm_error *err) {
+    vm_mesh_write_options def;
+    if (!opt) {
+        vm_mesh_write_options_init(&def);
+        opt = &def;
+    }
+    vm_status st = vm_mesh_write_check(path, opt, err);
+    if (st) return st;
+    vm_mesh_format f = opt->format != VM_MESH_AUTO ? opt->format : vm_mesh_format_of_path(path);
     vm_mesh_write_options o = *opt;
     o.format = f;
     switch (f) {
@@ -101,6 +136,10 @@ vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
     case VM_MESH_PLY: return vm__write_ply(path, m, &o, err);
     case VM_MESH_OBJ: return vm__write_obj(path, m, &o, err);
     case VM_MESH_EXODUS: return vm_mesh_write_exodus(path, m, err);
+    case VM_MESH_NASTRAN: return vm__write_nastran(path, m, &o, err);
+    case VM_MESH_LSDYNA: return vm__write_lsdyna(path, m, &o, err);
+    case VM_MESH_COMSOL: return vm__write_comsol(path, m, &o, err);
+    case VM_MESH_FEBIO: return vm__write_febio(path, m, &o, err);
     case VM_MESH_AUTO: break;
     }
     return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: unknown mesh format", path);
@@ -124,10 +163,14 @@ vm_status vm_mesh_read_as(const char *path, vm_mesh_format f, vm_mesh *m, vm_err
     case VM_MESH_PLY: return vm_mesh_read_ply(path, m, err);
     case VM_MESH_OBJ: return vm_mesh_read_obj(path, m, err);
     case VM_MESH_EXODUS:
+    case VM_MESH_NASTRAN:
+    case VM_MESH_LSDYNA:
+    case VM_MESH_COMSOL:
+    case VM_MESH_FEBIO:
         vm_mesh_init(m, VM_TET4);
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
-                            "%s: reading Exodus II is not supported (volmesh writes it only)",
-                            path);
+                            "%s: reading %s is not supported (volmesh writes it only)", path,
+                            vm_mesh_format_name(f));
     case VM_MESH_AUTO: break;
     }
     vm_mesh_init(m, VM_TET4);

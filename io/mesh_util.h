@@ -37,6 +37,80 @@ vm_status vm__write_ply(const char *path, const vm_mesh *m, const vm_mesh_write_
                         vm_error *err);
 vm_status vm__write_obj(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
                         vm_error *err);
+/* The solver decks of tet4 / hex8 meshes, one part and material per region: Nastran bulk
+ * data (io/nastran.c), LS-DYNA keywords (io/lsdyna.c), COMSOL text mesh (io/comsol.c,
+ * no materials), FEBio 4.0 (io/febio.c, with opt->deck). */
+vm_status vm__write_nastran(const char *path, const vm_mesh *m,
+                            const vm_mesh_write_options *opt, vm_error *err);
+vm_status vm__write_lsdyna(const char *path, const vm_mesh *m,
+                           const vm_mesh_write_options *opt, vm_error *err);
+vm_status vm__write_comsol(const char *path, const vm_mesh *m,
+                           const vm_mesh_write_options *opt, vm_error *err);
+vm_status vm__write_febio(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
+                          vm_error *err);
+
+/* --- numbers as text (io/number_text.c) ------------------------------------------------- */
+
+/* Deck field width limits: CalculiX / ABAQUS read at most 20 characters per number; Nastran
+ * large-field and LS-DYNA fixed node fields hold 16. */
+enum { VM__INP_FIELD = 20, VM__WIDE_FIELD = 16 };
+
+/* Writes v into out (cap >= 32) as the shortest text among %.15g, %.16g, %.17g (and their
+ * exponent forms, exponent written "E-7") at the first precision that reads back exactly;
+ * when that is wider than width characters, the most significant digits (15 or fewer) whose
+ * text fits. need_point: always with a decimal point (Nastran reads "12" as an integer).
+ * Returns the length written. Non-finite values are written as %g gives them. */
+int vm__format_real(double v, int width, int need_point, char *out, size_t cap);
+
+/* --- the static decks' node sets (io/deck_sets.c) ------------------------------------ */
+
+typedef struct vm__deck_nodes {
+    int64_t *fixed, *loaded; /* node ids (1-based), sorted; free both */
+    size_t nfixed, nloaded;
+} vm__deck_nodes;
+
+/* Fixed: nodes within 1% of the z extent above the lowest z (a piece reaching it at fewer
+ * than 3 nodes gets its own lowest slab, or all its nodes); loaded: within 1% below the
+ * highest z. zs: z of each of nnodes nodes (corners, then mid-edge nodes mid[cell *
+ * nmid_per_cell + k] when nmid_per_cell > 0). [out] *d (free its arrays even on error). */
+vm_status vm__deck_sets(const char *path, const vm_mesh *m, const double *zs,
+                        const vm_index *mid, int nmid_per_cell, size_t nnodes,
+                        vm__deck_nodes *d, vm_error *err);
+
+/* --- second-order elements (io/mid_nodes.c) -------------------------------------------- */
+
+/* Mid-edge nodes of a tet4 / hex8 mesh: mid[cell * ne + e] (ne 6 or 12, edges in the order
+ * of vm__tet_edges / vm__hex_edges, which is VTK's and Abaqus's) = node number npoints + k,
+ * one k per distinct edge. [out] *mid (malloc'd, free it), *nmid (distinct edges). */
+vm_status vm__mid_nodes(const char *path, const vm_mesh *m, vm_index **mid, size_t *nmid,
+                        vm_error *err);
+/* out[(npoints + nmid) * ncomp]: vals (npoints * ncomp) followed by each mid-edge node's
+ * mean of its edge's two ends (coordinates: the straight edge's middle). */
+void vm__mid_average(const vm_mesh *m, const vm_index *mid, const double *vals, int ncomp,
+                     double *out);
+
+/* A second-order view of m: view.cells holds nn + ne nodes a cell (view.kind stays m's:
+ * callers use the counts), in the order order[k] (k-th written = corner j < nn or mid-edge
+ * node j - nn of vm__*_edges; NULL: corners then edges, VTK's order); view.points and the
+ * point fields are extended to the mid-edge nodes (each the mean of its edge's ends); cell
+ * fields and regions are m's. Tet4 / hex8 only (else VM_ERR_UNSUPPORTED). [out] q, free
+ * with vm__quadratic_free (owns everything in view but what m owns). */
+typedef struct vm__quadratic {
+    vm_mesh view;
+    vm_index *mid;
+} vm__quadratic;
+vm_status vm__quadratic_make(const char *path, const vm_mesh *m, const int *order,
+                             vm__quadratic *q, vm_error *err);
+void vm__quadratic_free(vm__quadratic *q);
+
+/* --- materials (io/materials.c) --------------------------------------------------------- */
+
+/* The material a deck writes for region: opt's row for it, else the placeholder named
+ * MAT_REGION_r (steel-like, N mm t). opt may be NULL. [out] out. */
+void vm__material_of_region(const vm_mesh_write_options *opt, int32_t region,
+                            vm_material *out);
+/* 1 when opt has no row for region (the deck says so in a comment). */
+int vm__material_is_placeholder(const vm_mesh_write_options *opt, int32_t region);
 
 /* --- text cursor ------------------------------------------------------------------------- */
 

@@ -40,6 +40,16 @@ static int gmsh_type_dim(int64_t t) {
 
 static vm_status write_msh(const char *path, const vm_mesh *m, int version,
                            const vm_mesh_write_options *opt, vm_error *err);
+static vm_status write_msh_nodes(const char *path, const vm_mesh *m, int version, int type,
+                                 size_t nn, const vm_mesh_write_options *opt, vm_error *err);
+
+/* Gmsh's second-order types and their node order as positions among the corners and VTK's
+ * edges (Gmsh reference manual, "Node ordering": tet10 ends with edges 3-2, 3-1; hex20 goes
+ * 0-1, 0-3, 0-4, 1-2, 1-5, 2-3, 2-6, 3-7, 4-5, 4-7, 5-6, 6-7). */
+enum { GMSH_TET10 = 11, GMSH_HEX20 = 17 };
+static const int GMSH_TET10_ORDER[10] = {0, 1, 2, 3, 4, 5, 6, 7, 9, 8};
+static const int GMSH_HEX20_ORDER[20] = {0,  1,  2,  3,  4,  5,  6,  7,  8,  11,
+                                         16, 9,  17, 10, 18, 19, 12, 15, 13, 14};
 
 vm_status vm_mesh_write_msh(const char *path, const vm_mesh *m, int version, vm_error *err) {
     if (version != 41 && version != 22)
@@ -55,6 +65,7 @@ vm_status vm__write_msh(const char *path, const vm_mesh *m, const vm_mesh_write_
     return write_msh(path, m, opt->format == VM_MESH_MSH2 ? 22 : 41, opt, err);
 }
 
+/* Order 1 writes m; order 2 its second-order view (tet10 / hex20, straight edges). */
 static vm_status write_msh(const char *path, const vm_mesh *m, int version,
                            const vm_mesh_write_options *opt, vm_error *err) {
     int type = gmsh_type(m->kind);
@@ -63,8 +74,25 @@ static vm_status write_msh(const char *path, const vm_mesh *m, int version,
                             (int)m->kind);
     vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) return st;
+    if (opt->order != 2)
+        return write_msh_nodes(path, m, version, type, (size_t)vm_cell_nodes(m->kind), opt,
+                               err);
+    int tet = m->kind == VM_TET4;
+    vm__quadratic q;
+    st = vm__quadratic_make(path, m, tet ? GMSH_TET10_ORDER : GMSH_HEX20_ORDER, &q, err);
+    if (st) return st;
+    st = write_msh_nodes(path, &q.view, version, tet ? GMSH_TET10 : GMSH_HEX20, tet ? 10 : 20,
+                         opt, err);
+    vm__quadratic_free(&q);
+    return st;
+}
+
+/* Writes m's cells as Gmsh elements of type with nn nodes each. */
+static vm_status write_msh_nodes(const char *path, const vm_mesh *m, int version, int type,
+                                 size_t nn, const vm_mesh_write_options *opt, vm_error *err) {
+    vm_status st;
     int dim = m->kind == VM_TET4 || m->kind == VM_HEX8 ? 3 : 2;
-    size_t nn = (size_t)vm_cell_nodes(m->kind), nreg = 0;
+    size_t nreg = 0;
     int32_t *regions = NULL;
     st = vm__distinct_regions(path, m, &regions, &nreg, err);
     if (st) return st;

@@ -193,10 +193,9 @@ static out_array *next_array(out_array *arr, size_t *na, const char *type, const
 
 /* The arrays in file order: point data, cell data (region first), points, cells. Returns
  * their number; [out] *first_cell_data, *first_points: where those groups start. */
-static size_t describe_arrays(const vm_mesh *m, size_t nconn, out_array *arr,
-                              size_t *first_cell_data, size_t *first_points) {
+static size_t describe_arrays(const vm_mesh *m, size_t nconn, int nn, int vtk_type,
+                              out_array *arr, size_t *first_cell_data, size_t *first_points) {
     size_t na = 0;
-    int nn = vm_cell_nodes(m->kind);
     for (size_t f = 0; f < m->npoint_fields; f++) {
         const vm_field *fl = &m->point_fields[f];
         next_array(arr, &na, "Float64", fl->name, fl->ncomp, m->npoints * (size_t)fl->ncomp,
@@ -214,10 +213,12 @@ static size_t describe_arrays(const vm_mesh *m, size_t nconn, out_array *arr,
     next_array(arr, &na, "Float64", "Points", 3, 3 * m->npoints, 8, SRC_COPY, m->points);
     next_array(arr, &na, "Int64", "connectivity", 1, nconn, 8, SRC_INDEX, m->cells);
     next_array(arr, &na, "Int64", "offsets", 1, m->ncells, 8, SRC_OFFSETS, NULL)->aux = nn;
-    next_array(arr, &na, "UInt8", "types", 1, m->ncells, 1, SRC_TYPES, NULL)->aux =
-        (int64_t)m->kind;
+    next_array(arr, &na, "UInt8", "types", 1, m->ncells, 1, SRC_TYPES, NULL)->aux = vtk_type;
     return na;
 }
+
+/* VTK cell types of the second-order elements (vtkCellType.h). */
+enum { VTK_QUADRATIC_TETRA = 24, VTK_QUADRATIC_HEXAHEDRON = 25 };
 
 /* The XML part: the piece's sizes and one DataArray per array, then the appended data's
  * opening (the bytes follow). */
@@ -264,14 +265,30 @@ static vm_status place_arrays(const char *path, out_array *arr, size_t na, int c
     return VM_OK;
 }
 
-/* Describes the arrays, sizes the progress by their bytes, then writes XML and data. */
+static vm_status write_vtu(const char *path, const vm_mesh *m, int nn, int vtk_type,
+                           const vm_mesh_write_options *opt, vm_error *err);
+
+/* Order 1 writes m; order 2 its quadratic view (tetra10 / hexahedron20). */
 vm_status vm__write_vtu(const char *path, const vm_mesh *m, const vm_mesh_write_options *opt,
                         vm_error *err) {
-    int compress = opt->compress;
     int nn = vm_cell_nodes(m->kind);
     if (nn == 0)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
                             (int)m->kind);
+    if (opt->order != 2) return write_vtu(path, m, nn, (int)m->kind, opt, err);
+    vm__quadratic q;
+    vm_status st = vm__quadratic_make(path, m, NULL, &q, err);
+    if (st) return st;
+    st = write_vtu(path, &q.view, m->kind == VM_TET4 ? 10 : 20,
+                   m->kind == VM_TET4 ? VTK_QUADRATIC_TETRA : VTK_QUADRATIC_HEXAHEDRON, opt, err);
+    vm__quadratic_free(&q);
+    return st;
+}
+
+/* Describes the arrays, sizes the progress by their bytes, then writes XML and data. */
+static vm_status write_vtu(const char *path, const vm_mesh *m, int nn, int vtk_type,
+                           const vm_mesh_write_options *opt, vm_error *err) {
+    int compress = opt->compress;
     size_t nconn;
     if (vm__mul_overflows(m->ncells, (size_t)nn, &nconn) || nconn > (size_t)INT64_MAX)
         return vm_error_set(err, VM_ERR_ARG, "%s: too many cells", path);
@@ -287,7 +304,7 @@ vm_status vm__write_vtu(const char *path, const vm_mesh *m, const vm_mesh_write_
         goto fail;
     }
     size_t first_cell_data, first_points;
-    size_t na = describe_arrays(m, nconn, arr, &first_cell_data, &first_points);
+    size_t na = describe_arrays(m, nconn, nn, vtk_type, arr, &first_cell_data, &first_points);
     double total_bytes = 0.0;
     for (size_t i = 0; i < na; i++) {
         size_t bytes;

@@ -126,7 +126,7 @@ void vm_volume_reader_close(vm_volume_reader *r);
 vm_status vm_volume_write_nrrd(const char *path, const vm_volume *v, int gzip, vm_error *err);
 
 /* Mesh writing: format from the extension (.vtu .vtk .inp .msh .msh2 .mesh .stl .off .ply .obj
- * .exo), with the default options of vm_mesh_write_as. */
+ * .exo .bdf .k .mphtxt .feb), with the default options of vm_mesh_write_as. */
 vm_status vm_mesh_write(const char *path, const vm_mesh *m, vm_error *err);
 vm_status vm_mesh_write_vtu(const char *path, const vm_mesh *m, int compress, vm_error *err);
 
@@ -138,7 +138,8 @@ vm_status vm_mesh_read_vtu(const char *path, vm_mesh *m, vm_error *err);
  *
  * Every writer: node order converted to the format's own (positive volumes in its reader's
  * convention), coordinates written losslessly (%.17g, or binary doubles; binary STL can only
- * hold float32), output written to PATH.tmp-PID and renamed. Every reader: one-line errors
+ * hold float32; .inp fields hold 20 characters: the shortest exact text, else 15 digits),
+ * output written to PATH.tmp-PID and renamed. Every reader: one-line errors
  * "PATH: [line N: ]problem", sizes checked against the file before allocating; [out] m is a
  * mesh to free with vm_mesh_free (left empty on error). Details per format in docs/FORMATS.md.
  * Surface formats (STL, OFF, PLY, OBJ) given a tet4/hex8 mesh write its boundary
@@ -156,7 +157,11 @@ typedef enum vm_mesh_format {
     VM_MESH_OFF,      /* .off  Geomview OFF */
     VM_MESH_PLY,      /* .ply  binary little endian by default */
     VM_MESH_OBJ,      /* .obj  Wavefront OBJ */
-    VM_MESH_EXODUS    /* .exo .e  Exodus II (write only; needs a build with libexodusii) */
+    VM_MESH_EXODUS,   /* .exo .e  Exodus II (write only; needs a build with libexodusii) */
+    VM_MESH_NASTRAN,  /* .bdf  Nastran bulk data (write only; tet4, hex8) */
+    VM_MESH_LSDYNA,   /* .k    LS-DYNA keyword deck (write only; tet4, hex8) */
+    VM_MESH_COMSOL,   /* .mphtxt COMSOL text mesh (write only; tet4, hex8) */
+    VM_MESH_FEBIO     /* .feb  FEBio input, febio_spec 4.0 (write only; tet4, hex8) */
 } vm_mesh_format;
 
 /* Analysis deck added to an .inp file. */
@@ -165,13 +170,36 @@ typedef enum vm_deck_kind {
     VM_DECK_STATIC = 1 /* plus *STEP *STATIC: lowest z slab fixed, top slab loaded in -z */
 } vm_deck_kind;
 
+/* One row of a materials table: the material of the elements of region (label) `label`.
+ * Linear elastic: Young's modulus E, Poisson's ratio nu, density, in the mesh's units (the
+ * placeholder of a region without a row is steel-like in N, mm, t: 210000, 0.3, 7.85e-9). */
+typedef struct vm_material {
+    int32_t label;
+    char name[64]; /* a letter, then letters, digits and '_' */
+    double young, poisson, density;
+} vm_material;
+
+/* Reads a materials table: CSV rows "label,name,E,nu,density" (an optional first line
+ * starting "label" is a header; blank lines and lines starting '#' are skipped). Checked
+ * whole: 5 fields a row, an integer label, a name as above, E > 0, -1 < nu < 0.5,
+ * density >= 0, no label or name (case-insensitive) twice, at least one row; else
+ * VM_ERR_FORMAT / VM_ERR_EMPTY "PATH: line N: problem". [out] *out (free with
+ * vm_materials_free), *n. */
+vm_status vm_materials_read(const char *path, vm_material **out, size_t *n, vm_error *err);
+void vm_materials_free(vm_material *m);
+
 typedef struct vm_mesh_write_options {
     vm_mesh_format format; /* VM_MESH_AUTO: from the extension */
     int ascii;             /* 1: ASCII STL / PLY / VTK instead of binary (default 0) */
-    int order;             /* 1 (default) or 2: INP only, C3D10 (tet) / C3D20 (hex) with
-                              one shared mid-edge node per edge */
-    vm_deck_kind deck;     /* INP only (default VM_DECK_NONE) */
+    int order;             /* 1 (default) or 2: INP (C3D10 / C3D20), VTU (tetra10 /
+                              hexahedron20), MSH and FEBio (tet10 / hex20), tet4 and hex8
+                              meshes: one shared mid-edge node per edge, at its middle */
+    vm_deck_kind deck;     /* INP and FEBio (default VM_DECK_NONE) */
     int compress;          /* VTU: zlib-compress arrays (default 1) */
+    const vm_material *materials; /* the decks (inp, bdf, k, feb): one material per region,
+                                     from this table where it has the region's row (not
+                                     owned; may be NULL: placeholders) */
+    size_t nmaterials;
     vm_progress_fn progress; /* stage "write" (every format but Exodus); may be NULL */
     void *progress_user;
 } vm_mesh_write_options;
@@ -180,8 +208,8 @@ typedef struct vm_mesh_write_options {
 void vm_mesh_write_options_init(vm_mesh_write_options *o);
 
 /* Format of a name as given to --format ("vtu", "vtk", "inp", "abaqus", "msh", "msh4",
- * "msh2", "mesh", "medit", "stl", "off", "ply", "obj", "exo", "exodus"), or VM_MESH_AUTO
- * when unknown. */
+ * "msh2", "mesh", "medit", "stl", "off", "ply", "obj", "exo", "exodus", "bdf", "nastran", "k",
+ * "lsdyna", "mphtxt", "comsol", "feb", "febio"), or VM_MESH_AUTO when unknown. */
 vm_mesh_format vm_mesh_format_parse(const char *name);
 
 /* Format from the extension of path (case-insensitive), or VM_MESH_AUTO when unknown. */
@@ -194,10 +222,15 @@ const char *vm_mesh_format_name(vm_mesh_format f);
 int vm_exodus_available(void);
 
 /* Writes m in the format opt->format (or from the extension). opt may be NULL (defaults).
- * An option that does not apply to the format (order 2 or a deck outside .inp) is
- * VM_ERR_ARG. [in] m is not modified. */
+ * An option that does not apply to the format (order 2 outside .inp .vtu .msh .feb, a deck
+ * outside .inp .feb, materials outside the decks) is VM_ERR_ARG. [in] m is not modified. */
 vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
                            const vm_mesh_write_options *opt, vm_error *err);
+
+/* The checks of vm_mesh_write_as that need no mesh (the format known, the options apply to
+ * it), so that a program refuses a bad output before meshing. opt may be NULL. */
+vm_status vm_mesh_write_check(const char *path, const vm_mesh_write_options *opt,
+                              vm_error *err);
 
 /* Reads path as format f (VM_MESH_AUTO: from the extension). */
 vm_status vm_mesh_read_as(const char *path, vm_mesh_format f, vm_mesh *m, vm_error *err);
@@ -205,10 +238,12 @@ vm_status vm_mesh_read_as(const char *path, vm_mesh_format f, vm_mesh *m, vm_err
 /* ABAQUS / CalculiX .inp. Writes *HEADING, *NODE, *ELEMENT (C3D4, C3D8, C3D10/C3D20 with
  * order 2, S3, S4), per region r: *ELSET REGION_r, and for volume meshes *NSET NB_REGION_r
  * (nodes of the region's boundary faces) and *SURFACE SURF_REGION_r, TYPE=ELEMENT (element,
- * face S1..S6 in ABAQUS face numbering), for each pair of regions r < q that share faces
- * *SURFACE IFACE_REGION_r_REGION_q (those faces, from the side of r), a *SOLID SECTION (shells: *SHELL SECTION, thickness
- * 1) with the placeholder material PLACEHOLDER_STEEL (E 210000, nu 0.3, density 7.85e-9);
- * opt->deck adds the analysis step. opt may be NULL. Reading takes *NODE, *ELEMENT of types
+ * face S1..S6 in ABAQUS face numbering); the outer boundary as *NSET NB_OUTER and *SURFACE
+ * OUTER; for each pair of regions r < q that share faces *SURFACE IFACE_REGION_r_REGION_q
+ * (those faces, from the side of r) and *NSET NIF_REGION_r_REGION_q; per region a *MATERIAL
+ * (opt->materials' row, else MAT_REGION_r with E 210000, nu 0.3, density 7.85e-9) and a
+ * *SOLID SECTION (shells: *SHELL SECTION, thickness 1). Numbers take at most 20 characters
+ * (the shortest exact text, else 15 significant digits). opt->deck adds the analysis step. opt may be NULL. Reading takes *NODE, *ELEMENT of types
  * C3D4*, C3D8*, C3D10*, C3D20* (their corner nodes; nodes used only as mid-edge nodes are
  * dropped), S3*, S4* (volume elements win over shells), region = r of the ELSET REGION_r
  * holding the element, else the ordinal of the ELSET= named on its *ELEMENT line, else 0. */
