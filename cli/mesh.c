@@ -42,6 +42,11 @@ static const char *mesh_help =
     "                          contouring mesh (quads: of the hex mesh); mc marching cubes\n"
     "                          with the topology of the trilinear interpolant; asc adaptive\n"
     "                          skeleton climbing; cover disk covering (quad: dc only)\n"
+    "  --graded                graded octree sized in world units (isosurface stuffing; also\n"
+    "                          set by any of the three below; docs/SIZING.md)\n"
+    "  --max-edge L            no element edge longer than L (world units, e.g. mm)\n"
+    "  --min-edge L            smallest cell edge (default: one voxel)\n"
+    "  --distance D            boundary within D of the isosurface (default: half a voxel)\n"
     "  --adaptive              octree cells: large inside, 2x2x2 on simple flat boundary\n"
     "                          (hexes: exact interior cubes merged, the boundary uniform)\n"
     "  --error E               adaptive tets: boundary error in voxels (>= 0, default 0.5;\n"
@@ -296,7 +301,8 @@ static const char *const mesh_valued[] = {
     "-o",         "--output",       "--iso",        "--range",          "--size",
     "--surface",  "--max-level",    "--elements",   "--denoise",        "--report",
     "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
-    "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts"};
+    "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts",
+    "--max-edge", "--min-edge",     "--distance"};
 
 /* 1 when option a takes a value. */
 static int mesh_takes_value(const char *a) {
@@ -365,6 +371,17 @@ static int shape_option(mesh_args *m, char **argv, int *i, int *taken) {
         m->have_error = 1;
     } else if (vm_cli_is(a, "--adaptive", NULL)) {
         m->o.adaptive = 1;
+    } else if (vm_cli_is(a, "--graded", NULL)) {
+        m->o.graded = 1;
+    } else if (vm_cli_is(a, "--max-edge", NULL) || vm_cli_is(a, "--min-edge", NULL) ||
+               vm_cli_is(a, "--distance", NULL)) {
+        double x = 0;
+        if (vm_cli_double(a, argv[++*i], &x)) return VM_EXIT_INPUT;
+        if (!(x > 0 && x < 1e30)) return vm_cli_fail("%s: '%s' is not a length > 0", a, argv[*i]);
+        *(strcmp(a, "--max-edge") == 0   ? &m->o.max_edge
+          : strcmp(a, "--min-edge") == 0 ? &m->o.min_edge
+                                         : &m->o.distance) = x;
+        m->o.graded = 1;
     } else if (vm_cli_is(a, "--max-level", NULL)) {
         long l = 0;
         if (vm_cli_int(a, argv[++*i], 1, 10, &l)) return VM_EXIT_INPUT;
