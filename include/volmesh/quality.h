@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include "error.h"
 #include "mesh.h"
+#include "volume.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -256,6 +257,49 @@ vm_status vm_mesh_check_with(const vm_mesh *m, vm_progress_fn progress, void *us
  * original order; point fields are carried over for them and cell fields from each face's
  * cell. Faces are listed in cell order. A tri3/quad4 input is VM_ERR_UNSUPPORTED. */
 vm_status vm_mesh_boundary(const vm_mesh *m, vm_mesh *surf, vm_error *err);
+
+/* ---- distance between a mesh's boundary and the volume's isosurface -------------------- */
+
+/* Result of vm_mesh_surface_distance, in world units (mm for medical data). */
+typedef struct vm_surface_distance {
+    double mesh_to_surface_max, mesh_to_surface_mean; /* boundary points -> isosurface */
+    double surface_to_mesh_max, surface_to_mesh_mean; /* isosurface points -> boundary */
+    double hausdorff;                                 /* max of the two maxima */
+    size_t mesh_samples, surface_samples;
+} vm_surface_distance;
+
+/* Measures both ways; lo/hi/has_lo/has_hi as in vm_mesh_options.
+ *
+ * The two-sided (Hausdorff) distance between the boundary of m (tet4 or hex8: the faces of
+ * one element; tri3 or quad4: the surface itself) and the isosurface of v's trilinear field
+ * bounding the material {lo <= f <= hi} (either bound open), in v's world frame (spacing,
+ * origin and direction applied, as vm_mesh_volume places its points).
+ * - Boundary faces lying on v's box (index 0 or dims-1 along one axis: the flat faces that
+ *   close material touching the border) are left out both ways, and the isosurface is
+ *   sampled only inside the box.
+ * - Surface samples: the exact crossings of the trilinear field on every voxel edge whose
+ *   ends differ in material (marching-cubes vertices), plus the crossings on the half-edges
+ *   of a 2x finer lattice in every cell and face with mixed corners (the trilinear field is
+ *   linear along every axis-parallel line, so these too are exact surface points).
+ * - Mesh samples: every boundary vertex, points on every boundary edge and inside every
+ *   boundary triangle (quads split in two) at most half the smallest spacing apart (at
+ *   least the edge midpoints and the centroid).
+ * - Mesh point -> isosurface: the nearest surface sample, then a foot-point iteration
+ *   (tangent-plane projection and Newton steps onto f = level) from it; every candidate is
+ *   a point of the isosurface, so the value never falls below the true distance, and it
+ *   exceeds it only when the true foot point is not reached from the nearest sample (at
+ *   most by the samples' spacing, about 0.35 voxel; in practice below 1e-6 voxel).
+ * - Surface point -> boundary: the exact point-triangle distance to the nearest boundary
+ *   triangle (a bounding-volume hierarchy over the triangles).
+ * Means are over the samples. When one side has no samples and the other has some, the
+ * distances from the other side and hausdorff are INFINITY; both empty: all 0.
+ * Runs on OpenMP threads; the result does not depend on their number. Time: about 1 s per
+ * million boundary triangles plus the volume scan (16 M voxels: about a second).
+ * [in] m, v (not modified); [out] out. Errors: VM_ERR_ARG for no bound or lo > hi, an
+ * unknown kind or a bad node index; VM_ERR_NOMEM. */
+vm_status vm_mesh_surface_distance(const vm_mesh *m, const vm_volume *v, double lo, int has_lo,
+                                   double hi, int has_hi, vm_surface_distance *out,
+                                   vm_error *err);
 
 /* ---- the quality report -------------------------------------------------------------- */
 
