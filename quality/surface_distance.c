@@ -31,7 +31,8 @@ typedef struct field {
     double o[3], A[3][3], Ai[3][3]; /* world = o + A u; u = Ai (world - o) */
     double lo, hi;
     int has_lo, has_hi;
-    double tol; /* Newton convergence (world units) */
+    double tol;  /* Newton convergence (world units) */
+    double ftol; /* foot-point convergence: a step this short ends it (world units) */
     double h;   /* largest spacing between mesh samples (world units) */
 } field;
 
@@ -133,7 +134,7 @@ static double foot_point(const field *F, int level, const double p[3], const dou
         double dy = dist2(p, y), moved = dist2(x, y);
         if (dy < best) best = dy;
         memcpy(x, y, sizeof x);
-        if (moved <= F->tol * F->tol) break;
+        if (moved <= F->ftol * F->ftol) break;
     }
     return sqrt(best);
 }
@@ -333,46 +334,223 @@ static double point_triangle_dist2(const double p[3], const double a[3], const d
     return dist2(p, q);
 }
 
-/* The nearest item to p: its id in *best_id (the lowest id among equals) and the squared
- * distance returned; points when tri == NULL, else triangles. */
-static double bvh_nearest(const bvh *b, const double *pts, const size_t *tri, const double p[3],
-                          size_t *best_id) {
+/* Squared distance from p to item id: a point (tri == NULL) or a triangle. */
+static double item_dist2(const double *pts, const size_t *tri, size_t id, const double p[3]) {
+    if (!tri) return dist2(p, pts + 3 * id);
+    return point_triangle_dist2(p, pts + 3 * tri[3 * id], pts + 3 * tri[3 * id + 1],
+                                pts + 3 * tri[3 * id + 2]);
+}
+
+/* Keeps the nearer of (d, id) and (*best, *bid); equal distances keep the lower id, so the
+ * answer does not depend on the order items are visited in. */
+static void keep_nearest(double d, size_t id, double *best, size_t *bid) {
+    if (d < *best || (d == *best && id < *bid)) {
+        *best = d;
+        *bid = id;
+    }
+}
+
+/* The nearest item to p, starting from the candidate (*best, *bid) (INFINITY and SIZE_MAX
+ * for none): updates them to the squared distance and the lowest id of the nearest. */
+static void bvh_nearest(const bvh *b, const double *pts, const size_t *tri, const double p[3],
+                        double *best, size_t *bid) {
     size_t stack[128];
     int sp = 0;
-    double best = INFINITY;
-    size_t bid = (size_t)-1;
     stack[sp++] = 0;
     while (sp > 0) {
         const bnode *nd = &b->node[stack[--sp]];
-        if (box_dist2(nd, p) > best) continue;
+        if (box_dist2(nd, p) > *best) continue;
         if (!nd->left) {
-            for (size_t i = nd->begin; i < nd->end; i++) {
-                size_t id = b->order[i];
-                double d;
-                if (!tri)
-                    d = dist2(p, pts + 3 * id);
-                else
-                    d = point_triangle_dist2(p, pts + 3 * tri[3 * id], pts + 3 * tri[3 * id + 1],
-                                             pts + 3 * tri[3 * id + 2]);
-                if (d < best || (d == best && id < bid)) {
-                    best = d;
-                    bid = id;
-                }
-            }
+            for (size_t i = nd->begin; i < nd->end; i++)
+                keep_nearest(item_dist2(pts, tri, b->order[i], p), b->order[i], best, bid);
             continue;
         }
         double dl = box_dist2(&b->node[nd->left], p), dr = box_dist2(&b->node[nd->right], p);
-        /* nearer child on top; the stack holds at most one sibling per level */
-        if (dl <= dr) {
-            if (dr <= best && sp < 127) stack[sp++] = nd->right;
-            if (dl <= best) stack[sp++] = nd->left;
-        } else {
-            if (dl <= best && sp < 127) stack[sp++] = nd->left;
-            if (dr <= best) stack[sp++] = nd->right;
+        /* the nearer child on top; the stack holds one sibling per level (depth < 64) */
+        size_t first = dl <= dr ? nd->left : nd->right, second = dl <= dr ? nd->right : nd->left;
+        if (fmax(dl, dr) <= *best) stack[sp++] = second;
+        if (fmin(dl, dr) <= *best) stack[sp++] = first;
+    }
+}
+
+/* ---- a uniform grid in index space: the fast path of both searches ------------------------ */
+
+/* Rings searched in the grid before a query goes to the hierarchy (far points only). */
+#define GRID_RINGS 3
+
+typedef struct grid {
+    double org[3];   /* index position of the corner of cell (0,0,0) */
+    double cs;       /* cell size in index units */
+    int64_t dim[3];
+    uint32_t *start; /* per cell, its first entry in items; ncells + 1 */
+    uint32_t *items;
+    double rn[3];    /* |row a of Ai|: an index gap g along a is at least g / rn[a] in the world */
+} grid;
+
+/* The cells (inclusive ranges) that the index box lo..hi overlaps. */
+static void grid_range(const grid *G, const double lo[3], const double hi[3], int64_t c0[3],
+                       int64_t c1[3]) {
+    for (int a = 0; a < 3; a++) {
+        double l = floor((lo[a] - G->org[a]) / G->cs), h = floor((hi[a] - G->org[a]) / G->cs);
+        c0[a] = l < 0 ? 0 : l > (double)(G->dim[a] - 1) ? G->dim[a] - 1 : (int64_t)l;
+        c1[a] = h < 0 ? 0 : h > (double)(G->dim[a] - 1) ? G->dim[a] - 1 : (int64_t)h;
+    }
+}
+
+/* Index-space box of item id. */
+static void item_index_box(const field *F, const double *pts, const size_t *tri, size_t id,
+                           double lo[3], double hi[3]) {
+    int nv = tri ? 3 : 1;
+    for (int q = 0; q < nv; q++) {
+        double u[3];
+        to_index(F, pts + 3 * (tri ? tri[3 * id + (size_t)q] : id), u);
+        for (int a = 0; a < 3; a++) {
+            if (q == 0 || u[a] < lo[a]) lo[a] = u[a];
+            if (q == 0 || u[a] > hi[a]) hi[a] = u[a];
         }
     }
-    if (best_id) *best_id = bid;
-    return best;
+}
+
+static void grid_free(grid *G) {
+    free(G->start);
+    free(G->items);
+    memset(G, 0, sizeof *G);
+}
+
+static vm_status grid_build(grid *G, const field *F, const double *pts, const size_t *tri,
+                            size_t n, vm_error *err) {
+    memset(G, 0, sizeof *G);
+    if (n >= UINT32_MAX)
+        return vm_error_set(err, VM_ERR_NOMEM, "surface distance: %zu samples (over 2^32)", n);
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < n; i++) {
+        double l[3], h[3];
+        item_index_box(F, pts, tri, i, l, h);
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fmin(lo[a], l[a]);
+            hi[a] = fmax(hi[a], h[a]);
+        }
+    }
+    for (int a = 0; a < 3; a++)
+        G->rn[a] = sqrt(F->Ai[a][0] * F->Ai[a][0] + F->Ai[a][1] * F->Ai[a][1] +
+                        F->Ai[a][2] * F->Ai[a][2]);
+    /* cells of 1 voxel, larger when that would make more cells than 4 per item + 2^20 */
+    double cap = 4.0 * (double)n + 1048576.0, cs = 1.0;
+    for (;;) {
+        double cells = 1;
+        for (int a = 0; a < 3; a++) cells *= floor((hi[a] - lo[a]) / cs) + 1;
+        if (cells <= cap) break;
+        cs *= 1.25;
+    }
+    G->cs = cs;
+    size_t ncells = 1;
+    for (int a = 0; a < 3; a++) {
+        G->org[a] = lo[a];
+        G->dim[a] = (int64_t)floor((hi[a] - lo[a]) / cs) + 1;
+        ncells *= (size_t)G->dim[a];
+    }
+    G->start = calloc(ncells + 1, sizeof *G->start);
+    if (!G->start) return vm_error_set(err, VM_ERR_NOMEM, "surface distance: out of memory");
+    size_t total = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        for (size_t i = 0; i < n; i++) {
+            double l[3], h[3];
+            int64_t c0[3], c1[3];
+            item_index_box(F, pts, tri, i, l, h);
+            grid_range(G, l, h, c0, c1);
+            for (int64_t z = c0[2]; z <= c1[2]; z++)
+                for (int64_t y = c0[1]; y <= c1[1]; y++)
+                    for (int64_t x = c0[0]; x <= c1[0]; x++) {
+                        size_t c = (size_t)(x + G->dim[0] * (y + G->dim[1] * z));
+                        if (pass == 0) G->start[c + 1]++;
+                        else G->items[G->start[c]++] = (uint32_t)i;
+                    }
+        }
+        if (pass == 0) {
+            for (size_t c = 0; c < ncells; c++) {
+                if (G->start[c + 1] > UINT32_MAX - G->start[c]) {
+                    grid_free(G);
+                    return vm_error_set(err, VM_ERR_NOMEM,
+                                        "surface distance: over 2^32 grid entries");
+                }
+                G->start[c + 1] += G->start[c];
+            }
+            total = G->start[ncells];
+            G->items = malloc((total ? total : 1) * sizeof *G->items);
+            if (!G->items) {
+                free(G->start);
+                G->start = NULL;
+                return vm_error_set(err, VM_ERR_NOMEM, "surface distance: out of memory");
+            }
+        }
+    }
+    /* the fill advanced every start to the next cell's: shift back */
+    for (size_t c = ncells; c > 0; c--) G->start[c] = G->start[c - 1];
+    G->start[0] = 0;
+    return VM_OK;
+}
+
+/* Lower bound of the squared world distance from index position u to the index box of
+ * cells lo..hi (inclusive): the largest gap along one axis, scaled to the world. */
+static double cells_lb2(const grid *G, const double u[3], const int64_t lo[3],
+                        const int64_t hi[3]) {
+    double lb = 0;
+    for (int a = 0; a < 3; a++) {
+        double b0 = G->org[a] + (double)lo[a] * G->cs, b1 = G->org[a] + (double)(hi[a] + 1) * G->cs;
+        double gap = u[a] < b0 ? b0 - u[a] : u[a] > b1 ? u[a] - b1 : 0;
+        lb = fmax(lb, gap / G->rn[a]);
+    }
+    return lb * lb;
+}
+
+/* Nearest item to world point p by rings of cells around it: updates (*best, *bid) as
+ * bvh_nearest does. Returns 1 when the answer is final, 0 when GRID_RINGS rings did not
+ * settle it (then the hierarchy goes on from the candidate). */
+static int grid_nearest(const grid *G, const field *F, const double *pts, const size_t *tri,
+                        const double p[3], double *best, size_t *bid) {
+    double u[3];
+    int64_t c[3];
+    to_index(F, p, u);
+    for (int a = 0; a < 3; a++) {
+        double f = floor((u[a] - G->org[a]) / G->cs);
+        c[a] = f < 0 ? 0 : f > (double)(G->dim[a] - 1) ? G->dim[a] - 1 : (int64_t)f;
+    }
+    for (int64_t r = 0;; r++) {
+        int64_t lo[3], hi[3];
+        int beyond = 1;
+        for (int a = 0; a < 3; a++) {
+            lo[a] = c[a] - r;
+            hi[a] = c[a] + r;
+            if (lo[a] >= 0 || hi[a] < G->dim[a]) beyond = 0;
+        }
+        if (beyond && r > 0) return 1;
+        /* every cell of this ring and beyond lies outside the block of the rings before */
+        if (r > 0) {
+            double ring = INFINITY;
+            for (int a = 0; a < 3; a++) {
+                double b0 = G->org[a] + (double)(c[a] - r + 1) * G->cs;
+                double b1 = G->org[a] + (double)(c[a] + r) * G->cs;
+                double gap = fmin(u[a] - b0 > 0 ? u[a] - b0 : 0, b1 - u[a] > 0 ? b1 - u[a] : 0);
+                ring = fmin(ring, gap / G->rn[a]);
+            }
+            if (ring * ring > *best) return 1;
+        }
+        if (r > GRID_RINGS) return 0;
+        for (int64_t z = lo[2] < 0 ? 0 : lo[2]; z <= hi[2] && z < G->dim[2]; z++)
+            for (int64_t y = lo[1] < 0 ? 0 : lo[1]; y <= hi[1] && y < G->dim[1]; y++) {
+                int shell = z == lo[2] || z == hi[2] || y == lo[1] || y == hi[1];
+                int64_t step = shell || r == 0 ? 1 : 2 * r;
+                for (int64_t x = lo[0]; x <= hi[0]; x += step) {
+                    if (x < 0 || x >= G->dim[0]) continue;
+                    const int64_t k[3] = {x, y, z};
+                    if (cells_lb2(G, u, k, k) > *best) continue;
+                    size_t cell = (size_t)(x + G->dim[0] * (y + G->dim[1] * z));
+                    for (size_t e = G->start[cell]; e < G->start[cell + 1]; e++)
+                        keep_nearest(item_dist2(pts, tri, G->items[e], p), G->items[e], best,
+                                     bid);
+                }
+            }
+    }
 }
 
 /* ---- accumulation over chunks of samples --------------------------------------------------- */
@@ -684,16 +862,21 @@ typedef struct ctx {
     const field *F;
     const samples *S;
     const bvh *sb; /* over the surface samples */
+    const grid *sg;
     const tris *T;
     const bvh *tb; /* over the boundary triangles */
+    const grid *tg;
     int collect;
     double limit;
 } ctx;
 
 /* Distance from mesh point p to the isosurface. */
 static double mesh_point_distance(const ctx *x, const double p[3]) {
-    size_t id;
-    double d0 = sqrt(bvh_nearest(x->sb, x->S->p, NULL, p, &id));
+    size_t id = SIZE_MAX;
+    double b2 = INFINITY;
+    if (!grid_nearest(x->sg, x->F, x->S->p, NULL, p, &b2, &id))
+        bvh_nearest(x->sb, x->S->p, NULL, p, &b2, &id);
+    double d0 = sqrt(b2);
     double d = foot_point(x->F, x->S->level[id], p, x->S->p + 3 * id);
     return d < d0 ? d : d0;
 }
@@ -799,7 +982,11 @@ static vm_status measure_surface(const ctx *x, side_acc *sd, vm_error *err) {
         size_t i0 = (size_t)ci * CHUNK, i1 = i0 + CHUNK < n ? i0 + CHUNK : n;
         for (size_t i = i0; i < i1; i++) {
             const double *p = x->S->p + 3 * i;
-            double d = sqrt(bvh_nearest(x->tb, x->T->pts, x->T->t, p, NULL));
+            size_t id = SIZE_MAX;
+            double b2 = INFINITY;
+            if (!grid_nearest(x->tg, x->F, x->T->pts, x->T->t, p, &b2, &id))
+                bvh_nearest(x->tb, x->T->pts, x->T->t, p, &b2, &id);
+            double d = sqrt(b2);
             acc_add(&c[ci], d, p, x->collect, x->limit);
         }
     }
@@ -860,6 +1047,8 @@ static vm_status setup_field(const vm_volume *v, double lo, int has_lo, double h
     F->has_lo = has_lo;
     F->has_hi = has_hi;
     F->tol = 1e-9 * smin;
+    /* the distance is stationary at the foot point: a foot 1e-4 off changes it by ~1e-8 */
+    F->ftol = 1e-4 * smin;
     F->h = 0.5 * smin;
     return VM_OK;
 }
@@ -871,6 +1060,9 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
     memset(out, 0, sizeof *out);
     if (points) *points = NULL;
     if (npoints) *npoints = 0;
+    if (vm_cell_nodes(m->kind) == 0)
+        return vm_error_set(err, VM_ERR_ARG, "surface distance: unknown cell kind %d",
+                            (int)m->kind);
     field F;
     vm_status st = setup_field(v, lo, has_lo, hi, has_hi, &F, err);
     if (st) return st;
@@ -884,13 +1076,18 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
         return st;
     }
     bvh sb, tb;
+    grid sg, tg;
     memset(&sb, 0, sizeof sb);
     memset(&tb, 0, sizeof tb);
+    memset(&sg, 0, sizeof sg);
+    memset(&tg, 0, sizeof tg);
     side_acc ms = {0, 0, 0, NULL, 0}, ss = {0, 0, 0, NULL, 0};
-    ctx x = {&F, &S, &sb, &T, &tb, points != NULL, limit};
+    ctx x = {&F, &S, &sb, &sg, &T, &tb, &tg, points != NULL, limit};
     if (T.n && S.n) {
         st = bvh_build(&sb, S.p, NULL, S.n, err);
         if (!st) st = bvh_build(&tb, T.pts, T.t, T.n, err);
+        if (!st) st = grid_build(&sg, &F, S.p, NULL, S.n, err);
+        if (!st) st = grid_build(&tg, &F, T.pts, T.t, T.n, err);
         if (!st) st = measure_mesh(&x, &ms, err);
         if (!st) st = measure_surface(&x, &ss, err);
     }
@@ -927,6 +1124,8 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
     free(ss.pts);
     bvh_free(&sb);
     bvh_free(&tb);
+    grid_free(&sg);
+    grid_free(&tg);
     free(S.p);
     free(S.level);
     tris_free(&T);
