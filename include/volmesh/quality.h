@@ -306,6 +306,27 @@ vm_status vm_mesh_surface_distance(const vm_mesh *m, const vm_volume *v, double 
 #define VM_QUALITY_BINS 20       /* histogram bins per metric */
 #define VM_QUALITY_MAX_METRICS 12
 #define VM_QUALITY_LIST 20       /* failing cells listed by the ABAQUS check */
+#define VM_QUALITY_MAX_REGIONS 1024 /* regions listed with their cell counts */
+
+/* Lengths of a mesh's edges, each edge counted once however many cells share it, in the
+ * mesh's (world) units. */
+typedef struct vm_edge_stats {
+    size_t edges;                 /* distinct edges (node pairs) */
+    double min, mean, max;        /* 0 without edges */
+    double lo, hi;                /* histogram range: min..max (max > min), else min..min+1 */
+    size_t bins[VM_QUALITY_BINS]; /* bin b holds lo + b*w <= L < lo + (b+1)*w, w = (hi-lo)/BINS;
+                                     hi itself falls in the last bin */
+} vm_edge_stats;
+
+/* The edge lengths of m (any kind: tets 6 edges a cell, hexes 12, triangles 3, quads 4).
+ * Time O(cells); memory about 12 bytes per distinct edge. [out] e. Errors: a bad node index or kind (VM_ERR_ARG), out of memory. */
+vm_status vm_mesh_edge_lengths(const vm_mesh *m, vm_edge_stats *e, vm_error *err);
+
+/* Cells of one region (label) of a mesh. */
+typedef struct vm_region_count {
+    int32_t region;
+    size_t cells;
+} vm_region_count;
 
 /* Statistics of one metric over all cells of a mesh. */
 typedef struct vm_metric_stats {
@@ -334,6 +355,16 @@ typedef struct vm_quality_summary {
     size_t abaqus_failures;      /* tets failing at least one of the three */
     size_t abaqus_list[VM_QUALITY_LIST]; /* the first failing tets, ascending */
     size_t abaqus_nlist;
+    vm_edge_stats edges;         /* edge lengths (vm_mesh_edge_lengths) */
+    /* Cells per region, ascending by region; the writers list them when there are two or
+     * more regions (a label mesh): */
+    size_t nregions;             /* distinct regions (may exceed VM_QUALITY_MAX_REGIONS) */
+    vm_region_count regions[VM_QUALITY_MAX_REGIONS]; /* the first min(nregions, MAX) */
+    size_t regions_more_cells;   /* cells of the regions beyond the table */
+    /* The two-sided distance to the volume's isosurface: set by vm_quality_add_distance
+     * (has_distance 0: not measured, the writers leave it out). */
+    int has_distance;
+    vm_surface_distance distance;
 } vm_quality_summary;
 
 /* Runs vm_mesh_check and every metric of the mesh's kind over all cells: min/mean/max,
@@ -357,12 +388,20 @@ void vm_quality_options_init(vm_quality_options *o);
 vm_status vm_quality_report_with(const vm_mesh *m, const vm_quality_options *o,
                                  vm_quality_summary *q, vm_error *err);
 
+/* Measures vm_mesh_surface_distance(m, v, ...) and stores it in q (has_distance = 1), so the
+ * writers give the achieved distance both ways. m must be the mesh q reports on. [in,out] q.
+ * Errors as vm_mesh_surface_distance (q unchanged). */
+vm_status vm_quality_add_distance(vm_quality_summary *q, const vm_mesh *m, const vm_volume *v,
+                                  double lo, int has_lo, double hi, int has_hi, vm_error *err);
+
 /* The value of a report key for --require style checks. Keys: the top-level numeric keys
  * of vm_quality_write_json (elements, points, inverted, degenerate, overshared_faces,
  * boundary_faces, boundary_closed (0/1), boundary_euler, components, boundary_components,
  * boundary_self_intersections, volume, min_dihedral, max_dihedral, slivers_5, slivers_10,
  * min_scaled_jacobian, abaqus_failures) and METRIC.min, METRIC.mean, METRIC.max, METRIC.unacceptable for each
- * metric of the kind. Returns VM_OK and sets *value, or VM_ERR_ARG when the key is unknown
+ * metric of the kind; edges, edge_length.min, edge_length.mean, edge_length.max, regions;
+ * and with a distance measured: hausdorff, mesh_to_surface_max, mesh_to_surface_mean,
+ * surface_to_mesh_max, surface_to_mesh_mean. Returns VM_OK and sets *value, or VM_ERR_ARG when the key is unknown
  * for this mesh (e.g. min_dihedral or abaqus_failures of a hex mesh). */
 vm_status vm_quality_lookup(const vm_quality_summary *q, const char *key, double *value);
 

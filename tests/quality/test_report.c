@@ -236,7 +236,9 @@ static void writersProduceTheDocumentedKeysAndFiles(void) {
     CHECK_OK(vm_quality_write_svg(svg, "m<&>.vtu", &q, &err), &err);
     s = slurp(svg);
     CHECK(s && strncmp(s, "<?xml", 5) == 0 && strstr(s, "</svg>"));
-    CHECK(s && count_of(s, "<g transform") == q.nmetrics);
+    /* one panel per metric, and one for the edge lengths */
+    CHECK(s && count_of(s, "<g transform") == q.nmetrics + 1);
+    CHECK(s && strstr(s, "edge_length"));
     CHECK(s && count_of(s, "acceptable range</title>") >= q.nmetrics - 1);
     CHECK(s && strstr(s, "m&lt;&amp;&gt;.vtu") && !strstr(s, "m<&>"));
     free(s);
