@@ -105,6 +105,16 @@ static void sphereMeshIsWithinHalfAVoxelBothWays(void) {
     CHECK(d.surface_to_mesh_mean < 0.1);
     CHECK(d.hausdorff == fmax(d.mesh_to_surface_max, d.surface_to_mesh_max));
     CHECK(d.mesh_samples > 1000 && d.surface_samples > 1000);
+    /* the report carries it, under the lookup keys */
+    vm_quality_summary q;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+    CHECK(!q.has_distance);
+    CHECK_OK(vm_quality_add_distance(&q, &m, &v, 0, 1, 0, 0, &err), &err);
+    CHECK(q.has_distance && memcmp(&q.distance, &d, sizeof d) == 0);
+    double x;
+    CHECK(vm_quality_lookup(&q, "hausdorff", &x) == VM_OK && x == d.hausdorff);
+    CHECK(vm_quality_lookup(&q, "surface_to_mesh_mean", &x) == VM_OK &&
+          x == d.surface_to_mesh_mean);
     vm_mesh_free(&m);
     vm_volume_free(&v);
 }
