@@ -93,22 +93,20 @@ static int eval(const field *F, const double x[3], double *val, double gw[3]) {
 }
 
 /* Newton steps from x onto f = level along the gradient. Returns 1 when converged (x then
- * lies on the isosurface within F->tol). */
-static int newton(const field *F, int level, double x[3]) {
+ * lies on the isosurface within F->tol), with the world gradient there in g. */
+static int newton(const field *F, int level, double x[3], double g[3]) {
     double L = level_value(F, level);
-    for (int it = 0; it < NEWTON_ITERS; it++) {
-        double val, g[3];
+    for (int it = 0; it <= NEWTON_ITERS; it++) {
+        double val;
         if (!eval(F, x, &val, g)) return 0;
         double gg = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
         if (!(gg > 0)) return 0;
         double r = val - L, step = r / gg;
-        if (fabs(r) / sqrt(gg) <= F->tol) return 1;
+        if (fabs(r) <= F->tol * sqrt(gg)) return 1;
+        if (it == NEWTON_ITERS) break;
         for (int a = 0; a < 3; a++) x[a] -= step * g[a];
     }
-    double val, g[3];
-    if (!eval(F, x, &val, g)) return 0;
-    double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-    return gn > 0 && fabs(val - L) / gn <= F->tol;
+    return 0;
 }
 
 static double dist2(const double a[3], const double b[3]) {
@@ -119,10 +117,9 @@ static double dist2(const double a[3], const double b[3]) {
 /* Distance from p to the isosurface of `level`, starting on it at s (a surface sample):
  * the smallest |p - y| over the surface points y of a foot-point iteration. */
 static double foot_point(const field *F, int level, const double p[3], const double s[3]) {
-    double x[3] = {s[0], s[1], s[2]}, best = dist2(p, s);
+    double x[3] = {s[0], s[1], s[2]}, best = dist2(p, s), g[3], val;
+    if (!eval(F, x, &val, g)) return sqrt(best);
     for (int it = 0; it < FOOT_ITERS; it++) {
-        double val, g[3];
-        if (!eval(F, x, &val, g)) break;
         double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
         if (!(gn > 0)) break;
         double nrm[3] = {g[0] / gn, g[1] / gn, g[2] / gn};
@@ -130,7 +127,8 @@ static double foot_point(const field *F, int level, const double p[3], const dou
         double dn = d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2];
         double y[3];
         for (int a = 0; a < 3; a++) y[a] = x[a] + d[a] - dn * nrm[a];
-        if (!newton(F, level, y)) break;
+        /* newton leaves the gradient at y in g: the next step's normal */
+        if (!newton(F, level, y, g)) break;
         double dy = dist2(p, y), moved = dist2(x, y);
         if (dy < best) best = dy;
         memcpy(x, y, sizeof x);
@@ -385,6 +383,7 @@ typedef struct grid {
     uint32_t *start; /* per cell, its first entry in items; ncells + 1 */
     uint32_t *items;
     double rn[3];    /* |row a of Ai|: an index gap g along a is at least g / rn[a] in the world */
+    double irn[3];   /* 1 / rn */
 } grid;
 
 /* The cells (inclusive ranges) that the index box lo..hi overlaps. */
@@ -431,9 +430,11 @@ static vm_status grid_build(grid *G, const field *F, const double *pts, const si
             hi[a] = fmax(hi[a], h[a]);
         }
     }
-    for (int a = 0; a < 3; a++)
+    for (int a = 0; a < 3; a++) {
         G->rn[a] = sqrt(F->Ai[a][0] * F->Ai[a][0] + F->Ai[a][1] * F->Ai[a][1] +
                         F->Ai[a][2] * F->Ai[a][2]);
+        G->irn[a] = 1.0 / G->rn[a];
+    }
     /* cells of 1 voxel, larger when that would make more cells than 4 per item + 2^20 */
     double cap = 4.0 * (double)n + 1048576.0, cs = 1.0;
     for (;;) {
@@ -497,17 +498,17 @@ static double cells_lb2(const grid *G, const double u[3], const int64_t lo[3],
     double lb = 0;
     for (int a = 0; a < 3; a++) {
         double b0 = G->org[a] + (double)lo[a] * G->cs, b1 = G->org[a] + (double)(hi[a] + 1) * G->cs;
-        double gap = u[a] < b0 ? b0 - u[a] : u[a] > b1 ? u[a] - b1 : 0;
-        lb = fmax(lb, gap / G->rn[a]);
+        double gap = (u[a] < b0 ? b0 - u[a] : u[a] > b1 ? u[a] - b1 : 0) * G->irn[a];
+        if (gap > lb) lb = gap;
     }
     return lb * lb;
 }
 
 /* Nearest item to world point p by rings of cells around it: updates (*best, *bid) as
- * bvh_nearest does. Returns 1 when the answer is final, 0 when GRID_RINGS rings did not
- * settle it (then the hierarchy goes on from the candidate). */
+ * bvh_nearest does. Returns 1 when the answer is final, 0 when `rings` rings did not settle
+ * it (then the hierarchy goes on from the candidate); rings < 0: no limit. */
 static int grid_nearest(const grid *G, const field *F, const double *pts, const size_t *tri,
-                        const double p[3], double *best, size_t *bid) {
+                        const double p[3], int64_t rings, double *best, size_t *bid) {
     double u[3];
     int64_t c[3];
     to_index(F, p, u);
@@ -535,7 +536,7 @@ static int grid_nearest(const grid *G, const field *F, const double *pts, const 
             }
             if (ring * ring > *best) return 1;
         }
-        if (r > GRID_RINGS) return 0;
+        if (rings >= 0 && r > rings) return 0;
         for (int64_t z = lo[2] < 0 ? 0 : lo[2]; z <= hi[2] && z < G->dim[2]; z++)
             for (int64_t y = lo[1] < 0 ? 0 : lo[1]; y <= hi[1] && y < G->dim[1]; y++) {
                 int shell = z == lo[2] || z == hi[2] || y == lo[1] || y == hi[1];
@@ -858,25 +859,75 @@ static size_t pieces(double len, double h) {
     return (size_t)m;
 }
 
+/* A hierarchy built when the first far query needs it (most runs never do). */
+typedef struct lazy_bvh {
+    bvh b;
+    const double *pts;
+    const size_t *tri;
+    size_t n;
+    int ready;       /* 1 once built (or failed) */
+    vm_status status;
+} lazy_bvh;
+
+/* The hierarchy, built on first use by one thread while the others wait; NULL when it
+ * could not be built (out of memory: the caller then searches the grid without limit). */
+static const bvh *lazy_get(lazy_bvh *L) {
+    int ready;
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic read
+#endif
+    ready = L->ready;
+    if (!ready) {
+#ifdef VM_HAVE_OPENMP
+#pragma omp critical(vm_surface_distance_bvh)
+#endif
+        {
+            if (!L->ready) {
+                L->status = bvh_build(&L->b, L->pts, L->tri, L->n, NULL);
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic write
+#endif
+                L->ready = 1;
+            }
+        }
+    }
+    return L->status ? NULL : &L->b;
+}
+
+/* The nearest item to p: the grid, then (far points) the hierarchy. *bid holds a hint on
+ * entry (an item likely near, such as the previous query's answer; SIZE_MAX for none): it
+ * only prunes the search, the answer is the same without it. */
+static double nearest(const grid *G, lazy_bvh *L, const field *F, const double p[3],
+                      size_t *bid) {
+    double b2 = *bid != SIZE_MAX ? item_dist2(L->pts, L->tri, *bid, p) : INFINITY;
+    if (!grid_nearest(G, F, L->pts, L->tri, p, GRID_RINGS, &b2, bid)) {
+        const bvh *b = lazy_get(L);
+        if (b)
+            bvh_nearest(b, L->pts, L->tri, p, &b2, bid);
+        else
+            grid_nearest(G, F, L->pts, L->tri, p, -1, &b2, bid);
+    }
+    return b2;
+}
+
 typedef struct ctx {
     const field *F;
     const samples *S;
-    const bvh *sb; /* over the surface samples */
+    lazy_bvh *sb; /* over the surface samples */
     const grid *sg;
     const tris *T;
-    const bvh *tb; /* over the boundary triangles */
+    lazy_bvh *tb; /* over the boundary triangles */
     const grid *tg;
     int collect;
     double limit;
 } ctx;
 
-/* Distance from mesh point p to the isosurface. */
-static double mesh_point_distance(const ctx *x, const double p[3]) {
-    size_t id = SIZE_MAX;
-    double b2 = INFINITY;
-    if (!grid_nearest(x->sg, x->F, x->S->p, NULL, p, &b2, &id))
-        bvh_nearest(x->sb, x->S->p, NULL, p, &b2, &id);
-    double d0 = sqrt(b2);
+/* Distance from mesh point p to the isosurface; *hint: the nearest sample of the previous
+ * point (see nearest), updated. */
+static double mesh_point_distance(const ctx *x, const double p[3], size_t *hint) {
+    size_t id = *hint;
+    double d0 = sqrt(nearest(x->sg, x->sb, x->F, p, &id));
+    *hint = id;
     double d = foot_point(x->F, x->S->level[id], p, x->S->p + 3 * id);
     return d < d0 ? d : d0;
 }
@@ -932,17 +983,18 @@ static vm_status measure_mesh(const ctx *x, side_acc *sd, vm_error *err) {
         for (ptrdiff_t ci = 0; ci < nck; ci++) {
             acc *a = &c[ci];
             size_t i0 = (size_t)ci * CHUNK, i1 = i0 + CHUNK < n ? i0 + CHUNK : n;
+            size_t hint = SIZE_MAX;
             for (size_t i = i0; i < i1; i++) {
                 if (pass == 0) {
                     const double *p = T->pts + 3 * verts[i];
-                    acc_add(a, mesh_point_distance(x, p), p, x->collect, x->limit);
+                    acc_add(a, mesh_point_distance(x, p, &hint), p, x->collect, x->limit);
                 } else if (pass == 1) {
                     const double *pa = T->pts + 3 * e[i].a, *pb = T->pts + 3 * e[i].b;
                     size_t m = pieces(sqrt(dist2(pa, pb)), F->h);
                     for (size_t s = 1; s < m; s++) {
                         double t = (double)s / (double)m, p[3];
                         for (int k = 0; k < 3; k++) p[k] = pa[k] + t * (pb[k] - pa[k]);
-                        acc_add(a, mesh_point_distance(x, p), p, x->collect, x->limit);
+                        acc_add(a, mesh_point_distance(x, p, &hint), p, x->collect, x->limit);
                     }
                 } else {
                     const double *pa = T->pts + 3 * T->t[3 * i], *pb = T->pts + 3 * T->t[3 * i + 1],
@@ -955,7 +1007,7 @@ static vm_status measure_mesh(const ctx *x, side_acc *sd, vm_error *err) {
                             double bs = (double)s / (double)m, br = (double)r / (double)m, p[3];
                             for (int k = 0; k < 3; k++)
                                 p[k] = pa[k] + bs * (pb[k] - pa[k]) + br * (pc[k] - pa[k]);
-                            acc_add(a, mesh_point_distance(x, p), p, x->collect, x->limit);
+                            acc_add(a, mesh_point_distance(x, p, &hint), p, x->collect, x->limit);
                         }
                 }
             }
@@ -980,13 +1032,10 @@ static vm_status measure_surface(const ctx *x, side_acc *sd, vm_error *err) {
 #endif
     for (ptrdiff_t ci = 0; ci < nck; ci++) {
         size_t i0 = (size_t)ci * CHUNK, i1 = i0 + CHUNK < n ? i0 + CHUNK : n;
+        size_t id = SIZE_MAX; /* the previous sample's triangle: a hint */
         for (size_t i = i0; i < i1; i++) {
             const double *p = x->S->p + 3 * i;
-            size_t id = SIZE_MAX;
-            double b2 = INFINITY;
-            if (!grid_nearest(x->tg, x->F, x->T->pts, x->T->t, p, &b2, &id))
-                bvh_nearest(x->tb, x->T->pts, x->T->t, p, &b2, &id);
-            double d = sqrt(b2);
+            double d = sqrt(nearest(x->tg, x->tb, x->F, p, &id));
             acc_add(&c[ci], d, p, x->collect, x->limit);
         }
     }
@@ -1075,18 +1124,21 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
         tris_free(&T);
         return st;
     }
-    bvh sb, tb;
+    lazy_bvh sb, tb;
     grid sg, tg;
     memset(&sb, 0, sizeof sb);
     memset(&tb, 0, sizeof tb);
+    sb.pts = S.p;
+    sb.n = S.n;
+    tb.pts = T.pts;
+    tb.tri = T.t;
+    tb.n = T.n;
     memset(&sg, 0, sizeof sg);
     memset(&tg, 0, sizeof tg);
     side_acc ms = {0, 0, 0, NULL, 0}, ss = {0, 0, 0, NULL, 0};
     ctx x = {&F, &S, &sb, &sg, &T, &tb, &tg, points != NULL, limit};
     if (T.n && S.n) {
-        st = bvh_build(&sb, S.p, NULL, S.n, err);
-        if (!st) st = bvh_build(&tb, T.pts, T.t, T.n, err);
-        if (!st) st = grid_build(&sg, &F, S.p, NULL, S.n, err);
+        st = grid_build(&sg, &F, S.p, NULL, S.n, err);
         if (!st) st = grid_build(&tg, &F, T.pts, T.t, T.n, err);
         if (!st) st = measure_mesh(&x, &ms, err);
         if (!st) st = measure_surface(&x, &ss, err);
@@ -1122,8 +1174,8 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
     }
     free(ms.pts);
     free(ss.pts);
-    bvh_free(&sb);
-    bvh_free(&tb);
+    bvh_free(&sb.b);
+    bvh_free(&tb.b);
     grid_free(&sg);
     grid_free(&tg);
     free(S.p);
