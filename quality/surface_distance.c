@@ -430,6 +430,9 @@ static vm_status grid_build(grid *G, const field *F, const double *pts, const si
             hi[a] = fmax(hi[a], h[a]);
         }
     }
+    for (int a = 0; a < 3; a++)
+        if (!isfinite(lo[a]) || !isfinite(hi[a]))
+            return vm_error_set(err, VM_ERR_ARG, "surface distance: non-finite coordinates");
     for (int a = 0; a < 3; a++) {
         G->rn[a] = sqrt(F->Ai[a][0] * F->Ai[a][0] + F->Ai[a][1] * F->Ai[a][1] +
                         F->Ai[a][2] * F->Ai[a][2]);
@@ -870,28 +873,22 @@ typedef struct lazy_bvh {
 } lazy_bvh;
 
 /* The hierarchy, built on first use by one thread while the others wait; NULL when it
- * could not be built (out of memory: the caller then searches the grid without limit). */
+ * could not be built (out of memory: the caller then searches the grid without limit).
+ * Only far queries come here, so the lock (which also makes the built tree visible to every
+ * thread) costs little. */
 static const bvh *lazy_get(lazy_bvh *L) {
-    int ready;
-#ifdef VM_HAVE_OPENMP
-#pragma omp atomic read
-#endif
-    ready = L->ready;
-    if (!ready) {
+    vm_status st;
 #ifdef VM_HAVE_OPENMP
 #pragma omp critical(vm_surface_distance_bvh)
 #endif
-        {
-            if (!L->ready) {
-                L->status = bvh_build(&L->b, L->pts, L->tri, L->n, NULL);
-#ifdef VM_HAVE_OPENMP
-#pragma omp atomic write
-#endif
-                L->ready = 1;
-            }
+    {
+        if (!L->ready) {
+            L->status = bvh_build(&L->b, L->pts, L->tri, L->n, NULL);
+            L->ready = 1;
         }
+        st = L->status;
     }
-    return L->status ? NULL : &L->b;
+    return st ? NULL : &L->b;
 }
 
 /* The nearest item to p: the grid, then (far points) the hierarchy. *bid holds a hint on
@@ -1080,6 +1077,10 @@ static vm_status setup_field(const vm_volume *v, double lo, int has_lo, double h
                                 "surface distance: the volume is %lld voxel(s) along axis %d; "
                                 "need at least 2",
                                 (long long)v->dims[a], a);
+    size_t nonfinite = vm_volume_stats(v, NULL, NULL, NULL);
+    if (nonfinite)
+        return vm_error_set(err, VM_ERR_FORMAT,
+                            "surface distance: the volume has %zu non-finite values", nonfinite);
     F->f = v->data;
     double smin = INFINITY;
     for (int a = 0; a < 3; a++) {

@@ -63,6 +63,31 @@ static void planeAtKnownOffsetGivesThatDistanceBothWays(void) {
     vm_volume_free(&v);
 }
 
+static void farMeshGivesTheExactOffsetAndBadInputIsRefused(void) {
+    /* 50 voxels off: beyond the grid's rings, the hierarchy answers */
+    vm_volume v;
+    ramp_volume(&v, 9);
+    vm_mesh m;
+    square_mesh(&m, 54.0, 0.0, 8.0);
+    vm_surface_distance d;
+    vm_error err;
+    CHECK_OK(vm_mesh_surface_distance(&m, &v, 3.3, 1, 0, 0, &d, &err), &err);
+    CHECK_NEAR(d.mesh_to_surface_max, 50.7, 1e-6);
+    CHECK_NEAR(d.mesh_to_surface_mean, 50.7, 1e-6);
+    CHECK_NEAR(d.surface_to_mesh_max, 50.7, 1e-6);
+    CHECK_NEAR(d.surface_to_mesh_mean, 50.7, 1e-6);
+    /* non-finite coordinates and values are refused, with a message */
+    m.points[0] = NAN;
+    CHECK(vm_mesh_surface_distance(&m, &v, 3.3, 1, 0, 0, &d, &err) == VM_ERR_ARG);
+    CHECK(strstr(err.message, "non-finite") != NULL);
+    m.points[0] = 54.0;
+    v.data[7] = NAN;
+    CHECK(vm_mesh_surface_distance(&m, &v, 3.3, 1, 0, 0, &d, &err) == VM_ERR_FORMAT);
+    CHECK(vm_mesh_surface_distance(&m, &v, 0, 0, 0, 0, &d, &err) == VM_ERR_ARG);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
 static void facesOnTheVolumeBorderAreLeftOut(void) {
     vm_volume v;
     ramp_volume(&v, 9);
@@ -261,6 +286,16 @@ static void resultDoesNotDependOnThreads(void) {
     vm_set_threads(before);
     print_distance("genus3 48", &a);
     CHECK(memcmp(&a, &b, sizeof a) == 0);
+    /* moved 10 voxels: most queries go past the grid's rings to the hierarchy */
+    const double c[3] = {0, 0, 0}, t[3] = {10, 0, 0};
+    transform(&m, c, 1.0, t);
+    vm_set_threads(1);
+    CHECK_OK(vm_mesh_surface_distance(&m, &v, 0, 1, 0, 0, &a, &err), &err);
+    vm_set_threads(4);
+    CHECK_OK(vm_mesh_surface_distance(&m, &v, 0, 1, 0, 0, &b, &err), &err);
+    vm_set_threads(before);
+    CHECK(memcmp(&a, &b, sizeof a) == 0);
+    CHECK(a.hausdorff > 9);
     vm_mesh_free(&m);
     vm_volume_free(&v);
 }
@@ -305,6 +340,8 @@ int main(void) {
     static const vm_test_case cases[] = {
         {"planeAtKnownOffsetGivesThatDistanceBothWays", planeAtKnownOffsetGivesThatDistanceBothWays},
         {"facesOnTheVolumeBorderAreLeftOut", facesOnTheVolumeBorderAreLeftOut},
+        {"farMeshGivesTheExactOffsetAndBadInputIsRefused",
+         farMeshGivesTheExactOffsetAndBadInputIsRefused},
         {"sphereMeshIsWithinHalfAVoxelBothWays", sphereMeshIsWithinHalfAVoxelBothWays},
         {"hexMeshOfATorusIsWithinHalfAVoxel", hexMeshOfATorusIsWithinHalfAVoxel},
         {"movedAndScaledMeshesGiveTheExpectedDistance", movedAndScaledMeshesGiveTheExpectedDistance},
