@@ -410,21 +410,29 @@ vm_status vm_quality_lookup(const vm_quality_summary *q, const char *key, double
  * vm_quality_lookup (min_dihedral, max_dihedral and abaqus_* null for other kinds), abaqus
  * (counts and the first failing cells) and metrics: {NAME: {label, unit, ideal, acceptable,
  * full, min, mean, max, argmin, argmax, unacceptable, histogram: {lo, hi, below, above,
- * counts}}}. Infinite range ends are null. abaqus != 0 adds the list of failing tets to
+ * counts}}}; edges and edge_length {min, mean, max, histogram: {lo, hi, counts}}; regions
+ * and cells_per_region [{region, cells}, ...] (the first VM_QUALITY_MAX_REGIONS) with
+ * cells_in_regions_not_listed; surface_distance {hausdorff, mesh_to_surface_max,
+ * mesh_to_surface_mean, surface_to_mesh_max, surface_to_mesh_mean, mesh_samples,
+ * surface_samples}, or null when not measured. The text adds lines for the edges, the
+ * distance when measured and the regions when two or more, and the edge-length histogram.
+ * Infinite range ends are null. abaqus != 0 adds the list of failing tets to
  * the text. Returns VM_OK, or VM_ERR_IO (-1) when writing failed. */
 vm_status vm_quality_write_text(FILE *out, const char *name, const vm_quality_summary *q,
                                 int abaqus);
 vm_status vm_quality_write_json(FILE *out, const char *name, const vm_quality_summary *q);
 
 /* Writes an SVG picture: one histogram panel per metric with axes labelled, the acceptable
- * range shaded green and the ideal value marked. Written to PATH.tmp-PID and renamed. */
+ * range shaded green and the ideal value marked, and a last panel for the edge lengths.
+ * Written to PATH.tmp-PID and renamed. */
 vm_status vm_quality_write_svg(const char *path, const char *name, const vm_quality_summary *q,
                                vm_error *err);
 
-/* Writes a self-contained HTML page (no network): the checks, the metric table, two
- * pictures drawn by the built-in renderer (the boundary; a cut-away with the worst elements
- * in red: tets below 10 degrees, hexes below scaled Jacobian 0.2) as inline PNG, and the
- * histograms as inline SVG. q must be vm_quality_report(m). Written to a temp name and
+/* Writes a self-contained HTML page (no network): the checks (with the edge lengths), the
+ * distance to the isosurface when q has it, the cells per region when two or more, the
+ * metric table, two pictures drawn by the built-in renderer (the boundary; a cut-away with
+ * the worst elements in red: tets below 10 degrees, hexes below scaled Jacobian 0.2) as
+ * inline PNG, and the histograms as inline SVG. q must be vm_quality_report(m). Written to a temp name and
  * renamed. */
 vm_status vm_quality_write_html(const char *path, const vm_mesh *m, const char *name,
                                 const vm_quality_summary *q, vm_error *err);
