@@ -925,7 +925,16 @@ static double mesh_point_distance(const ctx *x, const double p[3], size_t *hint)
     size_t id = *hint;
     double d0 = sqrt(nearest(x->sg, x->sb, x->F, p, &id));
     *hint = id;
-    double d = foot_point(x->F, x->S->level[id], p, x->S->p + 3 * id);
+    int level = x->S->level[id];
+    double d = foot_point(x->F, level, p, x->S->p + 3 * id);
+    /* A second start: p itself, taken onto the surface along the gradient. It finds the
+     * foot point where the nearest sample leads to another local minimum (a fold or bump of
+     * the trilinear surface between samples). */
+    double y[3] = {p[0], p[1], p[2]}, g[3];
+    if (newton(x->F, level, y, g)) {
+        double e = foot_point(x->F, level, p, y);
+        if (e < d) d = e;
+    }
     return d < d0 ? d : d0;
 }
 
