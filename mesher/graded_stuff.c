@@ -19,6 +19,7 @@
 #define GR_ALPHA_SHORT 0.40173
 #define GR_CUT_MIN 0.15
 #define GR_ROUNDS 8
+#define GR_CUT_BORDER 0.01
 
 static const int tet_edge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 
@@ -41,7 +42,10 @@ typedef struct stuff {
     unsigned char *nowarp;
     unsigned char *linear;  /* per edge: place the cut by linear interpolation */
     int64_t (*piece)[4];
+    int32_t *src;           /* lattice tet of each piece */
     size_t np, pcap;
+    int32_t cur;            /* the lattice tet being cut */
+    size_t border_zeros;    /* vertices put on the surface on the volume's border */
     int64_t root;
 } stuff;
 
@@ -152,6 +156,8 @@ static double cut_param(stuff *S, size_t e) {
     double len = 0;
     for (int d = 0; d < 3; d++) len += (pb[d] - pa[d]) * (pb[d] - pa[d]);
     double tmin = fmin(GR_CUT_MIN, 0.5 * S->t->distance / sqrt(len));
+    /* Across the volume's border the cut belongs on the border plane: held closer. */
+    if (S->L->phi[a] == S->f->out || S->L->phi[b] == S->f->out) tmin = fmin(tmin, GR_CUT_BORDER);
     if (t < tmin) t = tmin;
     if (t > 1 - tmin) t = 1 - tmin;
     S->cut[e] = t;
@@ -222,10 +228,36 @@ static int on_root_boundary(const stuff *S, int32_t v) {
     return 0;
 }
 
+/* Whether v lies on a plane of the volume's box with a neighbour beyond it (outside). */
+static int on_box_border(const stuff *S, size_t v) {
+    const double *p = S->lpos + 3 * v;
+    int on = 0;
+    for (int d = 0; d < 3; d++) {
+        double top = (double)(S->f->n[d] - 1) * S->f->sp[d], tol = 1e-9 * S->t->h0[d];
+        if (p[d] < -tol || p[d] > top + tol) return 0;
+        if (fabs(p[d]) <= tol || fabs(p[d] - top) <= tol) on = 1;
+    }
+    if (!on) return 0;
+    for (size_t k = S->ve_start[v]; k < S->ve_start[v + 1]; k++) {
+        size_t e = (size_t)S->ve[k];
+        int32_t w = S->ev[e][0] == (int32_t)v ? S->ev[e][1] : S->ev[e][0];
+        if (S->L->phi[w] == S->f->out) return 1;
+    }
+    return 0;
+}
+
 /* One pass of warps, in vertex order: each vertex goes to the nearest cut point within alpha
- * of it on its edges, when that is a simple-point move. */
+ * of it on its edges, when that is a simple-point move. Material meeting the volume's border
+ * is closed on the border plane: inside vertices on it are put on the surface where they
+ * stand (these may neighbour each other: the plane separates their links' two sides). */
 static size_t warp(stuff *S) {
     size_t warped = 0;
+    for (size_t v = 0; v < S->nv; v++)
+        if (!S->nowarp[v] && S->val[v] > 0 && on_box_border(S, v) && simple_point(S, (int32_t)v)) {
+            S->val[v] = 0;
+            warped++;
+            S->border_zeros++;
+        }
     for (size_t v = 0; v < S->nv; v++) {
         if (S->nowarp[v] || S->val[v] == 0 || on_root_boundary(S, (int32_t)v)) continue;
         double best = INFINITY;
@@ -286,6 +318,13 @@ static void piece_pos(const stuff *S, int64_t id, int reference, double p[3]) {
     const double *a = S->lpos + 3 * (size_t)S->ev[e][0], *b = S->lpos + 3 * (size_t)S->ev[e][1];
     double t = reference ? 0.5 : S->linear[e] ? linear_param(S, e) : S->cut[e];
     for (int d = 0; d < 3; d++) p[d] = a[d] + t * (b[d] - a[d]);
+    if (reference) return;
+    /* A cut where the material meets the volume's border lies on the border plane. */
+    for (int d = 0; d < 3; d++) {
+        double top = (double)(S->f->n[d] - 1) * S->f->sp[d], tol = 1e-6 * S->t->h0[d];
+        if (fabs(p[d]) < tol) p[d] = 0;
+        if (fabs(p[d] - top) < tol) p[d] = top;
+    }
 }
 
 static double orient(const stuff *S, const int64_t *id, int lattice) {
@@ -316,13 +355,16 @@ static int add_piece(stuff *S, int64_t a, int64_t b, int64_t c, int64_t d, int *
     if (S->np == S->pcap) {
         size_t cap = S->pcap ? 2 * S->pcap : 8192;
         int64_t(*np)[4] = realloc(S->piece, cap * sizeof *np);
-        if (!np) {
+        if (np) S->piece = np;
+        int32_t *ns = realloc(S->src, cap * sizeof *ns);
+        if (ns) S->src = ns;
+        if (!np || !ns) {
             *nomem_flag = 1;
             return 1;
         }
-        S->piece = np;
         S->pcap = cap;
     }
+    S->src[S->np] = S->cur;
     memcpy(S->piece[S->np++], id, sizeof id);
     return now > 1e-12 * h0[0] * h0[1] * h0[2];
 }
@@ -464,6 +506,129 @@ static void stuff_free(stuff *S) {
     free(S->nowarp);
     free(S->linear);
     free(S->piece);
+    free(S->src);
+}
+
+typedef struct face_rec {
+    int64_t v[3];
+    size_t piece;
+} face_rec;
+
+static int face_cmp(const void *x, const void *y) {
+    const face_rec *a = x, *b = y;
+    for (int i = 0; i < 3; i++)
+        if (a->v[i] != b->v[i]) return a->v[i] < b->v[i] ? -1 : 1;
+    return 0;
+}
+
+enum { FAN_MAX = 128 }; /* faces around one boundary vertex checked at most */
+
+typedef struct inc_rec {
+    int64_t v, other;
+    size_t face;
+} inc_rec;
+
+static int inc_cmp(const void *x, const void *y) {
+    const inc_rec *a = x, *b = y;
+    if (a->v != b->v) return a->v < b->v ? -1 : 1;
+    if (a->other != b->other) return a->other < b->other ? -1 : 1;
+    return a->face < b->face ? -1 : a->face > b->face;
+}
+
+static size_t uf_find(size_t *p, size_t x) {
+    while (p[x] != x) x = p[x] = p[p[x]];
+    return x;
+}
+
+/* Undoes the warps around any place where the boundary is not a manifold: an edge of other
+ * than two boundary faces, or a vertex whose faces make more than one fan. Warps are
+ * simple-point moves, so these come only from warped vertices meeting (on the volume's
+ * border); without warps the boundary is the zero set of a linear field on each tet. */
+static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_error *err) {
+    size_t nf = 4 * S->np, nb = 0;
+    face_rec *f = malloc((nf + 1) * sizeof *f);
+    if (!f) return nomem(err);
+    for (size_t p = 0; p < S->np; p++)
+        for (int k = 0; k < 4; k++) {
+            face_rec *r = &f[4 * p + (size_t)k];
+            int m = 0;
+            for (int j = 0; j < 4; j++)
+                if (j != k) r->v[m++] = S->piece[p][j];
+            for (int a = 0; a < 3; a++)
+                for (int b = a + 1; b < 3; b++)
+                    if (r->v[b] < r->v[a]) {
+                        int64_t x = r->v[a];
+                        r->v[a] = r->v[b];
+                        r->v[b] = x;
+                    }
+            r->piece = p;
+        }
+    qsort(f, nf, sizeof *f, face_cmp);
+    for (size_t i = 0; i < nf;) {
+        size_t j = i + 1;
+        while (j < nf && face_cmp(&f[i], &f[j]) == 0) j++;
+        if (j == i + 1) f[nb++] = f[i];
+        i = j;
+    }
+    /* Incidences (vertex, other vertex of an edge, face): around each vertex, faces that
+     * share an edge join one fan; an edge with other than two faces is a pinch too. */
+    inc_rec *in = malloc((6 * nb + 1) * sizeof *in);
+    if (!in) {
+        free(f);
+        return nomem(err);
+    }
+    size_t ni = 0;
+    for (size_t b = 0; b < nb; b++) {
+        for (int k = 0; k < 3; k++)
+            for (int o = 0; o < 3; o++)
+                if (o != k) in[ni++] = (inc_rec){f[b].v[k], f[b].v[o], b};
+    }
+    qsort(in, ni, sizeof *in, inc_cmp);
+    for (size_t i = 0; i < ni;) {
+        size_t j = i;
+        while (j < ni && in[j].v == in[i].v) j++;
+        /* faces around in[i].v: join those sharing an edge (a local union-find over the
+         * fan's faces); an edge with other than two faces, or two fans, is a pinch */
+        int pinched = j - i > 2 * FAN_MAX;
+        size_t face[2 * FAN_MAX], lp[2 * FAN_MAX], nl = 0;
+        for (size_t a = i; a < j && !pinched; a++) {
+            size_t x = 0;
+            while (x < nl && face[x] != in[a].face) x++;
+            if (x == nl) {
+                face[nl] = in[a].face;
+                lp[nl] = nl;
+                nl++;
+            }
+        }
+        for (size_t a = i; a < j && !pinched;) {
+            size_t b = a;
+            while (b < j && in[b].other == in[a].other) b++;
+            if (b - a != 2) pinched = 1;
+            size_t x = 0, y = 0;
+            while (face[x] != in[a].face) x++;
+            while (face[y] != in[a + 1 < b ? a + 1 : a].face) y++;
+            lp[uf_find(lp, x)] = uf_find(lp, y);
+            a = b;
+        }
+        for (size_t x = 1; x < nl && !pinched; x++)
+            if (uf_find(lp, x) != uf_find(lp, 0)) pinched = 1;
+        if (pinched) {
+            /* undo the warps of the tets whose pieces have a face here */
+            for (size_t a = i; a < j; a++) {
+                const int32_t *tt = S->L->tet[S->src[f[in[a].face].piece]];
+                for (int k = 0; k < 4; k++)
+                    if (S->val[tt[k]] == 0 && !S->nowarp[tt[k]]) {
+                        S->nowarp[tt[k]] = 1;
+                        st->unwarped++;
+                        ++*bad;
+                    }
+            }
+        }
+        i = j;
+    }
+    free(f);
+    free(in);
+    return VM_OK;
 }
 
 vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f, vm_mesh *mesh,
@@ -502,12 +667,14 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
             memset(S.nowarp, 1, S.nv);
             memset(S.linear, 1, S.ne);
         }
+        S.border_zeros = 0;
         st->warped = warp(&S);
         cut_all(&S);
         S.np = 0;
         int nm = 0;
         size_t bad = 0;
         for (size_t i = 0; i < S.nt; i++) {
+            S.cur = (int32_t)i;
             if (stencil(&S, i, &nm)) continue;
             /* A piece came out flat or turned: undo the warps of its tet, or where there
              * are none, place its cuts by linear interpolation (the reference geometry). */
@@ -523,6 +690,9 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
                 for (int k = 0; k < 6; k++) S.linear[S.te[i][k]] = 1;
         }
         if (nm) s = nomem(err);
+        /* Only vertices on the border plane may neighbour another on the surface. */
+        if (!s && !bad && S.border_zeros && round < GR_ROUNDS - 1)
+            s = undo_pinches(&S, st, &bad, err);
         st->rounds = (size_t)round + 1;
         if (!bad || round == GR_ROUNDS - 1) break;
     }

@@ -57,6 +57,7 @@ typedef struct vm_mesh_stats {
     size_t inverted_cells;     /* hexes left inverted (vm_mesh_improve_hexes untangles them) */
     size_t octree_leaves;      /* graded: leaves of the sizing octree */
     size_t warped_vertices;    /* graded: lattice vertices moved onto the surface */
+    size_t refine_rounds;      /* graded: rounds of refining where the distance was over */
     double seconds;
 } vm_mesh_stats;
 
