@@ -226,3 +226,82 @@ int vm_cli_input_read(const vm_cli_input *in, vm_volume *v) {
     vm_cli_input_note_series(in, v->format);
     return VM_EXIT_OK;
 }
+
+/* ---- the isosurface a mesh is measured against (quality, report) ---- */
+
+void vm_cli_surface_init(vm_cli_surface *s) {
+    memset(s, 0, sizeof *s);
+}
+
+int vm_cli_surface_arg(vm_cli_surface *s, const char *cmd, int argc, char **argv, int *i,
+                       int *taken) {
+    const char *a = argv[*i];
+    *taken = 1;
+    int valued = vm_cli_is(a, "--volume", NULL) || vm_cli_is(a, "--iso", NULL) ||
+                 vm_cli_is(a, "--range", NULL);
+    if (valued && vm_cli_need_value(cmd, *i, argc, argv)) return VM_EXIT_INPUT;
+    if (vm_cli_is(a, "--volume", NULL)) {
+        s->volume = argv[++*i];
+    } else if (vm_cli_is(a, "--iso", NULL)) {
+        s->have_iso = 1;
+        s->has_lo = 1;
+        s->has_hi = 0;
+        return vm_cli_double("--iso", argv[++*i], &s->lo);
+    } else if (vm_cli_is(a, "--range", NULL)) {
+        const char *v = argv[++*i], *colon = strchr(v, ':');
+        if (!colon) return vm_cli_fail("--range: '%s' is not A:B (either side may be empty)", v);
+        char lo[128], hi[128];
+        size_t la = (size_t)(colon - v);
+        if (la >= sizeof lo || strlen(colon + 1) >= sizeof hi)
+            return vm_cli_fail("--range: '%s' is too long", v);
+        memcpy(lo, v, la);
+        lo[la] = 0;
+        strcpy(hi, colon + 1);
+        s->have_range = 1;
+        s->has_lo = lo[0] != 0;
+        s->has_hi = hi[0] != 0;
+        if (!s->has_lo && !s->has_hi)
+            return vm_cli_fail("--range: give at least one bound (A: or :B)");
+        if (s->has_lo && vm_cli_double("--range", lo, &s->lo)) return VM_EXIT_INPUT;
+        if (s->has_hi && vm_cli_double("--range", hi, &s->hi)) return VM_EXIT_INPUT;
+    } else if (vm_cli_is(a, "--invert", NULL)) {
+        s->invert = 1;
+    } else {
+        *taken = 0;
+    }
+    return VM_EXIT_OK;
+}
+
+int vm_cli_surface_check(vm_cli_surface *s, const char *cmd) {
+    if (!s->volume) {
+        if (s->have_iso || s->have_range || s->invert)
+            return vm_cli_fail("%s: --iso, --range and --invert go with --volume FILE", cmd);
+        return VM_EXIT_OK;
+    }
+    if (s->have_iso + s->have_range != 1)
+        return vm_cli_fail("%s: --volume needs exactly one of --iso V or --range A:B", cmd);
+    if (s->invert && !s->have_iso) return vm_cli_fail("%s: --invert goes with --iso", cmd);
+    if (s->invert) {
+        s->has_lo = 0;
+        s->has_hi = 1;
+        s->hi = s->lo;
+    }
+    return VM_EXIT_OK;
+}
+
+int vm_cli_surface_measure(const vm_cli_surface *s, const vm_mesh *m, vm_surface_distance *d,
+                           int quiet) {
+    vm_volume v;
+    vm_error err;
+    vm_error_clear(&err);
+    vm_cli_status("reading", s->volume, quiet);
+    vm_status st = vm_volume_read(s->volume, &v, &err);
+    vm_cli_status_clear(quiet);
+    if (st) return vm_cli_fail_err(&err);
+    vm_cli_status("measuring the distance to", s->volume, quiet);
+    st = vm_mesh_surface_distance(m, &v, s->lo, s->has_lo, s->hi, s->has_hi, d, &err);
+    vm_cli_status_clear(quiet);
+    vm_volume_free(&v);
+    if (st) return vm_cli_fail("%s: %s", s->volume, err.message);
+    return VM_EXIT_OK;
+}

@@ -111,6 +111,31 @@ int vm_cli_input_read(const vm_cli_input *in, vm_volume *v);
  * and the path holds more than one series, prints on stderr which series was read and the
  * others (UID, description, slices) with how to choose one. */
 void vm_cli_input_note_series(const vm_cli_input *in, const char *format);
+/* The isosurface a mesh is measured against by `quality` and `report`: --volume FILE with
+ * --iso V (--invert: f <= V) or --range A:B, as `mesh` takes them. */
+typedef struct {
+    const char *volume; /* NULL: no distance asked */
+    double lo, hi;
+    int has_lo, has_hi;
+    int have_iso, have_range, invert;
+} vm_cli_surface;
+
+/* [out] s: nothing asked. */
+void vm_cli_surface_init(vm_cli_surface *s);
+
+/* Takes argv[*i] when it is --volume, --iso, --range or --invert (with its value: *i
+ * advances): *taken 1; else *taken 0. Returns 0, or prints and returns VM_EXIT_INPUT. */
+int vm_cli_surface_arg(vm_cli_surface *s, const char *cmd, int argc, char **argv, int *i,
+                       int *taken);
+
+/* 0 when the options go together (--volume with exactly one of --iso and --range, and they
+ * only with it); else prints and returns VM_EXIT_INPUT. --invert turns --iso V into f <= V. */
+int vm_cli_surface_check(vm_cli_surface *s, const char *cmd);
+
+/* Reads s->volume and measures the distance between m's boundary and its isosurface into
+ * *d: 0, or prints and returns VM_EXIT_INPUT. */
+int vm_cli_surface_measure(const vm_cli_surface *s, const vm_mesh *m, vm_surface_distance *d,
+                           int quiet);
 
 /* ---- the commands (cli/CMD.c) and what they share ---- */
 
@@ -120,19 +145,23 @@ int vm_cmd_demo(int argc, char **argv);
 int vm_cmd_report(int argc, char **argv);
 
 /* Writes the HTML quality report of m to path (name shown in it); returns an exit code.
- * check: m's vm_mesh_check when the caller has it (not run again), else NULL. Bars for the
+ * check: m's vm_mesh_check when the caller has it (not run again), else NULL. dist: the
+ * distance to the isosurface when measured (shown in the report), else NULL. Bars for the
  * check and the metrics and a status line while drawing, on a terminal and unless quiet. */
 int vm_cli_write_report(const char *path, const vm_mesh *m, const char *name,
-                        const vm_mesh_report *check, int quiet);
+                        const vm_mesh_report *check, const vm_surface_distance *dist,
+                        int quiet);
 int vm_cmd_quality(int argc, char **argv);
 int vm_cmd_convert(int argc, char **argv);
 int vm_cmd_denoise(int argc, char **argv);
 int vm_cmd_spectrum(int argc, char **argv);
 
 /* Prints the one-line summary (or JSON) of a mesh already checked (checked: its
- * vm_mesh_check report); returns an exit code. */
+ * vm_mesh_check report); returns an exit code. dist: the distance to the isosurface, when
+ * measured (a second line, or the JSON key surface_distance), else NULL. */
 int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
-                          const vm_mesh_stats *st, int json, const char *out);
+                          const vm_mesh_stats *st, const vm_surface_distance *dist, int json,
+                          const char *out);
 
 /* --labels: "all" gives *labels NULL and *n 0, else the listed labels ("1,3,7", "2-5");
  * [out] *labels malloc'd. Returns 0, or prints and returns VM_EXIT_INPUT. */

@@ -84,8 +84,8 @@ int vm_cmd_demo(int argc, char **argv) {
     }
     printf("\n%s phantom: expected boundary Euler characteristic %d, volume %.6g\n", info.name,
            info.euler, info.volume);
-    int rc = vm_cli_report_checked(&m, &checked, &st, 0, "demo.vtu");
-    if (!rc) rc = vm_cli_write_report("demo-report.html", &m, "demo.vtu", &checked, quiet);
+    int rc = vm_cli_report_checked(&m, &checked, &st, NULL, 0, "demo.vtu");
+    if (!rc) rc = vm_cli_write_report("demo-report.html", &m, "demo.vtu", &checked, NULL, quiet);
     vm_mesh_free(&m);
     if (!rc) printf("wrote phantom.nrrd, demo.vtu, demo-surface.vtu, demo-report.html\n");
     return rc;

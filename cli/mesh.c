@@ -42,6 +42,11 @@ static const char *mesh_help =
     "                          contouring mesh (quads: of the hex mesh); mc marching cubes\n"
     "                          with the topology of the trilinear interpolant; asc adaptive\n"
     "                          skeleton climbing; cover disk covering (quad: dc only)\n"
+    "  --graded                graded octree sized in world units (isosurface stuffing; also\n"
+    "                          set by any of the three below; docs/SIZING.md)\n"
+    "  --max-edge L            no element edge longer than L (world units, e.g. mm)\n"
+    "  --min-edge L            smallest cell edge (default: one voxel)\n"
+    "  --distance D            boundary within D of the isosurface (default: half a voxel)\n"
     "  --adaptive              octree cells: large inside, 2x2x2 on simple flat boundary\n"
     "                          (hexes: exact interior cubes merged, the boundary uniform)\n"
     "  --error E               adaptive tets: boundary error in voxels (>= 0, default 0.5;\n"
@@ -59,7 +64,13 @@ static const char *mesh_help =
     ;
 static const char *mesh_help2 =
     "  --quality-fields        add per-cell quality arrays (min_dihedral, radius_ratio, ...)\n"
-    "  --report REPORT.html    also write the HTML quality report (see volmesh report)\n"
+    "  --report REPORT.html    also write the HTML quality report (see volmesh report); for\n"
+    "                          tets and hexes of --iso/--range it gives the distance to\n"
+    "                          the isosurface both ways (not with --slabs)\n"
+    "  --distance-check        measure the distance between the boundary and the isosurface\n"
+    "                          of the trilinear field, both ways (Hausdorff, world units;\n"
+    "                          docs/QUALITY.md), and print it with the summary (tets and\n"
+    "                          hexes of --iso/--range; not with --slabs)\n"
     "  --no-compress           write the VTU without zlib\n"
     "  --deck static           with -o X.inp or X.feb: a complete static step (bottom\n"
     "                          fixed, top loaded) that CalculiX/ABAQUS (FEBio) solve as is\n"
@@ -79,7 +90,7 @@ static const char *mesh_help2 =
     "  --json                  print the summary as one JSON object\n"
     "  --quiet                 no progress bar (nor the status line of writing and checking)\n"
     "  --verbose               print the time of each stage (read, denoise, mesh, improve,\n"
-    "                          write, check, report) on stderr\n"
+    "                          write, check, distance, report) on stderr\n"
     "  raw input: --raw-dims NXxNYxNZ --raw-type T [--raw-endian E] [--raw-spacing S]\n"
     "             [--raw-origin O] [--raw-header N]   (see volmesh info --help)\n"
     "  input: --series UID|N (DICOM series) --spacing SX,SY,SZ (replaces the file's)\n"
@@ -115,10 +126,19 @@ static int parse_range(const char *s, vm_mesh_options *o) {
 
 /* The summary of a checked mesh, one line or JSON; exit 1 when elements are inverted. */
 int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
-                          const vm_mesh_stats *st, int json, const char *out) {
+                          const vm_mesh_stats *st, const vm_surface_distance *dist, int json,
+                          const char *out) {
     const vm_mesh_report r = *checked;
     if (json) {
         vm_cli_json_summary_open(out);
+        if (dist)
+            printf("\"surface_distance\": {\"hausdorff\": %.9g, \"mesh_to_surface_max\": %.9g, "
+                   "\"mesh_to_surface_mean\": %.9g, \"surface_to_mesh_max\": %.9g, "
+                   "\"surface_to_mesh_mean\": %.9g, \"mesh_samples\": %zu, "
+                   "\"surface_samples\": %zu}, ",
+                   dist->hausdorff, dist->mesh_to_surface_max, dist->mesh_to_surface_mean,
+                   dist->surface_to_mesh_max, dist->surface_to_mesh_mean, dist->mesh_samples,
+                   dist->surface_samples);
         printf("\"elements\": %zu, \"points\": %zu, \"inverted\": %zu, "
                "\"boundary_faces\": %zu, \"boundary_closed\": %s, \"boundary_euler\": %ld, "
                "\"boundary_self_intersections\": %zu, \"components\": %zu, "
@@ -144,6 +164,11 @@ int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
                r.min_dihedral, r.max_dihedral, r.slivers_5, r.slivers_10,
                st ? st->seconds : 0.0);
     }
+    if (dist && !json)
+        printf("distance to the isosurface: Hausdorff %.4g (boundary -> surface max %.4g mean "
+               "%.4g; surface -> boundary max %.4g mean %.4g; world units)\n",
+               dist->hausdorff, dist->mesh_to_surface_max, dist->mesh_to_surface_mean,
+               dist->surface_to_mesh_max, dist->surface_to_mesh_mean);
     if (r.inverted) {
         /* Written so it can be inspected, but not fit for a solver: say so and exit 1. */
         fprintf(stderr, "volmesh: %s: warning: %zu inverted element%s (without --no-improve "
@@ -285,6 +310,7 @@ typedef struct {
     vm_cli_input in;
     const char *out, *surface, *report, *denoise, *labels_arg;
     int json, quiet, verbose, invert, compress, quality_fields, improve, improve_parts;
+    int distance_check;         /* --distance-check */
     int have_iso, have_range, have_labels, have_method, have_error, have_slabs, slabs;
     int surface_elements;       /* --elements tri|quad: VM_TRI3 or VM_QUAD4, else 0 */
     double max_memory;          /* --max-memory in bytes; 0: no limit */
@@ -304,7 +330,7 @@ static const char *const mesh_valued[] = {
     "--surface",  "--max-level",    "--elements",   "--denoise",        "--report",
     "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
     "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts",
-    "--materials"};
+    "--materials", "--max-edge",  "--min-edge",     "--distance"};
 
 /* 1 when option a takes a value. */
 static int mesh_takes_value(const char *a) {
@@ -373,6 +399,17 @@ static int shape_option(mesh_args *m, char **argv, int *i, int *taken) {
         m->have_error = 1;
     } else if (vm_cli_is(a, "--adaptive", NULL)) {
         m->o.adaptive = 1;
+    } else if (vm_cli_is(a, "--graded", NULL)) {
+        m->o.graded = 1;
+    } else if (vm_cli_is(a, "--max-edge", NULL) || vm_cli_is(a, "--min-edge", NULL) ||
+               vm_cli_is(a, "--distance", NULL)) {
+        double x = 0;
+        if (vm_cli_double(a, argv[++*i], &x)) return VM_EXIT_INPUT;
+        if (!(x > 0 && x < 1e30)) return vm_cli_fail("%s: '%s' is not a length > 0", a, argv[*i]);
+        *(strcmp(a, "--max-edge") == 0   ? &m->o.max_edge
+          : strcmp(a, "--min-edge") == 0 ? &m->o.min_edge
+                                         : &m->o.distance) = x;
+        m->o.graded = 1;
     } else if (vm_cli_is(a, "--max-level", NULL)) {
         long l = 0;
         if (vm_cli_int(a, argv[++*i], 1, 10, &l)) return VM_EXIT_INPUT;
@@ -471,6 +508,8 @@ static int output_option(mesh_args *m, char **argv, int *i, int *taken) {
         m->compress = 0;
     } else if (vm_cli_is(a, "--quality-fields", NULL)) {
         m->quality_fields = 1;
+    } else if (vm_cli_is(a, "--distance-check", NULL)) {
+        m->distance_check = 1;
     } else if (vm_cli_is(a, "--json", NULL)) {
         m->json = 1;
     } else if (vm_cli_is(a, "--quiet", "-q")) {
@@ -528,6 +567,9 @@ static int option_conflicts(const mesh_args *m) {
         return vm_cli_fail("mesh: --elements %s writes a surface: no --labels, --adaptive, "
                            "--surface, --report, --deck, --order or --materials",
                            m->surface_elements == VM_QUAD4 ? "quad" : "tri");
+    if (m->distance_check && (m->have_labels || m->surface_elements || m->have_slabs))
+        return vm_cli_fail("mesh: --distance-check measures tets or hexes of --iso or --range: "
+                           "not with --labels, --elements tri|quad or --slabs");
     if (m->have_slabs &&
         (m->have_labels || m->denoise || m->surface_elements || o->elements != VM_TET4))
         return vm_cli_fail("mesh: --slabs meshes tetrahedra: not with --labels, --denoise or "
@@ -804,9 +846,21 @@ static int check_and_report(mesh_args *m, mesh_job *j) {
     if (vm_mesh_check_with(&j->m, vm_cli_progress, &m->quiet, &checked, &cerr) != VM_OK)
         return vm_cli_fail_err(&cerr);
     vm_cli_stage_done(m->verbose, "check", &j->t);
-    int rc = vm_cli_report_checked(&j->m, &checked, &j->st, m->json, m->out);
+    /* the distance to the isosurface, when asked and the volume is whole in memory */
+    vm_surface_distance dist, *dp = NULL;
+    if ((m->distance_check || m->report) && j->v.data) {
+        vm_cli_status("measuring the distance of", m->out, m->quiet);
+        vm_status ds = vm_mesh_surface_distance(&j->m, &j->v, m->o.lo, m->o.has_lo, m->o.hi,
+                                                m->o.has_hi, &dist, &cerr);
+        vm_cli_status_clear(m->quiet);
+        if (ds) return vm_cli_fail("%s: %s", m->out, cerr.message);
+        dp = &dist;
+        vm_cli_stage_done(m->verbose, "distance", &j->t);
+    }
+    int rc = vm_cli_report_checked(&j->m, &checked, &j->st, m->distance_check ? dp : NULL,
+                                   m->json, m->out);
     if (!rc && m->report) {
-        rc = vm_cli_write_report(m->report, &j->m, m->out, &checked, m->quiet);
+        rc = vm_cli_write_report(m->report, &j->m, m->out, &checked, dp, m->quiet);
         if (!rc) vm_cli_stage_done(m->verbose, "report", &j->t);
     }
     if (!rc && j->improved && !m->json && j->ir.unfixed)
@@ -828,9 +882,11 @@ static int mesh_run(mesh_args *m) {
     if (!rc && whole) rc = mesh_whole(m, &j, &done);
     if (rc || done) return rc;
     rc = improve_mesh(m, &j);
-    vm_volume_free(&j.v);
+    /* kept to the end when the distance to its isosurface is measured */
+    if (!m->distance_check && !m->report) vm_volume_free(&j.v);
     if (!rc) rc = write_mesh(m, &j);
     if (!rc) rc = check_and_report(m, &j);
+    vm_volume_free(&j.v);
     vm_mesh_free(&j.m);
     return rc;
 }

@@ -235,7 +235,7 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
     int rc = s ? vm_cli_fail_err(&err)
                : report(&m, &checked, &st, json, out, improved ? &ir : NULL);
     int quiet = lo->progress_user ? *(const int *)lo->progress_user : 0;
-    if (!rc && html) rc = vm_cli_write_report(html, &m, out, &checked, quiet);
+    if (!rc && html) rc = vm_cli_write_report(html, &m, out, &checked, NULL, quiet);
     vm_label_stats_free(&st);
     vm_mesh_free(&m);
     return rc;

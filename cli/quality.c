@@ -9,14 +9,16 @@
 
 static const char *quality_help =
     "usage: volmesh quality MESH [--json] [--svg FILE] [--abaqus] [--require EXPR]...\n"
-    "                            [--per-cell-csv FILE]\n"
+    "                            [--per-cell-csv FILE] [--volume FILE (--iso V | --range A:B)]\n"
     "\n"
     "Element quality and mesh checks of a tet, hex, triangle or quad mesh (any format volmesh\n"
     "reads). Prints the checks (inverted and degenerate cells, conformity, boundary closed,\n"
     "Euler characteristic, components, volume), slivers (min dihedral < 5 and < 10 deg) and\n"
     "the ABAQUS check for tets (volume measure < 0.02, face angle < 10 or > 160 deg), then per\n"
     "metric min/mean/max, the ideal value, Verdict's acceptable range, the count outside it\n"
-    "and a 20-bin histogram. Metrics follow the Verdict manual (docs/QUALITY.md).\n"
+    "and a 20-bin histogram. Metrics follow the Verdict manual (docs/QUALITY.md). Also the\n"
+    "edge lengths (each edge once, mesh units) with a histogram, and the cells per region\n"
+    "when there are two or more (a label mesh).\n"
     "\n"
     "  --json                one JSON object instead of the table (keys: elements, inverted,\n"
     "                        min_dihedral, max_dihedral, slivers_5, slivers_10,\n"
@@ -28,6 +30,10 @@ static const char *quality_help =
     "                        \"inverted==0\", \"radius_ratio.max<=3\" (METRIC.min/.mean/.max/\n"
     "                        .unacceptable); repeatable; exit 1 naming each unmet one\n"
     "  --per-cell-csv FILE   write every metric of every cell (cell,region,METRIC,...)\n"
+    "  --volume FILE         also measure the distance between the mesh boundary and the\n"
+    "                        isosurface of this volume, both ways, in world units (keys\n"
+    "                        hausdorff, mesh_to_surface_max/_mean, surface_to_mesh_max/_mean)\n"
+    "  --iso V, --range A:B  with --volume: the material, as for volmesh mesh (--invert: f <= V)\n"
     "  -q, --quiet           no progress bars (shown on a terminal for big meshes)\n"
     "\n"
     "exit status: 0 ok, 1 a requirement or the ABAQUS check failed, 2 bad usage or input\n";
@@ -96,8 +102,13 @@ int vm_cmd_quality(int argc, char **argv) {
     int json = 0, abaqus = 0, quiet = 0;
     requirement req[MAX_REQUIRE];
     int nreq = 0;
+    vm_cli_surface surf;
+    vm_cli_surface_init(&surf);
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
+        int taken = 0;
+        if (vm_cli_surface_arg(&surf, "quality", argc, argv, &i, &taken)) return VM_EXIT_INPUT;
+        if (taken) continue;
         if (vm_cli_is(a, "--help", "-h")) {
             fputs(quality_help, stdout);
             return VM_EXIT_OK;
@@ -128,6 +139,7 @@ int vm_cmd_quality(int argc, char **argv) {
         }
     }
     if (!path) return vm_cli_fail("quality: no mesh file (see volmesh quality --help)");
+    if (vm_cli_surface_check(&surf, "quality")) return VM_EXIT_INPUT;
     vm_mesh m;
     vm_error err;
     vm_error_clear(&err);
@@ -144,6 +156,14 @@ int vm_cmd_quality(int argc, char **argv) {
     if (st) {
         vm_mesh_free(&m);
         return vm_cli_fail("%s: %s", path, err.message);
+    }
+    if (surf.volume) {
+        int rc = vm_cli_surface_measure(&surf, &m, &q.distance, quiet);
+        if (rc) {
+            vm_mesh_free(&m);
+            return rc;
+        }
+        q.has_distance = 1;
     }
     /* Unknown keys are usage errors: check them all before printing anything. */
     for (int i = 0; i < nreq; i++) {

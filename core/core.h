@@ -33,6 +33,13 @@ vm_status vm__check_nodes(const vm_mesh *m, vm_status code, const char *what, vm
 /* Seconds from a monotonic clock. */
 double vm__now(void);
 
+struct vm_volume;
+/* The inverse (inv) of v's index-to-world matrix M = D diag(spacing), and its determinant
+ * (*det); VM_ERR_ARG, its message starting with who (the caller's name), when M is
+ * singular. Defined in volume.c. */
+vm_status vm__frame_inverse(const struct vm_volume *v, const char *who, double inv[3][3],
+                            double *det, vm_error *err);
+
 /* Union-find over 0..n-1 (parent[i] = i to start): the root of x (path halving), and the
  * union of the sets of a and b, whose root is the smaller of their roots (so the result
  * does not depend on the order of the unions). */

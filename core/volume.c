@@ -126,3 +126,21 @@ int vm_scalar_type_parse(const char *name, vm_scalar_type *t) {
         }
     return -1;
 }
+
+/* The inverse of the index-to-world matrix (see core.h). */
+vm_status vm__frame_inverse(const vm_volume *v, const char *who, double inv[3][3], double *det,
+                            vm_error *err) {
+    double m[3][3];
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) m[r][c] = v->direction[r][c] * v->spacing[c];
+    *det = vm_volume_frame_determinant(v);
+    if (!(fabs(*det) > 0) || !isfinite(*det))
+        return vm_error_set(err, VM_ERR_ARG,
+                            "%s: the volume's index-to-world frame is degenerate", who);
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) {
+            int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
+            inv[r][c] = (m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]) / *det;
+        }
+    return VM_OK;
+}

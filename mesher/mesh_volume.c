@@ -349,6 +349,15 @@ vm_status vm__mesh_options_check(const vm_mesh_options *o, vm_error *err) {
     if (o->adaptive && (o->max_level < 1 || o->max_level > 10))
         return vm_error_set(err, VM_ERR_ARG, "mesh: adaptive max level %d is outside 1..10",
                             o->max_level);
+    if (o->graded && o->elements != VM_TET4)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: graded sizing makes tetrahedra only");
+    if (!(o->max_edge >= 0 && o->max_edge <= 1e30) || !(o->min_edge >= 0 && o->min_edge <= 1e30) ||
+        !(o->distance >= 0 && o->distance <= 1e30))
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: --max-edge, --min-edge and --distance must be >= 0 and finite");
+    if (o->max_edge > 0 && o->min_edge > o->max_edge)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: --min-edge %g is above --max-edge %g",
+                            o->min_edge, o->max_edge);
     if (o->adaptive && !(o->error >= 0 && o->error < 1e30))
         return vm_error_set(err, VM_ERR_ARG, "mesh: adaptive error %g must be >= 0 (voxels)",
                             o->error);
@@ -365,6 +374,12 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     if (s) return s;
     s = vm__material_check(v, o->has_lo, o->lo, o->has_hi, o->hi, o->cell_size, "mesh", err);
     if (s) return s;
+    if (o->graded) {
+        s = vm__mesh_graded(v, o, mesh, &st, err);
+        st.seconds = vm__now() - t0;
+        if (stats) *stats = st;
+        return s;
+    }
 
     /* Sampling grid: the volume itself, or a trilinear resampling with cell size ~S. */
     vm__grid g;

@@ -116,6 +116,10 @@ vm_status vm__mesh_options_check(const vm_mesh_options *o, vm_error *err);
  * left-handed frame keep positive volumes. */
 void vm__mirror_cell(vm_index *c, int nodes);
 
+/* The graded mesher (mesher/graded.c): options already checked. */
+vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh *mesh,
+                          vm_mesh_stats *st, vm_error *err);
+
 /* VM_ERR_EMPTY ("WHAT: no voxel >= lo (the data range is ...)") when no value of the data
  * range vmin..vmax is in the material, else VM_OK. */
 vm_status vm__material_range(int has_lo, double lo, int has_hi, double hi, double vmin,

@@ -330,6 +330,57 @@ static void report_pass(const report_job *j, chunk_stats *cs, vm_quality_summary
     }
 }
 
+/* Cells per region: a counting array over the regions' span when it is small, else a sorted
+ * copy. Fills q->nregions, q->regions and q->regions_more_cells. */
+#define REGION_SPAN_ARRAY (1 << 20)
+
+static int cmp_int32(const void *x, const void *y) {
+    int32_t a = *(const int32_t *)x, b = *(const int32_t *)y;
+    return a < b ? -1 : a > b;
+}
+
+static void add_region(vm_quality_summary *q, int32_t region, size_t cells) {
+    if (q->nregions < VM_QUALITY_MAX_REGIONS) {
+        q->regions[q->nregions].region = region;
+        q->regions[q->nregions].cells = cells;
+    } else {
+        q->regions_more_cells += cells;
+    }
+    q->nregions++;
+}
+
+static vm_status count_regions(const vm_mesh *m, vm_quality_summary *q, vm_error *err) {
+    size_t n = m->ncells;
+    if (!n || !m->region) return VM_OK;
+    int32_t lo = m->region[0], hi = m->region[0];
+    for (size_t c = 1; c < n; c++) {
+        if (m->region[c] < lo) lo = m->region[c];
+        if (m->region[c] > hi) hi = m->region[c];
+    }
+    if ((int64_t)hi - (int64_t)lo < REGION_SPAN_ARRAY) {
+        size_t span = (size_t)((int64_t)hi - (int64_t)lo + 1);
+        size_t *cnt = calloc(span, sizeof *cnt);
+        if (!cnt) return vm_error_set(err, VM_ERR_NOMEM, "quality report: out of memory");
+        for (size_t c = 0; c < n; c++) cnt[(size_t)((int64_t)m->region[c] - lo)]++;
+        for (size_t r = 0; r < span; r++)
+            if (cnt[r]) add_region(q, (int32_t)((int64_t)lo + (int64_t)r), cnt[r]);
+        free(cnt);
+        return VM_OK;
+    }
+    int32_t *copy = malloc(n * sizeof *copy);
+    if (!copy) return vm_error_set(err, VM_ERR_NOMEM, "quality report: out of memory");
+    memcpy(copy, m->region, n * sizeof *copy);
+    qsort(copy, n, sizeof *copy, cmp_int32);
+    for (size_t i = 0; i < n;) {
+        size_t j = i;
+        while (j < n && copy[j] == copy[i]) j++;
+        add_region(q, copy[i], j - i);
+        i = j;
+    }
+    free(copy);
+    return VM_OK;
+}
+
 vm_status vm_quality_report_with(const vm_mesh *m, const vm_quality_options *o,
                                  vm_quality_summary *q, vm_error *err) {
     vm_quality_options def;
@@ -404,6 +455,18 @@ vm_status vm_quality_report_with(const vm_mesh *m, const vm_quality_options *o,
     }
     free(cs);
     vm__meter_end(&mt);
+    st = vm_mesh_edge_lengths(m, &q->edges, err);
+    if (!st) st = count_regions(m, q, err);
+    return st;
+}
+
+vm_status vm_quality_add_distance(vm_quality_summary *q, const vm_mesh *m, const vm_volume *v,
+                                  double lo, int has_lo, double hi, int has_hi, vm_error *err) {
+    vm_surface_distance d;
+    vm_status st = vm_mesh_surface_distance(m, v, lo, has_lo, hi, has_hi, &d, err);
+    if (st) return st;
+    q->distance = d;
+    q->has_distance = 1;
     return VM_OK;
 }
 
@@ -432,6 +495,16 @@ vm_status vm_quality_lookup(const vm_quality_summary *q, const char *key, double
         {"slivers_10", (double)r->slivers_10, q->kind == VM_TET4},
         {"min_scaled_jacobian", r->min_scaled_jacobian, q->kind == VM_TET4 || q->kind == VM_HEX8},
         {"abaqus_failures", (double)q->abaqus_failures, q->has_abaqus},
+        {"edges", (double)q->edges.edges, 1},
+        {"edge_length.min", q->edges.min, 1},
+        {"edge_length.mean", q->edges.mean, 1},
+        {"edge_length.max", q->edges.max, 1},
+        {"regions", (double)q->nregions, 1},
+        {"hausdorff", q->distance.hausdorff, q->has_distance},
+        {"mesh_to_surface_max", q->distance.mesh_to_surface_max, q->has_distance},
+        {"mesh_to_surface_mean", q->distance.mesh_to_surface_mean, q->has_distance},
+        {"surface_to_mesh_max", q->distance.surface_to_mesh_max, q->has_distance},
+        {"surface_to_mesh_mean", q->distance.surface_to_mesh_mean, q->has_distance},
     };
     for (size_t i = 0; i < sizeof keys / sizeof keys[0]; i++)
         if (strcmp(key, keys[i].name) == 0) {
@@ -526,6 +599,28 @@ vm_status vm_quality_write_text(FILE *out, const char *name, const vm_quality_su
             fputc('\n', out);
         }
     }
+    const vm_edge_stats *e = &q->edges;
+    fprintf(out, "edges        %zu, length %.6g .. %.6g, mean %.6g (mesh units)\n", e->edges,
+            e->min, e->max, e->mean);
+    if (q->has_distance) {
+        const vm_surface_distance *d = &q->distance;
+        fprintf(out,
+                "distance     Hausdorff %.6g to the isosurface: boundary -> surface max %.6g "
+                "mean %.6g, surface -> boundary max %.6g mean %.6g (%zu + %zu samples)\n",
+                d->hausdorff, d->mesh_to_surface_max, d->mesh_to_surface_mean,
+                d->surface_to_mesh_max, d->surface_to_mesh_mean, d->mesh_samples,
+                d->surface_samples);
+    }
+    if (q->nregions >= 2) {
+        size_t shown = q->nregions < VM_QUALITY_MAX_REGIONS ? q->nregions : VM_QUALITY_MAX_REGIONS;
+        fprintf(out, "regions      %zu\n", q->nregions);
+        for (size_t i = 0; i < shown; i++)
+            fprintf(out, "  region %-8ld %12zu %s\n", (long)q->regions[i].region,
+                    q->regions[i].cells, plural_kind(q->kind));
+        if (q->nregions > shown)
+            fprintf(out, "  %zu more regions %6zu %s\n", q->nregions - shown,
+                    q->regions_more_cells, plural_kind(q->kind));
+    }
     fprintf(out, "\n%-16s %12s %12s %12s %9s %19s %10s\n", "metric", "min", "mean", "max",
             "ideal", "acceptable", "outside");
     for (size_t k = 0; k < q->nmetrics; k++) {
@@ -558,6 +653,19 @@ vm_status vm_quality_write_text(FILE *out, const char *name, const vm_quality_su
             if (s->bins[b] && len == 0) len = 1;
             fprintf(out, "  %11.5g .. %-11.5g %c %10zu %.*s\n", a, z, inside ? ' ' : '!',
                     s->bins[b], len, "########################################");
+        }
+    }
+    if (e->edges) {
+        size_t most = 1;
+        for (int b = 0; b < VM_QUALITY_BINS; b++)
+            if (e->bins[b] > most) most = e->bins[b];
+        fprintf(out, "\nedge_length (each edge once, mesh units)\n");
+        double w = (e->hi - e->lo) / VM_QUALITY_BINS;
+        for (int b = 0; b < VM_QUALITY_BINS; b++) {
+            int len = (int)(40.0 * (double)e->bins[b] / (double)most + 0.5);
+            if (e->bins[b] && len == 0) len = 1;
+            fprintf(out, "  %11.5g .. %-11.5g   %10zu %.*s\n", e->lo + w * b, e->lo + w * (b + 1),
+                    e->bins[b], len, "########################################");
         }
     }
     fflush(out);
@@ -627,6 +735,42 @@ vm_status vm_quality_write_json(FILE *out, const char *name, const vm_quality_su
         fputs("]}", out);
     } else {
         fputs(", \"abaqus_failures\": null, \"abaqus\": null", out);
+    }
+    const vm_edge_stats *e = &q->edges;
+    fprintf(out, ", \"edges\": %zu, \"edge_length\": {\"min\": ", e->edges);
+    json_num(out, e->min);
+    fputs(", \"mean\": ", out);
+    json_num(out, e->mean);
+    fputs(", \"max\": ", out);
+    json_num(out, e->max);
+    fputs(", \"histogram\": {\"lo\": ", out);
+    json_num(out, e->lo);
+    fputs(", \"hi\": ", out);
+    json_num(out, e->hi);
+    fputs(", \"counts\": [", out);
+    for (int b = 0; b < VM_QUALITY_BINS; b++) fprintf(out, "%s%zu", b ? ", " : "", e->bins[b]);
+    fprintf(out, "]}}, \"regions\": %zu, \"cells_per_region\": [", q->nregions);
+    size_t shown = q->nregions < VM_QUALITY_MAX_REGIONS ? q->nregions : VM_QUALITY_MAX_REGIONS;
+    for (size_t i = 0; i < shown; i++)
+        fprintf(out, "%s{\"region\": %ld, \"cells\": %zu}", i ? ", " : "",
+                (long)q->regions[i].region, q->regions[i].cells);
+    fprintf(out, "], \"cells_in_regions_not_listed\": %zu", q->regions_more_cells);
+    if (q->has_distance) {
+        const vm_surface_distance *d = &q->distance;
+        fputs(", \"surface_distance\": {\"hausdorff\": ", out);
+        json_num(out, d->hausdorff);
+        fputs(", \"mesh_to_surface_max\": ", out);
+        json_num(out, d->mesh_to_surface_max);
+        fputs(", \"mesh_to_surface_mean\": ", out);
+        json_num(out, d->mesh_to_surface_mean);
+        fputs(", \"surface_to_mesh_max\": ", out);
+        json_num(out, d->surface_to_mesh_max);
+        fputs(", \"surface_to_mesh_mean\": ", out);
+        json_num(out, d->surface_to_mesh_mean);
+        fprintf(out, ", \"mesh_samples\": %zu, \"surface_samples\": %zu}", d->mesh_samples,
+                d->surface_samples);
+    } else {
+        fputs(", \"surface_distance\": null", out);
     }
     fprintf(out, ", \"histogram_bins\": %d, \"metrics\": {", VM_QUALITY_BINS);
     for (size_t k = 0; k < q->nmetrics; k++) {
@@ -773,7 +917,8 @@ vm_status vm_quality_write_svg(const char *path, const char *name, const vm_qual
     if (st) return st;
     FILE *out = o.fp;
     int cols = 2;
-    size_t rows = (q->nmetrics + 1) / 2;
+    size_t panels = q->nmetrics + (q->edges.edges ? 1 : 0);
+    size_t rows = (panels + 1) / 2;
     double width = cols * PANEL_W + 10.0, height = 50.0 + (double)rows * PANEL_H;
     fprintf(out, "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
                  "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" "
@@ -789,6 +934,24 @@ vm_status vm_quality_write_svg(const char *path, const char *name, const vm_qual
     for (size_t k = 0; k < q->nmetrics; k++)
         svg_panel(out, &q->metrics[k], 10.0 + (double)(k % 2) * PANEL_W,
                   50.0 + (double)(k / 2) * PANEL_H);
+    if (q->edges.edges) {
+        /* the edge lengths drawn as a metric without an ideal, and an empty acceptable
+         * range (nothing shaded) */
+        static const vm_metric_info edge_info = {
+            "edge_length", "edge length, each edge once", "mesh units", VM_TET4, NULL, NAN,
+            INFINITY, -INFINITY, 0.0, INFINITY, 0.0, 0.0};
+        vm_metric_stats es;
+        memset(&es, 0, sizeof es);
+        es.info = &edge_info;
+        es.min = q->edges.min;
+        es.mean = q->edges.mean;
+        es.max = q->edges.max;
+        es.lo = q->edges.lo;
+        es.hi = q->edges.hi;
+        memcpy(es.bins, q->edges.bins, sizeof es.bins);
+        size_t k = q->nmetrics;
+        svg_panel(out, &es, 10.0 + (double)(k % 2) * PANEL_W, 50.0 + (double)(k / 2) * PANEL_H);
+    }
     fputs("</svg>\n", out);
     return vm__out_commit(&o, err);
 }

@@ -90,6 +90,39 @@ static void row(FILE *fp, const char *key, const char *fmt, double v) {
     fprintf(fp, "</td></tr>\n");
 }
 
+/* The achieved distance to the isosurface, both ways, when it was measured. */
+static void put_distance(FILE *fp, const vm_quality_summary *q) {
+    if (!q->has_distance) return;
+    const vm_surface_distance *d = &q->distance;
+    fprintf(fp, "<h2>Distance to the isosurface</h2>\n<p>Two-sided distance between the mesh "
+                "boundary and the isosurface of the volume's trilinear field, in world units "
+                "(faces on the volume's border left out; docs/QUALITY.md).</p><table>\n"
+                "<tr><th></th><th>max</th><th>mean</th><th>samples</th></tr>\n");
+    fprintf(fp, "<tr><th>boundary &rarr; isosurface</th><td>%.6g</td><td>%.6g</td><td>%zu</td>"
+                "</tr>\n",
+            d->mesh_to_surface_max, d->mesh_to_surface_mean, d->mesh_samples);
+    fprintf(fp, "<tr><th>isosurface &rarr; boundary</th><td>%.6g</td><td>%.6g</td><td>%zu</td>"
+                "</tr>\n",
+            d->surface_to_mesh_max, d->surface_to_mesh_mean, d->surface_samples);
+    fprintf(fp, "<tr><th>Hausdorff</th><td>%.6g</td><td></td><td></td></tr>\n</table>\n",
+            d->hausdorff);
+}
+
+/* Cells per region, for a mesh with two or more. */
+static void put_regions(FILE *fp, const vm_quality_summary *q) {
+    if (q->nregions < 2) return;
+    size_t shown = q->nregions < VM_QUALITY_MAX_REGIONS ? q->nregions : VM_QUALITY_MAX_REGIONS;
+    fprintf(fp, "<h2>Regions</h2>\n<table><tr><th>region</th><th>%s</th></tr>\n",
+            q->kind == VM_TET4 ? "tets" : q->kind == VM_HEX8 ? "hexes" : "cells");
+    for (size_t i = 0; i < shown; i++)
+        fprintf(fp, "<tr><td>%ld</td><td>%zu</td></tr>\n", (long)q->regions[i].region,
+                q->regions[i].cells);
+    if (q->nregions > shown)
+        fprintf(fp, "<tr><td>%zu more</td><td>%zu</td></tr>\n", q->nregions - shown,
+                q->regions_more_cells);
+    fprintf(fp, "</table>\n");
+}
+
 vm_status vm_quality_write_html(const char *path, const vm_mesh *m, const char *name,
                                 const vm_quality_summary *q, vm_error *err) {
     vm_outfile out;
@@ -138,7 +171,13 @@ vm_status vm_quality_write_html(const char *path, const vm_mesh *m, const char *
                 q->abaqus_failures ? "bad" : "ok", q->abaqus_failures, q->abaqus_volume,
                 q->abaqus_small_angle, q->abaqus_large_angle);
     if (hexes) row(fp, "min scaled Jacobian", "%.4f", r->min_scaled_jacobian);
-    fprintf(fp, "</table>\n<h2>Metrics</h2><table><tr><th>metric</th><th>min</th><th>mean"
+    fprintf(fp, "<tr><th>edge length (each edge once)</th><td>%.6g .. %.6g, mean %.6g, %zu "
+                "edges</td></tr>\n",
+            q->edges.min, q->edges.max, q->edges.mean, q->edges.edges);
+    fprintf(fp, "</table>\n");
+    put_distance(fp, q);
+    put_regions(fp, q);
+    fprintf(fp, "<h2>Metrics</h2><table><tr><th>metric</th><th>min</th><th>mean"
                 "</th><th>max</th><th>outside the acceptable range</th></tr>\n");
     for (size_t i = 0; i < q->nmetrics; i++) {
         const vm_metric_stats *ms = &q->metrics[i];

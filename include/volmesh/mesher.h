@@ -23,6 +23,13 @@ typedef struct vm_mesh_options {
     int adaptive;           /* coarse cells in the interior where the octree allows */
     double error;           /* adaptive error tolerance (EDerror), in voxels */
     int max_level;          /* adaptive: largest cell is 2^max_level voxels */
+    /* Graded sizing in world units (mm for medical data; docs/SIZING.md). graded = 1 meshes
+     * by isosurface stuffing over an octree sized by these (tets only); 0 keeps the dual
+     * contouring mesher above. */
+    int graded;
+    double max_edge;        /* no edge longer than this; 0: no bound */
+    double min_edge;        /* smallest cell edge; 0: one voxel (the smallest spacing) */
+    double distance;        /* boundary within this of the isosurface; 0: half a voxel */
     /* A cropped volume (tets only; full_nz 0: v is the whole volume). v holds the planes
      * z_offset .. z_offset + v->dims[2] - 1 of a whole volume of full_nz planes, and v's
      * index-to-world mapping is the whole volume's (plane 0 at its origin). The mesh covers
@@ -48,6 +55,9 @@ typedef struct vm_mesh_stats {
                                   (0 on every volume tested; see vm_mesh_check) */
     size_t repaired_points;    /* hexes: outside grid points taken in (see docs) */
     size_t inverted_cells;     /* hexes left inverted (vm_mesh_improve_hexes untangles them) */
+    size_t octree_leaves;      /* graded: leaves of the sizing octree */
+    size_t warped_vertices;    /* graded: lattice vertices moved onto the surface */
+    size_t refine_rounds;      /* graded: rounds of refining where the distance was over */
     double seconds;
 } vm_mesh_stats;
 

@@ -27,11 +27,12 @@ out=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o h.vtu --elements hex --json) || bad
 [ "$(echo "$out" | json "['inverted']")" = 0 ] && [ "$(echo "$out" | json "['boundary_euler']")" = 0 ] && ok || bad "hex: $out"
 
 "$VM_CLI" mesh phantom.nrrd --iso 0 -o q.vtu --quality-fields --quiet >/dev/null || bad "quality fields"
-# --verbose times every stage of a run with a report, in order, one line each
+# --verbose times every stage of a run with a report (which measures the distance to the
+# isosurface), in order, one line each
 err=$("$VM_CLI" mesh phantom.nrrd --iso 0 -o v.vtu --report v.html --verbose 2>&1 >/dev/null) ||
     bad "verbose: $err"
 stages=$(printf '%s\n' "$err" | sed -n 's/^volmesh: \([a-z]*\) .* s$/\1/p' | tr '\n' ' ')
-[ "$stages" = "read mesh improve write check report " ] || bad "verbose stages: '$stages'"
+[ "$stages" = "read mesh improve write check distance report " ] || bad "verbose stages: '$stages'"
 /usr/bin/python3 - <<'PY' && ok || bad "quality fields missing in q.vtu"
 import vtk, sys
 r = vtk.vtkXMLUnstructuredGridReader(); r.SetFileName("q.vtu"); r.Update()

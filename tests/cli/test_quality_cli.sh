@@ -101,7 +101,7 @@ assert len(rows) == r["elements"]
 assert abs(min(float(x["min_dihedral"]) for x in rows) - r["min_dihedral"]) < 1e-12
 assert abs(sum(float(x["volume"]) for x in rows) - r["volume"]) < 1e-9 * abs(r["volume"])
 svg = xml.dom.minidom.parse(sys.argv[3])
-assert len(svg.getElementsByTagName("g")) == len(m), "one panel per metric"
+assert len(svg.getElementsByTagName("g")) == len(m) + 1, "one panel per metric, one for edges"
 PYEOF
 
 # --- requirements ----------------------------------------------------------------------------

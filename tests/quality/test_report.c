@@ -167,6 +167,83 @@ static void hexReportHasNoDihedralsOrAbaqus(void) {
     vm_mesh_free(&m);
 }
 
+static void edgeLengthsCountEachEdgeOnce(void) {
+    /* The Kuhn cube: 12 cube edges (1), 6 face diagonals (sqrt 2), the body diagonal (sqrt 3),
+     * shared among six tets that list 36 edges. */
+    vm_mesh m;
+    kuhn_cube(&m);
+    vm_edge_stats e;
+    vm_error err;
+    CHECK_OK(vm_mesh_edge_lengths(&m, &e, &err), &err);
+    CHECK(e.edges == 19);
+    CHECK_NEAR(e.min, 1.0, 1e-15);
+    CHECK_NEAR(e.max, sqrt(3.0), 1e-15);
+    CHECK_NEAR(e.mean, (12.0 + 6.0 * sqrt(2.0) + sqrt(3.0)) / 19.0, 1e-15);
+    CHECK(e.lo == e.min && e.hi == e.max);
+    size_t total = 0;
+    for (int b = 0; b < VM_QUALITY_BINS; b++) total += e.bins[b];
+    CHECK(total == 19 && e.bins[0] == 12 && e.bins[VM_QUALITY_BINS - 1] == 1);
+    /* sqrt 2 is at (sqrt2 - 1) / (sqrt3 - 1) = 0.566 of the range: bin 11 */
+    CHECK(e.bins[11] == 6);
+    /* the report carries them, with the lookup keys */
+    vm_quality_summary q;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+    CHECK(memcmp(&q.edges, &e, sizeof e) == 0);
+    double x;
+    CHECK(vm_quality_lookup(&q, "edges", &x) == VM_OK && x == 19);
+    CHECK(vm_quality_lookup(&q, "edge_length.max", &x) == VM_OK && x == e.max);
+    CHECK(vm_quality_lookup(&q, "hausdorff", &x) == VM_ERR_ARG);
+    vm_mesh_free(&m);
+    /* one hex: its 12 edges; a quad: 4; a repeated node makes no edge */
+    vm_mesh_init(&m, VM_HEX8);
+    for (int i = 0; i < 8; i++) vm_mesh_add_point(&m, cube_pts[i], NULL);
+    const vm_index h[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    CHECK_OK(vm_mesh_add_cell(&m, h, 1, NULL), NULL);
+    CHECK_OK(vm_mesh_edge_lengths(&m, &e, &err), &err);
+    CHECK(e.edges == 12 && e.min == 1 && e.max == 1 && e.hi == 2 && e.bins[0] == 12);
+    vm_mesh_free(&m);
+    vm_mesh_init(&m, VM_TRI3);
+    for (int i = 0; i < 3; i++) vm_mesh_add_point(&m, cube_pts[i], NULL);
+    const vm_index t[3] = {0, 1, 1};
+    CHECK_OK(vm_mesh_add_cell(&m, t, 1, NULL), NULL);
+    CHECK_OK(vm_mesh_edge_lengths(&m, &e, &err), &err);
+    CHECK(e.edges == 1 && e.min == 1);
+    vm_mesh_free(&m);
+}
+
+static void cellsPerRegionAreCountedAndListed(void) {
+    vm_mesh m;
+    kuhn_cube(&m); /* six tets of region 1 */
+    add_sliver(&m); /* one of region 2 */
+    m.region[3] = -5;
+    vm_quality_summary q;
+    vm_error err;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+    CHECK(q.nregions == 3 && q.regions_more_cells == 0);
+    CHECK(q.regions[0].region == -5 && q.regions[0].cells == 1);
+    CHECK(q.regions[1].region == 1 && q.regions[1].cells == 5);
+    CHECK(q.regions[2].region == 2 && q.regions[2].cells == 1);
+    /* regions far apart take the sorting path, with the same answer */
+    m.region[3] = -2000000000;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+    CHECK(q.nregions == 3 && q.regions[0].region == -2000000000 && q.regions[1].cells == 5);
+    FILE *fp = fopen(vm_test_tmp("report_regions.txt"), "w");
+    CHECK(fp && vm_quality_write_text(fp, "r", &q, 0) == 0);
+    if (fp) fclose(fp);
+    char *s = slurp(vm_test_tmp("report_regions.txt"));
+    CHECK(s && strstr(s, "regions      3") && strstr(s, "  region 2 "));
+    free(s);
+    fp = fopen(vm_test_tmp("report_regions.json"), "w");
+    CHECK(fp && vm_quality_write_json(fp, "r", &q) == 0);
+    if (fp) fclose(fp);
+    s = slurp(vm_test_tmp("report_regions.json"));
+    CHECK(s && strstr(s, "\"regions\": 3, \"cells_per_region\": [{\"region\": -2000000000, "
+                         "\"cells\": 1}, {\"region\": 1, \"cells\": 5}"));
+    CHECK(s && strstr(s, "\"surface_distance\": null"));
+    free(s);
+    vm_mesh_free(&m);
+}
+
 static void emptyMeshReportsZeros(void) {
     vm_mesh m;
     vm_mesh_init(&m, VM_TET4);
@@ -236,7 +313,9 @@ static void writersProduceTheDocumentedKeysAndFiles(void) {
     CHECK_OK(vm_quality_write_svg(svg, "m<&>.vtu", &q, &err), &err);
     s = slurp(svg);
     CHECK(s && strncmp(s, "<?xml", 5) == 0 && strstr(s, "</svg>"));
-    CHECK(s && count_of(s, "<g transform") == q.nmetrics);
+    /* one panel per metric, and one for the edge lengths */
+    CHECK(s && count_of(s, "<g transform") == q.nmetrics + 1);
+    CHECK(s && strstr(s, "edge_length"));
     CHECK(s && count_of(s, "acceptable range</title>") >= q.nmetrics - 1);
     CHECK(s && strstr(s, "m&lt;&amp;&gt;.vtu") && !strstr(s, "m<&>"));
     free(s);
@@ -509,7 +588,8 @@ static void reportReusesAGivenCheckAndShowsProgressForEachStage(void) {
 }
 
 TEST_MAIN(T(reportOfKuhnCubeHasExactStatistics), T(sliversAndAbaqusFailuresAreCounted),
-          T(hexReportHasNoDihedralsOrAbaqus), T(emptyMeshReportsZeros),
+          T(hexReportHasNoDihedralsOrAbaqus), T(edgeLengthsCountEachEdgeOnce),
+          T(cellsPerRegionAreCountedAndListed), T(emptyMeshReportsZeros),
           T(badNodeIndexIsAnError), T(writersProduceTheDocumentedKeysAndFiles),
           T(qualityFieldsHoldEachCellsMetric), T(qualityFieldsRespectTheMemoryLimit),
           T(surfaceReportUsesTriangleMetrics),

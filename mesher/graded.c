@@ -1,0 +1,107 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+/* mesher/graded.c — the graded mesher: an octree sized in world units (distance bound, edge
+ * bounds), balanced 2:1, its body-centred lattice, and isosurface stuffing (Labelle and
+ * Shewchuk 2007) on the trilinear field; see docs/SIZING.md. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../core/core.h"
+#include "graded_internal.h"
+#include "mesher_internal.h"
+#include "../quality/quality_internal.h"
+
+
+
+/* Rounds of measuring and refining after the first mesh. */
+#define GR_REFINE_ROUNDS 3
+
+/* Splits the leaves (above the base level) that hold a sample farther than the bound from
+ * the other surface: boundary points of the mesh far from the isosurface, and isosurface
+ * points far from the boundary. [out] *split: leaves split. */
+static vm_status refine_far(gr_tree *t, const gr_field *f, const vm_mesh_options *o,
+                            const vm_mesh *mesh, const gr_sizing *sz, size_t *split,
+                            vm_error *err) {
+    double inv[3][3], det, *pts = NULL;
+    size_t np = 0;
+    vm_surface_distance d;
+    vm_status s = vm__frame_inverse(f->v, "mesh", inv, &det, err);
+    if (!s)
+        s = vm__surface_distance_points(mesh, f->v, o->lo, o->has_lo, o->hi, o->has_hi,
+                                        sz->distance, &d, &pts, &np, err);
+    if (s) return s;
+    for (size_t i = 0; i < np && !s; i++) {
+        double w[3], ijk[3];
+        for (int r = 0; r < 3; r++) w[r] = pts[3 * i + (size_t)r] - f->v->origin[r];
+        for (int r = 0; r < 3; r++) ijk[r] = inv[r][0] * w[0] + inv[r][1] * w[1] + inv[r][2] * w[2];
+        int64_t p[3];
+        for (int r = 0; r < 3; r++)
+            p[r] = (int64_t)floor((ijk[r] * f->sp[r] - t->u0[r]) / (0.5 * t->h0[r]));
+        /* Down to base cells around the sample: a chord too far from the surface at one
+         * size is seldom close enough at the next, and each round costs a whole mesh. */
+        for (int64_t leaf = vm__gr_tree_find(t, p, 0);
+             leaf > 0 && t->node[leaf].child < 0 && t->node[leaf].level > 0 && !s;
+             leaf = vm__gr_tree_find(t, p, 0)) {
+            s = vm__gr_tree_split(t, (size_t)leaf, err);
+            ++*split;
+        }
+    }
+    free(pts);
+    return s;
+}
+
+vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh *mesh,
+                          vm_mesh_stats *st, vm_error *err) {
+    double voxel = fmin(v->spacing[0], fmin(v->spacing[1], v->spacing[2]));
+    double vmax = fmax(v->spacing[0], fmax(v->spacing[1], v->spacing[2]));
+    gr_sizing sz;
+    sz.max_edge = o->max_edge > 0 ? o->max_edge : INFINITY;
+    /* Half a voxel; for anisotropic voxels, half the edge of the cube of a voxel's volume. */
+    double mean = cbrt(v->spacing[0] * v->spacing[1] * v->spacing[2]);
+    sz.distance = o->distance > 0 ? o->distance : 0.5 * mean;
+    /* Base cells: voxels, unless --min-edge asks otherwise or the voxels are over 3 times
+     * longer one way than another; then each voxel edge is cut into (or, above a voxel,
+     * joined from) a whole number of pieces near the asked length, so that base cells are
+     * near cubes and voxel points stay lattice points. */
+    double want = o->min_edge > 0 ? o->min_edge : vmax > 3 * voxel ? voxel : 0;
+    if (want > sz.max_edge) want = sz.max_edge;
+    for (int d = 0; d < 3; d++) {
+        double sp = v->spacing[d];
+        if (want <= 0)
+            sz.h0[d] = sp;
+        else if (want < sp)
+            sz.h0[d] = sp / fmax(1, floor(sp / want + 0.5));
+        else
+            sz.h0[d] = sp * fmax(1, floor(want / sp + 0.5));
+    }
+    gr_field f;
+    gr_tree t;
+    gr_lattice L;
+    memset(&t, 0, sizeof t);
+    memset(&L, 0, sizeof L);
+    vm_status s = vm__gr_field_init(&f, v, o, err);
+    if (s) return s;
+    if (!(s = vm__gr_tree_build(&t, &f, &sz, err))) s = vm__gr_tree_balance(&t, err);
+    gr_stuff_stats ss;
+    memset(&ss, 0, sizeof ss);
+    /* Mesh, measure the distance both ways, refine the leaves where it is over the bound,
+     * until it holds (or only base cells are left there). */
+    for (int round = 0; !s; round++) {
+        vm_mesh_free(mesh);
+        vm_mesh_init(mesh, VM_TET4);
+        if (!(s = vm__gr_lattice_build(&L, &t, &f, err))) s = vm__gr_stuff(&L, &t, &f, mesh, &ss, err);
+        vm__gr_lattice_free(&L);
+        if (s || round == GR_REFINE_ROUNDS) break;
+        size_t split = 0;
+        if ((s = refine_far(&t, &f, o, mesh, &sz, &split, err)) || !split) break;
+        st->refine_rounds = (size_t)round + 1;
+        s = vm__gr_tree_balance(&t, err);
+    }
+    st->octree_leaves = t.leaves;
+    st->warped_vertices = ss.warped;
+    st->surface_vertices = ss.cut_vertices + ss.warped;
+    vm__gr_tree_free(&t);
+    vm__gr_field_free(&f);
+    if (!s && mesh->ncells == 0)
+        s = vm_error_set(err, VM_ERR_EMPTY, "mesh: the material holds no element");
+    return s;
+}

@@ -1,0 +1,112 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+/* mesher/graded_field.c — the material as a signed trilinear field in world lengths, with the
+ * per-block minima and maxima that let the octree skip cells the surface does not cross. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../core/core.h"
+#include "graded_internal.h"
+
+static double trilinear(const gr_field *f, double x, double y, double z) {
+    const int64_t *n = f->n;
+    int64_t i = (int64_t)floor(x), j = (int64_t)floor(y), k = (int64_t)floor(z);
+    if (i > n[0] - 2) i = n[0] - 2;
+    if (j > n[1] - 2) j = n[1] - 2;
+    if (k > n[2] - 2) k = n[2] - 2;
+    if (i < 0) i = 0;
+    if (j < 0) j = 0;
+    if (k < 0) k = 0;
+    double fx = x - (double)i, fy = y - (double)j, fz = z - (double)k;
+    const float *d = f->v->data + i + n[0] * (j + n[1] * k);
+    int64_t sy = n[0], sz = n[0] * n[1];
+    double c00 = d[0] + fx * (d[1] - d[0]);
+    double c10 = d[sy] + fx * (d[sy + 1] - d[sy]);
+    double c01 = d[sz] + fx * (d[sz + 1] - d[sz]);
+    double c11 = d[sz + sy] + fx * (d[sz + sy + 1] - d[sz + sy]);
+    double c0 = c00 + fy * (c10 - c00), c1 = c01 + fy * (c11 - c01);
+    return c0 + fz * (c1 - c0);
+}
+
+double vm__gr_phi(const gr_field *f, const double u[3]) {
+    double x[3];
+    for (int d = 0; d < 3; d++) {
+        x[d] = u[d] / f->sp[d];
+        /* A hair of slack keeps points computed on the border plane inside. */
+        double tol = 1e-9 * (double)f->n[d];
+        if (x[d] < -tol || x[d] > (double)(f->n[d] - 1) + tol) return f->out;
+        if (x[d] < 0) x[d] = 0;
+        if (x[d] > (double)(f->n[d] - 1)) x[d] = (double)(f->n[d] - 1);
+    }
+    return vm__gr_phi_value(f, trilinear(f, x[0], x[1], x[2]));
+}
+
+double vm__gr_phi_clamped(const gr_field *f, const double u[3]) {
+    double x[3];
+    for (int d = 0; d < 3; d++) {
+        x[d] = u[d] / f->sp[d];
+        if (x[d] < 0) x[d] = 0;
+        if (x[d] > (double)(f->n[d] - 1)) x[d] = (double)(f->n[d] - 1);
+    }
+    return vm__gr_phi_value(f, trilinear(f, x[0], x[1], x[2]));
+}
+
+vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_options *o,
+                            vm_error *err) {
+    memset(f, 0, sizeof *f);
+    f->v = v;
+    for (int d = 0; d < 3; d++) {
+        f->n[d] = v->dims[d];
+        f->sp[d] = v->spacing[d];
+        /* Block b holds voxels b*B .. b*B + B (the last one shared), so that every trilinear
+         * cell lies in one block. */
+        f->nb[d] = (f->n[d] - 1 + GR_BLOCK - 1) / GR_BLOCK;
+        if (f->nb[d] < 1) f->nb[d] = 1;
+    }
+    f->lo = o->lo;
+    f->hi = o->hi;
+    f->has_lo = o->has_lo;
+    f->has_hi = o->has_hi;
+    size_t nb = (size_t)(f->nb[0] * f->nb[1] * f->nb[2]);
+    f->bmin = malloc(nb * sizeof *f->bmin);
+    f->bmax = malloc(nb * sizeof *f->bmax);
+    if (!f->bmin || !f->bmax) {
+        vm__gr_field_free(f);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the field's blocks");
+    }
+    double vmin = INFINITY, vmax = -INFINITY;
+    for (int64_t bz = 0; bz < f->nb[2]; bz++)
+        for (int64_t by = 0; by < f->nb[1]; by++)
+            for (int64_t bx = 0; bx < f->nb[0]; bx++) {
+                float mn = INFINITY, mx = -INFINITY;
+                int64_t b[3] = {bx, by, bz}, lo[3], hi[3];
+                for (int d = 0; d < 3; d++) {
+                    lo[d] = b[d] * GR_BLOCK;
+                    hi[d] = lo[d] + GR_BLOCK;
+                    if (hi[d] > f->n[d] - 1) hi[d] = f->n[d] - 1;
+                }
+                for (int64_t k = lo[2]; k <= hi[2]; k++)
+                    for (int64_t j = lo[1]; j <= hi[1]; j++) {
+                        const float *row = v->data + f->n[0] * (j + f->n[1] * k);
+                        for (int64_t i = lo[0]; i <= hi[0]; i++) {
+                            if (row[i] < mn) mn = row[i];
+                            if (row[i] > mx) mx = row[i];
+                        }
+                    }
+                size_t at = (size_t)(bx + f->nb[0] * (by + f->nb[1] * bz));
+                f->bmin[at] = mn;
+                f->bmax[at] = mx;
+                if (mn < vmin) vmin = mn;
+                if (mx > vmax) vmax = mx;
+            }
+    /* Outside the box: as far below the bound as the data reaches, so cuts next to the
+     * border lie on the border plane. */
+    double span = fabs(vm__gr_phi_value(f, vmin)) + fabs(vm__gr_phi_value(f, vmax));
+    f->out = -(span > 0 ? span : 1.0);
+    return VM_OK;
+}
+
+void vm__gr_field_free(gr_field *f) {
+    free(f->bmin);
+    free(f->bmax);
+    f->bmin = f->bmax = NULL;
+}

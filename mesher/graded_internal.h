@@ -1,0 +1,129 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+/* mesher/graded_internal.h — the graded octree mesher's stages (private): the field, the
+ * octree sized in world units, the body-centred lattice over its leaves, and the stuffing. */
+#ifndef VM_GRADED_INTERNAL_H
+#define VM_GRADED_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "volmesh/mesher.h"
+
+/* The material as a signed field phi (>= 0 inside) over the volume's scaled index frame:
+ * u = ijk * spacing (world lengths, before the direction and the origin apply). Outside the
+ * box [0, (n-1) spacing] phi is `out` (negative), so material touching the border is closed
+ * on the border plane. */
+typedef struct gr_field {
+    const vm_volume *v;
+    int64_t n[3];
+    double sp[3];
+    double lo, hi;
+    int has_lo, has_hi;
+    double out;
+    /* Min and max of the values per block of GR_BLOCK^3 voxels (nb blocks per axis). */
+    int64_t nb[3];
+    float *bmin, *bmax;
+} gr_field;
+
+enum { GR_BLOCK = 4 };
+
+/* phi of a sample value. */
+static inline double vm__gr_phi_value(const gr_field *f, double x) {
+    if (f->has_lo && f->has_hi) {
+        double a = x - f->lo, b = f->hi - x;
+        return a < b ? a : b;
+    }
+    return f->has_lo ? x - f->lo : f->hi - x;
+}
+/* phi at a voxel point (in range). */
+static inline double vm__gr_phi_point(const gr_field *f, int64_t i, int64_t j, int64_t k) {
+    return vm__gr_phi_value(f, f->v->data[i + f->n[0] * (j + f->n[1] * k)]);
+}
+/* phi at u (scaled index frame): trilinear inside the box, `out` outside. */
+double vm__gr_phi(const gr_field *f, const double u[3]);
+/* The same with u clamped into the box (the field extended outward, for estimates). */
+double vm__gr_phi_clamped(const gr_field *f, const double u[3]);
+
+vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_options *o,
+                            vm_error *err);
+void vm__gr_field_free(gr_field *f);
+
+/* Octree nodes: a cell of level l has edge 2^l base cells, i.e. 2^(l+1) lattice units (a
+ * lattice unit is half the base edge h0 along each axis, so every cell centre is a lattice point). Anchor:
+ * its lowest corner in lattice units, >= 0; lattice point x sits at u = u0 + x * h0 / 2 (per axis). Base
+ * cells are voxels, or near-cubic parts or multiples of voxels (docs/SIZING.md). */
+typedef struct gr_node {
+    int32_t child;   /* first of 8 children (x fastest), or -1 for a leaf */
+    int32_t a[3];
+    int32_t level;
+} gr_node;
+
+typedef struct gr_tree {
+    gr_node *node;
+    size_t n, cap;
+    int root_level;
+    double h0[3];    /* base cell edges (world) */
+    double u0[3];    /* position of lattice point 0 in the scaled index frame */
+    int max_level;   /* leaves are at most this level (the --max-edge bound) */
+    double distance; /* the distance bound (world) */
+    size_t leaves;
+} gr_tree;
+
+/* Sizing of the octree (world units). */
+typedef struct gr_sizing {
+    double h0[3], max_edge, distance;
+} gr_sizing;
+
+vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *s, vm_error *err);
+/* Splits leaf `leaf` into 8 children. */
+vm_status vm__gr_tree_split(gr_tree *t, size_t leaf, vm_error *err);
+/* 2:1 balance over faces, edges and corners (neighbouring leaves differ by one level at
+ * most), by splitting the coarser side until it holds. */
+vm_status vm__gr_tree_balance(gr_tree *t, vm_error *err);
+/* The node that holds lattice point p, descending no further than `level` (a leaf, or an
+ * inner node of that level when the region there is finer); -1 outside the root. */
+int64_t vm__gr_tree_find(const gr_tree *t, const int64_t p[3], int level);
+void vm__gr_tree_free(gr_tree *t);
+
+static inline void vm__gr_lattice_pos(const gr_tree *t, const int64_t p[3], double u[3]) {
+    for (int d = 0; d < 3; d++) u[d] = t->u0[d] + (double)p[d] * 0.5 * t->h0[d];
+}
+
+/* The lattice: vertices (leaf corners and centres, and the face centres some faces need),
+ * tets over them, positive in lattice coordinates. */
+typedef struct gr_lattice {
+    int64_t *key;      /* packed lattice coordinates per vertex */
+    double *phi;       /* value per vertex */
+    size_t nv, vcap;
+    int64_t *slot;     /* open-addressing table of vertex ids, size tcap (power of two) */
+    size_t tcap;
+    int32_t (*tet)[4];
+    size_t nt, tcap4;
+} gr_lattice;
+
+static inline int64_t vm__gr_key(const int64_t p[3]) {
+    return p[0] | (p[1] << 21) | (p[2] << 42);
+}
+static inline void vm__gr_unkey(int64_t k, int64_t p[3]) {
+    p[0] = k & 0x1fffff;
+    p[1] = (k >> 21) & 0x1fffff;
+    p[2] = (k >> 42) & 0x1fffff;
+}
+
+vm_status vm__gr_lattice_build(gr_lattice *L, const gr_tree *t, const gr_field *f,
+                               vm_error *err);
+/* Vertex id of lattice point p, or -1. */
+int64_t vm__gr_lattice_find(const gr_lattice *L, const int64_t p[3]);
+void vm__gr_lattice_free(gr_lattice *L);
+
+/* Stuffing counters. */
+typedef struct gr_stuff_stats {
+    size_t warped, cut_vertices, unwarped, rounds;
+} gr_stuff_stats;
+
+/* Cuts the lattice tets by the surface (warping lattice vertices onto it where a cut comes
+ * close, when that changes no topology) and writes the inside pieces to `mesh`, in world
+ * coordinates. */
+vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f, vm_mesh *mesh,
+                       gr_stuff_stats *st, vm_error *err);
+
+#endif
