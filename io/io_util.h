@@ -83,6 +83,8 @@ typedef struct vm__samples {
     int swap;
     int mapped;              /* p lies in a vm__map's mapping (maplen != 0, not a buffer read
                                 from a pipe): pages are given back as they are read */
+    size_t count;            /* ZLIB: samples in the stream (0: unknown); a read that reaches
+                                the last one checks the stream's trailer (CRC-32, ISIZE) */
 } vm__samples;
 
 /* Checks dims for the request: a whole read as vm__check_dims(dims, tsize + 4) (within

@@ -566,7 +566,7 @@ static vm_status read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, v
     }
     size_t avail = (size_t)(end - p);
     vm__samples src = {path, p, avail, VM__ENC_RAW, 0, h.type, 0,
-                       (h.data_file[0] ? dm.maplen : hm.maplen) != 0};
+                       (h.data_file[0] ? dm.maplen : hm.maplen) != 0, 0};
     src.swap = tsize > 1 && h.big_endian == vm__host_little_endian();
     if (h.encoding == ENC_RAW || h.encoding == ENC_ASCII) {
         if (h.byte_skip == -1) {
@@ -615,6 +615,7 @@ static vm_status read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, v
         }
         src.enc = VM__ENC_ZLIB;
         src.skip = (size_t)h.byte_skip;
+        src.count = count;
     }
 
     vm__volume_set_header(v, h.dims, h.type, h.spacing, h.origin,

@@ -277,8 +277,33 @@ static vm_status decode_zlib(const vm__samples *s, vm__resume *cur, size_t first
         out += m;
         if (got < c) break;
     }
+    /* A read that reaches the last sample inflates on to the stream's end, so that zlib
+     * checks its trailer (gzip CRC-32 and ISIZE, zlib Adler-32; RFC 1950, 1952): a payload
+     * that decodes to other samples is refused, not read as data. Bytes after the samples
+     * (a NIfTI extension, padding) are inflated and dropped. */
+    int checked = 0;
+    if (done >= total && s->count && first + n == s->count) {
+        while (r == Z_OK || r == Z_BUF_ERROR) {
+            r = inflate_into(s, zs, &in_done, stage, STAGE, &got);
+            if (r == Z_BUF_ERROR) break;
+        }
+        if (r != Z_STREAM_END) {
+            const char *why = zs->msg ? zs->msg : "zlib error"; /* a static string */
+            free(stage);
+            if (cur)
+                vm__resume_end(cur);
+            else
+                inflateEnd(zs);
+            if (r == Z_BUF_ERROR)
+                return vm_error_set(err, VM_ERR_FORMAT, "%s: compressed data is truncated "
+                                    "(its checksum is missing)", s->path);
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: corrupt compressed data (%s)",
+                                s->path, why);
+        }
+        checked = 1;
+    }
     free(stage);
-    if (cur && done >= total) { /* keep the stream for the next slab */
+    if (cur && done >= total && !checked) { /* keep the stream for the next slab */
         cur->live = 1;
         cur->enc = s->enc;
         cur->avail = s->avail;

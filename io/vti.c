@@ -551,7 +551,7 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
     if (span_is(a->format, "ascii")) {
         if (f->rq->all) return read_ascii(f, a->content, n, v->data);
         vm__samples src = {path, (const unsigned char *)a->content.p, a->content.n,
-                           VM__ENC_ASCII, 0, t, 0, f->mapped};
+                           VM__ENC_ASCII, 0, t, 0, f->mapped, 0};
         return vm__samples_decode(&src, f->rq, first, ns, v->data, f->err);
     }
 
@@ -604,7 +604,8 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
             if (blen - hs < n * esize)
                 return vm_error_set(f->err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of "
                                     "%zu bytes)", path, blen - hs, n * esize);
-            vm__samples src = {path, bytes + hs, blen - hs, VM__ENC_RAW, 0, t, swap, f->mapped};
+            vm__samples src = {path, bytes + hs, blen - hs, VM__ENC_RAW, 0, t, swap, f->mapped,
+                               0};
             return vm__samples_decode(&src, f->rq, first, ns, v->data, f->err);
         }
     } else {

@@ -224,14 +224,14 @@ static vm_status read_samples(reader *r, vm_scalar_type t, int color, size_t tot
     if (r->binary) {
         size_t size = vm_scalar_type_size(t);
         vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_RAW, 0, t,
-                           vm__host_little_endian(), r->mapped};
+                           vm__host_little_endian(), r->mapped, 0};
         vm_status st = vm__samples_decode(&src, r->rq, first, n, v->data, r->err);
         r->pos += total * size;
         return st;
     }
     if (!r->rq->all) {
         vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_ASCII, 0, t, 0,
-                           r->mapped};
+                           r->mapped, 0};
         vm_status st = vm__samples_decode(&src, r->rq, first, n, v->data, r->err);
         if (!st && color)
             for (size_t i = 0; i < n; i++) v->data[i] = color_value(v->data[i]);
