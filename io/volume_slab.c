@@ -162,8 +162,9 @@ static int resume_here(vm__resume *c, const vm__samples *s, size_t from) {
 /* Allocates the slab's floats and decodes them, unless only the header is asked for. */
 vm_status vm__slab_read(const char *path, const vm__slab *rq, const vm__samples *src,
                         size_t first, size_t n, vm_volume *v, vm_error *err) {
-    if (rq->header_only) return VM_OK;
-    vm_status st = vm__slab_alloc(path, rq, n, v, err);
+    vm_status st = vm__check_geometry(v, path, err);
+    if (st || rq->header_only) return st;
+    st = vm__slab_alloc(path, rq, n, v, err);
     if (!st) st = vm__samples_decode(src, rq, first, n, v->data, err);
     return st;
 }

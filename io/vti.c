@@ -680,6 +680,7 @@ static vm_status parse(vti_file *f, vm_volume *v) {
         for (int r = 0; r < 3; r++) v->direction[r][c] = sign * f->direction[r][c];
     }
     strcpy(v->format, "vti");
+    if ((st = vm__check_geometry(v, path, f->err))) return st;
     vm__slab_finish(v, f->rq);
     return VM_OK;
 }

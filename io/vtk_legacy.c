@@ -287,7 +287,7 @@ static vm_status take_scalars(reader *r, vm_volume *v, const int64_t dims[3],
                                 "%s: data is truncated (got %zu of %zu bytes)", r->path,
                                 r->len - r->pos, bytes);
     }
-    if (r->rq->header_only) return VM_OK;
+    if ((st = vm__check_geometry(v, r->path, r->err)) || r->rq->header_only) return st;
     if ((st = vm__slab_alloc(r->path, r->rq, ns, v, r->err))) return st;
     st = read_samples(r, t, color, n, first, ns, v);
     if (st) {
