@@ -156,12 +156,15 @@ vm_status vm__read_vti(const char *path, const vm__slab *rq, vm_volume *v, vm_er
 vm_status vm__read_raw(const char *path, const vm_raw_options *opt, const vm__slab *rq,
                        vm_volume *v, vm_error *err);
 
-/* Atomic output: opens PATH.tmp-PID for writing; commit renames it over path, abort
- * removes it. */
+/* Atomic output (io/out_file.c): opens PATH.tmp-PID for writing; commit renames it over
+ * path (or, for an output vm_output_hold declared, leaves it for vm_output_commit), abort
+ * removes it. The temporary name is registered while it exists, for vm_output_discard and
+ * the signal handler. */
 typedef struct vm_outfile {
     FILE *fp;
     char final_path[4096];
     char tmp_path[4200];
+    int slot;        /* its place in the registry of temporary files; -1: none */
     vm__meter meter; /* stage "write"; silent unless vm__out_meter started it */
 } vm_outfile;
 vm_status vm__out_open(vm_outfile *o, const char *path, vm_error *err);
