@@ -168,6 +168,11 @@ typedef struct vm_outfile {
     vm__meter meter; /* stage "write"; silent unless vm__out_meter started it */
 } vm_outfile;
 vm_status vm__out_open(vm_outfile *o, const char *path, vm_error *err);
+
+/* A temporary name beside path: "PATH.TAG-PID", or, when that name would pass NAME_MAX,
+ * "DIR/.vm-HASH.TAG-PID" (HASH: 16 hex digits of path's file name). [out] out of size cap;
+ * returns 0 when it does not fit. */
+int vm__temp_path(const char *path, const char *tag, char *out, size_t cap);
 vm_status vm__out_commit(vm_outfile *o, vm_error *err); /* checks write errors, renames */
 void vm__out_abort(vm_outfile *o);
 

@@ -4,6 +4,8 @@
  * run are renamed together (held) and a signal can remove them (POSIX rename, unlink). */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
+#include <limits.h>
+#include <signal.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -60,13 +62,36 @@ static int is_held(const char *path) {
     return 0;
 }
 
+#ifndef NAME_MAX
+#define NAME_MAX 255 /* POSIX's least is 14; Linux, macOS and the BSDs have 255 */
+#endif
+
+int vm__temp_path(const char *path, const char *tag, char *out, size_t cap) {
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    size_t dir_len = (size_t)(base - path);
+    char suffix[48];
+    snprintf(suffix, sizeof suffix, ".%s-%ld", tag, (long)getpid());
+    int n;
+    if (strlen(base) + strlen(suffix) <= NAME_MAX) {
+        n = snprintf(out, cap, "%s%s", path, suffix);
+    } else {
+        /* too long a name with the suffix: a hidden name from a hash of it (FNV-1a 64) */
+        uint64_t h = 14695981039346656037ull;
+        for (const char *c = base; *c; c++) h = (h ^ (unsigned char)*c) * 1099511628211ull;
+        n = snprintf(out, cap, "%.*s.vm-%016llx%s", (int)dir_len, path, (unsigned long long)h,
+                     suffix);
+    }
+    return n > 0 && (size_t)n < cap;
+}
+
 vm_status vm__out_open(vm_outfile *o, const char *path, vm_error *err) {
     memset(o, 0, sizeof *o);
     o->slot = -1;
-    if (strlen(path) >= sizeof o->final_path)
+    if (strlen(path) >= sizeof o->final_path ||
+        !vm__temp_path(path, "tmp", o->tmp_path, sizeof o->tmp_path))
         return vm_error_set(err, VM_ERR_ARG, "%s: path too long", path);
     strcpy(o->final_path, path);
-    snprintf(o->tmp_path, sizeof o->tmp_path, "%s.tmp-%ld", path, (long)getpid());
     o->slot = slot_claim(o->tmp_path, o->final_path);
     if (o->slot < 0 && is_held(path))
         return vm_error_set(err, VM_ERR_IO, "%s: too many output files at once", path);
@@ -197,3 +222,29 @@ void vm_output_discard(void) {
     release_holds();
 }
 
+/* ---- signals ---------------------------------------------------------------------------- */
+
+/* Removes every temporary output file and ends the process with 128 + sig, as a shell
+ * reports a process killed by sig. Only async-signal-safe calls: atomic loads, unlink,
+ * _exit (POSIX.1-2017, 2.4.3). */
+static void on_signal(int sig) {
+    for (int i = 0; i < SLOTS; i++) {
+        int st = atomic_load(&slots[i].state);
+        if (st == LIVE || st == HELD) unlink(slots[i].tmp);
+    }
+    _exit(128 + sig);
+}
+
+void vm_output_remove_on_signals(void) {
+    static const int sigs[] = {SIGINT, SIGTERM};
+    for (size_t k = 0; k < sizeof sigs / sizeof sigs[0]; k++) {
+        struct sigaction old, sa;
+        /* a signal ignored when the program started stays ignored (a background job's
+         * SIGINT, nohup) */
+        if (sigaction(sigs[k], NULL, &old) == 0 && old.sa_handler == SIG_IGN) continue;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = on_signal;
+        sigfillset(&sa.sa_mask);
+        sigaction(sigs[k], &sa, NULL);
+    }
+}

@@ -108,6 +108,11 @@ vm_status vm_output_commit(vm_error *err);
 /* Removes every held output's temporary file and forgets the declarations. */
 void vm_output_discard(void);
 
+/* For programs (not libraries): on SIGINT and SIGTERM, removes the temporary file of every
+ * output being written or held, then exits with 130 or 143 (128 + the signal). A signal
+ * ignored when this is called stays ignored. */
+void vm_output_remove_on_signals(void);
+
 /* ---- Finite-element and surface mesh formats ------------------------------------------
  *
  * Every writer: node order converted to the format's own (positive volumes in its reader's
