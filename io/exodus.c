@@ -10,6 +10,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <errno.h>
 #include <string.h>
 #include "io_util.h"
 #include "mesh_util.h"
@@ -189,7 +190,7 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
         st = vm_error_set(err, VM_ERR_IO, "%s: writing the Exodus file failed", path);
         remove(tmp);
     } else if (rename(tmp, path) != 0) {
-        st = vm_error_set(err, VM_ERR_IO, "%s: cannot write", path);
+        st = vm_error_set(err, VM_ERR_IO, "%s: cannot write (%s)", path, strerror(errno));
         remove(tmp);
     }
 done:

@@ -103,6 +103,11 @@ vm_status vm__slab_alloc(const char *path, const vm__slab *rq, size_t n, vm_volu
 /* vm_volume_free(v) after a failed read, leaving rq->into (the caller's) alone. */
 void vm__slab_release(vm_volume *v, const vm__slab *rq);
 
+/* The words (runs of characters other than white space and ',') of the n bytes at p, counting
+ * up to stop: an ASCII reader refuses a text with fewer than its values before allocating
+ * them, so that a truncated file is reported as such and not as a lack of memory. */
+size_t vm__count_words(const unsigned char *p, size_t n, size_t stop);
+
 /* Decodes samples first .. first+n-1 of s into dst (RAW by seeking, ZLIB by streaming
  * inflate discarding what precedes, ASCII by a streaming parse skipping values; with
  * rq->cursor, ZLIB and ASCII go on from the cursor when first is at or past it). RAW callers

@@ -723,9 +723,9 @@ vm_status vm_volume_write_nrrd(const char *path, const vm_volume *v, int gzip, v
             "space origin: (%.17g,%.17g,%.17g)\n\n",
             gzip ? "gzip" : "raw", v->origin[0], v->origin[1], v->origin[2]);
     st = gzip ? write_gzip(o.fp, v->data, count) : write_raw(o.fp, v->data, count);
-    if (st != VM_OK || ferror(o.fp)) {
+    if (st != VM_OK && !ferror(o.fp)) { /* zlib's failure; a write's is commit's to tell */
         vm__out_abort(&o);
-        return fail(err, VM_ERR_IO, path, "write failed");
+        return fail(err, VM_ERR_IO, path, "compressing failed");
     }
-    return vm__out_commit(&o, err);
+    return vm__out_commit(&o, err); /* names a write error's reason */
 }

@@ -105,14 +105,31 @@ vm_status vm__out_open(vm_outfile *o, const char *path, vm_error *err) {
     return VM_OK;
 }
 
+/* The reason a stream failed, or 0: a stream whose error flag is set lost the errno of the
+ * write that failed, so one more byte is written to learn it again (the file is removed
+ * anyway). The data reaches the disk (fsync) before the file may be renamed over an older
+ * one, so that a crash never leaves an empty or partial file under the output's name. */
+static int stream_error(FILE *fp) {
+    if (ferror(fp)) {
+        clearerr(fp);
+        errno = 0;
+        if (fputc(0, fp) == EOF || fflush(fp) != 0) return errno ? errno : EIO;
+        return EIO;
+    }
+    if (fflush(fp) != 0) return errno ? errno : EIO;
+    if (fsync(fileno(fp)) != 0 && errno != EINVAL && errno != EROFS) return errno;
+    return 0;
+}
+
 vm_status vm__out_commit(vm_outfile *o, vm_error *err) {
-    int bad = ferror(o->fp);
-    if (fclose(o->fp) != 0) bad = 1;
+    int e = stream_error(o->fp);
+    if (fclose(o->fp) != 0 && !e) e = errno ? errno : EIO;
     o->fp = NULL;
-    if (bad) {
+    if (e) {
         remove(o->tmp_path);
         slot_free(o->slot);
-        return vm_error_set(err, VM_ERR_IO, "%s: write failed", o->final_path);
+        return vm_error_set(err, VM_ERR_IO, "%s: write failed (%s)", o->final_path,
+                            strerror(e));
     }
     if (o->slot >= 0 && is_held(o->final_path)) {
         /* complete: renamed with the run's other outputs by vm_output_commit */
@@ -121,7 +138,7 @@ vm_status vm__out_commit(vm_outfile *o, vm_error *err) {
         return VM_OK;
     }
     if (rename(o->tmp_path, o->final_path) != 0) {
-        int e = errno;
+        e = errno;
         remove(o->tmp_path);
         slot_free(o->slot);
         return vm_error_set(err, VM_ERR_IO, "%s: cannot write (%s)", o->final_path,

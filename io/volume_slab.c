@@ -328,6 +328,17 @@ static vm_status decode_zlib(const vm__samples *s, vm__resume *cur, size_t first
 
 static int ascii_sep(int c) { return isspace(c) || c == ','; }
 
+size_t vm__count_words(const unsigned char *p, size_t n, size_t stop) {
+    size_t words = 0, i = 0;
+    while (words < stop) {
+        while (i < n && ascii_sep(p[i])) i++;
+        if (i >= n) break;
+        words++;
+        while (i < n && !ascii_sep(p[i])) i++;
+    }
+    return words;
+}
+
 static vm_status decode_ascii(const vm__samples *s, vm__resume *cur, size_t first, size_t n,
                               float *dst, vm_error *err) {
     const unsigned char *p = s->p, *end = s->p + s->avail;

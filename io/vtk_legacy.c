@@ -287,6 +287,11 @@ static vm_status take_scalars(reader *r, vm_volume *v, const int64_t dims[3],
                                 "%s: data is truncated (got %zu of %zu bytes)", r->path,
                                 r->len - r->pos, bytes);
     }
+    size_t words;
+    if (!r->binary && !r->rq->header_only &&
+        (words = vm__count_words(r->buf + r->pos, r->len - r->pos, n)) < n)
+        return vm_error_set(r->err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of %zu "
+                            "values)", r->path, words, n);
     if ((st = vm__check_geometry(v, r->path, r->err)) || r->rq->header_only) return st;
     if ((st = vm__slab_alloc(r->path, r->rq, ns, v, r->err))) return st;
     st = read_samples(r, t, color, n, first, ns, v);
