@@ -22,6 +22,9 @@
 
 const vm__slab vm__slab_whole = {0, 0, 1, 0, NULL, NULL};
 
+/* A pipe or device is read into memory up to 1/PIPE_SHARE of the memory limit. */
+enum { PIPE_SHARE = 2 };
+
 static size_t page_size(void) {
     long pg = sysconf(_SC_PAGESIZE);
     return pg > 0 ? (size_t)pg : 4096;
@@ -36,9 +39,17 @@ vm_status vm__map_file(const char *path, size_t max_bytes, vm__map *m, vm_error 
         return vm_error_set(err, VM_ERR_IO, "%s: is a directory, not a file", path);
     if (!S_ISREG(sb.st_mode) || (uint64_t)sb.st_size >= (uint64_t)SIZE_MAX / 2) {
         /* pipes and devices cannot be mapped: read them to their end (a gzip stream
-         * arrives inflated, which every reader takes as well) */
+         * arrives inflated, which every reader takes as well), but never more than half the
+         * memory limit (--max-memory, VOLMESH_MAX_MEMORY, else physical memory): the other
+         * half is for the samples as floats. /dev/zero has no end. */
+        size_t cap = vm__memory_limit() / PIPE_SHARE;
+        if (max_bytes < cap) cap = max_bytes;
         size_t len;
-        vm_status st = vm__read_gz_file(path, max_bytes, &m->p, &len, err);
+        vm_status st = vm__read_gz_file(path, cap, &m->p, &len, err);
+        if (st == VM_ERR_NOMEM && err && strstr(err->message, "larger than allowed"))
+            st = vm_error_set(err, VM_ERR_NOMEM, "%s: not a regular file, and longer than the "
+                              "%zu bytes allowed (half of --max-memory or VOLMESH_MAX_MEMORY)",
+                              path, cap);
         m->len = len;
         return st;
     }
