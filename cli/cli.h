@@ -41,6 +41,19 @@ void vm_cli_stage_line(int verbose, const char *stage, double seconds);
 /* --verbose: prints stage's line with the time since *t, then sets *t to now. */
 void vm_cli_stage_done(int verbose, const char *stage, double *t);
 
+/* An output file (option opt, e.g. "--report"), checked before the input is read: its name
+ * ends with one of tails (case-insensitive; NULL: any), and vm_output_check. Returns 0, or
+ * prints and returns VM_EXIT_INPUT. */
+int vm_cli_output_check(const char *opt, const char *path, const char *const *tails);
+
+/* vm_cli_output_check, then holds path (vm_output_hold) so that all the outputs of the run
+ * are renamed together by vm_cli_outputs_end. */
+int vm_cli_output(const char *opt, const char *path, const char *const *tails);
+
+/* Ends a run whose exit code is rc: commits the held outputs when rc is 0 or 1 (and returns
+ * VM_EXIT_INPUT if a rename fails), removes them otherwise. Returns the exit code. */
+int vm_cli_outputs_end(int rc);
+
 /* Prints the opening of a mesh summary in JSON: {"output": "OUT", (the fields follow). */
 void vm_cli_json_summary_open(const char *out);
 

@@ -104,6 +104,7 @@ static int convert_run(int argc, char **argv, vm_material **materials) {
         return vm_cli_fail("--deck: an analysis deck needs an .inp or .feb output");
     if (o.ascii && of != VM_MESH_STL && of != VM_MESH_PLY && of != VM_MESH_VTK)
         return vm_cli_fail("--ascii applies to stl, ply and vtk output only");
+    if (vm_cli_output_check("convert", out, NULL)) return VM_EXIT_INPUT;
     vm_error err;
     vm_error_clear(&err);
     if (materials_path) {

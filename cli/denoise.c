@@ -113,8 +113,8 @@ static int denoise_check(const denoise_args *d) {
     int rc = vm_cli_input_given(&d->in);
     if (rc) return rc;
     if (!d->out_path) return vm_cli_fail("denoise: no output file (-o OUT.nrrd)");
-    if (!vm_cli_ends_with(d->out_path, ".nrrd"))
-        return vm_cli_fail("%s: denoise writes NRRD; name the output *.nrrd", d->out_path);
+    static const char *const nrrd[] = {".nrrd", NULL};
+    if (vm_cli_output_check("denoise", d->out_path, nrrd)) return VM_EXIT_INPUT;
     int diffusion = strcmp(d->method, "diffusion") == 0;
     if (diffusion && d->bilateral_opt)
         return vm_cli_fail("%s applies to --method bilateral, not diffusion", d->bilateral_opt);

@@ -50,6 +50,9 @@ int main(int argc, char **argv) {
      * freed and keep later ones in its heaps, where freed memory stays resident. */
     mallopt(M_MMAP_THRESHOLD, 256 * 1024);
 #endif
+    /* Ctrl-C and kill remove the temporary files of the outputs being written (exit 130,
+     * 143): nothing half-written remains, and older outputs stay as they were. */
+    vm_output_remove_on_signals();
     if (argc < 2) {
         fputs(usage, stderr);
         return VM_EXIT_INPUT;

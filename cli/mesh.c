@@ -577,6 +577,31 @@ static int option_conflicts(const mesh_args *m) {
     return VM_EXIT_OK;
 }
 
+/* Every output, before the input is read: the format from -o's extension and the options
+ * that fit it, places that can be written, three different files; each is held so that the
+ * run's outputs are renamed together at its end (none remains after a failure). */
+static int mesh_outputs(const mesh_args *m) {
+    static const char *const html[] = {".html", ".htm", NULL};
+    vm_error err;
+    vm_error_clear(&err);
+    vm_mesh_write_options wo = m->wo;
+    wo.compress = m->compress;
+    if (vm_mesh_write_check(m->out, &wo, &err) ||
+        (m->surface && vm_mesh_write_check(m->surface, NULL, &err)))
+        return vm_cli_fail_err(&err);
+    if ((m->surface && strcmp(m->surface, m->out) == 0) ||
+        (m->report && strcmp(m->report, m->out) == 0))
+        return vm_cli_fail("%s: -o and %s name the same file", m->out,
+                           m->report && strcmp(m->report, m->out) == 0 ? "--report"
+                                                                       : "--surface");
+    if (m->surface && m->report && strcmp(m->surface, m->report) == 0)
+        return vm_cli_fail("%s: --surface and --report name the same file", m->report);
+    int rc = vm_cli_output("-o", m->out, NULL);
+    if (!rc && m->surface) rc = vm_cli_output("--surface", m->surface, NULL);
+    if (!rc && m->report) rc = vm_cli_output("--report", m->report, html);
+    return rc;
+}
+
 /* The options that must be there or go together; --invert turns --iso V into f <= V. */
 static int mesh_check(mesh_args *m) {
     int rc = vm_cli_input_given(&m->in);
@@ -585,13 +610,15 @@ static int mesh_check(mesh_args *m) {
     if (m->have_iso + m->have_range + m->have_labels != 1)
         return vm_cli_fail("mesh: give exactly one of --iso V, --range A:B or --labels L");
     rc = option_conflicts(m);
+    if (!rc) rc = vm_cli_input_check_raw(&m->in);
+    if (!rc) rc = mesh_outputs(m);
     if (rc) return rc;
     if (m->have_iso && m->invert) {
         m->o.has_lo = 0;
         m->o.has_hi = 1;
         m->o.hi = m->o.lo;
     }
-    return vm_cli_input_check_raw(&m->in);
+    return VM_EXIT_OK;
 }
 
 /* Reads --materials and checks that -o takes the write options, before any meshing. */
@@ -900,6 +927,7 @@ int vm_cmd_mesh(int argc, char **argv) {
     if (!rc && !help) rc = mesh_check(&m);
     if (!rc && !help) rc = mesh_prepare(&m);
     if (!rc && !help) rc = mesh_run(&m);
+    rc = vm_cli_outputs_end(rc);
     free(m.labels);
     free(m.label_sizes);
     vm_materials_free(m.materials);

@@ -3,6 +3,8 @@
  * line and progress bar on a terminal, --verbose stage times, the JSON summary's opening. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdarg.h>
+#include <string.h>
+#include <strings.h>
 #include <time.h>
 #include <unistd.h>
 #include "cli.h"
@@ -66,6 +68,54 @@ void vm_cli_stage_done(int verbose, const char *stage, double *t) {
     double now = vm_cli_clock();
     vm_cli_stage_line(verbose, stage, now - *t);
     *t = now;
+}
+
+/* 1 when s ends with tail, ignoring case. */
+static int has_tail(const char *s, const char *tail) {
+    size_t n = strlen(s), t = strlen(tail);
+    return n >= t && strcasecmp(s + n - t, tail) == 0;
+}
+
+/* An output checked before any work: its extension, a place it can be written. */
+int vm_cli_output_check(const char *opt, const char *path, const char *const *tails) {
+    if (tails) {
+        int ok = 0;
+        for (size_t i = 0; tails[i] && !ok; i++) ok = has_tail(path, tails[i]);
+        if (!ok) {
+            char list[128] = "";
+            for (size_t i = 0; tails[i]; i++)
+                snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s",
+                         i ? " " : "", tails[i]);
+            return vm_cli_fail("%s: %s writes %s: name the file so", path, opt, list);
+        }
+    }
+    vm_error err;
+    vm_error_clear(&err);
+    if (vm_output_check(path, &err)) return vm_cli_fail_err(&err);
+    return VM_EXIT_OK;
+}
+
+/* An output of the run, checked before any work and held until vm_cli_outputs_end. */
+int vm_cli_output(const char *opt, const char *path, const char *const *tails) {
+    int rc = vm_cli_output_check(opt, path, tails);
+    if (rc) return rc;
+    vm_error err;
+    vm_error_clear(&err);
+    if (vm_output_hold(path, &err)) return vm_cli_fail_err(&err);
+    return VM_EXIT_OK;
+}
+
+/* The end of a run: its held outputs renamed when it succeeded (or wrote a mesh it warns
+ * about, exit 1), removed otherwise. */
+int vm_cli_outputs_end(int rc) {
+    if (rc != VM_EXIT_OK && rc != VM_EXIT_CHECK) {
+        vm_output_discard();
+        return rc;
+    }
+    vm_error err;
+    vm_error_clear(&err);
+    if (vm_output_commit(&err)) return vm_cli_fail_err(&err);
+    return rc;
 }
 
 /* The opening of a mesh summary in JSON, naming the file written. */

@@ -140,6 +140,10 @@ int vm_cmd_quality(int argc, char **argv) {
     }
     if (!path) return vm_cli_fail("quality: no mesh file (see volmesh quality --help)");
     if (vm_cli_surface_check(&surf, "quality")) return VM_EXIT_INPUT;
+    static const char *const svg_tails[] = {".svg", NULL}, *const csv_tails[] = {".csv", NULL};
+    if ((svg && vm_cli_output_check("--svg", svg, svg_tails)) ||
+        (csv && vm_cli_output_check("--per-cell-csv", csv, csv_tails)))
+        return VM_EXIT_INPUT;
     vm_mesh m;
     vm_error err;
     vm_error_clear(&err);

@@ -70,6 +70,8 @@ int vm_cmd_report(int argc, char **argv) {
     if (!in) return vm_cli_fail("report: no mesh file (see volmesh report --help)");
     if (!out) return vm_cli_fail("report: no output file (-o REPORT.html)");
     if (vm_cli_surface_check(&surf, "report")) return VM_EXIT_INPUT;
+    static const char *const html[] = {".html", ".htm", NULL};
+    if (vm_cli_output_check("report", out, html)) return VM_EXIT_INPUT;
     vm_mesh m;
     vm_error err;
     vm_error_clear(&err);

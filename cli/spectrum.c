@@ -463,6 +463,10 @@ int vm_cmd_spectrum(int argc, char **argv) {
     int help = 0;
     int rc = spectrum_parse(&p, argc, argv, &help);
     if (rc || help) return rc;
+    static const char *const csv[] = {".csv", NULL}, *const svg[] = {".svg", NULL};
+    if ((p.csv && vm_cli_output_check("--csv", p.csv, csv)) ||
+        (p.svg && vm_cli_output_check("--svg", p.svg, svg)))
+        return VM_EXIT_INPUT;
     vm_volume v;
     rc = vm_cli_input_read(&p.in, &v);
     if (rc) return rc;

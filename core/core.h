@@ -9,6 +9,7 @@
 #include <stdint.h>
 #include "volmesh/error.h"
 #include "volmesh/mesh.h"
+#include "volmesh/volume.h"
 
 /* a*b into *out; returns true, leaving *out alone, when the product overflows size_t
  * (a predicate: `if (vm__mul_overflows(n, size, &bytes)) return ...nomem...`). */
@@ -26,9 +27,16 @@ vm_status vm__check_dims(const int64_t dims[3], size_t elem_size, const char *wh
 /* Grows *buf (elements of elem bytes) so that it holds at least need elements. */
 vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *err);
 
-/* Checks that every node of every cell of m is a point of m (0 .. npoints-1). On failure
- * returns code, with the message "WHAT: cell C uses node N, outside 0..NPOINTS-1". */
+/* Checks that every coordinate of m is finite and within +-VM_COORD_MAX ("WHAT: point P,
+ * coordinate y, is inf (coordinates must be finite, within +-1e+30)"), and that every node
+ * of every cell of m is a point of m (0 .. npoints-1). On failure returns code, with the
+ * message "WHAT: cell C uses node N, outside 0..NPOINTS-1". */
 vm_status vm__check_nodes(const vm_mesh *m, vm_status code, const char *what, vm_error *err);
+
+/* Checks v's geometry against the limits of volmesh/volume.h: spacing finite and within
+ * VM_SPACING_MIN .. VM_SPACING_MAX, origin and direction finite, origin and far corner within
+ * +-VM_EXTENT_MAX. On failure returns VM_ERR_FORMAT, "WHAT: spacing z is 1e+308 (...)". */
+vm_status vm__check_geometry(const vm_volume *v, const char *what, vm_error *err);
 
 /* Seconds from a monotonic clock. */
 double vm__now(void);

@@ -11,6 +11,9 @@ vm_status vm_error_set(vm_error *err, vm_status status, const char *fmt, ...) {
         va_start(ap, fmt);
         vsnprintf(err->message, sizeof err->message, fmt, ap);
         va_end(ap);
+        /* one line, whatever a file's quoted text holds: control characters become '?' */
+        for (char *c = err->message; *c; c++)
+            if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
         err->status = status;
     }
     return status;

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* core/mesh.c — vm_mesh storage: points, cells, regions and named fields. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include "core.h"
@@ -26,6 +27,16 @@ const char *vm_cell_kind_name(vm_cell_kind kind) {
 }
 
 vm_status vm__check_nodes(const vm_mesh *m, vm_status code, const char *what, vm_error *err) {
+    /* Points first: a coordinate beyond VM_COORD_MAX makes the bounding box's span, the
+     * squared lengths and the volumes of the metrics overflow to inf and NaN. */
+    for (size_t i = 0; i < 3 * m->npoints; i++) {
+        double x = m->points[i];
+        if (!(fabs(x) <= VM_COORD_MAX))
+            return vm_error_set(err, code,
+                                "%s: point %zu, coordinate %c, is %g (coordinates must be "
+                                "finite, within +-%g)",
+                                what, i / 3, "xyz"[i % 3], x, VM_COORD_MAX);
+    }
     size_t nn = (size_t)vm_cell_nodes(m->kind);
     for (size_t i = 0; i < m->ncells * nn; i++)
         if (m->cells[i] < 0 || (uint64_t)m->cells[i] >= (uint64_t)m->npoints)

@@ -249,11 +249,15 @@ static void grid_size(tri_grid *g, const double glo[3], const double ghi[3], dou
     for (;;) {
         g->ncell = 1;
         for (int a = 0; a < 3; a++) {
-            double c = floor((ghi[a] - glo[a]) / h) + 1;
-            g->n[a] = c < (double)GRID_MAX_SIDE ? (size_t)c : GRID_MAX_SIDE;
+            /* a side that overflows (coordinates near +-DBL_MAX) gets one cell: growing h
+             * would never make it finite */
+            double side = ghi[a] - glo[a], c = floor(side / h) + 1;
+            g->n[a] = !isfinite(side)                ? 1
+                      : c < (double)GRID_MAX_SIDE ? (size_t)c
+                                                  : GRID_MAX_SIDE;
             g->ncell *= g->n[a];
         }
-        if (g->ncell <= 2 * nt + 64) break;
+        if (g->ncell <= 2 * nt + 64 || !isfinite(h)) break;
         h *= GRID_GROWTH;
     }
     g->h = h;

@@ -24,6 +24,35 @@ vm_status vm_volume_alloc(vm_volume *v, const int64_t dims[3], vm_error *err) {
     return VM_OK;
 }
 
+vm_status vm__check_geometry(const vm_volume *v, const char *what, vm_error *err) {
+    static const char axis[] = "xyz";
+    for (int a = 0; a < 3; a++) {
+        double s = v->spacing[a];
+        if (!(s >= VM_SPACING_MIN && s <= VM_SPACING_MAX))
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: spacing %c is %g (must be finite, "
+                                "within %g .. %g)", what, axis[a], s, VM_SPACING_MIN,
+                                VM_SPACING_MAX);
+        if (!(fabs(v->origin[a]) <= VM_EXTENT_MAX))
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: origin %c is %g (must be finite, "
+                                "within +-%g)", what, axis[a], v->origin[a], VM_EXTENT_MAX);
+        for (int c = 0; c < 3; c++)
+            if (!isfinite(v->direction[a][c]))
+                return vm_error_set(err, VM_ERR_FORMAT, "%s: direction (%d, %d) is %g (must "
+                                    "be finite)", what, a, c, v->direction[a][c]);
+    }
+    for (int r = 0; r < 3; r++) { /* the far corner, voxel (nx-1, ny-1, nz-1) */
+        double x = v->origin[r];
+        for (int c = 0; c < 3; c++)
+            x += v->direction[r][c] * (double)(v->dims[c] > 1 ? v->dims[c] - 1 : 0) *
+                 v->spacing[c];
+        if (!(fabs(x) <= VM_EXTENT_MAX))
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: the volume's far corner has %c = %g "
+                                "(its extent must be within +-%g)", what, axis[r], x,
+                                VM_EXTENT_MAX);
+    }
+    return VM_OK;
+}
+
 void vm_volume_free(vm_volume *v) {
     if (!v) return;
     free(v->data);

@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include "../core/core.h"
 #include "dicom_internal.h"
 #include "volmesh/io.h"
 
@@ -140,6 +141,7 @@ static vm_status read_series(const char *path, const char *choice, const vm__sla
     size_t count, first, n;
     size_t tsize = vm_scalar_type_size(v->type);
     st = vm__slab_check(path, rq, v->dims, tsize, &count, &first, &n, err);
+    if (!st) st = vm__check_geometry(v, path, err);
     if (!st && !rq->header_only) st = read_planes(path, &j, rq, n, v, err);
     if (!st) vm__slab_finish(v, rq);
     job_free(&j);

@@ -10,6 +10,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <errno.h>
 #include <string.h>
 #include "io_util.h"
 #include "mesh_util.h"
@@ -121,8 +122,11 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
     int *rank = malloc(nc * sizeof *rank);    /* cell -> 1-based file element number */
     int *elist = malloc((nb ? nb : 1) * sizeof *elist), *slist = malloc((nb ? nb : 1) * sizeof *slist);
     char tmp[4200];
-    snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
     int exoid = -1;
+    if (!vm__temp_path(path, "tmp", tmp, sizeof tmp)) {
+        st = vm_error_set(err, VM_ERR_ARG, "%s: path too long", path);
+        goto done;
+    }
     if (!xyz || !conn || !order || !rank || !elist || !slist) {
         st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
         goto done;
@@ -186,7 +190,7 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
         st = vm_error_set(err, VM_ERR_IO, "%s: writing the Exodus file failed", path);
         remove(tmp);
     } else if (rename(tmp, path) != 0) {
-        st = vm_error_set(err, VM_ERR_IO, "%s: cannot write", path);
+        st = vm_error_set(err, VM_ERR_IO, "%s: cannot write (%s)", path, strerror(errno));
         remove(tmp);
     }
 done:

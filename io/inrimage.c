@@ -198,9 +198,11 @@ vm_status vm__read_inrimage(const char *path, const vm__slab *rq, vm_volume *v, 
     }
     size_t bytes = count * tsize; /* checked by vm__slab_check */
     int swap = tsize > 1 && big == (vm__host_little_endian() != 0);
-    vm__samples src = {path, m.p + h.header_len, 0, VM__ENC_RAW, 0, type, swap, m.maplen != 0};
+    vm__samples src = {path, m.p + h.header_len, 0, VM__ENC_RAW, 0, type, swap, m.maplen != 0, 0};
     if (gz) {
         src.p = m.p, src.avail = m.len, src.enc = VM__ENC_ZLIB, src.skip = h.header_len;
+        /* the stream's trailer is checked when the read reaches its last sample */
+        src.count = count;
         if ((h.header_len + bytes) / GZIP_MAX_RATIO > m.len + 64)
             st = vm_error_set(err, VM_ERR_FORMAT, "%s: data is truncated (%zu compressed bytes "
                               "cannot hold %zu bytes of samples)", path, m.len, bytes);

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-/* io/io_util.c — file reading, zlib inflation, sample conversion and atomic output files
- * shared by every reader and writer (zlib manual: inflateInit2 windowBits 15+32 detects
+/* io/io_util.c — file reading, zlib inflation and sample conversion shared by every reader
+ * and writer (zlib manual: inflateInit2 windowBits 15+32 detects
  * zlib and gzip headers). */
 #define _POSIX_C_SOURCE 200809L
 #include "io_util.h"
@@ -303,42 +303,3 @@ int vm__parse_doubles(const char *s, double *out, int max) {
     return count;
 }
 
-vm_status vm__out_open(vm_outfile *o, const char *path, vm_error *err) {
-    memset(o, 0, sizeof *o);
-    if (strlen(path) >= sizeof o->final_path)
-        return vm_error_set(err, VM_ERR_ARG, "%s: path too long", path);
-    strcpy(o->final_path, path);
-    snprintf(o->tmp_path, sizeof o->tmp_path, "%s.tmp-%ld", path, (long)getpid());
-    o->fp = fopen(o->tmp_path, "wb");
-    if (!o->fp)
-        return vm_error_set(err, VM_ERR_IO, "%s: cannot write (%s)", path, strerror(errno));
-    return VM_OK;
-}
-
-vm_status vm__out_commit(vm_outfile *o, vm_error *err) {
-    int bad = ferror(o->fp);
-    if (fclose(o->fp) != 0) bad = 1;
-    o->fp = NULL;
-    if (bad) {
-        remove(o->tmp_path);
-        return vm_error_set(err, VM_ERR_IO, "%s: write failed", o->final_path);
-    }
-    if (rename(o->tmp_path, o->final_path) != 0) {
-        int e = errno;
-        remove(o->tmp_path);
-        return vm_error_set(err, VM_ERR_IO, "%s: cannot write (%s)", o->final_path,
-                            strerror(e));
-    }
-    vm__meter_end(&o->meter);
-    return VM_OK;
-}
-
-void vm__out_meter(vm_outfile *o, vm_progress_fn fn, void *user, double total) {
-    vm__meter_start(&o->meter, fn, user, "write", total);
-}
-
-void vm__out_abort(vm_outfile *o) {
-    if (o->fp) fclose(o->fp);
-    o->fp = NULL;
-    if (o->tmp_path[0]) remove(o->tmp_path);
-}

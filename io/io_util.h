@@ -94,6 +94,8 @@ typedef struct vm__samples {
     int swap;
     int mapped;              /* p lies in a vm__map's mapping (maplen != 0, not a buffer read
                                 from a pipe): pages are given back as they are read */
+    size_t count;            /* ZLIB: samples in the stream (0: unknown); a read that reaches
+                                the last one checks the stream's trailer (CRC-32, ISIZE) */
 } vm__samples;
 
 /* Checks dims for the request: a whole read as vm__check_dims(dims, tsize + 4) (within
@@ -111,6 +113,11 @@ vm_status vm__slab_alloc(const char *path, const vm__slab *rq, size_t n, vm_volu
 
 /* vm_volume_free(v) after a failed read, leaving rq->into (the caller's) alone. */
 void vm__slab_release(vm_volume *v, const vm__slab *rq);
+
+/* The words (runs of characters other than white space and ',') of the n bytes at p, counting
+ * up to stop: an ASCII reader refuses a text with fewer than its values before allocating
+ * them, so that a truncated file is reported as such and not as a lack of memory. */
+size_t vm__count_words(const unsigned char *p, size_t n, size_t stop);
 
 /* Decodes samples first .. first+n-1 of s into dst (RAW by seeking, ZLIB by streaming
  * inflate discarding what precedes, ASCII by a streaming parse skipping values; with
@@ -177,15 +184,23 @@ vm_status vm__read_tiff(const char *path, const vm__slab *rq, vm_volume *v, vm_e
 /* 1 when path is a folder with a .tif or .tiff file at its top level. */
 int vm__tiff_folder(const char *path);
 
-/* Atomic output: opens PATH.tmp-PID for writing; commit renames it over path, abort
- * removes it. */
+/* Atomic output (io/out_file.c): opens PATH.tmp-PID for writing; commit renames it over
+ * path (or, for an output vm_output_hold declared, leaves it for vm_output_commit), abort
+ * removes it. The temporary name is registered while it exists, for vm_output_discard and
+ * the signal handler. */
 typedef struct vm_outfile {
     FILE *fp;
     char final_path[4096];
     char tmp_path[4200];
+    int slot;        /* its place in the registry of temporary files; -1: none */
     vm__meter meter; /* stage "write"; silent unless vm__out_meter started it */
 } vm_outfile;
 vm_status vm__out_open(vm_outfile *o, const char *path, vm_error *err);
+
+/* A temporary name beside path: "PATH.TAG-PID", or, when that name would pass NAME_MAX,
+ * "DIR/.vm-HASH.TAG-PID" (HASH: 16 hex digits of path's file name). [out] out of size cap;
+ * returns 0 when it does not fit. */
+int vm__temp_path(const char *path, const char *tag, char *out, size_t cap);
 vm_status vm__out_commit(vm_outfile *o, vm_error *err); /* checks write errors, renames */
 void vm__out_abort(vm_outfile *o);
 

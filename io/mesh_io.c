@@ -78,14 +78,11 @@ static int has_materials(vm_mesh_format f) {
            f == VM_MESH_FEBIO;
 }
 
-vm_status vm_mesh_write_check(const char *path, const vm_mesh_write_options *opt,
-                              vm_error *err) {
-    vm_mesh_write_options def;
-    if (!opt) {
-        vm_mesh_write_options_init(&def);
-        opt = &def;
-    }
+/* The format opt asks for (or path's), and whether opt's options fit it. [out] *fmt. */
+static vm_status check_options(const char *path, const vm_mesh_write_options *opt,
+                               vm_mesh_format *fmt, vm_error *err) {
     vm_mesh_format f = opt->format != VM_MESH_AUTO ? opt->format : vm_mesh_format_of_path(path);
+    *fmt = f;
     if (f == VM_MESH_AUTO)
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
                             "%s: unknown mesh format (expected one of %s)", path, known_exts);
@@ -112,6 +109,22 @@ vm_status vm_mesh_write_check(const char *path, const vm_mesh_write_options *opt
     return VM_OK;
 }
 
+vm_status vm_mesh_write_check(const char *path, const vm_mesh_write_options *opt,
+                              vm_error *err) {
+    vm_mesh_write_options def;
+    if (!opt) {
+        vm_mesh_write_options_init(&def);
+        opt = &def;
+    }
+    vm_mesh_format f;
+    vm_status st = vm_output_check(path, err);
+    if (!st) st = check_options(path, opt, &f, err);
+    if (!st && f == VM_MESH_EXODUS && !vm_exodus_available())
+        st = vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: cannot load the Exodus II library "
+                          "(install libexodusii)", path);
+    return st;
+}
+
 vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
                            const vm_mesh_write_options *opt, vm_error *err) {
     vm_mesh_write_options def;
@@ -119,9 +132,9 @@ vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
         vm_mesh_write_options_init(&def);
         opt = &def;
     }
-    vm_status st = vm_mesh_write_check(path, opt, err);
+    vm_mesh_format f;
+    vm_status st = check_options(path, opt, &f, err);
     if (st) return st;
-    vm_mesh_format f = opt->format != VM_MESH_AUTO ? opt->format : vm_mesh_format_of_path(path);
     vm_mesh_write_options o = *opt;
     o.format = f;
     switch (f) {

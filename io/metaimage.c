@@ -339,7 +339,7 @@ static vm_status read_metaimage(const char *path, const vm__slab *rq, vm_volume 
     }
 
     vm__samples src = {path, NULL, 0, VM__ENC_RAW, 0, type, h.msb == vm__host_little_endian(),
-                       (local ? hm.maplen : dm.maplen) != 0};
+                       (local ? hm.maplen : dm.maplen) != 0, 0};
     if (h.compressed) {
         size_t clen = avail - start;
         if (h.has_csize) {
@@ -361,6 +361,7 @@ static vm_status read_metaimage(const char *path, const vm__slab *rq, vm_volume 
             goto done;
         }
         src.enc = VM__ENC_ZLIB;
+        src.count = count;
         src.p = data + start;
         src.avail = clen;
     } else {

@@ -436,12 +436,13 @@ static vm_status read_nifti(const char *path, const vm__slab *rq, vm_volume *v, 
         data = &dm;
     }
     vm__samples src = {path, data->p + offset, 0, VM__ENC_RAW, 0, type, h.swap,
-                       data->maplen != 0};
+                       data->maplen != 0, 0};
     if (is_gzip(data)) {
         src.p = data->p;
         src.avail = data->len;
         src.enc = VM__ENC_ZLIB;
         src.skip = offset;
+        src.count = count;
         if ((offset + bytes) / GZIP_MAX_RATIO > data->len + 64) {
             st = vm_error_set(err, VM_ERR_FORMAT, "%s: data is truncated (%zu compressed bytes "
                               "cannot hold %zu bytes after offset %zu)", path, data->len, bytes,

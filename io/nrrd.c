@@ -566,7 +566,7 @@ static vm_status read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, v
     }
     size_t avail = (size_t)(end - p);
     vm__samples src = {path, p, avail, VM__ENC_RAW, 0, h.type, 0,
-                       (h.data_file[0] ? dm.maplen : hm.maplen) != 0};
+                       (h.data_file[0] ? dm.maplen : hm.maplen) != 0, 0};
     src.swap = tsize > 1 && h.big_endian == vm__host_little_endian();
     if (h.encoding == ENC_RAW || h.encoding == ENC_ASCII) {
         if (h.byte_skip == -1) {
@@ -615,6 +615,7 @@ static vm_status read_nrrd(const char *path, const vm__slab *rq, vm_volume *v, v
         }
         src.enc = VM__ENC_ZLIB;
         src.skip = (size_t)h.byte_skip;
+        src.count = count;
     }
 
     vm__volume_set_header(v, h.dims, h.type, h.spacing, h.origin,
@@ -722,9 +723,9 @@ vm_status vm_volume_write_nrrd(const char *path, const vm_volume *v, int gzip, v
             "space origin: (%.17g,%.17g,%.17g)\n\n",
             gzip ? "gzip" : "raw", v->origin[0], v->origin[1], v->origin[2]);
     st = gzip ? write_gzip(o.fp, v->data, count) : write_raw(o.fp, v->data, count);
-    if (st != VM_OK || ferror(o.fp)) {
+    if (st != VM_OK && !ferror(o.fp)) { /* zlib's failure; a write's is commit's to tell */
         vm__out_abort(&o);
-        return fail(err, VM_ERR_IO, path, "write failed");
+        return fail(err, VM_ERR_IO, path, "compressing failed");
     }
-    return vm__out_commit(&o, err);
+    return vm__out_commit(&o, err); /* names a write error's reason */
 }

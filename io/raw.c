@@ -44,7 +44,7 @@ vm_status vm__read_raw(const char *path, const vm_raw_options *opt, const vm__sl
     snprintf(v->format, sizeof v->format, "raw");
     int swap = tsize > 1 && (opt->big_endian != 0) == (vm__host_little_endian() != 0);
     vm__samples src = {path, m.p + opt->header_bytes, avail, VM__ENC_RAW, 0, opt->type, swap,
-                       m.maplen != 0};
+                       m.maplen != 0, 0};
     st = vm__slab_read(path, rq, &src, first, n, v, err);
     if (!st) vm__slab_finish(v, rq);
     vm__map_free(&m);

@@ -772,12 +772,19 @@ vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err) {
         if (!vm__cur_token(&lc, &t, &n)) continue;
         if (vm__tok_is(t, n, "v")) {
             double p[3];
-            int ok = 1;
-            for (int d = 0; d < 3 && ok; d++)
-                ok = vm__cur_token(&lc, &t, &n) && vm__parse_double_tok(t, n, &p[d]) == VM_OK;
+            int ok = 1, d = 0, has = 1;
+            for (; d < 3 && ok; d++)
+                ok = (has = vm__cur_token(&lc, &t, &n)) &&
+                     vm__parse_double_tok(t, n, &p[d]) == VM_OK;
             if (!ok) {
                 c.p = s;
-                st = vm__cur_fail(&c, VM_ERR_FORMAT, "bad vertex line");
+                if (has)
+                    st = vm__cur_fail(&c, VM_ERR_FORMAT, "bad vertex line: coordinate %c "
+                                      "\"%.*s\" is not a finite number", "xyz"[d - 1],
+                                      (int)(n > 40 ? 40 : n), t);
+                else
+                    st = vm__cur_fail(&c, VM_ERR_FORMAT, "bad vertex line: coordinate %c is "
+                                      "missing", "xyz"[d - 1]);
                 break;
             }
             if (vm_mesh_add_point(m, p, err) < 0) st = VM_ERR_NOMEM;

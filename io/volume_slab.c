@@ -22,6 +22,9 @@
 
 const vm__slab vm__slab_whole = {0, 0, 1, 0, NULL, NULL, NULL, NULL};
 
+/* A pipe or device is read into memory up to 1/PIPE_SHARE of the memory limit. */
+enum { PIPE_SHARE = 2 };
+
 static size_t page_size(void) {
     long pg = sysconf(_SC_PAGESIZE);
     return pg > 0 ? (size_t)pg : 4096;
@@ -36,9 +39,17 @@ vm_status vm__map_file(const char *path, size_t max_bytes, vm__map *m, vm_error 
         return vm_error_set(err, VM_ERR_IO, "%s: is a directory, not a file", path);
     if (!S_ISREG(sb.st_mode) || (uint64_t)sb.st_size >= (uint64_t)SIZE_MAX / 2) {
         /* pipes and devices cannot be mapped: read them to their end (a gzip stream
-         * arrives inflated, which every reader takes as well) */
+         * arrives inflated, which every reader takes as well), but never more than half the
+         * memory limit (--max-memory, VOLMESH_MAX_MEMORY, else physical memory): the other
+         * half is for the samples as floats. /dev/zero has no end. */
+        size_t cap = vm__memory_limit() / PIPE_SHARE;
+        if (max_bytes < cap) cap = max_bytes;
         size_t len;
-        vm_status st = vm__read_gz_file(path, max_bytes, &m->p, &len, err);
+        vm_status st = vm__read_gz_file(path, cap, &m->p, &len, err);
+        if (st == VM_ERR_NOMEM && err && strstr(err->message, "larger than allowed"))
+            st = vm_error_set(err, VM_ERR_NOMEM, "%s: not a regular file, and longer than the "
+                              "%zu bytes allowed (half of --max-memory or VOLMESH_MAX_MEMORY)",
+                              path, cap);
         m->len = len;
         return st;
     }
@@ -162,8 +173,9 @@ static int resume_here(vm__resume *c, const vm__samples *s, size_t from) {
 /* Allocates the slab's floats and decodes them, unless only the header is asked for. */
 vm_status vm__slab_read(const char *path, const vm__slab *rq, const vm__samples *src,
                         size_t first, size_t n, vm_volume *v, vm_error *err) {
-    if (rq->header_only) return VM_OK;
-    vm_status st = vm__slab_alloc(path, rq, n, v, err);
+    vm_status st = vm__check_geometry(v, path, err);
+    if (st || rq->header_only) return st;
+    st = vm__slab_alloc(path, rq, n, v, err);
     if (!st) st = vm__samples_decode(src, rq, first, n, v->data, err);
     return st;
 }
@@ -278,8 +290,33 @@ static vm_status decode_zlib(const vm__samples *s, vm__resume *cur, size_t first
         out += m;
         if (got < c) break;
     }
+    /* A read that reaches the last sample inflates on to the stream's end, so that zlib
+     * checks its trailer (gzip CRC-32 and ISIZE, zlib Adler-32; RFC 1950, 1952): a payload
+     * that decodes to other samples is refused, not read as data. Bytes after the samples
+     * (a NIfTI extension, padding) are inflated and dropped. */
+    int checked = 0;
+    if (done >= total && s->count && first + n == s->count) {
+        while (r == Z_OK || r == Z_BUF_ERROR) {
+            r = inflate_into(s, zs, &in_done, stage, STAGE, &got);
+            if (r == Z_BUF_ERROR) break;
+        }
+        if (r != Z_STREAM_END) {
+            const char *why = zs->msg ? zs->msg : "zlib error"; /* a static string */
+            free(stage);
+            if (cur)
+                vm__resume_end(cur);
+            else
+                inflateEnd(zs);
+            if (r == Z_BUF_ERROR)
+                return vm_error_set(err, VM_ERR_FORMAT, "%s: compressed data is truncated "
+                                    "(its checksum is missing)", s->path);
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: corrupt compressed data (%s)",
+                                s->path, why);
+        }
+        checked = 1;
+    }
     free(stage);
-    if (cur && done >= total) { /* keep the stream for the next slab */
+    if (cur && done >= total && !checked) { /* keep the stream for the next slab */
         cur->live = 1;
         cur->enc = s->enc;
         cur->avail = s->avail;
@@ -302,6 +339,17 @@ static vm_status decode_zlib(const vm__samples *s, vm__resume *cur, size_t first
 }
 
 static int ascii_sep(int c) { return isspace(c) || c == ','; }
+
+size_t vm__count_words(const unsigned char *p, size_t n, size_t stop) {
+    size_t words = 0, i = 0;
+    while (words < stop) {
+        while (i < n && ascii_sep(p[i])) i++;
+        if (i >= n) break;
+        words++;
+        while (i < n && !ascii_sep(p[i])) i++;
+    }
+    return words;
+}
 
 static vm_status decode_ascii(const vm__samples *s, vm__resume *cur, size_t first, size_t n,
                               float *dst, vm_error *err) {

@@ -528,6 +528,40 @@ static vm_status read_ascii(vti_file *f, span s, size_t n, float *dst) {
     return VM_OK;
 }
 
+/* Deflate's largest ratio (RFC 1951: a 258-byte match in under 2 bits; 1032:1), rounded up. */
+#define DEFLATE_MAX_RATIO 1040u
+
+/* Refuses, before the samples are allocated, an array whose bytes in the file cannot hold
+ * need bytes of samples (ascii: a digit and a separator each; base64: 3 bytes per 4
+ * characters; compressed: deflate's largest ratio), so that a truncated file reads as one
+ * and not as a lack of memory. */
+static vm_status check_room(const vti_file *f, const array_info *a, size_t count, size_t need) {
+    size_t have;
+    if (span_is(a->format, "ascii")) {
+        size_t words = vm__count_words((const unsigned char *)a->content.p, a->content.n, count);
+        if (words == count) return VM_OK;
+        return vm_error_set(f->err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of %zu "
+                            "values)", f->path, words, count);
+    }
+    int appended = span_is(a->format, "appended");
+    if (appended && (!f->have_appended || !a->has_offset ||
+                     a->offset > f->len - f->appended_start))
+        return VM_OK; /* read_array names the problem */
+    have = appended ? f->len - f->appended_start - (size_t)a->offset : a->content.n;
+    if (appended && !f->appended_base64 && !f->compressed) {
+        size_t hs = (size_t)f->header_size; /* raw samples after their size header */
+        if (have < hs || have - hs >= need) return VM_OK; /* read_array names the problem */
+        return vm_error_set(f->err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of %zu "
+                            "bytes)", f->path, have - hs, need);
+    }
+    if (!appended || f->appended_base64) have = have / 4 * 3 + 3;
+    if (f->compressed && have <= SIZE_MAX / DEFLATE_MAX_RATIO) have *= DEFLATE_MAX_RATIO;
+    else if (f->compressed) have = SIZE_MAX;
+    if (need <= have) return VM_OK;
+    return vm_error_set(f->err, VM_ERR_FORMAT, "%s: data is truncated (%zu bytes cannot hold "
+                        "%zu)", f->path, have, need);
+}
+
 static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
     const char *path = f->path;
     vm_scalar_type t;
@@ -546,12 +580,13 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
     memcpy(v->dims, dims, sizeof v->dims);
     v->type = t;
     if (f->rq->header_only) return VM_OK;
+    if ((st = check_room(f, a, n, n * esize))) return st;
     if ((st = vm__slab_alloc(path, f->rq, ns, v, f->err))) return st;
     int swap = f->big_endian == vm__host_little_endian();
     if (span_is(a->format, "ascii")) {
         if (f->rq->all) return read_ascii(f, a->content, n, v->data);
         vm__samples src = {path, (const unsigned char *)a->content.p, a->content.n,
-                           VM__ENC_ASCII, 0, t, 0, f->mapped};
+                           VM__ENC_ASCII, 0, t, 0, f->mapped, 0};
         return vm__samples_decode(&src, f->rq, first, ns, v->data, f->err);
     }
 
@@ -604,7 +639,8 @@ static vm_status read_array(vti_file *f, const array_info *a, vm_volume *v) {
             if (blen - hs < n * esize)
                 return vm_error_set(f->err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of "
                                     "%zu bytes)", path, blen - hs, n * esize);
-            vm__samples src = {path, bytes + hs, blen - hs, VM__ENC_RAW, 0, t, swap, f->mapped};
+            vm__samples src = {path, bytes + hs, blen - hs, VM__ENC_RAW, 0, t, swap, f->mapped,
+                               0};
             return vm__samples_decode(&src, f->rq, first, ns, v->data, f->err);
         }
     } else {
@@ -679,6 +715,7 @@ static vm_status parse(vti_file *f, vm_volume *v) {
         for (int r = 0; r < 3; r++) v->direction[r][c] = sign * f->direction[r][c];
     }
     strcpy(v->format, "vti");
+    if ((st = vm__check_geometry(v, path, f->err))) return st;
     vm__slab_finish(v, f->rq);
     return VM_OK;
 }

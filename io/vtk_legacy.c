@@ -224,14 +224,14 @@ static vm_status read_samples(reader *r, vm_scalar_type t, int color, size_t tot
     if (r->binary) {
         size_t size = vm_scalar_type_size(t);
         vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_RAW, 0, t,
-                           vm__host_little_endian(), r->mapped};
+                           vm__host_little_endian(), r->mapped, 0};
         vm_status st = vm__samples_decode(&src, r->rq, first, n, v->data, r->err);
         r->pos += total * size;
         return st;
     }
     if (!r->rq->all) {
         vm__samples src = {r->path, r->buf + r->pos, r->len - r->pos, VM__ENC_ASCII, 0, t, 0,
-                           r->mapped};
+                           r->mapped, 0};
         vm_status st = vm__samples_decode(&src, r->rq, first, n, v->data, r->err);
         if (!st && color)
             for (size_t i = 0; i < n; i++) v->data[i] = color_value(v->data[i]);
@@ -287,7 +287,12 @@ static vm_status take_scalars(reader *r, vm_volume *v, const int64_t dims[3],
                                 "%s: data is truncated (got %zu of %zu bytes)", r->path,
                                 r->len - r->pos, bytes);
     }
-    if (r->rq->header_only) return VM_OK;
+    size_t words;
+    if (!r->binary && !r->rq->header_only &&
+        (words = vm__count_words(r->buf + r->pos, r->len - r->pos, n)) < n)
+        return vm_error_set(r->err, VM_ERR_FORMAT, "%s: data is truncated (got %zu of %zu "
+                            "values)", r->path, words, n);
+    if ((st = vm__check_geometry(v, r->path, r->err)) || r->rq->header_only) return st;
     if ((st = vm__slab_alloc(r->path, r->rq, ns, v, r->err))) return st;
     st = read_samples(r, t, color, n, first, ns, v);
     if (st) {

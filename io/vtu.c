@@ -1337,6 +1337,7 @@ vm_status vm_mesh_read_vtu(const char *path, vm_mesh *m, vm_error *err) {
     else
         st = scan_xml(&f, err);
     if (!st) st = build_mesh(&f, m, err);
+    if (!st) st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) vm_mesh_free(m);
     free(f.arrays);
     free(buf);

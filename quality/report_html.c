@@ -70,7 +70,8 @@ static vm_status put_picture(FILE *fp, const vm_mesh *m, const vm_render_options
 static vm_status put_histograms(FILE *fp, const char *path, const char *name,
                                 const vm_quality_summary *q, vm_error *err) {
     char tmp[4200];
-    snprintf(tmp, sizeof tmp, "%s.svg-%ld", path, (long)getpid());
+    if (!vm__temp_path(path, "svg", tmp, sizeof tmp))
+        return vm_error_set(err, VM_ERR_ARG, "%s: path too long", path);
     vm_status s = vm_quality_write_svg(tmp, name, q, err);
     if (s) return s;
     unsigned char *buf = NULL;

@@ -104,6 +104,11 @@ int vm_test_fuzz_volume(const unsigned char *data, size_t size, const char *ext,
 int vm_test_fuzz_mesh(const unsigned char *data, size_t size, const char *ext,
                       vm_status (*read)(const char *path, vm_mesh *m, vm_error *err));
 
+/* Reads the bytes as a mesh of format ext (vm_mesh_read), then runs vm_mesh_check and
+ * vm_quality_report on what was read: each ends with VM_OK or a one-line refusal, never a
+ * crash or a hang; the check's counts stay within the mesh's. Always returns 0. */
+int vm_test_fuzz_mesh_check(const unsigned char *data, size_t size, const char *ext);
+
 /* Euler characteristic of the boundary and 6-connected components that a mesh of the
  * thresholded voxels {lo <= f <= hi} (either bound open) must have: the cubical complex of
  * the inside grid points, padded by outside points, where a cube with exactly its two

@@ -222,6 +222,31 @@ int vm_test_fuzz_mesh(const unsigned char *data, size_t size, const char *ext,
     return 0;
 }
 
+int vm_test_fuzz_mesh_check(const unsigned char *data, size_t size, const char *ext) {
+    const char *path = fuzz_path(data, size, ext);
+    if (!path) return 0;
+    vm_mesh m;
+    vm_error err;
+    vm_error_clear(&err);
+    vm_status st = vm_mesh_read(path, &m, &err);
+    if (st == VM_OK) {
+        vm_mesh_report r;
+        st = vm_mesh_check(&m, &r, &err);
+        if (st == VM_OK && (r.inverted > m.ncells || r.components > m.ncells + m.npoints))
+            abort();
+        if (st != VM_OK) fuzz_refusal("check", st, &err);
+        vm_quality_summary q;
+        vm_error_clear(&err);
+        st = vm_quality_report(&m, &q, &err);
+        if (st != VM_OK) fuzz_refusal("quality", st, &err);
+        vm_mesh_free(&m);
+    } else {
+        fuzz_refusal(ext, st, &err);
+    }
+    remove(path);
+    return 0;
+}
+
 /* ---- shared checks for the volume-reader tests (see tests/test.h) ---- */
 #include <stdint.h>
 #include "io/io_util.h"

@@ -134,6 +134,34 @@ vm_status vm_mesh_write_vtu(const char *path, const vm_mesh *m, int compress, vm
 vm_status vm_mesh_read(const char *path, vm_mesh *m, vm_error *err);
 vm_status vm_mesh_read_vtu(const char *path, vm_mesh *m, vm_error *err);
 
+/* ---- Output files -----------------------------------------------------------------------
+ *
+ * Every writer writes to a temporary file beside its output and renames it when complete: a
+ * failure leaves no file, and an older output survives. A program that writes several files
+ * in one run declares them with vm_output_hold, then renames them together with
+ * vm_output_commit (or removes them with vm_output_discard) at the end: on any failure, none
+ * remains. The registry behind this is process-wide; call these from one thread. */
+
+/* Checks, before any work, that path can be written: a name (not ending in '/'), not a
+ * folder, in a folder that exists and is writable. VM_ERR_IO / VM_ERR_ARG, "PATH: why". */
+vm_status vm_output_check(const char *path, vm_error *err);
+
+/* Declares path an output of this run: from now on its writer leaves it complete under its
+ * temporary name until vm_output_commit. Up to 16 paths; VM_ERR_NOMEM beyond. */
+vm_status vm_output_hold(const char *path, vm_error *err);
+
+/* Renames every held output, in the order they were written, and forgets the declarations.
+ * After a rename that fails, the remaining temporary files are removed; VM_ERR_IO. */
+vm_status vm_output_commit(vm_error *err);
+
+/* Removes every held output's temporary file and forgets the declarations. */
+void vm_output_discard(void);
+
+/* For programs (not libraries): on SIGINT and SIGTERM, removes the temporary file of every
+ * output being written or held, then exits with 130 or 143 (128 + the signal). A signal
+ * ignored when this is called stays ignored. */
+void vm_output_remove_on_signals(void);
+
 /* ---- Finite-element and surface mesh formats ------------------------------------------
  *
  * Every writer: node order converted to the format's own (positive volumes in its reader's
@@ -227,8 +255,9 @@ int vm_exodus_available(void);
 vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
                            const vm_mesh_write_options *opt, vm_error *err);
 
-/* The checks of vm_mesh_write_as that need no mesh (the format known, the options apply to
- * it), so that a program refuses a bad output before meshing. opt may be NULL. */
+/* Checks, before any work, vm_output_check(path), then what vm_mesh_write_as would refuse
+ * before writing: the format (opt->format, or path's extension), the options that fit it.
+ * opt may be NULL (defaults). */
 vm_status vm_mesh_write_check(const char *path, const vm_mesh_write_options *opt,
                               vm_error *err);
 

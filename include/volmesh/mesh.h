@@ -20,6 +20,11 @@ typedef int64_t vm_index;
 typedef int32_t vm_index;
 #endif
 
+/* The largest coordinate magnitude the readers and checks accept (any unit): beyond it the
+ * span of a bounding box, squared lengths and volumes overflow. Every mesh reader refuses a
+ * coordinate that is NaN, infinite or larger, naming the point and axis. */
+#define VM_COORD_MAX 1e30
+
 /* Progress callback: stage name, work done out of total (done only grows and ends equal to
  * total). Called from the calling thread, a few hundred times per stage at most. Used by the
  * mesher, the quality pass, the writers and the checks. */

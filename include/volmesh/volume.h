@@ -29,6 +29,14 @@ typedef enum vm_scalar_type {
     VM_SCALAR_FLOAT64
 } vm_scalar_type;
 
+/* The geometry every volume reader accepts (any unit, usually mm): spacing finite, within
+ * VM_SPACING_MIN .. VM_SPACING_MAX; origin and direction finite; the origin and the far
+ * corner within +-VM_EXTENT_MAX. Beyond them the world coordinates of the voxels lose their
+ * precision or overflow; a reader refuses them, naming the field. */
+#define VM_SPACING_MIN 1e-9
+#define VM_SPACING_MAX 1e9
+#define VM_EXTENT_MAX 1e15
+
 typedef struct vm_volume {
     int64_t dims[3];          /* nx, ny, nz, each >= 1 */
     vm_scalar_type type;      /* type in the source file */
