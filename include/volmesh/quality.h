@@ -289,7 +289,8 @@ typedef struct vm_surface_distance {
  *   point itself taken onto the surface; every candidate is a point of the isosurface, so
  *   the value never falls below the true distance, and it exceeds it only when neither
  *   start reaches the true foot point (checked against brute force near the CT head: 148 of
- *   150 points within 0.02 voxel, the worst 0.05 voxel above; docs/QUALITY.md).
+ *   150 points agree within the search's own error, the worst is 0.05 voxel above;
+ *   docs/QUALITY.md).
  * - Surface point -> boundary: the exact point-triangle distance to the nearest boundary
  *   triangle (a uniform grid, and a bounding-volume hierarchy for far points).
  * Means are over the samples. When one side has no samples and the other has some, the
