@@ -190,9 +190,10 @@ static double crease_foot(const field *F, int level, const double p[3], const do
  * steps across it; this catches it. */
 static double crease_feet(const field *F, int level, const double p[3], const double x[3],
                           const double y[3], double best2) {
-    double ux[3], uy[3];
+    double ux[3], uy[3], up[3];
     to_index(F, x, ux);
     to_index(F, y, uy);
+    to_index(F, p, up);
     for (int a = 0; a < 3; a++) {
         double P;
         if (uy[a] > ux[a]) {
@@ -205,12 +206,14 @@ static double crease_feet(const field *F, int level, const double p[3], const do
             continue;
         }
         if (P < 0 || P > (double)(F->n[a] - 1)) continue;
+        double len = sqrt(F->Ai[a][0] * F->Ai[a][0] + F->Ai[a][1] * F->Ai[a][1] +
+                          F->Ai[a][2] * F->Ai[a][2]);
+        double plane = (up[a] - P) / len; /* p's distance to the plane bounds the crease's */
+        if (plane * plane >= best2) continue;
         double s = (P - ux[a]) / (uy[a] - ux[a]), xs[3], N[3];
         if (s < 0) s = 0;
         if (s > 1) s = 1;
         for (int k = 0; k < 3; k++) xs[k] = x[k] + s * (y[k] - x[k]);
-        double len = sqrt(F->Ai[a][0] * F->Ai[a][0] + F->Ai[a][1] * F->Ai[a][1] +
-                          F->Ai[a][2] * F->Ai[a][2]);
         for (int k = 0; k < 3; k++) N[k] = F->Ai[a][k] / len; /* u_a = Ai[a] . (x - o) */
         best2 = crease_foot(F, level, p, xs, N, best2);
     }
@@ -218,9 +221,14 @@ static double crease_feet(const field *F, int level, const double p[3], const do
 }
 
 /* Distance from p to the isosurface of `level`, starting on it at s (a surface sample):
- * the smallest |p - y| over the surface points y of a foot-point iteration. */
-static double foot_point(const field *F, int level, const double p[3], const double s[3]) {
+ * the smallest |p - y| over the surface points y of a foot-point iteration, and with
+ * creases != 0 over the crease feet its steps meet (crease_feet). *converged: 1 when the
+ * iteration came to rest (a smooth foot point), 0 when it stopped or ran out of steps (it
+ * keeps stepping across a crease). */
+static double foot_point(const field *F, int level, const double p[3], const double s[3],
+                         int creases, int *converged) {
     double x[3] = {s[0], s[1], s[2]}, best = dist2(p, s), g[3], val;
+    *converged = 0;
     if (!eval(F, x, &val, g)) return sqrt(best);
     for (int it = 0; it < FOOT_ITERS; it++) {
         double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
@@ -230,14 +238,17 @@ static double foot_point(const field *F, int level, const double p[3], const dou
         double dn = d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2];
         double y[3];
         for (int a = 0; a < 3; a++) y[a] = x[a] + d[a] - dn * nrm[a];
-        best = crease_feet(F, level, p, x, y, best);
+        if (creases) best = crease_feet(F, level, p, x, y, best);
         clamp_box(F, y);
         /* newton leaves the gradient at y in g: the next step's normal */
         if (!newton(F, level, y, g)) break;
         double dy = dist2(p, y), moved = dist2(x, y);
         if (dy < best) best = dy;
         memcpy(x, y, sizeof x);
-        if (moved <= F->ftol * F->ftol) break;
+        if (moved <= F->ftol * F->ftol) {
+            *converged = 1;
+            break;
+        }
     }
     return sqrt(best);
 }
@@ -1030,17 +1041,20 @@ static double mesh_point_distance(const ctx *x, const double p[3], size_t *hint)
     size_t id = *hint;
     double d0 = sqrt(nearest(x->sg, x->sb, x->F, p, &id));
     *hint = id;
-    int level = x->S->level[id];
-    double d = foot_point(x->F, level, p, x->S->p + 3 * id);
+    int level = x->S->level[id], c1, c2 = 1;
+    const double *s = x->S->p + 3 * id;
+    double d = foot_point(x->F, level, p, s, 0, &c1);
     /* A second start: p itself, taken onto the surface along the gradient. It finds the
      * foot point where the nearest sample leads to another local minimum (a fold or bump of
      * the trilinear surface between samples). */
     double y[3] = {p[0], p[1], p[2]}, g[3];
     clamp_box(x->F, y);
-    if (newton(x->F, level, y, g)) {
-        double e = foot_point(x->F, level, p, y);
-        if (e < d) d = e;
-    }
+    int onto = newton(x->F, level, y, g);
+    if (onto) d = fmin(d, foot_point(x->F, level, p, y, 0, &c2));
+    /* A start that did not come to rest keeps stepping across a crease: again, searching
+     * the creases (only then: that costs more). */
+    if (!c1) d = fmin(d, foot_point(x->F, level, p, s, 1, &c1));
+    if (onto && !c2) d = fmin(d, foot_point(x->F, level, p, y, 1, &c2));
     return d < d0 ? d : d0;
 }
 
