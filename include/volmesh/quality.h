@@ -297,7 +297,7 @@ typedef struct vm_surface_distance {
  * distances from the other side and hausdorff are INFINITY; both empty: all 0.
  * Runs on OpenMP threads; the result does not depend on their number. Time: about 1.5 us
  * per mesh sample and 1 us per surface sample on one core, plus the volume scan (a 256^3
- * phantom with 1.9 M tets: 0.7 s on two cores).
+ * phantom with 1.9 M tets: 1.1 s on one core).
  * [in] m, v (not modified); [out] out. Errors: VM_ERR_ARG for no bound or lo > hi, an
  * unknown kind, a bad node index or non-finite coordinates; VM_ERR_FORMAT for non-finite
  * volume values; VM_ERR_NOMEM. */
