@@ -92,6 +92,25 @@ static int eval(const field *F, const double x[3], double *val, double gw[3]) {
     return 1;
 }
 
+/* Moves world point x into the volume's box (the nearest point of the box in index space),
+ * where the isosurface ends: a foot point on its rim lies on a box plane. */
+static void clamp_box(const field *F, double x[3]) {
+    double u[3];
+    int out = 0;
+    to_index(F, x, u);
+    for (int a = 0; a < 3; a++) {
+        double top = (double)(F->n[a] - 1);
+        if (u[a] < 0) {
+            u[a] = 0;
+            out = 1;
+        } else if (u[a] > top) {
+            u[a] = top;
+            out = 1;
+        }
+    }
+    if (out) to_world(F, u, x);
+}
+
 /* Newton steps from x onto f = level along the gradient. Returns 1 when converged (x then
  * lies on the isosurface within F->tol), with the world gradient there in g. */
 static int newton(const field *F, int level, double x[3], double g[3]) {
@@ -105,6 +124,29 @@ static int newton(const field *F, int level, double x[3], double g[3]) {
         if (fabs(r) <= F->tol * sqrt(gg)) return 1;
         if (it == NEWTON_ITERS) break;
         for (int a = 0; a < 3; a++) x[a] -= step * g[a];
+        clamp_box(F, x); /* along a box plane where the step leaves the box */
+    }
+    return 0;
+}
+
+/* Newton steps from x onto f = level within the box plane of unit world normal N (the
+ * gradient's part along the plane), for foot points on the isosurface's rim. Returns 1
+ * when converged, with the full world gradient at x in g. */
+static int newton_on_plane(const field *F, int level, const double N[3], double x[3],
+                           double g[3]) {
+    double L = level_value(F, level);
+    for (int it = 0; it <= NEWTON_ITERS; it++) {
+        double val;
+        if (!eval(F, x, &val, g)) return 0;
+        double gN = g[0] * N[0] + g[1] * N[1] + g[2] * N[2];
+        double gp[3] = {g[0] - gN * N[0], g[1] - gN * N[1], g[2] - gN * N[2]};
+        double gg = gp[0] * gp[0] + gp[1] * gp[1] + gp[2] * gp[2];
+        if (!(gg > 0)) return 0;
+        double r = val - L;
+        if (fabs(r) <= F->tol * sqrt(gg)) return 1;
+        if (it == NEWTON_ITERS) break;
+        for (int a = 0; a < 3; a++) x[a] -= r / gg * gp[a];
+        clamp_box(F, x);
     }
     return 0;
 }
@@ -114,10 +156,79 @@ static double dist2(const double a[3], const double b[3]) {
     return d0 * d0 + d1 * d1 + d2 * d2;
 }
 
+/* The smaller of best2 and the squared distance from p to the foot point on the crease
+ * where the isosurface meets the plane (unit world normal N) through xs: a voxel face,
+ * where the trilinear surface bends (its gradient jumps), or the box, where it ends. The
+ * foot point condition there is a step along the crease's tangent, N x gradient (the same
+ * from both sides), then Newton within the plane. */
+static double crease_foot(const field *F, int level, const double p[3], const double xs[3],
+                          const double N[3], double best2) {
+    double x[3] = {xs[0], xs[1], xs[2]}, g[3];
+    if (!newton_on_plane(F, level, N, x, g)) return best2;
+    double b = fmin(best2, dist2(p, x));
+    for (int it = 0; it < FOOT_ITERS; it++) {
+        double t[3] = {N[1] * g[2] - N[2] * g[1], N[2] * g[0] - N[0] * g[2],
+                       N[0] * g[1] - N[1] * g[0]};
+        double tl2 = t[0] * t[0] + t[1] * t[1] + t[2] * t[2];
+        if (!(tl2 > 0)) break;
+        double dt = ((p[0] - x[0]) * t[0] + (p[1] - x[1]) * t[1] + (p[2] - x[2]) * t[2]) / tl2;
+        double y[3];
+        for (int a = 0; a < 3; a++) y[a] = x[a] + dt * t[a];
+        clamp_box(F, y);
+        if (!newton_on_plane(F, level, N, y, g)) break;
+        double moved = dist2(x, y);
+        b = fmin(b, dist2(p, y));
+        memcpy(x, y, sizeof x);
+        if (moved <= F->ftol * F->ftol) break;
+    }
+    return b;
+}
+
+/* For a foot-point step from x to y: the crease feet (crease_foot) on the voxel-face planes
+ * the step meets first along each axis (the one x lies on included), best2 lowered to the
+ * nearest. A foot point on a crease is no stationary point of the smooth iteration, which
+ * steps across it; this catches it. */
+static double crease_feet(const field *F, int level, const double p[3], const double x[3],
+                          const double y[3], double best2) {
+    double ux[3], uy[3], up[3];
+    to_index(F, x, ux);
+    to_index(F, y, uy);
+    to_index(F, p, up);
+    for (int a = 0; a < 3; a++) {
+        double P;
+        if (uy[a] > ux[a]) {
+            P = ceil(ux[a] - 1e-9);
+            if (P > uy[a]) continue;
+        } else if (uy[a] < ux[a]) {
+            P = floor(ux[a] + 1e-9);
+            if (P < uy[a]) continue;
+        } else {
+            continue;
+        }
+        if (P < 0 || P > (double)(F->n[a] - 1)) continue;
+        double len = sqrt(F->Ai[a][0] * F->Ai[a][0] + F->Ai[a][1] * F->Ai[a][1] +
+                          F->Ai[a][2] * F->Ai[a][2]);
+        double plane = (up[a] - P) / len; /* p's distance to the plane bounds the crease's */
+        if (plane * plane >= best2) continue;
+        double s = (P - ux[a]) / (uy[a] - ux[a]), xs[3], N[3];
+        if (s < 0) s = 0;
+        if (s > 1) s = 1;
+        for (int k = 0; k < 3; k++) xs[k] = x[k] + s * (y[k] - x[k]);
+        for (int k = 0; k < 3; k++) N[k] = F->Ai[a][k] / len; /* u_a = Ai[a] . (x - o) */
+        best2 = crease_foot(F, level, p, xs, N, best2);
+    }
+    return best2;
+}
+
 /* Distance from p to the isosurface of `level`, starting on it at s (a surface sample):
- * the smallest |p - y| over the surface points y of a foot-point iteration. */
-static double foot_point(const field *F, int level, const double p[3], const double s[3]) {
+ * the smallest |p - y| over the surface points y of a foot-point iteration, and with
+ * creases != 0 over the crease feet its steps meet (crease_feet). *converged: 1 when the
+ * iteration came to rest (a smooth foot point), 0 when it stopped or ran out of steps (it
+ * keeps stepping across a crease). */
+static double foot_point(const field *F, int level, const double p[3], const double s[3],
+                         int creases, int *converged) {
     double x[3] = {s[0], s[1], s[2]}, best = dist2(p, s), g[3], val;
+    *converged = 0;
     if (!eval(F, x, &val, g)) return sqrt(best);
     for (int it = 0; it < FOOT_ITERS; it++) {
         double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
@@ -127,12 +238,17 @@ static double foot_point(const field *F, int level, const double p[3], const dou
         double dn = d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2];
         double y[3];
         for (int a = 0; a < 3; a++) y[a] = x[a] + d[a] - dn * nrm[a];
+        if (creases) best = crease_feet(F, level, p, x, y, best);
+        clamp_box(F, y);
         /* newton leaves the gradient at y in g: the next step's normal */
         if (!newton(F, level, y, g)) break;
         double dy = dist2(p, y), moved = dist2(x, y);
         if (dy < best) best = dy;
         memcpy(x, y, sizeof x);
-        if (moved <= F->ftol * F->ftol) break;
+        if (moved <= F->ftol * F->ftol) {
+            *converged = 1;
+            break;
+        }
     }
     return sqrt(best);
 }
@@ -925,16 +1041,20 @@ static double mesh_point_distance(const ctx *x, const double p[3], size_t *hint)
     size_t id = *hint;
     double d0 = sqrt(nearest(x->sg, x->sb, x->F, p, &id));
     *hint = id;
-    int level = x->S->level[id];
-    double d = foot_point(x->F, level, p, x->S->p + 3 * id);
+    int level = x->S->level[id], c1, c2 = 1;
+    const double *s = x->S->p + 3 * id;
+    double d = foot_point(x->F, level, p, s, 0, &c1);
     /* A second start: p itself, taken onto the surface along the gradient. It finds the
      * foot point where the nearest sample leads to another local minimum (a fold or bump of
      * the trilinear surface between samples). */
     double y[3] = {p[0], p[1], p[2]}, g[3];
-    if (newton(x->F, level, y, g)) {
-        double e = foot_point(x->F, level, p, y);
-        if (e < d) d = e;
-    }
+    clamp_box(x->F, y);
+    int onto = newton(x->F, level, y, g);
+    if (onto) d = fmin(d, foot_point(x->F, level, p, y, 0, &c2));
+    /* A start that did not come to rest keeps stepping across a crease: again, searching
+     * the creases (only then: that costs more). */
+    if (!c1) d = fmin(d, foot_point(x->F, level, p, s, 1, &c1));
+    if (onto && !c2) d = fmin(d, foot_point(x->F, level, p, y, 1, &c2));
     return d < d0 ? d : d0;
 }
 

@@ -285,18 +285,22 @@ typedef struct vm_surface_distance {
  *   boundary triangle (quads split in two) at most half the smallest spacing apart (at
  *   least the edge midpoints and the centroid).
  * - Mesh point -> isosurface: the nearest surface sample, then a foot-point iteration
- *   (tangent-plane projection and Newton steps onto f = level) from it; every candidate is
- *   a point of the isosurface, so the value never falls below the true distance, and it
- *   exceeds it only when the true foot point is not reached from the nearest sample (at
- *   most by the samples' spacing, about 0.35 voxel; in practice below 1e-6 voxel).
+ *   (tangent-plane projection and Newton steps onto f = level) started from it and from the
+ *   point itself taken onto the surface, with the creases where the surface bends (voxel
+ *   faces) or ends (the box) searched where a step crosses them; every candidate is a point
+ *   of the isosurface, so the value never falls below the true distance, and it exceeds it
+ *   only when no start reaches the true foot point (checked against brute force near the CT
+ *   head: 150 of 150 points within 0.003 mm; docs/QUALITY.md).
  * - Surface point -> boundary: the exact point-triangle distance to the nearest boundary
- *   triangle (a bounding-volume hierarchy over the triangles).
+ *   triangle (a uniform grid, and a bounding-volume hierarchy for far points).
  * Means are over the samples. When one side has no samples and the other has some, the
  * distances from the other side and hausdorff are INFINITY; both empty: all 0.
- * Runs on OpenMP threads; the result does not depend on their number. Time: about 1 s per
- * million boundary triangles plus the volume scan (16 M voxels: about a second).
+ * Runs on OpenMP threads; the result does not depend on their number. Time: about 1.5 us
+ * per mesh sample and 1 us per surface sample on one core, plus the volume scan (a 256^3
+ * phantom with 1.9 M tets: 1.1 s on one core).
  * [in] m, v (not modified); [out] out. Errors: VM_ERR_ARG for no bound or lo > hi, an
- * unknown kind or a bad node index; VM_ERR_NOMEM. */
+ * unknown kind, a bad node index or non-finite coordinates; VM_ERR_FORMAT for non-finite
+ * volume values; VM_ERR_NOMEM. */
 vm_status vm_mesh_surface_distance(const vm_mesh *m, const vm_volume *v, double lo, int has_lo,
                                    double hi, int has_hi, vm_surface_distance *out,
                                    vm_error *err);
