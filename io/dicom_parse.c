@@ -22,7 +22,8 @@ enum {
 };
 #define UNDEFINED_LENGTH 0xFFFFFFFFu
 
-/* The transfer syntaxes by UID (PS3.6 annex A). Only the first five are decoded. */
+/* The transfer syntaxes by UID (PS3.6 annex A). The first five are always decoded, the JPEG
+ * families when their library was found at build time (io/dicom_codecs.c). */
 static const struct {
     const char *uid, *name;
     dcm_syntax syntax;
@@ -32,16 +33,16 @@ static const struct {
     {"1.2.840.10008.1.2.1.99", "Deflated Explicit VR Little Endian", DCM_DEFLATED_LE},
     {"1.2.840.10008.1.2.2", "Explicit VR Big Endian", DCM_EXPLICIT_BE},
     {"1.2.840.10008.1.2.5", "RLE Lossless", DCM_RLE},
-    {"1.2.840.10008.1.2.4.50", "JPEG Baseline (Process 1)", DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.51", "JPEG Extended (Process 2 & 4)", DCM_ENCAPSULATED},
+    {"1.2.840.10008.1.2.4.50", "JPEG Baseline (Process 1)", DCM_JPEG},
+    {"1.2.840.10008.1.2.4.51", "JPEG Extended (Process 2 & 4)", DCM_JPEG},
     {"1.2.840.10008.1.2.4.57", "JPEG Lossless, Non-Hierarchical (Process 14)",
-     DCM_ENCAPSULATED},
+     DCM_JPEG},
     {"1.2.840.10008.1.2.4.70", "JPEG Lossless, Non-Hierarchical, First-Order Prediction",
-     DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.80", "JPEG-LS Lossless", DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.81", "JPEG-LS Lossy (Near-Lossless)", DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.90", "JPEG 2000 Image Compression (Lossless Only)", DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.91", "JPEG 2000 Image Compression", DCM_ENCAPSULATED},
+     DCM_JPEG},
+    {"1.2.840.10008.1.2.4.80", "JPEG-LS Lossless", DCM_JPEGLS},
+    {"1.2.840.10008.1.2.4.81", "JPEG-LS Lossy (Near-Lossless)", DCM_JPEGLS},
+    {"1.2.840.10008.1.2.4.90", "JPEG 2000 Image Compression (Lossless Only)", DCM_J2K},
+    {"1.2.840.10008.1.2.4.91", "JPEG 2000 Image Compression", DCM_J2K},
     {"1.2.840.10008.1.2.4.92", "JPEG 2000 Part 2 Multi-component (Lossless Only)",
      DCM_ENCAPSULATED},
     {"1.2.840.10008.1.2.4.93", "JPEG 2000 Part 2 Multi-component", DCM_ENCAPSULATED},
@@ -462,10 +463,22 @@ static vm_status walk_elements(walk *w, size_t *pos, size_t end, int in_item, vm
 }
 
 /* Records one fragment of encapsulated pixel data (PS3.5 A.4); the first item is the Basic
- * Offset Table, not a fragment. */
+ * Offset Table (32-bit little-endian offsets of each frame's first fragment item, counted
+ * from the first fragment item), kept for the frames' fragments. */
 static vm_status add_fragment(walk *w, int64_t index, const elem *it, vm_error *err) {
     dcm_file *f = w->f;
-    if (index == 0) return VM_OK;
+    if (index == 0) {
+        if (it->length == UNDEFINED || it->length % 4 != 0)
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: the basic offset table of the pixel "
+                                "data has a length that is not a multiple of 4", w->path);
+        f->first_item = it->value + (size_t)it->length;
+        size_t n = (size_t)it->length / 4;
+        f->frame_offsets = malloc((n ? n : 1) * sizeof *f->frame_offsets);
+        if (!f->frame_offsets) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", w->path);
+        for (size_t k = 0; k < n; k++) f->frame_offsets[k] = get32(w->p + it->value + 4 * k, 0);
+        f->n_frame_offsets = n;
+        return VM_OK;
+    }
     if (it->length == UNDEFINED)
         return vm_error_set(err, VM_ERR_FORMAT, "%s: a pixel data fragment has an undefined "
                             "length", w->path);
@@ -659,5 +672,6 @@ void vm__dcm_file_free(dcm_file *f) {
     free(f->frame_rescale);
     free(f->grid_offsets);
     free(f->fragments);
+    free(f->frame_offsets);
     memset(f, 0, sizeof *f);
 }
