@@ -40,7 +40,9 @@ typedef struct sample_kind {
     int bits_allocated, bits_stored, pixel_rep;
 } sample_kind;
 
-static const sample_kind U8 = {8, 8, 0}, U12 = {16, 12, 0}, S16 = {16, 16, 1};
+#define U8 ((sample_kind){8, 8, 0})
+#define U12 ((sample_kind){16, 12, 0})
+#define S16 ((sample_kind){16, 16, 1})
 
 /* A smooth field (compresses well and within tolerance when lossy) with a bright blob, as
  * signed values in the kind's range. */
