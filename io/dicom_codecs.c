@@ -95,7 +95,9 @@ static void one_line(char *dst, const char *src) {
 
 #ifdef VM_HAVE_DICOM_JPEG
 /* T.81 B.1.1.3: SOF markers are FFC0..FFCF except DHT (C4), JPG (C8) and DAC (CC). */
-static bool is_sof(unsigned m) { return m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC; }
+static bool is_sof(unsigned m) {
+    return m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC;
+}
 
 /* Finds the frame header (T.81 B.2.2) by walking the marker segments after SOI: [out] its
  * marker and sample precision. False when there is none before the scan or the data ends. */
@@ -126,12 +128,14 @@ typedef struct jpeg_fail {
     char msg[JMSG_LENGTH_MAX];
 } jpeg_fail;
 
+/* Keeps libjpeg's message and jumps back to jpeg_words. */
 static void jpeg_on_error(j_common_ptr c) {
     jpeg_fail *e = (jpeg_fail *)c->err;
     e->mgr.format_message(c, e->msg);
     longjmp(e->back, 1);
 }
 
+/* Turns libjpeg's warnings into errors; trace messages are dropped. */
 static void jpeg_on_message(j_common_ptr c, int level) {
     if (level < 0) jpeg_on_error(c); /* a warning: premature end, corrupt data */
 }
@@ -271,6 +275,7 @@ typedef struct j2k_source {
     char msg[MSG_MAX]; /* the first error OpenJPEG reported */
 } j2k_source;
 
+/* OpenJPEG's read callback: up to want bytes, (OPJ_SIZE_T)-1 at the end. */
 static OPJ_SIZE_T j2k_read(void *dst, OPJ_SIZE_T want, void *user) {
     j2k_source *s = user;
     if (s->at >= s->n) return (OPJ_SIZE_T)-1;
@@ -280,6 +285,7 @@ static OPJ_SIZE_T j2k_read(void *dst, OPJ_SIZE_T want, void *user) {
     return k;
 }
 
+/* OpenJPEG's skip callback: forward only, clamped to the end. */
 static OPJ_OFF_T j2k_skip(OPJ_OFF_T by, void *user) {
     j2k_source *s = user;
     if (by < 0) return -1;
@@ -288,6 +294,7 @@ static OPJ_OFF_T j2k_skip(OPJ_OFF_T by, void *user) {
     return (OPJ_OFF_T)k;
 }
 
+/* OpenJPEG's seek callback: any place inside the codestream. */
 static OPJ_BOOL j2k_seek(OPJ_OFF_T to, void *user) {
     j2k_source *s = user;
     if (to < 0 || (uint64_t)to > s->n) return OPJ_FALSE;
@@ -295,11 +302,13 @@ static OPJ_BOOL j2k_seek(OPJ_OFF_T to, void *user) {
     return OPJ_TRUE;
 }
 
+/* Keeps OpenJPEG's first error message for the one-line refusal. */
 static void j2k_on_error(const char *msg, void *user) {
     j2k_source *s = user;
     if (!s->msg[0]) one_line(s->msg, msg);
 }
 
+/* Drops OpenJPEG's warnings and information. */
 static void j2k_quiet(const char *msg, void *user) { (void)msg, (void)user; }
 
 /* A JPEG 2000 frame (a J2K codestream, or a JP2 file as some writers store) to stored words

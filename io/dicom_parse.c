@@ -474,7 +474,8 @@ static vm_status add_fragment(walk *w, int64_t index, const elem *it, vm_error *
         f->first_item = it->value + (size_t)it->length;
         size_t n = (size_t)it->length / 4;
         f->frame_offsets = malloc((n ? n : 1) * sizeof *f->frame_offsets);
-        if (!f->frame_offsets) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", w->path);
+        if (!f->frame_offsets)
+            return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", w->path);
         for (size_t k = 0; k < n; k++) f->frame_offsets[k] = get32(w->p + it->value + 4 * k, 0);
         f->n_frame_offsets = n;
         return VM_OK;

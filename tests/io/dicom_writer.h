@@ -259,7 +259,10 @@ static void dw_pixels(dw_buf *b, const dw_spec *s) {
             offsets[f] = (uint32_t)items.n;
             if (rle) dw_rle_frame(&items, s->words + f * n, n, bytes);
             else if (s->codestreams) dw_codestream(&items, s, f);
-            else { dw_head(&items, 0xFFFE, 0xE000, "", 4); dw_put(&items, "\xFF\xD8\xFF\xD9", 4); }
+            else { /* a stand-in: SOI, EOI */
+                dw_head(&items, 0xFFFE, 0xE000, "", 4);
+                dw_put(&items, "\xFF\xD8\xFF\xD9", 4);
+            }
         }
         /* the basic offset table: each frame's first item from the first fragment item */
         dw_head(b, 0xFFFE, 0xE000, "", s->offset_table ? (uint32_t)(4 * frames) : 0);

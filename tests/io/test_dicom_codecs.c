@@ -87,8 +87,10 @@ static dw_spec slice_spec(sample_kind k, const char *ts, int z, int frames) {
     s.has_rescale = 1, s.slope = SLOPE, s.intercept = INTERCEPT;
     s.words = words[z];
     if (frames > 1) {
-        for (int f = 0; f < NZ; f++)
-            positions[3 * f] = -10.0, positions[3 * f + 1] = 5.0, positions[3 * f + 2] = 2.0 * f;
+        for (int f = 0; f < NZ; f++) {
+            positions[3 * f] = -10.0, positions[3 * f + 1] = 5.0;
+            positions[3 * f + 2] = 2.0 * f;
+        }
         s.frame_positions = positions;
         s.has_position = 0;
     }
@@ -101,6 +103,7 @@ typedef struct frames {
     size_t n[NZ];
 } frames;
 
+/* Frees the codestreams of fr. */
 static void frames_free(frames *fr) {
     for (int z = 0; z < NZ; z++) free(fr->p[z]);
 }
@@ -194,6 +197,7 @@ typedef struct j2k_sink {
     size_t n, at, cap;
 } j2k_sink;
 
+/* OpenJPEG's write callback: appends at the current place. */
 static OPJ_SIZE_T sink_write(void *src, OPJ_SIZE_T n, void *user) {
     j2k_sink *s = user;
     if (s->at + n > s->cap) {
@@ -206,12 +210,14 @@ static OPJ_SIZE_T sink_write(void *src, OPJ_SIZE_T n, void *user) {
     return n;
 }
 
+/* OpenJPEG's skip callback. */
 static OPJ_OFF_T sink_skip(OPJ_OFF_T by, void *user) {
     j2k_sink *s = user;
     s->at += (size_t)by;
     return by;
 }
 
+/* OpenJPEG's seek callback. */
 static OPJ_BOOL sink_seek(OPJ_OFF_T to, void *user) {
     j2k_sink *s = user;
     s->at = (size_t)to;

@@ -173,7 +173,8 @@ for path in files:
     if ts.startswith(JPEG_FAMILY) and compressed_refusal(name, ds, ts, path):
         refused += 1
         continue
-    if ((ts not in DECODED and ts not in CODEC_OF) or int(getattr(ds, "SamplesPerPixel", 1)) != 1
+    if ((ts not in DECODED and ts not in CODEC_OF)
+            or int(getattr(ds, "SamplesPerPixel", 1)) != 1
             or int(getattr(ds, "BitsAllocated", 0)) not in (1, 8, 16, 32)):
         continue
     try:
