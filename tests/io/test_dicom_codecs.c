@@ -307,6 +307,30 @@ static double expect_voxels(const char *path, double tol, const char *what) {
     return worst;
 }
 
+/* Frames 1 and 2 of path read as a slab and forward through a reader are those planes of
+ * the whole read (compressed frames are found one by one). */
+static void expect_slabs_like_whole(const char *path, const char *what) {
+    vm_volume whole, slab;
+    vm_error err;
+    CHECK_OK(vm_volume_read(path, &whole, &err), &err);
+    CHECK_OK(vm_volume_read_slab(path, 1, 3, &slab, &err), &err);
+    if (whole.data && slab.data)
+        CHECK_MSG(slab.dims[2] == 2 && memcmp(slab.data, whole.data + PLANE,
+                                              2 * PLANE * sizeof(float)) == 0,
+                  "%s: the slab of frames 1-2 differs from the whole read", what);
+    vm_volume_free(&slab);
+    vm_volume_reader *r = NULL;
+    float planes[PLANE];
+    CHECK_OK(vm_volume_reader_open(path, NULL, NULL, &r, &err), &err);
+    for (int k = 0; r && whole.data && k < NZ; k++) {
+        CHECK_OK(vm_volume_reader_read(r, k, k + 1, planes, &err), &err);
+        CHECK_MSG(memcmp(planes, whole.data + k * PLANE, sizeof planes) == 0,
+                  "%s: plane %d read forward differs from the whole read", what, k);
+    }
+    vm_volume_reader_close(r);
+    vm_volume_free(&whole);
+}
+
 /* Every layout of the same frames reads alike: a series of files with one fragment per
  * frame, frames cut into 3 fragments, and multi-frame files with and without an offset
  * table (frames then found by their start markers). */
@@ -323,6 +347,7 @@ static void expect_layouts(const char *tag, sample_kind k, const char *ts, const
         const char *path = write_series(name, k, ts, fr, layout[l][0], layout[l][1],
                                         layout[l][2]);
         double worst = expect_voxels(path, tol, what);
+        expect_slabs_like_whole(path, what);
         if (tol > 0) printf("  %s: largest difference %g\n", what, worst);
     }
 }
