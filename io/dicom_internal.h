@@ -41,6 +41,7 @@
 #define DCM_DOSE_GRID_SCALING          DCM_TAG(0x3004, 0x000E)
 #define DCM_SHARED_GROUPS_SEQ          DCM_TAG(0x5200, 0x9229)
 #define DCM_PER_FRAME_GROUPS_SEQ       DCM_TAG(0x5200, 0x9230)
+#define DCM_EXTENDED_OFFSET_TABLE      DCM_TAG(0x7FE0, 0x0001)
 #define DCM_PIXEL_DATA                 DCM_TAG(0x7FE0, 0x0010)
 #define DCM_ITEM                       DCM_TAG(0xFFFE, 0xE000)
 #define DCM_ITEM_END                   DCM_TAG(0xFFFE, 0xE00D)
@@ -87,8 +88,10 @@ typedef struct dcm_file {
     size_t pixel_offset, pixel_length; /* native pixel data in the dataset bytes */
     dcm_fragment *fragments;    /* encapsulated: every fragment after the offset table */
     size_t n_fragments;
-    uint32_t *frame_offsets;    /* encapsulated: the basic offset table (owned), maybe empty */
+    uint64_t *frame_offsets;    /* encapsulated: the basic offset table, or the extended one
+                                 * when the basic is empty (owned); maybe none */
     size_t n_frame_offsets;
+    int extended_offsets;       /* frame_offsets came from the ExtendedOffsetTable */
     size_t first_item;          /* where the first fragment item's tag lies in the bytes */
 } dcm_file;
 

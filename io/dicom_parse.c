@@ -339,6 +339,31 @@ static vm_status take_offsets(walk *w, const elem *e, vm_error *err) {
     return VM_OK;
 }
 
+/* Keeps an offset table of n entries of `bytes` (4 or 8) little-endian bytes from p. */
+static vm_status keep_offsets(walk *w, const unsigned char *p, size_t n, size_t bytes,
+                              vm_error *err) {
+    dcm_file *f = w->f;
+    free(f->frame_offsets);
+    f->frame_offsets = malloc((n ? n : 1) * sizeof *f->frame_offsets);
+    f->n_frame_offsets = 0;
+    if (!f->frame_offsets) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", w->path);
+    for (size_t k = 0; k < n; k++, p += bytes)
+        f->frame_offsets[k] = bytes == 4 ? get32(p, 0)
+                                         : (uint64_t)get32(p + 4, 0) << 32 | get32(p, 0);
+    f->n_frame_offsets = n;
+    return VM_OK;
+}
+
+/* The Extended Offset Table (7FE0,0001; PS3.5 A.4, PS3.3 C.7.6.3.1.8): 64-bit offsets of
+ * each frame's first fragment item, for when the basic offset table is empty. */
+static vm_status take_extended_offsets(walk *w, const elem *e, vm_error *err) {
+    if (e->length % 8 != 0)
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: the extended offset table has a length "
+                            "that is not a multiple of 8", w->path);
+    w->f->extended_offsets = 1;
+    return keep_offsets(w, w->p + e->value, (size_t)e->length / 8, 8, err);
+}
+
 /* Values of the top-level dataset. */
 static vm_status take_top(walk *w, const elem *e, vm_error *err) {
     dcm_file *f = w->f;
@@ -392,6 +417,7 @@ static vm_status take_top(walk *w, const elem *e, vm_error *err) {
     case DCM_DOSE_GRID_SCALING:
         return take_vector(w, e, "DoseGridScaling", &f->dose_scaling, 1, err);
     case DCM_GRID_FRAME_OFFSETS: return take_offsets(w, e, err);
+    case DCM_EXTENDED_OFFSET_TABLE: return take_extended_offsets(w, e, err);
     default: break;
     }
     return VM_OK;
@@ -464,7 +490,7 @@ static vm_status walk_elements(walk *w, size_t *pos, size_t end, int in_item, vm
 
 /* Records one fragment of encapsulated pixel data (PS3.5 A.4); the first item is the Basic
  * Offset Table (32-bit little-endian offsets of each frame's first fragment item, counted
- * from the first fragment item), kept for the frames' fragments. */
+ * from the first fragment item), kept for the frames' fragments when it is not empty. */
 static vm_status add_fragment(walk *w, int64_t index, const elem *it, vm_error *err) {
     dcm_file *f = w->f;
     if (index == 0) {
@@ -472,13 +498,9 @@ static vm_status add_fragment(walk *w, int64_t index, const elem *it, vm_error *
             return vm_error_set(err, VM_ERR_FORMAT, "%s: the basic offset table of the pixel "
                                 "data has a length that is not a multiple of 4", w->path);
         f->first_item = it->value + (size_t)it->length;
-        size_t n = (size_t)it->length / 4;
-        f->frame_offsets = malloc((n ? n : 1) * sizeof *f->frame_offsets);
-        if (!f->frame_offsets)
-            return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", w->path);
-        for (size_t k = 0; k < n; k++) f->frame_offsets[k] = get32(w->p + it->value + 4 * k, 0);
-        f->n_frame_offsets = n;
-        return VM_OK;
+        if (it->length == 0) return VM_OK; /* empty: the extended table, if any, stands */
+        f->extended_offsets = 0;
+        return keep_offsets(w, w->p + it->value, (size_t)it->length / 4, 4, err);
     }
     if (it->length == UNDEFINED)
         return vm_error_set(err, VM_ERR_FORMAT, "%s: a pixel data fragment has an undefined "

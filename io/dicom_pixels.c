@@ -74,7 +74,7 @@ static bool starts_codestream(const dcm_file *f, const unsigned char *q, size_t 
 }
 
 /* The fragments of compressed frame `frame` (PS3.5 A.4): [out] *first and *count. From the
- * basic offset table when present; else one frame in every fragment; one fragment per
+ * basic (or extended) offset table when present; else one frame in every fragment; one fragment per
  * frame; or, with more fragments than frames, a frame from each fragment that starts a
  * codestream (b: the bytes, needed in that last case only). */
 static vm_status frame_fragments(const dcm_file *f, const dcm_bytes *b, int64_t frame,
@@ -85,9 +85,10 @@ static vm_status frame_fragments(const dcm_file *f, const dcm_bytes *b, int64_t 
         return vm_error_set(err, VM_ERR_FORMAT, "%s: encapsulated pixel data has no "
                             "fragments", p);
     if (f->n_frame_offsets > 0) {
+        const char *table = f->extended_offsets ? "extended" : "basic";
         if (f->n_frame_offsets != nf)
-            return vm_error_set(err, VM_ERR_FORMAT, "%s: the basic offset table has %zu "
-                                "entries for %zu frame(s)", p, f->n_frame_offsets, nf);
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: the %s offset table has %zu "
+                                "entries for %zu frame(s)", p, table, f->n_frame_offsets, nf);
         size_t at = 0;
         while (at < f->n_fragments && item_place(f, at) < f->frame_offsets[k]) at++;
         size_t end = at;
@@ -95,9 +96,9 @@ static vm_status frame_fragments(const dcm_file *f, const dcm_bytes *b, int64_t 
                (k + 1 == nf || item_place(f, end) < f->frame_offsets[k + 1]))
             end++;
         if (at == f->n_fragments || item_place(f, at) != f->frame_offsets[k] || end == at)
-            return vm_error_set(err, VM_ERR_FORMAT, "%s: the basic offset table entry of "
-                                "frame %zu (%lu) points at no fragment of its own", p, k + 1,
-                                (unsigned long)f->frame_offsets[k]);
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: the %s offset table entry of "
+                                "frame %zu (%llu) points at no fragment of its own", p, table,
+                                k + 1, (unsigned long long)f->frame_offsets[k]);
         *first = at, *count = end - at;
         return VM_OK;
     }

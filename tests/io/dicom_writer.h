@@ -47,7 +47,8 @@ typedef struct dw_spec {
     unsigned char *const *codestreams;
     const size_t *codestream_sizes;
     int split;                /* each codestream cut into this many fragments (0: one) */
-    int offset_table;         /* a basic offset table is written (else it is empty) */
+    int offset_table;         /* 1: a basic offset table is written (else it is empty); 2: an
+                               * extended offset table (7FE0,0001) and its lengths instead */
 } dw_spec;
 
 /* A growing byte buffer with the encoding of the dataset being written. */
@@ -90,7 +91,7 @@ static void dw_head(dw_buf *b, unsigned g, unsigned e, const char *vr, uint32_t 
         return;
     }
     dw_put(b, vr, 2);
-    static const char *const longs[] = {"OB", "OW", "SQ", "UN", "UT", "OF"};
+    static const char *const longs[] = {"OB", "OW", "SQ", "UN", "UT", "OF", "OV"};
     for (size_t i = 0; i < sizeof longs / sizeof longs[0]; i++)
         if (strcmp(vr, longs[i]) == 0) {
             dw_u16(b, 0);
@@ -252,9 +253,8 @@ static void dw_pixels(dw_buf *b, const dw_spec *s) {
     int rle = strcmp(s->syntax, TS_RLE) == 0,
         jpeg = strncmp(s->syntax, "1.2.840.10008.1.2.4.", 20) == 0;
     if (rle || jpeg) {
-        dw_head(b, 0x7FE0, 0x0010, "OB", 0xFFFFFFFFu);
         dw_buf items = {NULL, 0, 0, 0, 1};
-        uint32_t *offsets = calloc(frames, sizeof *offsets);
+        uint32_t *offsets = calloc(frames + 1, sizeof *offsets);
         for (size_t f = 0; f < frames; f++) {
             offsets[f] = (uint32_t)items.n;
             if (rle) dw_rle_frame(&items, s->words + f * n, n, bytes);
@@ -264,9 +264,19 @@ static void dw_pixels(dw_buf *b, const dw_spec *s) {
                 dw_put(&items, "\xFF\xD8\xFF\xD9", 4);
             }
         }
+        offsets[frames] = (uint32_t)items.n;
+        if (s->offset_table == 2) { /* 64-bit offsets and each frame's bytes (items and all) */
+            dw_head(b, 0x7FE0, 0x0001, "OV", (uint32_t)(8 * frames));
+            for (size_t f = 0; f < frames; f++) dw_u32(b, offsets[f]), dw_u32(b, 0);
+            dw_head(b, 0x7FE0, 0x0002, "OV", (uint32_t)(8 * frames));
+            for (size_t f = 0; f < frames; f++)
+                dw_u32(b, offsets[f + 1] - offsets[f]), dw_u32(b, 0);
+        }
+        dw_head(b, 0x7FE0, 0x0010, "OB", 0xFFFFFFFFu);
         /* the basic offset table: each frame's first item from the first fragment item */
-        dw_head(b, 0xFFFE, 0xE000, "", s->offset_table ? (uint32_t)(4 * frames) : 0);
-        for (size_t f = 0; f < frames && s->offset_table; f++) dw_u32(b, offsets[f]);
+        int bot = s->offset_table == 1;
+        dw_head(b, 0xFFFE, 0xE000, "", bot ? (uint32_t)(4 * frames) : 0);
+        for (size_t f = 0; f < frames && bot; f++) dw_u32(b, offsets[f]);
         dw_put(b, items.p, items.n);
         free(items.p);
         free(offsets);

@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/test_dicom_codecs.c — compressed DICOM pixel data: series and multi-frame files
  * whose frames the test encodes with libjpeg, CharLS and OpenJPEG (the library only decodes),
- * written as encapsulated fragments (tests/io/dicom_writer.h) with and without a basic offset
- * table. Lossless syntaxes read to exactly the voxels, lossy ones within a tolerance; corrupt,
- * truncated and mismatched codestreams are refused in one line naming the file; a codec this
- * build lacks is refused with the one line naming the syntax and the Debian package. */
+ * written as encapsulated fragments (tests/io/dicom_writer.h) with a basic, an extended or no
+ * offset table. Lossless syntaxes read to exactly the voxels, lossy ones within a tolerance;
+ * corrupt, truncated and mismatched codestreams are refused in one line naming the file; a
+ * codec this build lacks is refused with the one line naming the syntax and the Debian
+ * package. */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdint.h>
@@ -337,13 +338,13 @@ static void expect_slabs_like_whole(const char *path, const char *what) {
 static void expect_layouts(const char *tag, sample_kind k, const char *ts, const frames *fr,
                            double tol) {
     char name[64], what[128];
-    static const int layout[4][3] = {{1, 0, 0}, {3, 0, 0}, {1, 1, 1}, {3, 1, 0}};
-    for (int l = 0; l < 4; l++) {
+    static const int layout[5][3] = {{1, 0, 0}, {3, 0, 0}, {1, 1, 1}, {3, 1, 0}, {3, 1, 2}};
+    static const char *const tables[3] = {"no offset table", "basic offset table",
+                                          "extended offset table"};
+    for (int l = 0; l < 5; l++) {
         snprintf(name, sizeof name, "dicom_%s_%d", tag, l);
         snprintf(what, sizeof what, "%s (%s, %d fragment(s) per frame, %s)", tag, ts,
-                 layout[l][0], layout[l][1] ? (layout[l][2] ? "multi-frame, offset table"
-                                                            : "multi-frame, no offset table")
-                                            : "one file per slice");
+                 layout[l][0], layout[l][1] ? tables[layout[l][2]] : "one file per slice");
         const char *path = write_series(name, k, ts, fr, layout[l][0], layout[l][1],
                                         layout[l][2]);
         double worst = expect_voxels(path, tol, what);
@@ -511,38 +512,46 @@ static void dicomRefusesCompressedSyntaxesWithNoDecoderByName(void) {
                           "for it");
 }
 
-static void dicomRefusesALyingOffsetTable(void) {
+static void dicomRefusesALyingBasicOrExtendedOffsetTable(void) {
     /* more fragments than frames, and an offset table that points inside a fragment */
-    fill(U12);
-    dw_spec s = slice_spec(U12, TS_JPEGLS, 0, NZ);
     static unsigned char stand_in[8] = {0xFF, 0xD8, 0xFF, 0xD9, 0, 0, 0, 0};
-    unsigned char *p[NZ] = {stand_in, stand_in, stand_in, stand_in};
-    size_t n[NZ] = {8, 8, 8, 8};
-    s.codestreams = p, s.codestream_sizes = n, s.split = 2, s.offset_table = 1;
-    const char *path = vm_test_tmp("dicom_bad_offsets.dcm");
-    CHECK(dw_write(path, &s) == 0);
-    /* the offset table the writer made is right; shift one entry by 2 bytes in the file */
-    FILE *fp = fopen(path, "r+b");
-    CHECK(fp != NULL);
-    if (!fp) return;
-    unsigned char buf[8192];
-    size_t len = fread(buf, 1, sizeof buf, fp);
-    /* (7FE0,0010) OB of undefined length, then the offset table's item of 4 * NZ bytes */
+    /* where the tables' entries start: after (7FE0,0010) OB of undefined length and the
+     * first item's header, or after (7FE0,0001) OV's header */
     static const unsigned char bot[20] = {0xE0, 0x7F, 0x10, 0x00, 'O', 'B', 0, 0, 0xFF, 0xFF,
                                           0xFF, 0xFF, 0xFE, 0xFF, 0x00, 0xE0, 4 * NZ, 0, 0, 0};
-    size_t at = 0;
-    while (at + 20 <= len && memcmp(buf + at, bot, 20) != 0) at++;
-    at += 12;
-    CHECK(at + 8 + 4 * NZ <= len);
-    buf[at + 8 + 4 * 2] = (unsigned char)(buf[at + 8 + 4 * 2] + 2);
-    CHECK(fseek(fp, (long)(at + 8 + 4 * 2), SEEK_SET) == 0);
-    CHECK(fwrite(buf + at + 8 + 4 * 2, 1, 1, fp) == 1);
-    CHECK(fclose(fp) == 0);
+    static const unsigned char eot[12] = {0xE0, 0x7F, 0x01, 0x00, 'O', 'V', 0, 0, 8 * NZ,
+                                          0, 0, 0};
+    for (int table = 1; table <= 2; table++) {
+        fill(U12);
+        dw_spec s = slice_spec(U12, TS_JPEGLS, 0, NZ);
+        unsigned char *p[NZ] = {stand_in, stand_in, stand_in, stand_in};
+        size_t n[NZ] = {8, 8, 8, 8};
+        s.codestreams = p, s.codestream_sizes = n, s.split = 2, s.offset_table = table;
+        const char *path = vm_test_tmp("dicom_bad_offsets.dcm");
+        CHECK(dw_write(path, &s) == 0);
+        /* the table the writer made is right; shift frame 3's entry by 2 bytes in the file */
+        FILE *fp = fopen(path, "r+b");
+        CHECK(fp != NULL);
+        if (!fp) return;
+        unsigned char buf[8192];
+        size_t len = fread(buf, 1, sizeof buf, fp), at = 0;
+        const unsigned char *head = table == 1 ? bot : eot;
+        size_t hn = table == 1 ? sizeof bot : sizeof eot, entry = table == 1 ? 4 : 8;
+        while (at + hn <= len && memcmp(buf + at, head, hn) != 0) at++;
+        at += hn + 2 * entry;
+        CHECK(at < len);
+        buf[at] = (unsigned char)(buf[at] + 2);
+        CHECK(fseek(fp, (long)at, SEEK_SET) == 0);
+        CHECK(fwrite(buf + at, 1, 1, fp) == 1);
+        CHECK(fclose(fp) == 0);
 #ifdef VM_HAVE_DICOM_JPEGLS
-    expect_refused(path, VM_ERR_FORMAT, "the basic offset table entry of frame 3");
+        expect_refused(path, VM_ERR_FORMAT,
+                       table == 1 ? "the basic offset table entry of frame 3"
+                                  : "the extended offset table entry of frame 3");
 #else
-    expect_refused(path, VM_ERR_UNSUPPORTED, "libcharls-dev");
+        expect_refused(path, VM_ERR_UNSUPPORTED, "libcharls-dev");
 #endif
+    }
 }
 
 TEST_MAIN(T(dicomDecodesJpegBaselineAndExtendedWithinTolerance),
@@ -550,4 +559,4 @@ TEST_MAIN(T(dicomDecodesJpegBaselineAndExtendedWithinTolerance),
           T(dicomDecodesJpegLsLosslessExactlyAndNearLosslessWithinNear),
           T(dicomDecodesJpeg2000LosslessExactlyAndLossyWithinTolerance),
           T(dicomRefusesCompressedSyntaxesWithNoDecoderByName),
-          T(dicomRefusesALyingOffsetTable))
+          T(dicomRefusesALyingBasicOrExtendedOffsetTable))
