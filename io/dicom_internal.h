@@ -41,6 +41,7 @@
 #define DCM_DOSE_GRID_SCALING          DCM_TAG(0x3004, 0x000E)
 #define DCM_SHARED_GROUPS_SEQ          DCM_TAG(0x5200, 0x9229)
 #define DCM_PER_FRAME_GROUPS_SEQ       DCM_TAG(0x5200, 0x9230)
+#define DCM_EXTENDED_OFFSET_TABLE      DCM_TAG(0x7FE0, 0x0001)
 #define DCM_PIXEL_DATA                 DCM_TAG(0x7FE0, 0x0010)
 #define DCM_ITEM                       DCM_TAG(0xFFFE, 0xE000)
 #define DCM_ITEM_END                   DCM_TAG(0xFFFE, 0xE00D)
@@ -53,7 +54,10 @@ typedef enum dcm_syntax {
     DCM_EXPLICIT_BE,
     DCM_DEFLATED_LE,
     DCM_RLE,
-    DCM_ENCAPSULATED /* any other encapsulated syntax: refused when pixels are read */
+    DCM_JPEG,         /* JPEG baseline, extended and lossless (PS3.5 A.4.1), libjpeg-turbo */
+    DCM_JPEGLS,       /* JPEG-LS lossless and near-lossless (A.4.3), CharLS */
+    DCM_J2K,          /* JPEG 2000 part 1, lossless and lossy (A.4.4), OpenJPEG */
+    DCM_ENCAPSULATED  /* any other encapsulated syntax: refused when pixels are read */
 } dcm_syntax;
 
 /* Where one encapsulated fragment lies in the dataset bytes. */
@@ -84,6 +88,11 @@ typedef struct dcm_file {
     size_t pixel_offset, pixel_length; /* native pixel data in the dataset bytes */
     dcm_fragment *fragments;    /* encapsulated: every fragment after the offset table */
     size_t n_fragments;
+    uint64_t *frame_offsets;    /* encapsulated: the basic offset table, or the extended one
+                                 * when the basic is empty (owned); maybe none */
+    size_t n_frame_offsets;
+    int extended_offsets;       /* frame_offsets came from the ExtendedOffsetTable */
+    size_t first_item;          /* where the first fragment item's tag lies in the bytes */
 } dcm_file;
 
 /* The bytes a parse read from: the file's mapping, or the inflated dataset of a deflated
@@ -125,6 +134,19 @@ vm_status vm__dcm_check_pixels(dcm_file *f, vm_error *err);
  * present) and dose-scaled; PixelPaddingValue voxels become NaN for the caller to fill. */
 vm_status vm__dcm_decode_frame(const dcm_file *f, const dcm_bytes *b, int64_t frame,
                                float *dst, vm_error *err);
+
+/* ---- Compressed frames (io/dicom_codecs.c) ---- */
+
+/* VM_OK when this build decodes f's compressed syntax (JPEG, JPEG-LS, JPEG 2000); else
+ * VM_ERR_UNSUPPORTED with one line naming the syntax (UID and name) and the Debian package
+ * that enables its decoder. */
+vm_status vm__dcm_codec_check(const dcm_file *f, vm_error *err);
+
+/* Decodes one compressed frame (the codestream p, n: the frame's fragments joined) into
+ * rows*cols stored words [out] raw; a corrupt or truncated codestream, or one whose size,
+ * components or precision disagree with the header, is refused naming f->path. */
+vm_status vm__dcm_codec_decode(const dcm_file *f, int64_t frame, const unsigned char *p,
+                               size_t n, uint32_t *raw, vm_error *err);
 
 /* The stored sample type of f (uint8 .. int32 from BitsAllocated and PixelRepresentation). */
 vm_scalar_type vm__dcm_stored_type(const dcm_file *f);

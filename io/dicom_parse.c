@@ -22,7 +22,8 @@ enum {
 };
 #define UNDEFINED_LENGTH 0xFFFFFFFFu
 
-/* The transfer syntaxes by UID (PS3.6 annex A). Only the first five are decoded. */
+/* The transfer syntaxes by UID (PS3.6 annex A). The first five are always decoded, the JPEG
+ * families when their library was found at build time (io/dicom_codecs.c). */
 static const struct {
     const char *uid, *name;
     dcm_syntax syntax;
@@ -32,16 +33,16 @@ static const struct {
     {"1.2.840.10008.1.2.1.99", "Deflated Explicit VR Little Endian", DCM_DEFLATED_LE},
     {"1.2.840.10008.1.2.2", "Explicit VR Big Endian", DCM_EXPLICIT_BE},
     {"1.2.840.10008.1.2.5", "RLE Lossless", DCM_RLE},
-    {"1.2.840.10008.1.2.4.50", "JPEG Baseline (Process 1)", DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.51", "JPEG Extended (Process 2 & 4)", DCM_ENCAPSULATED},
+    {"1.2.840.10008.1.2.4.50", "JPEG Baseline (Process 1)", DCM_JPEG},
+    {"1.2.840.10008.1.2.4.51", "JPEG Extended (Process 2 & 4)", DCM_JPEG},
     {"1.2.840.10008.1.2.4.57", "JPEG Lossless, Non-Hierarchical (Process 14)",
-     DCM_ENCAPSULATED},
+     DCM_JPEG},
     {"1.2.840.10008.1.2.4.70", "JPEG Lossless, Non-Hierarchical, First-Order Prediction",
-     DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.80", "JPEG-LS Lossless", DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.81", "JPEG-LS Lossy (Near-Lossless)", DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.90", "JPEG 2000 Image Compression (Lossless Only)", DCM_ENCAPSULATED},
-    {"1.2.840.10008.1.2.4.91", "JPEG 2000 Image Compression", DCM_ENCAPSULATED},
+     DCM_JPEG},
+    {"1.2.840.10008.1.2.4.80", "JPEG-LS Lossless", DCM_JPEGLS},
+    {"1.2.840.10008.1.2.4.81", "JPEG-LS Lossy (Near-Lossless)", DCM_JPEGLS},
+    {"1.2.840.10008.1.2.4.90", "JPEG 2000 Image Compression (Lossless Only)", DCM_J2K},
+    {"1.2.840.10008.1.2.4.91", "JPEG 2000 Image Compression", DCM_J2K},
     {"1.2.840.10008.1.2.4.92", "JPEG 2000 Part 2 Multi-component (Lossless Only)",
      DCM_ENCAPSULATED},
     {"1.2.840.10008.1.2.4.93", "JPEG 2000 Part 2 Multi-component", DCM_ENCAPSULATED},
@@ -338,6 +339,31 @@ static vm_status take_offsets(walk *w, const elem *e, vm_error *err) {
     return VM_OK;
 }
 
+/* Keeps an offset table of n entries of `bytes` (4 or 8) little-endian bytes from p. */
+static vm_status keep_offsets(walk *w, const unsigned char *p, size_t n, size_t bytes,
+                              vm_error *err) {
+    dcm_file *f = w->f;
+    free(f->frame_offsets);
+    f->frame_offsets = malloc((n ? n : 1) * sizeof *f->frame_offsets);
+    f->n_frame_offsets = 0;
+    if (!f->frame_offsets) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", w->path);
+    for (size_t k = 0; k < n; k++, p += bytes)
+        f->frame_offsets[k] = bytes == 4 ? get32(p, 0)
+                                         : (uint64_t)get32(p + 4, 0) << 32 | get32(p, 0);
+    f->n_frame_offsets = n;
+    return VM_OK;
+}
+
+/* The Extended Offset Table (7FE0,0001; PS3.5 A.4, PS3.3 C.7.6.3.1.8): 64-bit offsets of
+ * each frame's first fragment item, for when the basic offset table is empty. */
+static vm_status take_extended_offsets(walk *w, const elem *e, vm_error *err) {
+    if (e->length % 8 != 0)
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: the extended offset table has a length "
+                            "that is not a multiple of 8", w->path);
+    w->f->extended_offsets = 1;
+    return keep_offsets(w, w->p + e->value, (size_t)e->length / 8, 8, err);
+}
+
 /* Values of the top-level dataset. */
 static vm_status take_top(walk *w, const elem *e, vm_error *err) {
     dcm_file *f = w->f;
@@ -391,6 +417,7 @@ static vm_status take_top(walk *w, const elem *e, vm_error *err) {
     case DCM_DOSE_GRID_SCALING:
         return take_vector(w, e, "DoseGridScaling", &f->dose_scaling, 1, err);
     case DCM_GRID_FRAME_OFFSETS: return take_offsets(w, e, err);
+    case DCM_EXTENDED_OFFSET_TABLE: return take_extended_offsets(w, e, err);
     default: break;
     }
     return VM_OK;
@@ -462,10 +489,19 @@ static vm_status walk_elements(walk *w, size_t *pos, size_t end, int in_item, vm
 }
 
 /* Records one fragment of encapsulated pixel data (PS3.5 A.4); the first item is the Basic
- * Offset Table, not a fragment. */
+ * Offset Table (32-bit little-endian offsets of each frame's first fragment item, counted
+ * from the first fragment item), kept for the frames' fragments when it is not empty. */
 static vm_status add_fragment(walk *w, int64_t index, const elem *it, vm_error *err) {
     dcm_file *f = w->f;
-    if (index == 0) return VM_OK;
+    if (index == 0) {
+        if (it->length == UNDEFINED || it->length % 4 != 0)
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: the basic offset table of the pixel "
+                                "data has a length that is not a multiple of 4", w->path);
+        f->first_item = it->value + (size_t)it->length;
+        if (it->length == 0) return VM_OK; /* empty: the extended table, if any, stands */
+        f->extended_offsets = 0;
+        return keep_offsets(w, w->p + it->value, (size_t)it->length / 4, 4, err);
+    }
     if (it->length == UNDEFINED)
         return vm_error_set(err, VM_ERR_FORMAT, "%s: a pixel data fragment has an undefined "
                             "length", w->path);
@@ -659,5 +695,6 @@ void vm__dcm_file_free(dcm_file *f) {
     free(f->frame_rescale);
     free(f->grid_offsets);
     free(f->fragments);
+    free(f->frame_offsets);
     memset(f, 0, sizeof *f);
 }

@@ -1,9 +1,11 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* io/dicom_pixels.c — one frame of DICOM pixel data to modality values: native samples in
- * either byte order, RLE lossless, BitsStored masking, sign, padding, rescale and dose
- * scaling. Follows DICOM PS3.5 section 8 and annex G, PS3.3 C.7.6.3, C.11.1 and C.8.8.3. */
+ * either byte order, RLE lossless, the fragments of a compressed frame (handed to
+ * io/dicom_codecs.c), BitsStored masking, sign, padding, rescale and dose scaling. Follows
+ * DICOM PS3.5 section 8 and annexes A.4 and G, PS3.3 C.7.6.3, C.11.1 and C.8.8.3. */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 #include "dicom_internal.h"
@@ -53,14 +55,94 @@ static vm_status check_layout(dcm_file *f, vm_error *err) {
     return VM_OK;
 }
 
+/* True for the syntaxes whose frames a codec library decodes (or that none does). */
+static bool compressed(const dcm_file *f) { return f->syntax >= DCM_JPEG; }
+
+/* The item tag's place of fragment k, counted from the first fragment item, as the basic
+ * offset table counts (PS3.5 A.4: each item has an 8-byte header). */
+static size_t item_place(const dcm_file *f, size_t k) {
+    return f->fragments[k].offset - 8 - f->first_item;
+}
+
+/* True when fragment k starts a codestream: SOI (JPEG, JPEG-LS; T.81 B.1.1.3), SOC and SIZ
+ * (JPEG 2000 codestream; 15444-1 A.4.1) or a JP2 signature box. */
+static bool starts_codestream(const dcm_file *f, const unsigned char *q, size_t n) {
+    if (f->syntax == DCM_J2K)
+        return (n >= 4 && q[0] == 0xFF && q[1] == 0x4F && q[2] == 0xFF && q[3] == 0x51) ||
+               (n >= 8 && memcmp(q, "\0\0\0\x0cjP  ", 8) == 0);
+    return n >= 2 && q[0] == 0xFF && q[1] == 0xD8;
+}
+
+/* The fragments of compressed frame `frame` (PS3.5 A.4): [out] *first and *count. From the
+ * basic (or extended) offset table when present; else one frame in every fragment; one fragment per
+ * frame; or, with more fragments than frames, a frame from each fragment that starts a
+ * codestream (b: the bytes, needed in that last case only). */
+static vm_status frame_fragments(const dcm_file *f, const dcm_bytes *b, int64_t frame,
+                                 size_t *first, size_t *count, vm_error *err) {
+    const char *p = f->path;
+    size_t nf = (size_t)f->frames, k = (size_t)frame;
+    if (f->n_fragments == 0)
+        return vm_error_set(err, VM_ERR_FORMAT, "%s: encapsulated pixel data has no "
+                            "fragments", p);
+    if (f->n_frame_offsets > 0) {
+        const char *table = f->extended_offsets ? "extended" : "basic";
+        if (f->n_frame_offsets != nf)
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: the %s offset table has %zu "
+                                "entries for %zu frame(s)", p, table, f->n_frame_offsets, nf);
+        size_t at = 0;
+        while (at < f->n_fragments && item_place(f, at) < f->frame_offsets[k]) at++;
+        size_t end = at;
+        while (end < f->n_fragments &&
+               (k + 1 == nf || item_place(f, end) < f->frame_offsets[k + 1]))
+            end++;
+        if (at == f->n_fragments || item_place(f, at) != f->frame_offsets[k] || end == at)
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: the %s offset table entry of "
+                                "frame %zu (%llu) points at no fragment of its own", p, table,
+                                k + 1, (unsigned long long)f->frame_offsets[k]);
+        *first = at, *count = end - at;
+        return VM_OK;
+    }
+    if (nf == 1 || f->n_fragments == nf) {
+        *first = nf == 1 ? 0 : k, *count = nf == 1 ? f->n_fragments : 1;
+        return VM_OK;
+    }
+    size_t seen = 0;
+    for (size_t i = 0; i < f->n_fragments; i++) {
+        const dcm_fragment *fr = &f->fragments[i];
+        if (!starts_codestream(f, b->p + fr->offset, fr->length)) continue;
+        if (seen++ < k) continue;
+        size_t end = i + 1;
+        while (end < f->n_fragments &&
+               !starts_codestream(f, b->p + f->fragments[end].offset, f->fragments[end].length))
+            end++;
+        *first = i, *count = end - i;
+        return VM_OK;
+    }
+    return vm_error_set(err, VM_ERR_FORMAT, "%s: encapsulated pixel data has %zu fragments "
+                        "and no offset table, and frame %zu of %zu starts in none of them", p,
+                        f->n_fragments, k + 1, nf);
+}
+
 /* The pixel data against the syntax and the frames it must hold. */
 static vm_status check_storage(const dcm_file *f, vm_error *err) {
     const char *p = f->path;
-    if ((f->syntax == DCM_RLE) != (f->encapsulated != 0))
+    if ((f->syntax == DCM_RLE || compressed(f)) != (f->encapsulated != 0))
         return vm_error_set(err, VM_ERR_FORMAT, "%s: pixel data is %s but the transfer syntax "
                             "%s says otherwise", p, f->encapsulated ? "encapsulated" : "native",
                             f->syntax_uid[0] ? f->syntax_uid : "(none)");
     size_t plane, frame, all;
+    if (f->encapsulated && compressed(f)) { /* the offset table is read without the bytes */
+        size_t first, count;
+        if (f->n_fragments < (size_t)f->frames)
+            return vm_error_set(err, VM_ERR_FORMAT, "%s: compressed pixel data has %zu "
+                                "fragments for %lld frames", p, f->n_fragments,
+                                (long long)f->frames);
+        for (int64_t k = 0; k < f->frames && f->n_frame_offsets > 0; k++) {
+            vm_status st = frame_fragments(f, NULL, k, &first, &count, err);
+            if (st) return st;
+        }
+        return VM_OK;
+    }
     if (f->encapsulated) {
         if (f->n_fragments < (size_t)f->frames)
             return vm_error_set(err, VM_ERR_FORMAT, "%s: RLE pixel data has %zu fragments for "
@@ -96,11 +178,9 @@ vm_status vm__dcm_check_pixels(dcm_file *f, vm_error *err) {
     if (!f->has_pixels)
         return vm_error_set(err, VM_ERR_FORMAT, "%s: no pixel data (7FE0,0010): not an image",
                             f->path);
-    if (f->syntax == DCM_ENCAPSULATED) { /* first: whatever else the file holds */
-        const char *name = vm__dcm_syntax_name(f->syntax_uid);
-        return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: transfer syntax %s (%s) is "
-                            "compressed; this build has no decoder for it", f->path,
-                            f->syntax_uid, name ? name : "unknown");
+    if (compressed(f)) { /* first: whatever else the file holds */
+        vm_status st = vm__dcm_codec_check(f, err);
+        if (st) return st;
     }
     vm_status st = check_layout(f, err);
     if (!st) st = check_storage(f, err);
@@ -191,6 +271,27 @@ static vm_status rle_words(const dcm_file *f, const dcm_bytes *b, int64_t frame,
     return VM_OK;
 }
 
+/* A compressed frame as stored words: its fragments joined, then decoded by its codec. */
+static vm_status compressed_words(const dcm_file *f, const dcm_bytes *b, int64_t frame,
+                                  uint32_t *raw, vm_error *err) {
+    size_t first, count, len = 0;
+    vm_status st = frame_fragments(f, b, frame, &first, &count, err);
+    if (st) return st;
+    if (count == 1)
+        return vm__dcm_codec_decode(f, frame, b->p + f->fragments[first].offset,
+                                    f->fragments[first].length, raw, err);
+    for (size_t k = first; k < first + count; k++) len += f->fragments[k].length;
+    unsigned char *joined = malloc(len ? len : 1);
+    if (!joined) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", f->path);
+    for (size_t k = first, at = 0; k < first + count; k++) {
+        memcpy(joined + at, b->p + f->fragments[k].offset, f->fragments[k].length);
+        at += f->fragments[k].length;
+    }
+    st = vm__dcm_codec_decode(f, frame, joined, len, raw, err);
+    free(joined);
+    return st;
+}
+
 /* Stored words to modality values: mask to BitsStored below HighBit, sign-extend, padding to
  * NaN, then slope, intercept and dose scaling (PS3.3 C.7.6.3.1, C.11.1.1.2, C.8.8.3.4.1). */
 static void to_values(const dcm_file *f, int64_t frame, const uint32_t *raw, size_t n,
@@ -227,7 +328,9 @@ vm_status vm__dcm_decode_frame(const dcm_file *f, const dcm_bytes *b, int64_t fr
     uint32_t *raw = malloc(bytes ? bytes : 1);
     if (!raw) return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", f->path);
     vm_status st = VM_OK;
-    if (f->encapsulated)
+    if (f->encapsulated && compressed(f))
+        st = compressed_words(f, b, frame, raw, err);
+    else if (f->encapsulated)
         st = rle_words(f, b, frame, n, raw, err);
     else
         native_words(f, b, frame, n, raw);

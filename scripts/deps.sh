@@ -2,8 +2,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
 # Installs what building and testing volmesh needs on Debian, when it is missing:
 # the compiler and CMake, zlib, and (for the tests' independent judges) Debian's python3 with
-# VTK, meshio, numpy, pydicom and pytest, the Python package's build (python3-dev, -setuptools, -venv), CalculiX (ccx), gmsh, libexodusii-dev, libtiff-dev and Open MPI (libopenmpi-dev,
-# openmpi-bin). Usage: scripts/deps.sh [--tests]
+# VTK, meshio, numpy, pydicom and pytest, the Python package's build (python3-dev, -setuptools, -venv), CalculiX (ccx), gmsh, libexodusii-dev, libtiff-dev, the DICOM codecs (libjpeg62-turbo-dev,
+# libcharls-dev, libopenjp2-7-dev) and Open MPI (libopenmpi-dev, openmpi-bin). Usage: scripts/deps.sh [--tests]
 set -eu
 want_tests=0
 [ "${1:-}" = "--tests" ] && want_tests=1
@@ -37,6 +37,13 @@ if [ "$want_tests" = 1 ]; then
     # the optional TIFF reader (io/tiff.c) is built when libtiff-dev is present; its tests
     # write their TIFF files with libtiff
     dpkg -s libtiff-dev >/dev/null 2>&1 || pkgs+=(libtiff-dev)
+    # the optional decoders of compressed DICOM (io/dicom_codecs.c: JPEG, JPEG-LS, JPEG 2000)
+    # are built when their -dev packages are present; tests/io/test_dicom_codecs.c encodes
+    # its frames with the same libraries
+    dpkg -s libjpeg62-turbo-dev >/dev/null 2>&1 || dpkg -s libjpeg-turbo8-dev >/dev/null 2>&1 ||
+        pkgs+=(libjpeg62-turbo-dev)
+    dpkg -s libcharls-dev >/dev/null 2>&1 || pkgs+=(libcharls-dev)
+    dpkg -s libopenjp2-7-dev >/dev/null 2>&1 || pkgs+=(libopenjp2-7-dev)
     # volmesh_mpi (docs/MPI.md) is built against Open MPI and run by tests/mpi under mpirun
     dpkg -s libopenmpi-dev >/dev/null 2>&1 || pkgs+=(libopenmpi-dev)
     command -v mpirun >/dev/null 2>&1 || pkgs+=(openmpi-bin)

@@ -7,6 +7,9 @@
 # 2. A plain configure does not turn warnings into errors; -DVOLMESH_WERROR=ON does.
 # 3. clang (when present) builds the library, the program and the tests with -Werror, and the
 #    program runs the demo.
+# 4. Built with the DICOM codecs switched off (as on a machine without libjpeg-turbo, CharLS
+#    and OpenJPEG), tests/io/test_dicom_codecs checks the one-line refusal that names each
+#    compressed syntax and the Debian package to build with.
 set -u
 src=${VM_SOURCE_DIR:?}
 if [ -n "${VM_SANITIZED:-}" ]; then
@@ -31,8 +34,9 @@ WRAP
 chmod +x "$work/bin/mpicc"
 # The wrapper is named as the C MPI compiler too, so that FindMPI cannot fall back on a
 # working Open MPI of the machine (CI installs one for tests/mpi).
-out=$(PATH="$work/bin:$PATH" cmake -S "$src" -B "$work/mpi" -DVOLMESH_TESTS=OFF \
-      -DMPI_C_COMPILER="$work/bin/mpicc" 2>&1)
+out=$(PATH="$work/bin:$PATH" cmake -S "$src" -B "$work/mpi" -DVOLMESH_TESTS=ON \
+      -DMPI_C_COMPILER="$work/bin/mpicc" -DVOLMESH_DICOM_JPEG=OFF -DVOLMESH_DICOM_JPEGLS=OFF \
+      -DVOLMESH_DICOM_J2K=OFF 2>&1)
 if [ $? -ne 0 ]; then
     echo "configure failed with a broken mpicc first on PATH:"; echo "$out" | tail -20
     fail=$((fail+1))
@@ -42,12 +46,24 @@ else
         *"volmesh_mpi OFF (MPI "*) echo "broken mpicc: $line" ;;
         *) echo "no 'MPI driver OFF (why)' status line: $line"; fail=$((fail+1)) ;;
     esac
-    if ! cmake --build "$work/mpi" -j"$jobs" --target volmesh >/dev/null 2>&1; then
+    if ! cmake --build "$work/mpi" -j"$jobs" --target volmesh io_test_dicom_codecs >/dev/null 2>&1; then
         echo "build failed after configuring with a broken mpicc"; fail=$((fail+1))
+    else
+        mkdir -p "$work/tmp"
+        if ! log=$(cd "$work/tmp" && VM_TEST_TMP="$work/tmp" VM_CLI="$work/mpi/volmesh" \
+                   "$work/mpi/tests/io_test_dicom_codecs" 2>&1); then
+            echo "without the DICOM codecs, test_dicom_codecs fails:"; echo "$log" | tail -20
+            fail=$((fail+1))
+        else
+            echo "without the DICOM codecs: $(echo "$log" | tail -1)"
+        fi
     fi
+    echo "$out" | grep -q "volmesh: DICOM JPEG-LS OFF (VOLMESH_DICOM_JPEGLS is OFF)" ||
+        { echo "no 'DICOM JPEG-LS OFF (why)' status line with the codecs off"; fail=$((fail+1)); }
 fi
 # every optional part's status line says ON, or OFF with a reason in brackets
-for part in "OpenMP threads" "Exodus II writer" "TIFF reader" "MPI driver volmesh_mpi"; do
+for part in "OpenMP threads" "Exodus II writer" "TIFF reader" "DICOM JPEG" "DICOM JPEG-LS" \
+            "DICOM JPEG 2000" "MPI driver volmesh_mpi"; do
     echo "$out" | grep -Eq "volmesh: $part (ON|OFF \(.+\))" ||
         { echo "no status line for $part"; fail=$((fail+1)); }
 done

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/io/dicom_writer.h — a tiny DICOM writer for the tests of the DICOM reader: one image
- * (or multi-frame) file in any of the five decoded transfer syntaxes, after PS3.10 7.1 and
+ * (or multi-frame) file in any of the five always-decoded transfer syntaxes, or encapsulated
+ * codestreams made by the test (fragments, basic offset table), after PS3.10 7.1 and
  * PS3.5 7, 8.2, A.4, A.5, G. Written for the tests only; writes what the tests need. */
 #ifndef VM_TEST_DICOM_WRITER_H
 #define VM_TEST_DICOM_WRITER_H
@@ -41,6 +42,13 @@ typedef struct dw_spec {
     int no_pixels;
     int lie_rows, lie_cols, lie_frames; /* non-zero: announced instead of the real sizes */
     const uint32_t *words;    /* rows*cols*frames stored words */
+    /* encapsulated codestreams (any 1.2.840.10008.1.2.4.x syntax), one per frame; NULL: a
+     * 4-byte SOI-EOI stand-in per frame */
+    unsigned char *const *codestreams;
+    const size_t *codestream_sizes;
+    int split;                /* each codestream cut into this many fragments (0: one) */
+    int offset_table;         /* 1: a basic offset table is written (else it is empty); 2: an
+                               * extended offset table (7FE0,0001) and its lengths instead */
 } dw_spec;
 
 /* A growing byte buffer with the encoding of the dataset being written. */
@@ -83,7 +91,7 @@ static void dw_head(dw_buf *b, unsigned g, unsigned e, const char *vr, uint32_t 
         return;
     }
     dw_put(b, vr, 2);
-    static const char *const longs[] = {"OB", "OW", "SQ", "UN", "UT", "OF"};
+    static const char *const longs[] = {"OB", "OW", "SQ", "UN", "UT", "OF", "OV"};
     for (size_t i = 0; i < sizeof longs / sizeof longs[0]; i++)
         if (strcmp(vr, longs[i]) == 0) {
             dw_u16(b, 0);
@@ -221,6 +229,23 @@ static void dw_rle_frame(dw_buf *b, const uint32_t *w, size_t n, int bytes) {
     free(le.p);
 }
 
+/* The fragments of frame f's codestream (padded to even length, PS3.5 A.4), cut into
+ * s->split pieces of even length. */
+static void dw_codestream(dw_buf *b, const dw_spec *s, size_t f) {
+    size_t n = s->codestream_sizes[f], pieces = s->split > 1 ? (size_t)s->split : 1;
+    size_t even = n + (n & 1), step = (even / pieces + 1) & ~(size_t)1, at = 0;
+    if (step < 2) step = 2;
+    unsigned char *padded = calloc(even + 1, 1);
+    memcpy(padded, s->codestreams[f], n);
+    while (at < even) {
+        size_t len = even - at < step ? even - at : step;
+        dw_head(b, 0xFFFE, 0xE000, "", (uint32_t)len);
+        dw_put(b, padded + at, len);
+        at += len;
+    }
+    free(padded);
+}
+
 /* Pixel data: native words in the dataset's byte order, or RLE / JPEG-labelled fragments. */
 static void dw_pixels(dw_buf *b, const dw_spec *s) {
     int bytes = s->bits_allocated / 8;
@@ -228,12 +253,33 @@ static void dw_pixels(dw_buf *b, const dw_spec *s) {
     int rle = strcmp(s->syntax, TS_RLE) == 0,
         jpeg = strncmp(s->syntax, "1.2.840.10008.1.2.4.", 20) == 0;
     if (rle || jpeg) {
-        dw_head(b, 0x7FE0, 0x0010, "OB", 0xFFFFFFFFu);
-        dw_head(b, 0xFFFE, 0xE000, "", 0); /* empty basic offset table */
+        dw_buf items = {NULL, 0, 0, 0, 1};
+        uint32_t *offsets = calloc(frames + 1, sizeof *offsets);
         for (size_t f = 0; f < frames; f++) {
-            if (rle) dw_rle_frame(b, s->words + f * n, n, bytes);
-            else { dw_head(b, 0xFFFE, 0xE000, "", 4); dw_put(b, "\xFF\xD8\xFF\xD9", 4); }
+            offsets[f] = (uint32_t)items.n;
+            if (rle) dw_rle_frame(&items, s->words + f * n, n, bytes);
+            else if (s->codestreams) dw_codestream(&items, s, f);
+            else { /* a stand-in: SOI, EOI */
+                dw_head(&items, 0xFFFE, 0xE000, "", 4);
+                dw_put(&items, "\xFF\xD8\xFF\xD9", 4);
+            }
         }
+        offsets[frames] = (uint32_t)items.n;
+        if (s->offset_table == 2) { /* 64-bit offsets and each frame's bytes (items and all) */
+            dw_head(b, 0x7FE0, 0x0001, "OV", (uint32_t)(8 * frames));
+            for (size_t f = 0; f < frames; f++) dw_u32(b, offsets[f]), dw_u32(b, 0);
+            dw_head(b, 0x7FE0, 0x0002, "OV", (uint32_t)(8 * frames));
+            for (size_t f = 0; f < frames; f++)
+                dw_u32(b, offsets[f + 1] - offsets[f]), dw_u32(b, 0);
+        }
+        dw_head(b, 0x7FE0, 0x0010, "OB", 0xFFFFFFFFu);
+        /* the basic offset table: each frame's first item from the first fragment item */
+        int bot = s->offset_table == 1;
+        dw_head(b, 0xFFFE, 0xE000, "", bot ? (uint32_t)(4 * frames) : 0);
+        for (size_t f = 0; f < frames && bot; f++) dw_u32(b, offsets[f]);
+        dw_put(b, items.p, items.n);
+        free(items.p);
+        free(offsets);
         dw_head(b, 0xFFFE, 0xE0DD, "", 0);
         return;
     }

@@ -584,14 +584,15 @@ static void dicomRefusesTruncatedEmptyAndPixellessFiles(void) {
     expect_refused(dir, VM_ERR_FORMAT, "no DICOM images found");
 }
 
-static void dicomRefusesJpegColourAndAbsurdSizes(void) {
+static void dicomRefusesUndecodedCompressionColourAndAbsurdSizes(void) {
     fill_words();
-    dw_spec s = ct_slice(0, TS_JPEG_BASELINE);
+    /* a compressed syntax no decoder reads (tests/io/test_dicom_codecs.c: the others) */
+    dw_spec s = ct_slice(0, "1.2.840.10008.1.2.4.203");
     const char *path = vm_test_tmp("dicom_jpeg.dcm");
     CHECK(dw_write(path, &s) == 0);
     expect_refused(path, VM_ERR_UNSUPPORTED,
-                   "transfer syntax 1.2.840.10008.1.2.4.50 (JPEG Baseline (Process 1)) is "
-                   "compressed; this build has no decoder for it");
+                   "transfer syntax 1.2.840.10008.1.2.4.203 (High-Throughput JPEG 2000) is "
+                   "compressed; volmesh has no decoder for it");
     s = ct_slice(0, TS_EXPLICIT);
     s.samples = 3;
     path = vm_test_tmp("dicom_rgb.dcm");
@@ -626,5 +627,5 @@ TEST_MAIN(T(dicomReadsShuffledMixedSyntaxObliqueSeriesExactly),
           T(dicomReadsTheFolderOfADicomdir),
           T(dicomRefusesUnevenGapsAndGantryTilt),
           T(dicomRefusesTruncatedEmptyAndPixellessFiles),
-          T(dicomRefusesJpegColourAndAbsurdSizes),
+          T(dicomRefusesUndecodedCompressionColourAndAbsurdSizes),
           T(dicomRefusesMixedDimsWithinASeries))
