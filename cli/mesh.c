@@ -63,7 +63,7 @@ static const char *mesh_help2 =
     "  --no-compress           write the VTU without zlib\n"
     "  --deck static           with -o X.inp or X.feb: a complete static step (bottom\n"
     "                          fixed, top loaded) that CalculiX/ABAQUS (FEBio) solve as is\n"
-    "  --order 2               with -o X.inp .vtu .msh .feb: quadratic elements (C3D10,\n"
+    "  --order 2               with -o X.inp .vtu .msh .feb .xdmf: quadratic elements (C3D10,\n"
     "                          tetra10, tet10; mid-edge nodes at the edge middles)\n"
     "  --materials FILE        with a deck (-o X.inp .bdf .k .feb): CSV rows label,name,E,\n"
     "                          nu,density, one material per label (checked before\n"

@@ -112,7 +112,9 @@ typedef enum vm_mesh_format {
     VM_MESH_NASTRAN,  /* .bdf  Nastran bulk data (write only; tet4, hex8) */
     VM_MESH_LSDYNA,   /* .k    LS-DYNA keyword deck (write only; tet4, hex8) */
     VM_MESH_COMSOL,   /* .mphtxt COMSOL text mesh (write only; tet4, hex8) */
-    VM_MESH_FEBIO     /* .feb  FEBio input, febio_spec 4.0 (write only; tet4, hex8) */
+    VM_MESH_FEBIO,    /* .feb  FEBio input, febio_spec 4.0 (write only; tet4, hex8) */
+    VM_MESH_XDMF      /* .xdmf XDMF 3 + sibling .h5, dolfinx's layout (write only; tet4,
+                         hex8; needs a build with libhdf5) */
 } vm_mesh_format;
 
 /* Analysis deck added to an .inp file. */
@@ -143,7 +145,8 @@ typedef struct vm_mesh_write_options {
     vm_mesh_format format; /* VM_MESH_AUTO: from the extension */
     int ascii;             /* 1: ASCII STL / PLY / VTK instead of binary (default 0) */
     int order;             /* 1 (default) or 2: INP (C3D10 / C3D20), VTU (tetra10 /
-                              hexahedron20), MSH and FEBio (tet10 / hex20), tet4 and hex8
+                              hexahedron20), MSH and FEBio (tet10 / hex20), XDMF
+                              (Tetrahedron_10 / Hexahedron_20), tet4 and hex8
                               meshes: one shared mid-edge node per edge, at its middle */
     vm_deck_kind deck;     /* INP and FEBio (default VM_DECK_NONE) */
     int compress;          /* VTU: zlib-compress arrays (default 1) */
@@ -160,7 +163,7 @@ void vm_mesh_write_options_init(vm_mesh_write_options *o);
 
 /* Format of a name as given to --format ("vtu", "vtk", "inp", "abaqus", "msh", "msh4",
  * "msh2", "mesh", "medit", "stl", "off", "ply", "obj", "exo", "exodus", "bdf", "nastran", "k",
- * "lsdyna", "mphtxt", "comsol", "feb", "febio"), or VM_MESH_AUTO when unknown. */
+ * "lsdyna", "mphtxt", "comsol", "feb", "febio", "xdmf"), or VM_MESH_AUTO when unknown. */
 vm_mesh_format vm_mesh_format_parse(const char *name);
 
 /* Format from the extension of path (case-insensitive), or VM_MESH_AUTO when unknown. */
@@ -172,8 +175,11 @@ const char *vm_mesh_format_name(vm_mesh_format f);
 /* 1 when volmesh was built with Exodus II support. */
 int vm_exodus_available(void);
 
+/* 1 when volmesh was built with XDMF support (libhdf5). */
+int vm_xdmf_available(void);
+
 /* Writes m in the format opt->format (or from the extension). opt may be NULL (defaults).
- * An option that does not apply to the format (order 2 outside .inp .vtu .msh .feb, a deck
+ * An option that does not apply to the format (order 2 outside .inp .vtu .msh .feb .xdmf, a deck
  * outside .inp .feb, materials outside the decks) is VM_ERR_ARG. [in] m is not modified. */
 vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
                            const vm_mesh_write_options *opt, vm_error *err);
@@ -244,6 +250,16 @@ vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err);
 /* Exodus II (.exo): one element block per region (id = ordinal, name REGION_r), a side set
  * of the boundary faces. VM_ERR_UNSUPPORTED when built without libexodusii. */
 vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err);
+
+/* XDMF 3 (PATH.xdmf) with the arrays in PATH.h5 (the same name, .h5 for .xdmf), as dolfinx's
+ * XDMFFile reads them: Grid "mesh" (read_mesh(name="mesh")), Grid "cell_tags" (the region of
+ * each cell) and Grid "facet_tags" (outer boundary faces tagged 1, the faces between two
+ * regions 2, 3, ... per pair in increasing (region, other region) order), for
+ * read_meshtags(mesh, name=...). The mesh's point and cell fields are Attributes of "mesh".
+ * Both files are written to temporary names and renamed. VM_ERR_UNSUPPORTED when built
+ * without libhdf5. */
+vm_status vm_mesh_write_xdmf(const char *path, const vm_mesh *m,
+                             const vm_mesh_write_options *opt, vm_error *err);
 
 #ifdef __cplusplus
 }

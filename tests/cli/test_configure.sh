@@ -47,7 +47,7 @@ else
     fi
 fi
 # every optional part's status line says ON, or OFF with a reason in brackets
-for part in "OpenMP threads" "Exodus II writer" "MPI driver volmesh_mpi"; do
+for part in "OpenMP threads" "Exodus II writer" "XDMF" "MPI driver volmesh_mpi"; do
     echo "$out" | grep -Eq "volmesh: $part (ON|OFF \(.+\))" ||
         { echo "no status line for $part"; fail=$((fail+1)); }
 done
