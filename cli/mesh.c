@@ -64,7 +64,9 @@ static const char *mesh_help2 =
     "  --deck static           with -o X.inp or X.feb: a complete static step (bottom\n"
     "                          fixed, top loaded) that CalculiX/ABAQUS (FEBio) solve as is\n"
     "  --order 2               with -o X.inp .vtu .msh .feb .xdmf: quadratic elements (C3D10,\n"
-    "                          tetra10, tet10; mid-edge nodes at the edge middles)\n"
+    "                          tetra10, tet10; tets: boundary mid-edge nodes on the\n"
+    "                          isosurface, pulled back where a tet would fold; hexes and\n"
+    "                          --slabs: at the edge middles)\n"
     "  --materials FILE        with a deck (-o X.inp .bdf .k .feb): CSV rows label,name,E,\n"
     "                          nu,density, one material per label (checked before\n"
     "                          meshing; labels without a row get a placeholder)\n"
@@ -598,6 +600,10 @@ static int mesh_prepare(mesh_args *m) {
 #define COPY_BOUNDS(dst, o)                                                                 \
     ((dst).lo = (o).lo, (dst).hi = (o).hi, (dst).has_lo = (o).has_lo, (dst).has_hi = (o).has_hi)
 
+#define COPY_BOUNDS_CURVE(dst, o)                                                           \
+    ((dst).curve_lo = (o).lo, (dst).curve_hi = (o).hi, (dst).curve_has_lo = (o).has_lo,        \
+     (dst).curve_has_hi = (o).has_hi)
+
 /* The state of one run between its stages. */
 typedef struct {
     vm_volume v;              /* the input (--slabs with the quality pass: its header only) */
@@ -825,8 +831,15 @@ static int mesh_run(mesh_args *m) {
     if (!rc && whole) rc = mesh_whole(m, &j, &done);
     if (rc || done) return rc;
     rc = improve_mesh(m, &j);
-    vm_volume_free(&j.v);
+    /* --order 2 tets curve their boundary onto the volume's surface (the whole volume read;
+     * by --slabs the edges stay straight) */
+    if (!rc && m->wo.order == 2 && j.m.kind == VM_TET4 && !m->have_slabs && j.v.data) {
+        m->wo.curve_volume = &j.v;
+        COPY_BOUNDS_CURVE(m->wo, m->o);
+    }
     if (!rc) rc = write_mesh(m, &j);
+    m->wo.curve_volume = NULL;
+    vm_volume_free(&j.v);
     if (!rc) rc = check_and_report(m, &j);
     vm_mesh_free(&j.m);
     return rc;

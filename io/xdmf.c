@@ -299,7 +299,7 @@ vm_status vm_mesh_write_xdmf(const char *path, const vm_mesh *m,
     xdmf_data d;
     memset(&d, 0, sizeof d);
     vm_status st = VM_OK;
-    if (opt->order == 2) st = vm__quadratic_make(path, m, NULL, &q, err);
+    if (opt->order == 2) st = vm__quadratic_make(path, m, NULL, opt, &q, err);
     if (!st) st = xdmf_prepare(path, m, &q, opt->order, &d, err);
     vm_outfile o;
     int h5_made = 0;

@@ -154,6 +154,16 @@ typedef struct vm_mesh_write_options {
                                      from this table where it has the region's row (not
                                      owned; may be NULL: placeholders) */
     size_t nmaterials;
+    /* Curved second-order tets (order 2, tet4 meshes, every format): mid-edge nodes of
+     * outer boundary edges moved onto the level set curve_lo or curve_hi (the material's
+     * bounds, as meshed; the nearer one) of this volume's trilinear field by Newton steps
+     * along its gradient, and pulled back toward the edge middle wherever a tet's Jacobian
+     * determinant (corners, edge middles, centroid, 4 Gauss points) would fall below 0.1 of
+     * the straight tet's. Nodes on the volume's box faces, and hexes, stay straight. Not
+     * owned; NULL (default): straight edges. */
+    const vm_volume *curve_volume;
+    double curve_lo, curve_hi;
+    int curve_has_lo, curve_has_hi;
     vm_progress_fn progress; /* stage "write" (every format but Exodus); may be NULL */
     void *progress_user;
 } vm_mesh_write_options;
