@@ -257,8 +257,10 @@ vm_status vm_mesh_read_ply(const char *path, vm_mesh *m, vm_error *err);
 vm_status vm_mesh_write_obj(const char *path, const vm_mesh *m, vm_error *err);
 vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err);
 
-/* Exodus II (.exo): one element block per region (id = ordinal, name REGION_r), a side set
- * of the boundary faces. VM_ERR_UNSUPPORTED when built without libexodusii. */
+/* Exodus II (.exo): one element block per region (id = ordinal, name REGION_r); side set and
+ * node set 1 BOUNDARY (the outer boundary faces and their nodes), then per pair of regions
+ * r < q that share faces, sets 2, 3, ... IFACE_REGION_r_REGION_q (those faces from r's side,
+ * and their nodes). VM_ERR_UNSUPPORTED when built without libexodusii. */
 vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err);
 
 /* XDMF 3 (PATH.xdmf) with the arrays in PATH.h5 (the same name, .h5 for .xdmf), as dolfinx's
