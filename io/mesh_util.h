@@ -111,6 +111,10 @@ vm_status vm__quadratic_make(const char *path, const vm_mesh *m, const int *orde
  * Does nothing (VM_OK) otherwise. opt may be NULL. */
 vm_status vm__mid_curve(const char *path, const vm_mesh *m, const vm_index *mid, size_t nmid,
                         const vm_mesh_write_options *opt, double *pts, vm_error *err);
+/* The volume's world-to-index frame (io/mid_curve.c): inv = (D * diag(spacing))^-1, 0 when
+ * singular; vm__to_index: idx = inv * (x - origin), inv row-major (&inv[0][0]). */
+int vm__index_frame(const vm_volume *v, double inv[3][3]);
+void vm__to_index(const vm_volume *v, const double *inv, const double x[3], double idx[3]);
 void vm__quadratic_free(vm__quadratic *q);
 
 /* --- materials (io/materials.c) --------------------------------------------------------- */

@@ -29,8 +29,8 @@ typedef struct curve_frame {
     double inv[3][3];
 } curve_frame;
 
-/* Inverts A = D * diag(spacing); 0 when singular. */
-static int frame_init(curve_frame *fr, const vm_volume *v) {
+/* Inverts A = D * diag(spacing) into inv; 0 when singular. */
+int vm__index_frame(const vm_volume *v, double inv[3][3]) {
     double a[3][3];
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++) a[r][c] = v->direction[r][c] * v->spacing[c];
@@ -41,17 +41,26 @@ static int frame_init(curve_frame *fr, const vm_volume *v) {
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++) {
             int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
-            fr->inv[r][c] = (a[r1][c1] * a[r2][c2] - a[r1][c2] * a[r2][c1]) / det;
+            inv[r][c] = (a[r1][c1] * a[r2][c2] - a[r1][c2] * a[r2][c1]) / det;
         }
-    fr->v = v;
     return 1;
 }
 
-/* Index coordinates of world point x. */
-static void to_index(const curve_frame *fr, const double x[3], double idx[3]) {
-    double d[3] = {x[0] - fr->v->origin[0], x[1] - fr->v->origin[1], x[2] - fr->v->origin[2]};
+/* Index coordinates idx = inv * (x - origin) of world point x. */
+void vm__to_index(const vm_volume *v, const double *inv, const double x[3],
+                  double idx[3]) {
+    double d[3] = {x[0] - v->origin[0], x[1] - v->origin[1], x[2] - v->origin[2]};
     for (int r = 0; r < 3; r++)
-        idx[r] = fr->inv[r][0] * d[0] + fr->inv[r][1] * d[1] + fr->inv[r][2] * d[2];
+        idx[r] = inv[3 * r] * d[0] + inv[3 * r + 1] * d[1] + inv[3 * r + 2] * d[2];
+}
+
+static int frame_init(curve_frame *fr, const vm_volume *v) {
+    fr->v = v;
+    return vm__index_frame(v, fr->inv);
+}
+
+static void to_index(const curve_frame *fr, const double x[3], double idx[3]) {
+    vm__to_index(fr->v, &fr->inv[0][0], x, idx);
 }
 
 /* The trilinear field and its world gradient at x; 0 outside the sampled box. */

@@ -257,6 +257,28 @@ vm_status vm_mesh_read_ply(const char *path, vm_mesh *m, vm_error *err);
 vm_status vm_mesh_write_obj(const char *path, const vm_mesh *m, vm_error *err);
 vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err);
 
+/* ---- Materials from the image (io/modulus.c) ---------------------------------------------
+ *
+ * A formula in v: numbers (C syntax, e.g. 6850, 1.5e-3), v, + - * / ^ (power, right-
+ * associative, above unary minus: -v^2 = -(v^2)), parentheses; at most 1023 characters.
+ * Bad text is VM_ERR_ARG "--modulus 'TEXT': problem at column N". [out] *out: free with
+ * vm_expr_free. vm_expr_eval gives NaN or inf where the arithmetic does. */
+typedef struct vm_expr vm_expr;
+vm_status vm_expr_parse(const char *text, vm_expr **out, vm_error *err);
+double vm_expr_eval(const vm_expr *e, double v);
+void vm_expr_free(vm_expr *e);
+
+/* Image-based moduli of a tet4 / hex8 mesh (Bonemat's way): v = the mean of the voxels of vol
+ * whose centres lie in the element (else the voxel nearest its centroid), E = e(v), which must
+ * be finite and > 0 (else VM_ERR_ARG naming the element). When the distinct E number at most
+ * bins (>= 1), one material each, exact; else bins equal-width bins over [min E, max E], each
+ * material the mean E of its elements. Each element's region becomes its material's number
+ * 1..*nmats; cell fields "image_mean" (v) and "modulus" (its material's E) are added. [out]
+ * *mats (*nmats rows: label k, name E_BIN_k, E, poisson, density 0; free with free()). */
+vm_status vm_mesh_image_moduli(vm_mesh *m, const vm_volume *vol, const vm_expr *e, int bins,
+                               double poisson, vm_material **mats, size_t *nmats,
+                               vm_error *err);
+
 /* Exodus II (.exo): one element block per region (id = ordinal, name REGION_r); side set and
  * node set 1 BOUNDARY (the outer boundary faces and their nodes), then per pair of regions
  * r < q that share faces, sets 2, 3, ... IFACE_REGION_r_REGION_q (those faces from r's side,
