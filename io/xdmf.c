@@ -311,7 +311,10 @@ vm_status vm_mesh_write_xdmf(const char *path, const vm_mesh *m,
     }
     if (!st) st = vm__out_open(&o, path, err);
     if (!st) {
+        /* the HDF5 arrays are written in one call each: progress is the XML's one step */
+        vm__out_meter(&o, opt->progress, opt->progress_user, 1.0);
         put_xml(o.fp, h5name, &d, m);
+        vm__out_step(&o, 1.0);
         if (rename(tmp, h5path) != 0) {
             vm__out_abort(&o);
             st = vm_error_set(err, VM_ERR_IO, "%s: cannot rename %s to %s", path, tmp, h5path);
