@@ -13,14 +13,15 @@ static const char *convert_help =
     "                  .msh2 (Gmsh 2.2) .mesh (MEDIT) .stl .off .ply .obj\n"
     "  write only:     .exo (Exodus II, when built with libexodusii); solver decks, one\n"
     "                  part and material per region: .bdf (Nastran), .k (LS-DYNA),\n"
-    "                  .feb (FEBio 4.0), .mphtxt (COMSOL mesh, no materials)\n"
+    "                  .feb (FEBio 4.0), .mphtxt (COMSOL mesh, no materials); .xdmf + .h5\n"
+    "                  (FEniCSx/dolfinx, with cell and facet tags; when built with libhdf5)\n"
     "Surface formats (stl, off, ply, obj) given a volume mesh write its boundary.\n"
     "  --format F      output format regardless of OUT's extension: vtu, vtk, inp, msh,\n"
-    "                  msh2, mesh, stl, off, ply, obj, exo, bdf, k, mphtxt, feb\n"
+    "                  msh2, mesh, stl, off, ply, obj, exo, bdf, k, mphtxt, feb, xdmf\n"
     "  --in-format F   input format regardless of IN's extension\n"
     "  --deck static   .inp, .feb: add a static step (lowest z slab fixed, top slab loaded\n"
     "                  in -z, displacements and stresses requested)\n"
-    "  --order 2       .inp .vtu .msh .msh2 .feb: second-order elements (C3D10 / C3D20,\n"
+    "  --order 2       .inp .vtu .msh .msh2 .feb .xdmf: second-order elements (C3D10 / C3D20,\n"
     "                  tetra10 / hexahedron20, tet10 / hex20), one shared mid-edge node\n"
     "                  per edge at its middle (straight edges)\n"
     "  --materials FILE  decks (.inp .bdf .k .feb): CSV rows label,name,E,nu,density, one\n"
@@ -51,7 +52,7 @@ static int convert_run(int argc, char **argv, vm_material **materials) {
             vm_mesh_format f = vm_mesh_format_parse(argv[++i]);
             if (f == VM_MESH_AUTO)
                 return vm_cli_fail("%s: unknown format '%s' (vtu, vtk, inp, msh, msh2, mesh, "
-                                   "stl, off, ply, obj, exo, bdf, k, mphtxt, feb)", a, argv[i]);
+                                   "stl, off, ply, obj, exo, bdf, k, mphtxt, feb, xdmf)", a, argv[i]);
             if (a[2] == 'f') o.format = f;
             else in_fmt = f;
         } else if (strcmp(a, "--deck") == 0) {
@@ -92,14 +93,14 @@ static int convert_run(int argc, char **argv, vm_material **materials) {
     if (inf == VM_MESH_EXODUS)
         return vm_cli_fail("%s: volmesh writes Exodus II but does not read it", in);
     if (inf == VM_MESH_NASTRAN || inf == VM_MESH_LSDYNA || inf == VM_MESH_COMSOL ||
-        inf == VM_MESH_FEBIO)
+        inf == VM_MESH_FEBIO || inf == VM_MESH_XDMF)
         return vm_cli_fail("%s: volmesh writes .%s but does not read it", in,
                            vm_mesh_format_name(inf));
     /* Refuse option mismatches before reading a possibly large input. */
     if (o.order == 2 && of != VM_MESH_INP && of != VM_MESH_VTU && of != VM_MESH_MSH &&
-        of != VM_MESH_MSH2 && of != VM_MESH_FEBIO)
-        return vm_cli_fail("--order 2: second-order elements are written to .inp, .vtu, .msh "
-                           "and .feb only");
+        of != VM_MESH_MSH2 && of != VM_MESH_FEBIO && of != VM_MESH_XDMF)
+        return vm_cli_fail("--order 2: second-order elements are written to .inp, .vtu, .msh, "
+                           ".feb and .xdmf only");
     if (o.deck != VM_DECK_NONE && of != VM_MESH_INP && of != VM_MESH_FEBIO)
         return vm_cli_fail("--deck: an analysis deck needs an .inp or .feb output");
     if (o.ascii && of != VM_MESH_STL && of != VM_MESH_PLY && of != VM_MESH_VTK)

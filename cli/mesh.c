@@ -74,11 +74,20 @@ static const char *mesh_help2 =
     "  --no-compress           write the VTU without zlib\n"
     "  --deck static           with -o X.inp or X.feb: a complete static step (bottom\n"
     "                          fixed, top loaded) that CalculiX/ABAQUS (FEBio) solve as is\n"
-    "  --order 2               with -o X.inp .vtu .msh .feb: quadratic elements (C3D10,\n"
-    "                          tetra10, tet10; mid-edge nodes at the edge middles)\n"
+    "  --order 2               with -o X.inp .vtu .msh .feb .xdmf: quadratic elements (C3D10,\n"
+    "                          tetra10, tet10; tets: boundary mid-edge nodes on the\n"
+    "                          isosurface, pulled back where a tet would fold; hexes and\n"
+    "                          --slabs: at the edge middles)\n"
     "  --materials FILE        with a deck (-o X.inp .bdf .k .feb): CSV rows label,name,E,\n"
     "                          nu,density, one material per label (checked before\n"
     "                          meshing; labels without a row get a placeholder)\n"
+    "  --modulus EXPR          each element's Young's modulus from the image: a formula in\n"
+    "                          v, the mean of the voxels in the element (numbers, v, + - * /\n"
+    "                          ^, parentheses; e.g. '6850*(0.0008*v)^1.49'), nu 0.3; written\n"
+    "                          as materials (-o X.inp .bdf .k .feb) and cell data \"modulus\",\n"
+    "                          \"image_mean\" (.vtu .xdmf); regions become the materials\n"
+    "  --material-bins N       with --modulus: at most N materials (default 32; equal-width\n"
+    "                          bins of E, each the mean E of its elements)\n"
     "  --max-memory SIZE       refuse (exit 2) before reading or meshing when the run would\n"
     "                          need more than SIZE bytes (suffix K, M, G, T: powers of 1024)\n"
     "  --slabs N|auto          tets: mesh by N slabs along z, each read and meshed on its own\n"
@@ -322,6 +331,10 @@ typedef struct {
     int32_t *labels;            /* --labels' list (owned; NULL for all) */
     const char *materials_path; /* --materials */
     vm_material *materials;     /* its rows (owned) */
+    const char *modulus;        /* --modulus */
+    long material_bins;         /* --material-bins (0: not given, 32) */
+    vm_expr *expr;              /* --modulus parsed (owned) */
+    vm_material *image_mats;    /* the materials binned from the image (owned) */
 } mesh_args;
 
 /* The options that take a value (checked to have one before they are read). */
@@ -330,7 +343,8 @@ static const char *const mesh_valued[] = {
     "--surface",  "--max-level",    "--elements",   "--denoise",        "--report",
     "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
     "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts",
-    "--materials", "--max-edge",  "--min-edge",     "--distance"};
+    "--materials", "--modulus",   "--material-bins", "--max-edge", "--min-edge",
+    "--distance"};
 
 /* 1 when option a takes a value. */
 static int mesh_takes_value(const char *a) {
@@ -504,6 +518,10 @@ static int output_option(mesh_args *m, char **argv, int *i, int *taken) {
         m->wo.order = (int)ord;
     } else if (vm_cli_is(a, "--materials", NULL)) {
         m->materials_path = argv[++*i];
+    } else if (vm_cli_is(a, "--modulus", NULL)) {
+        m->modulus = argv[++*i];
+    } else if (vm_cli_is(a, "--material-bins", NULL)) {
+        if (vm_cli_int(a, argv[++*i], 1, 100000, &m->material_bins)) return VM_EXIT_INPUT;
     } else if (vm_cli_is(a, "--no-compress", NULL)) {
         m->compress = 0;
     } else if (vm_cli_is(a, "--quality-fields", NULL)) {
@@ -570,6 +588,12 @@ static int option_conflicts(const mesh_args *m) {
     if (m->distance_check && (m->have_labels || m->surface_elements || m->have_slabs))
         return vm_cli_fail("mesh: --distance-check measures tets or hexes of --iso or --range: "
                            "not with --labels, --elements tri|quad or --slabs");
+    if (m->material_bins && !m->modulus)
+        return vm_cli_fail("mesh: --material-bins goes with --modulus");
+    if (m->modulus && (m->have_labels || m->surface_elements || m->have_slabs ||
+                       m->materials_path))
+        return vm_cli_fail("mesh: --modulus needs the whole volume and gives the materials: "
+                           "not with --labels, --elements tri|quad, --slabs or --materials");
     if (m->have_slabs &&
         (m->have_labels || m->denoise || m->surface_elements || o->elements != VM_TET4))
         return vm_cli_fail("mesh: --slabs meshes tetrahedra: not with --labels, --denoise or "
@@ -630,6 +654,14 @@ static int check_output(mesh_args *m) {
             return vm_cli_fail_err(&err);
         m->wo.materials = m->materials;
     }
+    if (m->modulus) {
+        vm_mesh_format f = vm_mesh_format_of_path(m->out);
+        if (f != VM_MESH_INP && f != VM_MESH_NASTRAN && f != VM_MESH_LSDYNA &&
+            f != VM_MESH_FEBIO && f != VM_MESH_VTU && f != VM_MESH_XDMF)
+            return vm_cli_fail("--modulus: %s: the moduli are written to the decks (.inp .bdf .k "
+                               ".feb) and as cell data to .vtu and .xdmf", m->out);
+        if (vm_expr_parse(m->modulus, &m->expr, &err)) return vm_cli_fail_err(&err);
+    }
     if (vm_mesh_write_check(m->out, &m->wo, &err))
         return vm_cli_fail_err(&err);
     return VM_EXIT_OK;
@@ -667,6 +699,10 @@ static int mesh_prepare(mesh_args *m) {
  * (the quality passes', the surface's), which name them alike. */
 #define COPY_BOUNDS(dst, o)                                                                 \
     ((dst).lo = (o).lo, (dst).hi = (o).hi, (dst).has_lo = (o).has_lo, (dst).has_hi = (o).has_hi)
+
+#define COPY_BOUNDS_CURVE(dst, o)                                                           \
+    ((dst).curve_lo = (o).lo, (dst).curve_hi = (o).hi, (dst).curve_has_lo = (o).has_lo,        \
+     (dst).curve_has_hi = (o).has_hi)
 
 /* The state of one run between its stages. */
 typedef struct {
@@ -843,6 +879,22 @@ static int improve_mesh(mesh_args *m, mesh_job *j) {
     return VM_EXIT_OK;
 }
 
+/* --modulus: each element's material from the image; the decks get one per bin. */
+static int image_moduli(mesh_args *m, mesh_job *j) {
+    vm_error err;
+    vm_error_clear(&err);
+    size_t n = 0;
+    int bins = m->material_bins ? (int)m->material_bins : 32;
+    if (vm_mesh_image_moduli(&j->m, &j->v, m->expr, bins, 0.3, &m->image_mats, &n, &err))
+        return vm_cli_fail("%s: %s", m->in.path, err.message);
+    vm_mesh_format f = vm_mesh_format_of_path(m->out);
+    if (f != VM_MESH_VTU && f != VM_MESH_XDMF) {
+        m->wo.materials = m->image_mats;
+        m->wo.nmaterials = n;
+    }
+    return VM_EXIT_OK;
+}
+
 /* Writes the mesh (with --quality-fields' arrays) and --surface's boundary triangles. */
 static int write_mesh(mesh_args *m, mesh_job *j) {
     vm_error err;
@@ -909,9 +961,17 @@ static int mesh_run(mesh_args *m) {
     if (!rc && whole) rc = mesh_whole(m, &j, &done);
     if (rc || done) return rc;
     rc = improve_mesh(m, &j);
+    if (!rc && m->expr) rc = image_moduli(m, &j);
+    /* --order 2 tets curve their boundary onto the volume's surface (the whole volume read;
+     * by --slabs the edges stay straight) */
+    if (!rc && m->wo.order == 2 && j.m.kind == VM_TET4 && !m->have_slabs && j.v.data) {
+        m->wo.curve_volume = &j.v;
+        COPY_BOUNDS_CURVE(m->wo, m->o);
+    }
+    if (!rc) rc = write_mesh(m, &j);
+    m->wo.curve_volume = NULL;
     /* kept to the end when the distance to its isosurface is measured */
     if (!m->distance_check && !m->report) vm_volume_free(&j.v);
-    if (!rc) rc = write_mesh(m, &j);
     if (!rc) rc = check_and_report(m, &j);
     vm_volume_free(&j.v);
     vm_mesh_free(&j.m);
@@ -931,5 +991,7 @@ int vm_cmd_mesh(int argc, char **argv) {
     free(m.labels);
     free(m.label_sizes);
     vm_materials_free(m.materials);
+    vm_expr_free(m.expr);
+    free(m.image_mats);
     return rc;
 }

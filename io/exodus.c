@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* io/exodus.c — Exodus II writer (through libexodusii, when the build found its header): one
- * element block per region, an element number map keeping the mesh's element numbers, and one
- * side set of the boundary faces. Follows "EXODUS II: A Finite Element Data Model" (Sandia,
+ * element block per region, an element number map keeping the mesh's element numbers, a side
+ * set and a node set of the outer boundary and of each interface between two regions. Follows "EXODUS II: A Finite Element Data Model" (Sandia,
  * SAND92-2137), element types TETRA/HEX/TRI3/SHELL4 and their side numbering.
  *
  * The library is opened with dlopen on the first .exo written, not linked: Debian's
@@ -87,6 +87,41 @@ int vm_exodus_available(void) {
 static const int tet_side[4] = {4, 1, 2, 3};
 static const int hex_side[6] = {5, 6, 1, 2, 3, 4};
 
+static int cmp_int(const void *a, const void *b) {
+    int x = *(const int *)a, y = *(const int *)b;
+    return (x > y) - (x < y);
+}
+
+/* Writes side set id and node set id named name: the n faces face(i) (cell * nf + local
+ * face), elements numbered by rank, and their distinct nodes. elist, slist, nodes: scratch
+ * of n, n and n * 4 ints. Returns nonzero when the library fails. */
+static int put_face_sets(int exoid, ex_entity_id id, const char *name, const vm_mesh *m,
+                         const uint64_t *faces, const vm__iface *iff, size_t n, const int *rank,
+                         int *elist, int *slist, int *nodes) {
+    int tet = m->kind == VM_TET4;
+    size_t nf = tet ? 4 : 6, fk = tet ? 3 : 4, nn = tet ? 4 : 8, nnodes = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t fc = faces ? faces[i] : iff[i].face;
+        size_t c = (size_t)(fc / nf), f = (size_t)(fc % nf);
+        elist[i] = rank[c];
+        slist[i] = tet ? tet_side[f] : hex_side[f];
+        for (size_t k = 0; k < fk; k++) {
+            int local = tet ? vm__tet_faces[f][k] : vm__hex_faces[f][k];
+            nodes[nnodes++] = (int)m->cells[c * nn + (size_t)local] + 1;
+        }
+    }
+    qsort(nodes, nnodes, sizeof *nodes, cmp_int);
+    size_t u = 0;
+    for (size_t i = 0; i < nnodes; i++)
+        if (u == 0 || nodes[i] != nodes[u - 1]) nodes[u++] = nodes[i];
+    return exo.put_set_param(exoid, EX_SIDE_SET, id, (int64_t)n, 0) < 0 ||
+           exo.put_set(exoid, EX_SIDE_SET, id, elist, slist) < 0 ||
+           exo.put_name(exoid, EX_SIDE_SET, id, name) < 0 ||
+           exo.put_set_param(exoid, EX_NODE_SET, id, (int64_t)u, 0) < 0 ||
+           exo.put_set(exoid, EX_NODE_SET, id, nodes, NULL) < 0 ||
+           exo.put_name(exoid, EX_NODE_SET, id, name) < 0;
+}
+
 vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err) {
     int nn = vm_cell_nodes(m->kind);
     if (!nn)
@@ -107,27 +142,34 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
                         : m->kind == VM_TRI3 ? "TRI3"
                                              : "SHELL4";
     int32_t *regions = NULL;
-    size_t nreg = 0, nb = 0;
+    size_t nreg = 0, nb = 0, nif = 0, npairs = 0;
     uint64_t *bf = NULL;
+    vm__iface *iff = NULL;
     st = vm__distinct_regions(path, m, &regions, &nreg, err);
     if (!st && volume) st = vm__boundary_faces(path, m, &bf, &nb, err);
+    if (!st && volume && nreg > 1) st = vm__interface_faces(path, m, &iff, &nif, err);
     if (st) {
         free(regions);
+        free(bf);
         return st;
     }
+    for (size_t i = 0; i < nif; i++)
+        npairs += i == 0 || iff[i].region != iff[i - 1].region || iff[i].other != iff[i - 1].other;
+    size_t nset = nb > nif ? nb : nif; /* the largest face set */
     size_t np = m->npoints ? m->npoints : 1, nc = m->ncells ? m->ncells : 1;
     double *xyz = malloc(3 * np * sizeof *xyz);
     int *conn = malloc(nc * (size_t)nn * sizeof *conn);
     int *order = malloc(nc * sizeof *order);  /* cells sorted by region: file element i */
     int *rank = malloc(nc * sizeof *rank);    /* cell -> 1-based file element number */
-    int *elist = malloc((nb ? nb : 1) * sizeof *elist), *slist = malloc((nb ? nb : 1) * sizeof *slist);
+    int *elist = malloc((nset + 1) * sizeof *elist), *slist = malloc((nset + 1) * sizeof *slist);
+    int *setnodes = malloc((4 * nset + 1) * sizeof *setnodes);
     char tmp[4200];
     int exoid = -1;
     if (!vm__temp_path(path, "tmp", tmp, sizeof tmp)) {
         st = vm_error_set(err, VM_ERR_ARG, "%s: path too long", path);
         goto done;
     }
-    if (!xyz || !conn || !order || !rank || !elist || !slist) {
+    if (!xyz || !conn || !order || !rank || !elist || !slist || !setnodes) {
         st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory", path);
         goto done;
     }
@@ -149,7 +191,8 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
         goto done;
     }
     int bad = exo.put_init(exoid, "volmesh mesh", 3, (int64_t)m->npoints, (int64_t)m->ncells,
-                          (int64_t)nreg, 0, volume && nb ? 1 : 0) < 0;
+                          (int64_t)nreg, (int64_t)((nb ? 1 : 0) + npairs),
+                          (int64_t)((nb ? 1 : 0) + npairs)) < 0;
     bad = bad || exo.put_coord(exoid, xyz, xyz + m->npoints, xyz + 2 * m->npoints) < 0;
     k = 0;
     for (size_t r = 0; r < nreg && !bad; r++) {
@@ -172,17 +215,21 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
             order[i] += 1; /* element number map: file element i is mesh element order[i]+1 */
         bad = exo.put_id_map(exoid, EX_ELEM_MAP, order) < 0;
     }
-    if (!bad && volume && nb) {
-        int nf = m->kind == VM_TET4 ? 4 : 6;
-        for (size_t i = 0; i < nb; i++) {
-            size_t c = (size_t)(bf[i] / (uint64_t)nf);
-            int f = (int)(bf[i] % (uint64_t)nf);
-            elist[i] = rank[c];
-            slist[i] = nf == 4 ? tet_side[f] : hex_side[f];
-        }
-        bad = exo.put_set_param(exoid, EX_SIDE_SET, 1, (int64_t)nb, 0) < 0 ||
-              exo.put_set(exoid, EX_SIDE_SET, 1, elist, slist) < 0 ||
-              exo.put_name(exoid, EX_SIDE_SET, 1, "BOUNDARY") < 0;
+    if (!bad && volume && nb)
+        bad = put_face_sets(exoid, 1, "BOUNDARY", m, bf, NULL, nb, rank, elist, slist,
+                            setnodes);
+    /* each interface, from the side of its lower region: sets 2, 3, ... */
+    ex_entity_id id = nb ? 2 : 1;
+    for (size_t i = 0; i < nif && !bad;) {
+        size_t j = i;
+        while (j < nif && iff[j].region == iff[i].region && iff[j].other == iff[i].other) j++;
+        char a[32], b[32], name[80];
+        vm__region_name(iff[i].region, a, sizeof a);
+        vm__region_name(iff[i].other, b, sizeof b);
+        snprintf(name, sizeof name, "IFACE_%s_%s", a, b);
+        bad = put_face_sets(exoid, id++, name, m, NULL, iff + i, j - i, rank, elist, slist,
+                            setnodes);
+        i = j;
     }
     if (exo.close(exoid) < 0) bad = 1;
     exoid = -1;
@@ -196,6 +243,8 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
 done:
     free(regions);
     free(bf);
+    free(iff);
+    free(setnodes);
     free(xyz);
     free(conn);
     free(order);

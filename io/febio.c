@@ -173,7 +173,7 @@ vm_status vm__write_febio(const char *path, const vm_mesh *m, const vm_mesh_writ
     vm_outfile o;
     st = vm__distinct_regions(path, m, &regions, &nregions, err);
     if (!st) st = vm__boundary_faces(path, m, &bf, &nb, err);
-    if (!st && order2) st = vm__quadratic_make(path, m, NULL, &q, err);
+    if (!st && order2) st = vm__quadratic_make(path, m, NULL, opt, &q, err);
     if (!st && opt->deck == VM_DECK_STATIC) st = deck_nodes(path, m, order2 ? &q : NULL, &d, err);
     if (!st) st = vm__out_open(&o, path, err);
     if (!st) {

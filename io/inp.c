@@ -64,6 +64,7 @@ typedef struct inp_writer {
     size_t nn, nnodes;
     const char *etype;
     vm_index *mid; /* order 2: mid-edge node of cell*ne + edge */
+    double *xyz;   /* order 2: every node's coordinates (mid-edge nodes curved as opt says) */
     size_t nmid, nb, nregions, nif, idcap;
     uint64_t *bfaces;
     vm__iface *ifaces;
@@ -75,6 +76,7 @@ typedef struct inp_writer {
 /* Frees what prepare_deck_data allocated. */
 static void inp_writer_free(inp_writer *w) {
     free(w->mid);
+    free(w->xyz);
     free(w->bfaces);
     free(w->ifaces);
     free(w->regions);
@@ -83,19 +85,14 @@ static void inp_writer_free(inp_writer *w) {
     free(w->deck.loaded);
 }
 
-/* The static deck's node sets, from the z of every node (a mid-edge node at the middle). */
+/* The static deck's node sets, from the z of every node (mid-edge nodes as written). */
 static vm_status prepare_static_deck(inp_writer *w) {
     const vm_mesh *m = w->m;
     double *zs = malloc((w->nnodes ? w->nnodes : 1) * sizeof *zs);
     if (!zs) return vm_error_set(w->err, VM_ERR_NOMEM, "%s: out of memory", w->path);
-    for (size_t i = 0; i < m->npoints; i++)
-        zs[i] = m->points[3 * i + 2];
-    const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
-    for (size_t c = 0; c < m->ncells && w->order2; c++)
-        for (int k = 0; k < w->ne; k++)
-            zs[w->mid[c * (size_t)w->ne + (size_t)k]] =
-                0.5 * (m->points[3 * (size_t)m->cells[c * w->nn + (size_t)edges[k][0]] + 2] +
-                       m->points[3 * (size_t)m->cells[c * w->nn + (size_t)edges[k][1]] + 2]);
+    const double *xyz = w->order2 ? w->xyz : m->points;
+    for (size_t i = 0; i < w->nnodes; i++)
+        zs[i] = xyz[3 * i + 2];
     vm_status st = vm__deck_sets(w->path, m, zs, w->mid, w->ne, w->nnodes, &w->deck, w->err);
     free(zs);
     return st;
@@ -108,6 +105,13 @@ static vm_status prepare_deck_data(inp_writer *w) {
     if (w->order2) st = vm__mid_nodes(w->path, m, &w->mid, &w->nmid, w->err);
     if (st) return st;
     w->nnodes = m->npoints + w->nmid;
+    if (w->order2) {
+        w->xyz = malloc(3 * (w->nnodes + 1) * sizeof *w->xyz);
+        if (!w->xyz) return vm_error_set(w->err, VM_ERR_NOMEM, "%s: out of memory", w->path);
+        vm__mid_average(m, w->mid, m->points, 3, w->xyz);
+        st = vm__mid_curve(w->path, m, w->mid, w->nmid, w->opt, w->xyz, w->err);
+        if (st) return st;
+    }
     if (w->volume) st = vm__boundary_faces(w->path, m, &w->bfaces, &w->nb, w->err);
     if (!st) st = vm__distinct_regions(w->path, m, &w->regions, &w->nregions, w->err);
     if (!st && w->volume && w->nregions > 1)
@@ -130,8 +134,8 @@ static void write_node_line(FILE *fp, size_t id, double x, double y, double z) {
     fprintf(fp, "%zu, %s, %s, %s\n", id, a, b, c);
 }
 
-/* *NODE: the mesh points, then (order 2) each mid-edge node at the middle of its edge, in
- * id order (straight-sided elements). */
+/* *NODE: the mesh points, then (order 2) each mid-edge node, in id order (at the middle of
+ * its edge, or curved onto the surface). */
 static vm_status write_nodes(inp_writer *w) {
     const vm_mesh *m = w->m;
     FILE *fp = w->fp;
@@ -142,22 +146,11 @@ static vm_status write_nodes(inp_writer *w) {
         vm__out_step(&w->o, 1.0);
     }
     if (!w->order2) return VM_OK;
-    const int(*edges)[2] = m->kind == VM_TET4 ? vm__tet_edges : vm__hex_edges;
-    size_t ne = (size_t)w->ne, nn = w->nn;
-    size_t *slot_of = malloc((w->nmid ? w->nmid : 1) * sizeof *slot_of);
-    if (!slot_of) return vm_error_set(w->err, VM_ERR_NOMEM, "%s: out of memory", w->path);
-    for (size_t sl = 0; sl < m->ncells * ne; sl++)
-        slot_of[(size_t)w->mid[sl] - m->npoints] = sl;
-    for (size_t i = 0; i < w->nmid; i++) {
-        size_t c = slot_of[i] / ne;
-        int k = (int)(slot_of[i] % ne);
-        const double *a = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][0]];
-        const double *b = m->points + 3 * (size_t)m->cells[c * nn + (size_t)edges[k][1]];
-        write_node_line(fp, m->npoints + i + 1, 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]),
-                        0.5 * (a[2] + b[2]));
+    for (size_t i = m->npoints; i < w->nnodes; i++) {
+        const double *p = w->xyz + 3 * i;
+        write_node_line(fp, i + 1, p[0], p[1], p[2]);
         vm__out_step(&w->o, 1.0);
     }
-    free(slot_of);
     return VM_OK;
 }
 

@@ -18,7 +18,7 @@ static const struct {
     {"obj", VM_MESH_OBJ},    {"exo", VM_MESH_EXODUS},  {"exodus", VM_MESH_EXODUS},
     {"bdf", VM_MESH_NASTRAN}, {"nastran", VM_MESH_NASTRAN}, {"k", VM_MESH_LSDYNA},
     {"lsdyna", VM_MESH_LSDYNA}, {"mphtxt", VM_MESH_COMSOL}, {"comsol", VM_MESH_COMSOL},
-    {"feb", VM_MESH_FEBIO},  {"febio", VM_MESH_FEBIO},
+    {"feb", VM_MESH_FEBIO},  {"febio", VM_MESH_FEBIO}, {"xdmf", VM_MESH_XDMF},
 };
 
 static const struct {
@@ -30,7 +30,7 @@ static const struct {
     {".stl", VM_MESH_STL},  {".off", VM_MESH_OFF},    {".ply", VM_MESH_PLY},
     {".obj", VM_MESH_OBJ},  {".exo", VM_MESH_EXODUS}, {".e", VM_MESH_EXODUS},
     {".bdf", VM_MESH_NASTRAN}, {".k", VM_MESH_LSDYNA}, {".mphtxt", VM_MESH_COMSOL},
-    {".feb", VM_MESH_FEBIO},
+    {".feb", VM_MESH_FEBIO}, {".xdmf", VM_MESH_XDMF},
 };
 
 vm_mesh_format vm_mesh_format_parse(const char *name) {
@@ -65,12 +65,13 @@ const char *vm_mesh_format_name(vm_mesh_format f) {
     case VM_MESH_LSDYNA: return "k";
     case VM_MESH_COMSOL: return "mphtxt";
     case VM_MESH_FEBIO: return "feb";
+    case VM_MESH_XDMF: return "xdmf";
     }
     return "unknown";
 }
 
 static const char *known_exts =
-    ".vtu .vtk .inp .msh .msh2 .mesh .stl .off .ply .obj .exo .bdf .k .mphtxt .feb";
+    ".vtu .vtk .inp .msh .msh2 .mesh .stl .off .ply .obj .exo .bdf .k .mphtxt .feb .xdmf";
 
 /* 1 when format f writes one material per region (a solver deck). */
 static int has_materials(vm_mesh_format f) {
@@ -86,14 +87,18 @@ static vm_status check_options(const char *path, const vm_mesh_write_options *op
     if (f == VM_MESH_AUTO)
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
                             "%s: unknown mesh format (expected one of %s)", path, known_exts);
+    if (f == VM_MESH_XDMF && !vm_xdmf_available())
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "%s: this volmesh was built without XDMF (needs libhdf5-dev at "
+                            "configure time)", path);
     if (opt->order != 1 && opt->order != 2)
         return vm_error_set(err, VM_ERR_ARG, "%s: element order %d (expected 1 or 2)", path,
                             opt->order);
     if (f != VM_MESH_INP && f != VM_MESH_VTU && f != VM_MESH_MSH && f != VM_MESH_MSH2 &&
-        f != VM_MESH_FEBIO && opt->order != 1)
+        f != VM_MESH_FEBIO && f != VM_MESH_XDMF && opt->order != 1)
         return vm_error_set(err, VM_ERR_ARG,
-                            "%s: second-order elements are written to .inp, .vtu, .msh and "
-                            ".feb, not %s", path, vm_mesh_format_name(f));
+                            "%s: second-order elements are written to .inp, .vtu, .msh, "
+                            ".feb and .xdmf, not %s", path, vm_mesh_format_name(f));
     if (f != VM_MESH_INP && f != VM_MESH_FEBIO && opt->deck != VM_DECK_NONE)
         return vm_error_set(err, VM_ERR_ARG, "%s: an analysis deck needs .inp or .feb, not %s",
                             path, vm_mesh_format_name(f));
@@ -153,6 +158,7 @@ vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
     case VM_MESH_LSDYNA: return vm__write_lsdyna(path, m, &o, err);
     case VM_MESH_COMSOL: return vm__write_comsol(path, m, &o, err);
     case VM_MESH_FEBIO: return vm__write_febio(path, m, &o, err);
+    case VM_MESH_XDMF: return vm_mesh_write_xdmf(path, m, &o, err);
     case VM_MESH_AUTO: break;
     }
     return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: unknown mesh format", path);
@@ -180,6 +186,7 @@ vm_status vm_mesh_read_as(const char *path, vm_mesh_format f, vm_mesh *m, vm_err
     case VM_MESH_LSDYNA:
     case VM_MESH_COMSOL:
     case VM_MESH_FEBIO:
+    case VM_MESH_XDMF:
         vm_mesh_init(m, VM_TET4);
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
                             "%s: reading %s is not supported (volmesh writes it only)", path,

@@ -89,7 +89,7 @@ vm_status vm__mid_nodes(const char *path, const vm_mesh *m, vm_index **mid, size
 void vm__mid_average(const vm_mesh *m, const vm_index *mid, const double *vals, int ncomp,
                      double *out);
 
-/* A second-order view of m: view.cells holds nn + ne nodes a cell (view.kind stays m's:
+/* A second-order view of m (curved by vm__mid_curve as opt asks; opt may be NULL): view.cells holds nn + ne nodes a cell (view.kind stays m's:
  * callers use the counts), in the order order[k] (k-th written = corner j < nn or mid-edge
  * node j - nn of vm__*_edges; NULL: corners then edges, VTK's order); view.points and the
  * point fields are extended to the mid-edge nodes (each the mean of its edge's ends); cell
@@ -100,7 +100,21 @@ typedef struct vm__quadratic {
     vm_index *mid;
 } vm__quadratic;
 vm_status vm__quadratic_make(const char *path, const vm_mesh *m, const int *order,
-                             vm__quadratic *q, vm_error *err);
+                             const vm_mesh_write_options *opt, vm__quadratic *q,
+                             vm_error *err);
+
+/* Curved boundary (io/mid_curve.c): with opt->curve_volume set and m tet4, moves each
+ * mid-edge node of an outer boundary edge in pts ((npoints + nmid) * 3, the mid-edge nodes
+ * straight) onto the level set curve_lo or curve_hi (the one nearer its straight value) of
+ * the volume's trilinear field, then pulls nodes back toward the middle until every curved
+ * tet keeps a positive Jacobian determinant; nodes on the volume's box faces stay straight.
+ * Does nothing (VM_OK) otherwise. opt may be NULL. */
+vm_status vm__mid_curve(const char *path, const vm_mesh *m, const vm_index *mid, size_t nmid,
+                        const vm_mesh_write_options *opt, double *pts, vm_error *err);
+/* The volume's world-to-index frame (io/mid_curve.c): inv = (D * diag(spacing))^-1, 0 when
+ * singular; vm__to_index: idx = inv * (x - origin), inv row-major (&inv[0][0]). */
+int vm__index_frame(const vm_volume *v, double inv[3][3]);
+void vm__to_index(const vm_volume *v, const double *inv, const double x[3], double idx[3]);
 void vm__quadratic_free(vm__quadratic *q);
 
 /* --- materials (io/materials.c) --------------------------------------------------------- */

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* io/mid_nodes.c — the mid-edge nodes of second-order elements (C3D10 / C3D20 in .inp,
  * tetra10 / hexahedron20 in .vtu, tet10 / hex20 in .msh): one shared node per distinct edge,
- * numbered after the corners, placed at the edge's middle (straight-sided elements). */
+ * numbered after the corners, placed at the edge's middle (then curved onto the surface by
+ * io/mid_curve.c where the write options carry the volume). */
 #include <stdlib.h>
 #include <string.h>
 #include "../core/core.h"
@@ -88,7 +89,8 @@ void vm__quadratic_free(vm__quadratic *q) {
 
 /* Mid-edge nodes, then the extended points, point fields and cells. */
 vm_status vm__quadratic_make(const char *path, const vm_mesh *m, const int *order,
-                             vm__quadratic *q, vm_error *err) {
+                             const vm_mesh_write_options *opt, vm__quadratic *q,
+                             vm_error *err) {
     memset(q, 0, sizeof *q);
     if (m->kind != VM_TET4 && m->kind != VM_HEX8)
         return vm_error_set(err, VM_ERR_UNSUPPORTED,
@@ -119,6 +121,13 @@ vm_status vm__quadratic_make(const char *path, const vm_mesh *m, const int *orde
         return vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for mid-edge nodes", path);
     }
     vm__mid_average(m, q->mid, m->points, 3, q->view.points);
+    st = vm__mid_curve(path, m, q->mid, nmid, opt, q->view.points, err);
+    if (st) {
+        q->view.npoint_fields = m->npoint_fields;
+        vm__quadratic_free(q);
+        memset(q, 0, sizeof *q);
+        return st;
+    }
     for (size_t c = 0; c < m->ncells; c++) {
         vm_index *dst = q->view.cells + c * (nn + ne);
         for (size_t k = 0; k < nn + ne; k++) {

@@ -79,7 +79,7 @@ static vm_status write_msh(const char *path, const vm_mesh *m, int version,
                                err);
     int tet = m->kind == VM_TET4;
     vm__quadratic q;
-    st = vm__quadratic_make(path, m, tet ? GMSH_TET10_ORDER : GMSH_HEX20_ORDER, &q, err);
+    st = vm__quadratic_make(path, m, tet ? GMSH_TET10_ORDER : GMSH_HEX20_ORDER, opt, &q, err);
     if (st) return st;
     st = write_msh_nodes(path, &q.view, version, tet ? GMSH_TET10 : GMSH_HEX20, tet ? 10 : 20,
                          opt, err);

@@ -277,7 +277,7 @@ vm_status vm__write_vtu(const char *path, const vm_mesh *m, const vm_mesh_write_
                             (int)m->kind);
     if (opt->order != 2) return write_vtu(path, m, nn, (int)m->kind, opt, err);
     vm__quadratic q;
-    vm_status st = vm__quadratic_make(path, m, NULL, &q, err);
+    vm_status st = vm__quadratic_make(path, m, NULL, opt, &q, err);
     if (st) return st;
     st = write_vtu(path, &q.view, m->kind == VM_TET4 ? 10 : 20,
                    m->kind == VM_TET4 ? VTK_QUADRATIC_TETRA : VTK_QUADRATIC_HEXAHEDRON, opt, err);

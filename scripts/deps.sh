@@ -3,7 +3,7 @@
 # Installs what building and testing volmesh needs on Debian, when it is missing:
 # the compiler and CMake, zlib, and (for the tests' independent judges) Debian's python3 with
 # VTK, meshio, numpy, pydicom and pytest, the Python package's build (python3-dev, -setuptools, -venv), CalculiX (ccx), gmsh, libexodusii-dev, libtiff-dev, the DICOM codecs (libjpeg62-turbo-dev,
-# libcharls-dev, libopenjp2-7-dev) and Open MPI (libopenmpi-dev, openmpi-bin). Usage: scripts/deps.sh [--tests]
+# libcharls-dev, libopenjp2-7-dev), libhdf5-dev, FEniCSx (python3-dolfinx-real) and Open MPI (libopenmpi-dev, openmpi-bin). Usage: scripts/deps.sh [--tests]
 set -eu
 want_tests=0
 [ "${1:-}" = "--tests" ] && want_tests=1
@@ -44,6 +44,10 @@ if [ "$want_tests" = 1 ]; then
         pkgs+=(libjpeg62-turbo-dev)
     dpkg -s libcharls-dev >/dev/null 2>&1 || pkgs+=(libcharls-dev)
     dpkg -s libopenjp2-7-dev >/dev/null 2>&1 || pkgs+=(libopenjp2-7-dev)
+    # the optional XDMF writer links the serial HDF5 library; dolfinx (FEniCSx) solves on
+    # its meshes in tests/io/test_xdmf_dolfinx.py
+    dpkg -s libhdf5-dev >/dev/null 2>&1 || pkgs+=(libhdf5-dev)
+    /usr/bin/python3 -c 'import dolfinx' >/dev/null 2>&1 || pkgs+=(python3-dolfinx-real)
     # volmesh_mpi (docs/MPI.md) is built against Open MPI and run by tests/mpi under mpirun
     dpkg -s libopenmpi-dev >/dev/null 2>&1 || pkgs+=(libopenmpi-dev)
     command -v mpirun >/dev/null 2>&1 || pkgs+=(openmpi-bin)

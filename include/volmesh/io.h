@@ -189,7 +189,9 @@ typedef enum vm_mesh_format {
     VM_MESH_NASTRAN,  /* .bdf  Nastran bulk data (write only; tet4, hex8) */
     VM_MESH_LSDYNA,   /* .k    LS-DYNA keyword deck (write only; tet4, hex8) */
     VM_MESH_COMSOL,   /* .mphtxt COMSOL text mesh (write only; tet4, hex8) */
-    VM_MESH_FEBIO     /* .feb  FEBio input, febio_spec 4.0 (write only; tet4, hex8) */
+    VM_MESH_FEBIO,    /* .feb  FEBio input, febio_spec 4.0 (write only; tet4, hex8) */
+    VM_MESH_XDMF      /* .xdmf XDMF 3 + sibling .h5, dolfinx's layout (write only; tet4,
+                         hex8; needs a build with libhdf5) */
 } vm_mesh_format;
 
 /* Analysis deck added to an .inp file. */
@@ -220,7 +222,8 @@ typedef struct vm_mesh_write_options {
     vm_mesh_format format; /* VM_MESH_AUTO: from the extension */
     int ascii;             /* 1: ASCII STL / PLY / VTK instead of binary (default 0) */
     int order;             /* 1 (default) or 2: INP (C3D10 / C3D20), VTU (tetra10 /
-                              hexahedron20), MSH and FEBio (tet10 / hex20), tet4 and hex8
+                              hexahedron20), MSH and FEBio (tet10 / hex20), XDMF
+                              (Tetrahedron_10 / Hexahedron_20), tet4 and hex8
                               meshes: one shared mid-edge node per edge, at its middle */
     vm_deck_kind deck;     /* INP and FEBio (default VM_DECK_NONE) */
     int compress;          /* VTU: zlib-compress arrays (default 1) */
@@ -228,6 +231,16 @@ typedef struct vm_mesh_write_options {
                                      from this table where it has the region's row (not
                                      owned; may be NULL: placeholders) */
     size_t nmaterials;
+    /* Curved second-order tets (order 2, tet4 meshes, every format): mid-edge nodes of
+     * outer boundary edges moved onto the level set curve_lo or curve_hi (the material's
+     * bounds, as meshed; the nearer one) of this volume's trilinear field by Newton steps
+     * along its gradient, and pulled back toward the edge middle wherever a tet's Jacobian
+     * determinant (corners, edge middles, centroid, 4 Gauss points) would fall below 0.1 of
+     * the straight tet's. Nodes on the volume's box faces, and hexes, stay straight. Not
+     * owned; NULL (default): straight edges. */
+    const vm_volume *curve_volume;
+    double curve_lo, curve_hi;
+    int curve_has_lo, curve_has_hi;
     vm_progress_fn progress; /* stage "write" (every format but Exodus); may be NULL */
     void *progress_user;
 } vm_mesh_write_options;
@@ -237,7 +250,7 @@ void vm_mesh_write_options_init(vm_mesh_write_options *o);
 
 /* Format of a name as given to --format ("vtu", "vtk", "inp", "abaqus", "msh", "msh4",
  * "msh2", "mesh", "medit", "stl", "off", "ply", "obj", "exo", "exodus", "bdf", "nastran", "k",
- * "lsdyna", "mphtxt", "comsol", "feb", "febio"), or VM_MESH_AUTO when unknown. */
+ * "lsdyna", "mphtxt", "comsol", "feb", "febio", "xdmf"), or VM_MESH_AUTO when unknown. */
 vm_mesh_format vm_mesh_format_parse(const char *name);
 
 /* Format from the extension of path (case-insensitive), or VM_MESH_AUTO when unknown. */
@@ -249,8 +262,11 @@ const char *vm_mesh_format_name(vm_mesh_format f);
 /* 1 when volmesh was built with Exodus II support. */
 int vm_exodus_available(void);
 
+/* 1 when volmesh was built with XDMF support (libhdf5). */
+int vm_xdmf_available(void);
+
 /* Writes m in the format opt->format (or from the extension). opt may be NULL (defaults).
- * An option that does not apply to the format (order 2 outside .inp .vtu .msh .feb, a deck
+ * An option that does not apply to the format (order 2 outside .inp .vtu .msh .feb .xdmf, a deck
  * outside .inp .feb, materials outside the decks) is VM_ERR_ARG. [in] m is not modified. */
 vm_status vm_mesh_write_as(const char *path, const vm_mesh *m,
                            const vm_mesh_write_options *opt, vm_error *err);
@@ -319,9 +335,43 @@ vm_status vm_mesh_read_ply(const char *path, vm_mesh *m, vm_error *err);
 vm_status vm_mesh_write_obj(const char *path, const vm_mesh *m, vm_error *err);
 vm_status vm_mesh_read_obj(const char *path, vm_mesh *m, vm_error *err);
 
-/* Exodus II (.exo): one element block per region (id = ordinal, name REGION_r), a side set
- * of the boundary faces. VM_ERR_UNSUPPORTED when built without libexodusii. */
+/* ---- Materials from the image (io/modulus.c) ---------------------------------------------
+ *
+ * A formula in v: numbers (C syntax, e.g. 6850, 1.5e-3), v, + - * / ^ (power, right-
+ * associative, above unary minus: -v^2 = -(v^2)), parentheses; at most 1023 characters.
+ * Bad text is VM_ERR_ARG "--modulus 'TEXT': problem at column N". [out] *out: free with
+ * vm_expr_free. vm_expr_eval gives NaN or inf where the arithmetic does. */
+typedef struct vm_expr vm_expr;
+vm_status vm_expr_parse(const char *text, vm_expr **out, vm_error *err);
+double vm_expr_eval(const vm_expr *e, double v);
+void vm_expr_free(vm_expr *e);
+
+/* Image-based moduli of a tet4 / hex8 mesh (Bonemat's way): v = the mean of the voxels of vol
+ * whose centres lie in the element (else the voxel nearest its centroid), E = e(v), which must
+ * be finite and > 0 (else VM_ERR_ARG naming the element). When the distinct E number at most
+ * bins (>= 1), one material each, exact; else bins equal-width bins over [min E, max E], each
+ * material the mean E of its elements. Each element's region becomes its material's number
+ * 1..*nmats; cell fields "image_mean" (v) and "modulus" (its material's E) are added. [out]
+ * *mats (*nmats rows: label k, name E_BIN_k, E, poisson, density 0; free with free()). */
+vm_status vm_mesh_image_moduli(vm_mesh *m, const vm_volume *vol, const vm_expr *e, int bins,
+                               double poisson, vm_material **mats, size_t *nmats,
+                               vm_error *err);
+
+/* Exodus II (.exo): one element block per region (id = ordinal, name REGION_r); side set and
+ * node set 1 BOUNDARY (the outer boundary faces and their nodes), then per pair of regions
+ * r < q that share faces, sets 2, 3, ... IFACE_REGION_r_REGION_q (those faces from r's side,
+ * and their nodes). VM_ERR_UNSUPPORTED when built without libexodusii. */
 vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err);
+
+/* XDMF 3 (PATH.xdmf) with the arrays in PATH.h5 (the same name, .h5 for .xdmf), as dolfinx's
+ * XDMFFile reads them: Grid "mesh" (read_mesh(name="mesh")), Grid "cell_tags" (the region of
+ * each cell) and Grid "facet_tags" (outer boundary faces tagged 1, the faces between two
+ * regions 2, 3, ... per pair in increasing (region, other region) order), for
+ * read_meshtags(mesh, name=...). The mesh's point and cell fields are Attributes of "mesh".
+ * Both files are written to temporary names and renamed. VM_ERR_UNSUPPORTED when built
+ * without libhdf5. */
+vm_status vm_mesh_write_xdmf(const char *path, const vm_mesh *m,
+                             const vm_mesh_write_options *opt, vm_error *err);
 
 #ifdef __cplusplus
 }

@@ -63,7 +63,7 @@ else
 fi
 # every optional part's status line says ON, or OFF with a reason in brackets
 for part in "OpenMP threads" "Exodus II writer" "TIFF reader" "DICOM JPEG" "DICOM JPEG-LS" \
-            "DICOM JPEG 2000" "MPI driver volmesh_mpi"; do
+            "DICOM JPEG 2000" "XDMF" "MPI driver volmesh_mpi"; do
     echo "$out" | grep -Eq "volmesh: $part (ON|OFF \(.+\))" ||
         { echo "no status line for $part"; fail=$((fail+1)); }
 done
