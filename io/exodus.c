@@ -83,6 +83,13 @@ int vm_exodus_available(void) {
     return exo_load();
 }
 
+vm_status vm__exodus_check(const char *path, vm_error *err) {
+    if (exo_load()) return VM_OK;
+    return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                        "%s: cannot load the Exodus II library %s (install libexodusii)", path,
+                        exo_name());
+}
+
 /* Our (ABAQUS) face numbers S1.. to Exodus side numbers. */
 static const int tet_side[4] = {4, 1, 2, 3};
 static const int hex_side[6] = {5, 6, 1, 2, 3, 4};
@@ -127,11 +134,9 @@ vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err
     if (!nn)
         return vm_error_set(err, VM_ERR_ARG, "%s: mesh has unknown cell kind %d", path,
                             (int)m->kind);
-    if (!exo_load())
-        return vm_error_set(err, VM_ERR_UNSUPPORTED,
-                            "%s: cannot load the Exodus II library %s (install libexodusii)",
-                            path, exo_name());
-    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
+    vm_status st = vm__exodus_check(path, err);
+    if (st) return st;
+    st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
     if (st) return st;
     if (m->npoints > INT32_MAX || m->ncells > INT32_MAX)
         return vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: too large for 32-bit Exodus ids",
@@ -260,11 +265,15 @@ int vm_exodus_available(void) {
     return 0;
 }
 
-vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err) {
-    (void)m;
+vm_status vm__exodus_check(const char *path, vm_error *err) {
     return vm_error_set(err, VM_ERR_UNSUPPORTED,
                         "%s: this volmesh was built without Exodus II (install libexodusii-dev "
                         "and rebuild)", path);
+}
+
+vm_status vm_mesh_write_exodus(const char *path, const vm_mesh *m, vm_error *err) {
+    (void)m;
+    return vm__exodus_check(path, err);
 }
 
 #endif

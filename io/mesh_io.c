@@ -124,9 +124,7 @@ vm_status vm_mesh_write_check(const char *path, const vm_mesh_write_options *opt
     vm_mesh_format f;
     vm_status st = vm_output_check(path, err);
     if (!st) st = check_options(path, opt, &f, err);
-    if (!st && f == VM_MESH_EXODUS && !vm_exodus_available())
-        st = vm_error_set(err, VM_ERR_UNSUPPORTED, "%s: cannot load the Exodus II library "
-                          "(install libexodusii)", path);
+    if (!st && f == VM_MESH_EXODUS) st = vm__exodus_check(path, err);
     return st;
 }
 

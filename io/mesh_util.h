@@ -273,4 +273,8 @@ uint64_t vm__double_bits(double d);
 float vm__bits_float(uint32_t u);
 uint32_t vm__float_bits(float f);
 
+/* VM_OK when the Exodus II library can be loaded; else the writer's one-line refusal, naming
+ * path and the library (io/exodus.c). */
+vm_status vm__exodus_check(const char *path, vm_error *err);
+
 #endif

@@ -60,7 +60,7 @@ expect_input_error "-o in a missing folder" "folder nodir does not exist" "${M[@
 expect_input_error "-o a folder" "folder.vtu: is a folder" "${M[@]}" -o folder.vtu
 expect_input_error "-o ending in /" "is a folder" "${M[@]}" -o sub.vtu/
 expect_input_error "--deck with .vtu" "analysis deck needs .inp" "${M[@]}" -o x.vtu --deck static
-expect_input_error "--order 2 with .vtu" "second-order" "${M[@]}" -o x.vtu --order 2
+expect_input_error "--order 2 with .mesh" "second-order" "${M[@]}" -o x.mesh --order 2
 expect_input_error "--surface in a missing folder" "nodir/s.vtu" "${M[@]}" -o x.vtu \
     --surface nodir/s.vtu
 expect_input_error "--surface .nrrd" "s.nrrd: unknown mesh format" "${M[@]}" -o x.vtu \
