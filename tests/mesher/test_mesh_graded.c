@@ -10,13 +10,6 @@
 #include <string.h>
 
 static uint64_t rng_state;
-static double rng_uniform(void) { /* splitmix64, in [0, 1) */
-    uint64_t z = (rng_state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    z ^= z >> 31;
-    return (double)(z >> 11) / 9007199254740992.0;
-}
 
 static int make_volume(vm_volume *v, int64_t nx, int64_t ny, int64_t nz, float fill) {
     vm_error err;
@@ -92,7 +85,7 @@ static void randomVolumesKeepTheCubicalTopology(void) {
         if (!make_volume(&v, n, n, n, 0.0f)) continue;
         rng_state = 0x5eed0000ull + c;
         for (size_t i = 0; i < vm_volume_count(&v); i++)
-            v.data[i] = (float)(2.0 * rng_uniform() - 1.0);
+            v.data[i] = (float)(2.0 * vm_test_uniform(&rng_state) - 1.0);
         long euler;
         size_t comps;
         vm_test_digital_topology(&v, 1, 0.0, 0, 0.0, &euler, &comps);
