@@ -535,11 +535,6 @@ static int inc_cmp(const void *x, const void *y) {
     return a->face < b->face ? -1 : a->face > b->face;
 }
 
-static size_t uf_find(size_t *p, size_t x) {
-    while (p[x] != x) x = p[x] = p[p[x]];
-    return x;
-}
-
 /* Undoes the warps around any place where the boundary is not a manifold: an edge of other
  * than two boundary faces, or a vertex whose faces make more than one fan. Warps are
  * simple-point moves, so these come only from warped vertices meeting (on the volume's
@@ -590,13 +585,14 @@ static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_erro
         /* faces around in[i].v: join those sharing an edge (a local union-find over the
          * fan's faces); an edge with other than two faces, or two fans, is a pinch */
         int pinched = j - i > 2 * FAN_MAX;
-        size_t face[2 * FAN_MAX], lp[2 * FAN_MAX], nl = 0;
+        size_t face[2 * FAN_MAX], nl = 0;
+        int lp[2 * FAN_MAX];
         for (size_t a = i; a < j && !pinched; a++) {
             size_t x = 0;
             while (x < nl && face[x] != in[a].face) x++;
             if (x == nl) {
                 face[nl] = in[a].face;
-                lp[nl] = nl;
+                lp[nl] = (int)nl;
                 nl++;
             }
         }
@@ -604,14 +600,14 @@ static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_erro
             size_t b = a;
             while (b < j && in[b].other == in[a].other) b++;
             if (b - a != 2) pinched = 1;
-            size_t x = 0, y = 0;
+            int x = 0, y = 0;
             while (face[x] != in[a].face) x++;
             while (face[y] != in[a + 1 < b ? a + 1 : a].face) y++;
-            lp[uf_find(lp, x)] = uf_find(lp, y);
+            lp[find_root(lp, x)] = find_root(lp, y);
             a = b;
         }
-        for (size_t x = 1; x < nl && !pinched; x++)
-            if (uf_find(lp, x) != uf_find(lp, 0)) pinched = 1;
+        for (int x = 1; x < (int)nl && !pinched; x++)
+            if (find_root(lp, x) != find_root(lp, 0)) pinched = 1;
         if (pinched) {
             /* undo the warps of the tets whose pieces have a face here */
             for (size_t a = i; a < j; a++) {

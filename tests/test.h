@@ -117,6 +117,10 @@ int vm_test_fuzz_mesh_check(const unsigned char *data, size_t size, const char *
 void vm_test_digital_topology(const vm_volume *v, int has_lo, double lo, int has_hi, double hi,
                               long *euler, size_t *components);
 
+/* The next number in [0, 1) of the splitmix64 sequence *state (advanced): reproducible
+ * noise for the tests. */
+double vm_test_uniform(uint64_t *state);
+
 /* Sorts count rows of width doubles (width <= 16) in lexicographic order, comparing the
  * values exactly: meshes compared as lists of points or of tets' corners. */
 void vm_test_sort_rows(double *rows, size_t count, int width);

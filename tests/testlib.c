@@ -398,6 +398,14 @@ void vm_test_digital_topology(const vm_volume *v, int has_lo, double lo, int has
     *components = comps;
 }
 
+double vm_test_uniform(uint64_t *state) {
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return (double)(z >> 11) / 9007199254740992.0;
+}
+
 static int sort_width;
 
 static int row_cmp(const void *pa, const void *pb) {

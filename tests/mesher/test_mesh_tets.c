@@ -136,13 +136,6 @@ static float *voxel(vm_volume *v, int64_t i, int64_t j, int64_t k) {
 }
 
 static uint64_t rng_state;
-static double rng_uniform(void) { /* splitmix64, in [0, 1) */
-    uint64_t z = (rng_state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    z ^= z >> 31;
-    return (double)(z >> 11) / 9007199254740992.0;
-}
 
 static const vm_phantom_kind all_phantoms[] = {VM_PHANTOM_SPHERE, VM_PHANTOM_TORUS,
                                                VM_PHANTOM_GENUS3, VM_PHANTOM_TWO_SPHERES,
@@ -296,7 +289,7 @@ static void randomVolumesMatchTheDigitalTopology(void) {
         if (!make_volume(&v, n, n, n, 0.0f)) continue;
         rng_state = 0x5eed0000ull + c;
         for (size_t i = 0; i < vm_volume_count(&v); i++)
-            v.data[i] = (float)(2.0 * rng_uniform() - 1.0);
+            v.data[i] = (float)(2.0 * vm_test_uniform(&rng_state) - 1.0);
         char label[64];
         snprintf(label, sizeof label, "uniform random %d^3 seed %zu", n, c);
         check_digital_case(label, &v, &o, 0);

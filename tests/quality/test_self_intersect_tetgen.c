@@ -8,13 +8,6 @@
 #include <string.h>
 
 static uint64_t rng_state;
-static double rng_uniform(void) { /* splitmix64, in [0, 1) */
-    uint64_t z = (rng_state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    z ^= z >> 31;
-    return (double)(z >> 11) / 9007199254740992.0;
-}
 
 /* A pair of triangles as their six sorted corner ids, smaller triangle first. */
 typedef struct tri_pair {
@@ -126,7 +119,7 @@ static void countAgreesWithTetgenOnAJitteredHeadSurface(void) {
     rng_state = 0x5e1f0000ull;
     for (size_t i = 0; i < surf.npoints; i++)
         for (int a = 0; a < 3; a++)
-            surf.points[3 * i + a] += 0.5 * (rng_uniform() - 0.5) * v.spacing[a];
+            surf.points[3 * i + a] += 0.5 * (vm_test_uniform(&rng_state) - 0.5) * v.spacing[a];
     vm_mesh_report r;
     CHECK_OK(vm_mesh_check(&surf, &r, &err), &err);
     const char *smesh = vm_test_tmp("selfx_head.smesh");
