@@ -61,6 +61,22 @@ def test_readKeepsSpacingOriginAndTheZYXLayout():
     assert v.array.flags["WRITEABLE"]
 
 
+def test_readsATiffStackLikeTheProgram(tmp_path):
+    """The package carries the optional readers its build machine has (here libtiff):
+    a multi-page 16-bit stack reads with the program's dims and values."""
+    Image = pytest.importorskip("PIL.Image")
+    pages = [Image.fromarray((np.arange(12, dtype=np.uint16).reshape(3, 4) + 100 * k))
+             for k in range(5)]
+    path = str(tmp_path / "stack.tif")
+    pages[0].save(path, save_all=True, append_images=pages[1:])
+    v = volmesh.read(path)
+    assert v.array.shape == (5, 3, 4)
+    assert v.array[2, 1, 3] == 200 + 7
+    info = json.loads(subprocess.run([CLI, "info", path, "--json"], capture_output=True,
+                                     check=True, text=True).stdout)
+    assert info["dims"] == [4, 3, 5]
+
+
 def test_meshOfANumpyBallIsValidWithItsVolumeAndWorldCoordinates():
     m = volmesh.mesh(ball(), iso=0.0, spacing=(0.5, 0.5, 0.5), origin=(10, 20, 30))
     assert list(m.cells) == ["tetra"]
