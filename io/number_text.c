@@ -43,15 +43,16 @@ static void ensure_point(char *s) {
 /* The shorter of v's %g and %e texts with digits significant digits, compacted. */
 static void shortest_with(double v, int digits, int need_point, char *out) {
     char g[CANDIDATE_ROOM], e[CANDIDATE_ROOM];
-    snprintf(g, sizeof g, "%.*g", digits, v);
-    snprintf(e, sizeof e, "%.*e", digits - 1, v);
+    /* digits <= 17: a finite double's text fits the room; a cut one would only be longer */
+    if (snprintf(g, sizeof g, "%.*g", digits, v) >= (int)sizeof g) g[0] = '\0';
+    if (snprintf(e, sizeof e, "%.*e", digits - 1, v) >= (int)sizeof e) e[0] = '\0';
     compact_exponent(g);
     compact_exponent(e);
     if (need_point) {
         ensure_point(g);
         ensure_point(e);
     }
-    strcpy(out, strlen(e) < strlen(g) ? e : g);
+    strcpy(out, !g[0] || (e[0] && strlen(e) < strlen(g)) ? e : g);
 }
 
 int vm__format_real(double v, int width, int need_point, char *out, size_t cap) {
