@@ -595,3 +595,28 @@ uint32_t vm__float_bits(float f) {
     memcpy(&u, &f, 4);
     return u;
 }
+
+vm_status vm__solid_deck_open(const char *path, const vm_mesh *m, const char *what,
+                              long long max_id, const vm_mesh_write_options *opt,
+                              int32_t **regions, size_t *nregions, struct vm_outfile *o,
+                              vm_error *err) {
+    *regions = NULL;
+    *nregions = 0;
+    if (m->kind != VM_TET4 && m->kind != VM_HEX8)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "%s: %s for tet4 and hex8 meshes, not %s", path, what,
+                            vm_cell_kind_name(m->kind));
+    if ((long long)m->npoints > max_id || (long long)m->ncells > max_id)
+        return vm_error_set(err, VM_ERR_UNSUPPORTED,
+                            "%s: more than %lld nodes or elements (8-column ids)", path, max_id);
+    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
+    if (!st) st = vm__distinct_regions(path, m, regions, nregions, err);
+    if (!st) st = vm__out_open(o, path, err);
+    if (st) {
+        free(*regions);
+        *regions = NULL;
+        return st;
+    }
+    vm__out_meter(o, opt->progress, opt->progress_user, (double)m->npoints + m->ncells);
+    return VM_OK;
+}

@@ -230,6 +230,16 @@ vm_status vm__interface_faces(const char *path, const vm_mesh *m, vm__iface **fa
 vm_status vm__distinct_regions(const char *path, const vm_mesh *m, int32_t **regions,
                                size_t *n, vm_error *err);
 
+struct vm_outfile;
+/* The start every solid deck writer with fixed-width ids shares (Nastran, LS-DYNA): m holds
+ * tet4 or hex8 (else VM_ERR_UNSUPPORTED: "PATH: <what> for tet4 and hex8 meshes"), at most max_id nodes and elements,
+ * valid nodes; then its sorted regions ([out] *regions, malloc'd) and the open output ([out]
+ * o, its write meter started). On an error nothing is left open or allocated. */
+vm_status vm__solid_deck_open(const char *path, const vm_mesh *m, const char *what,
+                              long long max_id, const vm_mesh_write_options *opt,
+                              int32_t **regions, size_t *nregions, struct vm_outfile *o,
+                              vm_error *err);
+
 /* Index of r in the sorted list, or -1. */
 long vm__region_slot(const int32_t *regions, size_t n, int32_t r);
 

@@ -40,28 +40,13 @@ static void write_properties(FILE *fp, const vm_mesh_write_options *opt,
 
 vm_status vm__write_nastran(const char *path, const vm_mesh *m,
                             const vm_mesh_write_options *opt, vm_error *err) {
-    if (m->kind != VM_TET4 && m->kind != VM_HEX8)
-        return vm_error_set(err, VM_ERR_UNSUPPORTED,
-                            "%s: Nastran bulk data is written for tet4 and hex8 meshes, not %s",
-                            path, vm_cell_kind_name(m->kind));
-    if ((long long)m->npoints > NASTRAN_MAX_ID || (long long)m->ncells > NASTRAN_MAX_ID)
-        return vm_error_set(err, VM_ERR_UNSUPPORTED,
-                            "%s: more than %lld nodes or elements (8-column ids)", path,
-                            NASTRAN_MAX_ID);
-    vm_status st = vm__check_nodes(m, VM_ERR_FORMAT, path, err);
-    if (st) return st;
     int32_t *regions = NULL;
     size_t nregions = 0;
-    st = vm__distinct_regions(path, m, &regions, &nregions, err);
-    if (st) return st;
     vm_outfile o;
-    st = vm__out_open(&o, path, err);
-    if (st) {
-        free(regions);
-        return st;
-    }
+    vm_status st = vm__solid_deck_open(path, m, "Nastran bulk data is written", NASTRAN_MAX_ID,
+                                       opt, &regions, &nregions, &o, err);
+    if (st) return st;
     FILE *fp = o.fp;
-    vm__out_meter(&o, opt->progress, opt->progress_user, (double)m->npoints + m->ncells);
     int tet = m->kind == VM_TET4;
     fprintf(fp, "$ volmesh %s mesh: %zu nodes, %zu %s elements, %zu regions (volmesh %s)\n",
             vm_cell_kind_name(m->kind), m->npoints, m->ncells, tet ? "CTETRA" : "CHEXA",
