@@ -58,11 +58,11 @@ static const char *mesh_help =
     "  --surface SURF.vtu      also write the boundary triangles\n"
     "  --denoise M             smooth the volume first: bilateral or diffusion (parameters\n"
     "                          from the data; see volmesh denoise for control)\n"
+    ;
+static const char *mesh_help2 =
     "  --no-improve            skip the quality pass (tets: edge contraction, flips, smoothing;\n"
     "                          hexes: boundary pillow layer, untangling, smoothing;\n"
     "                          tri --method cover: the pass over the kept-fine triangles)\n"
-    ;
-static const char *mesh_help2 =
     "  --quality-fields        add per-cell quality arrays (min_dihedral, radius_ratio, ...)\n"
     "  --report REPORT.html    also write the HTML quality report (see volmesh report); for\n"
     "                          tets and hexes of --iso/--range it gives the distance to\n"
@@ -74,6 +74,8 @@ static const char *mesh_help2 =
     "  --no-compress           write the VTU without zlib\n"
     "  --deck static           with -o X.inp or X.feb: a complete static step (bottom\n"
     "                          fixed, top loaded) that CalculiX/ABAQUS (FEBio) solve as is\n"
+    "  --split                 with -o X.inp: the mesh (nodes, elements, sets) in X_mesh.inp,\n"
+    "                          which X.inp *INCLUDEs before its materials and step\n"
     "  --order 2               with -o X.inp .vtu .msh .feb .xdmf: quadratic elements (C3D10,\n"
     "                          tetra10, tet10; tets: boundary mid-edge nodes on the\n"
     "                          isosurface, pulled back where a tet would fold; hexes and\n"
@@ -100,6 +102,8 @@ static const char *mesh_help2 =
     "  --quiet                 no progress bar (nor the status line of writing and checking)\n"
     "  --verbose               print the time of each stage (read, denoise, mesh, improve,\n"
     "                          write, check, distance, report) on stderr\n"
+    ;
+static const char *mesh_help3 =
     "  raw input: --raw-dims NXxNYxNZ --raw-type T [--raw-endian E] [--raw-spacing S]\n"
     "             [--raw-origin O] [--raw-header N]   (see volmesh info --help)\n"
     "  input: --series UID|N (DICOM series) --spacing SX,SY,SZ (replaces the file's)\n"
@@ -512,6 +516,8 @@ static int output_option(mesh_args *m, char **argv, int *i, int *taken) {
         if (strcmp(argv[++*i], "static") != 0)
             return vm_cli_fail("--deck: '%s' is not static", argv[*i]);
         m->wo.deck = VM_DECK_STATIC;
+    } else if (vm_cli_is(a, "--split", NULL)) {
+        m->wo.split = 1;
     } else if (vm_cli_is(a, "--order", NULL)) {
         long ord = 0;
         if (vm_cli_int(a, argv[++*i], 1, 2, &ord)) return VM_EXIT_INPUT;
@@ -547,6 +553,7 @@ static int mesh_parse(mesh_args *m, int argc, char **argv, int *help) {
         if (vm_cli_is(a, "--help", "-h")) {
             fputs(mesh_help, stdout);
             fputs(mesh_help2, stdout);
+            fputs(mesh_help3, stdout);
             *help = 1;
             return VM_EXIT_OK;
         }
@@ -623,6 +630,12 @@ static int mesh_outputs(const mesh_args *m) {
     int rc = vm_cli_output("-o", m->out, NULL);
     if (!rc && m->surface) rc = vm_cli_output("--surface", m->surface, NULL);
     if (!rc && m->report) rc = vm_cli_output("--report", m->report, html);
+    char split[4096];
+    if (!rc && m->wo.split) {
+        if (!vm_inp_split_path(m->out, split, sizeof split))
+            return vm_cli_fail("%s: path too long for its mesh file", m->out);
+        rc = vm_cli_output("--split", split, NULL);
+    }
     return rc;
 }
 

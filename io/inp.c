@@ -320,7 +320,21 @@ static void write_material_and_step(inp_writer *w) {
     fprintf(fp, "*NODE FILE\nU\n*EL FILE\nS\n*NODE PRINT, NSET=LOADED\nU\n*END STEP\n");
 }
 
-/* Checks the mesh, gathers the sets, then writes the deck section by section. */
+int vm_inp_split_path(const char *deck, char *out, size_t cap) {
+    size_t n = strlen(deck);
+    if (n >= 4 && strcmp(deck + n - 4, ".inp") == 0) n -= 4;
+    int k = snprintf(out, cap, "%.*s_mesh.inp", (int)n, deck);
+    return k > 0 && (size_t)k < cap;
+}
+
+/* The line that includes the mesh file: its name without the folder (the deck's folder). */
+static void write_include(FILE *fp, const char *mesh_path) {
+    const char *base = strrchr(mesh_path, '/');
+    fprintf(fp, "*INCLUDE, INPUT=%s\n", base ? base + 1 : mesh_path);
+}
+
+/* Checks the mesh, gathers the sets, then writes the deck section by section (with split,
+ * the mesh sections to their own file, which the deck includes). */
 vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
                             const vm_mesh_write_options *opt, vm_error *err) {
     vm_mesh_write_options def;
@@ -352,33 +366,49 @@ vm_status vm_mesh_write_inp(const char *path, const vm_mesh *m,
     w.nn = (size_t)vm_cell_nodes(m->kind);
     w.ne = !w.order2 ? 0 : m->kind == VM_TET4 ? TET_EDGES : HEX_EDGES;
     w.nf = m->kind == VM_TET4 ? TET_FACES : HEX_FACES;
+    char mesh_path[4096];
+    vm_outfile mo;
+    memset(&mo, 0, sizeof mo);
+    if (opt->split && !vm_inp_split_path(path, mesh_path, sizeof mesh_path))
+        return vm_error_set(err, VM_ERR_ARG, "%s: path too long for its mesh file", path);
     st = prepare_deck_data(&w);
     if (!st) st = vm__out_open(&w.o, path, err);
+    if (!st && opt->split && (st = vm__out_open(&mo, mesh_path, err))) vm__out_abort(&w.o);
     if (!st && opt->deck == VM_DECK_STATIC && !(w.deck.nfixed > 0 && w.deck.nloaded > 0)) {
         vm__out_abort(&w.o);
+        if (opt->split) vm__out_abort(&mo);
         st = vm_error_set(err, VM_ERR_EMPTY, "%s: the mesh has no elements to load", path);
     }
     if (st) {
         inp_writer_free(&w);
         return st;
     }
-    w.fp = w.o.fp;
     /* Progress: node by node (mid-edge nodes too), element by element, then the sets as one
      * tenth of the elements. */
     vm__out_meter(&w.o, opt->progress, opt->progress_user,
                   (double)w.nnodes + 1.1 * (double)m->ncells);
-    fprintf(w.fp, "*HEADING\nvolmesh %s mesh: %zu nodes, %zu %s elements, %zu regions\n",
+    fprintf(w.o.fp, "*HEADING\nvolmesh %s mesh: %zu nodes, %zu %s elements, %zu regions\n",
             vm_cell_kind_name(m->kind), w.nnodes, m->ncells, w.etype, w.nregions);
-    fprintf(w.fp, "** written by volmesh %s; node and element order as in the source mesh\n",
+    fprintf(w.o.fp, "** written by volmesh %s; node and element order as in the source mesh\n",
             vm_version());
+    w.fp = opt->split ? mo.fp : w.o.fp;
+    if (opt->split) {
+        write_include(w.o.fp, mesh_path);
+        fprintf(w.fp, "** the mesh of %s, which includes it (volmesh %s)\n", path,
+                vm_version());
+    }
     st = write_nodes(&w);
     if (!st) {
         write_elements(&w);
         if (w.volume) write_boundary_sets(&w);
+        w.fp = w.o.fp;
         write_material_and_step(&w);
-        st = vm__out_commit(&w.o, err);
+        if (opt->split) st = vm__out_commit(&mo, err);
+        if (!st) st = vm__out_commit(&w.o, err);
+        else vm__out_abort(&w.o);
     } else {
         vm__out_abort(&w.o);
+        if (opt->split) vm__out_abort(&mo);
     }
     inp_writer_free(&w);
     return st;

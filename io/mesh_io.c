@@ -107,6 +107,9 @@ static vm_status check_options(const char *path, const vm_mesh_write_options *op
                             "%s: materials are written to the solver decks (.inp .bdf .k .feb), "
                             "not %s",
                             path, vm_mesh_format_name(f));
+    if (opt->split && f != VM_MESH_INP)
+        return vm_error_set(err, VM_ERR_ARG, "%s: --split writes .inp decks, not %s", path,
+                            vm_mesh_format_name(f));
     if (opt->ascii && f != VM_MESH_STL && f != VM_MESH_PLY && f != VM_MESH_VTK)
         return vm_error_set(err, VM_ERR_ARG,
                             "%s: --ascii applies to stl, ply and vtk, not %s (always ASCII or "

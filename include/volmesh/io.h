@@ -218,6 +218,10 @@ typedef struct vm_material {
 vm_status vm_materials_read(const char *path, vm_material **out, size_t *n, vm_error *err);
 void vm_materials_free(vm_material *m);
 
+/* The file an INP deck written with split = 1 includes: X.inp -> X_mesh.inp (X_mesh.inp for
+ * any other name X). [out] out of size cap; returns 0 when it does not fit. */
+int vm_inp_split_path(const char *deck, char *out, size_t cap);
+
 typedef struct vm_mesh_write_options {
     vm_mesh_format format; /* VM_MESH_AUTO: from the extension */
     int ascii;             /* 1: ASCII STL / PLY / VTK instead of binary (default 0) */
@@ -226,6 +230,9 @@ typedef struct vm_mesh_write_options {
                               (Tetrahedron_10 / Hexahedron_20), tet4 and hex8
                               meshes: one shared mid-edge node per edge, at its middle */
     vm_deck_kind deck;     /* INP and FEBio (default VM_DECK_NONE) */
+    int split;             /* INP: 1 writes the mesh (nodes, elements, sets, surfaces) to
+                              X_mesh.inp beside X.inp, which *INCLUDEs it and keeps the
+                              materials, sections and step (default 0: one file) */
     int compress;          /* VTU: zlib-compress arrays (default 1) */
     const vm_material *materials; /* the decks (inp, bdf, k, feb): one material per region,
                                      from this table where it has the region's row (not

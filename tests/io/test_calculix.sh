@@ -130,5 +130,20 @@ grep -q '0 inverted' hexmesh.log || { cat hexmesh.log; echo "hex mesh not valid"
 grep -q 'TYPE=C3D8' <("$VM_CLI" convert hexes.vtu hexes-check.inp && cat hexes-check.inp) ||
     { echo "hex deck has no C3D8 elements"; fail=$((fail+1)); }
 solve hexes
+# --split: the mesh in JOB_mesh.inp, *INCLUDEd by the deck, which keeps materials and step.
+if "$VM_CLI" mesh demo/phantom.nrrd --iso 0 --size 2 --deck static --split -o split.inp -q \
+        >split.log 2>&1; then
+    { grep -q '^\*INCLUDE, INPUT=split_mesh.inp$' split.inp && ! grep -q '^\*NODE, NSET=NALL' split.inp &&
+        grep -q '^\*NODE, NSET=NALL' split_mesh.inp && ! grep -q '^\*STEP' split_mesh.inp; } ||
+        { echo "split.inp: the mesh is not in split_mesh.inp"; fail=$((fail+1)); }
+    solve split ready
+else
+    cat split.log; fail=$((fail+1))
+fi
+# ... and refused in one line before any meshing for another format, leaving no file
+if "$VM_CLI" mesh demo/phantom.nrrd --iso 0 --split -o split.vtu -q >split-vtu.log 2>&1 ||
+        [ "$(wc -l <split-vtu.log)" != 1 ] || ! grep -q 'split' split-vtu.log || [ -e split.vtu ]; then
+    echo "--split with .vtu: not one line and exit 2"; cat split-vtu.log; fail=$((fail+1))
+fi
 echo "$decks decks run through ccx; $((fail == 0 ? 1 : 0)) passed, $fail failed"
 [ "$fail" = 0 ]
