@@ -465,11 +465,7 @@ static vm_status write_mesh(stuff *S, vm_mesh *mesh, gr_stuff_stats *st, vm_erro
         free(map);
         return s;
     }
-    mesh->region = malloc((S->np ? S->np : 1) * sizeof *mesh->region);
-    if (!mesh->region) {
-        free(map);
-        return nomem(err);
-    }
+    /* vm_mesh_reserve sized the region array with the cells */
     for (size_t i = 0; i < total; i++) {
         if (map[i] < 0) continue;
         double u[3], ijk[3];

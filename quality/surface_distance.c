@@ -726,6 +726,7 @@ static int merge_chunks(acc *c, size_t nchunks, side_acc *s) {
         else {
             s->pts = np;
             for (size_t i = 0; i < nchunks; i++) {
+                if (!c[i].npts) continue; /* its list is NULL */
                 memcpy(s->pts + 3 * s->npts, c[i].pts, 3 * c[i].npts * sizeof(double));
                 s->npts += c[i].npts;
             }
