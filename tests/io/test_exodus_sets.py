@@ -19,27 +19,13 @@ except ImportError as exc:
     print(f"skipped: cannot import meshio/numpy/netCDF4 ({exc})")
     sys.exit(77)
 
-CLI = os.environ.get("VM_CLI")
-if not CLI:
-    print("skipped: VM_CLI is not set")
-    sys.exit(77)
+from harness import check, failures, need_cli, run  # noqa: E402
+
+CLI = need_cli()
 # Exodus side k of TETRA / HEX as 0-based corner positions (Exodus II manual, side numbering)
 SIDES = {"tetra": [(0, 1, 3), (1, 2, 3), (0, 2, 3), (0, 1, 2)],
          "hexahedron": [(0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (0, 3, 7, 4), (0, 1, 2, 3),
                         (4, 5, 6, 7)]}
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print(f"  FAILED: {what}")
-
-
-def run(*args):
-    r = subprocess.run([CLI, *args], capture_output=True, text=True)
-    check(r.returncode == 0, f"volmesh {' '.join(args)}: exit {r.returncode} {r.stderr}")
-    return r
 
 
 def names(ds, var):

@@ -21,25 +21,10 @@ except ImportError as exc:
     print(f"skipped: cannot import meshio/numpy ({exc})")
     sys.exit(77)
 
-CLI = os.environ.get("VM_CLI")
-if not CLI:
-    print("skipped: VM_CLI is not set")
-    sys.exit(77)
+from harness import check, failures, need_cli, run  # noqa: E402
+
+CLI = need_cli()
 RAW = ["--raw-dims", "24x24x24", "--raw-type", "uint16", "--iso", "500", "-q"]
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print(f"  FAILED: {what}")
-
-
-def run(*args, expect=0):
-    r = subprocess.run([CLI, *args], capture_output=True, text=True)
-    check(r.returncode == expect,
-          f"volmesh {' '.join(args)}: exit {r.returncode} (want {expect}) {r.stderr.strip()}")
-    return r
 
 
 def elastic(path):

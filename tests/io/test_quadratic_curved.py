@@ -8,7 +8,6 @@ lie inside, its volume (det J integrated by a degree-3 exact rule) is at least 3
 centroid and Gauss point of every tet. The .msh and .inp of the same run carry the same
 curved nodes. Exit 0 pass, 1 fail, 77 skip when meshio or numpy cannot be imported."""
 import os
-import subprocess
 import sys
 import tempfile
 
@@ -19,25 +18,12 @@ except ImportError as exc:
     print(f"skipped: cannot import meshio/numpy ({exc})")
     sys.exit(77)
 
-CLI = os.environ.get("VM_CLI")
-if not CLI:
-    print("skipped: VM_CLI is not set")
-    sys.exit(77)
+from harness import check, failures, need_cli, run  # noqa: E402
+
+CLI = need_cli()
 N, RADIUS, SIZE = 128, 0.7, "10"
 WANT_RATIO = 3.0  # the issue: the quadratic volume error at least 3x smaller
 TET_EDGES = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)]
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print(f"  FAILED: {what}")
-
-
-def run(*args):
-    r = subprocess.run([CLI, *args], capture_output=True, text=True)
-    check(r.returncode == 0, f"volmesh {' '.join(args)}: exit {r.returncode} {r.stderr}")
 
 
 def write_sphere(path):

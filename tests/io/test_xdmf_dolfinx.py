@@ -25,20 +25,12 @@ except ImportError as exc:
     print(f"skipped: cannot import dolfinx (Debian: python3-dolfinx-real): {exc}")
     sys.exit(77)
 
-CLI = os.environ.get("VM_CLI")
-if not CLI:
-    print("skipped: VM_CLI is not set")
-    sys.exit(77)
+from harness import check, failures, need_cli  # noqa: E402
+
+CLI = need_cli()
 SIZE = 32          # phantom grid points a side
 RADIUS = 0.35 * (SIZE - 1)  # mesher/phantom.c: sphere_r * (n - 1), in voxels (spacing 1)
 TOLERANCE = 0.03   # the bound on |max u - R^2/6| / (R^2/6)
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print(f"  FAILED: {what}")
 
 
 def solve(path, degree):

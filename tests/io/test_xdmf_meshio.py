@@ -19,24 +19,9 @@ except ImportError as exc:
     print(f"skipped: cannot import meshio/numpy ({exc})")
     sys.exit(77)
 
-CLI = os.environ.get("VM_CLI")
-if not CLI:
-    print("skipped: VM_CLI is not set")
-    sys.exit(77)
-failures = []
+from harness import check, failures, need_cli, run  # noqa: E402
 
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print(f"  FAILED: {what}")
-
-
-def run(*args, expect=0):
-    r = subprocess.run([CLI, *args], capture_output=True, text=True)
-    check(r.returncode == expect,
-          f"volmesh {' '.join(args)}: exit {r.returncode} (want {expect}) {r.stderr.strip()}")
-    return r
+CLI = need_cli()
 
 
 def grids(path):
