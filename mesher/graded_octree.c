@@ -95,56 +95,6 @@ static int classify(const gr_field *f, const double lo[3], const double hi[3]) {
     return 0;
 }
 
-/* Trilinear reading g of the 8 corner values at local coordinates t (0..1), and its
- * gradient in world units (edge e). */
-static double corner_reading(const double c[8], const double t[3], const double e[3],
-                             double grad[3]) {
-    double g = 0;
-    grad[0] = grad[1] = grad[2] = 0;
-    for (int q = 0; q < 8; q++) {
-        double w[3], dw[3];
-        for (int d = 0; d < 3; d++) {
-            int b = (q >> d) & 1;
-            w[d] = b ? t[d] : 1 - t[d];
-            dw[d] = b ? 1 : -1;
-        }
-        g += c[q] * w[0] * w[1] * w[2];
-        grad[0] += c[q] * dw[0] * w[1] * w[2] / e[0];
-        grad[1] += c[q] * w[0] * dw[1] * w[2] / e[1];
-        grad[2] += c[q] * w[0] * w[1] * dw[2] / e[2];
-    }
-    return g;
-}
-
-static double norm3(const double g[3]) { return sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]); }
-
-/* Gradient of phi at a voxel point by central differences (one-sided on the border). */
-static double point_gradient(const gr_field *f, const int64_t p[3]) {
-    double g[3];
-    for (int d = 0; d < 3; d++) {
-        int64_t a[3] = {p[0], p[1], p[2]}, b[3] = {p[0], p[1], p[2]};
-        if (a[d] > 0) a[d]--;
-        if (b[d] < f->n[d] - 1) b[d]++;
-        double h = (double)(b[d] - a[d]) * f->sp[d];
-        g[d] = h > 0 ? (vm__gr_phi_point(f, b[0], b[1], b[2]) -
-                        vm__gr_phi_point(f, a[0], a[1], a[2])) / h
-                     : 0;
-    }
-    return norm3(g);
-}
-
-/* Whether a voxel point has a 6-neighbour on the other side of the bound. */
-static int near_surface(const gr_field *f, const int64_t p[3], int inside) {
-    for (int d = 0; d < 3; d++)
-        for (int s = -1; s <= 1; s += 2) {
-            int64_t q[3] = {p[0], p[1], p[2]};
-            q[d] += s;
-            if (q[d] < 0 || q[d] >= f->n[d]) continue;
-            if ((vm__gr_phi_point(f, q[0], q[1], q[2]) >= 0) != inside) return 1;
-        }
-    return 0;
-}
-
 /* Sign of phi at the corners of a node's box and the mask of inside corners. */
 static int corner_values(const gr_tree *t, const gr_field *f, const gr_node *q, double c[8]) {
     double lo[3], hi[3];
