@@ -2,15 +2,13 @@
 /* mesher/graded.c — the graded mesher: an octree sized in world units (distance bound, edge
  * bounds), balanced 2:1, its body-centred lattice, and isosurface stuffing (Labelle and
  * Shewchuk 2007) on the trilinear field; see docs/SIZING.md. */
+#include "../core/core.h"
+#include "../quality/quality_internal.h"
+#include "graded_internal.h"
+#include "mesher_internal.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include "../core/core.h"
-#include "graded_internal.h"
-#include "mesher_internal.h"
-#include "../quality/quality_internal.h"
-
-
 
 /* Rounds of measuring and refining after the first mesh. */
 #define GR_REFINE_ROUNDS 3
@@ -31,8 +29,10 @@ static vm_status refine_far(gr_tree *t, const gr_field *f, const vm_mesh_options
     if (s) return s;
     for (size_t i = 0; i < np && !s; i++) {
         double w[3], ijk[3];
-        for (int r = 0; r < 3; r++) w[r] = pts[3 * i + (size_t)r] - f->v->origin[r];
-        for (int r = 0; r < 3; r++) ijk[r] = inv[r][0] * w[0] + inv[r][1] * w[1] + inv[r][2] * w[2];
+        for (int r = 0; r < 3; r++)
+            w[r] = pts[3 * i + (size_t)r] - f->v->origin[r];
+        for (int r = 0; r < 3; r++)
+            ijk[r] = inv[r][0] * w[0] + inv[r][1] * w[1] + inv[r][2] * w[2];
         int64_t p[3];
         for (int r = 0; r < 3; r++)
             p[r] = (int64_t)floor((ijk[r] * f->sp[r] - t->u0[r]) / (0.5 * t->h0[r]));
@@ -88,7 +88,8 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     for (int round = 0; !s; round++) {
         vm_mesh_free(mesh);
         vm_mesh_init(mesh, VM_TET4);
-        if (!(s = vm__gr_lattice_build(&L, &t, &f, err))) s = vm__gr_stuff(&L, &t, &f, mesh, &ss, err);
+        if (!(s = vm__gr_lattice_build(&L, &t, &f, err)))
+            s = vm__gr_stuff(&L, &t, &f, mesh, &ss, err);
         vm__gr_lattice_free(&L);
         if (s || round == GR_REFINE_ROUNDS) break;
         size_t split = 0;

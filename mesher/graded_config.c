@@ -3,17 +3,13 @@
  * mask of inside corners, the Euler characteristic and connectivity of the inside part of the
  * cube's boundary (corners, edges, full faces), which decides whether the cell centre may take
  * either sign without changing the topology (a cone over a disk changes nothing). */
-#include <string.h>
 #include "graded_config.h"
+#include "graded_internal.h"
+#include <string.h>
 
 static gr_config table[256];
 static const gr_config *volatile ready;
 const gr_config *vm__gr_config = table;
-
-static int find(int *p, int x) {
-    while (p[x] != x) x = p[x] = p[p[x]];
-    return x;
-}
 
 static gr_config classify(int m) {
     gr_config c = {0, GR_CENTRE_FREE};
@@ -32,7 +28,7 @@ static gr_config classify(int m) {
             int r = q | (1 << d);
             if (r == q || !in[q] || !in[r]) continue;
             E++;
-            parent[find(parent, q)] = find(parent, r);
+            parent[vm__gr_root(parent, q)] = vm__gr_root(parent, r);
         }
     for (int d = 0; d < 3; d++)
         for (int s = 0; s < 2; s++) {
@@ -44,7 +40,7 @@ static gr_config classify(int m) {
         }
     int comps = 0;
     for (int q = 0; q < 8; q++)
-        if (in[q] && find(parent, q) == q) comps++;
+        if (in[q] && vm__gr_root(parent, q) == q) comps++;
     int disk = comps == 1 && V - E + F == 1;
     int special = 0;
     if (V == 6)
@@ -58,7 +54,8 @@ static gr_config classify(int m) {
 void vm__gr_config_init(void) {
     if (ready) return;
     gr_config t[256];
-    for (int m = 0; m < 256; m++) t[m] = classify(m);
+    for (int m = 0; m < 256; m++)
+        t[m] = classify(m);
     /* Every thread computes the same table, so a race writes equal bytes. */
     memcpy(table, t, sizeof t);
     ready = table;

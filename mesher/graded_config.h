@@ -10,10 +10,10 @@
 enum { GR_CENTRE_FREE = 0, GR_CENTRE_IN = 1, GR_CENTRE_OUT = 2 };
 
 typedef struct gr_config {
-    uint8_t simple;  /* a coarse leaf may have these corners: no ambiguous face, not the
-                        antipodal cube, and the inside part of its boundary is a disk (or
-                        empty, or everything) */
-    uint8_t centre;  /* base cells: the sign the centre must take for the cubical reading */
+    uint8_t simple; /* a coarse leaf may have these corners: no ambiguous face, not the
+                       antipodal cube, and the inside part of its boundary is a disk (or
+                       empty, or everything) */
+    uint8_t centre; /* base cells: the sign the centre must take for the cubical reading */
 } gr_config;
 
 /* Indexed by the mask of inside corners (corner q at x = q&1, y = q>>1&1, z = q>>2). */

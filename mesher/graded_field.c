@@ -1,11 +1,11 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/graded_field.c — the material as a signed trilinear field in world lengths, with the
  * per-block minima and maxima that let the octree skip cells the surface does not cross. */
+#include "../core/core.h"
+#include "graded_internal.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include "../core/core.h"
-#include "graded_internal.h"
 
 static double trilinear(const gr_field *f, double x, double y, double z) {
     const int64_t *n = f->n;

@@ -4,9 +4,9 @@
 #ifndef VM_GRADED_INTERNAL_H
 #define VM_GRADED_INTERNAL_H
 
+#include "volmesh/mesher.h"
 #include <stddef.h>
 #include <stdint.h>
-#include "volmesh/mesher.h"
 
 /* The material as a signed field phi (>= 0 inside) over the volume's scaled index frame:
  * u = ijk * spacing (world lengths, before the direction and the origin apply). Outside the
@@ -25,6 +25,14 @@ typedef struct gr_field {
 } gr_field;
 
 enum { GR_BLOCK = 4 };
+
+/* Union-find root of x in parent (halving the path), for the small local sets of the
+ * configuration table and the stuffing's link and fan tests. */
+static inline int vm__gr_root(int *parent, int x) {
+    while (parent[x] != x)
+        x = parent[x] = parent[parent[x]];
+    return x;
+}
 
 /* phi of a sample value. */
 static inline double vm__gr_phi_value(const gr_field *f, double x) {
@@ -48,11 +56,12 @@ vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_optio
 void vm__gr_field_free(gr_field *f);
 
 /* Octree nodes: a cell of level l has edge 2^l base cells, i.e. 2^(l+1) lattice units (a
- * lattice unit is half the base edge h0 along each axis, so every cell centre is a lattice point). Anchor:
- * its lowest corner in lattice units, >= 0; lattice point x sits at u = u0 + x * h0 / 2 (per axis). Base
- * cells are voxels, or near-cubic parts or multiples of voxels (docs/SIZING.md). */
+ * lattice unit is half the base edge h0 along each axis, so every cell centre is a lattice
+ * point). Anchor: its lowest corner in lattice units, >= 0; lattice point x sits at u = u0 + x
+ * * h0 / 2 (per axis). Base cells are voxels, or near-cubic parts or multiples of voxels
+ * (docs/SIZING.md). */
 typedef struct gr_node {
-    int32_t child;   /* first of 8 children (x fastest), or -1 for a leaf */
+    int32_t child; /* first of 8 children (x fastest), or -1 for a leaf */
     int32_t a[3];
     int32_t level;
 } gr_node;
@@ -85,16 +94,17 @@ int64_t vm__gr_tree_find(const gr_tree *t, const int64_t p[3], int level);
 void vm__gr_tree_free(gr_tree *t);
 
 static inline void vm__gr_lattice_pos(const gr_tree *t, const int64_t p[3], double u[3]) {
-    for (int d = 0; d < 3; d++) u[d] = t->u0[d] + (double)p[d] * 0.5 * t->h0[d];
+    for (int d = 0; d < 3; d++)
+        u[d] = t->u0[d] + (double)p[d] * 0.5 * t->h0[d];
 }
 
 /* The lattice: vertices (leaf corners and centres, and the face centres some faces need),
  * tets over them, positive in lattice coordinates. */
 typedef struct gr_lattice {
-    int64_t *key;      /* packed lattice coordinates per vertex */
-    double *phi;       /* value per vertex */
+    int64_t *key; /* packed lattice coordinates per vertex */
+    double *phi;  /* value per vertex */
     size_t nv, vcap;
-    int64_t *slot;     /* open-addressing table of vertex ids, size tcap (power of two) */
+    int64_t *slot; /* open-addressing table of vertex ids, size tcap (power of two) */
     size_t tcap;
     int32_t (*tet)[4];
     size_t nt, tcap4;

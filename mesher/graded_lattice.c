@@ -6,13 +6,13 @@
  * the coarse centre to a fine one (30..135 degrees). A face whose corners are all inside but
  * whose centre the two cell centres would read as outside is split at its centre instead, so
  * thin sheets keep their faces (the cubical reading of dual contouring). */
-#include <math.h>
-#include <stdlib.h>
-#include <string.h>
 #include "../core/core.h"
 #include "../core/hash.h"
 #include "graded_config.h"
 #include "graded_internal.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
 
 static vm_status nomem(vm_error *err) {
     return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the lattice");
@@ -22,10 +22,12 @@ static vm_status rehash(gr_lattice *L, vm_error *err) {
     size_t cap = L->tcap ? 2 * L->tcap : 4096;
     int64_t *slot = malloc(cap * sizeof *slot);
     if (!slot) return nomem(err);
-    for (size_t i = 0; i < cap; i++) slot[i] = -1;
+    for (size_t i = 0; i < cap; i++)
+        slot[i] = -1;
     for (size_t v = 0; v < L->nv; v++) {
         size_t h = (size_t)vm__hash_mix((uint64_t)L->key[v]) & (cap - 1);
-        while (slot[h] >= 0) h = (h + 1) & (cap - 1);
+        while (slot[h] >= 0)
+            h = (h + 1) & (cap - 1);
         slot[h] = (int64_t)v;
     }
     free(L->slot);
@@ -96,7 +98,8 @@ static vm_status add_tet(gr_lattice *L, const int64_t *id, vm_error *err) {
     }
     /* Positive in lattice coordinates (exact: small integers). */
     int64_t p[4][3];
-    for (int k = 0; k < 4; k++) vm__gr_unkey(L->key[id[k]], p[k]);
+    for (int k = 0; k < 4; k++)
+        vm__gr_unkey(L->key[id[k]], p[k]);
     double a[3], b[3], c[3];
     for (int d = 0; d < 3; d++) {
         a[d] = (double)(p[1][d] - p[0][d]);
@@ -107,7 +110,8 @@ static vm_status add_tet(gr_lattice *L, const int64_t *id, vm_error *err) {
                  a[2] * (b[0] * c[1] - b[1] * c[0]);
     if (det == 0) return VM_OK; /* cannot happen for the shapes made here */
     int32_t *t4 = L->tet[L->nt++];
-    for (int k = 0; k < 4; k++) t4[k] = (int32_t)id[k];
+    for (int k = 0; k < 4; k++)
+        t4[k] = (int32_t)id[k];
     if (det < 0) {
         int32_t x = t4[2];
         t4[2] = t4[3];
@@ -127,7 +131,8 @@ static int face_loop(const gr_lattice *L, const int64_t a[3], int64_t e, int d, 
         p[w] += cw[k] * e;
         id[n++] = vm__gr_lattice_find(L, p);
         int k1 = (k + 1) & 3;
-        for (int x = 0; x < 3; x++) m[x] = p[x];
+        for (int x = 0; x < 3; x++)
+            m[x] = p[x];
         m[u] = a[u] + (cu[k] + cu[k1]) * e / 2;
         m[w] = a[w] + (cw[k] + cw[k1]) * e / 2;
         if (e >= 2) {
@@ -146,7 +151,8 @@ static vm_status face_tets(gr_lattice *L, const gr_tree *t, const gr_field *f, i
     int64_t loop[8];
     int n = face_loop(L, a, e, d, loop);
     for (int k = 0; k < n; k++)
-        if (loop[k] < 0) return vm_error_set(err, VM_ERR_INTERNAL, "mesh: lattice face corner missing");
+        if (loop[k] < 0)
+            return vm_error_set(err, VM_ERR_INTERNAL, "mesh: lattice face corner missing");
     /* The inside part of the square's boundary: all of it, one arc, none, or several arcs. */
     int inside = 0, arcs = 0;
     for (int k = 0; k < n; k++) {
@@ -167,7 +173,8 @@ static vm_status face_tets(gr_lattice *L, const gr_tree *t, const gr_field *f, i
         m[(d + 1) % 3] += e / 2;
         m[(d + 2) % 3] += e / 2;
         double v = lattice_phi(t, f, m), mag = 0;
-        for (int k = 0; k < n; k++) mag += fabs(L->phi[loop[k]]) / (2 * n);
+        for (int k = 0; k < n; k++)
+            mag += fabs(L->phi[loop[k]]) / (2 * n);
         if (full && v <= 0) v = mag > 0 ? mag : 1e-300;
         if (!full && v >= 0) v = mag > 0 ? -mag : -1e-300;
         if ((s = vertex(L, m, v, &mid, err))) return s;
@@ -228,7 +235,8 @@ static vm_status leaf_faces(gr_lattice *L, const gr_tree *t, const gr_field *f,
                 int64_t sa[3] = {a[0], a[1], a[2]}, dc[3];
                 sa[(d + 1) % 3] += (k & 1) * h;
                 sa[(d + 2) % 3] += (k >> 1) * h;
-                for (int x = 0; x < 3; x++) dc[x] = sa[x] + h / 2;
+                for (int x = 0; x < 3; x++)
+                    dc[x] = sa[x] + h / 2;
                 dc[d] = a[d] + (side ? h / 2 : -h / 2);
                 s = face_tets(L, t, f, c, vm__gr_lattice_find(L, dc), sa, h, d, 2.0 / 3.0, err);
             }

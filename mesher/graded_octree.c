@@ -1,20 +1,22 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* mesher/graded_octree.c — the octree of the graded mesher, sized in world units: a cell the
- * surface crosses stays coarse only when its corners' trilinear reading keeps the sign of every
- * voxel inside it (the topology test of Ju et al. 2002 §4, on all fine samples) and lies within
- * the distance bound of the surface there (the feature-sensitive error of seed 001 §3); then
- * 2:1 balance over faces, edges and corners (Sundar, Sampath and Biros 2008). */
-#include <math.h>
-#include <stdlib.h>
-#include <string.h>
+ * surface crosses stays coarse only when its whole subtree passes the topology-safety test of
+ * Ju et al. (2002, §4.2: simple corner configurations, midpoints agreeing with a corner) and
+ * the fine surface lies within the distance bound of the plane fitting its crossings of the
+ * cell's edges (the chord error stuffing makes); then 2:1 balance over faces, edges and
+ * corners (Sundar, Sampath and Biros 2008). */
 #include "../core/core.h"
 #include "graded_config.h"
 #include "graded_internal.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
 
 static vm_status grow(gr_tree *t, size_t more, vm_error *err) {
     if (t->n + more <= t->cap) return VM_OK;
     size_t cap = t->cap ? t->cap : 1024;
-    while (cap < t->n + more) cap *= 2;
+    while (cap < t->n + more)
+        cap *= 2;
     if (cap > (size_t)INT32_MAX)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: the octree needs over 2^31 cells");
     gr_node *nn = realloc(t->node, cap * sizeof *nn);
@@ -34,7 +36,8 @@ vm_status vm__gr_tree_split(gr_tree *t, size_t leaf, vm_error *err) {
         gr_node *q = &t->node[t->n + (size_t)c];
         q->child = -1;
         q->level = p->level - 1;
-        for (int d = 0; d < 3; d++) q->a[d] = p->a[d] + ((c >> d) & 1) * half;
+        for (int d = 0; d < 3; d++)
+            q->a[d] = p->a[d] + ((c >> d) & 1) * half;
     }
     t->n += 8;
     t->leaves += 7;
@@ -101,7 +104,8 @@ static int corner_values(const gr_tree *t, const gr_field *f, const gr_node *q, 
     node_box(t, q, lo, hi);
     int mask = 0;
     for (int k = 0; k < 8; k++) {
-        double u[3] = {(k & 1) ? hi[0] : lo[0], (k & 2) ? hi[1] : lo[1], (k & 4) ? hi[2] : lo[2]};
+        double u[3] = {(k & 1) ? hi[0] : lo[0], (k & 2) ? hi[1] : lo[1],
+                       (k & 4) ? hi[2] : lo[2]};
         c[k] = vm__gr_phi_clamped(f, u);
         if (c[k] >= 0) mask |= 1 << k;
     }
@@ -116,10 +120,12 @@ static int midpoints_agree(const gr_tree *t, const gr_field *f, const gr_node *q
     node_box(t, q, lo, hi);
     for (int m = 0; m < 27; m++) {
         int x[3] = {m % 3, (m / 3) % 3, m / 9}, mids = 0;
-        for (int d = 0; d < 3; d++) mids += x[d] == 1;
+        for (int d = 0; d < 3; d++)
+            mids += x[d] == 1;
         if (mids == 0) continue;
         double u[3];
-        for (int d = 0; d < 3; d++) u[d] = lo[d] + 0.5 * (double)x[d] * (hi[d] - lo[d]);
+        for (int d = 0; d < 3; d++)
+            u[d] = lo[d] + 0.5 * (double)x[d] * (hi[d] - lo[d]);
         int in = vm__gr_phi_clamped(f, u) >= 0, agree = 0;
         for (int k = 0; k < 8 && !agree; k++) {
             int on = 1; /* corner k belongs to the edge, face or cube of point m */
@@ -139,14 +145,16 @@ static void crossing(const gr_field *f, const double a[3], const double b[3], do
     double lo = 0, hi = 1;
     for (int it = 0; it < 40; it++) {
         double m = 0.5 * (lo + hi), u[3];
-        for (int d = 0; d < 3; d++) u[d] = a[d] + m * (b[d] - a[d]);
+        for (int d = 0; d < 3; d++)
+            u[d] = a[d] + m * (b[d] - a[d]);
         if ((vm__gr_phi_clamped(f, u) >= 0) == (fa >= 0))
             lo = m;
         else
             hi = m;
     }
     double m = 0.5 * (lo + hi);
-    for (int d = 0; d < 3; d++) p[d] = a[d] + m * (b[d] - a[d]);
+    for (int d = 0; d < 3; d++)
+        p[d] = a[d] + m * (b[d] - a[d]);
 }
 
 /* The distance test: the surface crosses the cell's edges at points whose plane (through
@@ -188,7 +196,8 @@ static int within_distance(const gr_tree *t, const gr_field *f, const gr_sizing 
         /* The plane that fits the crossings best: the covariance's null direction, taken
          * from the cofactor row of the largest 2x2 determinant. */
         double cv[3][3] = {{0}};
-        for (int d = 0; d < 3; d++) ctr[d] /= np;
+        for (int d = 0; d < 3; d++)
+            ctr[d] /= np;
         for (int k = 0; k < np; k++)
             for (int a = 0; a < 3; a++)
                 for (int b = 0; b < 3; b++)
@@ -211,10 +220,12 @@ static int within_distance(const gr_tree *t, const gr_field *f, const gr_sizing 
         }
         double gn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         if (!(gn > 0)) return 0;
-        for (int d = 0; d < 3; d++) n[d] /= gn;
+        for (int d = 0; d < 3; d++)
+            n[d] /= gn;
         for (int k = 0; k < np; k++) {
             double dist = 0;
-            for (int d = 0; d < 3; d++) dist += n[d] * (pt[k][d] - ctr[d]);
+            for (int d = 0; d < 3; d++)
+                dist += n[d] * (pt[k][d] - ctr[d]);
             if (fabs(dist) > sz->distance) return 0;
         }
     }
@@ -233,7 +244,8 @@ static int within_distance(const gr_tree *t, const gr_field *f, const gr_sizing 
                     double x[3] = {(double)i * f->sp[0], (double)j * f->sp[1],
                                    (double)k * f->sp[2]};
                     x[d] += s * f->sp[d];
-                    for (int e = 0; e < 3; e++) dist += n[e] * (x[e] - ctr[e]);
+                    for (int e = 0; e < 3; e++)
+                        dist += n[e] * (x[e] - ctr[e]);
                     if (fabs(dist) > sz->distance) return 0;
                 }
             }
@@ -252,8 +264,9 @@ static int collapsible(const gr_tree *t, const gr_field *f, const gr_sizing *sz,
     if (!midpoints_agree(t, f, q, mask)) return 0;
     int32_t half = (int32_t)1 << q->level;
     for (int k = 0; k < 8; k++) {
-        gr_node ch = {-1, {q->a[0] + (k & 1) * half, q->a[1] + ((k >> 1) & 1) * half,
-                           q->a[2] + (k >> 2) * half},
+        gr_node ch = {-1,
+                      {q->a[0] + (k & 1) * half, q->a[1] + ((k >> 1) & 1) * half,
+                       q->a[2] + (k >> 2) * half},
                       q->level - 1};
         double lo[3], hi[3];
         node_box(t, &ch, lo, hi);
@@ -272,8 +285,7 @@ static int wants_split(const gr_tree *t, const gr_field *f, const gr_sizing *sz,
     return !collapsible(t, f, sz, q);
 }
 
-vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *sz,
-                            vm_error *err) {
+vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *sz, vm_error *err) {
     memset(t, 0, sizeof *t);
     vm__gr_config_init();
     t->distance = sz->distance;
@@ -295,7 +307,8 @@ vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *sz,
     }
     t->root_level = K;
     int ml = 0;
-    while (ml < K && hmax * (double)((int64_t)2 << ml) <= sz->max_edge * (1 + 1e-9)) ml++;
+    while (ml < K && hmax * (double)((int64_t)2 << ml) <= sz->max_edge * (1 + 1e-9))
+        ml++;
     t->max_level = ml;
     vm_status s = grow(t, 1, err);
     if (s) return s;
@@ -319,7 +332,8 @@ vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *sz,
             stack = ns;
             cap *= 2;
         }
-        for (int c = 7; c >= 0; c--) stack[depth++] = (size_t)t->node[at].child + (size_t)c;
+        for (int c = 7; c >= 0; c--)
+            stack[depth++] = (size_t)t->node[at].child + (size_t)c;
     }
     free(stack);
     return s;
@@ -355,13 +369,15 @@ vm_status vm__gr_tree_balance(gr_tree *t, vm_error *err) {
                 if (n + 8 > cap) {
                     size_t *nw = realloc(work, 2 * cap * sizeof *nw);
                     if (!nw) {
-                        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the balance");
+                        s = vm_error_set(err, VM_ERR_NOMEM,
+                                         "mesh: out of memory for the balance");
                         break;
                     }
                     work = nw;
                     cap *= 2;
                 }
-                for (int c = 0; c < 8; c++) work[n++] = (size_t)t->node[nb].child + (size_t)c;
+                for (int c = 0; c < 8; c++)
+                    work[n++] = (size_t)t->node[nb].child + (size_t)c;
             }
         }
     }

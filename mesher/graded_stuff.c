@@ -6,13 +6,13 @@
  * rule, Dompierre et al. 1999, so that neighbours agree). volmesh warps a vertex only when
  * that is a simple-point move (the same-sign part of its link is a disk), so warping never
  * changes the topology, and undoes the warps of any tet a warp would turn over. */
-#include <math.h>
-#include <stdlib.h>
-#include <string.h>
 #include "../core/core.h"
 #include "../core/hash.h"
 #include "graded_internal.h"
 #include "mesher_internal.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
 
 /* Warp thresholds of isosurface stuffing (fractions of the edge from the vertex). */
 #define GR_ALPHA_LONG 0.24969
@@ -28,24 +28,24 @@ typedef struct stuff {
     const gr_tree *t;
     const gr_field *f;
     size_t nv, nt, ne;
-    int32_t (*ev)[2];     /* edge ends */
-    int32_t (*te)[6];     /* edges of each tet, in tet_edge order */
-    double *cut;          /* cut parameter from ev[0] (NAN: not computed) */
-    double *lpos;         /* lattice positions (3 per vertex) */
-    double *pos;          /* positions after warping */
-    double *val;          /* values after warping (0: on the surface) */
-    double *delta;        /* assigned value - field value at the vertex (forced signs) */
-    size_t *vt_start;     /* vertex -> tets */
+    int32_t (*ev)[2]; /* edge ends */
+    int32_t (*te)[6]; /* edges of each tet, in tet_edge order */
+    double *cut;      /* cut parameter from ev[0] (NAN: not computed) */
+    double *lpos;     /* lattice positions (3 per vertex) */
+    double *pos;      /* positions after warping */
+    double *val;      /* values after warping (0: on the surface) */
+    double *delta;    /* assigned value - field value at the vertex (forced signs) */
+    size_t *vt_start; /* vertex -> tets */
     int32_t *vt;
-    size_t *ve_start;     /* vertex -> edges */
+    size_t *ve_start; /* vertex -> edges */
     int32_t *ve;
     unsigned char *nowarp;
-    unsigned char *linear;  /* per edge: place the cut by linear interpolation */
+    unsigned char *linear; /* per edge: place the cut by linear interpolation */
     int64_t (*piece)[4];
-    int32_t *src;           /* lattice tet of each piece */
+    int32_t *src; /* lattice tet of each piece */
     size_t np, pcap;
-    int32_t cur;            /* the lattice tet being cut */
-    size_t border_zeros;    /* vertices put on the surface on the volume's border */
+    int32_t cur;         /* the lattice tet being cut */
+    size_t border_zeros; /* vertices put on the surface on the volume's border */
     int64_t root;
 } stuff;
 
@@ -56,7 +56,8 @@ static vm_status nomem(vm_error *err) {
 /* Unique edges of the tets. */
 static vm_status build_edges(stuff *S, vm_error *err) {
     size_t cap = 1;
-    while (cap < 4 * S->nt + 16) cap *= 2;
+    while (cap < 4 * S->nt + 16)
+        cap *= 2;
     int64_t *slot = malloc(cap * sizeof *slot);
     S->ev = malloc((6 * S->nt + 1) * sizeof *S->ev);
     S->te = malloc((S->nt + 1) * sizeof *S->te);
@@ -64,7 +65,8 @@ static vm_status build_edges(stuff *S, vm_error *err) {
         free(slot);
         return nomem(err);
     }
-    for (size_t i = 0; i < cap; i++) slot[i] = -1;
+    for (size_t i = 0; i < cap; i++)
+        slot[i] = -1;
     S->ne = 0;
     for (size_t t = 0; t < S->nt; t++)
         for (int k = 0; k < 6; k++) {
@@ -92,18 +94,21 @@ static vm_status build_edges(stuff *S, vm_error *err) {
     free(slot);
     S->cut = malloc((S->ne + 1) * sizeof *S->cut);
     if (!S->cut) return nomem(err);
-    for (size_t e = 0; e < S->ne; e++) S->cut[e] = NAN;
+    for (size_t e = 0; e < S->ne; e++)
+        S->cut[e] = NAN;
     return VM_OK;
 }
 
 /* Compressed adjacency: for each vertex, the items (tets or edges) that use it. */
-static vm_status adjacency(size_t nv, size_t nitems, int per, const int32_t *ids, size_t **start,
-                           int32_t **list, vm_error *err) {
+static vm_status adjacency(size_t nv, size_t nitems, int per, const int32_t *ids,
+                           size_t **start, int32_t **list, vm_error *err) {
     *start = calloc(nv + 1, sizeof **start);
     *list = malloc((nitems * (size_t)per + 1) * sizeof **list);
     if (!*start || !*list) return nomem(err);
-    for (size_t i = 0; i < nitems * (size_t)per; i++) (*start)[ids[i] + 1]++;
-    for (size_t v = 0; v < nv; v++) (*start)[v + 1] += (*start)[v];
+    for (size_t i = 0; i < nitems * (size_t)per; i++)
+        (*start)[ids[i] + 1]++;
+    for (size_t v = 0; v < nv; v++)
+        (*start)[v + 1] += (*start)[v];
     size_t *fill = malloc((nv + 1) * sizeof *fill);
     if (!fill) return nomem(err);
     memcpy(fill, *start, (nv + 1) * sizeof *fill);
@@ -113,7 +118,9 @@ static vm_status adjacency(size_t nv, size_t nitems, int per, const int32_t *ids
     return VM_OK;
 }
 
-static int sgn(double x) { return x > 0 ? 1 : x < 0 ? -1 : 0; }
+static int sgn(double x) {
+    return x > 0 ? 1 : x < 0 ? -1 : 0;
+}
 
 /* Where the surface crosses edge e, as a fraction from ev[0]: regula falsi (Illinois) on the
  * field along the edge, corrected linearly so that it takes the ends' assigned values. */
@@ -154,19 +161,16 @@ static double cut_param(stuff *S, size_t e) {
      * held GR_CUT_MIN of the edge away, or half the distance bound when that is less (the
      * surface moves by at most that much there). */
     double len = 0;
-    for (int d = 0; d < 3; d++) len += (pb[d] - pa[d]) * (pb[d] - pa[d]);
+    for (int d = 0; d < 3; d++)
+        len += (pb[d] - pa[d]) * (pb[d] - pa[d]);
     double tmin = fmin(GR_CUT_MIN, 0.5 * S->t->distance / sqrt(len));
     /* Across the volume's border the cut belongs on the border plane: held closer. */
-    if (S->L->phi[a] == S->f->out || S->L->phi[b] == S->f->out) tmin = fmin(tmin, GR_CUT_BORDER);
+    if (S->L->phi[a] == S->f->out || S->L->phi[b] == S->f->out)
+        tmin = fmin(tmin, GR_CUT_BORDER);
     if (t < tmin) t = tmin;
     if (t > 1 - tmin) t = 1 - tmin;
     S->cut[e] = t;
     return t;
-}
-
-static int find_root(int *p, int x) {
-    while (p[x] != x) x = p[x] = p[p[x]];
-    return x;
 }
 
 /* Whether moving v onto the surface keeps the topology: the part of its link with v's sign
@@ -182,7 +186,8 @@ static int simple_point(const stuff *S, int32_t v) {
         for (int c = 0; c < 4; c++) {
             if (tt[c] == v) continue;
             int x = 0;
-            while (x < nl && lv[x] != tt[c]) x++;
+            while (x < nl && lv[x] != tt[c])
+                x++;
             if (x == nl) {
                 if (nl == LINK_MAX) return 0;
                 lv[nl++] = tt[c];
@@ -200,7 +205,8 @@ static int simple_point(const stuff *S, int32_t v) {
                 b = x;
             }
             int y = 0;
-            while (y < ne && (edges[y][0] != a || edges[y][1] != b)) y++;
+            while (y < ne && (edges[y][0] != a || edges[y][1] != b))
+                y++;
             if (y == ne) {
                 if (ne == 3 * LINK_MAX) return 0;
                 edges[ne][0] = a;
@@ -210,12 +216,14 @@ static int simple_point(const stuff *S, int32_t v) {
         }
     }
     int V = 0, comps = 0;
-    for (int i = 0; i < nl; i++) parent[i] = i;
-    for (int i = 0; i < ne; i++) parent[find_root(parent, edges[i][0])] = find_root(parent, edges[i][1]);
+    for (int i = 0; i < nl; i++)
+        parent[i] = i;
+    for (int i = 0; i < ne; i++)
+        parent[vm__gr_root(parent, edges[i][0])] = vm__gr_root(parent, edges[i][1]);
     for (int i = 0; i < nl; i++)
         if (sgn(S->val[lv[i]]) == sv) {
             V++;
-            if (find_root(parent, i) == i) comps++;
+            if (vm__gr_root(parent, i) == i) comps++;
         }
     return V >= 1 && comps == 1 && V - ne + T == 1;
 }
@@ -253,7 +261,8 @@ static int on_box_border(const stuff *S, size_t v) {
 static size_t warp(stuff *S) {
     size_t warped = 0;
     for (size_t v = 0; v < S->nv; v++)
-        if (!S->nowarp[v] && S->val[v] > 0 && on_box_border(S, v) && simple_point(S, (int32_t)v)) {
+        if (!S->nowarp[v] && S->val[v] > 0 && on_box_border(S, v) &&
+            simple_point(S, (int32_t)v)) {
             S->val[v] = 0;
             warped++;
             S->border_zeros++;
@@ -275,9 +284,11 @@ static size_t warp(stuff *S) {
             vm__gr_unkey(S->L->key[S->ev[e][1]], pb);
             int axes = (pa[0] != pb[0]) + (pa[1] != pb[1]) + (pa[2] != pb[2]);
             double alpha = axes == 1 ? GR_ALPHA_LONG : GR_ALPHA_SHORT;
-            const double *p0 = S->lpos + 3 * (size_t)S->ev[e][0], *p1 = S->lpos + 3 * (size_t)S->ev[e][1];
-            double len = sqrt((p1[0] - p0[0]) * (p1[0] - p0[0]) + (p1[1] - p0[1]) * (p1[1] - p0[1]) +
-                              (p1[2] - p0[2]) * (p1[2] - p0[2]));
+            const double *p0 = S->lpos + 3 * (size_t)S->ev[e][0],
+                         *p1 = S->lpos + 3 * (size_t)S->ev[e][1];
+            double len =
+                sqrt((p1[0] - p0[0]) * (p1[0] - p0[0]) + (p1[1] - p0[1]) * (p1[1] - p0[1]) +
+                     (p1[2] - p0[2]) * (p1[2] - p0[2]));
             if (from_v < alpha && from_v * len < best) {
                 best = from_v * len;
                 be = e;
@@ -288,8 +299,10 @@ static size_t warp(stuff *S) {
          * surface: then its two sides are disks (the simple-point test, and its complement
          * on the sphere) and the surface is a manifold there. */
         if (best == INFINITY || next_to_zero || !simple_point(S, (int32_t)v)) continue;
-        const double *p0 = S->lpos + 3 * (size_t)S->ev[be][0], *p1 = S->lpos + 3 * (size_t)S->ev[be][1];
-        for (int d = 0; d < 3; d++) S->pos[3 * v + (size_t)d] = p0[d] + bt * (p1[d] - p0[d]);
+        const double *p0 = S->lpos + 3 * (size_t)S->ev[be][0],
+                     *p1 = S->lpos + 3 * (size_t)S->ev[be][1];
+        for (int d = 0; d < 3; d++)
+            S->pos[3 * v + (size_t)d] = p0[d] + bt * (p1[d] - p0[d]);
         S->val[v] = 0;
         warped++;
     }
@@ -317,7 +330,8 @@ static void piece_pos(const stuff *S, int64_t id, int reference, double p[3]) {
     size_t e = (size_t)(id - (int64_t)S->nv);
     const double *a = S->lpos + 3 * (size_t)S->ev[e][0], *b = S->lpos + 3 * (size_t)S->ev[e][1];
     double t = reference ? 0.5 : S->linear[e] ? linear_param(S, e) : S->cut[e];
-    for (int d = 0; d < 3; d++) p[d] = a[d] + t * (b[d] - a[d]);
+    for (int d = 0; d < 3; d++)
+        p[d] = a[d] + t * (b[d] - a[d]);
     if (reference) return;
     /* A cut where the material meets the volume's border lies on the border plane. */
     for (int d = 0; d < 3; d++) {
@@ -329,7 +343,8 @@ static void piece_pos(const stuff *S, int64_t id, int reference, double p[3]) {
 
 static double orient(const stuff *S, const int64_t *id, int lattice) {
     double p[4][3];
-    for (int k = 0; k < 4; k++) piece_pos(S, id[k], lattice, p[k]);
+    for (int k = 0; k < 4; k++)
+        piece_pos(S, id[k], lattice, p[k]);
     double a[3], b[3], c[3];
     for (int d = 0; d < 3; d++) {
         a[d] = p[1][d] - p[0][d];
@@ -402,9 +417,11 @@ static int prism(stuff *S, const int64_t a_in[3], const int64_t b_in[3], int *nm
     int ok = add_piece(S, a[0], b[0], b[1], b[2], nm);
     int64_t m1 = a[1] < b[2] ? a[1] : b[2], m2 = a[2] < b[1] ? a[2] : b[1];
     if (m1 < m2)
-        ok &= add_piece(S, a[0], a[1], a[2], b[2], nm) & add_piece(S, a[0], a[1], b[2], b[1], nm);
+        ok &=
+            add_piece(S, a[0], a[1], a[2], b[2], nm) & add_piece(S, a[0], a[1], b[2], b[1], nm);
     else
-        ok &= add_piece(S, a[0], a[1], a[2], b[1], nm) & add_piece(S, a[0], b[1], a[2], b[2], nm);
+        ok &=
+            add_piece(S, a[0], a[1], a[2], b[1], nm) & add_piece(S, a[0], b[1], a[2], b[2], nm);
     return ok;
 }
 
@@ -414,16 +431,21 @@ static int stencil(stuff *S, size_t t, int *nm) {
     int P[4], Z[4], N[4], np = 0, nz = 0, nn = 0;
     for (int k = 0; k < 4; k++) {
         int s = sgn(S->val[v[k]]);
-        if (s > 0) P[np++] = k;
-        else if (s < 0) N[nn++] = k;
-        else Z[nz++] = k;
+        if (s > 0)
+            P[np++] = k;
+        else if (s < 0)
+            N[nn++] = k;
+        else
+            Z[nz++] = k;
     }
     if (np == 0) return 1;
     if (nn == 0) return add_piece(S, v[0], v[1], v[2], v[3], nm);
     if (np == 1) {
         int64_t id[4];
         for (int k = 0; k < 4; k++)
-            id[k] = k == P[0] ? v[k] : sgn(S->val[v[k]]) == 0 ? v[k] : edge_between(S, t, P[0], k);
+            id[k] = k == P[0]                ? v[k]
+                    : sgn(S->val[v[k]]) == 0 ? v[k]
+                                             : edge_between(S, t, P[0], k);
         return add_piece(S, id[0], id[1], id[2], id[3], nm);
     }
     if (np == 2 && nn == 1) {
@@ -432,8 +454,10 @@ static int stencil(stuff *S, size_t t, int *nm) {
         return pyramid(S, v[Z[0]], q, nm);
     }
     if (np == 2) {
-        int64_t a[3] = {v[P[0]], edge_between(S, t, P[0], N[0]), edge_between(S, t, P[0], N[1])};
-        int64_t b[3] = {v[P[1]], edge_between(S, t, P[1], N[0]), edge_between(S, t, P[1], N[1])};
+        int64_t a[3] = {v[P[0]], edge_between(S, t, P[0], N[0]),
+                        edge_between(S, t, P[0], N[1])};
+        int64_t b[3] = {v[P[1]], edge_between(S, t, P[1], N[0]),
+                        edge_between(S, t, P[1], N[1])};
         return prism(S, a, b, nm);
     }
     int64_t a[3] = {v[P[0]], v[P[1]], v[P[2]]};
@@ -455,7 +479,8 @@ static vm_status write_mesh(stuff *S, vm_mesh *mesh, gr_stuff_stats *st, vm_erro
     size_t total = S->nv + S->ne;
     int64_t *map = malloc((total + 1) * sizeof *map);
     if (!map) return nomem(err);
-    for (size_t i = 0; i < total; i++) map[i] = -1;
+    for (size_t i = 0; i < total; i++)
+        map[i] = -1;
     size_t npts = 0;
     for (size_t p = 0; p < S->np; p++)
         for (int k = 0; k < 4; k++)
@@ -470,14 +495,16 @@ static vm_status write_mesh(stuff *S, vm_mesh *mesh, gr_stuff_stats *st, vm_erro
         if (map[i] < 0) continue;
         double u[3], ijk[3];
         piece_pos(S, (int64_t)i, 0, u);
-        for (int d = 0; d < 3; d++) ijk[d] = u[d] / S->f->sp[d];
+        for (int d = 0; d < 3; d++)
+            ijk[d] = u[d] / S->f->sp[d];
         vm_volume_index_to_world(vol, ijk, mesh->points + 3 * (size_t)map[i]);
         if (i >= S->nv) st->cut_vertices++;
     }
     int mirror = vm_volume_frame_determinant(vol) < 0;
     for (size_t p = 0; p < S->np; p++) {
         vm_index *c = mesh->cells + 4 * p;
-        for (int k = 0; k < 4; k++) c[k] = (vm_index)map[S->piece[p][k]];
+        for (int k = 0; k < 4; k++)
+            c[k] = (vm_index)map[S->piece[p][k]];
         if (mirror) vm__mirror_cell(c, 4);
         mesh->region[p] = 1;
     }
@@ -557,7 +584,8 @@ static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_erro
     qsort(f, nf, sizeof *f, face_cmp);
     for (size_t i = 0; i < nf;) {
         size_t j = i + 1;
-        while (j < nf && face_cmp(&f[i], &f[j]) == 0) j++;
+        while (j < nf && face_cmp(&f[i], &f[j]) == 0)
+            j++;
         if (j == i + 1) f[nb++] = f[i];
         i = j;
     }
@@ -577,7 +605,8 @@ static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_erro
     qsort(in, ni, sizeof *in, inc_cmp);
     for (size_t i = 0; i < ni;) {
         size_t j = i;
-        while (j < ni && in[j].v == in[i].v) j++;
+        while (j < ni && in[j].v == in[i].v)
+            j++;
         /* faces around in[i].v: join those sharing an edge (a local union-find over the
          * fan's faces); an edge with other than two faces, or two fans, is a pinch */
         int pinched = j - i > 2 * FAN_MAX;
@@ -585,7 +614,8 @@ static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_erro
         int lp[2 * FAN_MAX];
         for (size_t a = i; a < j && !pinched; a++) {
             size_t x = 0;
-            while (x < nl && face[x] != in[a].face) x++;
+            while (x < nl && face[x] != in[a].face)
+                x++;
             if (x == nl) {
                 face[nl] = in[a].face;
                 lp[nl] = (int)nl;
@@ -594,16 +624,19 @@ static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_erro
         }
         for (size_t a = i; a < j && !pinched;) {
             size_t b = a;
-            while (b < j && in[b].other == in[a].other) b++;
+            while (b < j && in[b].other == in[a].other)
+                b++;
             if (b - a != 2) pinched = 1;
             int x = 0, y = 0;
-            while (face[x] != in[a].face) x++;
-            while (face[y] != in[a + 1 < b ? a + 1 : a].face) y++;
-            lp[find_root(lp, x)] = find_root(lp, y);
+            while (face[x] != in[a].face)
+                x++;
+            while (face[y] != in[a + 1 < b ? a + 1 : a].face)
+                y++;
+            lp[vm__gr_root(lp, x)] = vm__gr_root(lp, y);
             a = b;
         }
         for (int x = 1; x < (int)nl && !pinched; x++)
-            if (find_root(lp, x) != find_root(lp, 0)) pinched = 1;
+            if (vm__gr_root(lp, x) != vm__gr_root(lp, 0)) pinched = 1;
         if (pinched) {
             /* undo the warps of the tets whose pieces have a face here */
             for (size_t a = i; a < j; a++) {
@@ -641,7 +674,8 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
     S.delta = malloc((S.nv + 1) * sizeof *S.delta);
     S.nowarp = calloc(S.nv + 1, 1);
     S.linear = calloc(S.ne + 1, 1);
-    if (!s && (!S.lpos || !S.pos || !S.val || !S.delta || !S.nowarp || !S.linear)) s = nomem(err);
+    if (!s && (!S.lpos || !S.pos || !S.val || !S.delta || !S.nowarp || !S.linear))
+        s = nomem(err);
     if (!s) s = adjacency(S.nv, S.nt, 4, &L->tet[0][0], &S.vt_start, &S.vt, err);
     if (!s) s = adjacency(S.nv, S.ne, 2, &S.ev[0][0], &S.ve_start, &S.ve, err);
     for (size_t v = 0; v < S.nv && !s; v++) {
@@ -679,7 +713,8 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
                     undone = 1;
                 }
             if (!undone)
-                for (int k = 0; k < 6; k++) S.linear[S.te[i][k]] = 1;
+                for (int k = 0; k < 6; k++)
+                    S.linear[S.te[i][k]] = 1;
         }
         if (nm) s = nomem(err);
         /* Only vertices on the border plane may neighbour another on the surface. */

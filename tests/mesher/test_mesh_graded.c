@@ -17,7 +17,8 @@ static int make_volume(vm_volume *v, int64_t nx, int64_t ny, int64_t nz, float f
     vm_status s = vm_volume_alloc(v, dims, &err);
     CHECK_OK(s, &err);
     if (s != VM_OK) return 0;
-    for (size_t i = 0; i < vm_volume_count(v); i++) v->data[i] = fill;
+    for (size_t i = 0; i < vm_volume_count(v); i++)
+        v->data[i] = fill;
     return 1;
 }
 
@@ -46,8 +47,8 @@ static int mesh_and_check(const char *label, const vm_volume *v, const vm_mesh_o
               "%s: inverted %zu degenerate %zu overshared %zu closed %d nm-edges %zu "
               "nm-vertices %zu euler %ld (expected %ld) components %zu (expected %zu)",
               label, r->inverted, r->degenerate, r->overshared_faces, r->boundary_closed,
-              r->boundary_nonmanifold_edges, r->boundary_nonmanifold_vertices, r->boundary_euler,
-              euler, r->components, comps);
+              r->boundary_nonmanifold_edges, r->boundary_nonmanifold_vertices,
+              r->boundary_euler, euler, r->components, comps);
     if (!quiet)
         printf("    %s: tets %zu euler %ld components %zu volume %.6g dihedral %.2f..%.2f\n",
                label, r->cells, r->boundary_euler, r->components, r->volume, r->min_dihedral,
@@ -63,7 +64,8 @@ static void everyCubePatternKeepsTheCubicalTopology(void) {
         vm_volume v;
         if (!make_volume(&v, 4, 4, 4, -1.0f)) return;
         for (int q = 0; q < 8; q++)
-            if (pat >> q & 1) v.data[(1 + (q & 1)) + 4 * ((1 + (q >> 1 & 1)) + 4 * (1 + (q >> 2)))] = 1.0f;
+            if (pat >> q & 1)
+                v.data[(1 + (q & 1)) + 4 * ((1 + (q >> 1 & 1)) + 4 * (1 + (q >> 2)))] = 1.0f;
         long euler;
         size_t comps;
         vm_test_digital_topology(&v, 1, 0.0, 0, 0.0, &euler, &comps);
@@ -101,7 +103,7 @@ static void randomVolumesKeepTheCubicalTopology(void) {
 
 static const vm_phantom_kind phantoms[] = {VM_PHANTOM_SPHERE, VM_PHANTOM_TORUS,
                                            VM_PHANTOM_GENUS3, VM_PHANTOM_TWO_SPHERES,
-                                           VM_PHANTOM_PLATE, VM_PHANTOM_CUT_SPHERE};
+                                           VM_PHANTOM_PLATE,  VM_PHANTOM_CUT_SPHERE};
 
 static void noisyPhantomsKeepTheCubicalTopology(void) {
     static const double noise[] = {0.3, 1.0};
@@ -110,8 +112,8 @@ static void noisyPhantomsKeepTheCubicalTopology(void) {
             vm_volume v;
             vm_phantom_info info;
             vm_error err;
-            vm_status s = vm_phantom_make(phantoms[t], 48, noise[q], 77u + (unsigned)q, &v,
-                                          &info, &err);
+            vm_status s =
+                vm_phantom_make(phantoms[t], 48, noise[q], 77u + (unsigned)q, &v, &info, &err);
             CHECK_OK(s, &err);
             if (s != VM_OK) continue;
             long euler;
@@ -137,7 +139,7 @@ static void noisyPhantomsKeepTheCubicalTopology(void) {
  * surface, within twice the bound. */
 typedef struct graded_case {
     vm_phantom_kind kind;
-    double min_ratio;      /* uniform tets / graded tets at least */
+    double min_ratio;       /* uniform tets / graded tets at least */
     double mesh_to_surface; /* bound on that side, in units of the distance bound */
 } graded_case;
 
@@ -278,9 +280,10 @@ static void anisotropicVoxelsKeepVolumeThroughThePass(void) {
                       ir.volume_after);
             CHECK_MSG(fabs(r.volume - 10 * info.volume) <= 0.05 * 10 * info.volume,
                       "volume %.6g, the ball's %.6g", r.volume, 10 * info.volume);
-            printf("    ball 1:1:10: %zu tets, volume %.6g -> %.6g (ball %.6g), %.2f..%.2f deg\n",
-                   r.cells, ir.volume_before, ir.volume_after, 10 * info.volume,
-                   r.min_dihedral, r.max_dihedral);
+            printf(
+                "    ball 1:1:10: %zu tets, volume %.6g -> %.6g (ball %.6g), %.2f..%.2f deg\n",
+                r.cells, ir.volume_before, ir.volume_after, 10 * info.volume, r.min_dihedral,
+                r.max_dihedral);
         }
         vm_mesh_free(&m);
     }
