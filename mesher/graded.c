@@ -83,20 +83,65 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     if (!(s = vm__gr_tree_build(&t, &f, &sz, err))) s = vm__gr_tree_balance(&t, err);
     gr_stuff_stats ss;
     memset(&ss, 0, sizeof ss);
-    /* Mesh, measure the distance both ways, refine the leaves where it is over the bound,
-     * until it holds (or only base cells are left there). */
-    for (int round = 0; !s; round++) {
+    /* The topology the mesh must have: the voxels' as dual contouring reads them. */
+    long want_euler = 0;
+    size_t want_comps = 0;
+    if (!s) s = vm__gr_digital_topology(&f, &want_euler, &want_comps, err);
+    /* Mesh; where the topology of the first mesh differs (the octree's tests are local and
+     * sufficient only where the field is smooth), split every crossed leaf a level and mesh
+     * again. Then measure the distance both ways and refine the leaves where it is over the
+     * bound, until it holds (or only base cells are left there); a refinement that changes
+     * the topology is undone, and the last mesh with the right topology stays. */
+    vm_mesh good;
+    vm_mesh_init(&good, VM_TET4);
+    gr_node *saved = NULL;
+    size_t saved_n = 0, saved_leaves = 0;
+    for (int round = 0; !s;) {
         vm_mesh_free(mesh);
         vm_mesh_init(mesh, VM_TET4);
         if (!(s = vm__gr_lattice_build(&L, &t, &f, err)))
             s = vm__gr_stuff(&L, &t, &f, mesh, &ss, err);
         vm__gr_lattice_free(&L);
-        if (s || round == GR_REFINE_ROUNDS) break;
-        size_t split = 0;
-        if ((s = refine_far(&t, &f, o, mesh, &sz, &split, err)) || !split) break;
-        st->refine_rounds = (size_t)round + 1;
+        long euler = 0;
+        size_t comps = 0, split = 0;
+        if (!s) s = vm__gr_mesh_topology(mesh, &euler, &comps, err);
+        if (s) break;
+        if (euler != want_euler || comps != want_comps) {
+            if (round > 0) { /* undo the last refinement */
+                vm_mesh_free(mesh);
+                *mesh = good;
+                vm_mesh_init(&good, VM_TET4);
+                memcpy(t.node, saved, saved_n * sizeof *saved);
+                t.n = saved_n;
+                t.leaves = saved_leaves;
+                st->refine_rounds--;
+                st->refine_undone = 1;
+                break;
+            }
+            if ((s = vm__gr_tree_refine_crossed(&t, &f, &split, err)) || !split) break;
+            st->topology_rounds++;
+        } else {
+            if (round == GR_REFINE_ROUNDS) break;
+            /* keep this mesh and its tree until the refinement proves its topology */
+            gr_node *ns = realloc(saved, t.n * sizeof *ns);
+            if (!ns) {
+                s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the octree");
+                break;
+            }
+            saved = ns;
+            memcpy(saved, t.node, t.n * sizeof *saved);
+            saved_n = t.n;
+            saved_leaves = t.leaves;
+            if ((s = refine_far(&t, &f, o, mesh, &sz, &split, err)) || !split) break;
+            vm_mesh_free(&good);
+            good = *mesh;
+            vm_mesh_init(mesh, VM_TET4);
+            st->refine_rounds = (size_t)++round;
+        }
         s = vm__gr_tree_balance(&t, err);
     }
+    free(saved);
+    vm_mesh_free(&good);
     st->octree_leaves = t.leaves;
     st->warped_vertices = ss.warped;
     st->surface_vertices = ss.cut_vertices + ss.warped;

@@ -88,6 +88,10 @@ vm_status vm__gr_tree_split(gr_tree *t, size_t leaf, vm_error *err);
 /* 2:1 balance over faces, edges and corners (neighbouring leaves differ by one level at
  * most), by splitting the coarser side until it holds. */
 vm_status vm__gr_tree_balance(gr_tree *t, vm_error *err);
+/* Splits every leaf above the base level that the surface may cross. [out] *split: leaves
+ * split. */
+vm_status vm__gr_tree_refine_crossed(gr_tree *t, const gr_field *f, size_t *split,
+                                     vm_error *err);
 /* The node that holds lattice point p, descending no further than `level` (a leaf, or an
  * inner node of that level when the region there is finer); -1 outside the root. */
 int64_t vm__gr_tree_find(const gr_tree *t, const int64_t p[3], int level);
@@ -135,5 +139,13 @@ typedef struct gr_stuff_stats {
  * coordinates. */
 vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f, vm_mesh *mesh,
                        gr_stuff_stats *st, vm_error *err);
+
+/* The topology of the voxels as dual contouring reads them (configuration table of
+ * graded_config.c): the Euler characteristic of the boundary and the components of the
+ * 6-connected inside points. */
+vm_status vm__gr_digital_topology(const gr_field *f, long *euler, size_t *comps,
+                                  vm_error *err);
+/* The same for a tet mesh: the boundary's V - E + F and the components of its points. */
+vm_status vm__gr_mesh_topology(const vm_mesh *m, long *euler, size_t *comps, vm_error *err);
 
 #endif

@@ -339,6 +339,22 @@ vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *sz, 
     return s;
 }
 
+vm_status vm__gr_tree_refine_crossed(gr_tree *t, const gr_field *f, size_t *split,
+                                     vm_error *err) {
+    size_t n = t->n;
+    *split = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (t->node[i].child >= 0 || t->node[i].level == 0) continue;
+        double lo[3], hi[3];
+        node_box(t, &t->node[i], lo, hi);
+        if (classify(f, lo, hi) != 0) continue;
+        vm_status s = vm__gr_tree_split(t, i, err);
+        if (s) return s;
+        ++*split;
+    }
+    return VM_OK;
+}
+
 vm_status vm__gr_tree_balance(gr_tree *t, vm_error *err) {
     size_t cap = t->leaves + 1024, n = 0;
     size_t *work = malloc(cap * sizeof *work);

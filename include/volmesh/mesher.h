@@ -58,6 +58,9 @@ typedef struct vm_mesh_stats {
     size_t octree_leaves;      /* graded: leaves of the sizing octree */
     size_t warped_vertices;    /* graded: lattice vertices moved onto the surface */
     size_t refine_rounds;      /* graded: rounds of refining where the distance was over */
+    size_t topology_rounds;    /* graded: rounds of refining where the topology differed */
+    int refine_undone;         /* graded: the last distance refinement changed the topology
+                                  and was undone (the distance may be over the bound) */
     double seconds;
 } vm_mesh_stats;
 
