@@ -43,10 +43,13 @@ static const char *mesh_help =
     "                          with the topology of the trilinear interpolant; asc adaptive\n"
     "                          skeleton climbing; cover disk covering (quad: dc only)\n"
     "  --graded                graded octree sized in world units (isosurface stuffing; also\n"
-    "                          set by any of the three below; docs/SIZING.md)\n"
-    "  --max-edge L            no element edge longer than L (world units, e.g. mm)\n"
+    "                          set by any of the four below; docs/SIZING.md)\n"
+    "  --max-edge L            no element edge longer than L (world units, e.g. mm; with\n"
+    "                          --labels: interior cells of at most L, boundaries uniform)\n"
     "  --min-edge L            smallest cell edge (default: one voxel)\n"
     "  --distance D            boundary within D of the isosurface (default: half a voxel)\n"
+    "  --size-field FILE       an image (any readable format, its own geometry) giving the\n"
+    "                          largest edge at each point, in world units\n"
     "  --adaptive              octree cells: large inside, 2x2x2 on simple flat boundary\n"
     "                          (hexes: exact interior cubes merged, the boundary uniform)\n"
     "  --error E               adaptive tets: boundary error in voxels (>= 0, default 0.5;\n"
@@ -334,6 +337,8 @@ typedef struct {
     vm_label_size *label_sizes; /* --size-per-label (owned) */
     int32_t *labels;            /* --labels' list (owned; NULL for all) */
     const char *materials_path; /* --materials */
+    const char *size_field_path; /* --size-field */
+    vm_volume size_field;       /* its image (owned) */
     vm_material *materials;     /* its rows (owned) */
     const char *modulus;        /* --modulus */
     long material_bins;         /* --material-bins (0: not given, 32) */
@@ -348,7 +353,7 @@ static const char *const mesh_valued[] = {
     "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
     "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts",
     "--materials", "--modulus",   "--material-bins", "--max-edge", "--min-edge",
-    "--distance"};
+    "--distance", "--size-field"};
 
 /* 1 when option a takes a value. */
 static int mesh_takes_value(const char *a) {
@@ -427,6 +432,9 @@ static int shape_option(mesh_args *m, char **argv, int *i, int *taken) {
         *(strcmp(a, "--max-edge") == 0   ? &m->o.max_edge
           : strcmp(a, "--min-edge") == 0 ? &m->o.min_edge
                                          : &m->o.distance) = x;
+        m->o.graded = 1;
+    } else if (vm_cli_is(a, "--size-field", NULL)) {
+        m->size_field_path = argv[++*i];
         m->o.graded = 1;
     } else if (vm_cli_is(a, "--max-level", NULL)) {
         long l = 0;
@@ -601,6 +609,16 @@ static int option_conflicts(const mesh_args *m) {
                        m->materials_path))
         return vm_cli_fail("mesh: --modulus needs the whole volume and gives the materials: "
                            "not with --labels, --elements tri|quad, --slabs or --materials");
+    if (m->o.graded && (m->have_slabs || m->surface_elements || o->adaptive))
+        return vm_cli_fail("mesh: --graded, --min-edge, --distance and --size-field mesh "
+                           "tetrahedra of the whole volume: not with --slabs, --adaptive or "
+                           "--elements tri|quad");
+    if (m->have_labels && o->graded && !(o->max_edge > 0))
+        return vm_cli_fail("mesh: --graded meshes one material (--iso or --range); with "
+                           "--labels, --max-edge L sizes the cells");
+    if (m->have_labels && (o->min_edge > 0 || o->distance > 0 || m->size_field_path))
+        return vm_cli_fail("mesh: with --labels, --max-edge sizes the cells; --min-edge, "
+                           "--distance and --size-field mesh one material (--iso or --range)");
     if (m->have_slabs &&
         (m->have_labels || m->denoise || m->surface_elements || o->elements != VM_TET4))
         return vm_cli_fail("mesh: --slabs meshes tetrahedra: not with --labels, --denoise or "
@@ -703,6 +721,13 @@ static int mesh_prepare(mesh_args *m) {
     m->o.progress = vm_cli_progress;
     m->o.progress_user = &m->quiet;
     m->wo.compress = m->compress;
+    if (m->size_field_path) {
+        vm_error err;
+        vm_error_clear(&err);
+        if (vm_volume_read(m->size_field_path, &m->size_field, &err))
+            return vm_cli_fail("--size-field: %s", err.message);
+        m->o.size_field = &m->size_field;
+    }
     return check_output(m);
 }
 
@@ -835,6 +860,19 @@ static int mesh_whole(mesh_args *m, mesh_job *j, int *done) {
     vm_cli_stage_done(m->verbose, "read", &j->t);
     *done = m->have_labels || m->surface_elements;
     if (m->have_labels) {
+        /* --max-edge L: interior cells whose diagonal is at most L, the label boundaries at
+         * the voxels (so that no label is lost) */
+        if (m->o.max_edge > 0) {
+            double h = fmax(j->v.spacing[0], fmax(j->v.spacing[1], j->v.spacing[2]));
+            int level = 0;
+            while (level < 10 && h * sqrt(3.0) * (double)(2 << level) <= m->o.max_edge)
+                level++;
+            m->lo.adaptive = level >= 1;
+            if (level >= 1) m->lo.max_level = level;
+            if (m->verbose)
+                fprintf(stderr, "volmesh: --max-edge %g: label cells of at most %d voxels\n",
+                        m->o.max_edge, 1 << level);
+        }
         rc = vm_cli_mesh_labels(&j->v, m->in.path, m->out, m->surface, &m->lo, &m->wo, m->json,
                                 m->quality_fields, m->report, m->improve, m->verbose);
         vm_volume_free(&j->v);
@@ -1006,5 +1044,6 @@ int vm_cmd_mesh(int argc, char **argv) {
     vm_materials_free(m.materials);
     vm_expr_free(m.expr);
     free(m.image_mats);
+    vm_volume_free(&m.size_field);
     return rc;
 }

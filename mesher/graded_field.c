@@ -50,6 +50,8 @@ double vm__gr_phi_clamped(const gr_field *f, const double u[3]) {
     return vm__gr_phi_value(f, trilinear(f, x[0], x[1], x[2]));
 }
 
+static vm_status size_blocks(gr_field *f, const vm_volume *sf, vm_error *err);
+
 vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_options *o,
                             vm_error *err) {
     memset(f, 0, sizeof *f);
@@ -102,11 +104,112 @@ vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_optio
      * border lie on the border plane. */
     double span = fabs(vm__gr_phi_value(f, vmin)) + fabs(vm__gr_phi_value(f, vmax));
     f->out = -(span > 0 ? span : 1.0);
+    if (o->size_field) {
+        vm_status s = size_blocks(f, o->size_field, err);
+        if (s) {
+            vm__gr_field_free(f);
+            return s;
+        }
+    }
     return VM_OK;
 }
 
 void vm__gr_field_free(gr_field *f) {
     free(f->bmin);
     free(f->bmax);
-    f->bmin = f->bmax = NULL;
+    free(f->bsize);
+    f->bmin = f->bmax = f->bsize = NULL;
+}
+
+/* The size image's value at world point x (trilinear, clamped to its box). */
+static double size_at(const vm_volume *sf, double inv[3][3], const double x[3]) {
+    double w[3], u[3];
+    int64_t i0[3];
+    for (int r = 0; r < 3; r++)
+        w[r] = x[r] - sf->origin[r];
+    for (int r = 0; r < 3; r++) {
+        u[r] = inv[r][0] * w[0] + inv[r][1] * w[1] + inv[r][2] * w[2];
+        double top = (double)(sf->dims[r] - 1);
+        if (!(u[r] > 0)) u[r] = 0; /* NaN too */
+        if (u[r] > top) u[r] = top;
+        i0[r] = (int64_t)floor(u[r]);
+        if (i0[r] > sf->dims[r] - 2) i0[r] = sf->dims[r] - 2;
+        if (i0[r] < 0) i0[r] = 0;
+        u[r] -= (double)i0[r];
+    }
+    double acc = 0;
+    for (int c = 0; c < 8; c++) {
+        int64_t p[3];
+        double wt = 1;
+        for (int r = 0; r < 3; r++) {
+            int b = (c >> r) & 1;
+            p[r] = i0[r] + b;
+            if (p[r] > sf->dims[r] - 1) p[r] = sf->dims[r] - 1;
+            wt *= b ? u[r] : 1 - u[r];
+        }
+        if (wt == 0) continue;
+        acc += wt * (double)sf->data[p[0] + sf->dims[0] * (p[1] + sf->dims[1] * p[2])];
+    }
+    return acc;
+}
+
+/* The size field's least value per block, from its values at the voxels of the block. */
+static vm_status size_blocks(gr_field *f, const vm_volume *sf, vm_error *err) {
+    double inv[3][3], det;
+    vm_status s = vm__frame_inverse(sf, "--size-field", inv, &det, err);
+    if (s) return s;
+    size_t nv = (size_t)(sf->dims[0] * sf->dims[1] * sf->dims[2]);
+    for (size_t i = 0; i < nv; i++)
+        if (!(sf->data[i] > 0 && sf->data[i] < 1e30))
+            return vm_error_set(err, VM_ERR_ARG,
+                                "--size-field: value %g at voxel %zu is not a length > 0",
+                                (double)sf->data[i], i);
+    size_t nb = (size_t)(f->nb[0] * f->nb[1] * f->nb[2]);
+    f->bsize = malloc(nb * sizeof *f->bsize);
+    if (!f->bsize)
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the size field");
+    for (int64_t bz = 0; bz < f->nb[2]; bz++)
+        for (int64_t by = 0; by < f->nb[1]; by++)
+            for (int64_t bx = 0; bx < f->nb[0]; bx++) {
+                int64_t b[3] = {bx, by, bz}, lo[3], hi[3];
+                for (int d = 0; d < 3; d++) {
+                    lo[d] = b[d] * GR_BLOCK;
+                    hi[d] = lo[d] + GR_BLOCK;
+                    if (hi[d] > f->n[d] - 1) hi[d] = f->n[d] - 1;
+                }
+                double mn = INFINITY;
+                for (int64_t k = lo[2]; k <= hi[2]; k++)
+                    for (int64_t j = lo[1]; j <= hi[1]; j++)
+                        for (int64_t i = lo[0]; i <= hi[0]; i++) {
+                            double ijk[3] = {(double)i, (double)j, (double)k}, x[3];
+                            vm_volume_index_to_world(f->v, ijk, x);
+                            double h = size_at(sf, inv, x);
+                            if (h < mn) mn = h;
+                        }
+                f->bsize[(size_t)(bx + f->nb[0] * (by + f->nb[1] * bz))] = (float)mn;
+            }
+    return VM_OK;
+}
+
+double vm__gr_size_min(const gr_field *f, const double lo[3], const double hi[3]) {
+    if (!f->bsize) return INFINITY;
+    int64_t i0[3], i1[3];
+    for (int d = 0; d < 3; d++) {
+        double a = lo[d] / f->sp[d], b = hi[d] / f->sp[d];
+        if (a < 0) a = 0;
+        if (b > (double)(f->n[d] - 1)) b = (double)(f->n[d] - 1);
+        if (b < a) b = a;
+        i0[d] = (int64_t)floor(a) / GR_BLOCK;
+        i1[d] = (int64_t)ceil(b) / GR_BLOCK;
+        if (i0[d] >= f->nb[d]) i0[d] = f->nb[d] - 1;
+        if (i1[d] >= f->nb[d]) i1[d] = f->nb[d] - 1;
+    }
+    double mn = INFINITY;
+    for (int64_t z = i0[2]; z <= i1[2]; z++)
+        for (int64_t y = i0[1]; y <= i1[1]; y++)
+            for (int64_t x = i0[0]; x <= i1[0]; x++) {
+                double h = f->bsize[(size_t)(x + f->nb[0] * (y + f->nb[1] * z))];
+                if (h < mn) mn = h;
+            }
+    return mn;
 }

@@ -22,6 +22,8 @@ typedef struct gr_field {
     /* Min and max of the values per block of GR_BLOCK^3 voxels (nb blocks per axis). */
     int64_t nb[3];
     float *bmin, *bmax;
+    /* The size field's least value per block (NULL: no size field). */
+    float *bsize;
 } gr_field;
 
 enum { GR_BLOCK = 4 };
@@ -51,6 +53,10 @@ double vm__gr_phi(const gr_field *f, const double u[3]);
 /* The same with u clamped into the box (the field extended outward, for estimates). */
 double vm__gr_phi_clamped(const gr_field *f, const double u[3]);
 
+/* The least size-field value over the blocks that meet the box [lo, hi] (scaled index
+ * frame); INFINITY without a size field. */
+double vm__gr_size_min(const gr_field *f, const double lo[3], const double hi[3]);
+
 vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_options *o,
                             vm_error *err);
 void vm__gr_field_free(gr_field *f);
@@ -76,6 +82,14 @@ typedef struct gr_tree {
     double distance; /* the distance bound (world) */
     size_t leaves;
 } gr_tree;
+
+/* The longest edge the mesh may have in a cell whose longest edge is s, with distance bound
+ * D: the stuffing moves a lattice vertex onto the surface by at most D/2 and at most 0.15 of
+ * an edge at the vertex (a neighbour's edge is at most 2s), so an edge grows by at most
+ * min(D, 0.6 s). */
+static inline double vm__gr_edge_bound(double s, double D) {
+    return s + (D < 0.6 * s ? D : 0.6 * s);
+}
 
 /* Sizing of the octree (world units). */
 typedef struct gr_sizing {

@@ -281,7 +281,14 @@ static int wants_split(const gr_tree *t, const gr_field *f, const gr_sizing *sz,
     if (q->level > t->max_level) return 1;
     double lo[3], hi[3];
     node_box(t, q, lo, hi);
-    if (classify(f, lo, hi) != 0) return 0;
+    int c = classify(f, lo, hi);
+    if (c < 0) return 0;
+    /* the size field bounds the cell's longest edge */
+    double edge = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    if (f->bsize &&
+        vm__gr_edge_bound(edge, sz->distance) > vm__gr_size_min(f, lo, hi) * (1 + 1e-9))
+        return 1;
+    if (c != 0) return 0;
     return !collapsible(t, f, sz, q);
 }
 
@@ -307,7 +314,8 @@ vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *sz, 
     }
     t->root_level = K;
     int ml = 0;
-    while (ml < K && hmax * (double)((int64_t)2 << ml) <= sz->max_edge * (1 + 1e-9))
+    while (ml < K && vm__gr_edge_bound(hmax * (double)((int64_t)2 << ml), sz->distance) <=
+                         sz->max_edge * (1 + 1e-9))
         ml++;
     t->max_level = ml;
     vm_status s = grow(t, 1, err);

@@ -53,44 +53,53 @@ static vm_status nomem(vm_error *err) {
     return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory while stuffing the lattice");
 }
 
-/* Unique edges of the tets. */
+/* Unique edges of the tets: the tets' edge slots grouped by their lower vertex (a counting
+ * sort, which walks memory in order where a hash table would miss the cache on every
+ * lookup), then told apart by their upper vertex within each group. */
 static vm_status build_edges(stuff *S, vm_error *err) {
-    size_t cap = 1;
-    while (cap < 4 * S->nt + 16)
-        cap *= 2;
-    int64_t *slot = malloc(cap * sizeof *slot);
-    S->ev = malloc((6 * S->nt + 1) * sizeof *S->ev);
+    size_t ns = 6 * S->nt;
+    if (ns >= (size_t)INT32_MAX)
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: over 2^31 lattice edges; raise --min-edge");
+    size_t *start = calloc(S->nv + 2, sizeof *start);
+    int32_t(*slot)[2] = malloc((ns + 1) * sizeof *slot); /* upper vertex, tet * 6 + k */
+    S->ev = malloc((ns + 1) * sizeof *S->ev);
     S->te = malloc((S->nt + 1) * sizeof *S->te);
-    if (!slot || !S->ev || !S->te) {
+    if (!start || !slot || !S->ev || !S->te) {
+        free(start);
         free(slot);
         return nomem(err);
     }
-    for (size_t i = 0; i < cap; i++)
-        slot[i] = -1;
-    S->ne = 0;
     for (size_t t = 0; t < S->nt; t++)
         for (int k = 0; k < 6; k++) {
             int32_t a = S->L->tet[t][tet_edge[k][0]], b = S->L->tet[t][tet_edge[k][1]];
-            if (a > b) {
-                int32_t x = a;
-                a = b;
-                b = x;
-            }
-            uint64_t key = (uint64_t)(uint32_t)a << 32 | (uint32_t)b;
-            size_t h = (size_t)vm__hash_mix(key) & (cap - 1);
-            while (slot[h] >= 0) {
-                const int32_t *e = S->ev[slot[h]];
-                if (e[0] == a && e[1] == b) break;
-                h = (h + 1) & (cap - 1);
-            }
-            if (slot[h] < 0) {
-                slot[h] = (int64_t)S->ne;
-                S->ev[S->ne][0] = a;
-                S->ev[S->ne][1] = b;
+            start[(size_t)(a < b ? a : b) + 2]++;
+        }
+    for (size_t v = 0; v < S->nv; v++)
+        start[v + 2] += start[v + 1];
+    for (size_t t = 0; t < S->nt; t++)
+        for (int k = 0; k < 6; k++) {
+            int32_t a = S->L->tet[t][tet_edge[k][0]], b = S->L->tet[t][tet_edge[k][1]];
+            size_t at = start[(size_t)(a < b ? a : b) + 1]++;
+            slot[at][0] = a < b ? b : a;
+            slot[at][1] = (int32_t)(6 * t + (size_t)k);
+        }
+    /* now start[v] .. start[v + 1] are vertex v's slots */
+    S->ne = 0;
+    for (size_t v = 0; v < S->nv; v++) {
+        size_t first = S->ne;
+        for (size_t i = start[v]; i < start[v + 1]; i++) {
+            size_t e = first;
+            while (e < S->ne && S->ev[e][1] != slot[i][0])
+                e++;
+            if (e == S->ne) {
+                S->ev[e][0] = (int32_t)v;
+                S->ev[e][1] = slot[i][0];
                 S->ne++;
             }
-            S->te[t][k] = (int32_t)slot[h];
+            S->te[slot[i][1] / 6][slot[i][1] % 6] = (int32_t)e;
         }
+    }
+    free(start);
     free(slot);
     S->cut = malloc((S->ne + 1) * sizeof *S->cut);
     if (!S->cut) return nomem(err);

@@ -30,6 +30,10 @@ typedef struct vm_mesh_options {
     double max_edge;        /* no edge longer than this; 0: no bound */
     double min_edge;        /* smallest cell edge; 0: one voxel (the smallest spacing) */
     double distance;        /* boundary within this of the isosurface; 0: half a voxel */
+    /* The largest edge at each point (world units), as an image with its own geometry,
+     * resampled trilinearly at the voxels (its nearest value beyond its box); NULL: none.
+     * Sizes below the base cell (one voxel, or --min-edge) are met by base cells. */
+    const vm_volume *size_field;
     /* A cropped volume (tets only; full_nz 0: v is the whole volume). v holds the planes
      * z_offset .. z_offset + v->dims[2] - 1 of a whole volume of full_nz planes, and v's
      * index-to-world mapping is the whole volume's (plane 0 at its origin). The mesh covers

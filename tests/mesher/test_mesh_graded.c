@@ -247,6 +247,81 @@ static void sizesAreMet(void) {
     vm_volume_free(&v);
 }
 
+/* A size field (its own grid, coarser and shifted) asks for edges of 2 on the ball's left half
+ * and 24 on its right: the left half holds at least 4 times the tets of the right, no tet
+ * there has an edge over 2, and the topology holds. A size of 0 is refused. */
+static void sizeFieldSetsTheDensity(void) {
+    vm_volume v, sf;
+    vm_phantom_info info;
+    vm_error err;
+    vm_status s = vm_phantom_make(VM_PHANTOM_SPHERE, 48, 0.0, 1u, &v, &info, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return;
+    if (!make_volume(&sf, 13, 5, 5, 24.0f)) {
+        vm_volume_free(&v);
+        return;
+    }
+    for (int d = 0; d < 3; d++) {
+        sf.spacing[d] = 4.0;
+        sf.origin[d] = -1.0;
+    }
+    /* x = -1 + 4 i: sizes 2 up to x = 19, 24 from x = 23 (the ball's centre is at 23.5) */
+    for (int64_t k = 0; k < 5; k++)
+        for (int64_t j = 0; j < 5; j++)
+            for (int64_t i = 0; i < 6; i++)
+                sf.data[i + 13 * (j + 5 * k)] = 2.0f;
+    vm_mesh_options o;
+    graded_options(&o);
+    o.size_field = &sf;
+    vm_mesh m;
+    s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK_OK(s, &err);
+    if (s == VM_OK) {
+        size_t left = 0, right = 0;
+        double longest = 0;
+        for (size_t c = 0; c < m.ncells; c++) {
+            double cx = 0, lo = INFINITY;
+            for (int k = 0; k < 4; k++) {
+                double x = m.points[3 * (size_t)m.cells[4 * c + (size_t)k]];
+                cx += 0.25 * x;
+                lo = fmin(lo, x);
+            }
+            if (cx < 23.5) left++;
+            else right++;
+            if (lo >= 19.0 - 1e-9) continue;
+            for (int a = 0; a < 4; a++)
+                for (int b = a + 1; b < 4; b++) {
+                    const double *p = m.points + 3 * (size_t)m.cells[4 * c + (size_t)a];
+                    const double *q = m.points + 3 * (size_t)m.cells[4 * c + (size_t)b];
+                    if (fmax(p[0], q[0]) > 19.0 - 4.0) continue; /* within a cell of x=19 */
+                    double l = sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                                    (p[2] - q[2]) * (p[2] - q[2]));
+                    longest = fmax(longest, l);
+                }
+        }
+        CHECK_MSG(left >= 4 * right, "size field: %zu tets left, %zu right", left, right);
+        CHECK_MSG(longest <= 2.0 + 1e-9, "size field: an edge of %.3f where 2 is asked",
+                  longest);
+        printf("    sphere, size field 2 | 24: %zu tets left, %zu right, longest left %.3f\n",
+               left, right, longest);
+        vm_mesh_report r;
+        if (vm_mesh_check(&m, &r, &err) == VM_OK)
+            CHECK(r.boundary_euler == 2 && r.components == 1 && r.inverted == 0);
+        vm_mesh_free(&m);
+    }
+    sf.data[7] = 0.0f;
+    s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK_MSG(s == VM_ERR_ARG && strstr(err.message, "--size-field"), "size 0: %d %s", (int)s,
+              err.message);
+    if (s == VM_OK) vm_mesh_free(&m);
+    o.graded = 0;
+    s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK_MSG(s == VM_ERR_ARG, "a size field without graded sizing: %d", (int)s);
+    if (s == VM_OK) vm_mesh_free(&m);
+    vm_volume_free(&sf);
+    vm_volume_free(&v);
+}
+
 /* A ball of 1:1:10 voxels (clinical CT's 0.5 mm pixels and 5 mm slices): near-cubic base
  * cells, the topology kept, and the quality pass keeps the volume within 2% at 15..150 degrees
  * (the reliability issue's item 5). */
@@ -292,4 +367,5 @@ static void anisotropicVoxelsKeepVolumeThroughThePass(void) {
 
 TEST_MAIN(T(everyCubePatternKeepsTheCubicalTopology), T(randomVolumesKeepTheCubicalTopology),
           T(noisyPhantomsKeepTheCubicalTopology), T(gradedPhantomsAreSmallAndFaithful),
-          T(sizesAreMet), T(anisotropicVoxelsKeepVolumeThroughThePass))
+          T(sizesAreMet), T(sizeFieldSetsTheDensity),
+          T(anisotropicVoxelsKeepVolumeThroughThePass))
