@@ -1288,6 +1288,7 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
             out->surface_to_mesh_max = out->surface_to_mesh_mean = INFINITY;
         }
         out->hausdorff = fmax(out->mesh_to_surface_max, out->surface_to_mesh_max);
+        out->voxel = cbrt(fabs(vm_volume_frame_determinant(v)));
         if (points) {
             size_t n = ms.npts + ss.npts;
             if (n) {
