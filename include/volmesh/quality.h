@@ -413,9 +413,11 @@ vm_status vm_quality_add_distance(vm_quality_summary *q, const vm_mesh *m, const
  * boundary_faces, boundary_closed (0/1), boundary_euler, components, boundary_components,
  * boundary_self_intersections, volume, min_dihedral, max_dihedral, slivers_5, slivers_10,
  * min_scaled_jacobian, abaqus_failures) and METRIC.min, METRIC.mean, METRIC.max, METRIC.unacceptable for each
- * metric of the kind; edges, edge_length.min, edge_length.mean, edge_length.max, regions;
- * and with a distance measured: hausdorff, mesh_to_surface_max, mesh_to_surface_mean,
- * surface_to_mesh_max, surface_to_mesh_mean. Returns VM_OK and sets *value, or VM_ERR_ARG when the key is unknown
+ * metric of the kind; edges, edge_length.min, edge_length.mean, edge_length.max, regions,
+ * regions_missing (of expected_regions); and with a distance measured: hausdorff,
+ * mesh_to_surface_max, mesh_to_surface_mean, surface_to_mesh_max, surface_to_mesh_mean, and
+ * in voxels hausdorff_voxels, mesh_to_surface_max_voxels, surface_to_mesh_max_voxels (NaN
+ * when distance.voxel is 0). Returns VM_OK and sets *value, or VM_ERR_ARG when the key is unknown
  * for this mesh (e.g. min_dihedral or abaqus_failures of a hex mesh). */
 vm_status vm_quality_lookup(const vm_quality_summary *q, const char *key, double *value);
 
