@@ -99,7 +99,7 @@ bad:
 typedef struct label_notes {
     char **line;
     size_t n;
-    size_t kept;    /* labels with at least one element */
+    size_t kept; /* labels with at least one element */
 } label_notes;
 
 static void notes_free(label_notes *nt) {
@@ -332,7 +332,8 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
         return rc;
     }
     /* what was not kept, on stderr whatever the output format */
-    for (size_t i = 0; i < nt.n; i++) fprintf(stderr, "volmesh: %s: warning: %s\n", out, nt.line[i]);
+    for (size_t i = 0; i < nt.n; i++)
+        fprintf(stderr, "volmesh: %s: warning: %s\n", out, nt.line[i]);
     rc = report(&m, &checked, &st, &nt, json, out, improved ? &ir : NULL);
     int quiet = lo->progress_user ? *(const int *)lo->progress_user : 0;
     int32_t *asked = malloc((st.nlabels ? st.nlabels : 1) * sizeof *asked);

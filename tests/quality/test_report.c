@@ -618,7 +618,8 @@ static void sphereReportGivesTheDistanceInWorldUnitsAndVoxels(void) {
     CHECK(d->mesh_samples > 0 && d->surface_samples > 0);
     CHECK(d->mesh_to_surface_max > 0 && d->surface_to_mesh_max > 0);
     CHECK(d->hausdorff == fmax(d->mesh_to_surface_max, d->surface_to_mesh_max));
-    CHECK_MSG(d->hausdorff <= 0.5 * d->voxel, "sphere Hausdorff %.4g voxels", d->hausdorff / d->voxel);
+    CHECK_MSG(d->hausdorff <= 0.5 * d->voxel, "sphere Hausdorff %.4g voxels",
+              d->hausdorff / d->voxel);
     double x;
     CHECK(vm_quality_lookup(&q, "hausdorff_voxels", &x) == VM_OK);
     CHECK_NEAR(x, d->hausdorff / 0.5, 1e-12);
