@@ -164,6 +164,20 @@ int vm_cmd_report(int argc, char **argv);
 int vm_cli_write_report(const char *path, const vm_mesh *m, const char *name,
                         const vm_mesh_report *check, const vm_surface_distance *dist,
                         int quiet);
+
+/* What a mesher adds to the report (not owned): the regions asked for (those missing are
+ * listed) and warnings, one line each (what was not kept). */
+typedef struct vm_cli_report_notes {
+    const int32_t *regions;
+    size_t nregions;
+    const char *const *warnings;
+    size_t nwarnings;
+} vm_cli_report_notes;
+
+/* vm_cli_write_report with notes (NULL: none). */
+int vm_cli_write_report_with(const char *path, const vm_mesh *m, const char *name,
+                             const vm_mesh_report *check, const vm_surface_distance *dist,
+                             const vm_cli_report_notes *notes, int quiet);
 int vm_cmd_quality(int argc, char **argv);
 int vm_cmd_convert(int argc, char **argv);
 int vm_cmd_denoise(int argc, char **argv);

@@ -2,6 +2,7 @@
 /* cli/mesh_labels.c — `volmesh mesh --labels`: a label volume (segmentation) in, one
  * conforming multi-material mesh out, with a summary line per label. */
 #include <errno.h>
+#include <stdarg.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -92,9 +93,81 @@ bad:
     return vm_cli_fail("--size-per-label: '%s' is not a list of LABEL:SIZE such as 3:0.5,7:2", s);
 }
 
+/* The lines that say what was not kept, or kept only coarsely: a label without an element
+ * (and why), the pieces --min-island relabelled, a label that --size kept as the one block
+ * where it has the most voxels. */
+typedef struct label_notes {
+    char **line;
+    size_t n;
+    size_t kept; /* labels with at least one element */
+} label_notes;
+
+static void notes_free(label_notes *nt) {
+    for (size_t i = 0; i < nt->n; i++) free(nt->line[i]);
+    free(nt->line);
+    memset(nt, 0, sizeof *nt);
+}
+
+static int notes_add(label_notes *nt, const char *fmt, ...) {
+    char buf[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    char **t = realloc(nt->line, (nt->n + 1) * sizeof *t);
+    if (!t) return -1;
+    nt->line = t;
+    if (!(t[nt->n] = malloc(strlen(buf) + 1))) return -1;
+    strcpy(t[nt->n++], buf);
+    return 0;
+}
+
+static int make_notes(const vm_label_stats *st, const vm_label_options *lo, label_notes *nt) {
+    memset(nt, 0, sizeof *nt);
+    int rc = 0;
+    for (size_t i = 0; i < st->nlabels && !rc; i++) {
+        const vm_label_info *l = &st->labels[i];
+        if (l->elements) nt->kept++;
+        if (!l->elements) {
+            const char *why;
+            if (l->islands_removed)
+                why = "--min-island relabelled all its pieces";
+            else if (lo->cell_size > 1 && !l->rescued)
+                why = "at --size it is most frequent in no block, and the block where it has "
+                      "the most voxels is another label's only one";
+            else
+                why = "the topology repair relabelled its last cells";
+            rc = notes_add(nt, "label %ld (%zu voxel%s in) has no element and is not in the "
+                               "mesh: %s",
+                           (long)l->label, l->input_voxels, l->input_voxels == 1 ? "" : "s",
+                           why);
+        } else if (l->islands_removed) {
+            rc = notes_add(nt, "label %ld: %zu piece%s (%zu cell%s) below --min-island %zu "
+                               "relabelled to their neighbours",
+                           (long)l->label, l->islands_removed,
+                           l->islands_removed == 1 ? "" : "s", l->island_cells_removed,
+                           l->island_cells_removed == 1 ? "" : "s",
+                           lo->min_island);
+        }
+        if (!rc && l->elements && l->rescued)
+            rc = notes_add(nt, "label %ld (%zu voxel%s in) is most frequent in no %d^3 block "
+                               "at --size %d: kept as the block where it has the most voxels "
+                               "(%zu meshed cell%s; --size-per-label %ld:1 meshes it finer)",
+                           (long)l->label, l->input_voxels, l->input_voxels == 1 ? "" : "s",
+                           lo->cell_size, lo->cell_size,
+                           l->meshed_voxels, l->meshed_voxels == 1 ? "" : "s", (long)l->label);
+    }
+    if (rc) {
+        notes_free(nt);
+        return vm_cli_fail("mesh: out of memory");
+    }
+    return 0;
+}
+
 /* Prints the summary of m, whose vm_mesh_check is *checked. */
 static int report(const vm_mesh *m, const vm_mesh_report *checked, const vm_label_stats *st,
-                  int json, const char *out, const vm_improve_report *ir) {
+                  const label_notes *nt, int json, const char *out,
+                  const vm_improve_report *ir) {
     const vm_mesh_report r = *checked;
     const char *kind = m->kind == VM_HEX8 ? "hexes" : "tets";
     if (json) {
@@ -117,30 +190,49 @@ static int report(const vm_mesh *m, const vm_mesh_report *checked, const vm_labe
                    ir->min_dihedral_before, ir->max_dihedral_before, ir->min_dihedral_after,
                    ir->max_dihedral_after, ir->abaqus_before, ir->abaqus_after,
                    ir->max_interface_move, ir->seconds);
-        printf("\"labels\": [");
+        printf("\"labels_meshed\": %zu, \"labels_asked\": %zu, \"labels_lost\": [", nt->kept,
+               st->nlabels);
+        for (size_t i = 0, k = 0; i < st->nlabels; i++)
+            if (!st->labels[i].elements)
+                printf("%s%ld", k++ ? ", " : "", (long)st->labels[i].label);
+        printf("], \"warnings\": [");
+        for (size_t i = 0; i < nt->n; i++) {
+            printf("%s\"", i ? ", " : "");
+            for (const char *c = nt->line[i]; *c; c++)
+                printf(*c == '"' || *c == '\\' ? "\\%c" : "%c", *c);
+            printf("\"");
+        }
+        printf("], \"labels\": [");
         for (size_t i = 0; i < st->nlabels; i++) {
             const vm_label_info *l = &st->labels[i];
             printf("%s{\"label\": %ld, \"elements\": %zu, \"volume\": %.17g, "
                    "\"voxel_volume\": %.17g, \"input_voxels\": %zu, \"meshed_voxels\": %zu, "
-                   "\"size\": %.6g}",
+                   "\"size\": %.6g, \"rescued\": %s, \"islands_removed\": %zu, "
+                   "\"island_cells_removed\": %zu}",
                    i ? ", " : "", (long)l->label, l->elements, l->mesh_volume, l->voxel_volume,
-                   l->input_voxels, l->meshed_voxels, l->size);
+                   l->input_voxels, l->meshed_voxels, l->size, l->rescued ? "true" : "false",
+                   l->islands_removed, l->island_cells_removed);
         }
         printf("]}\n");
         return VM_EXIT_OK;
     }
-    printf("%s: %zu %s, %zu points, %zu labels, boundary %s (Euler %ld), volume %.6g, "
+    char count[64];
+    if (nt->kept == st->nlabels)
+        snprintf(count, sizeof count, "%zu label%s", nt->kept, nt->kept == 1 ? "" : "s");
+    else
+        snprintf(count, sizeof count, "%zu labels (of %zu asked for)", nt->kept, st->nlabels);
+    printf("%s: %zu %s, %zu points, %s, boundary %s (Euler %ld), volume %.6g, "
            "%zu inverted, min scaled Jacobian %.3f, %.2f s\n",
-           out, m->ncells, kind, m->npoints, st->nlabels,
-           r.boundary_closed ? "closed" : "OPEN", r.boundary_euler, r.volume, r.inverted,
-           r.min_scaled_jacobian, st->seconds);
+           out, m->ncells, kind, m->npoints, count, r.boundary_closed ? "closed" : "OPEN",
+           r.boundary_euler, r.volume, r.inverted, r.min_scaled_jacobian, st->seconds);
     for (size_t i = 0; i < st->nlabels; i++) {
         const vm_label_info *l = &st->labels[i];
         double rel = l->voxel_volume > 0 ? 100.0 * (l->mesh_volume / l->voxel_volume - 1) : 0;
         printf("  label %ld: %zu %s, volume %.6g (voxels %.6g, %+.2f%%), %zu voxels in, "
-               "%zu meshed\n",
+               "%zu meshed%s\n",
                (long)l->label, l->elements, kind, l->mesh_volume, l->voxel_volume, rel,
-               l->input_voxels, l->meshed_voxels);
+               l->input_voxels, l->meshed_voxels,
+               !l->elements ? " (LOST)" : l->rescued ? " (kept as one block)" : "");
     }
     if (st->coarse_cells || st->cell_size != 1.0)
         printf("cells: %.4g voxels along interfaces and boundary, %zu larger leaves within "
@@ -192,6 +284,7 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
     vm_error err;
     vm_error_clear(&err);
     if (vm_mesh_labels(v, lo, &m, &st, &err)) return vm_cli_fail("%s: %s", in, err.message);
+    label_notes nt;
     vm_cli_stage_line(verbose, "labels", st.seconds_grid);
     vm_cli_stage_line(verbose, "repair", st.seconds_repair);
     vm_cli_stage_line(verbose, "mesh", st.seconds_mesh);
@@ -232,10 +325,26 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
     /* one check serves the summary and the HTML report */
     vm_mesh_report checked;
     if (!s) s = vm_mesh_check_with(&m, lo->progress, lo->progress_user, &checked, &err);
-    int rc = s ? vm_cli_fail_err(&err)
-               : report(&m, &checked, &st, json, out, improved ? &ir : NULL);
+    int rc = s ? vm_cli_fail_err(&err) : make_notes(&st, lo, &nt);
+    if (rc) {
+        vm_label_stats_free(&st);
+        vm_mesh_free(&m);
+        return rc;
+    }
+    /* what was not kept, on stderr whatever the output format */
+    for (size_t i = 0; i < nt.n; i++)
+        fprintf(stderr, "volmesh: %s: warning: %s\n", out, nt.line[i]);
+    rc = report(&m, &checked, &st, &nt, json, out, improved ? &ir : NULL);
     int quiet = lo->progress_user ? *(const int *)lo->progress_user : 0;
-    if (!rc && html) rc = vm_cli_write_report(html, &m, out, &checked, NULL, quiet);
+    int32_t *asked = malloc((st.nlabels ? st.nlabels : 1) * sizeof *asked);
+    if (!rc && html && !asked) rc = vm_cli_fail("mesh: out of memory");
+    if (!rc && html) {
+        for (size_t i = 0; i < st.nlabels; i++) asked[i] = st.labels[i].label;
+        vm_cli_report_notes notes = {asked, st.nlabels, (const char *const *)nt.line, nt.n};
+        rc = vm_cli_write_report_with(html, &m, out, &checked, NULL, &notes, quiet);
+    }
+    free(asked);
+    notes_free(&nt);
     vm_label_stats_free(&st);
     vm_mesh_free(&m);
     return rc;

@@ -33,6 +33,8 @@ static const char *quality_help =
     "  --volume FILE         also measure the distance between the mesh boundary and the\n"
     "                        isosurface of this volume, both ways, in world units (keys\n"
     "                        hausdorff, mesh_to_surface_max/_mean, surface_to_mesh_max/_mean)\n"
+    "                        and in voxels (hausdorff_voxels, mesh_to_surface_max_voxels,\n"
+    "                        surface_to_mesh_max_voxels)\n"
     "  --iso V, --range A:B  with --volume: the material, as for volmesh mesh (--invert: f <= V)\n"
     "  -q, --quiet           no progress bars (shown on a terminal for big meshes)\n"
     "\n"

@@ -21,6 +21,12 @@ static const char *report_help =
 int vm_cli_write_report(const char *path, const vm_mesh *m, const char *name,
                         const vm_mesh_report *check, const vm_surface_distance *dist,
                         int quiet) {
+    return vm_cli_write_report_with(path, m, name, check, dist, NULL, quiet);
+}
+
+int vm_cli_write_report_with(const char *path, const vm_mesh *m, const char *name,
+                             const vm_mesh_report *check, const vm_surface_distance *dist,
+                             const vm_cli_report_notes *notes, int quiet) {
     vm_error err;
     vm_error_clear(&err);
     vm_quality_summary q;
@@ -33,6 +39,12 @@ int vm_cli_write_report(const char *path, const vm_mesh *m, const char *name,
     if (dist) {
         q.has_distance = 1;
         q.distance = *dist;
+    }
+    if (notes) {
+        q.expected_regions = notes->regions;
+        q.nexpected_regions = notes->nregions;
+        q.warnings = notes->warnings;
+        q.nwarnings = notes->nwarnings;
     }
     vm_cli_status("drawing", path, quiet);
     vm_status s = vm_quality_write_html(path, m, name, &q, &err);

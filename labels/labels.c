@@ -177,9 +177,41 @@ static vm_status make_ranks(lgrid *g, vm_error *err) {
     return VM_OK;
 }
 
-/* S >= 1: each S^3 block votes; U > 1 (with S == 1): each voxel becomes U^3 cells. */
+/* Gives each label that won no block (S > 1) the block where it has the most voxels, unless
+ * that block's winner has no other block; rescued[code] = 1 for those given one. best[code]:
+ * that block, bestv[code]: its voxels of the label (0: none anywhere). */
+static void rescue_labels(lgrid *g, const size_t *best, const uint32_t *bestv,
+                          uint8_t *rescued) {
+    size_t total = (size_t)(g->m[0] * g->m[1] * g->m[2]), K = (size_t)g->K, n = 0;
+    size_t *wins = calloc(K + 1, sizeof *wins);
+    code_count *lost = malloc((K + 1) * sizeof *lost);
+    if (!wins || !lost) { /* nothing rescued: the caller reports the labels lost */
+        free(wins);
+        free(lost);
+        return;
+    }
+    for (size_t p = 0; p < total; p++) wins[g->code[p]]++;
+    for (size_t c = 1; c <= K; c++)
+        if (!wins[c] && bestv[c]) lost[n++] = (code_count){bestv[c], (int)c};
+    /* the labels with fewest voxels in their best block first */
+    qsort(lost, n, sizeof *lost, cmp_code_count);
+    for (size_t i = 0; i < n; i++) {
+        int c = lost[i].code;
+        uint16_t owner = g->code[best[c]];
+        if (owner != 0 && wins[owner] <= 1) continue;
+        wins[owner]--;
+        wins[c] = 1;
+        g->code[best[c]] = (uint16_t)c;
+        rescued[c] = 1;
+    }
+    free(wins);
+    free(lost);
+}
+
+/* S >= 1: each S^3 block votes, and labels that win no block are rescued (rescue_labels;
+ * rescued: K + 1 flags, may be NULL); U > 1 (with S == 1): each voxel becomes U^3 cells. */
 static vm_status build_grid(const vm_volume *v, const int32_t *chosen, int K, int S, int U,
-                            lgrid *g, vm_error *err) {
+                            lgrid *g, uint8_t *rescued, vm_error *err) {
     int64_t c[3];
     for (int a = 0; a < 3; a++) {
         c[a] = U > 1 ? v->dims[a] * U : (v->dims[a] + S - 1) / S;
@@ -192,9 +224,13 @@ static vm_status build_grid(const vm_volume *v, const int32_t *chosen, int K, in
     g->code = calloc(count, sizeof(uint16_t));
     uint32_t *votes = calloc((size_t)K + 1, sizeof(uint32_t));
     uint16_t *touched = malloc((size_t)S * (size_t)S * (size_t)S * sizeof(uint16_t));
-    if (!g->code || !votes || !touched) {
+    uint32_t *bestv = calloc((size_t)K + 1, sizeof(uint32_t));
+    size_t *bestb = calloc((size_t)K + 1, sizeof(size_t));
+    if (!g->code || !votes || !touched || !bestv || !bestb) {
         free(votes);
         free(touched);
+        free(bestv);
+        free(bestb);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the label grid");
     }
     const int64_t *n = v->dims;
@@ -215,6 +251,8 @@ static vm_status build_grid(const vm_volume *v, const int32_t *chosen, int K, in
                 }
         free(votes);
         free(touched);
+        free(bestv);
+        free(bestb);
         return VM_OK;
     }
     for (int64_t K2 = 0; K2 < c[2]; K2++)
@@ -234,18 +272,29 @@ static vm_status build_grid(const vm_volume *v, const int32_t *chosen, int K, in
                             if (votes[last_code]++ == 0) touched[nt++] = last_code;
                         }
                 /* most frequent; ties go to material, then to the lower label */
-                uint16_t best = touched[0];
+                uint16_t winner = touched[0];
                 for (size_t t = 1; t < nt; t++) {
                     uint16_t q = touched[t];
-                    if (votes[q] > votes[best] ||
-                        (votes[q] == votes[best] && (best == 0 || (q != 0 && q < best))))
-                        best = q;
+                    if (votes[q] > votes[winner] ||
+                        (votes[q] == votes[winner] && (winner == 0 || (q != 0 && q < winner))))
+                        winner = q;
                 }
-                for (size_t t = 0; t < nt; t++) votes[touched[t]] = 0;
-                g->code[gidx(g, I + 1, J + 1, K2 + 1)] = best;
+                size_t at = gidx(g, I + 1, J + 1, K2 + 1);
+                for (size_t t = 0; t < nt; t++) {
+                    uint16_t q = touched[t];
+                    if (votes[q] > bestv[q]) {
+                        bestv[q] = votes[q];
+                        bestb[q] = at;
+                    }
+                    votes[q] = 0;
+                }
+                g->code[at] = winner;
             }
+    if (S > 1 && rescued) rescue_labels(g, bestb, bestv, rescued);
     free(votes);
     free(touched);
+    free(bestv);
+    free(bestb);
     return VM_OK;
 }
 
@@ -253,8 +302,10 @@ static vm_status build_grid(const vm_volume *v, const int32_t *chosen, int K, in
 
 static const int nb6[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
 
+/* Relabels the face-connected pieces below floor_voxels cells; per code (K + 1 entries each)
+ * counts the pieces and cells relabelled. */
 static vm_status remove_islands(lgrid *g, size_t floor_voxels, size_t *relabelled,
-                                vm_error *err) {
+                                size_t *pieces, size_t *cells, vm_error *err) {
     size_t total = (size_t)(g->m[0] * g->m[1] * g->m[2]);
     uint8_t *seen = calloc(total, 1);
     uint32_t *votes = calloc((size_t)g->K + 1, sizeof(uint32_t));
@@ -297,6 +348,8 @@ static vm_status remove_islands(lgrid *g, size_t floor_voxels, size_t *relabelle
         memset(votes, 0, ((size_t)g->K + 1) * sizeof(uint32_t));
         for (size_t h = 0; h < n; h++) g->code[list[h]] = (uint16_t)(best < 0 ? 0 : best);
         *relabelled += n;
+        pieces[c]++;
+        cells[c] += n;
     }
     free(seen);
     free(votes);
@@ -989,6 +1042,8 @@ typedef struct lrun {
     lgrid g;
     int8_t *lvl; /* octree levels (build_leaves); NULL when nothing is coarser */
     lmesh lm;
+    uint8_t *rescued;            /* per code: given a block by rescue_labels */
+    size_t *isl_pieces, *isl_cells; /* per code: what --min-island relabelled */
     vm_label_info *info; /* per code - 1 */
     size_t islands, topo, nleaves, relaxed, smoothed;
 } lrun;
@@ -1012,6 +1067,9 @@ static void lrun_free(lrun *R) {
     free(R->lsize);
     free(R->lmax);
     free(R->info);
+    free(R->rescued);
+    free(R->isl_pieces);
+    free(R->isl_cells);
 }
 
 /* Checks the options that need no volume. */
@@ -1149,8 +1207,15 @@ static vm_status stage_grid(lrun *R, vm_error *err) {
     if (!st) st = label_sizes(R, err);
     if (st) return st;
     if (o->progress) o->progress("labels", 0, 4, o->progress_user);
-    st = build_grid(R->v, R->chosen, (int)R->K, R->S, R->U, &R->g, err);
-    if (!st && o->min_island > 1) st = remove_islands(&R->g, o->min_island, &R->islands, err);
+    R->rescued = calloc(R->K + 1, 1);
+    R->isl_pieces = calloc(R->K + 1, sizeof *R->isl_pieces);
+    R->isl_cells = calloc(R->K + 1, sizeof *R->isl_cells);
+    if (!R->rescued || !R->isl_pieces || !R->isl_cells)
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    st = build_grid(R->v, R->chosen, (int)R->K, R->S, R->U, &R->g, R->rescued, err);
+    if (!st && o->min_island > 1)
+        st = remove_islands(&R->g, o->min_island, &R->islands, R->isl_pieces, R->isl_cells,
+                            err);
     return st;
 }
 
@@ -1314,6 +1379,9 @@ static void fill_stats(lrun *R, vm_label_stats *stats, double t0, double t1, dou
         info[i].input_voxels = f >= 0 ? R->present.count[f] : 0;
         info[i].voxel_volume = (double)info[i].meshed_voxels * vox;
         info[i].size = R->lsize[i + 1];
+        info[i].rescued = R->rescued[i + 1];
+        info[i].islands_removed = R->isl_pieces[i + 1];
+        info[i].island_cells_removed = R->isl_cells[i + 1];
     }
     stats->nlabels = R->K;
     stats->labels = info;

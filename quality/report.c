@@ -470,6 +470,35 @@ vm_status vm_quality_add_distance(vm_quality_summary *q, const vm_mesh *m, const
     return VM_OK;
 }
 
+/* A distance of the report in voxels (NaN when the voxel length is unknown). */
+static double in_voxels(const vm_quality_summary *q, double x) {
+    return q->distance.voxel > 0 ? x / q->distance.voxel : NAN;
+}
+
+/* Whether the mesh holds no cell of region r (the table is ascending; a region beyond a
+ * full table is not known to be missing). */
+static int is_missing(const vm_quality_summary *q, int32_t r) {
+    size_t shown = q->nregions < VM_QUALITY_MAX_REGIONS ? q->nregions : VM_QUALITY_MAX_REGIONS;
+    size_t lo = 0, hi = shown;
+    while (lo < hi) {
+        size_t md = (lo + hi) / 2;
+        if (q->regions[md].region < r)
+            lo = md + 1;
+        else
+            hi = md;
+    }
+    if (lo < shown && q->regions[lo].region == r) return 0;
+    return !(q->nregions > shown && r > q->regions[shown - 1].region);
+}
+
+/* How many of the expected regions the mesh holds no cell of. */
+static size_t missing_regions(const vm_quality_summary *q) {
+    size_t n = 0;
+    for (size_t i = 0; i < q->nexpected_regions; i++)
+        n += (size_t)is_missing(q, q->expected_regions[i]);
+    return n;
+}
+
 vm_status vm_quality_lookup(const vm_quality_summary *q, const char *key, double *value) {
     const vm_mesh_report *r = &q->check;
     struct {
@@ -505,6 +534,12 @@ vm_status vm_quality_lookup(const vm_quality_summary *q, const char *key, double
         {"mesh_to_surface_mean", q->distance.mesh_to_surface_mean, q->has_distance},
         {"surface_to_mesh_max", q->distance.surface_to_mesh_max, q->has_distance},
         {"surface_to_mesh_mean", q->distance.surface_to_mesh_mean, q->has_distance},
+        {"hausdorff_voxels", in_voxels(q, q->distance.hausdorff), q->has_distance},
+        {"mesh_to_surface_max_voxels", in_voxels(q, q->distance.mesh_to_surface_max),
+         q->has_distance},
+        {"surface_to_mesh_max_voxels", in_voxels(q, q->distance.surface_to_mesh_max),
+         q->has_distance},
+        {"regions_missing", (double)missing_regions(q), 1},
     };
     for (size_t i = 0; i < sizeof keys / sizeof keys[0]; i++)
         if (strcmp(key, keys[i].name) == 0) {
@@ -610,8 +645,15 @@ vm_status vm_quality_write_text(FILE *out, const char *name, const vm_quality_su
                 d->hausdorff, d->mesh_to_surface_max, d->mesh_to_surface_mean,
                 d->surface_to_mesh_max, d->surface_to_mesh_mean, d->mesh_samples,
                 d->surface_samples);
+        if (d->voxel > 0)
+            fprintf(out,
+                    "             in voxels (%.6g each): Hausdorff %.4g, boundary -> surface "
+                    "max %.4g mean %.4g, surface -> boundary max %.4g mean %.4g\n",
+                    d->voxel, d->hausdorff / d->voxel, d->mesh_to_surface_max / d->voxel,
+                    d->mesh_to_surface_mean / d->voxel, d->surface_to_mesh_max / d->voxel,
+                    d->surface_to_mesh_mean / d->voxel);
     }
-    if (q->nregions >= 2) {
+    if (q->nregions >= 2 || q->nexpected_regions) {
         size_t shown = q->nregions < VM_QUALITY_MAX_REGIONS ? q->nregions : VM_QUALITY_MAX_REGIONS;
         fprintf(out, "regions      %zu\n", q->nregions);
         for (size_t i = 0; i < shown; i++)
@@ -621,6 +663,16 @@ vm_status vm_quality_write_text(FILE *out, const char *name, const vm_quality_su
             fprintf(out, "  %zu more regions %6zu %s\n", q->nregions - shown,
                     q->regions_more_cells, plural_kind(q->kind));
     }
+    size_t nmiss = missing_regions(q);
+    if (nmiss) {
+        fprintf(out, "missing      %zu of %zu regions asked for have no cell:", nmiss,
+                q->nexpected_regions);
+        for (size_t i = 0; i < q->nexpected_regions; i++)
+            if (is_missing(q, q->expected_regions[i]))
+                fprintf(out, " %ld", (long)q->expected_regions[i]);
+        fputc('\n', out);
+    }
+    for (size_t i = 0; i < q->nwarnings; i++) fprintf(out, "warning      %s\n", q->warnings[i]);
     fprintf(out, "\n%-16s %12s %12s %12s %9s %19s %10s\n", "metric", "min", "mean", "max",
             "ideal", "acceptable", "outside");
     for (size_t k = 0; k < q->nmetrics; k++) {
@@ -754,7 +806,17 @@ vm_status vm_quality_write_json(FILE *out, const char *name, const vm_quality_su
     for (size_t i = 0; i < shown; i++)
         fprintf(out, "%s{\"region\": %ld, \"cells\": %zu}", i ? ", " : "",
                 (long)q->regions[i].region, q->regions[i].cells);
-    fprintf(out, "], \"cells_in_regions_not_listed\": %zu", q->regions_more_cells);
+    fprintf(out, "], \"cells_in_regions_not_listed\": %zu, \"regions_missing\": [",
+            q->regions_more_cells);
+    for (size_t i = 0, n = 0; i < q->nexpected_regions; i++)
+        if (is_missing(q, q->expected_regions[i]))
+            fprintf(out, "%s%ld", n++ ? ", " : "", (long)q->expected_regions[i]);
+    fputs("], \"warnings\": [", out);
+    for (size_t i = 0; i < q->nwarnings; i++) {
+        if (i) fputs(", ", out);
+        json_string(out, q->warnings[i]);
+    }
+    fputc(']', out);
     if (q->has_distance) {
         const vm_surface_distance *d = &q->distance;
         fputs(", \"surface_distance\": {\"hausdorff\": ", out);
@@ -767,8 +829,24 @@ vm_status vm_quality_write_json(FILE *out, const char *name, const vm_quality_su
         json_num(out, d->surface_to_mesh_max);
         fputs(", \"surface_to_mesh_mean\": ", out);
         json_num(out, d->surface_to_mesh_mean);
-        fprintf(out, ", \"mesh_samples\": %zu, \"surface_samples\": %zu}", d->mesh_samples,
-                d->surface_samples);
+        fprintf(out, ", \"mesh_samples\": %zu, \"surface_samples\": %zu, \"voxel\": ",
+                d->mesh_samples, d->surface_samples);
+        if (d->voxel > 0) {
+            json_num(out, d->voxel);
+            fputs(", \"voxels\": {\"hausdorff\": ", out);
+            json_num(out, d->hausdorff / d->voxel);
+            fputs(", \"mesh_to_surface_max\": ", out);
+            json_num(out, d->mesh_to_surface_max / d->voxel);
+            fputs(", \"mesh_to_surface_mean\": ", out);
+            json_num(out, d->mesh_to_surface_mean / d->voxel);
+            fputs(", \"surface_to_mesh_max\": ", out);
+            json_num(out, d->surface_to_mesh_max / d->voxel);
+            fputs(", \"surface_to_mesh_mean\": ", out);
+            json_num(out, d->surface_to_mesh_mean / d->voxel);
+            fputs("}}", out);
+        } else {
+            fputs("null, \"voxels\": null}", out);
+        }
     } else {
         fputs(", \"surface_distance\": null", out);
     }

@@ -3,6 +3,7 @@
  * with the mesh summary, the quality histograms (inline SVG) and pictures of the mesh drawn
  * by the built-in renderer (inline PNG), the worst elements highlighted. */
 #define _POSIX_C_SOURCE 200809L
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -91,37 +92,93 @@ static void row(FILE *fp, const char *key, const char *fmt, double v) {
     fprintf(fp, "</td></tr>\n");
 }
 
+/* One distance row: world units, and voxels when the voxel length is known; a NaN mean and
+ * no samples leave those cells empty. */
+static void distance_row(FILE *fp, const char *what, double max, double mean, size_t samples,
+                         double voxel) {
+    fprintf(fp, "<tr><th>%s</th><td>%.6g</td><td>", what, max);
+    if (!isnan(mean)) fprintf(fp, "%.6g", mean);
+    fputs("</td><td>", fp);
+    if (voxel > 0) fprintf(fp, "%.4g", max / voxel);
+    fputs("</td><td>", fp);
+    if (voxel > 0 && !isnan(mean)) fprintf(fp, "%.4g", mean / voxel);
+    fputs("</td><td>", fp);
+    if (samples) fprintf(fp, "%zu", samples);
+    fputs("</td></tr>\n", fp);
+}
+
 /* The achieved distance to the isosurface, both ways, when it was measured. */
 static void put_distance(FILE *fp, const vm_quality_summary *q) {
     if (!q->has_distance) return;
     const vm_surface_distance *d = &q->distance;
-    fprintf(fp, "<h2>Distance to the isosurface</h2>\n<p>Two-sided distance between the mesh "
-                "boundary and the isosurface of the volume's trilinear field, in world units "
-                "(faces on the volume's border left out; docs/QUALITY.md).</p><table>\n"
-                "<tr><th></th><th>max</th><th>mean</th><th>samples</th></tr>\n");
-    fprintf(fp, "<tr><th>boundary &rarr; isosurface</th><td>%.6g</td><td>%.6g</td><td>%zu</td>"
-                "</tr>\n",
-            d->mesh_to_surface_max, d->mesh_to_surface_mean, d->mesh_samples);
-    fprintf(fp, "<tr><th>isosurface &rarr; boundary</th><td>%.6g</td><td>%.6g</td><td>%zu</td>"
-                "</tr>\n",
-            d->surface_to_mesh_max, d->surface_to_mesh_mean, d->surface_samples);
-    fprintf(fp, "<tr><th>Hausdorff</th><td>%.6g</td><td></td><td></td></tr>\n</table>\n",
-            d->hausdorff);
+    fprintf(fp, "<h2>Distance to the isosurface</h2>\n<p>Two-sided (Hausdorff) distance "
+                "between the mesh boundary and the isosurface of the volume's trilinear field, "
+                "measured by volmesh, in world units and in voxels (one voxel: %.6g, the edge "
+                "of a cube of one voxel's volume; faces on the volume's border left out; "
+                "docs/QUALITY.md).</p><table>\n"
+                "<tr><th></th><th>max</th><th>mean</th><th>max (voxels)</th>"
+                "<th>mean (voxels)</th><th>samples</th></tr>\n",
+            d->voxel);
+    distance_row(fp, "boundary &rarr; isosurface", d->mesh_to_surface_max,
+                 d->mesh_to_surface_mean, d->mesh_samples, d->voxel);
+    distance_row(fp, "isosurface &rarr; boundary", d->surface_to_mesh_max,
+                 d->surface_to_mesh_mean, d->surface_samples, d->voxel);
+    distance_row(fp, "Hausdorff (the larger max)", d->hausdorff, NAN, 0, d->voxel);
+    fprintf(fp, "</table>\n");
 }
 
-/* Cells per region, for a mesh with two or more. */
-static void put_regions(FILE *fp, const vm_quality_summary *q) {
-    if (q->nregions < 2) return;
-    size_t shown = q->nregions < VM_QUALITY_MAX_REGIONS ? q->nregions : VM_QUALITY_MAX_REGIONS;
-    fprintf(fp, "<h2>Regions</h2>\n<table><tr><th>region</th><th>%s</th></tr>\n",
-            q->kind == VM_TET4 ? "tets" : q->kind == VM_HEX8 ? "hexes" : "cells");
-    for (size_t i = 0; i < shown; i++)
-        fprintf(fp, "<tr><td>%ld</td><td>%zu</td></tr>\n", (long)q->regions[i].region,
-                q->regions[i].cells);
-    if (q->nregions > shown)
-        fprintf(fp, "<tr><td>%zu more</td><td>%zu</td></tr>\n", q->nregions - shown,
-                q->regions_more_cells);
+/* The edge-length histogram as a table (the picture below draws it too). */
+static void put_edges(FILE *fp, const vm_quality_summary *q) {
+    const vm_edge_stats *e = &q->edges;
+    if (!e->edges) return;
+    fprintf(fp, "<h2>Edge lengths</h2>\n<p>%zu edges, each counted once, in world units: "
+                "%.6g .. %.6g, mean %.6g.</p><table>\n<tr><th>length</th><th>edges</th></tr>\n",
+            e->edges, e->min, e->max, e->mean);
+    double w = (e->hi - e->lo) / VM_QUALITY_BINS;
+    for (int b = 0; b < VM_QUALITY_BINS; b++)
+        fprintf(fp, "<tr><td>%.5g .. %.5g</td><td>%zu</td></tr>\n", e->lo + w * b,
+                e->lo + w * (b + 1), e->bins[b]);
     fprintf(fp, "</table>\n");
+}
+
+/* Whether the mesh holds a cell of region r. */
+static int has_region(const vm_quality_summary *q, int32_t r) {
+    size_t shown = q->nregions < VM_QUALITY_MAX_REGIONS ? q->nregions : VM_QUALITY_MAX_REGIONS;
+    for (size_t i = 0; i < shown; i++)
+        if (q->regions[i].region == r) return 1;
+    return q->nregions > shown && r > q->regions[shown - 1].region;
+}
+
+/* Cells per region, for a mesh with two or more (or regions asked for); the regions asked
+ * for and missing; the caller's warnings. */
+static void put_regions(FILE *fp, const vm_quality_summary *q) {
+    if (q->nregions >= 2 || q->nexpected_regions) {
+        size_t shown =
+            q->nregions < VM_QUALITY_MAX_REGIONS ? q->nregions : VM_QUALITY_MAX_REGIONS;
+        fprintf(fp, "<h2>Regions</h2>\n<table><tr><th>region</th><th>%s</th></tr>\n",
+                q->kind == VM_TET4 ? "tets" : q->kind == VM_HEX8 ? "hexes" : "cells");
+        for (size_t i = 0; i < shown; i++)
+            fprintf(fp, "<tr><td>%ld</td><td>%zu</td></tr>\n", (long)q->regions[i].region,
+                    q->regions[i].cells);
+        if (q->nregions > shown)
+            fprintf(fp, "<tr><td>%zu more</td><td>%zu</td></tr>\n", q->nregions - shown,
+                    q->regions_more_cells);
+        for (size_t i = 0; i < q->nexpected_regions; i++)
+            if (!has_region(q, q->expected_regions[i]))
+                fprintf(fp, "<tr class=\"bad\"><td>%ld</td><td>0 (asked for, not in the "
+                            "mesh)</td></tr>\n",
+                        (long)q->expected_regions[i]);
+        fprintf(fp, "</table>\n");
+    }
+    if (q->nwarnings) {
+        fprintf(fp, "<h2>Warnings</h2>\n<ul>\n");
+        for (size_t i = 0; i < q->nwarnings; i++) {
+            fputs("<li class=\"bad\">", fp);
+            put_escaped(fp, q->warnings[i]);
+            fputs("</li>\n", fp);
+        }
+        fprintf(fp, "</ul>\n");
+    }
 }
 
 vm_status vm_quality_write_html(const char *path, const vm_mesh *m, const char *name,
@@ -178,6 +235,7 @@ vm_status vm_quality_write_html(const char *path, const vm_mesh *m, const char *
     fprintf(fp, "</table>\n");
     put_distance(fp, q);
     put_regions(fp, q);
+    put_edges(fp, q);
     fprintf(fp, "<h2>Metrics</h2><table><tr><th>metric</th><th>min</th><th>mean"
                 "</th><th>max</th><th>outside the acceptable range</th></tr>\n");
     for (size_t i = 0; i < q->nmetrics; i++) {

@@ -1288,6 +1288,11 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
             out->surface_to_mesh_max = out->surface_to_mesh_mean = INFINITY;
         }
         out->hausdorff = fmax(out->mesh_to_surface_max, out->surface_to_mesh_max);
+        /* the edge of a cube of one voxel's volume; a cube voxel's own edge, exactly */
+        out->voxel = cbrt(fabs(vm_volume_frame_determinant(v)));
+        if (v->spacing[0] == v->spacing[1] && v->spacing[1] == v->spacing[2] &&
+            fabs(out->voxel - v->spacing[0]) <= 1e-12 * v->spacing[0])
+            out->voxel = v->spacing[0];
         if (points) {
             size_t n = ms.npts + ss.npts;
             if (n) {

@@ -35,7 +35,8 @@ typedef struct vm_label_options {
     size_t nlabels;         /* entries of labels (0 with labels NULL) */
     vm_cell_kind elements;  /* VM_TET4 (default) or VM_HEX8 */
     int cell_size;          /* >= 1: element size in voxels; S > 1 takes the most frequent
-                               label of each S^3 block */
+                               label of each S^3 block, and a label most frequent in none
+                               gets the block where it has the most voxels (kept, coarse) */
     size_t min_island;      /* face-connected pieces of one label smaller than this many
                                (coarse) voxels go to their most common neighbour; 1: keep all */
     int smooth;             /* 1 (default): smooth interfaces; 0: voxel staircase */
@@ -60,9 +61,15 @@ typedef struct vm_label_info {
     size_t input_voxels;   /* voxels of the label in the volume */
     size_t meshed_voxels;  /* cells of size h meshed as this label after islands, topology */
     double size;           /* the cell size asked for this label (voxels) */
-    size_t elements;       /* cells of the mesh with region == label */
+    size_t elements;       /* cells of the mesh with region == label; 0: the label was lost
+                              (--min-island, or the topology repair took its last cells) */
     double voxel_volume;   /* meshed_voxels * h^3 * voxel volume */
     double mesh_volume;    /* sum of the signed volumes of its cells */
+    int rescued;           /* 1: with cell_size S > 1 the label is most frequent in no S^3
+                              block, and was given the block where it has the most voxels
+                              (unless that block was its winner's only one) */
+    size_t islands_removed;      /* its face-connected pieces relabelled by min_island */
+    size_t island_cells_removed; /* their cells (of size h) */
 } vm_label_info;
 
 typedef struct vm_label_stats {

@@ -266,6 +266,8 @@ typedef struct vm_surface_distance {
     double surface_to_mesh_max, surface_to_mesh_mean; /* isosurface points -> boundary */
     double hausdorff;                                 /* max of the two maxima */
     size_t mesh_samples, surface_samples;
+    double voxel; /* the volume's voxel length: the edge of a cube of one voxel's volume (the
+                     unit of --distance's default); each distance / voxel is in voxels */
 } vm_surface_distance;
 
 /* Measures both ways; lo/hi/has_lo/has_hi as in vm_mesh_options.
@@ -369,6 +371,14 @@ typedef struct vm_quality_summary {
      * (has_distance 0: not measured, the writers leave it out). */
     int has_distance;
     vm_surface_distance distance;
+    /* Set by the caller after vm_quality_report (not owned; NULL/0: none), for the writers:
+     * the regions it asked for (a label mesh's chosen labels: those the mesh holds no cell
+     * of are listed as missing, and the cells per region are listed even for one region),
+     * and warnings, one line each (a label or island that was not kept, for example). */
+    const int32_t *expected_regions;
+    size_t nexpected_regions;
+    const char *const *warnings;
+    size_t nwarnings;
 } vm_quality_summary;
 
 /* Runs vm_mesh_check and every metric of the mesh's kind over all cells: min/mean/max,
@@ -403,9 +413,11 @@ vm_status vm_quality_add_distance(vm_quality_summary *q, const vm_mesh *m, const
  * boundary_faces, boundary_closed (0/1), boundary_euler, components, boundary_components,
  * boundary_self_intersections, volume, min_dihedral, max_dihedral, slivers_5, slivers_10,
  * min_scaled_jacobian, abaqus_failures) and METRIC.min, METRIC.mean, METRIC.max, METRIC.unacceptable for each
- * metric of the kind; edges, edge_length.min, edge_length.mean, edge_length.max, regions;
- * and with a distance measured: hausdorff, mesh_to_surface_max, mesh_to_surface_mean,
- * surface_to_mesh_max, surface_to_mesh_mean. Returns VM_OK and sets *value, or VM_ERR_ARG when the key is unknown
+ * metric of the kind; edges, edge_length.min, edge_length.mean, edge_length.max, regions,
+ * regions_missing (of expected_regions); and with a distance measured: hausdorff,
+ * mesh_to_surface_max, mesh_to_surface_mean, surface_to_mesh_max, surface_to_mesh_mean, and
+ * in voxels hausdorff_voxels, mesh_to_surface_max_voxels, surface_to_mesh_max_voxels (NaN
+ * when distance.voxel is 0). Returns VM_OK and sets *value, or VM_ERR_ARG when the key is unknown
  * for this mesh (e.g. min_dihedral or abaqus_failures of a hex mesh). */
 vm_status vm_quality_lookup(const vm_quality_summary *q, const char *key, double *value);
 
@@ -416,10 +428,13 @@ vm_status vm_quality_lookup(const vm_quality_summary *q, const char *key, double
  * full, min, mean, max, argmin, argmax, unacceptable, histogram: {lo, hi, below, above,
  * counts}}}; edges and edge_length {min, mean, max, histogram: {lo, hi, counts}}; regions
  * and cells_per_region [{region, cells}, ...] (the first VM_QUALITY_MAX_REGIONS) with
- * cells_in_regions_not_listed; surface_distance {hausdorff, mesh_to_surface_max,
- * mesh_to_surface_mean, surface_to_mesh_max, surface_to_mesh_mean, mesh_samples,
- * surface_samples}, or null when not measured. The text adds lines for the edges, the
- * distance when measured and the regions when two or more, and the edge-length histogram.
+ * cells_in_regions_not_listed; regions_missing [the expected regions without a cell];
+ * warnings [lines]; surface_distance {hausdorff, mesh_to_surface_max, mesh_to_surface_mean,
+ * surface_to_mesh_max, surface_to_mesh_mean, mesh_samples, surface_samples, voxel, and the
+ * same four maxima and means and hausdorff in voxels: {hausdorff, mesh_to_surface_max, ...}
+ * under "voxels"}, or null when not measured. The text adds lines for the edges, the
+ * distance when measured (world units and voxels), the regions when two or more (or
+ * expected), the missing regions, the warnings, and the edge-length histogram.
  * Infinite range ends are null. abaqus != 0 adds the list of failing tets to
  * the text. Returns VM_OK, or VM_ERR_IO (-1) when writing failed. */
 vm_status vm_quality_write_text(FILE *out, const char *name, const vm_quality_summary *q,

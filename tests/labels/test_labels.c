@@ -228,12 +228,60 @@ static void coarseSizeAndIslandFloorKeepTheMeshValid(void) {
     vm_label_stats_free(&st);
     vm_mesh_free(&m);
 
+    if (st.nlabels == 4) {
+        /* the islands are named: one piece of 2 cells of label 5, one of 1 of label 6 */
+        CHECK(st.labels[2].islands_removed == 1 && st.labels[2].island_cells_removed == 2);
+        CHECK(st.labels[3].islands_removed == 1 && st.labels[3].island_cells_removed == 1);
+        CHECK(st.labels[0].islands_removed == 0 && !st.labels[2].rescued);
+    }
+    vm_label_stats_free(&st);
+    vm_mesh_free(&m);
+
+    /* Labels 5 and 6 are smaller than a 3^3 cell and win no block: each is kept as the block
+     * where it has the most voxels (a cavity in label 1, a second outer component). */
     vm_label_options_default(&o);
     o.cell_size = 3;
     CHECK_OK(vm_mesh_labels(&v, &o, &m, &st, &err), &err);
-    static const expect ex[] = {{1, 2}, {2, 2}, {5, 0}, {6, 0}};
-    check_labels("size 3", &m, &st, 2, ex, 4, 0.03);
-    CHECK(st.labels[0].elements > 0 && st.labels[2].elements == 0);
+    static const expect ex[] = {{1, 4}, {2, 2}, {5, 2}, {6, 2}};
+    check_labels("size 3", &m, &st, 4, ex, 4, 0.03);
+    if (st.nlabels == 4) {
+        CHECK(st.labels[2].elements > 0 && st.labels[2].rescued && st.labels[2].meshed_voxels == 1);
+        CHECK(st.labels[3].elements > 0 && st.labels[3].rescued && st.labels[3].meshed_voxels == 1);
+        CHECK(!st.labels[0].rescued && !st.labels[1].rescued);
+    }
+    vm_label_stats_free(&st);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
+/* Two one-voxel labels in one 2^3 block of background: the smaller-voted goes first and
+ * takes the block; the other cannot take the block from a label that has no other, so it
+ * is lost, and the stats say so (elements 0, not rescued) for the caller to name it. */
+static void sizeKeepsWhatItCanAndSaysWhatItLost(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_label_phantom_make(1, 16, &v, &err), &err);
+    /* the phantom's blocks lie away from the corner block 0..1 */
+    v.data[0] = 7;
+    v.data[1 + 16 * (1 + 16 * 1)] = 8;
+    vm_label_options o;
+    vm_label_options_default(&o);
+    o.cell_size = 2;
+    vm_mesh m;
+    vm_label_stats st;
+    CHECK_OK(vm_mesh_labels(&v, &o, &m, &st, &err), &err);
+    CHECK(st.nlabels == 4);
+    size_t kept = 0, total = 0;
+    for (size_t i = 0; i < st.nlabels; i++) {
+        kept += st.labels[i].elements > 0;
+        total += st.labels[i].elements;
+        CHECK(st.labels[i].rescued == (st.labels[i].label == 7));
+    }
+    CHECK(kept == 3 && total == m.ncells);
+    if (st.nlabels == 4) {
+        CHECK(st.labels[2].label == 7 && st.labels[2].elements == 6);
+        CHECK(st.labels[3].label == 8 && st.labels[3].elements == 0);
+    }
     vm_label_stats_free(&st);
     vm_mesh_free(&m);
     vm_volume_free(&v);
@@ -351,6 +399,24 @@ static void frogKeepsAllTwentyFiveTissues(void) {
                           "frog label %d: volume %.0f vs %.0f", li->label, li->mesh_volume,
                           li->voxel_volume);
         }
+    }
+    vm_label_stats_free(&st);
+    vm_mesh_free(&m);
+    /* at --size 2 seven tissues are most frequent in no 2^3 block: kept all the same */
+    o.cell_size = 2;
+    s = vm_mesh_labels(&v, &o, &m, &st, &err);
+    CHECK_OK(s, &err);
+    if (s == VM_OK) {
+        size_t rescued = 0, total = 0;
+        CHECK(st.nlabels == 25);
+        for (size_t i = 0; i < st.nlabels; i++) {
+            CHECK_MSG(st.labels[i].elements > 0, "frog at size 2: label %d lost",
+                      st.labels[i].label);
+            rescued += (size_t)st.labels[i].rescued;
+            total += st.labels[i].elements;
+        }
+        CHECK(total == m.ncells);
+        printf("  frog at size 2: %zu hexes, %zu labels kept as one block\n", m.ncells, rescued);
     }
     vm_label_stats_free(&st);
     vm_mesh_free(&m);
@@ -636,4 +702,4 @@ TEST_MAIN(T(labelPhantomsGiveConformingMeshesWithManifoldMaterials),
           T(absentLabelAndNonLabelVolumesAreRefusedClearly), T(everyWriterCarriesTheLabels),
           T(perLabelSizesRefineAndCoarsenWithConformingTransitions),
           T(badLabelSizesAreRefusedClearly), T(perMaterialQualityPassKeepsInterfacesAndTopology),
-          T(frogKeepsAllTwentyFiveTissues))
+          T(frogKeepsAllTwentyFiveTissues), T(sizeKeepsWhatItCanAndSaysWhatItLost))

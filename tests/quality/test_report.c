@@ -587,6 +587,135 @@ static void reportReusesAGivenCheckAndShowsProgressForEachStage(void) {
     vm_mesh_free(&m);
 }
 
+/* --- what a sized mesh is judged by (issue 33) -------------------------------------------- */
+
+/* A 32^3 sphere of 0.5 mm voxels meshed by the default mesher: the report measures its
+ * boundary within half a voxel of the isosurface both ways, gives that in mm and in voxels
+ * (the voxel length 0.5 mm) in every writer, and the edge histogram counts every edge once. */
+static void sphereReportGivesTheDistanceInWorldUnitsAndVoxels(void) {
+    vm_volume v;
+    vm_error err;
+    vm_status s = vm_phantom_make(VM_PHANTOM_SPHERE, 32, 0.0, 1u, &v, NULL, &err);
+    CHECK_OK(s, &err);
+    if (s) return;
+    for (int a = 0; a < 3; a++) v.spacing[a] = 0.5;
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.lo = 0;
+    o.has_lo = 1;
+    o.has_hi = 0;
+    vm_mesh m;
+    CHECK_OK(vm_mesh_volume(&v, &o, &m, NULL, &err), &err);
+    vm_quality_summary q;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+    CHECK_OK(vm_quality_add_distance(&q, &m, &v, o.lo, o.has_lo, o.hi, o.has_hi, &err), &err);
+    const vm_surface_distance *d = &q.distance;
+    printf("  sphere: %zu tets, %zu edges, Hausdorff %.4g mm = %.4g voxels (%.4g / %.4g)\n",
+           m.ncells, q.edges.edges, d->hausdorff, d->hausdorff / d->voxel,
+           d->mesh_to_surface_max, d->surface_to_mesh_max);
+    CHECK(q.has_distance);
+    CHECK_NEAR(d->voxel, 0.5, 1e-12);
+    CHECK(d->mesh_samples > 0 && d->surface_samples > 0);
+    CHECK(d->mesh_to_surface_max > 0 && d->surface_to_mesh_max > 0);
+    CHECK(d->hausdorff == fmax(d->mesh_to_surface_max, d->surface_to_mesh_max));
+    CHECK_MSG(d->hausdorff <= 0.5 * d->voxel, "sphere Hausdorff %.4g voxels",
+              d->hausdorff / d->voxel);
+    double x;
+    CHECK(vm_quality_lookup(&q, "hausdorff_voxels", &x) == VM_OK);
+    CHECK_NEAR(x, d->hausdorff / 0.5, 1e-12);
+    CHECK(vm_quality_lookup(&q, "surface_to_mesh_max_voxels", &x) == VM_OK);
+    CHECK_NEAR(x, d->surface_to_mesh_max / 0.5, 1e-12);
+    size_t total = 0;
+    for (int b = 0; b < VM_QUALITY_BINS; b++) total += q.edges.bins[b];
+    CHECK(q.edges.edges > 0 && total == q.edges.edges);
+    /* edges of a mesh of 0.5 mm voxels: in mm, not in voxels */
+    CHECK(q.edges.max < 2.0 && q.edges.min > 0);
+
+    FILE *fp = fopen(vm_test_tmp("sphere.txt"), "w");
+    CHECK(fp && vm_quality_write_text(fp, "sphere.vtu", &q, 0) == 0);
+    if (fp) fclose(fp);
+    char *t = slurp(vm_test_tmp("sphere.txt"));
+    CHECK(t && strstr(t, "distance     Hausdorff "));
+    CHECK(t && strstr(t, "in voxels (0.5 each): Hausdorff "));
+    CHECK(t && strstr(t, "edge_length (each edge once, mesh units)"));
+    free(t);
+    fp = fopen(vm_test_tmp("sphere.json"), "w");
+    CHECK(fp && vm_quality_write_json(fp, "sphere.vtu", &q) == 0);
+    if (fp) fclose(fp);
+    t = slurp(vm_test_tmp("sphere.json"));
+    CHECK(t && strstr(t, "\"voxel\": 0.5, \"voxels\": {\"hausdorff\": "));
+    CHECK(t && strstr(t, "\"edge_length\": {\"min\": "));
+    CHECK(t && strstr(t, "\"regions_missing\": [], \"warnings\": []"));
+    free(t);
+    const char *html = vm_test_tmp("sphere.html");
+    CHECK_OK(vm_quality_write_html(html, &m, "sphere.vtu", &q, &err), &err);
+    t = slurp(html);
+    CHECK(t && strstr(t, "<th>max (voxels)</th>"));
+    CHECK(t && strstr(t, "<tr><th>boundary &rarr; isosurface</th>"));
+    CHECK(t && strstr(t, "<tr><th>isosurface &rarr; boundary</th>"));
+    CHECK(t && strstr(t, "<h2>Edge lengths</h2>"));
+    CHECK(t && count_of(t, "<tr><td>") >= VM_QUALITY_BINS);
+    free(t);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
+/* A label mesh: the tets per label sum to the total; a label asked for and absent is named
+ * as missing, and the mesher's warnings are carried, in every writer. */
+static void labelReportCountsTetsPerLabelAndNamesTheMissing(void) {
+    vm_volume v;
+    vm_error err;
+    vm_status s = vm_label_phantom_make(0, 16, &v, &err);
+    CHECK_OK(s, &err);
+    if (s) return;
+    vm_label_options lo;
+    vm_label_options_default(&lo);
+    vm_mesh m;
+    CHECK_OK(vm_mesh_labels(&v, &lo, &m, NULL, &err), &err);
+    vm_quality_summary q;
+    CHECK_OK(vm_quality_report(&m, &q, &err), &err);
+    static const int32_t asked[] = {1, 2, 3, 99};
+    static const char *const warn[] = {"label 99 (4 voxels in) has no element"};
+    q.expected_regions = asked;
+    q.nexpected_regions = 4;
+    q.warnings = warn;
+    q.nwarnings = 1;
+    size_t total = 0;
+    for (size_t i = 0; i < q.nregions; i++) total += q.regions[i].cells;
+    CHECK(q.nregions == 3 && total == m.ncells);
+    double x;
+    CHECK(vm_quality_lookup(&q, "regions_missing", &x) == VM_OK && x == 1);
+    FILE *fp = fopen(vm_test_tmp("labels.txt"), "w");
+    CHECK(fp && vm_quality_write_text(fp, "l.vtu", &q, 0) == 0);
+    if (fp) fclose(fp);
+    char *t = slurp(vm_test_tmp("labels.txt"));
+    CHECK(t && strstr(t, "regions      3\n  region 1 "));
+    CHECK(t && strstr(t, "missing      1 of 4 regions asked for have no cell: 99\n"));
+    CHECK(t && strstr(t, "warning      label 99 (4 voxels in) has no element\n"));
+    free(t);
+    fp = fopen(vm_test_tmp("labels.json"), "w");
+    CHECK(fp && vm_quality_write_json(fp, "l.vtu", &q) == 0);
+    if (fp) fclose(fp);
+    t = slurp(vm_test_tmp("labels.json"));
+    CHECK(t && strstr(t, "\"regions_missing\": [99], \"warnings\": [\"label 99 (4 voxels in) "
+                         "has no element\"]"));
+    CHECK(t && strstr(t, "\"surface_distance\": null"));
+    free(t);
+    const char *html = vm_test_tmp("labels.html");
+    CHECK_OK(vm_quality_write_html(html, &m, "l.vtu", &q, &err), &err);
+    t = slurp(html);
+    CHECK(t && strstr(t, "<tr class=\"bad\"><td>99</td><td>0 (asked for, not in the mesh)"));
+    CHECK(t && strstr(t, "<li class=\"bad\">label 99 (4 voxels in) has no element</li>"));
+    CHECK(t && !strstr(t, "Distance to the isosurface"));
+    free(t);
+    /* one region asked for and present: listed, nothing missing */
+    q.nexpected_regions = 1;
+    q.nwarnings = 0;
+    CHECK(vm_quality_lookup(&q, "regions_missing", &x) == VM_OK && x == 0);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
 TEST_MAIN(T(reportOfKuhnCubeHasExactStatistics), T(sliversAndAbaqusFailuresAreCounted),
           T(hexReportHasNoDihedralsOrAbaqus), T(edgeLengthsCountEachEdgeOnce),
           T(cellsPerRegionAreCountedAndListed), T(emptyMeshReportsZeros),
@@ -594,4 +723,6 @@ TEST_MAIN(T(reportOfKuhnCubeHasExactStatistics), T(sliversAndAbaqusFailuresAreCo
           T(qualityFieldsHoldEachCellsMetric), T(qualityFieldsRespectTheMemoryLimit),
           T(surfaceReportUsesTriangleMetrics),
           T(reportOnThreadsEqualsThePlainLoopForAnyThreadCount),
-          T(reportReusesAGivenCheckAndShowsProgressForEachStage))
+          T(reportReusesAGivenCheckAndShowsProgressForEachStage),
+          T(sphereReportGivesTheDistanceInWorldUnitsAndVoxels),
+          T(labelReportCountsTetsPerLabelAndNamesTheMissing))
