@@ -50,6 +50,8 @@ static const char *mesh_help =
     "  --distance D            boundary within D of the isosurface (default: half a voxel)\n"
     "  --size-field FILE       an image (any readable format, its own geometry) giving the\n"
     "                          largest edge at each point, in world units\n"
+    "  --tets N                about N tets: the sizes above scaled together (graded; the\n"
+    "                          distance is then not refined; a warning when N is not met)\n"
     "  --adaptive              octree cells: large inside, 2x2x2 on simple flat boundary\n"
     "                          (hexes: exact interior cubes merged, the boundary uniform)\n"
     "  --error E               adaptive tets: boundary error in voxels (>= 0, default 0.5;\n"
@@ -353,7 +355,7 @@ static const char *const mesh_valued[] = {
     "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
     "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts",
     "--materials", "--modulus",   "--material-bins", "--max-edge", "--min-edge",
-    "--distance", "--size-field"};
+    "--distance", "--size-field", "--tets"};
 
 /* 1 when option a takes a value. */
 static int mesh_takes_value(const char *a) {
@@ -432,6 +434,11 @@ static int shape_option(mesh_args *m, char **argv, int *i, int *taken) {
         *(strcmp(a, "--max-edge") == 0   ? &m->o.max_edge
           : strcmp(a, "--min-edge") == 0 ? &m->o.min_edge
                                          : &m->o.distance) = x;
+        m->o.graded = 1;
+    } else if (vm_cli_is(a, "--tets", NULL)) {
+        long n = 0;
+        if (vm_cli_int(a, argv[++*i], 1, 2000000000L, &n)) return VM_EXIT_INPUT;
+        m->o.tets = (size_t)n;
         m->o.graded = 1;
     } else if (vm_cli_is(a, "--size-field", NULL)) {
         m->size_field_path = argv[++*i];
@@ -610,15 +617,17 @@ static int option_conflicts(const mesh_args *m) {
         return vm_cli_fail("mesh: --modulus needs the whole volume and gives the materials: "
                            "not with --labels, --elements tri|quad, --slabs or --materials");
     if (m->o.graded && (m->have_slabs || m->surface_elements || o->adaptive))
-        return vm_cli_fail("mesh: --graded, --min-edge, --distance and --size-field mesh "
+        return vm_cli_fail("mesh: --graded, --min-edge, --distance, --size-field and --tets mesh "
                            "tetrahedra of the whole volume: not with --slabs, --adaptive or "
                            "--elements tri|quad");
     if (m->have_labels && o->graded && !(o->max_edge > 0))
         return vm_cli_fail("mesh: --graded meshes one material (--iso or --range); with "
                            "--labels, --max-edge L sizes the cells");
-    if (m->have_labels && (o->min_edge > 0 || o->distance > 0 || m->size_field_path))
+    if (m->have_labels && (o->min_edge > 0 || o->distance > 0 || m->size_field_path ||
+                           o->tets > 0))
         return vm_cli_fail("mesh: with --labels, --max-edge sizes the cells; --min-edge, "
-                           "--distance and --size-field mesh one material (--iso or --range)");
+                           "--distance, --size-field and --tets mesh one material (--iso or "
+                           "--range)");
     if (m->have_slabs &&
         (m->have_labels || m->denoise || m->surface_elements || o->elements != VM_TET4))
         return vm_cli_fail("mesh: --slabs meshes tetrahedra: not with --labels, --denoise or "
@@ -889,6 +898,17 @@ static int mesh_whole(mesh_args *m, mesh_job *j, int *done) {
         return vm_cli_fail("%s: %s", m->in.path, err.message);
     }
     vm_cli_stage_done(m->verbose, "mesh", &j->t);
+    /* --tets N met within 25%, or said */
+    double n = (double)m->o.tets, got = (double)j->m.ncells;
+    if (m->o.tets > 0 && (got > 1.25 * n || got < 0.75 * n))
+        fprintf(stderr,
+                "volmesh: %s: warning: --tets %zu gave %zu tets (sizes scaled by %.3g): %s\n",
+                m->in.path, m->o.tets, j->m.ncells, j->st.size_scale,
+                got > n ? "the voxels' topology needs more"
+                        : "the base cells allow no more (lower --min-edge or --max-edge)");
+    else if (m->o.tets > 0 && m->verbose)
+        fprintf(stderr, "volmesh: --tets %zu: sizes scaled by %.3g\n", m->o.tets,
+                j->st.size_scale);
     return VM_EXIT_OK;
 }
 

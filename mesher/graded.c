@@ -49,6 +49,55 @@ static vm_status refine_far(gr_tree *t, const gr_field *f, const vm_mesh_options
     return s;
 }
 
+/* Leaves of the balanced octree at sizes scaled by k. [out] t (freed by the caller). */
+static vm_status leaves_at(gr_field *f, const gr_sizing *sz, double k, gr_tree *t,
+                           vm_error *err) {
+    gr_sizing s2 = *sz;
+    s2.distance *= k;
+    s2.max_edge *= k;
+    f->size_scale = k;
+    vm__gr_tree_free(t);
+    vm_status s = vm__gr_tree_build(t, f, &s2, err);
+    if (!s) s = vm__gr_tree_balance(t, err);
+    return s;
+}
+
+/* The scale k in [1/64, 64] whose octree gives about `want` tets, by bisection on log k
+ * (fewer leaves as k grows), at *per tets per leaf (0: the lattice's tets per leaf at k = 1,
+ * returned); sz (at scale 1) and f take the scale found. [out] t: its octree. */
+static vm_status search_scale(gr_field *f, gr_sizing *sz, size_t want, double *per,
+                              gr_tree *t, vm_error *err) {
+    vm_status s = VM_OK;
+    if (!(*per > 0)) {
+        gr_lattice L;
+        memset(&L, 0, sizeof L);
+        s = leaves_at(f, sz, 1.0, t, err);
+        if (!s) s = vm__gr_lattice_build(&L, t, f, err);
+        /* lattice tets per leaf; the stuffing's pieces add some more at the surface */
+        *per = s || !t->leaves ? 12.0 : (double)L.nt / (double)t->leaves;
+        vm__gr_lattice_free(&L);
+    }
+    double lo = log(1.0 / 64), hi = log(64.0), best = 0, best_err = INFINITY;
+    for (int it = 0; it < 14 && !s; it++) {
+        double lk = 0.5 * (lo + hi);
+        if ((s = leaves_at(f, sz, exp(lk), t, err))) break;
+        double est = *per * (double)t->leaves, e = fabs(log(est / (double)want));
+        if (e < best_err) best_err = e, best = lk;
+        if (est > (double)want)
+            lo = lk;
+        else
+            hi = lk;
+    }
+    if (s) return s;
+    double k = exp(best);
+    sz->distance *= k;
+    sz->max_edge *= k;
+    gr_sizing one = *sz;
+    one.distance /= k;
+    one.max_edge /= k;
+    return leaves_at(f, &one, k, t, err);
+}
+
 vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh *mesh,
                           vm_mesh_stats *st, vm_error *err) {
     double voxel = fmin(v->spacing[0], fmin(v->spacing[1], v->spacing[2]));
@@ -80,7 +129,17 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     memset(&L, 0, sizeof L);
     vm_status s = vm__gr_field_init(&f, v, o, err);
     if (s) return s;
-    if (!(s = vm__gr_tree_build(&t, &f, &sz, err))) s = vm__gr_tree_balance(&t, err);
+    /* --tets N: the size scale k (multiplying the distance bound, the edge bound and the size
+     * field) whose octree gives about N tets, at the tets per leaf of a first mesh. */
+    int measured = 1, corrected = 0;
+    double d0 = sz.distance, per = 0;
+    gr_sizing sz1 = sz;
+    if (o->tets > 0) {
+        s = search_scale(&f, &sz, o->tets, &per, &t, err);
+        measured = 0; /* the count asked for wins over the distance */
+    } else if (!(s = vm__gr_tree_build(&t, &f, &sz, err))) {
+        s = vm__gr_tree_balance(&t, err);
+    }
     gr_stuff_stats ss;
     memset(&ss, 0, sizeof ss);
     /* The topology the mesh must have: the voxels' as dual contouring reads them. */
@@ -120,6 +179,15 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
             }
             if ((s = vm__gr_tree_refine_crossed(&t, &f, &split, err)) || !split) break;
             st->topology_rounds++;
+        } else if (!measured) {
+            /* --tets: once more at the tets per leaf this mesh shows, when 10% off */
+            double got = (double)mesh->ncells, asked = (double)o->tets;
+            if (corrected || !t.leaves || fabs(got / asked - 1) <= 0.1) break;
+            corrected = 1;
+            per = got / (double)t.leaves;
+            sz = sz1;
+            if ((s = search_scale(&f, &sz, o->tets, &per, &t, err))) break;
+            continue;
         } else {
             if (round == GR_REFINE_ROUNDS) break;
             /* keep this mesh and its tree until the refinement proves its topology */
@@ -142,6 +210,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     }
     free(saved);
     vm_mesh_free(&good);
+    st->size_scale = sz.distance / d0;
     st->octree_leaves = t.leaves;
     st->warped_vertices = ss.warped;
     st->surface_vertices = ss.cut_vertices + ss.warped;

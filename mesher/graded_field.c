@@ -56,6 +56,7 @@ vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_optio
                             vm_error *err) {
     memset(f, 0, sizeof *f);
     f->v = v;
+    f->size_scale = 1;
     for (int d = 0; d < 3; d++) {
         f->n[d] = v->dims[d];
         f->sp[d] = v->spacing[d];
@@ -211,5 +212,5 @@ double vm__gr_size_min(const gr_field *f, const double lo[3], const double hi[3]
                 double h = f->bsize[(size_t)(x + f->nb[0] * (y + f->nb[1] * z))];
                 if (h < mn) mn = h;
             }
-    return mn;
+    return mn * f->size_scale;
 }

@@ -22,8 +22,9 @@ typedef struct gr_field {
     /* Min and max of the values per block of GR_BLOCK^3 voxels (nb blocks per axis). */
     int64_t nb[3];
     float *bmin, *bmax;
-    /* The size field's least value per block (NULL: no size field). */
+    /* The size field's least value per block (NULL: no size field), times size_scale. */
     float *bsize;
+    double size_scale;
 } gr_field;
 
 enum { GR_BLOCK = 4 };

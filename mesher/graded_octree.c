@@ -106,7 +106,7 @@ static int corner_values(const gr_tree *t, const gr_field *f, const gr_node *q, 
     for (int k = 0; k < 8; k++) {
         double u[3] = {(k & 1) ? hi[0] : lo[0], (k & 2) ? hi[1] : lo[1],
                        (k & 4) ? hi[2] : lo[2]};
-        c[k] = vm__gr_phi_clamped(f, u);
+        c[k] = vm__gr_phi(f, u);
         if (c[k] >= 0) mask |= 1 << k;
     }
     return mask;
@@ -126,7 +126,7 @@ static int midpoints_agree(const gr_tree *t, const gr_field *f, const gr_node *q
         double u[3];
         for (int d = 0; d < 3; d++)
             u[d] = lo[d] + 0.5 * (double)x[d] * (hi[d] - lo[d]);
-        int in = vm__gr_phi_clamped(f, u) >= 0, agree = 0;
+        int in = vm__gr_phi(f, u) >= 0, agree = 0;
         for (int k = 0; k < 8 && !agree; k++) {
             int on = 1; /* corner k belongs to the edge, face or cube of point m */
             for (int d = 0; d < 3; d++)
@@ -138,8 +138,8 @@ static int midpoints_agree(const gr_tree *t, const gr_field *f, const gr_node *q
     return 1;
 }
 
-/* Where the clamped field crosses zero between a and b (values fa, fb of opposite signs),
- * by bisection. */
+/* Where the field (constant `out` beyond the box) crosses zero between a and b (values fa,
+ * fb of opposite signs), by bisection. */
 static void crossing(const gr_field *f, const double a[3], const double b[3], double fa,
                      double p[3]) {
     double lo = 0, hi = 1;
@@ -147,7 +147,7 @@ static void crossing(const gr_field *f, const double a[3], const double b[3], do
         double m = 0.5 * (lo + hi), u[3];
         for (int d = 0; d < 3; d++)
             u[d] = a[d] + m * (b[d] - a[d]);
-        if ((vm__gr_phi_clamped(f, u) >= 0) == (fa >= 0))
+        if ((vm__gr_phi(f, u) >= 0) == (fa >= 0))
             lo = m;
         else
             hi = m;

@@ -34,6 +34,10 @@ typedef struct vm_mesh_options {
      * resampled trilinearly at the voxels (its nearest value beyond its box); NULL: none.
      * Sizes below the base cell (one voxel, or --min-edge) are met by base cells. */
     const vm_volume *size_field;
+    /* About this many tets (graded): the distance bound, the edge bound and the size field
+     * are scaled together until the octree gives it; the distance is then not refined.
+     * vm_mesh_stats.size_scale says the scale used. 0: none. */
+    size_t tets;
     /* A cropped volume (tets only; full_nz 0: v is the whole volume). v holds the planes
      * z_offset .. z_offset + v->dims[2] - 1 of a whole volume of full_nz planes, and v's
      * index-to-world mapping is the whole volume's (plane 0 at its origin). The mesh covers
@@ -63,6 +67,7 @@ typedef struct vm_mesh_stats {
     size_t warped_vertices;    /* graded: lattice vertices moved onto the surface */
     size_t refine_rounds;      /* graded: rounds of refining where the distance was over */
     size_t topology_rounds;    /* graded: rounds of refining where the topology differed */
+    double size_scale;         /* graded with a tet target: the sizes' scale found (else 1) */
     int refine_undone;         /* graded: the last distance refinement changed the topology
                                   and was undone (the distance may be over the bound) */
     double seconds;

@@ -97,6 +97,8 @@ refuse "size 0" "size-field" mesh ball.mha --iso 0 --size-field zero.mha -o out.
 refuse "missing size field" "nothere.mha" mesh ball.mha --iso 0 --size-field nothere.mha -o out.vtu
 refuse "size field with labels" "--labels" mesh labels.mha --labels all --size-field size.mha -o out.vtu
 refuse "distance with labels" "--labels" mesh labels.mha --labels all --distance 1 -o out.vtu
+refuse "tets with labels" "--labels" mesh labels.mha --labels all --tets 1000 -o out.vtu
+refuse "tets of 0" "--tets" mesh ball.mha --iso 0 --tets 0 -o out.vtu
 refuse "graded with labels" "--labels" mesh labels.mha --labels all --graded -o out.vtu
 refuse "graded with hexes" "tetrahedra" mesh ball.mha --iso 0 --max-edge 4 --elements hex -o out.vtu
 refuse "graded with slabs" "slabs" mesh ball.mha --iso 0 --max-edge 4 --slabs 2 -o out.vtu
