@@ -40,16 +40,6 @@ double vm__gr_phi(const gr_field *f, const double u[3]) {
     return vm__gr_phi_value(f, trilinear(f, x[0], x[1], x[2]));
 }
 
-double vm__gr_phi_clamped(const gr_field *f, const double u[3]) {
-    double x[3];
-    for (int d = 0; d < 3; d++) {
-        x[d] = u[d] / f->sp[d];
-        if (x[d] < 0) x[d] = 0;
-        if (x[d] > (double)(f->n[d] - 1)) x[d] = (double)(f->n[d] - 1);
-    }
-    return vm__gr_phi_value(f, trilinear(f, x[0], x[1], x[2]));
-}
-
 static vm_status size_blocks(gr_field *f, const vm_volume *sf, vm_error *err);
 
 vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_options *o,

@@ -51,8 +51,6 @@ static inline double vm__gr_phi_point(const gr_field *f, int64_t i, int64_t j, i
 }
 /* phi at u (scaled index frame): trilinear inside the box, `out` outside. */
 double vm__gr_phi(const gr_field *f, const double u[3]);
-/* The same with u clamped into the box (the field extended outward, for estimates). */
-double vm__gr_phi_clamped(const gr_field *f, const double u[3]);
 
 /* The least size-field value over the blocks that meet the box [lo, hi] (scaled index
  * frame); INFINITY without a size field. */
