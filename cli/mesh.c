@@ -42,14 +42,18 @@ static const char *mesh_help =
     "                          contouring mesh (quads: of the hex mesh); mc marching cubes\n"
     "                          with the topology of the trilinear interpolant; asc adaptive\n"
     "                          skeleton climbing; cover disk covering (quad: dc only)\n"
+;
+static const char *mesh_help_sizing =
     "  --graded                graded octree sized in world units (isosurface stuffing; also\n"
-    "                          set by any of the four below; docs/SIZING.md)\n"
+    "                          set by any of the six below; docs/SIZING.md)\n"
     "  --max-edge L            no element edge longer than L (world units, e.g. mm; with\n"
     "                          --labels: interior cells of at most L, boundaries uniform)\n"
     "  --min-edge L            smallest cell edge (default: one voxel)\n"
     "  --distance D            boundary within D of the isosurface (default: half a voxel)\n"
     "  --size-field FILE       an image (any readable format, its own geometry) giving the\n"
     "                          largest edge at each point, in world units\n"
+    "  --grading R             sizes grow by R per cell on average (1.1 <= R < 2; default\n"
+    "                          2: neighbouring cells differ by 2x at most)\n"
     "  --tets N                about N tets: the sizes above scaled together (graded; the\n"
     "                          distance is then not refined; a warning when N is not met)\n"
     "  --adaptive              octree cells: large inside, 2x2x2 on simple flat boundary\n"
@@ -355,7 +359,7 @@ static const char *const mesh_valued[] = {
     "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
     "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts",
     "--materials", "--modulus",   "--material-bins", "--max-edge", "--min-edge",
-    "--distance", "--size-field", "--tets"};
+    "--distance", "--size-field", "--tets", "--grading"};
 
 /* 1 when option a takes a value. */
 static int mesh_takes_value(const char *a) {
@@ -434,6 +438,11 @@ static int shape_option(mesh_args *m, char **argv, int *i, int *taken) {
         *(strcmp(a, "--max-edge") == 0   ? &m->o.max_edge
           : strcmp(a, "--min-edge") == 0 ? &m->o.min_edge
                                          : &m->o.distance) = x;
+        m->o.graded = 1;
+    } else if (vm_cli_is(a, "--grading", NULL)) {
+        if (vm_cli_double(a, argv[++*i], &m->o.grading)) return VM_EXIT_INPUT;
+        if (!(m->o.grading >= 1.1 && m->o.grading < 1e30))
+            return vm_cli_fail("--grading: '%s' is not a ratio >= 1.1", argv[*i]);
         m->o.graded = 1;
     } else if (vm_cli_is(a, "--tets", NULL)) {
         long n = 0;
@@ -567,6 +576,7 @@ static int mesh_parse(mesh_args *m, int argc, char **argv, int *help) {
         const char *a = argv[i];
         if (vm_cli_is(a, "--help", "-h")) {
             fputs(mesh_help, stdout);
+            fputs(mesh_help_sizing, stdout);
             fputs(mesh_help2, stdout);
             fputs(mesh_help3, stdout);
             *help = 1;
@@ -617,17 +627,17 @@ static int option_conflicts(const mesh_args *m) {
         return vm_cli_fail("mesh: --modulus needs the whole volume and gives the materials: "
                            "not with --labels, --elements tri|quad, --slabs or --materials");
     if (m->o.graded && (m->have_slabs || m->surface_elements || o->adaptive))
-        return vm_cli_fail("mesh: --graded, --min-edge, --distance, --size-field and --tets mesh "
+        return vm_cli_fail("mesh: --graded, --min-edge, --distance, --size-field, --grading and --tets mesh "
                            "tetrahedra of the whole volume: not with --slabs, --adaptive or "
                            "--elements tri|quad");
     if (m->have_labels && o->graded && !(o->max_edge > 0))
         return vm_cli_fail("mesh: --graded meshes one material (--iso or --range); with "
                            "--labels, --max-edge L sizes the cells");
     if (m->have_labels && (o->min_edge > 0 || o->distance > 0 || m->size_field_path ||
-                           o->tets > 0))
+                           o->tets > 0 || o->grading > 0))
         return vm_cli_fail("mesh: with --labels, --max-edge sizes the cells; --min-edge, "
-                           "--distance, --size-field and --tets mesh one material (--iso or "
-                           "--range)");
+                           "--distance, --size-field, --grading and --tets mesh one material "
+                           "(--iso or --range)");
     if (m->have_slabs &&
         (m->have_labels || m->denoise || m->surface_elements || o->elements != VM_TET4))
         return vm_cli_fail("mesh: --slabs meshes tetrahedra: not with --labels, --denoise or "

@@ -107,6 +107,9 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     /* Half a voxel; for anisotropic voxels, half the edge of the cube of a voxel's volume. */
     double mean = cbrt(v->spacing[0] * v->spacing[1] * v->spacing[2]);
     sz.distance = o->distance > 0 ? o->distance : 0.5 * mean;
+    /* --grading R: sizes double every ceil(ln 2 / ln R) cells (at least one: 2:1) */
+    sz.layers = o->grading > 1 && o->grading < 2 ? (int)ceil(log(2.0) / log(o->grading) - 1e-9)
+                                                 : 1;
     /* Base cells: voxels, unless --min-edge asks otherwise or the voxels are over 3 times
      * longer one way than another; then each voxel edge is cut into (or, above a voxel,
      * joined from) a whole number of pieces near the asked length, so that base cells are

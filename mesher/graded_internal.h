@@ -79,6 +79,7 @@ typedef struct gr_tree {
     double u0[3];    /* position of lattice point 0 in the scaled index frame */
     int max_level;   /* leaves are at most this level (the --max-edge bound) */
     double distance; /* the distance bound (world) */
+    int layers;      /* cells of one size at least this deep before the next (--grading) */
     size_t leaves;
 } gr_tree;
 
@@ -93,13 +94,15 @@ static inline double vm__gr_edge_bound(double s, double D) {
 /* Sizing of the octree (world units). */
 typedef struct gr_sizing {
     double h0[3], max_edge, distance;
+    int layers; /* --grading R: ceil(ln 2 / ln R) cells of a size before the next (1: 2:1) */
 } gr_sizing;
 
 vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *s, vm_error *err);
 /* Splits leaf `leaf` into 8 children. */
 vm_status vm__gr_tree_split(gr_tree *t, size_t leaf, vm_error *err);
 /* 2:1 balance over faces, edges and corners (neighbouring leaves differ by one level at
- * most), by splitting the coarser side until it holds. */
+ * most), by splitting the coarser side until it holds; with t->layers = m > 1, every leaf
+ * within m cells of its own size (faces, edges, corners) is at most one level coarser. */
 vm_status vm__gr_tree_balance(gr_tree *t, vm_error *err);
 /* Splits every leaf above the base level that the surface may cross. [out] *split: leaves
  * split. */

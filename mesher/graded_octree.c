@@ -296,6 +296,7 @@ vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *sz, 
     memset(t, 0, sizeof *t);
     vm__gr_config_init();
     t->distance = sz->distance;
+    t->layers = sz->layers > 1 ? sz->layers : 1;
     double need = 0, hmax = 0;
     for (int d = 0; d < 3; d++) {
         t->h0[d] = sz->h0[d];
@@ -371,18 +372,20 @@ vm_status vm__gr_tree_balance(gr_tree *t, vm_error *err) {
         if (t->node[i].child < 0) work[n++] = i;
     vm_status s = VM_OK;
     int64_t root = (int64_t)2 << t->root_level;
-    /* Each leaf checks its 26 neighbours; a neighbour two or more levels coarser is split
-     * (its children join the work, as they may be too coarse for their own neighbours). */
+    /* Each leaf checks its 26 neighbours (out to t->layers cells); one two or more levels
+     * coarser is split (its children join the work, as they may be too coarse for their own
+     * neighbours). */
     while (n && !s) {
         size_t at = work[--n];
         if (t->node[at].child >= 0) continue;
         int lev = t->node[at].level;
         int64_t e = (int64_t)2 << lev;
-        for (int dir = 0; dir < 27 && !s; dir++) {
-            if (dir == 13) continue;
+        int m = t->layers, w = 2 * m + 1;
+        for (int dir = 0; dir < w * w * w && !s; dir++) {
+            if (dir == (w * w * w) / 2) continue;
             int64_t q[3];
-            for (int d = 0, r = dir; d < 3; d++, r /= 3)
-                q[d] = t->node[at].a[d] + (int64_t)(r % 3 - 1) * e + e / 2;
+            for (int d = 0, r = dir; d < 3; d++, r /= w)
+                q[d] = t->node[at].a[d] + (int64_t)(r % w - m) * e + e / 2;
             if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= root || q[1] >= root ||
                 q[2] >= root)
                 continue;

@@ -355,6 +355,8 @@ vm_status vm__mesh_options_check(const vm_mesh_options *o, vm_error *err) {
         !(o->distance >= 0 && o->distance <= 1e30))
         return vm_error_set(err, VM_ERR_ARG,
                             "mesh: --max-edge, --min-edge and --distance must be >= 0 and finite");
+    if (o->grading != 0 && !(o->grading >= 1.1 && o->grading <= 1e30))
+        return vm_error_set(err, VM_ERR_ARG, "mesh: --grading %g must be >= 1.1", o->grading);
     if (o->tets > 0 && !o->graded)
         return vm_error_set(err, VM_ERR_ARG, "mesh: a tet target needs graded sizing");
     if (o->size_field && (!o->graded || !o->size_field->data))

@@ -34,6 +34,10 @@ typedef struct vm_mesh_options {
      * resampled trilinearly at the voxels (its nearest value beyond its box); NULL: none.
      * Sizes below the base cell (one voxel, or --min-edge) are met by base cells. */
     const vm_volume *size_field;
+    /* Grading (graded): neighbouring cells differ by 2x at most; R in [1.1, 2) asks that
+     * sizes grow by R per cell on average (ceil(ln 2 / ln R) cells of a size before the
+     * next). 0: 2. */
+    double grading;
     /* About this many tets (graded): the distance bound, the edge bound and the size field
      * are scaled together until the octree gives it; the distance is then not refined.
      * vm_mesh_stats.size_scale says the scale used. 0: none. */

@@ -4,6 +4,7 @@
  * dual contouring has), graded meshes are much smaller than uniform ones, and the sizes asked
  * for (--max-edge, --distance, anisotropic voxels) are met. */
 #include "test.h"
+#include "mesher/graded_internal.h"
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -322,6 +323,70 @@ static void sizeFieldSetsTheDensity(void) {
     vm_volume_free(&v);
 }
 
+/* The octree's grading on a torus: with --grading R every leaf within ceil(ln 2 / ln R)
+ * cells of its own size is at most one level coarser (2:1 at the default), R = 1.3 gives more
+ * tets than the default, and the mesh keeps its topology. */
+static void gradingSpreadsLevelChanges(void) {
+    vm_volume v;
+    vm_phantom_info info;
+    vm_error err;
+    vm_status s = vm_phantom_make(VM_PHANTOM_TORUS, 48, 0.0, 1u, &v, &info, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return;
+    vm_mesh_options o;
+    graded_options(&o);
+    gr_field f;
+    s = vm__gr_field_init(&f, &v, &o, &err);
+    CHECK_OK(s, &err);
+    static const int layers[2] = {1, 3};
+    for (int c = 0; c < 2 && s == VM_OK; c++) {
+        gr_sizing sz = {{1, 1, 1}, INFINITY, 0.5, layers[c]};
+        gr_tree t;
+        s = vm__gr_tree_build(&t, &f, &sz, &err);
+        if (s == VM_OK) s = vm__gr_tree_balance(&t, &err);
+        CHECK_OK(s, &err);
+        size_t bad = 0, jumps = 0;
+        int64_t root = (int64_t)2 << t.root_level;
+        for (size_t i = 0; i < t.n && s == VM_OK; i++) {
+            const gr_node *q = &t.node[i];
+            if (q->child >= 0) continue;
+            int64_t e = (int64_t)2 << q->level;
+            int m = layers[c];
+            for (int dz = -m; dz <= m; dz++)
+                for (int dy = -m; dy <= m; dy++)
+                    for (int dx = -m; dx <= m; dx++) {
+                        int64_t p[3] = {q->a[0] + dx * e + e / 2, q->a[1] + dy * e + e / 2,
+                                        q->a[2] + dz * e + e / 2};
+                        if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= root || p[1] >= root ||
+                            p[2] >= root)
+                            continue;
+                        int64_t nb = vm__gr_tree_find(&t, p, 0);
+                        if (nb < 0) continue;
+                        if (t.node[nb].level > q->level + 1) bad++;
+                        if (t.node[nb].level == q->level + 1) jumps++;
+                    }
+        }
+        CHECK_MSG(bad == 0 && jumps > 0, "layers %d: %zu leaves too coarse near a finer one",
+                  layers[c], bad);
+        printf("    torus, %d layer(s) per size: %zu leaves\n", layers[c], t.leaves);
+        vm__gr_tree_free(&t);
+    }
+    vm__gr_field_free(&f);
+    vm_mesh_report r0, r1;
+    graded_options(&o);
+    int ok0 = mesh_and_check("torus", &v, &o, info.euler, (size_t)info.components, 1, &r0);
+    o.grading = 1.3;
+    int ok1 =
+        mesh_and_check("torus --grading 1.3", &v, &o, info.euler, (size_t)info.components, 0, &r1);
+    if (ok0 && ok1) CHECK_MSG(r1.cells > r0.cells, "tets %zu vs %zu", r1.cells, r0.cells);
+    o.grading = 1.05;
+    vm_mesh m;
+    s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK_MSG(s == VM_ERR_ARG, "--grading 1.05 accepted");
+    if (s == VM_OK) vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
 /* --tets N: the sizes are scaled until the mesh has N tets within 25%, on a torus, for a
  * target above and one below the default's count; the topology holds. */
 static void tetTargetIsMet(void) {
@@ -397,5 +462,5 @@ static void anisotropicVoxelsKeepVolumeThroughThePass(void) {
 
 TEST_MAIN(T(everyCubePatternKeepsTheCubicalTopology), T(randomVolumesKeepTheCubicalTopology),
           T(noisyPhantomsKeepTheCubicalTopology), T(gradedPhantomsAreSmallAndFaithful),
-          T(sizesAreMet), T(sizeFieldSetsTheDensity), T(tetTargetIsMet),
+          T(sizesAreMet), T(sizeFieldSetsTheDensity), T(tetTargetIsMet), T(gradingSpreadsLevelChanges),
           T(anisotropicVoxelsKeepVolumeThroughThePass))
