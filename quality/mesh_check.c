@@ -165,18 +165,38 @@ static int64_t face_low(const faceset *fs, uint64_t inst) {
     return lo;
 }
 
-/* Sorts bucket ord[0..b) by the faces' other nodes (tbf: b entries of scratch), writes it
- * back in that order and marks each instance: bit 0 a boundary face (counted in *n), bit 1
- * the same face as the one before it; *over counts faces of more than two instances. */
-static void match_bucket(const faceset *fs, uint64_t *ord, size_t b, bucket_face *tbf,
-                         unsigned char *mark, size_t *n, size_t *over) {
+/* The face instances in bucket order: 32 bits each while they fit (half the memory of the
+ * check's largest array), else 64. One of the two pointers is set. */
+typedef struct inst_list {
+    uint32_t *n32;
+    uint64_t *n64;
+} inst_list;
+
+static uint64_t inst_get(const inst_list *o, size_t i) {
+    return o->n32 ? o->n32[i] : o->n64[i];
+}
+
+static void inst_set(const inst_list *o, size_t i, uint64_t v) {
+    if (o->n32)
+        o->n32[i] = (uint32_t)v;
+    else
+        o->n64[i] = v;
+}
+
+/* Sorts bucket ord[first..first+b) by the faces' other nodes (tbf: b entries of scratch),
+ * writes it back in that order and marks each instance: bit 0 a boundary face (counted in
+ * *n), bit 1 the same face as the one before it; *over counts faces of more than two
+ * instances. */
+static void match_bucket(const faceset *fs, const inst_list *ord, size_t first, size_t b,
+                         bucket_face *tbf, unsigned char *mark, size_t *n, size_t *over) {
     int k = fs->k;
     for (size_t q = 0; q < b; q++) {
         int64_t key[4];
-        face_nodes(fs, ord[q], key);
+        uint64_t inst = inst_get(ord, first + q);
+        face_nodes(fs, inst, key);
         sort_small(key, k);
         memcpy(tbf[q].key, key + 1, (size_t)(k - 1) * sizeof key[0]);
-        tbf[q].inst = ord[q];
+        tbf[q].inst = inst;
     }
     sort_bucket(tbf, b, k - 1);
     for (size_t q = 0; q < b;) {
@@ -194,14 +214,14 @@ static void match_bucket(const faceset *fs, uint64_t *ord, size_t b, bucket_face
         q = e;
     }
     for (size_t q = 0; q < b; q++)
-        ord[q] = tbf[q].inst;
+        inst_set(ord, first + q, tbf[q].inst);
 }
 
 /* Matches the buckets of every node (start: np + 1 offsets into order), in slabs of nodes
  * whose buckets run on threads (each bucket on its own, so the result does not depend on
  * the threads). *n counts boundary faces, *over faces of more than two cells. Returns
  * VM_ERR_NOMEM when a thread's scratch could not be allocated, else VM_OK. */
-static vm_status match_buckets(const faceset *fs, const size_t *start, uint64_t *order,
+static vm_status match_buckets(const faceset *fs, const size_t *start, const inst_list *order,
                                unsigned char *mark, size_t *nb, size_t *nover, vm__meter *mt,
                                double share) {
     size_t np = fs->npoints, n = 0, over = 0;
@@ -231,7 +251,7 @@ static vm_status match_buckets(const faceset *fs, const size_t *start, uint64_t 
                         continue;
                     }
                 }
-                match_bucket(fs, order + start[v], b, tbf, mark, &n, &over);
+                match_bucket(fs, order, start[v], b, tbf, mark, &n, &over);
             }
             free(tbf);
             if (lost) {
@@ -308,10 +328,14 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
     }
     for (size_t v = 0; v < np; v++) start[v + 1] += start[v];
     if (mt) vm__meter_add(mt, share / 3.0);
-    uint64_t *order = alloc_array(ninst, sizeof *order, 0, "face order", &st, err);
+    inst_list order = {NULL, NULL};
+    if (ninst <= UINT32_MAX)
+        order.n32 = alloc_array(ninst, sizeof *order.n32, 0, "face order", &st, err);
+    else
+        order.n64 = alloc_array(ninst, sizeof *order.n64, 0, "face order", &st, err);
     size_t *fill = alloc_array(np, sizeof *fill, 0, "face buckets", &st, err);
     unsigned char *mark = alloc_array(ninst, 1, 1, "face marks", &st, err);
-    if (!order || !fill || !mark) goto done;
+    if ((!order.n32 && !order.n64) || !fill || !mark) goto done;
     memcpy(fill, start, np * sizeof *fill);
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
@@ -322,7 +346,7 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
 #pragma omp atomic capture
 #endif
         at = (*slot)++;
-        order[at] = (uint64_t)i;
+        inst_set(&order, at, (uint64_t)i);
     }
     free(fill);
     fill = NULL;
@@ -330,7 +354,7 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
     /* a bucket's instances go back into order sorted, marked (match_bucket); the cells are
      * united afterwards in one pass in order */
     size_t n = 0;
-    if (match_buckets(fs, start, order, mark, &n, overshared, mt, share)) {
+    if (match_buckets(fs, start, &order, mark, &n, overshared, mt, share)) {
         st = vm_error_set(err, VM_ERR_NOMEM, "mesh check: out of memory for a face bucket");
         goto done;
     }
@@ -339,9 +363,9 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
 #pragma omp parallel for schedule(static)
 #endif
         for (ptrdiff_t i = 1; i < ni; i++)
-            if (mark[order[i]] & 2)
-                shared_union(parent, (size_t)(order[i] / (uint64_t)fs->nf),
-                             (size_t)(order[i - 1] / (uint64_t)fs->nf));
+            if (mark[inst_get(&order, (size_t)i)] & 2)
+                shared_union(parent, (size_t)(inst_get(&order, (size_t)i) / (uint64_t)fs->nf),
+                             (size_t)(inst_get(&order, (size_t)i - 1) / (uint64_t)fs->nf));
     }
     uint64_t *list = alloc_array(n, sizeof *list, 0, "boundary faces", &st, err);
     if (!list) goto done;
@@ -350,7 +374,8 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
     *nb = n;
 done:
     free(start);
-    free(order);
+    free(order.n32);
+    free(order.n64);
     free(fill);
     free(mark);
     return st;
