@@ -86,19 +86,28 @@ def median_row(rows):
     return row
 
 
-def head_table(head):
-    """Stage rows: one line per stage, one column per thread count, and the ratio."""
-    threads = sorted(head, key=int)
+def head_table(head, head_passive=True):
+    """Stage rows: one line per stage, one column per thread count, the ratio, and the most
+    threads again with OMP_WAIT_POLICY=passive when that was run (key "Np")."""
+    threads = sorted((t for t in head if t.isdigit()), key=int)
     lines = ["| stage | " + " | ".join(f"{t} thread{'s' if t != '1' else ''} s" for t in threads)
              + (f" | {threads[0]} ÷ {threads[-1]} |" if len(threads) > 1 else " |"),
              "|---|" + "---|" * (len(threads) + (1 if len(threads) > 1 else 0))]
-    for s in STAGES + ["wall"]:
-        vals = [head[t]["wall"] if s == "wall" else head[t]["stages"].get(s, 0.0)
-                for t in threads]
-        ratio = (f" | {vals[0] / vals[-1]:.2f}×" if len(vals) > 1 and vals[-1] > 0 else
-                 (" | –" if len(vals) > 1 else ""))
-        lines.append(f"| {'end to end (wall)' if s == 'wall' else s} | "
-                     + " | ".join(f"{v:.3f}" for v in vals) + ratio + " |")
+    passive = head_passive and threads[-1] + "p" in head
+    if passive:
+        lines[0] += f" {threads[-1]} threads, passive wait s |"
+        lines[1] += "---|"
+    for s in STAGES + ["wall", "cpu"]:
+        cols = threads + ([threads[-1] + "p"] if passive else [])
+        vals = [head[t][s] if s in ("wall", "cpu") else head[t]["stages"].get(s, 0.0)
+                for t in cols]
+        n = len(threads)
+        ratio = (f" | {vals[0] / vals[n - 1]:.2f}×" if n > 1 and vals[n - 1] > 0 else
+                 (" | –" if n > 1 else ""))
+        name = {"wall": "end to end (wall)", "cpu": "CPU, user + system"}.get(s, s)
+        lines.append(f"| {name} | "
+                     + " | ".join(f"{v:.3f}" for v in vals[:n]) + ratio
+                     + (f" | {vals[n]:.3f}" if passive else "") + " |")
     return "\n".join(lines)
 
 
@@ -109,10 +118,12 @@ def block(res, meta):
              f"Machine: {m.get('Model name', '?')}, {m.get('nproc', '?')} CPUs, "
              f"{m.get('memory', '?')} memory, load average {meta['load']} when the run started "
              "(a shared machine: with other work on the cores, two threads cannot show their "
-             "speed-up, so read the ratios as a floor)."]
+             "speed-up, so read the ratios as a floor). The last column runs the most threads "
+             "again with `OMP_WAIT_POLICY=passive`: on a busy machine OpenMP's threads that "
+             "spin at the end of each parallel loop take cores from the others' work."]
     head = res.get("head")
     if head and all("failed" not in r for r in head.values()):
-        any_row = next(iter(head.values()))
+        any_row = head[min((t for t in head if t.isdigit()), key=int)]
         parts += ["", f"CT head (`ct_head_quarter.nrrd`) at iso 500, {any_row['tets']:,} tets, "
                   f"`volmesh --threads N mesh … --verbose`, median of {any_row.get('reps', 1)} "
                   "run(s):", "", head_table(head)]
@@ -183,6 +194,15 @@ def main():
                     for _ in range(args.reps)]
             res["head"][t] = median_row(rows)
             print(json.dumps(res["head"][t]), flush=True)
+        if len(threads) > 1:
+            t = threads[-1]
+            print(f"stages.py: CT head, {t} threads, passive wait", file=sys.stderr, flush=True)
+            os.environ["OMP_WAIT_POLICY"] = "passive"
+            rows = [mesh_once(cli, args.head, 500, t, work, args.timeout)
+                    for _ in range(args.reps)]
+            del os.environ["OMP_WAIT_POLICY"]
+            res["head"][t + "p"] = median_row(rows)
+            print(json.dumps(res["head"][t + "p"]), flush=True)
     if args.gyroid:
         n = args.gyroid
         vol = os.path.join(work, f"gyroid-{n}.nrrd")
