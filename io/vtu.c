@@ -44,13 +44,23 @@ static void fill_values(const out_array *a, size_t first, size_t n, unsigned cha
     case SRC_INDEX:
         for (size_t i = 0; i < n; i++) {
             int64_t v = ((const vm_index *)a->src)[first + i];
-            memcpy(out + 8 * i, &v, 8);
+            if (a->esize == 4) {
+                int32_t w = (int32_t)v;
+                memcpy(out + 4 * i, &w, 4);
+            } else {
+                memcpy(out + 8 * i, &v, 8);
+            }
         }
         break;
     case SRC_OFFSETS:
         for (size_t i = 0; i < n; i++) {
             int64_t v = (int64_t)(first + i + 1) * a->aux;
-            memcpy(out + 8 * i, &v, 8);
+            if (a->esize == 4) {
+                int32_t w = (int32_t)v;
+                memcpy(out + 4 * i, &w, 4);
+            } else {
+                memcpy(out + 8 * i, &v, 8);
+            }
         }
         break;
     case SRC_TYPES: memset(out, (int)a->aux, n); break;
@@ -215,8 +225,14 @@ static size_t describe_arrays(const vm_mesh *m, size_t nconn, int nn, int vtk_ty
     }
     *first_points = na;
     next_array(arr, &na, "Float64", "Points", 3, 3 * m->npoints, 8, SRC_COPY, m->points);
-    next_array(arr, &na, "Int64", "connectivity", 1, nconn, 8, SRC_INDEX, m->cells);
-    next_array(arr, &na, "Int64", "offsets", 1, m->ncells, 8, SRC_OFFSETS, NULL)->aux = nn;
+    /* Int32 connectivity and offsets while every value fits (half the bytes to compress and
+     * write), Int64 beyond */
+    int narrow = m->npoints <= (size_t)INT32_MAX && nconn <= (size_t)INT32_MAX;
+    const char *itype = narrow ? "Int32" : "Int64";
+    size_t isize = narrow ? 4 : 8;
+    next_array(arr, &na, itype, "connectivity", 1, nconn, isize,
+               narrow && sizeof(vm_index) == 4 ? SRC_COPY : SRC_INDEX, m->cells);
+    next_array(arr, &na, itype, "offsets", 1, m->ncells, isize, SRC_OFFSETS, NULL)->aux = nn;
     next_array(arr, &na, "UInt8", "types", 1, m->ncells, 1, SRC_TYPES, NULL)->aux = vtk_type;
     return na;
 }

@@ -213,6 +213,12 @@ static void multiBlockFilesAreTheSameBytesOnOneAndTwoThreads(void) {
             vm_mesh_free(&back);
         }
         CHECK(b[0] && b[1]);
+        /* every index fits in 32 bits: connectivity and offsets are Int32 */
+        if (b[0]) {
+            const char *xml = (const char *)b[0];
+            CHECK(strstr(xml, "type=\"Int32\" Name=\"connectivity\"") != NULL &&
+                  strstr(xml, "type=\"Int32\" Name=\"offsets\"") != NULL);
+        }
         CHECK_MSG(len[0] == len[1] && b[0] && b[1] && memcmp(b[0], b[1], len[0]) == 0,
                   "compress %d: 1 and 2 threads write different bytes (%zu, %zu)", levels[l],
                   len[0], len[1]);
