@@ -140,7 +140,7 @@ def block(res, meta):
                   f"peak resident set {g['peak_mb']:.0f} MB = **{g['peak_mb'] * 1048576 / tets:.0f} "
                   f"bytes per tet** ({(g['peak_mb'] - g['vol_mb']) * 1048576 / tets:.0f} beyond "
                   f"the {g['vol_mb']:.0f} MB float volume); file {g['bytes'] / 1e6:.0f} MB "
-                  f"({g['bytes'] / tets:.1f} bytes per tet). Stages: "
+                  f"({g['bytes'] / tets:.1f} bytes per tet); min dihedral {g['min_dih']:.2f}°. Stages: "
                   + ", ".join(f"{s} {st.get(s, 0.0):.1f} s" for s in STAGES) + "."]
     elif g:
         parts += ["", f"Gyroid {g.get('n', '?')}³: {g['failed']}"]
