@@ -137,10 +137,12 @@ def block(res, meta):
         parts += ["", f"Gyroid {g['n']}³ (four periods, f >= 0), uniform, on {g['threads']} "
                   f"threads, one run: {tets:,} tets in {g['wall']:.1f} s wall "
                   f"({g['cpu']:.1f} s CPU) = **{tets / g['wall']:,.0f} tets/s** end to end; "
-                  f"peak resident set {g['peak_mb']:.0f} MB = **{g['peak_mb'] * 1048576 / tets:.0f} "
-                  f"bytes per tet** ({(g['peak_mb'] - g['vol_mb']) * 1048576 / tets:.0f} beyond "
+                  f"peak resident set {g['peak_mb']:.0f} MB = "
+                  f"**{g['peak_mb'] * 1048576 / tets:.0f} bytes per tet** "
+                  f"({(g['peak_mb'] - g['vol_mb']) * 1048576 / tets:.0f} beyond "
                   f"the {g['vol_mb']:.0f} MB float volume); file {g['bytes'] / 1e6:.0f} MB "
-                  f"({g['bytes'] / tets:.1f} bytes per tet); min dihedral {g['min_dih']:.2f}°. Stages: "
+                  f"({g['bytes'] / tets:.1f} bytes per tet); min dihedral "
+                  f"{g['min_dih']:.2f}°. Stages: "
                   + ", ".join(f"{s} {st.get(s, 0.0):.1f} s" for s in STAGES) + "."]
     elif g:
         parts += ["", f"Gyroid {g.get('n', '?')}³: {g['failed']}"]

@@ -18,7 +18,8 @@ int vm_compress_parse(const char *name, vm_compress *out) {
     static const struct {
         const char *name;
         vm_compress c;
-    } names[] = {{"fast", VM_COMPRESS_FAST}, {"best", VM_COMPRESS_BEST}, {"none", VM_COMPRESS_NONE}};
+    } names[] = {
+        {"fast", VM_COMPRESS_FAST}, {"best", VM_COMPRESS_BEST}, {"none", VM_COMPRESS_NONE}};
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
         if (strcmp(name, names[i].name) == 0) {
             *out = names[i].c;
