@@ -479,14 +479,21 @@ def write_markdown(path, results, meta):
                 f"(code at commit {r.get('commit') or 'not recorded'}); "
                 + lower_first(load_text(r))
                 for r in meta.get("reruns", []))))
-    # the big-volume block is bench/big.py's: keep what it last wrote
-    begin, end = "<!-- big-volumes:begin", "<!-- big-volumes:end -->"
-    if os.path.exists(path) and begin in text and end in text:
+    # the big-volume block is bench/big.py's, the stages block bench/stages.py's: keep what
+    # they last wrote (a stages block the template lacks goes at the end)
+    old = ""
+    if os.path.exists(path):
         with open(path, encoding="utf-8") as fh:
             old = fh.read()
-        if begin in old and end in old:
-            kept = old[old.index(begin):old.index(end) + len(end)]
+    for begin, end in (("<!-- big-volumes:begin", "<!-- big-volumes:end -->"),
+                       ("<!-- stages:begin", "<!-- stages:end -->")):
+        if begin not in old or end not in old:
+            continue
+        kept = old[old.index(begin):old.index(end) + len(end)]
+        if begin in text and end in text:
             text = text[:text.index(begin)] + kept + text[text.index(end) + len(end):]
+        else:
+            text = text.rstrip("\n") + "\n\n" + kept + "\n"
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(text)
 

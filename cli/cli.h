@@ -57,6 +57,10 @@ int vm_cli_outputs_end(int rc);
 /* Prints the opening of a mesh summary in JSON: {"output": "OUT", (the fields follow). */
 void vm_cli_json_summary_open(const char *out);
 
+/* --compress's value s (fast, best or none) into *out (a vm_compress): 0, or prints
+ * "volmesh: --compress: 'S' is not fast, best or none" and returns VM_EXIT_INPUT. */
+int vm_cli_compress(const char *s, int *out);
+
 /* ---- cli/args.c: flags, numbers, option values, the input volume ---- */
 
 /* 1 when argument a equals one of the given flag spellings (flag2 may be NULL). */

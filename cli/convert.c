@@ -6,7 +6,7 @@
 
 static const char *convert_help =
     "usage: volmesh convert IN OUT [--format F] [--deck static] [--order 2] [--ascii]\n"
-    "                              [--materials FILE]\n"
+    "                              [--materials FILE] [--compress fast|best|none]\n"
     "\n"
     "Converts a mesh between formats, chosen by the file extensions:\n"
     "  read and write: .vtu .vtk (legacy) .inp (ABAQUS/CalculiX) .msh (Gmsh 4.1; reads 2.2)\n"
@@ -27,6 +27,7 @@ static const char *convert_help =
     "  --materials FILE  decks (.inp .bdf .k .feb): CSV rows label,name,E,nu,density, one\n"
     "                  material per region (placeholders for regions without a row)\n"
     "  --ascii         ASCII STL, PLY or legacy VTK instead of binary\n"
+    "  --compress C    .vtu arrays: fast (zlib level 1, default), best (level 6) or none\n"
     "  -q, --quiet     no progress bar (shown on a terminal while writing)\n";
 
 /* Converts as the options say; [out] *materials: --materials' rows (the caller frees). */
@@ -46,7 +47,7 @@ static int convert_run(int argc, char **argv, vm_material **materials) {
         }
         int takes_value = strcmp(a, "--format") == 0 || strcmp(a, "--in-format") == 0 ||
                           strcmp(a, "--deck") == 0 || strcmp(a, "--order") == 0 ||
-                          strcmp(a, "--materials") == 0;
+                          strcmp(a, "--materials") == 0 || strcmp(a, "--compress") == 0;
         if (takes_value && vm_cli_need_value("convert", i, argc, argv)) return VM_EXIT_INPUT;
         if (strcmp(a, "--format") == 0 || strcmp(a, "--in-format") == 0) {
             vm_mesh_format f = vm_mesh_format_parse(argv[++i]);
@@ -65,6 +66,8 @@ static int convert_run(int argc, char **argv, vm_material **materials) {
             o.order = (int)v;
         } else if (strcmp(a, "--materials") == 0) {
             materials_path = argv[++i];
+        } else if (strcmp(a, "--compress") == 0) {
+            if (vm_cli_compress(argv[++i], &o.compress)) return VM_EXIT_INPUT;
         } else if (strcmp(a, "--ascii") == 0) {
             o.ascii = 1;
         } else if (vm_cli_is(a, "-q", "--quiet")) {

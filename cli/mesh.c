@@ -80,7 +80,10 @@ static const char *mesh_help2 =
     "                          of the trilinear field, both ways (Hausdorff, world units;\n"
     "                          docs/QUALITY.md), and print it with the summary (tets and\n"
     "                          hexes of --iso/--range; not with --slabs)\n"
-    "  --no-compress           write the VTU without zlib\n"
+    "  --compress fast|best|none  VTU arrays: zlib level 1 (fast, the default), level 6\n"
+    "                          (best: ~5% smaller, ~4x slower) or raw (none; also\n"
+    "                          --no-compress); blocks compressed on --threads threads,\n"
+    "                          the same bytes for any count\n"
     "  --deck static           with -o X.inp or X.feb: a complete static step (bottom\n"
     "                          fixed, top loaded) that CalculiX/ABAQUS (FEBio) solve as is\n"
     "  --split                 with -o X.inp: the mesh (nodes, elements, sets) in X_mesh.inp,\n"
@@ -359,7 +362,7 @@ static const char *const mesh_valued[] = {
     "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
     "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts",
     "--materials", "--modulus",   "--material-bins", "--max-edge", "--min-edge",
-    "--distance", "--size-field", "--tets", "--grading"};
+    "--distance", "--size-field", "--tets", "--grading", "--compress"};
 
 /* 1 when option a takes a value. */
 static int mesh_takes_value(const char *a) {
@@ -372,7 +375,7 @@ static int mesh_takes_value(const char *a) {
 static void mesh_args_init(mesh_args *m) {
     memset(m, 0, sizeof *m);
     vm_cli_input_init(&m->in, "mesh");
-    m->compress = 1;
+    m->compress = VM_COMPRESS_FAST;
     m->improve = 1;
     m->slabs = 1;
     vm_surface_options_default(&m->so);
@@ -526,7 +529,7 @@ static int stages_option(mesh_args *m, char **argv, int *i, int *taken) {
 }
 
 /* What is written and printed: -o, --surface, --report, --deck, --order, --materials,
- * --no-compress, --quality-fields, --json, --quiet, --verbose. */
+ * --compress, --no-compress, --quality-fields, --json, --quiet, --verbose. */
 static int output_option(mesh_args *m, char **argv, int *i, int *taken) {
     const char *a = argv[*i];
     *taken = 1;
@@ -552,8 +555,10 @@ static int output_option(mesh_args *m, char **argv, int *i, int *taken) {
         m->modulus = argv[++*i];
     } else if (vm_cli_is(a, "--material-bins", NULL)) {
         if (vm_cli_int(a, argv[++*i], 1, 100000, &m->material_bins)) return VM_EXIT_INPUT;
+    } else if (vm_cli_is(a, "--compress", NULL)) {
+        if (vm_cli_compress(argv[++*i], &m->compress)) return VM_EXIT_INPUT;
     } else if (vm_cli_is(a, "--no-compress", NULL)) {
-        m->compress = 0;
+        m->compress = VM_COMPRESS_NONE;
     } else if (vm_cli_is(a, "--quality-fields", NULL)) {
         m->quality_fields = 1;
     } else if (vm_cli_is(a, "--distance-check", NULL)) {
@@ -989,6 +994,7 @@ static int write_mesh(mesh_args *m, mesh_job *j) {
         vm_mesh_write_options_init(&sw);
         sw.progress = vm_cli_progress;
         sw.progress_user = &m->quiet;
+        sw.compress = m->compress;
         s = vm_mesh_boundary(&j->m, &surf, &err);
         if (!s) s = vm_mesh_write_as(m->surface, &surf, &sw, &err);
         vm_mesh_free(&surf);

@@ -118,6 +118,14 @@ int vm_cli_outputs_end(int rc) {
     return rc;
 }
 
+int vm_cli_compress(const char *s, int *out) {
+    vm_compress c;
+    if (!vm_compress_parse(s, &c))
+        return vm_cli_fail("--compress: '%s' is not fast, best or none", s);
+    *out = (int)c;
+    return VM_EXIT_OK;
+}
+
 /* The opening of a mesh summary in JSON, naming the file written. */
 void vm_cli_json_summary_open(const char *out) {
     printf("{\"output\": \"%s\", ", out);

@@ -340,13 +340,23 @@ static void cell_pairs(const tri_grid *g, size_t x, size_t y, size_t z, const bo
             }
             if (vm__tri_pair_intersects(pa, ia, pb, ib)) {
                 (*pairs)++;
-                if (flags) flags[s] = flags[t] = 1;
+                if (flags) {
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic write
+#endif
+                    flags[s] = 1;
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic write
+#endif
+                    flags[t] = 1;
+                }
             }
         }
 }
 
 /* The intersecting pairs (self_intersect.h): boxes, a uniform grid over them, the pairs
- * tested cell by cell. */
+ * tested cell by cell, the cells on the threads (each pair is tested in one cell only, so
+ * the count and the flags are the same for any thread count). */
 vm_status vm__self_intersections(const double *pts, const vm_index *tri, size_t nt,
                                  size_t *pairs, uint8_t *flags, vm_error *err) {
     *pairs = 0;
@@ -363,10 +373,17 @@ vm_status vm__self_intersections(const double *pts, const vm_index *tri, size_t 
     memset(&g, 0, sizeof g);
     grid_size(&g, glo, ghi, ext, nt);
     vm_status st = grid_fill(&g, bx, nt, err);
-    for (size_t z = 0; !st && z < g.n[2]; z++)
-        for (size_t y = 0; y < g.n[1]; y++)
-            for (size_t x = 0; x < g.n[0]; x++)
-                cell_pairs(&g, x, y, z, bx, pts, tri, pairs, flags);
+    size_t found = 0;
+    const ptrdiff_t ncell = st ? 0 : (ptrdiff_t)g.ncell;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 256) reduction(+ : found)
+#endif
+    for (ptrdiff_t c = 0; c < ncell; c++) {
+        size_t x = (size_t)c % g.n[0], y = (size_t)c / g.n[0] % g.n[1],
+               z = (size_t)c / g.n[0] / g.n[1];
+        cell_pairs(&g, x, y, z, bx, pts, tri, &found, flags);
+    }
+    *pairs = found;
     free(bx);
     free(g.start);
     free(g.ent);

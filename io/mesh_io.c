@@ -110,6 +110,11 @@ static vm_status check_options(const char *path, const vm_mesh_write_options *op
     if (opt->split && f != VM_MESH_INP)
         return vm_error_set(err, VM_ERR_ARG, "%s: --split writes .inp decks, not %s", path,
                             vm_mesh_format_name(f));
+    if (opt->compress != VM_COMPRESS_NONE && opt->compress != VM_COMPRESS_FAST &&
+        opt->compress != VM_COMPRESS_BEST)
+        return vm_error_set(err, VM_ERR_ARG,
+                            "%s: compress is %d: none (0), fast (1) or best (2)", path,
+                            opt->compress);
     if (opt->ascii && f != VM_MESH_STL && f != VM_MESH_PLY && f != VM_MESH_VTK)
         return vm_error_set(err, VM_ERR_ARG,
                             "%s: --ascii applies to stl, ply and vtk, not %s (always ASCII or "

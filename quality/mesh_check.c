@@ -83,6 +83,49 @@ static size_t table_size(size_t n) {
     return cap;
 }
 
+/* --- a union-find that threads share ---------------------------------------------------- */
+
+/* Roots are linked larger index under smaller, by compare-and-swap, and finds halve their
+ * paths with compare-and-swap too: any order of the same unions gives the same sets, so the
+ * count of roots (the components) is the same for any thread count, though the parents may
+ * differ. (The lock-free union-find of Anderson and Woll, STOC 1991, with index order for
+ * rank.) */
+static size_t shared_find(size_t *parent, size_t x) {
+    for (;;) {
+        size_t p = __atomic_load_n(&parent[x], __ATOMIC_RELAXED);
+        if (p == x) return x;
+        size_t g = __atomic_load_n(&parent[p], __ATOMIC_RELAXED);
+        if (g != p)
+            __atomic_compare_exchange_n(&parent[x], &p, g, 0, __ATOMIC_RELAXED,
+                                        __ATOMIC_RELAXED);
+        x = g;
+    }
+}
+
+static void shared_union(size_t *parent, size_t a, size_t b) {
+    for (;;) {
+        a = shared_find(parent, a);
+        b = shared_find(parent, b);
+        if (a == b) return;
+        size_t hi = a > b ? a : b, lo = a > b ? b : a;
+        if (__atomic_compare_exchange_n(&parent[hi], &hi, lo, 0, __ATOMIC_RELAXED,
+                                        __ATOMIC_RELAXED))
+            return;
+    }
+}
+
+/* The number of roots among parent[0..n). */
+static size_t shared_roots(size_t *parent, size_t n) {
+    size_t roots = 0;
+    const ptrdiff_t nn = (ptrdiff_t)n;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static) reduction(+ : roots)
+#endif
+    for (ptrdiff_t i = 0; i < nn; i++)
+        if (shared_find(parent, (size_t)i) == (size_t)i) roots++;
+    return roots;
+}
+
 /* --- cell faces: which are shared, which are on the boundary ----------------------------- */
 
 /* One face instance of a bucket: the nodes other than the smallest, sorted, and the
@@ -122,18 +165,38 @@ static int64_t face_low(const faceset *fs, uint64_t inst) {
     return lo;
 }
 
-/* Sorts bucket ord[0..b) by the faces' other nodes (tbf: b entries of scratch), writes it
- * back in that order and marks each instance: bit 0 a boundary face (counted in *n), bit 1
- * the same face as the one before it; *over counts faces of more than two instances. */
-static void match_bucket(const faceset *fs, uint64_t *ord, size_t b, bucket_face *tbf,
-                         unsigned char *mark, size_t *n, size_t *over) {
+/* The face instances in bucket order: 32 bits each while they fit (half the memory of the
+ * check's largest array), else 64. One of the two pointers is set. */
+typedef struct inst_list {
+    uint32_t *n32;
+    uint64_t *n64;
+} inst_list;
+
+static uint64_t inst_get(const inst_list *o, size_t i) {
+    return o->n32 ? o->n32[i] : o->n64[i];
+}
+
+static void inst_set(const inst_list *o, size_t i, uint64_t v) {
+    if (o->n32)
+        o->n32[i] = (uint32_t)v;
+    else
+        o->n64[i] = v;
+}
+
+/* Sorts bucket ord[first..first+b) by the faces' other nodes (tbf: b entries of scratch),
+ * writes it back in that order and marks each instance: bit 0 a boundary face (counted in
+ * *n), bit 1 the same face as the one before it; *over counts faces of more than two
+ * instances. */
+static void match_bucket(const faceset *fs, const inst_list *ord, size_t first, size_t b,
+                         bucket_face *tbf, unsigned char *mark, size_t *n, size_t *over) {
     int k = fs->k;
     for (size_t q = 0; q < b; q++) {
         int64_t key[4];
-        face_nodes(fs, ord[q], key);
+        uint64_t inst = inst_get(ord, first + q);
+        face_nodes(fs, inst, key);
         sort_small(key, k);
         memcpy(tbf[q].key, key + 1, (size_t)(k - 1) * sizeof key[0]);
-        tbf[q].inst = ord[q];
+        tbf[q].inst = inst;
     }
     sort_bucket(tbf, b, k - 1);
     for (size_t q = 0; q < b;) {
@@ -151,14 +214,14 @@ static void match_bucket(const faceset *fs, uint64_t *ord, size_t b, bucket_face
         q = e;
     }
     for (size_t q = 0; q < b; q++)
-        ord[q] = tbf[q].inst;
+        inst_set(ord, first + q, tbf[q].inst);
 }
 
 /* Matches the buckets of every node (start: np + 1 offsets into order), in slabs of nodes
  * whose buckets run on threads (each bucket on its own, so the result does not depend on
  * the threads). *n counts boundary faces, *over faces of more than two cells. Returns
  * VM_ERR_NOMEM when a thread's scratch could not be allocated, else VM_OK. */
-static vm_status match_buckets(const faceset *fs, const size_t *start, uint64_t *order,
+static vm_status match_buckets(const faceset *fs, const size_t *start, const inst_list *order,
                                unsigned char *mark, size_t *nb, size_t *nover, vm__meter *mt,
                                double share) {
     size_t np = fs->npoints, n = 0, over = 0;
@@ -188,7 +251,7 @@ static vm_status match_buckets(const faceset *fs, const size_t *start, uint64_t 
                         continue;
                     }
                 }
-                match_bucket(fs, order + start[v], b, tbf, mark, &n, &over);
+                match_bucket(fs, order, start[v], b, tbf, mark, &n, &over);
             }
             free(tbf);
             if (lost) {
@@ -203,6 +266,32 @@ static vm_status match_buckets(const faceset *fs, const size_t *start, uint64_t 
     *nb = n;
     *nover = over;
     return failed ? VM_ERR_NOMEM : VM_OK;
+}
+
+/* The instances marked boundary (bit 0 of mark[0..ninst)) into list, in instance order:
+ * counted by fixed chunks on the threads, then each chunk written from its offset. */
+static void boundary_list(const unsigned char *mark, size_t ninst, uint64_t *list) {
+    enum { CHUNKS = 256 };
+    size_t at[CHUNKS + 1];
+    at[0] = 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (int k = 0; k < CHUNKS; k++) {
+        size_t c = 0;
+        for (size_t i = ninst * (size_t)k / CHUNKS; i < ninst * (size_t)(k + 1) / CHUNKS; i++)
+            c += mark[i] & 1;
+        at[k + 1] = c;
+    }
+    for (int k = 0; k < CHUNKS; k++) at[k + 1] += at[k];
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (int k = 0; k < CHUNKS; k++) {
+        size_t j = at[k];
+        for (size_t i = ninst * (size_t)k / CHUNKS; i < ninst * (size_t)(k + 1) / CHUNKS; i++)
+            if (mark[i] & 1) list[j++] = i;
+    }
 }
 
 /* Matches all cell faces. Faces are grouped by their smallest node (a counting sort over
@@ -223,42 +312,70 @@ static vm_status match_faces(const faceset *fs, size_t ncells, size_t *parent,
     size_t np = fs->npoints;
     size_t *start = alloc_array(np + 1, sizeof *start, 1, "face buckets", &st, err);
     if (!start) return st;
-    for (size_t i = 0; i < ninst; i++)
-        start[face_low(fs, i) + 1]++;
+    /* The buckets are counted and filled on the threads with atomic counters: a bucket's
+     * instances arrive in any order, but match_bucket sorts them by nodes then instance, so
+     * what follows does not depend on it. */
+    const ptrdiff_t ni = (ptrdiff_t)ninst;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (ptrdiff_t i = 0; i < ni; i++) {
+        size_t *slot = &start[face_low(fs, (uint64_t)i) + 1];
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic
+#endif
+        (*slot)++;
+    }
     for (size_t v = 0; v < np; v++) start[v + 1] += start[v];
     if (mt) vm__meter_add(mt, share / 3.0);
-    uint64_t *order = alloc_array(ninst, sizeof *order, 0, "face order", &st, err);
+    inst_list order = {NULL, NULL};
+    if (ninst <= UINT32_MAX)
+        order.n32 = alloc_array(ninst, sizeof *order.n32, 0, "face order", &st, err);
+    else
+        order.n64 = alloc_array(ninst, sizeof *order.n64, 0, "face order", &st, err);
     size_t *fill = alloc_array(np, sizeof *fill, 0, "face buckets", &st, err);
     unsigned char *mark = alloc_array(ninst, 1, 1, "face marks", &st, err);
-    if (!order || !fill || !mark) goto done;
+    if ((!order.n32 && !order.n64) || !fill || !mark) goto done;
     memcpy(fill, start, np * sizeof *fill);
-    for (size_t i = 0; i < ninst; i++)
-        order[fill[face_low(fs, i)]++] = i;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (ptrdiff_t i = 0; i < ni; i++) {
+        size_t *slot = &fill[face_low(fs, (uint64_t)i)], at;
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic capture
+#endif
+        at = (*slot)++;
+        inst_set(&order, at, (uint64_t)i);
+    }
     free(fill);
     fill = NULL;
     if (mt) vm__meter_add(mt, share / 3.0);
     /* a bucket's instances go back into order sorted, marked (match_bucket); the cells are
      * united afterwards in one pass in order */
     size_t n = 0;
-    if (match_buckets(fs, start, order, mark, &n, overshared, mt, share)) {
+    if (match_buckets(fs, start, &order, mark, &n, overshared, mt, share)) {
         st = vm_error_set(err, VM_ERR_NOMEM, "mesh check: out of memory for a face bucket");
         goto done;
     }
-    if (parent)
-        for (size_t i = 1; i < ninst; i++)
-            if (mark[order[i]] & 2)
-                vm__uf_union(parent, (size_t)(order[i] / (uint64_t)fs->nf),
-                         (size_t)(order[i - 1] / (uint64_t)fs->nf));
+    if (parent) {
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+        for (ptrdiff_t i = 1; i < ni; i++)
+            if (mark[inst_get(&order, (size_t)i)] & 2)
+                shared_union(parent, (size_t)(inst_get(&order, (size_t)i) / (uint64_t)fs->nf),
+                             (size_t)(inst_get(&order, (size_t)i - 1) / (uint64_t)fs->nf));
+    }
     uint64_t *list = alloc_array(n, sizeof *list, 0, "boundary faces", &st, err);
     if (!list) goto done;
-    size_t j = 0;
-    for (size_t i = 0; i < ninst; i++)
-        if (mark[i] & 1) list[j++] = i;
+    boundary_list(mark, ninst, list);
     *binst = list;
     *nb = n;
 done:
     free(start);
-    free(order);
+    free(order.n32);
+    free(order.n64);
     free(fill);
     free(mark);
     return st;
@@ -490,8 +607,13 @@ static vm_status cell_metrics(const vm_mesh *m, vm_mesh_report *r, vm__meter *mt
         sum_abs += fabs(vol[c]);
     }
     double floor = m->ncells ? DEGENERATE_FRACTION * sum_abs / (double)m->ncells : 0.0;
-    for (size_t c = 0; c < m->ncells; c++)
-        if (fabs(vol[c]) <= floor) r->degenerate++;
+    size_t degenerate = 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static) reduction(+ : degenerate)
+#endif
+    for (ptrdiff_t c = 0; c < nc; c++)
+        if (fabs(vol[c]) <= floor) degenerate++;
+    r->degenerate += degenerate;
     free(vol);
     if (m->ncells) {
         r->min_scaled_jacobian = sj_min;
@@ -514,8 +636,12 @@ static vm_status check_volume_mesh(const vm_mesh *m, vm_mesh_report *r, vm__mete
     faceset fs = faceset_of(m);
     size_t *parent = alloc_array(m->ncells, sizeof *parent, 0, "cell components", &st, err);
     if (!parent) return st;
-    for (size_t c = 0; c < m->ncells; c++)
-        parent[c] = c;
+    const ptrdiff_t nc = (ptrdiff_t)m->ncells;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (ptrdiff_t c = 0; c < nc; c++)
+        parent[c] = (size_t)c;
     uint64_t *binst = NULL;
     size_t nb = 0;
     st = match_faces(&fs, m->ncells, parent, &r->overshared_faces, &binst, &nb, mt,
@@ -524,8 +650,7 @@ static vm_status check_volume_mesh(const vm_mesh *m, vm_mesh_report *r, vm__mete
         free(parent);
         return st;
     }
-    for (size_t c = 0; c < m->ncells; c++)
-        if (vm__uf_find(parent, c) == c) r->components++;
+    r->components = shared_roots(parent, m->ncells);
     free(parent);
     r->boundary_faces = nb;
     size_t nidx;
@@ -535,11 +660,15 @@ static vm_status check_volume_mesh(const vm_mesh *m, vm_mesh_report *r, vm__mete
         free(binst);
         return st ? st : vm_error_set(err, VM_ERR_NOMEM, "mesh check: boundary overflows");
     }
-    for (size_t i = 0; i < nb; i++) {
+    const ptrdiff_t nbf = (ptrdiff_t)nb;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (ptrdiff_t i = 0; i < nbf; i++) {
         int64_t fn[4];
         face_nodes(&fs, binst[i], fn);
         for (int j = 0; j < fs.k; j++)
-            bf[i * (size_t)fs.k + (size_t)j] = (vm_index)fn[j];
+            bf[(size_t)i * (size_t)fs.k + (size_t)j] = (vm_index)fn[j];
     }
     free(binst);
     st = analyse_surface(bf, nb, fs.k, m->npoints, r, err);

@@ -112,13 +112,17 @@ class Mesh:
 
     def write(self, path, *, format=None, order=1, deck=None, compress=True, ascii=False):
         """Writes every format volmesh writes, from the extension or format= (vtu, vtk, inp,
-        msh, msh2, mesh, stl, off, ply, obj, exo). order=2 and deck="static" for .inp."""
+        msh, msh2, mesh, stl, off, ply, obj, exo). order=2 and deck="static" for .inp.
+        compress (.vtu): "fast" or True (zlib level 1), "best" (level 6), "none" or False."""
+        levels = {"none": 0, "fast": 1, "best": 2, False: 0, True: 1}
+        if not isinstance(compress, (bool, str)) or compress not in levels:
+            raise ValueError(f"compress must be 'fast', 'best', 'none' or a bool, not {compress!r}")
         if order not in (1, 2):
             raise ValueError(f"order must be 1 or 2, not {order!r}")
         if deck not in (None, "static"):
             raise ValueError(f"deck must be None or 'static', not {deck!r}")
         _volmesh.write_mesh(_os.fspath(path), self._parts(), format or "", order,
-                            deck == "static", bool(compress), bool(ascii))
+                            deck == "static", levels[compress], bool(ascii))
 
     def to_meshio(self):
         """The same mesh as a meshio.Mesh (cell data as lists of one array)."""

@@ -13,13 +13,13 @@
 
 /* --- meshes ------------------------------------------------------------------------------ */
 
-/* Unit cubes at the given lattice positions (at most 4x4x4), shifted by origin; hexes or 6
- * Kuhn tets per cube. region = cube number; point field "temperature" = x+2y+3z; cell field
+/* Unit cubes at the given lattice positions (at most 63 a side), shifted by origin; hexes or
+ * 6 Kuhn tets per cube. region = cube number; point field "temperature" = x+2y+3z; cell field
  * "vec" = (c, -c, 0.5c). */
 static void build_cubes(vm_mesh *m, const int (*cubes)[3], int ncubes, int as_hex,
                         const double origin[3]) {
     vm_mesh_init(m, as_hex ? VM_HEX8 : VM_TET4);
-    vm_index id[5][5][5];
+    static vm_index id[64][64][64];
     memset(id, -1, sizeof id);
     static const int off[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
                                   {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
@@ -64,6 +64,30 @@ static void build_cubes(vm_mesh *m, const int (*cubes)[3], int ncubes, int as_he
     CHECK(vm_mesh_set_field(m, 1, "vec", 3, cf, NULL) == VM_OK);
     free(pf);
     free(cf);
+}
+
+/* The cubes of an n x n x n box, x fastest (malloc'd; n at most 63). */
+static int (*box_cubes(int n))[3] {
+    int(*c)[3] = malloc((size_t)n * (size_t)n * (size_t)n * sizeof *c);
+    for (int q = 0; q < n * n * n; q++) {
+        c[q][0] = q % n;
+        c[q][1] = q / n % n;
+        c[q][2] = q / (n * n);
+    }
+    return c;
+}
+
+/* The bytes of a file (malloc'd), or NULL; [out] *len. */
+static unsigned char *file_bytes(const char *path, size_t *len) {
+    FILE *fp = fopen(path, "rb");
+    if (!fp) return NULL;
+    fseek(fp, 0, SEEK_END);
+    long n = ftell(fp);
+    fseek(fp, 0, SEEK_SET);
+    unsigned char *b = malloc(n > 0 ? (size_t)n : 1);
+    *len = b ? fread(b, 1, (size_t)n, fp) : 0;
+    fclose(fp);
+    return b;
 }
 
 static const int ring_cubes[8][3] = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {2, 1, 0},
@@ -157,6 +181,79 @@ static void multiBlockArraysAndAwkwardDoublesRoundTripBitExact(void) {
     free(f);
     round_trip(&m, "rt_big.vtu", 1);
     round_trip(&m, "rt_big_raw.vtu", 0);
+    vm_mesh_free(&m);
+}
+
+/* A 30^3 box of Kuhn tets: its connectivity is 159 blocks of 32 KiB, compressed in groups of
+ * 64 on the threads. Each level writes the same bytes on 1 and 2 threads, and reads back
+ * exactly; vtu_judge_blocks.vtu is left for tests/io/test_vtu_vtk.py (VTK, meshio). */
+static void multiBlockFilesAreTheSameBytesOnOneAndTwoThreads(void) {
+    vm_error eb, *err = &eb;
+    const int n = 30;
+    int(*cubes)[3] = box_cubes(n);
+    const double zero[3] = {0, 0, 0};
+    vm_mesh m;
+    build_cubes(&m, (const int(*)[3])cubes, n * n * n, 0, zero);
+    free(cubes);
+    CHECK(m.ncells * 4 * 8 > 2 * 64 * 32768);
+    const int levels[3] = {VM_COMPRESS_FAST, VM_COMPRESS_BEST, VM_COMPRESS_NONE};
+    int before = vm_threads();
+    for (int l = 0; l < 3; l++) {
+        unsigned char *b[2] = {NULL, NULL};
+        size_t len[2] = {0, 0};
+        for (int t = 0; t < 2; t++) {
+            vm_set_threads(t + 1);
+            const char *path = vm_test_tmp(t ? "blocks_t2.vtu" : "blocks_t1.vtu");
+            CHECK_OK(vm_mesh_write_vtu(path, &m, levels[l], err), err);
+            b[t] = file_bytes(path, &len[t]);
+            vm_mesh back;
+            CHECK_OK(vm_mesh_read_vtu(path, &back, err), err);
+            CHECK_MSG(meshes_equal(&m, &back), "compress %d, %d threads: differs read back",
+                      levels[l], t + 1);
+            vm_mesh_free(&back);
+        }
+        CHECK(b[0] && b[1]);
+        /* every index fits in 32 bits: connectivity and offsets are Int32 */
+        if (b[0]) {
+            const char *xml = (const char *)b[0];
+            CHECK(strstr(xml, "type=\"Int32\" Name=\"connectivity\"") != NULL &&
+                  strstr(xml, "type=\"Int32\" Name=\"offsets\"") != NULL);
+        }
+        CHECK_MSG(len[0] == len[1] && b[0] && b[1] && memcmp(b[0], b[1], len[0]) == 0,
+                  "compress %d: 1 and 2 threads write different bytes (%zu, %zu)", levels[l],
+                  len[0], len[1]);
+        free(b[0]);
+        free(b[1]);
+    }
+    CHECK_OK(vm_mesh_write_vtu(vm_test_tmp("vtu_judge_blocks.vtu"), &m, VM_COMPRESS_FAST, err),
+             err);
+    vm_set_threads(before);
+    vm_mesh_free(&m);
+}
+
+/* compress is none, fast or best: anything else is refused before a file is made. */
+static void compressLevelsAreNamedAndOthersRefused(void) {
+    vm_error eb, *err = &eb;
+    vm_compress c = VM_COMPRESS_NONE;
+    CHECK(vm_compress_parse("fast", &c) && c == VM_COMPRESS_FAST);
+    CHECK(vm_compress_parse("best", &c) && c == VM_COMPRESS_BEST);
+    CHECK(vm_compress_parse("none", &c) && c == VM_COMPRESS_NONE);
+    CHECK(!vm_compress_parse("9", &c) && !vm_compress_parse("FAST", &c) &&
+          !vm_compress_parse("", &c));
+    vm_mesh m;
+    const double zero[3] = {0, 0, 0};
+    build_cubes(&m, ring_cubes, 8, 0, zero);
+    const char *path = vm_test_tmp("bad_level.vtu");
+    remove(path);
+    CHECK(vm_mesh_write_vtu(path, &m, 3, err) == VM_ERR_ARG);
+    CHECK(strstr(err->message, "compress is 3") != NULL);
+    vm_mesh_write_options o;
+    vm_mesh_write_options_init(&o);
+    CHECK(o.compress == VM_COMPRESS_FAST);
+    o.compress = -1;
+    CHECK(vm_mesh_write_as(path, &m, &o, err) == VM_ERR_ARG);
+    CHECK(vm_mesh_write_check(path, &o, err) == VM_ERR_ARG);
+    CHECK(!vm_test_exists(path));
     vm_mesh_free(&m);
 }
 
@@ -652,6 +749,8 @@ static void failedWritesLeaveNoFileBehind(void) {
 
 TEST_MAIN(T(tetsAndHexesRoundTripExactlyCompressedOrNot),
           T(multiBlockArraysAndAwkwardDoublesRoundTripBitExact),
+          T(multiBlockFilesAreTheSameBytesOnOneAndTwoThreads),
+          T(compressLevelsAreNamedAndOthersRefused),
           T(surfacesAndEmptyMeshesRoundTrip), T(judgeFilesForVtkAreWritten),
           T(filesInEveryVtkEncodingAreRead),
           T(emptyGarbageMissingAndDirectoryPathsAreErrors),

@@ -661,7 +661,116 @@ static void trianglesRepeatingANodeAreCountedNotACrash(void) {
     CHECK(cases == 65);
 }
 
+/* --- the same report for any thread count ------------------------------------------------ */
+
+/* A jittered n^3 block of unit cubes (6 Kuhn tets or a hex each) with every kind of defect:
+ * a plane of cubes left out (two components), a missing interior cube (a cavity), inverted
+ * and repeated cells (overshared faces), and a second block, shifted by half a cube, that
+ * overlaps the first (its boundary crosses the other's). */
+static void build_defective_block(vm_mesh *m, int n, int as_hex) {
+    vm_mesh_init(m, as_hex ? VM_HEX8 : VM_TET4);
+    uint64_t s = 0x9e3779b97f4a7c15ull;
+    size_t side = (size_t)n + 1;
+    for (int copy = 0; copy < 2; copy++) {
+        vm_index base = (vm_index)m->npoints;
+        double shift = copy ? 0.5 * n : 0.0;
+        for (size_t q = 0; q < side * side * side; q++) {
+            double p[3] = {(double)(q % side), (double)(q / side % side),
+                           (double)(q / side / side)};
+            for (int d = 0; d < 3; d++) {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                p[d] += 0.2 * ((double)(s >> 11) / 9007199254740992.0 - 0.5) + shift;
+            }
+            add_pt(m, p[0], p[1], p[2]);
+        }
+        int cubes = copy ? n / 2 : n;
+        for (int k = 0; k < cubes; k++)
+            for (int j = 0; j < cubes; j++)
+                for (int i = 0; i < cubes; i++) {
+                    if (!copy && (i == n / 2 || (i == 3 && j == 3 && k == 3))) continue;
+                    vm_index c[8];
+                    static const int off[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                                  {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+                    for (int v = 0; v < 8; v++)
+                        c[v] = base + (vm_index)((size_t)(i + off[v][0]) +
+                                                 side * ((size_t)(j + off[v][1]) +
+                                                         side * (size_t)(k + off[v][2])));
+                    int bad = (i * 7 + j * 3 + k) % 97 == 0, twice = (i + j * 5 + k * 11) % 89 == 0;
+                    if (as_hex) {
+                        if (bad) {
+                            vm_index t = c[0];
+                            c[0] = c[6];
+                            c[6] = t;
+                        }
+                        add_cell(m, c);
+                        if (twice) add_cell(m, c);
+                        continue;
+                    }
+                    static const int path[6][2] = {{1, 2}, {1, 5}, {3, 2}, {3, 7}, {4, 5}, {4, 7}};
+                    for (int t = 0; t < 6; t++) {
+                        vm_index tn[4] = {c[0], c[path[t][0]], c[path[t][1]], c[6]};
+                        if (tet_vol_of(m, tn) < 0 && !(bad && t == 2)) {
+                            tn[1] = c[path[t][1]];
+                            tn[2] = c[path[t][0]];
+                        }
+                        add_cell(m, tn);
+                        if (twice && t == 0) add_cell(m, tn);
+                    }
+                }
+    }
+}
+
+#define SAME(field)                                                                            \
+    CHECK_MSG(a.field == b.field, "%s, %d threads: " #field " differs from 1 thread's", what, t)
+
+/* vm_mesh_check gives the same report, field for field, on 1, 2 and 3 threads. */
+static void checkReportsAreTheSameForAnyThreadCount(void) {
+    int before = vm_threads();
+    for (int hex = 0; hex < 2; hex++) {
+        vm_mesh m;
+        build_defective_block(&m, 20, hex);
+        const char *what = hex ? "hexes" : "tets";
+        vm_error err;
+        vm_mesh_report a, b;
+        vm_set_threads(1);
+        CHECK_OK(vm_mesh_check(&m, &a, &err), &err);
+        /* the defects are there to be counted */
+        CHECK(a.inverted > 0 && a.overshared_faces > 0 && a.components >= 3);
+        CHECK(a.boundary_closed == 0 && a.boundary_faces > 0);
+        CHECK(hex ? a.boundary_nonmanifold_edges > 0 : a.boundary_self_intersections > 0);
+        for (int t = 2; t <= 3; t++) {
+            vm_set_threads(t);
+            CHECK_OK(vm_mesh_check(&m, &b, &err), &err);
+            SAME(cells);
+            SAME(points);
+            SAME(inverted);
+            SAME(degenerate);
+            SAME(overshared_faces);
+            SAME(boundary_faces);
+            SAME(boundary_open_edges);
+            SAME(boundary_nonmanifold_edges);
+            SAME(boundary_nonmanifold_vertices);
+            SAME(boundary_closed);
+            SAME(boundary_euler);
+            SAME(components);
+            SAME(boundary_components);
+            SAME(boundary_self_intersections);
+            SAME(volume);
+            SAME(min_dihedral);
+            SAME(max_dihedral);
+            SAME(slivers_5);
+            SAME(slivers_10);
+            SAME(min_scaled_jacobian);
+        }
+        vm_mesh_free(&m);
+    }
+    vm_set_threads(before);
+}
+
 TEST_MAIN(T(everyGoldenMeshGetsItsKnownReport),
+          T(checkReportsAreTheSameForAnyThreadCount),
           T(trianglesRepeatingANodeAreCountedNotACrash),
           T(tetMetricsMatchVerdictOnRegularFlatAndDegenerateTets),
           T(hexScaledJacobianIsOneForABoxAndFallsForAShearedHex),

@@ -149,6 +149,24 @@ def test_writeEveryFormatTheProgramWrites(tmp_path):
             s.cells["triangle"]), ext
 
 
+def test_vtuCompressLevelsHoldTheSameMeshAndBadOnesAreRefused(tmp_path):
+    m = volmesh.mesh(ball(24), iso=0.0)
+    sizes = {}
+    for level in ("fast", "best", "none", True, False):
+        path = tmp_path / f"c-{level}.vtu"
+        m.write(path, compress=level)
+        sizes[level] = path.stat().st_size
+        back = volmesh.read_mesh(path)
+        assert np.array_equal(back.cells["tetra"], m.cells["tetra"]), level
+        assert np.array_equal(back.points, m.points), level
+    assert sizes["fast"] == sizes[True] and sizes["none"] == sizes[False]
+    assert sizes["best"] <= sizes["fast"] < sizes["none"]
+    for bad in ("zip", 2, None):
+        with pytest.raises(ValueError, match="compress"):
+            m.write(tmp_path / "bad.vtu", compress=bad)
+    assert not (tmp_path / "bad.vtu").exists()
+
+
 def test_qualityHasTheKeysOfTheProgramsJson(tmp_path):
     m = volmesh.mesh(ball(24), iso=0.0)
     path = tmp_path / "b.vtu"
