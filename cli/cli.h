@@ -47,11 +47,14 @@ void vm_cli_stage_done(int verbose, const char *stage, double *t);
 int vm_cli_output_check(const char *opt, const char *path, const char *const *tails);
 
 /* vm_cli_output_check, then holds path (vm_output_hold) so that all the outputs of the run
- * are renamed together by vm_cli_outputs_end. */
+ * are renamed together by vm_cli_outputs_end. From then on, stdout (the summary) is kept
+ * back until vm_cli_outputs_end. */
 int vm_cli_output(const char *opt, const char *path, const char *const *tails);
 
 /* Ends a run whose exit code is rc: commits the held outputs when rc is 0 or 1 (and returns
- * VM_EXIT_INPUT if a rename fails), removes them otherwise. Returns the exit code. */
+ * VM_EXIT_INPUT if a rename fails), removes them otherwise. What the run printed on stdout
+ * since its first vm_cli_output is printed only when every output was renamed. Returns the
+ * exit code. */
 int vm_cli_outputs_end(int rc);
 
 /* Prints the opening of a mesh summary in JSON: {"output": "OUT", (the fields follow). */

@@ -775,7 +775,8 @@ typedef struct {
     vm_improve_report ir;     /* the tets' quality pass, when improved */
     vm_hex_improve_report hr; /* the hexes', when hex_improved */
     int improved, hex_improved;
-    double t; /* --verbose: when the last stage ended */
+    double aspect; /* the voxels' largest spacing over their smallest, when improved */
+    double t;      /* --verbose: when the last stage ended */
 } mesh_job;
 
 /* --slabs auto: the fewest slabs whose planes fit in their share of --max-memory.
@@ -947,6 +948,12 @@ static int improve_mesh(mesh_args *m, mesh_job *j) {
         j->planes = NULL;
         if (s) return fail_reading(m->in.path, &err);
         j->improved = 1;
+        double smin = j->v.spacing[0], smax = smin;
+        for (int a = 1; a < 3; a++) {
+            if (j->v.spacing[a] < smin) smin = j->v.spacing[a];
+            if (j->v.spacing[a] > smax) smax = j->v.spacing[a];
+        }
+        j->aspect = smin > 0 ? smax / smin : 1.0;
         j->st.seconds += j->ir.seconds;
         vm_cli_stage_done(m->verbose, "improve", &j->t);
     }
@@ -1004,6 +1011,33 @@ static int write_mesh(mesh_args *m, mesh_job *j) {
     return VM_EXIT_OK;
 }
 
+/* The quality pass is never silent about the volume it changed (issue 31, item 5): beyond 1%
+ * a note names the change and its likely cause; on long voxels (largest spacing more than
+ * twice the smallest) a change beyond 2% is a failed check (exit 1, the mesh written for
+ * inspection), as at 1:1:50 where the pass cannot keep both the shape and its angle targets.
+ * (Small meshes of cubic voxels may change by a few percent as their staircase is smoothed:
+ * a note only.) Returns rc, or VM_EXIT_CHECK. */
+static int volume_change(const mesh_args *m, const mesh_job *j, int rc) {
+    double before = j->ir.volume_before, after = j->ir.volume_after;
+    if (!(before > 0) || !(fabs(after - before) > 0.01 * before)) return rc;
+    double pct = 100.0 * (after - before) / before;
+    char cause[160] = "";
+    if (j->aspect > 2.0)
+        snprintf(cause, sizeof cause,
+                 " on voxels %.3g times longer than wide (anisotropic spacing: try --graded, "
+                 "which meshes in world units, or --no-improve)",
+                 j->aspect);
+    if (j->aspect > 2.0 && fabs(after - before) > 0.02 * before) {
+        fprintf(stderr, "volmesh: %s: warning: the quality pass changed the volume by %+.1f%% "
+                        "(%.6g -> %.6g)%s\n",
+                m->out, pct, before, after, cause);
+        return rc ? rc : VM_EXIT_CHECK;
+    }
+    if (!m->json)
+        printf("quality pass: volume %+.2f%% (%.6g -> %.6g)%s\n", pct, before, after, cause);
+    return rc;
+}
+
 /* Checks the mesh written, prints the summary, writes --report, and notes the elements the
  * quality pass left below its targets. */
 static int check_and_report(mesh_args *m, mesh_job *j) {
@@ -1029,6 +1063,7 @@ static int check_and_report(mesh_args *m, mesh_job *j) {
         rc = vm_cli_write_report(m->report, &j->m, m->out, &checked, dp, m->quiet);
         if (!rc) vm_cli_stage_done(m->verbose, "report", &j->t);
     }
+    if (rc != VM_EXIT_INPUT && j->improved) rc = volume_change(m, j, rc);
     if (!rc && j->improved && !m->json && j->ir.unfixed)
         printf("quality pass: %zu tets still below the targets (min dihedral 15, max 150, "
                "ABAQUS); see volmesh quality\n", j->ir.unfixed);

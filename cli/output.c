@@ -95,6 +95,45 @@ int vm_cli_output_check(const char *opt, const char *path, const char *const *ta
     return VM_EXIT_OK;
 }
 
+/* What a run that holds outputs prints on stdout (its summary) waits in an anonymous file
+ * until the outputs are committed: a run whose outputs fail prints no summary of a mesh it
+ * did not save. saved_stdout is the real stdout meanwhile; -1 when not capturing. */
+static int saved_stdout = -1;
+static FILE *captured;
+
+static void stdout_capture(void) {
+    if (saved_stdout >= 0) return;
+    fflush(stdout);
+    FILE *t = tmpfile(); /* unlinked at once: nothing to remove after a signal */
+    if (!t) return;      /* the summary is printed as it comes */
+    int fd = dup(STDOUT_FILENO);
+    if (fd < 0 || dup2(fileno(t), STDOUT_FILENO) < 0) {
+        if (fd >= 0) close(fd);
+        fclose(t);
+        return;
+    }
+    saved_stdout = fd;
+    captured = t;
+}
+
+/* Ends the capture: what was printed goes to the real stdout when keep, is dropped otherwise. */
+static void stdout_release(int keep) {
+    if (saved_stdout < 0) return;
+    fflush(stdout);
+    dup2(saved_stdout, STDOUT_FILENO);
+    close(saved_stdout);
+    saved_stdout = -1;
+    if (keep) {
+        rewind(captured);
+        char buf[8192];
+        size_t n;
+        while ((n = fread(buf, 1, sizeof buf, captured)) > 0) fwrite(buf, 1, n, stdout);
+        fflush(stdout);
+    }
+    fclose(captured);
+    captured = NULL;
+}
+
 /* An output of the run, checked before any work and held until vm_cli_outputs_end. */
 int vm_cli_output(const char *opt, const char *path, const char *const *tails) {
     int rc = vm_cli_output_check(opt, path, tails);
@@ -102,19 +141,26 @@ int vm_cli_output(const char *opt, const char *path, const char *const *tails) {
     vm_error err;
     vm_error_clear(&err);
     if (vm_output_hold(path, &err)) return vm_cli_fail_err(&err);
+    stdout_capture();
     return VM_EXIT_OK;
 }
 
 /* The end of a run: its held outputs renamed when it succeeded (or wrote a mesh it warns
- * about, exit 1), removed otherwise. */
+ * about, exit 1), removed otherwise; then the summary printed meanwhile, only when every
+ * output was renamed. */
 int vm_cli_outputs_end(int rc) {
     if (rc != VM_EXIT_OK && rc != VM_EXIT_CHECK) {
         vm_output_discard();
+        stdout_release(0);
         return rc;
     }
     vm_error err;
     vm_error_clear(&err);
-    if (vm_output_commit(&err)) return vm_cli_fail_err(&err);
+    if (vm_output_commit(&err)) {
+        stdout_release(0);
+        return vm_cli_fail_err(&err);
+    }
+    stdout_release(1);
     return rc;
 }
 

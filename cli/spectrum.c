@@ -2,12 +2,9 @@
 /* cli/spectrum.c — `volmesh spectrum`: the contour spectrum of a volume as a table, CSV, SVG
  * plot or JSON, with suggested isovalues and material intervals (Bajaj et al. 1997). */
 #define _POSIX_C_SOURCE 200809L
-#include <errno.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <unistd.h>
 #include "cli.h"
 
 static const char *spectrum_help =
@@ -32,50 +29,6 @@ static const char *spectrum_help =
     "raw files (no header): --raw-dims NXxNYxNZ --raw-type T --raw-endian E\n"
     "                       --raw-spacing SX,SY,SZ --raw-origin X,Y,Z --raw-header N\n"
     "input: --series UID|N (DICOM series) --spacing SX,SY,SZ (replaces the file's)\n";
-
-/* ---- output files: written to a temporary name in the same folder, then renamed --------- */
-
-typedef struct {
-    FILE *fp;
-    const char *path;
-    char tmp[4096];
-} out_file;
-
-static int out_open(out_file *o, const char *path) {
-    o->path = path;
-    o->fp = NULL;
-    if (snprintf(o->tmp, sizeof o->tmp, "%s.tmp-XXXXXX", path) >= (int)sizeof o->tmp)
-        return vm_cli_fail("%s: path too long", path);
-    int fd = mkstemp(o->tmp);
-    if (fd < 0) return vm_cli_fail("%s: cannot create (%s)", path, strerror(errno));
-    fchmod(fd, 0644);
-    o->fp = fdopen(fd, "w");
-    if (!o->fp) {
-        int e = errno;
-        close(fd);
-        unlink(o->tmp);
-        return vm_cli_fail("%s: cannot write (%s)", path, strerror(e));
-    }
-    return 0;
-}
-
-static int out_close(out_file *o) {
-    int bad = ferror(o->fp);
-    int e = errno;
-    if (fclose(o->fp) != 0) {
-        bad = 1;
-        e = errno;
-    }
-    if (!bad && rename(o->tmp, o->path) != 0) {
-        bad = 1;
-        e = errno;
-    }
-    if (bad) {
-        unlink(o->tmp);
-        return vm_cli_fail("%s: cannot write (%s)", o->path, strerror(e));
-    }
-    return 0;
-}
 
 /* ---- CSV ---------------------------------------------------------------------------------- */
 
@@ -211,7 +164,7 @@ static int write_svg(FILE *fp, const char *path, const vm_spectrum *s) {
     if (!mg || !comp) {
         free(mg);
         free(comp);
-        return vm_cli_fail("%s: out of memory for the plot", path);
+        return -1; /* out of memory */
     }
     for (int k = 0; k < s->n; k++) {
         mg[k] = s->area[k] > 0 ? s->gradient_integral[k] / s->area[k] : 0.0;
@@ -432,25 +385,45 @@ static int value_range(spectrum_args *p, const vm_volume *v) {
     return VM_EXIT_OK;
 }
 
-/* Writes the --csv and --svg files asked for, each whole or not at all. */
+/* The --csv file's and the --svg file's contents (vm_output_write's callbacks). */
+typedef struct {
+    const char *path; /* the input, named in the plot */
+    const char *out;  /* the file written */
+    const vm_spectrum *s;
+} spectrum_file;
+
+static int csv_contents(FILE *fp, void *user, vm_error *err) {
+    (void)err;
+    write_csv(fp, ((const spectrum_file *)user)->s);
+    return 0;
+}
+
+static int svg_contents(FILE *fp, void *user, vm_error *err) {
+    const spectrum_file *f = user;
+    if (write_svg(fp, f->path, f->s) == 0) return 0;
+    vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for the plot", f->out);
+    return -1;
+}
+
+/* Writes the --csv and --svg files asked for: both, or (on any failure or a signal) none. */
 static int write_files(const spectrum_args *p, const vm_spectrum *s) {
     const char *files[2] = {p->csv, p->svg};
-    for (int f = 0; f < 2; f++) {
+    vm_output_write_fn fns[2] = {csv_contents, svg_contents};
+    vm_error err;
+    vm_error_clear(&err);
+    vm_status st = VM_OK;
+    for (int f = 0; f < 2 && !st; f++)
+        if (files[f]) st = vm_output_hold(files[f], &err);
+    for (int f = 0; f < 2 && !st; f++) {
         if (!files[f]) continue;
-        out_file o;
-        if (out_open(&o, files[f])) return VM_EXIT_INPUT;
-        int bad = 0;
-        if (f == 0)
-            write_csv(o.fp, s);
-        else
-            bad = write_svg(o.fp, p->in.path, s);
-        if (bad) {
-            fclose(o.fp);
-            unlink(o.tmp);
-            return VM_EXIT_INPUT;
-        }
-        if (out_close(&o)) return VM_EXIT_INPUT;
+        spectrum_file sf = {p->in.path, files[f], s};
+        st = vm_output_write(files[f], fns[f], &sf, &err);
     }
+    if (st) {
+        vm_output_discard();
+        return vm_cli_fail_err(&err);
+    }
+    if (vm_output_commit(&err)) return vm_cli_fail_err(&err);
     return VM_EXIT_OK;
 }
 

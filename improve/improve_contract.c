@@ -369,7 +369,10 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     memcpy(w->buf, sg->t, (size_t)ng * sizeof *w->buf);
     /* Make room in the survivor's star first, so nothing fails half-way. */
     for (int32_t i = 0; i < ng; i++)
-        if (!vm__imp_star_add(w, keep, -1)) return 0;
+        if (!vm__imp_star_add(w, keep, -1)) {
+            while (i-- > 0) vm__imp_star_remove(w, keep, -1); /* no -1 left in the star */
+            return 0;
+        }
     for (int32_t i = 0; i < ng; i++) vm__imp_star_remove(w, keep, -1);
     for (int32_t i = 0; i < ng; i++) {
         size_t t = (size_t)w->buf[i];

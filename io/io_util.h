@@ -202,6 +202,11 @@ vm_status vm__out_open(vm_outfile *o, const char *path, vm_error *err);
  * returns 0 when it does not fit. */
 int vm__temp_path(const char *path, const char *tag, char *out, size_t cap);
 vm_status vm__out_commit(vm_outfile *o, vm_error *err); /* checks write errors, renames */
+/* Registers tmp, a temporary file the caller makes and removes itself, with the outputs'
+ * registry, so that a signal removes it too (vm_output_remove_on_signals). Returns an id for
+ * vm__temp_untrack (after the file is removed), or -1 when the registry is full. */
+int vm__temp_track(const char *tmp);
+void vm__temp_untrack(int id);
 void vm__out_abort(vm_outfile *o);
 
 /* Starts the write progress of o (stage "write"; fn may be NULL) over total units of work

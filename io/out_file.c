@@ -239,6 +239,26 @@ void vm_output_discard(void) {
     release_holds();
 }
 
+vm_status vm_output_write(const char *path, vm_output_write_fn write, void *user,
+                          vm_error *err) {
+    vm_outfile o;
+    vm_status st = vm__out_open(&o, path, err);
+    if (st) return st;
+    if (err) err->message[0] = '\0';
+    if (write(o.fp, user, err) != 0) {
+        vm__out_abort(&o);
+        if (err && err->message[0]) return err->status ? err->status : VM_ERR_IO;
+        return vm_error_set(err, VM_ERR_IO, "%s: write failed", path);
+    }
+    return vm__out_commit(&o, err);
+}
+
+int vm__temp_track(const char *tmp) {
+    return strlen(tmp) < sizeof slots[0].tmp ? slot_claim(tmp, "") : -1;
+}
+
+void vm__temp_untrack(int id) { slot_free(id); }
+
 /* ---- signals ---------------------------------------------------------------------------- */
 
 /* Removes every temporary output file and ends the process with 128 + sig, as a shell

@@ -429,17 +429,17 @@ static const char *base_name(const char *p) {
     return s ? s + 1 : p;
 }
 
-/* Rank 0: OUT.pvtu listing the non-empty pieces (written to a temporary name, renamed). */
-static int write_pvtu(const char *out, const unsigned long long *tets, int n) {
-    size_t len = strlen(out) + 16;
-    char *tmp = malloc(len), piece[4096];
-    if (!tmp) return fail("%s: out of memory%s", out, NULL);
-    snprintf(tmp, len, "%s.tmp", out);
-    FILE *fp = fopen(tmp, "w");
-    if (!fp) {
-        free(tmp);
-        return fail("%s: cannot write the file%s", out, NULL);
-    }
+/* OUT.pvtu's contents: the non-empty pieces (vm_output_write's callback). */
+typedef struct {
+    const char *out;
+    const unsigned long long *tets;
+    int n;
+} pvtu_list;
+
+static int pvtu_contents(FILE *fp, void *user, vm_error *err) {
+    const pvtu_list *L = user;
+    char piece[4096];
+    (void)err;
     unsigned one = 1;
     int little = *(unsigned char *)&one == 1;
     fprintf(fp,
@@ -455,20 +455,21 @@ static int write_pvtu(const char *out, const unsigned long long *tets, int n) {
             "      <PDataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"/>\n"
             "    </PPoints>\n",
             little ? "LittleEndian" : "BigEndian");
-    for (int r = 0; r < n; r++) {
-        if (!tets[r]) continue;
-        piece_path(base_name(out), r, piece, sizeof piece);
+    for (int r = 0; r < L->n; r++) {
+        if (!L->tets[r]) continue;
+        piece_path(base_name(L->out), r, piece, sizeof piece);
         fprintf(fp, "    <Piece Source=\"%s\"/>\n", piece);
     }
     fprintf(fp, "  </PUnstructuredGrid>\n</VTKFile>\n");
-    int bad = ferror(fp) != 0;
-    bad |= fclose(fp) != 0;
-    if (bad || rename(tmp, out) != 0) {
-        remove(tmp);
-        free(tmp);
-        return fail("%s: cannot write the file%s", out, NULL);
-    }
-    free(tmp);
+    return 0;
+}
+
+/* Rank 0: OUT.pvtu listing the non-empty pieces, held (renamed with the pieces at the end). */
+static int write_pvtu(const char *out, const unsigned long long *tets, int n) {
+    pvtu_list L = {out, tets, n};
+    vm_error err;
+    vm_error_clear(&err);
+    if (vm_output_write(out, pvtu_contents, &L, &err)) return fail("%s%s", err.message, NULL);
     return 0;
 }
 
@@ -999,6 +1000,8 @@ int main(int argc, char **argv) {
     MPI_Init(&argc, &argv);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &nranks_);
+    /* a rank's temporary files go when it gets SIGINT or SIGTERM (a batch system's cancel) */
+    vm_output_remove_on_signals();
     args A;
     int rc = parse_args(argc, argv, &A);
     if (!rc && A.help) {
@@ -1037,6 +1040,9 @@ int main(int argc, char **argv) {
     }
     char piece_file[4096];
     piece_path(A.out, rank_, piece_file, sizeof piece_file);
+    /* the pieces and OUT.pvtu are renamed together once every rank has written its own */
+    if (!s) s = vm_output_hold(piece_file, &err);
+    if (!s && rank_ == 0) s = vm_output_hold(A.out, &err);
     size_t ntets = 0;
     double secs = 0, z0 = 0, z1 = 0;
     vm_volume frame = v; /* the index-to-world mapping; v itself is meshed in index space */
@@ -1094,7 +1100,7 @@ int main(int argc, char **argv) {
                      what);
     }
     if (first != nranks_) {
-        if (ntets) remove(piece_file); /* leave nothing behind */
+        vm_output_discard(); /* leave nothing behind */
         if (rank_ == first) fprintf(stderr, "volmesh_mpi: %s\n", err.message);
         free(all);
         free(cuts_);
@@ -1105,8 +1111,21 @@ int main(int argc, char **argv) {
     if (rank_ == 0) rc = write_pvtu(A.out, all, nranks_);
     MPI_Bcast(&rc, 1, MPI_INT, 0, MPI_COMM_WORLD);
     if (rc) {
-        if (ntets) remove(piece_file);
-    } else if (rank_ == 0 && !A.quiet) {
+        vm_output_discard();
+    } else {
+        /* every rank renames its files; when one cannot, the others remove theirs */
+        vm_error cerr;
+        vm_error_clear(&cerr);
+        int bad = vm_output_commit(&cerr) != VM_OK, anybad;
+        if (bad) fprintf(stderr, "volmesh_mpi: %s\n", cerr.message);
+        MPI_Allreduce(&bad, &anybad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+        if (anybad) {
+            if (ntets) remove(piece_file);
+            if (rank_ == 0) remove(A.out);
+            rc = EXIT_INPUT;
+        }
+    }
+    if (!rc && rank_ == 0 && !A.quiet) {
         printf("%s: %d ranks, %llu tets (", A.out, nranks_, total);
         for (int r = 0; r < nranks_; r++)
             printf("%s%llu", r ? " + " : "", all[r]);

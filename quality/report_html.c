@@ -73,12 +73,13 @@ static vm_status put_histograms(FILE *fp, const char *path, const char *name,
     char tmp[4200];
     if (!vm__temp_path(path, "svg", tmp, sizeof tmp))
         return vm_error_set(err, VM_ERR_ARG, "%s: path too long", path);
+    int tracked = vm__temp_track(tmp); /* a signal removes it too */
     vm_status s = vm_quality_write_svg(tmp, name, q, err);
-    if (s) return s;
     unsigned char *buf = NULL;
     size_t len = 0;
-    s = vm__read_file(tmp, (size_t)1 << 28, &buf, &len, err);
+    if (!s) s = vm__read_file(tmp, (size_t)1 << 28, &buf, &len, err);
     remove(tmp);
+    vm__temp_untrack(tracked);
     if (s) return s;
     char *svg = strstr((char *)buf, "<svg");
     if (svg) fputs(svg, fp);

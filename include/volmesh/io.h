@@ -7,6 +7,7 @@
 #ifndef VOLMESH_IO_H
 #define VOLMESH_IO_H
 
+#include <stdio.h>
 #include "error.h"
 #include "mesh.h"
 #include "volume.h"
@@ -172,6 +173,16 @@ vm_status vm_output_commit(vm_error *err);
 
 /* Removes every held output's temporary file and forgets the declarations. */
 void vm_output_discard(void);
+
+/* Writes an output file of the program's own format through the same machinery as the
+ * library's writers: write(fp, user) fills the temporary file (returns 0, or nonzero when it
+ * failed; then the file is removed and, unless write set err, VM_ERR_IO "PATH: write failed"),
+ * which is then renamed over path, or left for vm_output_commit when path is held. The
+ * temporary file is registered for vm_output_discard and vm_output_remove_on_signals.
+ * [in] path, write (not NULL); user is passed on. */
+typedef int (*vm_output_write_fn)(FILE *fp, void *user, vm_error *err);
+vm_status vm_output_write(const char *path, vm_output_write_fn write, void *user,
+                          vm_error *err);
 
 /* For programs (not libraries): on SIGINT and SIGTERM, removes the temporary file of every
  * output being written or held, then exits with 130 or 143 (128 + the signal). A signal

@@ -3,7 +3,7 @@
 # outputs of a run are committed together (issue 31, item 6): a bad -o, --surface or --report
 # (extension, missing folder, a folder, options that do not fit the format) is exit 2 naming it
 # even when the input does not exist; a run that fails after writing -o leaves no file and
-# keeps an older output.
+# keeps an older output, and prints no summary of it; spectrum's --csv and --svg likewise.
 #
 # Run by ctest as `bash test_outputs_cli.sh` with VM_CLI and VM_TEST_TMP set. Exit 0 pass,
 # 1 fail, 77 skip (no program to test).
@@ -106,6 +106,10 @@ rc=$?
 if [ "$rc" -eq 2 ] && grep -q 'r.html' "$ERR"; then pass; else
     fail "a failing --report" "exit $rc (want 2)" "stderr: $(cat "$ERR")"
 fi
+# the summary describes the mesh written: none is printed when the outputs are not committed
+if [ ! -s "$OUT" ]; then pass; else
+    fail "a failing --report prints no summary" "stdout: $(head -n 2 "$OUT")"
+fi
 if cmp -s x.vtu old.copy; then pass; else fail "the older -o survives a failed run"; fi
 no_leftovers "a failed run" folder.vtu phantom.nrrd x.vtu old.copy
 # the same run without the limit writes all three
@@ -114,6 +118,27 @@ if [ "$rc" -eq 0 ] && [ -s s.vtu ] && [ -s r.html ] && ! cmp -s x.vtu old.copy; 
     fail "a run that succeeds writes every output" "exit $rc" "stderr: $(cat "$ERR")"
 fi
 no_leftovers "a run that succeeds" folder.vtu phantom.nrrd x.vtu s.vtu r.html old.copy
+
+# --- spectrum: --csv and --svg are committed together -----------------------------------------
+rm -f x.vtu s.vtu r.html
+echo old >c.csv
+# a limit that the CSV (about 12 KB) passes and the SVG (about 21 KB) does not
+(
+    trap '' XFSZ
+    ulimit -f 16
+    exec "$CLI" spectrum phantom.nrrd --csv c.csv --svg s.svg --quiet
+) >"$OUT" 2>"$ERR"
+rc=$?
+if [ "$rc" -eq 2 ] && grep -q 's.svg' "$ERR" && [ ! -s "$OUT" ]; then pass; else
+    fail "spectrum: a failing --svg" "exit $rc (want 2)" "stderr: $(cat "$ERR")"
+fi
+if [ "$(cat c.csv)" = old ]; then pass; else fail "spectrum: the older --csv survives"; fi
+no_leftovers "spectrum: a failed run" folder.vtu phantom.nrrd old.copy c.csv
+run "$CLI" spectrum phantom.nrrd --csv c.csv --svg s.svg --quiet
+if [ "$rc" -eq 0 ] && [ -s s.svg ] && head -n 1 c.csv | grep -q '^isovalue,'; then pass; else
+    fail "spectrum writes both files" "exit $rc" "stderr: $(cat "$ERR")"
+fi
+no_leftovers "spectrum: a run that succeeds" folder.vtu phantom.nrrd old.copy c.csv s.svg
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
