@@ -23,6 +23,14 @@ static int make_volume(vm_volume *v, int64_t nx, int64_t ny, int64_t nz, float f
     return 1;
 }
 
+/* A noiseless phantom of n^3 voxels, checked. */
+static vm_status phantom(vm_phantom_kind kind, int n, vm_volume *v, vm_phantom_info *info,
+                         vm_error *err) {
+    vm_status s = vm_phantom_make(kind, n, 0.0, 1u, v, info, err);
+    CHECK_OK(s, err);
+    return s;
+}
+
 static void graded_options(vm_mesh_options *o) {
     vm_mesh_options_default(o);
     o->graded = 1;
@@ -197,8 +205,7 @@ static void sizesAreMet(void) {
     vm_volume v;
     vm_phantom_info info;
     vm_error err;
-    vm_status s = vm_phantom_make(VM_PHANTOM_TORUS, 48, 0.0, 1u, &v, &info, &err);
-    CHECK_OK(s, &err);
+    vm_status s = phantom(VM_PHANTOM_TORUS, 48, &v, &info, &err);
     if (s != VM_OK) return;
     size_t counts[3];
     static const double dist[3] = {0.25, 0.5, 1.0};
@@ -330,8 +337,7 @@ static void gradingSpreadsLevelChanges(void) {
     vm_volume v;
     vm_phantom_info info;
     vm_error err;
-    vm_status s = vm_phantom_make(VM_PHANTOM_TORUS, 48, 0.0, 1u, &v, &info, &err);
-    CHECK_OK(s, &err);
+    vm_status s = phantom(VM_PHANTOM_TORUS, 48, &v, &info, &err);
     if (s != VM_OK) return;
     vm_mesh_options o;
     graded_options(&o);
@@ -393,8 +399,7 @@ static void tetTargetIsMet(void) {
     vm_volume v;
     vm_phantom_info info;
     vm_error err;
-    vm_status s = vm_phantom_make(VM_PHANTOM_TORUS, 48, 0.0, 1u, &v, &info, &err);
-    CHECK_OK(s, &err);
+    vm_status s = phantom(VM_PHANTOM_TORUS, 48, &v, &info, &err);
     if (s != VM_OK) return;
     vm_mesh_options o;
     graded_options(&o);
@@ -424,8 +429,7 @@ static void anisotropicVoxelsKeepVolumeThroughThePass(void) {
     vm_volume v;
     vm_phantom_info info;
     vm_error err;
-    vm_status s = vm_phantom_make(VM_PHANTOM_SPHERE, 40, 0.0, 1u, &v, &info, &err);
-    CHECK_OK(s, &err);
+    vm_status s = phantom(VM_PHANTOM_SPHERE, 40, &v, &info, &err);
     if (s != VM_OK) return;
     v.spacing[2] = 10.0;
     vm_mesh_options o;
