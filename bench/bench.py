@@ -479,14 +479,16 @@ def write_markdown(path, results, meta):
                 f"(code at commit {r.get('commit') or 'not recorded'}); "
                 + lower_first(load_text(r))
                 for r in meta.get("reruns", []))))
-    # the big-volume block is bench/big.py's, the stages block bench/stages.py's: keep what
-    # they last wrote (a stages block the template lacks goes at the end)
+    # the big-volume block is bench/big.py's, the stages block bench/stages.py's, the sizing
+    # block bench/sizing.py's: keep what they last wrote (one the template lacks goes at the
+    # end)
     old = ""
     if os.path.exists(path):
         with open(path, encoding="utf-8") as fh:
             old = fh.read()
     for begin, end in (("<!-- big-volumes:begin", "<!-- big-volumes:end -->"),
-                       ("<!-- stages:begin", "<!-- stages:end -->")):
+                       ("<!-- stages:begin", "<!-- stages:end -->"),
+                       ("<!-- sizing:begin", "<!-- sizing:end -->")):
         if begin not in old or end not in old:
             continue
         kept = old[old.index(begin):old.index(end) + len(end)]
