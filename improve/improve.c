@@ -426,7 +426,10 @@ static vm_status improve(vm_mesh *m, const vm_volume *v, vm_plane_source src, vo
     vm_improve_report c; /* the run's counters, passes and moves */
     memset(&c, 0, sizeof c);
     size_t nparts = vm__imp_parts_count(m, o);
-    if (nparts > 1) {
+    if (nparts == 0) {
+        s = vm__imp_local_run(m, v, src, user, o, &c, err);
+        vm__imp_show(o, 1.0 - VM__IMP_FINAL_SHARE);
+    } else if (nparts > 1) {
         s = vm__imp_parts_run(m, v, src, user, o, nparts, &c, err);
         vm__imp_show(o, 1.0 - VM__IMP_FINAL_SHARE);
     } else {

@@ -244,6 +244,24 @@ static double merged_min(const vm__imp *w, vm_index a, vm_index b, const double 
     return qmin;
 }
 
+/* 1 when every tet left after merging a and b at x has a quality above the bar (merged_min
+ * > b->f, without measuring the qualities). */
+static int merged_above(const vm__imp *w, vm_index a, vm_index b, const double x[3],
+                        const vm__imp_bar *bar) {
+    for (int side = 0; side < 2; side++) {
+        vm_index u = side ? b : a, other = side ? a : b;
+        const vm__imp_star *s = &w->star[u];
+        int moved = memcmp(x, w->p + 3 * (size_t)u, 3 * sizeof(double)) != 0;
+        for (int32_t i = 0; i < s->n; i++) {
+            size_t t = (size_t)s->t[i];
+            if (vm__imp_has(w, t, other)) continue;
+            if (moved ? !vm__imp_tet_above_moved(w, t, u, x, bar) : !(w->q[t] > bar->f))
+                return 0;
+        }
+    }
+    return 1;
+}
+
 /* 1 when merging gone into keep at x (edge ab = {keep, gone}) makes no boundary triangles
  * cross: the boundary faces around the merged vertex, found among the tets that survive,
  * against each other and the boundary near them. */
@@ -326,6 +344,8 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     }
     double floor_q = old + VM__IMP_GAIN;
     double best = floor_q, bx[3];
+    vm__imp_bar bar;
+    vm__imp_bar_set(w, best, &bar);
     int choice = -1;
     const double *pa = w->p + 3 * (size_t)a, *pb = w->p + 3 * (size_t)b;
     /* Surface edges may also meet at their midpoint put back on the isosurface. */
@@ -341,14 +361,14 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
             for (int k = 0; k < 3; k++) x[k] = 0.5 * (pa[k] + pb[k]);
             if (!vm__imp_project(w, a, x)) continue;
         } else continue;
-        double q = merged_min(w, a, b, x, best);
-        if (q <= best) continue;
+        if (!merged_above(w, a, b, x, &bar)) continue;
         if (opt != 1 && w->cls[b] != VM__IMP_INTERIOR && !boundary_keeps_normals(w, b, a, x))
             continue;
         if (opt != 0 && w->cls[a] != VM__IMP_INTERIOR && !boundary_keeps_normals(w, a, b, x))
             continue;
         if (!contract_guard_ok(w, a, b, opt == 1 ? b : a, opt == 1 ? a : b, x)) continue;
-        best = q;
+        best = merged_min(w, a, b, x, -INFINITY);
+        vm__imp_bar_set(w, best, &bar);
         choice = opt;
         memcpy(bx, x, sizeof bx);
     }
