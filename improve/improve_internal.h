@@ -137,6 +137,9 @@ void vm__imp_bar_set(const vm__imp *w, double f, vm__imp_bar *b);
  * are clearly on one side of their limits: the same answer, several times faster when no
  * limit is near. */
 int vm__imp_quality_above(const vm__imp *w, const double p[4][3], const vm__imp_bar *b);
+/* 1 when an angle's cosine c is clearly below (+1) or above (-1) the limit l of a bar, 0
+ * when within the tie (measure then). */
+int vm__imp_cos_side(double c, double l);
 /* vm__imp_quality_above for tet t with vertex a at x. */
 int vm__imp_tet_above_moved(const vm__imp *w, size_t t, vm_index a, const double x[3],
                             const vm__imp_bar *b);
@@ -332,9 +335,11 @@ void vm__imp_part_margin(const vm__imp_pstate *S, double L, double M[3]);
 
 /* The local pass (improve_local.c): only the tets below the targets and a ring of tets
  * around them, by blocks of space run in parallel. */
+/* below: per tet of m, 1 when its quality is below 1 (as the pass measures it), or NULL to
+ * have them measured. */
 vm_status vm__imp_local_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
-                            void *src_user, const vm_improve_options *o, vm_improve_report *r,
-                            vm_error *err);
+                            void *src_user, const vm_improve_options *o, const uint8_t *below,
+                            vm_improve_report *r, vm_error *err);
 
 /* The bar of the pass: the set-up (figures, stars and qualities, boundary guard: about 40 %
  * of the time on a big mesh that needs little work) fills the first VM__IMP_SETUP_SHARE,

@@ -811,13 +811,15 @@ static vm_status run_colour(lpass *P, int round, int colour, vm_error *err) {
 }
 
 vm_status vm__imp_local_run(vm_mesh *m, const vm_volume *v, vm_plane_source src, void *src_user,
-                            const vm_improve_options *o, vm_improve_report *r, vm_error *err) {
+                            const vm_improve_options *o, const uint8_t *below,
+                            vm_improve_report *r, vm_error *err) {
     lpass P;
     memset(&P, 0, sizeof P);
     vm_status s = vm__imp_pstate_init(&P.S, m, v, src, src_user, o, r, err);
     if (s != VM_OK) return s;
     pstate *S = &P.S;
-    /* Which tets are below the targets: each on its own, the same for any thread count. */
+    /* Which tets are below the targets (the caller's sweep may have told): each on its own,
+     * the same for any thread count. */
     vm__imp qw;
     memset(&qw, 0, sizeof qw);
     vm__imp_scales(&qw, o);
@@ -825,14 +827,17 @@ vm_status vm__imp_local_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
     vm__imp_bar_set(&qw, nextafter(1.0, 0.0), &one); /* above: q >= 1 */
     size_t nbad = 0;
     const vm_index *cells = m->cells;
+    if (below) memcpy(S->below, below, S->nt);
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static, 4096) reduction(+ : nbad)
 #endif
     for (size_t t = 0; t < S->nt; t++) {
-        double p[4][3];
-        for (int k = 0; k < 4; k++)
-            memcpy(p[k], m->points + 3 * (size_t)cells[4 * t + k], sizeof p[k]);
-        S->below[t] = !vm__imp_quality_above(&qw, (const double(*)[3])p, &one);
+        if (!below) {
+            double p[4][3];
+            for (int k = 0; k < 4; k++)
+                memcpy(p[k], m->points + 3 * (size_t)cells[4 * t + k], sizeof p[k]);
+            S->below[t] = !vm__imp_quality_above(&qw, (const double(*)[3])p, &one);
+        }
         nbad += S->below[t];
     }
     if (nbad == 0) {

@@ -177,8 +177,7 @@ void vm__imp_bar_set(const vm__imp *w, double f, vm__imp_bar *b) {
               isfinite(b->c_fmax);
 }
 
-/* 1 when angle cosine c is clearly below (+1) or above (-1) limit l, 0 when within the tie. */
-static int cos_side(double c, double l) {
+int vm__imp_cos_side(double c, double l) {
     return c < l - BAR_COS_TIE ? 1 : c > l + BAR_COS_TIE ? -1 : 0;
 }
 
@@ -189,11 +188,11 @@ int vm__imp_quality_above(const vm__imp *w, const double p[4][3], const vm__imp_
     /* q > f when every term is: min dihedral > f s_min (its cosine below the limit's), max
      * dihedral < 180 - f s_max (its cosine above), and so on; a cosine within the tie of its
      * limit decides by the quality itself. */
-    int s1 = cos_side(c.cmax, b->c_dmin), s2 = -cos_side(c.cmin, b->c_dmax);
+    int s1 = vm__imp_cos_side(c.cmax, b->c_dmin), s2 = -vm__imp_cos_side(c.cmin, b->c_dmax);
     if (s1 < 0 || s2 < 0) return 0;
     if (!(vm__imp_volume_measure(p) / w->s_vm > b->f)) return 0;
     face_cosines(p, &c);
-    int s4 = cos_side(c.cfmax, b->c_fmin), s5 = -cos_side(c.cfmin, b->c_fmax);
+    int s4 = vm__imp_cos_side(c.cfmax, b->c_fmin), s5 = -vm__imp_cos_side(c.cfmin, b->c_fmax);
     if (s4 < 0 || s5 < 0) return 0;
     if (s1 == 0 || s2 == 0 || s4 == 0 || s5 == 0) return vm__imp_quality(w, p) > b->f;
     return 1;
