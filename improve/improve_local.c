@@ -36,7 +36,7 @@
 
 #define RINGS 2          /* rings of free tets (sharing a vertex) around each bad tet */
 #define ROUNDS 4         /* most rounds over the tets below the targets */
-#define BLOCK_EDGES 16.0 /* a block is this many mean longest edges of the bad tets a side */
+#define BLOCK_EDGES 12.0 /* a block is this many mean longest edges of the bad tets a side */
 #define CELL_EDGES 3.0   /* a cell of the tet grid: at least this many of them a side */
 #define CELL_TETS 4.0    /* and about this many tets per cell at most on average */
 #define CELL_AXIS 2048   /* most cells of the tet grid along an axis */
