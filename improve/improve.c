@@ -89,8 +89,16 @@ static int near_cos(double c, double ref) { return fabs(c - ref) < FIG_EPS; }
 /* The figures of tets [t0, t1): the same counts and extremes as tet_figures over each of them,
  * but the thresholds compared on cosines (no atan2) wherever a cosine is clearly on one side;
  * the extremes are measured exactly only for the tets that may hold them. */
+/* below (when not NULL): per tet, 1 when its quality is below 1 (below->w's scales), told on
+ * the cosines measured here as vm__imp_quality_above tells it. */
+typedef struct below_out {
+    const vm__imp *w;
+    const vm__imp_bar *one; /* the bar just under 1: above it is q >= 1 */
+    uint8_t *flag;
+} below_out;
+
 static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, size_t t1,
-                          figures *f, double *unfixed_field) {
+                          figures *f, double *unfixed_field, const below_out *below) {
     static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
     memset(f, 0, sizeof *f);
     f->dmin = 180.0;
@@ -141,6 +149,26 @@ static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, s
                     near_cos(fcmax, VM__ABAQUS_COS_SMALL_FACE_ANGLE) ||
                     near_cos(fcmin, VM__ABAQUS_COS_LARGE_FACE_ANGLE);
         }
+        if (below) {
+            /* the cosine tests of vm__imp_quality_above on the cosines above (the same
+             * formulas); the quality itself when the tet is flat or a cosine is near */
+            const vm__imp_bar *b = below->one;
+            int fast = !exact && b->fast;
+            double vmq = fast ? vm__imp_volume_measure(cp) : 0.0;
+            int s1 = fast ? vm__imp_cos_side(cmax, b->c_dmin) : 0,
+                s2 = fast ? -vm__imp_cos_side(cmin, b->c_dmax) : 0,
+                s4 = fast ? vm__imp_cos_side(fcmax, b->c_fmin) : 0,
+                s5 = fast ? -vm__imp_cos_side(fcmin, b->c_fmax) : 0;
+            int above;
+            if (fast && (s1 < 0 || s2 < 0 || s4 < 0 || s5 < 0 ||
+                         !(vmq / below->w->s_vm > b->f)))
+                above = 0;
+            else if (fast && s1 > 0 && s2 > 0 && s4 > 0 && s5 > 0)
+                above = 1;
+            else
+                above = vm__imp_quality_above(below->w, cp, b);
+            below->flag[t] = (uint8_t)!above;
+        }
         int bad;
         if (exact) {
             int ab;
@@ -185,7 +213,7 @@ static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, s
 #define FIG_CHUNK ((size_t)1 << 15)
 
 static vm_status mesh_figures(const double *pts, const vm_index *cells, size_t n, figures *f,
-                              double *unfixed_field) {
+                              double *unfixed_field, const below_out *below) {
     size_t nc = (n + FIG_CHUNK - 1) / FIG_CHUNK;
     figures *part = malloc((nc ? nc : 1) * sizeof *part);
     if (!part) return VM_ERR_NOMEM;
@@ -194,7 +222,7 @@ static vm_status mesh_figures(const double *pts, const vm_index *cells, size_t n
 #endif
     for (size_t c = 0; c < nc; c++) {
         size_t t1 = (c + 1) * FIG_CHUNK < n ? (c + 1) * FIG_CHUNK : n;
-        chunk_figures(pts, cells, c * FIG_CHUNK, t1, &part[c], unfixed_field);
+        chunk_figures(pts, cells, c * FIG_CHUNK, t1, &part[c], unfixed_field, below);
     }
     memset(f, 0, sizeof *f);
     f->dmin = 180.0;
@@ -359,7 +387,7 @@ static vm_status figures_after(vm_mesh *m, const vm_improve_options *o, figures 
         uf = malloc((m->ncells + 1) * sizeof *uf);
         if (!uf) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
-    if (s == VM_OK && mesh_figures(m->points, m->cells, m->ncells, fa, uf) != VM_OK)
+    if (s == VM_OK && mesh_figures(m->points, m->cells, m->ncells, fa, uf, NULL) != VM_OK)
         s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     if (uf && s == VM_OK) s = vm_mesh_set_field(m, 1, "improve_unfixed", 1, uf, err);
     free(uf);
@@ -413,20 +441,38 @@ static vm_status improve(vm_mesh *m, const vm_volume *v, vm_plane_source src, vo
     }
     vm_status s = check_args(m, v, o, err);
     if (s != VM_OK) return s;
+    /* the local pass starts from the tets below the targets: told in the same sweep */
+    size_t nparts = vm__imp_parts_count(m, o);
+    vm__imp qw;
+    memset(&qw, 0, sizeof qw);
+    vm__imp_scales(&qw, o);
+    vm__imp_bar one;
+    vm__imp_bar_set(&qw, nextafter(1.0, 0.0), &one);
+    below_out bo = {&qw, &one, nparts == 0 ? malloc(m->ncells + 1) : NULL};
+    if (nparts == 0 && !bo.flag) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     figures fb;
-    if (mesh_figures(m->points, m->cells, m->ncells, &fb, NULL) != VM_OK)
+    if (mesh_figures(m->points, m->cells, m->ncells, &fb, NULL, nparts == 0 ? &bo : NULL) !=
+        VM_OK) {
+        free(bo.flag);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-    if (fb.inverted)
+    }
+    if (fb.inverted) {
+        free(bo.flag);
         return vm_error_set(err, VM_ERR_ARG, "improve: %zu tets are inverted or flat",
                             fb.inverted);
+    }
     vm__imp_show(o, 0.1 * VM__IMP_SETUP_SHARE);
     size_t nt0 = m->ncells, np0 = m->npoints;
     vm__imp w;
     memset(&w, 0, sizeof w);
     vm_improve_report c; /* the run's counters, passes and moves */
     memset(&c, 0, sizeof c);
-    size_t nparts = vm__imp_parts_count(m, o);
-    if (nparts > 1) {
+    if (nparts == 0) {
+        s = vm__imp_local_run(m, v, src, user, o, bo.flag, &c, err);
+        free(bo.flag);
+        bo.flag = NULL;
+        vm__imp_show(o, 1.0 - VM__IMP_FINAL_SHARE);
+    } else if (nparts > 1) {
         s = vm__imp_parts_run(m, v, src, user, o, nparts, &c, err);
         vm__imp_show(o, 1.0 - VM__IMP_FINAL_SHARE);
     } else {

@@ -244,6 +244,41 @@ static double merged_min(const vm__imp *w, vm_index a, vm_index b, const double 
     return qmin;
 }
 
+/* 1 when every tet left after merging a and b at x has a quality above the bar (merged_min
+ * > b->f, without measuring the qualities). */
+static int merged_above(const vm__imp *w, vm_index a, vm_index b, const double x[3],
+                        const vm__imp_bar *bar) {
+    for (int side = 0; side < 2; side++) {
+        vm_index u = side ? b : a, other = side ? a : b;
+        const vm__imp_star *s = &w->star[u];
+        int moved = memcmp(x, w->p + 3 * (size_t)u, 3 * sizeof(double)) != 0;
+        for (int32_t i = 0; i < s->n; i++) {
+            size_t t = (size_t)s->t[i];
+            if (vm__imp_has(w, t, other)) continue;
+            if (moved ? !vm__imp_tet_above_moved(w, t, u, x, bar) : !(w->q[t] > bar->f))
+                return 0;
+        }
+    }
+    return 1;
+}
+
+/* A face by its sorted nodes, and where it was found (4 tet + face). */
+typedef struct fkey {
+    int64_t k[3];
+    size_t at;
+} fkey;
+
+static int fkey_same(const fkey *a, const fkey *b) {
+    return a->k[0] == b->k[0] && a->k[1] == b->k[1] && a->k[2] == b->k[2];
+}
+
+static int fkey_cmp(const void *pa, const void *pb) {
+    const fkey *a = pa, *b = pb;
+    for (int i = 0; i < 3; i++)
+        if (a->k[i] != b->k[i]) return a->k[i] < b->k[i] ? -1 : 1;
+    return a->at < b->at ? -1 : a->at > b->at;
+}
+
 /* 1 when merging gone into keep at x (edge ab = {keep, gone}) makes no boundary triangles
  * cross: the boundary faces around the merged vertex, found among the tets that survive,
  * against each other and the boundary near them. */
@@ -260,9 +295,13 @@ static int contract_guard_ok(vm__imp *w, vm_index a, vm_index b, vm_index keep, 
     size_t ns = (size_t)w->star[a].n + (size_t)w->star[b].n;
     vm_index(*s)[4] = malloc((ns + 1) * sizeof *s);
     vm_index(*nt)[3] = malloc((4 * ns + 1) * sizeof *nt);
-    if (!s || !nt) {
+    fkey *fk = malloc((4 * ns + 1) * sizeof *fk);
+    uint8_t *one = calloc(4 * ns + 1, 1);
+    if (!s || !nt || !fk || !one) {
         free(s);
         free(nt);
+        free(fk);
+        free(one);
         w->nomem = 1;
         return 0;
     }
@@ -280,26 +319,38 @@ static int contract_guard_ok(vm__imp *w, vm_index a, vm_index b, vm_index keep, 
             n++;
         }
     }
+    /* The faces at keep of the merged tets; one no other merged tet has is on the boundary
+     * (sorted by their nodes, a shared face sits next to its twin). */
+    size_t nf = 0;
+    for (size_t i = 0; i < n; i++)
+        for (int f = 0; f < 4; f++) {
+            vm_index c[3] = {s[i][fo[f][0]], s[i][fo[f][1]], s[i][fo[f][2]]};
+            if (c[0] != keep && c[1] != keep && c[2] != keep) continue;
+            key3 k = mk(c[0], c[1], c[2]);
+            fk[nf].k[0] = k.k[0];
+            fk[nf].k[1] = k.k[1];
+            fk[nf].k[2] = k.k[2];
+            fk[nf].at = 4 * i + (size_t)f;
+            nf++;
+        }
+    if (nf) qsort(fk, nf, sizeof *fk, fkey_cmp);
+    for (size_t i = 0; i < nf; i++)
+        one[fk[i].at] = !(i > 0 && fkey_same(&fk[i], &fk[i - 1])) &&
+                        !(i + 1 < nf && fkey_same(&fk[i], &fk[i + 1]));
     int nn = 0;
     for (size_t i = 0; i < n; i++)
         for (int f = 0; f < 4; f++) {
             vm_index c[3] = {s[i][fo[f][0]], s[i][fo[f][1]], s[i][fo[f][2]]};
             if (c[0] != keep && c[1] != keep && c[2] != keep) continue;
-            int shared = 0;
-            for (size_t j = 0; j < n && !shared; j++) {
-                if (j == i) continue;
-                int h = 0;
-                for (int k = 0; k < 4; k++)
-                    h += s[j][k] == c[0] || s[j][k] == c[1] || s[j][k] == c[2];
-                shared = h == 3;
-            }
-            if (shared) continue;
+            if (!one[4 * i + (size_t)f]) continue;
             memcpy(nt[nn++], c, sizeof c);
         }
     vm_index exv[2] = {a, b};
     int ok = vm__imp_guard_ok(w, (const vm_index(*)[3])nt, nn, keep, x, exv, 2, NULL, 0);
     free(s);
     free(nt);
+    free(fk);
+    free(one);
     return ok;
 }
 
@@ -326,7 +377,9 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     }
     double floor_q = old + VM__IMP_GAIN;
     double best = floor_q, bx[3];
-    int choice = -1;
+    vm__imp_bar bar;
+    vm__imp_bar_set(w, best, &bar);
+    int choice = -1, link = -1; /* link: not known yet */
     const double *pa = w->p + 3 * (size_t)a, *pb = w->p + 3 * (size_t)b;
     /* Surface edges may also meet at their midpoint put back on the isosurface. */
     int smid = !lka && !lkb && w->v && w->cls[a] == VM__IMP_SURF && w->cls[b] == VM__IMP_SURF &&
@@ -341,26 +394,30 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
             for (int k = 0; k < 3; k++) x[k] = 0.5 * (pa[k] + pb[k]);
             if (!vm__imp_project(w, a, x)) continue;
         } else continue;
-        double q = merged_min(w, a, b, x, best);
-        if (q <= best) continue;
+        if (!merged_above(w, a, b, x, &bar)) continue;
         if (opt != 1 && w->cls[b] != VM__IMP_INTERIOR && !boundary_keeps_normals(w, b, a, x))
             continue;
         if (opt != 0 && w->cls[a] != VM__IMP_INTERIOR && !boundary_keeps_normals(w, a, b, x))
             continue;
+        /* the link condition holds or not whatever the position: before the guard, which
+         * costs more */
+        if (link < 0) {
+            vlink la, lb;
+            memset(&la, 0, sizeof la);
+            memset(&lb, 0, sizeof lb);
+            link = link_ok(w, a, b, &la, &lb);
+            vlink_free(&la);
+            vlink_free(&lb);
+            if (link < 0) w->nomem = 1;
+            if (link <= 0) return 0;
+        }
         if (!contract_guard_ok(w, a, b, opt == 1 ? b : a, opt == 1 ? a : b, x)) continue;
-        best = q;
+        best = merged_min(w, a, b, x, -INFINITY);
+        vm__imp_bar_set(w, best, &bar);
         choice = opt;
         memcpy(bx, x, sizeof bx);
     }
     if (choice < 0) return 0;
-    vlink la, lb;
-    memset(&la, 0, sizeof la);
-    memset(&lb, 0, sizeof lb);
-    int ok = link_ok(w, a, b, &la, &lb);
-    vlink_free(&la);
-    vlink_free(&lb);
-    if (ok < 0) w->nomem = 1;
-    if (ok <= 0) return 0;
     /* Apply: keep = survivor, gone = removed vertex. */
     vm_index keep = choice == 1 ? b : a, gone = choice == 1 ? a : b;
     const vm__imp_star *sg = &w->star[gone];

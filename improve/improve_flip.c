@@ -65,8 +65,13 @@ static int flip23(vm__imp *w, size_t t, int i) {
     if (adjacent(w, d, e)) return 0;
     double old = w->q[t] < w->q[u] ? w->q[t] : w->q[u];
     vm_index nw[3][4] = {{a, b, e, d}, {b, c, e, d}, {c, a, e, d}};
-    for (int k = 0; k < 3; k++)
-        if (!(quality_of(w, nw[k]) > old + VM__IMP_GAIN)) return 0;
+    vm__imp_bar bar;
+    vm__imp_bar_set(w, old + VM__IMP_GAIN, &bar);
+    for (int k = 0; k < 3; k++) {
+        double p[4][3];
+        for (int j = 0; j < 4; j++) memcpy(p[j], w->p + 3 * (size_t)nw[k][j], sizeof p[j]);
+        if (!vm__imp_quality_above(w, (const double(*)[3])p, &bar)) return 0;
+    }
     size_t oldt[2] = {t, (size_t)u};
     if (!replace(w, oldt, 2, nw, 3)) return 0;
     w->flips23++;

@@ -118,12 +118,31 @@ static inline double *vm__imp_nrm(const vm__imp *w, vm_index a) {
 }
 static inline double vm__imp_bound(const vm__imp *w, vm_index a) { return w->bound[w->ci[a]]; }
 
+/* The quality's scales from the targets of o (all vm__imp_quality reads of w). */
+void vm__imp_scales(vm__imp *w, const vm_improve_options *o);
 /* Normalised quality of a tet (>= 1 meets the targets, > 2/3 passes ABAQUS with the default
  * targets); -1 when it is not clearly positive. */
 double vm__imp_quality(const vm__imp *w, const double p[4][3]);
 /* ABAQUS volume measure V / (volume of the regular tet with the same circumradius). */
 double vm__imp_volume_measure(const double p[4][3]);
 double vm__imp_tet_q(const vm__imp *w, size_t t);
+/* A bar for vm__imp_quality_above: the limits quality > f puts on the angles' cosines. */
+typedef struct vm__imp_bar {
+    double f;
+    int fast; /* 0: the test measures the quality */
+    double c_dmin, c_dmax, c_fmin, c_fmax;
+} vm__imp_bar;
+void vm__imp_bar_set(const vm__imp *w, double f, vm__imp_bar *b);
+/* vm__imp_quality(w, p) > b->f, decided on the cosines (no inverse trigonometry) where they
+ * are clearly on one side of their limits: the same answer, several times faster when no
+ * limit is near. */
+int vm__imp_quality_above(const vm__imp *w, const double p[4][3], const vm__imp_bar *b);
+/* 1 when an angle's cosine c is clearly below (+1) or above (-1) the limit l of a bar, 0
+ * when within the tie (measure then). */
+int vm__imp_cos_side(double c, double l);
+/* vm__imp_quality_above for tet t with vertex a at x. */
+int vm__imp_tet_above_moved(const vm__imp *w, size_t t, vm_index a, const double x[3],
+                            const vm__imp_bar *b);
 /* Recomputes w->q[t], noting t in w->touched when it is below the targets. */
 void vm__imp_requal(vm__imp *w, size_t t);
 /* Quality of tet t with vertex a replaced by position x (a must be in t). */
@@ -217,15 +236,110 @@ void vm__imp_free(vm__imp *w);
 vm_status vm__imp_read_planes(const vm_volume *info, vm_plane_source src, void *user,
                               int64_t k0, int64_t k1, float **out, vm_error *err);
 
-/* The whole pass by parts (improve_parts.c), when vm__imp_parts_count says more than one:
- * m is improved in place; counters, passes and moves go to r (figures are the caller's). */
+/* How the pass runs on m: 0 the local pass (vm__imp_local_run), 1 the one pass over the
+ * whole mesh, N > 1 by N slabs (vm__imp_parts_run). */
 size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o);
 
-/* v: the volume, or with src its dims and geometry only, each part then reading the planes
- * it reaches from src (one call at a time). */
+/* The whole pass by slabs: m is improved in place; counters, passes and moves go to r
+ * (figures are the caller's). v: the volume, or with src its dims and geometry only, each
+ * part then reading the planes it reaches from src (one call at a time). */
 vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src, void *src_user,
                             const vm_improve_options *o, size_t nparts, vm_improve_report *r,
                             vm_error *err);
+
+/* --- The pass by parts (improve_parts.c) and the local pass (improve_local.c) ---------- */
+
+/* A slot whose tet a part removed (cells[4 t]), until the slots are compacted. */
+#define VM__IMP_DEAD_SLOT ((vm_index)-1)
+
+/* The whole mesh while parts of it are worked on: m's arrays, tets in slots (dead ones
+ * marked VM__IMP_DEAD_SLOT), and what the parts share. */
+typedef struct vm__imp_pstate {
+    vm_mesh *m;
+    const vm_volume *v;
+    vm_improve_options o; /* the caller's options without the progress callback */
+    const vm_improve_options *uo;
+    size_t nt;      /* slots */
+    double *p0;     /* 3 per point: where the pass found it */
+    vm_index *par;  /* per slot: the input cell (only with cell fields) */
+    uint8_t *below; /* per slot: below the targets when its part last ran */
+    uint32_t *loc;  /* per point: its id in the submesh of the part running with it */
+    double box[6];
+    double row[3]; /* with a volume: world displacement along each axis per voxel */
+    vm_plane_source src; /* with a volume given by its planes: where the parts read them */
+    void *src_user;
+    double kz[3]; /* then: index z of a world point x is kz . (x - the volume's origin) */
+    vm_improve_report *r;
+} vm__imp_pstate;
+
+/* One part: its tets and the locked tets around it (slots), and what its run gives back. */
+typedef struct vm__imp_job {
+    /* slabs (improve_parts.c): the tets in slots with centroid z in [z0, z1) (or, with key,
+     * key in it) */
+    double z0, z1;
+    /* with key: only the slots 0..nkey-1 with a finite key, taken in place of the centroid
+     * (later slots are not marked) */
+    const float *key;
+    size_t nkey;
+    unsigned seed;
+    uint32_t *ps; /* slots of the part's tets, in order */
+    uint32_t *ls; /* slots of the locked tets, in order */
+    size_t nps, nls;
+    double zlo, zhi;   /* the z range it reads and writes */
+    double lo[3], hi[3]; /* the local pass: the box it reads and writes */
+    vm_index (*xt)[4]; /* tets beyond its slots, appended after the batch */
+    int32_t *xreg;
+    vm_index *xpar;
+    uint8_t *xbelow;
+    size_t nx, x0; /* x0: the slot of the first, once appended */
+    vm_status s;
+    vm_error err;
+    int passes;
+    double maxmove, maxiface;
+    size_t cnt[8];
+} vm__imp_job;
+
+/* Sets S up over m (copies the positions as p0, the box, the frames); VM_ERR_NOMEM. */
+vm_status vm__imp_pstate_init(vm__imp_pstate *S, vm_mesh *m, const vm_volume *v,
+                              vm_plane_source src, void *src_user, const vm_improve_options *o,
+                              vm_improve_report *r, vm_error *err);
+void vm__imp_pstate_free(vm__imp_pstate *S);
+/* Builds J's submesh (J->ps, then J->ls locked), improves it and writes it back into its
+ * slots and points; tets beyond its slots wait in J->xt. Touches only the tets and points of
+ * the submesh: parts that share none may run at the same time. */
+void vm__imp_job_run(vm__imp_pstate *S, vm__imp_job *J);
+void vm__imp_job_reset(vm__imp_job *J);
+/* After a batch of jobs take[0..n): their first error, else their extra tets appended in
+ * order (J->x0) and their counters added to S->r. */
+vm_status vm__imp_jobs_append(vm__imp_pstate *S, vm__imp_job *jobs, const size_t *take,
+                              size_t n, vm_error *err);
+/* Drops the dead slots and the points no tet uses; permutes the cell fields. */
+vm_status vm__imp_parts_finish(vm__imp_pstate *S, vm_error *err);
+/* Box and squared longest edge of the tet in slot t. */
+void vm__imp_slot_box(const vm__imp_pstate *S, size_t t, double lo[3], double hi[3]);
+double vm__imp_slot_edge2(const vm__imp_pstate *S, size_t t);
+/* Appends t to the list *l (n entries, room for *cap); 0 on out-of-memory. */
+int vm__imp_push_slot(uint32_t **l, size_t *n, size_t *cap, size_t t);
+/* Sorts l[0..n) ascending; 0 on out-of-memory. */
+int vm__imp_sort_slots(uint32_t *l, size_t n);
+/* The cells c0..c1 of a grid (origin lo, cell cs, gd cells a side) that box [a, b] meets. */
+void vm__imp_cell_range(const double lo[3], double cs, const size_t gd[3], const double a[3],
+                        const double b[3], size_t c0[3], size_t c1[3]);
+/* Grows the marked cells of grid (gd cells a side) by r cells along axis k; 0 on nomem. */
+int vm__imp_dilate(uint8_t *grid, const size_t gd[3], int k, size_t r);
+/* The seed of the random perturbations of part k of a phase. */
+unsigned vm__imp_part_seed(unsigned seed, int phase, size_t k);
+/* The margin around a part along each axis: twice the farthest a boundary vertex may get
+ * from where the pass found it, and a little slack (L: the part's longest edge). */
+void vm__imp_part_margin(const vm__imp_pstate *S, double L, double M[3]);
+
+/* The local pass (improve_local.c): only the tets below the targets and a ring of tets
+ * around them, by blocks of space run in parallel. */
+/* below: per tet of m, 1 when its quality is below 1 (as the pass measures it), or NULL to
+ * have them measured. */
+vm_status vm__imp_local_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
+                            void *src_user, const vm_improve_options *o, const uint8_t *below,
+                            vm_improve_report *r, vm_error *err);
 
 /* The bar of the pass: the set-up (figures, stars and qualities, boundary guard: about 40 %
  * of the time on a big mesh that needs little work) fills the first VM__IMP_SETUP_SHARE,

@@ -9,7 +9,8 @@
 #include "../quality/tet_internal.h"
 #include "../core/vec3.h"
 
-#define DEG (180.0 / 3.14159265358979323846)
+#define PI 3.14159265358979323846
+#define DEG (180.0 / PI)
 
 /* Face-angle cosines within this of the extremes are measured (ties in round-off). */
 #define COS_TIE 1e-12
@@ -49,7 +50,16 @@ static double corner_angle(const double p[4][3], int k) {
     return atan2(sqrt(vm__dot3(cr, cr)), vm__dot3(u, v)) * DEG;
 }
 
-double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
+/* What the quality terms are made of: the extreme dihedral cosines (clamped to [-1, 1]) and
+ * face-angle cosines of a tet, and the face cosines themselves. */
+typedef struct qcos {
+    double cmax, cmin;   /* dihedral angles' cosines: the smallest angle's, the largest's */
+    double cfmax, cfmin; /* face angles' cosines: the same */
+    double fc[12];       /* corner k % 3 of face k / 3 */
+} qcos;
+
+/* The dihedral cosines; 0 when the tet is not clearly positive (its quality is -1). */
+static int dihedral_cosines(const double p[4][3], qcos *c) {
     double lmax2 = 0.0;
     for (int i = 0; i < 4; i++)
         for (int j = i + 1; j < 4; j++) {
@@ -58,13 +68,13 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
             double l2 = vm__dot3(e, e);
             if (l2 > lmax2) lmax2 = l2;
         }
-    double a[3], b[3], c[3], t[3];
+    double a[3], b[3], cc[3], t[3];
     vm__sub3(p[1], p[0], a);
     vm__sub3(p[2], p[0], b);
-    vm__sub3(p[3], p[0], c);
-    vm__cross3(b, c, t);
+    vm__sub3(p[3], p[0], cc);
+    vm__cross3(b, cc, t);
     double vol6 = vm__dot3(a, t);
-    if (!isfinite(vol6) || !(vol6 > 1e-12 * lmax2 * sqrt(lmax2))) return -1.0;
+    if (!isfinite(vol6) || !(vol6 > 1e-12 * lmax2 * sqrt(lmax2))) return 0;
     double n[4][3], len[4];
     for (int f = 0; f < 4; f++) {
         double u[3], v[3];
@@ -72,7 +82,7 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
         vm__sub3(p[face_of[f][2]], p[face_of[f][0]], v);
         vm__cross3(u, v, n[f]);
         len[f] = sqrt(vm__dot3(n[f], n[f]));
-        if (!(len[f] > 0.0)) return -1.0;
+        if (!(len[f] > 0.0)) return 0;
     }
     double cmax = -2.0, cmin = 2.0;
     for (int f = 0; f < 4; f++)
@@ -83,15 +93,14 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
         }
     if (cmax > 1.0) cmax = 1.0;
     if (cmin < -1.0) cmin = -1.0;
-    double dmin = acos(cmax) * DEG, dmax = acos(cmin) * DEG;
-    double q = dmin / w->s_min, q2 = (180.0 - dmax) / w->s_max;
-    if (q2 < q) q = q2;
-    double q3 = vm__imp_volume_measure(p) / w->s_vm;
-    if (q3 < q) q = q3;
-    /* Face angles: the smallest and the largest of the twelve found by their cosines (one
-     * square root per edge); only the corners within round-off of those are measured with
-     * atan2, so the result is the minimum (maximum) of the twelve atan2 angles. */
-    double el[4][4], fc[12];
+    c->cmax = cmax;
+    c->cmin = cmin;
+    return 1;
+}
+
+/* The twelve face-angle cosines (one square root per edge) and their extremes. */
+static void face_cosines(const double p[4][3], qcos *c) {
+    double el[4][4];
     for (int i = 0; i < 4; i++)
         for (int j = i + 1; j < 4; j++) {
             double e[3];
@@ -106,21 +115,87 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
             vm__sub3(p[i], p[o], u);
             vm__sub3(p[j], p[o], v);
             double cs = vm__dot3(u, v) / (el[o][i] * el[o][j]);
-            fc[3 * f + k] = cs;
+            c->fc[3 * f + k] = cs;
             if (cs > cfmax) cfmax = cs;
             if (cs < cfmin) cfmin = cs;
         }
-    double fmin = 180.0, fmax = 0.0;
+    c->cfmax = cfmax;
+    c->cfmin = cfmin;
+}
+
+/* The smallest and the largest face angle: only the corners within round-off of the
+ * extreme cosines are measured with atan2, so they are the minimum (maximum) of the twelve
+ * atan2 angles. */
+static void face_angle_range(const double p[4][3], const qcos *c, double *fmin, double *fmax) {
+    *fmin = 180.0;
+    *fmax = 0.0;
     for (int k = 0; k < 12; k++) {
-        if (!(fc[k] >= cfmax - COS_TIE) && !(fc[k] <= cfmin + COS_TIE)) continue;
+        if (!(c->fc[k] >= c->cfmax - COS_TIE) && !(c->fc[k] <= c->cfmin + COS_TIE)) continue;
         double ang = corner_angle(p, k);
-        if (ang < fmin) fmin = ang;
-        if (ang > fmax) fmax = ang;
+        if (ang < *fmin) *fmin = ang;
+        if (ang > *fmax) *fmax = ang;
     }
+}
+
+double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
+    qcos c;
+    if (!dihedral_cosines(p, &c)) return -1.0;
+    double dmin = acos(c.cmax) * DEG, dmax = acos(c.cmin) * DEG;
+    double q = dmin / w->s_min, q2 = (180.0 - dmax) / w->s_max;
+    if (q2 < q) q = q2;
+    double q3 = vm__imp_volume_measure(p) / w->s_vm;
+    if (q3 < q) q = q3;
+    face_cosines(p, &c);
+    double fmin, fmax;
+    face_angle_range(p, &c, &fmin, &fmax);
     double q4 = fmin / w->s_fmin, q5 = (180.0 - fmax) / w->s_fmax;
     if (q4 < q) q = q4;
     if (q5 < q) q = q5;
     return q;
+}
+
+/* Angle limits (radians) the cosine tests take: nearer 0 or 180 degrees the cosine is too
+ * flat to stand for the angle. */
+#define BAR_ANGLE_MIN 1e-3
+/* A cosine within this of its limit is measured as the quality measures it. */
+#define BAR_COS_TIE 1e-9
+
+/* The cosine of the limit angle a (degrees), or NAN when a is out of the cosine tests'
+ * range. */
+static double bar_cos(double a) {
+    double r = a / DEG;
+    return r >= BAR_ANGLE_MIN && r <= PI - BAR_ANGLE_MIN ? cos(r) : NAN;
+}
+
+void vm__imp_bar_set(const vm__imp *w, double f, vm__imp_bar *b) {
+    b->f = f;
+    b->c_dmin = bar_cos(f * w->s_min);
+    b->c_dmax = bar_cos(180.0 - f * w->s_max);
+    b->c_fmin = bar_cos(f * w->s_fmin);
+    b->c_fmax = bar_cos(180.0 - f * w->s_fmax);
+    b->fast = f > 0.0 && isfinite(b->c_dmin) && isfinite(b->c_dmax) && isfinite(b->c_fmin) &&
+              isfinite(b->c_fmax);
+}
+
+int vm__imp_cos_side(double c, double l) {
+    return c < l - BAR_COS_TIE ? 1 : c > l + BAR_COS_TIE ? -1 : 0;
+}
+
+int vm__imp_quality_above(const vm__imp *w, const double p[4][3], const vm__imp_bar *b) {
+    if (!b->fast) return vm__imp_quality(w, p) > b->f;
+    qcos c;
+    if (!dihedral_cosines(p, &c)) return 0; /* quality -1 */
+    /* q > f when every term is: min dihedral > f s_min (its cosine below the limit's), max
+     * dihedral < 180 - f s_max (its cosine above), and so on; a cosine within the tie of its
+     * limit decides by the quality itself. */
+    int s1 = vm__imp_cos_side(c.cmax, b->c_dmin), s2 = -vm__imp_cos_side(c.cmin, b->c_dmax);
+    if (s1 < 0 || s2 < 0) return 0;
+    if (!(vm__imp_volume_measure(p) / w->s_vm > b->f)) return 0;
+    face_cosines(p, &c);
+    int s4 = vm__imp_cos_side(c.cfmax, b->c_fmin), s5 = -vm__imp_cos_side(c.cfmin, b->c_fmax);
+    if (s4 < 0 || s5 < 0) return 0;
+    if (s1 == 0 || s2 == 0 || s4 == 0 || s5 == 0) return vm__imp_quality(w, p) > b->f;
+    return 1;
 }
 
 static void tet_points(const vm__imp *w, size_t t, double p[4][3]) {
@@ -156,6 +231,15 @@ double vm__imp_tet_q_moved(const vm__imp *w, size_t t, vm_index a, const double 
     for (int k = 0; k < 4; k++)
         if (w->tet[4 * t + k] == a) memcpy(p[k], x, sizeof p[k]);
     return vm__imp_quality(w, (const double(*)[3])p);
+}
+
+int vm__imp_tet_above_moved(const vm__imp *w, size_t t, vm_index a, const double x[3],
+                            const vm__imp_bar *b) {
+    double p[4][3];
+    tet_points(w, t, p);
+    for (int k = 0; k < 4; k++)
+        if (w->tet[4 * t + k] == a) memcpy(p[k], x, sizeof p[k]);
+    return vm__imp_quality_above(w, (const double(*)[3])p, b);
 }
 
 int vm__imp_star_add(vm__imp *w, vm_index v, vm_index t) {

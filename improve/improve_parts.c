@@ -21,12 +21,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define AUTO_MIN 400000     /* tets: below this, one pass */
-#define AUTO_SIZE 100000    /* tets per part */
 #define HIST 4096           /* bins of the centroid histogram that places the slab borders */
 #define MIN_THICK 6.0       /* a slab is at least this many mean longest tet edges thick */
 #define MIN_THICK_ASKED 2.0 /* ... when the caller asked for a number of parts */
-#define DEAD_SLOT ((vm_index)-1)
+#define DEAD_SLOT VM__IMP_DEAD_SLOT
 #define BAND_ROUNDS 4 /* most rounds over the tets left below the targets */
 #define RINGS 2       /* rings of free tets around each of them */
 #define GRID 128      /* cells a side of the grid that finds the tets near a part */
@@ -52,53 +50,11 @@ size_t vm__imp_parts_count(const vm_mesh *m, const vm_improve_options *o) {
         m->npoints > UINT32_MAX)
         return 1;
     if (o->parts > 1) return (size_t)o->parts;
-    if (m->ncells < AUTO_MIN) return 1;
-    return (m->ncells + AUTO_SIZE / 2) / AUTO_SIZE;
+    return 0; /* the local pass */
 }
 
-/* The whole mesh while parts are worked on: m's arrays with dead slots (cells[4 t] =
- * DEAD_SLOT) until the end of a phase. */
-typedef struct pstate {
-    vm_mesh *m;
-    const vm_volume *v;
-    vm_improve_options o; /* the caller's options without the progress callback */
-    const vm_improve_options *uo;
-    size_t nt;      /* slots */
-    double *p0;     /* 3 per point: where the pass found it */
-    vm_index *par;  /* per slot: the input cell (only with cell fields) */
-    uint8_t *below; /* per slot: below the targets when its part last ran */
-    uint32_t *loc;  /* per point: its id in the submesh of the part running with it */
-    double box[6];
-    double row[3]; /* with a volume: world displacement along each axis per voxel */
-    vm_plane_source src; /* with a volume given by its planes: where the parts read them */
-    void *src_user;
-    double kz[3]; /* then: index z of a world point x is kz . (x - the volume's origin) */
-    vm_improve_report *r;
-} pstate;
-
-/* One part: the tets in slots with centroid z in [z0, z1) (or, with key, key in it). */
-typedef struct job {
-    double z0, z1;
-    /* with key: only the slots 0..nkey-1 with a finite key, taken in place of the centroid
-     * (later slots are not marked) */
-    const float *key;
-    size_t nkey;
-    unsigned seed;
-    uint32_t *ps; /* slots of the part's tets, in order */
-    uint32_t *ls; /* slots of the locked tets, in order */
-    size_t nps, nls;
-    double zlo, zhi;   /* the z range it reads and writes */
-    vm_index (*xt)[4]; /* tets beyond its slots, appended after the batch */
-    int32_t *xreg;
-    vm_index *xpar;
-    uint8_t *xbelow;
-    size_t nx;
-    vm_status s;
-    vm_error err;
-    int passes;
-    double maxmove, maxiface;
-    size_t cnt[8];
-} job;
+typedef vm__imp_pstate pstate;
+typedef vm__imp_job job;
 
 static const double *pt(const pstate *S, vm_index a) {
     return S->m->points + 3 * (size_t)a;
@@ -125,7 +81,7 @@ static int in_part(const pstate *S, const job *J, size_t t) {
     return z >= J->z0 && z < J->z1;
 }
 
-static void tet_box(const pstate *S, size_t t, double lo[3], double hi[3]) {
+void vm__imp_slot_box(const pstate *S, size_t t, double lo[3], double hi[3]) {
     const vm_index *n = S->m->cells + 4 * t;
     for (int a = 0; a < 3; a++)
         lo[a] = hi[a] = pt(S, n[0])[a];
@@ -137,7 +93,7 @@ static void tet_box(const pstate *S, size_t t, double lo[3], double hi[3]) {
         }
 }
 
-static double longest_edge2(const pstate *S, size_t t) {
+double vm__imp_slot_edge2(const pstate *S, size_t t) {
     const vm_index *n = S->m->cells + 4 * t;
     double L = 0.0;
     for (int i = 0; i < 4; i++)
@@ -150,7 +106,7 @@ static double longest_edge2(const pstate *S, size_t t) {
     return L;
 }
 
-static int push_slot(uint32_t **l, size_t *n, size_t *cap, size_t t) {
+int vm__imp_push_slot(uint32_t **l, size_t *n, size_t *cap, size_t t) {
     if (*n == *cap) {
         size_t c = *cap ? 2 * *cap : 1024;
         uint32_t *nl = realloc(*l, c * sizeof *nl);
@@ -164,7 +120,7 @@ static int push_slot(uint32_t **l, size_t *n, size_t *cap, size_t t) {
 
 /* The cells c0..c1 of a grid (origin lo, cell cs, gd cells a side) that box [a, b] meets
  * (clamped to the grid). */
-static void cell_range(const double lo[3], double cs, const size_t gd[3], const double a[3],
+void vm__imp_cell_range(const double lo[3], double cs, const size_t gd[3], const double a[3],
                        const double b[3], size_t c0[3], size_t c1[3]) {
     for (int k = 0; k < 3; k++) {
         double u = floor((a[k] - lo[k]) / cs), v = floor((b[k] - lo[k]) / cs);
@@ -176,7 +132,7 @@ static void cell_range(const double lo[3], double cs, const size_t gd[3], const 
 
 /* Grows the marked cells of grid (gd cells a side) by r cells along axis k. 0 on
  * out-of-memory. */
-static int dilate(uint8_t *grid, const size_t gd[3], int k, size_t r) {
+int vm__imp_dilate(uint8_t *grid, const size_t gd[3], int k, size_t r) {
     size_t n = gd[k], st = k == 0 ? 1 : k == 1 ? gd[0] : gd[0] * gd[1];
     uint8_t *line = malloc(n);
     if (!line) return 0;
@@ -227,7 +183,7 @@ static void sort_u32(uint32_t *a, uint32_t *tmp, size_t n) {
 }
 
 /* Sorts a list of slots (or point ids) in place; 0 on out-of-memory. */
-static int sort_slots(uint32_t *l, size_t n) {
+int vm__imp_sort_slots(uint32_t *l, size_t n) {
     uint32_t *tmp = malloc((n + 1) * sizeof *tmp);
     if (!tmp) return 0;
     sort_u32(l, tmp, n);
@@ -260,7 +216,7 @@ static double zvalue(const pstate *S, const float *key, size_t nkey, size_t t) {
 /* How far the box of slot t reaches from its centroid z. */
 static double zreach(const pstate *S, size_t t, double z) {
     double a[3], b[3];
-    tet_box(S, t, a, b);
+    vm__imp_slot_box(S, t, a, b);
     return z - a[2] > b[2] - z ? z - a[2] : b[2] - z;
 }
 
@@ -355,6 +311,14 @@ static void zindex_span(const zindex *X, size_t c, double a, double b, int grow,
     *i1 = X->start[zbucket(X, c, b + r) + 1];
 }
 
+void vm__imp_part_margin(const pstate *S, double L, double M[3]) {
+    for (int k = 0; k < 3; k++) {
+        double bound =
+            S->v ? S->o.max_surface_move * S->row[k] : S->o.max_surface_move_free * L;
+        M[k] = 2.0 * bound + BOX_SLACK * L;
+    }
+}
+
 /* Stage 1 (reads the mesh only): the part's slots, the locked slots and the z range, from
  * the candidates of the batch's indices (C by centroid; K by key, for keyed parts). The
  * margin is twice the farthest a boundary vertex may be from where the pass found it, plus a
@@ -369,14 +333,14 @@ static int job_scan(const pstate *S, const zindex *C, const zindex *K, job *J) {
     for (size_t c = 0; c < X->ncls; c++) {
         zindex_span(X, c, J->z0, J->z1, 0, &i0, &i1);
         for (size_t i = i0; i < i1; i++)
-            if (in_part(S, J, X->slot[i]) && !push_slot(&J->ps, &J->nps, &cp, X->slot[i]))
+            if (in_part(S, J, X->slot[i]) && !vm__imp_push_slot(&J->ps, &J->nps, &cp, X->slot[i]))
                 return 0;
     }
     if (J->nps == 0) return 1;
-    if (!sort_slots(J->ps, J->nps)) return 0;
+    if (!vm__imp_sort_slots(J->ps, J->nps)) return 0;
     for (size_t i = 0; i < J->nps; i++) {
-        double a[3], b[3], l2 = longest_edge2(S, J->ps[i]);
-        tet_box(S, J->ps[i], a, b);
+        double a[3], b[3], l2 = vm__imp_slot_edge2(S, J->ps[i]);
+        vm__imp_slot_box(S, J->ps[i], a, b);
         for (int k = 0; k < 3; k++) {
             if (a[k] < lo[k]) lo[k] = a[k];
             if (b[k] > hi[k]) hi[k] = b[k];
@@ -386,10 +350,8 @@ static int job_scan(const pstate *S, const zindex *C, const zindex *K, job *J) {
     /* M[k]: how far along axis k a boundary vertex may get from where it is now (twice its
      * bound from where the pass found it), and a little slack */
     double L = sqrt(L2), M[3];
+    vm__imp_part_margin(S, L, M);
     for (int k = 0; k < 3; k++) {
-        double bound =
-            S->v ? S->o.max_surface_move * S->row[k] : S->o.max_surface_move_free * L;
-        M[k] = 2.0 * bound + BOX_SLACK * L;
         lo[k] -= M[k];
         hi[k] += M[k];
     }
@@ -413,15 +375,15 @@ static int job_scan(const pstate *S, const zindex *C, const zindex *K, job *J) {
     if (!grid) return 0;
     for (size_t i = 0; i < J->nps; i++) {
         double a[3], b[3];
-        tet_box(S, J->ps[i], a, b);
+        vm__imp_slot_box(S, J->ps[i], a, b);
         size_t c0[3], c1[3];
-        cell_range(lo, cs, gd, a, b, c0, c1);
+        vm__imp_cell_range(lo, cs, gd, a, b, c0, c1);
         for (size_t z = c0[2]; z <= c1[2]; z++)
             for (size_t y = c0[1]; y <= c1[1]; y++)
                 memset(grid + (z * gd[1] + y) * gd[0] + c0[0], 1, c1[0] - c0[0] + 1);
     }
     for (int k = 0; k < 3; k++)
-        if (!dilate(grid, gd, k, (size_t)ceil(M[k] / cs) + 1)) {
+        if (!vm__imp_dilate(grid, gd, k, (size_t)ceil(M[k] / cs) + 1)) {
             free(grid);
             return 0;
         }
@@ -432,25 +394,25 @@ static int job_scan(const pstate *S, const zindex *C, const zindex *K, job *J) {
             size_t t = C->slot[i];
             if (in_part(S, J, t)) continue;
             double a[3], b[3];
-            tet_box(S, t, a, b);
+            vm__imp_slot_box(S, t, a, b);
             if (a[0] > hi[0] || a[1] > hi[1] || a[2] > hi[2] || b[0] < lo[0] || b[1] < lo[1] ||
                 b[2] < lo[2])
                 continue;
             size_t c0[3], c1[3];
-            cell_range(lo, cs, gd, a, b, c0, c1);
+            vm__imp_cell_range(lo, cs, gd, a, b, c0, c1);
             int hit = 0;
             for (size_t z = c0[2]; z <= c1[2] && !hit; z++)
                 for (size_t y = c0[1]; y <= c1[1] && !hit; y++)
                     for (size_t x = c0[0]; x <= c1[0] && !hit; x++)
                         hit = grid[(z * gd[1] + y) * gd[0] + x];
             if (!hit) continue;
-            if (!push_slot(&J->ls, &J->nls, &cl, t)) fail = 1;
+            if (!vm__imp_push_slot(&J->ls, &J->nls, &cl, t)) fail = 1;
             if (a[2] < J->zlo) J->zlo = a[2];
             if (b[2] > J->zhi) J->zhi = b[2];
         }
     }
     free(grid);
-    return !fail && sort_slots(J->ls, J->nls);
+    return !fail && vm__imp_sort_slots(J->ls, J->nls);
 }
 
 /* With a volume given by its planes: reads the planes part J may sample into a new buffer
@@ -493,7 +455,7 @@ static float *part_planes(pstate *S, job *J, const vm_mesh *sub, vm__imp_sub *x)
 /* Stage 2: builds the submesh (the part's tets first, then the locked ones), improves it and
  * writes it back into the part's slots and points; tets beyond its slots wait in J->xt.
  * Touches only what this part reaches. */
-static void job_run(pstate *S, job *J) {
+void vm__imp_job_run(pstate *S, job *J) {
     vm_mesh *m = S->m;
     size_t nc = J->nps + J->nls, ng = 0;
     /* the part's points: sorted, each once; S->loc maps them to submesh ids */
@@ -512,7 +474,7 @@ static void job_run(pstate *S, job *J) {
         for (int k = 0; k < 4; k++)
             gid[4 * i + k] = (uint32_t)m->cells[4 * t + k];
     }
-    if (!sort_slots(gid, 4 * nc)) goto nomem;
+    if (!vm__imp_sort_slots(gid, 4 * nc)) goto nomem;
     for (size_t i = 0; i < 4 * nc; i++)
         if (ng == 0 || gid[i] != gid[ng - 1]) gid[ng++] = gid[i];
     uint32_t *g2 = realloc(gid, (ng + 1) * sizeof *gid); /* held while the part runs */
@@ -610,7 +572,7 @@ done:
     free(gid);
 }
 
-static void job_reset(job *J) {
+void vm__imp_job_reset(job *J) {
     free(J->ps);
     free(J->ls);
     free(J->xt);
@@ -645,6 +607,60 @@ static void compact_slots(pstate *S) {
 static void progress(const pstate *S, double done) {
     if (S->uo->progress)
         S->uo->progress("improve", 0.05 + 0.85 * done / 0.9, 1.0, S->uo->progress_user);
+}
+
+/* After a batch: the first error of jobs take[0..n) (its message to err), else room for the
+ * tets beyond their slots, appended in job order (J->x0: the first one's slot), and their
+ * counters and figures added to the report. */
+vm_status vm__imp_jobs_append(pstate *S, job *jobs, const size_t *take, size_t n,
+                              vm_error *err) {
+    vm_status s = VM_OK;
+    size_t extra = 0;
+    for (size_t i = 0; i < n; i++) {
+        job *J = &jobs[take[i]];
+        if (J->s != VM_OK && s == VM_OK) {
+            s = J->s;
+            if (err) *err = J->err;
+        }
+        extra += J->nx;
+    }
+    if (s == VM_OK && extra) s = vm_mesh_reserve(S->m, S->m->npoints, S->nt + extra, err);
+    if (s == VM_OK && extra && S->par) {
+        vm_index *np = realloc(S->par, (S->nt + extra) * sizeof *np);
+        if (!np)
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        else
+            S->par = np;
+    }
+    if (s == VM_OK && extra) {
+        uint8_t *nb = realloc(S->below, S->nt + extra);
+        if (!nb)
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        else
+            S->below = nb;
+    }
+    for (size_t i = 0; i < n && s == VM_OK; i++) {
+        job *J = &jobs[take[i]];
+        J->x0 = S->nt;
+        for (size_t k = 0; k < J->nx; k++) {
+            memcpy(S->m->cells + 4 * S->nt, J->xt[k], sizeof J->xt[k]);
+            S->m->region[S->nt] = J->xreg[k];
+            if (S->par) S->par[S->nt] = J->xpar[k];
+            S->below[S->nt] = J->xbelow[k];
+            S->nt++;
+        }
+        S->m->ncells = S->nt;
+        vm_improve_report *r = S->r;
+        size_t *c[8] = {&r->collapses,     &r->flips23,       &r->flips32,
+                        &r->edge_removals, &r->moves,         &r->perturbations,
+                        &r->peels,         &r->boundary_flips};
+        for (int q = 0; q < 8; q++)
+            *c[q] += J->cnt[q];
+        if (J->passes > r->passes) r->passes = J->passes;
+        if (J->maxmove > r->max_surface_move) r->max_surface_move = J->maxmove;
+        if (J->maxiface > r->max_interface_move) r->max_interface_move = J->maxiface;
+    }
+    return s;
 }
 
 /* Runs jobs order[0..n) in batches: each batch takes, in order, the jobs whose z ranges do
@@ -707,60 +723,17 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
 #pragma omp parallel for schedule(dynamic, 1)
 #endif
         for (size_t i = 0; i < ntake; i++)
-            job_run(S, &jobs[take[i]]);
-        size_t extra = 0;
-        for (size_t i = 0; i < ntake; i++) {
-            job *J = &jobs[take[i]];
-            if (J->s != VM_OK && s == VM_OK) {
-                s = J->s;
-                if (err) *err = J->err;
-            }
-            extra += J->nx;
-        }
-        if (s == VM_OK && extra) s = vm_mesh_reserve(S->m, S->m->npoints, S->nt + extra, err);
-        if (s == VM_OK && extra && S->par) {
-            vm_index *np = realloc(S->par, (S->nt + extra) * sizeof *np);
-            if (!np)
-                s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-            else
-                S->par = np;
-        }
-        if (s == VM_OK && extra) {
-            uint8_t *nb = realloc(S->below, S->nt + extra);
-            if (!nb)
-                s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-            else
-                S->below = nb;
-        }
-        for (size_t i = 0; i < ntake; i++) {
-            job *J = &jobs[take[i]];
-            if (s == VM_OK) {
-                for (size_t k = 0; k < J->nx; k++) {
-                    memcpy(S->m->cells + 4 * S->nt, J->xt[k], sizeof J->xt[k]);
-                    S->m->region[S->nt] = J->xreg[k];
-                    if (S->par) S->par[S->nt] = J->xpar[k];
-                    S->below[S->nt] = J->xbelow[k];
-                    S->nt++;
-                }
-                S->m->ncells = S->nt;
-                vm_improve_report *r = S->r;
-                size_t *c[8] = {&r->collapses,     &r->flips23,       &r->flips32,
-                                &r->edge_removals, &r->moves,         &r->perturbations,
-                                &r->peels,         &r->boundary_flips};
-                for (int q = 0; q < 8; q++)
-                    *c[q] += J->cnt[q];
-                if (J->passes > r->passes) r->passes = J->passes;
-                if (J->maxmove > r->max_surface_move) r->max_surface_move = J->maxmove;
-                if (J->maxiface > r->max_interface_move) r->max_interface_move = J->maxiface;
-            }
-            job_reset(J);
-        }
+            vm__imp_job_run(S, &jobs[take[i]]);
+        vm_status sa = vm__imp_jobs_append(S, jobs, take, ntake, err);
+        if (s == VM_OK) s = sa;
+        for (size_t i = 0; i < ntake; i++)
+            vm__imp_job_reset(&jobs[take[i]]);
         ndone += ntake;
         ntodo = nleft;
         progress(S, f0 + (f1 - f0) * (double)ndone / (double)(n ? n : 1));
     }
     for (size_t i = 0; i < n; i++)
-        job_reset(&jobs[order[i]]);
+        vm__imp_job_reset(&jobs[order[i]]);
     free(todo);
     free(take);
     return s;
@@ -776,7 +749,7 @@ static size_t slab_cuts(const pstate *S, size_t want, double thick, double **cut
         double z = centroid_z(S, t);
         if (z < zmin) zmin = z;
         if (z > zmax) zmax = z;
-        hsum += sqrt(longest_edge2(S, t));
+        hsum += sqrt(vm__imp_slot_edge2(S, t));
     }
     double h = S->nt ? hsum / (double)S->nt : 0.0;
     size_t *hist = calloc(HIST, sizeof *hist);
@@ -814,7 +787,7 @@ static size_t slab_cuts(const pstate *S, size_t want, double thick, double **cut
     return ns;
 }
 
-static unsigned part_seed(unsigned seed, int phase, size_t k) {
+unsigned vm__imp_part_seed(unsigned seed, int phase, size_t k) {
     uint64_t h = (uint64_t)(seed ? seed : 1u) * 0x9E3779B97F4A7C15ull;
     h ^= ((uint64_t)phase << 32) + (uint64_t)k * 0xC2B2AE3D27D4EB4Full;
     h ^= h >> 29;
@@ -886,7 +859,8 @@ static size_t key_bad(const pstate *S, float *key, int rings) {
 
 /* Drops the points no tet uses (keeping the order of the others) and permutes the cell
  * fields to the tets' input cells. */
-static vm_status finish(pstate *S, vm_error *err) {
+vm_status vm__imp_parts_finish(pstate *S, vm_error *err) {
+    compact_slots(S);
     vm_mesh *m = S->m;
     vm_index *map = malloc((m->npoints + 1) * sizeof *map);
     if (!map) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
@@ -937,16 +911,15 @@ static vm_status finish(pstate *S, vm_error *err) {
     return VM_OK;
 }
 
-vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src, void *src_user,
-                            const vm_improve_options *o, size_t nparts, vm_improve_report *r,
-                            vm_error *err) {
-    pstate S;
-    memset(&S, 0, sizeof S);
-    S.m = m;
-    S.v = v;
-    S.src = v ? src : NULL;
-    S.src_user = src_user;
-    if (S.src) {
+vm_status vm__imp_pstate_init(pstate *S, vm_mesh *m, const vm_volume *v, vm_plane_source src,
+                              void *src_user, const vm_improve_options *o, vm_improve_report *r,
+                              vm_error *err) {
+    memset(S, 0, sizeof *S);
+    S->m = m;
+    S->v = v;
+    S->src = v ? src : NULL;
+    S->src_user = src_user;
+    if (S->src) {
         /* row 2 of the inverse of the index frame A (world = origin + A ijk), as imp_init */
         double A[3][3], Ainv[3][3];
         for (int i = 0; i < 3; i++)
@@ -955,14 +928,14 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
         if (!vm__imp_invert3(A, Ainv))
             return vm_error_set(err, VM_ERR_ARG,
                                 "improve: the volume's index frame is singular");
-        memcpy(S.kz, Ainv[2], sizeof S.kz);
+        memcpy(S->kz, Ainv[2], sizeof S->kz);
     }
-    S.uo = o;
-    S.o = *o;
-    S.o.progress = NULL;
-    S.o.mark_unfixed = 0;
-    S.nt = m->ncells;
-    S.r = r;
+    S->uo = o;
+    S->o = *o;
+    S->o.progress = NULL;
+    S->o.mark_unfixed = 0;
+    S->nt = m->ncells;
+    S->r = r;
     /* with a volume: |x_k| <= |row k of A| |ijk| (world = org + A ijk), a little over */
     for (int k = 0; v && k < 3; k++) {
         double f = 0.0;
@@ -970,33 +943,50 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
             double a = v->direction[k][c] * v->spacing[c];
             f += a * a;
         }
-        S.row[k] = ROW_SLACK * sqrt(f);
+        S->row[k] = ROW_SLACK * sqrt(f);
     }
-    S.p0 = malloc((3 * m->npoints + 1) * sizeof *S.p0);
-    if (m->ncell_fields) S.par = malloc((m->ncells + 1) * sizeof *S.par);
-    /* every slot is in a slab of the first phase, which sets its flag */
-    S.below = malloc(m->ncells + 1);
-    S.loc = malloc((m->npoints + 1) * sizeof *S.loc);
-    if (!S.p0 || (m->ncell_fields && !S.par) || !S.below || !S.loc) {
-        free(S.p0);
-        free(S.par);
-        free(S.below);
-        free(S.loc);
+    S->p0 = malloc((3 * m->npoints + 1) * sizeof *S->p0);
+    if (m->ncell_fields) S->par = malloc((m->ncells + 1) * sizeof *S->par);
+    S->below = malloc(m->ncells + 1);
+    S->loc = malloc((m->npoints + 1) * sizeof *S->loc);
+    if (!S->p0 || (m->ncell_fields && !S->par) || !S->below || !S->loc) {
+        vm__imp_pstate_free(S);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
-    memcpy(S.p0, m->points, 3 * m->npoints * sizeof *S.p0);
-    for (size_t t = 0; S.par && t < m->ncells; t++)
-        S.par[t] = (vm_index)t;
+    memcpy(S->p0, m->points, 3 * m->npoints * sizeof *S->p0);
+    for (size_t t = 0; S->par && t < m->ncells; t++)
+        S->par[t] = (vm_index)t;
     for (int a = 0; a < 3; a++) {
-        S.box[a] = INFINITY;
-        S.box[3 + a] = -INFINITY;
+        S->box[a] = INFINITY;
+        S->box[3 + a] = -INFINITY;
     }
     for (size_t i = 0; i < m->npoints; i++)
         for (int a = 0; a < 3; a++) {
             double x = m->points[3 * i + a];
-            if (x < S.box[a]) S.box[a] = x;
-            if (x > S.box[3 + a]) S.box[3 + a] = x;
+            if (x < S->box[a]) S->box[a] = x;
+            if (x > S->box[3 + a]) S->box[3 + a] = x;
         }
+    return VM_OK;
+}
+
+void vm__imp_pstate_free(pstate *S) {
+    free(S->p0);
+    free(S->par);
+    free(S->below);
+    free(S->loc);
+    S->p0 = NULL;
+    S->par = NULL;
+    S->below = NULL;
+    S->loc = NULL;
+}
+
+vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src, void *src_user,
+                            const vm_improve_options *o, size_t nparts, vm_improve_report *r,
+                            vm_error *err) {
+    pstate S;
+    vm_status s0 = vm__imp_pstate_init(&S, m, v, src, src_user, o, r, err);
+    if (s0 != VM_OK) return s0;
+    /* every slot is in a slab of the first phase, which sets its below flag */
     double *cut = NULL;
     size_t ns = slab_cuts(&S, nparts, o->parts > 1 ? MIN_THICK_ASKED : MIN_THICK, &cut);
     job *jobs = ns ? calloc(ns, sizeof *jobs) : NULL;
@@ -1013,7 +1003,7 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
     for (size_t k = 0; s == VM_OK && k < ns; k++) {
         jobs[k].z0 = cut[k];
         jobs[k].z1 = cut[k + 1];
-        jobs[k].seed = part_seed(o->seed, 1, k);
+        jobs[k].seed = vm__imp_part_seed(o->seed, 1, k);
     }
     /* evens, then odds: the parts of a call are all scanned before they run */
     size_t ne = (ns + 1) / 2;
@@ -1050,7 +1040,7 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
             }
             jobs[k].key = key;
             jobs[k].nkey = S.nt;
-            jobs[k].seed = part_seed(o->seed, 2 + round, k);
+            jobs[k].seed = vm__imp_part_seed(o->seed, 2 + round, k);
         }
         no = 0;
         for (size_t k = 0; k < nj; k += 2)
@@ -1067,7 +1057,7 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
     }
     /* also after an error: the mesh stays valid (the parts done so far improved) */
     vm_error e2;
-    vm_status s2 = finish(&S, &e2);
+    vm_status s2 = vm__imp_parts_finish(&S, &e2);
     if (s == VM_OK && s2 != VM_OK) {
         s = s2;
         if (err) *err = e2;
@@ -1076,9 +1066,6 @@ vm_status vm__imp_parts_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
     free(order);
     free(jobs);
     free(cut);
-    free(S.p0);
-    free(S.par);
-    free(S.below);
-    free(S.loc);
+    vm__imp_pstate_free(&S);
     return s;
 }

@@ -206,6 +206,14 @@ static vm_status find_boundary_faces(vm__imp *w) {
     return w->bfaces ? VM_OK : VM_ERR_NOMEM;
 }
 
+void vm__imp_scales(vm__imp *w, const vm_improve_options *o) {
+    w->s_min = o->target_min_dihedral;
+    w->s_max = 180.0 - o->target_max_dihedral;
+    w->s_vm = o->target_volume_measure;
+    w->s_fmin = FACE_ANGLE_SCALE_MIN;
+    w->s_fmax = FACE_ANGLE_SCALE_MAX;
+}
+
 /* Copies the options into w and allocates its per-tet and per-vertex arrays; fills the tets,
  * regions, parents, positions and, in a part, the locked vertices. */
 static vm_status imp_alloc(vm__imp *w, const vm_mesh *m, const vm_volume *v,
@@ -226,11 +234,7 @@ static vm_status imp_alloc(vm__imp *w, const vm_mesh *m, const vm_volume *v,
     w->hi = o->hi;
     w->has_lo = o->has_lo;
     w->has_hi = o->has_hi;
-    w->s_min = o->target_min_dihedral;
-    w->s_max = 180.0 - o->target_max_dihedral;
-    w->s_vm = o->target_volume_measure;
-    w->s_fmin = FACE_ANGLE_SCALE_MIN;
-    w->s_fmax = FACE_ANGLE_SCALE_MAX;
+    vm__imp_scales(w, o);
     w->rng = o->seed ? o->seed : 1u;
     if (sx) w->rng = sx->seed ? sx->seed : 1u;
     w->npt = np;

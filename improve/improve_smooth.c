@@ -24,16 +24,20 @@
 /* A random direction shorter than this (after the tangent projection) is skipped. */
 #define DIR_MIN 1e-6
 
-/* Worst quality of the star of a (ids in ids[0..n)) with a at x; stops at floor_q. */
-static double star_min(const vm__imp *w, const vm_index *ids, int32_t n, vm_index a,
-                       const double x[3], double floor_q) {
-    double m = INFINITY;
-    for (int32_t i = 0; i < n; i++) {
-        double q = vm__imp_tet_q_moved(w, (size_t)ids[i], a, x);
-        if (q < m) m = q;
-        if (m <= floor_q) break;
-    }
-    return m;
+/* 1 when every tet of the star of a (ids[0..n)) with a at x has a quality above the bar.
+ * The tets are tried in the order ids[n..2n) (the same tets): one that fails goes to the
+ * front, since the next try most likely fails on it too (the order changes no answer). */
+static int star_above(const vm__imp *w, vm_index *ids, int32_t n, vm_index a,
+                      const double x[3], const vm__imp_bar *b) {
+    vm_index *ord = ids + n;
+    for (int32_t i = 0; i < n; i++)
+        if (!vm__imp_tet_above_moved(w, (size_t)ord[i], a, x, b)) {
+            vm_index t = ord[i];
+            memmove(ord + 1, ord, (size_t)i * sizeof *ord);
+            ord[0] = t;
+            return 0;
+        }
+    return 1;
 }
 
 /* Length of the shortest edge at vertex a. */
@@ -64,16 +68,18 @@ static void tangent(const vm__imp *w, vm_index a, double g[3]) {
     for (int k = 0; k < 3; k++) g[k] -= s * n[k];
 }
 
-/* Copies the star of vertex a into w->buf (the moves change the stars' tets' qualities, not
- * the stars) and sets *cur to its worst quality; returns its size, 0 when a may not move or
+/* Copies the star of vertex a into w->buf twice (the moves change the stars' tets' qualities,
+ * not the stars; the second copy is the order star_above tries them in) and sets *cur to its
+ * worst quality; returns its size, 0 when a may not move or
  * the copy found no memory. */
 static int32_t star_begin(vm__imp *w, vm_index a, double *cur) {
     if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || vm__imp_vlocked(w, a)) return 0;
     const vm__imp_star *s = &w->star[a];
     int32_t n = s->n;
-    if (n == 0 || vm__imp_scratch(w, (size_t)n) != VM_OK) return 0;
+    if (n == 0 || vm__imp_scratch(w, 2 * (size_t)n) != VM_OK) return 0;
     vm_index *ids = w->buf;
     memcpy(ids, s->t, (size_t)n * sizeof *ids);
+    memcpy(ids + n, s->t, (size_t)n * sizeof *ids);
     *cur = INFINITY;
     for (int32_t i = 0; i < n; i++)
         if (w->q[ids[i]] < *cur) *cur = w->q[ids[i]];
@@ -88,16 +94,24 @@ static void move_vertex(vm__imp *w, vm_index a, const double x[3], const vm_inde
     for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)ids[i]);
 }
 
+/* The bar a move of a vertex whose star's worst quality is cur must pass. */
+static void move_bar(const vm__imp *w, double cur, vm__imp_bar *b) {
+    vm__imp_bar_set(w, cur + GAIN_MIN, b);
+}
+
 /* Tries vertex a at x: kept (1) when x satisfies a's constraint (x is projected onto it),
- * raises the star's worst quality *cur by more than GAIN_MIN (*cur is updated) and makes no
- * boundary triangles cross. */
-static int try_move(vm__imp *w, vm_index a, double x[3], const vm_index *ids, int32_t n,
-                    double *cur) {
+ * raises the star's worst quality *cur by more than GAIN_MIN (the bar b; *cur and b are
+ * updated) and makes no boundary triangles cross. */
+static int try_move(vm__imp *w, vm_index a, double x[3], vm_index *ids, int32_t n,
+                    double *cur, vm__imp_bar *b) {
     if (!vm__imp_constrain(w, a, x)) return 0;
-    double m = star_min(w, ids, n, a, x, *cur + GAIN_MIN);
-    if (!(m > *cur + GAIN_MIN) || !vm__imp_guard_move_ok(w, a, x)) return 0;
+    if (!star_above(w, ids, n, a, x, b) || !vm__imp_guard_move_ok(w, a, x)) return 0;
     move_vertex(w, a, x, ids, n);
+    double m = INFINITY;
+    for (int32_t i = 0; i < n; i++)
+        if (w->q[ids[i]] < m) m = w->q[ids[i]];
     *cur = m;
+    move_bar(w, m, b);
     return 1;
 }
 
@@ -105,10 +119,12 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
     double cur;
     int32_t n = star_begin(w, a, &cur);
     if (n == 0) return 0;
-    const vm_index *ids = w->buf;
+    vm_index *ids = w->buf;
     double *pa = w->p + 3 * (size_t)a;
     double L = shortest_edge(w, a);
     if (!(L > 0.0)) return 0;
+    vm__imp_bar bar;
+    move_bar(w, cur, &bar);
     int moved = 0;
     const double tau = SOFTMIN_TAU;
     for (int it = 0; it < iters; it++) {
@@ -139,7 +155,7 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
             for (double step = LINE_FIRST * L; step > LINE_LAST * L; step *= 0.5) {
                 double x[3];
                 for (int k = 0; k < 3; k++) x[k] = pa[k] + step * d[k] / gl;
-                if (try_move(w, a, x, ids, n, &cur)) {
+                if (try_move(w, a, x, ids, n, &cur, &bar)) {
                     accepted = 1;
                     break;
                 }
@@ -156,9 +172,11 @@ int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries) {
     double cur;
     int32_t n = star_begin(w, a, &cur);
     if (n == 0) return 0;
-    const vm_index *ids = w->buf;
+    vm_index *ids = w->buf;
     double *pa = w->p + 3 * (size_t)a;
     double L = shortest_edge(w, a);
+    vm__imp_bar bar;
+    move_bar(w, cur, &bar);
     int moved = 0;
     for (int k = 0; k < tries; k++) {
         double d[3],
@@ -169,7 +187,7 @@ int vm__imp_perturb_vertex(vm__imp *w, vm_index a, int tries) {
         if (!(dl > DIR_MIN)) continue;
         double x[3];
         for (int c = 0; c < 3; c++) x[c] = pa[c] + r * d[c] / dl;
-        if (try_move(w, a, x, ids, n, &cur)) moved = 1;
+        if (try_move(w, a, x, ids, n, &cur, &bar)) moved = 1;
     }
     if (moved) w->perturbations++;
     return moved;

@@ -70,14 +70,16 @@ typedef struct vm_improve_options {
      * that cannot change anyway, e.g. held by regions of their own (volmesh_mpi's
      * neighbour rings), whose attempts would cost time for nothing. */
     const unsigned char *frozen;
-    /* Parts (issue #12): the pass may run on slabs of the mesh along z, two slabs at a time
-     * on OpenMP threads, then on bands around the slab borders, each with the tets around
-     * it locked (never changed, their vertices never moved), so that only one slab's
-     * working data is held per thread. 0 (default): one pass below 400 000 tets, else
-     * about 100 000 tets per part; 1: one pass over the whole mesh; N > 1: N slabs (fewer
-     * when the mesh is too thin for N slabs a few tets thick each). The output is the same
-     * for any thread count; with parts it differs from the one-pass output (similar
-     * quality). With frozen set, or without regions, the pass runs in one piece. */
+    /* How the pass runs. 0 (default): the local pass (issue #32): only the tets below the
+     * targets and two rings of tets around them are set up and worked on, in jobs by blocks
+     * of space, the blocks of one colour at a time on OpenMP threads, each job with the tets
+     * around it locked (never changed, their vertices never moved); a mesh with no tet below
+     * the targets costs one sweep. 1: one pass over the whole mesh. N > 1: N slabs along z
+     * (issue #12; fewer when the mesh is too thin for N slabs a few tets thick each), two at
+     * a time on threads, then bands around the slab borders, so that only one slab's working
+     * data is held per thread. The output is the same for any thread count; the three modes
+     * give different (similar) meshes. With frozen set, or without regions, the pass runs in
+     * one piece. */
     int parts;
     /* Called during the rounds ("improve", done, 1.0; done grows, the first round taking the
      * first half) and once at the end with done == total == 1; NULL (default) for none. */
@@ -135,8 +137,8 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
 
 /* vm_mesh_improve with the volume read by planes instead of held whole (for meshes made by
  * slabs, vm_mesh_volume_slabs): info gives the dims and geometry (its data is not used and
- * may be NULL). By parts (o->parts; auto from 400 000 tets), each part reads from source
- * the planes its vertices can sample (its z reach, twice the surface bound and 3 planes
+ * may be NULL). By parts or the local pass (o->parts != 1), each part or job reads from
+ * source the planes its vertices can sample (its z reach, twice the surface bound and 3 planes
  * more each side) while it runs, and frees them after: the volume is never held whole (on
  * the 2-core machine, two parts' planes at a time). Otherwise (the one pass, a mesh without
  * regions, o->frozen) it reads all the planes at once. source is called one call at a
