@@ -688,13 +688,17 @@ static vm_status run_batch(lpass *P, job *jobs, ljob *X, size_t n, vm_error *err
     size_t ntodo = n;
     vm_status s = VM_OK;
     while (ntodo && s == VM_OK) {
-        int fail = !scratch_ready(P);
+        /* (a reduction's private copies start at 0: the scratch's failure is tested apart) */
+        int fail = 0, ready = scratch_ready(P);
+        if (ready) {
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1) reduction(|| : fail)
 #endif
-        for (size_t i = 0; i < ntodo; i++)
-            if (!fail && !local_scan(P, &jobs[todo[i]], &X[todo[i]], &P->W[thread_id()]))
-                fail = 1;
+            for (size_t i = 0; i < ntodo; i++)
+                if (!fail && !local_scan(P, &jobs[todo[i]], &X[todo[i]], &P->W[thread_id()]))
+                    fail = 1;
+        }
+        fail = fail || !ready;
         if (fail) {
             s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
             break;
