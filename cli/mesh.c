@@ -169,18 +169,19 @@ int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
                "\"boundary_self_intersections\": %zu, \"components\": %zu, "
                "\"volume\": %.17g, \"min_dihedral\": %.6f, \"max_dihedral\": %.6f, "
                "\"slivers_5\": %zu, \"slivers_10\": %zu, \"min_scaled_jacobian\": %.6f, "
-               "\"repaired_points\": %zu, \"seconds\": %.3f}\n",
+               "\"below_target\": %zu, \"repaired_points\": %zu, \"seconds\": %.3f}\n",
                m->ncells, m->npoints, r.inverted, r.boundary_faces,
                r.boundary_closed ? "true" : "false", r.boundary_euler,
                r.boundary_self_intersections, r.components, r.volume, r.min_dihedral,
                r.max_dihedral, r.slivers_5, r.slivers_10, r.min_scaled_jacobian,
-               st ? st->repaired_points : 0, st ? st->seconds : 0.0);
+               r.below_target, st ? st->repaired_points : 0, st ? st->seconds : 0.0);
     } else if (m->kind == VM_HEX8) {
         printf("%s: %zu hexes, %zu points, boundary %s (Euler %ld), %zu component%s, volume %.6g, "
-               "%zu inverted, min scaled Jacobian %.3f, %.2f s\n",
+               "%zu inverted, min scaled Jacobian %.3f, %zu below %.1f, %.2f s\n",
                out, m->ncells, m->npoints, r.boundary_closed ? "closed" : "OPEN",
                r.boundary_euler, r.components, r.components == 1 ? "" : "s", r.volume,
-               r.inverted, r.min_scaled_jacobian, st ? st->seconds : 0.0);
+               r.inverted, r.min_scaled_jacobian, r.below_target, VM_HEX_TARGET_SJ,
+               st ? st->seconds : 0.0);
     } else {
         printf("%s: %zu tets, %zu points, boundary %s (Euler %ld), %zu component%s, volume %.6g, "
                "dihedral %.2f..%.2f deg, slivers <5deg %zu <10deg %zu, %.2f s\n",

@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/hex_improve.c — hexahedral mesh improvement: a pillow layer on the boundary (Mitchell
  * and Tautges 1995, "Pillowing doublets"), then untangling and smoothing by local max-min
- * optimisation of the corner scaled Jacobians (after Knupp 2001, "Hexahedral and tetrahedral
- * mesh untangling": one vertex at a time, the worst corner Jacobian of its hexes raised); where
+ * optimisation of the scaled Jacobians (after Knupp 2001, "Hexahedral and tetrahedral mesh
+ * untangling": one vertex at a time, the worst Jacobian of its hexes raised; each hex sampled
+ * at its corners, centre and Gauss points, as vm_hex_scaled_jacobian and the report do); where
  * the whole layer fails, selective pillowing of the hexes still below the bar (a shrink set,
  * Mitchell and Tautges 1995 §3). */
 #include <math.h>
@@ -12,6 +13,7 @@
 #include "../core/core.h"
 #include "volmesh/improve.h"
 #include "volmesh/quality.h"
+#include "../quality/quality_internal.h"
 
 /* For each VTK hex corner: itself and its three edge neighbours in right-handed order, so
  * that det(p[a]-p[c], p[b]-p[c], p[d]-p[c]) > 0 on a valid hex (as quality/hex_metrics.c). */
@@ -23,8 +25,8 @@ static const int face_tab[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
 
 enum { CLS_FREE = 0, CLS_ISO = 1, CLS_PLANE = 2, CLS_FIXED = 3 };
 
-/* ---- the pass's targets (worst-corner scaled Jacobians) ---- */
-/* The bar: a hex whose worst corner is below it counts as poor (the report's below_02); the
+/* ---- the pass's targets (scaled Jacobians, vm_hex_scaled_jacobian) ---- */
+/* The bar: a hex whose scaled Jacobian is below it counts as poor (the report's below_02); the
  * pass works on such hexes first and pillows selectively round them. */
 #define SJ_BAR 0.2
 /* The polish's target, and the first of stage 1's rising targets. */
@@ -114,90 +116,98 @@ void vm_hex_improve_options_default(vm_hex_improve_options *o) {
 
 /* ---- geometry ---- */
 
-/* Scaled Jacobian of corner c; [out] *det its unscaled Jacobian determinant. */
-static double corner_sj(const double p[8][3], int c, double *det) {
-    const int *t = corner_tab[c];
-    double e[3][3], len = 1.0;
-    for (int k = 0; k < 3; k++) {
-        double l2 = 0.0;
-        for (int a = 0; a < 3; a++) {
-            e[k][a] = p[t[k + 1]][a] - p[t[0]][a];
-            l2 += e[k][a] * e[k][a];
-        }
-        len *= sqrt(l2);
-    }
-    *det = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
-           e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
-           e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
-    if (!(len > 0.0)) return 0.0;
-    double s = *det / len;
-    return isfinite(s) ? s : 0.0;
-}
-
 static void hex_points(const hx *w, size_t t, double p[8][3]) {
     for (int k = 0; k < 8; k++) memcpy(p[k], w->p + 3 * (size_t)w->h[8 * t + k], sizeof p[k]);
 }
 
+/* The pass's one measure, the one vm_mesh_check and the report use: the scaled Jacobian at
+ * the corners, the centre and the Gauss points (vm_hex_scaled_jacobian). */
 static double hex_q(const hx *w, size_t t) {
     double p[8][3];
     hex_points(w, t, p);
-    return vm_hex_min_scaled_jacobian((const double(*)[3])p);
+    return vm_hex_scaled_jacobian((const double(*)[3])p);
 }
 
-/* Figures of the corners that depend on point i, with i at x: the worst scaled Jacobian, the
- * sum of them, and the worst determinant. The determinant is affine in x at every corner, so
- * its minimum is concave in x: the untangling objective (Knupp 2001) without local optima. */
+/* The samples of vm__hex_jacobian_samples that move with the node in corner slot k: its own
+ * corner, its three neighbours' and the nine inside (the centre and the Gauss points). */
+#define MOVING_SAMPLES 13
+static void moving_samples(int k, int out[MOVING_SAMPLES]) {
+    out[0] = k;
+    for (int j = 1; j < 4; j++) out[j] = corner_tab[k][j];
+    for (int s = 8; s < VM_HEX_SAMPLES; s++) out[s - 4] = s;
+}
+
+/* Figures of the samples that depend on point i, with i at x: the worst scaled Jacobian, the
+ * sum of them, and the worst determinant. Every determinant is affine in x, so their minimum
+ * is concave in x: the untangling objective (Knupp 2001) without local optima. */
 typedef struct lq {
     double min, sum, det, pen;
 } lq;
 
-/* Corners whose normalised determinant is below this are penalised while untangling. */
+/* Samples whose normalised determinant is below this are penalised while untangling. */
 #define UNTANGLE_BETA 0.1
 
-/* With norm (one edge-length product per corner around i, in the order visited here, taken
- * before the move): also the untangling penalty, the sum over those corners of
+/* Where local_q may stop: a candidate with a sample below min_below, a determinant at or
+ * below det_at, or a penalty above pen_above cannot be better (the figures only fall or, for
+ * the penalty, rise as more samples come in). */
+typedef struct lq_stop {
+    double min_below, det_at, pen_above;
+} lq_stop;
+
+static const lq_stop no_stop = {-INFINITY, -INFINITY, INFINITY};
+
+/* With norm (one column-length product per sample around i, in incidence order, taken
+ * before the move): also the untangling penalty, the sum over those samples of
  * max(0, beta - det / norm). Each det is affine in x, so the penalty is convex in x (Knupp
- * 2001's untangling function, normalised so that small and large hexes count alike). */
-static void local_q(const hx *w, size_t i, const double x[3], const double *norm, lq *r) {
+ * 2001's untangling function, normalised so that small and large hexes count alike). The
+ * hexes are visited from incidence `first` on (the worst one last time, so that a poor
+ * candidate stops early); returns 0 when it stopped at stop (r is then partial), else 1, and
+ * sets *worst (NULL allowed) to the incidence holding the minimum. */
+static int local_q(const hx *w, size_t i, const double x[3], const double *norm, lq *r,
+                   const lq_stop *stop, size_t first, size_t *worst) {
     r->min = r->det = INFINITY;
     r->sum = r->pen = 0.0;
-    size_t c = 0;
-    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
+    size_t n = w->vs[i + 1] - w->vs[i];
+    if (first >= n) first = 0;
+    for (size_t a = 0; a < n; a++) {
+        size_t ui = (first + a) % n, u = w->vs[i] + ui;
         size_t t = w->vi[u] / 8;
-        int k = (int)(w->vi[u] % 8);
-        double p[8][3];
+        int k = (int)(w->vi[u] % 8), ms[MOVING_SAMPLES];
+        double p[8][3], det[VM_HEX_SAMPLES], len[VM_HEX_SAMPLES];
         hex_points(w, t, p);
         memcpy(p[k], x, sizeof p[k]);
-        for (int j = 0; j < 4; j++, c++) {
-            double det, q = corner_sj((const double(*)[3])p, j == 0 ? k : corner_tab[k][j], &det);
-            if (q < r->min) r->min = q;
-            if (det < r->det) r->det = det;
+        vm__hex_jacobian_samples((const double(*)[3])p, det, len);
+        moving_samples(k, ms);
+        const double *nm = norm ? norm + MOVING_SAMPLES * ui : NULL;
+        for (int j = 0; j < MOVING_SAMPLES; j++) {
+            double d = det[ms[j]], q = vm__hex_sample_sj(d, len[ms[j]]);
+            if (q < r->min) {
+                r->min = q;
+                if (worst) *worst = ui;
+            }
+            if (d < r->det) r->det = d;
             r->sum += q;
-            if (norm) r->pen += fmax(0.0, UNTANGLE_BETA - det / norm[c]);
+            if (nm) r->pen += fmax(0.0, UNTANGLE_BETA - d / nm[j]);
         }
+        if (r->min < stop->min_below || r->det <= stop->det_at || r->pen > stop->pen_above)
+            return 0;
     }
+    return 1;
 }
 
-/* The edge-length products of the corners around point i, in local_q's order. [out] norm:
- * 4 per incidence of i. */
-static void corner_norms(const hx *w, size_t i, double *norm) {
+/* The column-length products of the samples around point i, in local_q's order. [out] norm:
+ * MOVING_SAMPLES per incidence of i. */
+static void sample_norms(const hx *w, size_t i, double *norm) {
     size_t c = 0;
     for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
         size_t t = w->vi[u] / 8;
-        int k = (int)(w->vi[u] % 8);
-        double p[8][3];
+        int k = (int)(w->vi[u] % 8), ms[MOVING_SAMPLES];
+        double p[8][3], det[VM_HEX_SAMPLES], len[VM_HEX_SAMPLES];
         hex_points(w, t, p);
-        for (int j = 0; j < 4; j++, c++) {
-            const int *ct = corner_tab[j == 0 ? k : corner_tab[k][j]];
-            double len = 1.0;
-            for (int e = 1; e < 4; e++) {
-                double l2 = 0.0;
-                for (int a = 0; a < 3; a++)
-                    l2 += (p[ct[e]][a] - p[ct[0]][a]) * (p[ct[e]][a] - p[ct[0]][a]);
-                len *= sqrt(l2);
-            }
-            norm[c] = len > NORM_FLOOR ? len : NORM_FLOOR;
-        }
+        vm__hex_jacobian_samples((const double(*)[3])p, det, len);
+        moving_samples(k, ms);
+        for (int j = 0; j < MOVING_SAMPLES; j++, c++)
+            norm[c] = len[ms[j]] > NORM_FLOOR ? len[ms[j]] : NORM_FLOOR;
     }
 }
 
@@ -723,43 +733,57 @@ static int better(const lq *n, const lq *o, double floor, int untangle) {
  * moved. */
 static int optimise(hx *w, size_t i, double floor, int untangle) {
     if (w->cls[i] == CLS_FIXED || w->vs[i] == w->vs[i + 1]) return 0;
-    double x[3], buf[256], *norm = NULL;
-    size_t nc = 4 * (w->vs[i + 1] - w->vs[i]);
+    double x[3], buf[32 * MOVING_SAMPLES], *norm = NULL;
+    size_t nc = MOVING_SAMPLES * (w->vs[i + 1] - w->vs[i]);
     if (untangle == 2) {
-        norm = nc <= 256 ? buf : malloc(nc * sizeof *norm);
+        norm = nc <= sizeof buf / sizeof buf[0] ? buf : malloc(nc * sizeof *norm);
         if (!norm) return 0;
-        corner_norms(w, i, norm);
+        sample_norms(w, i, norm);
     }
     lq cur;
+    size_t first = 0;
     memcpy(x, w->p + 3 * i, sizeof x);
-    local_q(w, i, x, norm, &cur);
+    local_q(w, i, x, norm, &cur, &no_stop, 0, &first);
     int moved = 0;
     double L = edge_scale(w, i);
+    int mode = untangle == 3 ? 0 : untangle;
     for (double h = STEP_FIRST * L; h > STEP_LAST * L; h *= 0.5) {
         for (int rep = 0; rep < 4; rep++) {
             int best = -1;
             double bx[3];
             lq bq = cur;
+            size_t bfirst = first;
             int slide = untangle == 3 && w->cls[i] == CLS_ISO;
             for (int d = 0; d < (untangle >= 2 ? 26 : 14); d++)
                 for (int v = 0; v <= slide; v++) {
                     double y[3];
                     lq n;
                     for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
-                    int mode = untangle == 1 || untangle == 2 ? MOVE_LOOSE
-                               : v                            ? MOVE_PROJECT
-                                                              : MOVE_TANGENT;
-                    if (!constrain(w, i, y, mode)) continue;
-                    local_q(w, i, y, norm, &n);
-                    if (better(&n, &bq, floor, untangle == 3 ? 0 : untangle)) {
+                    int cmode = untangle == 1 || untangle == 2 ? MOVE_LOOSE
+                                : v                            ? MOVE_PROJECT
+                                                               : MOVE_TANGENT;
+                    if (!constrain(w, i, y, cmode)) continue;
+                    /* what bq rules out (better() below, mode by mode) */
+                    lq_stop stop = no_stop;
+                    if (mode == 0) stop.min_below = bq.min;
+                    if (mode == 1) {
+                        stop.min_below = fmin(bq.min, floor);
+                        stop.det_at = bq.det + DET_REL_MARGIN * fabs(bq.det);
+                    }
+                    if (mode == 2) stop.pen_above = bq.pen;
+                    size_t wf = first;
+                    if (!local_q(w, i, y, norm, &n, &stop, first, &wf)) continue;
+                    if (better(&n, &bq, floor, mode)) {
                         best = d;
                         bq = n;
+                        bfirst = wf;
                         memcpy(bx, y, sizeof bx);
                     }
                 }
             if (best < 0) break;
             memcpy(x, bx, sizeof x);
             cur = bq;
+            first = bfirst;
             moved = 1;
         }
     }
@@ -780,7 +804,7 @@ static void measure(const hx *w, figs *f, double *q) {
     for (size_t t = 0; t < w->nh; t++) {
         double p[8][3];
         hex_points(w, t, p);
-        double s = vm_hex_min_scaled_jacobian((const double(*)[3])p);
+        double s = vm_hex_scaled_jacobian((const double(*)[3])p);
         if (q) q[t] = s;
         if (s < f->min_sj) f->min_sj = s;
         if (s <= 0.0) f->inverted++;
@@ -964,14 +988,14 @@ static void final_snap(hx *w, double floor) {
         double target[3] = {x[0], x[1], x[2]};
         if (!constrain(w, i, target, MOVE_PROJECT)) continue;
         lq cur, n;
-        local_q(w, i, x, NULL, &cur);
+        local_q(w, i, x, NULL, &cur, &no_stop, 0, NULL);
         /* a quarter of the way at a time, up to the whole way (1.01: round-off slack) */
         for (double frac = SNAP_STEP; frac < 1.01; frac += SNAP_STEP) {
             double z[3], zi[3];
             for (int a = 0; a < 3; a++) z[a] = x[a] + frac * (target[a] - x[a]);
             to_index(w, z, zi);
             if (iso_distance(w, zi) > ISO_TANGENT_MAX) continue;
-            local_q(w, i, z, NULL, &n);
+            local_q(w, i, z, NULL, &n, &no_stop, 0, NULL);
             if (n.min >= fmin(cur.min, floor)) memcpy(w->p + 3 * i, z, sizeof z);
             break;
         }
@@ -1087,11 +1111,12 @@ static double patch_energy(const hx *w, size_t i, const double x[3], double bar,
     for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
         size_t t = w->vi[u] / 8;
         int k = (int)(w->vi[u] % 8);
-        double p[8][3];
+        double p[8][3], det[VM_HEX_SAMPLES], len[VM_HEX_SAMPLES];
         hex_points(w, t, p);
         memcpy(p[k], x, sizeof p[k]);
-        for (int c = 0; c < 8; c++) {
-            double det, q = corner_sj((const double(*)[3])p, c, &det);
+        vm__hex_jacobian_samples((const double(*)[3])p, det, len);
+        for (int c = 0; c < VM_HEX_SAMPLES; c++) {
+            double q = vm__hex_sample_sj(det[c], len[c]);
             if (q < *mn) *mn = q;
             if (q < bar) e += (bar - q) * (bar - q);
         }

@@ -1,8 +1,12 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/hex_metrics.c — hexahedron metrics: scaled Jacobian, Jacobian, skew, taper, edge
- * ratio and exact trilinear volume (Verdict manual SAND2007-1751 ch. 7). */
+ * ratio and exact trilinear volume (Verdict manual SAND2007-1751 ch. 7). The Jacobians are
+ * sampled at Verdict's points (the 8 corners and the centre) and at the 2x2x2 Gauss points a
+ * solver integrates C3D8 at, so that a hex valid here is valid for VTK and for CalculiX. */
 #include "volmesh/quality.h"
+#include <string.h>
 #include "../core/vec3.h"
+#include "quality_internal.h"
 
 /* For each VTK hex corner, its three neighbours in right-handed order. */
 static const int hex_corner[8][4] = {{0, 1, 3, 4}, {1, 2, 0, 5}, {2, 3, 1, 6}, {3, 0, 2, 7},
@@ -55,38 +59,100 @@ double vm_hex_corner_scaled_jacobian(const double p[8][3], int c) {
 /* s clamped to the scaled Jacobian's full range, which starts at -1. */
 static double clamp_scaled_jacobian(double s) { return s < -1.0 ? -1.0 : s; }
 
-/* The smallest corner scaled Jacobian. */
-double vm_hex_min_scaled_jacobian(const double p[8][3]) {
-    double smin = 1.0;
+/* The 2x2x2 Gauss points of the unit cube [0,1]^3: 1/2 -+ 1/(2 sqrt 3) on each axis. */
+#define GAUSS_LO 0.21132486540518711775
+#define GAUSS_HI 0.78867513459481288225
+
+/* The edges the map's derivatives blend: the four along u (0-1, 3-2, 4-5, 7-6), along v
+ * (0-3, 1-2, 4-7, 5-6), along w (0-4, 1-5, 2-6, 3-7). */
+static const int map_edge[12][2] = {{0, 1}, {3, 2}, {4, 5}, {7, 6}, {0, 3}, {1, 2},
+                                    {4, 7}, {5, 6}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+
+/* For corner c (VTK order), the edges its derivatives du, dv, dw are: e[iu], e[iv], e[iw]
+ * in map_edge's numbering. */
+static const int corner_cols[8][3] = {{0, 4, 8}, {0, 5, 9},  {1, 5, 10}, {1, 4, 11},
+                                      {2, 6, 8}, {2, 7, 9}, {3, 7, 10}, {3, 6, 11}};
+
+/* a + t (b - a) written as (1 - t) a + t b, component-wise. */
+static void lerp3(const double a[3], const double b[3], double t, double out[3]) {
+    for (int d = 0; d < 3; d++) out[d] = (1.0 - t) * a[d] + t * b[d];
+}
+
+/* The four bilinear blends of the edges q[0..3] (at (s,t) = (0,0), (1,0), (0,1), (1,1))
+ * at the Gauss coordinates, out[sbit + 2 tbit]. */
+static void gauss_blends(const double *q0, const double *q1, const double *q2, const double *q3,
+                         double out[4][3]) {
+    double a[2][3], b[2][3];
+    lerp3(q0, q1, GAUSS_LO, a[0]);
+    lerp3(q0, q1, GAUSS_HI, a[1]);
+    lerp3(q2, q3, GAUSS_LO, b[0]);
+    lerp3(q2, q3, GAUSS_HI, b[1]);
+    for (int sb = 0; sb < 2; sb++) {
+        lerp3(a[sb], b[sb], GAUSS_LO, out[sb]);
+        lerp3(a[sb], b[sb], GAUSS_HI, out[sb + 2]);
+    }
+}
+
+void vm__hex_jacobian_samples(const double p[8][3], double det[VM_HEX_SAMPLES],
+                              double len[VM_HEX_SAMPLES]) {
+    double e[12][3], el[12];
+    for (int k = 0; k < 12; k++) {
+        vm__sub3(p[map_edge[k][1]], p[map_edge[k][0]], e[k]);
+        el[k] = vm__norm3(e[k]);
+    }
+    /* the corners: their own edges */
     for (int c = 0; c < 8; c++) {
-        double s = vm_hex_corner_scaled_jacobian(p, c);
-        if (s < smin) smin = s;
+        const int *k = corner_cols[c];
+        det[c] = vm__triple(e[k[0]], e[k[1]], e[k[2]]);
+        len[c] = el[k[0]] * el[k[1]] * el[k[2]];
+    }
+    /* the centre: the mean edge along each direction */
+    double x[3][3];
+    for (int k = 0; k < 3; k++)
+        for (int d = 0; d < 3; d++)
+            x[k][d] = 0.25 * (e[4 * k][d] + e[4 * k + 1][d] + e[4 * k + 2][d] + e[4 * k + 3][d]);
+    det[8] = vm__triple(x[0], x[1], x[2]);
+    len[8] = vm__norm3(x[0]) * vm__norm3(x[1]) * vm__norm3(x[2]);
+    /* the Gauss points: du depends on (v, w) only, dv on (u, w), dw on (u, v) */
+    double gu[4][3], gv[4][3], gw[4][3], lu[4], lv[4], lw[4];
+    gauss_blends(e[0], e[1], e[2], e[3], gu);  /* v fastest: 01, 32 at w = 0; 45, 76 */
+    gauss_blends(e[4], e[5], e[6], e[7], gv);  /* u fastest: 03, 12 at w = 0; 47, 56 */
+    gauss_blends(e[8], e[9], e[11], e[10], gw); /* u fastest: 04, 15 at v = 0; 37, 26 */
+    for (int k = 0; k < 4; k++) {
+        lu[k] = vm__norm3(gu[k]);
+        lv[k] = vm__norm3(gv[k]);
+        lw[k] = vm__norm3(gw[k]);
+    }
+    for (int g = 0; g < 8; g++) {
+        int ub = g & 1, vb = (g >> 1) & 1, wb = (g >> 2) & 1;
+        int iu = vb + 2 * wb, iv = ub + 2 * wb, iw = ub + 2 * vb;
+        det[9 + g] = vm__triple(gu[iu], gv[iv], gw[iw]);
+        len[9 + g] = lu[iu] * lv[iv] * lw[iw];
+    }
+}
+
+/* The smallest of the scaled Jacobians at the corners, the centre and the Gauss points. */
+double vm_hex_scaled_jacobian(const double p[8][3]) {
+    double det[VM_HEX_SAMPLES], len[VM_HEX_SAMPLES], smin = 1.0;
+    vm__hex_jacobian_samples(p, det, len);
+    for (int s = 0; s < VM_HEX_SAMPLES; s++) {
+        double q = vm__hex_sample_sj(det[s], len[s]);
+        if (q < smin) smin = q;
     }
     return clamp_scaled_jacobian(smin);
 }
 
-/* The smallest of the corner scaled Jacobians and the centre's. */
-double vm_hex_scaled_jacobian(const double p[8][3]) {
-    double x[6][3];
-    hex_axes(p, x);
-    double s = normalized_det(x[0], x[1], x[2]);
-    double smin = vm_hex_min_scaled_jacobian(p);
-    return clamp_scaled_jacobian(s < smin ? s : smin);
-}
+/* The same measure: a hex is valid when it is > 0. */
+double vm_hex_min_scaled_jacobian(const double p[8][3]) { return vm_hex_scaled_jacobian(p); }
 
 double vm_hex_jacobian(const double p[8][3]) {
-    double x[6][3];
-    hex_axes(p, x);
-    /* Each of X1..X3 is four times the mean edge vector along its direction, so the
-     * centre Jacobian of the map from the unit cube is det(X1,X2,X3)/64. */
-    double jmin = vm__triple(x[0], x[1], x[2]) / 64.0;
-    for (int c = 0; c < 8; c++) {
-        double e[3][3];
-        corner_edges(p, c, e);
-        double j = vm__triple(e[0], e[1], e[2]);
-        if (j < jmin) jmin = j;
+    double det[VM_HEX_SAMPLES], len[VM_HEX_SAMPLES], jmin = INFINITY;
+    vm__hex_jacobian_samples(p, det, len);
+    for (int s = 0; s < VM_HEX_SAMPLES; s++) {
+        if (!isfinite(det[s])) return 0.0;
+        if (det[s] < jmin) jmin = det[s];
     }
-    return isfinite(jmin) ? jmin : 0.0;
+    return jmin;
 }
 
 double vm_hex_skew(const double p[8][3]) {

@@ -565,7 +565,7 @@ static vm_status cell_metrics(const vm_mesh *m, vm_mesh_report *r, vm__meter *mt
     if (!vol) return st;
     int nn = vm_cell_nodes(m->kind), tets = m->kind == VM_TET4;
     double sum_abs = 0.0, sj_min = 1.0, dmin = 180.0, dmax = 0.0;
-    size_t s5 = 0, s10 = 0, inv = 0;
+    size_t s5 = 0, s10 = 0, inv = 0, below = 0;
     /* Cells in parallel; min, max and counts do not depend on the order, and the volumes are
      * summed afterwards in cell order, so the report is the same for any thread count. */
     const ptrdiff_t nc = (ptrdiff_t)m->ncells, block = (ptrdiff_t)1 << 18;
@@ -573,7 +573,7 @@ static vm_status cell_metrics(const vm_mesh *m, vm_mesh_report *r, vm__meter *mt
         const ptrdiff_t c1 = nc - c0 < block ? nc : c0 + block;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static) reduction(min : sj_min, dmin) \
-        reduction(max : dmax) reduction(+ : s5, s10, inv)
+        reduction(max : dmax) reduction(+ : s5, s10, inv, below)
 #endif
         for (ptrdiff_t c = c0; c < c1; c++) {
             double p[8][3];
@@ -591,8 +591,10 @@ static vm_status cell_metrics(const vm_mesh *m, vm_mesh_report *r, vm__meter *mt
                 if (v <= 0.0) inv++;
             } else {
                 v = vm_hex_volume((const double(*)[3])p);
-                sj = vm_hex_min_scaled_jacobian((const double(*)[3])p);
+                /* corners, centre and Gauss points: the measure every hex figure uses */
+                sj = vm_hex_scaled_jacobian((const double(*)[3])p);
                 if (sj <= 0.0) inv++;
+                if (sj < VM_HEX_TARGET_SJ) below++;
             }
             if (sj < sj_min) sj_min = sj;
             vol[c] = v;
@@ -602,6 +604,7 @@ static vm_status cell_metrics(const vm_mesh *m, vm_mesh_report *r, vm__meter *mt
     r->slivers_5 += s5;
     r->slivers_10 += s10;
     r->inverted += inv;
+    r->below_target += below;
     for (size_t c = 0; c < m->ncells; c++) {
         r->volume += vol[c];
         sum_abs += fabs(vol[c]);

@@ -1,9 +1,10 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-/* quality/quality_internal.h — measures of quality/ that the mesher's refinement loop uses
- * (private to the library: quality/ and mesher/). */
+/* quality/quality_internal.h — measures of quality/ that the mesher's refinement loop and
+ * the hex pass use (private to the library: quality/, mesher/ and improve/). */
 #ifndef VM_QUALITY_INTERNAL_H
 #define VM_QUALITY_INTERNAL_H
 
+#include <math.h>
 #include <stddef.h>
 #include "volmesh/quality.h"
 #include "volmesh/volume.h"
@@ -18,5 +19,26 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
                                       int has_lo, double hi, int has_hi, double limit,
                                       vm_surface_distance *out, double **points,
                                       size_t *npoints, vm_error *err);
+
+/* The points a hex's Jacobian is sampled at (vm_hex_scaled_jacobian): the 8 corners (in
+ * VTK order), the centre, then the 8 Gauss points of the unit cube (u fastest). */
+#define VM_HEX_SAMPLES 17
+
+/* The Jacobian determinant of the map from the unit cube at each sample point (det, unit-
+ * cube units: a corner's is the determinant of its three edges) and the product of the
+ * lengths of its three columns (len), so that det / len is the scaled Jacobian there. The
+ * determinant at any point is affine in the position of any one node (two columns holding
+ * the node's term would be parallel), so max-min and penalty searches over one node keep
+ * Knupp's convexity at every sample. */
+void vm__hex_jacobian_samples(const double p[8][3], double det[VM_HEX_SAMPLES],
+                              double len[VM_HEX_SAMPLES]);
+
+/* det / len as vm_hex_scaled_jacobian takes it at one sample point: 0 where len is 0 or
+ * either is not finite. */
+static inline double vm__hex_sample_sj(double det, double len) {
+    if (!(len > 0.0) || !isfinite(len)) return 0.0;
+    double s = det / len;
+    return isfinite(s) ? s : 0.0;
+}
 
 #endif

@@ -151,15 +151,16 @@ vm_status vm_mesh_improve_planes(vm_mesh *m, const vm_volume *info, vm_plane_sou
                                  vm_improve_report *r, vm_error *err);
 
 /* Hexahedral meshes (hex8): vm_mesh_improve_hexes first inserts a pillow layer (one hex on
- * every boundary quad, between the boundary and an inner copy of it), so that no hex keeps
- * two faces on the smooth boundary, then untangles (compass search on a convex penalty of
- * the normalised corner Jacobian determinants) and smooths by moving one vertex at a time
- * to raise the smallest corner scaled Jacobian of the hexes around it (compass search on the
- * max-min objective). Interior vertices move freely; boundary vertices slide on the
- * isosurface (re-projected onto the trilinear field of the volume) or, on a face of the
- * volume's box, within that plane. A move is kept only when the worst corner around the
- * vertex does not get worse, so the worst scaled Jacobian of the mesh never goes down.
- * See docs/IMPROVE.md. */
+ * every boundary quad, between the boundary and an inner copy of it), so that no hex keeps two
+ * faces on the smooth boundary, then untangles (compass search on a convex penalty of the
+ * normalised Jacobian determinants) and smooths by moving one vertex at a time to raise the
+ * smallest scaled Jacobian of the hexes around it (compass search on the max-min objective).
+ * Hexes are measured as vm_hex_scaled_jacobian does, and as vm_mesh_check and the report count
+ * them: at the corners, the centre and the 2x2x2 Gauss points. Interior vertices move freely;
+ * boundary vertices slide on the isosurface (re-projected onto the trilinear field of the
+ * volume) or, on a face of the volume's box, within that plane. A move is kept only when the
+ * worst sample around the vertex does not get worse, so the worst scaled Jacobian of the mesh
+ * never goes down. See docs/IMPROVE.md. */
 typedef struct vm_hex_improve_options {
     double lo, hi;      /* material bounds, as in vm_mesh_options (used with a volume) */
     int has_lo, has_hi;
@@ -179,8 +180,8 @@ typedef struct vm_hex_improve_report {
     size_t hexes_before, hexes_after, points_before, points_after;
     size_t pillow_hexes;                  /* hexes added by the boundary layer */
     int pillow_undone; /* 1: the layer left inverted hexes, so the pass ran without it */
-    double min_sj_before, min_sj_after;   /* smallest corner scaled Jacobian (-1..1) */
-    size_t inverted_before, inverted_after; /* hexes with a corner scaled Jacobian <= 0 */
+    double min_sj_before, min_sj_after;   /* smallest vm_hex_scaled_jacobian (-1..1) */
+    size_t inverted_before, inverted_after; /* hexes with vm_hex_scaled_jacobian <= 0 */
     size_t below_02_before, below_02_after; /* hexes with a min scaled Jacobian below 0.2 */
     double volume_before, volume_after;   /* sum of trilinear hex volumes (world units) */
     /* Largest estimated distance |f - iso| / |grad f| of a boundary vertex from the

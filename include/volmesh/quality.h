@@ -37,6 +37,10 @@ extern "C" {
 /* Cap of ratio metrics on degenerate elements (Verdict's VERDICT_DBL_MAX). */
 #define VM_QUALITY_HUGE 1e30
 
+/* The scaled Jacobian a hex should reach (the acceptable range's lower end): the mesh
+ * summary counts the hexes below it (vm_mesh_report.below_target). */
+#define VM_HEX_TARGET_SJ 0.5
+
 /* -- tetrahedra (VTK order: 0,1,2 counter-clockwise seen from 3 for a positive tet) ------ */
 
 /* Signed volume det(p1-p0, p2-p0, p3-p0)/6 (Verdict ch. 6, volume).
@@ -89,28 +93,31 @@ double vm_tet_volume_measure(const double p[4][3]);
  * them). The principal axes are X1 = sum of the +xi nodes - the -xi nodes (likewise X2, X3)
  * and the cross derivatives X12, X13, X23 those of the trilinear map (Verdict ch. 7). ---- */
 
-/* Scaled Jacobian: minimum over the 8 corners and the centre of the Jacobian determinant
- * with its three columns normalised (corners: the three edges at the corner; centre: X1,
- * X2, X3) (Verdict ch. 7, scaled Jacobian). Ideal 1 (a parallelepiped with right angles);
- * acceptable 0.5..1; full -1..1. Degenerate (a zero-length edge or axis): 0 for that
- * sample point. */
+/* Scaled Jacobian: minimum of the Jacobian determinant with its three columns normalised,
+ * over the 8 corners (the three edges at the corner), the centre (X1, X2, X3) -- Verdict's
+ * points (Verdict ch. 7, scaled Jacobian; VTK's vtkMeshQuality) -- and the 2x2x2 Gauss
+ * points (1/2 -+ 1/(2 sqrt 3) on each axis of the unit cube), where CalculiX and ABAQUS
+ * integrate a C3D8 and refuse a negative Jacobian. Never above Verdict's value. A hex is
+ * inverted when this is <= 0: vm_mesh_check, volmesh quality, the report and the mesh
+ * summary all count it so. Ideal 1 (a parallelepiped with right angles); acceptable
+ * 0.5..1; full -1..1. Degenerate (a zero-length edge or axis): 0 for that sample point. */
 double vm_hex_scaled_jacobian(const double p[8][3]);
 
-/* The corner-only variant: minimum over the 8 corners of the corner Jacobian normalised by
- * the lengths of its three edges (no centre point). Ideal 1; acceptable 0.5..1; full -1..1;
- * a zero-length edge at a corner gives 0 for that corner. A hex is inverted when this is
- * <= 0; vm_mesh_check uses it. */
+/* The same measure as vm_hex_scaled_jacobian (kept for the callers of the former
+ * corner-only variant, which missed hexes folded between their corners). */
 double vm_hex_min_scaled_jacobian(const double p[8][3]);
 
-/* Corner c (0..7, VTK order) of the corner-only variant: det of the corner's three edges
- * over the product of their lengths, in -1..1, 0 at a zero-length edge. The minimum over c
- * is vm_hex_min_scaled_jacobian; a node moves only the corners at it and its three
- * neighbours, so a search moving one node evaluates just those. */
+/* Corner c (0..7, VTK order): det of the corner's three edges over the product of their
+ * lengths, in -1..1, 0 at a zero-length edge. One of vm_hex_scaled_jacobian's samples; a
+ * node moves only the corners at it and its three neighbours (but every Gauss point and the
+ * centre), so a search may use it as a cheap first filter. */
 double vm_hex_corner_scaled_jacobian(const double p[8][3], int c);
 
-/* Jacobian: minimum over the 8 corners of det(three corner edges) and of det(X1,X2,X3)/64
- * at the centre (Verdict ch. 7, Jacobian). Ideal: the volume of the hex (a unit cube: 1);
- * acceptable > 0; full -inf..inf. Degenerate: 0 (the determinant of zero edges). */
+/* Jacobian: minimum of the Jacobian determinant of the map from the unit cube over the
+ * points vm_hex_scaled_jacobian samples: det(three corner edges) at the 8 corners,
+ * det(X1,X2,X3)/64 at the centre, and at the 8 Gauss points (Verdict ch. 7, Jacobian, plus
+ * the Gauss points). Ideal: the volume of the hex (a unit cube: 1); acceptable > 0; full
+ * -inf..inf. Degenerate: 0 (the determinant of zero edges). */
 double vm_hex_jacobian(const double p[8][3]);
 
 /* Skew: largest |cos| of the angles between the normalised principal axes,
@@ -211,7 +218,8 @@ const vm_metric_info *vm_quality_find_metric(vm_cell_kind kind, const char *name
 /* Result of vm_mesh_check: the invariants every mesh test asserts. */
 typedef struct vm_mesh_report {
     size_t cells, points;
-    size_t inverted;            /* volume <= 0 (tets: signed volume; hexes: any corner Jacobian <= 0) */
+    size_t inverted;            /* volume <= 0 (tets: signed volume; hexes:
+                                   vm_hex_scaled_jacobian <= 0) */
     size_t degenerate;          /* |volume| below 1e-12 of the mean cell volume */
     size_t overshared_faces;    /* faces shared by more than two cells (non-conforming) */
     size_t boundary_faces;      /* faces used by exactly one cell */
@@ -228,7 +236,9 @@ typedef struct vm_mesh_report {
     double volume;              /* sum of signed cell volumes */
     double min_dihedral, max_dihedral; /* tets only, degrees (0 and 0 for other kinds) */
     size_t slivers_5, slivers_10;      /* tets with min dihedral below 5 and 10 degrees */
-    double min_scaled_jacobian;        /* hexes: over all corners; tets: scaled Jacobian */
+    double min_scaled_jacobian;        /* hexes: vm_hex_scaled_jacobian; tets: scaled Jacobian */
+    size_t below_target;               /* hexes with vm_hex_scaled_jacobian below 0.5
+                                          (VM_HEX_TARGET_SJ); 0 for other kinds */
 } vm_mesh_report;
 
 /* Runs all checks on a volume mesh (tet4 or hex8) or a surface mesh (tri3/quad4, where the

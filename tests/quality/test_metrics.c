@@ -235,8 +235,8 @@ static void metricTablesAreConsistent(void) {
     CHECK(vm_quality_metrics((vm_cell_kind)99, &t) == 0);
 }
 
-/* Known values: the existing corner-only hex Jacobian ignores the centre, Verdict's does
- * not (a hex whose corners are fine but whose centre folds). */
+/* Known values: the corners alone miss a hex whose corners are fine but whose centre folds;
+ * the scaled Jacobian samples the centre (and the Gauss points) too. */
 static void hexScaledJacobianIncludesTheCentre(void) {
     const double cube[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
                                {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
@@ -244,7 +244,7 @@ static void hexScaledJacobianIncludesTheCentre(void) {
     CHECK_NEAR(vm_hex_min_scaled_jacobian(cube), 1.0, 1e-15);
     /* Twist the top face by 90 degrees: corners stay right-handed-ish but the centre axis
      * X1 x X2 . X3 keeps its sign while the corners degrade; the two must differ or agree
-     * exactly as the definitions say: Verdict's is never above the corner-only one. */
+     * exactly as the definitions say: the full measure is never above the corners' one. */
     double tw[8][3];
     memcpy(tw, cube, sizeof tw);
     for (int i = 4; i < 8; i++) {
@@ -252,13 +252,59 @@ static void hexScaledJacobianIncludesTheCentre(void) {
         tw[i][0] = 0.5 - y * 0.9;
         tw[i][1] = 0.5 + x * 0.9;
     }
-    CHECK(vm_hex_scaled_jacobian((const double(*)[3])tw) <=
-          vm_hex_min_scaled_jacobian((const double(*)[3])tw));
+    double corners = 1.0;
+    for (int c = 0; c < 8; c++)
+        corners = fmin(corners, vm_hex_corner_scaled_jacobian((const double(*)[3])tw, c));
+    CHECK(vm_hex_scaled_jacobian((const double(*)[3])tw) <= corners);
+}
+
+/* The scaled Jacobian at (xi, eta, zeta) in [-1,1]^3, the plain way: derivatives of the
+ * eight trilinear shape functions (1 + xi_i xi)(1 + eta_i eta)(1 + zeta_i zeta) / 8. */
+static double sj_at(const double p[8][3], double xi, double eta, double zeta, double *det) {
+    static const double s[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
+                                   {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
+    double J[3][3] = {{0}};
+    for (int i = 0; i < 8; i++) {
+        double d[3] = {s[i][0] * (1 + s[i][1] * eta) * (1 + s[i][2] * zeta) / 8,
+                       s[i][1] * (1 + s[i][0] * xi) * (1 + s[i][2] * zeta) / 8,
+                       s[i][2] * (1 + s[i][0] * xi) * (1 + s[i][1] * eta) / 8};
+        for (int k = 0; k < 3; k++)
+            for (int a = 0; a < 3; a++) J[k][a] += d[k] * p[i][a];
+    }
+    double dt = J[0][0] * (J[1][1] * J[2][2] - J[1][2] * J[2][1]) -
+                J[0][1] * (J[1][0] * J[2][2] - J[1][2] * J[2][0]) +
+                J[0][2] * (J[1][0] * J[2][1] - J[1][1] * J[2][0]);
+    double l = 1;
+    for (int k = 0; k < 3; k++)
+        l *= sqrt(J[k][0] * J[k][0] + J[k][1] * J[k][1] + J[k][2] * J[k][2]);
+    *det = dt;
+    return dt / l;
+}
+
+/* The minimum of sj_at over the corners, the centre and the 2x2x2 Gauss points, and of the
+ * determinant in unit-cube units (8 times the [-1,1]^3 one). */
+static double sj_by_shape_functions(const double p[8][3], double *jmin) {
+    const double g = 1.0 / S3, at[5] = {-1, -g, 0, g, 1};
+    double m = INFINITY;
+    *jmin = INFINITY;
+    for (int i = 0; i < 5; i++)
+        for (int j = 0; j < 5; j++)
+            for (int k = 0; k < 5; k++) {
+                int nz = (i == 2) + (j == 2) + (k == 2);
+                int ends = (i % 4 == 0) + (j % 4 == 0) + (k % 4 == 0);
+                int gauss = (i % 2 == 1) + (j % 2 == 1) + (k % 2 == 1);
+                if (!(nz == 3 || ends == 3 || gauss == 3)) continue;
+                double det, v = sj_at(p, at[i], at[j], at[k], &det);
+                m = fmin(m, v);
+                *jmin = fmin(*jmin, 8 * det);
+            }
+    return m;
 }
 
 /* vm_hex_corner_scaled_jacobian: 1 at every corner of a cube, -1 at a mirrored corner, 0 at
- * a zero-length edge, and its minimum over the corners is vm_hex_min_scaled_jacobian exactly
- * on perturbed hexes (the adaptive hex search relies on it to evaluate only moved corners). */
+ * a zero-length edge; on perturbed hexes vm_hex_scaled_jacobian (and vm_hex_min_scaled_
+ * jacobian, the same) is the minimum over the corners, the centre and the Gauss points by
+ * the shape functions, never above the corners' minimum, and vm_hex_jacobian likewise. */
 static void hexCornerScaledJacobianIsTheMinimumsTerm(void) {
     const double cube[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
                                {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
@@ -286,10 +332,60 @@ static void hexCornerScaledJacobianIsTheMinimumsTerm(void) {
             CHECK(j >= -1.0 && j <= 1.0);
             if (j < m) m = j;
         }
-        CHECK(m == vm_hex_min_scaled_jacobian((const double(*)[3])p));
+        double s = vm_hex_scaled_jacobian((const double(*)[3])p), jmin;
+        CHECK(s <= m + 1e-15);
+        CHECK(s == vm_hex_min_scaled_jacobian((const double(*)[3])p));
+        double want = sj_by_shape_functions((const double(*)[3])p, &jmin);
+        CHECK_NEAR(s, fmax(want, -1.0), 1e-12);
+        CHECK_NEAR(vm_hex_jacobian((const double(*)[3])p), jmin, 1e-12);
     }
 }
 
+/* A hex whose eight corners are all fine (scaled Jacobian 0.89) and whose centre is fine
+ * too (0.87: VTK's vtkMeshQuality, which samples only those, calls it good), but which folds
+ * between them: at a Gauss point of a C3D8 the Jacobian is negative, so CalculiX
+ * refuses it. Every path counts it inverted: the metric, the corner-sampling name kept for
+ * old callers, the Jacobian, vm_mesh_check (the mesh summary's figures) and the quality
+ * report (volmesh quality, the HTML report). */
+static void hexFoldedBetweenItsCornersIsInvertedByEveryPath(void) {
+    const double p[8][3] = {{-6, -14, 0}, {25, -20, -15}, {13, 31, -15}, {15, 30, -18},
+                            {-1, -12, 8}, {29, -18, -7},  {8, 30, -17},  {10, 29, -21}};
+    for (int c = 0; c < 8; c++) CHECK(vm_hex_corner_scaled_jacobian(p, c) > 0.85);
+    double det, centre = sj_at(p, 0, 0, 0, &det);
+    CHECK(centre > 0.85 && det > 0);
+    const double g = 1.0 / S3;
+    double gauss = INFINITY, gdet = INFINITY;
+    for (int k = 0; k < 8; k++) {
+        gauss = fmin(gauss, sj_at(p, k & 1 ? g : -g, k & 2 ? g : -g, k & 4 ? g : -g, &det));
+        gdet = fmin(gdet, det);
+    }
+    CHECK(gauss < -0.3 && gdet < 0);
+    double jmin, want = sj_by_shape_functions(p, &jmin);
+    CHECK_NEAR(want, gauss, 1e-12);
+    CHECK_NEAR(vm_hex_scaled_jacobian(p), want, 1e-12);
+    CHECK(vm_hex_min_scaled_jacobian(p) == vm_hex_scaled_jacobian(p));
+    CHECK(vm_hex_jacobian(p) < 0);
+    CHECK_NEAR(vm_hex_jacobian(p), jmin, 1e-9);
+
+    vm_mesh m;
+    vm_mesh_init(&m, VM_HEX8);
+    vm_index n[8];
+    for (int i = 0; i < 8; i++) n[i] = vm_mesh_add_point(&m, p[i], NULL);
+    CHECK_OK(vm_mesh_add_cell(&m, n, 1, NULL), NULL);
+    vm_mesh_report r;
+    CHECK_OK(vm_mesh_check(&m, &r, NULL), NULL);
+    CHECK(r.inverted == 1);
+    CHECK(r.below_target == 1);
+    CHECK_NEAR(r.min_scaled_jacobian, want, 1e-12);
+    vm_quality_summary q;
+    CHECK_OK(vm_quality_report(&m, &q, NULL), NULL);
+    double x = 0;
+    CHECK(vm_quality_lookup(&q, "inverted", &x) == VM_OK && x == 1);
+    CHECK(vm_quality_lookup(&q, "scaled_jacobian.min", &x) == VM_OK);
+    CHECK_NEAR(x, want, 1e-12);
+    CHECK(vm_quality_lookup(&q, "jacobian.min", &x) == VM_OK && x < 0);
+    vm_mesh_free(&m);
+}
 
 /* All six dihedral and twelve face angles of a tet by atan2, the slow and plain way. */
 static void all_angles(const double p[4][3], double dih[6], double face[12]) {
@@ -381,4 +477,5 @@ TEST_MAIN(T(angleExtremesMatchEveryAngleOnRandomSliverAndNeedleTets),
           T(triangleMetricsMatchGoldenValues), T(quadMetricsMatchGoldenValues),
           T(metricsNeverReturnNaNOrLeaveTheirRange), T(shapeMetricsIgnoreRigidMotionAndScale),
           T(metricTablesAreConsistent), T(hexScaledJacobianIncludesTheCentre),
-          T(hexCornerScaledJacobianIsTheMinimumsTerm))
+          T(hexCornerScaledJacobianIsTheMinimumsTerm),
+          T(hexFoldedBetweenItsCornersIsInvertedByEveryPath))
