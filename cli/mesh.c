@@ -56,6 +56,8 @@ static const char *mesh_help_sizing =
     "                          2: neighbouring cells differ by 2x at most)\n"
     "  --tets N                about N tets: the sizes above scaled together (graded; the\n"
     "                          distance is then not refined; a warning when N is not met)\n"
+    "  --no-coarsen            graded: keep the stuffed mesh (no edge collapses within the\n"
+    "                          bounds above)\n"
     "  --adaptive              octree cells: large inside, 2x2x2 on simple flat boundary\n"
     "                          (hexes: exact interior cubes merged, the boundary uniform)\n"
     "  --error E               adaptive tets: boundary error in voxels (>= 0, default 0.5;\n"
@@ -455,6 +457,9 @@ static int shape_option(mesh_args *m, char **argv, int *i, int *taken) {
         m->o.graded = 1;
     } else if (vm_cli_is(a, "--size-field", NULL)) {
         m->size_field_path = argv[++*i];
+        m->o.graded = 1;
+    } else if (vm_cli_is(a, "--no-coarsen", NULL)) {
+        m->o.no_coarsen = 1;
         m->o.graded = 1;
     } else if (vm_cli_is(a, "--max-level", NULL)) {
         long l = 0;

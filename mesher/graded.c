@@ -98,6 +98,42 @@ static vm_status search_scale(gr_field *f, gr_sizing *sz, size_t want, double *p
     return leaves_at(f, &one, k, t, err);
 }
 
+/* Copies the points, cells and regions of a tet mesh. */
+static vm_status copy_mesh(const vm_mesh *m, vm_mesh *out, vm_error *err) {
+    vm_mesh_init(out, VM_TET4);
+    vm_status s = vm_mesh_reserve(out, m->npoints, m->ncells, err);
+    if (s) return s;
+    memcpy(out->points, m->points, 3 * m->npoints * sizeof *m->points);
+    memcpy(out->cells, m->cells, 4 * m->ncells * sizeof *m->cells);
+    memcpy(out->region, m->region, m->ncells * sizeof *m->region);
+    out->npoints = m->npoints;
+    out->ncells = m->ncells;
+    return VM_OK;
+}
+
+/* Coarsens the stuffed mesh (graded_coarsen.c); should its topology change all the same
+ * (the link condition keeps it; this is a second line), the stuffed mesh stays. */
+static vm_status coarsen(vm_mesh *mesh, const gr_field *f, const vm_mesh_options *o,
+                         const gr_sizing *sz, vm_mesh_stats *st, vm_error *err) {
+    long e0 = 0, e1 = 0;
+    size_t c0 = 0, c1 = 0, removed = 0;
+    vm_mesh keep;
+    vm_status s = vm__gr_mesh_topology(mesh, &e0, &c0, err);
+    if (!s) s = copy_mesh(mesh, &keep, err);
+    if (s) return s;
+    s = vm__gr_coarsen(mesh, f, sz->distance, sz->max_edge, o->tets, &removed, err);
+    if (!s) s = vm__gr_mesh_topology(mesh, &e1, &c1, err);
+    if (!s && (e1 != e0 || c1 != c0)) {
+        vm_mesh_free(mesh);
+        *mesh = keep;
+        vm_mesh_init(&keep, VM_TET4);
+        removed = 0;
+    }
+    vm_mesh_free(&keep);
+    st->coarsened = removed;
+    return s;
+}
+
 vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh *mesh,
                           vm_mesh_stats *st, vm_error *err) {
     double voxel = fmin(v->spacing[0], fmin(v->spacing[1], v->spacing[2]));
@@ -213,6 +249,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     }
     free(saved);
     vm_mesh_free(&good);
+    if (!s && !o->no_coarsen && mesh->ncells) s = coarsen(mesh, &f, o, &sz, st, err);
     st->size_scale = sz.distance / d0;
     st->octree_leaves = t.leaves;
     st->warped_vertices = ss.warped;

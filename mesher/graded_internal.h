@@ -164,4 +164,11 @@ vm_status vm__gr_digital_topology(const gr_field *f, long *euler, size_t *comps,
 /* The same for a tet mesh: the boundary's V - E + F and the components of its points. */
 vm_status vm__gr_mesh_topology(const vm_mesh *m, long *euler, size_t *comps, vm_error *err);
 
+/* Coarsens the stuffed mesh by edge collapse (graded_coarsen.c), keeping its topology, the
+ * dihedral angles of the changed tets within the stuffing's, the edge bound and the size
+ * field, and the distance bound both ways; stops at `target` tets when nonzero. [out]
+ * *removed: vertices removed. */
+vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double max_edge,
+                         size_t target, size_t *removed, vm_error *err);
+
 #endif

@@ -42,6 +42,10 @@ typedef struct vm_mesh_options {
      * are scaled together until the octree gives it; the distance is then not refined.
      * vm_mesh_stats.size_scale says the scale used. 0: none. */
     size_t tets;
+    /* Graded: 1 keeps the stuffed mesh as it is; 0 (the default) coarsens it by edge
+     * collapse within the same bounds (vm_mesh_stats.coarsened counts the vertices it
+     * removes). */
+    int no_coarsen;
     /* A cropped volume (tets only; full_nz 0: v is the whole volume). v holds the planes
      * z_offset .. z_offset + v->dims[2] - 1 of a whole volume of full_nz planes, and v's
      * index-to-world mapping is the whole volume's (plane 0 at its origin). The mesh covers
@@ -72,6 +76,7 @@ typedef struct vm_mesh_stats {
     size_t refine_rounds;      /* graded: rounds of refining where the distance was over */
     size_t topology_rounds;    /* graded: rounds of refining where the topology differed */
     double size_scale;         /* graded with a tet target: the sizes' scale found (else 1) */
+    size_t coarsened;          /* graded: vertices removed by coarsening */
     int refine_undone;         /* graded: the last distance refinement changed the topology
                                   and was undone (the distance may be over the bound) */
     double seconds;

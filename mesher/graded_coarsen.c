@@ -1,0 +1,945 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+/* mesher/graded_coarsen.c — coarsening of the stuffed mesh by edge collapse, shortest edges
+ * first, where the collapse keeps:
+ * - the topology: the link condition of Dey, Edelsbrunner, Guha and Nekhayev (1999) on the
+ *   mesh coned to a point beyond its boundary (so it holds for the boundary surface as well);
+ * - the quality: every changed tet stays positive with dihedral angles in [GR_CO_MIN,
+ *   GR_CO_MAX];
+ * - the edge bound and the size field;
+ * - the distance both ways: every new boundary triangle, sampled at half a voxel, lies
+ *   within the bound of the isosurface (|phi| / |grad phi|, the first-order distance) and
+ *   faces the way the field's gradient does; every sample of the isosurface (the crossings of
+ *   the voxel edges, as marching cubes places its vertices) stays within the bound of the
+ *   boundary (or within its distance on the stuffed mesh, when that was already over).
+ * A vertex is moved onto the other end of the edge, so vertices never move: surface vertices
+ * stay on the surface. Vertices on the volume's border planes stay. */
+#include "../core/core.h"
+#include "../quality/tet_internal.h"
+#include "graded_internal.h"
+#include "mesher_internal.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Dihedral angles (degrees) every tet a collapse changes must keep. */
+#define GR_CO_MIN 18.0
+#define GR_CO_MAX 145.0
+/* A new boundary triangle's normal within this angle's cosine of the field's gradient. */
+#define GR_CO_NORMAL_COS 0.5
+/* Passes over the edges; the work stops early when a pass removes under 0.5% of vertices. */
+#define GR_CO_PASSES 12
+/* A boundary collapse changes the volume by at most this times D times the new area. */
+#define GR_CO_VOLUME 0.2
+/* ... and the whole mesh's volume by at most this fraction (net). */
+#define GR_CO_NET_VOLUME 0.01
+
+typedef struct ilist {
+    int32_t *v;
+    int32_t n, cap;
+} ilist;
+
+typedef struct co {
+    vm_mesh *m;
+    const gr_field *f;
+    double inv[3][3]; /* world -> index */
+    double D, max_edge, sign, voxel;
+    size_t nv, nt, live;
+    ilist *vt;          /* vertex -> live tets */
+    ilist *vs;          /* vertex -> samples whose triangle may hold it (lazily pruned) */
+    unsigned char *bnd; /* vertex on the boundary */
+    unsigned char *fix; /* vertex that stays (on a border plane of the volume) */
+    unsigned char *dead_v, *dead_t;
+    double (*sp)[3];   /* isosurface samples (world) */
+    double *tol;       /* distance each sample must keep to the boundary */
+    int32_t (*st)[3];  /* the boundary triangle near each sample */
+    size_t ns;
+    int32_t *mark, stamp; /* per sample, for pruning repeats */
+    int32_t *vmark, vstamp; /* per vertex, for the link test */
+    float *qlo, *qhi;       /* per tet: its dihedral range */
+    double dvol, vol_budget; /* volume added so far; the most it may lose */
+    int nomem;
+} co;
+
+static int push(ilist *l, int32_t x) {
+    if (l->n == l->cap) {
+        int32_t cap = l->cap ? 2 * l->cap : 8;
+        int32_t *nv = realloc(l->v, (size_t)cap * sizeof *nv);
+        if (!nv) return 0;
+        l->v = nv;
+        l->cap = cap;
+    }
+    l->v[l->n++] = x;
+    return 1;
+}
+
+static void drop(ilist *l, int32_t x) {
+    for (int32_t i = 0; i < l->n; i++)
+        if (l->v[i] == x) {
+            l->v[i] = l->v[--l->n];
+            return;
+        }
+}
+
+static const vm_index *tet(const co *C, int32_t t) {
+    return C->m->cells + 4 * (size_t)t;
+}
+static const double *pt(const co *C, int64_t v) {
+    return C->m->points + 3 * (size_t)v;
+}
+
+static double dist2(const double *a, const double *b) {
+    double s = 0;
+    for (int d = 0; d < 3; d++)
+        s += (a[d] - b[d]) * (a[d] - b[d]);
+    return s;
+}
+
+static double vol6(const double *a, const double *b, const double *c, const double *d) {
+    double u[3], v[3], w[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = b[k] - a[k];
+        v[k] = c[k] - a[k];
+        w[k] = d[k] - a[k];
+    }
+    return u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
+           u[2] * (v[0] * w[1] - v[1] * w[0]);
+}
+
+/* phi and its gradient (world) at world point x; 0 when x is beyond the volume. */
+static int phi_grad(const co *C, const double x[3], double *phi, double g[3]) {
+    const gr_field *f = C->f;
+    double w[3], ijk[3];
+    for (int r = 0; r < 3; r++)
+        w[r] = x[r] - f->v->origin[r];
+    for (int r = 0; r < 3; r++)
+        ijk[r] = C->inv[r][0] * w[0] + C->inv[r][1] * w[1] + C->inv[r][2] * w[2];
+    int64_t c[3];
+    double t[3];
+    for (int d = 0; d < 3; d++) {
+        double hi = (double)(f->n[d] - 1), tol = 1e-9 * (double)f->n[d];
+        if (ijk[d] < -tol || ijk[d] > hi + tol || f->n[d] < 2) return 0;
+        double q = ijk[d] < 0 ? 0 : ijk[d] > hi ? hi : ijk[d];
+        c[d] = (int64_t)floor(q);
+        if (c[d] > f->n[d] - 2) c[d] = f->n[d] - 2;
+        t[d] = q - (double)c[d];
+    }
+    double v[8];
+    for (int k = 0; k < 8; k++)
+        v[k] = vm__gr_phi_point(f, c[0] + (k & 1), c[1] + (k >> 1 & 1), c[2] + (k >> 2));
+    /* trilinear value and its derivatives in index space */
+    double val = 0, gi[3] = {0, 0, 0};
+    for (int k = 0; k < 8; k++) {
+        double wx = (k & 1) ? t[0] : 1 - t[0], wy = (k >> 1 & 1) ? t[1] : 1 - t[1],
+               wz = (k >> 2) ? t[2] : 1 - t[2];
+        double sx = (k & 1) ? 1 : -1, sy = (k >> 1 & 1) ? 1 : -1, sz = (k >> 2) ? 1 : -1;
+        val += v[k] * wx * wy * wz;
+        gi[0] += v[k] * sx * wy * wz;
+        gi[1] += v[k] * wx * sy * wz;
+        gi[2] += v[k] * wx * wy * sz;
+    }
+    /* d phi / d world = inv^T d phi / d ijk */
+    for (int r = 0; r < 3; r++)
+        g[r] = C->inv[0][r] * gi[0] + C->inv[1][r] * gi[1] + C->inv[2][r] * gi[2];
+    *phi = val;
+    return 1;
+}
+
+/* Whether the triangle (world points) lies within the distance bound of the isosurface and
+ * faces along -grad phi (n: its outward normal, any length). */
+static int tri_near(const co *C, const double *p0, const double *p1, const double *p2,
+                    const double n[3]) {
+    double l = sqrt(fmax(dist2(p0, p1), fmax(dist2(p1, p2), dist2(p0, p2))));
+    int k = (int)ceil(l / (0.5 * C->voxel));
+    if (k < 2) k = 2;
+    if (k > 256) return 0;
+    double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(nn > 0)) return 0;
+    for (int i = 0; i <= k; i++)
+        for (int j = 0; i + j <= k; j++) {
+            if ((i == 0 && j == 0) || i == k || j == k) continue; /* the corners */
+            double a = (double)i / k, b = (double)j / k, x[3], phi, g[3];
+            for (int d = 0; d < 3; d++)
+                x[d] = p0[d] + a * (p1[d] - p0[d]) + b * (p2[d] - p0[d]);
+            if (!phi_grad(C, x, &phi, g)) return 0;
+            double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+            if (!(gn > 0) || fabs(phi) > C->D * gn) return 0;
+            /* outward is along -grad phi */
+            if (-(g[0] * n[0] + g[1] * n[1] + g[2] * n[2]) < GR_CO_NORMAL_COS * gn * nn)
+                return 0;
+        }
+    return 1;
+}
+
+/* Squared distance from x to the triangle (a, b, c): the nearest point by the triangle's
+ * regions (vertices, edges, inside), from the barycentric conditions. */
+static double tri_dist2(const double *x, const double *a, const double *b, const double *c) {
+    double ab[3], ac[3], ax[3];
+    for (int d = 0; d < 3; d++) {
+        ab[d] = b[d] - a[d];
+        ac[d] = c[d] - a[d];
+        ax[d] = x[d] - a[d];
+    }
+    double d1 = ab[0] * ax[0] + ab[1] * ax[1] + ab[2] * ax[2];
+    double d2 = ac[0] * ax[0] + ac[1] * ax[1] + ac[2] * ax[2];
+    if (d1 <= 0 && d2 <= 0) return dist2(x, a);
+    double bx[3], cx[3];
+    for (int d = 0; d < 3; d++) {
+        bx[d] = x[d] - b[d];
+        cx[d] = x[d] - c[d];
+    }
+    double d3 = ab[0] * bx[0] + ab[1] * bx[1] + ab[2] * bx[2];
+    double d4 = ac[0] * bx[0] + ac[1] * bx[1] + ac[2] * bx[2];
+    if (d3 >= 0 && d4 <= d3) return dist2(x, b);
+    double d5 = ab[0] * cx[0] + ab[1] * cx[1] + ab[2] * cx[2];
+    double d6 = ac[0] * cx[0] + ac[1] * cx[1] + ac[2] * cx[2];
+    if (d6 >= 0 && d5 <= d6) return dist2(x, c);
+    double q[3], vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+        double s = d1 / (d1 - d3);
+        for (int d = 0; d < 3; d++)
+            q[d] = a[d] + s * ab[d];
+        return dist2(x, q);
+    }
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+        double s = d2 / (d2 - d6);
+        for (int d = 0; d < 3; d++)
+            q[d] = a[d] + s * ac[d];
+        return dist2(x, q);
+    }
+    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+        double s = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        for (int d = 0; d < 3; d++)
+            q[d] = b[d] + s * (c[d] - b[d]);
+        return dist2(x, q);
+    }
+    double den = 1 / (va + vb + vc), v = vb * den, w = vc * den;
+    for (int d = 0; d < 3; d++)
+        q[d] = a[d] + v * ab[d] + w * ac[d];
+    return dist2(x, q);
+}
+
+/* Tet t has no other live tet on its face opposite corner k. */
+static int face_free(const co *C, int32_t t, int k) {
+    const vm_index *c = tet(C, t);
+    int64_t x = c[(k + 1) & 3], y = c[(k + 2) & 3], z = c[(k + 3) & 3];
+    const ilist *l = &C->vt[x];
+    for (int32_t i = 0; i < l->n; i++) {
+        int32_t o = l->v[i];
+        if (o == t) continue;
+        const vm_index *q = tet(C, o);
+        int hy = 0, hz = 0;
+        for (int j = 0; j < 4; j++) {
+            hy |= q[j] == y;
+            hz |= q[j] == z;
+        }
+        if (hy && hz) return 0;
+    }
+    return 1;
+}
+
+/* Small bags of packed ids (edges, faces), sorted once, then searched. */
+enum { SET_MAX = 2048 };
+typedef struct set {
+    int64_t v[SET_MAX];
+    int n, full;
+} set;
+
+static void set_add(set *s, int64_t x) {
+    if (s->n == SET_MAX)
+        s->full = 1;
+    else
+        s->v[s->n++] = x;
+}
+static int i64_cmp(const void *x, const void *y) {
+    int64_t p = *(const int64_t *)x, q = *(const int64_t *)y;
+    return (p > q) - (p < q);
+}
+static void set_sort(set *s) {
+    qsort(s->v, (size_t)s->n, sizeof *s->v, i64_cmp);
+}
+static int set_has(const set *s, int64_t x) {
+    int lo = 0, hi = s->n;
+    while (lo < hi) {
+        int m = (lo + hi) / 2;
+        if (s->v[m] < x)
+            lo = m + 1;
+        else
+            hi = m;
+    }
+    return lo < s->n && s->v[lo] == x;
+}
+static int64_t pack2(int64_t x, int64_t y) {
+    return x < y ? x << 32 | y : y << 32 | x;
+}
+/* Faces by a hash of their sorted ids: a collision only refuses a collapse. */
+static int64_t pack3(int64_t x, int64_t y, int64_t z) {
+    int64_t t;
+    if (x > y) t = x, x = y, y = t;
+    if (y > z) t = y, y = z, z = t;
+    if (x > y) t = x, x = y, y = t;
+    return (int64_t)(((uint64_t)x * 0x9E3779B97F4A7C15ull) ^ ((uint64_t)y * 0xC2B2AE3D27D4EB4Full) ^
+                     ((uint64_t)z * 0x165667B19E3779F9ull));
+}
+
+typedef struct plan {
+    double qmin; /* the worst min dihedral of the changed tets */
+    double dvol; /* the volume it adds (boundary collapses) */
+    int ntri;    /* b's boundary star after the collapse: triangles */
+    int32_t tri[SET_MAX][3];
+} plan;
+
+/* Stamps of the vertex sets of one check: a's neighbours off the edge's tets (1), on them
+ * (2). */
+static void stamp_next(co *C) {
+    if (C->vstamp >= INT32_MAX - 4) {
+        memset(C->vmark, 0, C->nv * sizeof *C->vmark);
+        C->vstamp = 0;
+    }
+    C->vstamp += 2;
+}
+
+/* Whether collapsing a onto b keeps every condition; fills the plan (b's boundary star after
+ * the collapse). */
+static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3) {
+    if (C->fix[a] || (C->bnd[a] && !C->bnd[b])) return 0;
+    const ilist *ta = &C->vt[a], *tb = &C->vt[b];
+    /* the changed tets first (cheap, and most collapses fail here): positive, within the
+     * angle limits or no worse than the worst tet around a now, new edges within bounds */
+    int shared = 0;
+    double olo = 180, ohi = 0, dvol = 0;
+    for (int32_t i = 0; i < ta->n; i++) {
+        int32_t t = ta->v[i];
+        const vm_index *c = tet(C, t);
+        olo = fmin(olo, C->qlo[t]);
+        ohi = fmax(ohi, C->qhi[t]);
+        dvol -= C->sign * vol6(pt(C, c[0]), pt(C, c[1]), pt(C, c[2]), pt(C, c[3]));
+        if (c[0] == b || c[1] == b || c[2] == b || c[3] == b) {
+            shared++;
+            continue;
+        }
+        double p[4][3];
+        for (int k = 0; k < 4; k++)
+            memcpy(p[k], pt(C, c[k] == a ? b : c[k]), sizeof p[k]);
+        double v6 = C->sign * vol6(p[0], p[1], p[2], p[3]);
+        if (v6 <= 0) return 0;
+        dvol += v6;
+    }
+    if (!shared) return 0;
+    double amin = fmin(GR_CO_MIN, olo), amax = fmax(GR_CO_MAX, ohi);
+
+    double qmin = 180, cap2 = C->max_edge * C->max_edge;
+    for (int32_t i = 0; i < ta->n; i++) {
+        const vm_index *c = tet(C, ta->v[i]);
+        if (c[0] == b || c[1] == b || c[2] == b || c[3] == b) continue;
+        double p[4][3], lo, hi;
+        int ka = 0;
+        for (int k = 0; k < 4; k++) {
+            if (c[k] == a) ka = k;
+            memcpy(p[k], pt(C, c[k] == a ? b : c[k]), sizeof p[k]);
+        }
+        for (int k = 0; k < 4; k++)
+            if (k != ka && dist2(p[k], p[ka]) > cap2) return 0;
+        vm__tet_dihedral_range((const double(*)[3])p, &lo, &hi);
+        if (lo < amin || hi > amax) return 0;
+        if (lo < qmin) qmin = lo;
+        if (!C->f->bsize) continue;
+        for (int k = 0; k < 4; k++) {
+            if (k == ka) continue;
+            double u0[3], u1[3], lo3[3], hi3[3];
+            for (int r = 0; r < 3; r++) {
+                u0[r] = u1[r] = 0;
+                for (int d = 0; d < 3; d++) {
+                    u0[r] += C->inv[r][d] * (p[k][d] - C->f->v->origin[d]);
+                    u1[r] += C->inv[r][d] * (p[ka][d] - C->f->v->origin[d]);
+                }
+                u0[r] *= C->f->sp[r];
+                u1[r] *= C->f->sp[r];
+                lo3[r] = fmin(u0[r], u1[r]);
+                hi3[r] = fmax(u0[r], u1[r]);
+            }
+            double L = vm__gr_size_min(C->f, lo3, hi3);
+            if (dist2(p[k], p[ka]) > L * L) return 0;
+        }
+    }
+    P->qmin = qmin;
+    /* link condition, vertices: a neighbour of both a and b is in a tet of the edge */
+    stamp_next(C);
+    int32_t s_off = C->vstamp - 1, s_on = C->vstamp;
+    for (int32_t i = 0; i < ta->n; i++) {
+        const vm_index *c = tet(C, ta->v[i]);
+        if (c[0] == b || c[1] == b || c[2] == b || c[3] == b)
+            for (int k = 0; k < 4; k++)
+                C->vmark[c[k]] = s_on;
+    }
+    for (int32_t i = 0; i < ta->n; i++) {
+        const vm_index *c = tet(C, ta->v[i]);
+        for (int k = 0; k < 4; k++)
+            if (C->vmark[c[k]] != s_on) C->vmark[c[k]] = s_off;
+    }
+    for (int32_t i = 0; i < tb->n; i++) {
+        const vm_index *c = tet(C, tb->v[i]);
+        for (int k = 0; k < 4; k++)
+            if (c[k] != a && C->vmark[c[k]] == s_off) return 0;
+    }
+    /* edges and faces: the link edges of a that b also has are the edge's link edges; no
+     * link face is shared */
+    s1->n = s2->n = s3->n = 0;
+    s1->full = s2->full = s3->full = 0;
+    for (int32_t i = 0; i < ta->n; i++) {
+        const vm_index *c = tet(C, ta->v[i]);
+        int ka = 0, hb = 0;
+        for (int k = 0; k < 4; k++) {
+            if (c[k] == a) ka = k;
+            if (c[k] == b) hb = 1;
+        }
+        int64_t o[3] = {c[(ka + 1) & 3], c[(ka + 2) & 3], c[(ka + 3) & 3]};
+        if (hb) { /* the edge's link edge: the two others */
+            int64_t e[2], ne = 0;
+            for (int k = 0; k < 3; k++)
+                if (o[k] != b) e[ne++] = o[k];
+            set_add(s2, pack2(e[0], e[1]));
+            continue;
+        }
+        set_add(s1, pack2(o[0], o[1]));
+        set_add(s1, pack2(o[1], o[2]));
+        set_add(s1, pack2(o[0], o[2]));
+        set_add(s3, pack3(o[0], o[1], o[2]));
+    }
+    if (s1->full || s2->full || s3->full) return 0;
+    set_sort(s1);
+    set_sort(s2);
+    set_sort(s3);
+    for (int32_t i = 0; i < tb->n; i++) {
+        const vm_index *c = tet(C, tb->v[i]);
+        int kb = 0, ha = 0;
+        for (int k = 0; k < 4; k++) {
+            if (c[k] == b) kb = k;
+            if (c[k] == a) ha = 1;
+        }
+        if (ha) continue;
+        int64_t o[3] = {c[(kb + 1) & 3], c[(kb + 2) & 3], c[(kb + 3) & 3]};
+        if (set_has(s3, pack3(o[0], o[1], o[2]))) return 0;
+        for (int k = 0; k < 3; k++) {
+            int64_t e = pack2(o[k], o[(k + 1) % 3]);
+            if (set_has(s1, e) && !set_has(s2, e)) return 0;
+        }
+    }
+    P->ntri = 0;
+    P->dvol = 0;
+    if (!C->bnd[a]) return 1;
+    /* the same over the cone beyond the boundary: a's boundary link (vertices s1, edges s2),
+     * the edge's (s3); b's boundary link must meet a's only there */
+    s1->n = s2->n = s3->n = 0;
+    int edge_on_boundary = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        int32_t x = pass ? b : a, y = pass ? a : b;
+        const ilist *l = &C->vt[x];
+        for (int32_t i = 0; i < l->n; i++) {
+            int32_t t = l->v[i];
+            const vm_index *c = tet(C, t);
+            for (int k = 0; k < 4; k++) {
+                if (c[k] == x || !face_free(C, t, k)) continue;
+                int64_t o[2], no = 0, hy = 0;
+                for (int j = 1; j < 4; j++) {
+                    int64_t q = c[(k + j) & 3];
+                    if (q == x) continue;
+                    if (q == y) hy = 1;
+                    o[no++] = q;
+                }
+                if (hy) { /* boundary face x y z: z is in the edge's boundary link */
+                    edge_on_boundary = 1;
+                    if (pass == 0) set_add(s3, o[0] == y ? o[1] : o[0]);
+                    continue;
+                }
+                if (pass == 0) {
+                    set_add(s1, o[0]);
+                    set_add(s1, o[1]);
+                    set_add(s2, pack2(o[0], o[1]));
+                } else {
+                    for (int j = 0; j < 2; j++)
+                        if (set_has(s1, o[j]) && !set_has(s3, o[j])) return 0;
+                    if (set_has(s2, pack2(o[0], o[1]))) return 0;
+                }
+            }
+        }
+        if (pass == 0) {
+            if (!edge_on_boundary || s1->full || s2->full || s3->full) return 0;
+            set_sort(s1);
+            set_sort(s2);
+            set_sort(s3);
+        }
+    }
+    /* a's boundary faces become b's: near the surface, facing along -grad phi; the volume
+     * changes by at most GR_CO_VOLUME D times their area (chords inside a convex surface
+     * would otherwise shrink thin parts by up to 2/3 D over their whole area) */
+    double area = 0;
+    for (int32_t i = 0; i < ta->n; i++) {
+        const vm_index *c = tet(C, ta->v[i]);
+        if (c[0] == b || c[1] == b || c[2] == b || c[3] == b) continue;
+        for (int k = 0; k < 4; k++) {
+            if (c[k] == a || !face_free(C, ta->v[i], k)) continue;
+            int x = (k + 1) & 3, y = (k + 2) & 3, z = (k + 3) & 3;
+            const double *px = pt(C, c[x] == a ? b : c[x]), *py = pt(C, c[y] == a ? b : c[y]),
+                         *pz = pt(C, c[z] == a ? b : c[z]), *pk = pt(C, c[k]);
+            double u[3], v[3], n[3];
+            for (int d = 0; d < 3; d++) {
+                u[d] = py[d] - px[d];
+                v[d] = pz[d] - px[d];
+            }
+            n[0] = u[1] * v[2] - u[2] * v[1];
+            n[1] = u[2] * v[0] - u[0] * v[2];
+            n[2] = u[0] * v[1] - u[1] * v[0];
+            if (n[0] * (pk[0] - px[0]) + n[1] * (pk[1] - px[1]) + n[2] * (pk[2] - px[2]) > 0)
+                for (int d = 0; d < 3; d++)
+                    n[d] = -n[d];
+            if (!tri_near(C, px, py, pz, n)) return 0;
+            area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            if (P->ntri == SET_MAX) return 0;
+            int32_t *T = P->tri[P->ntri++];
+            T[0] = (int32_t)(c[x] == a ? b : c[x]);
+            T[1] = (int32_t)(c[y] == a ? b : c[y]);
+            T[2] = (int32_t)(c[z] == a ? b : c[z]);
+        }
+    }
+    if (fabs(dvol) / 6 > GR_CO_VOLUME * C->D * area) return 0;
+    /* and the whole volume by at most GR_CO_NET_VOLUME of it */
+    if (C->dvol + dvol / 6 < -C->vol_budget) return 0;
+    P->dvol = dvol / 6;
+    /* b's boundary faces that stay */
+    for (int32_t i = 0; i < tb->n; i++) {
+        int32_t t = tb->v[i];
+        const vm_index *c = tet(C, t);
+        if (c[0] == a || c[1] == a || c[2] == a || c[3] == a) continue;
+        for (int k = 0; k < 4; k++) {
+            if (c[k] == b || !face_free(C, t, k)) continue;
+            if (P->ntri == SET_MAX) return 0;
+            int32_t *T = P->tri[P->ntri++];
+            for (int j = 0; j < 3; j++)
+                T[j] = (int32_t)c[(k + 1 + j) & 3];
+        }
+    }
+    /* the isosurface samples near a's triangles stay near the boundary */
+    const ilist *ls = &C->vs[a];
+    for (int32_t i = 0; i < ls->n; i++) {
+        int32_t q = ls->v[i];
+        const int32_t *T = C->st[q];
+        if (T[0] != a && T[1] != a && T[2] != a) continue;
+        double best = INFINITY, t2 = C->tol[q] * C->tol[q];
+        for (int j = 0; j < P->ntri && best > t2; j++) {
+            const int32_t *U = P->tri[j];
+            double d2 = tri_dist2(C->sp[q], pt(C, U[0]), pt(C, U[1]), pt(C, U[2]));
+            if (d2 < best) best = d2;
+        }
+        if (best > t2) return 0;
+    }
+    return 1;
+}
+
+/* The dihedral range of tet t into the caches. */
+static void measure(co *C, int32_t t) {
+    const vm_index *c = tet(C, t);
+    double p[4][3];
+    for (int k = 0; k < 4; k++)
+        memcpy(p[k], pt(C, c[k]), sizeof p[k]);
+    double lo, hi;
+    vm__tet_dihedral_range((const double(*)[3])p, &lo, &hi);
+    C->qlo[t] = (float)lo;
+    C->qhi[t] = (float)hi;
+}
+
+/* Applies a checked collapse of a onto b. */
+static void apply(co *C, int32_t a, int32_t b, const plan *P) {
+    ilist *ta = &C->vt[a];
+    for (int32_t i = 0; i < ta->n; i++) {
+        int32_t t = ta->v[i];
+        vm_index *c = C->m->cells + 4 * (size_t)t;
+        int hb = c[0] == b || c[1] == b || c[2] == b || c[3] == b;
+        if (hb) {
+            C->dead_t[t] = 1;
+            C->live--;
+            for (int k = 0; k < 4; k++)
+                if (c[k] != a) drop(&C->vt[c[k]], t);
+        } else {
+            for (int k = 0; k < 4; k++)
+                if (c[k] == a) c[k] = b;
+            measure(C, t);
+            if (!push(&C->vt[b], t)) C->nomem = 1;
+        }
+    }
+    ta->n = 0;
+    C->dead_v[a] = 1;
+    C->dvol += P->dvol;
+    if (!C->bnd[a]) return;
+    /* samples: to the nearest triangle of b's new star */
+    ilist *ls = &C->vs[a];
+    for (int32_t i = 0; i < ls->n; i++) {
+        int32_t s = ls->v[i];
+        int32_t *T = C->st[s];
+        if (T[0] != a && T[1] != a && T[2] != a) continue;
+        double best = INFINITY;
+        int bj = 0;
+        for (int j = 0; j < P->ntri; j++) {
+            const int32_t *U = P->tri[j];
+            double d2 = tri_dist2(C->sp[s], pt(C, U[0]), pt(C, U[1]), pt(C, U[2]));
+            if (d2 < best) best = d2, bj = j;
+        }
+        memcpy(T, P->tri[bj], 3 * sizeof *T);
+        for (int j = 0; j < 3; j++)
+            if (!push(&C->vs[T[j]], s)) C->nomem = 1;
+    }
+    ls->n = 0;
+    /* prune the lists of the new star's vertices: entries that no longer name them, and
+     * repeats */
+    for (int j = 0; j < P->ntri; j++)
+        for (int r = 0; r < 3; r++) {
+            int32_t v = P->tri[j][r];
+            ilist *lv = &C->vs[v];
+            if (++C->stamp == INT32_MAX) {
+                memset(C->mark, 0, C->ns * sizeof *C->mark);
+                C->stamp = 1;
+            }
+            int32_t n = 0;
+            for (int32_t i = 0; i < lv->n; i++) {
+                int32_t q = lv->v[i];
+                const int32_t *T = C->st[q];
+                if ((T[0] != v && T[1] != v && T[2] != v) || C->mark[q] == C->stamp) continue;
+                C->mark[q] = C->stamp;
+                lv->v[n++] = q;
+            }
+            lv->n = n;
+        }
+}
+
+/* Isosurface samples: the crossings of the voxel edges (linear along an edge), each near
+ * the boundary triangle of its nearest boundary vertex's star; grid of boundary vertices
+ * with cells of `cell` world units. */
+static vm_status samples(co *C, vm_error *err) {
+    const gr_field *f = C->f;
+    size_t cap = 1024, n = 0;
+    double(*sp)[3] = malloc(cap * sizeof *sp);
+    if (!sp) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    for (int64_t k = 0; k < f->n[2]; k++)
+        for (int64_t j = 0; j < f->n[1]; j++)
+            for (int64_t i = 0; i < f->n[0]; i++) {
+                double a = vm__gr_phi_point(f, i, j, k);
+                for (int d = 0; d < 3; d++) {
+                    int64_t q[3] = {i, j, k};
+                    if (++q[d] >= f->n[d]) continue;
+                    double b = vm__gr_phi_point(f, q[0], q[1], q[2]);
+                    if ((a >= 0) == (b >= 0)) continue;
+                    if (n == cap) {
+                        double(*ns)[3] = realloc(sp, 2 * cap * sizeof *ns);
+                        if (!ns) {
+                            free(sp);
+                            return vm_error_set(err, VM_ERR_NOMEM,
+                                                "mesh: out of memory for coarsening");
+                        }
+                        sp = ns;
+                        cap *= 2;
+                    }
+                    double ijk[3] = {(double)i, (double)j, (double)k};
+                    ijk[d] += a / (a - b);
+                    vm_volume_index_to_world(f->v, ijk, sp[n++]);
+                }
+            }
+    C->sp = sp;
+    C->ns = n;
+    return VM_OK;
+}
+
+/* Sorts by key (ascending), ties by index: deterministic. */
+typedef struct keyed {
+    double key;
+    int32_t a, b;
+} keyed;
+static int keyed_cmp(const void *x, const void *y) {
+    const keyed *p = x, *q = y;
+    if (p->key != q->key) return p->key < q->key ? -1 : 1;
+    if (p->a != q->a) return p->a < q->a ? -1 : 1;
+    return (p->b > q->b) - (p->b < q->b);
+}
+
+/* The nearest boundary vertex of each sample, by a grid of the boundary vertices; each
+ * sample takes the nearest triangle of that vertex's star and keeps max(D, its distance). */
+static vm_status assign_samples(co *C, vm_error *err) {
+    size_t nb = 0;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t v = 0; v < C->nv; v++)
+        if (C->bnd[v]) {
+            nb++;
+            for (int d = 0; d < 3; d++) {
+                lo[d] = fmin(lo[d], pt(C, (int64_t)v)[d]);
+                hi[d] = fmax(hi[d], pt(C, (int64_t)v)[d]);
+            }
+        }
+    C->tol = malloc((C->ns + 1) * sizeof *C->tol);
+    C->st = malloc((C->ns + 1) * sizeof *C->st);
+    C->mark = calloc(C->ns + 1, sizeof *C->mark);
+    if (!C->tol || !C->st || !C->mark)
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    if (!nb) return VM_OK;
+    double cell = 4 * C->voxel;
+    int64_t g[3];
+    size_t cells = 1;
+    for (int d = 0; d < 3; d++) {
+        g[d] = (int64_t)((hi[d] - lo[d]) / cell) + 1;
+        cells *= (size_t)g[d];
+    }
+    size_t *start = calloc(cells + 1, sizeof *start);
+    int32_t *item = malloc(nb * sizeof *item);
+    if (!start || !item) {
+        free(start);
+        free(item);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    }
+#define CELL_OF(p, c3)                                                                      \
+    for (int d_ = 0; d_ < 3; d_++) {                                                        \
+        int64_t q_ = (int64_t)floor(((p)[d_] - lo[d_]) / cell);                             \
+        (c3)[d_] = q_ < 0 ? 0 : q_ >= g[d_] ? g[d_] - 1 : q_;                               \
+    }
+    for (size_t v = 0; v < C->nv; v++)
+        if (C->bnd[v]) {
+            int64_t c3[3];
+            CELL_OF(pt(C, (int64_t)v), c3);
+            start[(size_t)(c3[0] + g[0] * (c3[1] + g[1] * c3[2])) + 1]++;
+        }
+    for (size_t i = 0; i < cells; i++)
+        start[i + 1] += start[i];
+    for (size_t v = 0; v < C->nv; v++)
+        if (C->bnd[v]) {
+            int64_t c3[3];
+            CELL_OF(pt(C, (int64_t)v), c3);
+            item[start[(size_t)(c3[0] + g[0] * (c3[1] + g[1] * c3[2]))]++] = (int32_t)v;
+        }
+    for (size_t i = cells; i > 0; i--)
+        start[i] = start[i - 1];
+    start[0] = 0;
+    vm_status s = VM_OK;
+    for (size_t i = 0; i < C->ns && !s; i++) {
+        int64_t c3[3];
+        CELL_OF(C->sp[i], c3);
+        double best = INFINITY;
+        int32_t bv = -1;
+        for (int r = 1; bv < 0 || r < 2; r++) { /* rings until found, and one more */
+            for (int64_t z = c3[2] - r; z <= c3[2] + r; z++)
+                for (int64_t y = c3[1] - r; y <= c3[1] + r; y++)
+                    for (int64_t x = c3[0] - r; x <= c3[0] + r; x++) {
+                        if (x < 0 || y < 0 || z < 0 || x >= g[0] || y >= g[1] || z >= g[2])
+                            continue;
+                        size_t at = (size_t)(x + g[0] * (y + g[1] * z));
+                        for (size_t k = start[at]; k < start[at + 1]; k++) {
+                            double d2 = dist2(C->sp[i], pt(C, item[k]));
+                            if (d2 < best) best = d2, bv = item[k];
+                        }
+                    }
+            if (r > g[0] + g[1] + g[2]) break;
+        }
+        /* the nearest triangle of its star */
+        double bt = INFINITY;
+        int32_t T[3] = {bv, bv, bv};
+        const ilist *l = &C->vt[bv];
+        for (int32_t j = 0; j < l->n; j++) {
+            const vm_index *c = tet(C, l->v[j]);
+            for (int k = 0; k < 4; k++) {
+                if (c[k] == bv || !face_free(C, l->v[j], k)) continue;
+                int64_t x = c[(k + 1) & 3], y = c[(k + 2) & 3], z = c[(k + 3) & 3];
+                double d2 = tri_dist2(C->sp[i], pt(C, x), pt(C, y), pt(C, z));
+                if (d2 < bt) bt = d2, T[0] = (int32_t)x, T[1] = (int32_t)y, T[2] = (int32_t)z;
+            }
+        }
+        C->tol[i] = fmax(C->D, sqrt(bt)) * (1 + 1e-9);
+        memcpy(C->st[i], T, sizeof T);
+        for (int j = 0; j < 3 && !s; j++)
+            if (!push(&C->vs[T[j]], (int32_t)i))
+                s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    }
+#undef CELL_OF
+    free(start);
+    free(item);
+    return s;
+}
+
+static void co_free(co *C) {
+    for (size_t v = 0; C->vt && v < C->nv; v++)
+        free(C->vt[v].v);
+    for (size_t v = 0; C->vs && v < C->nv; v++)
+        free(C->vs[v].v);
+    free(C->vt);
+    free(C->vs);
+    free(C->bnd);
+    free(C->fix);
+    free(C->dead_v);
+    free(C->dead_t);
+    free(C->sp);
+    free(C->tol);
+    free(C->st);
+    free(C->mark);
+    free(C->vmark);
+    free(C->qlo);
+    free(C->qhi);
+}
+
+/* Removes dead tets and unused points. */
+static vm_status compact(co *C, vm_error *err) {
+    vm_mesh *m = C->m;
+    int64_t *map = malloc((C->nv + 1) * sizeof *map);
+    if (!map) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    for (size_t v = 0; v < C->nv; v++)
+        map[v] = -1;
+    size_t nt = 0, np = 0;
+    for (size_t t = 0; t < C->nt; t++) {
+        if (C->dead_t[t]) continue;
+        memmove(m->cells + 4 * nt, m->cells + 4 * t, 4 * sizeof *m->cells);
+        m->region[nt] = m->region[t];
+        nt++;
+    }
+    for (size_t i = 0; i < 4 * nt; i++)
+        if (map[m->cells[i]] < 0) map[m->cells[i]] = 0;
+    for (size_t v = 0; v < C->nv; v++)
+        if (map[v] == 0) {
+            map[v] = (int64_t)np;
+            memmove(m->points + 3 * np, m->points + 3 * v, 3 * sizeof *m->points);
+            np++;
+        }
+    for (size_t i = 0; i < 4 * nt; i++)
+        m->cells[i] = (vm_index)map[m->cells[i]];
+    m->ncells = nt;
+    m->npoints = np;
+    free(map);
+    return VM_OK;
+}
+
+vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double max_edge,
+                         size_t target, size_t *removed, vm_error *err) {
+    *removed = 0;
+    if (m->ncells == 0 || m->npoints >= (size_t)INT32_MAX || m->ncells >= (size_t)INT32_MAX / 4)
+        return VM_OK;
+    co C;
+    memset(&C, 0, sizeof C);
+    C.m = m;
+    C.f = f;
+    C.D = distance;
+    C.max_edge = max_edge > 0 ? max_edge : INFINITY;
+    C.nv = m->npoints;
+    C.nt = m->ncells;
+    C.live = m->ncells;
+    C.voxel = fmin(f->sp[0], fmin(f->sp[1], f->sp[2]));
+    double det;
+    vm_status s = vm__frame_inverse(f->v, "mesh", C.inv, &det, err);
+    if (s) return s;
+    C.vt = calloc(C.nv, sizeof *C.vt);
+    C.vs = calloc(C.nv, sizeof *C.vs);
+    C.bnd = calloc(C.nv, 1);
+    C.fix = calloc(C.nv, 1);
+    C.dead_v = calloc(C.nv, 1);
+    C.dead_t = calloc(C.nt, 1);
+    C.vmark = calloc(C.nv, sizeof *C.vmark);
+    C.qlo = malloc(C.nt * sizeof *C.qlo);
+    C.qhi = malloc(C.nt * sizeof *C.qhi);
+    if (!C.vt || !C.vs || !C.bnd || !C.fix || !C.dead_v || !C.dead_t || !C.vmark || !C.qlo ||
+        !C.qhi) {
+        co_free(&C);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    }
+    double pos = 0, neg = 0;
+    for (size_t t = 0; t < C.nt && !C.nomem; t++) {
+        const vm_index *c = tet(&C, (int32_t)t);
+        double v = vol6(pt(&C, c[0]), pt(&C, c[1]), pt(&C, c[2]), pt(&C, c[3]));
+        if (v > 0) pos += v;
+        if (v < 0) neg -= v;
+        for (int k = 0; k < 4; k++)
+            if (!push(&C.vt[c[k]], (int32_t)t)) C.nomem = 1;
+        measure(&C, (int32_t)t);
+    }
+    C.sign = pos >= neg ? 1 : -1;
+    C.vol_budget = GR_CO_NET_VOLUME * fabs(pos - neg) / 6;
+    for (size_t t = 0; t < C.nt && !C.nomem; t++)
+        for (int k = 0; k < 4; k++)
+            if (face_free(&C, (int32_t)t, k))
+                for (int j = 1; j < 4; j++)
+                    C.bnd[tet(&C, (int32_t)t)[(k + j) & 3]] = 1;
+    /* vertices on the volume's border planes stay */
+    for (size_t v = 0; v < C.nv; v++) {
+        double w[3], ijk[3];
+        for (int r = 0; r < 3; r++)
+            w[r] = pt(&C, (int64_t)v)[r] - f->v->origin[r];
+        for (int r = 0; r < 3; r++) {
+            ijk[r] = C.inv[r][0] * w[0] + C.inv[r][1] * w[1] + C.inv[r][2] * w[2];
+            double tol = 1e-6;
+            if (ijk[r] < tol || ijk[r] > (double)(f->n[r] - 1) - tol) C.fix[v] = 1;
+        }
+    }
+    if (C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    if (!s) s = samples(&C, err);
+    if (!s) s = assign_samples(&C, err);
+    keyed *E = NULL;
+    set *sets = malloc(3 * sizeof *sets);
+    plan *P = malloc(2 * sizeof *P);
+    if (!s && (!sets || !P))
+        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    for (int pass = 0; pass < GR_CO_PASSES && !s && !C.nomem; pass++) {
+        /* the live edges, shortest first */
+        size_t ne = 0;
+        free(E);
+        E = malloc(6 * C.live * sizeof *E + 1);
+        if (!E) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+            break;
+        }
+        for (size_t t = 0; t < C.nt; t++) {
+            if (C.dead_t[t]) continue;
+            const vm_index *c = tet(&C, (int32_t)t);
+            for (int i = 0; i < 4; i++)
+                for (int j = i + 1; j < 4; j++) {
+                    int32_t x = (int32_t)c[i], y = (int32_t)c[j];
+                    if (x > y) {
+                        int32_t q = x;
+                        x = y;
+                        y = q;
+                    }
+                    /* each edge once: from the tet of the lowest index holding it */
+                    int first = 1;
+                    const ilist *l = &C.vt[x];
+                    for (int32_t k = 0; k < l->n && first; k++) {
+                        int32_t o = l->v[k];
+                        if ((size_t)o >= t) continue;
+                        const vm_index *q = tet(&C, o);
+                        for (int r = 0; r < 4; r++)
+                            if (q[r] == y) first = 0;
+                    }
+                    if (first) E[ne++] = (keyed){dist2(pt(&C, x), pt(&C, y)), x, y};
+                }
+        }
+        qsort(E, ne, sizeof *E, keyed_cmp);
+        size_t before = *removed;
+        for (size_t i = 0; i < ne && !C.nomem; i++) {
+            int32_t x = E[i].a, y = E[i].b;
+            if (C.dead_v[x] || C.dead_v[y]) continue;
+            if (target && C.live <= target) break;
+            /* remove the interior end where there is one, else try x first */
+            if (C.bnd[x] && !C.bnd[y]) {
+                int32_t q = x;
+                x = y;
+                y = q;
+            }
+            int okx = check(&C, x, y, &P[0], &sets[0], &sets[1], &sets[2]);
+            int oky = C.bnd[x] == C.bnd[y] && check(&C, y, x, &P[1], &sets[0], &sets[1], &sets[2]);
+            if (okx && (!oky || P[0].qmin >= P[1].qmin))
+                apply(&C, x, y, &P[0]);
+            else if (oky)
+                apply(&C, y, x, &P[1]);
+            else
+                continue;
+            ++*removed;
+        }
+        if (target && C.live <= target) break;
+        if ((double)(*removed - before) < 0.005 * (double)C.nv) break;
+    }
+    free(E);
+    free(sets);
+    free(P);
+    if (!s && C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    if (!s) s = compact(&C, err);
+    co_free(&C);
+    return s;
+}
