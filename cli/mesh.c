@@ -948,6 +948,8 @@ static int improve_mesh(mesh_args *m, mesh_job *j) {
         vm_status s;
         if (j->planes)
             s = vm_mesh_improve_planes(&j->m, &j->v, read_planes, j->planes, &io, &j->ir, &err);
+        else if (m->o.graded)
+            s = vm_mesh_improve_graded(&j->m, &j->v, &io, &j->ir, &err);
         else
             s = vm_mesh_improve(&j->m, &j->v, &io, &j->ir, &err);
         vm_volume_reader_close(j->planes);

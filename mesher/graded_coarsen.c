@@ -28,6 +28,8 @@
 #define GR_CO_NORMAL_COS 0.5
 /* Passes over the edges; the work stops early when a pass removes under 0.5% of vertices. */
 #define GR_CO_PASSES 12
+/* Rounds of collapse passes and vertex moves. */
+#define GR_CO_ROUNDS 3
 /* A boundary collapse changes the volume by at most this times D times the new area. */
 #define GR_CO_VOLUME 0.2
 /* ... and the whole mesh's volume by at most this fraction (net). */
@@ -57,6 +59,7 @@ typedef struct co {
     int32_t *vmark, vstamp; /* per vertex, for the link test */
     float *qlo, *qhi;       /* per tet: its dihedral range */
     double dvol, vol_budget; /* volume added so far; the most it may lose */
+    int strict;              /* repairing: a collapse must better the worst angle */
     int nomem;
 } co;
 
@@ -144,30 +147,44 @@ static int phi_grad(const co *C, const double x[3], double *phi, double g[3]) {
     return 1;
 }
 
-/* Whether the triangle (world points) lies within the distance bound of the isosurface and
- * faces along -grad phi (n: its outward normal, any length). */
-static int tri_near(const co *C, const double *p0, const double *p1, const double *p2,
-                    const double n[3]) {
+/* The signed first-order distance phi / |grad phi| (positive inside) over the triangle
+ * (world points), sampled every half voxel, corners included: its range [*lo, *hi]. 0 when a
+ * sample has no gradient, lies beyond the volume, or where the triangle's outward normal n
+ * (any length) is off -grad phi by over 60 degrees. */
+static int tri_errors(const co *C, const double *p0, const double *p1, const double *p2,
+                      const double n[3], double *lo, double *hi) {
     double l = sqrt(fmax(dist2(p0, p1), fmax(dist2(p1, p2), dist2(p0, p2))));
     int k = (int)ceil(l / (0.5 * C->voxel));
     if (k < 2) k = 2;
     if (k > 256) return 0;
     double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     if (!(nn > 0)) return 0;
+    *lo = INFINITY;
+    *hi = -INFINITY;
     for (int i = 0; i <= k; i++)
         for (int j = 0; i + j <= k; j++) {
-            if ((i == 0 && j == 0) || i == k || j == k) continue; /* the corners */
             double a = (double)i / k, b = (double)j / k, x[3], phi, g[3];
             for (int d = 0; d < 3; d++)
                 x[d] = p0[d] + a * (p1[d] - p0[d]) + b * (p2[d] - p0[d]);
             if (!phi_grad(C, x, &phi, g)) return 0;
             double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-            if (!(gn > 0) || fabs(phi) > C->D * gn) return 0;
+            if (!(gn > 0)) return 0;
+            double e = phi / gn;
+            if (e < *lo) *lo = e;
+            if (e > *hi) *hi = e;
             /* outward is along -grad phi */
             if (-(g[0] * n[0] + g[1] * n[1] + g[2] * n[2]) < GR_CO_NORMAL_COS * gn * nn)
                 return 0;
         }
     return 1;
+}
+
+/* Whether the triangle lies within the distance bound of the isosurface and faces along
+ * -grad phi. */
+static int tri_near(const co *C, const double *p0, const double *p1, const double *p2,
+                    const double n[3]) {
+    double lo, hi;
+    return tri_errors(C, p0, p1, p2, n, &lo, &hi) && -lo <= C->D && hi <= C->D;
 }
 
 /* Squared distance from x to the triangle (a, b, c): the nearest point by the triangle's
@@ -216,6 +233,27 @@ static double tri_dist2(const double *x, const double *a, const double *b, const
     for (int d = 0; d < 3; d++)
         q[d] = a[d] + v * ab[d] + w * ac[d];
     return dist2(x, q);
+}
+
+/* Edge pq within --max-edge and the size field. */
+static int edge_ok(const co *C, const double *p, const double *q) {
+    double l2 = dist2(p, q);
+    if (l2 > C->max_edge * C->max_edge) return 0;
+    if (!C->f->bsize) return 1;
+    double lo3[3], hi3[3];
+    for (int r = 0; r < 3; r++) {
+        double u0 = 0, u1 = 0;
+        for (int d = 0; d < 3; d++) {
+            u0 += C->inv[r][d] * (p[d] - C->f->v->origin[d]);
+            u1 += C->inv[r][d] * (q[d] - C->f->v->origin[d]);
+        }
+        u0 *= C->f->sp[r];
+        u1 *= C->f->sp[r];
+        lo3[r] = fmin(u0, u1);
+        hi3[r] = fmax(u0, u1);
+    }
+    double L = vm__gr_size_min(C->f, lo3, hi3);
+    return l2 <= L * L;
 }
 
 /* Tet t has no other live tet on its face opposite corner k. */
@@ -327,7 +365,7 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
     if (!shared) return 0;
     double amin = fmin(GR_CO_MIN, olo), amax = fmax(GR_CO_MAX, ohi);
 
-    double qmin = 180, cap2 = C->max_edge * C->max_edge;
+    double qmin = 180;
     for (int32_t i = 0; i < ta->n; i++) {
         const vm_index *c = tet(C, ta->v[i]);
         if (c[0] == b || c[1] == b || c[2] == b || c[3] == b) continue;
@@ -338,28 +376,10 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
             memcpy(p[k], pt(C, c[k] == a ? b : c[k]), sizeof p[k]);
         }
         for (int k = 0; k < 4; k++)
-            if (k != ka && dist2(p[k], p[ka]) > cap2) return 0;
+            if (k != ka && !edge_ok(C, p[k], p[ka])) return 0;
         vm__tet_dihedral_range((const double(*)[3])p, &lo, &hi);
         if (lo < amin || hi > amax) return 0;
         if (lo < qmin) qmin = lo;
-        if (!C->f->bsize) continue;
-        for (int k = 0; k < 4; k++) {
-            if (k == ka) continue;
-            double u0[3], u1[3], lo3[3], hi3[3];
-            for (int r = 0; r < 3; r++) {
-                u0[r] = u1[r] = 0;
-                for (int d = 0; d < 3; d++) {
-                    u0[r] += C->inv[r][d] * (p[k][d] - C->f->v->origin[d]);
-                    u1[r] += C->inv[r][d] * (p[ka][d] - C->f->v->origin[d]);
-                }
-                u0[r] *= C->f->sp[r];
-                u1[r] *= C->f->sp[r];
-                lo3[r] = fmin(u0[r], u1[r]);
-                hi3[r] = fmax(u0[r], u1[r]);
-            }
-            double L = vm__gr_size_min(C->f, lo3, hi3);
-            if (dist2(p[k], p[ka]) > L * L) return 0;
-        }
     }
     P->qmin = qmin;
     /* link condition, vertices: a neighbour of both a and b is in a tet of the edge */
@@ -809,6 +829,346 @@ static vm_status compact(co *C, vm_error *err) {
     return VM_OK;
 }
 
+/* Outward normal (any length) of the face of tet c opposite corner k (positions now). */
+static void face_out(const co *C, const vm_index *c, int k, double n[3]) {
+    const double *px = pt(C, c[(k + 1) & 3]), *py = pt(C, c[(k + 2) & 3]),
+                 *pz = pt(C, c[(k + 3) & 3]), *pk = pt(C, c[k]);
+    double u[3], v[3];
+    for (int d = 0; d < 3; d++) {
+        u[d] = py[d] - px[d];
+        v[d] = pz[d] - px[d];
+    }
+    n[0] = u[1] * v[2] - u[2] * v[1];
+    n[1] = u[2] * v[0] - u[0] * v[2];
+    n[2] = u[0] * v[1] - u[1] * v[0];
+    if (n[0] * (pk[0] - px[0]) + n[1] * (pk[1] - px[1]) + n[2] * (pk[2] - px[2]) > 0)
+        for (int d = 0; d < 3; d++)
+            n[d] = -n[d];
+}
+
+/* Moves vertex v to x when every condition of a collapse holds for its tets (positive,
+ * the angle rule, the distance both ways for its boundary faces and their samples, the
+ * volume budget); with `better`, only when the worst min dihedral around v grows. */
+static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
+    const ilist *l = &C->vt[v];
+    double old[3], olo = 180, ohi = 0, vol0 = 0, vol1 = 0, nlo = 180, nhi = 0;
+    double *pv = C->m->points + 3 * (size_t)v;
+    memcpy(old, pv, sizeof old);
+    for (int32_t i = 0; i < l->n; i++) {
+        int32_t t = l->v[i];
+        const vm_index *c = tet(C, t);
+        olo = fmin(olo, C->qlo[t]);
+        ohi = fmax(ohi, C->qhi[t]);
+        vol0 += C->sign * vol6(pt(C, c[0]), pt(C, c[1]), pt(C, c[2]), pt(C, c[3]));
+    }
+    memcpy(pv, x, sizeof old);
+    int ok = 1;
+    for (int32_t i = 0; i < l->n && ok; i++) {
+        const vm_index *c = tet(C, l->v[i]);
+        double p[4][3], lo, hi;
+        for (int k = 0; k < 4; k++)
+            memcpy(p[k], pt(C, c[k]), sizeof p[k]);
+        double v6 = C->sign * vol6(p[0], p[1], p[2], p[3]);
+        if (v6 <= 0) {
+            ok = 0;
+            break;
+        }
+        vol1 += v6;
+        for (int k = 0; k < 4 && ok; k++)
+            if (c[k] != v && !edge_ok(C, p[k], x)) ok = 0;
+        if (!ok) break;
+        vm__tet_dihedral_range((const double(*)[3])p, &lo, &hi);
+        nlo = fmin(nlo, lo);
+        nhi = fmax(nhi, hi);
+    }
+    if (ok && (nlo < fmin(GR_CO_MIN, olo) || nhi > fmax(GR_CO_MAX, ohi))) ok = 0;
+    if (ok && better && !(nlo > olo + 0.01)) ok = 0;
+    double dv = (vol1 - vol0) / 6;
+    if (ok && C->dvol + dv < -C->vol_budget) ok = 0;
+    P->ntri = 0;
+    if (ok && C->bnd[v]) {
+        for (int32_t i = 0; i < l->n && ok; i++) {
+            int32_t t = l->v[i];
+            const vm_index *c = tet(C, t);
+            for (int k = 0; k < 4 && ok; k++) {
+                if (c[k] == v || !face_free(C, t, k)) continue;
+                double n[3];
+                face_out(C, c, k, n);
+                if (!tri_near(C, pt(C, c[(k + 1) & 3]), pt(C, c[(k + 2) & 3]),
+                              pt(C, c[(k + 3) & 3]), n) ||
+                    P->ntri == SET_MAX) {
+                    ok = 0;
+                    break;
+                }
+                int32_t *T = P->tri[P->ntri++];
+                for (int j = 0; j < 3; j++)
+                    T[j] = (int32_t)c[(k + 1 + j) & 3];
+            }
+        }
+        const ilist *ls = &C->vs[v];
+        for (int32_t i = 0; i < ls->n && ok; i++) {
+            int32_t q = ls->v[i];
+            const int32_t *T = C->st[q];
+            if (T[0] != v && T[1] != v && T[2] != v) continue;
+            double best = INFINITY, t2 = C->tol[q] * C->tol[q];
+            for (int j = 0; j < P->ntri && best > t2; j++) {
+                const int32_t *U = P->tri[j];
+                double d2 = tri_dist2(C->sp[q], pt(C, U[0]), pt(C, U[1]), pt(C, U[2]));
+                if (d2 < best) best = d2;
+            }
+            if (best > t2) ok = 0;
+        }
+    }
+    if (!ok) {
+        memcpy(pv, old, sizeof old);
+        return 0;
+    }
+    for (int32_t i = 0; i < l->n; i++)
+        measure(C, l->v[i]);
+    C->dvol += dv;
+    return 1;
+}
+
+/* One sweep of moves: a boundary vertex goes along its outward normal by the middle of the
+ * signed distance range of its faces (so that chords of a convex surface straddle it instead
+ * of lying inside: the same bound then holds with longer edges, and the volume comes back);
+ * an interior vertex goes to the mean of its neighbours when that raises its worst angle.
+ * [out] moved. */
+static size_t move_sweep(co *C, plan *P) {
+    size_t moved = 0;
+    for (size_t vv = 0; vv < C->nv; vv++) {
+        int32_t v = (int32_t)vv;
+        if (C->dead_v[v] || C->fix[v] || C->vt[v].n == 0) continue;
+        const ilist *l = &C->vt[v];
+        double x[3];
+        if (!C->bnd[v]) {
+            double s[3] = {0, 0, 0};
+            int n = 0;
+            for (int32_t i = 0; i < l->n; i++) {
+                const vm_index *c = tet(C, l->v[i]);
+                for (int k = 0; k < 4; k++)
+                    if (c[k] != v) {
+                        for (int d = 0; d < 3; d++)
+                            s[d] += pt(C, c[k])[d];
+                        n++;
+                    }
+            }
+            for (int d = 0; d < 3; d++)
+                x[d] = s[d] / n;
+            if (try_move(C, v, x, 1, P)) moved++;
+            continue;
+        }
+        double lo = INFINITY, hi = -INFINITY, phi, g[3];
+        int ok = phi_grad(C, pt(C, v), &phi, g);
+        for (int32_t i = 0; i < l->n && ok; i++) {
+            int32_t t = l->v[i];
+            const vm_index *c = tet(C, t);
+            for (int k = 0; k < 4 && ok; k++) {
+                if (c[k] == v || !face_free(C, t, k)) continue;
+                double n[3], a, b;
+                face_out(C, c, k, n);
+                ok = tri_errors(C, pt(C, c[(k + 1) & 3]), pt(C, c[(k + 2) & 3]),
+                                pt(C, c[(k + 3) & 3]), n, &a, &b);
+                lo = fmin(lo, a);
+                hi = fmax(hi, b);
+            }
+        }
+        double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+        if (!ok || !(gn > 0) || !(hi > lo)) continue;
+        /* e > 0 inside: moving outward (along -grad) by s lowers e by about s */
+        double step = 0.5 * (lo + hi);
+        if (step > 0.5 * C->D) step = 0.5 * C->D;
+        if (step < -0.5 * C->D) step = -0.5 * C->D;
+        if (fabs(step) < 0.02 * C->D) continue;
+        for (int tries = 0; tries < 2; tries++, step *= 0.5) {
+            for (int d = 0; d < 3; d++)
+                x[d] = pt(C, v)[d] - step * g[d] / gn;
+            if (try_move(C, v, x, 0, P)) {
+                moved++;
+                break;
+            }
+        }
+    }
+    return moved;
+}
+
+/* Takes out tet t when two of its faces are on the boundary (a flat cap), the edge between
+ * its two other corners is not on the boundary yet (so the boundary stays a manifold), its
+ * two other faces lie within the distance bound facing out, the samples of the two faces it
+ * drops stay near the new ones, and the volume budget allows. */
+static int peel(co *C, int32_t t) {
+    const vm_index *c = tet(C, t);
+    int nb = 0, kb[4];
+    for (int k = 0; k < 4; k++)
+        if (face_free(C, t, k)) kb[nb++] = k;
+    if (nb != 2) return 0;
+    for (int k = 0; k < 4; k++)
+        if (!C->bnd[c[k]] || C->fix[c[k]]) return 0;
+    /* the corners opposite the boundary faces: their edge becomes a boundary edge */
+    int32_t x = (int32_t)c[kb[0]], y = (int32_t)c[kb[1]];
+    const ilist *lx = &C->vt[x];
+    for (int32_t i = 0; i < lx->n; i++) {
+        int32_t u = lx->v[i];
+        if (u == t) continue;
+        const vm_index *q = tet(C, u);
+        int hy = q[0] == y || q[1] == y || q[2] == y || q[3] == y;
+        if (!hy) continue;
+        for (int k = 0; k < 4; k++)
+            if (q[k] != x && q[k] != y && face_free(C, u, k)) return 0;
+    }
+    double v6 = C->sign * vol6(pt(C, c[0]), pt(C, c[1]), pt(C, c[2]), pt(C, c[3]));
+    if (C->dvol - v6 / 6 < -C->vol_budget) return 0;
+    int32_t nf[2][3], of[2][3];
+    int n = 0, o = 0;
+    for (int k = 0; k < 4; k++) {
+        int32_t *F = (k == kb[0] || k == kb[1]) ? of[o++] : nf[n++];
+        for (int j = 0; j < 3; j++)
+            F[j] = (int32_t)c[(k + 1 + j) & 3];
+        if (k == kb[0] || k == kb[1]) continue;
+        double nn[3];
+        face_out(C, c, k, nn);
+        for (int d = 0; d < 3; d++)
+            nn[d] = -nn[d]; /* the new boundary faces out where t was */
+        if (!tri_near(C, pt(C, F[0]), pt(C, F[1]), pt(C, F[2]), nn)) return 0;
+    }
+    /* samples on the dropped faces */
+    for (int f = 0; f < 2; f++)
+        for (int r = 0; r < 3; r++) {
+            const ilist *ls = &C->vs[of[f][r]];
+            for (int32_t i = 0; i < ls->n; i++) {
+                int32_t q = ls->v[i];
+                const int32_t *T = C->st[q];
+                int same = 0;
+                for (int g = 0; g < 2; g++) {
+                    int m = 0;
+                    for (int a = 0; a < 3; a++)
+                        for (int b = 0; b < 3; b++)
+                            m += T[a] == of[g][b];
+                    if (m == 3) same = 1;
+                }
+                if (!same) continue;
+                double best = INFINITY;
+                for (int g = 0; g < 2; g++)
+                    best = fmin(best, tri_dist2(C->sp[q], pt(C, nf[g][0]), pt(C, nf[g][1]),
+                                                pt(C, nf[g][2])));
+                if (best > C->tol[q] * C->tol[q]) return 0;
+            }
+        }
+    /* apply */
+    for (int f = 0; f < 2; f++)
+        for (int r = 0; r < 3; r++) {
+            const ilist *ls = &C->vs[of[f][r]];
+            for (int32_t i = 0; i < ls->n; i++) {
+                int32_t q = ls->v[i];
+                int32_t *T = C->st[q];
+                int same = 0;
+                for (int g = 0; g < 2; g++) {
+                    int m = 0;
+                    for (int a = 0; a < 3; a++)
+                        for (int b = 0; b < 3; b++)
+                            m += T[a] == of[g][b];
+                    if (m == 3) same = 1;
+                }
+                if (!same) continue;
+                double d0 = tri_dist2(C->sp[q], pt(C, nf[0][0]), pt(C, nf[0][1]), pt(C, nf[0][2]));
+                double d1 = tri_dist2(C->sp[q], pt(C, nf[1][0]), pt(C, nf[1][1]), pt(C, nf[1][2]));
+                memcpy(T, nf[d1 < d0], 3 * sizeof *T);
+                for (int j = 0; j < 3; j++)
+                    if (!push(&C->vs[T[j]], q)) C->nomem = 1;
+            }
+        }
+    for (int k = 0; k < 4; k++)
+        drop(&C->vt[c[k]], t);
+    C->dead_t[t] = 1;
+    C->live--;
+    C->dvol -= v6 / 6;
+    return 1;
+}
+
+/* Repair: each tet beyond 15..150 degrees has its vertices moved where that raises the worst
+ * angle around them: an interior vertex towards the mean of its neighbours, a boundary one
+ * towards the mean of its boundary neighbours and back onto the surface (two Newton steps
+ * along the gradient); then its edges collapsed where that leaves the worst angle better.
+ * [out] tets still beyond. */
+static size_t repair(co *C, plan *P, set *sets, size_t *removed) {
+    size_t left = 0;
+    for (size_t tt = 0; tt < C->nt && !C->nomem; tt++) {
+        int32_t t = (int32_t)tt;
+        if (C->dead_t[t] || (C->qlo[t] >= 15 && C->qhi[t] <= 150)) continue;
+        vm_index c[4];
+        memcpy(c, tet(C, t), sizeof c);
+        for (int k = 0; k < 4 && !C->dead_t[t] && (C->qlo[t] < 15 || C->qhi[t] > 150); k++) {
+            int32_t v = (int32_t)c[k];
+            if (C->fix[v]) continue;
+            const ilist *l = &C->vt[v];
+            double s[3] = {0, 0, 0}, x[3];
+            int n = 0;
+            for (int32_t i = 0; i < l->n; i++) {
+                const vm_index *q = tet(C, l->v[i]);
+                for (int j = 0; j < 4; j++)
+                    if (q[j] != v && (!C->bnd[v] || C->bnd[q[j]])) {
+                        for (int d = 0; d < 3; d++)
+                            s[d] += pt(C, q[j])[d];
+                        n++;
+                    }
+            }
+            if (!n) continue;
+            for (double w = 1.0; w > 0.2; w *= 0.5) {
+                for (int d = 0; d < 3; d++)
+                    x[d] = pt(C, v)[d] + w * (s[d] / n - pt(C, v)[d]);
+                if (C->bnd[v])
+                    for (int it = 0; it < 2; it++) {
+                        double phi, g[3];
+                        if (!phi_grad(C, x, &phi, g)) break;
+                        double g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+                        if (!(g2 > 0)) break;
+                        for (int d = 0; d < 3; d++)
+                            x[d] -= phi * g[d] / g2;
+                    }
+                if (try_move(C, v, x, 1, P)) break;
+            }
+            if (C->bnd[v] || C->dead_t[t] || (C->qlo[t] >= 15 && C->qhi[t] <= 150)) continue;
+            /* an interior corner: away from the face opposite it */
+            const vm_index *q = tet(C, t);
+            int kv = 0;
+            for (int j = 0; j < 4; j++)
+                if (q[j] == (vm_index)v) kv = j;
+            double nn[3], L = 0;
+            face_out(C, q, kv, nn);
+            double nl = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
+            for (int j = 0; j < 4; j++)
+                if (j != kv) L += sqrt(dist2(pt(C, v), pt(C, q[j]))) / 3;
+            if (!(nl > 0)) continue;
+            for (double w = 0.4; w > 0.04; w *= 0.5) {
+                for (int d = 0; d < 3; d++)
+                    x[d] = pt(C, v)[d] - w * L * nn[d] / nl;
+                if (try_move(C, v, x, 1, P)) break;
+            }
+        }
+        if (C->dead_t[t] || (C->qlo[t] >= 15 && C->qhi[t] <= 150)) continue;
+        C->strict = 1;
+        memcpy(c, tet(C, t), sizeof c);
+        int done = 0;
+        for (int i = 0; i < 4 && !done; i++)
+            for (int j = i + 1; j < 4 && !done; j++) {
+                int32_t x = (int32_t)c[i], y = (int32_t)c[j];
+                if (check(C, x, y, &P[0], &sets[0], &sets[1], &sets[2])) {
+                    apply(C, x, y, &P[0]);
+                    done = 1;
+                } else if (check(C, y, x, &P[0], &sets[0], &sets[1], &sets[2])) {
+                    apply(C, y, x, &P[0]);
+                    done = 1;
+                }
+            }
+        C->strict = 0;
+        if (done)
+            ++*removed;
+        else if (!peel(C, t))
+            left++;
+    }
+    return left;
+}
+
 vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double max_edge,
                          size_t target, size_t *removed, vm_error *err) {
     *removed = 0;
@@ -877,64 +1237,73 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     plan *P = malloc(2 * sizeof *P);
     if (!s && (!sets || !P))
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
-    for (int pass = 0; pass < GR_CO_PASSES && !s && !C.nomem; pass++) {
-        /* the live edges, shortest first */
-        size_t ne = 0;
-        free(E);
-        E = malloc(6 * C.live * sizeof *E + 1);
-        if (!E) {
-            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
-            break;
-        }
-        for (size_t t = 0; t < C.nt; t++) {
-            if (C.dead_t[t]) continue;
-            const vm_index *c = tet(&C, (int32_t)t);
-            for (int i = 0; i < 4; i++)
-                for (int j = i + 1; j < 4; j++) {
-                    int32_t x = (int32_t)c[i], y = (int32_t)c[j];
-                    if (x > y) {
-                        int32_t q = x;
-                        x = y;
-                        y = q;
-                    }
-                    /* each edge once: from the tet of the lowest index holding it */
-                    int first = 1;
-                    const ilist *l = &C.vt[x];
-                    for (int32_t k = 0; k < l->n && first; k++) {
-                        int32_t o = l->v[k];
-                        if ((size_t)o >= t) continue;
-                        const vm_index *q = tet(&C, o);
-                        for (int r = 0; r < 4; r++)
-                            if (q[r] == y) first = 0;
-                    }
-                    if (first) E[ne++] = (keyed){dist2(pt(&C, x), pt(&C, y)), x, y};
-                }
-        }
-        qsort(E, ne, sizeof *E, keyed_cmp);
-        size_t before = *removed;
-        for (size_t i = 0; i < ne && !C.nomem; i++) {
-            int32_t x = E[i].a, y = E[i].b;
-            if (C.dead_v[x] || C.dead_v[y]) continue;
-            if (target && C.live <= target) break;
-            /* remove the interior end where there is one, else try x first */
-            if (C.bnd[x] && !C.bnd[y]) {
-                int32_t q = x;
-                x = y;
-                y = q;
+    /* rounds of collapses, then moves (which open room for more collapses) */
+    for (int round = 0; round < GR_CO_ROUNDS && !s && !C.nomem; round++) {
+        size_t r0 = *removed;
+        for (int pass = 0; pass < GR_CO_PASSES && !s && !C.nomem; pass++) {
+            /* the live edges, shortest first */
+            size_t ne = 0;
+            free(E);
+            E = malloc(6 * C.live * sizeof *E + 1);
+            if (!E) {
+                s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+                break;
             }
-            int okx = check(&C, x, y, &P[0], &sets[0], &sets[1], &sets[2]);
-            int oky = C.bnd[x] == C.bnd[y] && check(&C, y, x, &P[1], &sets[0], &sets[1], &sets[2]);
-            if (okx && (!oky || P[0].qmin >= P[1].qmin))
-                apply(&C, x, y, &P[0]);
-            else if (oky)
-                apply(&C, y, x, &P[1]);
-            else
-                continue;
-            ++*removed;
+            for (size_t t = 0; t < C.nt; t++) {
+                if (C.dead_t[t]) continue;
+                const vm_index *c = tet(&C, (int32_t)t);
+                for (int i = 0; i < 4; i++)
+                    for (int j = i + 1; j < 4; j++) {
+                        int32_t x = (int32_t)c[i], y = (int32_t)c[j];
+                        if (x > y) {
+                            int32_t q = x;
+                            x = y;
+                            y = q;
+                        }
+                        /* each edge once: from the tet of the lowest index holding it */
+                        int first = 1;
+                        const ilist *l = &C.vt[x];
+                        for (int32_t k = 0; k < l->n && first; k++) {
+                            int32_t o = l->v[k];
+                            if ((size_t)o >= t) continue;
+                            const vm_index *q = tet(&C, o);
+                            for (int r = 0; r < 4; r++)
+                                if (q[r] == y) first = 0;
+                        }
+                        if (first) E[ne++] = (keyed){dist2(pt(&C, x), pt(&C, y)), x, y};
+                    }
+            }
+            qsort(E, ne, sizeof *E, keyed_cmp);
+            size_t before = *removed;
+            for (size_t i = 0; i < ne && !C.nomem; i++) {
+                int32_t x = E[i].a, y = E[i].b;
+                if (C.dead_v[x] || C.dead_v[y]) continue;
+                if (target && C.live <= target) break;
+                /* remove the interior end where there is one, else try x first */
+                if (C.bnd[x] && !C.bnd[y]) {
+                    int32_t q = x;
+                    x = y;
+                    y = q;
+                }
+                int okx = check(&C, x, y, &P[0], &sets[0], &sets[1], &sets[2]);
+                int oky = C.bnd[x] == C.bnd[y] && check(&C, y, x, &P[1], &sets[0], &sets[1], &sets[2]);
+                if (okx && (!oky || P[0].qmin >= P[1].qmin))
+                    apply(&C, x, y, &P[0]);
+                else if (oky)
+                    apply(&C, y, x, &P[1]);
+                else
+                    continue;
+                ++*removed;
+            }
+            if (target && C.live <= target) break;
+            if ((double)(*removed - before) < 0.005 * (double)C.nv) break;
         }
-        if (target && C.live <= target) break;
-        if ((double)(*removed - before) < 0.005 * (double)C.nv) break;
+        if ((target && C.live <= target) || (round > 0 && *removed == r0)) break;
+        for (int k = 0; k < 2 && !C.nomem; k++)
+            move_sweep(&C, &P[0]);
     }
+    for (int k = 0; k < 3 && !s && !C.nomem; k++)
+        if (!repair(&C, P, sets, removed)) break;
     free(E);
     free(sets);
     free(P);

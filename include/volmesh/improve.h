@@ -135,6 +135,15 @@ void vm_improve_options_default(vm_improve_options *o);
 vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                           vm_improve_report *r, vm_error *err);
 
+/* vm_mesh_improve for a mesh of the graded mesher (vm_mesh_options.graded): a first pass that
+ * neither contracts edges nor slides surface vertices over 0.2 voxel (the mesher's boundary
+ * already meets the distance bound both ways, which the pass's surface moves would loosen),
+ * then, only if tets are still below the targets, a second pass with o. r sums both (its
+ * *_before figures are the input's). Arguments and errors as vm_mesh_improve; v must be
+ * given for the bound to mean anything. */
+vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
+                                 vm_improve_report *r, vm_error *err);
+
 /* vm_mesh_improve with the volume read by planes instead of held whole (for meshes made by
  * slabs, vm_mesh_volume_slabs): info gives the dims and geometry (its data is not used and
  * may be NULL). By parts or the local pass (o->parts != 1), each part or job reads from
