@@ -46,9 +46,31 @@ static int kpush(kset *s, key3 k) {
     return 1;
 }
 
+/* Sorts n keys: by insertion up to a few dozen (a link's sets are that small, and qsort's
+ * calls through a pointer cost more there), else qsort. The same order either way (equal
+ * keys are equal values). */
+static void ksort(key3 *e, size_t n) {
+    if (n > 48) {
+        qsort(e, n, sizeof *e, key3_cmp);
+        return;
+    }
+    for (size_t i = 1; i < n; i++) {
+        key3 x = e[i];
+        size_t j = i;
+        while (j > 0 && (e[j - 1].k[0] > x.k[0] ||
+                         (e[j - 1].k[0] == x.k[0] &&
+                          (e[j - 1].k[1] > x.k[1] ||
+                           (e[j - 1].k[1] == x.k[1] && e[j - 1].k[2] > x.k[2]))))) {
+            e[j] = e[j - 1];
+            j--;
+        }
+        e[j] = x;
+    }
+}
+
 static void kunique(kset *s) {
     if (s->n == 0) return;
-    qsort(s->e, s->n, sizeof *s->e, key3_cmp);
+    ksort(s->e, s->n);
     size_t m = 1;
     for (size_t i = 1; i < s->n; i++)
         if (key3_cmp(&s->e[i], &s->e[m - 1]) != 0) s->e[m++] = s->e[i];
@@ -105,7 +127,7 @@ static int vlink_tet(vlink *l, kset *all, const vm_index n[4], vm_index a) {
 /* Closes a link whose tets are in: link edges seen once bound it (the faces a-c-d there are
  * boundary faces), and they join the vertex at infinity. Frees all. */
 static int vlink_close(vlink *l, kset *all) {
-    if (all->n) qsort(all->e, all->n, sizeof *all->e, key3_cmp);
+    if (all->n) ksort(all->e, all->n);
     for (size_t i = 0; i < all->n;) {
         size_t j = i + 1;
         while (j < all->n && key3_cmp(&all->e[j], &all->e[i]) == 0) j++;
@@ -494,10 +516,15 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     /* Surface edges may also meet at their midpoint put back on the isosurface. */
     int smid = !lka && !lkb && w->v && w->cls[a] == VM__IMP_SURF && w->cls[b] == VM__IMP_SURF &&
                w->iso_hi[a] == w->iso_hi[b];
+    /* The options above the old worst, each with its worst quality; then the guard, which
+     * costs most, from the best down (ties: the lower option) until one passes: the option
+     * of highest quality among those that pass every test. */
+    double cq[4], cx[4][3];
+    int cand[4], nc = 0;
     for (int opt = 0; opt < 4; opt++) {
-        double x[3];
-        if (opt == 0 && keep_a) memcpy(x, pa, sizeof x);
-        else if (opt == 1 && keep_b) memcpy(x, pb, sizeof x);
+        double *x = cx[opt];
+        if (opt == 0 && keep_a) memcpy(x, pa, 3 * sizeof *x);
+        else if (opt == 1 && keep_b) memcpy(x, pb, 3 * sizeof *x);
         else if (opt == 2 && mid)
             for (int k = 0; k < 3; k++) x[k] = 0.5 * (pa[k] + pb[k]);
         else if (opt == 3 && smid) {
@@ -509,8 +536,7 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
             continue;
         if (opt != 0 && w->cls[a] != VM__IMP_INTERIOR && !boundary_keeps_normals(w, a, b, x))
             continue;
-        /* the link condition holds or not whatever the position: before the guard, which
-         * costs more */
+        /* the link condition holds or not whatever the position */
         if (link < 0) {
             vlink la, lb;
             memset(&la, 0, sizeof la);
@@ -521,11 +547,19 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
             if (link < 0) w->nomem = 1;
             if (link <= 0) return 0;
         }
-        if (!contract_guard_ok(w, a, b, opt == 1 ? b : a, opt == 1 ? a : b, x)) continue;
-        best = merged_min(w, a, b, x, -INFINITY);
-        vm__imp_bar_set(w, best, &bar);
+        cq[opt] = merged_min(w, a, b, x, -INFINITY);
+        int j = nc++;
+        while (j > 0 && cq[cand[j - 1]] < cq[opt]) {
+            cand[j] = cand[j - 1];
+            j--;
+        }
+        cand[j] = opt;
+    }
+    for (int i = 0; i < nc && choice < 0; i++) {
+        int opt = cand[i];
+        if (!contract_guard_ok(w, a, b, opt == 1 ? b : a, opt == 1 ? a : b, cx[opt])) continue;
         choice = opt;
-        memcpy(bx, x, sizeof bx);
+        memcpy(bx, cx[opt], sizeof bx);
     }
     if (choice < 0) return 0;
     /* Apply: keep = survivor, gone = removed vertex. */
