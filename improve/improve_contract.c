@@ -221,7 +221,8 @@ done:
 static int link_ok(const vm__imp *w, vm_index a, vm_index b, vlink *la, vlink *lb) {
     if (!vlink_build(w, a, la) || !vlink_build(w, b, lb)) return -1;
     const vm__imp_star *s = &w->star[a];
-    int64_t(*o)[2] = malloc(((size_t)s->n + 1) * sizeof *o);
+    int64_t ob[32][2]; /* the tets around an edge: a few, on the heap past 32 */
+    int64_t(*o)[2] = s->n <= 32 ? ob : malloc(((size_t)s->n + 1) * sizeof *o);
     if (!o) return -1;
     size_t nab = 0;
     for (int32_t i = 0; i < s->n; i++) {
@@ -233,7 +234,7 @@ static int link_ok(const vm__imp *w, vm_index a, vm_index b, vlink *la, vlink *l
         nab++;
     }
     int ok = link_holds(la, lb, b, (const int64_t(*)[2])o, nab);
-    free(o);
+    if (o != ob) free(o);
     return ok;
 }
 
