@@ -455,6 +455,17 @@ static int local_scan(const lpass *P, job *J, ljob *X, scratch *W) {
                 for (size_t j = 0; j < n0 + G->more[ci].n && ok; j++) {
                     uint32_t t = j < n0 ? base[j] : G->more[ci].a[j - n0];
                     if (t >= S->nt || sm[t] || !slot_live(S, t)) continue;
+                    /* known to have no boundary face: left out whatever its box (below) */
+                    uint8_t bf;
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic read
+#endif
+                    bf = P->bflag[t];
+                    if (bf == BF_NO) {
+                        sm[t] = M_NO;
+                        ok = sl_push(&W->no, t);
+                        continue;
+                    }
                     double a[3], b[3];
                     vm__imp_slot_box(S, t, a, b);
                     int hit = !(a[0] > hi[0] || a[1] > hi[1] || a[2] > hi[2] || b[0] < lo[0] ||
