@@ -1125,8 +1125,36 @@ static vm_status choose_labels(lrun *R, vm_error *err) {
     return VM_OK;
 }
 
-/* Reads the per-label sizes into R->lsize (-1 where none is given); *hmin: the smallest
- * size, the cell size when it is smaller. */
+/* The world diagonal of one voxel: a cell of s voxels has the diagonal s times this. */
+static double voxel_diagonal(const vm_volume *v) {
+    const double *sp = v->spacing;
+    return sqrt(sp[0] * sp[0] + sp[1] * sp[1] + sp[2] * sp[2]);
+}
+
+/* Sets the size of label (voxels) in R->lsize, refusing a label not meshed and a second
+ * size; what: the option that gave it, for the messages. */
+static vm_status set_size(lrun *R, int32_t label, double size, const char *what,
+                          vm_error *err) {
+    long f = find_label(R->chosen, R->K, label);
+    if (f < 0) {
+        char list[300];
+        format_labels(&R->present, list, sizeof list);
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: %s names label %ld, which is not meshed (not in the volume "
+                            "or not chosen; labels present: %s)",
+                            what, (long)label, list);
+    }
+    if (R->lsize[f + 1] > 0)
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: label %ld has two sizes (--size-per-label and --label-edge "
+                            "give one between them)",
+                            (long)label);
+    R->lsize[f + 1] = size;
+    return VM_OK;
+}
+
+/* Reads the per-label sizes and edges into R->lsize (-1 where none is given); *hmin: the
+ * smallest size, the cell size when it is smaller. */
 static vm_status read_sizes(lrun *R, double *hmin, vm_error *err) {
     const vm_label_options *o = R->o;
     for (size_t c = 0; c <= R->K; c++)
@@ -1134,21 +1162,31 @@ static vm_status read_sizes(lrun *R, double *hmin, vm_error *err) {
     *hmin = o->cell_size;
     for (size_t i = 0; i < o->nsizes; i++) {
         const vm_label_size *ls = &o->sizes[i];
-        long f = find_label(R->chosen, R->K, ls->label);
-        if (f < 0)
-            return vm_error_set(err, VM_ERR_ARG,
-                                "mesh: a size is given for label %ld, which is not meshed (not "
-                                "in the volume or not chosen)",
-                                (long)ls->label);
-        if (!(ls->size > 0) || !isfinite(ls->size) || ls->size > MAX_CELL_SIZE)
+        if (find_label(R->chosen, R->K, ls->label) >= 0 &&
+            (!(ls->size > 0) || !isfinite(ls->size) || ls->size > MAX_CELL_SIZE))
             return vm_error_set(err, VM_ERR_ARG,
                                 "mesh: size %g of label %ld is not in (0, 1024]", ls->size,
                                 (long)ls->label);
-        if (R->lsize[f + 1] > 0)
-            return vm_error_set(err, VM_ERR_ARG, "mesh: label %ld has two sizes",
-                                (long)ls->label);
-        R->lsize[f + 1] = ls->size;
+        vm_status st = set_size(R, ls->label, ls->size, "a size (--size-per-label)", err);
+        if (st) return st;
         if (ls->size < *hmin) *hmin = ls->size;
+    }
+    double d = voxel_diagonal(R->v);
+    for (size_t i = 0; i < o->nedges; i++) {
+        const vm_label_edge *le = &o->edges[i];
+        if (!(le->edge > 0) || !isfinite(le->edge))
+            return vm_error_set(err, VM_ERR_ARG,
+                                "mesh: --label-edge %g of label %ld is not a length > 0",
+                                le->edge, (long)le->label);
+        double size = fmin(le->edge / d, (double)MAX_CELL_SIZE);
+        if (size * MAX_REFINE < 1 - ratio_eps)
+            return vm_error_set(err, VM_ERR_ARG,
+                                "mesh: --label-edge %g of label %ld is below 1/8 of the voxel "
+                                "diagonal (%g): cells that fine are not supported",
+                                le->edge, (long)le->label, d);
+        vm_status st = set_size(R, le->label, size, "an edge (--label-edge)", err);
+        if (st) return st;
+        if (size < *hmin) *hmin = size;
     }
     return VM_OK;
 }
@@ -1163,6 +1201,16 @@ static vm_status label_sizes(lrun *R, vm_error *err) {
     if (o->nsizes && !o->sizes)
         return vm_error_set(err, VM_ERR_ARG, "mesh: %zu label sizes given without a list",
                             o->nsizes);
+    if (o->nedges && !o->edges)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: %zu label edges given without a list",
+                            o->nedges);
+    if (!(o->max_edge >= 0) || !isfinite(o->max_edge))
+        return vm_error_set(err, VM_ERR_ARG, "mesh: --max-edge %g is not a length > 0",
+                            o->max_edge);
+    if (o->max_edge > 0 && o->adaptive)
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: give adaptive (--adaptive) or max_edge (--max-edge), not "
+                            "both");
     R->lsize = malloc((R->K + 1) * sizeof *R->lsize);
     R->lmax = calloc(R->K + 1, sizeof *R->lmax);
     if (!R->lsize || !R->lmax) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
@@ -1186,7 +1234,9 @@ static vm_status label_sizes(lrun *R, vm_error *err) {
     R->U = U;
     R->h = h;
     for (size_t c = 1; c <= R->K; c++) {
-        if (R->lsize[c] < 0)
+        if (R->lsize[c] < 0 && o->max_edge > 0) /* never finer than the grid */
+            R->lsize[c] = fmax(fmin(o->max_edge / voxel_diagonal(R->v), MAX_CELL_SIZE), h);
+        else if (R->lsize[c] < 0)
             R->lsize[c] = o->adaptive ? h * (double)(1 << o->max_level) : (double)o->cell_size;
         int l = (int)floor(log2(R->lsize[c] / h) + ratio_eps);
         R->lmax[c] = l < 0 ? 0 : l > MAX_LEVEL ? MAX_LEVEL : l;

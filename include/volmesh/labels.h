@@ -30,6 +30,12 @@ typedef struct vm_label_size {
     double size; /* voxels; > 0 */
 } vm_label_size;
 
+/* A largest edge for one label, in world units (--label-edge 3=0.8,7=4). */
+typedef struct vm_label_edge {
+    int32_t label;
+    double edge; /* world units (those of the volume's spacing, e.g. mm); > 0 */
+} vm_label_edge;
+
 typedef struct vm_label_options {
     const int32_t *labels;  /* labels to mesh (not owned); NULL: every non-zero label present */
     size_t nlabels;         /* entries of labels (0 with labels NULL) */
@@ -51,6 +57,18 @@ typedef struct vm_label_options {
      * (tets only); max_level 1..10, default 4. */
     int adaptive;
     int max_level;
+    /* Sizes in world units. A label of edge L gets the per-label size L / d voxels, where d
+     * is the world diagonal of one voxel (|spacing|): its interior leaves are the largest
+     * whose diagonal is at most L, so no edge of their tets is longer than L, and L below d
+     * refines the grid as a size below 1 does (down to d / 8). Its cells along interfaces
+     * and the boundary have the finest size h of all labels, with the smoothed vertices of
+     * the label mesh. edges: not owned; labels must be chosen, each at most once, and not
+     * in sizes too. max_edge > 0: every label without a size or an edge of its own gets
+     * interior leaves of diagonal at most max_edge (never finer than h; goes instead of
+     * adaptive, which must then be 0). */
+    const vm_label_edge *edges;
+    size_t nedges;
+    double max_edge;
     vm_progress_fn progress;
     void *progress_user;
 } vm_label_options;
