@@ -1167,7 +1167,7 @@ static vm_status read_sizes(lrun *R, double *hmin, vm_error *err) {
             return vm_error_set(err, VM_ERR_ARG,
                                 "mesh: size %g of label %ld is not in (0, 1024]", ls->size,
                                 (long)ls->label);
-        vm_status st = set_size(R, ls->label, ls->size, "a size (--size-per-label)", err);
+        vm_status st = set_size(R, ls->label, ls->size, "--size-per-label", err);
         if (st) return st;
         if (ls->size < *hmin) *hmin = ls->size;
     }
@@ -1184,7 +1184,7 @@ static vm_status read_sizes(lrun *R, double *hmin, vm_error *err) {
                                 "mesh: --label-edge %g of label %ld is below 1/8 of the voxel "
                                 "diagonal (%g): cells that fine are not supported",
                                 le->edge, (long)le->label, d);
-        vm_status st = set_size(R, le->label, size, "an edge (--label-edge)", err);
+        vm_status st = set_size(R, le->label, size, "--label-edge", err);
         if (st) return st;
         if (size < *hmin) *hmin = size;
     }
