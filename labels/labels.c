@@ -1147,7 +1147,7 @@ static vm_status set_size(lrun *R, int32_t label, double size, const char *what,
     if (R->lsize[f + 1] > 0)
         return vm_error_set(err, VM_ERR_ARG,
                             "mesh: label %ld has two sizes (--size-per-label and --label-edge "
-                            "give one between them)",
+                            "may name a label once between them)",
                             (long)label);
     R->lsize[f + 1] = size;
     return VM_OK;

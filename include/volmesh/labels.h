@@ -78,7 +78,8 @@ typedef struct vm_label_info {
     int32_t label;
     size_t input_voxels;   /* voxels of the label in the volume */
     size_t meshed_voxels;  /* cells of size h meshed as this label after islands, topology */
-    double size;           /* the cell size asked for this label (voxels) */
+    double size;           /* the cell size asked for this label (voxels; from an edge L:
+                              L / the voxel's world diagonal) */
     size_t elements;       /* cells of the mesh with region == label; 0: the label was lost
                               (--min-island, or the topology repair took its last cells) */
     double voxel_volume;   /* meshed_voxels * h^3 * voxel volume */
