@@ -641,14 +641,43 @@ static vm_status build_hexes(lmesh *lm, int smooth, vm_error *err) {
 
 /* ---- per-label sizes: an octree of interior leaves ---------------------------------- */
 
+/* 1 when the vertex of dual cell a (the point between padded cells a .. a + 1) stays at its
+ * lattice point: its eight cells hold one code, smooth is 0, or the mean of its
+ * label-change edge midpoints is the point itself (a flat interface or boundary there). */
+static int dual_fixed(const lgrid *g, const size_t a[3], int smooth) {
+    if (!smooth) return 1;
+    double t[3];
+    smooth_target(g, a, t);
+    return t[0] == (double)a[0] - 0.5 && t[1] == (double)a[1] - 0.5 &&
+           t[2] == (double)a[2] - 0.5;
+}
+
+/* 1 when padded cell (i, j, k) of code x may join a leaf: every point of the cell (its eight
+ * corners, so its faces and edges) is a dual vertex at its lattice point, never moved by the
+ * smoothing. Inside a label that is every cell whose 26 neighbours hold x; on a flat part of
+ * an interface or of the boundary it is true as well, so leaves reach flat faces. */
+static int leaf_safe(const lgrid *g, int64_t i, int64_t j, int64_t k, uint16_t x, int smooth) {
+    int same = 1;
+    for (int d = 0; d < 27 && same; d++)
+        same = g->code[gidx(g, i + d % 3 - 1, j + (d / 3) % 3 - 1, k + d / 9 - 1)] == x;
+    if (same) return 1;
+    for (int q = 0; q < 8; q++) {
+        size_t a[3] = {(size_t)(i - 1 + (q & 1)), (size_t)(j - 1 + ((q >> 1) & 1)),
+                       (size_t)(k - 1 + (q >> 2))};
+        if (!dual_fixed(g, a, smooth)) return 0;
+    }
+    return 1;
+}
+
 /* Level of the leaf of every padded cell: -1 background, 0 a cell of size h, l > 0 a leaf of
- * 2^l cells per axis. A cell may join a leaf only when it and its 26 neighbours hold its label
- * and lmax of the label allows, so every point of a leaf, on its faces too, is a dual vertex
- * away from the smoothed interfaces (at its lattice position). Leaves are aligned and grown
- * bottom-up, then split until leaves touching at a face, edge or corner differ by at most one
- * level (2:1). [out] *out (free it), *nleaves: leaves of level > 0. */
-static vm_status build_leaves(const lgrid *g, const int *lmax, int8_t **out, size_t *nleaves,
-                              vm_error *err) {
+ * 2^l cells per axis. A cell may join a leaf only when lmax of its label allows and every
+ * point of it is a dual vertex at its lattice position (leaf_safe: inside its label, or on a
+ * flat face of it), never moved by the interface smoothing, so that a leaf is an exact cube.
+ * Leaves are aligned and grown bottom-up, then split until cells touching at a face, edge or
+ * corner, of any label, differ by at most one level (2:1). [out] *out (free it), *nleaves:
+ * leaves of level > 0. */
+static vm_status build_leaves(const lgrid *g, const int *lmax, int smooth, int8_t **out,
+                              size_t *nleaves, vm_error *err) {
     const int64_t *m = g->m;
     size_t total = (size_t)(m[0] * m[1] * m[2]);
     int64_t c[3] = {m[0] - 2, m[1] - 2, m[2] - 2};
@@ -670,10 +699,7 @@ static vm_status build_leaves(const lgrid *g, const int *lmax, int8_t **out, siz
                 size_t p = gidx(g, i, j, k);
                 uint16_t x = g->code[p];
                 if (!x || lmax[x] < 1) continue;
-                int ok = 1;
-                for (int d = 0; d < 27 && ok; d++)
-                    ok = g->code[gidx(g, i + d % 3 - 1, j + (d / 3) % 3 - 1, k + d / 9 - 1)] == x;
-                safe[p] = (uint8_t)ok;
+                safe[p] = (uint8_t)leaf_safe(g, i, j, k, x, smooth);
             }
     for (int l = 1; l <= maxl; l++) {
         int64_t sz = (int64_t)1 << l;
@@ -1274,7 +1300,7 @@ static vm_status stage_grid(lrun *R, vm_error *err) {
 static vm_status stage_repair(lrun *R, vm_error *err) {
     vm_status st = make_ranks(&R->g, err);
     if (!st) st = make_well_composed(&R->g, &R->topo, err);
-    if (!st && R->coarse) st = build_leaves(&R->g, R->lmax, &R->lvl, &R->nleaves, err);
+    if (!st && R->coarse) st = build_leaves(&R->g, R->lmax, R->o->smooth, &R->lvl, &R->nleaves, err);
     return st;
 }
 
