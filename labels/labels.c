@@ -554,6 +554,7 @@ typedef struct lmesh {
     uint16_t *hcode;     /* per hex */
     size_t nh, hcap, ccap; /* capacities of hex (ids), hcode */
     const int8_t *lvl;   /* per padded cell: octree level (see build_leaves); NULL: all 0 */
+    int64_t sh[3];       /* the octree's origin (choose_shift) */
     int32_t *ct;         /* 4 vertex ids per tet of a coarse leaf */
     uint16_t *ctcode;    /* per coarse tet */
     size_t nct, ctcap, ctccap;
@@ -669,6 +670,54 @@ static int leaf_safe(const lgrid *g, int64_t i, int64_t j, int64_t k, uint16_t x
     return 1;
 }
 
+/* Trailing zero bits of x, at most cap (cap for 0). */
+static int low_zeros(int64_t x, int cap) {
+    int n = 0;
+    while (n < cap && x % 2 == 0) {
+        x /= 2;
+        n++;
+    }
+    return n;
+}
+
+/* The octree's origin along each axis: leaves of size sz start at padded cells o with
+ * (o - 1 + sh) % sz == 0. Chosen per axis among 0 .. 2^maxl - 1 so that the planes where a
+ * coarse label meets anything else lie on the boundaries of the largest blocks (each such
+ * face counts the levels whose blocks it bounds); ties keep 0. */
+static vm_status choose_shift(const lgrid *g, const int *lmax, int maxl, int64_t sh[3],
+                              vm_error *err) {
+    const int64_t *m = g->m;
+    int64_t step[3] = {1, m[0], m[0] * m[1]};
+    for (int a = 0; a < 3; a++) {
+        sh[a] = 0;
+        size_t *hist = calloc((size_t)m[a], sizeof *hist);
+        if (!hist) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the label octree");
+        size_t total = (size_t)(m[0] * m[1] * m[2]);
+        for (size_t p = 0; p + (size_t)step[a] < total; p++) {
+            uint16_t x = g->code[p], y = g->code[p + (size_t)step[a]];
+            if (x == y || (lmax[x] < 1 && lmax[y] < 1)) continue;
+            hist[(p / (size_t)step[a]) % (size_t)m[a]]++; /* the plane after this cell */
+        }
+        uint64_t best = 0;
+        for (int64_t t = 0; t < ((int64_t)1 << maxl); t++) {
+            uint64_t score = 0;
+            for (int64_t i = 0; i < m[a]; i++)
+                score += (uint64_t)hist[i] * (uint64_t)low_zeros(i + t, maxl);
+            if (score > best) {
+                best = score;
+                sh[a] = t;
+            }
+        }
+        free(hist);
+    }
+    return VM_OK;
+}
+
+/* The first padded cell at or after 1 where a leaf of size sz may start (see choose_shift). */
+static int64_t first_start(int64_t sz, int64_t sh) {
+    return 1 + (sz - sh % sz) % sz;
+}
+
 /* Level of the leaf of every padded cell: -1 background, 0 a cell of size h, l > 0 a leaf of
  * 2^l cells per axis. A cell may join a leaf only when lmax of its label allows and every
  * point of it is a dual vertex at its lattice position (leaf_safe: inside its label, or on a
@@ -676,14 +725,16 @@ static int leaf_safe(const lgrid *g, int64_t i, int64_t j, int64_t k, uint16_t x
  * Leaves are aligned and grown bottom-up, then split until cells touching at a face, edge or
  * corner, of any label, differ by at most one level (2:1). [out] *out (free it), *nleaves:
  * leaves of level > 0. */
-static vm_status build_leaves(const lgrid *g, const int *lmax, int smooth, int8_t **out,
-                              size_t *nleaves, vm_error *err) {
+static vm_status build_leaves(const lgrid *g, const int *lmax, int smooth, int64_t sh[3],
+                              int8_t **out, size_t *nleaves, vm_error *err) {
     const int64_t *m = g->m;
     size_t total = (size_t)(m[0] * m[1] * m[2]);
     int64_t c[3] = {m[0] - 2, m[1] - 2, m[2] - 2};
     int maxl = 0;
     for (int q = 1; q <= g->K; q++)
         if (lmax[q] > maxl) maxl = lmax[q];
+    vm_status st = choose_shift(g, lmax, maxl, sh, err);
+    if (st) return st;
     int8_t *lv = malloc(total);
     uint8_t *safe = calloc(total, 1);
     if (!lv || !safe) {
@@ -703,10 +754,10 @@ static vm_status build_leaves(const lgrid *g, const int *lmax, int smooth, int8_
             }
     for (int l = 1; l <= maxl; l++) {
         int64_t sz = (int64_t)1 << l;
-        for (int64_t bz = 0; (bz + 1) * sz <= c[2]; bz++)
-            for (int64_t by = 0; (by + 1) * sz <= c[1]; by++)
-                for (int64_t bx = 0; (bx + 1) * sz <= c[0]; bx++) {
-                    int64_t o[3] = {bx * sz + 1, by * sz + 1, bz * sz + 1};
+        for (int64_t oz = first_start(sz, sh[2]); oz + sz - 1 <= c[2]; oz += sz)
+            for (int64_t oy = first_start(sz, sh[1]); oy + sz - 1 <= c[1]; oy += sz)
+                for (int64_t ox = first_start(sz, sh[0]); ox + sz - 1 <= c[0]; ox += sz) {
+                    int64_t o[3] = {ox, oy, oz};
                     uint16_t x = g->code[gidx(g, o[0], o[1], o[2])];
                     if (!x || lmax[x] < l) continue;
                     int ok = 1;
@@ -732,7 +783,9 @@ static vm_status build_leaves(const lgrid *g, const int *lmax, int smooth, int8_
                 for (int64_t i = 1; i <= c[0]; i++) {
                     int l = lv[gidx(g, i, j, k)];
                     int64_t sz = (int64_t)1 << (l > 0 ? l : 0);
-                    if (l < 2 || (i - 1) % sz || (j - 1) % sz || (k - 1) % sz) continue;
+                    if (l < 2 || (i - 1 + sh[0]) % sz || (j - 1 + sh[1]) % sz ||
+                        (k - 1 + sh[2]) % sz)
+                        continue;
                     int split = 0;
                     for (int64_t z = -1; z <= sz && !split; z++)
                         for (int64_t y = -1; y <= sz && !split; y++)
@@ -757,7 +810,8 @@ static vm_status build_leaves(const lgrid *g, const int *lmax, int smooth, int8_
             for (int64_t i = 1; i <= c[0]; i++) {
                 int l = lv[gidx(g, i, j, k)];
                 int64_t sz = (int64_t)1 << (l > 0 ? l : 0);
-                if (l > 0 && (i - 1) % sz == 0 && (j - 1) % sz == 0 && (k - 1) % sz == 0)
+                if (l > 0 && (i - 1 + sh[0]) % sz == 0 && (j - 1 + sh[1]) % sz == 0 &&
+                    (k - 1 + sh[2]) % sz == 0)
                     (*nleaves)++;
             }
     *out = lv;
@@ -777,8 +831,8 @@ static int is_leaf_corner(const lmesh *lm, const int64_t p[3]) {
         int64_t sz = (int64_t)1 << l;
         int corner = 1;
         for (int a = 0; a < 3 && corner; a++) {
-            int64_t u = cc[a] - 1, o = u - u % sz;
-            corner = p[a] == o || p[a] == o + sz;
+            int64_t u = cc[a] - 1 + lm->sh[a], o = u - u % sz;
+            corner = p[a] + lm->sh[a] == o || p[a] + lm->sh[a] == o + sz;
         }
         if (corner) return 1;
     }
@@ -883,7 +937,9 @@ static vm_status build_leaf_tets(lmesh *lm, vm_error *err) {
                 int l = lm->lvl[gidx(g, i, j, k)];
                 if (l <= 0) continue;
                 int64_t sz = (int64_t)1 << l, o[3] = {i - 1, j - 1, k - 1};
-                if (o[0] % sz || o[1] % sz || o[2] % sz) continue;
+                if ((o[0] + lm->sh[0]) % sz || (o[1] + lm->sh[1]) % sz ||
+                    (o[2] + lm->sh[2]) % sz)
+                    continue;
                 int64_t cpos[3] = {o[0] + sz / 2, o[1] + sz / 2, o[2] + sz / 2};
                 vm_status st = VM_OK;
                 uint16_t code = g->code[gidx(g, i, j, k)];
@@ -1067,6 +1123,7 @@ typedef struct lrun {
     double h;         /* the finest cell size, in voxels */
     lgrid g;
     int8_t *lvl; /* octree levels (build_leaves); NULL when nothing is coarser */
+    int64_t sh[3]; /* the octree's origin (choose_shift) */
     lmesh lm;
     uint8_t *rescued;            /* per code: given a block by rescue_labels */
     size_t *isl_pieces, *isl_cells; /* per code: what --min-island relabelled */
@@ -1300,7 +1357,7 @@ static vm_status stage_grid(lrun *R, vm_error *err) {
 static vm_status stage_repair(lrun *R, vm_error *err) {
     vm_status st = make_ranks(&R->g, err);
     if (!st) st = make_well_composed(&R->g, &R->topo, err);
-    if (!st && R->coarse) st = build_leaves(&R->g, R->lmax, R->o->smooth, &R->lvl, &R->nleaves, err);
+    if (!st && R->coarse) st = build_leaves(&R->g, R->lmax, R->o->smooth, R->sh, &R->lvl, &R->nleaves, err);
     return st;
 }
 
@@ -1311,6 +1368,7 @@ static vm_status build_elements(lrun *R, vm_error *err) {
     lm->g = &R->g;
     kuhn_table(lm->kuhn);
     lm->lvl = R->lvl;
+    memcpy(lm->sh, R->sh, sizeof lm->sh);
     for (int d = 0; d < 3; d++)
         lm->scale[d] = R->h * R->v->spacing[d];
     vm_status st = build_hexes(lm, R->o->smooth, err);
