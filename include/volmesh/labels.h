@@ -49,8 +49,9 @@ typedef struct vm_label_options {
     /* Per-label sizes (not owned; labels must be chosen, each at most once). The grid is
      * built at the finest size h asked for (cell_size and every size here: h < 1 is rounded
      * to 1/n, refining every voxel into n^3 cells by nearest upsampling); a label of size S
-     * gets cells of h * 2^floor(log2(S / h)) in its interior, one fine layer along its
-     * interfaces, 2:1 balanced and conforming (tets only). */
+     * gets cells of h * 2^floor(log2(S / h)) in its interior and on the flat parts of its
+     * faces, one fine layer along curved interfaces and boundaries and their edges, 2:1
+     * balanced and conforming (tets only). */
     const vm_label_size *sizes;
     size_t nsizes;
     /* 1: every label without a size of its own gets interior cells up to 2^max_level * h

@@ -48,7 +48,7 @@ if [ "$rc1" -eq 0 ] && [ "$rc2" -eq 0 ]; then
     ra=$(echo "$a" | json "(lambda x: x[0] / x[1])($dens)")
     rb=$(echo "$b" | json "(lambda x: x[1] / x[0])($dens)")
     echo "density ratios: $ra, swapped $rb"
-    /usr/bin/python3 -c "import sys; sys.exit(0 if $ra >= 2 and $rb >= 2 else 1)" && ok ||
+    /usr/bin/python3 -c "import sys; sys.exit(0 if $ra >= 4 and $rb >= 4 else 1)" && ok ||
         bad "density ratios $ra $rb"
     # the sizes (voxels) reported per label are the edges over the voxel diagonal
     s=$(echo "$a" | json '[round(l["size"] * 1.887, 1) for l in d["labels"]]')

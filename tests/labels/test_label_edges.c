@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/labels/test_label_edges.c — largest edges per label in world units (--label-edge):
  * on two face-sharing blocks, the label given the short edge gets at least 8x the tets per
- * unit volume of the other, and swapping the edges swaps the densities; the mesh stays
+ * unit volume of the other (48^3 blocks; 5x for 32^3), and swapping the edges swaps the
+ * densities; the mesh stays
  * valid and conforming with each label a closed manifold, coarse tets keep their edges
  * within the label's bound, and bad edges are refused with one line. */
 #include <stdlib.h>
@@ -156,10 +157,13 @@ static void labelEdgesSetEachLabelsDensityBothWays(void) {
         int n[3];
         double sp[3];
         int margin;
-    } cases[] = {{{66, 34, 34}, {1, 1, 1}, 1},
-                 {{66, 34, 34}, {0.5, 0.5, 1.25}, 1},
-                 {{64, 32, 32}, {1, 1, 1}, 0}};
+        double want; /* the least density ratio over whole labels */
+    } cases[] = {{{66, 34, 34}, {1, 1, 1}, 1, 5},
+                 {{66, 34, 34}, {0.5, 0.5, 1.25}, 1, 5},
+                 {{64, 32, 32}, {1, 1, 1}, 0, 5},
+                 {{98, 50, 50}, {1, 1, 1}, 1, 8}};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        if (cases[c].n[0] > 66 && getenv("VM_SANITIZED")) continue; /* heavy there */
         vm_volume v;
         two_blocks_in(cases[c].n[0], cases[c].n[1], cases[c].n[2], cases[c].sp,
                       cases[c].margin, &v);
@@ -191,10 +195,11 @@ static void labelEdgesSetEachLabelsDensityBothWays(void) {
         CHECK_MSG(ca[1] >= 8 * ca[2], "case %zu: core density ratio %.2f", c, ca[1] / ca[2]);
         CHECK_MSG(cb[2] >= 8 * cb[1], "case %zu: swapped core density ratio %.2f", c,
                   cb[2] / cb[1]);
-        /* over whole 32^3 blocks, the fine cells along the rounded edges and the 2:1 shells
-         * next to the fine label keep the ratio near 6 (docs/SIZING.md): without leaves on
-         * flat faces, or with the octree's origin not on the faces, it is 2.4 or less */
-        double want = 5;
+        /* over whole blocks, the fine cells along the rounded edges and the 2:1 shells next
+         * to the fine label keep the ratio near 6 for 32^3 and 10.5 for 48^3 (docs/SIZING.md);
+         * without leaves on flat faces, or with the octree's origin off the faces, 32^3 blocks
+         * gave 2.4 or less */
+        double want = cases[c].want;
         CHECK_MSG(da[1] >= want * da[2], "case %zu: density ratio %.2f", c, da[1] / da[2]);
         CHECK_MSG(db[2] >= want * db[1], "case %zu: swapped density ratio %.2f", c,
                   db[2] / db[1]);
