@@ -2,9 +2,8 @@
 /* tests/labels/test_label_edges.c — largest edges per label in world units (--label-edge):
  * on two face-sharing blocks, the label given the short edge gets at least 8x the tets per
  * unit volume of the other (48^3 blocks; 5x for 32^3), and swapping the edges swaps the
- * densities; the mesh stays
- * valid and conforming with each label a closed manifold, coarse tets keep their edges
- * within the label's bound, and bad edges are refused with one line. */
+ * densities; the mesh stays valid and conforming with each label a closed manifold, coarse
+ * tets keep their edges within the label's bound, and bad edges are refused with one line. */
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
