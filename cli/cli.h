@@ -205,6 +205,11 @@ int vm_cli_parse_labels(const char *s, int32_t **labels, size_t *n);
  * prints and returns VM_EXIT_INPUT (malformed list, size not positive). */
 int vm_cli_parse_label_sizes(const char *s, vm_label_size **sizes, size_t *n);
 
+/* --label-edge "3=0.8,7=4" (world units): [out] *edges malloc'd (free it), *n entries.
+ * Returns 0, or prints one line and returns VM_EXIT_INPUT (malformed list, an edge that is
+ * not a length > 0). */
+int vm_cli_parse_label_edges(const char *s, vm_label_edge **edges, size_t *n);
+
 /* Meshes the labels of v, runs the per-material quality pass on tets when improve, writes
  * out (and surface, the HTML report html, when not NULL) and prints the summary with one line
  * per label; in names the input in messages; verbose: stage times on stderr. Exit code. */

@@ -30,6 +30,9 @@ static const char *mesh_help =
     "                          --size) join their most common neighbour (default 1: keep all)\n"
     "  --no-smooth             with --labels: keep the voxel staircase (exact volumes)\n"
     "  --size-per-label L:S,.. with --labels, tets: cells of S voxels inside label L\n"
+    "  --label-edge L=E,..     with --labels, tets: inside label L no edge longer than E\n"
+    "                          (world units; E below the voxel diagonal refines the grid;\n"
+    "                          labels not listed: --max-edge, else --size; docs/SIZING.md)\n"
     "  --size S                cell size in voxels (default 1; S > 1 resamples coarser;\n"
     "                          with --labels: the most frequent label of each S^3 block)\n"
     "  --elements tet|hex|tri|quad\n"
@@ -347,6 +350,7 @@ typedef struct {
     vm_label_options lo;        /* --labels */
     vm_mesh_write_options wo;   /* -o */
     vm_label_size *label_sizes; /* --size-per-label (owned) */
+    vm_label_edge *label_edges; /* --label-edge (owned) */
     int32_t *labels;            /* --labels' list (owned; NULL for all) */
     const char *materials_path; /* --materials */
     const char *size_field_path; /* --size-field */
@@ -365,7 +369,7 @@ static const char *const mesh_valued[] = {
     "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
     "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts",
     "--materials", "--modulus",   "--material-bins", "--max-edge", "--min-edge",
-    "--distance", "--size-field", "--tets", "--grading", "--compress"};
+    "--distance", "--size-field", "--tets", "--grading", "--compress", "--label-edge"};
 
 /* 1 when option a takes a value. */
 static int mesh_takes_value(const char *a) {
@@ -488,6 +492,11 @@ static int labels_option(mesh_args *m, char **argv, int *i, int *taken) {
         if (vm_cli_parse_label_sizes(argv[++*i], &m->label_sizes, &m->lo.nsizes))
             return VM_EXIT_INPUT;
         m->lo.sizes = m->label_sizes;
+    } else if (vm_cli_is(a, "--label-edge", NULL)) {
+        free(m->label_edges);
+        if (vm_cli_parse_label_edges(argv[++*i], &m->label_edges, &m->lo.nedges))
+            return VM_EXIT_INPUT;
+        m->lo.edges = m->label_edges;
     } else if (vm_cli_is(a, "--no-smooth", NULL)) {
         m->lo.smooth = 0;
     } else {
@@ -611,9 +620,10 @@ static int option_conflicts(const mesh_args *m) {
     const vm_mesh_options *o = &m->o;
     if (m->have_labels && m->denoise)
         return vm_cli_fail("mesh: --denoise does not go with --labels");
-    if (!m->have_labels && (m->lo.min_island != 1 || !m->lo.smooth || m->lo.nsizes))
-        return vm_cli_fail(
-            "mesh: --min-island, --no-smooth and --size-per-label go with --labels");
+    if (!m->have_labels &&
+        (m->lo.min_island != 1 || !m->lo.smooth || m->lo.nsizes || m->lo.nedges))
+        return vm_cli_fail("mesh: --min-island, --no-smooth, --size-per-label and --label-edge "
+                           "go with --labels");
     if (m->invert && !m->have_iso) return vm_cli_fail("mesh: --invert goes with --iso");
     if (!m->surface_elements && m->have_method)
         return vm_cli_fail("mesh: --method goes with --elements tri or quad");
@@ -892,18 +902,8 @@ static int mesh_whole(mesh_args *m, mesh_job *j, int *done) {
     *done = m->have_labels || m->surface_elements;
     if (m->have_labels) {
         /* --max-edge L: interior cells whose diagonal is at most L, the label boundaries at
-         * the voxels (so that no label is lost) */
-        if (m->o.max_edge > 0) {
-            double h = fmax(j->v.spacing[0], fmax(j->v.spacing[1], j->v.spacing[2]));
-            int level = 0;
-            while (level < 10 && h * sqrt(3.0) * (double)(2 << level) <= m->o.max_edge)
-                level++;
-            m->lo.adaptive = level >= 1;
-            if (level >= 1) m->lo.max_level = level;
-            if (m->verbose)
-                fprintf(stderr, "volmesh: --max-edge %g: label cells of at most %d voxels\n",
-                        m->o.max_edge, 1 << level);
-        }
+         * the voxels (so that no label is lost); --label-edge: the same per label */
+        m->lo.max_edge = m->o.max_edge;
         rc = vm_cli_mesh_labels(&j->v, m->in.path, m->out, m->surface, &m->lo, &m->wo, m->json,
                                 m->quality_fields, m->report, m->improve, m->verbose);
         vm_volume_free(&j->v);
@@ -1122,6 +1122,7 @@ int vm_cmd_mesh(int argc, char **argv) {
     rc = vm_cli_outputs_end(rc);
     free(m.labels);
     free(m.label_sizes);
+    free(m.label_edges);
     vm_materials_free(m.materials);
     vm_expr_free(m.expr);
     free(m.image_mats);

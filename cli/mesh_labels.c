@@ -93,6 +93,50 @@ bad:
     return vm_cli_fail("--size-per-label: '%s' is not a list of LABEL:SIZE such as 3:0.5,7:2", s);
 }
 
+int vm_cli_parse_label_edges(const char *s, vm_label_edge **edges, size_t *n) {
+    *edges = NULL;
+    *n = 0;
+    size_t cap = 0;
+    const char *p = s;
+    for (;;) {
+        char *end;
+        errno = 0;
+        long l = strtol(p, &end, 10);
+        if (end == p || errno || l < INT32_MIN || l > INT32_MAX || *end != '=') break;
+        const char *q = end + 1;
+        double x = strtod(q, &end);
+        if (end == q || errno || (*end != 0 && *end != ',')) break;
+        if (!(x > 0) || !isfinite(x)) {
+            free(*edges);
+            *edges = NULL;
+            *n = 0;
+            return vm_cli_fail("--label-edge: edge '%.*s' of label %ld is not a length > 0",
+                               (int)(end - q), q, l);
+        }
+        if (*n == cap) {
+            cap = cap ? 2 * cap : 8;
+            vm_label_edge *t = realloc(*edges, cap * sizeof *t);
+            if (!t) {
+                free(*edges);
+                *edges = NULL;
+                *n = 0;
+                return vm_cli_fail("--label-edge: out of memory");
+            }
+            *edges = t;
+        }
+        (*edges)[*n].label = (int32_t)l;
+        (*edges)[(*n)++].edge = x;
+        if (*end == 0) return 0;
+        p = end + 1;
+    }
+    free(*edges);
+    *edges = NULL;
+    *n = 0;
+    return vm_cli_fail("--label-edge: '%s' is not a list of LABEL=L such as 3=0.8,7=4 (L in "
+                       "world units)",
+                       s);
+}
+
 /* The lines that say what was not kept, or kept only coarsely: a label without an element
  * (and why), the pieces --min-island relabelled, a label that --size kept as the one block
  * where it has the most voxels. */

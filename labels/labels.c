@@ -554,6 +554,7 @@ typedef struct lmesh {
     uint16_t *hcode;     /* per hex */
     size_t nh, hcap, ccap; /* capacities of hex (ids), hcode */
     const int8_t *lvl;   /* per padded cell: octree level (see build_leaves); NULL: all 0 */
+    int64_t sh[3];       /* the octree's origin (choose_shift) */
     int32_t *ct;         /* 4 vertex ids per tet of a coarse leaf */
     uint16_t *ctcode;    /* per coarse tet */
     size_t nct, ctcap, ctccap;
@@ -641,20 +642,99 @@ static vm_status build_hexes(lmesh *lm, int smooth, vm_error *err) {
 
 /* ---- per-label sizes: an octree of interior leaves ---------------------------------- */
 
-/* Level of the leaf of every padded cell: -1 background, 0 a cell of size h, l > 0 a leaf of
- * 2^l cells per axis. A cell may join a leaf only when it and its 26 neighbours hold its label
- * and lmax of the label allows, so every point of a leaf, on its faces too, is a dual vertex
- * away from the smoothed interfaces (at its lattice position). Leaves are aligned and grown
- * bottom-up, then split until leaves touching at a face, edge or corner differ by at most one
- * level (2:1). [out] *out (free it), *nleaves: leaves of level > 0. */
-static vm_status build_leaves(const lgrid *g, const int *lmax, int8_t **out, size_t *nleaves,
+/* 1 when the vertex of dual cell a (the point between padded cells a .. a + 1) stays at its
+ * lattice point: its eight cells hold one code, smooth is 0, or the mean of its
+ * label-change edge midpoints is the point itself (a flat interface or boundary there). */
+static int dual_fixed(const lgrid *g, const size_t a[3], int smooth) {
+    if (!smooth) return 1;
+    double t[3];
+    smooth_target(g, a, t);
+    return t[0] == (double)a[0] - 0.5 && t[1] == (double)a[1] - 0.5 &&
+           t[2] == (double)a[2] - 0.5;
+}
+
+/* 1 when padded cell (i, j, k) of code x may join a leaf: every point of the cell (its eight
+ * corners, so its faces and edges) is a dual vertex at its lattice point, never moved by the
+ * smoothing. Inside a label that is every cell whose 26 neighbours hold x; on a flat part of
+ * an interface or of the boundary it is true as well, so leaves reach flat faces. */
+static int leaf_safe(const lgrid *g, int64_t i, int64_t j, int64_t k, uint16_t x, int smooth) {
+    int same = 1;
+    for (int d = 0; d < 27 && same; d++)
+        same = g->code[gidx(g, i + d % 3 - 1, j + (d / 3) % 3 - 1, k + d / 9 - 1)] == x;
+    if (same) return 1;
+    for (int q = 0; q < 8; q++) {
+        size_t a[3] = {(size_t)(i - 1 + (q & 1)), (size_t)(j - 1 + ((q >> 1) & 1)),
+                       (size_t)(k - 1 + (q >> 2))};
+        if (!dual_fixed(g, a, smooth)) return 0;
+    }
+    return 1;
+}
+
+/* Trailing zero bits of x, at most cap (cap for 0). */
+static int low_zeros(int64_t x, int cap) {
+    int n = 0;
+    while (n < cap && x % 2 == 0) {
+        x /= 2;
+        n++;
+    }
+    return n;
+}
+
+/* The octree's origin along each axis: leaves of size sz start at padded cells o with
+ * (o - 1 + sh) % sz == 0. Chosen per axis among 0 .. 2^maxl - 1 so that the planes where a
+ * coarse label meets anything else lie on the boundaries of the largest blocks (each such
+ * face counts the levels whose blocks it bounds); ties keep 0. */
+static vm_status choose_shift(const lgrid *g, const int *lmax, int maxl, int64_t sh[3],
                               vm_error *err) {
+    const int64_t *m = g->m;
+    int64_t step[3] = {1, m[0], m[0] * m[1]};
+    for (int a = 0; a < 3; a++) {
+        sh[a] = 0;
+        size_t *hist = calloc((size_t)m[a], sizeof *hist);
+        if (!hist) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the label octree");
+        size_t total = (size_t)(m[0] * m[1] * m[2]);
+        for (size_t p = 0; p + (size_t)step[a] < total; p++) {
+            uint16_t x = g->code[p], y = g->code[p + (size_t)step[a]];
+            if (x == y || (lmax[x] < 1 && lmax[y] < 1)) continue;
+            hist[(p / (size_t)step[a]) % (size_t)m[a]]++; /* the plane after this cell */
+        }
+        uint64_t best = 0;
+        for (int64_t t = 0; t < ((int64_t)1 << maxl); t++) {
+            uint64_t score = 0;
+            for (int64_t i = 0; i < m[a]; i++)
+                score += (uint64_t)hist[i] * (uint64_t)low_zeros(i + t, maxl);
+            if (score > best) {
+                best = score;
+                sh[a] = t;
+            }
+        }
+        free(hist);
+    }
+    return VM_OK;
+}
+
+/* The first padded cell at or after 1 where a leaf of size sz may start (see choose_shift). */
+static int64_t first_start(int64_t sz, int64_t sh) {
+    return 1 + (sz - sh % sz) % sz;
+}
+
+/* Level of the leaf of every padded cell: -1 background, 0 a cell of size h, l > 0 a leaf of
+ * 2^l cells per axis. A cell may join a leaf only when lmax of its label allows and every
+ * point of it is a dual vertex at its lattice position (leaf_safe: inside its label, or on a
+ * flat face of it), never moved by the interface smoothing, so that a leaf is an exact cube.
+ * Leaves are aligned and grown bottom-up, then split until cells touching at a face, edge or
+ * corner, of any label, differ by at most one level (2:1). [out] *out (free it), *nleaves:
+ * leaves of level > 0. */
+static vm_status build_leaves(const lgrid *g, const int *lmax, int smooth, int64_t sh[3],
+                              int8_t **out, size_t *nleaves, vm_error *err) {
     const int64_t *m = g->m;
     size_t total = (size_t)(m[0] * m[1] * m[2]);
     int64_t c[3] = {m[0] - 2, m[1] - 2, m[2] - 2};
     int maxl = 0;
     for (int q = 1; q <= g->K; q++)
         if (lmax[q] > maxl) maxl = lmax[q];
+    vm_status st = choose_shift(g, lmax, maxl, sh, err);
+    if (st) return st;
     int8_t *lv = malloc(total);
     uint8_t *safe = calloc(total, 1);
     if (!lv || !safe) {
@@ -670,17 +750,14 @@ static vm_status build_leaves(const lgrid *g, const int *lmax, int8_t **out, siz
                 size_t p = gidx(g, i, j, k);
                 uint16_t x = g->code[p];
                 if (!x || lmax[x] < 1) continue;
-                int ok = 1;
-                for (int d = 0; d < 27 && ok; d++)
-                    ok = g->code[gidx(g, i + d % 3 - 1, j + (d / 3) % 3 - 1, k + d / 9 - 1)] == x;
-                safe[p] = (uint8_t)ok;
+                safe[p] = (uint8_t)leaf_safe(g, i, j, k, x, smooth);
             }
     for (int l = 1; l <= maxl; l++) {
         int64_t sz = (int64_t)1 << l;
-        for (int64_t bz = 0; (bz + 1) * sz <= c[2]; bz++)
-            for (int64_t by = 0; (by + 1) * sz <= c[1]; by++)
-                for (int64_t bx = 0; (bx + 1) * sz <= c[0]; bx++) {
-                    int64_t o[3] = {bx * sz + 1, by * sz + 1, bz * sz + 1};
+        for (int64_t oz = first_start(sz, sh[2]); oz + sz - 1 <= c[2]; oz += sz)
+            for (int64_t oy = first_start(sz, sh[1]); oy + sz - 1 <= c[1]; oy += sz)
+                for (int64_t ox = first_start(sz, sh[0]); ox + sz - 1 <= c[0]; ox += sz) {
+                    int64_t o[3] = {ox, oy, oz};
                     uint16_t x = g->code[gidx(g, o[0], o[1], o[2])];
                     if (!x || lmax[x] < l) continue;
                     int ok = 1;
@@ -706,7 +783,9 @@ static vm_status build_leaves(const lgrid *g, const int *lmax, int8_t **out, siz
                 for (int64_t i = 1; i <= c[0]; i++) {
                     int l = lv[gidx(g, i, j, k)];
                     int64_t sz = (int64_t)1 << (l > 0 ? l : 0);
-                    if (l < 2 || (i - 1) % sz || (j - 1) % sz || (k - 1) % sz) continue;
+                    if (l < 2 || (i - 1 + sh[0]) % sz || (j - 1 + sh[1]) % sz ||
+                        (k - 1 + sh[2]) % sz)
+                        continue;
                     int split = 0;
                     for (int64_t z = -1; z <= sz && !split; z++)
                         for (int64_t y = -1; y <= sz && !split; y++)
@@ -731,7 +810,8 @@ static vm_status build_leaves(const lgrid *g, const int *lmax, int8_t **out, siz
             for (int64_t i = 1; i <= c[0]; i++) {
                 int l = lv[gidx(g, i, j, k)];
                 int64_t sz = (int64_t)1 << (l > 0 ? l : 0);
-                if (l > 0 && (i - 1) % sz == 0 && (j - 1) % sz == 0 && (k - 1) % sz == 0)
+                if (l > 0 && (i - 1 + sh[0]) % sz == 0 && (j - 1 + sh[1]) % sz == 0 &&
+                    (k - 1 + sh[2]) % sz == 0)
                     (*nleaves)++;
             }
     *out = lv;
@@ -751,8 +831,8 @@ static int is_leaf_corner(const lmesh *lm, const int64_t p[3]) {
         int64_t sz = (int64_t)1 << l;
         int corner = 1;
         for (int a = 0; a < 3 && corner; a++) {
-            int64_t u = cc[a] - 1, o = u - u % sz;
-            corner = p[a] == o || p[a] == o + sz;
+            int64_t u = cc[a] - 1 + lm->sh[a], o = u - u % sz;
+            corner = p[a] + lm->sh[a] == o || p[a] + lm->sh[a] == o + sz;
         }
         if (corner) return 1;
     }
@@ -857,7 +937,9 @@ static vm_status build_leaf_tets(lmesh *lm, vm_error *err) {
                 int l = lm->lvl[gidx(g, i, j, k)];
                 if (l <= 0) continue;
                 int64_t sz = (int64_t)1 << l, o[3] = {i - 1, j - 1, k - 1};
-                if (o[0] % sz || o[1] % sz || o[2] % sz) continue;
+                if ((o[0] + lm->sh[0]) % sz || (o[1] + lm->sh[1]) % sz ||
+                    (o[2] + lm->sh[2]) % sz)
+                    continue;
                 int64_t cpos[3] = {o[0] + sz / 2, o[1] + sz / 2, o[2] + sz / 2};
                 vm_status st = VM_OK;
                 uint16_t code = g->code[gidx(g, i, j, k)];
@@ -1041,6 +1123,7 @@ typedef struct lrun {
     double h;         /* the finest cell size, in voxels */
     lgrid g;
     int8_t *lvl; /* octree levels (build_leaves); NULL when nothing is coarser */
+    int64_t sh[3]; /* the octree's origin (choose_shift) */
     lmesh lm;
     uint8_t *rescued;            /* per code: given a block by rescue_labels */
     size_t *isl_pieces, *isl_cells; /* per code: what --min-island relabelled */
@@ -1125,8 +1208,36 @@ static vm_status choose_labels(lrun *R, vm_error *err) {
     return VM_OK;
 }
 
-/* Reads the per-label sizes into R->lsize (-1 where none is given); *hmin: the smallest
- * size, the cell size when it is smaller. */
+/* The world diagonal of one voxel: a cell of s voxels has the diagonal s times this. */
+static double voxel_diagonal(const vm_volume *v) {
+    const double *sp = v->spacing;
+    return sqrt(sp[0] * sp[0] + sp[1] * sp[1] + sp[2] * sp[2]);
+}
+
+/* Sets the size of label (voxels) in R->lsize, refusing a label not meshed and a second
+ * size; what: the option that gave it, for the messages. */
+static vm_status set_size(lrun *R, int32_t label, double size, const char *what,
+                          vm_error *err) {
+    long f = find_label(R->chosen, R->K, label);
+    if (f < 0) {
+        char list[300];
+        format_labels(&R->present, list, sizeof list);
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: %s names label %ld, which is not meshed (not in the volume "
+                            "or not chosen; labels present: %s)",
+                            what, (long)label, list);
+    }
+    if (R->lsize[f + 1] > 0)
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: label %ld has two sizes (--size-per-label and --label-edge "
+                            "may name a label once between them)",
+                            (long)label);
+    R->lsize[f + 1] = size;
+    return VM_OK;
+}
+
+/* Reads the per-label sizes and edges into R->lsize (-1 where none is given); *hmin: the
+ * smallest size, the cell size when it is smaller. */
 static vm_status read_sizes(lrun *R, double *hmin, vm_error *err) {
     const vm_label_options *o = R->o;
     for (size_t c = 0; c <= R->K; c++)
@@ -1134,21 +1245,31 @@ static vm_status read_sizes(lrun *R, double *hmin, vm_error *err) {
     *hmin = o->cell_size;
     for (size_t i = 0; i < o->nsizes; i++) {
         const vm_label_size *ls = &o->sizes[i];
-        long f = find_label(R->chosen, R->K, ls->label);
-        if (f < 0)
-            return vm_error_set(err, VM_ERR_ARG,
-                                "mesh: a size is given for label %ld, which is not meshed (not "
-                                "in the volume or not chosen)",
-                                (long)ls->label);
-        if (!(ls->size > 0) || !isfinite(ls->size) || ls->size > MAX_CELL_SIZE)
+        if (find_label(R->chosen, R->K, ls->label) >= 0 &&
+            (!(ls->size > 0) || !isfinite(ls->size) || ls->size > MAX_CELL_SIZE))
             return vm_error_set(err, VM_ERR_ARG,
                                 "mesh: size %g of label %ld is not in (0, 1024]", ls->size,
                                 (long)ls->label);
-        if (R->lsize[f + 1] > 0)
-            return vm_error_set(err, VM_ERR_ARG, "mesh: label %ld has two sizes",
-                                (long)ls->label);
-        R->lsize[f + 1] = ls->size;
+        vm_status st = set_size(R, ls->label, ls->size, "--size-per-label", err);
+        if (st) return st;
         if (ls->size < *hmin) *hmin = ls->size;
+    }
+    double d = voxel_diagonal(R->v);
+    for (size_t i = 0; i < o->nedges; i++) {
+        const vm_label_edge *le = &o->edges[i];
+        if (!(le->edge > 0) || !isfinite(le->edge))
+            return vm_error_set(err, VM_ERR_ARG,
+                                "mesh: --label-edge %g of label %ld is not a length > 0",
+                                le->edge, (long)le->label);
+        double size = fmin(le->edge / d, (double)MAX_CELL_SIZE);
+        if (size * MAX_REFINE < 1 - ratio_eps)
+            return vm_error_set(err, VM_ERR_ARG,
+                                "mesh: --label-edge %g of label %ld is below 1/8 of the voxel "
+                                "diagonal (%g): cells that fine are not supported",
+                                le->edge, (long)le->label, d);
+        vm_status st = set_size(R, le->label, size, "--label-edge", err);
+        if (st) return st;
+        if (size < *hmin) *hmin = size;
     }
     return VM_OK;
 }
@@ -1163,6 +1284,16 @@ static vm_status label_sizes(lrun *R, vm_error *err) {
     if (o->nsizes && !o->sizes)
         return vm_error_set(err, VM_ERR_ARG, "mesh: %zu label sizes given without a list",
                             o->nsizes);
+    if (o->nedges && !o->edges)
+        return vm_error_set(err, VM_ERR_ARG, "mesh: %zu label edges given without a list",
+                            o->nedges);
+    if (!(o->max_edge >= 0) || !isfinite(o->max_edge))
+        return vm_error_set(err, VM_ERR_ARG, "mesh: --max-edge %g is not a length > 0",
+                            o->max_edge);
+    if (o->max_edge > 0 && o->adaptive)
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: give adaptive (--adaptive) or max_edge (--max-edge), not "
+                            "both");
     R->lsize = malloc((R->K + 1) * sizeof *R->lsize);
     R->lmax = calloc(R->K + 1, sizeof *R->lmax);
     if (!R->lsize || !R->lmax) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
@@ -1186,7 +1317,9 @@ static vm_status label_sizes(lrun *R, vm_error *err) {
     R->U = U;
     R->h = h;
     for (size_t c = 1; c <= R->K; c++) {
-        if (R->lsize[c] < 0)
+        if (R->lsize[c] < 0 && o->max_edge > 0) /* never finer than the grid */
+            R->lsize[c] = fmax(fmin(o->max_edge / voxel_diagonal(R->v), MAX_CELL_SIZE), h);
+        else if (R->lsize[c] < 0)
             R->lsize[c] = o->adaptive ? h * (double)(1 << o->max_level) : (double)o->cell_size;
         int l = (int)floor(log2(R->lsize[c] / h) + ratio_eps);
         R->lmax[c] = l < 0 ? 0 : l > MAX_LEVEL ? MAX_LEVEL : l;
@@ -1224,7 +1357,7 @@ static vm_status stage_grid(lrun *R, vm_error *err) {
 static vm_status stage_repair(lrun *R, vm_error *err) {
     vm_status st = make_ranks(&R->g, err);
     if (!st) st = make_well_composed(&R->g, &R->topo, err);
-    if (!st && R->coarse) st = build_leaves(&R->g, R->lmax, &R->lvl, &R->nleaves, err);
+    if (!st && R->coarse) st = build_leaves(&R->g, R->lmax, R->o->smooth, R->sh, &R->lvl, &R->nleaves, err);
     return st;
 }
 
@@ -1235,6 +1368,7 @@ static vm_status build_elements(lrun *R, vm_error *err) {
     lm->g = &R->g;
     kuhn_table(lm->kuhn);
     lm->lvl = R->lvl;
+    memcpy(lm->sh, R->sh, sizeof lm->sh);
     for (int d = 0; d < 3; d++)
         lm->scale[d] = R->h * R->v->spacing[d];
     vm_status st = build_hexes(lm, R->o->smooth, err);

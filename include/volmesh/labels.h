@@ -30,6 +30,12 @@ typedef struct vm_label_size {
     double size; /* voxels; > 0 */
 } vm_label_size;
 
+/* A largest edge for one label, in world units (--label-edge 3=0.8,7=4). */
+typedef struct vm_label_edge {
+    int32_t label;
+    double edge; /* world units (those of the volume's spacing, e.g. mm); > 0 */
+} vm_label_edge;
+
 typedef struct vm_label_options {
     const int32_t *labels;  /* labels to mesh (not owned); NULL: every non-zero label present */
     size_t nlabels;         /* entries of labels (0 with labels NULL) */
@@ -43,14 +49,27 @@ typedef struct vm_label_options {
     /* Per-label sizes (not owned; labels must be chosen, each at most once). The grid is
      * built at the finest size h asked for (cell_size and every size here: h < 1 is rounded
      * to 1/n, refining every voxel into n^3 cells by nearest upsampling); a label of size S
-     * gets cells of h * 2^floor(log2(S / h)) in its interior, one fine layer along its
-     * interfaces, 2:1 balanced and conforming (tets only). */
+     * gets cells of h * 2^floor(log2(S / h)) in its interior and on the flat parts of its
+     * faces, one fine layer along curved interfaces and boundaries and their edges, 2:1
+     * balanced and conforming (tets only). */
     const vm_label_size *sizes;
     size_t nsizes;
     /* 1: every label without a size of its own gets interior cells up to 2^max_level * h
      * (tets only); max_level 1..10, default 4. */
     int adaptive;
     int max_level;
+    /* Sizes in world units. A label of edge L gets the per-label size L / d voxels, where d
+     * is the world diagonal of one voxel (|spacing|): its interior leaves are the largest
+     * whose diagonal is at most L, so no edge of their tets is longer than L, and L below d
+     * refines the grid as a size below 1 does (down to d / 8). Its cells along interfaces
+     * and the boundary have the finest size h of all labels, with the smoothed vertices of
+     * the label mesh. edges: not owned; labels must be chosen, each at most once, and not
+     * in sizes too. max_edge > 0: every label without a size or an edge of its own gets
+     * interior leaves of diagonal at most max_edge (never finer than h; goes instead of
+     * adaptive, which must then be 0). */
+    const vm_label_edge *edges;
+    size_t nedges;
+    double max_edge;
     vm_progress_fn progress;
     void *progress_user;
 } vm_label_options;
@@ -60,7 +79,8 @@ typedef struct vm_label_info {
     int32_t label;
     size_t input_voxels;   /* voxels of the label in the volume */
     size_t meshed_voxels;  /* cells of size h meshed as this label after islands, topology */
-    double size;           /* the cell size asked for this label (voxels) */
+    double size;           /* the cell size asked for this label (voxels; from an edge L:
+                              L / the voxel's world diagonal) */
     size_t elements;       /* cells of the mesh with region == label; 0: the label was lost
                               (--min-island, or the topology repair took its last cells) */
     double voxel_volume;   /* meshed_voxels * h^3 * voxel volume */

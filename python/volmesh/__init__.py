@@ -12,6 +12,7 @@ and direction are in (x, y, z) order. The C library (libvolmesh) does the work w
 released. Every failure of the library raises volmesh.Error with its one-line message.
 """
 import json as _json
+import math as _math
 import os as _os
 
 import numpy as _np
@@ -171,7 +172,7 @@ def read_mesh(path):
 def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=False,
          spacing=None, origin=None, direction=None, adaptive=False, size=1, error=0.5,
          max_level=4, method=None, improve=True, min_island=1, smooth=True, threads=None,
-         progress=None):
+         progress=None, label_edge=None):
     """Meshes the material of source (a Volume, or a 3-D numpy array indexed [z, y, x]).
 
     The material: iso=V (f >= V; invert=True: f <= V), range=(lo, hi) with None for an open
@@ -179,6 +180,8 @@ def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=Fa
     "label"). elements: "tet" or "hex" (volume), "tri" or "quad" (the closed boundary surface,
     method "dc", "mc", "asc" or "cover"). spacing, origin and direction override the
     volume's. adaptive, size (in voxels), error and max_level as in `volmesh mesh`.
+    label_edge={label: L} (with labels; tets): no edge longer than L (world units) inside
+    that label's interior, as `volmesh mesh --label-edge` (docs/SIZING.md).
     improve runs the quality pass. threads sets the thread count for this call. progress:
     a callable(stage, done, total), called from the meshing thread with the GIL held; an
     exception it raises stops the call when the stage returns."""
@@ -214,6 +217,19 @@ def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=Fa
             req["labels"] = [int(x) for x in labels]
             if not req["labels"]:
                 raise ValueError("labels: the list is empty")
+    if label_edge is not None:
+        if labels is None or not isinstance(label_edge, dict):
+            raise ValueError("label_edge must be a dict {label: edge} and goes with labels=")
+        pairs = []
+        for lab, edge in label_edge.items():
+            if isinstance(lab, bool) or not isinstance(lab, (int, _np.integer)) or \
+                    not -2**31 <= lab < 2**31:
+                raise ValueError(f"label_edge: {lab!r} is not a label")
+            edge = float(edge)
+            if not (edge > 0 and _math.isfinite(edge)):
+                raise ValueError(f"label_edge: edge {edge!r} of label {lab} is not a length > 0")
+            pairs.append((int(lab), edge))
+        req["label_edge"] = pairs
     if elements not in _ELEMENTS:
         raise ValueError(f"elements must be one of {sorted(_ELEMENTS)}, not {elements!r}")
     req["elements"] = _ELEMENTS[elements]

@@ -336,6 +336,8 @@ typedef struct {
     int labels;                  /* a label volume */
     int32_t *label_list;         /* NULL: every non-zero label */
     size_t nlabels;
+    vm_label_edge *edges;        /* label_edge: (label, edge) pairs (owned), nedges of them */
+    size_t nedges;
     vm_cell_kind elements;
     int surface_method;          /* -1: a volume mesh */
     int size, adaptive, max_level, improve, smooth;
@@ -343,14 +345,47 @@ typedef struct {
     size_t min_island;
 } mesh_request;
 
+/* label_edge: a sequence of (label, edge) pairs into r->edges; -1 with a Python exception. */
+static int request_edges(PyObject *edges, mesh_request *r) {
+    PyObject *seq = PySequence_Fast(edges, "label_edge must be pairs (label, edge)");
+    if (!seq) return -1;
+    Py_ssize_t n = PySequence_Fast_GET_SIZE(seq);
+    r->edges = malloc((size_t)(n ? n : 1) * sizeof *r->edges);
+    if (!r->edges) {
+        Py_DECREF(seq);
+        PyErr_NoMemory();
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        long l = 0;
+        double e = 0;
+        if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(seq, i), "ld", &l, &e)) {
+            Py_DECREF(seq);
+            return -1;
+        }
+        r->edges[i].label = (int32_t)l;
+        r->edges[i].edge = e;
+    }
+    r->nedges = (size_t)n;
+    Py_DECREF(seq);
+    return 0;
+}
+
+/* Frees what request_parse allocated. */
+static void request_free(mesh_request *r) {
+    free(r->label_list);
+    free(r->edges);
+}
+
 /* Reads the keywords of mesh(); -1 with a Python exception on a bad value. */
 static int request_parse(PyObject *kw, mesh_request *r) {
     memset(r, 0, sizeof *r);
-    PyObject *labels = NULL, *method = NULL;
+    PyObject *labels = NULL, *method = NULL, *edges = NULL;
     const char *elements = "tet4";
     static char *names[] = {"has_lo", "lo",       "has_hi",     "hi",      "labels",
                             "elements", "method", "size",       "adaptive", "error",
-                            "max_level", "improve", "min_island", "smooth", NULL};
+                            "max_level", "improve", "min_island", "smooth", "label_edge",
+                            NULL};
     Py_ssize_t min_island = 1;
     r->size = 1;
     r->error = 0.5;
@@ -360,9 +395,9 @@ static int request_parse(PyObject *kw, mesh_request *r) {
     PyObject *empty = PyTuple_New(0);
     if (!empty) return -1;
     int ok = PyArg_ParseTupleAndKeywords(
-        empty, kw, "|pdpdOsOipdipnp", names, &r->has_lo, &r->lo, &r->has_hi, &r->hi, &labels,
+        empty, kw, "|pdpdOsOipdipnpO", names, &r->has_lo, &r->lo, &r->has_hi, &r->hi, &labels,
         &elements, &method, &r->size, &r->adaptive, &r->error, &r->max_level, &r->improve,
-        &min_island, &r->smooth);
+        &min_island, &r->smooth, &edges);
     Py_DECREF(empty);
     if (!ok) return -1;
     r->min_island = (size_t)(min_island < 1 ? 1 : min_island);
@@ -385,6 +420,7 @@ static int request_parse(PyObject *kw, mesh_request *r) {
             return -1;
         }
     }
+    if (edges && edges != Py_None && request_edges(edges, r)) return -1;
     if (labels && labels != Py_None) {
         r->labels = 1;
         if (PyUnicode_Check(labels)) return 0; /* "all", checked by the caller */
@@ -432,6 +468,8 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
         lo.max_level = r->max_level;
         lo.min_island = r->min_island;
         lo.smooth = r->smooth;
+        lo.edges = r->edges;
+        lo.nedges = r->nedges;
         SET_PROGRESS(lo, fn, p);
         vm_label_stats st;
         s = vm_mesh_labels(v, &lo, m, &st, err);
@@ -499,7 +537,7 @@ static PyObject *py_mesh(PyObject *self, PyObject *args, PyObject *kw) {
         return NULL;
     mesh_request r;
     if (request_parse(kw, &r)) {
-        free(r.label_list);
+        request_free(&r);
         return NULL;
     }
     vm_volume v;
@@ -512,12 +550,12 @@ static PyObject *py_mesh(PyObject *self, PyObject *args, PyObject *kw) {
     Py_buffer view;
     if (volume_geometry(&v, spacing, origin, dir) ||
         PyObject_GetBuffer(data, &view, PyBUF_C_CONTIGUOUS)) {
-        free(r.label_list);
+        request_free(&r);
         return NULL;
     }
     if ((unsigned long long)view.len != (unsigned long long)(nx * ny * nz) * sizeof(float)) {
         PyBuffer_Release(&view);
-        free(r.label_list);
+        request_free(&r);
         return PyErr_Format(PyExc_ValueError, "the data holds %zd bytes, not %lld float32 values",
                             view.len, nx * ny * nz);
     }
@@ -530,7 +568,7 @@ static PyObject *py_mesh(PyObject *self, PyObject *args, PyObject *kw) {
     vm_status s;
     Py_BEGIN_ALLOW_THREADS s = run_mesh(&v, &r, &p, &m, &err);
     Py_END_ALLOW_THREADS PyBuffer_Release(&view);
-    free(r.label_list);
+    request_free(&r);
     if (progress_finish(&p)) {
         if (!s) vm_mesh_free(&m);
         return NULL;

@@ -300,3 +300,28 @@ def test_theTenLinesOfDocsPythonRun(tmp_path, capsys):
     # 16 voxels of 0.8 along x either way
     assert np.ptp(r.points[:, 0]) == pytest.approx(16 * 0.8, rel=0.1)
     assert np.ptp(r.points[:, 2]) == pytest.approx(16 * 1.5, rel=0.1)
+
+
+def test_labelEdgeSetsTheDensityOfEachLabel():
+    """label_edge={label: L} (world units): the label given the short edge is the denser one,
+    both ways round; bad edges raise."""
+    a = np.zeros((34, 34, 66), dtype=np.uint8)  # [z, y, x]: two 32^3 blocks
+    a[1:33, 1:33, 1:33] = 1
+    a[1:33, 1:33, 33:65] = 2
+    d = 3 ** 0.5
+
+    def density(m):
+        q = volmesh.quality(m)
+        assert q["inverted"] == 0
+        lab = m.cell_data["label"]
+        return [np.count_nonzero(lab == k) for k in (1, 2)]
+
+    fine1 = density(volmesh.mesh(a, labels="all", label_edge={1: d, 2: 16 * d}, improve=False))
+    fine2 = density(volmesh.mesh(a, labels="all", label_edge={2: d, 1: 16 * d}, improve=False))
+    assert fine1[0] >= 2 * fine1[1] and fine2[1] >= 2 * fine2[0]
+    with pytest.raises(ValueError):
+        volmesh.mesh(a, labels="all", label_edge={1: 0.0})
+    with pytest.raises(ValueError):
+        volmesh.mesh(a, iso=0.5, label_edge={1: 2.0})
+    with pytest.raises(volmesh.Error, match="label 9"):
+        volmesh.mesh(a, labels="all", label_edge={9: 2.0})
