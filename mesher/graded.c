@@ -12,6 +12,8 @@
 
 /* Rounds of measuring and refining after the first mesh. */
 #define GR_REFINE_ROUNDS 3
+/* Voxels longer than this ratio one way than another get near-cubic base cells. */
+#define GR_ASPECT 3.0
 
 /* Splits the leaves (above the base level) that hold a sample farther than the bound from
  * the other surface: boundary points of the mesh far from the isosurface, and isosurface
@@ -150,7 +152,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
      * longer one way than another; then each voxel edge is cut into (or, above a voxel,
      * joined from) a whole number of pieces near the asked length, so that base cells are
      * near cubes and voxel points stay lattice points. */
-    double want = o->min_edge > 0 ? o->min_edge : vmax > 3 * voxel ? voxel : 0;
+    double want = o->min_edge > 0 ? o->min_edge : vmax > GR_ASPECT * voxel ? voxel : 0;
     if (want > sz.max_edge) want = sz.max_edge;
     for (int d = 0; d < 3; d++) {
         double sp = v->spacing[d];
