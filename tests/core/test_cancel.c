@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/core/test_cancel.c — a progress callback that returns nonzero cancels (issue 28):
  * for every k, a callback that asks to stop from its k-th call on makes the mesher (tets,
- * adaptive tets, hexes), the quality pass, the labels mesher and a writer return
- * VM_ERR_CANCELLED with "...: cancelled", hand back no mesh (or, improving in place, a
+ * adaptive tets, hexes), the quality pass, the labels mesher, the writers, the check, the
+ * quality report, denoising, the spectrum and marching cubes return VM_ERR_CANCELLED with "...: cancelled", hand back no mesh (or, improving in place, a
  * valid one), write no file, and free every block they allocated (counted here through the
  * linker's --wrap, as tests/mesher/test_alloc_failures.c does; LeakSanitizer checks the
  * same under -DVOLMESH_SANITIZE=ON). The k past the last call runs to VM_OK. */
@@ -279,6 +279,73 @@ static void writersStopWithCancelledAndLeaveNoFile(void) {
     vm_volume_free(&v);
 }
 
+/* ---- checks, reports, denoising, the spectrum, marching cubes ---- */
+
+typedef struct other_case {
+    const vm_volume *v;
+    const vm_mesh *m;
+    int which;
+} other_case;
+
+static vm_status run_other(const void *ctx, stopper *sp, vm_error *err) {
+    const other_case *c = ctx;
+    vm_status s = VM_OK;
+    if (c->which == 0) {
+        vm_mesh_report r;
+        s = vm_mesh_check_with(c->m, stop_fn, sp, &r, err);
+    } else if (c->which == 1) {
+        vm_quality_options o;
+        vm_quality_options_init(&o);
+        o.progress = stop_fn;
+        o.progress_user = sp;
+        vm_quality_summary q;
+        s = vm_quality_report_with(c->m, &o, &q, err);
+    } else if (c->which == 2 || c->which == 3) {
+        vm_volume out;
+        memset(&out, 0, sizeof out);
+        s = c->which == 2 ? vm_denoise_bilateral(c->v, 0, 0, &out, stop_fn, sp, err)
+                          : vm_denoise_diffusion(c->v, 0, 0, 0, &out, stop_fn, sp, err);
+        if (s) CHECK(out.data == NULL); /* untouched */
+        vm_volume_free(&out);
+    } else if (c->which == 4) {
+        vm_spectrum sp_out;
+        s = vm_spectrum_compute_range(c->v, 64, -20.0, 20.0, stop_fn, sp, &sp_out, err);
+        vm_spectrum_free(&sp_out);
+    } else if (c->which == 5) {
+        vm_surface_options o;
+        vm_surface_options_default(&o);
+        o.method = VM_SURFACE_MC;
+        o.progress = stop_fn;
+        o.progress_user = sp;
+        vm_mesh m;
+        s = vm_surface_extract(c->v, &o, &m, NULL, err);
+        if (s) CHECK(m.ncells == 0 && !m.cells);
+        vm_mesh_free(&m);
+    }
+    return s;
+}
+
+static void checksReportsDenoisingSpectrumAndMarchingCubesStopWithCancelled(void) {
+    vm_error err;
+    vm_error_clear(&err);
+    vm_volume v;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_TORUS, 24, 0.5, 1, &v, NULL, &err), &err);
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    vm_mesh m;
+    CHECK_OK(vm_mesh_volume(&v, &o, &m, NULL, &err), &err);
+    const char *names[] = {"check", "quality report", "bilateral", "diffusion", "spectrum",
+                           "marching cubes"};
+    for (int i = 0; i < 6; i++) {
+        other_case c = {&v, &m, i};
+        long n = sweep(names[i], run_other, &c, 1000);
+        CHECK_MSG(n >= 1, "%s: cancelled at %ld calls only", names[i], n);
+    }
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
 TEST_MAIN(T(meshingStopsWithCancelledAtEveryCallAndKeepsNothing),
           T(qualityPassStopsWithCancelledAndLeavesAValidMesh),
-          T(labelsStopWithCancelledAndKeepNothing), T(writersStopWithCancelledAndLeaveNoFile))
+          T(labelsStopWithCancelledAndKeepNothing), T(writersStopWithCancelledAndLeaveNoFile),
+          T(checksReportsDenoisingSpectrumAndMarchingCubesStopWithCancelled))
