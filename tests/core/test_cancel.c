@@ -2,10 +2,11 @@
 /* tests/core/test_cancel.c — a progress callback that returns nonzero cancels (issue 28):
  * for every k, a callback that asks to stop from its k-th call on makes the mesher (tets,
  * adaptive tets, hexes), the quality pass, the labels mesher, the writers, the check, the
- * quality report, denoising, the spectrum and marching cubes return VM_ERR_CANCELLED with "...: cancelled", hand back no mesh (or, improving in place, a
- * valid one), write no file, and free every block they allocated (counted here through the
- * linker's --wrap, as tests/mesher/test_alloc_failures.c does; LeakSanitizer checks the
- * same under -DVOLMESH_SANITIZE=ON). The k past the last call runs to VM_OK. */
+ * quality report, denoising, the spectrum and marching cubes return VM_ERR_CANCELLED with
+ * "...: cancelled", hand back no mesh (or, improving in place, a valid one), write no file,
+ * and free every block they allocated (counted here through the linker's --wrap, as
+ * tests/mesher/test_alloc_failures.c does; LeakSanitizer checks the same under
+ * -DVOLMESH_SANITIZE=ON). The k past the last call runs to VM_OK. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdatomic.h>
 #include <string.h>
