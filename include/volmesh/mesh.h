@@ -34,12 +34,14 @@ typedef int32_t vm_index;
  * again with the last values (done unchanged), about every VM_PROGRESS_POLL seconds of work,
  * so that a callback can stop a run on time (e.g. on Ctrl-C).
  *
- * Returns 0 to go on, nonzero to cancel: the library then stops at its next check (within
- * about a second of work on a 256^3 volume; docs/REFERENCE.md lists the checks), frees
- * what it allocated, writes no output file, and returns VM_ERR_CANCELLED ("STAGE:
+ * Returns 0 to go on, nonzero to cancel: the library then stops at its next check (a
+ * fraction of a second on a 256^3 volume; docs/GUIDE.md section 9 lists where it checks),
+ * frees what it allocated, writes no output file, and returns VM_ERR_CANCELLED ("STAGE:
  * cancelled"). A cancelled call returns the outputs as on any error (a mesh it was to make
  * is freed; a mesh it was to improve in place stays valid). The request is sticky for the
- * call: once nonzero, later return values do not matter. */
+ * call: once nonzero, later return values do not matter. Not yet: the hex quality pass and
+ * the graded mesher run to their end. (This callback returned void before cancellation
+ * came: such a callback now returns 0.) */
 typedef int (*vm_progress_fn)(const char *stage, double done, double total, void *user);
 
 /* About how often (seconds) a long loop repeats its last progress call (see vm_progress_fn). */

@@ -180,8 +180,9 @@ def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=Fa
     method "dc", "mc", "asc" or "cover"). spacing, origin and direction override the
     volume's. adaptive, size (in voxels), error and max_level as in `volmesh mesh`.
     improve runs the quality pass. threads sets the thread count for this call. progress:
-    a callable(stage, done, total), called from the meshing thread with the GIL held; an
-    exception it raises stops the call when the stage returns."""
+    a callable(stage, done, total), called from the calling thread with the GIL held, at most
+    about ten times a second; an exception it raises (or KeyboardInterrupt on Ctrl-C) cancels
+    the run, which stops within about a second, and is raised from mesh()."""
     if isinstance(source, Volume):
         vol = Volume(source.array,
                      source.spacing if spacing is None else spacing,
