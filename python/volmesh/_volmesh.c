@@ -358,7 +358,13 @@ static PyObject *py_quality_json(PyObject *self, PyObject *args) {
     char *text = NULL;
     size_t len = 0;
     int wrote = -1;
-    Py_BEGIN_ALLOW_THREADS s = vm_quality_report_with(&m, NULL, &q, &err);
+    progress_ctx p; /* no callable: Ctrl-C only */
+    progress_init(&p, NULL);
+    vm_quality_options qo;
+    vm_quality_options_init(&qo);
+    qo.progress = progress_call;
+    qo.progress_user = &p;
+    Py_BEGIN_ALLOW_THREADS s = vm_quality_report_with(&m, &qo, &q, &err);
     if (!s) {
         FILE *f = open_memstream(&text, &len);
         if (f) {
@@ -367,6 +373,10 @@ static PyObject *py_quality_json(PyObject *self, PyObject *args) {
         }
     }
     Py_END_ALLOW_THREADS views_release(&mv);
+    if (progress_finish(&p)) {
+        free(text);
+        return NULL;
+    }
     if (s) return raise_status(s, &err);
     if (wrote != 0) {
         free(text);
