@@ -30,7 +30,7 @@ void vm_cli_status(const char *what, const char *name, int quiet);
 void vm_cli_status_clear(int quiet);
 
 /* Progress callback drawing a bar on stderr when it is a terminal (user: quiet flag). */
-void vm_cli_progress(const char *stage, double done, double total, void *user);
+int vm_cli_progress(const char *stage, double done, double total, void *user);
 
 /* Seconds on a monotonic clock (differences only). */
 double vm_cli_clock(void);

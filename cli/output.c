@@ -40,15 +40,16 @@ void vm_cli_status_clear(int quiet) {
 }
 
 /* Progress callback of the library's stages: a 30-column bar and a percentage on stderr. */
-void vm_cli_progress(const char *stage, double done, double total, void *user) {
+int vm_cli_progress(const char *stage, double done, double total, void *user) {
     int quiet = user ? *(const int *)user : 0;
-    if (quiet || !isatty(2) || total <= 0) return;
+    if (quiet || !isatty(2) || total <= 0) return 0;
     int width = 30, fill = (int)(width * (done / total) + 0.5);
     if (fill > width) fill = width;
     fprintf(stderr, "\r%-12s [%.*s%*s] %3d%%", stage, fill, "##############################",
             width - fill, "", (int)(100.0 * done / total + 0.5));
     if (done >= total) fputs("\r\033[K", stderr);
     fflush(stderr);
+    return 0;
 }
 
 /* Seconds on a monotonic clock, for the times a command reports. */

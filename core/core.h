@@ -4,6 +4,7 @@
 #ifndef VM_CORE_H
 #define VM_CORE_H
 
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -56,17 +57,49 @@ void vm__uf_union(size_t *parent, size_t a, size_t b);
 
 /* A progress meter over a known amount of work: calls fn(stage, done, total, user) when done
  * has grown by about 1/200 of total since the last call, and once at the end with done ==
- * total. fn may be NULL (the meter then does nothing). Single-threaded: add from one thread. */
+ * total. fn may be NULL (the meter then does nothing). Add and poll from the calling thread
+ * only; any thread may read the cancellation (vm__meter_stopped).
+ *
+ * Cancellation (volmesh/mesh.h): a nonzero return of fn is kept in the meter (stop, sticky);
+ * vm__meter_add and vm__meter_poll return it. A stage without a known total forwards its
+ * own calls through a meter (vm__meter_wrap, then fn vm__meter_forward with the meter as
+ * user), so that the code below it can poll and read the request from (fn, user) alone
+ * (vm__progress_poll, vm__progress_stopped). */
 typedef struct vm__meter {
     vm_progress_fn fn;
     void *user;
     const char *stage;
     double total, done, next;
+    double when;     /* vm__now() at the last call of fn */
+    unsigned ticks;  /* adds since start: the clock is read every 256th */
+    atomic_int stop; /* fn returned nonzero */
 } vm__meter;
 void vm__meter_start(vm__meter *mt, vm_progress_fn fn, void *user, const char *stage,
                      double total);
-void vm__meter_add(vm__meter *mt, double units);
+int vm__meter_add(vm__meter *mt, double units);
 void vm__meter_end(vm__meter *mt);
+/* Repeats the last call of fn when VM_PROGRESS_POLL seconds have passed since it; returns
+ * the request to stop. Calling thread only. */
+int vm__meter_poll(vm__meter *mt);
+/* The request to stop; any thread. */
+int vm__meter_stopped(const vm__meter *mt);
+/* A meter that only forwards: fn may be NULL; its polls before the first forwarded call
+ * repeat (stage, 0, total), the values that call will start from. */
+void vm__meter_wrap(vm__meter *mt, vm_progress_fn fn, void *user, const char *stage,
+                    double total);
+/* vm_progress_fn over a meter (user: the vm__meter): records the call, calls its fn. */
+int vm__meter_forward(const char *stage, double done, double total, void *user);
+/* For a (fn, user) pair that a stage forwards through a meter (vm__meter_forward), the
+ * meter's poll and request; any other pair (a caller's own callback, NULL) reads 0. Poll
+ * from the calling thread; in a parallel loop vm__progress_poll_team polls on the team's
+ * thread 0 (the calling thread) and reads the request on the others. */
+int vm__progress_poll(vm_progress_fn fn, void *user);
+int vm__progress_poll_team(vm_progress_fn fn, void *user);
+int vm__progress_stopped(vm_progress_fn fn, void *user);
+/* VM_ERR_CANCELLED "WHAT: cancelled" in err. */
+vm_status vm__cancelled(vm_error *err, const char *what);
+/* VM_ERR_CANCELLED (err filled) when (fn, user) asks to stop after a poll, else VM_OK. */
+vm_status vm__progress_check(vm_progress_fn fn, void *user, const char *what, vm_error *err);
 
 /* The index of xyz among m's points, appending it to m when new (an exact-coordinate
  * merge, the first of equal points winning). pi starts as {0, NULL} and grows with m; free

@@ -36,6 +36,7 @@ const char *vm_status_string(vm_status status) {
     case VM_ERR_EMPTY: return "empty selection";
     case VM_ERR_UNSUPPORTED: return "unsupported";
     case VM_ERR_INTERNAL: return "internal error";
+    case VM_ERR_CANCELLED: return "cancelled";
     }
     return "unknown status";
 }

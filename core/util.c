@@ -6,6 +6,9 @@
 #include <time.h>
 #include <unistd.h>
 #include "core.h"
+#ifdef VM_HAVE_OPENMP
+#include <omp.h>
+#endif
 
 /* A predicate, not a status: true (and *out untouched) when a*b overflows size_t. */
 bool vm__mul_overflows(size_t a, size_t b, size_t *out) {
@@ -82,6 +85,14 @@ double vm__now(void) {
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+/* fn(stage, done, total) on mt, recording when and a request to stop. */
+static int meter_call(vm__meter *mt) {
+    mt->when = vm__now();
+    if (mt->fn(mt->stage, mt->done, mt->total, mt->user))
+        atomic_store_explicit(&mt->stop, 1, memory_order_relaxed);
+    return vm__meter_stopped(mt);
+}
+
 void vm__meter_start(vm__meter *mt, vm_progress_fn fn, void *user, const char *stage,
                      double total) {
     mt->fn = fn;
@@ -90,23 +101,80 @@ void vm__meter_start(vm__meter *mt, vm_progress_fn fn, void *user, const char *s
     mt->total = total > 0.0 ? total : 1.0;
     mt->done = 0.0;
     mt->next = mt->total / 200.0;
-    if (fn) fn(stage, 0.0, mt->total, user);
+    mt->ticks = 0;
+    atomic_init(&mt->stop, 0);
+    if (fn) meter_call(mt);
 }
 
-void vm__meter_add(vm__meter *mt, double units) {
-    if (!mt->fn) return;
+int vm__meter_add(vm__meter *mt, double units) {
+    if (!mt->fn) return 0;
     mt->done += units;
     if (mt->done > mt->total) mt->done = mt->total;
-    if (mt->done < mt->next || mt->done >= mt->total) return;
+    if (mt->done < mt->next || mt->done >= mt->total)
+        return (++mt->ticks & 255) == 0 ? vm__meter_poll(mt) : vm__meter_stopped(mt);
     mt->next = mt->done + mt->total / 200.0;
-    mt->fn(mt->stage, mt->done, mt->total, mt->user);
+    return meter_call(mt);
 }
 
 void vm__meter_end(vm__meter *mt) {
     if (!mt->fn) return;
     mt->done = mt->total;
-    mt->fn(mt->stage, mt->total, mt->total, mt->user);
+    meter_call(mt);
     mt->fn = NULL;
+}
+
+int vm__meter_poll(vm__meter *mt) {
+    if (mt->fn && mt->stage && vm__now() - mt->when >= VM_PROGRESS_POLL) meter_call(mt);
+    return vm__meter_stopped(mt);
+}
+
+int vm__meter_stopped(const vm__meter *mt) {
+    return atomic_load_explicit(&((vm__meter *)mt)->stop, memory_order_relaxed);
+}
+
+void vm__meter_wrap(vm__meter *mt, vm_progress_fn fn, void *user, const char *stage,
+                    double total) {
+    mt->fn = fn;
+    mt->user = user;
+    mt->stage = stage; /* polls before the first call repeat (stage, 0, total) */
+    mt->total = total;
+    mt->done = mt->next = 0.0;
+    mt->when = vm__now();
+    mt->ticks = 0;
+    atomic_init(&mt->stop, 0);
+}
+
+int vm__meter_forward(const char *stage, double done, double total, void *user) {
+    vm__meter *mt = user;
+    if (!mt->fn) return vm__meter_stopped(mt);
+    mt->stage = stage;
+    mt->done = done;
+    mt->total = total;
+    return meter_call(mt);
+}
+
+int vm__progress_poll(vm_progress_fn fn, void *user) {
+    return fn == vm__meter_forward ? vm__meter_poll(user) : 0;
+}
+
+int vm__progress_poll_team(vm_progress_fn fn, void *user) {
+    if (fn != vm__meter_forward) return 0;
+#ifdef VM_HAVE_OPENMP
+    if (omp_get_thread_num() != 0) return vm__meter_stopped(user);
+#endif
+    return vm__meter_poll(user);
+}
+
+int vm__progress_stopped(vm_progress_fn fn, void *user) {
+    return fn == vm__meter_forward ? vm__meter_stopped(user) : 0;
+}
+
+vm_status vm__cancelled(vm_error *err, const char *what) {
+    return vm_error_set(err, VM_ERR_CANCELLED, "%s: cancelled", what);
+}
+
+vm_status vm__progress_check(vm_progress_fn fn, void *user, const char *what, vm_error *err) {
+    return vm__progress_poll(fn, user) ? vm__cancelled(err, what) : VM_OK;
 }
 
 size_t vm__uf_find(size_t *parent, size_t x) {

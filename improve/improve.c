@@ -213,7 +213,7 @@ static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, s
 #define FIG_CHUNK ((size_t)1 << 15)
 
 static vm_status mesh_figures(const double *pts, const vm_index *cells, size_t n, figures *f,
-                              double *unfixed_field, const below_out *below) {
+                              double *unfixed_field, const below_out *below, vm__meter *pm) {
     size_t nc = (n + FIG_CHUNK - 1) / FIG_CHUNK;
     figures *part = malloc((nc ? nc : 1) * sizeof *part);
     if (!part) return VM_ERR_NOMEM;
@@ -222,7 +222,12 @@ static vm_status mesh_figures(const double *pts, const vm_index *cells, size_t n
 #endif
     for (size_t c = 0; c < nc; c++) {
         size_t t1 = (c + 1) * FIG_CHUNK < n ? (c + 1) * FIG_CHUNK : n;
+        if (vm__progress_poll_team(vm__meter_forward, pm)) continue; /* cancelled */
         chunk_figures(pts, cells, c * FIG_CHUNK, t1, &part[c], unfixed_field, below);
+    }
+    if (vm__meter_stopped(pm)) {
+        free(part);
+        return VM_ERR_CANCELLED;
     }
     memset(f, 0, sizeof *f);
     f->dmin = 180.0;
@@ -380,15 +385,16 @@ static void counters_of(const vm__imp *w, vm_improve_report *c) {
 /* The figures after the pass (fa) and, with o->mark_unfixed, the cell field of the tets
  * still unfixed. */
 static vm_status figures_after(vm_mesh *m, const vm_improve_options *o, figures *fa,
-                               vm_error *err) {
+                               vm__meter *pm, vm_error *err) {
     vm_status s = VM_OK;
     double *uf = NULL;
     if (o->mark_unfixed) {
         uf = malloc((m->ncells + 1) * sizeof *uf);
         if (!uf) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
-    if (s == VM_OK && mesh_figures(m->points, m->cells, m->ncells, fa, uf, NULL) != VM_OK)
-        s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    if (s == VM_OK) s = mesh_figures(m->points, m->cells, m->ncells, fa, uf, NULL, pm);
+    if (s == VM_ERR_CANCELLED) s = vm__cancelled(err, "improve");
+    if (s == VM_ERR_NOMEM) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     if (uf && s == VM_OK) s = vm_mesh_set_field(m, 1, "improve_unfixed", 1, uf, err);
     free(uf);
     return s;
@@ -441,6 +447,15 @@ static vm_status improve(vm_mesh *m, const vm_volume *v, vm_plane_source src, vo
     }
     vm_status s = check_args(m, v, o, err);
     if (s != VM_OK) return s;
+    /* the caller's progress, forwarded through a meter that the stages below poll */
+    vm__meter pm;
+    vm__meter_wrap(&pm, o->progress, o->progress_user, "improve", 1.0);
+    vm_improve_options wo = *o;
+    if (o->progress) {
+        wo.progress = vm__meter_forward;
+        wo.progress_user = &pm;
+    }
+    o = &wo;
     /* the local pass starts from the tets below the targets: told in the same sweep */
     size_t nparts = vm__imp_parts_count(m, o);
     vm__imp qw;
@@ -451,10 +466,11 @@ static vm_status improve(vm_mesh *m, const vm_volume *v, vm_plane_source src, vo
     below_out bo = {&qw, &one, nparts == 0 ? malloc(m->ncells + 1) : NULL};
     if (nparts == 0 && !bo.flag) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     figures fb;
-    if (mesh_figures(m->points, m->cells, m->ncells, &fb, NULL, nparts == 0 ? &bo : NULL) !=
-        VM_OK) {
+    s = mesh_figures(m->points, m->cells, m->ncells, &fb, NULL, nparts == 0 ? &bo : NULL, &pm);
+    if (s != VM_OK) {
         free(bo.flag);
-        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        return s == VM_ERR_CANCELLED ? vm__cancelled(err, "improve")
+                                     : vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
     if (fb.inverted) {
         free(bo.flag);
@@ -462,6 +478,10 @@ static vm_status improve(vm_mesh *m, const vm_volume *v, vm_plane_source src, vo
                             fb.inverted);
     }
     vm__imp_show(o, 0.1 * VM__IMP_SETUP_SHARE);
+    if (vm__meter_stopped(&pm)) {
+        free(bo.flag);
+        return vm__cancelled(err, "improve");
+    }
     size_t nt0 = m->ncells, np0 = m->npoints;
     vm__imp w;
     memset(&w, 0, sizeof w);
@@ -484,15 +504,18 @@ static vm_status improve(vm_mesh *m, const vm_volume *v, vm_plane_source src, vo
                          err);
         counters_of(&w, &c);
     }
+    /* (a stage may have gone on after a request it did not read) */
+    if (s == VM_OK && vm__meter_stopped(&pm)) s = vm__cancelled(err, "improve");
     figures fa;
     memset(&fa, 0, sizeof fa);
-    if (s == VM_OK) s = figures_after(m, o, &fa, err);
+    if (s == VM_OK) s = figures_after(m, o, &fa, &pm, err);
     if (r) {
         fill_report(r, &c, &fb, &fa, nt0, np0, m);
         r->seconds = vm__now() - t0;
     }
     vm__imp_free(&w);
-    vm__imp_show(o, 1.0);
+    if (s != VM_ERR_CANCELLED) vm__imp_show(o, 1.0);
+    if (s == VM_OK && vm__meter_stopped(&pm)) s = vm__cancelled(err, "improve");
     return s;
 }
 

@@ -10,6 +10,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include "volmesh/improve.h"
+#include "../core/core.h"
 
 /* Vertex classes: how a vertex may move. */
 enum {
@@ -306,11 +307,14 @@ vm_status vm__imp_pstate_init(vm__imp_pstate *S, vm_mesh *m, const vm_volume *v,
 void vm__imp_pstate_free(vm__imp_pstate *S);
 /* Builds J's submesh (J->ps, then J->ls locked), improves it and writes it back into its
  * slots and points; tets beyond its slots wait in J->xt. Touches only the tets and points of
- * the submesh: parts that share none may run at the same time. */
+ * the submesh: parts that share none may run at the same time.
+ * Once the caller's progress asked to stop (polled on thread 0), a job does nothing and
+ * ends VM_ERR_CANCELLED. */
 void vm__imp_job_run(vm__imp_pstate *S, vm__imp_job *J);
 void vm__imp_job_reset(vm__imp_job *J);
 /* After a batch of jobs take[0..n): their first error, else their extra tets appended in
- * order (J->x0) and their counters added to S->r. */
+ * order (J->x0) and their counters added to S->r; then VM_ERR_CANCELLED when a job was
+ * cancelled (it changed nothing: the mesh stays whole). */
 vm_status vm__imp_jobs_append(vm__imp_pstate *S, vm__imp_job *jobs, const size_t *take,
                               size_t n, vm_error *err);
 /* Drops the dead slots and the points no tet uses; permutes the cell fields. */
@@ -349,6 +353,12 @@ vm_status vm__imp_local_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
 #define VM__IMP_FINAL_SHARE 0.1
 static inline void vm__imp_show(const vm_improve_options *o, double done) {
     if (o->progress) o->progress("improve", done, 1.0, o->progress_user);
+}
+
+/* VM_ERR_CANCELLED "improve: cancelled" (err filled) when the progress callback of o asked
+ * to stop (polled: vm_mesh_improve forwards it through a meter), else VM_OK. */
+static inline vm_status vm__imp_check(const vm_improve_options *o, vm_error *err) {
+    return vm__progress_check(o->progress, o->progress_user, "improve", err);
 }
 
 /* The operations: each returns 1 when it changed the mesh. */

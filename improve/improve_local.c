@@ -699,6 +699,7 @@ static vm_status run_batch(lpass *P, job *jobs, ljob *X, size_t n, vm_error *err
     size_t ntodo = n;
     vm_status s = VM_OK;
     while (ntodo && s == VM_OK) {
+        if ((s = vm__imp_check(P->S.uo, err))) break;
         /* (a reduction's private copies start at 0: the scratch's failure is tested apart) */
         int fail = 0, ready = scratch_ready(P);
         if (ready) {

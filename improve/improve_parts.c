@@ -456,6 +456,11 @@ static float *part_planes(pstate *S, job *J, const vm_mesh *sub, vm__imp_sub *x)
  * writes it back into the part's slots and points; tets beyond its slots wait in J->xt.
  * Touches only what this part reaches. */
 void vm__imp_job_run(pstate *S, job *J) {
+    /* cancelled: the job changes nothing (vm__imp_jobs_append appends the others) */
+    if (vm__progress_poll_team(S->uo->progress, S->uo->progress_user)) {
+        J->s = vm__cancelled(&J->err, "improve");
+        return;
+    }
     vm_mesh *m = S->m;
     size_t nc = J->nps + J->nls, ng = 0;
     /* the part's points: sorted, each once; S->loc maps them to submesh ids */
@@ -611,14 +616,17 @@ static void progress(const pstate *S, double done) {
 
 /* After a batch: the first error of jobs take[0..n) (its message to err), else room for the
  * tets beyond their slots, appended in job order (J->x0: the first one's slot), and their
- * counters and figures added to the report. */
+ * counters and figures added to the report; then a cancelled job's VM_ERR_CANCELLED. */
 vm_status vm__imp_jobs_append(pstate *S, job *jobs, const size_t *take, size_t n,
                               vm_error *err) {
     vm_status s = VM_OK;
     size_t extra = 0;
+    const job *cancelled = NULL; /* the first job that did nothing, cancelled */
     for (size_t i = 0; i < n; i++) {
         job *J = &jobs[take[i]];
-        if (J->s != VM_OK && s == VM_OK) {
+        if (J->s == VM_ERR_CANCELLED) {
+            if (!cancelled) cancelled = J;
+        } else if (J->s != VM_OK && s == VM_OK) {
             s = J->s;
             if (err) *err = J->err;
         }
@@ -659,6 +667,10 @@ vm_status vm__imp_jobs_append(pstate *S, job *jobs, const size_t *take, size_t n
         if (J->passes > r->passes) r->passes = J->passes;
         if (J->maxmove > r->max_surface_move) r->max_surface_move = J->maxmove;
         if (J->maxiface > r->max_interface_move) r->max_interface_move = J->maxiface;
+    }
+    if (s == VM_OK && cancelled) {
+        s = VM_ERR_CANCELLED;
+        if (err) *err = cancelled->err;
     }
     return s;
 }
@@ -731,6 +743,7 @@ static vm_status run_jobs(pstate *S, job *jobs, const size_t *order, size_t n, d
         ndone += ntake;
         ntodo = nleft;
         progress(S, f0 + (f1 - f0) * (double)ndone / (double)(n ? n : 1));
+        if (s == VM_OK) s = vm__imp_check(S->uo, err);
     }
     for (size_t i = 0; i < n; i++)
         vm__imp_job_reset(&jobs[order[i]]);

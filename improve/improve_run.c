@@ -588,6 +588,12 @@ static void report(const vm_improve_options *o, int pass, int phase, size_t i, s
     show_rounds(o, pass + (phase + (double)i / (double)n) / 4.0);
 }
 
+/* The caller's progress asked to stop (vm_mesh_improve forwards it through a meter; a part's
+ * options carry none): the passes end after the operation under way, the mesh whole. */
+static int stop_asked(const vm_improve_options *o) {
+    return vm__progress_stopped(o->progress, o->progress_user);
+}
+
 static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     size_t ops_total = 0;
     uint32_t *stamp = calloc(w->npt, sizeof *stamp);
@@ -599,22 +605,22 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     int pass;
     tq *l = NULL;
     size_t n = 0;
-    for (pass = 0; pass < o->max_passes && !w->nomem; pass++) {
+    for (pass = 0; pass < o->max_passes && !w->nomem && !stop_asked(o); pass++) {
         size_t ops = 0;
         w->deep = pass >= 1;
         if (!next_bad_list(w, &l, &n) || n == 0) break;
         if (o->contract)
-            for (size_t i = 0; i < n && !w->nomem; i++) {
+            for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
                 report(o, pass, 0, i, n);
                 if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_contract_tet(w, l[i].t);
             }
         if (o->flip)
-            for (size_t i = 0; i < n && !w->nomem; i++) {
+            for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
                 report(o, pass, 1, i, n);
                 if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_flip_tet(w, l[i].t);
             }
         if (w->deep)
-            for (size_t i = 0; i < n && !w->nomem; i++) {
+            for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
                 report(o, pass, 2, i, n);
                 if (!w->dead[l[i].t] && w->q[l[i].t] < VM__IMP_Q_ABAQUS)
                     ops += (size_t)vm__imp_peel_tet(w, l[i].t);
@@ -627,14 +633,15 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         }
         if (o->smooth) {
             size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
-            for (size_t i = 0; i < nv; i++) {
+            for (size_t i = 0; i < nv && !stop_asked(o); i++) {
                 report(o, pass, 3, i, nv);
                 ops += (size_t)vm__imp_smooth_vertex(w, vs[i], 6);
             }
         }
         if (o->perturb && pass >= 1) {
             size_t nv = bad_vertices(w, l, n, vs, stamp, ++round);
-            for (size_t i = 0; i < nv; i++) ops += (size_t)vm__imp_perturb_vertex(w, vs[i], 24);
+            for (size_t i = 0; i < nv && !stop_asked(o); i++)
+                ops += (size_t)vm__imp_perturb_vertex(w, vs[i], 24);
         }
         free(vs);
         ops_total += ops;
@@ -646,10 +653,10 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
     /* Last rounds for the few tets still failing ABAQUS's check: long searches around them,
      * their vertices and their neighbours' vertices. */
     w->deep = 1;
-    for (int extra = 0; extra < 4 && !w->nomem; extra++) {
+    for (int extra = 0; extra < 4 && !w->nomem && !stop_asked(o); extra++) {
         size_t ops = 0;
         if (!next_bad_list(w, &l, &n)) break;
-        for (size_t i = 0; i < n && !w->nomem; i++) {
+        for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
             size_t t = l[i].t;
             if (w->dead[t] || w->q[t] >= VM__IMP_Q_ABAQUS) continue;
             if (vm__imp_contract_tet(w, t) || vm__imp_flip_tet(w, t) || vm__imp_peel_tet(w, t)) {

@@ -211,7 +211,8 @@ void vm__out_abort(vm_outfile *o);
 
 /* Starts the write progress of o (stage "write"; fn may be NULL) over total units of work
  * (points and cells written, bytes compressed: the writer's choice), advanced by
- * vm__out_step and completed by a successful vm__out_commit. */
+ * vm__out_step and completed as vm__out_commit starts. When fn asked to cancel (at any of
+ * its calls), vm__out_commit removes the file and returns VM_ERR_CANCELLED. */
 void vm__out_meter(vm_outfile *o, vm_progress_fn fn, void *user, double total);
 static inline void vm__out_step(vm_outfile *o, double units) {
     if (o->meter.fn) vm__meter_add(&o->meter, units);

@@ -122,6 +122,11 @@ static int stream_error(FILE *fp) {
 }
 
 vm_status vm__out_commit(vm_outfile *o, vm_error *err) {
+    vm__meter_end(&o->meter);
+    if (vm__meter_stopped(&o->meter)) { /* the progress callback cancelled: no file */
+        vm__out_abort(o);
+        return vm__cancelled(err, o->final_path);
+    }
     int e = stream_error(o->fp);
     if (fclose(o->fp) != 0 && !e) e = errno ? errno : EIO;
     o->fp = NULL;
@@ -134,7 +139,6 @@ vm_status vm__out_commit(vm_outfile *o, vm_error *err) {
     if (o->slot >= 0 && is_held(o->final_path)) {
         /* complete: renamed with the run's other outputs by vm_output_commit */
         atomic_store(&slots[o->slot].state, HELD);
-        vm__meter_end(&o->meter);
         return VM_OK;
     }
     if (rename(o->tmp_path, o->final_path) != 0) {
@@ -145,7 +149,6 @@ vm_status vm__out_commit(vm_outfile *o, vm_error *err) {
                             strerror(e));
     }
     slot_free(o->slot);
-    vm__meter_end(&o->meter);
     return VM_OK;
 }
 

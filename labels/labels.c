@@ -1339,7 +1339,7 @@ static vm_status stage_grid(lrun *R, vm_error *err) {
     vm_status st = choose_labels(R, err);
     if (!st) st = label_sizes(R, err);
     if (st) return st;
-    if (o->progress) o->progress("labels", 0, 4, o->progress_user);
+    if (o->progress && o->progress("labels", 0, 4, o->progress_user)) return vm__cancelled(err, "mesh");
     R->rescued = calloc(R->K + 1, 1);
     R->isl_pieces = calloc(R->K + 1, sizeof *R->isl_pieces);
     R->isl_cells = calloc(R->K + 1, sizeof *R->isl_cells);
@@ -1481,14 +1481,14 @@ static void write_leaf_tets(const lrun *R, vm_mesh *mesh, int flip) {
  * relaxed where not valid, written to mesh with each label's counts in R->info. */
 static vm_status stage_mesh(lrun *R, vm_mesh *mesh, vm_error *err) {
     const vm_label_options *o = R->o;
-    if (o->progress) o->progress("labels", 1, 4, o->progress_user);
+    if (o->progress && o->progress("labels", 1, 4, o->progress_user)) return vm__cancelled(err, "mesh");
     vm_status st = build_elements(R, err);
     if (st) return st;
-    if (o->progress) o->progress("labels", 2, 4, o->progress_user);
+    if (o->progress && o->progress("labels", 2, 4, o->progress_user)) return vm__cancelled(err, "mesh");
     if (o->smooth) st = keep_volumes(&R->lm, (int)R->K, R->tets, keep_volume_tol, err);
     if (st) return st;
     R->relaxed = relax(&R->lm, R->tets);
-    if (o->progress) o->progress("labels", 3, 4, o->progress_user);
+    if (o->progress && o->progress("labels", 3, 4, o->progress_user)) return vm__cancelled(err, "mesh");
     st = write_points(R, mesh, err);
     if (st) return st;
     int flip = vm_volume_frame_determinant(R->v) < 0;
@@ -1551,8 +1551,8 @@ vm_status vm_mesh_labels(const vm_volume *v, const vm_label_options *o, vm_mesh 
     if (!st) st = stage_repair(&R, err);
     double t2 = vm__now();
     if (!st) st = stage_mesh(&R, mesh, err);
+    if (!st && o->progress && o->progress("labels", 4, 4, o->progress_user)) st = vm__cancelled(err, "mesh");
     if (!st && stats) fill_stats(&R, stats, t0, t1, t2);
-    if (!st && o->progress) o->progress("labels", 4, 4, o->progress_user);
     lrun_free(&R);
     if (st) vm_mesh_free(mesh);
     return st;

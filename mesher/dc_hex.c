@@ -213,7 +213,7 @@ static size_t make_valid(dc *d, const hexes *h, size_t *relaxed) {
                 }
             }
         }
-        if (!bad) break;
+        if (!bad || vm__progress_poll(d->g->progress, d->g->progress_user)) break;
     }
     *relaxed = moved;
     return bad;

@@ -86,6 +86,9 @@ typedef struct dc {
 
 enum { CELL_OUT = -1, CELL_IN = -2 };
 
+/* VM_ERR_CANCELLED (err filled) when the run's progress callback asked to stop (polled). */
+vm_status vm__dc_check(const dc *d, vm_error *err);
+
 static inline int64_t vm__dc_pidx(const dc *d, int64_t i, int64_t j, int64_t k) {
     return (i + 1) + d->P[0] * ((j + 1) + d->P[1] * (k + 1));
 }

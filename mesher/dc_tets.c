@@ -665,6 +665,7 @@ static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
             vm_status t = append_slab(d, &sl[q], s ? NULL : err);
             if (!s) s = t;
         }
+        if (!s) s = vm__dc_check(d, err);
     }
     free(sl);
     return s;
@@ -953,8 +954,10 @@ static vm_status emit_all(dc *d, vm_error *err) {
     vm_status s = emit_slabs(d, 0, err);
     if (!s) s = emit_faces(d, 0, d->nbc, err);
     d->cur_src = SRC(SRC_NONE, 0);
+    if (!s) s = vm__dc_check(d, err);
     if (!s) s = emit_slabs(d, 1, err);
     if (!s) s = emit_coarse_boundary(d, 0, d->ncoarse, err);
+    if (!s) s = vm__dc_check(d, err);
     if (!s) s = emit_gaps(d, 0, d->nbc, err);
     return s;
 }
@@ -1033,8 +1036,10 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
     for (int round = 0; round < RELAX_ROUNDS; round++) {
         bad = 0;
         memset(now, 0, d->nreps);
-        for (size_t t = 0; t < d->ntets; t++) {
+        vm_status s = VM_OK;
+        for (size_t t = 0; t < d->ntets && !s; t++) {
             int64_t v[4];
+            if ((t & 0xfffff) == 0) s = vm__dc_check(d, err);
             tet_get(d, t, v);
             if (tet_volume(d, v, 0) > eps) continue;
             bad++;
@@ -1050,8 +1055,8 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
                     touched[r] = now[r] = 1;
                 }
         }
-        if (!bad) break;
-        vm_status s = emit_local(d, now, err);
+        if (!s && !bad) break;
+        if (!s) s = emit_local(d, now, err);
         if (s) {
             free(touched);
             free(now);
@@ -1250,7 +1255,7 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
         if (!step) break;
         size_t touched = 0;
         if ((s = emit_local(d, mark, err)) || (s = make_positive(d, bad, &touched, err)) ||
-            *bad)
+            *bad || (s = vm__dc_check(d, err)))
             break;
     }
     *moved = 0;
@@ -1268,7 +1273,8 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     dc d;
     vm_status s = vm__dc_setup(&d, g, st, err);
     if (!s) s = emit_all(&d, err);
-    if (!s && g->progress) g->progress("contour", 3, 4, g->progress_user);
+    if (!s && g->progress && g->progress("contour", 3, 4, g->progress_user))
+        s = vm__cancelled(err, "mesh");
     size_t bad = 0, relaxed = 0;
     if (!s) s = make_positive(&d, &bad, &relaxed, err);
     size_t crossing = 0, untangled = 0;
@@ -1276,7 +1282,8 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     if (!s && bad)
         s = vm_error_set(err, VM_ERR_INTERNAL,
                          "mesh: %zu tetrahedra stay flat or inverted after relaxation", bad);
-    if (!s && g->progress) g->progress("contour", 4, 4, g->progress_user);
+    if (!s && g->progress && g->progress("contour", 4, 4, g->progress_user))
+        s = vm__cancelled(err, "mesh");
     if (s) {
         vm__dc_free(&d);
         return s;

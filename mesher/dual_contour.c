@@ -447,8 +447,13 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 4096)
 #endif
-    for (size_t bi = 0; bi < d->nbc; bi++)
+    for (size_t bi = 0; bi < d->nbc; bi++) {
+        /* cancelled: the remaining cells are skipped (the run then stops) */
+        if ((bi & 4095) == 0 ? vm__progress_poll_team(d->g->progress, d->g->progress_user)
+                             : vm__progress_stopped(d->g->progress, d->g->progress_user))
+            continue;
         place_cell_reps(d, bi);
+    }
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static)
 #endif
@@ -464,7 +469,8 @@ static vm_status place_reps(dc *d, const double *coarse_pos, vm_error *err) {
         d->mu[r] = 1.0f;
         d->rep_planes[r] = 0;
     }
-    return VM_OK;
+    return vm__progress_stopped(d->g->progress, d->g->progress_user) ? vm__cancelled(err, "mesh")
+                                                                      : VM_OK;
 }
 
 /* Index of the first of the n increasing keys that is >= key (n when none is). */
@@ -999,15 +1005,24 @@ vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *er
     size_t tmp;
     vm_status s = vm__check_dims(d->P, 1, "mesh", &tmp, err);
     if (!s) s = classify(d, st, err);
-    if (!s && g->progress) g->progress("contour", 1, 4, g->progress_user);
+    if (!s && g->progress && g->progress("contour", 1, 4, g->progress_user))
+        s = vm__cancelled(err, "mesh");
     if (!s) s = find_cells(d, st, err);
+    if (!s) s = vm__dc_check(d, err);
     if (!s && g->hexes) s = vm__dc_repair_for_hexes(d, st, &st->repaired_points, err);
     double *coarse_pos = NULL;
     d->error = g->error;
     if (!s && g->max_level > 0 && !g->hexes) s = merge_boundary(d, &coarse_pos, err);
+    if (!s) s = vm__dc_check(d, err);
     if (!s && g->max_level > 0) s = build_octree(d, g->max_level, st, err);
+    if (!s) s = vm__dc_check(d, err);
     if (!s) s = place_reps(d, coarse_pos, err);
     free(coarse_pos);
-    if (!s && g->progress) g->progress("contour", 2, 4, g->progress_user);
+    if (!s && g->progress && g->progress("contour", 2, 4, g->progress_user))
+        s = vm__cancelled(err, "mesh");
     return s;
+}
+
+vm_status vm__dc_check(const dc *d, vm_error *err) {
+    return vm__progress_check(d->g->progress, d->g->progress_user, "mesh", err);
 }

@@ -412,8 +412,11 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     g.max_level = o->adaptive && o->elements != VM_HEX8 ? o->max_level : 0;
     g.hexes = o->elements == VM_HEX8;
     g.error = o->error;
-    g.progress = o->progress;
-    g.progress_user = o->progress_user;
+    /* the caller's progress, forwarded through a meter that the stages below poll */
+    vm__meter pm;
+    vm__meter_wrap(&pm, o->progress, o->progress_user, "contour", 4.0);
+    g.progress = o->progress ? vm__meter_forward : NULL;
+    g.progress_user = &pm;
 
     vm__tet_soup soup;
     memset(&soup, 0, sizeof soup);
@@ -423,10 +426,13 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     int64_t org[3] = {0, 0, 0}; /* each level's block grid origin (cells), from the last */
     for (int64_t l = 1, sc = 1; !s && g.hexes && o->adaptive && l <= o->max_level; l++, sc *= 3) {
         size_t before = soup.ntets;
+        if ((s = vm__progress_check(g.progress, g.progress_user, "mesh", err))) break;
         s = vm__hex_adapt(&soup, g.n, sc, org, &st, err);
         if (soup.ntets == before) break;
     }
     free(resampled);
+    /* (a stage may have gone on after a request it did not read) */
+    if (!s && vm__meter_poll(&pm)) s = vm__cancelled(err, "mesh");
     if (s == VM_ERR_EMPTY)
         s = vm_error_set(err, VM_ERR_EMPTY, "mesh: no grid point is in the material");
     if (s) {

@@ -247,7 +247,11 @@ vm_status vm_mesh_volume_slabs(const vm_volume *info, const vm_mesh_options *o,
     memset(&sum, 0, sizeof sum);
     double vmin = INFINITY, vmax = -INFINITY;
     int64_t have0 = 0, have1 = 0; /* buf holds planes have0 .. have1 - 1 */
-    for (int i = 0; i < n && !st; i++, vm__meter_add(&meter, 1)) {
+    for (int i = 0; i < n && !st; i++) {
+        if (i > 0 && vm__meter_add(&meter, 1)) {
+            st = vm__cancelled(err, "mesh");
+            break;
+        }
         vm_slab s;
         vm_slab_part(&g, i, n, &s);
         if (s.plane1 <= s.plane0) continue;
@@ -323,6 +327,10 @@ vm_status vm_mesh_volume_slabs(const vm_volume *info, const vm_mesh_options *o,
         return st;
     }
     vm__meter_end(&meter);
+    if (vm__meter_stopped(&meter)) {
+        vm_mesh_free(mesh);
+        return vm__cancelled(err, "mesh");
+    }
     vm_mesh_index_to_world(mesh, info);
     sum.seconds = vm__now() - t0;
     if (stats) *stats = sum;

@@ -251,7 +251,11 @@ vm_status vm_denoise_bilateral(const vm_volume *in, double sigma_space, double s
 #pragma omp parallel for schedule(dynamic, 1)
 #endif
         for (int64_t k = k0; k < k1; k++) bilateral_slab(in, taps, ntap, rad, rscale, k, res.data);
-        if (progress) progress("bilateral", (double)k1, (double)nz, user);
+        if (progress && progress("bilateral", (double)k1, (double)nz, user)) {
+            free(taps);
+            vm_volume_free(&res);
+            return vm__cancelled(err, "bilateral");
+        }
     }
     free(taps);
     *out = res;
@@ -390,7 +394,12 @@ vm_status vm_denoise_diffusion(const vm_volume *in, double kappa, double dt, int
         float *t = cur;
         cur = next;
         next = t;
-        if (progress) progress("diffusion", it + 1.0, (double)iterations, user);
+        if (progress && progress("diffusion", it + 1.0, (double)iterations, user)) {
+            free(cur == res.data ? next : cur);
+            free(grad);
+            vm_volume_free(&res);
+            return vm__cancelled(err, "diffusion");
+        }
     }
     if (cur != res.data) {
         memcpy(res.data, cur, count * sizeof *cur);

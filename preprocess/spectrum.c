@@ -559,7 +559,10 @@ static vm_status sum_layers(const vm_volume *v, accum *ac, const double inv[3][3
             }
             sum += q[4 * sz];
         }
-        if (progress) progress("spectrum", (double)k1, (double)(nz - 1), user);
+        if (progress && progress("spectrum", (double)k1, (double)(nz - 1), user)) {
+            free(part);
+            return vm__cancelled(err, "spectrum");
+        }
     }
     free(part);
     *total = sum;

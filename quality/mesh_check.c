@@ -635,6 +635,7 @@ static vm_status cell_metrics(const vm_mesh *m, vm_mesh_report *r, vm__meter *mt
 static vm_status check_volume_mesh(const vm_mesh *m, vm_mesh_report *r, vm__meter *mt,
                                    vm_error *err) {
     vm_status st = cell_metrics(m, r, mt, SHARE_METRICS, err);
+    if (!st && vm__meter_poll(mt)) st = vm__cancelled(err, "mesh check");
     if (st) return st;
     faceset fs = faceset_of(m);
     size_t *parent = alloc_array(m->ncells, sizeof *parent, 0, "cell components", &st, err);
@@ -649,7 +650,9 @@ static vm_status check_volume_mesh(const vm_mesh *m, vm_mesh_report *r, vm__mete
     size_t nb = 0;
     st = match_faces(&fs, m->ncells, parent, &r->overshared_faces, &binst, &nb, mt,
                      SHARE_FACES, err);
+    if (!st && vm__meter_poll(mt)) st = vm__cancelled(err, "mesh check");
     if (st) {
+        free(binst);
         free(parent);
         return st;
     }
@@ -675,7 +678,8 @@ static vm_status check_volume_mesh(const vm_mesh *m, vm_mesh_report *r, vm__mete
     }
     free(binst);
     st = analyse_surface(bf, nb, fs.k, m->npoints, r, err);
-    vm__meter_add(mt, 0.5 * (1.0 - SHARE_METRICS - SHARE_FACES));
+    if (vm__meter_add(mt, 0.5 * (1.0 - SHARE_METRICS - SHARE_FACES)) && !st)
+        st = vm__cancelled(err, "mesh check");
     if (!st && fs.k == 3)
         st = vm__self_intersections(m->points, bf, nb, &r->boundary_self_intersections, NULL,
                                     err);
@@ -751,6 +755,8 @@ vm_status vm_mesh_check_with(const vm_mesh *m, vm_progress_fn progress, void *us
     else
         st = check_surface_mesh(m, r, err);
     if (!st) vm__meter_end(&mt);
+    /* (a request at a call no check followed, the last one included) */
+    if (!st && vm__meter_stopped(&mt)) st = vm__cancelled(err, "mesh check");
     return st;
 }
 

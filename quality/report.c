@@ -455,6 +455,7 @@ vm_status vm_quality_report_with(const vm_mesh *m, const vm_quality_options *o,
     }
     free(cs);
     vm__meter_end(&mt);
+    if (vm__meter_stopped(&mt)) return vm__cancelled(err, "quality report");
     st = vm_mesh_edge_lengths(m, &q->edges, err);
     if (!st) st = count_regions(m, q, err);
     return st;

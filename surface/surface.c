@@ -71,6 +71,8 @@ static vm_status surface_dc(const vm_volume *v, const vm_surface_options *o, vm_
         vm_improve_options io;
         vm_improve_options_default(&io);
         COPY_BOUNDS(io, o);
+        io.progress = o->progress; /* its bar, and a chance to cancel */
+        io.progress_user = o->progress_user;
         s = vm_mesh_improve(&vol, v, &io, NULL, err);
     }
     if (!s) s = vm_mesh_boundary(&vol, surf, err);

@@ -10,6 +10,7 @@
  * core/self_intersect.c). One vertex per crossed grid edge, so the surface is watertight;
  * material on the volume border is closed by flat faces on the box (marching squares on the
  * border faces, with the same decider). */
+#include "../core/core.h"
 #include "../core/self_intersect.h"
 #include "../core/vec3.h"
 #include "surface_internal.h"
@@ -1001,9 +1002,10 @@ vm_status vm__surface_mc(const vm__surface_grid *g, const vm_surface_options *o,
         reset_ids(m.ey[1], nye);
         reset_ids(m.pv[1], nxy);
         reset_ids(m.ez, nxy);
-        if (o->progress)
+        if (!s && o->progress &&
             o->progress("marching cubes", (double)(k + 1), (double)(m.nz - 1),
-                        o->progress_user);
+                        o->progress_user))
+            s = vm__cancelled(err, "surface");
     }
     if (st) {
         st->cells_visited = (size_t)((m.nx - 1) * (m.ny - 1) * (m.nz - 1));

@@ -89,7 +89,7 @@ typedef struct vm_test_progress_log {
     int ended;         /* the last counted call had done == total */
     double last, total; /* done and total of the last counted call */
 } vm_test_progress_log;
-void vm_test_progress(const char *stage, double done, double total, void *user);
+int vm_test_progress(const char *stage, double done, double total, void *user);
 
 /* 1 when a file exists at path. */
 int vm_test_exists(const char *path);

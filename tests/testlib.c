@@ -420,11 +420,11 @@ void vm_test_sort_rows(double *rows, size_t count, int width) {
     qsort(rows, count, (size_t)width * sizeof(double), row_cmp);
 }
 
-void vm_test_progress(const char *stage, double done, double total, void *user) {
+int vm_test_progress(const char *stage, double done, double total, void *user) {
     vm_test_progress_log *l = user;
     if (l->stage && strcmp(stage, l->stage) != 0) {
         l->other_stage++;
-        return;
+        return 0;
     }
     if (l->calls > 0 && total != l->total) l->total_changed++;
     if (done < l->last || done > total) l->backwards++;
@@ -432,4 +432,5 @@ void vm_test_progress(const char *stage, double done, double total, void *user) 
     l->last = done;
     l->total = total;
     l->ended = done == total;
+    return 0;
 }

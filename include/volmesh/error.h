@@ -20,7 +20,8 @@ typedef enum vm_status {
     VM_ERR_ARG = -4,         /* bad option value given by the user (not a caller bug) */
     VM_ERR_EMPTY = -5,       /* the selection contains nothing to mesh */
     VM_ERR_UNSUPPORTED = -6, /* valid input using a feature volmesh does not handle */
-    VM_ERR_INTERNAL = -7     /* an invariant the library checks did not hold */
+    VM_ERR_INTERNAL = -7,    /* an invariant the library checks did not hold */
+    VM_ERR_CANCELLED = -8    /* a progress callback returned nonzero (volmesh/mesh.h) */
 } vm_status;
 
 /* [out] holder of the last error; message is one line without trailing newline. */

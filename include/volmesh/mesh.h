@@ -25,10 +25,27 @@ typedef int32_t vm_index;
  * coordinate that is NaN, infinite or larger, naming the point and axis. */
 #define VM_COORD_MAX 1e30
 
-/* Progress callback: stage name, work done out of total (done only grows and ends equal to
- * total). Called from the calling thread, a few hundred times per stage at most. Used by the
- * mesher, the quality pass, the writers and the checks. */
-typedef void (*vm_progress_fn)(const char *stage, double done, double total, void *user);
+/* Progress callback: stage name, work done out of total (done never decreases and ends equal
+ * to total), and the user pointer given beside it. Used by the mesher, the quality pass, the
+ * labels, surfaces, denoising, the writers and the checks.
+ *
+ * Called only from the thread that called the library (never from its worker threads): a
+ * few hundred times per stage as done grows, and in the long loops between those also
+ * again with the last values (done unchanged), about every VM_PROGRESS_POLL seconds of work,
+ * so that a callback can stop a run on time (e.g. on Ctrl-C).
+ *
+ * Returns 0 to go on, nonzero to cancel: the library then stops at its next check (a
+ * fraction of a second on a 256^3 volume; docs/GUIDE.md section 9 lists where it checks),
+ * frees what it allocated, writes no output file, and returns VM_ERR_CANCELLED ("STAGE:
+ * cancelled"). A cancelled call returns the outputs as on any error (a mesh it was to make
+ * is freed; a mesh it was to improve in place stays valid). The request is sticky for the
+ * call: once nonzero, later return values do not matter. Not yet: the hex quality pass and
+ * the graded mesher run to their end. (This callback returned void before cancellation
+ * came: such a callback now returns 0.) */
+typedef int (*vm_progress_fn)(const char *stage, double done, double total, void *user);
+
+/* About how often (seconds) a long loop repeats its last progress call (see vm_progress_fn). */
+#define VM_PROGRESS_POLL 0.1
 
 /* Element kinds, valued as VTK cell type ids. */
 typedef enum vm_cell_kind {

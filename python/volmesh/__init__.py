@@ -183,8 +183,9 @@ def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=Fa
     label_edge={label: L} (with labels; tets): no edge longer than L (world units) inside
     that label's interior, as `volmesh mesh --label-edge` (docs/SIZING.md).
     improve runs the quality pass. threads sets the thread count for this call. progress:
-    a callable(stage, done, total), called from the meshing thread with the GIL held; an
-    exception it raises stops the call when the stage returns."""
+    a callable(stage, done, total), called from the calling thread with the GIL held, at most
+    about ten times a second; an exception it raises (or KeyboardInterrupt on Ctrl-C) cancels
+    the run, which stops within about a second, and is raised from mesh()."""
     if isinstance(source, Volume):
         vol = Volume(source.array,
                      source.spacing if spacing is None else spacing,

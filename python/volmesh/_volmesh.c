@@ -7,6 +7,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+#ifdef _WIN32
+#include <windows.h>
+#endif
 #include "volmesh/volmesh.h"
 
 static PyObject *error_class; /* volmesh.Error, handed over by __init__.py */
@@ -64,18 +68,58 @@ static PyObject *raise_status(vm_status s, const vm_error *err) {
     return NULL;
 }
 
-/* What the progress callback needs: the Python callable, and the first exception it raised
- * (later calls are skipped; the exception is raised when the library call returns). */
+/* What the library's progress hook needs: the Python callable (or NULL), the first
+ * exception raised while the GIL was released (by the callable, or KeyboardInterrupt and
+ * the like from a signal handler), the thread that released the GIL, and the clock. */
 typedef struct {
     PyObject *callback;
     PyObject *exc_type, *exc_value, *exc_tb;
+    unsigned long thread; /* PyThread_get_thread_ident() of the caller */
+    double next;          /* monotonic seconds: no look at Python before then */
+    const char *stage;    /* of the last call handed to the callable */
 } progress_ctx;
 
-/* Library progress -> Python callback(stage, done, total), with the GIL taken for the call. */
-static void progress_call(const char *stage, double done, double total, void *user) {
+/* At most this often (seconds) the hook takes the GIL to run signal handlers and the
+ * callable: Ctrl-C stops a run within about this plus the library's own check interval. */
+#define PROGRESS_EVERY 0.1
+
+static double monotonic_seconds(void) {
+#ifdef _WIN32
+    return (double)GetTickCount64() * 1e-3;
+#else
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+#endif
+}
+
+/* A context for a call made from this thread (the GIL held). */
+static void progress_init(progress_ctx *p, PyObject *callback) {
+    memset(p, 0, sizeof *p);
+    p->callback = callback && callback != Py_None ? callback : NULL;
+    p->thread = PyThread_get_thread_ident();
+    p->next = monotonic_seconds() + PROGRESS_EVERY;
+}
+
+/* The library's progress hook (always installed, so that Ctrl-C works without a callable).
+ * Only on the thread that released the GIL, at most every PROGRESS_EVERY seconds (and at a
+ * stage's first and last call), it takes the GIL, runs the pending signal handlers
+ * (PyErr_CheckSignals: KeyboardInterrupt on SIGINT) and the callable(stage, done, total).
+ * An exception from either is kept and cancels the run (nonzero); it is raised when the
+ * library returns (progress_finish). */
+static int progress_call(const char *stage, double done, double total, void *user) {
     progress_ctx *p = user;
+    if (p->exc_type) return 1;
+    if (PyThread_get_thread_ident() != p->thread) return 0; /* never Python off the caller */
+    double now = monotonic_seconds();
+    int edge = stage != p->stage || done >= total;
+    if (now < p->next && !(edge && p->callback)) return 0;
+    p->next = now + PROGRESS_EVERY;
     PyGILState_STATE g = PyGILState_Ensure();
-    if (!p->exc_type && p->callback) {
+    if (PyErr_CheckSignals() < 0) {
+        PyErr_Fetch(&p->exc_type, &p->exc_value, &p->exc_tb);
+    } else if (p->callback) {
+        p->stage = stage;
         PyObject *r = PyObject_CallFunction(p->callback, "sdd", stage, done, total);
         if (r)
             Py_DECREF(r);
@@ -83,9 +127,10 @@ static void progress_call(const char *stage, double done, double total, void *us
             PyErr_Fetch(&p->exc_type, &p->exc_value, &p->exc_tb);
     }
     PyGILState_Release(g);
+    return p->exc_type != NULL;
 }
 
-/* After the library call: re-raises what the callback raised; returns -1 when it did. */
+/* After the library call: re-raises what the hook caught; returns -1 when it did. */
 static int progress_finish(progress_ctx *p) {
     if (!p->exc_type) return 0;
     PyErr_Restore(p->exc_type, p->exc_value, p->exc_tb);
@@ -281,10 +326,15 @@ static PyObject *py_write_mesh(PyObject *self, PyObject *args) {
     }
     vm_error err;
     vm_error_clear(&err);
+    progress_ctx p; /* no callable: Ctrl-C only */
+    progress_init(&p, NULL);
+    wo.progress = progress_call;
+    wo.progress_user = &p;
     vm_status s;
     Py_BEGIN_ALLOW_THREADS s = vm_mesh_write_as(PyBytes_AS_STRING(pathobj), &m, &wo, &err);
     Py_END_ALLOW_THREADS views_release(&mv);
     Py_DECREF(pathobj);
+    if (progress_finish(&p)) return NULL;
     if (s) return raise_status(s, &err);
     Py_RETURN_NONE;
 }
@@ -308,7 +358,13 @@ static PyObject *py_quality_json(PyObject *self, PyObject *args) {
     char *text = NULL;
     size_t len = 0;
     int wrote = -1;
-    Py_BEGIN_ALLOW_THREADS s = vm_quality_report_with(&m, NULL, &q, &err);
+    progress_ctx p; /* no callable: Ctrl-C only */
+    progress_init(&p, NULL);
+    vm_quality_options qo;
+    vm_quality_options_init(&qo);
+    qo.progress = progress_call;
+    qo.progress_user = &p;
+    Py_BEGIN_ALLOW_THREADS s = vm_quality_report_with(&m, &qo, &q, &err);
     if (!s) {
         FILE *f = open_memstream(&text, &len);
         if (f) {
@@ -317,6 +373,10 @@ static PyObject *py_quality_json(PyObject *self, PyObject *args) {
         }
     }
     Py_END_ALLOW_THREADS views_release(&mv);
+    if (progress_finish(&p)) {
+        free(text);
+        return NULL;
+    }
     if (s) return raise_status(s, &err);
     if (wrote != 0) {
         free(text);
@@ -455,7 +515,7 @@ static int request_parse(PyObject *kw, mesh_request *r) {
 /* The meshing pipeline of volmesh mesh (no GIL): labels, surface or volume, then the pass. */
 static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ctx *p,
                           vm_mesh *m, vm_error *err) {
-    vm_progress_fn fn = p->callback ? progress_call : NULL;
+    vm_progress_fn fn = progress_call;
     vm_status s;
     if (r->labels) {
         vm_label_options lo;
@@ -560,7 +620,8 @@ static PyObject *py_mesh(PyObject *self, PyObject *args, PyObject *kw) {
                             view.len, nx * ny * nz);
     }
     v.data = view.buf; /* lent: the library only reads it */
-    progress_ctx p = {callback != Py_None ? callback : NULL, NULL, NULL, NULL};
+    progress_ctx p;
+    progress_init(&p, callback);
     vm_mesh m;
     vm_mesh_init(&m, r.elements);
     vm_error err;

@@ -545,7 +545,7 @@ typedef struct progress_log {
     int backwards, ended;
 } progress_log;
 
-static void log_progress(const char *stage, double done, double total, void *user) {
+static int log_progress(const char *stage, double done, double total, void *user) {
     progress_log *pl = user;
     if (pl->nstages == 0 || strcmp(pl->stages[pl->nstages - 1], stage) != 0) {
         if (pl->nstages < 8) snprintf(pl->stages[pl->nstages++], 16, "%s", stage);
@@ -554,6 +554,7 @@ static void log_progress(const char *stage, double done, double total, void *use
     if (done < pl->last) pl->backwards++;
     pl->last = done;
     if (done >= total) pl->ended++;
+    return 0;
 }
 
 static void reportReusesAGivenCheckAndShowsProgressForEachStage(void) {
