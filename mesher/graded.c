@@ -100,6 +100,12 @@ static vm_status search_scale(gr_field *f, gr_sizing *sz, size_t want, double *p
     return leaves_at(f, &one, k, t, err);
 }
 
+/* A progress call ("mesh", k / (k + 1) of 1) at the k-th step; nonzero: cancelled. */
+static int tick(vm__meter *pm, unsigned *k) {
+    ++*k;
+    return vm__meter_forward("mesh", (double)*k / (*k + 1.0), 1.0, pm);
+}
+
 /* Copies the points, cells and regions of a tet mesh. */
 static vm_status copy_mesh(const vm_mesh *m, vm_mesh *out, vm_error *err) {
     vm_mesh_init(out, VM_TET4);
@@ -116,14 +122,15 @@ static vm_status copy_mesh(const vm_mesh *m, vm_mesh *out, vm_error *err) {
 /* Coarsens the stuffed mesh (graded_coarsen.c); should its topology change all the same
  * (the link condition keeps it; this is a second line), the stuffed mesh stays. */
 static vm_status coarsen(vm_mesh *mesh, const gr_field *f, const vm_mesh_options *o,
-                         const gr_sizing *sz, vm_mesh_stats *st, vm_error *err) {
+                         const gr_sizing *sz, vm__meter *pm, vm_mesh_stats *st,
+                         vm_error *err) {
     long e0 = 0, e1 = 0;
     size_t c0 = 0, c1 = 0, removed = 0;
     vm_mesh keep;
     vm_status s = vm__gr_mesh_topology(mesh, &e0, &c0, err);
     if (!s) s = copy_mesh(mesh, &keep, err);
     if (s) return s;
-    s = vm__gr_coarsen(mesh, f, sz->distance, sz->max_edge, o->tets, &removed, err);
+    s = vm__gr_coarsen(mesh, f, sz->distance, sz->max_edge, o->tets, pm, &removed, err);
     if (!s) s = vm__gr_mesh_topology(mesh, &e1, &c1, err);
     if (!s && (e1 != e0 || c1 != c0)) {
         vm_mesh_free(mesh);
@@ -170,6 +177,10 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     memset(&L, 0, sizeof L);
     vm_status s = vm__gr_field_init(&f, v, o, err);
     if (s) return s;
+    /* the caller's progress, polled for cancellation between and inside the stages */
+    vm__meter pm;
+    vm__meter_wrap(&pm, o->progress, o->progress_user, "mesh", 1.0);
+    unsigned ticks = 0;
     /* --tets N: the size scale k (multiplying the distance bound, the edge bound and the size
      * field) whose octree gives about N tets, at the tets per leaf of a first mesh. */
     int measured = 1, corrected = 0;
@@ -197,6 +208,10 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     gr_node *saved = NULL;
     size_t saved_n = 0, saved_leaves = 0;
     for (int round = 0; !s;) {
+        if (tick(&pm, &ticks)) {
+            s = vm__cancelled(err, "mesh");
+            break;
+        }
         vm_mesh_free(mesh);
         vm_mesh_init(mesh, VM_TET4);
         if (!(s = vm__gr_lattice_build(&L, &t, &f, err)))
@@ -251,7 +266,9 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     }
     free(saved);
     vm_mesh_free(&good);
-    if (!s && !o->no_coarsen && mesh->ncells) s = coarsen(mesh, &f, o, &sz, st, err);
+    if (!s && tick(&pm, &ticks)) s = vm__cancelled(err, "mesh");
+    if (!s && !o->no_coarsen && mesh->ncells) s = coarsen(mesh, &f, o, &sz, &pm, st, err);
+    if (!s && tick(&pm, &ticks)) s = vm__cancelled(err, "mesh");
     st->size_scale = sz.distance / d0;
     st->octree_leaves = t.leaves;
     st->warped_vertices = ss.warped;
@@ -260,5 +277,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     vm__gr_field_free(&f);
     if (!s && mesh->ncells == 0)
         s = vm_error_set(err, VM_ERR_EMPTY, "mesh: the material holds no element");
+    if (!s && vm__meter_poll(&pm)) s = vm__cancelled(err, "mesh");
+    if (s == VM_ERR_CANCELLED) vm_mesh_free(mesh);
     return s;
 }

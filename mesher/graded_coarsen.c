@@ -60,6 +60,9 @@ typedef struct co {
     float *qlo, *qhi;       /* per tet: its dihedral range */
     double dvol, vol_budget; /* volume added so far; the most it may lose */
     int strict;              /* repairing: a collapse must better the worst angle */
+    vm__meter *pm;           /* polled for cancellation (may be NULL) */
+    unsigned polls;
+    int stop;                /* cancelled */
     int nomem;
 } co;
 
@@ -233,6 +236,13 @@ static double tri_dist2(const double *x, const double *a, const double *b, const
     for (int d = 0; d < 3; d++)
         q[d] = a[d] + v * ab[d] + w * ac[d];
     return dist2(x, q);
+}
+
+/* Every 1024th call polls the caller's meter; 1 once cancelled. */
+static int stopped(co *C) {
+    if (C->stop) return 1;
+    if (C->pm && (++C->polls & 1023) == 0 && vm__meter_poll(C->pm)) C->stop = 1;
+    return C->stop;
 }
 
 /* Edge pq within --max-edge and the size field. */
@@ -936,7 +946,7 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
  * [out] moved. */
 static size_t move_sweep(co *C, plan *P) {
     size_t moved = 0;
-    for (size_t vv = 0; vv < C->nv; vv++) {
+    for (size_t vv = 0; vv < C->nv && !stopped(C); vv++) {
         int32_t v = (int32_t)vv;
         if (C->dead_v[v] || C->fix[v] || C->vt[v].n == 0) continue;
         const ilist *l = &C->vt[v];
@@ -1092,7 +1102,7 @@ static int peel(co *C, int32_t t) {
  * [out] tets still beyond. */
 static size_t repair(co *C, plan *P, set *sets, size_t *removed) {
     size_t left = 0;
-    for (size_t tt = 0; tt < C->nt && !C->nomem; tt++) {
+    for (size_t tt = 0; tt < C->nt && !C->nomem && !stopped(C); tt++) {
         int32_t t = (int32_t)tt;
         if (C->dead_t[t] || (C->qlo[t] >= 15 && C->qhi[t] <= 150)) continue;
         vm_index c[4];
@@ -1170,7 +1180,7 @@ static size_t repair(co *C, plan *P, set *sets, size_t *removed) {
 }
 
 vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double max_edge,
-                         size_t target, size_t *removed, vm_error *err) {
+                         size_t target, vm__meter *pm, size_t *removed, vm_error *err) {
     *removed = 0;
     if (m->ncells == 0 || m->npoints >= (size_t)INT32_MAX || m->ncells >= (size_t)INT32_MAX / 4)
         return VM_OK;
@@ -1182,6 +1192,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     C.max_edge = max_edge > 0 ? max_edge : INFINITY;
     C.nv = m->npoints;
     C.nt = m->ncells;
+    C.pm = pm;
     C.live = m->ncells;
     C.voxel = fmin(f->sp[0], fmin(f->sp[1], f->sp[2]));
     double det;
@@ -1238,9 +1249,9 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     if (!s && (!sets || !P))
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
     /* rounds of collapses, then moves (which open room for more collapses) */
-    for (int round = 0; round < GR_CO_ROUNDS && !s && !C.nomem; round++) {
+    for (int round = 0; round < GR_CO_ROUNDS && !s && !C.nomem && !C.stop; round++) {
         size_t r0 = *removed;
-        for (int pass = 0; pass < GR_CO_PASSES && !s && !C.nomem; pass++) {
+        for (int pass = 0; pass < GR_CO_PASSES && !s && !C.nomem && !C.stop; pass++) {
             /* the live edges, shortest first */
             size_t ne = 0;
             free(E);
@@ -1302,12 +1313,13 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
         for (int k = 0; k < 2 && !C.nomem; k++)
             move_sweep(&C, &P[0]);
     }
-    for (int k = 0; k < 3 && !s && !C.nomem; k++)
+    for (int k = 0; k < 3 && !s && !C.nomem && !C.stop; k++)
         if (!repair(&C, P, sets, removed)) break;
     free(E);
     free(sets);
     free(P);
     if (!s && C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    if (!s && C.stop) s = vm__cancelled(err, "mesh");
     if (!s) s = compact(&C, err);
     co_free(&C);
     return s;

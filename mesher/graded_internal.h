@@ -166,9 +166,11 @@ vm_status vm__gr_mesh_topology(const vm_mesh *m, long *euler, size_t *comps, vm_
 
 /* Coarsens the stuffed mesh by edge collapse (graded_coarsen.c), keeping its topology, the
  * dihedral angles of the changed tets within the stuffing's, the edge bound and the size
- * field, and the distance bound both ways; stops at `target` tets when nonzero. [out]
- * *removed: vertices removed. */
+ * field, and the distance bound both ways; stops at `target` tets when nonzero. pm (may be
+ * NULL) is polled for cancellation (VM_ERR_CANCELLED; the mesh is then left valid but
+ * partly coarsened). [out] *removed: vertices removed. */
+struct vm__meter;
 vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double max_edge,
-                         size_t target, size_t *removed, vm_error *err);
+                         size_t target, struct vm__meter *pm, size_t *removed, vm_error *err);
 
 #endif
