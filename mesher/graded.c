@@ -67,8 +67,8 @@ static vm_status leaves_at(gr_field *f, const gr_sizing *sz, double k, gr_tree *
 /* The scale k in [1/64, 64] whose octree gives about `want` tets, by bisection on log k
  * (fewer leaves as k grows), at *per tets per leaf (0: the lattice's tets per leaf at k = 1,
  * returned); sz (at scale 1) and f take the scale found. [out] t: its octree. */
-static vm_status search_scale(gr_field *f, gr_sizing *sz, size_t want, double *per,
-                              gr_tree *t, vm_error *err) {
+static vm_status search_scale(gr_field *f, gr_sizing *sz, size_t want, int coarsening,
+                              double *per, gr_tree *t, vm_error *err) {
     vm_status s = VM_OK;
     if (!(*per > 0)) {
         gr_lattice L;
@@ -79,19 +79,23 @@ static vm_status search_scale(gr_field *f, gr_sizing *sz, size_t want, double *p
         *per = s || !t->leaves ? 12.0 : (double)L.nt / (double)t->leaves;
         vm__gr_lattice_free(&L);
     }
-    double lo = log(1.0 / 64), hi = log(64.0), best = 0, best_err = INFINITY;
+    /* the coarsest octree whose stuffed mesh has at least `want` tets (coarsening then
+     * takes it down to want), else the nearest */
+    double lo = log(1.0 / 64), hi = log(64.0), best = 0, best_err = INFINITY, above = 0,
+           above_est = INFINITY;
     for (int it = 0; it < 14 && !s; it++) {
         double lk = 0.5 * (lo + hi);
         if ((s = leaves_at(f, sz, exp(lk), t, err))) break;
         double est = *per * (double)t->leaves, e = fabs(log(est / (double)want));
         if (e < best_err) best_err = e, best = lk;
+        if (est >= (double)want && est < above_est) above_est = est, above = lk;
         if (est > (double)want)
             lo = lk;
         else
             hi = lk;
     }
     if (s) return s;
-    double k = exp(best);
+    double k = exp(coarsening && above_est < INFINITY ? above : best);
     sz->distance *= k;
     sz->max_edge *= k;
     gr_sizing one = *sz;
@@ -187,7 +191,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     double d0 = sz.distance, per = 0;
     gr_sizing sz1 = sz;
     if (o->tets > 0) {
-        s = search_scale(&f, &sz, o->tets, &per, &t, err);
+        s = search_scale(&f, &sz, o->tets, !o->no_coarsen, &per, &t, err);
         measured = 0; /* the count asked for wins over the distance */
     } else if (!(s = vm__gr_tree_build(&t, &f, &sz, err))) {
         s = vm__gr_tree_balance(&t, err);
@@ -238,11 +242,14 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
         } else if (!measured) {
             /* --tets: once more at the tets per leaf this mesh shows, when 10% off */
             double got = (double)mesh->ncells, asked = (double)o->tets;
-            if (corrected || !t.leaves || fabs(got / asked - 1) <= 0.1) break;
+            /* (with coarsening, a mesh over the count is taken down to it) */
+            if (corrected || !t.leaves ||
+                (o->no_coarsen ? fabs(got / asked - 1) <= 0.1 : got >= 0.9 * asked))
+                break;
             corrected = 1;
             per = got / (double)t.leaves;
             sz = sz1;
-            if ((s = search_scale(&f, &sz, o->tets, &per, &t, err))) break;
+            if ((s = search_scale(&f, &sz, o->tets, !o->no_coarsen, &per, &t, err))) break;
             continue;
         } else {
             if (round == GR_REFINE_ROUNDS) break;

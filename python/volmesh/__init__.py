@@ -172,7 +172,8 @@ def read_mesh(path):
 def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=False,
          spacing=None, origin=None, direction=None, adaptive=False, size=1, error=0.5,
          max_level=4, method=None, improve=True, min_island=1, smooth=True, threads=None,
-         progress=None, label_edge=None):
+         progress=None, label_edge=None, graded=False, max_edge=None, min_edge=None,
+         distance=None, size_field=None, grading=None, tets=None, coarsen=True):
     """Meshes the material of source (a Volume, or a 3-D numpy array indexed [z, y, x]).
 
     The material: iso=V (f >= V; invert=True: f <= V), range=(lo, hi) with None for an open
@@ -182,6 +183,11 @@ def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=Fa
     volume's. adaptive, size (in voxels), error and max_level as in `volmesh mesh`.
     label_edge={label: L} (with labels; tets): no edge longer than L (world units) inside
     that label's interior, as `volmesh mesh --label-edge` (docs/SIZING.md).
+    Graded sizing in world units (tets; docs/SIZING.md), as `volmesh mesh --graded` and its
+    options: max_edge, min_edge, distance (lengths), size_field (a Volume or a path: the
+    largest edge at each point), grading (ratio >= 1.1), tets (a target count), coarsen
+    (False keeps the stuffed mesh, --no-coarsen). Any of them sets graded=True; max_edge also
+    sizes label meshes.
     improve runs the quality pass. threads sets the thread count for this call. progress:
     a callable(stage, done, total), called from the calling thread with the GIL held, at most
     about ten times a second; an exception it raises (or KeyboardInterrupt on Ctrl-C) cancels
@@ -231,6 +237,42 @@ def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=Fa
                 raise ValueError(f"label_edge: edge {edge!r} of label {lab} is not a length > 0")
             pairs.append((int(lab), edge))
         req["label_edge"] = pairs
+    sizing = {"max_edge": max_edge, "min_edge": min_edge, "distance": distance}
+    for name, value in sizing.items():
+        if value is None:
+            continue
+        value = float(value)
+        if not (value > 0 and _math.isfinite(value)):
+            raise ValueError(f"{name} must be a length > 0, not {value!r}")
+        req[name] = value
+    if grading is not None:
+        grading = float(grading)
+        if not (grading >= 1.1 and _math.isfinite(grading)):
+            raise ValueError(f"grading must be a ratio >= 1.1, not {grading!r}")
+        req["grading"] = grading
+    if tets is not None:
+        if not isinstance(tets, (int, _np.integer)) or isinstance(tets, bool) or tets < 1:
+            raise ValueError(f"tets must be a whole number >= 1, not {tets!r}")
+        req["tets"] = int(tets)
+    if size_field is not None:
+        sf = size_field if isinstance(size_field, Volume) else read(size_field)
+        sfa = _np.ascontiguousarray(sf.array, dtype=_np.float32)
+        if sfa.ndim != 3:
+            raise ValueError("size_field must be a 3-D volume")
+        sz_, sy_, sx_ = sfa.shape
+        req["size_field"] = (sfa, (sx_, sy_, sz_), tuple(float(x) for x in sf.spacing),
+                             tuple(float(x) for x in sf.origin),
+                             tuple(_np.asarray(sf.direction, dtype=float).ravel()))
+    if not coarsen:
+        req["coarsen"] = False
+    graded = bool(graded) or any(k in req for k in ("min_edge", "distance", "grading", "tets",
+                                                    "size_field", "coarsen")) or \
+        ("max_edge" in req and labels is None)
+    if graded:
+        if labels is not None:
+            raise ValueError("graded sizing (distance, min_edge, grading, tets, size_field, "
+                             "coarsen) does not go with labels=; max_edge does")
+        req["graded"] = True
     if elements not in _ELEMENTS:
         raise ValueError(f"elements must be one of {sorted(_ELEMENTS)}, not {elements!r}")
     req["elements"] = _ELEMENTS[elements]

@@ -403,6 +403,12 @@ typedef struct {
     int size, adaptive, max_level, improve, smooth;
     double error;
     size_t min_island;
+    /* graded sizing (vm_mesh_options); max_edge also sizes label meshes */
+    int graded, coarsen;
+    double max_edge, min_edge, distance, grading;
+    Py_ssize_t tets;
+    PyObject *size_field; /* (data, (nx, ny, nz), spacing, origin, direction9) or NULL */
+    vm_volume sf;         /* its view while meshing */
 } mesh_request;
 
 /* label_edge: a sequence of (label, edge) pairs into r->edges; -1 with a Python exception. */
@@ -445,19 +451,22 @@ static int request_parse(PyObject *kw, mesh_request *r) {
     static char *names[] = {"has_lo", "lo",       "has_hi",     "hi",      "labels",
                             "elements", "method", "size",       "adaptive", "error",
                             "max_level", "improve", "min_island", "smooth", "label_edge",
-                            NULL};
+                            "graded", "coarsen", "max_edge", "min_edge", "distance",
+                            "grading", "tets", "size_field", NULL};
     Py_ssize_t min_island = 1;
     r->size = 1;
     r->error = 0.5;
     r->max_level = 4;
     r->improve = 1;
     r->smooth = 1;
+    r->coarsen = 1;
     PyObject *empty = PyTuple_New(0);
     if (!empty) return -1;
     int ok = PyArg_ParseTupleAndKeywords(
-        empty, kw, "|pdpdOsOipdipnpO", names, &r->has_lo, &r->lo, &r->has_hi, &r->hi, &labels,
-        &elements, &method, &r->size, &r->adaptive, &r->error, &r->max_level, &r->improve,
-        &min_island, &r->smooth, &edges);
+        empty, kw, "|pdpdOsOipdipnpOppddddnO", names, &r->has_lo, &r->lo, &r->has_hi, &r->hi,
+        &labels, &elements, &method, &r->size, &r->adaptive, &r->error, &r->max_level,
+        &r->improve, &min_island, &r->smooth, &edges, &r->graded, &r->coarsen, &r->max_edge,
+        &r->min_edge, &r->distance, &r->grading, &r->tets, &r->size_field);
     Py_DECREF(empty);
     if (!ok) return -1;
     r->min_island = (size_t)(min_island < 1 ? 1 : min_island);
@@ -530,6 +539,7 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
         lo.smooth = r->smooth;
         lo.edges = r->edges;
         lo.nedges = r->nedges;
+        lo.max_edge = r->max_edge;
         SET_PROGRESS(lo, fn, p);
         vm_label_stats st;
         s = vm_mesh_labels(v, &lo, m, &st, err);
@@ -565,6 +575,14 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
     o.adaptive = r->adaptive;
     o.error = r->error;
     o.max_level = r->max_level;
+    o.graded = r->graded;
+    o.no_coarsen = !r->coarsen;
+    o.max_edge = r->max_edge;
+    o.min_edge = r->min_edge;
+    o.distance = r->distance;
+    o.grading = r->grading;
+    o.tets = (size_t)r->tets;
+    o.size_field = r->size_field ? &r->sf : NULL;
     SET_PROGRESS(o, fn, p);
     s = vm_mesh_volume(v, &o, m, NULL, err);
     if (s || !r->improve) return s;
@@ -574,7 +592,8 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
         SET_BOUNDS(io, r);
         SET_PROGRESS(io, fn, p);
         vm_improve_report ir;
-        s = vm_mesh_improve(m, v, &io, &ir, err);
+        s = o.graded ? vm_mesh_improve_graded(m, v, &io, &ir, err)
+                     : vm_mesh_improve(m, v, &io, &ir, err);
     } else if (m->kind == VM_HEX8) {
         vm_hex_improve_options ho;
         vm_hex_improve_options_default(&ho);
@@ -620,6 +639,40 @@ static PyObject *py_mesh(PyObject *self, PyObject *args, PyObject *kw) {
                             view.len, nx * ny * nz);
     }
     v.data = view.buf; /* lent: the library only reads it */
+    Py_buffer sfview;
+    memset(&sfview, 0, sizeof sfview);
+    if (r.size_field) {
+        PyObject *sdata, *ssp, *sor, *sdir;
+        long long sx, sy, sz;
+        if (!PyArg_ParseTuple(r.size_field, "O(LLL)OOO", &sdata, &sx, &sy, &sz, &ssp, &sor,
+                              &sdir) ||
+            sx < 1 || sy < 1 || sz < 1) {
+            if (!PyErr_Occurred())
+                PyErr_SetString(PyExc_ValueError, "size_field: dimensions must be >= 1");
+            PyBuffer_Release(&view);
+            request_free(&r);
+            return NULL;
+        }
+        r.sf.dims[0] = sx;
+        r.sf.dims[1] = sy;
+        r.sf.dims[2] = sz;
+        r.sf.type = VM_SCALAR_FLOAT32;
+        snprintf(r.sf.format, sizeof r.sf.format, "numpy");
+        if (volume_geometry(&r.sf, ssp, sor, sdir) ||
+            PyObject_GetBuffer(sdata, &sfview, PyBUF_C_CONTIGUOUS)) {
+            PyBuffer_Release(&view);
+            request_free(&r);
+            return NULL;
+        }
+        if ((unsigned long long)sfview.len != (unsigned long long)(sx * sy * sz) * sizeof(float)) {
+            PyBuffer_Release(&sfview);
+            PyBuffer_Release(&view);
+            request_free(&r);
+            return PyErr_Format(PyExc_ValueError, "size_field: the data holds %zd bytes, not "
+                                "%lld float32 values", sfview.len, sx * sy * sz);
+        }
+        r.sf.data = sfview.buf;
+    }
     progress_ctx p;
     progress_init(&p, callback);
     vm_mesh m;
@@ -629,6 +682,7 @@ static PyObject *py_mesh(PyObject *self, PyObject *args, PyObject *kw) {
     vm_status s;
     Py_BEGIN_ALLOW_THREADS s = run_mesh(&v, &r, &p, &m, &err);
     Py_END_ALLOW_THREADS PyBuffer_Release(&view);
+    if (r.size_field) PyBuffer_Release(&sfview);
     request_free(&r);
     if (progress_finish(&p)) {
         if (!s) vm_mesh_free(&m);

@@ -401,3 +401,42 @@ def test_labelEdgeSetsTheDensityOfEachLabel():
         volmesh.mesh(a, iso=0.5, label_edge={1: 2.0})
     with pytest.raises(volmesh.Error, match="label 9"):
         volmesh.mesh(a, labels="all", label_edge={9: 2.0})
+
+
+def longest_edge(m):
+    t = m.cells["tetra"]
+    p = m.points
+    return max(np.linalg.norm(p[t[:, i]] - p[t[:, j]], axis=1).max()
+               for i in range(4) for j in range(i + 1, 4))
+
+
+def test_gradedSizingKeywordsAreTheProgramsOptions():
+    a = ball(64, 0.6)
+    uniform = volmesh.mesh(a, iso=0.0, improve=False)
+    graded = volmesh.mesh(a, iso=0.0, graded=True)
+    stuffed = volmesh.mesh(a, iso=0.0, coarsen=False, improve=False)
+    for m in (graded, stuffed):
+        q = volmesh.quality(m)
+        assert q["inverted"] == 0 and q["boundary_closed"] and q["boundary_euler"] == 2
+    assert volmesh.quality(graded)["min_dihedral"] >= 15.0
+    n = lambda m: len(m.cells["tetra"])
+    assert n(graded) * 4 <= n(stuffed) <= n(uniform)
+    bounded = volmesh.mesh(a, iso=0.0, max_edge=3.0)
+    assert longest_edge(bounded) <= 3.0 + 1e-9 < longest_edge(graded)
+    loose = volmesh.mesh(a, iso=0.0, distance=2.0)
+    assert n(loose) < n(graded)
+    target = volmesh.mesh(a, iso=0.0, tets=3 * n(graded))
+    assert 0.75 * 3 * n(graded) <= n(target) <= 1.25 * 3 * n(graded)
+    # a size field of 2 on the left half (x < 32) and 40 on the right
+    field = np.full(a.shape, 40.0, dtype=np.float32)
+    field[:, :, :32] = 2.0
+    sized = volmesh.mesh(a, iso=0.0, size_field=volmesh.Volume(field), improve=False)
+    t = sized.cells["tetra"]
+    cx = sized.points[t].mean(axis=1)[:, 0]
+    assert (cx < 31).sum() >= 4 * (cx > 33).sum()
+    with pytest.raises(ValueError):
+        volmesh.mesh(a, iso=0.0, distance=0)
+    with pytest.raises(ValueError):
+        volmesh.mesh(a, iso=0.0, grading=1.0)
+    with pytest.raises(ValueError):
+        volmesh.mesh(two_blocks(), labels="all", distance=1.0)
