@@ -1290,6 +1290,9 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
 #define RAISE_STEP 0.05
 #define RAISE_MAX_SHARE 0.25
 #define RAISE_LAST_ROUNDS 4
+/* The last bar is this much over the target: the energy then also lifts the hexes just
+ * over the target round the last ones below it, which frees their points. */
+#define RAISE_OVERSHOOT 0.02
 
 /* Corners around point i with i at x: [out] *mn the worst scaled Jacobian, and the energy
  * sum over them of (max(0, bar - sj))^2, which couples the moves of the points of a patch
@@ -1716,8 +1719,10 @@ static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_e
     int rounds = 0;
     size_t last_below = SIZE_MAX;
     double was = -INFINITY;
-    for (double bar = REPAIR_BAR + RAISE_STEP; bar < o->target + 1e-9;) {
-        int last = bar + RAISE_STEP >= o->target + 1e-9;
+    double top = o->target + RAISE_OVERSHOOT;
+    for (double bar = REPAIR_BAR + RAISE_STEP; P->after.min_sj < o->target;) {
+        if (bar > top) bar = top;
+        int last = bar >= top - 1e-9;
         if (P->after.min_sj >= bar) {
             if (last) break;
             bar += RAISE_STEP;

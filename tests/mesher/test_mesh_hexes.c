@@ -85,9 +85,10 @@ static void hexMeshOfEachPhantomIsValidAndThePassReachesTheBar(void) {
  * layer tangles on their folded boundaries, so the pass runs without it; the polish (boundary
  * points sliding along the isosurface) takes both over 0.2 there, so the selective layer is
  * not needed, and the repair (coupled moves on the last patches below the bar) with its bar
- * raised to 0.5 takes them near it (issue 34; every hex measured at its corners, centre and
- * Gauss points; docs/IMPROVE.md). The big heads are in test_mesh_hexes_heads.c. Under the
- * sanitizers the pass runs on the MR head only; the others get the raw-mesh checks. */
+ * raised to 0.52 takes them to or near 0.5 (issue 34; every hex measured at its corners,
+ * centre and Gauss points; docs/IMPROVE.md). The big heads are in test_mesh_hexes_heads.c.
+ * Under the sanitizers the pass runs on the MR head only; the others get the raw-mesh
+ * checks. */
 static void hexMeshOfSharedVolumesIsValidAndThePassReachesTheBar(void) {
     static const struct {
         const char *file;
@@ -95,7 +96,7 @@ static void hexMeshOfSharedVolumesIsValidAndThePassReachesTheBar(void) {
         long euler; /* of the raw mesh; -1: not checked (the raw mesh has inverted hexes) */
         size_t comps;
         int sanitized_pass; /* the pass runs under the sanitizers too */
-    } cases[] = {{"ironProt.vtk", 128, 0.45, 50, 25, 0},         /* measured 0.4945 */
+    } cases[] = {{"ironProt.vtk", 128, 0.4995, 50, 25, 0},       /* measured 0.501 */
                  {"hydrogen.vti", 0.1, 0.45, 4, 3, 0},           /* 0.5000 */
                  {"ct_head_quarter.nrrd", 1150, 0.42, -1, 0, 0}, /* 0.4749 */
                  {"HeadMRVolume.mhd", 50, 0.45, -1, 0, 1}};      /* 0.5000 */
