@@ -1815,6 +1815,15 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
     if (!s && o->pillow && !P.added && P.after.min_sj < fmin(SJ_BAR, o->target))
         s = selective_pillow(&P, m, o, err);
     if (!s && v) s = last_repairs(&P, o, err);
+    if (!s && v) {
+        /* last, the far boundary points in as far as no hex falls below the target, the
+         * worst hex or where it is: neither the worst hex nor the count below the target
+         * gets worse */
+        free(P.w.focus);
+        P.w.focus = NULL;
+        snap_in(&P.w, SNAP_FROM, fmax(o->target, P.after.min_sj));
+        measure(&P.w, &P.after, NULL);
+    }
     if (!s) s = write_result(&P, m, r, err);
     if (!s && r) r->seconds = vm__now() - t0;
     hx_free(&P.w);
