@@ -43,7 +43,7 @@ enum { CLS_FREE = 0, CLS_ISO = 1, CLS_PLANE = 2, CLS_FIXED = 3 };
 #define ISO_WALK_STEP 0.02
 #define ISO_WALK_MAX 2.0
 /* MOVE_TANGENT keeps a surface point within this of the isosurface (or within its starting
- * estimate plus ISO_TANGENT_SLACK); final_snap brings points beyond it back within it. */
+ * estimate plus ISO_TANGENT_SLACK); snap_in brings points beyond it back within it. */
 #define ISO_TANGENT_MAX 0.45
 #define ISO_TANGENT_SLACK 0.01
 /* Past ISO_CHECK_FROM by the estimate, the measured distance must stay within ISO_CHECK_MAX
@@ -52,8 +52,12 @@ enum { CLS_FREE = 0, CLS_ISO = 1, CLS_PLANE = 2, CLS_FIXED = 3 };
 #define ISO_CHECK_MAX 0.5
 /* MOVE_LOOSE lets a surface point go anywhere within this of the isosurface. */
 #define ISO_LOOSE_MAX 0.4
-/* A box-plane point moves at most this far (it need not follow the isosurface). */
+/* A box-plane point moves at most this far (it need not follow the isosurface), one on the
+ * rim (in a boundary face off the box too) stays within ISO_RIM_MAX of the isosurface (or
+ * where it was); the bit of w->planes that marks the rim. */
 #define PLANE_MOVE_MAX 0.5
+#define ISO_RIM_MAX 0.35
+#define PLANE_RIM 0x40u
 /* MOVE_PROJECT: Newton steps (at most PROJECT_ITERS, each at most PROJECT_STEP_MAX long)
  * until the estimate is below PROJECT_TOL; a point that does not converge is still kept
  * within PROJECT_ACCEPT. */
@@ -101,6 +105,7 @@ typedef struct hx {
     int has_lo, has_hi;
     double max_move;
     int pillowed; /* the mesh has the pillow layer: untangling by the penalty */
+    int fit;      /* the mesher's mesh was valid: far boundary points are snapped in */
     vm_progress_fn progress;
     void *progress_user;
 } hx;
@@ -156,59 +161,129 @@ typedef struct lq_stop {
 
 static const lq_stop no_stop = {-INFINITY, -INFINITY, INFINITY};
 
-/* With norm (one column-length product per sample around i, in incidence order, taken
- * before the move): also the untangling penalty, the sum over those samples of
- * max(0, beta - det / norm). Each det is affine in x, so the penalty is convex in x (Knupp
- * 2001's untangling function, normalised so that small and large hexes count alike). The
- * hexes are visited from incidence `first` on (the worst one last time, so that a poor
- * candidate stops early); returns 0 when it stopped at stop (r is then partial), else 1, and
- * sets *worst (NULL allowed) to the incidence holding the minimum. */
-static int local_q(const hx *w, size_t i, const double x[3], const double *norm, lq *r,
-                   const lq_stop *stop, size_t first, size_t *worst) {
+/* One hex round a moving point, set up once per search: every column of the hex (the edges,
+ * the centre's and the Gauss points' derivatives, vm__hex_columns) is affine in the point,
+ * col = r + b dx, and every sample's determinant too, det = det0 + g . dx (the terms with dx
+ * twice hold two parallel columns), dx the move from where the point was at set-up. A
+ * trial position then costs a dot product per sample and a norm per column that moves. */
+typedef struct star_hex {
+    double r[VM_HEX_COLUMNS][3], b[VM_HEX_COLUMNS], n0[VM_HEX_COLUMNS];
+    double det0[VM_HEX_SAMPLES], g[VM_HEX_SAMPLES][3], len0[VM_HEX_SAMPLES];
+    unsigned char var[VM_HEX_COLUMNS]; /* the columns with b != 0 */
+    int nvar, slot;
+} star_hex;
+
+/* Sets S up for hex t with the moving point in corner slot k. */
+static void star_hex_load(const hx *w, size_t t, int k, star_hex *S) {
+    double p4[8][4], col[VM_HEX_COLUMNS][4];
+    for (int q = 0; q < 8; q++) {
+        memcpy(p4[q], w->p + 3 * (size_t)w->h[8 * t + (size_t)q], 3 * sizeof(double));
+        p4[q][3] = q == k ? 1.0 : 0.0;
+    }
+    vm__hex_columns((const double(*)[4])p4, col);
+    S->nvar = 0;
+    S->slot = k;
+    for (int c = 0; c < VM_HEX_COLUMNS; c++) {
+        memcpy(S->r[c], col[c], sizeof S->r[c]);
+        S->b[c] = col[c][3];
+        S->n0[c] = sqrt(col[c][0] * col[c][0] + col[c][1] * col[c][1] + col[c][2] * col[c][2]);
+        if (S->b[c] != 0.0) S->var[S->nvar++] = (unsigned char)c;
+    }
+    for (int s = 0; s < VM_HEX_SAMPLES; s++) {
+        const unsigned char *cs = vm__hex_sample_col[s];
+        const double *ra = S->r[cs[0]], *rb = S->r[cs[1]], *rc = S->r[cs[2]];
+        double x[3][3]; /* rb x rc, rc x ra, ra x rb */
+        const double *u[3][2] = {{rb, rc}, {rc, ra}, {ra, rb}};
+        for (int j = 0; j < 3; j++) {
+            x[j][0] = u[j][0][1] * u[j][1][2] - u[j][0][2] * u[j][1][1];
+            x[j][1] = u[j][0][2] * u[j][1][0] - u[j][0][0] * u[j][1][2];
+            x[j][2] = u[j][0][0] * u[j][1][1] - u[j][0][1] * u[j][1][0];
+        }
+        S->det0[s] = ra[0] * x[0][0] + ra[1] * x[0][1] + ra[2] * x[0][2];
+        for (int d = 0; d < 3; d++)
+            S->g[s][d] = S->b[cs[0]] * x[0][d] + S->b[cs[1]] * x[1][d] + S->b[cs[2]] * x[2][d];
+        S->len0[s] = S->n0[cs[0]] * S->n0[cs[1]] * S->n0[cs[2]];
+    }
+}
+
+/* The lengths of S's columns with the point moved by dx. [out] n. */
+static void star_hex_norms(const star_hex *S, const double dx[3], double n[VM_HEX_COLUMNS]) {
+    memcpy(n, S->n0, sizeof S->n0);
+    for (int j = 0; j < S->nvar; j++) {
+        int c = S->var[j];
+        double v0 = S->r[c][0] + S->b[c] * dx[0], v1 = S->r[c][1] + S->b[c] * dx[1],
+               v2 = S->r[c][2] + S->b[c] * dx[2];
+        n[c] = sqrt(v0 * v0 + v1 * v1 + v2 * v2);
+    }
+}
+
+/* The star of point i, set up at its current position; x0 is that position. At most
+ * STAR_STACK hexes live on the stack, more are allocated (free with star_free). */
+#define STAR_STACK 24
+typedef struct star {
+    star_hex buf[STAR_STACK], *h;
+    size_t n;
+    double x0[3];
+} star;
+
+static int star_load(const hx *w, size_t i, star *S) {
+    S->n = w->vs[i + 1] - w->vs[i];
+    S->h = S->n <= STAR_STACK ? S->buf : malloc(S->n * sizeof *S->h);
+    if (!S->h) return 0;
+    memcpy(S->x0, w->p + 3 * i, sizeof S->x0);
+    for (size_t a = 0; a < S->n; a++) {
+        size_t u = w->vs[i] + a;
+        star_hex_load(w, w->vi[u] / 8, (int)(w->vi[u] % 8), &S->h[a]);
+    }
+    return 1;
+}
+
+static void star_free(star *S) {
+    if (S->h != S->buf) free(S->h);
+    S->h = NULL;
+}
+
+/* With pen: also the untangling penalty, the sum over the samples round the point of
+ * max(0, beta - det / L), L the sample's column-length product where the star was set up.
+ * Each det is affine in x, so the penalty is convex in x (Knupp 2001's untangling function,
+ * normalised so that small and large hexes count alike). The hexes are visited from `first`
+ * on (the worst one last time, so that a poor candidate stops early); returns 0 when it
+ * stopped at stop (r is then partial), else 1, and sets *worst (NULL allowed) to the hex of
+ * the star holding the minimum. */
+static int local_q(const star *S, const double x[3], int pen, lq *r, const lq_stop *stop,
+                   size_t first, size_t *worst) {
     r->min = r->det = INFINITY;
     r->sum = r->pen = 0.0;
-    size_t n = w->vs[i + 1] - w->vs[i];
-    if (first >= n) first = 0;
-    for (size_t a = 0; a < n; a++) {
-        size_t ui = (first + a) % n, u = w->vs[i] + ui;
-        size_t t = w->vi[u] / 8;
-        int k = (int)(w->vi[u] % 8), ms[MOVING_SAMPLES];
-        double p[8][3], det[VM_HEX_SAMPLES], len[VM_HEX_SAMPLES];
-        hex_points(w, t, p);
-        memcpy(p[k], x, sizeof p[k]);
-        vm__hex_jacobian_samples((const double(*)[3])p, det, len);
-        moving_samples(k, ms);
-        const double *nm = norm ? norm + MOVING_SAMPLES * ui : NULL;
+    double dx[3] = {x[0] - S->x0[0], x[1] - S->x0[1], x[2] - S->x0[2]};
+    if (first >= S->n) first = 0;
+    for (size_t a = 0; a < S->n; a++) {
+        size_t ui = (first + a) % S->n;
+        const star_hex *H = &S->h[ui];
+        int ms[MOVING_SAMPLES];
+        double n[VM_HEX_COLUMNS];
+        star_hex_norms(H, dx, n);
+        moving_samples(H->slot, ms);
         for (int j = 0; j < MOVING_SAMPLES; j++) {
-            double d = det[ms[j]], q = vm__hex_sample_sj(d, len[ms[j]]);
+            int sm = ms[j];
+            const unsigned char *cs = vm__hex_sample_col[sm];
+            double d = H->det0[sm] + H->g[sm][0] * dx[0] + H->g[sm][1] * dx[1] +
+                       H->g[sm][2] * dx[2];
+            double q = vm__hex_sample_sj(d, n[cs[0]] * n[cs[1]] * n[cs[2]]);
             if (q < r->min) {
                 r->min = q;
                 if (worst) *worst = ui;
             }
             if (d < r->det) r->det = d;
             r->sum += q;
-            if (nm) r->pen += fmax(0.0, UNTANGLE_BETA - d / nm[j]);
+            if (pen) {
+                double L = H->len0[sm] > NORM_FLOOR ? H->len0[sm] : NORM_FLOOR;
+                r->pen += fmax(0.0, UNTANGLE_BETA - d / L);
+            }
         }
         if (r->min < stop->min_below || r->det <= stop->det_at || r->pen > stop->pen_above)
             return 0;
     }
     return 1;
-}
-
-/* The column-length products of the samples around point i, in local_q's order. [out] norm:
- * MOVING_SAMPLES per incidence of i. */
-static void sample_norms(const hx *w, size_t i, double *norm) {
-    size_t c = 0;
-    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
-        size_t t = w->vi[u] / 8;
-        int k = (int)(w->vi[u] % 8), ms[MOVING_SAMPLES];
-        double p[8][3], det[VM_HEX_SAMPLES], len[VM_HEX_SAMPLES];
-        hex_points(w, t, p);
-        vm__hex_jacobian_samples((const double(*)[3])p, det, len);
-        moving_samples(k, ms);
-        for (int j = 0; j < MOVING_SAMPLES; j++, c++)
-            norm[c] = len[ms[j]] > NORM_FLOOR ? len[ms[j]] : NORM_FLOOR;
-    }
 }
 
 static void to_index(const hx *w, const double x[3], double ijk[3]) {
@@ -304,6 +379,24 @@ static double iso_estimate(const hx *w, const double y[3]) {
     return gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
 }
 
+/* Puts index position y on the isosurface by Newton steps along the gradient (at most
+ * PROJECT_ITERS, each at most PROJECT_STEP_MAX long); 0 when the gradient vanishes or y ends
+ * more than PROJECT_ACCEPT from it. */
+static int project_iso(const hx *w, double y[3]) {
+    for (int it = 0; it < PROJECT_ITERS; it++) {
+        double g[3];
+        double f = field(w->v, y, g);
+        double r = f - iso_for(w, f);
+        double g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+        if (!(g2 > 0.0)) return 0;
+        if (fabs(r) / sqrt(g2) < PROJECT_TOL) return 1;
+        double step = r / g2, len = fabs(step) * sqrt(g2);
+        if (len > PROJECT_STEP_MAX) step *= PROJECT_STEP_MAX / len;
+        for (int a = 0; a < 3; a++) y[a] -= step * g[a];
+    }
+    return iso_distance(w, y) <= PROJECT_ACCEPT;
+}
+
 enum { MOVE_TANGENT, MOVE_LOOSE, MOVE_PROJECT };
 
 /* Moves a trial position x of point i onto its constraint; 0 when that fails or takes it more
@@ -329,6 +422,12 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
         for (int a = 0; a < 3; a++)
             if (w->planes[i] & (3u << (2 * a))) y[a] = y0[a];
         limit = fmin(limit, PLANE_MOVE_MAX);
+        /* a point of the rim, where the isosurface meets the box, stays near the isosurface
+         * (on a valid mesh: on the CT head, whose rim points start up to a voxel off, the
+         * bound left the worst hex at 0.42 instead of 0.45) */
+        if (w->fit && (w->planes[i] & PLANE_RIM) && iso_distance(w, y) > ISO_RIM_MAX &&
+            iso_distance(w, y) > iso_distance(w, y0))
+            return 0;
     } else if (mode == MOVE_TANGENT) {
         double est = iso_estimate(w, y);
         if (!(est <= fmax(ISO_TANGENT_MAX, w->est0[i] + ISO_TANGENT_SLACK))) return 0;
@@ -340,23 +439,8 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
             return 0;
     } else if (mode == MOVE_LOOSE) {
         if (!(iso_distance(w, y) <= ISO_LOOSE_MAX)) return 0;
-    } else {
-        int ok = 0;
-        for (int it = 0; it < PROJECT_ITERS; it++) {
-            double g[3];
-            double f = field(w->v, y, g);
-            double r = f - iso_for(w, f);
-            double g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
-            if (!(g2 > 0.0)) return 0;
-            if (fabs(r) / sqrt(g2) < PROJECT_TOL) {
-                ok = 1;
-                break;
-            }
-            double step = r / g2, len = fabs(step) * sqrt(g2);
-            if (len > PROJECT_STEP_MAX) step *= PROJECT_STEP_MAX / len;
-            for (int a = 0; a < 3; a++) y[a] -= step * g[a];
-        }
-        if (!ok && iso_distance(w, y) > PROJECT_ACCEPT) return 0;
+    } else if (!project_iso(w, y)) {
+        return 0;
     }
     double d2 = 0.0;
     for (int a = 0; a < 3; a++) d2 += (y[a] - y0[a]) * (y[a] - y0[a]);
@@ -474,7 +558,6 @@ static vm_status classify(hx *w, vm_error *err) {
             for (int a = 0; a < 3; a++) w->nrm[3 * i + a] += n[a];
         }
     }
-    free(bf);
     for (size_t i = 0; i < w->np; i++) {
         double *n = w->nrm + 3 * i, l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         for (int a = 0; a < 3; a++) n[a] = l > 0.0 ? n[a] / l : 0.0;
@@ -493,10 +576,21 @@ static vm_status classify(hx *w, vm_error *err) {
             if (fabs(y[a] - (double)(w->v->dims[a] - 1)) < GRID_FACE_TOL)
                 bits |= (uint8_t)(2u << (2 * a));
         }
-        w->planes[i] = bits;
+        w->planes[i] |= bits;
         if (bits) w->cls[i] = CLS_PLANE;
         w->est0[i] = iso_estimate(w, y);
     }
+    /* the rim: box-plane points of a boundary face that is not on one box plane */
+    for (size_t u = 0; u < nb && w->v; u++) {
+        const vm_index *c = w->h + 8 * (bf[u] / 6);
+        const int *fc = face_tab[bf[u] % 6];
+        unsigned common = 0x3fu;
+        for (int j = 0; j < 4; j++) common &= w->planes[c[fc[j]]];
+        if (common & 0x3fu) continue;
+        for (int j = 0; j < 4; j++)
+            if (w->planes[c[fc[j]]] & 0x3fu) w->planes[c[fc[j]]] |= PLANE_RIM;
+    }
+    free(bf);
     return VM_OK;
 }
 
@@ -733,17 +827,14 @@ static int better(const lq *n, const lq *o, double floor, int untangle) {
  * moved. */
 static int optimise(hx *w, size_t i, double floor, int untangle) {
     if (w->cls[i] == CLS_FIXED || w->vs[i] == w->vs[i + 1]) return 0;
-    double x[3], buf[32 * MOVING_SAMPLES], *norm = NULL;
-    size_t nc = MOVING_SAMPLES * (w->vs[i + 1] - w->vs[i]);
-    if (untangle == 2) {
-        norm = nc <= sizeof buf / sizeof buf[0] ? buf : malloc(nc * sizeof *norm);
-        if (!norm) return 0;
-        sample_norms(w, i, norm);
-    }
+    star S;
+    if (!star_load(w, i, &S)) return 0;
+    double x[3];
+    int pen = untangle == 2;
     lq cur;
     size_t first = 0;
     memcpy(x, w->p + 3 * i, sizeof x);
-    local_q(w, i, x, norm, &cur, &no_stop, 0, &first);
+    local_q(&S, x, pen, &cur, &no_stop, 0, &first);
     int moved = 0;
     double L = edge_scale(w, i);
     int mode = untangle == 3 ? 0 : untangle;
@@ -772,7 +863,7 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
                     }
                     if (mode == 2) stop.pen_above = bq.pen;
                     size_t wf = first;
-                    if (!local_q(w, i, y, norm, &n, &stop, first, &wf)) continue;
+                    if (!local_q(&S, y, pen, &n, &stop, first, &wf)) continue;
                     if (better(&n, &bq, floor, mode)) {
                         best = d;
                         bq = n;
@@ -788,7 +879,7 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
         }
     }
     if (moved) memcpy(w->p + 3 * i, x, sizeof x);
-    if (norm != buf) free(norm);
+    star_free(&S);
     return moved;
 }
 
@@ -921,6 +1012,118 @@ static vm_status load(hx *w, const vm_mesh *m, vm_error *err) {
     return VM_OK;
 }
 
+/* snap_in tries the way to the isosurface in steps of this share of it, from the whole way
+ * down. */
+#define SNAP_STEP 0.25
+/* After the untangling and the first smoothing, boundary points farther than SNAP_FROM from
+ * the isosurface (voxels, the report's measure) are brought toward it, the hexes round them
+ * kept at or above SNAP_FLOOR (or where they were); issue 34's bar for the boundary is half
+ * a voxel, and the faces between the points bulge or sag a little more than their points. */
+#define SNAP_FROM 0.3
+#define SNAP_FLOOR SJ_BAR
+/* The snap before the layer keeps every hex round the point above this. */
+#define SNAP_RAW_FLOOR 1e-3
+
+/* On a folded mesh's run (w->fit 0): brings surface points that are more than 0.45 voxel
+ * off the isosurface the smallest part of the way to it that puts them within 0.45, where
+ * the hexes around allow (their worst sample kept at or above floor, or where it was). */
+static void final_snap(hx *w, double floor) {
+    for (size_t i = 0; i < w->np; i++) {
+        if (w->cls[i] != CLS_ISO) continue;
+        double y[3], x[3];
+        to_index(w, w->p + 3 * i, y);
+        if (iso_distance(w, y) <= ISO_TANGENT_MAX) continue;
+        memcpy(x, w->p + 3 * i, sizeof x);
+        double target[3] = {x[0], x[1], x[2]};
+        if (!constrain(w, i, target, MOVE_PROJECT)) continue;
+        lq cur, n;
+        star S;
+        if (!star_load(w, i, &S)) continue;
+        local_q(&S, x, 0, &cur, &no_stop, 0, NULL);
+        for (double frac = SNAP_STEP; frac < 1.01; frac += SNAP_STEP) {
+            double z[3], zi[3];
+            for (int a = 0; a < 3; a++) z[a] = x[a] + frac * (target[a] - x[a]);
+            to_index(w, z, zi);
+            if (iso_distance(w, zi) > ISO_TANGENT_MAX) continue;
+            local_q(&S, z, 0, &n, &no_stop, 0, NULL);
+            if (n.min >= fmin(cur.min, floor)) memcpy(w->p + 3 * i, z, sizeof z);
+            break;
+        }
+        star_free(&S);
+    }
+}
+
+/* The worst scaled Jacobian of the hexes at the points pts[0..n). */
+static double points_q(const hx *w, const size_t *pts, int n) {
+    double mn = INFINITY;
+    for (int j = 0; j < n; j++)
+        for (size_t u = w->vs[pts[j]]; u < w->vs[pts[j] + 1]; u++) {
+            double q = hex_q(w, w->vi[u] / 8);
+            if (q < mn) mn = q;
+        }
+    return mn;
+}
+
+/* The most interior points snap_in carries along with a surface point. */
+#define SNAP_CARRY 15
+
+/* Brings each surface point farther than `from` off the isosurface (the mesher's relaxation
+ * pulls the points of folded corners to their cell centres, up to a half-diagonal off: 0.6
+ * voxel on the torus) the largest part of the way to it (a quarter at a time) that keeps the
+ * worst hex round it at or above floor, or where it was: first alone, then with its interior
+ * edge neighbours carried by the same step (under a pillow layer the point's copy sits a
+ * tenth of a voxel inside it, and the point alone cannot cross it). The new position becomes
+ * the point's start (p0, est0): tangent moves keep a point in its tangent plane through p0
+ * and near its starting distance, which would take it back out. */
+static void snap_in(hx *w, double from, double floor) {
+    for (size_t i = 0; i < w->np; i++) {
+        if (w->cls[i] != CLS_ISO || w->vs[i] == w->vs[i + 1]) continue;
+        if (w->focus && !w->focus[i]) continue;
+        double y[3], x[3];
+        to_index(w, w->p + 3 * i, y);
+        double d0 = iso_distance(w, y);
+        if (d0 <= from) continue;
+        memcpy(x, w->p + 3 * i, sizeof x);
+        double target[3] = {x[0], x[1], x[2]};
+        if (!constrain(w, i, target, MOVE_PROJECT)) continue;
+        size_t pts[SNAP_CARRY + 1];
+        int n = 1;
+        pts[0] = i;
+        for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
+            size_t t = w->vi[u] / 8;
+            int k = (int)(w->vi[u] % 8);
+            for (int e = 1; e < 4; e++) {
+                size_t j = (size_t)w->h[8 * t + (size_t)corner_tab[k][e]];
+                int seen = w->cls[j] != CLS_FREE || (w->focus && !w->focus[j]);
+                for (int a = 0; a < n && !seen; a++) seen = pts[a] == j;
+                if (!seen && n <= SNAP_CARRY) pts[n++] = j;
+            }
+        }
+        double old[SNAP_CARRY + 1][3];
+        for (int a = 0; a < n; a++) memcpy(old[a], w->p + 3 * pts[a], sizeof old[a]);
+        double keep = fmin(points_q(w, pts, 1), floor);
+        int done = 0;
+        for (int carry = 0; carry < 2 && !done && (carry == 0 || n > 1); carry++) {
+            int m = carry ? n : 1;
+            if (carry) keep = fmin(points_q(w, pts, n), floor);
+            for (double frac = 1.0; frac > 0.5 * SNAP_STEP && !done; frac -= SNAP_STEP) {
+                double zi[3], dz[3];
+                for (int a = 0; a < 3; a++) dz[a] = frac * (target[a] - x[a]);
+                for (int b = 0; b < m; b++)
+                    for (int a = 0; a < 3; a++) w->p[3 * pts[b] + a] = old[b][a] + dz[a];
+                to_index(w, w->p + 3 * i, zi);
+                done = iso_distance(w, zi) < d0 && points_q(w, pts, m) >= keep;
+                if (done) {
+                    memcpy(w->p0 + 3 * i, w->p + 3 * i, 3 * sizeof *w->p0);
+                    w->est0[i] = iso_estimate(w, zi);
+                } else {
+                    for (int b = 0; b < m; b++) memcpy(w->p + 3 * pts[b], old[b], sizeof old[b]);
+                }
+            }
+        }
+    }
+}
+
 /* Loads m, pillowed (shrink set in) or not (in NULL), and runs stage 0 of the smoothing.
  * [out] *q, *active (free them). */
 static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, uint8_t *in,
@@ -932,7 +1135,19 @@ static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o,
     *active = NULL;
     *added = 0;
     vm_status s = load(w, m, err);
+    /* On a valid mesh, the far boundary points first go in before the layer, whose copies
+     * would sit in their way, as far as no hex folds (a folded mesh, the heads', keeps
+     * them: snapping there left the CT head at 0.38 instead of 0.45 and took twice as
+     * long). */
+    figs f0 = {0};
+    if (!s && w->v) measure(w, &f0, NULL);
     if (!s && init) memcpy(w->p, init, 3 * w->np * sizeof *w->p);
+    w->fit = w->v && !f0.inverted;
+    if (!s && w->fit) {
+        s = build_incidence(w, err);
+        if (!s) s = classify(w, err);
+        if (!s) snap_in(w, ISO_TANGENT_MAX, SNAP_RAW_FLOOR);
+    }
     size_t np0 = w->np, nh0 = w->nh;
     if (!s && in) s = pillow(w, in, added, err);
     w->pillowed = *added > 0;
@@ -968,38 +1183,6 @@ static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o,
     if (!*q || !*active) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     smooth(w, o, 0, *q, *active, moves, sweeps);
     return VM_OK;
-}
-
-/* final_snap tries the way to the isosurface in steps of this share of it. */
-#define SNAP_STEP 0.25
-
-/* Brings surface points that are more than 0.45 voxel off the isosurface (the mesher's
- * relaxation can leave them up to a cell's half-diagonal away) the smallest part of the way
- * to it that puts them within 0.45, where the hexes around allow (their worst corner kept at
- * or above floor, or where it was). Points nearer stay: the mesher's points sit on sharp
- * features, which the smooth trilinear isosurface rounds off. */
-static void final_snap(hx *w, double floor) {
-    for (size_t i = 0; i < w->np; i++) {
-        if (w->cls[i] != CLS_ISO) continue;
-        double y[3], x[3];
-        to_index(w, w->p + 3 * i, y);
-        if (iso_distance(w, y) <= ISO_TANGENT_MAX) continue;
-        memcpy(x, w->p + 3 * i, sizeof x);
-        double target[3] = {x[0], x[1], x[2]};
-        if (!constrain(w, i, target, MOVE_PROJECT)) continue;
-        lq cur, n;
-        local_q(w, i, x, NULL, &cur, &no_stop, 0, NULL);
-        /* a quarter of the way at a time, up to the whole way (1.01: round-off slack) */
-        for (double frac = SNAP_STEP; frac < 1.01; frac += SNAP_STEP) {
-            double z[3], zi[3];
-            for (int a = 0; a < 3; a++) z[a] = x[a] + frac * (target[a] - x[a]);
-            to_index(w, z, zi);
-            if (iso_distance(w, zi) > ISO_TANGENT_MAX) continue;
-            local_q(w, i, z, NULL, &n, &no_stop, 0, NULL);
-            if (n.min >= fmin(cur.min, floor)) memcpy(w->p + 3 * i, z, sizeof z);
-            break;
-        }
-    }
 }
 
 /* Grows the hex set in by rings layers (the hexes sharing a point with it). [in,out] in:
@@ -1101,25 +1284,36 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
 
 /* The repair works on the hexes below this, when there are at most POLISH_MAX of them. */
 #define REPAIR_BAR POLISH_TARGET
+/* Then the bar rises from REPAIR_BAR to the target by RAISE_STEP, while at most
+ * RAISE_MAX_SHARE of the hexes are below it, the last bar taken up to RAISE_LAST_ROUNDS
+ * times while the worst hex rises or a tenth of those below it come above. */
+#define RAISE_STEP 0.05
+#define RAISE_MAX_SHARE 0.25
+#define RAISE_LAST_ROUNDS 4
+/* The last bar is this much over the target: the energy then also lifts the hexes just
+ * over the target round the last ones below it, which frees their points. */
+#define RAISE_OVERSHOOT 0.02
 
 /* Corners around point i with i at x: [out] *mn the worst scaled Jacobian, and the energy
  * sum over them of (max(0, bar - sj))^2, which couples the moves of the points of a patch
  * where the max-min search stalls (several points share the worst corner). */
-static double patch_energy(const hx *w, size_t i, const double x[3], double bar, double *mn) {
-    double e = 0.0;
+static double patch_energy(const star *S, const double x[3], double bar, double *mn,
+                           double e_stop, double mn_stop) {
+    double e = 0.0, dx[3] = {x[0] - S->x0[0], x[1] - S->x0[1], x[2] - S->x0[2]};
     *mn = INFINITY;
-    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
-        size_t t = w->vi[u] / 8;
-        int k = (int)(w->vi[u] % 8);
-        double p[8][3], det[VM_HEX_SAMPLES], len[VM_HEX_SAMPLES];
-        hex_points(w, t, p);
-        memcpy(p[k], x, sizeof p[k]);
-        vm__hex_jacobian_samples((const double(*)[3])p, det, len);
+    for (size_t a = 0; a < S->n; a++) {
+        const star_hex *H = &S->h[a];
+        double n[VM_HEX_COLUMNS];
+        star_hex_norms(H, dx, n);
         for (int c = 0; c < VM_HEX_SAMPLES; c++) {
-            double q = vm__hex_sample_sj(det[c], len[c]);
+            const unsigned char *cs = vm__hex_sample_col[c];
+            double d = H->det0[c] + H->g[c][0] * dx[0] + H->g[c][1] * dx[1] + H->g[c][2] * dx[2];
+            double q = vm__hex_sample_sj(d, n[cs[0]] * n[cs[1]] * n[cs[2]]);
             if (q < *mn) *mn = q;
             if (q < bar) e += (bar - q) * (bar - q);
         }
+        /* the energy only grows and the minimum only falls from here */
+        if (e >= e_stop || *mn < mn_stop) return e;
     }
     return e;
 }
@@ -1132,9 +1326,15 @@ static double patch_energy(const hx *w, size_t i, const double x[3], double bar,
  * Returns 1 when it moved. */
 static int patch_move(hx *w, size_t i, double bar, double floor) {
     if (w->cls[i] == CLS_FIXED || w->vs[i] == w->vs[i + 1]) return 0;
+    star S;
+    if (!star_load(w, i, &S)) return 0;
     double x[3], mn;
     memcpy(x, w->p + 3 * i, sizeof x);
-    double e = patch_energy(w, i, x, bar, &mn);
+    double e = patch_energy(&S, x, bar, &mn, INFINITY, -INFINITY);
+    if (!(e > ENERGY_MARGIN)) { /* nothing round the point below the bar */
+        star_free(&S);
+        return 0;
+    }
     double keep = fmin(mn, floor);
     int moved = 0;
     double L = edge_scale(w, i);
@@ -1149,7 +1349,7 @@ static int patch_move(hx *w, size_t i, double bar, double floor) {
                     for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
                     int mode = v == 2 ? MOVE_LOOSE : v ? MOVE_PROJECT : MOVE_TANGENT;
                     if (!constrain(w, i, y, mode)) continue;
-                    double ne = patch_energy(w, i, y, bar, &m2);
+                    double ne = patch_energy(&S, y, bar, &m2, be - ENERGY_MARGIN, keep);
                     if (ne < be - ENERGY_MARGIN && m2 >= keep) {
                         best = d;
                         be = ne;
@@ -1163,6 +1363,7 @@ static int patch_move(hx *w, size_t i, double bar, double floor) {
         }
     }
     if (moved) memcpy(w->p + 3 * i, x, sizeof x);
+    star_free(&S);
     return moved;
 }
 
@@ -1323,6 +1524,7 @@ static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, i
         }
     }
     if (!s) {
+        if (w->fit) snap_in(w, SNAP_FROM, SNAP_FLOOR);
         smooth(w, o, 1, q, active, moves, sweeps);
         measure(w, f, NULL);
         if (w->v && f->min_sj < fmin(SJ_BAR, o->target) && f->below <= POLISH_MAX) {
@@ -1332,7 +1534,8 @@ static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, i
             if (s) s = vm_error_set(err, s, "improve: out of memory");
             measure(w, f, NULL);
         }
-        if (w->v) final_snap(w, fmax(f->min_sj, SJ_BAR));
+        if (w->fit) snap_in(w, ISO_TANGENT_MAX, fmax(f->min_sj, SJ_BAR));
+        else if (w->v) final_snap(w, fmax(f->min_sj, SJ_BAR));
         measure(w, f, NULL);
     }
     free(q);
@@ -1488,7 +1691,9 @@ static vm_status selective_pillow(hex_pass *P, const vm_mesh *m,
 }
 
 /* With a volume, on the kept result: the polish once more, then the patch repair of the last
- * hexes below REPAIR_BAR (coupled moves, then the polish). */
+ * hexes below REPAIR_BAR (coupled moves, then the polish), then the same repair with the bar
+ * raised step by step to the target (CT head at iso 500: the worst hex 0.300 -> 0.45, the
+ * hexes below 0.5 7 972 -> 21; ironProt 0.300 -> 0.494). */
 static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_error *err) {
     hx *w = &P->w;
     if (P->after.min_sj < fmin(SJ_BAR, o->target) && P->after.below <= POLISH_MAX) {
@@ -1508,6 +1713,37 @@ static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_e
             repair(w, fmin(REPAIR_BAR, o->target), 1, 10, &P->moves, &P->sweeps))
             return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
         measure(w, &P->after, NULL);
+    }
+    /* then the bar rises toward the target, a step at a time, the last bar again while it
+     * gains (patch_move keeps the mesh's worst hex from getting worse) */
+    int rounds = 0;
+    size_t last_below = SIZE_MAX;
+    double was = -INFINITY;
+    double top = o->target + RAISE_OVERSHOOT;
+    for (double bar = REPAIR_BAR + RAISE_STEP; P->after.min_sj < o->target;) {
+        if (bar > top) bar = top;
+        int last = bar >= top - 1e-9;
+        if (P->after.min_sj >= bar) {
+            if (last) break;
+            bar += RAISE_STEP;
+            continue;
+        }
+        size_t below = 0;
+        for (size_t t = 0; t < w->nh; t++) below += hex_q(w, t) < bar;
+        if ((double)below > RAISE_MAX_SHARE * (double)w->nh) break;
+        if (last) {
+            if (rounds++ >= RAISE_LAST_ROUNDS ||
+                (P->after.min_sj <= was + SWEEP_PROGRESS && below + below / 10 >= last_below))
+                break;
+            was = P->after.min_sj;
+            last_below = below;
+        }
+        free(w->focus);
+        w->focus = NULL;
+        if (repair(w, bar, 1, 10, &P->moves, &P->sweeps))
+            return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        measure(w, &P->after, NULL);
+        if (!last) bar += RAISE_STEP;
     }
     return VM_OK;
 }
@@ -1579,6 +1815,15 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
     if (!s && o->pillow && !P.added && P.after.min_sj < fmin(SJ_BAR, o->target))
         s = selective_pillow(&P, m, o, err);
     if (!s && v) s = last_repairs(&P, o, err);
+    if (!s && v) {
+        /* last, the far boundary points in as far as no hex falls below the target, the
+         * worst hex or where it is: neither the worst hex nor the count below the target
+         * gets worse */
+        free(P.w.focus);
+        P.w.focus = NULL;
+        snap_in(&P.w, SNAP_FROM, fmax(o->target, P.after.min_sj));
+        measure(&P.w, &P.after, NULL);
+    }
     if (!s) s = write_result(&P, m, r, err);
     if (!s && r) r->seconds = vm__now() - t0;
     hx_free(&P.w);

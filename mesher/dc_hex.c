@@ -8,6 +8,7 @@
 #include <string.h>
 #include "../core/core.h"
 #include "dc_internal.h"
+#include "volmesh/quality.h"
 
 /* For corner i of a VTK hexahedron, the three corners along its edges, ordered so that
  * det(p[a]-p[i], p[b]-p[i], p[c]-p[i]) > 0 for a valid element. */
@@ -44,9 +45,10 @@ static void hex_pos(const dc *d, const hexes *h, int64_t id, double out[3]) {
     for (int a = 0; a < 3; a++) out[a] = (double)cm[a] + 0.5;
 }
 
-/* Smallest scaled corner Jacobian of hex c (1 for a cube, <= 0 when inverted). [out] *bad
- * (NULL allowed): bit k set when corner k is one of the four points of a corner at or below
- * clear_sj. */
+/* Smallest scaled Jacobian of hex c (1 for a cube, <= 0 when inverted): its corners', and
+ * when they are all clear, vm_hex_scaled_jacobian's (the centre and the Gauss points too,
+ * the measure the mesh check uses). [out] *bad (NULL allowed): bit k set when corner k is one
+ * of the four points of a corner at or below clear_sj; all eight when only the inside is. */
 static double hex_quality(const dc *d, const hexes *h, const int64_t *c, unsigned *bad) {
     double p[8][3], worst = INFINITY;
     for (int k = 0; k < 8; k++) hex_pos(d, h, c[k], p[k]);
@@ -68,6 +70,13 @@ static double hex_quality(const dc *d, const hexes *h, const int64_t *c, unsigne
         if (bad && q <= clear_sj)
             *bad |= 1u << k | 1u << corner_nb[k][0] | 1u << corner_nb[k][1] |
                     1u << corner_nb[k][2];
+    }
+    if (worst > clear_sj) {
+        double inside = vm_hex_scaled_jacobian((const double(*)[3])p);
+        if (inside <= clear_sj) {
+            worst = inside;
+            if (bad) *bad = 0xffu;
+        }
     }
     return worst;
 }

@@ -299,7 +299,9 @@ static vm_status pillow_round(tmesh *t, const blocks *B, int d, double sc, vm_er
     return s;
 }
 
-/* Worst corner scaled Jacobian (quality/'s corner-only metric; 0 at a zero-length edge). */
+/* The hex's scaled Jacobian, the one measure of validity (quality/: corners, centre and
+ * Gauss points; 0 at a zero-length edge). The compass search below raises the corners only
+ * (cheap, and what it must fix); what folds inside a transition hex is caught here. */
 static double hex_min_sj(double p[8][3]) {
     return vm_hex_min_scaled_jacobian((const double(*)[3])p);
 }
@@ -380,8 +382,8 @@ static int moves_with(int slot, int c) {
     return c == slot || c == hex_nbr[slot][0] || c == hex_nbr[slot][1] || c == hex_nbr[slot][2];
 }
 
-/* Loads the star of v; returns its worst corner (as the min over vm_hex_min_scaled_jacobian
- * of its hexes). */
+/* Loads the star of v; returns its worst corner (the corner samples of
+ * vm_hex_scaled_jacobian over its hexes). */
 static double star_load(star *S, const tmesh *t, const int32_t *inc, const int32_t *start,
                         int32_t v) {
     double worst = 1.0;

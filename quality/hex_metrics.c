@@ -131,6 +131,42 @@ void vm__hex_jacobian_samples(const double p[8][3], double det[VM_HEX_SAMPLES],
     }
 }
 
+const unsigned char vm__hex_sample_col[VM_HEX_SAMPLES][3] = {
+    {0, 4, 8},   {0, 5, 9},   {1, 5, 10},  {1, 4, 11},  {2, 6, 8},   {2, 7, 9},
+    {3, 7, 10},  {3, 6, 11},  {12, 13, 14}, {15, 19, 23}, {15, 20, 24}, {16, 19, 25},
+    {16, 20, 26}, {17, 21, 23}, {17, 22, 24}, {18, 21, 25}, {18, 22, 26}};
+
+/* lerp3 and gauss_blends over 4 components. */
+static void lerp4(const double a[4], const double b[4], double t, double out[4]) {
+    for (int d = 0; d < 4; d++) out[d] = (1.0 - t) * a[d] + t * b[d];
+}
+
+static void gauss_blends4(const double *q0, const double *q1, const double *q2,
+                          const double *q3, double out[4][4]) {
+    double a[2][4], b[2][4];
+    lerp4(q0, q1, GAUSS_LO, a[0]);
+    lerp4(q0, q1, GAUSS_HI, a[1]);
+    lerp4(q2, q3, GAUSS_LO, b[0]);
+    lerp4(q2, q3, GAUSS_HI, b[1]);
+    for (int sb = 0; sb < 2; sb++) {
+        lerp4(a[sb], b[sb], GAUSS_LO, out[sb]);
+        lerp4(a[sb], b[sb], GAUSS_HI, out[sb + 2]);
+    }
+}
+
+void vm__hex_columns(const double p[8][4], double col[VM_HEX_COLUMNS][4]) {
+    double(*e)[4] = col;
+    for (int k = 0; k < 12; k++)
+        for (int d = 0; d < 4; d++) e[k][d] = p[map_edge[k][1]][d] - p[map_edge[k][0]][d];
+    for (int k = 0; k < 3; k++)
+        for (int d = 0; d < 4; d++)
+            col[12 + k][d] =
+                0.25 * (e[4 * k][d] + e[4 * k + 1][d] + e[4 * k + 2][d] + e[4 * k + 3][d]);
+    gauss_blends4(e[0], e[1], e[2], e[3], col + 15);
+    gauss_blends4(e[4], e[5], e[6], e[7], col + 19);
+    gauss_blends4(e[8], e[9], e[11], e[10], col + 23);
+}
+
 /* The smallest of the scaled Jacobians at the corners, the centre and the Gauss points. */
 double vm_hex_scaled_jacobian(const double p[8][3]) {
     double det[VM_HEX_SAMPLES], len[VM_HEX_SAMPLES], smin = 1.0;

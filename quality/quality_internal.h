@@ -33,6 +33,19 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
 void vm__hex_jacobian_samples(const double p[8][3], double det[VM_HEX_SAMPLES],
                               double len[VM_HEX_SAMPLES]);
 
+/* The 27 columns the samples take their determinants of: the 12 edges (0-1, 3-2, 4-5, 7-6
+ * along u; 0-3, 1-2, 4-7, 5-6 along v; 0-4, 1-5, 2-6, 3-7 along w), the centre's du, dv, dw
+ * (12-14), and the Gauss points' du (15-18, by (v, w)), dv (19-22, by (u, w)) and dw
+ * (23-26, by (u, v)). Sample s is det(col[vm__hex_sample_col[s][0..2]]). */
+#define VM_HEX_COLUMNS 27
+extern const unsigned char vm__hex_sample_col[VM_HEX_SAMPLES][3];
+
+/* The columns of a hex whose points carry a fourth component, blended as the first three
+ * (the map's derivatives are linear in the points): with 1 at one node and 0 elsewhere the
+ * fourth component of each column is that node's coefficient in it, so a column is
+ * col + coefficient * (move of the node). [in] p: 8 points of 4 components; [out] col. */
+void vm__hex_columns(const double p[8][4], double col[VM_HEX_COLUMNS][4]);
+
 /* det / len as vm_hex_scaled_jacobian takes it at one sample point: 0 where len is 0 or
  * either is not finite. */
 static inline double vm__hex_sample_sj(double det, double len) {

@@ -29,8 +29,26 @@ static vm_status mesh_phantom_hexes(size_t t, vm_volume *v, vm_phantom_info *inf
     return s;
 }
 
+/* Issue 34's bar for the boundary: within half a voxel of the isosurface both ways, every
+ * point of the boundary faces (vm_mesh_surface_distance, what `volmesh quality --volume`
+ * reports). Measured after the pass: 0.08-0.36 voxel (torus 0.36, genus-3 0.34,
+ * cut-sphere 0.34; before the snap of the far points 0.66, 0.66 and 0.48). */
+#define PHANTOM_BOUNDARY_MAX 0.45
+
+static void check_boundary_distance(const char *label, const vm_mesh *m, const vm_volume *v,
+                                    double lo, double bar) {
+    vm_surface_distance d;
+    vm_error err;
+    CHECK_OK(vm_mesh_surface_distance(m, v, lo, 1, 0.0, 0, &d, &err), &err);
+    double m2s = d.mesh_to_surface_max / d.voxel, s2m = d.surface_to_mesh_max / d.voxel;
+    printf("  %s: boundary to isosurface %.3f voxel, isosurface to boundary %.3f\n", label,
+           m2s, s2m);
+    CHECK_MSG(m2s <= bar && s2m <= bar, "%s: boundary %.3f / %.3f voxel off (bar %.2f)", label,
+              m2s, s2m, bar);
+}
+
 /* Each phantom meshed once: the raw mesh valid with its topology and volume, then the pass
- * reaching the bar on it. */
+ * reaching the bar on it, its boundary within the bar of the isosurface. */
 static void hexMeshOfEachPhantomIsValidAndThePassReachesTheBar(void) {
     const char *sanitized = getenv("VM_SANITIZED");
     int small = sanitized && strcmp(sanitized, "1") == 0;
@@ -48,9 +66,11 @@ static void hexMeshOfEachPhantomIsValidAndThePassReachesTheBar(void) {
                            0.02);
             /* under the sanitizers the pass runs on the small ones only (a minute or more
              * each on the others: left to the Release run) */
-            if (!small || m.ncells < 10000)
-                check_improved(info.name, &m, &v, 0.0, 0.2, info.volume);
-            else
+            if (!small || m.ncells < 10000) {
+                /* issue 34: 0.5 (measured 0.5000-0.501; 0.876 on the plate) */
+                check_improved(info.name, &m, &v, 0.0, 0.4995, info.volume);
+                check_boundary_distance(info.name, &m, &v, 0.0, PHANTOM_BOUNDARY_MAX);
+            } else
                 printf("  %s: the pass left to the Release run (sanitizer build)\n", info.name);
         }
         vm_mesh_free(&m);
@@ -64,9 +84,11 @@ static void hexMeshOfEachPhantomIsValidAndThePassReachesTheBar(void) {
  * the bar of 0.2 (issue #5; the measured minimum beside each). On the heads the whole pillow
  * layer tangles on their folded boundaries, so the pass runs without it; the polish (boundary
  * points sliding along the isosurface) takes both over 0.2 there, so the selective layer is
- * not needed, and the repair (coupled moves on the last patches below 0.3) to 0.3
- * (docs/IMPROVE.md). The big heads are in test_mesh_hexes_heads.c. Under the
- * sanitizers the pass runs on the MR head only; the others get the raw-mesh checks. */
+ * not needed, and the repair (coupled moves on the last patches below the bar) with its bar
+ * raised to 0.52 takes them to or near 0.5 (issue 34; every hex measured at its corners,
+ * centre and Gauss points; docs/IMPROVE.md). The big heads are in test_mesh_hexes_heads.c.
+ * Under the sanitizers the pass runs on the MR head only; the others get the raw-mesh
+ * checks. */
 static void hexMeshOfSharedVolumesIsValidAndThePassReachesTheBar(void) {
     static const struct {
         const char *file;
@@ -74,10 +96,10 @@ static void hexMeshOfSharedVolumesIsValidAndThePassReachesTheBar(void) {
         long euler; /* of the raw mesh; -1: not checked (the raw mesh has inverted hexes) */
         size_t comps;
         int sanitized_pass; /* the pass runs under the sanitizers too */
-    } cases[] = {{"ironProt.vtk", 128, 0.2, 50, 25, 0},          /* measured 0.3003 */
-                 {"hydrogen.vti", 0.1, 0.2, 4, 3, 0},            /* 0.500 */
-                 {"ct_head_quarter.nrrd", 1150, 0.2, -1, 0, 0},  /* 0.3001 */
-                 {"HeadMRVolume.mhd", 50, 0.2, -1, 0, 1}};       /* 0.3001 */
+    } cases[] = {{"ironProt.vtk", 128, 0.4995, 50, 25, 0},       /* measured 0.501 */
+                 {"hydrogen.vti", 0.1, 0.45, 4, 3, 0},           /* 0.5000 */
+                 {"ct_head_quarter.nrrd", 1150, 0.42, -1, 0, 0}, /* 0.4749 */
+                 {"HeadMRVolume.mhd", 50, 0.45, -1, 0, 1}};      /* 0.5000 */
     const char *sanitized = getenv("VM_SANITIZED");
     int small = sanitized && strcmp(sanitized, "1") == 0;
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_mesh_hexes_adaptive_pass.c — the quality pass on the adaptive hex mesh of
  * the sphere at 64^3 (its transition is the largest of the phantoms'): no inverted hex, the
- * phantom's topology and volume, min scaled Jacobian at least 0.2 (measured 0.374). Apart
+ * phantom's topology and volume, min scaled Jacobian at least 0.45 (measured 0.483). Apart
  * from test_mesh_hexes_adaptive.c so that each stays within a minute. */
 #include <stdlib.h>
 #include <string.h>
@@ -26,7 +26,7 @@ static void adaptiveHexMeshOfTheSphereReachesTheBarAfterThePass(void) {
     CHECK_OK(s, &err);
     if (s == VM_OK) {
         check_hex_mesh(info.name, &m, info.euler, (size_t)info.components, info.volume, 0.02);
-        check_improved(info.name, &m, &v, 0.0, 0.2, info.volume);
+        check_improved(info.name, &m, &v, 0.0, 0.45, info.volume);
     }
     vm_mesh_free(&m);
     vm_volume_free(&v);

@@ -12,7 +12,8 @@
 /* Issue #5's bar is 0.2. The CT head at 500 reaches it since the polish (boundary points of
  * the selective layer's hexes sliding along the isosurface, docs/IMPROVE.md), avg152T1 since
  * the repair (coupled moves of the last patches below 0.3, boundary points also anywhere
- * within 0.4 voxel of the isosurface). */
+ * within 0.4 voxel of the isosurface); issue 34's raise of the repair's bar to 0.52 takes
+ * them to 0.466 and 0.39 (every hex measured at its corners, centre and Gauss points). */
 /* One head: skipped under the sanitizers (minutes there: left to the Release run). */
 static void check_head(const char *file, double iso, double floor) {
     const char *sanitized = getenv("VM_SANITIZED");
@@ -24,11 +25,11 @@ static void check_head(const char *file, double iso, double floor) {
 }
 
 static void hexPassOnTheCtHeadSkinReachesTheBar(void) {
-    check_head("ct_head_quarter.nrrd", 500, 0.2); /* measured 0.3000 (0.2009 before the repair) */
+    check_head("ct_head_quarter.nrrd", 500, 0.44); /* measured 0.466 (0.300 before the raise) */
 }
 
 static void hexPassOnAvg152ReachesTheBar(void) {
-    check_head("avg152T1_RL_nifti.nii.gz", 100, 0.2); /* measured 0.3000 (0.1049 before) */
+    check_head("avg152T1_RL_nifti.nii.gz", 100, 0.35); /* measured 0.3895 (0.300 before) */
 }
 
 TEST_MAIN(T(hexPassOnTheCtHeadSkinReachesTheBar), T(hexPassOnAvg152ReachesTheBar))

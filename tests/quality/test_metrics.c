@@ -4,6 +4,7 @@
  * non-finite input, and invariance under rigid motion and scaling. */
 #include "test.h"
 #include <string.h>
+#include "quality/quality_internal.h"
 
 #define HUGE_Q VM_QUALITY_HUGE
 #define S2 1.4142135623730951
@@ -387,6 +388,68 @@ static void hexFoldedBetweenItsCornersIsInvertedByEveryPath(void) {
     vm_mesh_free(&m);
 }
 
+static double triple3(const double *a, const double *b, const double *c) {
+    return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+           a[2] * (b[0] * c[1] - b[1] * c[0]);
+}
+
+/* The hex pass's set-up (improve/hex_improve.c): vm__hex_columns gives the columns the
+ * samples take their determinants of, and with a fourth component of 1 at node k each
+ * column's coefficient of that node, so that every sample's determinant is affine in the
+ * node: det(x0 + dx) = det(x0) + g . dx with g = b_a (r_b x r_c) + b_b (r_c x r_a) +
+ * b_c (r_a x r_b). Checked against vm__hex_jacobian_samples at the moved node. */
+static void hexSampleDeterminantsAreAffineInEachNode(void) {
+    const double cube[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                               {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+    unsigned seed = 777;
+    for (int trial = 0; trial < 100; trial++) {
+        double p[8][3], p4[8][4], col[VM_HEX_COLUMNS][4], dx[3];
+        for (int q = 0; q < 8; q++)
+            for (int a = 0; a < 3; a++) {
+                seed = seed * 1103515245u + 12345u;
+                p[q][a] = cube[q][a] + 0.8 * ((double)(seed >> 8 & 0xffff) / 65535.0 - 0.5);
+            }
+        int k = trial % 8;
+        for (int a = 0; a < 3; a++) {
+            seed = seed * 1103515245u + 12345u;
+            dx[a] = 0.4 * ((double)(seed >> 8 & 0xffff) / 65535.0 - 0.5);
+        }
+        for (int q = 0; q < 8; q++) {
+            memcpy(p4[q], p[q], sizeof p[q]);
+            p4[q][3] = q == k;
+        }
+        vm__hex_columns((const double(*)[4])p4, col);
+        double det[VM_HEX_SAMPLES], len[VM_HEX_SAMPLES];
+        vm__hex_jacobian_samples((const double(*)[3])p, det, len);
+        for (int s = 0; s < VM_HEX_SAMPLES; s++) {
+            const unsigned char *c = vm__hex_sample_col[s];
+            CHECK_NEAR(triple3(col[c[0]], col[c[1]], col[c[2]]), det[s], 1e-12);
+            double l = 1;
+            for (int j = 0; j < 3; j++)
+                l *= sqrt(col[c[j]][0] * col[c[j]][0] + col[c[j]][1] * col[c[j]][1] +
+                          col[c[j]][2] * col[c[j]][2]);
+            CHECK_NEAR(l, len[s], 1e-12);
+        }
+        double moved[8][3], det1[VM_HEX_SAMPLES], len1[VM_HEX_SAMPLES];
+        memcpy(moved, p, sizeof moved);
+        for (int a = 0; a < 3; a++) moved[k][a] += dx[a];
+        vm__hex_jacobian_samples((const double(*)[3])moved, det1, len1);
+        for (int s = 0; s < VM_HEX_SAMPLES; s++) {
+            const unsigned char *c = vm__hex_sample_col[s];
+            const double *ra = col[c[0]], *rb = col[c[1]], *rc = col[c[2]];
+            double g = 0;
+            for (int a = 0; a < 3; a++) {
+                int a1 = (a + 1) % 3, a2 = (a + 2) % 3;
+                double bxc = rb[a1] * rc[a2] - rb[a2] * rc[a1];
+                double cxa = rc[a1] * ra[a2] - rc[a2] * ra[a1];
+                double axb = ra[a1] * rb[a2] - ra[a2] * rb[a1];
+                g += (ra[3] * bxc + rb[3] * cxa + rc[3] * axb) * dx[a];
+            }
+            CHECK_NEAR(det[s] + g, det1[s], 1e-12);
+        }
+    }
+}
+
 /* All six dihedral and twelve face angles of a tet by atan2, the slow and plain way. */
 static void all_angles(const double p[4][3], double dih[6], double face[12]) {
     static const int fc[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
@@ -478,4 +541,5 @@ TEST_MAIN(T(angleExtremesMatchEveryAngleOnRandomSliverAndNeedleTets),
           T(metricsNeverReturnNaNOrLeaveTheirRange), T(shapeMetricsIgnoreRigidMotionAndScale),
           T(metricTablesAreConsistent), T(hexScaledJacobianIncludesTheCentre),
           T(hexCornerScaledJacobianIsTheMinimumsTerm),
-          T(hexFoldedBetweenItsCornersIsInvertedByEveryPath))
+          T(hexFoldedBetweenItsCornersIsInvertedByEveryPath),
+          T(hexSampleDeterminantsAreAffineInEachNode))
