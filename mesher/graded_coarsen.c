@@ -4,15 +4,19 @@
  * - the topology: the link condition of Dey, Edelsbrunner, Guha and Nekhayev (1999) on the
  *   mesh coned to a point beyond its boundary (so it holds for the boundary surface as well);
  * - the quality: every changed tet stays positive with dihedral angles in [GR_CO_MIN,
- *   GR_CO_MAX];
+ *   GR_CO_MAX], or no worse than the worst tet around the removed vertex;
  * - the edge bound and the size field;
+ * - the volume: GR_CO_VOLUME D per unit of new boundary area, GR_CO_NET_VOLUME in all;
  * - the distance both ways: every new boundary triangle, sampled at half a voxel, lies
  *   within the bound of the isosurface (|phi| / |grad phi|, the first-order distance) and
  *   faces the way the field's gradient does; every sample of the isosurface (the crossings of
  *   the voxel edges, as marching cubes places its vertices) stays within the bound of the
  *   boundary (or within its distance on the stuffed mesh, when that was already over).
- * A vertex is moved onto the other end of the edge, so vertices never move: surface vertices
- * stay on the surface. Vertices on the volume's border planes stay. */
+ * A vertex is moved onto the other end of the edge (a collapse moves no vertex). Between
+ * rounds of collapses, vertices move under the same checks (boundary ones along their normal
+ * so that chords straddle the surface, interior ones to their neighbours' mean), and tets
+ * beyond 15..150 degrees are repaired by moves, collapses and peels. Vertices on the
+ * volume's border planes stay. */
 #include "../core/core.h"
 #include "../quality/tet_internal.h"
 #include "graded_internal.h"
