@@ -289,6 +289,28 @@ static int face_free(const co *C, int32_t t, int k) {
     return 1;
 }
 
+/* Normal (any length) of the triangle (px, py, pz) pointing away from pk. */
+static void out_normal(const double *px, const double *py, const double *pz, const double *pk,
+                       double n[3]) {
+    double u[3], v[3];
+    for (int d = 0; d < 3; d++) {
+        u[d] = py[d] - px[d];
+        v[d] = pz[d] - px[d];
+    }
+    n[0] = u[1] * v[2] - u[2] * v[1];
+    n[1] = u[2] * v[0] - u[0] * v[2];
+    n[2] = u[0] * v[1] - u[1] * v[0];
+    if (n[0] * (pk[0] - px[0]) + n[1] * (pk[1] - px[1]) + n[2] * (pk[2] - px[2]) > 0)
+        for (int d = 0; d < 3; d++)
+            n[d] = -n[d];
+}
+
+/* Outward normal (any length) of the face of tet c opposite corner k (positions now). */
+static void face_out(const co *C, const vm_index *c, int k, double n[3]) {
+    out_normal(pt(C, c[(k + 1) & 3]), pt(C, c[(k + 2) & 3]), pt(C, c[(k + 3) & 3]),
+               pt(C, c[k]), n);
+}
+
 /* Small bags of packed ids (edges, faces), sorted once, then searched. */
 enum { SET_MAX = 2048 };
 typedef struct set {
@@ -515,17 +537,8 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
             int x = (k + 1) & 3, y = (k + 2) & 3, z = (k + 3) & 3;
             const double *px = pt(C, c[x] == a ? b : c[x]), *py = pt(C, c[y] == a ? b : c[y]),
                          *pz = pt(C, c[z] == a ? b : c[z]), *pk = pt(C, c[k]);
-            double u[3], v[3], n[3];
-            for (int d = 0; d < 3; d++) {
-                u[d] = py[d] - px[d];
-                v[d] = pz[d] - px[d];
-            }
-            n[0] = u[1] * v[2] - u[2] * v[1];
-            n[1] = u[2] * v[0] - u[0] * v[2];
-            n[2] = u[0] * v[1] - u[1] * v[0];
-            if (n[0] * (pk[0] - px[0]) + n[1] * (pk[1] - px[1]) + n[2] * (pk[2] - px[2]) > 0)
-                for (int d = 0; d < 3; d++)
-                    n[d] = -n[d];
+            double n[3];
+            out_normal(px, py, pz, pk, n);
             if (!tri_near(C, px, py, pz, n)) return 0;
             area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
             if (P->ntri == SET_MAX) return 0;
@@ -841,23 +854,6 @@ static vm_status compact(co *C, vm_error *err) {
     m->npoints = np;
     free(map);
     return VM_OK;
-}
-
-/* Outward normal (any length) of the face of tet c opposite corner k (positions now). */
-static void face_out(const co *C, const vm_index *c, int k, double n[3]) {
-    const double *px = pt(C, c[(k + 1) & 3]), *py = pt(C, c[(k + 2) & 3]),
-                 *pz = pt(C, c[(k + 3) & 3]), *pk = pt(C, c[k]);
-    double u[3], v[3];
-    for (int d = 0; d < 3; d++) {
-        u[d] = py[d] - px[d];
-        v[d] = pz[d] - px[d];
-    }
-    n[0] = u[1] * v[2] - u[2] * v[1];
-    n[1] = u[2] * v[0] - u[0] * v[2];
-    n[2] = u[0] * v[1] - u[1] * v[0];
-    if (n[0] * (pk[0] - px[0]) + n[1] * (pk[1] - px[1]) + n[2] * (pk[2] - px[2]) > 0)
-        for (int d = 0; d < 3; d++)
-            n[d] = -n[d];
 }
 
 /* Moves vertex v to x when every condition of a collapse holds for its tets (positive,
