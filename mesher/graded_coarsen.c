@@ -706,6 +706,28 @@ static int keyed_cmp(const void *x, const void *y) {
     return (p->b > q->b) - (p->b < q->b);
 }
 
+/* Sorts e[0..n) by keyed_cmp: a bottom-up merge sort through tmp (n entries), kept by the
+ * caller across passes (qsort's own buffer would be a fresh block each time). */
+static void keyed_sort(keyed *e, keyed *tmp, size_t n) {
+    keyed *src = e, *dst = tmp;
+    for (size_t w = 1; w < n; w *= 2) {
+        for (size_t lo = 0; lo < n; lo += 2 * w) {
+            size_t mid = lo + w < n ? lo + w : n, hi = lo + 2 * w < n ? lo + 2 * w : n;
+            size_t i = lo, j = mid, k = lo;
+            while (i < mid && j < hi)
+                dst[k++] = keyed_cmp(&src[j], &src[i]) < 0 ? src[j++] : src[i++];
+            while (i < mid)
+                dst[k++] = src[i++];
+            while (j < hi)
+                dst[k++] = src[j++];
+        }
+        keyed *q = src;
+        src = dst;
+        dst = q;
+    }
+    if (src != e) memcpy(e, src, n * sizeof *e);
+}
+
 /* The nearest boundary vertex of each sample, by a grid of the boundary vertices; each
  * sample takes the nearest triangle of that vertex's star and keeps max(D, its distance). */
 static vm_status assign_samples(co *C, vm_error *err) {
@@ -1243,7 +1265,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     if (C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
     if (!s) s = samples(&C, err);
     if (!s) s = assign_samples(&C, err);
-    keyed *E = NULL;
+    keyed *E = NULL, *Etmp = NULL;
     set *sets = malloc(3 * sizeof *sets);
     plan *P = malloc(2 * sizeof *P);
     if (!s && (!sets || !P))
@@ -1254,9 +1276,13 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
         for (int pass = 0; pass < GR_CO_PASSES && !s && !C.nomem && !C.stop; pass++) {
             /* the live edges, shortest first */
             size_t ne = 0;
-            free(E);
-            E = malloc(6 * C.live * sizeof *E + 1);
+            /* once: the live tets only get fewer (a fresh block per pass would have the
+             * kernel clear its pages every time) */
             if (!E) {
+                E = malloc(6 * C.live * sizeof *E + 1);
+                Etmp = malloc(6 * C.live * sizeof *Etmp + 1);
+            }
+            if (!E || !Etmp) {
                 s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
                 break;
             }
@@ -1284,7 +1310,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
                         if (first) E[ne++] = (keyed){dist2(pt(&C, x), pt(&C, y)), x, y};
                     }
             }
-            qsort(E, ne, sizeof *E, keyed_cmp);
+            keyed_sort(E, Etmp, ne);
             size_t before = *removed;
             for (size_t i = 0; i < ne && !C.nomem; i++) {
                 int32_t x = E[i].a, y = E[i].b;
@@ -1316,6 +1342,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     for (int k = 0; k < 3 && !s && !C.nomem && !C.stop; k++)
         if (!repair(&C, P, sets, removed)) break;
     free(E);
+    free(Etmp);
     free(sets);
     free(P);
     if (!s && C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
