@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """tests/surface/test_surface_asc_vtk.py — VTK as the judge of adaptive skeleton climbing.
 
-Runs mesher_test_surface_asc_export (beside $VM_CLI in the build tree), which writes each
+Runs surface_test_surface_asc_export (beside $VM_CLI in the build tree), which writes each
 input volume (phantoms at 64^3; ironProt, hydrogen and the CT head when ../shared/data is
 there) as NRRD and volmesh's asc surfaces at max levels 0 and 4 as VTU. For each input, VTK's
 vtkFlyingEdges3D (marching cubes) contours the same volume at the same isovalue; the test
@@ -26,7 +26,7 @@ except ImportError as e:  # pragma: no cover
 
 TMP = os.environ.get("VM_TEST_TMP", ".")
 CLI = os.environ.get("VM_CLI", "")
-EXPORTER = os.path.join(os.path.dirname(CLI), "tests", "mesher_test_surface_asc_export")
+EXPORTER = os.path.join(os.path.dirname(CLI), "tests", "surface_test_surface_asc_export")
 failures = []
 
 # Smallest accepted reduction MC triangles / asc level-4 triangles (measured minus ~10%).
