@@ -3,7 +3,7 @@
 # with its own geometry) changes the density where it asks, bad size fields and options that
 # do not go together are refused with one line and exit 2, --max-edge sizes label meshes
 # (fewer tets, every label kept), and on the CT head (when ../shared/data is there) a coarse
-# --distance keeps the voxels' topology (the safety net).
+# --distance keeps the voxels' topology (the safety net); --no-coarsen keeps the stuffed mesh.
 #
 # Run by ctest as `bash test_sizing_cli.sh` with VM_CLI and VM_TEST_TMP set. Exit 0 pass,
 # 1 fail, 77 skip (no program to test).
@@ -129,6 +129,17 @@ if [ -n "${VM_SHARED_DATA:-}" ] && [ -f "$ct" ]; then
     if [ "$e" = "(-12, 8)" ]; then ok; else bad "CT head --distance 4: $e $(cat err.txt)"; fi
 else
     echo "note: ../shared/data/ct_head_quarter.nrrd missing: the CT head case skipped"
+fi
+
+# 5. --no-coarsen keeps the stuffed mesh: more tets than the default, the same topology
+"$VM_CLI" mesh ball.mha --iso 0 --no-coarsen --no-improve --json -o stuffed.vtu >st.json 2>err.txt
+"$VM_CLI" mesh ball.mha --iso 0 --graded --no-improve --json -o coarse.vtu >co.json 2>>err.txt
+s=$(json '(d["elements"], d["boundary_euler"], d["components"])' <st.json 2>/dev/null)
+c=$(json '(d["elements"], d["boundary_euler"], d["components"])' <co.json 2>/dev/null)
+if /usr/bin/python3 -c "s, c = $s, $c; import sys; sys.exit(not (s[1:] == c[1:] == (2, 1) and c[0] * 2 <= s[0]))" 2>/dev/null; then
+    ok
+else
+    bad "--no-coarsen: stuffed $s, coarsened $c $(cat err.txt)"
 fi
 
 echo "test_sizing_cli: $pass passed, $fail failed"
