@@ -1024,6 +1024,18 @@ static size_t move_sweep(co *C, plan *P) {
     return moved;
 }
 
+/* Whether triangle T is one of the two faces f (the same ids in any order). */
+static int on_faces(const int32_t T[3], int32_t (*f)[3]) {
+    for (int g = 0; g < 2; g++) {
+        int m = 0;
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++)
+                m += T[a] == f[g][b];
+        if (m == 3) return 1;
+    }
+    return 0;
+}
+
 /* Takes out tet t when two of its faces are on the boundary (a flat cap), the edge between
  * its two other corners is not on the boundary yet (so the boundary stays a manifold), its
  * two other faces lie within the distance bound facing out, the samples of the two faces it
@@ -1070,15 +1082,7 @@ static int peel(co *C, int32_t t) {
             for (int32_t i = 0; i < ls->n; i++) {
                 int32_t q = ls->v[i];
                 const int32_t *T = C->st[q];
-                int same = 0;
-                for (int g = 0; g < 2; g++) {
-                    int m = 0;
-                    for (int a = 0; a < 3; a++)
-                        for (int b = 0; b < 3; b++)
-                            m += T[a] == of[g][b];
-                    if (m == 3) same = 1;
-                }
-                if (!same) continue;
+                if (!on_faces(T, of)) continue;
                 double best = INFINITY;
                 for (int g = 0; g < 2; g++)
                     best = fmin(best, tri_dist2(C->sp[q], pt(C, nf[g][0]), pt(C, nf[g][1]),
@@ -1093,15 +1097,7 @@ static int peel(co *C, int32_t t) {
             for (int32_t i = 0; i < ls->n; i++) {
                 int32_t q = ls->v[i];
                 int32_t *T = C->st[q];
-                int same = 0;
-                for (int g = 0; g < 2; g++) {
-                    int m = 0;
-                    for (int a = 0; a < 3; a++)
-                        for (int b = 0; b < 3; b++)
-                            m += T[a] == of[g][b];
-                    if (m == 3) same = 1;
-                }
-                if (!same) continue;
+                if (!on_faces(T, of)) continue;
                 double d0 = tri_dist2(C->sp[q], pt(C, nf[0][0]), pt(C, nf[0][1]), pt(C, nf[0][2]));
                 double d1 = tri_dist2(C->sp[q], pt(C, nf[1][0]), pt(C, nf[1][1]), pt(C, nf[1][2]));
                 memcpy(T, nf[d1 < d0], 3 * sizeof *T);
