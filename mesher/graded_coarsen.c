@@ -26,8 +26,8 @@
 #include <string.h>
 
 /* Dihedral angles (degrees) every tet a collapse changes must keep. */
-#define GR_CO_MIN 18.0
-#define GR_CO_MAX 145.0
+#define GR_CO_MIN 15.01
+#define GR_CO_MAX 149.99
 /* A new boundary triangle's normal within this angle's cosine of the field's gradient. */
 #define GR_CO_NORMAL_COS 0.5
 /* Passes over the edges; the work stops early when a pass removes under 0.5% of vertices. */
@@ -38,6 +38,17 @@
 #define GR_CO_VOLUME 0.2
 /* ... and the whole mesh's volume by at most this fraction (net). */
 #define GR_CO_NET_VOLUME 0.01
+/* ... and gain at most this fraction: the stuffed mesh's chords lie inside a convex surface,
+ * so moves that make them straddle it bring volume back, but on thin plates they would
+ * thicken the material. */
+#define GR_CO_NET_GAIN 0.02
+/* Every changed tet keeps at least this ABAQUS volume measure (the quality pass's target). */
+#define GR_CO_VOLUME_MEASURE 0.03
+/* Degrees per radian. */
+#define GR_CO_DEG 57.29577951308232
+/* cos 10 and cos 160 degrees (ABAQUS's face angle limits). */
+#define GR_CO_COS10 0.984807753012208
+#define GR_CO_COS160 (-0.9396926207859083)
 
 typedef struct ilist {
     int32_t *v;
@@ -62,8 +73,11 @@ typedef struct co {
     int32_t *mark, stamp; /* per sample, for pruning repeats */
     int32_t *vmark, vstamp; /* per vertex, for the link test */
     float *qlo, *qhi;       /* per tet: its dihedral range */
+    float *qab;             /* per tet: its ABAQUS grade (tet_angles) */
     double dvol, vol_budget; /* volume added so far; the most it may lose */
+    double vol_gain;         /* ... and the most it may gain */
     int strict;              /* repairing: a collapse must better the worst angle */
+    size_t slot;             /* dead tets below this index are all reused (flips) */
     vm__meter *pm;           /* polled for cancellation (may be NULL) */
     unsigned polls;
     int stop;                /* cancelled */
@@ -152,6 +166,128 @@ static int phi_grad(const co *C, const double x[3], double *phi, double g[3]) {
         g[r] = C->inv[0][r] * gi[0] + C->inv[1][r] * gi[1] + C->inv[2][r] * gi[2];
     *phi = val;
     return 1;
+}
+
+/* The cosines of a tet's smallest and largest dihedral angles, [out] *cmax and *cmin (the
+ * faces' normals all point the same way, in or out: the dihedral angle between two faces
+ * is pi minus the angle of their normals). Returns 0 for a degenerate tet. */
+static int dihedral_cosines(const double p[4][3], double *cmax, double *cmin) {
+    static const int fc[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    double n[4][3], nl[4];
+    for (int f = 0; f < 4; f++) {
+        const double *a = p[fc[f][0]], *b = p[fc[f][1]], *c = p[fc[f][2]];
+        double u[3], v[3];
+        for (int d = 0; d < 3; d++)
+            u[d] = b[d] - a[d], v[d] = c[d] - a[d];
+        n[f][0] = u[1] * v[2] - u[2] * v[1];
+        n[f][1] = u[2] * v[0] - u[0] * v[2];
+        n[f][2] = u[0] * v[1] - u[1] * v[0];
+        nl[f] = sqrt(n[f][0] * n[f][0] + n[f][1] * n[f][1] + n[f][2] * n[f][2]);
+        if (!(nl[f] > 0)) return 0;
+    }
+    double hi = -1, lo = 1;
+    for (int f = 0; f < 4; f++)
+        for (int g = f + 1; g < 4; g++) {
+            double c = -(n[f][0] * n[g][0] + n[f][1] * n[g][1] + n[f][2] * n[g][2]) /
+                       (nl[f] * nl[g]);
+            hi = c > hi ? c : hi;
+            lo = c < lo ? c : lo;
+        }
+    *cmax = hi > 1 ? 1 : hi;
+    *cmin = lo < -1 ? -1 : lo;
+    return 1;
+}
+
+/* How a tet stands against ABAQUS's element check (face angles 10..160 degrees, volume
+ * measure GR_CO_VOLUME_MEASURE, the quality pass's target): 1 at a limit, higher is
+ * better. Dihedral angles alone let needles through (three close corners and a far one). */
+static double abaqus_measures(const double p[4][3], double *chi, double *clo);
+static double abaqus_grade(const double p[4][3]) {
+    double hi, lo, vm = abaqus_measures(p, &hi, &lo);
+    double famin = acos(hi) * GR_CO_DEG, famax = acos(lo) * GR_CO_DEG;
+    double g = famin / 10.0, g2 = (180.0 - famax) / 20.0, g3 = vm / GR_CO_VOLUME_MEASURE;
+    return g < g2 ? (g < g3 ? g : g3) : (g2 < g3 ? g2 : g3);
+}
+
+/* Whether the tet passes the limits of abaqus_grade: the same test in cosines. */
+static int abaqus_ok(const double p[4][3]) {
+    double hi, lo, vm = abaqus_measures(p, &hi, &lo);
+    return hi <= GR_CO_COS10 && lo >= GR_CO_COS160 && vm >= GR_CO_VOLUME_MEASURE;
+}
+
+/* The cosines of a tet's smallest and largest face angles ([out] *chi, *clo) and its volume
+ * measure (returned). */
+static double abaqus_measures(const double p[4][3], double *chi, double *clo) {
+    /* the six edges' squared lengths and lengths; the angle at corner a of face abc has
+     * the cosine (|ab|^2 + |ac|^2 - |bc|^2) / (2 |ab| |ac|) */
+    static const int ed[4][4] = {{-1, 0, 1, 2}, {0, -1, 3, 4}, {1, 3, -1, 5}, {2, 4, 5, -1}};
+    double q[6], l[6];
+    for (int i = 0, k = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++, k++) {
+            q[k] = dist2(p[i], p[j]);
+            l[k] = sqrt(q[k]);
+        }
+    double hi = -1, lo = 1; /* cosines of the largest and smallest face angles */
+    for (int a = 0; a < 4; a++)
+        for (int b = 0; b < 4; b++)
+            for (int c = b + 1; c < 4; c++) {
+                if (b == a || c == a) continue;
+                int ab = ed[a][b], ac = ed[a][c], bc = ed[b][c];
+                double c0 = (q[ab] + q[ac] - q[bc]) / (2 * l[ab] * l[ac]);
+                hi = c0 > hi ? c0 : hi;
+                lo = c0 < lo ? c0 : lo;
+            }
+    *chi = hi <= 1 ? hi : 1;
+    *clo = lo >= -1 ? lo : -1;
+    /* volume measure: V over the regular tet's of the same circumradius R, 8 R^3 / (9 sqrt 3);
+     * with e the edges from p[0], 12 V R is |e0|^2 (e1 x e2) + |e1|^2 (e2 x e0) +
+     * |e2|^2 (e0 x e1) */
+    double e[3][3], x[3][3], l2[3];
+    for (int k = 0; k < 3; k++) {
+        l2[k] = 0;
+        for (int d = 0; d < 3; d++) {
+            e[k][d] = p[k + 1][d] - p[0][d];
+            l2[k] += e[k][d] * e[k][d];
+        }
+    }
+    for (int k = 0; k < 3; k++) { /* x[k] = e[k+1] x e[k+2] */
+        const double *u = e[(k + 1) % 3], *v = e[(k + 2) % 3];
+        x[k][0] = u[1] * v[2] - u[2] * v[1];
+        x[k][1] = u[2] * v[0] - u[0] * v[2];
+        x[k][2] = u[0] * v[1] - u[1] * v[0];
+    }
+    double v6 = fabs(e[0][0] * x[0][0] + e[0][1] * x[0][1] + e[0][2] * x[0][2]), w2 = 0;
+    for (int d = 0; d < 3; d++) {
+        double w = l2[0] * x[0][d] + l2[1] * x[1][d] + l2[2] * x[2][d];
+        w2 += w * w;
+    }
+    double vm = 0;
+    if (v6 > 0 && w2 > 0) {
+        double r = sqrt(w2) / (2 * v6);
+        vm = (v6 / 6) / (8 * r * r * r / (9 * sqrt(3.0)));
+    }
+    return vm;
+}
+
+/* A tet's dihedral range [*lo, *hi] (degrees) and its abaqus_grade; -1 (and 0..180) for a
+ * degenerate tet. */
+static double tet_angles(const double p[4][3], double *lo, double *hi) {
+    double cmax, cmin;
+    *lo = 0;
+    *hi = 180;
+    if (!dihedral_cosines(p, &cmax, &cmin)) return -1;
+    *lo = acos(cmax) * GR_CO_DEG;
+    *hi = acos(cmin) * GR_CO_DEG;
+    return abaqus_grade(p);
+}
+
+/* Whether a live tet around v already fails the ABAQUS check (then changes there need not
+ * pass it either: they are judged by the dihedral angles alone). */
+static int star_fails_abaqus(const co *C, int32_t v) {
+    const ilist *l = &C->vt[v];
+    for (int32_t i = 0; i < l->n; i++)
+        if (C->qab[l->v[i]] < 1) return 1;
+    return 0;
 }
 
 /* The signed first-order distance phi / |grad phi| (positive inside) over the triangle
@@ -400,12 +536,13 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
     }
     if (!shared) return 0;
     double amin = fmin(GR_CO_MIN, olo), amax = fmax(GR_CO_MAX, ohi);
-
-    double qmin = 180;
+    /* in cosines: no arc cosine per tet on this, the hottest path */
+    double camin = cos(amin / GR_CO_DEG), camax = cos(amax / GR_CO_DEG), worst = -1;
+    int ab = -1; /* whether a's star fails the ABAQUS check already; -1: not known yet */
     for (int32_t i = 0; i < ta->n; i++) {
         const vm_index *c = tet(C, ta->v[i]);
         if (c[0] == b || c[1] == b || c[2] == b || c[3] == b) continue;
-        double p[4][3], lo, hi;
+        double p[4][3], cmax, cmin;
         int ka = 0;
         for (int k = 0; k < 4; k++) {
             if (c[k] == a) ka = k;
@@ -413,11 +550,16 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
         }
         for (int k = 0; k < 4; k++)
             if (k != ka && !edge_ok(C, p[k], p[ka])) return 0;
-        vm__tet_dihedral_range((const double(*)[3])p, &lo, &hi);
-        if (lo < amin || hi > amax) return 0;
-        if (lo < qmin) qmin = lo;
+        if (!dihedral_cosines((const double(*)[3])p, &cmax, &cmin) || cmax > camin ||
+            cmin < camax)
+            return 0;
+        if (!abaqus_ok((const double(*)[3])p)) {
+            if (ab < 0) ab = star_fails_abaqus(C, a);
+            if (!ab) return 0;
+        }
+        if (cmax > worst) worst = cmax;
     }
-    P->qmin = qmin;
+    P->qmin = acos(worst) * GR_CO_DEG;
     /* link condition, vertices: a neighbour of both a and b is in a tet of the edge */
     stamp_next(C);
     int32_t s_off = C->vstamp - 1, s_on = C->vstamp;
@@ -550,7 +692,7 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
     }
     if (fabs(dvol) / 6 > GR_CO_VOLUME * C->D * area) return 0;
     /* and the whole volume by at most GR_CO_NET_VOLUME of it */
-    if (C->dvol + dvol / 6 < -C->vol_budget) return 0;
+    if (C->dvol + dvol / 6 < -C->vol_budget || C->dvol + dvol / 6 > C->vol_gain) return 0;
     P->dvol = dvol / 6;
     /* b's boundary faces that stay */
     for (int32_t i = 0; i < tb->n; i++) {
@@ -589,7 +731,7 @@ static void measure(co *C, int32_t t) {
     for (int k = 0; k < 4; k++)
         memcpy(p[k], pt(C, c[k]), sizeof p[k]);
     double lo, hi;
-    vm__tet_dihedral_range((const double(*)[3])p, &lo, &hi);
+    C->qab[t] = (float)tet_angles((const double(*)[3])p, &lo, &hi);
     C->qlo[t] = (float)lo;
     C->qhi[t] = (float)hi;
 }
@@ -846,6 +988,7 @@ static void co_free(co *C) {
     free(C->vmark);
     free(C->qlo);
     free(C->qhi);
+    free(C->qab);
 }
 
 /* Removes dead tets and unused points. */
@@ -884,6 +1027,7 @@ static vm_status compact(co *C, vm_error *err) {
 static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
     const ilist *l = &C->vt[v];
     double old[3], olo = 180, ohi = 0, vol0 = 0, vol1 = 0, nlo = 180, nhi = 0;
+    int nab = 0; /* a moved tet fails the ABAQUS check */
     double *pv = C->m->points + 3 * (size_t)v;
     memcpy(old, pv, sizeof old);
     for (int32_t i = 0; i < l->n; i++) {
@@ -909,14 +1053,27 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
         for (int k = 0; k < 4 && ok; k++)
             if (c[k] != v && !edge_ok(C, p[k], x)) ok = 0;
         if (!ok) break;
-        vm__tet_dihedral_range((const double(*)[3])p, &lo, &hi);
+        double cmax, cmin;
+        if (!dihedral_cosines((const double(*)[3])p, &cmax, &cmin)) {
+            ok = 0;
+            break;
+        }
+        lo = acos(cmax) * GR_CO_DEG;
+        hi = acos(cmin) * GR_CO_DEG;
+        if (!abaqus_ok((const double(*)[3])p)) nab = 1;
         nlo = fmin(nlo, lo);
         nhi = fmax(nhi, hi);
+    }
+    if (ok && nab) {
+        memcpy(pv, old, sizeof old);
+        nab = star_fails_abaqus(C, v) ? 0 : 1;
+        memcpy(pv, x, sizeof old);
+        if (nab) ok = 0;
     }
     if (ok && (nlo < fmin(GR_CO_MIN, olo) || nhi > fmax(GR_CO_MAX, ohi))) ok = 0;
     if (ok && better && !(nlo > olo + 0.01)) ok = 0;
     double dv = (vol1 - vol0) / 6;
-    if (ok && C->dvol + dv < -C->vol_budget) ok = 0;
+    if (ok && (C->dvol + dv < -C->vol_budget || C->dvol + dv > C->vol_gain)) ok = 0;
     P->ntri = 0;
     if (ok && C->bnd[v]) {
         for (int32_t i = 0; i < l->n && ok; i++) {
@@ -1113,6 +1270,239 @@ static int peel(co *C, int32_t t) {
     return 1;
 }
 
+/* A tet's standing against the targets 15..150 degrees: 1 at a limit, higher is better. */
+static double grade(double lo, double hi) {
+    return fmin(lo / 15.0, (180.0 - hi) / 30.0);
+}
+
+/* The grade of the tet (a, b, c, d) as positioned, or -1 when it is not positive. */
+static double grade_of(const co *C, const double *a, const double *b, const double *c,
+                       const double *d) {
+    if (!(C->sign * vol6(a, b, c, d) > 0)) return -1;
+    double p[4][3], lo, hi;
+    memcpy(p[0], a, sizeof p[0]);
+    memcpy(p[1], b, sizeof p[1]);
+    memcpy(p[2], c, sizeof p[2]);
+    memcpy(p[3], d, sizeof p[3]);
+    double ab = tet_angles((const double(*)[3])p, &lo, &hi);
+    return fmin(grade(lo, hi), ab);
+}
+
+/* The grade of live tet t, from the caches. */
+static double tet_grade(const co *C, int32_t t) {
+    return fmin(grade(C->qlo[t], C->qhi[t]), C->qab[t]);
+}
+
+/* Whether a live tet other than those in `skip` holds all of the n vertices w. */
+static int held(const co *C, const int32_t *w, int n, const int32_t *skip, int nskip) {
+    const ilist *l = &C->vt[w[0]];
+    for (int32_t i = 0; i < l->n; i++) {
+        int32_t t = l->v[i];
+        int other = 1;
+        for (int j = 0; j < nskip; j++)
+            if (skip[j] == t) other = 0;
+        if (!other) continue;
+        const vm_index *c = tet(C, t);
+        int all = 1;
+        for (int j = 1; j < n && all; j++)
+            all = c[0] == w[j] || c[1] == w[j] || c[2] == w[j] || c[3] == w[j];
+        if (all) return 1;
+    }
+    return 0;
+}
+
+/* The flip between the triangle abc and the edge de (Joe 1989): the tets `old` (the two on
+ * abc, or the three around de) become those on the other side (three around de, or two on
+ * abc), when de crosses abc (the tets (a,b,d,e), (b,c,d,e), (c,a,d,e) turn the same way),
+ * no tet has the new edge or face yet, the new edge keeps the size bounds, and the new
+ * tets' worst grade beats the old ones'. Interior only: the boundary faces stay as they
+ * are, and so do the distance and the volume. */
+static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32_t d,
+                int32_t e) {
+    const double *pa = pt(C, abc[0]), *pb = pt(C, abc[1]), *pc = pt(C, abc[2]);
+    const double *pd = pt(C, d), *pe = pt(C, e);
+    double s1 = vol6(pa, pb, pd, pe), s2 = vol6(pb, pc, pd, pe), s3 = vol6(pc, pa, pd, pe);
+    if (!((s1 > 0 && s2 > 0 && s3 > 0) || (s1 < 0 && s2 < 0 && s3 < 0))) return 0;
+    for (int i = 1; i < nold; i++)
+        if (C->m->region[old[i]] != C->m->region[old[0]]) return 0;
+    double before = INFINITY;
+    for (int i = 0; i < nold; i++)
+        before = fmin(before, tet_grade(C, old[i]));
+    int32_t nt[3][4];
+    int nnew = nold == 2 ? 3 : 2;
+    if (nnew == 3) {
+        int32_t de[2] = {d, e};
+        if (held(C, de, 2, NULL, 0) || !edge_ok(C, pd, pe)) return 0;
+        for (int i = 0; i < 3; i++) {
+            int32_t q[4] = {abc[i], abc[(i + 1) % 3], d, e};
+            memcpy(nt[i], q, sizeof q);
+        }
+    } else {
+        if (held(C, abc, 3, old, nold)) return 0;
+        int32_t q0[4] = {abc[0], abc[1], abc[2], d}, q1[4] = {abc[0], abc[1], abc[2], e};
+        memcpy(nt[0], q0, sizeof q0);
+        memcpy(nt[1], q1, sizeof q1);
+    }
+    double after = INFINITY;
+    for (int i = 0; i < nnew; i++) {
+        if (C->sign * vol6(pt(C, nt[i][0]), pt(C, nt[i][1]), pt(C, nt[i][2]),
+                           pt(C, nt[i][3])) < 0) {
+            int32_t q = nt[i][0];
+            nt[i][0] = nt[i][1];
+            nt[i][1] = q;
+        }
+        after = fmin(after, grade_of(C, pt(C, nt[i][0]), pt(C, nt[i][1]), pt(C, nt[i][2]),
+                                     pt(C, nt[i][3])));
+    }
+    if (!(after > before + 1e-3)) return 0;
+    int32_t slot[3];
+    for (int i = 0; i < nold; i++)
+        slot[i] = old[i];
+    if (nnew > nold) {
+        while (C->slot < C->nt && !C->dead_t[C->slot])
+            C->slot++;
+        if (C->slot == C->nt) return 0;
+        slot[nold] = (int32_t)C->slot;
+        C->dead_t[C->slot] = 0;
+        C->m->region[C->slot] = C->m->region[old[0]];
+        C->live++;
+    }
+    for (int i = 0; i < nold; i++) {
+        const vm_index *c = tet(C, old[i]);
+        for (int k = 0; k < 4; k++)
+            drop(&C->vt[c[k]], old[i]);
+    }
+    for (int i = 0; i < nnew; i++) {
+        vm_index *c = C->m->cells + 4 * (size_t)slot[i];
+        for (int k = 0; k < 4; k++) {
+            c[k] = (vm_index)nt[i][k];
+            if (!push(&C->vt[nt[i][k]], slot[i])) C->nomem = 1;
+        }
+        measure(C, slot[i]);
+    }
+    if (nold > nnew) {
+        C->dead_t[old[2]] = 1;
+        C->live--;
+    }
+    return 1;
+}
+
+/* Flips that better tet t: across each of its inner faces (two tets to three), and around
+ * each of its edges held by exactly three tets in a closed ring (three to two). */
+static int flip_tet(co *C, int32_t t) {
+    vm_index c[4];
+    memcpy(c, tet(C, t), sizeof c);
+    for (int k = 0; k < 4; k++) {
+        int32_t abc[3] = {(int32_t)c[(k + 1) & 3], (int32_t)c[(k + 2) & 3],
+                          (int32_t)c[(k + 3) & 3]};
+        const ilist *l = &C->vt[abc[0]];
+        for (int32_t i = 0; i < l->n; i++) {
+            int32_t u = l->v[i];
+            if (u == t) continue;
+            const vm_index *q = tet(C, u);
+            int has = 0, e = -1;
+            for (int j = 0; j < 4; j++) {
+                if (q[j] == (vm_index)abc[1] || q[j] == (vm_index)abc[2]) has++;
+                else if (q[j] != (vm_index)abc[0]) e = (int32_t)q[j];
+            }
+            if (has < 2) continue;
+            int32_t old[2] = {t, u};
+            if (flip(C, old, 2, abc, (int32_t)c[k], e)) return 1;
+            break;
+        }
+    }
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++) {
+            int32_t d = (int32_t)c[i], e = (int32_t)c[j], old[4], w[8];
+            int n = 0, nw = 0;
+            const ilist *l = &C->vt[d];
+            for (int32_t r = 0; r < l->n && n < 4; r++) {
+                const vm_index *q = tet(C, l->v[r]);
+                if (q[0] != (vm_index)e && q[1] != (vm_index)e && q[2] != (vm_index)e &&
+                    q[3] != (vm_index)e)
+                    continue;
+                old[n++] = l->v[r];
+                for (int k = 0; k < 4; k++)
+                    if (q[k] != (vm_index)d && q[k] != (vm_index)e && nw < 8)
+                        w[nw++] = (int32_t)q[k];
+            }
+            if (n != 3) continue;
+            /* a closed ring: three vertices, each in two of the tets */
+            int32_t abc[3], na = 0, ok = 1;
+            for (int r = 0; r < 6 && ok; r++) {
+                int seen = 0, cnt = 0;
+                for (int s2 = 0; s2 < na; s2++)
+                    seen |= abc[s2] == w[r];
+                for (int s2 = 0; s2 < 6; s2++)
+                    cnt += w[s2] == w[r];
+                if (cnt != 2) ok = 0;
+                if (!seen && ok) {
+                    if (na == 3) ok = 0;
+                    else abc[na++] = w[r];
+                }
+            }
+            if (!ok || na != 3) continue;
+            if (flip(C, old, 3, abc, d, e)) return 1;
+        }
+    return 0;
+}
+
+/* Moves vertex v to where the worst grade of its tets is highest, by a pattern search
+ * (14 directions, steps from a third of its mean edge down), then through try_move (every
+ * bound of a collapse), halving the move when that refuses. */
+static int optimize_vertex(co *C, int32_t v, plan *P) {
+    static const double dir[14][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},   {0, -1, 0},
+                                      {0, 0, 1},  {0, 0, -1}, {1, 1, 1},   {1, 1, -1},
+                                      {1, -1, 1}, {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1},
+                                      {-1, -1, 1}, {-1, -1, -1}};
+    const ilist *l = &C->vt[v];
+    if (C->fix[v] || l->n == 0) return 0;
+    double L = 0, base = INFINITY;
+    int ne = 0;
+    for (int32_t i = 0; i < l->n; i++) {
+        const vm_index *c = tet(C, l->v[i]);
+        base = fmin(base, tet_grade(C, l->v[i]));
+        for (int k = 0; k < 4; k++)
+            if (c[k] != (vm_index)v) L += sqrt(dist2(pt(C, v), pt(C, c[k]))), ne++;
+    }
+    L /= ne;
+    double x[3], best = base;
+    memcpy(x, pt(C, v), sizeof x);
+    for (double step = 0.3 * L; step > 0.03 * L; step *= 0.4)
+        for (int it = 0; it < 3; it++) {
+            int bd = -1;
+            double bg = best;
+            for (int d = 0; d < 14; d++) {
+                double y[3], g = INFINITY, s = d < 6 ? step : step / sqrt(3.0);
+                for (int r = 0; r < 3; r++)
+                    y[r] = x[r] + s * dir[d][r];
+                for (int32_t i = 0; i < l->n && g > bg; i++) {
+                    const vm_index *c = tet(C, l->v[i]);
+                    const double *q[4];
+                    for (int k = 0; k < 4; k++)
+                        q[k] = c[k] == (vm_index)v ? y : pt(C, c[k]);
+                    g = fmin(g, grade_of(C, q[0], q[1], q[2], q[3]));
+                }
+                if (g > bg) bg = g, bd = d;
+            }
+            if (bd < 0) break;
+            double s = bd < 6 ? step : step / sqrt(3.0);
+            for (int r = 0; r < 3; r++)
+                x[r] += s * dir[bd][r];
+            best = bg;
+        }
+    if (!(best > base + 1e-3)) return 0;
+    double o[3], y[3];
+    memcpy(o, pt(C, v), sizeof o);
+    for (double w = 1; w > 0.1; w *= 0.5) {
+        for (int r = 0; r < 3; r++)
+            y[r] = o[r] + w * (x[r] - o[r]);
+        if (try_move(C, v, y, 0, P)) return 1;
+    }
+    return 0;
+}
+
+
 /* Repair: each tet beyond 15..150 degrees has its vertices moved where that raises the worst
  * angle around them: an interior vertex towards the mean of its neighbours, a boundary one
  * towards the mean of its boundary neighbours and back onto the surface (two Newton steps
@@ -1122,10 +1512,10 @@ static size_t repair(co *C, plan *P, set *sets, size_t *removed) {
     size_t left = 0;
     for (size_t tt = 0; tt < C->nt && !C->nomem && !stopped(C); tt++) {
         int32_t t = (int32_t)tt;
-        if (C->dead_t[t] || (C->qlo[t] >= 15 && C->qhi[t] <= 150)) continue;
+        if (C->dead_t[t] || tet_grade(C, t) >= 1) continue;
         vm_index c[4];
         memcpy(c, tet(C, t), sizeof c);
-        for (int k = 0; k < 4 && !C->dead_t[t] && (C->qlo[t] < 15 || C->qhi[t] > 150); k++) {
+        for (int k = 0; k < 4 && !C->dead_t[t] && tet_grade(C, t) < 1; k++) {
             int32_t v = (int32_t)c[k];
             if (C->fix[v]) continue;
             const ilist *l = &C->vt[v];
@@ -1155,7 +1545,7 @@ static size_t repair(co *C, plan *P, set *sets, size_t *removed) {
                     }
                 if (try_move(C, v, x, 1, P)) break;
             }
-            if (C->bnd[v] || C->dead_t[t] || (C->qlo[t] >= 15 && C->qhi[t] <= 150)) continue;
+            if (C->bnd[v] || C->dead_t[t] || tet_grade(C, t) >= 1) continue;
             /* an interior corner: away from the face opposite it */
             const vm_index *q = tet(C, t);
             int kv = 0;
@@ -1173,7 +1563,14 @@ static size_t repair(co *C, plan *P, set *sets, size_t *removed) {
                 if (try_move(C, v, x, 1, P)) break;
             }
         }
-        if (C->dead_t[t] || (C->qlo[t] >= 15 && C->qhi[t] <= 150)) continue;
+#define GOOD(t) (C->dead_t[t] || tet_grade(C, t) >= 1)
+        for (int k = 0; k < 3 && !GOOD(t) && flip_tet(C, t); k++)
+            ;
+        memcpy(c, tet(C, t), sizeof c);
+        for (int k = 0; k < 4 && !GOOD(t); k++)
+            optimize_vertex(C, (int32_t)c[k], P);
+#undef GOOD
+        if (C->dead_t[t] || tet_grade(C, t) >= 1) continue;
         C->strict = 1;
         memcpy(c, tet(C, t), sizeof c);
         int done = 0;
@@ -1225,8 +1622,9 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     C.vmark = calloc(C.nv, sizeof *C.vmark);
     C.qlo = malloc(C.nt * sizeof *C.qlo);
     C.qhi = malloc(C.nt * sizeof *C.qhi);
+    C.qab = malloc(C.nt * sizeof *C.qab);
     if (!C.vt || !C.vs || !C.bnd || !C.fix || !C.dead_v || !C.dead_t || !C.vmark || !C.qlo ||
-        !C.qhi) {
+        !C.qhi || !C.qab) {
         co_free(&C);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
     }
@@ -1242,6 +1640,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     }
     C.sign = pos >= neg ? 1 : -1;
     C.vol_budget = GR_CO_NET_VOLUME * fabs(pos - neg) / 6;
+    C.vol_gain = GR_CO_NET_GAIN * fabs(pos - neg) / 6;
     for (size_t t = 0; t < C.nt && !C.nomem; t++)
         for (int k = 0; k < 4; k++)
             if (face_free(&C, (int32_t)t, k))
