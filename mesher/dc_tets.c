@@ -1092,6 +1092,20 @@ static int bface_cmp(const void *x, const void *y) {
     return 0;
 }
 
+/* 1 when vertex id is a surface vertex: a representative, or a grid point on the box's
+ * border (vm__dc_vertex_planes != 0, in 32-bit arithmetic where the grid allows it: this test
+ * runs for every corner of every tet each untangling round). */
+static int surface_vertex(const dc *d, int64_t N, int64_t id) {
+    if (id >= N) return 1;
+    if (N <= (int64_t)UINT32_MAX) {
+        uint32_t u = (uint32_t)id, n0 = (uint32_t)d->n[0], n1 = (uint32_t)d->n[1];
+        uint32_t x = u % n0, r = u / n0, y = r % n1, z = r / n1;
+        return x == 0 || x == n0 - 1 || y == 0 || y == n1 - 1 || z == 0 ||
+               (int64_t)z == d->n[2] - 1;
+    }
+    return vm__dc_vertex_planes(d, id) != 0;
+}
+
 /* Which faces of tet t (bit q: the face opposite node q) have three surface corners (the
  * candidates of boundary_faces). */
 static const int bf_tf[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
@@ -1099,7 +1113,7 @@ static unsigned surface_faces(const dc *d, int64_t N, size_t t, int64_t v[4]) {
     tet_get(d, t, v);
     int surf[4];
     for (int k = 0; k < 4; k++)
-        surf[k] = v[k] >= N || vm__dc_vertex_planes(d, v[k]) != 0;
+        surf[k] = surface_vertex(d, N, v[k]);
     unsigned m = 0;
     for (int q = 0; q < 4; q++)
         if (surf[bf_tf[q][0]] && surf[bf_tf[q][1]] && surf[bf_tf[q][2]]) m |= 1u << q;
@@ -1118,7 +1132,12 @@ static vm_status boundary_faces(const dc *d, bface **out, size_t *nb_out, vm_err
     *out = NULL;
     *nb_out = 0;
     size_t *at = calloc(nc + 1, sizeof *at);
-    if (!at) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    uint8_t *fm = malloc(nt + 1); /* each tet's candidate faces, from the count to the fill */
+    if (!at || !fm) {
+        free(at);
+        free(fm);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
     const ptrdiff_t pnc = (ptrdiff_t)nc;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 4)
@@ -1128,6 +1147,7 @@ static vm_status boundary_faces(const dc *d, bface **out, size_t *nb_out, vm_err
         for (size_t t = (size_t)c * BF_CHUNK; t < t1; t++) {
             int64_t v[4];
             unsigned m = surface_faces(d, N, t, v);
+            fm[t] = (uint8_t)m;
             k += (m & 1) + (m >> 1 & 1) + (m >> 2 & 1) + (m >> 3 & 1);
         }
         at[c + 1] = k;
@@ -1137,6 +1157,7 @@ static vm_status boundary_faces(const dc *d, bface **out, size_t *nb_out, vm_err
     bface *f = malloc((nf ? nf : 1) * sizeof *f);
     if (!f) {
         free(at);
+        free(fm);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     }
 #ifdef VM_HAVE_OPENMP
@@ -1146,8 +1167,10 @@ static vm_status boundary_faces(const dc *d, bface **out, size_t *nb_out, vm_err
         size_t t1 = ((size_t)c + 1) * BF_CHUNK < nt ? ((size_t)c + 1) * BF_CHUNK : nt;
         size_t k = at[c];
         for (size_t t = (size_t)c * BF_CHUNK; t < t1; t++) {
+            unsigned m = fm[t];
+            if (!m) continue;
             int64_t v[4];
-            unsigned m = surface_faces(d, N, t, v);
+            tet_get(d, t, v);
             for (int q = 0; q < 4; q++) {
                 if (!(m >> q & 1)) continue;
                 bface *b = &f[k++];
@@ -1166,6 +1189,7 @@ static vm_status boundary_faces(const dc *d, bface **out, size_t *nb_out, vm_err
         }
     }
     free(at);
+    free(fm);
     if (nf) qsort(f, nf, sizeof *f, bface_cmp);
     for (size_t i = 0; i < nf;) { /* keep the faces that occur once, in place */
         size_t j = i + 1;
