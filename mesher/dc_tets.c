@@ -1092,42 +1092,104 @@ static int bface_cmp(const void *x, const void *y) {
     return 0;
 }
 
+/* 1 when vertex id is a surface vertex: a representative, or a grid point on the box's
+ * border (vm__dc_vertex_planes != 0, in 32-bit arithmetic where the grid allows it: this test
+ * runs for every corner of every tet each untangling round). */
+static int surface_vertex(const dc *d, int64_t N, int64_t id) {
+    if (id >= N) return 1;
+    if (N <= (int64_t)UINT32_MAX) {
+        uint32_t u = (uint32_t)id, n0 = (uint32_t)d->n[0], n1 = (uint32_t)d->n[1];
+        uint32_t x = u % n0, r = u / n0, y = r % n1, z = r / n1;
+        return x == 0 || x == n0 - 1 || y == 0 || y == n1 - 1 || z == 0 ||
+               (int64_t)z == d->n[2] - 1;
+    }
+    return vm__dc_vertex_planes(d, id) != 0;
+}
+
+/* Which faces of tet t (bit q: the face opposite node q) have three surface corners (the
+ * candidates of boundary_faces). */
+static const int bf_tf[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+static unsigned surface_faces(const dc *d, int64_t N, size_t t, int64_t v[4]) {
+    tet_get(d, t, v);
+    int surf[4];
+    for (int k = 0; k < 4; k++)
+        surf[k] = surface_vertex(d, N, v[k]);
+    unsigned m = 0;
+    for (int q = 0; q < 4; q++)
+        if (surf[bf_tf[q][0]] && surf[bf_tf[q][1]] && surf[bf_tf[q][2]]) m |= 1u << q;
+    return m;
+}
+
+#define BF_CHUNK ((size_t)1 << 14)
+
 /* The boundary faces of the tets (the faces of surface vertices that occur once), *nb of
- * them, in *out (the caller frees it). */
+ * them, in *out (the caller frees it). The candidates are counted and then written by
+ * chunks of tets on the threads, each chunk at its prefix sum: the list of the serial
+ * loop, for any thread count. */
 static vm_status boundary_faces(const dc *d, bface **out, size_t *nb_out, vm_error *err) {
-    static const int tf[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
     int64_t N = vm__dc_npoints_real(d);
-    bface *f = NULL;
-    size_t nf = 0, cap = 0, nb = 0;
+    size_t nt = d->ntets, nc = (nt + BF_CHUNK - 1) / BF_CHUNK, nf = 0, nb = 0;
     *out = NULL;
     *nb_out = 0;
-    for (size_t t = 0; t < d->ntets; t++) {
-        int64_t v[4];
-        tet_get(d, t, v);
-        int surf[4];
-        for (int k = 0; k < 4; k++)
-            surf[k] = v[k] >= N || vm__dc_vertex_planes(d, v[k]) != 0;
-        for (int q = 0; q < 4; q++) {
-            if (!surf[tf[q][0]] || !surf[tf[q][1]] || !surf[tf[q][2]]) continue;
-            vm_status s = vm__grow((void **)&f, &cap, nf + 1, sizeof *f, err);
-            if (s) {
-                free(f);
-                return s;
-            }
-            bface *b = &f[nf++];
-            int ord[3] = {0, 1, 2}; /* corners in increasing id order */
-            for (int i = 1; i < 3; i++)
-                for (int j = i; j > 0 && v[tf[q][ord[j - 1]]] > v[tf[q][ord[j]]]; j--) {
-                    int x = ord[j];
-                    ord[j] = ord[j - 1];
-                    ord[j - 1] = x;
+    size_t *at = calloc(nc + 1, sizeof *at);
+    uint8_t *fm = malloc(nt + 1); /* each tet's candidate faces, from the count to the fill */
+    if (!at || !fm) {
+        free(at);
+        free(fm);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
+    const ptrdiff_t pnc = (ptrdiff_t)nc;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 4)
+#endif
+    for (ptrdiff_t c = 0; c < pnc; c++) {
+        size_t t1 = ((size_t)c + 1) * BF_CHUNK < nt ? ((size_t)c + 1) * BF_CHUNK : nt, k = 0;
+        for (size_t t = (size_t)c * BF_CHUNK; t < t1; t++) {
+            int64_t v[4];
+            unsigned m = surface_faces(d, N, t, v);
+            fm[t] = (uint8_t)m;
+            k += (m & 1) + (m >> 1 & 1) + (m >> 2 & 1) + (m >> 3 & 1);
+        }
+        at[c + 1] = k;
+    }
+    for (size_t c = 0; c < nc; c++) at[c + 1] += at[c];
+    nf = at[nc];
+    bface *f = malloc((nf ? nf : 1) * sizeof *f);
+    if (!f) {
+        free(at);
+        free(fm);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    }
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 4)
+#endif
+    for (ptrdiff_t c = 0; c < pnc; c++) {
+        size_t t1 = ((size_t)c + 1) * BF_CHUNK < nt ? ((size_t)c + 1) * BF_CHUNK : nt;
+        size_t k = at[c];
+        for (size_t t = (size_t)c * BF_CHUNK; t < t1; t++) {
+            unsigned m = fm[t];
+            if (!m) continue;
+            int64_t v[4];
+            tet_get(d, t, v);
+            for (int q = 0; q < 4; q++) {
+                if (!(m >> q & 1)) continue;
+                bface *b = &f[k++];
+                int ord[3] = {0, 1, 2}; /* corners in increasing id order */
+                for (int i = 1; i < 3; i++)
+                    for (int j = i; j > 0 && v[bf_tf[q][ord[j - 1]]] > v[bf_tf[q][ord[j]]]; j--) {
+                        int x = ord[j];
+                        ord[j] = ord[j - 1];
+                        ord[j - 1] = x;
+                    }
+                for (int i = 0; i < 3; i++) {
+                    b->key[i] = v[bf_tf[q][ord[i]]];
+                    b->at[ord[i]] = (uint8_t)i;
                 }
-            for (int i = 0; i < 3; i++) {
-                b->key[i] = v[tf[q][ord[i]]];
-                b->at[ord[i]] = (uint8_t)i;
             }
         }
     }
+    free(at);
+    free(fm);
     if (nf) qsort(f, nf, sizeof *f, bface_cmp);
     for (size_t i = 0; i < nf;) { /* keep the faces that occur once, in place */
         size_t j = i + 1;
@@ -1145,73 +1207,330 @@ static vm_status boundary_faces(const dc *d, bface **out, size_t *nb_out, vm_err
     return VM_OK;
 }
 
+/* The boundary of the last round, kept for the next one: its faces (sorted), their corners'
+ * distinct ids (sorted) and positions, and its crossing pairs. A pair of faces that are both
+ * still there with the same corners at the same positions crosses or not as before, so a
+ * round tests again only the pairs with a face that is new or moved. */
+typedef struct xprev {
+    bface *f;
+    size_t nb;
+    int64_t *ids;
+    double *pos;
+    size_t nv;
+    size_t *pr; /* 2 face indices per pair, the lower first, sorted */
+    size_t npr;
+    int valid;
+} xprev;
+
+static void xprev_free(xprev *X) {
+    free(X->f);
+    free(X->ids);
+    free(X->pos);
+    free(X->pr);
+    memset(X, 0, sizeof *X);
+}
+
+/* A growing list of pairs (2 size_t each). */
+typedef struct plist {
+    size_t *a;
+    size_t n, cap;
+} plist;
+
+static int plist_push(plist *l, size_t i, size_t j) {
+    if (l->n == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 256;
+        size_t *na = realloc(l->a, 2 * cap * sizeof *na);
+        if (!na) return 0;
+        l->a = na;
+        l->cap = cap;
+    }
+    l->a[2 * l->n] = i;
+    l->a[2 * l->n + 1] = j;
+    l->n++;
+    return 1;
+}
+
+static int pair_cmp(const void *x, const void *y) {
+    const size_t *a = x, *b = y;
+    if (a[0] != b[0]) return a[0] < b[0] ? -1 : 1;
+    return (a[1] > b[1]) - (a[1] < b[1]);
+}
+
+/* The box of face i (corners tri[3 i + k] into pos). */
+static void face_box(const double *pos, const vm_index *tri, size_t i, double lo[3],
+                     double hi[3]) {
+    for (int a = 0; a < 3; a++) {
+        lo[a] = INFINITY;
+        hi[a] = -INFINITY;
+        for (int k = 0; k < 3; k++) {
+            double x = pos[3 * (size_t)tri[3 * i + (size_t)k] + (size_t)a];
+            lo[a] = fmin(lo[a], x);
+            hi[a] = fmax(hi[a], x);
+        }
+    }
+}
+
+#define XGRID_MAX_SIDE 4096
+
+static size_t xcell(double x, double lo, double h, size_t n) {
+    double c = floor((x - lo) / h);
+    if (!(c > 0)) return 0;
+    if (c >= (double)(n - 1)) return n - 1;
+    return (size_t)c;
+}
+
+/* The crossing pairs of the nb faces (tri into pos) with at least one face in q[0..nq)
+ * (face indices, increasing; isq[i] marks them) go to *out, each once as (lower, higher):
+ * a uniform grid over the boxes of the q faces, every face's box looked up in it, a pair
+ * tested in the grid cell of the low corner of the two boxes' overlap only, with
+ * vm__tri_pair_intersects (the lower face first) — the test and the order of
+ * vm__self_intersections, so the same pairs. 0 on out-of-memory. */
+static int pairs_with(const double *pos, const vm_index *tri, size_t nb, const size_t *q,
+                      size_t nq, const uint8_t *isq, plist *out) {
+    if (nq == 0) return 1;
+    double *bx = malloc(6 * nq * sizeof *bx), glo[3], ghi[3], ext = 0.0;
+    if (!bx) return 0;
+    for (int a = 0; a < 3; a++) {
+        glo[a] = INFINITY;
+        ghi[a] = -INFINITY;
+    }
+    for (size_t j = 0; j < nq; j++) {
+        double *b = bx + 6 * j, big = 0.0;
+        face_box(pos, tri, q[j], b, b + 3);
+        for (int a = 0; a < 3; a++) {
+            glo[a] = fmin(glo[a], b[a]);
+            ghi[a] = fmax(ghi[a], b[3 + a]);
+            big = fmax(big, b[3 + a] - b[a]);
+        }
+        ext += big;
+    }
+    /* cells about the size of a q face, at most about 2 per q face */
+    double h = ext / (double)nq;
+    double span = fmax(ghi[0] - glo[0], fmax(ghi[1] - glo[1], ghi[2] - glo[2]));
+    if (!(h > 0) || !isfinite(h)) h = span > 0 && isfinite(span) ? span : 1.0;
+    size_t n[3], ncell;
+    for (;;) {
+        ncell = 1;
+        for (int a = 0; a < 3; a++) {
+            double side = ghi[a] - glo[a], c = floor(side / h) + 1;
+            n[a] = !isfinite(side) ? 1 : c < (double)XGRID_MAX_SIDE ? (size_t)c : XGRID_MAX_SIDE;
+            ncell *= n[a];
+        }
+        if (ncell <= 2 * nq + 64 || !isfinite(h)) break;
+        h *= 1.25;
+    }
+    size_t *start = calloc(ncell + 1, sizeof *start), *ent = NULL, total = 0;
+    int ok = start != NULL;
+    for (int pass = 0; ok && pass < 2; pass++) {
+        for (size_t j = 0; j < nq; j++) {
+            const double *b = bx + 6 * j;
+            size_t c0[3], c1[3];
+            for (int a = 0; a < 3; a++) {
+                c0[a] = xcell(b[a], glo[a], h, n[a]);
+                c1[a] = xcell(b[3 + a], glo[a], h, n[a]);
+            }
+            for (size_t z = c0[2]; z <= c1[2]; z++)
+                for (size_t y = c0[1]; y <= c1[1]; y++)
+                    for (size_t x = c0[0]; x <= c1[0]; x++) {
+                        size_t c = x + n[0] * (y + n[1] * z);
+                        if (pass == 0) {
+                            start[c + 1]++;
+                            total++;
+                        } else {
+                            ent[start[c]++] = j;
+                        }
+                    }
+        }
+        if (pass == 0) {
+            for (size_t c = 0; c < ncell; c++) start[c + 1] += start[c];
+            ent = malloc((total + 1) * sizeof *ent);
+            ok = ent != NULL;
+        } else {
+            for (size_t c = ncell; c > 0; c--) start[c] = start[c - 1];
+            start[0] = 0;
+        }
+    }
+    int fail = !ok;
+    const ptrdiff_t nf = ok ? (ptrdiff_t)nb : 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1024) reduction(|| : fail)
+#endif
+    for (ptrdiff_t ii = 0; ii < nf; ii++) {
+        size_t i = (size_t)ii;
+        double lo[3], hi[3];
+        face_box(pos, tri, i, lo, hi);
+        int out_of = 0;
+        for (int a = 0; a < 3; a++)
+            if (lo[a] > ghi[a] || glo[a] > hi[a]) out_of = 1;
+        if (out_of) continue;
+        size_t c0[3], c1[3];
+        for (int a = 0; a < 3; a++) {
+            c0[a] = xcell(lo[a], glo[a], h, n[a]);
+            c1[a] = xcell(hi[a], glo[a], h, n[a]);
+        }
+        for (size_t z = c0[2]; z <= c1[2]; z++)
+            for (size_t y = c0[1]; y <= c1[1]; y++)
+                for (size_t x = c0[0]; x <= c1[0]; x++) {
+                    size_t c = x + n[0] * (y + n[1] * z);
+                    for (size_t e = start[c]; e < start[c + 1]; e++) {
+                        size_t j = q[ent[e]];
+                        /* a pair of two q faces is taken from its lower face's side */
+                        if (j == i || (isq[i] && j < i)) continue;
+                        const double *B = bx + 6 * ent[e];
+                        int apart = 0;
+                        double corner[3];
+                        for (int a = 0; a < 3; a++) {
+                            if (lo[a] > B[3 + a] || B[a] > hi[a]) apart = 1;
+                            corner[a] = fmax(lo[a], B[a]);
+                        }
+                        if (apart || xcell(corner[0], glo[0], h, n[0]) != x ||
+                            xcell(corner[1], glo[1], h, n[1]) != y ||
+                            xcell(corner[2], glo[2], h, n[2]) != z)
+                            continue;
+                        size_t s0 = i < j ? i : j, s1 = i < j ? j : i;
+                        const double *pa[3], *pb[3];
+                        vm_index ia[3], ib[3];
+                        for (int k = 0; k < 3; k++) {
+                            ia[k] = tri[3 * s0 + (size_t)k];
+                            ib[k] = tri[3 * s1 + (size_t)k];
+                            pa[k] = pos + 3 * (size_t)ia[k];
+                            pb[k] = pos + 3 * (size_t)ib[k];
+                        }
+                        if (!vm__tri_pair_intersects(pa, ia, pb, ib)) continue;
+                        int pushed;
+#ifdef VM_HAVE_OPENMP
+#pragma omp critical(vm_dc_pairs)
+#endif
+                        pushed = plist_push(out, s0, s1);
+                        if (!pushed) fail = 1;
+                    }
+                }
+    }
+    free(bx);
+    free(start);
+    free(ent);
+    return !fail;
+}
+
 /* Counts the intersecting pairs of boundary triangles of the current tets (index space)
  * and marks the representatives at the corners of those triangles in mark[]. A grid point
  * off the box border is surrounded by tets, so only faces without such a corner are
- * candidates; of those, the ones used by a single tet are the boundary. */
-static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, vm_error *err) {
+ * candidates; of those, the ones used by a single tet are the boundary. The pairs are those
+ * of vm__self_intersections; with X valid (the last round's boundary) only the pairs with a
+ * face that is new or has a corner that moved are tested, the others kept from X. X is set
+ * to this round's boundary. */
+static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, xprev *X,
+                                    vm_error *err) {
     int64_t N = vm__dc_npoints_real(d);
     bface *f = NULL;
     int64_t *ids = NULL;
     vm_index *tri = NULL;
     double *pos = NULL;
-    uint8_t *flag = NULL;
-    size_t nb = 0;
+    uint8_t *isq = NULL;
+    size_t *q = NULL, *map = NULL;
+    plist pl = {NULL, 0, 0};
+    size_t nb = 0, nv = 0;
     *pairs = 0;
     vm_status s = boundary_faces(d, &f, &nb, err);
     if (s || nb < 2) goto done;
-    /* The faces' corners as indices into their sorted distinct ids; then the faces go
-     * before the positions and the check's own arrays come (a corner's id is ids[index]). */
+    /* The faces' corners as indices into their sorted distinct ids (a corner's id is
+     * ids[index]). */
     ids = malloc(3 * nb * sizeof *ids);
-    if (!ids) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
-        goto done;
-    }
+    tri = malloc(3 * nb * sizeof *tri);
+    if (!ids || !tri) goto nomem;
     for (size_t i = 0; i < nb; i++)
         for (int k = 0; k < 3; k++)
             ids[3 * i + (size_t)k] = bface_v(&f[i], k);
     qsort(ids, 3 * nb, sizeof *ids, id_cmp);
-    size_t nv = 0;
     for (size_t i = 0; i < 3 * nb; i++)
         if (nv == 0 || ids[nv - 1] != ids[i]) ids[nv++] = ids[i];
     int64_t *distinct = realloc(ids, nv * sizeof *ids);
     if (distinct) ids = distinct;
-    tri = malloc(3 * nb * sizeof *tri);
-    if (!tri) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
-        goto done;
-    }
     for (size_t i = 0; i < nb; i++)
         for (int k = 0; k < 3; k++) {
             int64_t id = bface_v(&f[i], k);
             const int64_t *hit = bsearch(&id, ids, nv, sizeof *ids, id_cmp);
             tri[3 * i + (size_t)k] = (vm_index)(hit - ids);
         }
-    free(f);
-    f = NULL;
     pos = malloc(3 * nv * sizeof *pos);
-    flag = malloc(nb);
-    if (!pos || !flag) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
-        goto done;
-    }
+    isq = calloc(nb, 1);
+    q = malloc(nb * sizeof *q);
+    if (!pos || !isq || !q) goto nomem;
     for (size_t i = 0; i < nv; i++)
         vm__dc_vertex_pos(d, ids[i], 0, pos + 3 * i);
-    s = vm__self_intersections(pos, tri, nb, pairs, flag, err);
-    if (s || !*pairs) goto done;
-    for (size_t i = 0; i < nb; i++) {
-        if (!flag[i]) continue;
+    /* Which faces are new or moved: a vertex moved when its position differs from the last
+     * round's (bit for bit); the faces of both rounds are sorted, so they pair up in one
+     * walk, which also maps the last round's faces to this round's (SIZE_MAX: gone or
+     * changed). */
+    if (X->valid) {
+        uint8_t *moved = calloc(nv + 1, 1);
+        map = malloc((X->nb + 1) * sizeof *map);
+        if (!moved || !map) {
+            free(moved);
+            goto nomem;
+        }
+        for (size_t i = 0, j = 0; i < nv; i++) {
+            while (j < X->nv && X->ids[j] < ids[i]) j++;
+            moved[i] = j == X->nv || X->ids[j] != ids[i] ||
+                       memcmp(X->pos + 3 * j, pos + 3 * i, 3 * sizeof *pos) != 0;
+        }
+        for (size_t j = 0; j < X->nb; j++) map[j] = SIZE_MAX;
+        for (size_t i = 0, j = 0; i < nb; i++) {
+            while (j < X->nb && bface_cmp(&X->f[j], &f[i]) < 0) j++;
+            int same = j < X->nb && bface_cmp(&X->f[j], &f[i]) == 0 &&
+                       memcmp(X->f[j].at, f[i].at, sizeof f[i].at) == 0;
+            for (int k = 0; same && k < 3; k++)
+                if (moved[tri[3 * i + (size_t)k]]) same = 0;
+            if (same)
+                map[j] = i;
+            else
+                isq[i] = 1;
+        }
+        free(moved);
+        for (size_t p = 0; p < X->npr; p++) {
+            size_t a = map[X->pr[2 * p]], b = map[X->pr[2 * p + 1]];
+            if (a != SIZE_MAX && b != SIZE_MAX && !plist_push(&pl, a, b)) goto nomem;
+        }
+    } else {
+        memset(isq, 1, nb);
+    }
+    size_t nq = 0;
+    for (size_t i = 0; i < nb; i++)
+        if (isq[i]) q[nq++] = i;
+    if (!pairs_with(pos, tri, nb, q, nq, isq, &pl)) goto nomem;
+    if (pl.n) qsort(pl.a, pl.n, 2 * sizeof *pl.a, pair_cmp);
+    *pairs = pl.n;
+    for (size_t p = 0; p < 2 * pl.n; p++)
         for (int k = 0; k < 3; k++) {
-            int64_t id = ids[tri[3 * i + (size_t)k]];
+            int64_t id = ids[tri[3 * pl.a[p] + (size_t)k]];
             if (id >= N && (size_t)(id - N) < d->nreps) mark[id - N] = 1;
         }
-    }
+    /* this round's boundary for the next */
+    xprev_free(X);
+    X->f = f;
+    X->nb = nb;
+    X->ids = ids;
+    X->pos = pos;
+    X->nv = nv;
+    X->pr = pl.a;
+    X->npr = pl.n;
+    X->valid = 1;
+    f = NULL;
+    ids = NULL;
+    pos = NULL;
+    pl.a = NULL;
+    goto done;
+nomem:
+    s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the boundary check");
 done:
     free(f);
     free(ids);
     free(tri);
     free(pos);
-    free(flag);
+    free(isq);
+    free(q);
+    free(map);
+    free(pl.a);
     return s;
 }
 
@@ -1229,6 +1548,8 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
     uint8_t *mark = calloc(nr, 1), *ever = calloc(nr, 1);
     vm_status s = VM_OK;
     size_t pairs = 0;
+    xprev X;
+    memset(&X, 0, sizeof X);
     *bad = 0;
     if (!mark || !ever) {
         s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
@@ -1236,7 +1557,7 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
     }
     for (int round = 0; round < UNTANGLE_ROUNDS; round++) {
         memset(mark, 0, nr);
-        if ((s = boundary_crossings(d, mark, &pairs, err)) || !pairs) break;
+        if ((s = boundary_crossings(d, mark, &pairs, &X, err)) || !pairs) break;
         size_t step = 0;
         for (size_t r = 0; r < d->nreps; r++) {
             if (!mark[r]) continue;
@@ -1262,6 +1583,7 @@ static vm_status untangle(dc *d, size_t *left, size_t *bad, size_t *moved, vm_er
     for (size_t r = 0; r < d->nreps; r++)
         *moved += ever[r] != 0;
 done:
+    xprev_free(&X);
     free(mark);
     free(ever);
     *left = pairs;
