@@ -106,6 +106,11 @@ typedef struct hx {
     double max_move;
     int pillowed; /* the mesh has the pillow layer: untangling by the penalty */
     int fit;      /* the mesher's mesh was valid: far boundary points are snapped in */
+    /* measure's cache: qc[t] is hex t's scaled Jacobian with its points at pc; chg is
+     * scratch over the points. NULL until the first measure, dropped when the mesh is
+     * (re)loaded or pillowed. */
+    double *qc, *pc;
+    uint8_t *chg;
     vm_progress_fn progress;
     void *progress_user;
 } hx;
@@ -131,6 +136,15 @@ static double hex_q(const hx *w, size_t t) {
     double p[8][3];
     hex_points(w, t, p);
     return vm_hex_scaled_jacobian((const double(*)[3])p);
+}
+
+/* Drops measure's cache (the mesh changed). */
+static void cache_drop(hx *w) {
+    free(w->qc);
+    free(w->pc);
+    free(w->chg);
+    w->qc = w->pc = NULL;
+    w->chg = NULL;
 }
 
 /* The samples of vm__hex_jacobian_samples that move with the node in corner slot k: its own
@@ -206,15 +220,28 @@ static void star_hex_load(const hx *w, size_t t, int k, star_hex *S) {
     }
 }
 
-/* The lengths of S's columns with the point moved by dx. [out] n. */
-static void star_hex_norms(const star_hex *S, const double dx[3], double n[VM_HEX_COLUMNS]) {
-    memcpy(n, S->n0, sizeof S->n0);
-    for (int j = 0; j < S->nvar; j++) {
-        int c = S->var[j];
-        double v0 = S->r[c][0] + S->b[c] * dx[0], v1 = S->r[c][1] + S->b[c] * dx[1],
-               v2 = S->r[c][2] + S->b[c] * dx[2];
-        n[c] = sqrt(v0 * v0 + v1 * v1 + v2 * v2);
-    }
+/* The length of S's column c with the point moved by dx. */
+static double star_hex_norm(const star_hex *S, int c, const double dx[3]) {
+    if (S->b[c] == 0.0) return S->n0[c];
+    double v0 = S->r[c][0] + S->b[c] * dx[0], v1 = S->r[c][1] + S->b[c] * dx[1],
+           v2 = S->r[c][2] + S->b[c] * dx[2];
+    return sqrt(v0 * v0 + v1 * v1 + v2 * v2);
+}
+
+/* Sample sm of S with the point moved by dx: [out] *det its determinant; returns its
+ * scaled Jacobian. n caches the column lengths, *have (a bit per column) says which are
+ * in it: a search that stops at the first poor sample computes few of them. */
+static double star_hex_sample(const star_hex *S, int sm, const double dx[3],
+                              double n[VM_HEX_COLUMNS], uint32_t *have, double *det) {
+    const unsigned char *cs = vm__hex_sample_col[sm];
+    for (int j = 0; j < 3; j++)
+        if (!(*have & (1u << cs[j]))) {
+            n[cs[j]] = star_hex_norm(S, cs[j], dx);
+            *have |= 1u << cs[j];
+        }
+    double d = S->det0[sm] + S->g[sm][0] * dx[0] + S->g[sm][1] * dx[1] + S->g[sm][2] * dx[2];
+    *det = d;
+    return vm__hex_sample_sj(d, n[cs[0]] * n[cs[1]] * n[cs[2]]);
 }
 
 /* The star of point i, set up at its current position; x0 is that position. At most
@@ -261,14 +288,11 @@ static int local_q(const star *S, const double x[3], int pen, lq *r, const lq_st
         const star_hex *H = &S->h[ui];
         int ms[MOVING_SAMPLES];
         double n[VM_HEX_COLUMNS];
-        star_hex_norms(H, dx, n);
+        uint32_t have = 0;
         moving_samples(H->slot, ms);
         for (int j = 0; j < MOVING_SAMPLES; j++) {
             int sm = ms[j];
-            const unsigned char *cs = vm__hex_sample_col[sm];
-            double d = H->det0[sm] + H->g[sm][0] * dx[0] + H->g[sm][1] * dx[1] +
-                       H->g[sm][2] * dx[2];
-            double q = vm__hex_sample_sj(d, n[cs[0]] * n[cs[1]] * n[cs[2]]);
+            double d, q = star_hex_sample(H, sm, dx, n, &have, &d);
             if (q < r->min) {
                 r->min = q;
                 if (worst) *worst = ui;
@@ -279,9 +303,11 @@ static int local_q(const star *S, const double x[3], int pen, lq *r, const lq_st
                 double L = H->len0[sm] > NORM_FLOOR ? H->len0[sm] : NORM_FLOOR;
                 r->pen += fmax(0.0, UNTANGLE_BETA - d / L);
             }
+            /* the minima only fall and the penalty only rises from here */
+            if (r->min < stop->min_below || r->det <= stop->det_at ||
+                r->pen > stop->pen_above)
+                return 0;
         }
-        if (r->min < stop->min_below || r->det <= stop->det_at || r->pen > stop->pen_above)
-            return 0;
     }
     return 1;
 }
@@ -425,18 +451,20 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
         /* a point of the rim, where the isosurface meets the box, stays near the isosurface
          * (on a valid mesh: on the CT head, whose rim points start up to a voxel off, the
          * bound left the worst hex at 0.42 instead of 0.45) */
-        if (w->fit && (w->planes[i] & PLANE_RIM) && iso_distance(w, y) > ISO_RIM_MAX &&
-            iso_distance(w, y) > iso_distance(w, y0))
-            return 0;
+        if (w->fit && (w->planes[i] & PLANE_RIM)) {
+            double d = iso_distance(w, y);
+            if (d > ISO_RIM_MAX && d > iso_distance(w, y0)) return 0;
+        }
     } else if (mode == MOVE_TANGENT) {
         double est = iso_estimate(w, y);
         if (!(est <= fmax(ISO_TANGENT_MAX, w->est0[i] + ISO_TANGENT_SLACK))) return 0;
         /* the first-order estimate can miss a crossing the gradient does not point at (the
          * genus-3 tubes: 0.45 by it, 0.68 along the gradient): past 0.2, the distance the
          * report measures must stay within 0.5 or where it was */
-        if (est > ISO_CHECK_FROM && iso_distance(w, y) > ISO_CHECK_MAX &&
-            iso_distance(w, y) > iso_distance(w, y0))
-            return 0;
+        if (est > ISO_CHECK_FROM) {
+            double d = iso_distance(w, y);
+            if (d > ISO_CHECK_MAX && d > iso_distance(w, y0)) return 0;
+        }
     } else if (mode == MOVE_LOOSE) {
         if (!(iso_distance(w, y) <= ISO_LOOSE_MAX)) return 0;
     } else if (!project_iso(w, y)) {
@@ -689,6 +717,7 @@ static vm_status pillow(hx *w, uint8_t *in, size_t *added, vm_error *err) {
         }
     }
     size_t np = w->np;
+    cache_drop(w);
     vm_index *copy = malloc((np + 1) * sizeof *copy);
     double *ctr = calloc(3 * np + 1, sizeof *ctr);
     size_t *cnt = calloc(np + 1, sizeof *cnt);
@@ -888,18 +917,54 @@ typedef struct figs {
     size_t inverted, below;
 } figs;
 
-static void measure(const hx *w, figs *f, double *q) {
+/* Brings the cache up to date: only the hexes with a point that moved since the last call
+ * are measured again (a sweep moves a few thousand of the points). 0 when out of memory. */
+static int cache_update(hx *w) {
+    if (!w->qc) {
+        w->qc = malloc((w->nh + 1) * sizeof *w->qc);
+        w->pc = malloc((3 * w->np + 1) * sizeof *w->pc);
+        w->chg = malloc(w->np + 1);
+        if (!w->qc || !w->pc || !w->chg) {
+            cache_drop(w);
+            return 0;
+        }
+        for (size_t t = 0; t < w->nh; t++) w->qc[t] = hex_q(w, t);
+        memcpy(w->pc, w->p, 3 * w->np * sizeof *w->pc);
+        return 1;
+    }
+    int any = 0;
+    for (size_t i = 0; i < w->np; i++) {
+        w->chg[i] = memcmp(w->p + 3 * i, w->pc + 3 * i, 3 * sizeof *w->p) != 0;
+        any |= w->chg[i];
+    }
+    if (!any) return 1;
+    for (size_t t = 0; t < w->nh; t++) {
+        const vm_index *c = w->h + 8 * t;
+        if (w->chg[c[0]] | w->chg[c[1]] | w->chg[c[2]] | w->chg[c[3]] | w->chg[c[4]] |
+            w->chg[c[5]] | w->chg[c[6]] | w->chg[c[7]])
+            w->qc[t] = hex_q(w, t);
+    }
+    memcpy(w->pc, w->p, 3 * w->np * sizeof *w->pc);
+    return 1;
+}
+
+/* The mesh's figures ([out] q[t], NULL allowed: each hex's scaled Jacobian); the volume
+ * (a sum over every hex) only when vol. */
+static void measure(hx *w, figs *f, double *q, int vol) {
     f->min_sj = 1.0;
     f->volume = 0.0;
     f->inverted = f->below = 0;
+    int cached = cache_update(w);
     for (size_t t = 0; t < w->nh; t++) {
-        double p[8][3];
-        hex_points(w, t, p);
-        double s = vm_hex_scaled_jacobian((const double(*)[3])p);
+        double s = cached ? w->qc[t] : hex_q(w, t);
         if (q) q[t] = s;
         if (s < f->min_sj) f->min_sj = s;
         if (s <= 0.0) f->inverted++;
         if (s < SJ_BAR) f->below++;
+    }
+    for (size_t t = 0; t < w->nh && vol; t++) {
+        double p[8][3];
+        hex_points(w, t, p);
         f->volume += vm_hex_volume((const double(*)[3])p);
     }
 }
@@ -921,7 +986,7 @@ static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int 
     int stale = 0;
     for (int sw = 0; sw < max_sweeps; sw++) {
         figs f;
-        measure(w, &f, q);
+        measure(w, &f, q, 0);
         size_t below = 0;
         memset(active, 0, w->np);
         for (size_t t = 0; t < w->nh; t++)
@@ -978,7 +1043,7 @@ static void smooth(hx *w, const vm_hex_improve_options *o, int stage, double *q,
         sweep_stage(w, UNTANGLE_TARGET, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
         sweep_stage(w, fmin(SJ_BAR, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
         figs f;
-        measure(w, &f, q);
+        measure(w, &f, q, 0);
         if (f.inverted) { /* the smoothing can free what the penalty could not reach */
             sweep_stage(w, UNTANGLE_TARGET, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
             sweep_stage(w, fmin(SJ_BAR, o->target), 0, o->max_sweeps, 0, q, active, moves,
@@ -993,6 +1058,7 @@ static void smooth(hx *w, const vm_hex_improve_options *o, int stage, double *q,
 
 /* (Re)loads the points and hexes of m. */
 static vm_status load(hx *w, const vm_mesh *m, vm_error *err) {
+    cache_drop(w);
     free(w->p);
     free(w->p0);
     free(w->h);
@@ -1140,7 +1206,7 @@ static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o,
      * them: snapping there left the CT head at 0.38 instead of 0.45 and took twice as
      * long). */
     figs f0 = {0};
-    if (!s && w->v) measure(w, &f0, NULL);
+    if (!s && w->v) measure(w, &f0, NULL, 0);
     if (!s && init) memcpy(w->p, init, 3 * w->np * sizeof *w->p);
     w->fit = w->v && !f0.inverted;
     if (!s && w->fit) {
@@ -1200,6 +1266,7 @@ static void dilate(const hx *w, uint8_t *in, int rings, uint8_t *mark) {
 }
 
 static void hx_free(hx *w) {
+    cache_drop(w);
     free(w->p);
     free(w->p0);
     free(w->h);
@@ -1260,7 +1327,7 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
     double last = -INFINITY;
     for (int sw = 0; sw < 16; sw++) {
         figs f;
-        measure(w, &f, q);
+        measure(w, &f, q, 0);
         if (f.min_sj >= target || f.min_sj <= last + SWEEP_PROGRESS) break;
         last = f.min_sj;
         mark_below(w, q, target, act);
@@ -1304,16 +1371,14 @@ static double patch_energy(const star *S, const double x[3], double bar, double 
     for (size_t a = 0; a < S->n; a++) {
         const star_hex *H = &S->h[a];
         double n[VM_HEX_COLUMNS];
-        star_hex_norms(H, dx, n);
+        uint32_t have = 0;
         for (int c = 0; c < VM_HEX_SAMPLES; c++) {
-            const unsigned char *cs = vm__hex_sample_col[c];
-            double d = H->det0[c] + H->g[c][0] * dx[0] + H->g[c][1] * dx[1] + H->g[c][2] * dx[2];
-            double q = vm__hex_sample_sj(d, n[cs[0]] * n[cs[1]] * n[cs[2]]);
+            double d, q = star_hex_sample(H, c, dx, n, &have, &d);
             if (q < *mn) *mn = q;
             if (q < bar) e += (bar - q) * (bar - q);
+            /* the energy only grows and the minimum only falls from here */
+            if (e >= e_stop || *mn < mn_stop) return e;
         }
-        /* the energy only grows and the minimum only falls from here */
-        if (e >= e_stop || *mn < mn_stop) return e;
     }
     return e;
 }
@@ -1470,7 +1535,7 @@ static vm_status repair(hx *w, double bar, int rings, int nsweeps, size_t *moves
     }
     for (int sw = 0; sw < nsweeps; sw++) {
         figs f;
-        measure(w, &f, q);
+        measure(w, &f, q, 0);
         mark_below(w, q, bar, act);
         for (int r = 0; r < rings; r++) {
             memcpy(ring, act, w->np);
@@ -1516,7 +1581,7 @@ static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, i
     free(in);
     if (!s && *added) {
         /* a layer still tangled after untangling will not come right: stop here */
-        measure(w, f, NULL);
+        measure(w, f, NULL, 1);
         if (f->inverted) {
             free(q);
             free(active);
@@ -1526,17 +1591,17 @@ static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, i
     if (!s) {
         if (w->fit) snap_in(w, SNAP_FROM, SNAP_FLOOR);
         smooth(w, o, 1, q, active, moves, sweeps);
-        measure(w, f, NULL);
+        measure(w, f, NULL, 0);
         if (w->v && f->min_sj < fmin(SJ_BAR, o->target) && f->below <= POLISH_MAX) {
             free(w->focus); /* the polish reaches past a selective run's focus */
             w->focus = NULL;
             s = polish(w, fmin(POLISH_TARGET, o->target), moves, sweeps);
             if (s) s = vm_error_set(err, s, "improve: out of memory");
-            measure(w, f, NULL);
+            measure(w, f, NULL, 0);
         }
         if (w->fit) snap_in(w, ISO_TANGENT_MAX, fmax(f->min_sj, SJ_BAR));
         else if (w->v) final_snap(w, fmax(f->min_sj, SJ_BAR));
-        measure(w, f, NULL);
+        measure(w, f, NULL, 1);
     }
     free(q);
     free(active);
@@ -1598,7 +1663,7 @@ static vm_status hx_setup(hx *w, const vm_mesh *m, const vm_volume *v,
  * or below the bar, a second run without it: the better mesh is kept. */
 static vm_status first_runs(hex_pass *P, const vm_mesh *m, const vm_hex_improve_options *o,
                             vm_error *err) {
-    measure(&P->w, &P->before, NULL);
+    measure(&P->w, &P->before, NULL, 1);
     /* A mesh the mesher could not make valid has folded boundaries (the heads), where the
      * whole layer was measured to tangle or smooth worse than none: it goes straight to the
      * run without it, then the selective layer below. */
@@ -1702,7 +1767,7 @@ static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_e
         w->focus = NULL;
         if (polish(w, fmin(POLISH_TARGET, o->target), &P->moves, &P->sweeps))
             return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-        measure(w, &P->after, NULL);
+        measure(w, &P->after, NULL, 0);
     }
     if (P->after.min_sj < fmin(REPAIR_BAR, o->target)) {
         size_t below = 0;
@@ -1712,7 +1777,7 @@ static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_e
         if (below <= POLISH_MAX &&
             repair(w, fmin(REPAIR_BAR, o->target), 1, 10, &P->moves, &P->sweeps))
             return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-        measure(w, &P->after, NULL);
+        measure(w, &P->after, NULL, 0);
     }
     /* then the bar rises toward the target, a step at a time, the last bar again while it
      * gains (patch_move keeps the mesh's worst hex from getting worse) */
@@ -1742,7 +1807,7 @@ static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_e
         w->focus = NULL;
         if (repair(w, bar, 1, 10, &P->moves, &P->sweeps))
             return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-        measure(w, &P->after, NULL);
+        measure(w, &P->after, NULL, 0);
         if (!last) bar += RAISE_STEP;
     }
     return VM_OK;
@@ -1822,7 +1887,7 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
         free(P.w.focus);
         P.w.focus = NULL;
         snap_in(&P.w, SNAP_FROM, fmax(o->target, P.after.min_sj));
-        measure(&P.w, &P.after, NULL);
+        measure(&P.w, &P.after, NULL, 1);
     }
     if (!s) s = write_result(&P, m, r, err);
     if (!s && r) r->seconds = vm__now() - t0;
