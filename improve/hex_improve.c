@@ -175,6 +175,9 @@ typedef struct lq_stop {
 
 static const lq_stop no_stop = {-INFINITY, -INFINITY, INFINITY};
 
+/* local_q's keys of samples: WORST_KEY * hex + sample. */
+#define WORST_KEY 32
+
 /* One hex round a moving point, set up once per search: every column of the hex (the edges,
  * the centre's and the Gauss points' derivatives, vm__hex_columns) is affine in the point,
  * col = r + b dx, and every sample's determinant too, det = det0 + g . dx (the terms with dx
@@ -221,7 +224,7 @@ static void star_hex_load(const hx *w, size_t t, int k, star_hex *S) {
 }
 
 /* The length of S's column c with the point moved by dx. */
-static double star_hex_norm(const star_hex *S, int c, const double dx[3]) {
+static inline double star_hex_norm(const star_hex *S, int c, const double dx[3]) {
     if (S->b[c] == 0.0) return S->n0[c];
     double v0 = S->r[c][0] + S->b[c] * dx[0], v1 = S->r[c][1] + S->b[c] * dx[1],
            v2 = S->r[c][2] + S->b[c] * dx[2];
@@ -231,7 +234,7 @@ static double star_hex_norm(const star_hex *S, int c, const double dx[3]) {
 /* Sample sm of S with the point moved by dx: [out] *det its determinant; returns its
  * scaled Jacobian. n caches the column lengths, *have (a bit per column) says which are
  * in it: a search that stops at the first poor sample computes few of them. */
-static double star_hex_sample(const star_hex *S, int sm, const double dx[3],
+static inline double star_hex_sample(const star_hex *S, int sm, const double dx[3],
                               double n[VM_HEX_COLUMNS], uint32_t *have, double *det) {
     const unsigned char *cs = vm__hex_sample_col[sm];
     for (int j = 0; j < 3; j++)
@@ -273,16 +276,28 @@ static void star_free(star *S) {
 /* With pen: also the untangling penalty, the sum over the samples round the point of
  * max(0, beta - det / L), L the sample's column-length product where the star was set up.
  * Each det is affine in x, so the penalty is convex in x (Knupp 2001's untangling function,
- * normalised so that small and large hexes count alike). The hexes are visited from `first`
- * on (the worst one last time, so that a poor candidate stops early); returns 0 when it
- * stopped at stop (r is then partial), else 1, and sets *worst (NULL allowed) to the hex of
- * the star holding the minimum. */
+ * normalised so that small and large hexes count alike). `first` names a sample as
+ * WORST_KEY * hex + sample (the worst one last time): with a stop, that sample is tried
+ * alone first (a poor candidate usually fails there: the full figures could only be lower),
+ * and the hexes are visited from its hex on. Returns 0 when it stopped at stop (r is then
+ * partial), else 1, and sets *worst (NULL allowed) to the key of the sample holding the
+ * minimum. */
 static int local_q(const star *S, const double x[3], int pen, lq *r, const lq_stop *stop,
-                   size_t first, size_t *worst) {
+                   size_t first_key, size_t *worst) {
     r->min = r->det = INFINITY;
     r->sum = r->pen = 0.0;
     double dx[3] = {x[0] - S->x0[0], x[1] - S->x0[1], x[2] - S->x0[2]};
-    if (first >= S->n) first = 0;
+    size_t first = first_key / WORST_KEY, fs = first_key % WORST_KEY;
+    if (first >= S->n) {
+        first = 0;
+        fs = WORST_KEY;
+    }
+    if (fs < VM_HEX_SAMPLES && (stop->min_below > -INFINITY || stop->det_at > -INFINITY)) {
+        double n[VM_HEX_COLUMNS], d;
+        uint32_t have = 0;
+        double q = star_hex_sample(&S->h[first], (int)fs, dx, n, &have, &d);
+        if (q < stop->min_below || d <= stop->det_at) return 0;
+    }
     for (size_t a = 0; a < S->n; a++) {
         size_t ui = (first + a) % S->n;
         const star_hex *H = &S->h[ui];
@@ -295,13 +310,14 @@ static int local_q(const star *S, const double x[3], int pen, lq *r, const lq_st
             double d, q = star_hex_sample(H, sm, dx, n, &have, &d);
             if (q < r->min) {
                 r->min = q;
-                if (worst) *worst = ui;
+                if (worst) *worst = WORST_KEY * ui + (size_t)sm;
             }
             if (d < r->det) r->det = d;
             r->sum += q;
             if (pen) {
                 double L = H->len0[sm] > NORM_FLOOR ? H->len0[sm] : NORM_FLOOR;
-                r->pen += fmax(0.0, UNTANGLE_BETA - d / L);
+                double over = UNTANGLE_BETA - d / L; /* (fmax is a library call) */
+                if (over > 0.0) r->pen += over;
             }
             /* the minima only fall and the penalty only rises from here */
             if (r->min < stop->min_below || r->det <= stop->det_at ||
@@ -338,9 +354,9 @@ static int invert3(double a[3][3], double b[3][3]) {
 
 /* Trilinear field of the volume at index position x (clamped to the box) and its gradient
  * in index space. */
-static double field(const vm_volume *v, const double x[3], double g[3]) {
-    int64_t i0[3];
-    double f[3];
+/* The cell of index position x (clamped to the box): [out] i0 its lowest corner, f the
+ * position in it. */
+static void field_cell(const vm_volume *v, const double x[3], int64_t i0[3], double f[3]) {
     for (int a = 0; a < 3; a++) {
         double c = x[a];
         double top = (double)(v->dims[a] - 1);
@@ -351,6 +367,12 @@ static double field(const vm_volume *v, const double x[3], double g[3]) {
         i0[a] = i;
         f[a] = c - (double)i;
     }
+}
+
+static double field(const vm_volume *v, const double x[3], double g[3]) {
+    int64_t i0[3];
+    double f[3];
+    field_cell(v, x, i0, f);
     double val = 0.0;
     g[0] = g[1] = g[2] = 0.0;
     for (int c = 0; c < 8; c++) {
@@ -370,6 +392,37 @@ static double field(const vm_volume *v, const double x[3], double g[3]) {
     return val;
 }
 
+/* field's value alone (the same sum, term by term) in cell i0 at f. */
+static double field_value(const vm_volume *v, const int64_t i0[3], const double f[3]) {
+    double val = 0.0;
+    for (int c = 0; c < 8; c++) {
+        int d[3] = {c & 1, (c >> 1) & 1, c >> 2};
+        double s = v->data[(i0[0] + d[0]) +
+                           v->dims[0] * ((i0[1] + d[1]) + v->dims[1] * (i0[2] + d[2]))];
+        double wgt[3];
+        for (int a = 0; a < 3; a++) wgt[a] = d[a] ? f[a] : 1.0 - f[a];
+        val += s * wgt[0] * wgt[1] * wgt[2];
+    }
+    return val;
+}
+
+/* Whether the field stays strictly on the side of iso that `above` says in the whole cell
+ * i0 (its trilinear values lie between its corners' extremes; the margin covers the
+ * round-off of field_value's sum). */
+static int cell_one_side(const vm_volume *v, const int64_t i0[3], double iso, int above) {
+    double mn = INFINITY, mx = -INFINITY, big = fabs(iso);
+    for (int c = 0; c < 8; c++) {
+        double s = v->data[(i0[0] + (c & 1)) +
+                           v->dims[0] * ((i0[1] + ((c >> 1) & 1)) + v->dims[1] * (i0[2] + (c >> 2)))];
+        /* (comparisons, not fmin/fmax: those are library calls here) */
+        if (s < mn) mn = s;
+        if (s > mx) mx = s;
+        if (fabs(s) > big) big = fabs(s);
+    }
+    double margin = 1e-9 * big;
+    return above ? mn > iso + margin : mx < iso - margin;
+}
+
 /* The material bound nearest to the field value f. */
 static double iso_for(const hx *w, double f) {
     if (w->has_lo && w->has_hi) return fabs(f - w->lo) <= fabs(f - w->hi) ? w->lo : w->hi;
@@ -379,7 +432,7 @@ static double iso_for(const hx *w, double f) {
 /* Distance of index position x from the isosurface, in voxels: the first crossing on the
  * gradient line toward it (within 2 voxels), else the first-order estimate |f - iso| / |g|. */
 static double iso_distance(const hx *w, const double x[3]) {
-    double g[3], g2[3];
+    double g[3];
     double f = field(w->v, x, g);
     double iso = iso_for(w, f);
     double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
@@ -387,10 +440,19 @@ static double iso_distance(const hx *w, const double x[3]) {
     double est = gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
     if (est < ISO_EXACT_BELOW || !(gn > 0.0)) return est;
     double sgn = f > iso ? -1.0 : 1.0;
+    /* the steps in a cell the field does not cross iso in are skipped: most of a walk */
+    int64_t safe[3] = {-1, -1, -1};
     for (double t = ISO_WALK_STEP; t <= ISO_WALK_MAX; t += ISO_WALK_STEP) {
-        double y[3];
+        double y[3], fr[3];
+        int64_t c[3];
         for (int a = 0; a < 3; a++) y[a] = x[a] + sgn * t * g[a] / gn;
-        double fy = field(w->v, y, g2);
+        field_cell(w->v, y, c, fr);
+        if (c[0] == safe[0] && c[1] == safe[1] && c[2] == safe[2]) continue;
+        if (cell_one_side(w->v, c, iso, f > iso)) {
+            memcpy(safe, c, sizeof safe);
+            continue;
+        }
+        double fy = field_value(w->v, c, fr);
         if ((fy - iso) * (f - iso) <= 0.0) return t;
     }
     return est;
