@@ -7,6 +7,7 @@
  * the whole layer fails, selective pillowing of the hexes still below the bar (a shrink set,
  * Mitchell and Tautges 1995 §3). */
 #include <math.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -974,6 +975,79 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
     return moved;
 }
 
+/* ---- sweeps on threads, with the sequential sweep's result ---- */
+
+/* A move of point i (optimise, patch_move) reads and writes only the points of the hexes
+ * round i. A Gauss-Seidel sweep over a list of points therefore splits into levels: a
+ * point's level is one more than the highest level of the points sharing a hex with it
+ * that come before it in the list. Points of one level share no hex, so they move on
+ * threads in any order, and level by level every point sees exactly the moves it would
+ * see in the list's order: the same positions, bytes and counts for any thread count. */
+typedef int (*point_move_fn)(hx *w, size_t i, void *user);
+
+/* Levels with fewer points than this run on the calling thread (a level costs a barrier;
+ * the big sweeps have 50 to 100 points a level, the late ones a handful, and a busy machine makes every barrier wait for a descheduled thread). */
+#define LEVEL_THREADS_FROM 32
+
+/* Runs fn on the points seq[0..n) (each at most once) as the sweep in that order would;
+ * returns how many calls returned 1. Without memory for the levels it runs in order. */
+static size_t sweep_points(hx *w, const size_t *seq, size_t n, point_move_fn fn, void *user) {
+    size_t mv = 0;
+    size_t *pos = malloc((w->np + 1) * sizeof *pos), *lev = malloc((n + 1) * sizeof *lev);
+    size_t *start = NULL, *order = malloc((n + 1) * sizeof *order);
+    size_t nlev = 0;
+    if (pos && lev && order) {
+        for (size_t i = 0; i < w->np; i++) pos[i] = SIZE_MAX;
+        for (size_t k = 0; k < n; k++) pos[seq[k]] = k;
+        for (size_t k = 0; k < n; k++) {
+            size_t i = seq[k], l = 0;
+            for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
+                const vm_index *c = w->h + 8 * (w->vi[u] / 8);
+                for (int j = 0; j < 8; j++) {
+                    size_t pj = pos[c[j]];
+                    if (pj < k && lev[pj] + 1 > l) l = lev[pj] + 1;
+                }
+            }
+            lev[k] = l;
+            if (l + 1 > nlev) nlev = l + 1;
+        }
+        start = calloc(nlev + 2, sizeof *start);
+    }
+    if (!start) {
+        for (size_t k = 0; k < n; k++) mv += (size_t)(fn(w, seq[k], user) != 0);
+        free(pos);
+        free(lev);
+        free(order);
+        return mv;
+    }
+    for (size_t k = 0; k < n; k++) start[lev[k] + 2]++;
+    for (size_t l = 0; l < nlev; l++) start[l + 2] += start[l + 1];
+    for (size_t k = 0; k < n; k++) order[start[lev[k] + 1]++] = seq[k];
+    for (size_t l = 0; l < nlev; l++) {
+        ptrdiff_t a = (ptrdiff_t)start[l], b = (ptrdiff_t)start[l + 1];
+        size_t lm = 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 2) reduction(+ : lm) if (b - a >= LEVEL_THREADS_FROM)
+#endif
+        for (ptrdiff_t k = a; k < b; k++) lm += (size_t)(fn(w, order[k], user) != 0);
+        mv += lm;
+    }
+    free(pos);
+    free(lev);
+    free(order);
+    free(start);
+    return mv;
+}
+
+/* The points i with flag[i] (and, when `not` is given, not not[i]) appended to seq in
+ * ascending order. Returns the new length. */
+static size_t list_points(const hx *w, const uint8_t *flag, const uint8_t *not, size_t *seq,
+                          size_t n) {
+    for (size_t i = 0; i < w->np; i++)
+        if (flag[i] && (!not || !not[i])) seq[n++] = i;
+    return n;
+}
+
 typedef struct figs {
     double min_sj, volume;
     size_t inverted, below;
@@ -1038,8 +1112,35 @@ static void measure(hx *w, figs *f, double *q, int vol) {
 /* Rounds of compass moves over the points of hexes below target, until the worst hex and
  * the count below target stop improving. Surface points are put back on the surface first
  * (at a cost down to floor at most). */
+typedef struct smooth_job {
+    uint8_t *dirty; /* something round the point moved since it last failed to move */
+    double floor;
+    int untangle;
+} smooth_job;
+
+/* sweep_stage's move of point i: optimise, when something round it moved since it last
+ * failed to; a move flags the points of its hexes (its level's other points share none of
+ * them with it, but may flag the same points: the writes are atomic). */
+static int smooth_one(hx *w, size_t i, void *user) {
+    smooth_job *J = user;
+    if (!J->dirty[i]) return 0;
+    J->dirty[i] = 0;
+    if (!optimise(w, i, J->floor, J->untangle)) return 0;
+    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++)
+        for (int k = 0; k < 8; k++) {
+            uint8_t *d = J->dirty + w->h[8 * (w->vi[u] / 8) + (size_t)k];
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic write
+#endif
+            *d = 1;
+        }
+    return 1;
+}
+
 static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int snap, double *q,
                         uint8_t *active, size_t *moves, int *sweeps) {
+    size_t *seq = malloc((w->np + 1) * sizeof *seq);
+    if (!seq) return; /* out of memory: no sweep (the mesh stays as it is, valid or not) */
     /* active[np + i]: something around point i moved since it last failed to move */
     uint8_t *dirty = active + w->np;
     memset(dirty, 1, w->np);
@@ -1071,22 +1172,16 @@ static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int 
                 if ((w->cls[i] == CLS_ISO || w->cls[i] == CLS_PLANE) &&
                     (!w->focus || w->focus[i]))
                     active[i] = 1;
-        double floor = fmax(f.min_sj, FLOOR_SHARE * target);
-        size_t mv = 0;
-        for (size_t i = 0; i < w->np; i++) {
-            if (!active[i] || !dirty[i]) continue;
-            dirty[i] = 0;
-            if (!optimise(w, i, floor, untangle)) continue;
-            mv++;
-            for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++)
-                for (int k = 0; k < 8; k++) dirty[w->h[8 * (w->vi[u] / 8) + (size_t)k]] = 1;
-        }
+        smooth_job J = {dirty, fmax(f.min_sj, FLOOR_SHARE * target), untangle};
+        size_t mv = 0, n = list_points(w, active, NULL, seq, 0);
+        mv = sweep_points(w, seq, n, smooth_one, &J);
         *moves += mv;
         (*sweeps)++;
         if (w->progress) /* half way after 8 sweeps, 3/4 after 16, ... */
             w->progress("hex pass", 1.0 - pow(0.5, *sweeps / 8.0), 1.0, w->progress_user);
         if (!mv) break;
     }
+    free(seq);
 }
 
 /* Stage 0 untangles (the points of inverted hexes: by the concave max-min determinant, or on
@@ -1377,13 +1472,23 @@ static void grow_points(const hx *w, const uint8_t *from, uint8_t *to) {
  * distance of where the mesher put the point) instead of kept in its tangent plane: the
  * boundary quads of valence 3 to 6 points need their points moved further than the tangent
  * plane allows. Returns 0, or VM_ERR_NOMEM. */
+typedef struct polish_job {
+    double floor;
+} polish_job;
+
+static int polish_one(hx *w, size_t i, void *user) {
+    return optimise(w, i, ((const polish_job *)user)->floor, 3);
+}
+
 static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
     double *q = malloc((w->nh + 1) * sizeof *q);
     uint8_t *act = malloc(w->np + 1), *ring = malloc(w->np + 1);
-    if (!q || !act || !ring) {
+    size_t *seq = malloc((w->np + 1) * sizeof *seq);
+    if (!q || !act || !ring || !seq) {
         free(q);
         free(act);
         free(ring);
+        free(seq);
         return VM_ERR_NOMEM;
     }
     double last = -INFINITY;
@@ -1395,10 +1500,11 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
         mark_below(w, q, target, act);
         memcpy(ring, act, w->np);
         grow_points(w, act, ring);
-        size_t mv = 0;
-        for (int pass = 0; pass < 2; pass++) /* the worst hexes' own points first */
-            for (size_t i = 0; i < w->np; i++)
-                if ((pass ? ring[i] && !act[i] : act[i]) && optimise(w, i, f.min_sj, 3)) mv++;
+        /* the worst hexes' own points first, then the ring */
+        size_t n = list_points(w, act, NULL, seq, 0);
+        n = list_points(w, ring, act, seq, n);
+        polish_job J = {f.min_sj};
+        size_t mv = sweep_points(w, seq, n, polish_one, &J);
         *moves += mv;
         (*sweeps)++;
         if (!mv) break;
@@ -1406,6 +1512,7 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
     free(q);
     free(act);
     free(ring);
+    free(seq);
     return VM_OK;
 }
 
@@ -1586,13 +1693,24 @@ static size_t group_sweep(hx *w, double bar) {
 
 /* The hexes below bar and rings of hexes round them: their points get Gauss-Seidel sweeps
  * of patch_move (the mesh's worst hex never gets worse), then the max-min polish. */
+typedef struct patch_job {
+    double bar, floor;
+} patch_job;
+
+static int patch_one(hx *w, size_t i, void *user) {
+    const patch_job *J = user;
+    return patch_move(w, i, J->bar, J->floor);
+}
+
 static vm_status repair(hx *w, double bar, int rings, int nsweeps, size_t *moves, int *sweeps) {
     double *q = malloc((w->nh + 1) * sizeof *q);
     uint8_t *act = malloc(w->np + 1), *ring = malloc(w->np + 1);
-    if (!q || !act || !ring) {
+    size_t *seq = malloc((w->np + 1) * sizeof *seq);
+    if (!q || !act || !ring || !seq) {
         free(q);
         free(act);
         free(ring);
+        free(seq);
         return VM_ERR_NOMEM;
     }
     for (int sw = 0; sw < nsweeps; sw++) {
@@ -1603,9 +1721,8 @@ static vm_status repair(hx *w, double bar, int rings, int nsweeps, size_t *moves
             memcpy(ring, act, w->np);
             grow_points(w, ring, act);
         }
-        size_t mv = 0;
-        for (size_t i = 0; i < w->np; i++)
-            if (act[i] && patch_move(w, i, bar, f.min_sj)) mv++;
+        patch_job J = {bar, f.min_sj};
+        size_t mv = sweep_points(w, seq, list_points(w, act, NULL, seq, 0), patch_one, &J);
         *moves += mv;
         (*sweeps)++;
         if (!mv) break;
@@ -1613,6 +1730,7 @@ static vm_status repair(hx *w, double bar, int rings, int nsweeps, size_t *moves
     free(q);
     free(act);
     free(ring);
+    free(seq);
     vm_status s = polish(w, bar, moves, sweeps);
     for (int r = 0; r < 4 && !s; r++) {
         size_t mv = group_sweep(w, SJ_BAR);
