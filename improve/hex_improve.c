@@ -985,8 +985,9 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
  * see in the list's order: the same positions, bytes and counts for any thread count. */
 typedef int (*point_move_fn)(hx *w, size_t i, void *user);
 
-/* Levels with fewer points than this run on the calling thread (a level costs a barrier;
- * the big sweeps have 50 to 100 points a level, the late ones a handful, and a busy machine makes every barrier wait for a descheduled thread). */
+/* Levels with fewer points than this run on the calling thread: a level costs a barrier
+ * (the big sweeps have 50 to 100 points a level, the late ones a handful), and on a busy
+ * machine every barrier waits for a descheduled thread. */
 #define LEVEL_THREADS_FROM 32
 
 /* Runs fn on the points seq[0..n) (each at most once) as the sweep in that order would;
