@@ -353,8 +353,6 @@ static int invert3(double a[3][3], double b[3][3]) {
     return 1;
 }
 
-/* Trilinear field of the volume at index position x (clamped to the box) and its gradient
- * in index space. */
 /* The cell of index position x (clamped to the box): [out] i0 its lowest corner, f the
  * position in it. */
 static void field_cell(const vm_volume *v, const double x[3], int64_t i0[3], double f[3]) {
@@ -363,13 +361,15 @@ static void field_cell(const vm_volume *v, const double x[3], int64_t i0[3], dou
         double top = (double)(v->dims[a] - 1);
         if (c < 0.0) c = 0.0;
         if (c > top) c = top;
-        int64_t i = (int64_t)floor(c);
+        int64_t i = (int64_t)c; /* c >= 0: the floor (floor() is a library call) */
         if (i > v->dims[a] - 2) i = v->dims[a] - 2;
         i0[a] = i;
         f[a] = c - (double)i;
     }
 }
 
+/* Trilinear field of the volume at index position x (clamped to the box) and its gradient
+ * in index space. */
 static double field(const vm_volume *v, const double x[3], double g[3]) {
     int64_t i0[3];
     double f[3];
