@@ -7,6 +7,7 @@
  * the whole layer fails, selective pillowing of the hexes still below the bar (a shrink set,
  * Mitchell and Tautges 1995 §3). */
 #include <math.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -106,6 +107,11 @@ typedef struct hx {
     double max_move;
     int pillowed; /* the mesh has the pillow layer: untangling by the penalty */
     int fit;      /* the mesher's mesh was valid: far boundary points are snapped in */
+    /* measure's cache: qc[t] is hex t's scaled Jacobian with its points at pc; chg is
+     * scratch over the points. NULL until the first measure, dropped when the mesh is
+     * (re)loaded or pillowed. */
+    double *qc, *pc;
+    uint8_t *chg;
     vm_progress_fn progress;
     void *progress_user;
 } hx;
@@ -131,6 +137,15 @@ static double hex_q(const hx *w, size_t t) {
     double p[8][3];
     hex_points(w, t, p);
     return vm_hex_scaled_jacobian((const double(*)[3])p);
+}
+
+/* Drops measure's cache (the mesh changed). */
+static void cache_drop(hx *w) {
+    free(w->qc);
+    free(w->pc);
+    free(w->chg);
+    w->qc = w->pc = NULL;
+    w->chg = NULL;
 }
 
 /* The samples of vm__hex_jacobian_samples that move with the node in corner slot k: its own
@@ -160,6 +175,9 @@ typedef struct lq_stop {
 } lq_stop;
 
 static const lq_stop no_stop = {-INFINITY, -INFINITY, INFINITY};
+
+/* local_q's keys of samples: WORST_KEY * hex + sample. */
+#define WORST_KEY 32
 
 /* One hex round a moving point, set up once per search: every column of the hex (the edges,
  * the centre's and the Gauss points' derivatives, vm__hex_columns) is affine in the point,
@@ -206,15 +224,28 @@ static void star_hex_load(const hx *w, size_t t, int k, star_hex *S) {
     }
 }
 
-/* The lengths of S's columns with the point moved by dx. [out] n. */
-static void star_hex_norms(const star_hex *S, const double dx[3], double n[VM_HEX_COLUMNS]) {
-    memcpy(n, S->n0, sizeof S->n0);
-    for (int j = 0; j < S->nvar; j++) {
-        int c = S->var[j];
-        double v0 = S->r[c][0] + S->b[c] * dx[0], v1 = S->r[c][1] + S->b[c] * dx[1],
-               v2 = S->r[c][2] + S->b[c] * dx[2];
-        n[c] = sqrt(v0 * v0 + v1 * v1 + v2 * v2);
-    }
+/* The length of S's column c with the point moved by dx. */
+static inline double star_hex_norm(const star_hex *S, int c, const double dx[3]) {
+    if (S->b[c] == 0.0) return S->n0[c];
+    double v0 = S->r[c][0] + S->b[c] * dx[0], v1 = S->r[c][1] + S->b[c] * dx[1],
+           v2 = S->r[c][2] + S->b[c] * dx[2];
+    return sqrt(v0 * v0 + v1 * v1 + v2 * v2);
+}
+
+/* Sample sm of S with the point moved by dx: [out] *det its determinant; returns its
+ * scaled Jacobian. n caches the column lengths, *have (a bit per column) says which are
+ * in it: a search that stops at the first poor sample computes few of them. */
+static inline double star_hex_sample(const star_hex *S, int sm, const double dx[3],
+                              double n[VM_HEX_COLUMNS], uint32_t *have, double *det) {
+    const unsigned char *cs = vm__hex_sample_col[sm];
+    for (int j = 0; j < 3; j++)
+        if (!(*have & (1u << cs[j]))) {
+            n[cs[j]] = star_hex_norm(S, cs[j], dx);
+            *have |= 1u << cs[j];
+        }
+    double d = S->det0[sm] + S->g[sm][0] * dx[0] + S->g[sm][1] * dx[1] + S->g[sm][2] * dx[2];
+    *det = d;
+    return vm__hex_sample_sj(d, n[cs[0]] * n[cs[1]] * n[cs[2]]);
 }
 
 /* The star of point i, set up at its current position; x0 is that position. At most
@@ -246,42 +277,54 @@ static void star_free(star *S) {
 /* With pen: also the untangling penalty, the sum over the samples round the point of
  * max(0, beta - det / L), L the sample's column-length product where the star was set up.
  * Each det is affine in x, so the penalty is convex in x (Knupp 2001's untangling function,
- * normalised so that small and large hexes count alike). The hexes are visited from `first`
- * on (the worst one last time, so that a poor candidate stops early); returns 0 when it
- * stopped at stop (r is then partial), else 1, and sets *worst (NULL allowed) to the hex of
- * the star holding the minimum. */
+ * normalised so that small and large hexes count alike). `first` names a sample as
+ * WORST_KEY * hex + sample (the worst one last time): with a stop, that sample is tried
+ * alone first (a poor candidate usually fails there: the full figures could only be lower),
+ * and the hexes are visited from its hex on. Returns 0 when it stopped at stop (r is then
+ * partial), else 1, and sets *worst (NULL allowed) to the key of the sample holding the
+ * minimum. */
 static int local_q(const star *S, const double x[3], int pen, lq *r, const lq_stop *stop,
-                   size_t first, size_t *worst) {
+                   size_t first_key, size_t *worst) {
     r->min = r->det = INFINITY;
     r->sum = r->pen = 0.0;
     double dx[3] = {x[0] - S->x0[0], x[1] - S->x0[1], x[2] - S->x0[2]};
-    if (first >= S->n) first = 0;
+    size_t first = first_key / WORST_KEY, fs = first_key % WORST_KEY;
+    if (first >= S->n) {
+        first = 0;
+        fs = WORST_KEY;
+    }
+    if (fs < VM_HEX_SAMPLES && (stop->min_below > -INFINITY || stop->det_at > -INFINITY)) {
+        double n[VM_HEX_COLUMNS], d;
+        uint32_t have = 0;
+        double q = star_hex_sample(&S->h[first], (int)fs, dx, n, &have, &d);
+        if (q < stop->min_below || d <= stop->det_at) return 0;
+    }
     for (size_t a = 0; a < S->n; a++) {
         size_t ui = (first + a) % S->n;
         const star_hex *H = &S->h[ui];
         int ms[MOVING_SAMPLES];
         double n[VM_HEX_COLUMNS];
-        star_hex_norms(H, dx, n);
+        uint32_t have = 0;
         moving_samples(H->slot, ms);
         for (int j = 0; j < MOVING_SAMPLES; j++) {
             int sm = ms[j];
-            const unsigned char *cs = vm__hex_sample_col[sm];
-            double d = H->det0[sm] + H->g[sm][0] * dx[0] + H->g[sm][1] * dx[1] +
-                       H->g[sm][2] * dx[2];
-            double q = vm__hex_sample_sj(d, n[cs[0]] * n[cs[1]] * n[cs[2]]);
+            double d, q = star_hex_sample(H, sm, dx, n, &have, &d);
             if (q < r->min) {
                 r->min = q;
-                if (worst) *worst = ui;
+                if (worst) *worst = WORST_KEY * ui + (size_t)sm;
             }
             if (d < r->det) r->det = d;
             r->sum += q;
             if (pen) {
                 double L = H->len0[sm] > NORM_FLOOR ? H->len0[sm] : NORM_FLOOR;
-                r->pen += fmax(0.0, UNTANGLE_BETA - d / L);
+                double over = UNTANGLE_BETA - d / L; /* (fmax is a library call) */
+                if (over > 0.0) r->pen += over;
             }
+            /* the minima only fall and the penalty only rises from here */
+            if (r->min < stop->min_below || r->det <= stop->det_at ||
+                r->pen > stop->pen_above)
+                return 0;
         }
-        if (r->min < stop->min_below || r->det <= stop->det_at || r->pen > stop->pen_above)
-            return 0;
     }
     return 1;
 }
@@ -310,21 +353,27 @@ static int invert3(double a[3][3], double b[3][3]) {
     return 1;
 }
 
-/* Trilinear field of the volume at index position x (clamped to the box) and its gradient
- * in index space. */
-static double field(const vm_volume *v, const double x[3], double g[3]) {
-    int64_t i0[3];
-    double f[3];
+/* The cell of index position x (clamped to the box): [out] i0 its lowest corner, f the
+ * position in it. */
+static void field_cell(const vm_volume *v, const double x[3], int64_t i0[3], double f[3]) {
     for (int a = 0; a < 3; a++) {
         double c = x[a];
         double top = (double)(v->dims[a] - 1);
         if (c < 0.0) c = 0.0;
         if (c > top) c = top;
-        int64_t i = (int64_t)floor(c);
+        int64_t i = (int64_t)c; /* c >= 0: the floor (floor() is a library call) */
         if (i > v->dims[a] - 2) i = v->dims[a] - 2;
         i0[a] = i;
         f[a] = c - (double)i;
     }
+}
+
+/* Trilinear field of the volume at index position x (clamped to the box) and its gradient
+ * in index space. */
+static double field(const vm_volume *v, const double x[3], double g[3]) {
+    int64_t i0[3];
+    double f[3];
+    field_cell(v, x, i0, f);
     double val = 0.0;
     g[0] = g[1] = g[2] = 0.0;
     for (int c = 0; c < 8; c++) {
@@ -344,6 +393,37 @@ static double field(const vm_volume *v, const double x[3], double g[3]) {
     return val;
 }
 
+/* field's value alone (the same sum, term by term) in cell i0 at f. */
+static double field_value(const vm_volume *v, const int64_t i0[3], const double f[3]) {
+    double val = 0.0;
+    for (int c = 0; c < 8; c++) {
+        int d[3] = {c & 1, (c >> 1) & 1, c >> 2};
+        double s = v->data[(i0[0] + d[0]) +
+                           v->dims[0] * ((i0[1] + d[1]) + v->dims[1] * (i0[2] + d[2]))];
+        double wgt[3];
+        for (int a = 0; a < 3; a++) wgt[a] = d[a] ? f[a] : 1.0 - f[a];
+        val += s * wgt[0] * wgt[1] * wgt[2];
+    }
+    return val;
+}
+
+/* Whether the field stays strictly on the side of iso that `above` says in the whole cell
+ * i0 (its trilinear values lie between its corners' extremes; the margin covers the
+ * round-off of field_value's sum). */
+static int cell_one_side(const vm_volume *v, const int64_t i0[3], double iso, int above) {
+    double mn = INFINITY, mx = -INFINITY, big = fabs(iso);
+    for (int c = 0; c < 8; c++) {
+        double s = v->data[(i0[0] + (c & 1)) +
+                           v->dims[0] * ((i0[1] + ((c >> 1) & 1)) + v->dims[1] * (i0[2] + (c >> 2)))];
+        /* (comparisons, not fmin/fmax: those are library calls here) */
+        if (s < mn) mn = s;
+        if (s > mx) mx = s;
+        if (fabs(s) > big) big = fabs(s);
+    }
+    double margin = 1e-9 * big;
+    return above ? mn > iso + margin : mx < iso - margin;
+}
+
 /* The material bound nearest to the field value f. */
 static double iso_for(const hx *w, double f) {
     if (w->has_lo && w->has_hi) return fabs(f - w->lo) <= fabs(f - w->hi) ? w->lo : w->hi;
@@ -353,7 +433,7 @@ static double iso_for(const hx *w, double f) {
 /* Distance of index position x from the isosurface, in voxels: the first crossing on the
  * gradient line toward it (within 2 voxels), else the first-order estimate |f - iso| / |g|. */
 static double iso_distance(const hx *w, const double x[3]) {
-    double g[3], g2[3];
+    double g[3];
     double f = field(w->v, x, g);
     double iso = iso_for(w, f);
     double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
@@ -361,10 +441,19 @@ static double iso_distance(const hx *w, const double x[3]) {
     double est = gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
     if (est < ISO_EXACT_BELOW || !(gn > 0.0)) return est;
     double sgn = f > iso ? -1.0 : 1.0;
+    /* the steps in a cell the field does not cross iso in are skipped: most of a walk */
+    int64_t safe[3] = {-1, -1, -1};
     for (double t = ISO_WALK_STEP; t <= ISO_WALK_MAX; t += ISO_WALK_STEP) {
-        double y[3];
+        double y[3], fr[3];
+        int64_t c[3];
         for (int a = 0; a < 3; a++) y[a] = x[a] + sgn * t * g[a] / gn;
-        double fy = field(w->v, y, g2);
+        field_cell(w->v, y, c, fr);
+        if (c[0] == safe[0] && c[1] == safe[1] && c[2] == safe[2]) continue;
+        if (cell_one_side(w->v, c, iso, f > iso)) {
+            memcpy(safe, c, sizeof safe);
+            continue;
+        }
+        double fy = field_value(w->v, c, fr);
         if ((fy - iso) * (f - iso) <= 0.0) return t;
     }
     return est;
@@ -425,18 +514,20 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
         /* a point of the rim, where the isosurface meets the box, stays near the isosurface
          * (on a valid mesh: on the CT head, whose rim points start up to a voxel off, the
          * bound left the worst hex at 0.42 instead of 0.45) */
-        if (w->fit && (w->planes[i] & PLANE_RIM) && iso_distance(w, y) > ISO_RIM_MAX &&
-            iso_distance(w, y) > iso_distance(w, y0))
-            return 0;
+        if (w->fit && (w->planes[i] & PLANE_RIM)) {
+            double d = iso_distance(w, y);
+            if (d > ISO_RIM_MAX && d > iso_distance(w, y0)) return 0;
+        }
     } else if (mode == MOVE_TANGENT) {
         double est = iso_estimate(w, y);
         if (!(est <= fmax(ISO_TANGENT_MAX, w->est0[i] + ISO_TANGENT_SLACK))) return 0;
         /* the first-order estimate can miss a crossing the gradient does not point at (the
          * genus-3 tubes: 0.45 by it, 0.68 along the gradient): past 0.2, the distance the
          * report measures must stay within 0.5 or where it was */
-        if (est > ISO_CHECK_FROM && iso_distance(w, y) > ISO_CHECK_MAX &&
-            iso_distance(w, y) > iso_distance(w, y0))
-            return 0;
+        if (est > ISO_CHECK_FROM) {
+            double d = iso_distance(w, y);
+            if (d > ISO_CHECK_MAX && d > iso_distance(w, y0)) return 0;
+        }
     } else if (mode == MOVE_LOOSE) {
         if (!(iso_distance(w, y) <= ISO_LOOSE_MAX)) return 0;
     } else if (!project_iso(w, y)) {
@@ -689,6 +780,7 @@ static vm_status pillow(hx *w, uint8_t *in, size_t *added, vm_error *err) {
         }
     }
     size_t np = w->np;
+    cache_drop(w);
     vm_index *copy = malloc((np + 1) * sizeof *copy);
     double *ctr = calloc(3 * np + 1, sizeof *ctr);
     size_t *cnt = calloc(np + 1, sizeof *cnt);
@@ -883,23 +975,133 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
     return moved;
 }
 
+/* ---- sweeps on threads, with the sequential sweep's result ---- */
+
+/* A move of point i (optimise, patch_move) reads and writes only the points of the hexes
+ * round i. A Gauss-Seidel sweep over a list of points therefore splits into levels: a
+ * point's level is one more than the highest level of the points sharing a hex with it
+ * that come before it in the list. Points of one level share no hex, so they move on
+ * threads in any order, and level by level every point sees exactly the moves it would
+ * see in the list's order: the same positions, bytes and counts for any thread count. */
+typedef int (*point_move_fn)(hx *w, size_t i, void *user);
+
+/* Levels with fewer points than this run on the calling thread: a level costs a barrier
+ * (the big sweeps have 50 to 100 points a level, the late ones a handful), and on a busy
+ * machine every barrier waits for a descheduled thread. */
+#define LEVEL_THREADS_FROM 32
+
+/* Runs fn on the points seq[0..n) (each at most once) as the sweep in that order would;
+ * returns how many calls returned 1. Without memory for the levels it runs in order. */
+static size_t sweep_points(hx *w, const size_t *seq, size_t n, point_move_fn fn, void *user) {
+    size_t mv = 0;
+    size_t *pos = malloc((w->np + 1) * sizeof *pos), *lev = malloc((n + 1) * sizeof *lev);
+    size_t *start = NULL, *order = malloc((n + 1) * sizeof *order);
+    size_t nlev = 0;
+    if (pos && lev && order) {
+        for (size_t i = 0; i < w->np; i++) pos[i] = SIZE_MAX;
+        for (size_t k = 0; k < n; k++) pos[seq[k]] = k;
+        for (size_t k = 0; k < n; k++) {
+            size_t i = seq[k], l = 0;
+            for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++) {
+                const vm_index *c = w->h + 8 * (w->vi[u] / 8);
+                for (int j = 0; j < 8; j++) {
+                    size_t pj = pos[c[j]];
+                    if (pj < k && lev[pj] + 1 > l) l = lev[pj] + 1;
+                }
+            }
+            lev[k] = l;
+            if (l + 1 > nlev) nlev = l + 1;
+        }
+        start = calloc(nlev + 2, sizeof *start);
+    }
+    if (!start) {
+        for (size_t k = 0; k < n; k++) mv += (size_t)(fn(w, seq[k], user) != 0);
+        free(pos);
+        free(lev);
+        free(order);
+        return mv;
+    }
+    for (size_t k = 0; k < n; k++) start[lev[k] + 2]++;
+    for (size_t l = 0; l < nlev; l++) start[l + 2] += start[l + 1];
+    for (size_t k = 0; k < n; k++) order[start[lev[k] + 1]++] = seq[k];
+    for (size_t l = 0; l < nlev; l++) {
+        ptrdiff_t a = (ptrdiff_t)start[l], b = (ptrdiff_t)start[l + 1];
+        size_t lm = 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 2) reduction(+ : lm) if (b - a >= LEVEL_THREADS_FROM)
+#endif
+        for (ptrdiff_t k = a; k < b; k++) lm += (size_t)(fn(w, order[k], user) != 0);
+        mv += lm;
+    }
+    free(pos);
+    free(lev);
+    free(order);
+    free(start);
+    return mv;
+}
+
+/* The points i with flag[i] (and, when `not` is given, not not[i]) appended to seq in
+ * ascending order. Returns the new length. */
+static size_t list_points(const hx *w, const uint8_t *flag, const uint8_t *not, size_t *seq,
+                          size_t n) {
+    for (size_t i = 0; i < w->np; i++)
+        if (flag[i] && (!not || !not[i])) seq[n++] = i;
+    return n;
+}
+
 typedef struct figs {
     double min_sj, volume;
     size_t inverted, below;
 } figs;
 
-static void measure(const hx *w, figs *f, double *q) {
+/* Brings the cache up to date: only the hexes with a point that moved since the last call
+ * are measured again (a sweep moves a few thousand of the points). 0 when out of memory. */
+static int cache_update(hx *w) {
+    if (!w->qc) {
+        w->qc = malloc((w->nh + 1) * sizeof *w->qc);
+        w->pc = malloc((3 * w->np + 1) * sizeof *w->pc);
+        w->chg = malloc(w->np + 1);
+        if (!w->qc || !w->pc || !w->chg) {
+            cache_drop(w);
+            return 0;
+        }
+        for (size_t t = 0; t < w->nh; t++) w->qc[t] = hex_q(w, t);
+        memcpy(w->pc, w->p, 3 * w->np * sizeof *w->pc);
+        return 1;
+    }
+    int any = 0;
+    for (size_t i = 0; i < w->np; i++) {
+        w->chg[i] = memcmp(w->p + 3 * i, w->pc + 3 * i, 3 * sizeof *w->p) != 0;
+        any |= w->chg[i];
+    }
+    if (!any) return 1;
+    for (size_t t = 0; t < w->nh; t++) {
+        const vm_index *c = w->h + 8 * t;
+        if (w->chg[c[0]] | w->chg[c[1]] | w->chg[c[2]] | w->chg[c[3]] | w->chg[c[4]] |
+            w->chg[c[5]] | w->chg[c[6]] | w->chg[c[7]])
+            w->qc[t] = hex_q(w, t);
+    }
+    memcpy(w->pc, w->p, 3 * w->np * sizeof *w->pc);
+    return 1;
+}
+
+/* The mesh's figures ([out] q[t], NULL allowed: each hex's scaled Jacobian); the volume
+ * (a sum over every hex) only when vol. */
+static void measure(hx *w, figs *f, double *q, int vol) {
     f->min_sj = 1.0;
     f->volume = 0.0;
     f->inverted = f->below = 0;
+    int cached = cache_update(w);
     for (size_t t = 0; t < w->nh; t++) {
-        double p[8][3];
-        hex_points(w, t, p);
-        double s = vm_hex_scaled_jacobian((const double(*)[3])p);
+        double s = cached ? w->qc[t] : hex_q(w, t);
         if (q) q[t] = s;
         if (s < f->min_sj) f->min_sj = s;
         if (s <= 0.0) f->inverted++;
         if (s < SJ_BAR) f->below++;
+    }
+    for (size_t t = 0; t < w->nh && vol; t++) {
+        double p[8][3];
+        hex_points(w, t, p);
         f->volume += vm_hex_volume((const double(*)[3])p);
     }
 }
@@ -911,8 +1113,35 @@ static void measure(const hx *w, figs *f, double *q) {
 /* Rounds of compass moves over the points of hexes below target, until the worst hex and
  * the count below target stop improving. Surface points are put back on the surface first
  * (at a cost down to floor at most). */
+typedef struct smooth_job {
+    uint8_t *dirty; /* something round the point moved since it last failed to move */
+    double floor;
+    int untangle;
+} smooth_job;
+
+/* sweep_stage's move of point i: optimise, when something round it moved since it last
+ * failed to; a move flags the points of its hexes (its level's other points share none of
+ * them with it, but may flag the same points: the writes are atomic). */
+static int smooth_one(hx *w, size_t i, void *user) {
+    smooth_job *J = user;
+    if (!J->dirty[i]) return 0;
+    J->dirty[i] = 0;
+    if (!optimise(w, i, J->floor, J->untangle)) return 0;
+    for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++)
+        for (int k = 0; k < 8; k++) {
+            uint8_t *d = J->dirty + w->h[8 * (w->vi[u] / 8) + (size_t)k];
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic write
+#endif
+            *d = 1;
+        }
+    return 1;
+}
+
 static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int snap, double *q,
                         uint8_t *active, size_t *moves, int *sweeps) {
+    size_t *seq = malloc((w->np + 1) * sizeof *seq);
+    if (!seq) return; /* out of memory: no sweep (the mesh stays as it is, valid or not) */
     /* active[np + i]: something around point i moved since it last failed to move */
     uint8_t *dirty = active + w->np;
     memset(dirty, 1, w->np);
@@ -921,7 +1150,7 @@ static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int 
     int stale = 0;
     for (int sw = 0; sw < max_sweeps; sw++) {
         figs f;
-        measure(w, &f, q);
+        measure(w, &f, q, 0);
         size_t below = 0;
         memset(active, 0, w->np);
         for (size_t t = 0; t < w->nh; t++)
@@ -944,22 +1173,16 @@ static void sweep_stage(hx *w, double target, int untangle, int max_sweeps, int 
                 if ((w->cls[i] == CLS_ISO || w->cls[i] == CLS_PLANE) &&
                     (!w->focus || w->focus[i]))
                     active[i] = 1;
-        double floor = fmax(f.min_sj, FLOOR_SHARE * target);
-        size_t mv = 0;
-        for (size_t i = 0; i < w->np; i++) {
-            if (!active[i] || !dirty[i]) continue;
-            dirty[i] = 0;
-            if (!optimise(w, i, floor, untangle)) continue;
-            mv++;
-            for (size_t u = w->vs[i]; u < w->vs[i + 1]; u++)
-                for (int k = 0; k < 8; k++) dirty[w->h[8 * (w->vi[u] / 8) + (size_t)k]] = 1;
-        }
+        smooth_job J = {dirty, fmax(f.min_sj, FLOOR_SHARE * target), untangle};
+        size_t mv = 0, n = list_points(w, active, NULL, seq, 0);
+        mv = sweep_points(w, seq, n, smooth_one, &J);
         *moves += mv;
         (*sweeps)++;
         if (w->progress) /* half way after 8 sweeps, 3/4 after 16, ... */
             w->progress("hex pass", 1.0 - pow(0.5, *sweeps / 8.0), 1.0, w->progress_user);
         if (!mv) break;
     }
+    free(seq);
 }
 
 /* Stage 0 untangles (the points of inverted hexes: by the concave max-min determinant, or on
@@ -978,7 +1201,7 @@ static void smooth(hx *w, const vm_hex_improve_options *o, int stage, double *q,
         sweep_stage(w, UNTANGLE_TARGET, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
         sweep_stage(w, fmin(SJ_BAR, o->target), 0, o->max_sweeps, 1, q, active, moves, sweeps);
         figs f;
-        measure(w, &f, q);
+        measure(w, &f, q, 0);
         if (f.inverted) { /* the smoothing can free what the penalty could not reach */
             sweep_stage(w, UNTANGLE_TARGET, 2, 5 * o->max_sweeps, 0, q, active, moves, sweeps);
             sweep_stage(w, fmin(SJ_BAR, o->target), 0, o->max_sweeps, 0, q, active, moves,
@@ -993,6 +1216,7 @@ static void smooth(hx *w, const vm_hex_improve_options *o, int stage, double *q,
 
 /* (Re)loads the points and hexes of m. */
 static vm_status load(hx *w, const vm_mesh *m, vm_error *err) {
+    cache_drop(w);
     free(w->p);
     free(w->p0);
     free(w->h);
@@ -1140,7 +1364,7 @@ static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o,
      * them: snapping there left the CT head at 0.38 instead of 0.45 and took twice as
      * long). */
     figs f0 = {0};
-    if (!s && w->v) measure(w, &f0, NULL);
+    if (!s && w->v) measure(w, &f0, NULL, 0);
     if (!s && init) memcpy(w->p, init, 3 * w->np * sizeof *w->p);
     w->fit = w->v && !f0.inverted;
     if (!s && w->fit) {
@@ -1200,6 +1424,7 @@ static void dilate(const hx *w, uint8_t *in, int rings, uint8_t *mark) {
 }
 
 static void hx_free(hx *w) {
+    cache_drop(w);
     free(w->p);
     free(w->p0);
     free(w->h);
@@ -1248,28 +1473,39 @@ static void grow_points(const hx *w, const uint8_t *from, uint8_t *to) {
  * distance of where the mesher put the point) instead of kept in its tangent plane: the
  * boundary quads of valence 3 to 6 points need their points moved further than the tangent
  * plane allows. Returns 0, or VM_ERR_NOMEM. */
+typedef struct polish_job {
+    double floor;
+} polish_job;
+
+static int polish_one(hx *w, size_t i, void *user) {
+    return optimise(w, i, ((const polish_job *)user)->floor, 3);
+}
+
 static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
     double *q = malloc((w->nh + 1) * sizeof *q);
     uint8_t *act = malloc(w->np + 1), *ring = malloc(w->np + 1);
-    if (!q || !act || !ring) {
+    size_t *seq = malloc((w->np + 1) * sizeof *seq);
+    if (!q || !act || !ring || !seq) {
         free(q);
         free(act);
         free(ring);
+        free(seq);
         return VM_ERR_NOMEM;
     }
     double last = -INFINITY;
     for (int sw = 0; sw < 16; sw++) {
         figs f;
-        measure(w, &f, q);
+        measure(w, &f, q, 0);
         if (f.min_sj >= target || f.min_sj <= last + SWEEP_PROGRESS) break;
         last = f.min_sj;
         mark_below(w, q, target, act);
         memcpy(ring, act, w->np);
         grow_points(w, act, ring);
-        size_t mv = 0;
-        for (int pass = 0; pass < 2; pass++) /* the worst hexes' own points first */
-            for (size_t i = 0; i < w->np; i++)
-                if ((pass ? ring[i] && !act[i] : act[i]) && optimise(w, i, f.min_sj, 3)) mv++;
+        /* the worst hexes' own points first, then the ring */
+        size_t n = list_points(w, act, NULL, seq, 0);
+        n = list_points(w, ring, act, seq, n);
+        polish_job J = {f.min_sj};
+        size_t mv = sweep_points(w, seq, n, polish_one, &J);
         *moves += mv;
         (*sweeps)++;
         if (!mv) break;
@@ -1277,6 +1513,7 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
     free(q);
     free(act);
     free(ring);
+    free(seq);
     return VM_OK;
 }
 
@@ -1304,16 +1541,14 @@ static double patch_energy(const star *S, const double x[3], double bar, double 
     for (size_t a = 0; a < S->n; a++) {
         const star_hex *H = &S->h[a];
         double n[VM_HEX_COLUMNS];
-        star_hex_norms(H, dx, n);
+        uint32_t have = 0;
         for (int c = 0; c < VM_HEX_SAMPLES; c++) {
-            const unsigned char *cs = vm__hex_sample_col[c];
-            double d = H->det0[c] + H->g[c][0] * dx[0] + H->g[c][1] * dx[1] + H->g[c][2] * dx[2];
-            double q = vm__hex_sample_sj(d, n[cs[0]] * n[cs[1]] * n[cs[2]]);
+            double d, q = star_hex_sample(H, c, dx, n, &have, &d);
             if (q < *mn) *mn = q;
             if (q < bar) e += (bar - q) * (bar - q);
+            /* the energy only grows and the minimum only falls from here */
+            if (e >= e_stop || *mn < mn_stop) return e;
         }
-        /* the energy only grows and the minimum only falls from here */
-        if (e >= e_stop || *mn < mn_stop) return e;
     }
     return e;
 }
@@ -1459,26 +1694,36 @@ static size_t group_sweep(hx *w, double bar) {
 
 /* The hexes below bar and rings of hexes round them: their points get Gauss-Seidel sweeps
  * of patch_move (the mesh's worst hex never gets worse), then the max-min polish. */
+typedef struct patch_job {
+    double bar, floor;
+} patch_job;
+
+static int patch_one(hx *w, size_t i, void *user) {
+    const patch_job *J = user;
+    return patch_move(w, i, J->bar, J->floor);
+}
+
 static vm_status repair(hx *w, double bar, int rings, int nsweeps, size_t *moves, int *sweeps) {
     double *q = malloc((w->nh + 1) * sizeof *q);
     uint8_t *act = malloc(w->np + 1), *ring = malloc(w->np + 1);
-    if (!q || !act || !ring) {
+    size_t *seq = malloc((w->np + 1) * sizeof *seq);
+    if (!q || !act || !ring || !seq) {
         free(q);
         free(act);
         free(ring);
+        free(seq);
         return VM_ERR_NOMEM;
     }
     for (int sw = 0; sw < nsweeps; sw++) {
         figs f;
-        measure(w, &f, q);
+        measure(w, &f, q, 0);
         mark_below(w, q, bar, act);
         for (int r = 0; r < rings; r++) {
             memcpy(ring, act, w->np);
             grow_points(w, ring, act);
         }
-        size_t mv = 0;
-        for (size_t i = 0; i < w->np; i++)
-            if (act[i] && patch_move(w, i, bar, f.min_sj)) mv++;
+        patch_job J = {bar, f.min_sj};
+        size_t mv = sweep_points(w, seq, list_points(w, act, NULL, seq, 0), patch_one, &J);
         *moves += mv;
         (*sweeps)++;
         if (!mv) break;
@@ -1486,6 +1731,7 @@ static vm_status repair(hx *w, double bar, int rings, int nsweeps, size_t *moves
     free(q);
     free(act);
     free(ring);
+    free(seq);
     vm_status s = polish(w, bar, moves, sweeps);
     for (int r = 0; r < 4 && !s; r++) {
         size_t mv = group_sweep(w, SJ_BAR);
@@ -1516,7 +1762,7 @@ static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, i
     free(in);
     if (!s && *added) {
         /* a layer still tangled after untangling will not come right: stop here */
-        measure(w, f, NULL);
+        measure(w, f, NULL, 1);
         if (f->inverted) {
             free(q);
             free(active);
@@ -1526,17 +1772,17 @@ static vm_status run(hx *w, const vm_mesh *m, const vm_hex_improve_options *o, i
     if (!s) {
         if (w->fit) snap_in(w, SNAP_FROM, SNAP_FLOOR);
         smooth(w, o, 1, q, active, moves, sweeps);
-        measure(w, f, NULL);
+        measure(w, f, NULL, 0);
         if (w->v && f->min_sj < fmin(SJ_BAR, o->target) && f->below <= POLISH_MAX) {
             free(w->focus); /* the polish reaches past a selective run's focus */
             w->focus = NULL;
             s = polish(w, fmin(POLISH_TARGET, o->target), moves, sweeps);
             if (s) s = vm_error_set(err, s, "improve: out of memory");
-            measure(w, f, NULL);
+            measure(w, f, NULL, 0);
         }
         if (w->fit) snap_in(w, ISO_TANGENT_MAX, fmax(f->min_sj, SJ_BAR));
         else if (w->v) final_snap(w, fmax(f->min_sj, SJ_BAR));
-        measure(w, f, NULL);
+        measure(w, f, NULL, 1);
     }
     free(q);
     free(active);
@@ -1598,7 +1844,7 @@ static vm_status hx_setup(hx *w, const vm_mesh *m, const vm_volume *v,
  * or below the bar, a second run without it: the better mesh is kept. */
 static vm_status first_runs(hex_pass *P, const vm_mesh *m, const vm_hex_improve_options *o,
                             vm_error *err) {
-    measure(&P->w, &P->before, NULL);
+    measure(&P->w, &P->before, NULL, 1);
     /* A mesh the mesher could not make valid has folded boundaries (the heads), where the
      * whole layer was measured to tangle or smooth worse than none: it goes straight to the
      * run without it, then the selective layer below. */
@@ -1702,7 +1948,7 @@ static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_e
         w->focus = NULL;
         if (polish(w, fmin(POLISH_TARGET, o->target), &P->moves, &P->sweeps))
             return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-        measure(w, &P->after, NULL);
+        measure(w, &P->after, NULL, 0);
     }
     if (P->after.min_sj < fmin(REPAIR_BAR, o->target)) {
         size_t below = 0;
@@ -1712,7 +1958,7 @@ static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_e
         if (below <= POLISH_MAX &&
             repair(w, fmin(REPAIR_BAR, o->target), 1, 10, &P->moves, &P->sweeps))
             return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-        measure(w, &P->after, NULL);
+        measure(w, &P->after, NULL, 0);
     }
     /* then the bar rises toward the target, a step at a time, the last bar again while it
      * gains (patch_move keeps the mesh's worst hex from getting worse) */
@@ -1742,7 +1988,7 @@ static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_e
         w->focus = NULL;
         if (repair(w, bar, 1, 10, &P->moves, &P->sweeps))
             return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-        measure(w, &P->after, NULL);
+        measure(w, &P->after, NULL, 0);
         if (!last) bar += RAISE_STEP;
     }
     return VM_OK;
@@ -1822,7 +2068,7 @@ vm_status vm_mesh_improve_hexes(vm_mesh *m, const vm_volume *v, const vm_hex_imp
         free(P.w.focus);
         P.w.focus = NULL;
         snap_in(&P.w, SNAP_FROM, fmax(o->target, P.after.min_sj));
-        measure(&P.w, &P.after, NULL);
+        measure(&P.w, &P.after, NULL, 1);
     }
     if (!s) s = write_result(&P, m, r, err);
     if (!s && r) r->seconds = vm__now() - t0;
