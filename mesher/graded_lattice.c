@@ -18,29 +18,36 @@ static vm_status nomem(vm_error *err) {
     return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the lattice");
 }
 
-static vm_status rehash(gr_lattice *L, vm_error *err) {
-    size_t cap = L->tcap ? 2 * L->tcap : 4096;
-    int64_t *slot = malloc(cap * sizeof *slot);
-    if (!slot) return nomem(err);
+/* Empties the table and sizes it for at least `need` vertices at load 1/2 (a power of two,
+ * at least 4096), then puts the vertices back. */
+static vm_status rehash(gr_lattice *L, size_t need, vm_error *err) {
+    size_t cap = L->tcap ? L->tcap : 4096;
+    while (cap < 2 * need)
+        cap *= 2;
+    if (cap != L->tcap) {
+        gr_slot *slot = malloc(cap * sizeof *slot);
+        if (!slot) return nomem(err);
+        free(L->slot);
+        L->slot = slot;
+        L->tcap = cap;
+    }
     for (size_t i = 0; i < cap; i++)
-        slot[i] = -1;
+        L->slot[i].id = -1;
     for (size_t v = 0; v < L->nv; v++) {
         size_t h = (size_t)vm__hash_mix((uint64_t)L->key[v]) & (cap - 1);
-        while (slot[h] >= 0)
+        while (L->slot[h].id >= 0)
             h = (h + 1) & (cap - 1);
-        slot[h] = (int64_t)v;
+        L->slot[h].key = L->key[v];
+        L->slot[h].id = (int64_t)v;
     }
-    free(L->slot);
-    L->slot = slot;
-    L->tcap = cap;
     return VM_OK;
 }
 
 int64_t vm__gr_lattice_find(const gr_lattice *L, const int64_t p[3]) {
     int64_t key = vm__gr_key(p);
     size_t h = (size_t)vm__hash_mix((uint64_t)key) & (L->tcap - 1);
-    while (L->slot[h] >= 0) {
-        if (L->key[L->slot[h]] == key) return L->slot[h];
+    while (L->slot[h].id >= 0) {
+        if (L->slot[h].key == key) return L->slot[h].id;
         h = (h + 1) & (L->tcap - 1);
     }
     return -1;
@@ -50,14 +57,14 @@ int64_t vm__gr_lattice_find(const gr_lattice *L, const int64_t p[3]) {
 static vm_status vertex(gr_lattice *L, const int64_t p[3], double phi, int64_t *id,
                         vm_error *err) {
     if (2 * (L->nv + 1) > L->tcap) {
-        vm_status s = rehash(L, err);
+        vm_status s = rehash(L, L->nv + 1, err);
         if (s) return s;
     }
     int64_t key = vm__gr_key(p);
     size_t h = (size_t)vm__hash_mix((uint64_t)key) & (L->tcap - 1);
-    while (L->slot[h] >= 0) {
-        if (L->key[L->slot[h]] == key) {
-            *id = L->slot[h];
+    while (L->slot[h].id >= 0) {
+        if (L->slot[h].key == key) {
+            *id = L->slot[h].id;
             return VM_OK;
         }
         h = (h + 1) & (L->tcap - 1);
@@ -75,7 +82,8 @@ static vm_status vertex(gr_lattice *L, const int64_t p[3], double phi, int64_t *
     }
     L->key[L->nv] = key;
     L->phi[L->nv] = phi;
-    L->slot[h] = (int64_t)L->nv;
+    L->slot[h].key = key;
+    L->slot[h].id = (int64_t)L->nv;
     *id = (int64_t)L->nv++;
     return VM_OK;
 }
@@ -246,9 +254,11 @@ static vm_status leaf_faces(gr_lattice *L, const gr_tree *t, const gr_field *f,
 
 vm_status vm__gr_lattice_build(gr_lattice *L, const gr_tree *t, const gr_field *f,
                                vm_error *err) {
-    memset(L, 0, sizeof *L);
+    /* the arrays of a lattice built before stay, emptied */
+    L->nv = 0;
+    L->nt = 0;
     vm__gr_config_init();
-    vm_status s = rehash(L, err);
+    vm_status s = rehash(L, 0, err);
     /* Corners first (every leaf's), then centres: a base cell's centre takes the sign the
      * cubical reading of its corners asks for. */
     for (size_t i = 0; i < t->n && !s; i++) {
