@@ -136,6 +136,8 @@ typedef struct gr_lattice {
     size_t tcap;
     int32_t (*tet)[4];
     size_t nt, tcap4;
+    int64_t *centre; /* per octree node: the vertex id of a leaf's centre (while building) */
+    size_t ccap;
 } gr_lattice;
 
 static inline int64_t vm__gr_key(const int64_t p[3]) {
