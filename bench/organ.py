@@ -208,6 +208,9 @@ def run(cli, path, out, max_edge, threads):
             else:
                 r[key] = conv(m.group(1))
     r["stages"] = {k: float(v) for k, v in re.findall(r"volmesh: (\w[\w ]*?)\s+([\d.]+) s", text)}
+    m = re.search(r"volmesh:\s+graded: (.*)", text)
+    if m:
+        r["graded_steps"] = {k: float(v) for k, v in re.findall(r"(\w+) ([\d.]+) s", m.group(1))}
     try:
         with open("/proc/loadavg") as f:
             r["load"] = f.read().split()[0]

@@ -118,7 +118,8 @@ static const char *mesh_help2 =
     "  --json                  print the summary as one JSON object\n"
     "  --quiet                 no progress bar (nor the status line of writing and checking)\n"
     "  --verbose               print the time of each stage (read, denoise, mesh, improve,\n"
-    "                          write, check, distance, report) on stderr\n"
+    "                          write, check, distance, report) on stderr, and of the\n"
+    "                          graded mesher's steps (docs/SIZING.md)\n"
     ;
 static const char *mesh_help3 =
     "  raw input: --raw-dims NXxNYxNZ --raw-type T [--raw-endian E] [--raw-spacing S]\n"
