@@ -923,13 +923,14 @@ static int mesh_whole(mesh_args *m, mesh_job *j, int *done) {
     vm_cli_stage_done(m->verbose, "mesh", &j->t);
     if (m->verbose && m->o.graded) {
         const vm_mesh_stats *g = &j->st;
-        fprintf(stderr,
-                "volmesh:   graded: octree %.3f s (%zu leaves), topology %.3f s, lattice %.3f s, "
-                "stuffing %.3f s, distance %.3f s (%zu meshes); coarsening %.3f s (%zu vertices "
-                "removed)\n",
-                g->graded_octree_s, g->octree_leaves, g->graded_topology_s, g->graded_lattice_s,
-                g->graded_stuff_s, g->graded_distance_s, g->graded_meshes, g->graded_coarsen_s,
-                g->coarsened);
+        fprintf(
+            stderr,
+            "volmesh:   graded: octree %.3f s (%zu leaves), topology %.3f s, lattice %.3f s, "
+            "stuffing %.3f s, distance %.3f s (%zu meshes); coarsening %.3f s (%zu vertices "
+            "removed)\n",
+            g->graded_octree_s, g->octree_leaves, g->graded_topology_s, g->graded_lattice_s,
+            g->graded_stuff_s, g->graded_distance_s, g->graded_meshes, g->graded_coarsen_s,
+            g->coarsened);
     }
     /* --tets N met within 25%, or said */
     double n = (double)m->o.tets, got = (double)j->m.ncells;

@@ -425,7 +425,9 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
     for (int32_t i = 0; i < ta->n; i++) {
         int32_t t = ta->v[i];
         const vm_index *c = tet(C, t);
-        dvol -= C->sign * vol6(pt(C, c[0]), pt(C, c[1]), pt(C, c[2]), pt(C, c[3]));
+        /* (the volume change matters to boundary collapses only) */
+        if (C->bnd[a])
+            dvol -= C->sign * vol6(pt(C, c[0]), pt(C, c[1]), pt(C, c[2]), pt(C, c[3]));
         if (c[0] == b || c[1] == b || c[2] == b || c[3] == b) {
             shared++;
             continue;
@@ -1399,7 +1401,8 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             for (size_t i = 0; i < ne && !C.nomem; i++) {
                 static const size_t ahead[4] = {24, 16, 8, 4};
                 for (int st = 0; st < 4; st++)
-                    if (i + ahead[st] < ne) prefetch_edge(&C, E[i + ahead[st]].a, E[i + ahead[st]].b, st);
+                    if (i + ahead[st] < ne)
+                        prefetch_edge(&C, E[i + ahead[st]].a, E[i + ahead[st]].b, st);
                 int32_t x = E[i].a, y = E[i].b;
                 if (C.dead_v[x] || C.dead_v[y]) continue;
                 if (target && C.live <= target) break;

@@ -56,8 +56,24 @@ static vm_status nomem(vm_error *err) {
 
 /* The buffers a stuffing keeps in its gr_stuff_work, by use. */
 enum {
-    W_EV, W_TE, W_CUT, W_LPOS, W_POS, W_VAL, W_DELTA, W_NOWARP, W_LINEAR, W_VT_START, W_VT,
-    W_VE_START, W_VE, W_PIECE, W_SRC, W_TMP1, W_TMP2, W_COUNT
+    W_EV,
+    W_TE,
+    W_CUT,
+    W_LPOS,
+    W_POS,
+    W_VAL,
+    W_DELTA,
+    W_NOWARP,
+    W_LINEAR,
+    W_VT_START,
+    W_VT,
+    W_VE_START,
+    W_VE,
+    W_PIECE,
+    W_SRC,
+    W_TMP1,
+    W_TMP2,
+    W_COUNT
 };
 _Static_assert((int)W_COUNT == (int)GR_STUFF_BUFFERS, "gr_stuff_work holds every buffer");
 

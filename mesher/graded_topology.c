@@ -142,8 +142,8 @@ vm_status vm__gr_mesh_topology(const vm_mesh *m, long *euler, size_t *comps, vm_
             if (ra != rb) parent[ra] = rb;
         }
         for (int q = 0; q < 4; q++) {
-            face_key k = sorted3((uint32_t)c[fv[q][0]], (uint32_t)c[fv[q][1]],
-                                 (uint32_t)c[fv[q][2]]);
+            face_key k =
+                sorted3((uint32_t)c[fv[q][0]], (uint32_t)c[fv[q][1]], (uint32_t)c[fv[q][2]]);
             lo[4 * t + (size_t)q] = k.a;
             rest[4 * t + (size_t)q] = (uint64_t)k.b << 32 | k.c;
         }
