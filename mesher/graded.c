@@ -184,7 +184,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     gr_field f;
     gr_tree t;
     gr_lattice L;
-    gr_stuff_work work; /* the lattice's and the stuffing's buffers, kept across rounds */
+    gr_stuff_work work; /* the stuffing's buffers, kept across topology rounds */
     memset(&t, 0, sizeof t);
     memset(&L, 0, sizeof L);
     memset(&work, 0, sizeof work);
@@ -278,6 +278,10 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
             memcpy(saved, t.node, t.n * sizeof *saved);
             saved_n = t.n;
             saved_leaves = t.leaves;
+            /* the distance measure needs memory of its own: the lattice's and the
+             * stuffing's buffers go (kept, they raised the organ's peak by a GB) */
+            vm__gr_lattice_free(&L);
+            vm__gr_stuff_work_free(&work);
             s = refine_far(&t, &f, o, mesh, &sz, &split, err);
             lap(&clk, &st->graded_distance_s);
             if (s || !split) break;

@@ -151,24 +151,34 @@ vm_status vm__gr_mesh_topology(const vm_mesh *m, long *euler, size_t *comps, vm_
     /* Boundary faces are those of one tet: single entries of their lowest vertex's group.
      * Their edges (each face's three) go back into lo and rest, then the same for them. */
     if (!group(m->npoints, nf4, lo, rest, &fs, &faces)) goto nomem;
-    for (size_t v = 0; v < m->npoints; v++)
-        for (size_t i = fs[v]; i < fs[v + 1];) {
-            size_t j = i + 1;
-            while (j < fs[v + 1] && faces[j] == faces[i])
-                j++;
-            if (j == i + 1) {
-                uint32_t b = (uint32_t)(faces[i] >> 32), c = (uint32_t)faces[i];
-                onb[v] = onb[b] = onb[c] = 1;
-                uint32_t pl[3] = {(uint32_t)v, (uint32_t)v, b};
-                uint32_t ph[3] = {b, c, c};
-                for (int q = 0; q < 3; q++) {
-                    lo[3 * nf + (size_t)q] = pl[q];
-                    rest[3 * nf + (size_t)q] = ph[q];
-                }
-                nf++;
-            }
-            i = j;
+    for (int pass = 0; pass < 2; pass++) { /* count, then (room made) fill */
+        if (pass == 1 && 3 * nf > nf4) {
+            free(lo);
+            free(rest);
+            lo = malloc(3 * nf * sizeof *lo);
+            rest = malloc(3 * nf * sizeof *rest);
+            if (!lo || !rest) goto nomem;
         }
+        nf = 0;
+        for (size_t v = 0; v < m->npoints; v++)
+            for (size_t i = fs[v]; i < fs[v + 1];) {
+                size_t j = i + 1;
+                while (j < fs[v + 1] && faces[j] == faces[i])
+                    j++;
+                if (j == i + 1 && pass == 1) {
+                    uint32_t b = (uint32_t)(faces[i] >> 32), c = (uint32_t)faces[i];
+                    onb[v] = onb[b] = onb[c] = 1;
+                    uint32_t pl[3] = {(uint32_t)v, (uint32_t)v, b};
+                    uint32_t ph[3] = {b, c, c};
+                    for (int q = 0; q < 3; q++) {
+                        lo[3 * nf + (size_t)q] = pl[q];
+                        rest[3 * nf + (size_t)q] = ph[q];
+                    }
+                }
+                nf += j == i + 1;
+                i = j;
+            }
+    }
     free(fs);
     free(faces);
     fs = NULL;
