@@ -184,7 +184,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     gr_field f;
     gr_tree t;
     gr_lattice L;
-    gr_stuff_work work; /* the stuffing's buffers, kept across topology rounds */
+    gr_stuff_work work; /* the stuffing's buffers (one round's) */
     memset(&t, 0, sizeof t);
     memset(&L, 0, sizeof L);
     memset(&work, 0, sizeof work);
@@ -234,6 +234,11 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
         s = vm__gr_lattice_build(&L, &t, &f, err);
         lap(&clk, &st->graded_lattice_s);
         if (!s) s = vm__gr_stuff(&L, &t, &f, mesh, &ss, &work, err);
+        /* Given back at once: kept for the next round, they stayed resident through the
+         * topology count and the distance measure (1 GB more at the organ's peak, for no
+         * measurable gain in system time). */
+        vm__gr_lattice_free(&L);
+        vm__gr_stuff_work_free(&work);
         lap(&clk, &st->graded_stuff_s);
         long euler = 0;
         size_t comps = 0, split = 0;
@@ -278,10 +283,6 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
             memcpy(saved, t.node, t.n * sizeof *saved);
             saved_n = t.n;
             saved_leaves = t.leaves;
-            /* the distance measure needs memory of its own: the lattice's and the
-             * stuffing's buffers go (kept, they raised the organ's peak by a GB) */
-            vm__gr_lattice_free(&L);
-            vm__gr_stuff_work_free(&work);
             s = refine_far(&t, &f, o, mesh, &sz, &split, err);
             lap(&clk, &st->graded_distance_s);
             if (s || !split) break;
