@@ -125,9 +125,8 @@ typedef struct gr_slot {
 } gr_slot;
 
 /* The lattice: vertices (leaf corners and centres, and the face centres some faces need),
- * tets over them, positive in lattice coordinates. Its arrays are kept by the next
- * vm__gr_lattice_build on the same struct (each round of the mesher builds one; fresh blocks
- * every round had the kernel clear their pages). */
+ * tets over them, positive in lattice coordinates. A lattice built before may be given to
+ * vm__gr_lattice_build again: its arrays are reused. */
 typedef struct gr_lattice {
     int64_t *key; /* packed lattice coordinates per vertex */
     double *phi;  /* value per vertex */
@@ -165,9 +164,10 @@ typedef struct gr_stuff_stats {
 /* Cuts the lattice tets by the surface (warping lattice vertices onto it where a cut comes
  * close, when that changes no topology) and writes the inside pieces to `mesh`, in world
  * coordinates. */
-/* Buffers a caller keeps between stuffings (each round of the mesher stuffs a lattice a
- * little larger than the last; fresh blocks every round had the kernel clear their pages):
- * zeroed at first, freed by vm__gr_stuff_work_free. */
+/* Buffers a caller may keep between stuffings, so that a next one reuses them instead of
+ * having the kernel clear fresh pages (vm__mesh_graded gives them back after each round: kept,
+ * they raised the peak memory more than they saved): zeroed at first, freed by
+ * vm__gr_stuff_work_free. */
 enum { GR_STUFF_BUFFERS = 17 };
 typedef struct gr_stuff_work {
     void *buf[GR_STUFF_BUFFERS];
