@@ -118,7 +118,8 @@ static const char *mesh_help2 =
     "  --json                  print the summary as one JSON object\n"
     "  --quiet                 no progress bar (nor the status line of writing and checking)\n"
     "  --verbose               print the time of each stage (read, denoise, mesh, improve,\n"
-    "                          write, check, distance, report) on stderr\n"
+    "                          write, check, distance, report) on stderr, and of the\n"
+    "                          graded mesher's steps (docs/SIZING.md)\n"
     ;
 static const char *mesh_help3 =
     "  raw input: --raw-dims NXxNYxNZ --raw-type T [--raw-endian E] [--raw-spacing S]\n"
@@ -920,6 +921,17 @@ static int mesh_whole(mesh_args *m, mesh_job *j, int *done) {
         return vm_cli_fail("%s: %s", m->in.path, err.message);
     }
     vm_cli_stage_done(m->verbose, "mesh", &j->t);
+    if (m->verbose && m->o.graded) {
+        const vm_mesh_stats *g = &j->st;
+        fprintf(
+            stderr,
+            "volmesh:   graded: octree %.3f s (%zu leaves), topology %.3f s, lattice %.3f s, "
+            "stuffing %.3f s, distance %.3f s (%zu meshes); coarsening %.3f s (%zu vertices "
+            "removed)\n",
+            g->graded_octree_s, g->octree_leaves, g->graded_topology_s, g->graded_lattice_s,
+            g->graded_stuff_s, g->graded_distance_s, g->graded_meshes, g->graded_coarsen_s,
+            g->coarsened);
+    }
     /* --tets N met within 25%, or said */
     double n = (double)m->o.tets, got = (double)j->m.ncells;
     if (m->o.tets > 0 && (got > 1.25 * n || got < 0.75 * n))

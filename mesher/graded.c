@@ -104,6 +104,13 @@ static vm_status search_scale(gr_field *f, gr_sizing *sz, size_t want, int coars
     return leaves_at(f, &one, k, t, err);
 }
 
+/* Adds the seconds since *clk to *acc; *clk becomes now (the --verbose step times). */
+static void lap(double *clk, double *acc) {
+    double now = vm__now();
+    *acc += now - *clk;
+    *clk = now;
+}
+
 /* A progress call ("mesh", k / (k + 1) of 1) at the k-th step; nonzero: cancelled. */
 static int tick(vm__meter *pm, unsigned *k) {
     ++*k;
@@ -177,8 +184,10 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     gr_field f;
     gr_tree t;
     gr_lattice L;
+    gr_stuff_work work; /* the stuffing's buffers (one round's) */
     memset(&t, 0, sizeof t);
     memset(&L, 0, sizeof L);
+    memset(&work, 0, sizeof work);
     vm_status s = vm__gr_field_init(&f, v, o, err);
     if (s) return s;
     /* the caller's progress, polled for cancellation between and inside the stages */
@@ -190,18 +199,21 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     int measured = 1, corrected = 0;
     double d0 = sz.distance, per = 0;
     gr_sizing sz1 = sz;
+    double clk = vm__now();
     if (o->tets > 0) {
         s = search_scale(&f, &sz, o->tets, !o->no_coarsen, &per, &t, err);
         measured = 0; /* the count asked for wins over the distance */
     } else if (!(s = vm__gr_tree_build(&t, &f, &sz, err))) {
         s = vm__gr_tree_balance(&t, err);
     }
+    lap(&clk, &st->graded_octree_s);
     gr_stuff_stats ss;
     memset(&ss, 0, sizeof ss);
     /* The topology the mesh must have: the voxels' as dual contouring reads them. */
     long want_euler = 0;
     size_t want_comps = 0;
     if (!s) s = vm__gr_digital_topology(&f, &want_euler, &want_comps, err);
+    lap(&clk, &st->graded_topology_s);
     /* Mesh; where the topology of the first mesh differs (the octree's tests are local and
      * sufficient only where the field is smooth), split every crossed leaf a level and mesh
      * again. Then measure the distance both ways and refine the leaves where it is over the
@@ -218,12 +230,20 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
         }
         vm_mesh_free(mesh);
         vm_mesh_init(mesh, VM_TET4);
-        if (!(s = vm__gr_lattice_build(&L, &t, &f, err)))
-            s = vm__gr_stuff(&L, &t, &f, mesh, &ss, err);
+        st->graded_meshes++;
+        s = vm__gr_lattice_build(&L, &t, &f, err);
+        lap(&clk, &st->graded_lattice_s);
+        if (!s) s = vm__gr_stuff(&L, &t, &f, mesh, &ss, &work, err);
+        /* Given back at once: kept for the next round, they stayed resident through the
+         * topology count and the distance measure (1 GB more at the organ's peak, for no
+         * measurable gain in system time). */
         vm__gr_lattice_free(&L);
+        vm__gr_stuff_work_free(&work);
+        lap(&clk, &st->graded_stuff_s);
         long euler = 0;
         size_t comps = 0, split = 0;
         if (!s) s = vm__gr_mesh_topology(mesh, &euler, &comps, err);
+        lap(&clk, &st->graded_topology_s);
         if (s) break;
         if (euler != want_euler || comps != want_comps) {
             if (round > 0) { /* undo the last refinement */
@@ -263,18 +283,25 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
             memcpy(saved, t.node, t.n * sizeof *saved);
             saved_n = t.n;
             saved_leaves = t.leaves;
-            if ((s = refine_far(&t, &f, o, mesh, &sz, &split, err)) || !split) break;
+            s = refine_far(&t, &f, o, mesh, &sz, &split, err);
+            lap(&clk, &st->graded_distance_s);
+            if (s || !split) break;
             vm_mesh_free(&good);
             good = *mesh;
             vm_mesh_init(mesh, VM_TET4);
             st->refine_rounds = (size_t)++round;
         }
         s = vm__gr_tree_balance(&t, err);
+        lap(&clk, &st->graded_octree_s);
     }
     free(saved);
+    vm__gr_lattice_free(&L);
+    vm__gr_stuff_work_free(&work);
     vm_mesh_free(&good);
     if (!s && tick(&pm, &ticks)) s = vm__cancelled(err, "mesh");
+    lap(&clk, &st->graded_octree_s);
     if (!s && !o->no_coarsen && mesh->ncells) s = coarsen(mesh, &f, o, &sz, &pm, st, err);
+    lap(&clk, &st->graded_coarsen_s);
     if (!s && tick(&pm, &ticks)) s = vm__cancelled(err, "mesh");
     st->size_scale = sz.distance / d0;
     st->octree_leaves = t.leaves;

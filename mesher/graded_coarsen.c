@@ -78,6 +78,12 @@ typedef struct co {
     double vol_gain;         /* ... and the most it may gain */
     int strict;              /* repairing: a collapse must better the worst angle */
     size_t slot;             /* dead tets below this index are all reused (flips) */
+    /* per vertex: `applied` when a collapse last changed its star (star), or what its checks
+     * read (near: its star or a neighbour's) */
+    uint32_t *star, *near;
+    uint32_t applied; /* collapses made, plus one */
+    int budget_hit;   /* a check refused a collapse on the net volume budget */
+    int late;         /* the last check got past the changed tets (read the neighbours) */
     vm__meter *pm;           /* polled for cancellation (may be NULL) */
     unsigned polls;
     int stop;                /* cancelled */
@@ -447,6 +453,40 @@ static void face_out(const co *C, const vm_index *c, int k, double n[3]) {
                pt(C, c[k]), n);
 }
 
+/* A hint to fetch what p points at into the cache (no effect on results). */
+#if defined(__GNUC__) || defined(__clang__)
+#define PREFETCH(p) __builtin_prefetch(p)
+#else
+#define PREFETCH(p) ((void)(p))
+#endif
+
+/* The edges come shortest first, all over the mesh, and a check waits on memory more than it
+ * computes: what the check of edge e (the vertex lists) and of the edges before it (their
+ * tets, their points) will read is asked for a few edges ahead. */
+static void prefetch_edge(const co *C, int32_t a, int32_t b, int stage) {
+    int32_t v[2] = {a, b};
+    for (int i = 0; i < 2; i++) {
+        const ilist *l = &C->vt[v[i]];
+        if (stage == 0) {
+            PREFETCH(l);
+            PREFETCH(&C->bnd[v[i]]);
+            PREFETCH(&C->dead_v[v[i]]);
+        } else if (stage == 1) {
+            PREFETCH(l->v);
+        } else {
+            int32_t n = l->n < 16 ? l->n : 16;
+            for (int32_t k = 0; k < n; k++) {
+                PREFETCH(tet(C, l->v[k]));
+                if (stage == 3) {
+                    const vm_index *c = tet(C, l->v[k]);
+                    for (int r = 0; r < 4; r++)
+                        PREFETCH(pt(C, c[r]));
+                }
+            }
+        }
+    }
+}
+
 /* Small bags of packed ids (edges, faces), sorted once, then searched. */
 enum { SET_MAX = 2048 };
 typedef struct set {
@@ -511,6 +551,7 @@ static void stamp_next(co *C) {
 /* Whether collapsing a onto b keeps every condition; fills the plan (b's boundary star after
  * the collapse). */
 static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3) {
+    C->late = 0;
     if (C->fix[a] || (C->bnd[a] && !C->bnd[b])) return 0;
     const ilist *ta = &C->vt[a], *tb = &C->vt[b];
     /* the changed tets first (cheap, and most collapses fail here): positive, within the
@@ -520,9 +561,9 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
     for (int32_t i = 0; i < ta->n; i++) {
         int32_t t = ta->v[i];
         const vm_index *c = tet(C, t);
-        olo = fmin(olo, C->qlo[t]);
-        ohi = fmax(ohi, C->qhi[t]);
-        dvol -= C->sign * vol6(pt(C, c[0]), pt(C, c[1]), pt(C, c[2]), pt(C, c[3]));
+        /* (the volume change matters to boundary collapses only) */
+        if (C->bnd[a])
+            dvol -= C->sign * vol6(pt(C, c[0]), pt(C, c[1]), pt(C, c[2]), pt(C, c[3]));
         if (c[0] == b || c[1] == b || c[2] == b || c[3] == b) {
             shared++;
             continue;
@@ -535,6 +576,11 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
         dvol += v6;
     }
     if (!shared) return 0;
+    /* (read only now: most checks stop above, and these are misses in the cache) */
+    for (int32_t i = 0; i < ta->n; i++) {
+        olo = fmin(olo, C->qlo[ta->v[i]]);
+        ohi = fmax(ohi, C->qhi[ta->v[i]]);
+    }
     double amin = fmin(GR_CO_MIN, olo), amax = fmax(GR_CO_MAX, ohi);
     /* in cosines: no arc cosine per tet on this, the hottest path */
     double camin = cos(amin / GR_CO_DEG), camax = cos(amax / GR_CO_DEG), worst = -1;
@@ -560,6 +606,8 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
         if (cmax > worst) worst = cmax;
     }
     P->qmin = acos(worst) * GR_CO_DEG;
+    /* (up to here the check read a's tets only) */
+    C->late = 1;
     /* link condition, vertices: a neighbour of both a and b is in a tet of the edge */
     stamp_next(C);
     int32_t s_off = C->vstamp - 1, s_on = C->vstamp;
@@ -692,7 +740,10 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
     }
     if (fabs(dvol) / 6 > GR_CO_VOLUME * C->D * area) return 0;
     /* and the whole volume by at most GR_CO_NET_VOLUME of it */
-    if (C->dvol + dvol / 6 < -C->vol_budget || C->dvol + dvol / 6 > C->vol_gain) return 0;
+    if (C->dvol + dvol / 6 < -C->vol_budget || C->dvol + dvol / 6 > C->vol_gain) {
+        C->budget_hit = 1;
+        return 0;
+    }
     P->dvol = dvol / 6;
     /* b's boundary faces that stay */
     for (int32_t i = 0; i < tb->n; i++) {
@@ -739,6 +790,26 @@ static void measure(co *C, int32_t t) {
 /* Applies a checked collapse of a onto b. */
 static void apply(co *C, int32_t a, int32_t b, const plan *P) {
     ilist *ta = &C->vt[a];
+    /* What a check of edge xy reads (the tets of x and y, their vertices' tet lists, the
+     * samples near their triangles) changes here only where x or y is in a's star or next to
+     * it, and the first part of it (x's tets) only where x is in the star: such checks are
+     * to be made again (the memo of vm__gr_coarsen's passes). */
+    C->applied++;
+    stamp_next(C);
+    for (int32_t i = 0; i < ta->n; i++) {
+        const vm_index *c = tet(C, ta->v[i]);
+        for (int k = 0; k < 4; k++) {
+            if (C->vmark[c[k]] == C->vstamp) continue;
+            C->vmark[c[k]] = C->vstamp;
+            C->star[c[k]] = C->applied;
+            const ilist *l = &C->vt[c[k]];
+            for (int32_t j = 0; j < l->n; j++) {
+                const vm_index *q = tet(C, l->v[j]);
+                for (int r = 0; r < 4; r++)
+                    C->near[q[r]] = C->applied;
+            }
+        }
+    }
     for (int32_t i = 0; i < ta->n; i++) {
         int32_t t = ta->v[i];
         vm_index *c = C->m->cells + 4 * (size_t)t;
@@ -870,6 +941,13 @@ static void keyed_sort(keyed *e, keyed *tmp, size_t n) {
     if (src != e) memcpy(e, src, n * sizeof *e);
 }
 
+/* A failed edge of the last pass and `applied` when it failed. */
+typedef struct memo {
+    keyed e;
+    uint32_t when;
+    unsigned char late; /* 1: the check of x onto y failed late, 2: of y onto x */
+} memo;
+
 /* The nearest boundary vertex of each sample, by a grid of the boundary vertices; each
  * sample takes the nearest triangle of that vertex's star and keeps max(D, its distance). */
 static vm_status assign_samples(co *C, vm_error *err) {
@@ -989,6 +1067,8 @@ static void co_free(co *C) {
     free(C->qlo);
     free(C->qhi);
     free(C->qab);
+    free(C->star);
+    free(C->near);
 }
 
 /* Removes dead tets and unused points. */
@@ -1623,8 +1703,11 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     C.qlo = malloc(C.nt * sizeof *C.qlo);
     C.qhi = malloc(C.nt * sizeof *C.qhi);
     C.qab = malloc(C.nt * sizeof *C.qab);
+    C.star = calloc(C.nv, sizeof *C.star);
+    C.near = calloc(C.nv, sizeof *C.near);
+    C.applied = 1;
     if (!C.vt || !C.vs || !C.bnd || !C.fix || !C.dead_v || !C.dead_t || !C.vmark || !C.qlo ||
-        !C.qhi || !C.qab) {
+        !C.qhi || !C.qab || !C.star || !C.near) {
         co_free(&C);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
     }
@@ -1661,6 +1744,12 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     if (!s) s = samples(&C, err);
     if (!s) s = assign_samples(&C, err);
     keyed *E = NULL, *Etmp = NULL;
+    /* The memo: the edges whose checks failed both ways in the last pass (in E's order),
+     * with `applied` then and which ways failed late; a check fails again while no collapse
+     * has changed what it read since (apply marks the vertices), as long as no vertex moved
+     * (the memo lasts one round). */
+    memo *F = NULL, *Fn = NULL;
+    size_t nf = 0, fcap = 0;
     set *sets = malloc(3 * sizeof *sets);
     plan *P = malloc(2 * sizeof *P);
     if (!s && (!sets || !P))
@@ -1668,6 +1757,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     /* rounds of collapses, then moves (which open room for more collapses) */
     for (int round = 0; round < GR_CO_ROUNDS && !s && !C.nomem && !C.stop; round++) {
         size_t r0 = *removed;
+        nf = 0;
         for (int pass = 0; pass < GR_CO_PASSES && !s && !C.nomem && !C.stop; pass++) {
             /* the live edges, shortest first */
             size_t ne = 0;
@@ -1681,33 +1771,37 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
                 s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
                 break;
             }
-            for (size_t t = 0; t < C.nt; t++) {
-                if (C.dead_t[t]) continue;
-                const vm_index *c = tet(&C, (int32_t)t);
-                for (int i = 0; i < 4; i++)
-                    for (int j = i + 1; j < 4; j++) {
-                        int32_t x = (int32_t)c[i], y = (int32_t)c[j];
-                        if (x > y) {
-                            int32_t q = x;
-                            x = y;
-                            y = q;
-                        }
-                        /* each edge once: from the tet of the lowest index holding it */
-                        int first = 1;
-                        const ilist *l = &C.vt[x];
-                        for (int32_t k = 0; k < l->n && first; k++) {
-                            int32_t o = l->v[k];
-                            if ((size_t)o >= t) continue;
-                            const vm_index *q = tet(&C, o);
-                            for (int r = 0; r < 4; r++)
-                                if (q[r] == y) first = 0;
-                        }
-                        if (first) E[ne++] = (keyed){dist2(pt(&C, x), pt(&C, y)), x, y};
+            /* each edge once, from its lower end (the sort below fixes the order) */
+            for (size_t x = 0; x < C.nv; x++) {
+                const ilist *l = &C.vt[x];
+                if (!l->n) continue;
+                stamp_next(&C);
+                for (int32_t k = 0; k < l->n; k++) {
+                    const vm_index *c = tet(&C, l->v[k]);
+                    for (int r = 0; r < 4; r++) {
+                        int32_t y = (int32_t)c[r];
+                        if ((size_t)y <= x || C.vmark[y] == C.vstamp) continue;
+                        C.vmark[y] = C.vstamp;
+                        E[ne++] = (keyed){dist2(pt(&C, (int64_t)x), pt(&C, y)), (int32_t)x, y};
                     }
+                }
             }
             keyed_sort(E, Etmp, ne);
-            size_t before = *removed;
+            if (!F) {
+                fcap = ne;
+                F = malloc(fcap * sizeof *F + 1);
+                Fn = malloc(fcap * sizeof *Fn + 1);
+                if (!F || !Fn) {
+                    s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+                    break;
+                }
+            }
+            size_t before = *removed, j = 0, nfn = 0;
             for (size_t i = 0; i < ne && !C.nomem; i++) {
+                static const size_t ahead[4] = {24, 16, 8, 4};
+                for (int st = 0; st < 4; st++)
+                    if (i + ahead[st] < ne)
+                        prefetch_edge(&C, E[i + ahead[st]].a, E[i + ahead[st]].b, st);
                 int32_t x = E[i].a, y = E[i].b;
                 if (C.dead_v[x] || C.dead_v[y]) continue;
                 if (target && C.live <= target) break;
@@ -1717,16 +1811,39 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
                     x = y;
                     y = q;
                 }
-                int okx = check(&C, x, y, &P[0], &sets[0], &sets[1], &sets[2]);
-                int oky = C.bnd[x] == C.bnd[y] && check(&C, y, x, &P[1], &sets[0], &sets[1], &sets[2]);
+                while (j < nf && keyed_cmp(&F[j].e, &E[i]) < 0)
+                    j++;
+                if (j < nf && keyed_cmp(&F[j].e, &E[i]) == 0) {
+                    uint32_t w = F[j].when;
+                    int near = C.near[x] <= w && C.near[y] <= w;
+                    if ((F[j].late & 1 ? near : C.star[x] <= w) &&
+                        (F[j].late & 2 ? near : C.star[y] <= w)) {
+                        if (nfn < fcap) Fn[nfn++] = F[j];
+                        continue;
+                    }
+                }
+                C.budget_hit = 0;
+                int okx = check(&C, x, y, &P[0], &sets[0], &sets[1], &sets[2]), oky = 0;
+                int late = C.late;
+                if (C.bnd[x] == C.bnd[y]) {
+                    oky = check(&C, y, x, &P[1], &sets[0], &sets[1], &sets[2]);
+                    late |= C.late << 1;
+                }
                 if (okx && (!oky || P[0].qmin >= P[1].qmin))
                     apply(&C, x, y, &P[0]);
                 else if (oky)
                     apply(&C, y, x, &P[1]);
-                else
+                else {
+                    if (!C.budget_hit && nfn < fcap)
+                        Fn[nfn++] = (memo){E[i], C.applied, (unsigned char)late};
                     continue;
+                }
                 ++*removed;
             }
+            memo *q = F;
+            F = Fn;
+            Fn = q;
+            nf = nfn;
             if (target && C.live <= target) break;
             if ((double)(*removed - before) < 0.005 * (double)C.nv) break;
         }
@@ -1738,6 +1855,8 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
         if (!repair(&C, P, sets, removed)) break;
     free(E);
     free(Etmp);
+    free(F);
+    free(Fn);
     free(sets);
     free(P);
     if (!s && C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");

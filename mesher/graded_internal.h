@@ -118,16 +118,25 @@ static inline void vm__gr_lattice_pos(const gr_tree *t, const int64_t p[3], doub
         u[d] = t->u0[d] + (double)p[d] * 0.5 * t->h0[d];
 }
 
+/* An entry of the lattice's vertex table: a packed lattice point and its vertex id (-1:
+ * empty), side by side so that a probe reads one cache line. */
+typedef struct gr_slot {
+    int64_t key, id;
+} gr_slot;
+
 /* The lattice: vertices (leaf corners and centres, and the face centres some faces need),
- * tets over them, positive in lattice coordinates. */
+ * tets over them, positive in lattice coordinates. A lattice built before may be given to
+ * vm__gr_lattice_build again: its arrays are reused. */
 typedef struct gr_lattice {
     int64_t *key; /* packed lattice coordinates per vertex */
     double *phi;  /* value per vertex */
     size_t nv, vcap;
-    int64_t *slot; /* open-addressing table of vertex ids, size tcap (power of two) */
+    gr_slot *slot; /* open-addressing table of vertex ids, size tcap (power of two) */
     size_t tcap;
     int32_t (*tet)[4];
     size_t nt, tcap4;
+    int64_t *centre; /* per octree node: the vertex id of a leaf's centre (while building) */
+    size_t ccap;
 } gr_lattice;
 
 static inline int64_t vm__gr_key(const int64_t p[3]) {
@@ -139,6 +148,8 @@ static inline void vm__gr_unkey(int64_t k, int64_t p[3]) {
     p[2] = (k >> 42) & 0x1fffff;
 }
 
+/* Builds the lattice of t's leaves into L, which is zeroed memory or a lattice built before
+ * (its arrays are reused). */
 vm_status vm__gr_lattice_build(gr_lattice *L, const gr_tree *t, const gr_field *f,
                                vm_error *err);
 /* Vertex id of lattice point p, or -1. */
@@ -153,8 +164,20 @@ typedef struct gr_stuff_stats {
 /* Cuts the lattice tets by the surface (warping lattice vertices onto it where a cut comes
  * close, when that changes no topology) and writes the inside pieces to `mesh`, in world
  * coordinates. */
+/* Buffers a caller may keep between stuffings, so that a next one reuses them instead of
+ * having the kernel clear fresh pages (vm__mesh_graded gives them back after each round: kept,
+ * they raised the peak memory more than they saved): zeroed at first, freed by
+ * vm__gr_stuff_work_free. */
+enum { GR_STUFF_BUFFERS = 17 };
+typedef struct gr_stuff_work {
+    void *buf[GR_STUFF_BUFFERS];
+    size_t cap[GR_STUFF_BUFFERS]; /* bytes */
+} gr_stuff_work;
+void vm__gr_stuff_work_free(gr_stuff_work *w);
+
+/* work (may be NULL: buffers of this call only) keeps the buffers for the next call. */
 vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f, vm_mesh *mesh,
-                       gr_stuff_stats *st, vm_error *err);
+                       gr_stuff_stats *st, gr_stuff_work *work, vm_error *err);
 
 /* The topology of the voxels as dual contouring reads them (configuration table of
  * graded_config.c): the Euler characteristic of the boundary and the components of the

@@ -18,46 +18,66 @@ static vm_status nomem(vm_error *err) {
     return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the lattice");
 }
 
-static vm_status rehash(gr_lattice *L, vm_error *err) {
-    size_t cap = L->tcap ? 2 * L->tcap : 4096;
-    int64_t *slot = malloc(cap * sizeof *slot);
-    if (!slot) return nomem(err);
-    for (size_t i = 0; i < cap; i++)
-        slot[i] = -1;
-    for (size_t v = 0; v < L->nv; v++) {
-        size_t h = (size_t)vm__hash_mix((uint64_t)L->key[v]) & (cap - 1);
-        while (slot[h] >= 0)
-            h = (h + 1) & (cap - 1);
-        slot[h] = (int64_t)v;
+/* Where a key's probe starts: its block of 8^3 lattice points hashed, plus its place in the
+ * block, so that the lookups of one leaf and its neighbours (most of them) stay within a few
+ * pages of the table instead of one miss each. */
+static inline uint64_t slot_hash(int64_t key) {
+    const int64_t low = 7 | (int64_t)7 << 21 | (int64_t)7 << 42;
+    int64_t in = key & low;
+    return vm__hash_mix((uint64_t)(key & ~low)) +
+           (uint64_t)((in & 7) | ((in >> 21) & 7) << 3 | ((in >> 42) & 7) << 6);
+}
+
+/* Empties the table and sizes it for at least `need` vertices at load 1/2 (a power of two,
+ * at least 4096), then puts the vertices back. */
+static vm_status rehash(gr_lattice *L, size_t need, vm_error *err) {
+    size_t cap = L->tcap ? L->tcap : 4096;
+    while (cap < 2 * need)
+        cap *= 2;
+    if (cap != L->tcap) {
+        gr_slot *slot = malloc(cap * sizeof *slot);
+        if (!slot) return nomem(err);
+        free(L->slot);
+        L->slot = slot;
+        L->tcap = cap;
     }
-    free(L->slot);
-    L->slot = slot;
-    L->tcap = cap;
+    for (size_t i = 0; i < cap; i++)
+        L->slot[i].id = -1;
+    for (size_t v = 0; v < L->nv; v++) {
+        size_t h = (size_t)slot_hash(L->key[v]) & (cap - 1);
+        while (L->slot[h].id >= 0)
+            h = (h + 1) & (cap - 1);
+        L->slot[h].key = L->key[v];
+        L->slot[h].id = (int64_t)v;
+    }
     return VM_OK;
 }
 
 int64_t vm__gr_lattice_find(const gr_lattice *L, const int64_t p[3]) {
     int64_t key = vm__gr_key(p);
-    size_t h = (size_t)vm__hash_mix((uint64_t)key) & (L->tcap - 1);
-    while (L->slot[h] >= 0) {
-        if (L->key[L->slot[h]] == key) return L->slot[h];
+    size_t h = (size_t)slot_hash(key) & (L->tcap - 1);
+    while (L->slot[h].id >= 0) {
+        if (L->slot[h].key == key) return L->slot[h].id;
         h = (h + 1) & (L->tcap - 1);
     }
     return -1;
 }
 
-/* The id of lattice point p, added with value phi when new. [out] id. */
-static vm_status vertex(gr_lattice *L, const int64_t p[3], double phi, int64_t *id,
-                        vm_error *err) {
+static double lattice_phi(const gr_tree *t, const gr_field *f, const int64_t p[3]);
+
+/* The id of lattice point p, added when new with value phi, or (t not NULL) with the
+ * field's value there. [out] id. */
+static vm_status vertex_at(gr_lattice *L, const int64_t p[3], double phi, const gr_tree *t,
+                           const gr_field *f, int64_t *id, vm_error *err) {
     if (2 * (L->nv + 1) > L->tcap) {
-        vm_status s = rehash(L, err);
+        vm_status s = rehash(L, L->nv + 1, err);
         if (s) return s;
     }
     int64_t key = vm__gr_key(p);
-    size_t h = (size_t)vm__hash_mix((uint64_t)key) & (L->tcap - 1);
-    while (L->slot[h] >= 0) {
-        if (L->key[L->slot[h]] == key) {
-            *id = L->slot[h];
+    size_t h = (size_t)slot_hash(key) & (L->tcap - 1);
+    while (L->slot[h].id >= 0) {
+        if (L->slot[h].key == key) {
+            *id = L->slot[h].id;
             return VM_OK;
         }
         h = (h + 1) & (L->tcap - 1);
@@ -74,10 +94,16 @@ static vm_status vertex(gr_lattice *L, const int64_t p[3], double phi, int64_t *
         L->vcap = cap;
     }
     L->key[L->nv] = key;
-    L->phi[L->nv] = phi;
-    L->slot[h] = (int64_t)L->nv;
+    L->phi[L->nv] = t ? lattice_phi(t, f, p) : phi;
+    L->slot[h].key = key;
+    L->slot[h].id = (int64_t)L->nv;
     *id = (int64_t)L->nv++;
     return VM_OK;
+}
+
+static vm_status vertex(gr_lattice *L, const int64_t p[3], double phi, int64_t *id,
+                        vm_error *err) {
+    return vertex_at(L, p, phi, NULL, NULL, id, err);
 }
 
 /* phi at a lattice point, with 0 read as inside (the bound belongs to the material). */
@@ -207,11 +233,25 @@ static vm_status root_face(gr_lattice *L, const gr_tree *t, const gr_field *f, i
     return s;
 }
 
-static vm_status leaf_faces(gr_lattice *L, const gr_tree *t, const gr_field *f,
-                            const gr_node *q, vm_error *err) {
+/* The centre's id of the leaf at lattice point p below node `at` (its children are leaves
+ * next to a coarser one, by the 2:1 balance), without the hash table where it can. */
+static int64_t child_centre(const gr_lattice *L, const gr_tree *t, int64_t at,
+                            const int64_t p[3]) {
+    const gr_node *q = &t->node[at];
+    int64_t half = (int64_t)1 << q->level;
+    int c = 0;
+    for (int d = 0; d < 3; d++)
+        if (p[d] >= q->a[d] + half) c |= 1 << d;
+    int64_t k = q->child + c;
+    return t->node[k].child < 0 ? L->centre[k] : vm__gr_lattice_find(L, p);
+}
+
+static vm_status leaf_faces(gr_lattice *L, const gr_tree *t, const gr_field *f, size_t qi,
+                            vm_error *err) {
+    const gr_node *q = &t->node[qi];
     int64_t e = (int64_t)2 << q->level, h = e / 2, root = (int64_t)2 << t->root_level;
     int64_t cp[3] = {q->a[0] + h, q->a[1] + h, q->a[2] + h};
-    int64_t c = vm__gr_lattice_find(L, cp);
+    int64_t c = L->centre[qi];
     vm_status s = VM_OK;
     for (int d = 0; d < 3 && !s; d++)
         for (int side = 0; side < 2 && !s; side++) {
@@ -227,7 +267,7 @@ static vm_status leaf_faces(gr_lattice *L, const gr_tree *t, const gr_field *f,
             const gr_node *m = &t->node[nb];
             if (m->child < 0) {
                 if (m->level > q->level || !side) continue; /* the other side makes them */
-                s = face_tets(L, t, f, c, vm__gr_lattice_find(L, qn), a, e, d, 0.5, err);
+                s = face_tets(L, t, f, c, L->centre[nb], a, e, d, 0.5, err);
                 continue;
             }
             /* Four finer leaves across: around each segment from c to their centres. */
@@ -238,7 +278,7 @@ static vm_status leaf_faces(gr_lattice *L, const gr_tree *t, const gr_field *f,
                 for (int x = 0; x < 3; x++)
                     dc[x] = sa[x] + h / 2;
                 dc[d] = a[d] + (side ? h / 2 : -h / 2);
-                s = face_tets(L, t, f, c, vm__gr_lattice_find(L, dc), sa, h, d, 2.0 / 3.0, err);
+                s = face_tets(L, t, f, c, child_centre(L, t, nb, dc), sa, h, d, 2.0 / 3.0, err);
             }
         }
     return s;
@@ -246,9 +286,20 @@ static vm_status leaf_faces(gr_lattice *L, const gr_tree *t, const gr_field *f,
 
 vm_status vm__gr_lattice_build(gr_lattice *L, const gr_tree *t, const gr_field *f,
                                vm_error *err) {
-    memset(L, 0, sizeof *L);
+    /* the arrays of a lattice built before stay, emptied */
+    L->nv = 0;
+    L->nt = 0;
     vm__gr_config_init();
-    vm_status s = rehash(L, err);
+    vm_status s = rehash(L, 0, err);
+    if (!s && L->ccap < t->n) {
+        free(L->centre);
+        L->ccap = t->n + t->n / 4;
+        L->centre = malloc(L->ccap * sizeof *L->centre);
+        if (!L->centre) {
+            L->ccap = 0;
+            s = nomem(err);
+        }
+    }
     /* Corners first (every leaf's), then centres: a base cell's centre takes the sign the
      * cubical reading of its corners asks for. */
     for (size_t i = 0; i < t->n && !s; i++) {
@@ -258,7 +309,7 @@ vm_status vm__gr_lattice_build(gr_lattice *L, const gr_tree *t, const gr_field *
         for (int k = 0; k < 8 && !s; k++) {
             int64_t p[3] = {q->a[0] + (k & 1) * e, q->a[1] + ((k >> 1) & 1) * e,
                             q->a[2] + (k >> 2) * e};
-            if (vm__gr_lattice_find(L, p) < 0) s = vertex(L, p, lattice_phi(t, f, p), &id, err);
+            s = vertex_at(L, p, 0, t, f, &id, err);
         }
     }
     for (size_t i = 0; i < t->n && !s; i++) {
@@ -282,9 +333,10 @@ vm_status vm__gr_lattice_build(gr_lattice *L, const gr_tree *t, const gr_field *
             if (rule == GR_CENTRE_OUT && v >= 0) v = mag > 0 ? -mag : -1e-300;
         }
         s = vertex(L, p, v, &id, err);
+        L->centre[i] = id;
     }
     for (size_t i = 0; i < t->n && !s; i++)
-        if (t->node[i].child < 0) s = leaf_faces(L, t, f, &t->node[i], err);
+        if (t->node[i].child < 0) s = leaf_faces(L, t, f, i, err);
     return s;
 }
 
@@ -293,5 +345,6 @@ void vm__gr_lattice_free(gr_lattice *L) {
     free(L->phi);
     free(L->slot);
     free(L->tet);
+    free(L->centre);
     memset(L, 0, sizeof *L);
 }

@@ -47,10 +47,69 @@ typedef struct stuff {
     int32_t cur;         /* the lattice tet being cut */
     size_t border_zeros; /* vertices put on the surface on the volume's border */
     int64_t root;
+    gr_stuff_work *w; /* where the arrays above live between calls */
 } stuff;
 
 static vm_status nomem(vm_error *err) {
     return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory while stuffing the lattice");
+}
+
+/* The buffers a stuffing keeps in its gr_stuff_work, by use. */
+enum {
+    W_EV,
+    W_TE,
+    W_CUT,
+    W_LPOS,
+    W_POS,
+    W_VAL,
+    W_DELTA,
+    W_NOWARP,
+    W_LINEAR,
+    W_VT_START,
+    W_VT,
+    W_VE_START,
+    W_VE,
+    W_PIECE,
+    W_SRC,
+    W_TMP1,
+    W_TMP2,
+    W_COUNT
+};
+_Static_assert((int)W_COUNT == (int)GR_STUFF_BUFFERS, "gr_stuff_work holds every buffer");
+
+/* Buffer i of w with room for n bytes: the one kept from an earlier call when it is large
+ * enough, else a fresh one with a quarter to spare (the next round's lattice is a little
+ * larger), its contents undefined. NULL when out of memory. */
+static void *take(gr_stuff_work *w, int i, size_t n) {
+    if (n <= w->cap[i]) return w->buf[i];
+    free(w->buf[i]);
+    w->cap[i] = 0;
+    size_t want = n + n / 4;
+    w->buf[i] = malloc(want);
+    if (!w->buf[i]) w->buf[i] = malloc(want = n);
+    if (w->buf[i]) w->cap[i] = want;
+    return w->buf[i];
+}
+
+/* Gives buffer i back: temporaries are not kept, or their pages would stay resident through
+ * the stages that follow (the peak memory). */
+static void give(gr_stuff_work *w, int i) {
+    free(w->buf[i]);
+    w->buf[i] = NULL;
+    w->cap[i] = 0;
+}
+
+/* take, zeroed. */
+static void *take_zero(gr_stuff_work *w, int i, size_t n) {
+    void *p = take(w, i, n);
+    if (p) memset(p, 0, n);
+    return p;
+}
+
+void vm__gr_stuff_work_free(gr_stuff_work *w) {
+    for (int i = 0; i < GR_STUFF_BUFFERS; i++)
+        free(w->buf[i]);
+    memset(w, 0, sizeof *w);
 }
 
 /* Unique edges of the tets: the tets' edge slots grouped by their lower vertex (a counting
@@ -60,15 +119,11 @@ static vm_status build_edges(stuff *S, vm_error *err) {
     size_t ns = 6 * S->nt;
     if (ns >= (size_t)INT32_MAX)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: over 2^31 lattice edges; raise --min-edge");
-    size_t *start = calloc(S->nv + 2, sizeof *start);
-    int32_t(*slot)[2] = malloc((ns + 1) * sizeof *slot); /* upper vertex, tet * 6 + k */
-    S->ev = malloc((ns + 1) * sizeof *S->ev);
-    S->te = malloc((S->nt + 1) * sizeof *S->te);
-    if (!start || !slot || !S->ev || !S->te) {
-        free(start);
-        free(slot);
-        return nomem(err);
-    }
+    size_t *start = take_zero(S->w, W_TMP1, (S->nv + 2) * sizeof *start);
+    int32_t(*slot)[2] = take(S->w, W_TMP2, (ns + 1) * sizeof *slot); /* upper vertex, tet*6+k */
+    S->ev = take(S->w, W_EV, (ns + 1) * sizeof *S->ev);
+    S->te = take(S->w, W_TE, (S->nt + 1) * sizeof *S->te);
+    if (!start || !slot || !S->ev || !S->te) return nomem(err);
     for (size_t t = 0; t < S->nt; t++)
         for (int k = 0; k < 6; k++) {
             int32_t a = S->L->tet[t][tet_edge[k][0]], b = S->L->tet[t][tet_edge[k][1]];
@@ -99,9 +154,8 @@ static vm_status build_edges(stuff *S, vm_error *err) {
             S->te[slot[i][1] / 6][slot[i][1] % 6] = (int32_t)e;
         }
     }
-    free(start);
-    free(slot);
-    S->cut = malloc((S->ne + 1) * sizeof *S->cut);
+    give(S->w, W_TMP2);
+    S->cut = take(S->w, W_CUT, (S->ne + 1) * sizeof *S->cut);
     if (!S->cut) return nomem(err);
     for (size_t e = 0; e < S->ne; e++)
         S->cut[e] = NAN;
@@ -109,21 +163,21 @@ static vm_status build_edges(stuff *S, vm_error *err) {
 }
 
 /* Compressed adjacency: for each vertex, the items (tets or edges) that use it. */
-static vm_status adjacency(size_t nv, size_t nitems, int per, const int32_t *ids,
-                           size_t **start, int32_t **list, vm_error *err) {
-    *start = calloc(nv + 1, sizeof **start);
-    *list = malloc((nitems * (size_t)per + 1) * sizeof **list);
+static vm_status adjacency(gr_stuff_work *w, int wstart, int wlist, size_t nv, size_t nitems,
+                           int per, const int32_t *ids, size_t **start, int32_t **list,
+                           vm_error *err) {
+    *start = take_zero(w, wstart, (nv + 1) * sizeof **start);
+    *list = take(w, wlist, (nitems * (size_t)per + 1) * sizeof **list);
     if (!*start || !*list) return nomem(err);
     for (size_t i = 0; i < nitems * (size_t)per; i++)
         (*start)[ids[i] + 1]++;
     for (size_t v = 0; v < nv; v++)
         (*start)[v + 1] += (*start)[v];
-    size_t *fill = malloc((nv + 1) * sizeof *fill);
+    size_t *fill = take(w, W_TMP1, (nv + 1) * sizeof *fill);
     if (!fill) return nomem(err);
     memcpy(fill, *start, (nv + 1) * sizeof *fill);
     for (size_t i = 0; i < nitems * (size_t)per; i++)
         (*list)[fill[ids[i]]++] = (int32_t)(i / (size_t)per);
-    free(fill);
     return VM_OK;
 }
 
@@ -379,14 +433,16 @@ static int add_piece(stuff *S, int64_t a, int64_t b, int64_t c, int64_t d, int *
     if (S->np == S->pcap) {
         size_t cap = S->pcap ? 2 * S->pcap : 8192;
         int64_t(*np)[4] = realloc(S->piece, cap * sizeof *np);
-        if (np) S->piece = np;
+        if (np) S->w->buf[W_PIECE] = S->piece = np;
         int32_t *ns = realloc(S->src, cap * sizeof *ns);
-        if (ns) S->src = ns;
+        if (ns) S->w->buf[W_SRC] = S->src = ns;
         if (!np || !ns) {
             *nomem_flag = 1;
             return 1;
         }
         S->pcap = cap;
+        S->w->cap[W_PIECE] = cap * sizeof *np;
+        S->w->cap[W_SRC] = cap * sizeof *ns;
     }
     S->src[S->np] = S->cur;
     memcpy(S->piece[S->np++], id, sizeof id);
@@ -486,7 +542,7 @@ static void cut_all(stuff *S) {
 static vm_status write_mesh(stuff *S, vm_mesh *mesh, gr_stuff_stats *st, vm_error *err) {
     const vm_volume *vol = S->f->v;
     size_t total = S->nv + S->ne;
-    int64_t *map = malloc((total + 1) * sizeof *map);
+    int64_t *map = take(S->w, W_TMP1, (total + 1) * sizeof *map);
     if (!map) return nomem(err);
     for (size_t i = 0; i < total; i++)
         map[i] = -1;
@@ -495,10 +551,7 @@ static vm_status write_mesh(stuff *S, vm_mesh *mesh, gr_stuff_stats *st, vm_erro
         for (int k = 0; k < 4; k++)
             if (map[S->piece[p][k]] < 0) map[S->piece[p][k]] = (int64_t)npts++;
     vm_status s = vm_mesh_reserve(mesh, npts, S->np, err);
-    if (s) {
-        free(map);
-        return s;
-    }
+    if (s) return s;
     /* vm_mesh_reserve sized the region array with the cells */
     for (size_t i = 0; i < total; i++) {
         if (map[i] < 0) continue;
@@ -519,26 +572,7 @@ static vm_status write_mesh(stuff *S, vm_mesh *mesh, gr_stuff_stats *st, vm_erro
     }
     mesh->npoints = npts;
     mesh->ncells = S->np;
-    free(map);
     return VM_OK;
-}
-
-static void stuff_free(stuff *S) {
-    free(S->ev);
-    free(S->te);
-    free(S->cut);
-    free(S->lpos);
-    free(S->pos);
-    free(S->val);
-    free(S->delta);
-    free(S->vt_start);
-    free(S->vt);
-    free(S->ve_start);
-    free(S->ve);
-    free(S->nowarp);
-    free(S->linear);
-    free(S->piece);
-    free(S->src);
 }
 
 typedef struct face_rec {
@@ -573,7 +607,7 @@ static int inc_cmp(const void *x, const void *y) {
  * border); without warps the boundary is the zero set of a linear field on each tet. */
 static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_error *err) {
     size_t nf = 4 * S->np, nb = 0;
-    face_rec *f = malloc((nf + 1) * sizeof *f);
+    face_rec *f = take(S->w, W_TMP1, (nf + 1) * sizeof *f);
     if (!f) return nomem(err);
     for (size_t p = 0; p < S->np; p++)
         for (int k = 0; k < 4; k++) {
@@ -600,11 +634,8 @@ static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_erro
     }
     /* Incidences (vertex, other vertex of an edge, face): around each vertex, faces that
      * share an edge join one fan; an edge with other than two faces is a pinch too. */
-    inc_rec *in = malloc((6 * nb + 1) * sizeof *in);
-    if (!in) {
-        free(f);
-        return nomem(err);
-    }
+    inc_rec *in = take(S->w, W_TMP2, (6 * nb + 1) * sizeof *in);
+    if (!in) return nomem(err);
     size_t ni = 0;
     for (size_t b = 0; b < nb; b++) {
         for (int k = 0; k < 3; k++)
@@ -660,16 +691,21 @@ static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_erro
         }
         i = j;
     }
-    free(f);
-    free(in);
     return VM_OK;
 }
 
 vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f, vm_mesh *mesh,
-                       gr_stuff_stats *st, vm_error *err) {
+                       gr_stuff_stats *st, gr_stuff_work *work, vm_error *err) {
     memset(st, 0, sizeof *st);
     stuff S;
     memset(&S, 0, sizeof S);
+    gr_stuff_work own;
+    memset(&own, 0, sizeof own);
+    S.w = work ? work : &own;
+    S.piece = S.w->buf[W_PIECE];
+    S.src = S.w->buf[W_SRC];
+    S.pcap = S.w->cap[W_PIECE] / sizeof *S.piece;
+    if (S.w->cap[W_SRC] / sizeof *S.src < S.pcap) S.pcap = S.w->cap[W_SRC] / sizeof *S.src;
     S.L = L;
     S.t = t;
     S.f = f;
@@ -677,23 +713,41 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
     S.nt = L->nt;
     S.root = (int64_t)2 << t->root_level;
     vm_status s = build_edges(&S, err);
-    S.lpos = malloc((3 * S.nv + 1) * sizeof *S.lpos);
-    S.pos = malloc((3 * S.nv + 1) * sizeof *S.pos);
-    S.val = malloc((S.nv + 1) * sizeof *S.val);
-    S.delta = malloc((S.nv + 1) * sizeof *S.delta);
-    S.nowarp = calloc(S.nv + 1, 1);
-    S.linear = calloc(S.ne + 1, 1);
-    if (!s && (!S.lpos || !S.pos || !S.val || !S.delta || !S.nowarp || !S.linear))
-        s = nomem(err);
-    if (!s) s = adjacency(S.nv, S.nt, 4, &L->tet[0][0], &S.vt_start, &S.vt, err);
-    if (!s) s = adjacency(S.nv, S.ne, 2, &S.ev[0][0], &S.ve_start, &S.ve, err);
-    for (size_t v = 0; v < S.nv && !s; v++) {
-        int64_t p[3];
-        vm__gr_unkey(L->key[v], p);
-        vm__gr_lattice_pos(t, p, S.lpos + 3 * v);
-        double truth = vm__gr_phi(f, S.lpos + 3 * v);
-        /* Forced signs (and 0 read as inside) shift the field near the vertex. */
-        S.delta[v] = fabs(L->phi[v] - truth) < 1e-200 ? 0 : L->phi[v] - truth;
+    if (!s) {
+        S.lpos = take(S.w, W_LPOS, (3 * S.nv + 1) * sizeof *S.lpos);
+        S.pos = take(S.w, W_POS, (3 * S.nv + 1) * sizeof *S.pos);
+        S.val = take(S.w, W_VAL, (S.nv + 1) * sizeof *S.val);
+        S.delta = take(S.w, W_DELTA, (S.nv + 1) * sizeof *S.delta);
+        S.nowarp = take_zero(S.w, W_NOWARP, S.nv + 1);
+        S.linear = take_zero(S.w, W_LINEAR, S.ne + 1);
+        if (!S.lpos || !S.pos || !S.val || !S.delta || !S.nowarp || !S.linear) s = nomem(err);
+    }
+    if (!s)
+        s = adjacency(S.w, W_VT_START, W_VT, S.nv, S.nt, 4, &L->tet[0][0], &S.vt_start, &S.vt,
+                      err);
+    if (!s)
+        s = adjacency(S.w, W_VE_START, W_VE, S.nv, S.ne, 2, &S.ev[0][0], &S.ve_start, &S.ve,
+                      err);
+    if (!s) {
+        long long nv = (long long)S.nv;
+#pragma omp parallel for schedule(static)
+        for (long long i = 0; i < nv; i++) {
+            size_t v = (size_t)i;
+            int64_t p[3];
+            vm__gr_unkey(L->key[v], p);
+            vm__gr_lattice_pos(t, p, S.lpos + 3 * v);
+            double truth = vm__gr_phi(f, S.lpos + 3 * v);
+            /* Forced signs (and 0 read as inside) shift the field near the vertex. */
+            S.delta[v] = fabs(L->phi[v] - truth) < 1e-200 ? 0 : L->phi[v] - truth;
+        }
+        /* The cut of every edge the lattice's signs cross, ahead and in parallel: each is a
+         * function of its edge alone (warps and pieces then find them made). */
+        long long ne = (long long)S.ne;
+#pragma omp parallel for schedule(dynamic, 4096)
+        for (long long i = 0; i < ne; i++) {
+            double a = L->phi[S.ev[i][0]], b = L->phi[S.ev[i][1]];
+            if (a != 0 && b != 0 && (a > 0) != (b > 0)) cut_param(&S, (size_t)i);
+        }
     }
     for (int round = 0; !s; round++) {
         memcpy(S.pos, S.lpos, 3 * S.nv * sizeof *S.pos);
@@ -733,6 +787,8 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
         if (!bad || round == GR_ROUNDS - 1) break;
     }
     if (!s) s = write_mesh(&S, mesh, st, err);
-    stuff_free(&S);
+    give(S.w, W_TMP1);
+    give(S.w, W_TMP2);
+    vm__gr_stuff_work_free(&own);
     return s;
 }

@@ -77,17 +77,10 @@ vm_status vm__gr_digital_topology(const gr_field *f, long *euler, size_t *comps,
     return VM_OK;
 }
 
-/* A face or an edge as sorted vertex ids (c = UINT32_MAX for an edge). */
+/* A face as sorted vertex ids. */
 typedef struct face_key {
     uint32_t a, b, c;
 } face_key;
-
-static uint64_t key_hash(face_key k) {
-    uint64_t h = (uint64_t)k.a * 0x9E3779B97F4A7C15ull;
-    h ^= (uint64_t)k.b * 0xC2B2AE3D27D4EB4Full + (h >> 29);
-    h ^= (uint64_t)k.c * 0x165667B19E3779F9ull + (h >> 31);
-    return h ^ (h >> 33);
-}
 
 static face_key sorted3(uint32_t a, uint32_t b, uint32_t c) {
     uint32_t t;
@@ -97,54 +90,48 @@ static face_key sorted3(uint32_t a, uint32_t b, uint32_t c) {
     return (face_key){a, b, c};
 }
 
-/* Open-addressing set of keys with a count per key. */
-typedef struct key_set {
-    face_key *key;
-    uint32_t *count;
-    size_t cap;
-} key_set;
-
-static int set_init(key_set *s, size_t n) {
-    s->cap = 16;
-    while (s->cap < 2 * n)
-        s->cap *= 2;
-    s->key = malloc(s->cap * sizeof *s->key);
-    s->count = calloc(s->cap, sizeof *s->count);
-    return s->key && s->count;
-}
-
-static void set_add(key_set *s, face_key k) {
-    for (size_t at = key_hash(k) & (s->cap - 1);; at = (at + 1) & (s->cap - 1)) {
-        if (!s->count[at]) {
-            s->key[at] = k;
-            s->count[at] = 1;
-            return;
-        }
-        if (s->key[at].a == k.a && s->key[at].b == k.b && s->key[at].c == k.c) {
-            s->count[at]++;
-            return;
-        }
+/* Sorts x[0..n) ascending (the small groups of one lowest vertex). */
+static void sort_u64(uint64_t *x, size_t n) {
+    for (size_t i = 1; i < n; i++) {
+        uint64_t v = x[i];
+        size_t j = i;
+        for (; j > 0 && x[j - 1] > v; j--)
+            x[j] = x[j - 1];
+        x[j] = v;
     }
 }
 
-static void set_free(key_set *s) {
-    free(s->key);
-    free(s->count);
+/* Groups pairs (lo, rest) by lo with a counting sort: start[lo] .. start[lo + 1] index the
+ * rests of lo in out, sorted. [out] *start (npoints + 1 entries) and *out (n), freed by the
+ * caller; 0 when out of memory. The groups are small (the faces or edges at one vertex), so
+ * this walks memory in order where a hash table of all faces missed the cache on each. */
+static int group(size_t npoints, size_t n, const uint32_t *lo, const uint64_t *rest,
+                 size_t **start, uint64_t **out) {
+    *start = calloc(npoints + 2, sizeof **start);
+    *out = malloc((n + 1) * sizeof **out);
+    if (!*start || !*out) return 0;
+    size_t *st = *start;
+    for (size_t i = 0; i < n; i++)
+        st[lo[i] + 2]++;
+    for (size_t v = 0; v < npoints; v++)
+        st[v + 2] += st[v + 1];
+    for (size_t i = 0; i < n; i++)
+        (*out)[st[lo[i] + 1]++] = rest[i];
+    for (size_t v = 0; v < npoints; v++)
+        sort_u64(*out + st[v], st[v + 1] - st[v]);
+    return 1;
 }
 
 vm_status vm__gr_mesh_topology(const vm_mesh *m, long *euler, size_t *comps, vm_error *err) {
-    if (m->npoints >= UINT32_MAX)
+    if (m->npoints >= UINT32_MAX || m->ncells >= SIZE_MAX / 64)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: too many points for the topology count");
-    key_set faces, edges;
-    memset(&edges, 0, sizeof edges);
+    size_t nf4 = 4 * m->ncells, nf = 0, ne = 0, *fs = NULL, *es = NULL;
     uint32_t *parent = malloc((m->npoints + 1) * sizeof *parent);
     uint8_t *onb = calloc(m->npoints + 1, 1);
-    if (!parent || !onb || !set_init(&faces, 4 * m->ncells)) {
-        free(parent);
-        free(onb);
-        set_free(&faces);
-        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the topology count");
-    }
+    uint32_t *lo = malloc((nf4 + 1) * sizeof *lo);
+    uint64_t *rest = malloc((nf4 + 1) * sizeof *rest), *faces = NULL, *edges = NULL;
+    vm_status s = VM_OK;
+    if (!parent || !onb || !lo || !rest) goto nomem;
     for (size_t p = 0; p < m->npoints; p++)
         parent[p] = (uint32_t)p;
     static const int fv[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
@@ -154,45 +141,77 @@ vm_status vm__gr_mesh_topology(const vm_mesh *m, long *euler, size_t *comps, vm_
             uint32_t ra = root32(parent, (uint32_t)c[0]), rb = root32(parent, (uint32_t)c[q]);
             if (ra != rb) parent[ra] = rb;
         }
-        for (int q = 0; q < 4; q++)
-            set_add(&faces, sorted3((uint32_t)c[fv[q][0]], (uint32_t)c[fv[q][1]],
-                                    (uint32_t)c[fv[q][2]]));
-    }
-    /* Boundary faces are those of one tet. */
-    size_t nf = 0;
-    for (size_t at = 0; at < faces.cap; at++)
-        if (faces.count[at] == 1) nf++;
-    vm_status s = VM_OK;
-    if (!set_init(&edges, 3 * nf)) {
-        s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the topology count");
-    } else {
-        for (size_t at = 0; at < faces.cap; at++) {
-            if (faces.count[at] != 1) continue;
-            face_key k = faces.key[at];
-            onb[k.a] = onb[k.b] = onb[k.c] = 1;
-            set_add(&edges, (face_key){k.a, k.b, UINT32_MAX});
-            set_add(&edges, (face_key){k.a, k.c, UINT32_MAX});
-            set_add(&edges, (face_key){k.b, k.c, UINT32_MAX});
+        for (int q = 0; q < 4; q++) {
+            face_key k =
+                sorted3((uint32_t)c[fv[q][0]], (uint32_t)c[fv[q][1]], (uint32_t)c[fv[q][2]]);
+            lo[4 * t + (size_t)q] = k.a;
+            rest[4 * t + (size_t)q] = (uint64_t)k.b << 32 | k.c;
         }
-        long nv = 0, ne = 0;
-        for (size_t p = 0; p < m->npoints; p++)
-            nv += onb[p];
-        for (size_t at = 0; at < edges.cap; at++)
-            ne += edges.count[at] != 0;
-        *euler = nv - ne + (long)nf;
-        /* Components of the points the tets use. */
-        uint8_t *used = onb; /* reused: 1 where a tet uses the point */
-        memset(used, 0, m->npoints);
-        for (size_t t = 0; t < 4 * m->ncells; t++)
-            used[m->cells[t]] = 1;
-        size_t n = 0;
-        for (size_t p = 0; p < m->npoints; p++)
-            if (used[p] && parent[p] == p) n++;
-        *comps = n;
     }
-    set_free(&faces);
-    set_free(&edges);
+    /* Boundary faces are those of one tet: single entries of their lowest vertex's group.
+     * Their edges (each face's three) go back into lo and rest, then the same for them. */
+    if (!group(m->npoints, nf4, lo, rest, &fs, &faces)) goto nomem;
+    for (int pass = 0; pass < 2; pass++) { /* count, then (room made) fill */
+        if (pass == 1 && 3 * nf > nf4) {
+            free(lo);
+            free(rest);
+            lo = malloc(3 * nf * sizeof *lo);
+            rest = malloc(3 * nf * sizeof *rest);
+            if (!lo || !rest) goto nomem;
+        }
+        nf = 0;
+        for (size_t v = 0; v < m->npoints; v++)
+            for (size_t i = fs[v]; i < fs[v + 1];) {
+                size_t j = i + 1;
+                while (j < fs[v + 1] && faces[j] == faces[i])
+                    j++;
+                if (j == i + 1 && pass == 1) {
+                    uint32_t b = (uint32_t)(faces[i] >> 32), c = (uint32_t)faces[i];
+                    onb[v] = onb[b] = onb[c] = 1;
+                    uint32_t pl[3] = {(uint32_t)v, (uint32_t)v, b};
+                    uint32_t ph[3] = {b, c, c};
+                    for (int q = 0; q < 3; q++) {
+                        lo[3 * nf + (size_t)q] = pl[q];
+                        rest[3 * nf + (size_t)q] = ph[q];
+                    }
+                }
+                nf += j == i + 1;
+                i = j;
+            }
+    }
+    free(fs);
+    free(faces);
+    fs = NULL;
+    faces = NULL;
+    if (!group(m->npoints, 3 * nf, lo, rest, &es, &edges)) goto nomem;
+    /* distinct edges: distinct entries within each group */
+    for (size_t v = 0; v < m->npoints; v++)
+        for (size_t i = es[v]; i < es[v + 1]; i++)
+            ne += i == es[v] || edges[i] != edges[i - 1];
+    long nv = 0;
+    for (size_t p = 0; p < m->npoints; p++)
+        nv += onb[p];
+    *euler = nv - (long)ne + (long)nf;
+    /* Components of the points the tets use. */
+    uint8_t *used = onb; /* reused: 1 where a tet uses the point */
+    memset(used, 0, m->npoints);
+    for (size_t t = 0; t < 4 * m->ncells; t++)
+        used[m->cells[t]] = 1;
+    size_t n = 0;
+    for (size_t p = 0; p < m->npoints; p++)
+        if (used[p] && parent[p] == p) n++;
+    *comps = n;
+    goto done;
+nomem:
+    s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the topology count");
+done:
     free(parent);
     free(onb);
+    free(lo);
+    free(rest);
+    free(fs);
+    free(faces);
+    free(es);
+    free(edges);
     return s;
 }

@@ -80,6 +80,13 @@ typedef struct vm_mesh_stats {
     int refine_undone;         /* graded: the last distance refinement changed the topology
                                   and was undone (the distance may be over the bound) */
     double seconds;
+    /* graded: seconds per step, summed over the rounds (volmesh mesh --verbose prints them):
+       the octree (build, balance, splits), the voxels' and the meshes' topology counts, the
+       lattice, the stuffing, the distance measured for refinement, and coarsening; and the
+       lattices built and stuffed (one per round) */
+    double graded_octree_s, graded_topology_s, graded_lattice_s, graded_stuff_s,
+        graded_distance_s, graded_coarsen_s;
+    size_t graded_meshes;
 } vm_mesh_stats;
 
 /* Defaults: material f >= 0, tets, cell size 1, uniform. */
