@@ -62,6 +62,23 @@ vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improv
     else
         vm_improve_options_default(&io);
     if (meets_targets(m, &io, r)) return VM_OK;
+    /* The pass's bounds are in voxels of index space; the graded mesher's distance is in
+     * voxels of the geometric mean spacing (docs/SIZING.md). On anisotropic voxels (the CT
+     * head's 3.2 x 3.2 x 1.5 mm) half an index voxel along the long axis is 0.64 of the
+     * other: scale the bounds so that no axis allows more than they mean. */
+    if (v) {
+        double smax = 0, g = 1;
+        for (int d = 0; d < 3; d++) {
+            smax = fmax(smax, fabs(v->spacing[d]));
+            g *= fabs(v->spacing[d]);
+        }
+        double k = smax > 0 ? cbrt(g) / smax : 1;
+        if (k > 0 && k < 1) {
+            io.surface_tolerance *= k;
+            io.surface_band *= k;
+            io.max_surface_move *= k;
+        }
+    }
     first = io;
     first.contract = 0;
     if (first.max_surface_move > VM_GRADED_SURFACE_MOVE)
