@@ -417,6 +417,10 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     vm__meter_wrap(&pm, o->progress, o->progress_user, "contour", 4.0);
     g.progress = o->progress ? vm__meter_forward : NULL;
     g.progress_user = &pm;
+    /* adaptive hexes: the coarsest sampling grid that keeps the shape (hex_base.c) */
+    if (g.hexes && o->adaptive && o->full_nz <= 0 && o->cell_size == 1 && !resampled)
+        s = vm__hex_base_grid(v, o, &g, &resampled, step, NULL, err);
+    if (s) return s;
 
     vm__tet_soup soup;
     memset(&soup, 0, sizeof soup);
