@@ -96,7 +96,7 @@ def main():
                 u = run(a.volmesh, vol, os.path.join(d, "u.vtu"), False)
                 x = run(a.volmesh, vol, os.path.join(d, "a.vtu"), True)
                 dv = (x["volume"] - u["volume"]) / u["volume"]
-                print("| %s-%d | %d | %d | %.2fx | %.3f / %.3f | %d | %d / %d | %d / %d |"
+                print("| %s-%d | %d | %d | %.2fx | %.4f / %.4f | %d | %d / %d | %d / %d |"
                       " %+.2f%% | %.3f | %.1f / %.1f |" % (
                           kind, n, u["elements"], x["elements"],
                           u["elements"] / max(1, x["elements"]), u["min_scaled_jacobian"],
