@@ -33,11 +33,17 @@ static const double shift_probe = 0.1, shift_max = 0.25;
 /* A volume off by more than this share is mended (torus 64^3 at step 1.5: -0.46% plain). */
 static const double base_volume_aim = 0.002;
 
-/* The grid of one axis of len samples at about step s: *m points, *step samples apart. */
+/* The grid of one axis of len samples at step s exactly, from sample 0 on: *m points, the
+ * last at or below len - 1 (so that padding the volume past the material gives the same
+ * points: tests/mesher/test_mesh_padded.c; material touching the far face loses the sliver
+ * past the last point, and the volume check then rules the step out). */
 static void base_axis(int64_t len, double s, int64_t *m, double *step) {
-    *m = (int64_t)floor((double)(len - 1) / s + 0.5) + 1;
-    if (*m < 2) *m = 2;
-    *step = (double)(len - 1) / (double)(*m - 1);
+    *m = (int64_t)floor((double)(len - 1) / s + 1e-9) + 1;
+    *step = s;
+    if (*m < 2) {
+        *m = 2;
+        *step = (double)(len - 1);
+    }
 }
 
 /* v's trilinear field at index position p (inside its box) and its gradient g. */
