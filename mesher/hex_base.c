@@ -22,9 +22,12 @@ static const double base_steps[] = {1.5, 1.35};
  * a tenth of a percent) ... */
 static const double base_volume_tol = 0.006;
 /* ... and its boundary's Hausdorff distance to the isosurface at most this many voxels
- * above the full-resolution raw mesh's (both before the quality pass, which takes surface
- * points more than 0.45 voxel off nearer: the raw torus 64^3 is 0.66 voxel off at step 1
- * and 0.61 at step 1.5, 0.33 after the pass). */
+ * above the full-resolution raw mesh's (both before the quality pass). The raw distance is
+ * set by the dual-contouring relaxation of tangled hexes, which moves vertices toward their
+ * cells' centres, and the pass does not always bring them back: torus 96^3, raw 0.61 voxel
+ * at step 1 (0.36 after the pass) but 1.04 at step 1.5 (1.04 after the pass, so the step is
+ * not taken; taking those vertices back to the surface before the pass tangled hexes that
+ * the pass then left at 0.45). */
 static const double base_distance_gain = 0.2;
 
 /* The volume's slope is measured with the material grown by shift_probe voxels; a shift
