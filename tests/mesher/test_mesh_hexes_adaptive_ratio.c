@@ -108,5 +108,37 @@ static void aPlateKeepsTheFullResolutionGrid(void) {
     vm_volume_free(&v);
 }
 
+/* The grid's choice rests on checks that run on threads (the distance measure): the same
+ * mesh at 1 and 3 threads, on the genus-3 solid at 64^3, whose coarse grid is grown by a
+ * shift (the secant path), and fewer hexes than uniform. */
+static void theChosenGridIsTheSameForAnyThreadCount(void) {
+    vm_volume v;
+    vm_phantom_info info;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_GENUS3, 64, 0.0, 0, &v, &info, &err), &err);
+    int before = vm_set_threads(1);
+    vm_mesh a, b, u;
+    if (mesh_hex_levels(&v, 0.0, 0, &u, NULL) == VM_OK) {
+        if (mesh_hex_levels(&v, 0.0, 4, &a, NULL) == VM_OK) {
+            vm_set_threads(3);
+            if (mesh_hex_levels(&v, 0.0, 4, &b, NULL) == VM_OK) {
+                printf("  genus3 64^3: %zu uniform, %zu adaptive hexes before the pass\n",
+                       u.ncells, a.ncells);
+                CHECK(3 * a.ncells < u.ncells);
+                CHECK(a.ncells == b.ncells && a.npoints == b.npoints);
+                if (a.ncells == b.ncells && a.npoints == b.npoints) {
+                    CHECK(memcmp(a.points, b.points, 3 * a.npoints * sizeof(double)) == 0);
+                    CHECK(memcmp(a.cells, b.cells, 8 * a.ncells * sizeof(vm_index)) == 0);
+                }
+                vm_mesh_free(&b);
+            }
+            vm_mesh_free(&a);
+        }
+        vm_mesh_free(&u);
+    }
+    vm_set_threads(before);
+    vm_volume_free(&v);
+}
+
 TEST_MAIN(T(adaptiveHexesAreHalfTheUniformOnesWithTheirShape),
-          T(aPlateKeepsTheFullResolutionGrid))
+          T(aPlateKeepsTheFullResolutionGrid), T(theChosenGridIsTheSameForAnyThreadCount))
