@@ -8,29 +8,28 @@
  * smooth and thick enough (see docs/ALGORITHMS.md, "Adaptive hexahedra"). */
 #include "../core/core.h"
 #include "mesher_internal.h"
+#include "volmesh/improve.h"
 #include "volmesh/quality.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 /* The steps tried, coarsest first: 1.5^3 = 3.4, 1.4^3 = 2.7 and 1.3^3 = 2.2 times fewer grid
- * points (hexes) than the voxels; the first that keeps the shape is taken (hollow sphere
- * 64^3: 1.4; torus 96^3: 1.3, the coarser ones' raw meshes are 0.92 to 1.04 voxel off the
- * isosurface). */
+ * points (hexes) than the voxels; the first that keeps the shape is taken. */
 static const double base_steps[] = {1.5, 1.4, 1.3};
-/* A step keeps the shape when the mesh's volume is within this share of the full-resolution
- * mesh's (coarse boundary quads cut inside convex parts: torus 64^3 at step 1.5 -0.46%, the
- * genus-3 tubes, 3.5 voxels thick, -1.4%; the quality pass keeps the raw mesh's volume to
- * a tenth of a percent) ... */
-static const double base_volume_tol = 0.006;
-/* ... and its boundary's Hausdorff distance to the isosurface at most this many voxels
- * above the full-resolution raw mesh's (both before the quality pass). The raw distance is
- * set by the dual-contouring relaxation of tangled hexes, which moves vertices toward their
- * cells' centres, and the pass does not always bring them back: torus 96^3, raw 0.61 voxel
- * at step 1 (0.36 after the pass) but 1.04 at step 1.5 (1.04 after the pass, so the step is
- * not taken; taking those vertices back to the surface before the pass tangled hexes that
- * the pass then left at 0.45). */
-static const double base_distance_gain = 0.2;
+/* A step keeps the shape when, after the quality pass, its mesh has the topology of the
+ * full-resolution raw mesh, no inverted hex, min scaled Jacobian at least base_min_sj (the
+ * pass's target, which the uniform phantoms reach), the volume within base_volume_tol of the
+ * full-resolution raw mesh's (coarse boundary quads cut inside convex parts: torus 64^3 at
+ * step 1.5 -0.46% raw, the genus-3 tubes, 3.5 voxels thick, -1.4%; the pass keeps the
+ * volume to a tenth of a percent) and its boundary within base_distance_tol voxel of the
+ * isosurface both ways. The pass is run because the raw distance does not tell: the
+ * dual-contouring relaxation of tangled hexes moves vertices toward their cells' centres,
+ * and the pass brings them back on some meshes and not on others (torus 96^3: raw 0.61 voxel
+ * at step 1, 0.36 after the pass; 1.04 at step 1.5, 1.04 after the pass). The pass here is
+ * the one `volmesh mesh` runs after, with the same options, so the mesh it checks is the
+ * mesh made (genus-3 96^3 at step 1.5: 0.4989 voxel). */
+static const double base_min_sj = 0.5, base_volume_tol = 0.006, base_distance_tol = 0.499;
 
 /* The volume's slope is measured with the material grown by shift_probe voxels; a shift
  * larger than shift_max (voxels) is not tried. */
@@ -104,11 +103,12 @@ static vm_status base_resample(const vm_volume *v, const vm_mesh_options *o, con
     return VM_OK;
 }
 
-/* The uniform hexes of grid g (points step[] voxels apart) as a mesh, checked: *rep, and
- * with dist set the boundary's distance to v's isosurface. */
+/* The uniform hexes of grid g (points step[] voxels apart) as a mesh, checked: *raw; with
+ * pass set, the quality pass (vm_mesh_improve_hexes, default options, v's material) run on it
+ * too, checked again: *done, and its boundary's distance to v's isosurface *dist. */
 static vm_status base_trial(const vm_volume *v, const vm__grid *g, const double step[3],
-                            const vm_mesh_options *o, vm_mesh_report *rep,
-                            vm_surface_distance *dist, vm_error *err) {
+                            const vm_mesh_options *o, vm_mesh_report *raw, int pass,
+                            vm_mesh_report *done, vm_surface_distance *dist, vm_error *err) {
     vm__tet_soup soup;
     memset(&soup, 0, sizeof soup);
     vm_mesh_stats st;
@@ -123,59 +123,77 @@ static vm_status base_trial(const vm_volume *v, const vm__grid *g, const double 
         return s;
     }
     s = vm__soup_to_mesh(&soup, v, g->n, 0, step, &m, err);
-    if (!s) s = vm_mesh_check(&m, rep, err);
-    if (!s && dist)
-        s = vm_mesh_surface_distance(&m, v, o->lo, o->has_lo, o->hi, o->has_hi, dist, err);
+    if (!s) s = vm_mesh_check(&m, raw, err);
+    if (!s && pass) {
+        vm_hex_improve_options io;
+        vm_hex_improve_options_default(&io);
+        io.lo = o->lo;
+        io.hi = o->hi;
+        io.has_lo = o->has_lo;
+        io.has_hi = o->has_hi;
+        vm_hex_improve_report ir;
+        s = vm_mesh_improve_hexes(&m, v, &io, &ir, err);
+        if (!s) s = vm_mesh_check(&m, done, err);
+        if (!s)
+            s = vm_mesh_surface_distance(&m, v, o->lo, o->has_lo, o->hi, o->has_hi, dist, err);
+    }
     vm_mesh_free(&m);
     return s;
 }
 
-/* 1 when trial t keeps the shape of the full-resolution mesh r (see the file's comment). */
-static int base_keeps(const vm_mesh_report *r, const vm_surface_distance *rd,
-                      const vm_mesh_report *t, const vm_surface_distance *d) {
-    if (!t->boundary_closed || t->boundary_euler != r->boundary_euler ||
-        t->components != r->components || t->boundary_components != r->boundary_components)
+/* 1 when a raw trial t has the topology of the full-resolution raw mesh r. */
+static int base_topology(const vm_mesh_report *r, const vm_mesh_report *t) {
+    return t->cells > 0 && t->boundary_closed && t->boundary_euler == r->boundary_euler &&
+           t->components == r->components && t->boundary_components == r->boundary_components;
+}
+
+/* 1 when a trial after the pass (d: its report, dist) keeps the shape of the
+ * full-resolution raw mesh r: its topology, no inverted hex, min scaled Jacobian at least
+ * base_min_sj, volume within base_volume_tol, boundary within base_distance_tol. */
+static int base_keeps(const vm_mesh_report *r, const vm_mesh_report *d,
+                      const vm_surface_distance *dist) {
+    if (!base_topology(r, d) || d->inverted || !(d->min_scaled_jacobian >= base_min_sj))
         return 0;
-    if (!(fabs(t->volume - r->volume) <= base_volume_tol * fabs(r->volume))) return 0;
-    double vox = d->voxel > 0 ? d->voxel : 1;
-    return d->hausdorff / vox <= rd->hausdorff / vox + base_distance_gain;
+    if (!(fabs(d->volume - r->volume) <= base_volume_tol * fabs(r->volume))) return 0;
+    double vox = dist->voxel > 0 ? dist->voxel : 1;
+    return dist->hausdorff / vox <= base_distance_tol;
 }
 
 /* One trial of step k's grid (n points, st apart) with the material grown by shift:
- * *f its samples (NULL when the trial failed), *keeps whether it keeps the shape of the
- * full-resolution mesh (full, fd), *topo whether at least its topology does, *vol its
- * volume. Only running out of memory or a cancel is an error. */
+ * *f its samples (NULL when the trial failed), *topo whether its raw mesh has the topology
+ * of the full-resolution raw mesh full, *vol its raw volume; with pass set, *keeps whether
+ * it keeps the shape after the quality pass (base_keeps).
+ * Only running out of memory or a cancel is an error. */
 static vm_status base_try(const vm_volume *v, const vm_mesh_options *o, vm__grid *t,
-                          const int64_t n[3], const double st[3], double shift,
-                          const vm_mesh_report *full, const vm_surface_distance *fd, float **f,
-                          int *keeps, int *topo, double *vol, vm_error *err) {
+                          const int64_t n[3], const double st[3], double shift, int pass,
+                          const vm_mesh_report *full, float **f, int *keeps, int *topo,
+                          double *vol, vm_error *err) {
     *f = NULL;
     *keeps = *topo = 0;
     vm_status s = base_resample(v, o, n, st, shift, f, err);
     if (s) return s;
     memcpy(t->n, n, sizeof t->n);
     t->f = *f;
-    vm_mesh_report r;
+    vm_mesh_report raw, done;
     vm_surface_distance d;
     vm_error terr;
     /* a trial that fails (no grid point inside, say) only rules the grid out */
-    vm_status ts = base_trial(v, t, st, o, &r, &d, &terr);
+    vm_status ts = base_trial(v, t, st, o, &raw, pass, &done, &d, &terr);
+    if (ts == VM_OK) {
+        *topo = base_topology(full, &raw);
+        *vol = raw.volume;
+        *keeps = pass && *topo && base_keeps(full, &done, &d);
+    }
     if (ts == VM_ERR_NOMEM || ts == VM_ERR_CANCELLED) {
         free(*f);
         *f = NULL;
         if (err) *err = terr;
         return ts;
     }
-    if (ts != VM_OK || !r.cells) {
+    if (ts != VM_OK || !*topo) {
         free(*f);
         *f = NULL;
-        return VM_OK;
     }
-    *topo = r.boundary_closed && r.boundary_euler == full->boundary_euler &&
-            r.components == full->components &&
-            r.boundary_components == full->boundary_components;
-    *keeps = *topo && base_keeps(full, fd, &r, &d);
-    *vol = r.volume;
     return VM_OK;
 }
 
@@ -186,10 +204,10 @@ vm_status vm__hex_base_grid(const vm_volume *v, const vm_mesh_options *o, vm__gr
     t.progress = NULL;
     t.progress_user = NULL;
     t.max_level = 0;
-    vm_mesh_report full;
-    vm_surface_distance fd;
+    vm_mesh_report full, unused;
+    vm_surface_distance ud;
     const double one[3] = {1, 1, 1};
-    vm_status s = base_trial(v, &t, one, o, &full, &fd, err);
+    vm_status s = base_trial(v, &t, one, o, &full, 0, &unused, &ud, err);
     if (s || !full.cells) return s;
     /* the volume can be mended with a lower or an upper bound alone */
     int mend = o->has_lo != o->has_hi;
@@ -198,42 +216,47 @@ vm_status vm__hex_base_grid(const vm_volume *v, const vm_mesh_options *o, vm__gr
         double st[3];
         for (int a = 0; a < 3; a++)
             base_axis(v->dims[a], base_steps[k], &n[a], &st[a]);
-        /* the plain samples; where the volume is off by more than base_volume_aim, the
-         * material grown by the secant's shift (a trial at shift_probe gives the volume's
-         * slope), taken when it keeps the shape */
-        float *f0 = NULL, *f1 = NULL, *best = NULL;
-        int keeps0 = 0, topo0 = 0, keeps1 = 0, topo1 = 0;
+        /* the plain samples; where the raw volume is off by more than base_volume_aim, first
+         * the material grown by the secant's shift (a raw trial at shift_probe gives the
+         * volume's slope); the first that keeps the shape after the pass is taken */
+        float *f = NULL, *fp = NULL;
+        int keeps = 0, topo = 0, kp = 0, tp = 0;
         double v0 = 0, v1 = 0;
-        s = base_try(v, o, &t, n, st, 0, &full, &fd, &f0, &keeps0, &topo0, &v0, err);
+        s = base_try(v, o, &t, n, st, 0, 0, &full, &f, &keeps, &topo, &v0, err);
         if (s) return s;
-        if (keeps0) best = f0;
-        if (f0 && topo0 && mend && fabs(v0 - full.volume) > base_volume_aim * fabs(full.volume)) {
-            s = base_try(v, o, &t, n, st, shift_probe, &full, &fd, &f1, &keeps1, &topo1, &v1,
-                         err);
-            free(f1);
-            f1 = NULL;
+        free(f);
+        if (!topo) continue;
+        int plain = 1;
+        if (mend && fabs(v0 - full.volume) > base_volume_aim * fabs(full.volume)) {
+            s = base_try(v, o, &t, n, st, shift_probe, 0, &full, &fp, &kp, &tp, &v1, err);
+            free(fp);
+            fp = NULL;
             double shift = v1 > v0 ? shift_probe * (full.volume - v0) / (v1 - v0) : 0;
-            if (!s && v1 > v0 && fabs(shift) <= shift_max)
-                s = base_try(v, o, &t, n, st, shift, &full, &fd, &f1, &keeps1, &topo1, &v1,
-                             err);
-            if (s) {
-                free(f0);
-                return s;
+            if (!s && v1 > v0 && fabs(shift) <= shift_max) {
+                s = base_try(v, o, &t, n, st, shift, 1, &full, &fp, &kp, &tp, &v1, err);
+                if (!s && fp && kp) {
+                    f = fp;
+                    keeps = 1;
+                    plain = 0;
+                } else {
+                    free(fp);
+                }
             }
-            if (f1 && keeps1 && fabs(v1 - full.volume) < fabs(v0 - full.volume)) best = f1;
+            if (s) return s;
         }
-        if (best) {
-            if (best != f0) free(f0);
-            if (best != f1) free(f1);
+        if (plain) {
+            s = base_try(v, o, &t, n, st, 0, 1, &full, &f, &keeps, &topo, &v0, err);
+            if (s) return s;
+        }
+        if (f && keeps) {
             memcpy(g->n, n, sizeof g->n);
-            g->f = best;
-            *owned = best;
+            g->f = f;
+            *owned = f;
             memcpy(step, st, 3 * sizeof(double));
             if (chosen) *chosen = base_steps[k];
             return VM_OK;
         }
-        free(f0);
-        free(f1);
+        free(f);
     }
     return VM_OK;
 }
