@@ -29,8 +29,8 @@ static void adaptiveHexMeshOfTheSphereReachesTheBarAfterThePass(void) {
     CHECK_OK(s, &err);
     if (s == VM_OK) {
         check_hex_mesh(info.name, &m, info.euler + 2, (size_t)info.components + 1,
-                       info.volume + 120, 0.02);
-        check_improved(info.name, &m, &v, 0.0, 0.45, info.volume + 120);
+                       info.volume + 60, 0.02);
+        check_improved(info.name, &m, &v, 0.0, 0.45, info.volume + 60);
     }
     vm_mesh_free(&m);
     vm_volume_free(&v);
