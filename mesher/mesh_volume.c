@@ -417,6 +417,12 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     vm__meter_wrap(&pm, o->progress, o->progress_user, "contour", 4.0);
     g.progress = o->progress ? vm__meter_forward : NULL;
     g.progress_user = &pm;
+    /* adaptive hexes: the coarsest sampling grid that keeps the shape (hex_base.c); on it
+     * no interior coarsening (its transitions stay below 0.5 after the pass) */
+    double base_step = 1;
+    if (g.hexes && o->adaptive && o->full_nz <= 0 && o->cell_size == 1 && !resampled)
+        s = vm__hex_base_grid(v, o, &g, &resampled, step, &base_step, err);
+    if (s) return s;
 
     vm__tet_soup soup;
     memset(&soup, 0, sizeof soup);
@@ -424,7 +430,8 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
                 : vm__dual_contour_tets(&g, &soup, &st, err);
     /* --max-level L: up to L coarsening levels, blocks of 3^L cells */
     int64_t org[3] = {0, 0, 0}; /* each level's block grid origin (cells), from the last */
-    for (int64_t l = 1, sc = 1; !s && g.hexes && o->adaptive && l <= o->max_level; l++, sc *= 3) {
+    for (int64_t l = 1, sc = 1; !s && g.hexes && o->adaptive && base_step == 1 && l <= o->max_level;
+         l++, sc *= 3) {
         size_t before = soup.ntets;
         if ((s = vm__progress_check(g.progress, g.progress_user, "mesh", err))) break;
         s = vm__hex_adapt(&soup, g.n, sc, org, &st, err);

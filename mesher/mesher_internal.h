@@ -152,4 +152,11 @@ vm_status vm__dual_contour_hexes(const vm__grid *g, vm__tet_soup *out, vm_mesh_s
 vm_status vm__hex_adapt(vm__tet_soup *soup, const int64_t n[3], int64_t scale,
                         int64_t org[3], vm_mesh_stats *st, vm_error *err);
 
+/* Adaptive hexahedra's sampling grid (hex_base.c): g is v's own grid (step 1); when the
+ * uniform hexes of a coarser resampling of v keep their shape (topology, volume, distance to
+ * the isosurface), g takes the coarsest such grid (g->n, g->f = *owned, to free) and step
+ * its spacing in voxels; *chosen (NULL allowed): the step taken (1: g left as it is). */
+vm_status vm__hex_base_grid(const vm_volume *v, const vm_mesh_options *o, vm__grid *g,
+                            float **owned, double step[3], double *chosen, vm_error *err);
+
 #endif

@@ -3,9 +3,10 @@
 # tests/io/test_calculix.sh — CalculiX solves the static decks volmesh writes: a sphere phantom
 # centred on the origin (64^3 on [-1, 1], --range :0 --size 4; nodes near zero need exponent
 # numbers, which must fit CalculiX's 20-character fields) as C3D4 and C3D10, a two-label
-# volume with a material per label from --materials, the CT head bone
+# volume with a material per label from --materials (tetrahedra, and hexahedra: C3D8), the
+# CT head bone
 # (shared data, iso 1150, size 3; skipped when absent) in tetrahedra, and an adaptive
-# hexahedral sphere (C3D8, the transitions made by pillowing) from a built-in phantom. Each
+# hexahedral sphere (C3D8) from a built-in phantom. Each
 # deck is run through ccx, and its .dat/.frd must hold finite, non-zero displacements. Skips
 # (77) when ccx is absent; CI installs ccx (Debian calculix-ccx) through scripts/deps.sh --tests.
 set -u
@@ -114,6 +115,20 @@ if "$VM_CLI" mesh two.raw $raw --labels all --deck static --materials mats.csv -
     solve two ready
 else
     cat two.mesh.log; fail=$((fail+1))
+fi
+# The same two labels in hexahedra (C3D8): a material and section per label, the interface
+# surface, and ccx solves it.
+if "$VM_CLI" mesh two.raw $raw --labels all --elements hex --deck static --materials mats.csv \
+        -o twohex.inp -q >twohex.mesh.log 2>&1; then
+    [ "$(grep -c '^\*MATERIAL' twohex.inp)" = 2 ] && grep -q '^\*ELEMENT, TYPE=C3D8' twohex.inp &&
+        ! grep -q 'TYPE=C3D4' twohex.inp &&
+        grep -q 'ELSET=REGION_1, MATERIAL=Bone' twohex.inp &&
+        grep -q 'ELSET=REGION_2, MATERIAL=Cartilage' twohex.inp &&
+        grep -q '^\*SURFACE, NAME=IFACE_REGION_1_REGION_2' twohex.inp ||
+        { echo "twohex.inp: not C3D8 with one material and section per label"; fail=$((fail+1)); }
+    solve twohex ready
+else
+    cat twohex.mesh.log; fail=$((fail+1))
 fi
 if [ -f "$data" ]; then
     "$VM_CLI" mesh "$data" --iso 1150 --size 3 -o bone.vtu >mesh.log 2>&1 || { cat mesh.log; exit 1; }

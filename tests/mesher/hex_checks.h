@@ -25,6 +25,23 @@ static inline vm_status mesh_hex_levels(const vm_volume *v, double lo, int level
     return s;
 }
 
+/* Adds a one-voxel plate (10 x 10 x 0.6 voxels round the plane z = 2, a sphere
+ * topologically: one more component, boundary Euler characteristic 2 more, about 60 voxels
+ * of volume) in v's low corner, away from the phantoms. No point of the coarser grids (z a
+ * multiple of 1.5, 1.4 or 1.3) is inside it, so adaptive hexes keep the full-resolution grid
+ * and coarsen its interior (mesher/hex_base.c, dc_hex_adaptive.c). */
+static inline void add_corner_plate(vm_volume *v) {
+    for (int64_t k = 0; k < v->dims[2]; k++)
+        for (int64_t j = 0; j < v->dims[1]; j++)
+            for (int64_t i = 0; i < v->dims[0]; i++) {
+                double x = (double)i, y = (double)j, z = (double)k;
+                double f = fmin(0.3 - fabs(z - 2.0),
+                                fmin(fmin(x - 2.0, 12.0 - x), fmin(y - 2.0, 12.0 - y)));
+                float *d = v->data + i + v->dims[0] * (j + v->dims[1] * k);
+                if ((float)f > *d) *d = (float)f;
+            }
+}
+
 static inline void check_hex_mesh(const char *label, const vm_mesh *m, long euler, size_t comps,
                            double volume, double tol) {
     vm_mesh_report r;
