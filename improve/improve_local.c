@@ -814,6 +814,7 @@ static vm_status run_colour(lpass *P, int round, int colour, vm_error *err) {
         if (i > 0 && key[i] >> 32 != key[i - 1] >> 32) j++;
         X[j].block = (size_t)(key[i] >> 32);
         jobs[j].seed = vm__imp_part_seed(P->S.o.seed, 16 + round, X[j].block);
+        jobs[j].below_known = 1; /* P->S.below holds for every live slot */
         if (!sl_push(&X[j].seeds, (size_t)(key[i] & 0xffffffffu)))
             s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
@@ -895,6 +896,17 @@ vm_status vm__imp_local_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
         if (!P.mark || !P.W || !P.pidx || !P.bflag || !stars_build(S, &P.T) ||
             !grid_build(S, h, &P.G))
             s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    /* Every tet's boundary flag once, on the threads (each on its own: any thread count gives
+     * the same flags): the scans then pass over the tets inside (most of a job's margin)
+     * without measuring their boxes. */
+    if (s == VM_OK) {
+        const lpass *cp = &P;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+        for (size_t t = 0; t < S->nt; t++)
+            if (cells[4 * t] != DEAD) (void)on_boundary(cp, t);
     }
     size_t last = SIZE_MAX;
     for (int round = 0; round < ROUNDS && s == VM_OK; round++) {

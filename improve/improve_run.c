@@ -302,7 +302,8 @@ static vm_status imp_stars(vm__imp *w, const vm__imp_sub *sx, vm_error *err) {
             if (!sx->lock[t])
                 for (int k = 0; k < 4; k++) seen[w->tet[4 * t + k]] = 1;
     }
-    /* Each tet's quality on its own: any thread count gives the same values. */
+    /* Each tet's quality on its own: any thread count gives the same values. A part's tets
+     * known to meet the targets (most of them) wait until an operation reads theirs. */
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static, 4096)
 #endif
@@ -310,6 +311,8 @@ static vm_status imp_stars(vm__imp *w, const vm__imp_sub *sx, vm_error *err) {
         const vm_index *n = w->tet + 4 * t;
         if (seen && sx->lock[t] && !seen[n[0]] && !seen[n[1]] && !seen[n[2]] && !seen[n[3]])
             w->q[t] = 1.0;
+        else if (sx && sx->below && !sx->below[t])
+            w->q[t] = NAN; /* at or above the targets: measured when first read */
         else
             w->q[t] = vm__imp_tet_q(w, t);
     }
@@ -564,7 +567,7 @@ static size_t bad_vertices(const vm__imp *w, const tq *l, size_t n, vm_index *ou
     size_t c = 0;
     for (size_t i = 0; i < n; i++) {
         size_t t = l[i].t;
-        if (w->dead[t] || w->q[t] >= 1.0) continue;
+        if (w->dead[t] || vm__imp_q(w, t) >= 1.0) continue;
         for (int k = 0; k < 4; k++) {
             vm_index a = w->tet[4 * t + k];
             if (stamp[a] == round) continue;
@@ -612,17 +615,17 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         if (o->contract)
             for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
                 report(o, pass, 0, i, n);
-                if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_contract_tet(w, l[i].t);
+                if (!w->dead[l[i].t] && vm__imp_q(w, l[i].t) < 1.0) ops += (size_t)vm__imp_contract_tet(w, l[i].t);
             }
         if (o->flip)
             for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
                 report(o, pass, 1, i, n);
-                if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_flip_tet(w, l[i].t);
+                if (!w->dead[l[i].t] && vm__imp_q(w, l[i].t) < 1.0) ops += (size_t)vm__imp_flip_tet(w, l[i].t);
             }
         if (w->deep)
             for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
                 report(o, pass, 2, i, n);
-                if (!w->dead[l[i].t] && w->q[l[i].t] < VM__IMP_Q_ABAQUS)
+                if (!w->dead[l[i].t] && vm__imp_q(w, l[i].t) < VM__IMP_Q_ABAQUS)
                     ops += (size_t)vm__imp_peel_tet(w, l[i].t);
             }
         if (!next_bad_list(w, &l, &n)) break;
@@ -658,7 +661,7 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         if (!next_bad_list(w, &l, &n)) break;
         for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
             size_t t = l[i].t;
-            if (w->dead[t] || w->q[t] >= VM__IMP_Q_ABAQUS) continue;
+            if (w->dead[t] || vm__imp_q(w, t) >= VM__IMP_Q_ABAQUS) continue;
             if (vm__imp_contract_tet(w, t) || vm__imp_flip_tet(w, t) || vm__imp_peel_tet(w, t)) {
                 ops++;
                 continue;
