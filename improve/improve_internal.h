@@ -230,6 +230,9 @@ typedef struct vm__imp_sub {
     /* per submesh tet, when known (else NULL): 0 = at or above the targets as it stands, so
      * its quality is measured only when an operation first reads it (vm__imp_q) */
     const uint8_t *below;
+    /* per submesh tet, when known (else NULL): 1 = none of its faces is a boundary face of
+     * the submesh (a free tet inside the whole mesh: its neighbours are all in the part) */
+    const uint8_t *inside;
 } vm__imp_sub;
 
 /* One run of the pass (improve_run.c): sets *w up for m, runs the rounds and measures the
@@ -287,6 +290,8 @@ typedef struct vm__imp_pstate {
 } vm__imp_pstate;
 
 /* One part: its tets and the locked tets around it (slots), and what its run gives back. */
+/* vm__imp_job's bflag: a tet with no boundary face (any other value: not known). */
+#define VM__IMP_BF_INSIDE 2
 typedef struct vm__imp_job {
     /* slabs (improve_parts.c): the tets in slots with centroid z in [z0, z1) (or, with key,
      * key in it) */
@@ -307,6 +312,9 @@ typedef struct vm__imp_job {
     uint8_t *xbelow;
     size_t nx, x0; /* x0: the slot of the first, once appended */
     int below_known; /* the local pass: S->below holds for every tet of the job */
+    /* the local pass: per slot, VM__IMP_BF_INSIDE for a tet known to have no boundary face
+     * (else NULL) */
+    const uint8_t *bflag;
     vm_status s;
     vm_error err;
     int passes;

@@ -307,7 +307,7 @@ static int bad_now(lpass *P) {
 
 /* Whether the tet in slot t has a face no other tet shares (a boundary face), on the
  * stars as they are: cached in P->bflag until a job changes the tet or a neighbour. */
-enum { BF_UNKNOWN = 0, BF_YES = 1, BF_NO = 2 };
+enum { BF_UNKNOWN = 0, BF_YES = 1, BF_NO = VM__IMP_BF_INSIDE };
 static int on_boundary(const lpass *P, size_t t) {
     static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
     uint8_t f;
@@ -736,6 +736,10 @@ static vm_status run_batch(lpass *P, job *jobs, ljob *X, size_t n, vm_error *err
         for (size_t i = 0; i < ntake; i++)
             run[i] = take[i];
         qsort_r_jobs(run, ntake, jobs);
+        /* the boundary flags as the scans left them (nothing writes them while the jobs run;
+         * local_update, after them, clears those of the tets they changed) */
+        for (size_t i = 0; i < ntake; i++)
+            jobs[run[i]].bflag = P->bflag;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1)
 #endif

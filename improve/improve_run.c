@@ -150,11 +150,12 @@ static int interface_plane(vm__imp *w, size_t i) {
     return 1;
 }
 
-/* Fills w->bfaces with the boundary faces of the tets in order (4 t + f): chunks of tets
+/* Fills w->bfaces with the boundary faces of the tets in order (4 t + f), passing over the
+ * tets inside[] marks (when given): chunks of tets
  * searched in parallel, joined in chunk order. VM_ERR_NOMEM on out-of-memory (the caller
  * sets the message). */
 #define BF_CHUNK ((size_t)1 << 14)
-static vm_status find_boundary_faces(vm__imp *w) {
+static vm_status find_boundary_faces(vm__imp *w, const uint8_t *inside) {
     size_t nt = w->ntet, nc = (nt + BF_CHUNK - 1) / BF_CHUNK;
     size_t **lists = calloc(nc + 1, sizeof *lists), *cnt = calloc(nc + 1, sizeof *cnt);
     int fail = !lists || !cnt;
@@ -168,7 +169,7 @@ static vm_status find_boundary_faces(vm__imp *w) {
         for (size_t t = c * BF_CHUNK; t < t1; t++)
             for (int f = 0; f < 4; f++) {
                 const vm_index *n = w->tet + 4 * t;
-                if (w->dead[t] ||
+                if (w->dead[t] || (inside && inside[t]) ||
                     vm__imp_face_other(w, t, n[tet_face[f][0]], n[tet_face[f][1]],
                                        n[tet_face[f][2]]) >= 0)
                     continue;
@@ -464,7 +465,7 @@ static vm_status imp_boundary_classes(vm__imp *w, const vm__imp_sub *sx, vm_erro
     size_t np = w->npt;
     uint8_t *bnd = calloc(np, 1), *nonbox = calloc(np, 1), *boxmask = calloc(np, 1);
     vm_status s = VM_OK;
-    if (!bnd || !nonbox || !boxmask || find_boundary_faces(w) != VM_OK)
+    if (!bnd || !nonbox || !boxmask || find_boundary_faces(w, sx ? sx->inside : NULL) != VM_OK)
         s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     if (s == VM_OK) s = imp_constrained(w, sx, bnd, err);
     if (s == VM_OK) {
