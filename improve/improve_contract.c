@@ -331,7 +331,7 @@ static double merged_min(const vm__imp *w, vm_index a, vm_index b, const double 
         for (int32_t i = 0; i < s->n; i++) {
             size_t t = (size_t)s->t[i];
             if (vm__imp_has(w, t, other)) continue;
-            double q = moved ? vm__imp_tet_q_moved(w, t, u, x) : w->q[t];
+            double q = moved ? vm__imp_tet_q_moved(w, t, u, x) : vm__imp_q(w, t);
             if (q < qmin) qmin = q;
             if (qmin <= floor_q) return qmin;
         }
@@ -350,7 +350,7 @@ static int merged_above(const vm__imp *w, vm_index a, vm_index b, const double x
         for (int32_t i = 0; i < s->n; i++) {
             size_t t = (size_t)s->t[i];
             if (vm__imp_has(w, t, other)) continue;
-            if (moved ? !vm__imp_tet_above_moved(w, t, u, x, bar) : !(w->q[t] > bar->f))
+            if (moved ? !vm__imp_tet_above_moved(w, t, u, x, bar) : !(vm__imp_q(w, t) > bar->f))
                 return 0;
         }
     }
@@ -505,7 +505,7 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
             size_t t = (size_t)s->t[i];
             if (first) reg = w->region[t], first = 0;
             if (w->region[t] != reg) return 0;
-            if (w->q[t] < old) old = w->q[t];
+            if (vm__imp_q(w, t) < old) old = vm__imp_q(w, t);
         }
     }
     double floor_q = old + VM__IMP_GAIN;
@@ -812,7 +812,7 @@ static int cluster_collapse(vm__imp *w, size_t t) {
     for (size_t i = 0; i < nu; i++) {
         memcpy(tl[i], w->tet + 4 * U[i], sizeof tl[i]);
         if (w->region[U[i]] != w->region[U[0]]) ok = 0;
-        if (w->q[U[i]] < old) old = w->q[U[i]];
+        if (vm__imp_q(w, U[i]) < old) old = vm__imp_q(w, U[i]);
     }
     double best = old + VM__IMP_GAIN;
     vm_index bs = -1, bord[CLUSTER_MAX];

@@ -63,7 +63,7 @@ static int flip23(vm__imp *w, size_t t, int i) {
         if (x != a && x != b && x != c) e = x;
     }
     if (adjacent(w, d, e)) return 0;
-    double old = w->q[t] < w->q[u] ? w->q[t] : w->q[u];
+    double old = vm__imp_q(w, t) < vm__imp_q(w, u) ? vm__imp_q(w, t) : vm__imp_q(w, u);
     vm_index nw[3][4] = {{a, b, e, d}, {b, c, e, d}, {c, a, e, d}};
     vm__imp_bar bar;
     vm__imp_bar_set(w, old + VM__IMP_GAIN, &bar);
@@ -169,7 +169,7 @@ static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
     double old = INFINITY;
     for (int r = 0; r < n; r++) {
         if (w->region[ring[r]] != w->region[t]) return 0;
-        if (w->q[ring[r]] < old) old = w->q[ring[r]];
+        if (vm__imp_q(w, ring[r]) < old) old = vm__imp_q(w, ring[r]);
         int k2 = 0;
         vm_index o[2] = {0, 0};
         for (int k = 0; k < 4; k++) {

@@ -146,6 +146,16 @@ int vm__imp_tet_above_moved(const vm__imp *w, size_t t, vm_index a, const double
                             const vm__imp_bar *b);
 /* Recomputes w->q[t], noting t in w->touched when it is below the targets. */
 void vm__imp_requal(vm__imp *w, size_t t);
+/* w->q[t], measured now when it is not known yet (NaN: a part's tet known to be at or above
+ * the targets, its value not needed until an operation reads it). */
+static inline double vm__imp_q(const vm__imp *w, size_t t) {
+    double q = w->q[t];
+    if (q != q) {
+        q = vm__imp_tet_q(w, t);
+        ((vm__imp *)w)->q[t] = q; /* w itself is never const: a cache of the run's own */
+    }
+    return q;
+}
 /* Quality of tet t with vertex a replaced by position x (a must be in t). */
 double vm__imp_tet_q_moved(const vm__imp *w, size_t t, vm_index a, const double x[3]);
 
@@ -217,6 +227,12 @@ typedef struct vm__imp_sub {
      * the volume's data) */
     const float *planes;
     int64_t k0, k1;
+    /* per submesh tet, when known (else NULL): 0 = at or above the targets as it stands, so
+     * its quality is measured only when an operation first reads it (vm__imp_q) */
+    const uint8_t *below;
+    /* per submesh tet, when known (else NULL): 1 = none of its faces is a boundary face of
+     * the submesh (a free tet inside the whole mesh: its neighbours are all in the part) */
+    const uint8_t *inside;
 } vm__imp_sub;
 
 /* One run of the pass (improve_run.c): sets *w up for m, runs the rounds and measures the
@@ -274,6 +290,8 @@ typedef struct vm__imp_pstate {
 } vm__imp_pstate;
 
 /* One part: its tets and the locked tets around it (slots), and what its run gives back. */
+/* vm__imp_job's bflag: a tet with no boundary face (any other value: not known). */
+#define VM__IMP_BF_INSIDE 2
 typedef struct vm__imp_job {
     /* slabs (improve_parts.c): the tets in slots with centroid z in [z0, z1) (or, with key,
      * key in it) */
@@ -293,6 +311,10 @@ typedef struct vm__imp_job {
     vm_index *xpar;
     uint8_t *xbelow;
     size_t nx, x0; /* x0: the slot of the first, once appended */
+    int below_known; /* the local pass: S->below holds for every tet of the job */
+    /* the local pass: per slot, VM__IMP_BF_INSIDE for a tet known to have no boundary face
+     * (else NULL) */
+    const uint8_t *bflag;
     vm_status s;
     vm_error err;
     int passes;

@@ -307,7 +307,7 @@ static int bad_now(lpass *P) {
 
 /* Whether the tet in slot t has a face no other tet shares (a boundary face), on the
  * stars as they are: cached in P->bflag until a job changes the tet or a neighbour. */
-enum { BF_UNKNOWN = 0, BF_YES = 1, BF_NO = 2 };
+enum { BF_UNKNOWN = 0, BF_YES = 1, BF_NO = VM__IMP_BF_INSIDE };
 static int on_boundary(const lpass *P, size_t t) {
     static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
     uint8_t f;
@@ -736,6 +736,10 @@ static vm_status run_batch(lpass *P, job *jobs, ljob *X, size_t n, vm_error *err
         for (size_t i = 0; i < ntake; i++)
             run[i] = take[i];
         qsort_r_jobs(run, ntake, jobs);
+        /* the boundary flags as the scans left them (nothing writes them while the jobs run;
+         * local_update, after them, clears those of the tets they changed) */
+        for (size_t i = 0; i < ntake; i++)
+            jobs[run[i]].bflag = P->bflag;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1)
 #endif
@@ -814,6 +818,7 @@ static vm_status run_colour(lpass *P, int round, int colour, vm_error *err) {
         if (i > 0 && key[i] >> 32 != key[i - 1] >> 32) j++;
         X[j].block = (size_t)(key[i] >> 32);
         jobs[j].seed = vm__imp_part_seed(P->S.o.seed, 16 + round, X[j].block);
+        jobs[j].below_known = 1; /* P->S.below holds for every live slot */
         if (!sl_push(&X[j].seeds, (size_t)(key[i] & 0xffffffffu)))
             s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
@@ -895,6 +900,17 @@ vm_status vm__imp_local_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
         if (!P.mark || !P.W || !P.pidx || !P.bflag || !stars_build(S, &P.T) ||
             !grid_build(S, h, &P.G))
             s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    /* Every tet's boundary flag once, on the threads (each on its own: any thread count gives
+     * the same flags): the scans then pass over the tets inside (most of a job's margin)
+     * without measuring their boxes. */
+    if (s == VM_OK) {
+        const lpass *cp = &P;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+        for (size_t t = 0; t < S->nt; t++)
+            if (cells[4 * t] != DEAD) (void)on_boundary(cp, t);
     }
     size_t last = SIZE_MAX;
     for (int round = 0; round < ROUNDS && s == VM_OK; round++) {

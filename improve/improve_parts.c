@@ -471,6 +471,7 @@ void vm__imp_job_run(pstate *S, job *J) {
     float *planes = NULL;
     double *sp0 = NULL;
     size_t *tpar = NULL;
+    uint8_t *tbelow = NULL, *tinside = NULL;
     vm__imp w;
     memset(&w, 0, sizeof w);
     if (!gid || !lock) goto nomem;
@@ -504,7 +505,21 @@ void vm__imp_job_run(pstate *S, job *J) {
     }
     sub.npoints = sub.point_cap = ng;
     sub.ncells = sub.cell_cap = nc;
-    vm__imp_sub x = {lock, sp0, S->box, J->seed, NULL, 0, 0};
+    /* the local pass knows which tets are below the targets: the others' qualities wait */
+    if (J->below_known) {
+        tbelow = malloc(nc + 1);
+        if (!tbelow) goto nomem;
+        for (size_t i = 0; i < nc; i++)
+            tbelow[i] = S->below[i < J->nps ? J->ps[i] : J->ls[i - J->nps]];
+    }
+    /* and which free tets have no boundary face: their faces need no search */
+    if (J->bflag) {
+        tinside = calloc(nc + 1, 1);
+        if (!tinside) goto nomem;
+        for (size_t i = 0; i < J->nps; i++)
+            tinside[i] = J->bflag[J->ps[i]] == VM__IMP_BF_INSIDE;
+    }
+    vm__imp_sub x = {lock, sp0, S->box, J->seed, NULL, 0, 0, tbelow, tinside};
     if (S->src && !(planes = part_planes(S, J, &sub, &x))) goto done;
     sp0 = NULL; /* the run frees it and the submesh once it has copied them */
     J->s = vm__imp_run(&w, &sub, S->v, &S->o, &x, &J->passes, &J->maxmove, &J->maxiface,
@@ -573,6 +588,8 @@ done:
     vm_mesh_free(&sub);
     free(sp0);
     free(tpar);
+    free(tbelow);
+    free(tinside);
     free(lock);
     free(gid);
 }

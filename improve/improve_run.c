@@ -150,11 +150,12 @@ static int interface_plane(vm__imp *w, size_t i) {
     return 1;
 }
 
-/* Fills w->bfaces with the boundary faces of the tets in order (4 t + f): chunks of tets
+/* Fills w->bfaces with the boundary faces of the tets in order (4 t + f), passing over the
+ * tets inside[] marks (when given): chunks of tets
  * searched in parallel, joined in chunk order. VM_ERR_NOMEM on out-of-memory (the caller
  * sets the message). */
 #define BF_CHUNK ((size_t)1 << 14)
-static vm_status find_boundary_faces(vm__imp *w) {
+static vm_status find_boundary_faces(vm__imp *w, const uint8_t *inside) {
     size_t nt = w->ntet, nc = (nt + BF_CHUNK - 1) / BF_CHUNK;
     size_t **lists = calloc(nc + 1, sizeof *lists), *cnt = calloc(nc + 1, sizeof *cnt);
     int fail = !lists || !cnt;
@@ -168,7 +169,7 @@ static vm_status find_boundary_faces(vm__imp *w) {
         for (size_t t = c * BF_CHUNK; t < t1; t++)
             for (int f = 0; f < 4; f++) {
                 const vm_index *n = w->tet + 4 * t;
-                if (w->dead[t] ||
+                if (w->dead[t] || (inside && inside[t]) ||
                     vm__imp_face_other(w, t, n[tet_face[f][0]], n[tet_face[f][1]],
                                        n[tet_face[f][2]]) >= 0)
                     continue;
@@ -302,7 +303,8 @@ static vm_status imp_stars(vm__imp *w, const vm__imp_sub *sx, vm_error *err) {
             if (!sx->lock[t])
                 for (int k = 0; k < 4; k++) seen[w->tet[4 * t + k]] = 1;
     }
-    /* Each tet's quality on its own: any thread count gives the same values. */
+    /* Each tet's quality on its own: any thread count gives the same values. A part's tets
+     * known to meet the targets (most of them) wait until an operation reads theirs. */
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static, 4096)
 #endif
@@ -310,6 +312,8 @@ static vm_status imp_stars(vm__imp *w, const vm__imp_sub *sx, vm_error *err) {
         const vm_index *n = w->tet + 4 * t;
         if (seen && sx->lock[t] && !seen[n[0]] && !seen[n[1]] && !seen[n[2]] && !seen[n[3]])
             w->q[t] = 1.0;
+        else if (sx && sx->below && !sx->below[t])
+            w->q[t] = NAN; /* at or above the targets: measured when first read */
         else
             w->q[t] = vm__imp_tet_q(w, t);
     }
@@ -461,7 +465,7 @@ static vm_status imp_boundary_classes(vm__imp *w, const vm__imp_sub *sx, vm_erro
     size_t np = w->npt;
     uint8_t *bnd = calloc(np, 1), *nonbox = calloc(np, 1), *boxmask = calloc(np, 1);
     vm_status s = VM_OK;
-    if (!bnd || !nonbox || !boxmask || find_boundary_faces(w) != VM_OK)
+    if (!bnd || !nonbox || !boxmask || find_boundary_faces(w, sx ? sx->inside : NULL) != VM_OK)
         s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     if (s == VM_OK) s = imp_constrained(w, sx, bnd, err);
     if (s == VM_OK) {
@@ -564,7 +568,7 @@ static size_t bad_vertices(const vm__imp *w, const tq *l, size_t n, vm_index *ou
     size_t c = 0;
     for (size_t i = 0; i < n; i++) {
         size_t t = l[i].t;
-        if (w->dead[t] || w->q[t] >= 1.0) continue;
+        if (w->dead[t] || vm__imp_q(w, t) >= 1.0) continue;
         for (int k = 0; k < 4; k++) {
             vm_index a = w->tet[4 * t + k];
             if (stamp[a] == round) continue;
@@ -612,17 +616,17 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         if (o->contract)
             for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
                 report(o, pass, 0, i, n);
-                if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_contract_tet(w, l[i].t);
+                if (!w->dead[l[i].t] && vm__imp_q(w, l[i].t) < 1.0) ops += (size_t)vm__imp_contract_tet(w, l[i].t);
             }
         if (o->flip)
             for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
                 report(o, pass, 1, i, n);
-                if (!w->dead[l[i].t] && w->q[l[i].t] < 1.0) ops += (size_t)vm__imp_flip_tet(w, l[i].t);
+                if (!w->dead[l[i].t] && vm__imp_q(w, l[i].t) < 1.0) ops += (size_t)vm__imp_flip_tet(w, l[i].t);
             }
         if (w->deep)
             for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
                 report(o, pass, 2, i, n);
-                if (!w->dead[l[i].t] && w->q[l[i].t] < VM__IMP_Q_ABAQUS)
+                if (!w->dead[l[i].t] && vm__imp_q(w, l[i].t) < VM__IMP_Q_ABAQUS)
                     ops += (size_t)vm__imp_peel_tet(w, l[i].t);
             }
         if (!next_bad_list(w, &l, &n)) break;
@@ -658,7 +662,7 @@ static size_t run_passes(vm__imp *w, const vm_improve_options *o, int *passes) {
         if (!next_bad_list(w, &l, &n)) break;
         for (size_t i = 0; i < n && !w->nomem && !stop_asked(o); i++) {
             size_t t = l[i].t;
-            if (w->dead[t] || w->q[t] >= VM__IMP_Q_ABAQUS) continue;
+            if (w->dead[t] || vm__imp_q(w, t) >= VM__IMP_Q_ABAQUS) continue;
             if (vm__imp_contract_tet(w, t) || vm__imp_flip_tet(w, t) || vm__imp_peel_tet(w, t)) {
                 ops++;
                 continue;

@@ -82,7 +82,7 @@ static int32_t star_begin(vm__imp *w, vm_index a, double *cur) {
     memcpy(ids + n, s->t, (size_t)n * sizeof *ids);
     *cur = INFINITY;
     for (int32_t i = 0; i < n; i++)
-        if (w->q[ids[i]] < *cur) *cur = w->q[ids[i]];
+        if (vm__imp_q(w, ids[i]) < *cur) *cur = vm__imp_q(w, ids[i]);
     return n;
 }
 
@@ -109,7 +109,7 @@ static int try_move(vm__imp *w, vm_index a, double x[3], vm_index *ids, int32_t 
     move_vertex(w, a, x, ids, n);
     double m = INFINITY;
     for (int32_t i = 0; i < n; i++)
-        if (w->q[ids[i]] < m) m = w->q[ids[i]];
+        if (vm__imp_q(w, ids[i]) < m) m = vm__imp_q(w, ids[i]);
     *cur = m;
     move_bar(w, m, b);
     return 1;
@@ -131,7 +131,7 @@ int vm__imp_smooth_vertex(vm__imp *w, vm_index a, int iters) {
         /* Soft-min gradient by forward differences on the tets near the minimum. */
         double g[3] = {0, 0, 0}, h = GRAD_STEP * L, gw[3] = {0, 0, 0}, worst_q = INFINITY;
         for (int32_t i = 0; i < n; i++) {
-            double q = w->q[ids[i]];
+            double q = vm__imp_q(w, ids[i]);
             if (q > cur + 4 * tau) continue;
             double wt = exp(-(q - cur) / tau), gq[3];
             for (int k = 0; k < 3; k++) {
