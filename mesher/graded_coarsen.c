@@ -1144,12 +1144,8 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
         nlo = fmin(nlo, lo);
         nhi = fmax(nhi, hi);
     }
-    if (ok && nab) {
-        memcpy(pv, old, sizeof old);
-        nab = star_fails_abaqus(C, v) ? 0 : 1;
-        memcpy(pv, x, sizeof old);
-        if (nab) ok = 0;
-    }
+    /* (the star's cached grades are still those of v's old place) */
+    if (ok && nab && !star_fails_abaqus(C, v)) ok = 0;
     if (ok && (nlo < fmin(GR_CO_MIN, olo) || nhi > fmax(GR_CO_MAX, ohi))) ok = 0;
     if (ok && better && !(nlo > olo + 0.01)) ok = 0;
     double dv = (vol1 - vol0) / 6;
