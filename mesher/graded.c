@@ -12,6 +12,9 @@
 
 /* Rounds of measuring and refining after the first mesh. */
 #define GR_REFINE_ROUNDS 3
+/* --tets: meshes made again at the tets per leaf the last one showed, when it missed by 10%
+ * (coarsening's repair flips and peels take some tets off a stuffed mesh at the count). */
+#define GR_TETS_TRIES 3
 /* Voxels longer than this ratio one way than another get near-cubic base cells. */
 #define GR_ASPECT 3.0
 
@@ -260,13 +263,13 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
             if ((s = vm__gr_tree_refine_crossed(&t, &f, &split, err)) || !split) break;
             st->topology_rounds++;
         } else if (!measured) {
-            /* --tets: once more at the tets per leaf this mesh shows, when 10% off */
+            /* --tets: again at the tets per leaf this mesh shows, when 10% off */
             double got = (double)mesh->ncells, asked = (double)o->tets;
             /* (with coarsening, a mesh over the count is taken down to it) */
-            if (corrected || !t.leaves ||
+            if (corrected == GR_TETS_TRIES || !t.leaves ||
                 (o->no_coarsen ? fabs(got / asked - 1) <= 0.1 : got >= 0.9 * asked))
                 break;
-            corrected = 1;
+            corrected++;
             per = got / (double)t.leaves;
             sz = sz1;
             if ((s = search_scale(&f, &sz, o->tets, !o->no_coarsen, &per, &t, err))) break;
