@@ -30,8 +30,10 @@ enum { DECK_MIN_FIXED = 3 };
 
 /* Fixed set: nodes within 1% of the z extent above the lowest z. A piece of the mesh that
  * does not reach that slab (or touches it at fewer than 3 nodes) gets its own lowest slab
- * fixed instead, or all its nodes when even that has fewer than 3, so the system is never
- * singular. Loaded set: nodes within 1% of the extent below the highest z. */
+ * fixed instead, widened up to its third-lowest node where it holds fewer than 3 (a coarse
+ * graded mesh may have one node within 1% of its bottom), so the system is never singular;
+ * a piece of fewer than 3 nodes is fixed whole. Loaded set: nodes within 1% of the extent
+ * below the highest z. */
 vm_status vm__deck_sets(const char *path, const vm_mesh *m, const double *zs,
                         const vm_index *mid, int nmid_per_cell, size_t nnodes,
                         vm__deck_nodes *d, vm_error *err) {
@@ -39,12 +41,13 @@ vm_status vm__deck_sets(const char *path, const vm_mesh *m, const double *zs,
     size_t *parent = malloc(nnodes * sizeof *parent);
     unsigned char *used = calloc(nnodes, 1);
     double *cmin = malloc(nnodes * sizeof *cmin);
+    double(*low)[3] = malloc(nnodes * sizeof *low); /* per piece: its three lowest z */
     size_t *cfix = calloc(nnodes, sizeof *cfix);
     d->fixed = malloc(nnodes * sizeof *d->fixed);
     d->loaded = malloc(nnodes * sizeof *d->loaded);
     d->nfixed = d->nloaded = 0;
     vm_status st = VM_OK;
-    if (!parent || !used || !cmin || !cfix || !d->fixed || !d->loaded) {
+    if (!parent || !used || !cmin || !low || !cfix || !d->fixed || !d->loaded) {
         st = vm_error_set(err, VM_ERR_NOMEM, "%s: out of memory for the deck", path);
         goto done;
     }
@@ -70,13 +73,24 @@ vm_status vm__deck_sets(const char *path, const vm_mesh *m, const double *zs,
     if (zmin > zmax) goto done; /* no cells */
     double slab = DECK_SLAB_FRACTION * (zmax - zmin);
     for (size_t i = 0; i < nnodes; i++)
-        cmin[i] = INFINITY;
+        cmin[i] = low[i][0] = low[i][1] = low[i][2] = INFINITY;
     for (size_t i = 0; i < nnodes; i++)
         if (used[i]) {
             size_t r = vm__uf_find(parent, i);
             if (zs[i] < cmin[r]) cmin[r] = zs[i];
             if (zs[i] <= zmin + slab) cfix[r]++;
+            double z = zs[i];
+            for (int k = 0; k < 3; k++)
+                if (z < low[r][k]) {
+                    double q = low[r][k];
+                    low[r][k] = z;
+                    z = q;
+                }
         }
+    /* each piece's own slab: 1% of the extent, or up to its third-lowest node */
+    for (size_t i = 0; i < nnodes; i++)
+        if (used[i] && vm__uf_find(parent, i) == i && isfinite(low[i][2]))
+            cmin[i] = fmax(cmin[i] + slab, low[i][2]) - slab;
     /* cfix of a root: nodes in the global slab; pieces with < 3 use their own slab. */
     for (size_t i = 0; i < nnodes; i++)
         if (used[i]) {
@@ -99,6 +113,7 @@ done:
     free(parent);
     free(used);
     free(cmin);
+    free(low);
     free(cfix);
     return st;
 }

@@ -278,6 +278,41 @@ static size_t read_nset(const char *text, const char *name, long *ids, size_t ca
     return n;
 }
 
+/* An octahedron standing on a vertex (4 tets around its vertical axis): only that vertex
+ * lies within 1% of the bottom, so the fixed slab widens to the third-lowest node (the
+ * equator, z = 1) rather than clamping the whole body, which leaves ccx nothing to solve. */
+static void inp_static_deck_widens_a_slab_of_one_node(void) {
+    vm_mesh m;
+    vm_mesh_init(&m, VM_TET4);
+    static const double p[6][3] = {{0, 0, 0}, {1, 0, 1}, {0, 1, 1}, {-1, 0, 1}, {0, -1, 1},
+                                   {0, 0, 2}};
+    for (int i = 0; i < 6; i++)
+        vm_mesh_add_point(&m, p[i], NULL);
+    for (int i = 0; i < 4; i++) {
+        vm_index c[4] = {0, (vm_index)(1 + i), (vm_index)(1 + (i + 1) % 4), 5};
+        double q[4][3];
+        for (int k = 0; k < 4; k++)
+            memcpy(q[k], p[c[k]], sizeof q[k]);
+        if (vm_tet_signed_volume((const double(*)[3])q) < 0) {
+            vm_index t = c[1];
+            c[1] = c[2];
+            c[2] = t;
+        }
+        vm_mesh_add_cell(&m, c, 1, NULL);
+    }
+    const char *path = vm_test_tmp("deck_one_node.inp");
+    vm_mesh_write_options o = opts(1, VM_DECK_STATIC);
+    CHECK_OK(vm_mesh_write_as(path, &m, &o, NULL), NULL);
+    char *text = slurp(path);
+    long ids[16];
+    size_t nf = read_nset(text, "FIXED", ids, 16);
+    CHECK_MSG(nf == 5, "%zu fixed nodes, want the 5 of z <= 1", nf);
+    for (size_t i = 0; i < nf; i++)
+        CHECK(ids[i] != 6); /* the top stays free */
+    free(text);
+    vm_mesh_free(&m);
+}
+
 static void inp_static_deck_fixes_the_bottom_slab_and_loads_the_top(void) {
     vm_mesh m;
     fx_block(&m, 2, 0);
@@ -541,6 +576,7 @@ int main(void) {
          inp_surfaces_name_exactly_the_boundary_faces},
         {"inp_static_deck_fixes_the_bottom_slab_and_loads_the_top",
          inp_static_deck_fixes_the_bottom_slab_and_loads_the_top},
+        {"inp_static_deck_widens_a_slab_of_one_node", inp_static_deck_widens_a_slab_of_one_node},
         {"inp_reader_takes_other_writers_layouts", inp_reader_takes_other_writers_layouts},
         {"inp_reader_refuses_malformed_decks", inp_reader_refuses_malformed_decks},
         {"inp_truncated_decks_never_crash", inp_truncated_decks_never_crash},
