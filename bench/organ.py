@@ -179,10 +179,9 @@ def components(path):
 
 
 def run(cli, path, out, max_edge, threads):
-    cmd = ["/usr/bin/time", "-v", cli, "mesh", path, "--iso", str(ISO), "--max-edge",
-           str(max_edge), "-o", out, "--verbose"]
-    if threads:
-        cmd += ["--threads", str(threads)]
+    cmd = ["/usr/bin/time", "-v", cli] + (["--threads", str(threads)] if threads else [])
+    cmd += ["mesh", path, "--iso", str(ISO), "--max-edge", str(max_edge), "-o", out,
+            "--verbose"]
     p = subprocess.run(cmd, capture_output=True, text=True)
     text = p.stdout + p.stderr
     if p.returncode != 0:

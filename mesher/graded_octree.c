@@ -278,11 +278,11 @@ static int collapsible(const gr_tree *t, const gr_field *f, const gr_sizing *sz,
 static int wants_split(const gr_tree *t, const gr_field *f, const gr_sizing *sz,
                        const gr_node *q) {
     if (q->level == 0) return 0;
-    if (q->level > t->max_level) return 1;
     double lo[3], hi[3];
     node_box(t, q, lo, hi);
     int c = classify(f, lo, hi);
     if (c < 0) return 0;
+    if (q->level > t->max_level) return 1;
     /* the size field bounds the cell's longest edge */
     double edge = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
     if (f->bsize &&
