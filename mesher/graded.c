@@ -141,11 +141,11 @@ static vm_status coarsen(vm_mesh *mesh, const gr_field *f, const vm_mesh_options
     long e0 = 0, e1 = 0;
     size_t c0 = 0, c1 = 0, removed = 0;
     vm_mesh keep;
-    vm_status s = vm__gr_mesh_topology(mesh, &e0, &c0, err);
+    vm_status s = vm__gr_mesh_topology(mesh, &e0, &c0, NULL, NULL, err);
     if (!s) s = copy_mesh(mesh, &keep, err);
     if (s) return s;
     s = vm__gr_coarsen(mesh, f, sz->distance, sz->max_edge, o->tets, pm, &removed, err);
-    if (!s) s = vm__gr_mesh_topology(mesh, &e1, &c1, err);
+    if (!s) s = vm__gr_mesh_topology(mesh, &e1, &c1, NULL, NULL, err);
     if (!s && (e1 != e0 || c1 != c0)) {
         vm_mesh_free(mesh);
         *mesh = keep;
@@ -245,7 +245,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
         lap(&clk, &st->graded_stuff_s);
         long euler = 0;
         size_t comps = 0, split = 0;
-        if (!s) s = vm__gr_mesh_topology(mesh, &euler, &comps, err);
+        if (!s) s = vm__gr_mesh_topology(mesh, &euler, &comps, NULL, NULL, err);
         lap(&clk, &st->graded_topology_s);
         if (s) break;
         if (euler != want_euler || comps != want_comps) {
@@ -260,7 +260,14 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
                 st->refine_undone = 1;
                 break;
             }
-            if ((s = vm__gr_tree_refine_crossed(&t, &f, &split, err)) || !split) break;
+            /* where the parts that differ are (the whole surface when none is found) */
+            double *boxes = NULL;
+            size_t nb = 0;
+            s = vm__gr_topology_misfits(&f, mesh, &boxes, &nb, err);
+            if (!s) s = vm__gr_tree_refine_crossed(&t, &f, nb ? boxes : NULL, nb, &split, err);
+            if (!s && !split && nb) s = vm__gr_tree_refine_crossed(&t, &f, NULL, 0, &split, err);
+            free(boxes);
+            if (s || !split) break;
             st->topology_rounds++;
         } else if (!measured) {
             /* --tets: again at the tets per leaf this mesh shows, when 10% off */

@@ -104,10 +104,11 @@ vm_status vm__gr_tree_split(gr_tree *t, size_t leaf, vm_error *err);
  * most), by splitting the coarser side until it holds; with t->layers = m > 1, every leaf
  * within m cells of its own size (faces, edges, corners) is at most one level coarser. */
 vm_status vm__gr_tree_balance(gr_tree *t, vm_error *err);
-/* Splits every leaf above the base level that the surface may cross. [out] *split: leaves
+/* Splits every leaf above the base level that the surface may cross and, with boxes (6 per
+ * box: lo, hi in the scaled index frame), that meets one of them. [out] *split: leaves
  * split. */
-vm_status vm__gr_tree_refine_crossed(gr_tree *t, const gr_field *f, size_t *split,
-                                     vm_error *err);
+vm_status vm__gr_tree_refine_crossed(gr_tree *t, const gr_field *f, const double *boxes,
+                                     size_t nboxes, size_t *split, vm_error *err);
 /* The node that holds lattice point p, descending no further than `level` (a leaf, or an
  * inner node of that level when the region there is finer); -1 outside the root. */
 int64_t vm__gr_tree_find(const gr_tree *t, const int64_t p[3], int level);
@@ -184,8 +185,17 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
  * 6-connected inside points. */
 vm_status vm__gr_digital_topology(const gr_field *f, long *euler, size_t *comps,
                                   vm_error *err);
-/* The same for a tet mesh: the boundary's V - E + F and the components of its points. */
-vm_status vm__gr_mesh_topology(const vm_mesh *m, long *euler, size_t *comps, vm_error *err);
+/* The same for a tet mesh: the boundary's V - E + F and the components of its points; with
+ * root and part (npoints each, or NULL), each point's component (its root point) and, at
+ * each root, that component's V - E + F. */
+vm_status vm__gr_mesh_topology(const vm_mesh *m, long *euler, size_t *comps, uint32_t *root,
+                               long *part, vm_error *err);
+/* Where a mesh's topology differs from the voxels': for each component of the voxels whose
+ * mesh part has another Euler characteristic, or is split or missing, and for each mesh
+ * component over no inside voxel, a box (lo[3], hi[3] in the octree's scaled index frame:
+ * index times spacing) around both. [out] *boxes (6 per box, freed by the caller), *nboxes. */
+vm_status vm__gr_topology_misfits(const gr_field *f, const vm_mesh *m, double **boxes,
+                                  size_t *nboxes, vm_error *err);
 
 /* Coarsens the stuffed mesh by edge collapse (graded_coarsen.c), keeping its topology, the
  * dihedral angles of the changed tets within the stuffing's, the edge bound and the size

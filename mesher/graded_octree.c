@@ -348,15 +348,22 @@ vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *sz, 
     return s;
 }
 
-vm_status vm__gr_tree_refine_crossed(gr_tree *t, const gr_field *f, size_t *split,
-                                     vm_error *err) {
+vm_status vm__gr_tree_refine_crossed(gr_tree *t, const gr_field *f, const double *boxes,
+                                     size_t nboxes, size_t *split, vm_error *err) {
     size_t n = t->n;
     *split = 0;
     for (size_t i = 0; i < n; i++) {
         if (t->node[i].child >= 0 || t->node[i].level == 0) continue;
         double lo[3], hi[3];
         node_box(t, &t->node[i], lo, hi);
-        if (classify(f, lo, hi) != 0) continue;
+        int meets = !boxes;
+        for (size_t b = 0; b < nboxes && !meets; b++) {
+            const double *B = boxes + 6 * b;
+            meets = 1;
+            for (int d = 0; d < 3; d++)
+                if (hi[d] < B[d] || lo[d] > B[3 + d]) meets = 0;
+        }
+        if (!meets || classify(f, lo, hi) != 0) continue;
         vm_status s = vm__gr_tree_split(t, i, err);
         if (s) return s;
         ++*split;

@@ -509,7 +509,71 @@ static void anisotropicVoxelsKeepVolumeThroughThePass(void) {
     vm_volume_free(&v);
 }
 
+/* The topology's safety net points at the parts that differ: checked against the voxels of
+ * a ball beside a ring, a mesh of those voxels has no misfit; a mesh of the ball alone has
+ * one, around the ring's voxels and away from the ball; a mesh of the ball and a filled ring
+ * (Euler 2, not 0) has one around the ring. */
+static void topologyMisfitsAreFound(void) {
+    enum { N = 28 };
+    vm_volume full, part[2];
+    if (!make_volume(&full, N, N, N, -1.0f)) return;
+    for (int c = 0; c < 2; c++)
+        if (!make_volume(&part[c], N, N, N, -1.0f)) return;
+    for (int64_t k = 0; k < N; k++)
+        for (int64_t j = 0; j < N; j++)
+            for (int64_t i = 0; i < N; i++) {
+                size_t at = (size_t)(i + N * (j + N * k));
+                double ball = 3.5 - sqrt((double)((i - 7) * (i - 7) + (j - 7) * (j - 7) +
+                                                  (k - 7) * (k - 7)));
+                double rr = sqrt((double)((i - 18) * (i - 18) + (j - 18) * (j - 18))) - 5.0;
+                double ring = 2.2 - sqrt(rr * rr + (double)((k - 18) * (k - 18)));
+                double disc = fmin(7.2 - sqrt((double)((i - 18) * (i - 18) + (j - 18) * (j - 18))),
+                                   2.2 - fabs((double)(k - 18)));
+                full.data[at] = (float)fmax(ball, ring);
+                part[0].data[at] = (float)ball;
+                part[1].data[at] = (float)fmax(ball, disc);
+            }
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.lo = 0.0;
+    o.has_lo = 1;
+    vm_error err;
+    gr_field f;
+    vm_status s = vm__gr_field_init(&f, &full, &o, &err);
+    CHECK_OK(s, &err);
+    for (int c = -1; c < 2 && s == VM_OK; c++) {
+        vm_mesh m;
+        s = vm_mesh_volume(c < 0 ? &full : &part[c], &o, &m, NULL, &err);
+        CHECK_OK(s, &err);
+        if (s != VM_OK) break;
+        double *boxes = NULL;
+        size_t nb = 0;
+        s = vm__gr_topology_misfits(&f, &m, &boxes, &nb, &err);
+        CHECK_OK(s, &err);
+        vm_mesh_free(&m);
+        if (s != VM_OK) break;
+        CHECK_MSG(nb == (c < 0 ? 0u : 1u), "mesh %d: %zu misfit boxes", c, nb);
+        if (nb == 1) {
+            /* the ring's voxels (11..25 across, 16..20 high) inside, the ball's (3.5..10.5)
+             * outside */
+            int holds = 1, clear = 0;
+            for (int d = 0; d < 3; d++) {
+                double lo = d < 2 ? 13.0 : 16.0, hi = d < 2 ? 23.0 : 20.0;
+                if (boxes[d] > lo || boxes[3 + d] < hi) holds = 0;
+                if (boxes[d] > 10.5) clear = 1;
+            }
+            CHECK_MSG(holds && clear, "mesh %d: box %.1f %.1f %.1f .. %.1f %.1f %.1f", c,
+                      boxes[0], boxes[1], boxes[2], boxes[3], boxes[4], boxes[5]);
+        }
+        free(boxes);
+    }
+    if (s == VM_OK) vm__gr_field_free(&f);
+    vm_volume_free(&full);
+    vm_volume_free(&part[0]);
+    vm_volume_free(&part[1]);
+}
+
 TEST_MAIN(T(everyCubePatternKeepsTheCubicalTopology), T(coarseningHalvesTheStuffedMesh), T(randomVolumesKeepTheCubicalTopology),
           T(noisyPhantomsKeepTheCubicalTopology), T(gradedPhantomsAreSmallAndFaithful),
           T(sizesAreMet), T(sizeFieldSetsTheDensity), T(tetTargetIsMet), T(gradingSpreadsLevelChanges),
-          T(anisotropicVoxelsKeepVolumeThroughThePass))
+          T(anisotropicVoxelsKeepVolumeThroughThePass), T(topologyMisfitsAreFound))
