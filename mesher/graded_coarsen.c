@@ -24,6 +24,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef VM_HAVE_OPENMP
+#include <omp.h>
+#endif
 
 /* Dihedral angles (degrees) every tet a collapse changes must keep. */
 #define GR_CO_MIN 15.01
@@ -55,6 +58,15 @@ typedef struct ilist {
     int32_t n, cap;
 } ilist;
 
+/* What a check writes besides its plan: one per thread. */
+typedef struct scratch {
+    int32_t *vmark, vstamp; /* per vertex, for the link test */
+    int late;       /* the check got past the changed tets (read the neighbours) */
+    int budget_hit; /* it refused a collapse on the net volume budget */
+    int reached;    /* it reached the budget's test, with this change of volume: */
+    double dtry;
+} scratch;
+
 typedef struct co {
     vm_mesh *m;
     const gr_field *f;
@@ -71,7 +83,7 @@ typedef struct co {
     int32_t (*st)[3];  /* the boundary triangle near each sample */
     size_t ns;
     int32_t *mark, stamp; /* per sample, for pruning repeats */
-    int32_t *vmark, vstamp; /* per vertex, for the link test */
+    scratch w;              /* the serial checks' scratch */
     float *qlo, *qhi;       /* per tet: its dihedral range */
     float *qab;             /* per tet: its ABAQUS grade (tet_angles) */
     double dvol, vol_budget; /* volume added so far; the most it may lose */
@@ -82,8 +94,6 @@ typedef struct co {
      * read (near: its star or a neighbour's) */
     uint32_t *star, *near;
     uint32_t applied; /* collapses made, plus one */
-    int budget_hit;   /* a check refused a collapse on the net volume budget */
-    int late;         /* the last check got past the changed tets (read the neighbours) */
     vm__meter *pm;           /* polled for cancellation (may be NULL) */
     unsigned polls;
     int stop;                /* cancelled */
@@ -540,18 +550,20 @@ typedef struct plan {
 
 /* Stamps of the vertex sets of one check: a's neighbours off the edge's tets (1), on them
  * (2). */
-static void stamp_next(co *C) {
-    if (C->vstamp >= INT32_MAX - 4) {
-        memset(C->vmark, 0, C->nv * sizeof *C->vmark);
-        C->vstamp = 0;
+static void stamp_next(scratch *W, size_t nv) {
+    if (W->vstamp >= INT32_MAX - 4) {
+        memset(W->vmark, 0, nv * sizeof *W->vmark);
+        W->vstamp = 0;
     }
-    C->vstamp += 2;
+    W->vstamp += 2;
 }
 
 /* Whether collapsing a onto b keeps every condition; fills the plan (b's boundary star after
  * the collapse). */
-static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3) {
-    C->late = 0;
+static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1, set *s2,
+                 set *s3) {
+    W->late = 0;
+    W->reached = 0;
     if (C->fix[a] || (C->bnd[a] && !C->bnd[b])) return 0;
     const ilist *ta = &C->vt[a], *tb = &C->vt[b];
     /* the changed tets first (cheap, and most collapses fail here): positive, within the
@@ -607,25 +619,25 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
     }
     P->qmin = acos(worst) * GR_CO_DEG;
     /* (up to here the check read a's tets only) */
-    C->late = 1;
+    W->late = 1;
     /* link condition, vertices: a neighbour of both a and b is in a tet of the edge */
-    stamp_next(C);
-    int32_t s_off = C->vstamp - 1, s_on = C->vstamp;
+    stamp_next(W, C->nv);
+    int32_t s_off = W->vstamp - 1, s_on = W->vstamp;
     for (int32_t i = 0; i < ta->n; i++) {
         const vm_index *c = tet(C, ta->v[i]);
         if (c[0] == b || c[1] == b || c[2] == b || c[3] == b)
             for (int k = 0; k < 4; k++)
-                C->vmark[c[k]] = s_on;
+                W->vmark[c[k]] = s_on;
     }
     for (int32_t i = 0; i < ta->n; i++) {
         const vm_index *c = tet(C, ta->v[i]);
         for (int k = 0; k < 4; k++)
-            if (C->vmark[c[k]] != s_on) C->vmark[c[k]] = s_off;
+            if (W->vmark[c[k]] != s_on) W->vmark[c[k]] = s_off;
     }
     for (int32_t i = 0; i < tb->n; i++) {
         const vm_index *c = tet(C, tb->v[i]);
         for (int k = 0; k < 4; k++)
-            if (c[k] != a && C->vmark[c[k]] == s_off) return 0;
+            if (c[k] != a && W->vmark[c[k]] == s_off) return 0;
     }
     /* edges and faces: the link edges of a that b also has are the edge's link edges; no
      * link face is shared */
@@ -740,8 +752,10 @@ static int check(co *C, int32_t a, int32_t b, plan *P, set *s1, set *s2, set *s3
     }
     if (fabs(dvol) / 6 > GR_CO_VOLUME * C->D * area) return 0;
     /* and the whole volume by at most GR_CO_NET_VOLUME of it */
+    W->reached = 1;
+    W->dtry = dvol / 6;
     if (C->dvol + dvol / 6 < -C->vol_budget || C->dvol + dvol / 6 > C->vol_gain) {
-        C->budget_hit = 1;
+        W->budget_hit = 1;
         return 0;
     }
     P->dvol = dvol / 6;
@@ -795,12 +809,12 @@ static void apply(co *C, int32_t a, int32_t b, const plan *P) {
      * it, and the first part of it (x's tets) only where x is in the star: such checks are
      * to be made again (the memo of vm__gr_coarsen's passes). */
     C->applied++;
-    stamp_next(C);
+    stamp_next(&C->w, C->nv);
     for (int32_t i = 0; i < ta->n; i++) {
         const vm_index *c = tet(C, ta->v[i]);
         for (int k = 0; k < 4; k++) {
-            if (C->vmark[c[k]] == C->vstamp) continue;
-            C->vmark[c[k]] = C->vstamp;
+            if (C->w.vmark[c[k]] == C->w.vstamp) continue;
+            C->w.vmark[c[k]] = C->w.vstamp;
             C->star[c[k]] = C->applied;
             const ilist *l = &C->vt[c[k]];
             for (int32_t j = 0; j < l->n; j++) {
@@ -1063,7 +1077,7 @@ static void co_free(co *C) {
     free(C->tol);
     free(C->st);
     free(C->mark);
-    free(C->vmark);
+    free(C->w.vmark);
     free(C->qlo);
     free(C->qhi);
     free(C->qab);
@@ -1653,10 +1667,10 @@ static size_t repair(co *C, plan *P, set *sets, size_t *removed) {
         for (int i = 0; i < 4 && !done; i++)
             for (int j = i + 1; j < 4 && !done; j++) {
                 int32_t x = (int32_t)c[i], y = (int32_t)c[j];
-                if (check(C, x, y, &P[0], &sets[0], &sets[1], &sets[2])) {
+                if (check(C, &C->w, x, y, &P[0], &sets[0], &sets[1], &sets[2])) {
                     apply(C, x, y, &P[0]);
                     done = 1;
-                } else if (check(C, y, x, &P[0], &sets[0], &sets[1], &sets[2])) {
+                } else if (check(C, &C->w, y, x, &P[0], &sets[0], &sets[1], &sets[2])) {
                     apply(C, y, x, &P[0]);
                     done = 1;
                 }
@@ -1668,6 +1682,99 @@ static size_t repair(co *C, plan *P, set *sets, size_t *removed) {
             left++;
     }
     return left;
+}
+
+/* Checks made ahead on threads (the batch of edges after the current one), each against
+ * the mesh as it was when the batch began (`when`), and taken in order afterwards when
+ * nothing the check read has changed since (the memo's rule) and the net volume budget,
+ * which the collapses in between move, still says what it said; any other check is made
+ * again in order. So the collapses are those of the serial loop, on any number of threads. */
+enum { GR_CO_BATCH = 256 };
+typedef struct spec {
+    int32_t x, y; /* the edge as checked (x < 0: not checked ahead) */
+    int two;      /* both ways checked (both ends on the boundary, or neither) */
+    uint32_t when;
+    int ok[2], late[2], reached[2], budget[2];
+    double dtry[2];
+    plan P[2];
+} spec;
+
+static void spec_one(const co *C, scratch *W, set *sets, spec *q) {
+    for (int k = 0; k < 1 + q->two; k++) {
+        int32_t a = k ? q->y : q->x, b = k ? q->x : q->y;
+        W->budget_hit = 0;
+        q->ok[k] = check(C, W, a, b, &q->P[k], &sets[0], &sets[1], &sets[2]);
+        q->late[k] = W->late;
+        q->reached[k] = W->reached;
+        q->budget[k] = W->budget_hit;
+        q->dtry[k] = W->dtry;
+    }
+}
+
+/* Whether the checks of q hold now; [out] *ok (one bit per way), *late, *budget_hit as the
+ * checks would give them. */
+static int spec_take(const co *C, const spec *q, int *ok, int *late, int *budget_hit) {
+    uint32_t w = q->when;
+    int near = C->near[q->x] <= w && C->near[q->y] <= w;
+    *ok = *late = *budget_hit = 0;
+    for (int k = 0; k < 1 + q->two; k++) {
+        int32_t a = k ? q->y : q->x;
+        if (!(q->late[k] ? near : C->star[a] <= w)) return 0;
+        if (q->budget[k]) return 0; /* refused on the budget then: maybe not now */
+        int ok_k = q->ok[k];
+        if (q->reached[k] && (C->dvol + q->dtry[k] < -C->vol_budget ||
+                              C->dvol + q->dtry[k] > C->vol_gain)) {
+            ok_k = 0;
+            *budget_hit = 1;
+        }
+        *ok |= ok_k << k;
+        *late |= q->late[k] << k;
+    }
+    return 1;
+}
+
+/* Checks ahead the edges of E[i0 .. i0 + GR_CO_BATCH) that the loop will check (alive, not
+ * skipped by the memo F from its position j), on nthreads threads with their scratch. */
+static void speculate(const co *C, const keyed *E, size_t ne, size_t i0, const memo *F, size_t nf,
+                      size_t j, spec *S, scratch *TW, set *TS, int nthreads) {
+    size_t i1 = i0 + GR_CO_BATCH < ne ? i0 + GR_CO_BATCH : ne;
+    int todo[GR_CO_BATCH], n = 0;
+    for (size_t i = i0; i < i1; i++) {
+        spec *q = &S[i - i0];
+        q->x = -1;
+        int32_t x = E[i].a, y = E[i].b;
+        if (C->dead_v[x] || C->dead_v[y]) continue;
+        if (C->bnd[x] && !C->bnd[y]) {
+            int32_t t = x;
+            x = y;
+            y = t;
+        }
+        while (j < nf && keyed_cmp(&F[j].e, &E[i]) < 0)
+            j++;
+        if (j < nf && keyed_cmp(&F[j].e, &E[i]) == 0) {
+            uint32_t w = F[j].when;
+            int near = C->near[x] <= w && C->near[y] <= w;
+            if ((F[j].late & 1 ? near : C->star[x] <= w) &&
+                (F[j].late & 2 ? near : C->star[y] <= w))
+                continue;
+        }
+        q->x = x;
+        q->y = y;
+        q->two = C->bnd[x] == C->bnd[y];
+        q->when = C->applied;
+        todo[n++] = (int)(i - i0);
+    }
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 8)
+#endif
+    for (int k = 0; k < n; k++) {
+        int t = 0;
+#ifdef VM_HAVE_OPENMP
+        t = omp_get_thread_num();
+#endif
+        spec_one(C, &TW[t], &TS[3 * t], &S[todo[k]]);
+    }
+    (void)nthreads;
 }
 
 vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double max_edge,
@@ -1695,14 +1802,14 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     C.fix = calloc(C.nv, 1);
     C.dead_v = calloc(C.nv, 1);
     C.dead_t = calloc(C.nt, 1);
-    C.vmark = calloc(C.nv, sizeof *C.vmark);
+    C.w.vmark = calloc(C.nv, sizeof *C.w.vmark);
     C.qlo = malloc(C.nt * sizeof *C.qlo);
     C.qhi = malloc(C.nt * sizeof *C.qhi);
     C.qab = malloc(C.nt * sizeof *C.qab);
     C.star = calloc(C.nv, sizeof *C.star);
     C.near = calloc(C.nv, sizeof *C.near);
     C.applied = 1;
-    if (!C.vt || !C.vs || !C.bnd || !C.fix || !C.dead_v || !C.dead_t || !C.vmark || !C.qlo ||
+    if (!C.vt || !C.vs || !C.bnd || !C.fix || !C.dead_v || !C.dead_t || !C.w.vmark || !C.qlo ||
         !C.qhi || !C.qab || !C.star || !C.near) {
         co_free(&C);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
@@ -1745,6 +1852,32 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
      * has changed what it read since (apply marks the vertices), as long as no vertex moved
      * (the memo lasts one round). */
     memo *F = NULL, *Fn = NULL;
+    /* checks ahead on threads (none on one) */
+    int nthreads = 1;
+#ifdef VM_HAVE_OPENMP
+    nthreads = omp_get_max_threads();
+#endif
+    spec *S = NULL;
+    scratch *TW = NULL;
+    set *TS = NULL;
+    if (nthreads > 1) {
+        S = malloc(GR_CO_BATCH * sizeof *S);
+        TW = calloc((size_t)nthreads, sizeof *TW);
+        TS = malloc(3 * (size_t)nthreads * sizeof *TS);
+        int ok = S && TW && TS;
+        for (int t = 0; ok && t < nthreads; t++)
+            ok = (TW[t].vmark = calloc(C.nv, sizeof *TW[t].vmark)) != NULL;
+        if (!ok) { /* then serially */
+            for (int t = 0; TW && t < nthreads; t++)
+                free(TW[t].vmark);
+            free(S);
+            free(TW);
+            free(TS);
+            S = NULL;
+            TW = NULL;
+            TS = NULL;
+        }
+    }
     size_t nf = 0, fcap = 0;
     set *sets = malloc(3 * sizeof *sets);
     plan *P = malloc(2 * sizeof *P);
@@ -1771,13 +1904,13 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             for (size_t x = 0; x < C.nv; x++) {
                 const ilist *l = &C.vt[x];
                 if (!l->n) continue;
-                stamp_next(&C);
+                stamp_next(&C.w, C.nv);
                 for (int32_t k = 0; k < l->n; k++) {
                     const vm_index *c = tet(&C, l->v[k]);
                     for (int r = 0; r < 4; r++) {
                         int32_t y = (int32_t)c[r];
-                        if ((size_t)y <= x || C.vmark[y] == C.vstamp) continue;
-                        C.vmark[y] = C.vstamp;
+                        if ((size_t)y <= x || C.w.vmark[y] == C.w.vstamp) continue;
+                        C.w.vmark[y] = C.w.vstamp;
                         E[ne++] = (keyed){dist2(pt(&C, (int64_t)x), pt(&C, y)), (int32_t)x, y};
                     }
                 }
@@ -1792,8 +1925,12 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
                     break;
                 }
             }
-            size_t before = *removed, j = 0, nfn = 0;
+            size_t before = *removed, j = 0, nfn = 0, i0 = 0;
             for (size_t i = 0; i < ne && !C.nomem; i++) {
+                if (S && i == i0 + (i > 0 ? GR_CO_BATCH : 0)) {
+                    i0 = i;
+                    speculate(&C, E, ne, i0, F, nf, j, S, TW, TS, nthreads);
+                }
                 static const size_t ahead[4] = {24, 16, 8, 4};
                 for (int st = 0; st < 4; st++)
                     if (i + ahead[st] < ne)
@@ -1818,19 +1955,30 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
                         continue;
                     }
                 }
-                C.budget_hit = 0;
-                int okx = check(&C, x, y, &P[0], &sets[0], &sets[1], &sets[2]), oky = 0;
-                int late = C.late;
-                if (C.bnd[x] == C.bnd[y]) {
-                    oky = check(&C, y, x, &P[1], &sets[0], &sets[1], &sets[2]);
-                    late |= C.late << 1;
+                spec *q = S ? &S[i - i0] : NULL;
+                int okx, oky = 0, late, bh, both;
+                plan *P0 = &P[0], *P1 = &P[1];
+                if (q && q->x == x && q->y == y && spec_take(&C, q, &both, &late, &bh)) {
+                    okx = both & 1;
+                    oky = both >> 1;
+                    P0 = &q->P[0];
+                    P1 = &q->P[1];
+                } else {
+                    C.w.budget_hit = 0;
+                    okx = check(&C, &C.w, x, y, P0, &sets[0], &sets[1], &sets[2]);
+                    late = C.w.late;
+                    if (C.bnd[x] == C.bnd[y]) {
+                        oky = check(&C, &C.w, y, x, P1, &sets[0], &sets[1], &sets[2]);
+                        late |= C.w.late << 1;
+                    }
+                    bh = C.w.budget_hit;
                 }
-                if (okx && (!oky || P[0].qmin >= P[1].qmin))
-                    apply(&C, x, y, &P[0]);
+                if (okx && (!oky || P0->qmin >= P1->qmin))
+                    apply(&C, x, y, P0);
                 else if (oky)
-                    apply(&C, y, x, &P[1]);
+                    apply(&C, y, x, P1);
                 else {
-                    if (!C.budget_hit && nfn < fcap)
+                    if (!bh && nfn < fcap)
                         Fn[nfn++] = (memo){E[i], C.applied, (unsigned char)late};
                     continue;
                 }
@@ -1849,6 +1997,11 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     }
     for (int k = 0; k < 3 && !s && !C.nomem && !C.stop; k++)
         if (!repair(&C, P, sets, removed)) break;
+    for (int t = 0; TW && t < nthreads; t++)
+        free(TW[t].vmark);
+    free(S);
+    free(TW);
+    free(TS);
     free(E);
     free(Etmp);
     free(F);

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* tests/mesher/test_threads.c — the parallel stages give the same bytes for any thread count:
  * denoising (bilateral, diffusion), tet meshing (uniform and adaptive: classification, octree,
- * patch vertices, slab emission), VTU compression, the mesh checks and the tet quality pass. */
+ * patch vertices, slab emission), graded meshing (the coarsening's checks), VTU compression,
+ * the mesh checks and the tet quality pass. */
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
@@ -306,6 +307,40 @@ static void tetMeshesAreByteIdenticalForOneTwoAndThreeThreads(void) {
     vm_set_threads(before);
 }
 
+/* The graded mesher (its coarsening checks collapses ahead on threads, then takes them in
+ * order) gives the same mesh for any thread count: a noisy genus-3 phantom, whose boundary
+ * collapses also spend the net volume budget. */
+static void gradedMeshesAreByteIdenticalForOneTwoAndThreeThreads(void) {
+    vm_volume v;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_GENUS3, 56, 0.2, 7, &v, NULL, &err), &err);
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.graded = 1;
+    int before = vm_set_threads(1);
+    vm_mesh ref;
+    CHECK_OK(vm_mesh_volume(&v, &o, &ref, NULL, &err), &err);
+    vm_mesh_report r;
+    CHECK_OK(vm_mesh_check(&ref, &r, &err), &err);
+    CHECK_MSG(r.inverted == 0 && r.boundary_closed && ref.ncells > 500,
+              "graded: %zu inverted, closed %d, %zu tets", r.inverted, r.boundary_closed,
+              ref.ncells);
+    for (size_t t = 1; t < sizeof counts / sizeof counts[0]; t++) {
+        vm_set_threads(counts[t]);
+        vm_mesh m;
+        CHECK_OK(vm_mesh_volume(&v, &o, &m, NULL, &err), &err);
+        int same = m.npoints == ref.npoints && m.ncells == ref.ncells &&
+                   memcmp(m.points, ref.points, 3 * m.npoints * sizeof(double)) == 0 &&
+                   memcmp(m.cells, ref.cells, 4 * m.ncells * sizeof(vm_index)) == 0;
+        CHECK_MSG(same, "graded: %zu points %zu tets at %d threads, %zu %zu at 1 (or moved)",
+                  m.npoints, m.ncells, counts[t], ref.npoints, ref.ncells);
+        vm_mesh_free(&m);
+    }
+    vm_mesh_free(&ref);
+    vm_volume_free(&v);
+    vm_set_threads(before);
+}
+
 /* The contour spectrum sums its layers in a fixed order: the same numbers for any count. */
 static void spectrumIsTheSameForOneTwoAndThreeThreads(void) {
     vm_volume v;
@@ -343,6 +378,7 @@ static void threadCountIsSetAndRestored(void) {
 
 TEST_MAIN(T(denoisingIsTheSameForOneTwoAndThreeThreads),
           T(tetMeshesAreByteIdenticalForOneTwoAndThreeThreads),
+          T(gradedMeshesAreByteIdenticalForOneTwoAndThreeThreads),
           T(vtuBytesAndMeshChecksAreTheSameForAnyThreadCount),
           T(qualityPassGivesTheSameMeshForOneTwoAndThreeThreads),
           T(qualityPassWithTwoRegionsAndACellFieldIsTheSameForAnyThreadCount),
