@@ -1564,6 +1564,10 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
 /* The last bar is this much over the target: the energy then also lifts the hexes just
  * over the target round the last ones below it, which frees their points. */
 #define RAISE_OVERSHOOT 0.02
+/* After the raise, at most this many hexes below the target get up to FINAL_GROUP_ROUNDS
+ * rounds of group moves and the polish. */
+#define FINAL_GROUP_MAX 64
+#define FINAL_GROUP_ROUNDS 8
 
 /* Corners around point i with i at x: [out] *mn the worst scaled Jacobian, and the energy
  * sum over them of (max(0, bar - sj))^2, which couples the moves of the points of a patch
@@ -2024,6 +2028,20 @@ static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_e
             return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
         measure(w, &P->after, NULL, 0);
         if (!last) bar += RAISE_STEP;
+    }
+    /* the last few hexes below the target: their point groups move together (the repair
+     * does that below SJ_BAR only), alternating with the polish to the target */
+    for (int r = 0; r < FINAL_GROUP_ROUNDS && P->after.min_sj < o->target; r++) {
+        size_t below = 0;
+        for (size_t t = 0; t < w->nh; t++) below += hex_q(w, t) < o->target;
+        if (below > FINAL_GROUP_MAX) break;
+        size_t mv = group_sweep(w, o->target);
+        P->moves += mv;
+        P->sweeps++;
+        if (!mv) break;
+        if (polish(w, o->target, &P->moves, &P->sweeps))
+            return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        measure(w, &P->after, NULL, 0);
     }
     return VM_OK;
 }
