@@ -690,8 +690,10 @@ static vm_status classify(hx *w, vm_error *err) {
 /* Where the boundary of the shrink set (the sheet) is not a manifold surface: a vertex with
  * a sheet edge not in exactly two sheet faces, or with its sheet faces in more than one fan.
  * The hexes of the set at such vertices leave it (in[t] = 0). Returns the number of such
- * vertices. [in] bf, nb: the sheet faces, as 6 * hex + face. */
-static size_t sheet_defects(const hx *w, const size_t *bf, size_t nb, uint8_t *in) {
+ * vertices. [in] bf, nb: the sheet faces, as 6 * hex + face; open: the sheet leaves out the
+ * faces on the box (pillow's open), so an edge of two points on one box plane (the rim) may
+ * be in one sheet face. */
+static size_t sheet_defects(const hx *w, const size_t *bf, size_t nb, uint8_t *in, int open) {
     size_t *start = calloc(w->np + 2, sizeof *start), *list = malloc((4 * nb + 1) * sizeof *list);
     uint8_t *bad = calloc(w->np + 1, 1);
     size_t nbad = 0;
@@ -739,7 +741,9 @@ static size_t sheet_defects(const hx *w, const size_t *bf, size_t nb, uint8_t *i
                     while (par[y] != y) y = par[y];
                     par[x] = y;
                 }
-                if (count != 2) ok = 0;
+                if (count != 2 &&
+                    !(open && count == 1 && (w->planes[v] & w->planes[nbr] & 0x3fu)))
+                    ok = 0;
             }
         int roots = 0;
         for (size_t a = 0; a < k; a++) roots += par[a] == (int)a;
@@ -763,8 +767,13 @@ static size_t sheet_defects(const hx *w, const size_t *bf, size_t nb, uint8_t *i
  * every hex touching the boundary afterwards has exactly one face on it, and the boundary
  * itself (points, quads) is unchanged; with a smaller set, the sheet leaves the boundary and
  * goes round the hexes outside the set, which keep their points (the mesh stays conforming).
- * in is shrunk where its sheet would not be a manifold surface. */
-static vm_status pillow(hx *w, uint8_t *in, size_t *added, vm_error *err) {
+ * in is shrunk where its sheet would not be a manifold surface. With open set (w->planes
+ * known), the faces on a box plane stay out of the sheet: it ends on the box along the rim,
+ * the rim points' copies stay in their box plane, and the layer's hexes at the rim put a
+ * strip of box quads between the rim and the old box quads (which take the copies), so that
+ * the box face's own quad mesh gets a layer along its edge too; the boundary is otherwise
+ * unchanged. */
+static vm_status pillow(hx *w, uint8_t *in, int open, size_t *added, vm_error *err) {
     size_t *bf = NULL, nb = 0;
     vm_status s = VM_OK;
     for (int round = 0;; round++) {
@@ -772,7 +781,18 @@ static vm_status pillow(hx *w, uint8_t *in, size_t *added, vm_error *err) {
         bf = NULL;
         s = boundary_faces(w, in, &bf, &nb, err);
         if (s) return s;
-        if (!in || !sheet_defects(w, bf, nb, in)) break;
+        if (open) { /* the faces on one box plane stay out of the sheet */
+            size_t kept = 0;
+            for (size_t u = 0; u < nb; u++) {
+                const vm_index *c = w->h + 8 * (bf[u] / 6);
+                const int *fc = face_tab[bf[u] % 6];
+                unsigned common = 0x3fu;
+                for (int j = 0; j < 4; j++) common &= w->planes[c[fc[j]]];
+                if (!(common & 0x3fu)) bf[kept++] = bf[u];
+            }
+            nb = kept;
+        }
+        if (!in || !sheet_defects(w, bf, nb, in, open)) break;
         if (round == 50) {
             free(bf);
             *added = 0;
@@ -830,6 +850,16 @@ static vm_status pillow(hx *w, uint8_t *in, size_t *added, vm_error *err) {
         double *q = w->p + 3 * (size_t)copy[i];
         for (int a = 0; a < 3; a++)
             q[a] = w->p[3 * i + a] + (ctr[3 * i + a] / (double)cnt[i] - w->p[3 * i + a]) / 3.0;
+        if (open && (w->planes[i] & 0x3fu)) {
+            /* a rim point's copy stays in the point's box plane(s): the layer's side faces
+             * there close the box face round the old box quads, which take the copies */
+            double y[3], yq[3];
+            to_index(w, w->p + 3 * i, y);
+            to_index(w, q, yq);
+            for (int a = 0; a < 3; a++)
+                if (w->planes[i] & (3u << (2 * a))) yq[a] = y[a];
+            to_world(w, yq, q);
+        }
         memcpy(w->p0 + 3 * (size_t)copy[i], q, 3 * sizeof *q);
     }
     for (size_t u = 0; u < 8 * nh; u++)
@@ -1373,7 +1403,11 @@ static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o,
         if (!s) snap_in(w, ISO_TANGENT_MAX, SNAP_RAW_FLOOR);
     }
     size_t np0 = w->np, nh0 = w->nh;
-    if (!s && in) s = pillow(w, in, added, err);
+    /* the whole layer on a valid mesh (classified: its box planes known) leaves the box
+     * faces out: the layer then ends on the box, and a box face's quad at the rim gets a
+     * layer quad beside it instead of a corner angle near 180 degrees (cut sphere 96^3 at
+     * step 1.5, the rim point of one box quad only: 0.472) */
+    if (!s && in) s = pillow(w, in, w->fit && !init, added, err);
     w->pillowed = *added > 0;
     free(w->focus);
     w->focus = NULL;
@@ -1530,6 +1564,10 @@ static vm_status polish(hx *w, double target, size_t *moves, int *sweeps) {
 /* The last bar is this much over the target: the energy then also lifts the hexes just
  * over the target round the last ones below it, which frees their points. */
 #define RAISE_OVERSHOOT 0.02
+/* After the raise, at most this many hexes below the target get up to FINAL_GROUP_ROUNDS
+ * rounds of group moves and the polish. */
+#define FINAL_GROUP_MAX 64
+#define FINAL_GROUP_ROUNDS 8
 
 /* Corners around point i with i at x: [out] *mn the worst scaled Jacobian, and the energy
  * sum over them of (max(0, bar - sj))^2, which couples the moves of the points of a patch
@@ -1990,6 +2028,20 @@ static vm_status last_repairs(hex_pass *P, const vm_hex_improve_options *o, vm_e
             return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
         measure(w, &P->after, NULL, 0);
         if (!last) bar += RAISE_STEP;
+    }
+    /* the last few hexes below the target: their point groups move together (the repair
+     * does that below SJ_BAR only), alternating with the polish to the target */
+    for (int r = 0; r < FINAL_GROUP_ROUNDS && P->after.min_sj < o->target; r++) {
+        size_t below = 0;
+        for (size_t t = 0; t < w->nh; t++) below += hex_q(w, t) < o->target;
+        if (below > FINAL_GROUP_MAX) break;
+        size_t mv = group_sweep(w, o->target);
+        P->moves += mv;
+        P->sweeps++;
+        if (!mv) break;
+        if (polish(w, o->target, &P->moves, &P->sweeps))
+            return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        measure(w, &P->after, NULL, 0);
     }
     return VM_OK;
 }

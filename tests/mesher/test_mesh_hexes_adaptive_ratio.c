@@ -7,6 +7,7 @@
  * Euler characteristic and components, the volume within 1% of the uniform mesh's and of the
  * phantom's, the boundary within half a voxel of the isosurface both ways; and where a
  * coarser grid loses the shape (the one-voxel plate) the full-resolution one. */
+/* ctest parts: 2 */
 #include "hex_checks.h"
 #include <stdlib.h>
 #include <string.h>
@@ -86,6 +87,56 @@ static void adaptiveHexesAreHalfTheUniformOnesWithTheirShape(void) {
     }
 }
 
+/* The cut sphere at 96^3, cut by the box face x = 0: on each coarser grid (steps 1.5, 1.4,
+ * 1.3) the quality pass ended at 0.47-0.48 while the whole pillow layer covered the box face
+ * too (a box quad whose rim point was in no other box quad kept a corner angle near 180
+ * degrees), so adaptive hexes fell back to the voxel grid's interior coarsening: 1.59x fewer
+ * hexes than uniform, min scaled Jacobian 0.490. The layer now ends on the box (improve/
+ * hex_improve.c, pillow's open sheet): step 1.5 is kept, measured 43,848 hexes after the pass
+ * against 124,860 uniform hexes before it (139,672 after), min scaled Jacobian 0.5002, 0.36
+ * voxel. The uniform count before the pass is the cheaper and stricter reference here (the
+ * pass adds the layer's hexes). Skipped under the sanitizers (minutes there). */
+static void adaptiveHexesOfABoxCutSphereKeepTheCoarseGrid(void) {
+    const char *sanitized = getenv("VM_SANITIZED");
+    if (sanitized && strcmp(sanitized, "1") == 0) {
+        vm_test_skip("minutes under the sanitizers: left to the Release run");
+        return;
+    }
+    vm_volume v;
+    vm_phantom_info info;
+    vm_error err;
+    CHECK_OK(vm_phantom_make(VM_PHANTOM_CUT_SPHERE, 96, 0.0, 0, &v, &info, &err), &err);
+    vm_mesh uni, ada;
+    vm_mesh_report ra;
+    if (mesh_hex_levels(&v, 0.0, 0, &uni, NULL) == VM_OK) {
+        if (pass_mesh(&v, 1, &ada, &ra) == VM_OK) {
+            vm_surface_distance d;
+            CHECK_OK(vm_mesh_surface_distance(&ada, &v, 0.0, 1, 0.0, 0, &d, &err), &err);
+            printf("  %s 96^3: %zu uniform hexes before the pass, %zu adaptive after it "
+                   "(%.2fx), min scaled Jacobian %.4f, volume %.1f (%.1f), distance %.3f voxel\n",
+                   info.name, uni.ncells, ada.ncells, (double)uni.ncells / (double)ada.ncells,
+                   ra.min_scaled_jacobian, ra.volume, info.volume, d.hausdorff / d.voxel);
+            CHECK_MSG(2 * ada.ncells <= uni.ncells, "%zu adaptive, %zu uniform", ada.ncells,
+                      uni.ncells);
+            CHECK_MSG(ra.inverted == 0, "%zu inverted", ra.inverted);
+            CHECK_MSG(ra.min_scaled_jacobian >= 0.5, "min scaled Jacobian %.4f",
+                      ra.min_scaled_jacobian);
+            CHECK(ra.overshared_faces == 0);
+            CHECK(ra.boundary_closed == 1);
+            CHECK(ra.boundary_nonmanifold_vertices == 0);
+            CHECK_MSG(ra.boundary_euler == info.euler, "Euler %ld", ra.boundary_euler);
+            CHECK_MSG(ra.components == (size_t)info.components, "%zu components",
+                      ra.components);
+            CHECK_MSG(fabs(ra.volume - info.volume) <= 0.01 * info.volume, "volume %.1f",
+                      ra.volume);
+            CHECK_MSG(d.hausdorff <= 0.5 * d.voxel, "%.3f voxel off", d.hausdorff / d.voxel);
+            vm_mesh_free(&ada);
+        }
+        vm_mesh_free(&uni);
+    }
+    vm_volume_free(&v);
+}
+
 /* The plate, one voxel thick, changes its shape on a coarser grid: adaptive hexes keep the
  * full-resolution grid there (as many hexes as uniform before the pass: no interior block
  * fits either), a valid mesh with the plate's topology. */
@@ -141,4 +192,5 @@ static void theChosenGridIsTheSameForAnyThreadCount(void) {
 }
 
 TEST_MAIN(T(adaptiveHexesAreHalfTheUniformOnesWithTheirShape),
-          T(aPlateKeepsTheFullResolutionGrid), T(theChosenGridIsTheSameForAnyThreadCount))
+          T(adaptiveHexesOfABoxCutSphereKeepTheCoarseGrid), T(aPlateKeepsTheFullResolutionGrid),
+          T(theChosenGridIsTheSameForAnyThreadCount))

@@ -13,7 +13,9 @@
  * the selective layer's hexes sliding along the isosurface, docs/IMPROVE.md), avg152T1 since
  * the repair (coupled moves of the last patches below 0.3, boundary points also anywhere
  * within 0.4 voxel of the isosurface); issue 34's raise of the repair's bar to 0.52 takes
- * them to 0.466 and 0.39 (every hex measured at its corners, centre and Gauss points). */
+ * them to 0.466 and 0.39 (every hex measured at its corners, centre and Gauss points); the
+ * group moves after the raise (at most 64 hexes below the target) take the CT head to 0.5,
+ * issue 34's bar. */
 /* One head: skipped under the sanitizers (minutes there: left to the Release run). */
 static void check_head(const char *file, double iso, double floor) {
     const char *sanitized = getenv("VM_SANITIZED");
@@ -25,7 +27,8 @@ static void check_head(const char *file, double iso, double floor) {
 }
 
 static void hexPassOnTheCtHeadSkinReachesTheBar(void) {
-    check_head("ct_head_quarter.nrrd", 500, 0.44); /* measured 0.466 (0.300 before the raise) */
+    /* measured 0.5008 (0.466 before the last group moves, 0.300 before the raise) */
+    check_head("ct_head_quarter.nrrd", 500, 0.5);
 }
 
 static void hexPassOnAvg152ReachesTheBar(void) {
