@@ -1689,26 +1689,47 @@ static size_t repair(co *C, plan *P, set *sets, size_t *removed) {
  * nothing the check read has changed since (the memo's rule) and the net volume budget,
  * which the collapses in between move, still says what it said; any other check is made
  * again in order. So the collapses are those of the serial loop, on any number of threads. */
-enum { GR_CO_BATCH = 256 };
+enum { GR_CO_BATCH = 1024, GR_CO_SPEC_TRI = 96 };
 typedef struct spec {
     int32_t x, y; /* the edge as checked (x < 0: not checked ahead) */
     int two;      /* both ways checked (both ends on the boundary, or neither) */
     uint32_t when;
     int ok[2], late[2], reached[2], budget[2];
     double dtry[2];
-    plan P[2];
+    /* the plans, kept when they hold at most GR_CO_SPEC_TRI triangles (else ok is -1: the
+     * check is made again in order) */
+    double qmin[2], dvol[2];
+    int ntri[2];
+    int32_t tri[2][GR_CO_SPEC_TRI][3];
 } spec;
 
-static void spec_one(const co *C, scratch *W, set *sets, spec *q) {
+static void spec_one(const co *C, scratch *W, set *sets, plan *P, spec *q) {
     for (int k = 0; k < 1 + q->two; k++) {
         int32_t a = k ? q->y : q->x, b = k ? q->x : q->y;
         W->budget_hit = 0;
-        q->ok[k] = check(C, W, a, b, &q->P[k], &sets[0], &sets[1], &sets[2]);
+        q->ok[k] = check(C, W, a, b, P, &sets[0], &sets[1], &sets[2]);
         q->late[k] = W->late;
         q->reached[k] = W->reached;
         q->budget[k] = W->budget_hit;
         q->dtry[k] = W->dtry;
+        if (!q->ok[k]) continue;
+        if (P->ntri > GR_CO_SPEC_TRI) {
+            q->ok[k] = -1;
+            continue;
+        }
+        q->qmin[k] = P->qmin;
+        q->dvol[k] = P->dvol;
+        q->ntri[k] = P->ntri;
+        memcpy(q->tri[k], P->tri, (size_t)P->ntri * sizeof P->tri[0]);
     }
+}
+
+/* Plan k of q into P. */
+static void spec_plan(const spec *q, int k, plan *P) {
+    P->qmin = q->qmin[k];
+    P->dvol = q->dvol[k];
+    P->ntri = q->ntri[k];
+    memcpy(P->tri, q->tri[k], (size_t)q->ntri[k] * sizeof P->tri[0]);
 }
 
 /* Whether the checks of q hold now; [out] *ok (one bit per way), *late, *budget_hit as the
@@ -1720,7 +1741,8 @@ static int spec_take(const co *C, const spec *q, int *ok, int *late, int *budget
     for (int k = 0; k < 1 + q->two; k++) {
         int32_t a = k ? q->y : q->x;
         if (!(q->late[k] ? near : C->star[a] <= w)) return 0;
-        if (q->budget[k]) return 0; /* refused on the budget then: maybe not now */
+        if (q->budget[k] || q->ok[k] < 0) return 0; /* (refused on the budget then: maybe
+                                                         not now; a plan too big to keep) */
         int ok_k = q->ok[k];
         if (q->reached[k] && (C->dvol + q->dtry[k] < -C->vol_budget ||
                               C->dvol + q->dtry[k] > C->vol_gain)) {
@@ -1736,7 +1758,7 @@ static int spec_take(const co *C, const spec *q, int *ok, int *late, int *budget
 /* Checks ahead the edges of E[i0 .. i0 + GR_CO_BATCH) that the loop will check (alive, not
  * skipped by the memo F from its position j), on nthreads threads with their scratch. */
 static void speculate(const co *C, const keyed *E, size_t ne, size_t i0, const memo *F, size_t nf,
-                      size_t j, spec *S, scratch *TW, set *TS, int nthreads) {
+                      size_t j, spec *S, scratch *TW, set *TS, plan *TP, int nthreads) {
     size_t i1 = i0 + GR_CO_BATCH < ne ? i0 + GR_CO_BATCH : ne;
     int todo[GR_CO_BATCH], n = 0;
     for (size_t i = i0; i < i1; i++) {
@@ -1772,7 +1794,7 @@ static void speculate(const co *C, const keyed *E, size_t ne, size_t i0, const m
 #ifdef VM_HAVE_OPENMP
         t = omp_get_thread_num();
 #endif
-        spec_one(C, &TW[t], &TS[3 * t], &S[todo[k]]);
+        spec_one(C, &TW[t], &TS[3 * t], &TP[t], &S[todo[k]]);
     }
     (void)nthreads;
 }
@@ -1860,11 +1882,13 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     spec *S = NULL;
     scratch *TW = NULL;
     set *TS = NULL;
+    plan *TP = NULL;
     if (nthreads > 1) {
         S = malloc(GR_CO_BATCH * sizeof *S);
         TW = calloc((size_t)nthreads, sizeof *TW);
         TS = malloc(3 * (size_t)nthreads * sizeof *TS);
-        int ok = S && TW && TS;
+        TP = malloc((size_t)nthreads * sizeof *TP);
+        int ok = S && TW && TS && TP;
         for (int t = 0; ok && t < nthreads; t++)
             ok = (TW[t].vmark = calloc(C.nv, sizeof *TW[t].vmark)) != NULL;
         if (!ok) { /* then serially */
@@ -1873,9 +1897,11 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             free(S);
             free(TW);
             free(TS);
+            free(TP);
             S = NULL;
             TW = NULL;
             TS = NULL;
+            TP = NULL;
         }
     }
     size_t nf = 0, fcap = 0;
@@ -1929,7 +1955,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             for (size_t i = 0; i < ne && !C.nomem; i++) {
                 if (S && i == i0 + (i > 0 ? GR_CO_BATCH : 0)) {
                     i0 = i;
-                    speculate(&C, E, ne, i0, F, nf, j, S, TW, TS, nthreads);
+                    speculate(&C, E, ne, i0, F, nf, j, S, TW, TS, TP, nthreads);
                 }
                 static const size_t ahead[4] = {24, 16, 8, 4};
                 for (int st = 0; st < 4; st++)
@@ -1961,8 +1987,8 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
                 if (q && q->x == x && q->y == y && spec_take(&C, q, &both, &late, &bh)) {
                     okx = both & 1;
                     oky = both >> 1;
-                    P0 = &q->P[0];
-                    P1 = &q->P[1];
+                    if (okx) spec_plan(q, 0, P0);
+                    if (oky) spec_plan(q, 1, P1);
                 } else {
                     C.w.budget_hit = 0;
                     okx = check(&C, &C.w, x, y, P0, &sets[0], &sets[1], &sets[2]);
@@ -2002,6 +2028,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     free(S);
     free(TW);
     free(TS);
+    free(TP);
     free(E);
     free(Etmp);
     free(F);
