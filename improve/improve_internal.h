@@ -383,6 +383,27 @@ static inline vm_status vm__imp_check(const vm_improve_options *o, vm_error *err
     return vm__progress_check(o->progress, o->progress_user, "improve", err);
 }
 
+/* --- Whole-mesh figures (improve.c) ------------------------------------------------------ */
+
+/* What the pass reports of a mesh, from one sweep over its tets. */
+typedef struct vm__imp_figures {
+    double dmin, dmax;   /* smallest and largest dihedral angle (degrees), as
+                            vm_tet_min_dihedral and vm_tet_max_dihedral measure them */
+    double volume;       /* the signed volumes' sum */
+    size_t s5, s10;      /* tets with a dihedral angle below 5 / below 10 degrees */
+    size_t abaqus;       /* tets failing ABAQUS's element check */
+    size_t inverted;     /* tets not of positive volume */
+    size_t unfixed;      /* tets failing ABAQUS, below 10 or above 165 degrees, or inverted */
+    size_t vm_low;       /* tets whose volume measure is below the sweep's vm_target */
+} vm__imp_figures;
+
+/* The figures of the n tets cells (4 nodes each, into pts: 3 per point), [out] *f; vm_target:
+ * the volume measure f->vm_low counts the tets below (0: none). The angles are compared on
+ * their cosines, the extremes measured exactly; parallel over fixed chunks summed in order,
+ * so the same figures for any thread count. VM_OK, or VM_ERR_NOMEM (no message set). */
+vm_status vm__imp_mesh_figures(const double *pts, const vm_index *cells, size_t n,
+                               double vm_target, vm__imp_figures *f);
+
 /* The operations: each returns 1 when it changed the mesh. */
 int vm__imp_contract_tet(vm__imp *w, size_t t);
 int vm__imp_flip_tet(vm__imp *w, size_t t);
