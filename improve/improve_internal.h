@@ -73,6 +73,8 @@ typedef struct vm__imp {
     /* scratch for local operations */
     vm_index *buf;
     size_t buf_cap;
+    double *qbuf;       /* qualities of a candidate position's star (vm__imp_qscratch) */
+    size_t qbuf_cap;
     int deep;           /* later rounds: also peel bad tets off the boundary */
     size_t nfrozen;     /* input tets 0..nfrozen-1 have o->frozen flags */
     /* tets whose quality was recomputed below 1 since the last bad list (may repeat, may
@@ -146,6 +148,9 @@ int vm__imp_tet_above_moved(const vm__imp *w, size_t t, vm_index a, const double
                             const vm__imp_bar *b);
 /* Recomputes w->q[t], noting t in w->touched when it is below the targets. */
 void vm__imp_requal(vm__imp *w, size_t t);
+/* w->q[t] = q, the quality tet t has now as vm__imp_requal would measure it (a value
+ * measured on the same points), noting t in w->touched when it is below the targets. */
+void vm__imp_set_q(vm__imp *w, size_t t, double q);
 /* w->q[t], measured now when it is not known yet (NaN: a part's tet known to be at or above
  * the targets, its value not needed until an operation reads it). */
 static inline double vm__imp_q(const vm__imp *w, size_t t) {
@@ -170,6 +175,8 @@ int vm__imp_has(const vm__imp *w, size_t t, vm_index a);
 long vm__imp_face_other(const vm__imp *w, size_t t, vm_index a, vm_index b, vm_index c);
 /* Grows the scratch buffer to hold n indices; VM_ERR_NOMEM (and w->nomem set) on failure. */
 vm_status vm__imp_scratch(vm__imp *w, size_t n);
+/* Grows w->qbuf to hold n qualities; VM_ERR_NOMEM (and w->nomem set) on failure. */
+vm_status vm__imp_qscratch(vm__imp *w, size_t n);
 unsigned vm__imp_rand(vm__imp *w);
 double vm__imp_rand01(vm__imp *w);
 

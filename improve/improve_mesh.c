@@ -183,7 +183,10 @@ double vm__imp_tet_q(const vm__imp *w, size_t t) {
 }
 
 void vm__imp_requal(vm__imp *w, size_t t) {
-    double q = vm__imp_tet_q(w, t);
+    vm__imp_set_q(w, t, vm__imp_tet_q(w, t));
+}
+
+void vm__imp_set_q(vm__imp *w, size_t t, double q) {
     w->q[t] = q;
     if (q >= 1.0) return;
     if (w->ntouched == w->touched_cap) {
@@ -302,6 +305,19 @@ long vm__imp_face_other(const vm__imp *w, size_t t, vm_index a, vm_index b, vm_i
         if (u != t && vm__imp_has(w, u, o1) && vm__imp_has(w, u, o2)) return (long)u;
     }
     return -1;
+}
+
+vm_status vm__imp_qscratch(vm__imp *w, size_t n) {
+    if (n <= w->qbuf_cap) return VM_OK;
+    size_t cap = n + n / 2 + 64;
+    double *b = realloc(w->qbuf, cap * sizeof *b);
+    if (!b) {
+        w->nomem = 1;
+        return VM_ERR_NOMEM;
+    }
+    w->qbuf = b;
+    w->qbuf_cap = cap;
+    return VM_OK;
 }
 
 /* Grows w->buf to hold n indices (by half again, plus 64, to amortise). */
