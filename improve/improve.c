@@ -41,10 +41,7 @@ void vm_improve_options_default(vm_improve_options *o) {
 
 /* --- whole-mesh figures ------------------------------------------------------------------ */
 
-typedef struct figures {
-    double dmin, dmax, volume;
-    size_t s5, s10, abaqus, inverted, unfixed;
-} figures;
+typedef vm__imp_figures figures;
 
 /* Sliver counts: tets whose smallest dihedral is below 5 and below 10 degrees. */
 #define SLIVER_5 5.0
@@ -54,9 +51,10 @@ typedef struct figures {
 #define UNFIXED_MAX_DIHEDRAL 165.0
 
 /* 1 when the tet fails the ABAQUS check or the bar; *abaqus tells whether it fails ABAQUS's. */
-static int tet_figures(const double p[4][3], figures *f, int *abaqus) {
+static int tet_figures(const double p[4][3], double vm_target, figures *f, int *abaqus) {
     double lo = vm_tet_min_dihedral(p), hi = vm_tet_max_dihedral(p);
     double vol = vm_tet_signed_volume(p), vm = vm__imp_volume_measure(p);
+    f->vm_low += vm < vm_target;
     if (lo < f->dmin) f->dmin = lo;
     if (hi > f->dmax) f->dmax = hi;
     f->volume += vol;
@@ -98,7 +96,8 @@ typedef struct below_out {
 } below_out;
 
 static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, size_t t1,
-                          figures *f, double *unfixed_field, const below_out *below) {
+                          double vm_target, figures *f, double *unfixed_field,
+                          const below_out *below) {
     static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
     memset(f, 0, sizeof *f);
     f->dmin = 180.0;
@@ -149,12 +148,13 @@ static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, s
                     near_cos(fcmax, VM__ABAQUS_COS_SMALL_FACE_ANGLE) ||
                     near_cos(fcmin, VM__ABAQUS_COS_LARGE_FACE_ANGLE);
         }
+        /* the volume measure, when the cosines are trusted (both tests below read it) */
+        double vmq = exact ? 0.0 : vm__imp_volume_measure(cp);
         if (below) {
             /* the cosine tests of vm__imp_quality_above on the cosines above (the same
              * formulas); the quality itself when the tet is flat or a cosine is near */
             const vm__imp_bar *b = below->one;
             int fast = !exact && b->fast;
-            double vmq = fast ? vm__imp_volume_measure(cp) : 0.0;
             int s1 = fast ? vm__imp_cos_side(cmax, b->c_dmin) : 0,
                 s2 = fast ? -vm__imp_cos_side(cmin, b->c_dmax) : 0,
                 s4 = fast ? vm__imp_cos_side(fcmax, b->c_fmin) : 0,
@@ -172,16 +172,17 @@ static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, s
         int bad;
         if (exact) {
             int ab;
-            bad = tet_figures(cp, f, &ab);
+            bad = tet_figures(cp, vm_target, f, &ab);
             cdmin = cos(f->dmin / FIG_DEG);
             cdmax = cos(f->dmax / FIG_DEG);
         } else {
             /* here vol > 0 */
             f->volume += vol;
+            f->vm_low += vmq < vm_target;
             f->s5 += cmax > COS5;
             f->s10 += cmax > COS10;
             /* ABAQUS's check (vm__tet_abaqus_fails) on the face angles' cosines */
-            int ab = vm__imp_volume_measure(cp) < VM__ABAQUS_VOLUME_MEASURE ||
+            int ab = vmq < VM__ABAQUS_VOLUME_MEASURE ||
                      fcmax > VM__ABAQUS_COS_SMALL_FACE_ANGLE ||
                      fcmin < VM__ABAQUS_COS_LARGE_FACE_ANGLE;
             f->abaqus += (size_t)ab;
@@ -212,8 +213,9 @@ static void chunk_figures(const double *pts, const vm_index *cells, size_t t0, s
 /* Fixed chunks summed in their order: the same figures for any thread count. */
 #define FIG_CHUNK ((size_t)1 << 15)
 
-static vm_status mesh_figures(const double *pts, const vm_index *cells, size_t n, figures *f,
-                              double *unfixed_field, const below_out *below, vm__meter *pm) {
+static vm_status mesh_figures(const double *pts, const vm_index *cells, size_t n,
+                              double vm_target, figures *f, double *unfixed_field,
+                              const below_out *below, vm__meter *pm) {
     size_t nc = (n + FIG_CHUNK - 1) / FIG_CHUNK;
     figures *part = malloc((nc ? nc : 1) * sizeof *part);
     if (!part) return VM_ERR_NOMEM;
@@ -223,7 +225,7 @@ static vm_status mesh_figures(const double *pts, const vm_index *cells, size_t n
     for (size_t c = 0; c < nc; c++) {
         size_t t1 = (c + 1) * FIG_CHUNK < n ? (c + 1) * FIG_CHUNK : n;
         if (vm__progress_poll_team(vm__meter_forward, pm)) continue; /* cancelled */
-        chunk_figures(pts, cells, c * FIG_CHUNK, t1, &part[c], unfixed_field, below);
+        chunk_figures(pts, cells, c * FIG_CHUNK, t1, vm_target, &part[c], unfixed_field, below);
     }
     if (vm__meter_stopped(pm)) {
         free(part);
@@ -242,9 +244,17 @@ static vm_status mesh_figures(const double *pts, const vm_index *cells, size_t n
         f->abaqus += g->abaqus;
         f->inverted += g->inverted;
         f->unfixed += g->unfixed;
+        f->vm_low += g->vm_low;
     }
     free(part);
     return VM_OK;
+}
+
+vm_status vm__imp_mesh_figures(const double *pts, const vm_index *cells, size_t n,
+                               double vm_target, vm__imp_figures *f) {
+    vm__meter pm;
+    vm__meter_wrap(&pm, NULL, NULL, "improve", 1.0);
+    return mesh_figures(pts, cells, n, vm_target, f, NULL, NULL, &pm);
 }
 
 /* --- writing back ------------------------------------------------------------------------- */
@@ -392,7 +402,7 @@ static vm_status figures_after(vm_mesh *m, const vm_improve_options *o, figures 
         uf = malloc((m->ncells + 1) * sizeof *uf);
         if (!uf) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
-    if (s == VM_OK) s = mesh_figures(m->points, m->cells, m->ncells, fa, uf, NULL, pm);
+    if (s == VM_OK) s = mesh_figures(m->points, m->cells, m->ncells, 0.0, fa, uf, NULL, pm);
     if (s == VM_ERR_CANCELLED) s = vm__cancelled(err, "improve");
     if (s == VM_ERR_NOMEM) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     if (uf && s == VM_OK) s = vm_mesh_set_field(m, 1, "improve_unfixed", 1, uf, err);
@@ -466,7 +476,8 @@ static vm_status improve(vm_mesh *m, const vm_volume *v, vm_plane_source src, vo
     below_out bo = {&qw, &one, nparts == 0 ? malloc(m->ncells + 1) : NULL};
     if (nparts == 0 && !bo.flag) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     figures fb;
-    s = mesh_figures(m->points, m->cells, m->ncells, &fb, NULL, nparts == 0 ? &bo : NULL, &pm);
+    s = mesh_figures(m->points, m->cells, m->ncells, 0.0, &fb, NULL,
+                     nparts == 0 ? &bo : NULL, &pm);
     if (s != VM_OK) {
         free(bo.flag);
         return s == VM_ERR_CANCELLED ? vm__cancelled(err, "improve")

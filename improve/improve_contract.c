@@ -319,30 +319,16 @@ static int boundary_keeps_normals(const vm__imp *w, vm_index b, vm_index a, cons
     return 1;
 }
 
-/* Worst quality after merging a and b at x (a's tets and b's tets, those with both die);
- * returns as soon as it falls to floor or below. */
-static double merged_min(const vm__imp *w, vm_index a, vm_index b, const double x[3],
-                         double floor_q) {
-    double qmin = INFINITY;
-    for (int side = 0; side < 2; side++) {
-        vm_index u = side ? b : a, other = side ? a : b;
-        const vm__imp_star *s = &w->star[u];
-        int moved = memcmp(x, w->p + 3 * (size_t)u, 3 * sizeof(double)) != 0;
-        for (int32_t i = 0; i < s->n; i++) {
-            size_t t = (size_t)s->t[i];
-            if (vm__imp_has(w, t, other)) continue;
-            double q = moved ? vm__imp_tet_q_moved(w, t, u, x) : vm__imp_q(w, t);
-            if (q < qmin) qmin = q;
-            if (qmin <= floor_q) return qmin;
-        }
-    }
-    return qmin;
-}
-
-/* 1 when every tet left after merging a and b at x has a quality above the bar (merged_min
- * > b->f, without measuring the qualities). */
+/* 1 when every tet left after merging a and b at x has a quality above the bar, and then
+ * [out] *qmin their worst quality (a's tets and b's tets, those with both die). The first tet that moves is tried on its
+ * cosines (vm__imp_tet_above_moved: most options that fail end there); the others are
+ * measured, which gives the same answer, so that an option that passes has its worst quality
+ * without a second sweep. */
 static int merged_above(const vm__imp *w, vm_index a, vm_index b, const double x[3],
-                        const vm__imp_bar *bar) {
+                        const vm__imp_bar *bar, double *qmin) {
+    double m = INFINITY;
+    size_t first = SIZE_MAX; /* the tet tried on its cosines */
+    vm_index fu = -1;
     for (int side = 0; side < 2; side++) {
         vm_index u = side ? b : a, other = side ? a : b;
         const vm__imp_star *s = &w->star[u];
@@ -350,10 +336,26 @@ static int merged_above(const vm__imp *w, vm_index a, vm_index b, const double x
         for (int32_t i = 0; i < s->n; i++) {
             size_t t = (size_t)s->t[i];
             if (vm__imp_has(w, t, other)) continue;
-            if (moved ? !vm__imp_tet_above_moved(w, t, u, x, bar) : !(vm__imp_q(w, t) > bar->f))
-                return 0;
+            double q;
+            if (!moved) {
+                q = vm__imp_q(w, t);
+            } else if (first == SIZE_MAX) {
+                if (!vm__imp_tet_above_moved(w, t, u, x, bar)) return 0;
+                first = t;
+                fu = u;
+                continue;
+            } else {
+                q = vm__imp_tet_q_moved(w, t, u, x);
+            }
+            if (!(q > bar->f)) return 0;
+            if (q < m) m = q;
         }
     }
+    if (first != SIZE_MAX) {
+        double q = vm__imp_tet_q_moved(w, first, fu, x);
+        if (q < m) m = q;
+    }
+    *qmin = m;
     return 1;
 }
 
@@ -532,7 +534,8 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
             for (int k = 0; k < 3; k++) x[k] = 0.5 * (pa[k] + pb[k]);
             if (!vm__imp_project(w, a, x)) continue;
         } else continue;
-        if (!merged_above(w, a, b, x, &bar)) continue;
+        double qm;
+        if (!merged_above(w, a, b, x, &bar, &qm)) continue;
         if (opt != 1 && w->cls[b] != VM__IMP_INTERIOR && !boundary_keeps_normals(w, b, a, x))
             continue;
         if (opt != 0 && w->cls[a] != VM__IMP_INTERIOR && !boundary_keeps_normals(w, a, b, x))
@@ -548,7 +551,7 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
             if (link < 0) w->nomem = 1;
             if (link <= 0) return 0;
         }
-        cq[opt] = merged_min(w, a, b, x, -INFINITY);
+        cq[opt] = qm;
         int j = nc++;
         while (j > 0 && cq[cand[j - 1]] < cq[opt]) {
             cand[j] = cand[j - 1];

@@ -7,9 +7,8 @@
  * options (docs/SIZING.md). A mesh that meets the targets already (the coarsening's repair
  * leaves most so) is not touched at all: the pass would still move vertices around its
  * nearly-bad tets, and each boundary move costs distance. */
-#include "../quality/tet_internal.h"
+#include "improve_internal.h"
 #include "volmesh/improve.h"
-#include "volmesh/quality.h"
 #include <math.h>
 #include <stddef.h>
 
@@ -17,35 +16,27 @@
 #define VM_GRADED_SURFACE_MOVE 0.2
 
 /* The report of a pass that had nothing to do: the figures of m, before and after. [out] r.
- * Returns whether every tet meets o's targets and ABAQUS's check. */
+ * Returns whether every tet meets o's targets and ABAQUS's check (one sweep of the pass's
+ * own figures, vm__imp_mesh_figures: 0 as well when it finds no memory). */
 static int meets_targets(const vm_mesh *m, const vm_improve_options *o, vm_improve_report *r) {
-    vm_improve_report q = {.tets_before = m->ncells,
-                           .tets_after = m->ncells,
-                           .points_before = m->npoints,
-                           .points_after = m->npoints,
-                           .min_dihedral_before = 180};
-    int ok = m->kind == VM_TET4 && m->ncells > 0;
-    for (size_t t = 0; t < m->ncells && ok; t++) {
-        double p[4][3], lo, hi, flo, fhi;
-        for (int k = 0; k < 4; k++)
-            for (int d = 0; d < 3; d++)
-                p[k][d] = m->points[3 * (size_t)m->cells[4 * t + k] + d];
-        double v = vm_tet_signed_volume((const double(*)[3])p);
-        vm__tet_dihedral_range((const double(*)[3])p, &lo, &hi);
-        vm__tet_face_angle_range((const double(*)[3])p, &flo, &fhi);
-        double vm = vm_tet_volume_measure((const double(*)[3])p);
-        if (!(v > 0) || lo < o->target_min_dihedral || hi > o->target_max_dihedral ||
-            vm < o->target_volume_measure ||
-            vm__tet_abaqus_fails(vm, flo, fhi))
-            ok = 0;
-        q.min_dihedral_before = fmin(q.min_dihedral_before, lo);
-        q.max_dihedral_before = fmax(q.max_dihedral_before, hi);
-        q.volume_before += v;
-    }
-    q.min_dihedral_after = q.min_dihedral_before;
-    q.max_dihedral_after = q.max_dihedral_before;
-    q.volume_after = q.volume_before;
-    if (ok && r) *r = q;
+    if (m->kind != VM_TET4 || m->ncells == 0) return 0;
+    vm__imp_figures f;
+    if (vm__imp_mesh_figures(m->points, m->cells, m->ncells, o->target_volume_measure, &f) !=
+        VM_OK)
+        return 0;
+    int ok = f.inverted == 0 && f.abaqus == 0 && f.vm_low == 0 &&
+             !(f.dmin < o->target_min_dihedral) && !(f.dmax > o->target_max_dihedral);
+    if (ok && r)
+        *r = (vm_improve_report){.tets_before = m->ncells,
+                                 .tets_after = m->ncells,
+                                 .points_before = m->npoints,
+                                 .points_after = m->npoints,
+                                 .min_dihedral_before = f.dmin,
+                                 .max_dihedral_before = f.dmax,
+                                 .volume_before = f.volume,
+                                 .min_dihedral_after = f.dmin,
+                                 .max_dihedral_after = f.dmax,
+                                 .volume_after = f.volume};
     return ok;
 }
 

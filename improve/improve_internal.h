@@ -73,6 +73,8 @@ typedef struct vm__imp {
     /* scratch for local operations */
     vm_index *buf;
     size_t buf_cap;
+    double *qbuf;       /* qualities of a candidate position's star (vm__imp_qscratch) */
+    size_t qbuf_cap;
     int deep;           /* later rounds: also peel bad tets off the boundary */
     size_t nfrozen;     /* input tets 0..nfrozen-1 have o->frozen flags */
     /* tets whose quality was recomputed below 1 since the last bad list (may repeat, may
@@ -146,6 +148,9 @@ int vm__imp_tet_above_moved(const vm__imp *w, size_t t, vm_index a, const double
                             const vm__imp_bar *b);
 /* Recomputes w->q[t], noting t in w->touched when it is below the targets. */
 void vm__imp_requal(vm__imp *w, size_t t);
+/* w->q[t] = q, the quality tet t has now as vm__imp_requal would measure it (a value
+ * measured on the same points), noting t in w->touched when it is below the targets. */
+void vm__imp_set_q(vm__imp *w, size_t t, double q);
 /* w->q[t], measured now when it is not known yet (NaN: a part's tet known to be at or above
  * the targets, its value not needed until an operation reads it). */
 static inline double vm__imp_q(const vm__imp *w, size_t t) {
@@ -170,6 +175,8 @@ int vm__imp_has(const vm__imp *w, size_t t, vm_index a);
 long vm__imp_face_other(const vm__imp *w, size_t t, vm_index a, vm_index b, vm_index c);
 /* Grows the scratch buffer to hold n indices; VM_ERR_NOMEM (and w->nomem set) on failure. */
 vm_status vm__imp_scratch(vm__imp *w, size_t n);
+/* Grows w->qbuf to hold n qualities; VM_ERR_NOMEM (and w->nomem set) on failure. */
+vm_status vm__imp_qscratch(vm__imp *w, size_t n);
 unsigned vm__imp_rand(vm__imp *w);
 double vm__imp_rand01(vm__imp *w);
 
@@ -382,6 +389,27 @@ static inline void vm__imp_show(const vm_improve_options *o, double done) {
 static inline vm_status vm__imp_check(const vm_improve_options *o, vm_error *err) {
     return vm__progress_check(o->progress, o->progress_user, "improve", err);
 }
+
+/* --- Whole-mesh figures (improve.c) ------------------------------------------------------ */
+
+/* What the pass reports of a mesh, from one sweep over its tets. */
+typedef struct vm__imp_figures {
+    double dmin, dmax;   /* smallest and largest dihedral angle (degrees), as
+                            vm_tet_min_dihedral and vm_tet_max_dihedral measure them */
+    double volume;       /* the signed volumes' sum */
+    size_t s5, s10;      /* tets with a dihedral angle below 5 / below 10 degrees */
+    size_t abaqus;       /* tets failing ABAQUS's element check */
+    size_t inverted;     /* tets not of positive volume */
+    size_t unfixed;      /* tets failing ABAQUS, below 10 or above 165 degrees, or inverted */
+    size_t vm_low;       /* tets whose volume measure is below the sweep's vm_target */
+} vm__imp_figures;
+
+/* The figures of the n tets cells (4 nodes each, into pts: 3 per point), [out] *f; vm_target:
+ * the volume measure f->vm_low counts the tets below (0: none). The angles are compared on
+ * their cosines, the extremes measured exactly; parallel over fixed chunks summed in order,
+ * so the same figures for any thread count. VM_OK, or VM_ERR_NOMEM (no message set). */
+vm_status vm__imp_mesh_figures(const double *pts, const vm_index *cells, size_t n,
+                               double vm_target, vm__imp_figures *f);
 
 /* The operations: each returns 1 when it changed the mesh. */
 int vm__imp_contract_tet(vm__imp *w, size_t t);

@@ -318,10 +318,18 @@ static int on_boundary(const lpass *P, size_t t) {
     if (f != BF_UNKNOWN) return f == BF_YES;
     const vm_index *n = P->S.m->cells + 4 * t;
     int bnd = 0;
+    size_t sz[4];
+    const uint32_t *sts[4];
+    for (int k = 0; k < 4; k++) sts[k] = star_of(&P->T, (size_t)n[k], &sz[k]);
     for (int k = 0; k < 4 && !bnd; k++) {
-        vm_index a = n[fo[k][0]], b = n[fo[k][1]], c = n[fo[k][2]];
-        size_t ns;
-        const uint32_t *st = star_of(&P->T, (size_t)a, &ns);
+        /* the face's shared tet, if any, is in the star of each of its nodes: the smallest */
+        int s0 = fo[k][0];
+        for (int j = 1; j < 3; j++)
+            if (sz[fo[k][j]] < sz[s0]) s0 = fo[k][j];
+        vm_index b = s0 == fo[k][0] ? n[fo[k][1]] : n[fo[k][0]];
+        vm_index c = s0 == fo[k][2] ? n[fo[k][1]] : n[fo[k][2]];
+        size_t ns = sz[s0];
+        const uint32_t *st = sts[s0];
         int shared = 0;
         for (size_t i = 0; i < ns && !shared; i++) {
             if (st[i] == t) continue;

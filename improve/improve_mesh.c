@@ -60,97 +60,71 @@ typedef struct qcos {
 
 /* The dihedral cosines; 0 when the tet is not clearly positive (its quality is -1). */
 static int dihedral_cosines(const double p[4][3], qcos *c) {
-    double lmax2 = 0.0;
-    for (int i = 0; i < 4; i++)
-        for (int j = i + 1; j < 4; j++) {
-            double e[3];
-            vm__sub3(p[j], p[i], e);
-            double l2 = vm__dot3(e, e);
-            if (l2 > lmax2) lmax2 = l2;
-        }
-    double a[3], b[3], cc[3], t[3];
-    vm__sub3(p[1], p[0], a);
-    vm__sub3(p[2], p[0], b);
-    vm__sub3(p[3], p[0], cc);
-    vm__cross3(b, cc, t);
-    double vol6 = vm__dot3(a, t);
-    if (!isfinite(vol6) || !(vol6 > 1e-12 * lmax2 * sqrt(lmax2))) return 0;
-    double n[4][3], len[4];
-    for (int f = 0; f < 4; f++) {
-        double u[3], v[3];
-        vm__sub3(p[face_of[f][1]], p[face_of[f][0]], u);
-        vm__sub3(p[face_of[f][2]], p[face_of[f][0]], v);
-        vm__cross3(u, v, n[f]);
-        len[f] = sqrt(vm__dot3(n[f], n[f]));
-        if (!(len[f] > 0.0)) return 0;
-    }
-    double cmax = -2.0, cmin = 2.0;
-    for (int f = 0; f < 4; f++)
-        for (int g = f + 1; g < 4; g++) {
-            double cs = -vm__dot3(n[f], n[g]) / (len[f] * len[g]);
-            if (cs > cmax) cmax = cs;
-            if (cs < cmin) cmin = cs;
-        }
-    if (cmax > 1.0) cmax = 1.0;
-    if (cmin < -1.0) cmin = -1.0;
-    c->cmax = cmax;
-    c->cmin = cmin;
-    return 1;
+    return vm__tet_dihedral_cosines(p, &c->cmax, &c->cmin);
 }
 
 /* The twelve face-angle cosines (one square root per edge) and their extremes. */
 static void face_cosines(const double p[4][3], qcos *c) {
-    double el[4][4];
-    for (int i = 0; i < 4; i++)
-        for (int j = i + 1; j < 4; j++) {
-            double e[3];
-            vm__sub3(p[j], p[i], e);
-            el[i][j] = el[j][i] = sqrt(vm__dot3(e, e));
-        }
-    double cfmax = -2.0, cfmin = 2.0;
-    for (int f = 0; f < 4; f++)
-        for (int k = 0; k < 3; k++) {
-            int o = face_of[f][k], i = face_of[f][(k + 1) % 3], j = face_of[f][(k + 2) % 3];
-            double u[3], v[3];
-            vm__sub3(p[i], p[o], u);
-            vm__sub3(p[j], p[o], v);
-            double cs = vm__dot3(u, v) / (el[o][i] * el[o][j]);
-            c->fc[3 * f + k] = cs;
-            if (cs > cfmax) cfmax = cs;
-            if (cs < cfmin) cfmin = cs;
-        }
-    c->cfmax = cfmax;
-    c->cfmin = cfmin;
+    vm__tet_face_cosines(p, c->fc, &c->cfmax, &c->cfmin);
 }
 
-/* The smallest and the largest face angle: only the corners within round-off of the
- * extreme cosines are measured with atan2, so they are the minimum (maximum) of the twelve
- * atan2 angles. */
-static void face_angle_range(const double p[4][3], const qcos *c, double *fmin, double *fmax) {
+/* The smallest (want_min) and the largest (want_max) face angle: only the corners within
+ * round-off of the extreme cosines are measured with atan2, so they are the minimum (maximum)
+ * of the twelve atan2 angles. One not wanted is left at 180 (the smallest) or 0. */
+static void face_angle_range(const double p[4][3], const qcos *c, int want_min, int want_max,
+                             double *fmin, double *fmax) {
     *fmin = 180.0;
     *fmax = 0.0;
     for (int k = 0; k < 12; k++) {
-        if (!(c->fc[k] >= c->cfmax - COS_TIE) && !(c->fc[k] <= c->cfmin + COS_TIE)) continue;
+        int lo = want_min && c->fc[k] >= c->cfmax - COS_TIE;
+        int hi = want_max && c->fc[k] <= c->cfmin + COS_TIE;
+        if (!lo && !hi) continue;
         double ang = corner_angle(p, k);
-        if (ang < *fmin) *fmin = ang;
-        if (ang > *fmax) *fmax = ang;
+        if (lo && ang < *fmin) *fmin = ang;
+        if (hi && ang > *fmax) *fmax = ang;
     }
+}
+
+/* A term of the quality is left unmeasured when its angle's cosine puts it above the
+ * smallest term measured so far by more than this (degrees): far beyond the round-off
+ * between a cosine and the atan2 the term would take, so the quality is the same value. */
+#define SKIP_SLACK 1e-6
+/* A cosine compared with a vm__cos_below bound keeps this much clear of it. */
+#define SKIP_COS 1e-12
+
+/* 1 when the angle whose cosine is c is above a degrees by round-off at least: its term
+ * could not be the smallest (0 < a < 180). */
+static int clearly_above(double c, double a) {
+    return a > 0.0 && a < 180.0 && c < vm__cos_below(a / DEG) - SKIP_COS;
+}
+
+/* 1 when the angle whose cosine is c is below 180 - a degrees by round-off at least. */
+static int clearly_below_180_minus(double c, double a) {
+    return a > 0.0 && a < 180.0 && c > SKIP_COS - vm__cos_below(a / DEG);
 }
 
 double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
     qcos c;
     if (!dihedral_cosines(p, &c)) return -1.0;
-    double dmin = acos(c.cmax) * DEG, dmax = acos(c.cmin) * DEG;
-    double q = dmin / w->s_min, q2 = (180.0 - dmax) / w->s_max;
-    if (q2 < q) q = q2;
+    double dmin = acos(c.cmax) * DEG;
+    double q = dmin / w->s_min;
     double q3 = vm__imp_volume_measure(p) / w->s_vm;
     if (q3 < q) q = q3;
+    /* Each further term is measured only when its cosine does not put it clearly above q:
+     * the minimum is the same as with every term measured. */
+    if (!clearly_below_180_minus(c.cmin, q * w->s_max + SKIP_SLACK)) {
+        double dmax = acos(c.cmin) * DEG, q2 = (180.0 - dmax) / w->s_max;
+        if (q2 < q) q = q2;
+    }
     face_cosines(p, &c);
+    int want_min = !clearly_above(c.cfmax, q * w->s_fmin + SKIP_SLACK),
+        want_max = !clearly_below_180_minus(c.cfmin, q * w->s_fmax + SKIP_SLACK);
+    if (!want_min && !want_max) return q;
     double fmin, fmax;
-    face_angle_range(p, &c, &fmin, &fmax);
+    face_angle_range(p, &c, want_min, want_max, &fmin, &fmax);
     double q4 = fmin / w->s_fmin, q5 = (180.0 - fmax) / w->s_fmax;
-    if (q4 < q) q = q4;
-    if (q5 < q) q = q5;
+    if (want_min && q4 < q) q = q4;
+    if (want_max && q5 < q) q = q5;
     return q;
 }
 
@@ -209,7 +183,10 @@ double vm__imp_tet_q(const vm__imp *w, size_t t) {
 }
 
 void vm__imp_requal(vm__imp *w, size_t t) {
-    double q = vm__imp_tet_q(w, t);
+    vm__imp_set_q(w, t, vm__imp_tet_q(w, t));
+}
+
+void vm__imp_set_q(vm__imp *w, size_t t, double q) {
     w->q[t] = q;
     if (q >= 1.0) return;
     if (w->ntouched == w->touched_cap) {
@@ -328,6 +305,19 @@ long vm__imp_face_other(const vm__imp *w, size_t t, vm_index a, vm_index b, vm_i
         if (u != t && vm__imp_has(w, u, o1) && vm__imp_has(w, u, o2)) return (long)u;
     }
     return -1;
+}
+
+vm_status vm__imp_qscratch(vm__imp *w, size_t n) {
+    if (n <= w->qbuf_cap) return VM_OK;
+    size_t cap = n + n / 2 + 64;
+    double *b = realloc(w->qbuf, cap * sizeof *b);
+    if (!b) {
+        w->nomem = 1;
+        return VM_ERR_NOMEM;
+    }
+    w->qbuf = b;
+    w->qbuf_cap = cap;
+    return VM_OK;
 }
 
 /* Grows w->buf to hold n indices (by half again, plus 64, to amortise). */

@@ -41,6 +41,10 @@ static void imp_free_rounds(vm__imp *w) {
     w->q = NULL;
     free(w->buf);
     w->buf = NULL;
+    w->buf_cap = 0;
+    free(w->qbuf);
+    w->qbuf = NULL;
+    w->qbuf_cap = 0;
     free(w->touched);
     w->touched = NULL;
     vm__imp_guard_free(w);

@@ -24,19 +24,33 @@
 /* A random direction shorter than this (after the tangent projection) is skipped. */
 #define DIR_MIN 1e-6
 
-/* 1 when every tet of the star of a (ids[0..n)) with a at x has a quality above the bar.
- * The tets are tried in the order ids[n..2n) (the same tets): one that fails goes to the
- * front, since the next try most likely fails on it too (the order changes no answer). */
-static int star_above(const vm__imp *w, vm_index *ids, int32_t n, vm_index a,
-                      const double x[3], const vm__imp_bar *b) {
+/* 1 when every tet of the star of a (ids[0..n)) with a at x has a quality above the bar;
+ * then w->qbuf[i] holds the quality there of tet ids[n + i]. The tets are tried in the order
+ * ids[n..2n) (the same tets): one that fails goes to the front, since the next try most
+ * likely fails on it too (the order changes no answer). The first is tried on its cosines
+ * (vm__imp_tet_above_moved: most tries end there); the others are measured, which gives the
+ * same answer (vm__imp_quality_above is vm__imp_quality above the bar), and a move that
+ * passes keeps their qualities instead of measuring its star again (move_vertex). */
+static int star_above(vm__imp *w, vm_index *ids, int32_t n, vm_index a, const double x[3],
+                      const vm__imp_bar *b) {
     vm_index *ord = ids + n;
-    for (int32_t i = 0; i < n; i++)
-        if (!vm__imp_tet_above_moved(w, (size_t)ord[i], a, x, b)) {
+    double *qs = w->qbuf;
+    for (int32_t i = 0; i < n; i++) {
+        int above;
+        if (i == 0) {
+            above = vm__imp_tet_above_moved(w, (size_t)ord[0], a, x, b);
+        } else {
+            qs[i] = vm__imp_tet_q_moved(w, (size_t)ord[i], a, x);
+            above = qs[i] > b->f;
+        }
+        if (!above) {
             vm_index t = ord[i];
             memmove(ord + 1, ord, (size_t)i * sizeof *ord);
             ord[0] = t;
             return 0;
         }
+    }
+    qs[0] = vm__imp_tet_q_moved(w, (size_t)ord[0], a, x);
     return 1;
 }
 
@@ -76,7 +90,9 @@ static int32_t star_begin(vm__imp *w, vm_index a, double *cur) {
     if (w->cls[a] == VM__IMP_FIXED || w->pdead[a] || vm__imp_vlocked(w, a)) return 0;
     const vm__imp_star *s = &w->star[a];
     int32_t n = s->n;
-    if (n == 0 || vm__imp_scratch(w, 2 * (size_t)n) != VM_OK) return 0;
+    if (n == 0 || vm__imp_scratch(w, 2 * (size_t)n) != VM_OK ||
+        vm__imp_qscratch(w, (size_t)n) != VM_OK)
+        return 0;
     vm_index *ids = w->buf;
     memcpy(ids, s->t, (size_t)n * sizeof *ids);
     memcpy(ids + n, s->t, (size_t)n * sizeof *ids);
@@ -86,12 +102,13 @@ static int32_t star_begin(vm__imp *w, vm_index a, double *cur) {
     return n;
 }
 
-/* Moves vertex a to x and updates the guard and the qualities of its star ids[0..n). */
-static void move_vertex(vm__imp *w, vm_index a, const double x[3], const vm_index *ids,
-                        int32_t n) {
+/* Moves vertex a to x and updates the guard and the qualities of its star: tet ord[i] has
+ * quality qs[i] there (as star_above measured them on the same points). */
+static void move_vertex(vm__imp *w, vm_index a, const double x[3], const vm_index *ord,
+                        const double *qs, int32_t n) {
     memcpy(w->p + 3 * (size_t)a, x, 3 * sizeof *x);
     vm__imp_guard_moved(w, a);
-    for (int32_t i = 0; i < n; i++) vm__imp_requal(w, (size_t)ids[i]);
+    for (int32_t i = 0; i < n; i++) vm__imp_set_q(w, (size_t)ord[i], qs[i]);
 }
 
 /* The bar a move of a vertex whose star's worst quality is cur must pass. */
@@ -106,7 +123,7 @@ static int try_move(vm__imp *w, vm_index a, double x[3], vm_index *ids, int32_t 
                     double *cur, vm__imp_bar *b) {
     if (!vm__imp_constrain(w, a, x)) return 0;
     if (!star_above(w, ids, n, a, x, b) || !vm__imp_guard_move_ok(w, a, x)) return 0;
-    move_vertex(w, a, x, ids, n);
+    move_vertex(w, a, x, ids + n, w->qbuf, n);
     double m = INFINITY;
     for (int32_t i = 0; i < n; i++)
         if (vm__imp_q(w, ids[i]) < m) m = vm__imp_q(w, ids[i]);

@@ -3,6 +3,9 @@
 #ifndef VM_TET_INTERNAL_H
 #define VM_TET_INTERNAL_H
 
+#include <math.h>
+#include "../core/vec3.h"
+
 /* Smallest and largest dihedral angle of a tet in degrees, from one evaluation of the six
  * angles: the values of vm_tet_min_dihedral and vm_tet_max_dihedral (0 and 180 for a
  * degenerate tet). */
@@ -36,5 +39,97 @@ enum {
  * (degrees): the VM__ABAQUS_FAILS_* bits of the limits it fails, 0 when it passes. */
 unsigned vm__tet_abaqus_fails(double volume_measure, double min_face_angle,
                               double max_face_angle);
+
+/* --- Cosine-level measures (no inverse trigonometry), for the hot loops of the quality pass
+ * (improve/) and of whoever ranks many tets against angle limits. An angle's cosine decides
+ * a comparison with a limit wherever it is clearly on one side; callers measure the angle
+ * itself only within round-off of the limit. */
+
+/* Faces opposite node 0..3 (VM__TET_FACE_NODES[f]), ordered so that their normals point out
+ * of a positive tet. */
+#define VM__TET_FACE_NODES {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}}
+
+/* The cosines of a tet's smallest and largest dihedral angles, [out] *cmax (the smallest
+ * angle's) and *cmin (the largest's), clamped to [-1, 1]. Returns 0, leaving them unset, when
+ * the tet is not clearly positive: 6 V at most 1e-12 times its longest edge cubed, a zero
+ * face, or a coordinate not finite. */
+static inline int vm__tet_dihedral_cosines(const double p[4][3], double *cmax, double *cmin) {
+    static const int fo[4][3] = VM__TET_FACE_NODES;
+    double lmax2 = 0.0;
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++) {
+            double e[3];
+            vm__sub3(p[j], p[i], e);
+            double l2 = vm__dot3(e, e);
+            if (l2 > lmax2) lmax2 = l2;
+        }
+    double a[3], b[3], c[3], t[3];
+    vm__sub3(p[1], p[0], a);
+    vm__sub3(p[2], p[0], b);
+    vm__sub3(p[3], p[0], c);
+    vm__cross3(b, c, t);
+    double vol6 = vm__dot3(a, t);
+    if (!isfinite(vol6) || !(vol6 > 1e-12 * lmax2 * sqrt(lmax2))) return 0;
+    double n[4][3], len[4];
+    for (int f = 0; f < 4; f++) {
+        const int *fn = fo[f];
+        double u[3], v[3];
+        vm__sub3(p[fn[1]], p[fn[0]], u);
+        vm__sub3(p[fn[2]], p[fn[0]], v);
+        vm__cross3(u, v, n[f]);
+        len[f] = sqrt(vm__dot3(n[f], n[f]));
+        if (!(len[f] > 0.0)) return 0;
+    }
+    double hi = -2.0, lo = 2.0;
+    for (int f = 0; f < 4; f++)
+        for (int g = f + 1; g < 4; g++) {
+            double cs = -vm__dot3(n[f], n[g]) / (len[f] * len[g]);
+            if (cs > hi) hi = cs;
+            if (cs < lo) lo = cs;
+        }
+    *cmax = hi > 1.0 ? 1.0 : hi;
+    *cmin = lo < -1.0 ? -1.0 : lo;
+    return 1;
+}
+
+/* The twelve face-angle cosines, [out] fc[3 f + k] the angle at corner k of face f (corner k
+ * is node VM__TET_FACE_NODES[f][k]), one square root per edge; [out] *cfmax and *cfmin their
+ * largest and smallest (the smallest angle's cosine and the largest's). Not clamped; a zero
+ * edge gives NaN or infinities. */
+static inline void vm__tet_face_cosines(const double p[4][3], double fc[12], double *cfmax,
+                                        double *cfmin) {
+    static const int fo[4][3] = VM__TET_FACE_NODES;
+    double el[4][4];
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++) {
+            double e[3];
+            vm__sub3(p[j], p[i], e);
+            el[i][j] = el[j][i] = sqrt(vm__dot3(e, e));
+        }
+    double hi = -2.0, lo = 2.0;
+    for (int f = 0; f < 4; f++)
+        for (int k = 0; k < 3; k++) {
+            int o = fo[f][k], i = fo[f][(k + 1) % 3], j = fo[f][(k + 2) % 3];
+            double u[3], v[3];
+            vm__sub3(p[i], p[o], u);
+            vm__sub3(p[j], p[o], v);
+            double cs = vm__dot3(u, v) / (el[o][i] * el[o][j]);
+            fc[3 * f + k] = cs;
+            if (cs > hi) hi = cs;
+            if (cs < lo) lo = cs;
+        }
+    *cfmax = hi;
+    *cfmin = lo;
+}
+
+/* A lower bound of cos x for every real x (x radians): the Taylor polynomial to x^6, below
+ * cos x by at most x^8 / 8! (2.5e-5 at one radian, 1e-10 at 15 degrees). With it a caller
+ * tells an angle clearly above (or, through cos(pi - x) = -cos x, clearly below) a limit
+ * without a call to cos: a cosine below vm__cos_below(x) - 1e-12 belongs to an angle above
+ * x. */
+static inline double vm__cos_below(double x) {
+    double x2 = x * x;
+    return 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0)));
+}
 
 #endif
