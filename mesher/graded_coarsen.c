@@ -1684,6 +1684,15 @@ static size_t repair(co *C, plan *P, set *sets, size_t *removed) {
     return left;
 }
 
+/* Whether the memo's failed checks of edge xy (x first) would fail again: no collapse since
+ * has marked what they read (x's star for a check that failed on the changed tets, else the
+ * stars of x, y and their neighbours). */
+static int memo_holds(const co *C, const memo *F, int32_t x, int32_t y) {
+    uint32_t w = F->when;
+    int near = C->near[x] <= w && C->near[y] <= w;
+    return (F->late & 1 ? near : C->star[x] <= w) && (F->late & 2 ? near : C->star[y] <= w);
+}
+
 /* Checks made ahead on threads (the batch of edges after the current one), each against
  * the mesh as it was when the batch began (`when`), and taken in order afterwards when
  * nothing the check read has changed since (the memo's rule) and the net volume budget,
@@ -1773,13 +1782,7 @@ static void speculate(const co *C, const keyed *E, size_t ne, size_t i0, const m
         }
         while (j < nf && keyed_cmp(&F[j].e, &E[i]) < 0)
             j++;
-        if (j < nf && keyed_cmp(&F[j].e, &E[i]) == 0) {
-            uint32_t w = F[j].when;
-            int near = C->near[x] <= w && C->near[y] <= w;
-            if ((F[j].late & 1 ? near : C->star[x] <= w) &&
-                (F[j].late & 2 ? near : C->star[y] <= w))
-                continue;
-        }
+        if (j < nf && keyed_cmp(&F[j].e, &E[i]) == 0 && memo_holds(C, &F[j], x, y)) continue;
         q->x = x;
         q->y = y;
         q->two = C->bnd[x] == C->bnd[y];
@@ -1972,14 +1975,9 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
                 }
                 while (j < nf && keyed_cmp(&F[j].e, &E[i]) < 0)
                     j++;
-                if (j < nf && keyed_cmp(&F[j].e, &E[i]) == 0) {
-                    uint32_t w = F[j].when;
-                    int near = C.near[x] <= w && C.near[y] <= w;
-                    if ((F[j].late & 1 ? near : C.star[x] <= w) &&
-                        (F[j].late & 2 ? near : C.star[y] <= w)) {
-                        if (nfn < fcap) Fn[nfn++] = F[j];
-                        continue;
-                    }
+                if (j < nf && keyed_cmp(&F[j].e, &E[i]) == 0 && memo_holds(&C, &F[j], x, y)) {
+                    if (nfn < fcap) Fn[nfn++] = F[j];
+                    continue;
                 }
                 spec *q = S ? &S[i - i0] : NULL;
                 int okx, oky = 0, late, bh, both;
