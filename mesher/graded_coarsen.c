@@ -1378,6 +1378,18 @@ static double grade_of(const co *C, const double *a, const double *b, const doub
     return fmin(grade(lo, hi), ab);
 }
 
+/* Whether the positive tet q surely has a grade at or below the bar whose cosines are ca
+ * (the smallest dihedral angle's) and cb (the largest's): its dihedral cosines are past one
+ * of them. 0 when not sure (then grade_of decides). */
+static int grade_at_most(const co *C, const double *const q[4], double ca, double cb) {
+    if (!(C->sign * vol6(q[0], q[1], q[2], q[3]) > 0)) return 0;
+    double p[4][3], cmax, cmin;
+    for (int k = 0; k < 4; k++)
+        memcpy(p[k], q[k], sizeof p[k]);
+    if (!dihedral_cosines((const double(*)[3])p, &cmax, &cmin)) return 0;
+    return cmax > ca || cmin < cb;
+}
+
 /* The grade of live tet t, from the caches. */
 static double tet_grade(const co *C, int32_t t) {
     return fmin(grade(C->qlo[t], C->qhi[t]), C->qab[t]);
@@ -1556,6 +1568,18 @@ static int optimize_vertex(co *C, int32_t v, plan *P) {
             if (c[k] != (vm_index)v) L += sqrt(dist2(pt(C, v), pt(C, c[k]))), ne++;
     }
     L /= ne;
+    /* the star's tets worst first (the minimum does not depend on the order; a step is ruled
+     * out sooner when the tet that limits it comes first) */
+    enum { ORD_MAX = 512 };
+    int32_t ord_here[ORD_MAX], *ord = ord_here;
+    if (l->n > ORD_MAX && !(ord = malloc((size_t)l->n * sizeof *ord))) return 0;
+    for (int32_t i = 0; i < l->n; i++) {
+        int32_t t = l->v[i], k = i;
+        double gt = tet_grade(C, t);
+        for (; k > 0 && tet_grade(C, ord[k - 1]) > gt; k--)
+            ord[k] = ord[k - 1];
+        ord[k] = t;
+    }
     double x[3], best = base;
     memcpy(x, pt(C, v), sizeof x);
     for (double step = 0.3 * L; step > 0.03 * L; step *= 0.4)
@@ -1566,11 +1590,20 @@ static int optimize_vertex(co *C, int32_t v, plan *P) {
                 double y[3], g = INFINITY, s = d < 6 ? step : step / sqrt(3.0);
                 for (int r = 0; r < 3; r++)
                     y[r] = x[r] + s * dir[d][r];
+                /* a tet whose dihedral cosines put its grade clearly at or below bg rules
+                 * the step out without its arc cosines and ABAQUS measures */
+                double ca = 15 * bg, cb = 180 - 30 * bg;
+                ca = ca > 0 && ca < 180 ? cos(ca / GR_CO_DEG) + 1e-9 : 2;
+                cb = cb > 0 && cb < 180 ? cos(cb / GR_CO_DEG) - 1e-9 : -2;
                 for (int32_t i = 0; i < l->n && g > bg; i++) {
-                    const vm_index *c = tet(C, l->v[i]);
+                    const vm_index *c = tet(C, ord[i]);
                     const double *q[4];
                     for (int k = 0; k < 4; k++)
                         q[k] = c[k] == (vm_index)v ? y : pt(C, c[k]);
+                    if (grade_at_most(C, q, ca, cb)) {
+                        g = bg;
+                        break;
+                    }
                     g = fmin(g, grade_of(C, q[0], q[1], q[2], q[3]));
                 }
                 if (g > bg) bg = g, bd = d;
@@ -1581,6 +1614,7 @@ static int optimize_vertex(co *C, int32_t v, plan *P) {
                 x[r] += s * dir[bd][r];
             best = bg;
         }
+    if (ord != ord_here) free(ord);
     if (!(best > base + 1e-3)) return 0;
     double o[3], y[3];
     memcpy(o, pt(C, v), sizeof o);
