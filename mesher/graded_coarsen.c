@@ -964,6 +964,21 @@ typedef struct memo {
 
 /* The nearest boundary vertex of each sample, by a grid of the boundary vertices; each
  * sample takes the nearest triangle of that vertex's star and keeps max(D, its distance). */
+/* The boundary faces around vertex v: the nearest to x, if nearer than *bt (squared), into
+ * T and *bt. */
+static void nearest_face(const co *C, const double *x, int32_t v, int32_t T[3], double *bt) {
+    const ilist *l = &C->vt[v];
+    for (int32_t j = 0; j < l->n; j++) {
+        const vm_index *c = tet(C, l->v[j]);
+        for (int k = 0; k < 4; k++) {
+            if (c[k] == v || !face_free(C, l->v[j], k)) continue;
+            int64_t a = c[(k + 1) & 3], b = c[(k + 2) & 3], d = c[(k + 3) & 3];
+            double d2 = tri_dist2(x, pt(C, a), pt(C, b), pt(C, d));
+            if (d2 < *bt) *bt = d2, T[0] = (int32_t)a, T[1] = (int32_t)b, T[2] = (int32_t)d;
+        }
+    }
+}
+
 static vm_status assign_samples(co *C, vm_error *err) {
     size_t nb = 0;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -1040,15 +1055,22 @@ static vm_status assign_samples(co *C, vm_error *err) {
         /* the nearest triangle of its star */
         double bt = INFINITY;
         int32_t T[3] = {bv, bv, bv};
-        const ilist *l = &C->vt[bv];
-        for (int32_t j = 0; j < l->n; j++) {
-            const vm_index *c = tet(C, l->v[j]);
-            for (int k = 0; k < 4; k++) {
-                if (c[k] == bv || !face_free(C, l->v[j], k)) continue;
-                int64_t x = c[(k + 1) & 3], y = c[(k + 2) & 3], z = c[(k + 3) & 3];
-                double d2 = tri_dist2(C->sp[i], pt(C, x), pt(C, y), pt(C, z));
-                if (d2 < bt) bt = d2, T[0] = (int32_t)x, T[1] = (int32_t)y, T[2] = (int32_t)z;
-            }
+        nearest_face(C, C->sp[i], bv, T, &bt);
+        /* Over the bound: the nearest vertex's star may miss the nearest triangle (across a
+         * thin wall the nearest vertex can be on the other side), and the sample's own bound
+         * would then be that farther triangle's distance: so the stars of every boundary
+         * vertex within that distance and a cell count too. */
+        if (sqrt(bt) > C->D) {
+            int rr = (int)ceil(sqrt(bt) / cell) + 1;
+            for (int64_t z = c3[2] - rr; z <= c3[2] + rr; z++)
+                for (int64_t y = c3[1] - rr; y <= c3[1] + rr; y++)
+                    for (int64_t x = c3[0] - rr; x <= c3[0] + rr; x++) {
+                        if (x < 0 || y < 0 || z < 0 || x >= g[0] || y >= g[1] || z >= g[2])
+                            continue;
+                        size_t at = (size_t)(x + g[0] * (y + g[1] * z));
+                        for (size_t k = start[at]; k < start[at + 1]; k++)
+                            nearest_face(C, C->sp[i], item[k], T, &bt);
+                    }
         }
         C->tol[i] = fmax(C->D, sqrt(bt)) * (1 + 1e-9);
         memcpy(C->st[i], T, sizeof T);
