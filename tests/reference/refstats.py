@@ -477,15 +477,23 @@ def _distances(from_points, surface_points, surface_tris):
     implicit = vtk.vtkImplicitPolyDataDistance()
     implicit.SetInput(surface)
     # The surface's vertices count too: VTK's distance skips zero-area triangles, which flying
-    # edges makes around a grid point that is exactly at the isovalue.
+    # edges makes around a grid point that is exactly at the isovalue. Only the vertices of
+    # the triangles: a tet mesh's points include its interior ones, and a locator over all of
+    # them found an interior vertex nearer than the boundary (the surface-to-boundary
+    # distances measured before 2026-12-05 were too small where that happened).
+    used = np.unique(surface_tris)
+    corners = vtk.vtkPolyData()
+    cp = vtk.vtkPoints()
+    cp.SetData(numpy_to_vtk(np.ascontiguousarray(surface_points[used], dtype=float), deep=True))
+    corners.SetPoints(cp)
     locator = vtk.vtkStaticPointLocator()
-    locator.SetDataSet(surface)
+    locator.SetDataSet(corners)
     locator.BuildLocator()
     out = np.empty(len(from_points))
     closest = [0.0, 0.0, 0.0]
     for n, p in enumerate(from_points):
         d = abs(implicit.EvaluateFunctionAndGetClosestPoint(p, closest))
-        q = surface_points[locator.FindClosestPoint(p)]
+        q = surface_points[used[locator.FindClosestPoint(p)]]
         out[n] = min(d, float(np.sqrt(np.sum((q - p) ** 2))))
     return out
 
