@@ -357,10 +357,14 @@ static void to_world(const hx *w, const double ijk[3], double x[3]) {
         x[r] = w->org[r] + w->A[r][0] * ijk[0] + w->A[r][1] * ijk[1] + w->A[r][2] * ijk[2];
 }
 
+static double det3(double a[3][3]) {
+    return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+           a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+           a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+}
+
 static int invert3(double a[3][3], double b[3][3]) {
-    double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
-                 a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
-                 a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    double det = det3(a);
     if (!(fabs(det) > 0.0) || !isfinite(det)) return 0;
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++) {
@@ -447,11 +451,21 @@ static double iso_for(const hx *w, double f) {
     return w->has_lo ? w->lo : w->hi;
 }
 
+/* Whether distances use the metric (see hx): on volumes whose voxels are not cubes, in a
+ * run on a mesh that came out of the mesher valid. A folded mesh's run (the heads) keeps
+ * index units: there the far points are the mesher's, which the bound in the check's voxel
+ * did not bring in (CT head at 500: boundary -> isosurface 0.90 -> 1.09 voxels), and its
+ * tighter bound across x and y left the adaptive CT head's worst hex at 0.322 against 0.451
+ * (docs/BENCHMARKS.md). */
+static int metric_on(const hx *w) {
+    return w->aniso && w->fit;
+}
+
 /* The length of index-space gradient g in the distance metric (1 / the distance per unit of
  * field): sqrt(g^T G g); [out] dir = G g, the index-space step of steepest ascent (g
  * itself on a cube voxel's grid). */
 static double grad_metric(const hx *w, const double g[3], double dir[3]) {
-    if (!w->aniso) {
+    if (!metric_on(w)) {
         for (int a = 0; a < 3; a++) dir[a] = g[a];
         return sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
     }
@@ -510,7 +524,7 @@ static int project_iso(const hx *w, double y[3]) {
         double r = f - iso_for(w, f);
         double gl = grad_metric(w, g, dir);
         double g2 = gl * gl;
-        if (!w->aniso) g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+        if (!metric_on(w)) g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
         if (!(g2 > 0.0)) return 0;
         if (fabs(r) / sqrt(g2) < PROJECT_TOL) return 1;
         double step = r / g2, len = fabs(step) * sqrt(g2);
@@ -612,9 +626,7 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
     for (int a = 0; a < 3; a++) d2 += (y[a] - y0[a]) * (y[a] - y0[a]);
     if (d2 > limit * limit) return 0;
     to_world(w, y, x);
-    if (w->fit && w->cls[i] == CLS_ISO && mode != MOVE_PROJECT &&
-        !quads_near(w, i, x))
-        return 0;
+    if (w->fit && w->cls[i] == CLS_ISO && mode != MOVE_PROJECT && !quads_near(w, i, x)) return 0;
     return 1;
 }
 
@@ -1966,15 +1978,14 @@ typedef struct hex_pass {
 
 /* w->G and w->aniso from w->A (see hx). */
 static void metric_setup(hx *w) {
-    double M[3][3], det = 0.0;
-    for (int a = 0; a < 3; a++) det += w->A[0][a] * (w->A[1][(a + 1) % 3] * w->A[2][(a + 2) % 3] -
-                                                     w->A[1][(a + 2) % 3] * w->A[2][(a + 1) % 3]);
-    double h2 = pow(fabs(det), 2.0 / 3.0);
+    double M[3][3], A[3][3];
+    memcpy(A, w->A, sizeof A);
+    double h2 = pow(fabs(det3(A)), 2.0 / 3.0);
     int unit = 1;
     for (int a = 0; a < 3; a++)
         for (int c = 0; c < 3; c++) {
-            M[a][c] = (w->A[0][a] * w->A[0][c] + w->A[1][a] * w->A[1][c] + w->A[2][a] * w->A[2][c]) /
-                      h2;
+            double dot = A[0][a] * A[0][c] + A[1][a] * A[1][c] + A[2][a] * A[2][c];
+            M[a][c] = dot / h2;
             if (fabs(M[a][c] - (a == c ? 1.0 : 0.0)) > METRIC_UNIT_TOL) unit = 0;
         }
     w->aniso = !unit && invert3(M, w->G);
