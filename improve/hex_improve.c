@@ -626,8 +626,20 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
     for (int a = 0; a < 3; a++) d2 += (y[a] - y0[a]) * (y[a] - y0[a]);
     if (d2 > limit * limit) return 0;
     to_world(w, y, x);
-    if (w->fit && w->cls[i] == CLS_ISO && mode != MOVE_PROJECT && !quads_near(w, i, x)) return 0;
     return 1;
+}
+
+/* Whether a move of point i to x (constrained in mode) keeps its boundary quads near the
+ * isosurface where the pass bounds them: surface points' tangent and loose moves on a mesh
+ * that came out of the mesher valid (docs/ALGORITHMS.md, hex section, step 4, "Quads"). */
+static int quads_ok(const hx *w, size_t i, const double x[3], int mode) {
+    if (!w->fit || w->cls[i] != CLS_ISO || mode == MOVE_PROJECT) return 1;
+    return quads_near(w, i, x);
+}
+
+/* constrain, then quads_ok. */
+static int constrain_q(const hx *w, size_t i, double x[3], int mode) {
+    return constrain(w, i, x, mode) && quads_ok(w, i, x, mode);
 }
 
 /* ---- connectivity ---- */
@@ -1103,7 +1115,9 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
                     if (mode == 2) stop.pen_above = bq.pen;
                     size_t wf = first;
                     if (!local_q(&S, y, pen, &n, &stop, first, &wf)) continue;
-                    if (better(&n, &bq, floor, mode)) {
+                    /* the quads' bound only for a candidate that would be kept: the same
+                     * choice as bounding every candidate, at a fraction of the cost */
+                    if (better(&n, &bq, floor, mode) && quads_ok(w, i, y, cmode)) {
                         best = d;
                         bq = n;
                         bfirst = wf;
@@ -1744,7 +1758,7 @@ static int patch_move(hx *w, size_t i, double bar, double floor) {
                     double y[3], m2;
                     for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
                     int mode = v == 2 ? MOVE_LOOSE : v ? MOVE_PROJECT : MOVE_TANGENT;
-                    if (!constrain(w, i, y, mode)) continue;
+                    if (!constrain_q(w, i, y, mode)) continue;
                     double ne = patch_energy(&S, y, bar, &m2, be - ENERGY_MARGIN, keep);
                     if (ne < be - ENERGY_MARGIN && m2 >= keep) {
                         best = d;
@@ -1804,7 +1818,7 @@ static int group_move(hx *w, const size_t *pts, int n) {
                         int mode = w->cls[pts[j]] != CLS_ISO || !v ? MOVE_TANGENT
                                    : v == 2                         ? MOVE_LOOSE
                                                                     : MOVE_PROJECT;
-                        ok = constrain(w, pts[j], y, mode);
+                        ok = constrain_q(w, pts[j], y, mode);
                         if (ok) memcpy(w->p + 3 * pts[j], y, sizeof y);
                     }
                     double s2, q2 = ok ? group_q(w, pts, n, &s2) : -INFINITY;
