@@ -51,6 +51,9 @@ enum { CLS_FREE = 0, CLS_ISO = 1, CLS_PLANE = 2, CLS_FIXED = 3 };
  * (or where it was): the estimate can miss a crossing the gradient does not point at. */
 #define ISO_CHECK_FROM 0.2
 #define ISO_CHECK_MAX 0.5
+/* A surface point's move keeps the centres and edge midpoints of its boundary quads within
+ * this of the isosurface (or no farther than they were). */
+#define ISO_QUAD_MAX 0.45
 /* MOVE_LOOSE lets a surface point go anywhere within this of the isosurface. */
 #define ISO_LOOSE_MAX 0.4
 /* A box-plane point moves at most this far (it need not follow the isosurface), one on the
@@ -66,6 +69,9 @@ enum { CLS_FREE = 0, CLS_ISO = 1, CLS_PLANE = 2, CLS_FIXED = 3 };
 #define PROJECT_STEP_MAX 0.5
 #define PROJECT_TOL 1e-4
 #define PROJECT_ACCEPT 0.02
+
+/* A volume whose metric (see hx) is within this of the identity is taken as a cube voxel's. */
+#define METRIC_UNIT_TOL 1e-9
 
 /* ---- compass searches ---- */
 /* Steps from STEP_FIRST to STEP_LAST (STEP_LAST_FINE for the patch repair, which starts the
@@ -98,10 +104,21 @@ typedef struct hx {
     size_t *vs, *vi; /* incidences of point i: vi[vs[i] .. vs[i+1]) = 8 * hex + corner */
     uint8_t *cls, *planes;
     double *nrm; /* unit outward normal of each boundary point (world) */
-    double *est0; /* iso_estimate of each boundary point where the run starts (index space) */
+    double *est0; /* iso_estimate of each boundary point where the run starts (voxels) */
+    /* the boundary quads (4 points each, nq of them) and, per point i, those it is a corner
+     * of: bqi[bqs[i] .. bqs[i+1]) = 4 * quad + corner */
+    vm_index *bq;
+    size_t nq, *bqs, *bqi;
     uint8_t *focus; /* NULL, or the points a selective run may move */
     const vm_volume *v;
     double A[3][3], Ainv[3][3], org[3];
+    /* Distances from the isosurface are world distances over the cube root of a voxel's
+     * volume, the unit of the report and of --distance-check: a step dy in index space is
+     * sqrt(dy^T M dy) long with M = A^T A / cbrt(|det A|)^2, and G = M^-1 turns index-space
+     * gradients into steepest-descent steps. aniso 0: M is the identity (a cube voxel),
+     * where the index-space formulas are used as they are. */
+    double G[3][3];
+    int aniso;
     double lo, hi;
     int has_lo, has_hi;
     double max_move;
@@ -340,10 +357,14 @@ static void to_world(const hx *w, const double ijk[3], double x[3]) {
         x[r] = w->org[r] + w->A[r][0] * ijk[0] + w->A[r][1] * ijk[1] + w->A[r][2] * ijk[2];
 }
 
+static double det3(double a[3][3]) {
+    return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+           a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+           a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+}
+
 static int invert3(double a[3][3], double b[3][3]) {
-    double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
-                 a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
-                 a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    double det = det3(a);
     if (!(fabs(det) > 0.0) || !isfinite(det)) return 0;
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++) {
@@ -430,13 +451,37 @@ static double iso_for(const hx *w, double f) {
     return w->has_lo ? w->lo : w->hi;
 }
 
-/* Distance of index position x from the isosurface, in voxels: the first crossing on the
- * gradient line toward it (within 2 voxels), else the first-order estimate |f - iso| / |g|. */
+/* Whether distances use the metric (see hx): on volumes whose voxels are not cubes, in a
+ * run on a mesh that came out of the mesher valid. A folded mesh's run (the heads) keeps
+ * index units: there the far points are the mesher's, which the bound in the check's voxel
+ * did not bring in (CT head at 500: boundary -> isosurface 0.90 -> 1.09 voxels), and its
+ * tighter bound across x and y left the adaptive CT head's worst hex at 0.322 against 0.451
+ * (docs/BENCHMARKS.md). */
+static int metric_on(const hx *w) {
+    return w->aniso && w->fit;
+}
+
+/* The length of index-space gradient g in the distance metric (1 / the distance per unit of
+ * field): sqrt(g^T G g); [out] dir = G g, the index-space step of steepest ascent (g
+ * itself on a cube voxel's grid). */
+static double grad_metric(const hx *w, const double g[3], double dir[3]) {
+    if (!metric_on(w)) {
+        for (int a = 0; a < 3; a++) dir[a] = g[a];
+        return sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    }
+    for (int a = 0; a < 3; a++) dir[a] = w->G[a][0] * g[0] + w->G[a][1] * g[1] + w->G[a][2] * g[2];
+    double q = g[0] * dir[0] + g[1] * dir[1] + g[2] * dir[2];
+    return q > 0.0 ? sqrt(q) : 0.0;
+}
+
+/* Distance of index position x from the isosurface, in voxels (the cube root of a voxel's
+ * volume, world): the first crossing on the gradient line toward it (within 2 voxels), else
+ * the first-order estimate |f - iso| / |grad f|. */
 static double iso_distance(const hx *w, const double x[3]) {
-    double g[3];
+    double g[3], dir[3];
     double f = field(w->v, x, g);
     double iso = iso_for(w, f);
-    double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    double gn = grad_metric(w, g, dir);
     double d = fabs(f - iso);
     double est = gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
     if (est < ISO_EXACT_BELOW || !(gn > 0.0)) return est;
@@ -446,7 +491,7 @@ static double iso_distance(const hx *w, const double x[3]) {
     for (double t = ISO_WALK_STEP; t <= ISO_WALK_MAX; t += ISO_WALK_STEP) {
         double y[3], fr[3];
         int64_t c[3];
-        for (int a = 0; a < 3; a++) y[a] = x[a] + sgn * t * g[a] / gn;
+        for (int a = 0; a < 3; a++) y[a] = x[a] + sgn * t * dir[a] / gn;
         field_cell(w->v, y, c, fr);
         if (c[0] == safe[0] && c[1] == safe[1] && c[2] == safe[2]) continue;
         if (cell_one_side(w->v, c, iso, f > iso)) {
@@ -459,34 +504,78 @@ static double iso_distance(const hx *w, const double x[3]) {
     return est;
 }
 
-/* First-order distance |f - iso| / |grad f| of index position y from the isosurface. */
+/* First-order distance |f - iso| / |grad f| of index position y from the isosurface
+ * (voxels, as iso_distance). */
 static double iso_estimate(const hx *w, const double y[3]) {
-    double g[3];
+    double g[3], dir[3];
     double f = field(w->v, y, g);
-    double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    double gn = grad_metric(w, g, dir);
     double d = fabs(f - iso_for(w, f));
     return gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
 }
 
 /* Puts index position y on the isosurface by Newton steps along the gradient (at most
- * PROJECT_ITERS, each at most PROJECT_STEP_MAX long); 0 when the gradient vanishes or y ends
- * more than PROJECT_ACCEPT from it. */
+ * PROJECT_ITERS, each at most PROJECT_STEP_MAX voxels long); 0 when the gradient vanishes or
+ * y ends more than PROJECT_ACCEPT from it. */
 static int project_iso(const hx *w, double y[3]) {
     for (int it = 0; it < PROJECT_ITERS; it++) {
-        double g[3];
+        double g[3], dir[3];
         double f = field(w->v, y, g);
         double r = f - iso_for(w, f);
-        double g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+        double gl = grad_metric(w, g, dir);
+        double g2 = gl * gl;
+        if (!metric_on(w)) g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
         if (!(g2 > 0.0)) return 0;
         if (fabs(r) / sqrt(g2) < PROJECT_TOL) return 1;
         double step = r / g2, len = fabs(step) * sqrt(g2);
         if (len > PROJECT_STEP_MAX) step *= PROJECT_STEP_MAX / len;
-        for (int a = 0; a < 3; a++) y[a] -= step * g[a];
+        for (int a = 0; a < 3; a++) y[a] -= step * dir[a];
     }
     return iso_distance(w, y) <= PROJECT_ACCEPT;
 }
 
 enum { MOVE_TANGENT, MOVE_LOOSE, MOVE_PROJECT };
+
+/* Distance (voxels) from the isosurface of the bilinear sample (u, v) of boundary quad q
+ * with point i at world position x: a quad's bilinear surface bulges or sags between its
+ * points, and the report samples it there. */
+static double quad_sample_distance(const hx *w, size_t q, size_t i, const double x[3], double u,
+                                   double v) {
+    double wt[4] = {(1.0 - u) * (1.0 - v), u * (1.0 - v), u * v, (1.0 - u) * v}, c[3] = {0, 0, 0};
+    for (int j = 0; j < 4; j++) {
+        size_t k = (size_t)w->bq[4 * q + (size_t)j];
+        const double *pk = k == i ? x : w->p + 3 * k;
+        for (int a = 0; a < 3; a++) c[a] += wt[j] * pk[a];
+    }
+    double y[3];
+    to_index(w, c, y);
+    if (iso_estimate(w, y) <= ISO_CHECK_FROM) return 0.0;
+    return iso_distance(w, y);
+}
+
+/* Whether point i (a surface point) may move to world position x as far as its boundary
+ * quads say: each quad's centre and the midpoints of its two edges at i stay within
+ * ISO_QUAD_MAX of the isosurface, or no farther from it than with i where it is. */
+static int quads_near(const hx *w, size_t i, const double x[3]) {
+    /* (u, v) of the samples next to each corner j: the centre, then the edges j-(j+1) and
+     * j-(j+3) */
+    static const double mid[4][2][2] = {{{0.5, 0.0}, {0.0, 0.5}},
+                                        {{0.5, 0.0}, {1.0, 0.5}},
+                                        {{1.0, 0.5}, {0.5, 1.0}},
+                                        {{0.5, 1.0}, {0.0, 0.5}}};
+    for (size_t e = w->bqs[i]; e < w->bqs[i + 1]; e++) {
+        size_t q = w->bqi[e] / 4;
+        int j = (int)(w->bqi[e] % 4);
+        double uv[3][2] = {{0.5, 0.5}, {mid[j][0][0], mid[j][0][1]}, {mid[j][1][0], mid[j][1][1]}};
+        for (int s = 0; s < 3; s++) {
+            double d = quad_sample_distance(w, q, i, x, uv[s][0], uv[s][1]);
+            if (d > ISO_QUAD_MAX &&
+                d > quad_sample_distance(w, q, i, w->p + 3 * i, uv[s][0], uv[s][1]))
+                return 0;
+        }
+    }
+    return 1;
+}
 
 /* Moves a trial position x of point i onto its constraint; 0 when that fails or takes it more
  * than the allowed distance from p0 (where the mesher put it). Box-plane points stay in their
@@ -538,6 +627,19 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
     if (d2 > limit * limit) return 0;
     to_world(w, y, x);
     return 1;
+}
+
+/* Whether a move of point i to x (constrained in mode) keeps its boundary quads near the
+ * isosurface where the pass bounds them: surface points' tangent and loose moves on a mesh
+ * that came out of the mesher valid (docs/ALGORITHMS.md, hex section, step 4, "Quads"). */
+static int quads_ok(const hx *w, size_t i, const double x[3], int mode) {
+    if (!w->fit || w->cls[i] != CLS_ISO || mode == MOVE_PROJECT) return 1;
+    return quads_near(w, i, x);
+}
+
+/* constrain, then quads_ok. */
+static int constrain_q(const hx *w, size_t i, double x[3], int mode) {
+    return constrain(w, i, x, mode) && quads_ok(w, i, x, mode);
 }
 
 /* ---- connectivity ---- */
@@ -629,6 +731,33 @@ static vm_status classify(hx *w, vm_error *err) {
     if (!w->nrm || !w->est0) {
         free(bf);
         return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    free(w->bq);
+    free(w->bqs);
+    free(w->bqi);
+    w->nq = nb;
+    w->bq = malloc((4 * nb + 1) * sizeof *w->bq);
+    w->bqs = calloc(w->np + 1, sizeof *w->bqs);
+    w->bqi = malloc((4 * nb + 1) * sizeof *w->bqi);
+    if (!w->bq || !w->bqs || !w->bqi) {
+        free(bf);
+        return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    }
+    for (size_t u = 0; u < nb; u++)
+        for (int j = 0; j < 4; j++) {
+            w->bq[4 * u + (size_t)j] = w->h[8 * (bf[u] / 6) + (size_t)face_tab[bf[u] % 6][j]];
+            w->bqs[(size_t)w->bq[4 * u + (size_t)j] + 1]++;
+        }
+    for (size_t i = 0; i < w->np; i++) w->bqs[i + 1] += w->bqs[i];
+    {
+        size_t *fill = malloc((w->np + 1) * sizeof *fill);
+        if (!fill) {
+            free(bf);
+            return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        }
+        memcpy(fill, w->bqs, (w->np + 1) * sizeof *fill);
+        for (size_t u = 0; u < 4 * nb; u++) w->bqi[fill[w->bq[u]]++] = u;
+        free(fill);
     }
     for (size_t u = 0; u < nb; u++) {
         const vm_index *c = w->h + 8 * (bf[u] / 6);
@@ -986,7 +1115,9 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
                     if (mode == 2) stop.pen_above = bq.pen;
                     size_t wf = first;
                     if (!local_q(&S, y, pen, &n, &stop, first, &wf)) continue;
-                    if (better(&n, &bq, floor, mode)) {
+                    /* the quads' bound only for a candidate that would be kept: the same
+                     * choice as bounding every candidate, at a fraction of the cost */
+                    if (better(&n, &bq, floor, mode) && quads_ok(w, i, y, cmode)) {
                         best = d;
                         bq = n;
                         bfirst = wf;
@@ -1470,6 +1601,12 @@ static void hx_free(hx *w) {
     free(w->nrm);
     free(w->est0);
     free(w->focus);
+    free(w->bq);
+    free(w->bqs);
+    free(w->bqi);
+    w->bq = NULL;
+    w->bqs = w->bqi = NULL;
+    w->nq = 0;
     w->nrm = w->est0 = NULL;
     w->focus = NULL;
     w->p = w->p0 = NULL;
@@ -1621,7 +1758,7 @@ static int patch_move(hx *w, size_t i, double bar, double floor) {
                     double y[3], m2;
                     for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
                     int mode = v == 2 ? MOVE_LOOSE : v ? MOVE_PROJECT : MOVE_TANGENT;
-                    if (!constrain(w, i, y, mode)) continue;
+                    if (!constrain_q(w, i, y, mode)) continue;
                     double ne = patch_energy(&S, y, bar, &m2, be - ENERGY_MARGIN, keep);
                     if (ne < be - ENERGY_MARGIN && m2 >= keep) {
                         best = d;
@@ -1681,7 +1818,7 @@ static int group_move(hx *w, const size_t *pts, int n) {
                         int mode = w->cls[pts[j]] != CLS_ISO || !v ? MOVE_TANGENT
                                    : v == 2                         ? MOVE_LOOSE
                                                                     : MOVE_PROJECT;
-                        ok = constrain(w, pts[j], y, mode);
+                        ok = constrain_q(w, pts[j], y, mode);
                         if (ok) memcpy(w->p + 3 * pts[j], y, sizeof y);
                     }
                     double s2, q2 = ok ? group_q(w, pts, n, &s2) : -INFINITY;
@@ -1853,6 +1990,21 @@ typedef struct hex_pass {
     int sweeps, undone;
 } hex_pass;
 
+/* w->G and w->aniso from w->A (see hx). */
+static void metric_setup(hx *w) {
+    double M[3][3], A[3][3];
+    memcpy(A, w->A, sizeof A);
+    double h2 = pow(fabs(det3(A)), 2.0 / 3.0);
+    int unit = 1;
+    for (int a = 0; a < 3; a++)
+        for (int c = 0; c < 3; c++) {
+            double dot = A[0][a] * A[0][c] + A[1][a] * A[1][c] + A[2][a] * A[2][c];
+            M[a][c] = dot / h2;
+            if (fabs(M[a][c] - (a == c ? 1.0 : 0.0)) > METRIC_UNIT_TOL) unit = 0;
+        }
+    w->aniso = !unit && invert3(M, w->G);
+}
+
 /* Sets w up for the options and the volume's index frame (no mesh loaded yet). */
 static vm_status hx_setup(hx *w, const vm_mesh *m, const vm_volume *v,
                           const vm_hex_improve_options *o, vm_error *err) {
@@ -1874,6 +2026,7 @@ static vm_status hx_setup(hx *w, const vm_mesh *m, const vm_volume *v,
         }
         if (!invert3(w->A, w->Ainv))
             return vm_error_set(err, VM_ERR_ARG, "improve: the volume's index frame is singular");
+        metric_setup(w);
     }
     return VM_OK;
 }

@@ -193,8 +193,10 @@ typedef struct vm_hex_improve_report {
     size_t inverted_before, inverted_after; /* hexes with vm_hex_scaled_jacobian <= 0 */
     size_t below_02_before, below_02_after; /* hexes with a min scaled Jacobian below 0.2 */
     double volume_before, volume_after;   /* sum of trilinear hex volumes (world units) */
-    /* Largest estimated distance |f - iso| / |grad f| of a boundary vertex from the
-     * isosurface after the pass, in voxels (0 without a volume; box-face vertices skipped). */
+    /* Largest distance of a boundary vertex from the isosurface after the pass (the first
+     * crossing along the gradient, else |f - iso| / |grad f|), in voxels: world distance
+     * over the cube root of a voxel's volume, as --distance-check (0 without a volume;
+     * box-face vertices skipped). */
     double max_surface_distance;
     double max_surface_distance_before; /* the same for the points as the mesher put them */
     size_t moves;
