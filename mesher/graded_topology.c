@@ -15,6 +15,17 @@ static uint32_t root32(uint32_t *parent, uint32_t x) {
     return x;
 }
 
+/* The index of root r in the sorted roots[0..n). */
+static size_t root_index(const uint32_t *roots, size_t n, uint32_t r) {
+    size_t lo = 0, hi = n;
+    while (hi - lo > 1) {
+        size_t mid = (lo + hi) / 2;
+        if (roots[mid] <= r) lo = mid;
+        else hi = mid;
+    }
+    return lo;
+}
+
 /* The digital count over padded points `in` (parent: union-find over them, joined here
  * when join is set). With part (the root of each point's component, resolved), the count is
  * added up per component instead: sum[k] for the component whose root is roots[k] (sorted). */
@@ -65,13 +76,7 @@ static void digital_count(const gr_field *f, const uint8_t *in, uint32_t *parent
                     size_t q = (size_t)first;
                     uint32_t r = parent[p + (q & 1) * step[0] + ((q >> 1) & 1) * step[1] +
                                         (q >> 2) * step[2]];
-                    size_t lo = 0, hi = nroots;
-                    while (hi - lo > 1) {
-                        size_t mid = (lo + hi) / 2;
-                        if (roots[mid] <= r) lo = mid;
-                        else hi = mid;
-                    }
-                    sum[lo] += x;
+                    sum[root_index(roots, nroots, r)] += x;
                 }
             }
     *total = all;
@@ -269,17 +274,6 @@ done:
     free(es);
     free(edges);
     return s;
-}
-
-/* The index of root r in the sorted roots[0..n). */
-static size_t root_index(const uint32_t *roots, size_t n, uint32_t r) {
-    size_t lo = 0, hi = n;
-    while (hi - lo > 1) {
-        size_t mid = (lo + hi) / 2;
-        if (roots[mid] <= r) lo = mid;
-        else hi = mid;
-    }
-    return lo;
 }
 
 /* Grows box b (lo[3], hi[3]) to hold x, or to hold box c when x is NULL. */
