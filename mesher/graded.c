@@ -12,25 +12,76 @@
 
 /* Rounds of measuring and refining after the first mesh. */
 #define GR_REFINE_ROUNDS 3
+/* A measure after the first looks only within blocks of this many voxels near the leaves
+ * split since, GR_REGION_REACH of their edges around them (their parent's neighbours reach
+ * two parent edges; the warps of their lattice vertices one more). */
+#define GR_REGION_BLOCK 8
+#define GR_REGION_REACH 6.0
 /* --tets: meshes made again at the tets per leaf the last one showed, when it missed by 10%
  * (coarsening's repair flips and peels take some tets off a stuffed mesh at the count). */
 #define GR_TETS_TRIES 3
 /* Voxels longer than this ratio one way than another get near-cubic base cells. */
 #define GR_ASPECT 3.0
 
+/* The blocks of voxels where a mesh may differ from the one measured before: around the
+ * octree nodes made since (index n0 on), as far as the lattice tets of their parents'
+ * neighbours (up to twice a parent's size) and a warp reach, and the distance bound beyond
+ * (a sample farther than that from the change keeps its nearest point). [out] r, r->mask
+ * malloc'd. */
+static vm_status changed_region(const gr_tree *t, const gr_field *f, size_t n0, double D,
+                                vm__sd_region *r, vm_error *err) {
+    r->block = GR_REGION_BLOCK;
+    size_t nb = 1;
+    for (int d = 0; d < 3; d++) {
+        r->nb[d] = (f->n[d] - 1) / GR_REGION_BLOCK + 1;
+        nb *= (size_t)r->nb[d];
+    }
+    unsigned char *mask = calloc(nb, 1);
+    if (!mask) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the distance");
+    for (size_t i = n0; i < t->n; i++) {
+        const gr_node *q = &t->node[i];
+        int64_t lo[3], hi[3];
+        double e = 0;
+        for (int d = 0; d < 3; d++)
+            e = fmax(e, t->h0[d] * (double)((int64_t)1 << q->level));
+        double margin = GR_REGION_REACH * e + D;
+        for (int d = 0; d < 3; d++) {
+            double a = t->u0[d] + (double)q->a[d] * 0.5 * t->h0[d];
+            double b = a + t->h0[d] * (double)((int64_t)1 << q->level);
+            double x = floor((a - margin) / f->sp[d] / GR_REGION_BLOCK);
+            double y = floor((b + margin) / f->sp[d] / GR_REGION_BLOCK);
+            lo[d] = x < 0 ? 0 : x >= (double)r->nb[d] ? r->nb[d] - 1 : (int64_t)x;
+            hi[d] = y < 0 ? 0 : y >= (double)r->nb[d] ? r->nb[d] - 1 : (int64_t)y;
+        }
+        for (int64_t z = lo[2]; z <= hi[2]; z++)
+            for (int64_t y = lo[1]; y <= hi[1]; y++)
+                memset(mask + (size_t)(lo[0] + r->nb[0] * (y + r->nb[1] * z)), 1,
+                       (size_t)(hi[0] - lo[0] + 1));
+    }
+    r->mask = mask;
+    return VM_OK;
+}
+
 /* Splits the leaves (above the base level) that hold a sample farther than the bound from
  * the other surface: boundary points of the mesh far from the isosurface, and isosurface
- * points far from the boundary. [out] *split: leaves split. */
+ * points far from the boundary. Measures only around the nodes made since the last measure
+ * (*since on; 0: everywhere): elsewhere the mesh is the one measured. [in,out] *since: the
+ * tree's node count as measured. [out] *split: leaves split. */
 static vm_status refine_far(gr_tree *t, const gr_field *f, const vm_mesh_options *o,
-                            const vm_mesh *mesh, const gr_sizing *sz, size_t *split,
-                            vm_error *err) {
+                            const vm_mesh *mesh, const gr_sizing *sz, size_t *since,
+                            size_t *split, vm_error *err) {
     double inv[3][3], det, *pts = NULL;
     size_t np = 0;
     vm_surface_distance d;
+    vm__sd_region region = {NULL, {0, 0, 0}, 0};
     vm_status s = vm__frame_inverse(f->v, "mesh", inv, &det, err);
+    if (!s && *since) s = changed_region(t, f, *since, sz->distance, &region, err);
     if (!s)
-        s = vm__surface_distance_points(mesh, f->v, o->lo, o->has_lo, o->hi, o->has_hi,
-                                        sz->distance, &d, &pts, &np, err);
+        s = vm__surface_distance_region(mesh, f->v, o->lo, o->has_lo, o->hi, o->has_hi,
+                                        sz->distance, *since ? &region : NULL, &d, &pts, &np,
+                                        err);
+    free((void *)region.mask);
+    *since = t->n;
     if (s) return s;
     for (size_t i = 0; i < np && !s; i++) {
         double w[3], ijk[3];
@@ -225,7 +276,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     vm_mesh good;
     vm_mesh_init(&good, VM_TET4);
     gr_node *saved = NULL;
-    size_t saved_n = 0, saved_leaves = 0;
+    size_t saved_n = 0, saved_leaves = 0, measured_n = 0;
     for (int round = 0; !s;) {
         if (tick(&pm, &ticks)) {
             s = vm__cancelled(err, "mesh");
@@ -293,7 +344,9 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
             memcpy(saved, t.node, t.n * sizeof *saved);
             saved_n = t.n;
             saved_leaves = t.leaves;
-            s = refine_far(&t, &f, o, mesh, &sz, &split, err);
+            /* the whole mesh when the stuffing had to drop every warp (its last resort) */
+            if (ss.no_warps) measured_n = 0;
+            s = refine_far(&t, &f, o, mesh, &sz, &measured_n, &split, err);
             lap(&clk, &st->graded_distance_s);
             if (s || !split) break;
             vm_mesh_free(&good);

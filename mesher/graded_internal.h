@@ -160,6 +160,7 @@ void vm__gr_lattice_free(gr_lattice *L);
 /* Stuffing counters. */
 typedef struct gr_stuff_stats {
     size_t warped, cut_vertices, unwarped, rounds;
+    int no_warps; /* the last round dropped every warp (the stuffing's last resort) */
 } gr_stuff_stats;
 
 /* Cuts the lattice tets by the surface (warping lattice vertices onto it where a cut comes

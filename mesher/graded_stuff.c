@@ -755,6 +755,7 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
         if (round == GR_ROUNDS - 1) { /* the last resort: no warps, linear cuts */
             memset(S.nowarp, 1, S.nv);
             memset(S.linear, 1, S.ne);
+            st->no_warps = 1;
         }
         S.border_zeros = 0;
         st->warped = warp(&S);

@@ -20,6 +20,22 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
                                       vm_surface_distance *out, double **points,
                                       size_t *npoints, vm_error *err);
 
+/* Where a measure looks: blocks of `block` voxels (index space, nb[a] along axis a, x
+ * fastest), mask 1 where samples count. */
+typedef struct vm__sd_region {
+    const unsigned char *mask;
+    int64_t nb[3];
+    int block;
+} vm__sd_region;
+
+/* vm__surface_distance_points counting only the samples (of the boundary and of the
+ * isosurface) in region r (NULL: all): the counts, means and maxima are the region's. The
+ * graded mesher measures again only where its refinement changed the mesh. */
+vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, double lo,
+                                      int has_lo, double hi, int has_hi, double limit,
+                                      const vm__sd_region *r, vm_surface_distance *out,
+                                      double **points, size_t *npoints, vm_error *err);
+
 /* The points a hex's Jacobian is sampled at (vm_hex_scaled_jacobian): the 8 corners (in
  * VTK order), the centre, then the 8 Gauss points of the unit cube (u fastest). */
 #define VM_HEX_SAMPLES 17

@@ -1034,7 +1034,22 @@ typedef struct ctx {
     const grid *tg;
     int collect;
     double limit;
+    const vm__sd_region *region; /* NULL: everywhere */
 } ctx;
+
+/* Whether world point p lies in the region measured. */
+static int wanted(const ctx *x, const double p[3]) {
+    const vm__sd_region *r = x->region;
+    if (!r) return 1;
+    double u[3];
+    to_index(x->F, p, u);
+    int64_t b[3];
+    for (int a = 0; a < 3; a++) {
+        double q = floor(u[a] / r->block);
+        b[a] = q < 0 ? 0 : q >= (double)r->nb[a] ? r->nb[a] - 1 : (int64_t)q;
+    }
+    return r->mask[b[0] + r->nb[0] * (b[1] + r->nb[1] * b[2])];
+}
 
 /* Distance from mesh point p to the isosurface; *hint: the nearest sample of the previous
  * point (see nearest), updated. */
@@ -1114,6 +1129,7 @@ static vm_status measure_mesh(const ctx *x, side_acc *sd, vm_error *err) {
             for (size_t i = i0; i < i1; i++) {
                 if (pass == 0) {
                     const double *p = T->pts + 3 * verts[i];
+                    if (!wanted(x, p)) continue;
                     acc_add(a, mesh_point_distance(x, p, &hint), p, x->collect, x->limit);
                 } else if (pass == 1) {
                     const double *pa = T->pts + 3 * e[i].a, *pb = T->pts + 3 * e[i].b;
@@ -1121,6 +1137,7 @@ static vm_status measure_mesh(const ctx *x, side_acc *sd, vm_error *err) {
                     for (size_t s = 1; s < m; s++) {
                         double t = (double)s / (double)m, p[3];
                         for (int k = 0; k < 3; k++) p[k] = pa[k] + t * (pb[k] - pa[k]);
+                        if (!wanted(x, p)) continue;
                         acc_add(a, mesh_point_distance(x, p, &hint), p, x->collect, x->limit);
                     }
                 } else {
@@ -1134,6 +1151,7 @@ static vm_status measure_mesh(const ctx *x, side_acc *sd, vm_error *err) {
                             double bs = (double)s / (double)m, br = (double)r / (double)m, p[3];
                             for (int k = 0; k < 3; k++)
                                 p[k] = pa[k] + bs * (pb[k] - pa[k]) + br * (pc[k] - pa[k]);
+                            if (!wanted(x, p)) continue;
                             acc_add(a, mesh_point_distance(x, p, &hint), p, x->collect, x->limit);
                         }
                 }
@@ -1162,6 +1180,7 @@ static vm_status measure_surface(const ctx *x, side_acc *sd, vm_error *err) {
         size_t id = SIZE_MAX; /* the previous sample's triangle: a hint */
         for (size_t i = i0; i < i1; i++) {
             const double *p = x->S->p + 3 * i;
+            if (!wanted(x, p)) continue;
             double d = sqrt(nearest(x->tg, x->tb, x->F, p, &id));
             acc_add(&c[ci], d, p, x->collect, x->limit);
         }
@@ -1237,6 +1256,14 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
                                       int has_lo, double hi, int has_hi, double limit,
                                       vm_surface_distance *out, double **points,
                                       size_t *npoints, vm_error *err) {
+    return vm__surface_distance_region(m, v, lo, has_lo, hi, has_hi, limit, NULL, out, points,
+                                       npoints, err);
+}
+
+vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, double lo,
+                                      int has_lo, double hi, int has_hi, double limit,
+                                      const vm__sd_region *r, vm_surface_distance *out,
+                                      double **points, size_t *npoints, vm_error *err) {
     memset(out, 0, sizeof *out);
     if (points) *points = NULL;
     if (npoints) *npoints = 0;
@@ -1267,7 +1294,7 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
     memset(&sg, 0, sizeof sg);
     memset(&tg, 0, sizeof tg);
     side_acc ms = {0, 0, 0, NULL, 0}, ss = {0, 0, 0, NULL, 0};
-    ctx x = {&F, &S, &sb, &sg, &T, &tb, &tg, points != NULL, limit};
+    ctx x = {&F, &S, &sb, &sg, &T, &tb, &tg, points != NULL, limit, r};
     if (T.n && S.n) {
         st = grid_build(&sg, &F, S.p, NULL, S.n, err);
         if (!st) st = grid_build(&tg, &F, T.pts, T.t, T.n, err);

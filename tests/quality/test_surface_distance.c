@@ -336,6 +336,44 @@ static void pointsOverTheLimitAreReturned(void) {
     vm_volume_free(&v);
 }
 
+/* A measure within a region counts only the samples there: the far part of the plane
+ * (y or z beyond the square) is left out by a mask of the blocks below 4 in y and z; a full
+ * mask gives what no mask gives, an empty one counts nothing. */
+static void aRegionCountsOnlyItsSamples(void) {
+    vm_volume v;
+    ramp_volume(&v, 9);
+    vm_mesh m;
+    square_mesh(&m, 4.0, 0.0, 4.0);
+    vm_surface_distance all, d;
+    vm_error err;
+    double *pts = NULL;
+    size_t np = 0;
+    unsigned char mask[27];
+    vm__sd_region r = {mask, {3, 3, 3}, 4};
+    CHECK_OK(vm__surface_distance_points(&m, &v, 3.3, 1, 0, 0, 1.0, &all, NULL, NULL, &err),
+             &err);
+    memset(mask, 1, sizeof mask);
+    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, &d, NULL, NULL, &err),
+             &err);
+    CHECK(memcmp(&all, &d, sizeof d) == 0);
+    memset(mask, 0, sizeof mask);
+    for (int x = 0; x < 3; x++)
+        mask[x] = 1; /* y and z blocks 0: y, z in [0, 4) */
+    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, &d, &pts, &np, &err),
+             &err);
+    CHECK(np == 0 && pts == NULL);
+    CHECK(d.surface_samples > 0 && d.surface_samples < all.surface_samples);
+    CHECK(d.mesh_samples > 0 && d.mesh_samples < all.mesh_samples);
+    CHECK_NEAR(d.surface_to_mesh_max, 0.7, 1e-6);
+    CHECK(all.surface_to_mesh_max > 4);
+    memset(mask, 0, sizeof mask);
+    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, &d, &pts, &np, &err),
+             &err);
+    CHECK(d.surface_samples == 0 && d.mesh_samples == 0 && np == 0);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
 int main(void) {
     static const vm_test_case cases[] = {
         {"planeAtKnownOffsetGivesThatDistanceBothWays", planeAtKnownOffsetGivesThatDistanceBothWays},
@@ -349,6 +387,7 @@ int main(void) {
         {"worldFrameIsApplied", worldFrameIsApplied},
         {"resultDoesNotDependOnThreads", resultDoesNotDependOnThreads},
         {"pointsOverTheLimitAreReturned", pointsOverTheLimitAreReturned},
+        {"aRegionCountsOnlyItsSamples", aRegionCountsOnlyItsSamples},
     };
     return vm_test_run(cases, sizeof cases / sizeof cases[0]);
 }
