@@ -481,9 +481,13 @@ static int merge_apply(vm__imp *w, vm_index keep, vm_index gone, const double x[
     memcpy(w->p + 3 * (size_t)keep, x, 3 * sizeof *x);
     vm__imp_guard_moved(w, keep);
     const vm__imp_star *sk = &w->star[keep];
-    for (int32_t i = 0; i < sk->n; i++) {
-        vm__imp_requal(w, (size_t)sk->t[i]);
-        for (int k = 0; k < 4; k++) vm__imp_guard_touch(w, w->tet[4 * (size_t)sk->t[i] + k]);
+    for (int32_t i = 0; i < sk->n; i++) vm__imp_requal(w, (size_t)sk->t[i]);
+    /* The boundary faces change only around the vertices whose stars changed: those of the
+     * tets that died (vm__imp_kill_tet told the guard) and of the tets that had gone. */
+    for (int32_t i = 0; i < ng; i++) {
+        size_t t = (size_t)w->buf[i];
+        if (w->dead[t]) continue;
+        for (int k = 0; k < 4; k++) vm__imp_guard_touch(w, w->tet[4 * t + k]);
     }
     w->collapses++;
     return 1;
