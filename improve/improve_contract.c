@@ -46,26 +46,61 @@ static int kpush(kset *s, key3 k) {
     return 1;
 }
 
-/* Sorts n keys: by insertion up to a few dozen (a link's sets are that small, and qsort's
- * calls through a pointer cost more there), else qsort. The same order either way (equal
- * keys are equal values). */
-static void ksort(key3 *e, size_t n) {
-    if (n > 48) {
-        qsort(e, n, sizeof *e, key3_cmp);
-        return;
-    }
+static int key3_less(const key3 *a, const key3 *b) {
+    return a->k[0] < b->k[0] ||
+           (a->k[0] == b->k[0] && (a->k[1] < b->k[1] || (a->k[1] == b->k[1] && a->k[2] < b->k[2])));
+}
+
+/* Sorts e[0..n) by insertion (runs of a few dozen). */
+static void ksort_ins(key3 *e, size_t n) {
     for (size_t i = 1; i < n; i++) {
         key3 x = e[i];
         size_t j = i;
-        while (j > 0 && (e[j - 1].k[0] > x.k[0] ||
-                         (e[j - 1].k[0] == x.k[0] &&
-                          (e[j - 1].k[1] > x.k[1] ||
-                           (e[j - 1].k[1] == x.k[1] && e[j - 1].k[2] > x.k[2]))))) {
+        while (j > 0 && key3_less(&x, &e[j - 1])) {
             e[j] = e[j - 1];
             j--;
         }
         e[j] = x;
     }
+}
+
+/* Runs of KSORT_RUN sorted by insertion, then merged pairwise through tmp (n keys). */
+#define KSORT_RUN 32
+static void ksort_merge(key3 *e, size_t n, key3 *tmp) {
+    for (size_t i = 0; i < n; i += KSORT_RUN) ksort_ins(e + i, n - i < KSORT_RUN ? n - i : KSORT_RUN);
+    key3 *src = e, *dst = tmp;
+    for (size_t w = KSORT_RUN; w < n; w *= 2) {
+        for (size_t lo = 0; lo < n; lo += 2 * w) {
+            size_t mid = lo + w < n ? lo + w : n, hi = lo + 2 * w < n ? lo + 2 * w : n;
+            size_t i = lo, j = mid, k = lo;
+            while (i < mid && j < hi) dst[k++] = key3_less(&src[j], &src[i]) ? src[j++] : src[i++];
+            while (i < mid) dst[k++] = src[i++];
+            while (j < hi) dst[k++] = src[j++];
+        }
+        key3 *t = src;
+        src = dst;
+        dst = t;
+    }
+    if (src != e) memcpy(e, src, n * sizeof *e);
+}
+
+/* Sorts n keys: by insertion up to a few dozen, else by merging (a link's sets hold a few
+ * dozen to a few hundred, where qsort's calls through a pointer cost more); qsort when the
+ * merge finds no memory. The same order either way (equal keys are equal values). */
+#define KSORT_STACK 512
+static void ksort(key3 *e, size_t n) {
+    if (n <= 48) {
+        ksort_ins(e, n);
+        return;
+    }
+    key3 stack[KSORT_STACK];
+    key3 *tmp = n <= KSORT_STACK ? stack : malloc(n * sizeof *tmp);
+    if (!tmp) {
+        qsort(e, n, sizeof *e, key3_cmp);
+        return;
+    }
+    ksort_merge(e, n, tmp);
+    if (tmp != stack) free(tmp);
 }
 
 static void kunique(kset *s) {
@@ -369,11 +404,43 @@ static int fkey_same(const fkey *a, const fkey *b) {
     return a->k[0] == b->k[0] && a->k[1] == b->k[1] && a->k[2] == b->k[2];
 }
 
-static int fkey_cmp(const void *pa, const void *pb) {
-    const fkey *a = pa, *b = pb;
+/* By nodes, then by where found: a total order. */
+static int fkey_less(const fkey *a, const fkey *b) {
     for (int i = 0; i < 3; i++)
-        if (a->k[i] != b->k[i]) return a->k[i] < b->k[i] ? -1 : 1;
-    return a->at < b->at ? -1 : a->at > b->at;
+        if (a->k[i] != b->k[i]) return a->k[i] < b->k[i];
+    return a->at < b->at;
+}
+
+/* Sorts n faces by fkey_less (a total order: the same result as any sort): by
+ * insertion in runs, then merging through tmp (room for n faces). */
+static void fsort(fkey *e, size_t n, fkey *tmp) {
+    for (size_t r = 0; r < n; r += KSORT_RUN) {
+        fkey *b = e + r;
+        size_t m = n - r < KSORT_RUN ? n - r : KSORT_RUN;
+        for (size_t i = 1; i < m; i++) {
+            fkey x = b[i];
+            size_t j = i;
+            while (j > 0 && fkey_less(&x, &b[j - 1])) {
+                b[j] = b[j - 1];
+                j--;
+            }
+            b[j] = x;
+        }
+    }
+    fkey *src = e, *dst = tmp;
+    for (size_t w = KSORT_RUN; w < n; w *= 2) {
+        for (size_t lo = 0; lo < n; lo += 2 * w) {
+            size_t mid = lo + w < n ? lo + w : n, hi = lo + 2 * w < n ? lo + 2 * w : n;
+            size_t i = lo, j = mid, k = lo;
+            while (i < mid && j < hi) dst[k++] = fkey_less(&src[j], &src[i]) ? src[j++] : src[i++];
+            while (i < mid) dst[k++] = src[i++];
+            while (j < hi) dst[k++] = src[j++];
+        }
+        fkey *t = src;
+        src = dst;
+        dst = t;
+    }
+    if (src != e) memcpy(e, src, n * sizeof *e);
 }
 
 /* 1 when merging gone into keep at x (edge ab = {keep, gone}) makes no boundary triangles
@@ -392,7 +459,7 @@ static int contract_guard_ok(vm__imp *w, vm_index a, vm_index b, vm_index keep, 
     size_t ns = (size_t)w->star[a].n + (size_t)w->star[b].n;
     vm_index(*s)[4] = malloc((ns + 1) * sizeof *s);
     vm_index(*nt)[3] = malloc((4 * ns + 1) * sizeof *nt);
-    fkey *fk = malloc((4 * ns + 1) * sizeof *fk);
+    fkey *fk = malloc((8 * ns + 2) * sizeof *fk); /* and as many for sorting them */
     uint8_t *one = calloc(4 * ns + 1, 1);
     if (!s || !nt || !fk || !one) {
         free(s);
@@ -430,7 +497,7 @@ static int contract_guard_ok(vm__imp *w, vm_index a, vm_index b, vm_index keep, 
             fk[nf].at = 4 * i + (size_t)f;
             nf++;
         }
-    if (nf) qsort(fk, nf, sizeof *fk, fkey_cmp);
+    fsort(fk, nf, fk + 4 * ns + 1);
     for (size_t i = 0; i < nf; i++)
         one[fk[i].at] = !(i > 0 && fkey_same(&fk[i], &fk[i - 1])) &&
                         !(i + 1 < nf && fkey_same(&fk[i], &fk[i + 1]));
@@ -481,9 +548,13 @@ static int merge_apply(vm__imp *w, vm_index keep, vm_index gone, const double x[
     memcpy(w->p + 3 * (size_t)keep, x, 3 * sizeof *x);
     vm__imp_guard_moved(w, keep);
     const vm__imp_star *sk = &w->star[keep];
-    for (int32_t i = 0; i < sk->n; i++) {
-        vm__imp_requal(w, (size_t)sk->t[i]);
-        for (int k = 0; k < 4; k++) vm__imp_guard_touch(w, w->tet[4 * (size_t)sk->t[i] + k]);
+    for (int32_t i = 0; i < sk->n; i++) vm__imp_requal(w, (size_t)sk->t[i]);
+    /* The boundary faces change only around the vertices whose stars changed: those of the
+     * tets that died (vm__imp_kill_tet told the guard) and of the tets that had gone. */
+    for (int32_t i = 0; i < ng; i++) {
+        size_t t = (size_t)w->buf[i];
+        if (w->dead[t]) continue;
+        for (int k = 0; k < 4; k++) vm__imp_guard_touch(w, w->tet[4 * t + k]);
     }
     w->collapses++;
     return 1;
@@ -684,7 +755,7 @@ static int cluster_links(const vm_index (*tl0)[4], size_t nu, const vm_index *or
 static int cluster_guard_ok(vm__imp *w, const vm_index (*tl)[4], size_t nu, const vm_index *K,
                             int nk, vm_index s) {
     static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-    fkey *fk = malloc((4 * nu + 1) * sizeof *fk);
+    fkey *fk = malloc((8 * nu + 2) * sizeof *fk); /* and as many for sorting them */
     vm_index(*nt)[3] = malloc((4 * nu + 1) * sizeof *nt);
     vm_index(*m)[4] = malloc((nu + 1) * sizeof *m);
     if (!fk || !nt || !m) {
@@ -712,7 +783,7 @@ static int cluster_guard_ok(vm__imp *w, const vm_index (*tl)[4], size_t nu, cons
             fk[nf].at = 4 * i + (size_t)f;
             nf++;
         }
-    if (nf) qsort(fk, nf, sizeof *fk, fkey_cmp);
+    fsort(fk, nf, fk + 4 * nu + 1);
     int nn = 0;
     for (size_t i = 0; i < nf; i++) {
         if ((i > 0 && fkey_same(&fk[i], &fk[i - 1])) || (i + 1 < nf && fkey_same(&fk[i], &fk[i + 1])))

@@ -110,9 +110,11 @@ typedef struct cvec {
     uint32_t n, cap;
 } cvec;
 
-/* Each live tet is listed in every cell its box meets (built once; the tets jobs write are
- * added to more[], where the cells' earlier entries for them stay: a query checks the
- * boxes). */
+/* Each live tet with a boundary face is listed in every cell its box meets (built once; the
+ * tets jobs write, and those whose flag a job's changes reset from BF_NO, are added to more[],
+ * where the cells' earlier entries for them stay: a query checks the boxes). The scans look
+ * for boundary tets only: a tet known to have none was never wanted from the grid, and
+ * listing only the others keeps each scan to the boundary near its job. */
 typedef struct lgrid {
     double lo[3], cs;
     size_t gd[3];
@@ -137,8 +139,9 @@ static void cells_of(const lgrid *G, const double a[3], const double b[3], size_
     vm__imp_cell_range(G->lo, G->cs, G->gd, a, b, c0, c1);
 }
 
-/* 0 on out-of-memory. */
-static int grid_build(const pstate *S, double h, lgrid *G) {
+/* 0 on out-of-memory. bflag: every live slot's flag (on_boundary); the slots with none
+ * (BF_NO) are left out. */
+static int grid_build(const pstate *S, double h, const uint8_t *bflag, lgrid *G) {
     memset(G, 0, sizeof *G);
     double ext[3], vol = 1.0;
     for (int k = 0; k < 3; k++) {
@@ -166,7 +169,7 @@ static int grid_build(const pstate *S, double h, lgrid *G) {
     /* twice over the tets: count, then fill */
     for (int pass = 0; pass < 2; pass++) {
         for (size_t t = 0; t < S->nt; t++) {
-            if (S->m->cells[4 * t] == DEAD) continue;
+            if (S->m->cells[4 * t] == DEAD || bflag[t] == VM__IMP_BF_INSIDE) continue;
             double a[3], b[3];
             size_t c0[3], c1[3];
             vm__imp_slot_box(S, t, a, b);
@@ -610,16 +613,25 @@ static int local_update(lpass *P, const job *J, const ljob *X) {
         for (size_t i = 0; i < J->nps; i++)
             P->mark[J->ps[i]] = 0;
     }
+    /* The boundary flags of the tets J changed, and of the locked tets around them (a
+     * neighbour may have changed), measured again on the stars as they are now: no other job
+     * of the batch holds a point of theirs. The grid lists every tet with a boundary face
+     * (with its box as it is now): the written ones that have one, and the locked ones that
+     * had none before (the others are listed already, and a locked tet does not move). */
     for (size_t i = 0; i < nout; i++)
         P->bflag[out.a[i]] = BF_UNKNOWN;
     for (size_t i = 0; i < J->nls; i++) {
         const vm_index *c = S->m->cells + 4 * (size_t)J->ls[i];
         if (pidx[c[0]] != UINT32_MAX || pidx[c[1]] != UINT32_MAX || pidx[c[2]] != UINT32_MAX ||
-            pidx[c[3]] != UINT32_MAX)
+            pidx[c[3]] != UINT32_MAX) {
+            int was_inside = P->bflag[J->ls[i]] == BF_NO;
             P->bflag[J->ls[i]] = BF_UNKNOWN;
+            if (ok && !bad_point && on_boundary(P, J->ls[i]) && was_inside)
+                ok = grid_add(S, &P->G, J->ls[i]);
+        }
     }
     for (size_t i = 0; i < nout && ok && !bad_point; i++) {
-        ok = grid_add(S, &P->G, out.a[i]);
+        if (on_boundary(P, out.a[i])) ok = grid_add(S, &P->G, out.a[i]);
         if (ok && S->below[out.a[i]]) ok = sl_push(&P->bad, out.a[i]);
     }
     for (size_t j = 0; j < np; j++)
@@ -905,13 +917,12 @@ vm_status vm__imp_local_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
         P.pidx = malloc((m->npoints + 1) * sizeof *P.pidx);
         for (size_t i = 0; P.pidx && i < m->npoints; i++)
             P.pidx[i] = UINT32_MAX;
-        if (!P.mark || !P.W || !P.pidx || !P.bflag || !stars_build(S, &P.T) ||
-            !grid_build(S, h, &P.G))
+        if (!P.mark || !P.W || !P.pidx || !P.bflag || !stars_build(S, &P.T))
             s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
     /* Every tet's boundary flag once, on the threads (each on its own: any thread count gives
-     * the same flags): the scans then pass over the tets inside (most of a job's margin)
-     * without measuring their boxes. */
+     * the same flags): the grid the scans search then lists only the tets with a boundary
+     * face. */
     if (s == VM_OK) {
         const lpass *cp = &P;
 #ifdef VM_HAVE_OPENMP
@@ -919,6 +930,8 @@ vm_status vm__imp_local_run(vm_mesh *m, const vm_volume *v, vm_plane_source src,
 #endif
         for (size_t t = 0; t < S->nt; t++)
             if (cells[4 * t] != DEAD) (void)on_boundary(cp, t);
+        if (!grid_build(S, h, P.bflag, &P.G))
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
     }
     size_t last = SIZE_MAX;
     for (int round = 0; round < ROUNDS && s == VM_OK; round++) {

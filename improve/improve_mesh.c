@@ -103,25 +103,92 @@ static int clearly_below_180_minus(double c, double a) {
     return a > 0.0 && a < 180.0 && c > SKIP_COS - vm__cos_below(a / DEG);
 }
 
+/* What vm__imp_quality measures, in one pass over the tet: the six edge vectors and their
+ * squared lengths serve the positivity test, the face normals, the volume measure and the
+ * face cosines, each value computed by the same operations as dihedral_cosines,
+ * vm__imp_volume_measure and face_cosines compute it (so the quality is the same to the
+ * bit). Edge k joins nodes qe[k][0] < qe[k][1] and is p[qe[k][1]] - p[qe[k][0]]. */
+static const int qe[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+/* The two edges each face normal crosses (face_of's u and v). */
+static const int qnorm[4][2] = {{3, 4}, {2, 1}, {0, 2}, {1, 0}};
+/* Edge index of the node pair (i, j), i != j. */
+static const int qpair[4][4] = {{-1, 0, 1, 2}, {0, -1, 3, 4}, {1, 3, -1, 5}, {2, 4, 5, -1}};
+
 double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
-    qcos c;
-    if (!dihedral_cosines(p, &c)) return -1.0;
-    double dmin = acos(c.cmax) * DEG;
+    double e[6][3], l2[6], lmax2 = 0.0;
+    for (int k = 0; k < 6; k++) {
+        vm__sub3(p[qe[k][1]], p[qe[k][0]], e[k]);
+        l2[k] = vm__dot3(e[k], e[k]);
+        if (l2[k] > lmax2) lmax2 = l2[k];
+    }
+    /* dihedral_cosines */
+    const double *a = e[0], *b = e[1], *c = e[2];
+    double bc[3];
+    vm__cross3(b, c, bc);
+    double vol6 = vm__dot3(a, bc);
+    if (!isfinite(vol6) || !(vol6 > 1e-12 * lmax2 * sqrt(lmax2))) return -1.0;
+    double n[4][3], len[4];
+    for (int f = 0; f < 4; f++) {
+        vm__cross3(e[qnorm[f][0]], e[qnorm[f][1]], n[f]);
+        len[f] = sqrt(vm__dot3(n[f], n[f]));
+        if (!(len[f] > 0.0)) return -1.0;
+    }
+    double hi = -2.0, lo = 2.0;
+    for (int f = 0; f < 4; f++)
+        for (int g = f + 1; g < 4; g++) {
+            double cs = -vm__dot3(n[f], n[g]) / (len[f] * len[g]);
+            if (cs > hi) hi = cs;
+            if (cs < lo) lo = cs;
+        }
+    qcos cq;
+    cq.cmax = hi > 1.0 ? 1.0 : hi;
+    cq.cmin = lo < -1.0 ? -1.0 : lo;
+    double dmin = acos(cq.cmax) * DEG;
     double q = dmin / w->s_min;
-    double q3 = vm__imp_volume_measure(p) / w->s_vm;
+    /* vm__imp_volume_measure (vol6 > 0 and finite here) */
+    double vmq = 0.0;
+    {
+        double ca[3], ab[3], wv[3], o[3];
+        vm__cross3(c, a, ca);
+        vm__cross3(a, b, ab);
+        for (int d = 0; d < 3; d++) wv[d] = l2[0] * bc[d] + l2[1] * ca[d] + l2[2] * ab[d];
+        for (int k = 0; k < 3; k++) o[k] = wv[k] / (2.0 * vol6);
+        double R = sqrt(vm__dot3(o, o));
+        if (R > 0.0) {
+            double r = (vol6 / 6.0) * 9.0 * sqrt(3.0) / (8.0 * R * R * R);
+            vmq = isfinite(r) ? r : 0.0;
+        }
+    }
+    double q3 = vmq / w->s_vm;
     if (q3 < q) q = q3;
     /* Each further term is measured only when its cosine does not put it clearly above q:
      * the minimum is the same as with every term measured. */
-    if (!clearly_below_180_minus(c.cmin, q * w->s_max + SKIP_SLACK)) {
-        double dmax = acos(c.cmin) * DEG, q2 = (180.0 - dmax) / w->s_max;
+    if (!clearly_below_180_minus(cq.cmin, q * w->s_max + SKIP_SLACK)) {
+        double dmax = acos(cq.cmin) * DEG, q2 = (180.0 - dmax) / w->s_max;
         if (q2 < q) q = q2;
     }
-    face_cosines(p, &c);
-    int want_min = !clearly_above(c.cfmax, q * w->s_fmin + SKIP_SLACK),
-        want_max = !clearly_below_180_minus(c.cfmin, q * w->s_fmax + SKIP_SLACK);
+    /* face_cosines, on the edge lengths above */
+    double el[6];
+    for (int k = 0; k < 6; k++) el[k] = sqrt(l2[k]);
+    double fhi = -2.0, flo = 2.0;
+    for (int f = 0; f < 4; f++)
+        for (int k = 0; k < 3; k++) {
+            int oo = face_of[f][k], i = face_of[f][(k + 1) % 3], j = face_of[f][(k + 2) % 3];
+            double u[3], v[3];
+            vm__sub3(p[i], p[oo], u);
+            vm__sub3(p[j], p[oo], v);
+            double cs = vm__dot3(u, v) / (el[qpair[oo][i]] * el[qpair[oo][j]]);
+            cq.fc[3 * f + k] = cs;
+            if (cs > fhi) fhi = cs;
+            if (cs < flo) flo = cs;
+        }
+    cq.cfmax = fhi;
+    cq.cfmin = flo;
+    int want_min = !clearly_above(cq.cfmax, q * w->s_fmin + SKIP_SLACK),
+        want_max = !clearly_below_180_minus(cq.cfmin, q * w->s_fmax + SKIP_SLACK);
     if (!want_min && !want_max) return q;
     double fmin, fmax;
-    face_angle_range(p, &c, want_min, want_max, &fmin, &fmax);
+    face_angle_range(p, &cq, want_min, want_max, &fmin, &fmax);
     double q4 = fmin / w->s_fmin, q5 = (180.0 - fmax) / w->s_fmax;
     if (want_min && q4 < q) q = q4;
     if (want_max && q5 < q) q = q5;
