@@ -69,7 +69,7 @@ static vm_status changed_region(const gr_tree *t, const gr_field *f, size_t n0, 
  * tree's node count as measured. [out] *split: leaves split. */
 static vm_status refine_far(gr_tree *t, const gr_field *f, const vm_mesh_options *o,
                             const vm_mesh *mesh, const gr_sizing *sz, size_t *since,
-                            size_t *split, vm_error *err) {
+                            vm__sd_cache *cache, size_t *split, vm_error *err) {
     double inv[3][3], det, *pts = NULL;
     size_t np = 0;
     vm_surface_distance d;
@@ -78,8 +78,8 @@ static vm_status refine_far(gr_tree *t, const gr_field *f, const vm_mesh_options
     if (!s && *since) s = changed_region(t, f, *since, sz->distance, &region, err);
     if (!s)
         s = vm__surface_distance_region(mesh, f->v, o->lo, o->has_lo, o->hi, o->has_hi,
-                                        sz->distance, *since ? &region : NULL, &d, &pts, &np,
-                                        err);
+                                        sz->distance, *since ? &region : NULL, cache, &d,
+                                        &pts, &np, err);
     free((void *)region.mask);
     *since = t->n;
     if (s) return s;
@@ -277,6 +277,8 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     vm_mesh_init(&good, VM_TET4);
     gr_node *saved = NULL;
     size_t saved_n = 0, saved_leaves = 0, measured_n = 0;
+    vm__sd_cache samples; /* the isosurface's samples, for every round's measure */
+    memset(&samples, 0, sizeof samples);
     for (int round = 0; !s;) {
         if (tick(&pm, &ticks)) {
             s = vm__cancelled(err, "mesh");
@@ -346,7 +348,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
             saved_leaves = t.leaves;
             /* the whole mesh when the stuffing had to drop every warp (its last resort) */
             if (ss.no_warps) measured_n = 0;
-            s = refine_far(&t, &f, o, mesh, &sz, &measured_n, &split, err);
+            s = refine_far(&t, &f, o, mesh, &sz, &measured_n, &samples, &split, err);
             lap(&clk, &st->graded_distance_s);
             if (s || !split) break;
             vm_mesh_free(&good);
@@ -358,6 +360,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
         lap(&clk, &st->graded_octree_s);
     }
     free(saved);
+    vm__sd_cache_free(&samples);
     vm__gr_lattice_free(&L);
     vm__gr_stuff_work_free(&work);
     vm_mesh_free(&good);

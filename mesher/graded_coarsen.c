@@ -78,6 +78,7 @@ typedef struct co {
     unsigned char *bnd; /* vertex on the boundary */
     unsigned char *fix; /* vertex that stays (on a border plane of the volume) */
     unsigned char *dead_v, *dead_t;
+    unsigned char *free_faces; /* per tet: bit k when no other live tet has its face k */
     double (*sp)[3];   /* isosurface samples (world) */
     double *tol;       /* distance each sample must keep to the boundary */
     int32_t (*st)[3];  /* the boundary triangle near each sample */
@@ -422,10 +423,26 @@ static int edge_ok(const co *C, const double *p, const double *q) {
     return l2 <= L * L;
 }
 
-/* Tet t has no other live tet on its face opposite corner k. */
+/* Tet t has no other live tet on its face opposite corner k (kept in free_faces). */
 static int face_free(const co *C, int32_t t, int k) {
+    return C->free_faces[t] >> k & 1;
+}
+
+/* Tet t has no other live tet on its face opposite corner k, by the tet list of the face's
+ * corner with the fewest. */
+static int face_free_scan(const co *C, int32_t t, int k) {
     const vm_index *c = tet(C, t);
     int64_t x = c[(k + 1) & 3], y = c[(k + 2) & 3], z = c[(k + 3) & 3];
+    if (C->vt[y].n < C->vt[x].n) {
+        int64_t q = x;
+        x = y;
+        y = q;
+    }
+    if (C->vt[z].n < C->vt[x].n) {
+        int64_t q = x;
+        x = z;
+        z = q;
+    }
     const ilist *l = &C->vt[x];
     for (int32_t i = 0; i < l->n; i++) {
         int32_t o = l->v[i];
@@ -439,6 +456,29 @@ static int face_free(const co *C, int32_t t, int k) {
         if (hy && hz) return 0;
     }
     return 1;
+}
+
+/* Finds the free faces of tet t again (after its neighbours changed). */
+static void refresh_faces(co *C, int32_t t) {
+    unsigned char bits = 0;
+    for (int k = 0; k < 4; k++)
+        bits |= (unsigned char)(face_free_scan(C, t, k) << k);
+    C->free_faces[t] = bits;
+}
+
+/* Finds the free faces of the tets around v again: with `own`, only their faces that hold
+ * v. */
+static void refresh_star(co *C, int32_t v, int own) {
+    const ilist *l = &C->vt[v];
+    for (int32_t i = 0; i < l->n; i++) {
+        int32_t t = l->v[i];
+        const vm_index *c = tet(C, t);
+        unsigned char bits = C->free_faces[t];
+        for (int k = 0; k < 4; k++)
+            if (!own || c[k] != (vm_index)v)
+                bits = (unsigned char)((bits & ~(1u << k)) | (face_free_scan(C, t, k) << k));
+        C->free_faces[t] = bits;
+    }
 }
 
 /* Normal (any length) of the triangle (px, py, pz) pointing away from pk. */
@@ -843,6 +883,10 @@ static void apply(co *C, int32_t a, int32_t b, const plan *P) {
     ta->n = 0;
     C->dead_v[a] = 1;
     C->dvol += P->dvol;
+    /* the faces that changed neighbours: those holding b of the tets around it (a face
+     * that held a holds b now; one of a tet that died held a or b; any other face keeps its
+     * tets, as the link condition keeps a tet from turning into one that exists) */
+    refresh_star(C, b, 1);
     if (!C->bnd[a]) return;
     /* samples: to the nearest triangle of b's new star */
     ilist *ls = &C->vs[a];
@@ -1095,6 +1139,7 @@ static void co_free(co *C) {
     free(C->fix);
     free(C->dead_v);
     free(C->dead_t);
+    free(C->free_faces);
     free(C->sp);
     free(C->tol);
     free(C->st);
@@ -1379,6 +1424,8 @@ static int peel(co *C, int32_t t) {
     C->dead_t[t] = 1;
     C->live--;
     C->dvol -= v6 / 6;
+    for (int k = 0; k < 4; k++) /* t's neighbours across its faces hold 3 of its corners */
+        refresh_star(C, (int32_t)c[k], 0);
     return 1;
 }
 
@@ -1508,6 +1555,9 @@ static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32
         C->dead_t[old[2]] = 1;
         C->live--;
     }
+    /* the new tets' outer faces are the old ones' (their neighbours are unchanged) */
+    for (int i = 0; i < nnew; i++)
+        refresh_faces(C, slot[i]);
     return 1;
 }
 
@@ -1883,6 +1933,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     C.fix = calloc(C.nv, 1);
     C.dead_v = calloc(C.nv, 1);
     C.dead_t = calloc(C.nt, 1);
+    C.free_faces = calloc(C.nt, 1);
     C.w.vmark = calloc(C.nv, sizeof *C.w.vmark);
     C.qlo = malloc(C.nt * sizeof *C.qlo);
     C.qhi = malloc(C.nt * sizeof *C.qhi);
@@ -1890,8 +1941,8 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     C.star = calloc(C.nv, sizeof *C.star);
     C.near = calloc(C.nv, sizeof *C.near);
     C.applied = 1;
-    if (!C.vt || !C.vs || !C.bnd || !C.fix || !C.dead_v || !C.dead_t || !C.w.vmark || !C.qlo ||
-        !C.qhi || !C.qab || !C.star || !C.near) {
+    if (!C.vt || !C.vs || !C.bnd || !C.fix || !C.dead_v || !C.dead_t || !C.free_faces ||
+        !C.w.vmark || !C.qlo || !C.qhi || !C.qab || !C.star || !C.near) {
         co_free(&C);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
     }
@@ -1908,6 +1959,8 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     C.sign = pos >= neg ? 1 : -1;
     C.vol_budget = GR_CO_NET_VOLUME * fabs(pos - neg) / 6;
     C.vol_gain = GR_CO_NET_GAIN * fabs(pos - neg) / 6;
+    for (size_t t = 0; t < C.nt && !C.nomem; t++)
+        refresh_faces(&C, (int32_t)t);
     for (size_t t = 0; t < C.nt && !C.nomem; t++)
         for (int k = 0; k < 4; k++)
             if (face_free(&C, (int32_t)t, k))

@@ -8,6 +8,7 @@
 #include <stddef.h>
 #include "volmesh/quality.h"
 #include "volmesh/volume.h"
+#include <stdint.h>
 
 /* Like vm_mesh_surface_distance, and also returns (malloc'd, caller frees) the world-space
  * sample points whose distance exceeds `limit` in either direction (for a mesh point: the
@@ -28,13 +29,25 @@ typedef struct vm__sd_region {
     int block;
 } vm__sd_region;
 
+/* The isosurface's samples, kept between measures of meshes of one volume and bounds
+ * (zeroed before the first; vm__sd_cache_free frees them). */
+typedef struct vm__sd_cache {
+    double *p;
+    uint8_t *level;
+    size_t n;
+    int filled;
+} vm__sd_cache;
+void vm__sd_cache_free(vm__sd_cache *c);
+
 /* vm__surface_distance_points counting only the samples (of the boundary and of the
- * isosurface) in region r (NULL: all): the counts, means and maxima are the region's. The
+ * isosurface) in region r (NULL: all): the counts, means and maxima are the region's; with
+ * cache (may be NULL), the isosurface is sampled once for all the calls that share it. The
  * graded mesher measures again only where its refinement changed the mesh. */
 vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, double lo,
                                       int has_lo, double hi, int has_hi, double limit,
-                                      const vm__sd_region *r, vm_surface_distance *out,
-                                      double **points, size_t *npoints, vm_error *err);
+                                      const vm__sd_region *r, vm__sd_cache *cache,
+                                      vm_surface_distance *out, double **points,
+                                      size_t *npoints, vm_error *err);
 
 /* The points a hex's Jacobian is sampled at (vm_hex_scaled_jacobian): the 8 corners (in
  * VTK order), the centre, then the 8 Gauss points of the unit cube (u fastest). */

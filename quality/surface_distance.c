@@ -1256,14 +1256,21 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
                                       int has_lo, double hi, int has_hi, double limit,
                                       vm_surface_distance *out, double **points,
                                       size_t *npoints, vm_error *err) {
-    return vm__surface_distance_region(m, v, lo, has_lo, hi, has_hi, limit, NULL, out, points,
-                                       npoints, err);
+    return vm__surface_distance_region(m, v, lo, has_lo, hi, has_hi, limit, NULL, NULL, out,
+                                       points, npoints, err);
+}
+
+void vm__sd_cache_free(vm__sd_cache *c) {
+    free(c->p);
+    free(c->level);
+    memset(c, 0, sizeof *c);
 }
 
 vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, double lo,
                                       int has_lo, double hi, int has_hi, double limit,
-                                      const vm__sd_region *r, vm_surface_distance *out,
-                                      double **points, size_t *npoints, vm_error *err) {
+                                      const vm__sd_region *r, vm__sd_cache *cache,
+                                      vm_surface_distance *out, double **points,
+                                      size_t *npoints, vm_error *err) {
     memset(out, 0, sizeof *out);
     if (points) *points = NULL;
     if (npoints) *npoints = 0;
@@ -1277,10 +1284,18 @@ vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, doub
     st = boundary_triangles(m, &F, &T, err);
     if (st) return st;
     samples S;
-    st = sample_surface(&F, &S, err);
-    if (st) {
-        tris_free(&T);
-        return st;
+    if (cache && cache->filled) {
+        memset(&S, 0, sizeof S);
+        S.p = cache->p;
+        S.level = cache->level;
+        S.n = cache->n;
+    } else {
+        st = sample_surface(&F, &S, err);
+        if (st) {
+            tris_free(&T);
+            return st;
+        }
+        if (cache) *cache = (vm__sd_cache){S.p, S.level, S.n, 1};
     }
     lazy_bvh sb, tb;
     grid sg, tg;
@@ -1341,8 +1356,10 @@ vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, doub
     bvh_free(&tb.b);
     grid_free(&sg);
     grid_free(&tg);
-    free(S.p);
-    free(S.level);
+    if (!cache) {
+        free(S.p);
+        free(S.level);
+    }
     tris_free(&T);
     if (st) memset(out, 0, sizeof *out);
     return st;

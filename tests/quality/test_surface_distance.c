@@ -353,13 +353,13 @@ static void aRegionCountsOnlyItsSamples(void) {
     CHECK_OK(vm__surface_distance_points(&m, &v, 3.3, 1, 0, 0, 1.0, &all, NULL, NULL, &err),
              &err);
     memset(mask, 1, sizeof mask);
-    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, &d, NULL, NULL, &err),
+    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, NULL, &d, NULL, NULL, &err),
              &err);
     CHECK(memcmp(&all, &d, sizeof d) == 0);
     memset(mask, 0, sizeof mask);
     for (int x = 0; x < 3; x++)
         mask[x] = 1; /* y and z blocks 0: y, z in [0, 4) */
-    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, &d, &pts, &np, &err),
+    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, NULL, &d, &pts, &np, &err),
              &err);
     CHECK(np == 0 && pts == NULL);
     CHECK(d.surface_samples > 0 && d.surface_samples < all.surface_samples);
@@ -367,7 +367,7 @@ static void aRegionCountsOnlyItsSamples(void) {
     CHECK_NEAR(d.surface_to_mesh_max, 0.7, 1e-6);
     CHECK(all.surface_to_mesh_max > 4);
     memset(mask, 0, sizeof mask);
-    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, &d, &pts, &np, &err),
+    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, NULL, &d, &pts, &np, &err),
              &err);
     CHECK(d.surface_samples == 0 && d.mesh_samples == 0 && np == 0);
     vm_mesh_free(&m);
