@@ -167,23 +167,11 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
         double dmax = acos(cq.cmin) * DEG, q2 = (180.0 - dmax) / w->s_max;
         if (q2 < q) q = q2;
     }
-    /* face_cosines, on the edge lengths above */
-    double el[6];
-    for (int k = 0; k < 6; k++) el[k] = sqrt(l2[k]);
-    double fhi = -2.0, flo = 2.0;
-    for (int f = 0; f < 4; f++)
-        for (int k = 0; k < 3; k++) {
-            int oo = face_of[f][k], i = face_of[f][(k + 1) % 3], j = face_of[f][(k + 2) % 3];
-            double u[3], v[3];
-            vm__sub3(p[i], p[oo], u);
-            vm__sub3(p[j], p[oo], v);
-            double cs = vm__dot3(u, v) / (el[qpair[oo][i]] * el[qpair[oo][j]]);
-            cq.fc[3 * f + k] = cs;
-            if (cs > fhi) fhi = cs;
-            if (cs < flo) flo = cs;
-        }
-    cq.cfmax = fhi;
-    cq.cfmin = flo;
+    /* face cosines, on the edge lengths above */
+    double el[4][4];
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) el[i][j] = i == j ? 0.0 : sqrt(l2[qpair[i][j]]);
+    vm__tet_face_cosines_el(p, (const double(*)[4])el, cq.fc, &cq.cfmax, &cq.cfmin);
     int want_min = !clearly_above(cq.cfmax, q * w->s_fmin + SKIP_SLACK),
         want_max = !clearly_below_180_minus(cq.cfmin, q * w->s_fmax + SKIP_SLACK);
     if (!want_min && !want_max) return q;

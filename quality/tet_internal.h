@@ -92,20 +92,13 @@ static inline int vm__tet_dihedral_cosines(const double p[4][3], double *cmax, d
     return 1;
 }
 
-/* The twelve face-angle cosines, [out] fc[3 f + k] the angle at corner k of face f (corner k
- * is node VM__TET_FACE_NODES[f][k]), one square root per edge; [out] *cfmax and *cfmin their
- * largest and smallest (the smallest angle's cosine and the largest's). Not clamped; a zero
- * edge gives NaN or infinities. */
-static inline void vm__tet_face_cosines(const double p[4][3], double fc[12], double *cfmax,
-                                        double *cfmin) {
+/* The twelve face-angle cosines from the edge lengths el (el[i][j] = |p[j] - p[i]|), [out]
+ * fc[3 f + k] the angle at corner k of face f (corner k is node VM__TET_FACE_NODES[f][k]);
+ * [out] *cfmax and *cfmin their largest and smallest (the smallest angle's cosine and the
+ * largest's). Not clamped; a zero edge gives NaN or infinities. */
+static inline void vm__tet_face_cosines_el(const double p[4][3], const double el[4][4],
+                                           double fc[12], double *cfmax, double *cfmin) {
     static const int fo[4][3] = VM__TET_FACE_NODES;
-    double el[4][4];
-    for (int i = 0; i < 4; i++)
-        for (int j = i + 1; j < 4; j++) {
-            double e[3];
-            vm__sub3(p[j], p[i], e);
-            el[i][j] = el[j][i] = sqrt(vm__dot3(e, e));
-        }
     double hi = -2.0, lo = 2.0;
     for (int f = 0; f < 4; f++)
         for (int k = 0; k < 3; k++) {
@@ -120,6 +113,21 @@ static inline void vm__tet_face_cosines(const double p[4][3], double fc[12], dou
         }
     *cfmax = hi;
     *cfmin = lo;
+}
+
+/* vm__tet_face_cosines_el with the lengths measured here, one square root per edge. */
+static inline void vm__tet_face_cosines(const double p[4][3], double fc[12], double *cfmax,
+                                        double *cfmin) {
+    double el[4][4];
+    for (int i = 0; i < 4; i++) {
+        el[i][i] = 0;
+        for (int j = i + 1; j < 4; j++) {
+            double e[3];
+            vm__sub3(p[j], p[i], e);
+            el[i][j] = el[j][i] = sqrt(vm__dot3(e, e));
+        }
+    }
+    vm__tet_face_cosines_el(p, (const double(*)[4])el, fc, cfmax, cfmin);
 }
 
 /* A lower bound of cos x for every real x (x radians): the Taylor polynomial to x^6, below
