@@ -11,9 +11,13 @@
 /* Bounds, from the measured figures (before the mesher pulled only the points of the corners
  * that are not valid and the QEF outliers toward their mass points: MR head 797 points over
  * 0.5 voxel off, noisy sphere 80; after: 248 and 16, worst 1.31 and 0.82). A vertex in a
- * cell the surface crosses is within 1.73 voxels of it. */
+ * cell the surface crosses is within 1.73 voxels of it. Since the repair for hexes keeps
+ * the air passages by taking inside points out too (mesher/dual_contour.c: MR head boundary
+ * Euler 472 -> 246, tets 230; 208 -> 210 components, as the tets), 113 such points, whose
+ * cells' vertices sit off the isosurface like those of the points it takes in: 447 over
+ * 0.5 voxel, the worst still 1.31. */
 #define MR_WORST 1.4
-#define MR_OVER 300
+#define MR_OVER 480
 #define SPHERE_WORST 0.9
 #define SPHERE_OVER 30
 
