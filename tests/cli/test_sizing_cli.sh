@@ -3,7 +3,8 @@
 # with its own geometry) changes the density where it asks, bad size fields and options that
 # do not go together are refused with one line and exit 2, --max-edge sizes label meshes
 # (fewer tets, every label kept), and on the CT head (when ../shared/data is there) a coarse
-# --distance keeps the voxels' topology (the safety net); --no-coarsen keeps the stuffed mesh.
+# --distance keeps the voxels' topology (the safety net) and the quality pass says when a mesh
+# misses its targets; --no-coarsen keeps the stuffed mesh.
 #
 # Run by ctest as `bash test_sizing_cli.sh` with VM_CLI and VM_TEST_TMP set. Exit 0 pass,
 # 1 fail, 77 skip (no program to test).
@@ -127,6 +128,34 @@ if [ -n "${VM_SHARED_DATA:-}" ] && [ -f "$ct" ]; then
     "$VM_CLI" mesh "$ct" --iso 500 --distance 4 --no-improve --json -o ct.vtu >ct.json 2>err.txt
     e=$(json '(d["boundary_euler"], d["components"])' <ct.json 2>/dev/null)
     if [ "$e" = "(-12, 8)" ]; then ok; else bad "CT head --distance 4: $e $(cat err.txt)"; fi
+    # 6. the quality pass's line shows when the mesh misses 15..150 degrees, whatever the
+    # count of tets past 10..165 (a crop of the CT head whose stuffed mesh the pass left at
+    # 13.5 degrees on 2026-12-05, with no line)
+    /usr/bin/python3 - "$ct" <<'PY'
+import gzip, struct, sys
+raw = open(sys.argv[1], "rb").read()
+head, body = raw.split(b"\n\n", 1)
+nx, ny, nz = 64, 64, 93
+assert b"sizes: 64 64 93" in head and b"uint16" in head and b"gzip" in head
+v = struct.unpack("<%dH" % (nx * ny * nz), gzip.decompress(body))
+x0, y0, z0, cx, cy, cz = 10, 10, 30, 24, 24, 32
+out = [v[x + nx * (y + ny * z)] for z in range(z0, z0 + cz) for y in range(y0, y0 + cy)
+       for x in range(x0, x0 + cx)]
+hdr = ("ObjectType = Image\nNDims = 3\nDimSize = %d %d %d\nElementSpacing = 3.2 3.2 1.5\n"
+       "Offset = 0 0 0\nElementType = MET_USHORT\nElementDataFile = LOCAL\n" % (cx, cy, cz))
+open("crop.mha", "wb").write(hdr.encode() + struct.pack("<%dH" % len(out), *out))
+PY
+    "$VM_CLI" mesh crop.mha --iso 500 --graded --no-coarsen -o crop.vtu >crop.txt 2>err.txt
+    lo=$(sed -n 's/.*dihedral \([0-9.]*\)\.\.\([0-9.]*\) deg.*/\1 \2/p' crop.txt | head -1)
+    if [ -z "$lo" ]; then
+        bad "crop: no summary $(cat crop.txt err.txt)"
+    elif /usr/bin/python3 -c "import sys; a, b = map(float, '$lo'.split()); sys.exit(not (a < 15 or b > 150))"; then
+        if grep -q "^quality pass: dihedral angles .*outside the targets 15..150" crop.txt; then ok; else bad "crop: $lo and no line: $(cat crop.txt)"; fi
+    elif grep -q "^quality pass" crop.txt; then
+        bad "crop: $lo within the targets, yet: $(cat crop.txt)"
+    else
+        ok
+    fi
 else
     echo "note: ../shared/data/ct_head_quarter.nrrd missing: the CT head case skipped"
 fi
