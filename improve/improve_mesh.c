@@ -133,16 +133,8 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
         len[f] = sqrt(vm__dot3(n[f], n[f]));
         if (!(len[f] > 0.0)) return -1.0;
     }
-    double hi = -2.0, lo = 2.0;
-    for (int f = 0; f < 4; f++)
-        for (int g = f + 1; g < 4; g++) {
-            double cs = -vm__dot3(n[f], n[g]) / (len[f] * len[g]);
-            if (cs > hi) hi = cs;
-            if (cs < lo) lo = cs;
-        }
     qcos cq;
-    cq.cmax = hi > 1.0 ? 1.0 : hi;
-    cq.cmin = lo < -1.0 ? -1.0 : lo;
+    vm__tet_normal_cosines((const double(*)[3])n, len, &cq.cmax, &cq.cmin);
     double dmin = acos(cq.cmax) * DEG;
     double q = dmin / w->s_min;
     /* vm__imp_volume_measure (vol6 > 0 and finite here) */

@@ -49,6 +49,22 @@ unsigned vm__tet_abaqus_fails(double volume_measure, double min_face_angle,
  * of a positive tet. */
 #define VM__TET_FACE_NODES {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}}
 
+/* The cosines of the smallest and largest dihedral angles from the four faces' outward
+ * normals n (any length len[f] > 0), [out] *cmax (the smallest angle's) and *cmin (the
+ * largest's), clamped to [-1, 1]. */
+static inline void vm__tet_normal_cosines(const double n[4][3], const double len[4],
+                                          double *cmax, double *cmin) {
+    double hi = -2.0, lo = 2.0;
+    for (int f = 0; f < 4; f++)
+        for (int g = f + 1; g < 4; g++) {
+            double cs = -vm__dot3(n[f], n[g]) / (len[f] * len[g]);
+            if (cs > hi) hi = cs;
+            if (cs < lo) lo = cs;
+        }
+    *cmax = hi > 1.0 ? 1.0 : hi;
+    *cmin = lo < -1.0 ? -1.0 : lo;
+}
+
 /* The cosines of a tet's smallest and largest dihedral angles, [out] *cmax (the smallest
  * angle's) and *cmin (the largest's), clamped to [-1, 1]. Returns 0, leaving them unset, when
  * the tet is not clearly positive: 6 V at most 1e-12 times its longest edge cubed, a zero
@@ -80,15 +96,7 @@ static inline int vm__tet_dihedral_cosines(const double p[4][3], double *cmax, d
         len[f] = sqrt(vm__dot3(n[f], n[f]));
         if (!(len[f] > 0.0)) return 0;
     }
-    double hi = -2.0, lo = 2.0;
-    for (int f = 0; f < 4; f++)
-        for (int g = f + 1; g < 4; g++) {
-            double cs = -vm__dot3(n[f], n[g]) / (len[f] * len[g]);
-            if (cs > hi) hi = cs;
-            if (cs < lo) lo = cs;
-        }
-    *cmax = hi > 1.0 ? 1.0 : hi;
-    *cmin = lo < -1.0 ? -1.0 : lo;
+    vm__tet_normal_cosines((const double(*)[3])n, len, cmax, cmin);
     return 1;
 }
 
