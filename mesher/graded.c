@@ -24,11 +24,11 @@
 #define GR_ASPECT 3.0
 
 /* The blocks of voxels where a mesh may differ from the one measured before: around the
- * octree nodes made since (index n0 on), as far as the lattice tets of their parents'
- * neighbours (up to twice a parent's size) and a warp reach, and the distance bound beyond
- * (a sample farther than that from the change keeps its nearest point). [out] r, r->mask
- * malloc'd. */
-static vm_status changed_region(const gr_tree *t, const gr_field *f, size_t n0, double D,
+ * octree nodes made since (index n0 on) and the base cells marked exact since (exact 2,
+ * then 1), as far as the lattice tets of their parents' neighbours (up to twice a parent's
+ * size) and a warp reach, and the distance bound beyond (a sample farther than that from the
+ * change keeps its nearest point). [out] r, r->mask malloc'd. */
+static vm_status changed_region(gr_tree *t, const gr_field *f, size_t n0, double D,
                                 vm__sd_region *r, vm_error *err) {
     r->block = GR_REGION_BLOCK;
     size_t nb = 1;
@@ -38,8 +38,10 @@ static vm_status changed_region(const gr_tree *t, const gr_field *f, size_t n0, 
     }
     unsigned char *mask = calloc(nb, 1);
     if (!mask) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for the distance");
-    for (size_t i = n0; i < t->n; i++) {
-        const gr_node *q = &t->node[i];
+    for (size_t i = 0; i < t->n; i++) {
+        gr_node *q = &t->node[i];
+        if (i < n0 && q->exact != 2) continue;
+        if (q->exact == 2) q->exact = 1;
         int64_t lo[3], hi[3];
         double e = 0;
         for (int d = 0; d < 3; d++)
@@ -94,10 +96,18 @@ static vm_status refine_far(gr_tree *t, const gr_field *f, const vm_mesh_options
             p[r] = (int64_t)floor((ijk[r] * f->sp[r] - t->u0[r]) / (0.5 * t->h0[r]));
         /* Down to base cells around the sample: a chord too far from the surface at one
          * size is seldom close enough at the next, and each round costs a whole mesh. */
-        for (int64_t leaf = vm__gr_tree_find(t, p, 0);
-             leaf > 0 && t->node[leaf].child < 0 && t->node[leaf].level > 0 && !s;
+        int64_t leaf = vm__gr_tree_find(t, p, 0);
+        for (; leaf > 0 && t->node[leaf].child < 0 && t->node[leaf].level > 0 && !s;
              leaf = vm__gr_tree_find(t, p, 0)) {
             s = vm__gr_tree_split(t, (size_t)leaf, err);
+            ++*split;
+        }
+        /* A base cell still too far: its warps must keep their other cuts (the stuffing's
+         * keeps_cuts; a warp goes up to 0.4 of an edge, and across a one-voxel cavity or
+         * thin bone the cut it replaces can be the surface's only point there). */
+        if (!s && leaf >= 0 && t->node[leaf].child < 0 && t->node[leaf].level == 0 &&
+            !t->node[leaf].exact) {
+            t->node[leaf].exact = 2; /* (changed_region takes it as new) */
             ++*split;
         }
     }

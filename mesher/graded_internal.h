@@ -69,6 +69,8 @@ typedef struct gr_node {
     int32_t child; /* first of 8 children (x fastest), or -1 for a leaf */
     int32_t a[3];
     int32_t level;
+    int32_t exact; /* a base cell where the distance was missed (2 until measured again): warps
+                    * keep their cuts there */
 } gr_node;
 
 typedef struct gr_tree {

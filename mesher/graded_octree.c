@@ -36,6 +36,7 @@ vm_status vm__gr_tree_split(gr_tree *t, size_t leaf, vm_error *err) {
         gr_node *q = &t->node[t->n + (size_t)c];
         q->child = -1;
         q->level = p->level - 1;
+        q->exact = 0;
         for (int d = 0; d < 3; d++)
             q->a[d] = p->a[d] + ((c >> d) & 1) * half;
     }
@@ -267,7 +268,7 @@ static int collapsible(const gr_tree *t, const gr_field *f, const gr_sizing *sz,
         gr_node ch = {-1,
                       {q->a[0] + (k & 1) * half, q->a[1] + ((k >> 1) & 1) * half,
                        q->a[2] + (k >> 2) * half},
-                      q->level - 1};
+                      q->level - 1, 0};
         double lo[3], hi[3];
         node_box(t, &ch, lo, hi);
         if (classify(f, lo, hi) == 0 && !collapsible(t, f, sz, &ch)) return 0;
@@ -321,7 +322,7 @@ vm_status vm__gr_tree_build(gr_tree *t, const gr_field *f, const gr_sizing *sz, 
     t->max_level = ml;
     vm_status s = grow(t, 1, err);
     if (s) return s;
-    t->node[0] = (gr_node){-1, {0, 0, 0}, K};
+    t->node[0] = (gr_node){-1, {0, 0, 0}, K, 0};
     t->n = 1;
     t->leaves = 1;
     /* Top down: a node's children are decided after it (the stack holds nodes to decide). */

@@ -40,6 +40,7 @@ typedef struct stuff {
     size_t *ve_start; /* vertex -> edges */
     int32_t *ve;
     unsigned char *nowarp;
+    unsigned char *keep; /* vertices of the exact cells: their warps keep their cuts */
     unsigned char *linear; /* per edge: place the cut by linear interpolation */
     int64_t (*piece)[4];
     int32_t *src; /* lattice tet of each piece */
@@ -317,8 +318,46 @@ static int on_box_border(const stuff *S, size_t v) {
     return 0;
 }
 
+/* Whether moving v to x keeps every cut point of v's other crossed edges within the distance
+ * bound of x: the warp replaces those cuts by x. Across a one-voxel cavity or thin bone the
+ * far side's cut is the surface's only point there (on the CT head, 15 isosurface points
+ * were up to 0.85 voxel from the boundary after such warps). skip: the edge warped along. */
+static int keeps_cuts(stuff *S, size_t v, const double x[3], size_t skip) {
+    double D2 = S->t->distance * S->t->distance;
+    for (size_t k = S->ve_start[v]; k < S->ve_start[v + 1]; k++) {
+        size_t e = (size_t)S->ve[k];
+        int32_t w = S->ev[e][0] == (int32_t)v ? S->ev[e][1] : S->ev[e][0];
+        if (e == skip || S->val[w] == 0 || sgn(S->val[w]) == sgn(S->val[v])) continue;
+        double t = cut_param(S, e), d2 = 0;
+        const double *a = S->lpos + 3 * (size_t)S->ev[e][0],
+                     *b = S->lpos + 3 * (size_t)S->ev[e][1];
+        for (int d = 0; d < 3; d++) {
+            double c = a[d] + t * (b[d] - a[d]) - x[d];
+            d2 += c * c;
+        }
+        if (d2 > D2) return 0;
+    }
+    return 1;
+}
+
+/* Marks the lattice vertices of the base cells marked exact (graded.c refine_far): their
+ * warps must keep their other cuts. */
+static void mark_exact(stuff *S) {
+    const gr_tree *t = S->t;
+    for (size_t i = 0; i < t->n; i++) {
+        const gr_node *q = &t->node[i];
+        if (q->child >= 0 || !q->exact) continue;
+        for (int k = 0; k < 27; k++) {
+            int64_t p[3] = {q->a[0] + k % 3, q->a[1] + (k / 3) % 3, q->a[2] + k / 9};
+            int64_t v = vm__gr_lattice_find(S->L, p);
+            if (v >= 0) S->keep[v] = 1;
+        }
+    }
+}
+
 /* One pass of warps, in vertex order: each vertex goes to the nearest cut point within alpha
- * of it on its edges, when that is a simple-point move. Material meeting the volume's border
+ * of it on its edges, when that is a simple-point move (and, in an exact cell, keeps its
+ * other cuts within the distance bound: keeps_cuts). Material meeting the volume's border
  * is closed on the border plane: inside vertices on it are put on the surface where they
  * stand (these may neighbour each other: the plane separates their links' two sides). */
 static size_t warp(stuff *S) {
@@ -361,11 +400,14 @@ static size_t warp(stuff *S) {
         /* Warped vertices are kept apart, so that each one's link holds no vertex on the
          * surface: then its two sides are disks (the simple-point test, and its complement
          * on the sphere) and the surface is a manifold there. */
-        if (best == INFINITY || next_to_zero || !simple_point(S, (int32_t)v)) continue;
+        if (best == INFINITY || next_to_zero) continue;
         const double *p0 = S->lpos + 3 * (size_t)S->ev[be][0],
                      *p1 = S->lpos + 3 * (size_t)S->ev[be][1];
+        double x[3];
         for (int d = 0; d < 3; d++)
-            S->pos[3 * v + (size_t)d] = p0[d] + bt * (p1[d] - p0[d]);
+            x[d] = p0[d] + bt * (p1[d] - p0[d]);
+        if ((S->keep[v] && !keeps_cuts(S, v, x, be)) || !simple_point(S, (int32_t)v)) continue;
+        memcpy(S->pos + 3 * v, x, sizeof x);
         S->val[v] = 0;
         warped++;
     }
@@ -720,7 +762,9 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
         S.delta = take(S.w, W_DELTA, (S.nv + 1) * sizeof *S.delta);
         S.nowarp = take_zero(S.w, W_NOWARP, S.nv + 1);
         S.linear = take_zero(S.w, W_LINEAR, S.ne + 1);
-        if (!S.lpos || !S.pos || !S.val || !S.delta || !S.nowarp || !S.linear) s = nomem(err);
+        S.keep = calloc(S.nv + 1, 1);
+        if (!S.lpos || !S.pos || !S.val || !S.delta || !S.nowarp || !S.linear || !S.keep)
+            s = nomem(err);
     }
     if (!s)
         s = adjacency(S.w, W_VT_START, W_VT, S.nv, S.nt, 4, &L->tet[0][0], &S.vt_start, &S.vt,
@@ -749,6 +793,7 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
             if (a != 0 && b != 0 && (a > 0) != (b > 0)) cut_param(&S, (size_t)i);
         }
     }
+    if (!s) mark_exact(&S);
     for (int round = 0; !s; round++) {
         memcpy(S.pos, S.lpos, 3 * S.nv * sizeof *S.pos);
         memcpy(S.val, L->phi, S.nv * sizeof *S.val);
@@ -790,6 +835,7 @@ vm_status vm__gr_stuff(const gr_lattice *L, const gr_tree *t, const gr_field *f,
     if (!s) s = write_mesh(&S, mesh, st, err);
     give(S.w, W_TMP1);
     give(S.w, W_TMP2);
+    free(S.keep);
     vm__gr_stuff_work_free(&own);
     return s;
 }
