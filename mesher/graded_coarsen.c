@@ -16,7 +16,9 @@
  * rounds of collapses, vertices move under the same checks (boundary ones along their normal
  * so that chords straddle the surface, interior ones to their neighbours' mean), and tets
  * beyond 15..150 degrees are repaired by moves, collapses and peels. Vertices on the
- * volume's border planes stay. */
+ * volume's border planes (where the material is cut, not bounded by the isosurface) stay in
+ * them: they collapse only onto a vertex on the same planes and move within them, and faces
+ * on a plane are not held to the isosurface. */
 #include "../core/core.h"
 #include "../quality/tet_internal.h"
 #include "graded_internal.h"
@@ -76,7 +78,8 @@ typedef struct co {
     ilist *vt;          /* vertex -> live tets */
     ilist *vs;          /* vertex -> samples whose triangle may hold it (lazily pruned) */
     unsigned char *bnd; /* vertex on the boundary */
-    unsigned char *fix; /* vertex that stays (on a border plane of the volume) */
+    unsigned char *fix; /* the border planes of the volume a vertex lies on (bit 2 axis + high):
+                         * it does not move, and collapses only onto a vertex on them all */
     unsigned char *dead_v, *dead_t;
     unsigned char *free_faces; /* per tet: bit k when no other live tet has its face k */
     double (*sp)[3];   /* isosurface samples (world) */
@@ -395,6 +398,12 @@ static double tri_dist2(const double *x, const double *a, const double *b, const
     return dist2(x, q);
 }
 
+/* Whether the face uvw lies on a border plane of the volume (the material cut there, not
+ * the isosurface): all three corners on one plane. */
+static int on_border(const co *C, int64_t u, int64_t v, int64_t w) {
+    return (C->fix[u] & C->fix[v] & C->fix[w]) != 0;
+}
+
 /* Every 1024th call polls the caller's meter; 1 once cancelled. */
 static int stopped(co *C) {
     if (C->stop) return 1;
@@ -604,7 +613,7 @@ static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1
                  set *s3) {
     W->late = 0;
     W->reached = 0;
-    if (C->fix[a] || (C->bnd[a] && !C->bnd[b])) return 0;
+    if ((C->fix[a] & ~C->fix[b]) || (C->bnd[a] && !C->bnd[b])) return 0;
     const ilist *ta = &C->vt[a], *tb = &C->vt[b];
     /* the changed tets first (cheap, and most collapses fail here): positive, within the
      * angle limits or no worse than the worst tet around a now, new edges within bounds */
@@ -781,16 +790,23 @@ static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1
                          *pz = pt(C, c[z] == a ? b : c[z]), *pk = pt(C, c[k]);
             double n[3];
             out_normal(px, py, pz, pk, n);
-            if (!tri_near(C, px, py, pz, n)) return 0;
-            area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            /* a face on a border plane of the volume (the material cut there) stays in it:
+             * nothing to compare with the isosurface, and no volume changes across it */
+            int32_t vx = (int32_t)(c[x] == a ? b : c[x]), vy = (int32_t)(c[y] == a ? b : c[y]),
+                    vz = (int32_t)(c[z] == a ? b : c[z]);
+            if (!on_border(C, vx, vy, vz)) {
+                if (!tri_near(C, px, py, pz, n)) return 0;
+                area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            }
             if (P->ntri == SET_MAX) return 0;
             int32_t *T = P->tri[P->ntri++];
-            T[0] = (int32_t)(c[x] == a ? b : c[x]);
-            T[1] = (int32_t)(c[y] == a ? b : c[y]);
-            T[2] = (int32_t)(c[z] == a ? b : c[z]);
+            T[0] = vx;
+            T[1] = vy;
+            T[2] = vz;
         }
     }
-    if (fabs(dvol) / 6 > GR_CO_VOLUME * C->D * area) return 0;
+    if (fabs(dvol) / 6 > GR_CO_VOLUME * C->D * area + 1e-9 * C->voxel * C->voxel * C->voxel)
+        return 0;
     /* and the whole volume by at most GR_CO_NET_VOLUME of it */
     W->reached = 1;
     W->dtry = dvol / 6;
@@ -1240,8 +1256,9 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
                 if (c[k] == v || !face_free(C, t, k)) continue;
                 double n[3];
                 face_out(C, c, k, n);
-                if (!tri_near(C, pt(C, c[(k + 1) & 3]), pt(C, c[(k + 2) & 3]),
-                              pt(C, c[(k + 3) & 3]), n) ||
+                if ((!on_border(C, c[(k + 1) & 3], c[(k + 2) & 3], c[(k + 3) & 3]) &&
+                     !tri_near(C, pt(C, c[(k + 1) & 3]), pt(C, c[(k + 2) & 3]),
+                               pt(C, c[(k + 3) & 3]), n)) ||
                     P->ntri == SET_MAX) {
                     ok = 0;
                     break;
@@ -1284,9 +1301,29 @@ static size_t move_sweep(co *C, plan *P) {
     size_t moved = 0;
     for (size_t vv = 0; vv < C->nv && !stopped(C); vv++) {
         int32_t v = (int32_t)vv;
-        if (C->dead_v[v] || C->fix[v] || C->vt[v].n == 0) continue;
+        if (C->dead_v[v] || C->vt[v].n == 0) continue;
         const ilist *l = &C->vt[v];
         double x[3];
+        if (C->fix[v]) {
+            /* on border planes: to the mean of its neighbours on the same planes (so in
+             * them), when that raises its worst angle */
+            double s[3] = {0, 0, 0};
+            int n = 0;
+            for (int32_t i = 0; i < l->n; i++) {
+                const vm_index *c = tet(C, l->v[i]);
+                for (int k = 0; k < 4; k++)
+                    if (c[k] != v && (C->fix[c[k]] & C->fix[v]) == C->fix[v]) {
+                        for (int d = 0; d < 3; d++)
+                            s[d] += pt(C, c[k])[d];
+                        n++;
+                    }
+            }
+            if (!n) continue;
+            for (int d = 0; d < 3; d++)
+                x[d] = s[d] / n;
+            if (try_move(C, v, x, 1, P)) moved++;
+            continue;
+        }
         if (!C->bnd[v]) {
             double s[3] = {0, 0, 0};
             int n = 0;
@@ -1966,7 +2003,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             if (face_free(&C, (int32_t)t, k))
                 for (int j = 1; j < 4; j++)
                     C.bnd[tet(&C, (int32_t)t)[(k + j) & 3]] = 1;
-    /* vertices on the volume's border planes stay */
+    /* the border planes each vertex lies on */
     for (size_t v = 0; v < C.nv; v++) {
         double w[3], ijk[3];
         for (int r = 0; r < 3; r++)
@@ -1974,7 +2011,8 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
         for (int r = 0; r < 3; r++) {
             ijk[r] = C.inv[r][0] * w[0] + C.inv[r][1] * w[1] + C.inv[r][2] * w[2];
             double tol = 1e-6;
-            if (ijk[r] < tol || ijk[r] > (double)(f->n[r] - 1) - tol) C.fix[v] = 1;
+            if (ijk[r] < tol) C.fix[v] |= (unsigned char)(1u << (2 * r));
+            if (ijk[r] > (double)(f->n[r] - 1) - tol) C.fix[v] |= (unsigned char)(2u << (2 * r));
         }
     }
     if (C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
