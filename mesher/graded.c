@@ -205,7 +205,8 @@ static vm_status coarsen(vm_mesh *mesh, const gr_field *f, const vm_mesh_options
     vm_status s = vm__gr_mesh_topology(mesh, &e0, &c0, NULL, NULL, err);
     if (!s) s = copy_mesh(mesh, &keep, err);
     if (s) return s;
-    s = vm__gr_coarsen(mesh, f, sz->distance, sz->max_edge, o->tets, pm, &removed, err);
+    s = vm__gr_coarsen(mesh, f, sz->distance, sz->max_edge, o->tets, sz->layers <= 1, pm,
+                       &removed, err);
     if (!s) s = vm__gr_mesh_topology(mesh, &e1, &c1, NULL, NULL, err);
     if (!s && (e1 != e0 || c1 != c0)) {
         vm_mesh_free(mesh);

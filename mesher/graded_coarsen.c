@@ -8,17 +8,17 @@
  * - the edge bound and the size field;
  * - the volume: GR_CO_VOLUME D per unit of new boundary area, GR_CO_NET_VOLUME in all;
  * - the distance both ways: every new boundary triangle, sampled at half a voxel, lies
- *   within the bound of the isosurface (|phi| / |grad phi|, the first-order distance) and
+ *   within the bound of the isosurface (|phi| / |grad phi|, the first-order distance, or
+ *   near the bound the length of Newton steps onto the surface) and
  *   faces the way the field's gradient does; every sample of the isosurface (the crossings of
  *   the voxel edges, as marching cubes places its vertices) stays within the bound of the
  *   boundary (or within its distance on the stuffed mesh, when that was already over).
- * A vertex is moved onto the other end of the edge (a collapse moves no vertex). Between
+ * A vertex is moved onto the other end of the edge (a collapse moves no vertex); an interior
+ * edge whose collapse fails both ways may be merged at a point between (merge_sweep). Between
  * rounds of collapses, vertices move under the same checks (boundary ones along their normal
  * so that chords straddle the surface, interior ones to their neighbours' mean), and tets
  * beyond 15..150 degrees are repaired by moves, collapses and peels. Vertices on the
- * volume's border planes (where the material is cut, not bounded by the isosurface) stay in
- * them: they collapse only onto a vertex on the same planes and move within them, and faces
- * on a plane are not held to the isosurface. */
+ * volume's border planes stay. */
 #include "../core/core.h"
 #include "../quality/tet_internal.h"
 #include "graded_internal.h"
@@ -78,8 +78,7 @@ typedef struct co {
     ilist *vt;          /* vertex -> live tets */
     ilist *vs;          /* vertex -> samples whose triangle may hold it (lazily pruned) */
     unsigned char *bnd; /* vertex on the boundary */
-    unsigned char *fix; /* the border planes of the volume a vertex lies on (bit 2 axis + high):
-                         * it does not move, and collapses only onto a vertex on them all */
+    unsigned char *fix; /* vertex that stays (on a border plane of the volume) */
     unsigned char *dead_v, *dead_t;
     unsigned char *free_faces; /* per tet: bit k when no other live tet has its face k */
     double (*sp)[3];   /* isosurface samples (world) */
@@ -93,6 +92,7 @@ typedef struct co {
     double dvol, vol_budget; /* volume added so far; the most it may lose */
     double vol_gain;         /* ... and the most it may gain */
     int strict;              /* repairing: a collapse must better the worst angle */
+    int merging;             /* merging: changed tets meet the angle limits themselves */
     size_t slot;             /* dead tets below this index are all reused (flips) */
     /* per vertex: `applied` when a collapse last changed its star (star), or what its checks
      * read (near: its star or a neighbour's) */
@@ -310,6 +310,29 @@ static int star_fails_abaqus(const co *C, int32_t v) {
     return 0;
 }
 
+/* The distance from x (phi and its gradient g there) to the isosurface, bounded from above
+ * by the path of Newton steps x -= phi g / |g|^2 onto it: [out] *e, signed as phi. Returns 0
+ * when the steps leave the volume, meet no gradient or do not converge. */
+static int newton_distance(const co *C, const double x[3], double phi, const double g[3],
+                           double *e) {
+    double y[3] = {x[0], x[1], x[2]}, h[3] = {g[0], g[1], g[2]}, f = phi, len = 0;
+    for (int it = 0; it < 8; it++) {
+        double h2 = h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
+        if (!(h2 > 0)) return 0;
+        double s = f / h2;
+        for (int d = 0; d < 3; d++)
+            y[d] -= s * h[d];
+        len += fabs(s) * sqrt(h2);
+        if (!phi_grad(C, y, &f, h)) return 0;
+        double hn = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+        if (hn > 0 && fabs(f) <= 1e-3 * C->D * hn) {
+            *e = phi >= 0 ? len : -len;
+            return 1;
+        }
+    }
+    return 0;
+}
+
 /* The signed first-order distance phi / |grad phi| (positive inside) over the triangle
  * (world points), sampled every half voxel, corners included: its range [*lo, *hi]. 0 when a
  * sample has no gradient, lies beyond the volume, or where the triangle's outward normal n
@@ -333,6 +356,10 @@ static int tri_errors(const co *C, const double *p0, const double *p1, const dou
             double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
             if (!(gn > 0)) return 0;
             double e = phi / gn;
+            /* near the bound the first-order distance may be short of the true one (the
+             * gradient is steeper here than on the way to the surface): the length of Newton
+             * steps onto the surface bounds it from above */
+            if (fabs(e) > 0.5 * C->D && !newton_distance(C, x, phi, g, &e)) return 0;
             if (e < *lo) *lo = e;
             if (e > *hi) *hi = e;
             /* outward is along -grad phi */
@@ -396,12 +423,6 @@ static double tri_dist2(const double *x, const double *a, const double *b, const
     for (int d = 0; d < 3; d++)
         q[d] = a[d] + v * ab[d] + w * ac[d];
     return dist2(x, q);
-}
-
-/* Whether the face uvw lies on a border plane of the volume (the material cut there, not
- * the isosurface): all three corners on one plane. */
-static int on_border(const co *C, int64_t u, int64_t v, int64_t w) {
-    return (C->fix[u] & C->fix[v] & C->fix[w]) != 0;
 }
 
 /* Every 1024th call polls the caller's meter; 1 once cancelled. */
@@ -613,7 +634,7 @@ static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1
                  set *s3) {
     W->late = 0;
     W->reached = 0;
-    if ((C->fix[a] & ~C->fix[b]) || (C->bnd[a] && !C->bnd[b])) return 0;
+    if (C->fix[a] || (C->bnd[a] && !C->bnd[b])) return 0;
     const ilist *ta = &C->vt[a], *tb = &C->vt[b];
     /* the changed tets first (cheap, and most collapses fail here): positive, within the
      * angle limits or no worse than the worst tet around a now, new edges within bounds */
@@ -642,7 +663,8 @@ static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1
         olo = fmin(olo, C->qlo[ta->v[i]]);
         ohi = fmax(ohi, C->qhi[ta->v[i]]);
     }
-    double amin = fmin(GR_CO_MIN, olo), amax = fmax(GR_CO_MAX, ohi);
+    double amin = C->merging ? GR_CO_MIN : fmin(GR_CO_MIN, olo),
+           amax = C->merging ? GR_CO_MAX : fmax(GR_CO_MAX, ohi);
     /* in cosines: no arc cosine per tet on this, the hottest path */
     double camin = cos(amin / GR_CO_DEG), camax = cos(amax / GR_CO_DEG), worst = -1;
     int ab = -1; /* whether a's star fails the ABAQUS check already; -1: not known yet */
@@ -661,7 +683,7 @@ static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1
             cmin < camax)
             return 0;
         if (!abaqus_ok((const double(*)[3])p)) {
-            if (ab < 0) ab = star_fails_abaqus(C, a);
+            if (ab < 0) ab = !C->merging && star_fails_abaqus(C, a);
             if (!ab) return 0;
         }
         if (cmax > worst) worst = cmax;
@@ -790,23 +812,16 @@ static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1
                          *pz = pt(C, c[z] == a ? b : c[z]), *pk = pt(C, c[k]);
             double n[3];
             out_normal(px, py, pz, pk, n);
-            /* a face on a border plane of the volume (the material cut there) stays in it:
-             * nothing to compare with the isosurface, and no volume changes across it */
-            int32_t vx = (int32_t)(c[x] == a ? b : c[x]), vy = (int32_t)(c[y] == a ? b : c[y]),
-                    vz = (int32_t)(c[z] == a ? b : c[z]);
-            if (!on_border(C, vx, vy, vz)) {
-                if (!tri_near(C, px, py, pz, n)) return 0;
-                area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-            }
+            if (!tri_near(C, px, py, pz, n)) return 0;
+            area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
             if (P->ntri == SET_MAX) return 0;
             int32_t *T = P->tri[P->ntri++];
-            T[0] = vx;
-            T[1] = vy;
-            T[2] = vz;
+            T[0] = (int32_t)(c[x] == a ? b : c[x]);
+            T[1] = (int32_t)(c[y] == a ? b : c[y]);
+            T[2] = (int32_t)(c[z] == a ? b : c[z]);
         }
     }
-    if (fabs(dvol) / 6 > GR_CO_VOLUME * C->D * area + 1e-9 * C->voxel * C->voxel * C->voxel)
-        return 0;
+    if (fabs(dvol) / 6 > GR_CO_VOLUME * C->D * area) return 0;
     /* and the whole volume by at most GR_CO_NET_VOLUME of it */
     W->reached = 1;
     W->dtry = dvol / 6;
@@ -1256,9 +1271,8 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
                 if (c[k] == v || !face_free(C, t, k)) continue;
                 double n[3];
                 face_out(C, c, k, n);
-                if ((!on_border(C, c[(k + 1) & 3], c[(k + 2) & 3], c[(k + 3) & 3]) &&
-                     !tri_near(C, pt(C, c[(k + 1) & 3]), pt(C, c[(k + 2) & 3]),
-                               pt(C, c[(k + 3) & 3]), n)) ||
+                if (!tri_near(C, pt(C, c[(k + 1) & 3]), pt(C, c[(k + 2) & 3]),
+                              pt(C, c[(k + 3) & 3]), n) ||
                     P->ntri == SET_MAX) {
                     ok = 0;
                     break;
@@ -1301,29 +1315,9 @@ static size_t move_sweep(co *C, plan *P) {
     size_t moved = 0;
     for (size_t vv = 0; vv < C->nv && !stopped(C); vv++) {
         int32_t v = (int32_t)vv;
-        if (C->dead_v[v] || C->vt[v].n == 0) continue;
+        if (C->dead_v[v] || C->fix[v] || C->vt[v].n == 0) continue;
         const ilist *l = &C->vt[v];
         double x[3];
-        if (C->fix[v]) {
-            /* on border planes: to the mean of its neighbours on the same planes (so in
-             * them), when that raises its worst angle */
-            double s[3] = {0, 0, 0};
-            int n = 0;
-            for (int32_t i = 0; i < l->n; i++) {
-                const vm_index *c = tet(C, l->v[i]);
-                for (int k = 0; k < 4; k++)
-                    if (c[k] != v && (C->fix[c[k]] & C->fix[v]) == C->fix[v]) {
-                        for (int d = 0; d < 3; d++)
-                            s[d] += pt(C, c[k])[d];
-                        n++;
-                    }
-            }
-            if (!n) continue;
-            for (int d = 0; d < 3; d++)
-                x[d] = s[d] / n;
-            if (try_move(C, v, x, 1, P)) moved++;
-            continue;
-        }
         if (!C->bnd[v]) {
             double s[3] = {0, 0, 0};
             int n = 0;
@@ -1658,6 +1652,103 @@ static int flip_tet(co *C, int32_t t) {
     return 0;
 }
 
+/* Whether b's tets off the edge ab stay good with b at x: positive, dihedral angles within
+ * GR_CO_MIN..GR_CO_MAX, edges within bounds, ABAQUS's check passed (a merge makes no tet
+ * worse than the targets, even where the stars hold one already). */
+static int star_holds_at(const co *C, int32_t a, int32_t b, const double x[3]) {
+    const ilist *tb = &C->vt[b];
+    double camin = cos(GR_CO_MIN / GR_CO_DEG), camax = cos(GR_CO_MAX / GR_CO_DEG);
+    for (int32_t i = 0; i < tb->n; i++) {
+        const vm_index *c = tet(C, tb->v[i]);
+        if (c[0] == a || c[1] == a || c[2] == a || c[3] == a) continue;
+        double p[4][3], cmax, cmin;
+        int kb = 0;
+        for (int k = 0; k < 4; k++) {
+            if (c[k] == b) kb = k;
+            memcpy(p[k], c[k] == b ? x : pt(C, c[k]), sizeof p[k]);
+        }
+        if (C->sign * vol6(p[0], p[1], p[2], p[3]) <= 0) return 0;
+        for (int k = 0; k < 4; k++)
+            if (k != kb && !edge_ok(C, p[k], x)) return 0;
+        if (!dihedral_cosines((const double(*)[3])p, &cmax, &cmin) || cmax > camin ||
+            cmin < camax)
+            return 0;
+        if (!abaqus_ok((const double(*)[3])p)) return 0;
+    }
+    return 1;
+}
+
+/* Interior edge ab merged at x: b moves there and a collapses onto it, when every condition
+ * of a collapse holds for both stars, every changed tet within the targets themselves. A collapse onto an end often inverts a tet of the
+ * other's star that a point between them keeps positive. Returns 1 when merged. */
+static int merge_at(co *C, int32_t a, int32_t b, const double x[3], plan *P, set *sets) {
+    if (!star_holds_at(C, a, b, x)) return 0;
+    double *pb = C->m->points + 3 * (size_t)b, old[3];
+    memcpy(old, pb, sizeof old);
+    memcpy(pb, x, sizeof old);
+    C->merging = 1;
+    int ok = check(C, &C->w, a, b, P, &sets[0], &sets[1], &sets[2]);
+    C->merging = 0;
+    if (!ok) {
+        memcpy(pb, old, sizeof old);
+        return 0;
+    }
+    apply(C, a, b, P);
+    const ilist *l = &C->vt[b];
+    for (int32_t i = 0; i < l->n; i++)
+        measure(C, l->v[i]);
+    return 1;
+}
+
+/* A sweep over the interior edges, shortest first (E, ne: the pass's sorted edges): those
+ * whose collapse fails both ways are merged at their midpoint, or at the mean of the two
+ * stars' other vertices; it stops at `target` tets when nonzero. [out] *removed counts the
+ * merges. */
+static void merge_sweep(co *C, const keyed *E, size_t ne, size_t target, plan *P, set *sets,
+                        size_t *removed) {
+    for (size_t i = 0; i < ne && !C->nomem && !stopped(C) && !(target && C->live <= target);
+         i++) {
+        int32_t a = E[i].a, b = E[i].b;
+        if (C->dead_v[a] || C->dead_v[b] || C->bnd[a] || C->bnd[b]) continue;
+        /* (the edge may be gone: a and b no longer share a tet) */
+        const ilist *ta = &C->vt[a];
+        int shared = 0;
+        for (int32_t k = 0; k < ta->n && !shared; k++) {
+            const vm_index *c = tet(C, ta->v[k]);
+            shared = c[0] == b || c[1] == b || c[2] == b || c[3] == b;
+        }
+        if (!shared) continue;
+        if (check(C, &C->w, a, b, P, &sets[0], &sets[1], &sets[2])) {
+            apply(C, a, b, P);
+            ++*removed;
+            continue;
+        }
+        double x[2][3], s[3] = {0, 0, 0};
+        int n = 0;
+        for (int e = 0; e < 2; e++) {
+            const ilist *l = &C->vt[e ? b : a];
+            for (int32_t k = 0; k < l->n; k++) {
+                const vm_index *c = tet(C, l->v[k]);
+                for (int r = 0; r < 4; r++)
+                    if (c[r] != (vm_index)a && c[r] != (vm_index)b) {
+                        for (int d = 0; d < 3; d++)
+                            s[d] += pt(C, c[r])[d];
+                        n++;
+                    }
+            }
+        }
+        for (int d = 0; d < 3; d++) {
+            x[0][d] = 0.5 * (pt(C, a)[d] + pt(C, b)[d]);
+            x[1][d] = n ? s[d] / n : x[0][d];
+        }
+        for (int k = 0; k < 2; k++)
+            if (merge_at(C, a, b, x[k], P, sets)) {
+                ++*removed;
+                break;
+            }
+    }
+}
+
 /* Moves vertex v to where the worst grade of its tets is highest, by a pattern search
  * (14 directions, steps from a third of its mean edge down), then through try_move (every
  * bound of a collapse), halving the move when that refuses. */
@@ -1946,7 +2037,8 @@ static void speculate(const co *C, const keyed *E, size_t ne, size_t i0, const m
 }
 
 vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double max_edge,
-                         size_t target, vm__meter *pm, size_t *removed, vm_error *err) {
+                         size_t target, int merge, vm__meter *pm, size_t *removed,
+                         vm_error *err) {
     *removed = 0;
     if (m->ncells == 0 || m->npoints >= (size_t)INT32_MAX || m->ncells >= (size_t)INT32_MAX / 4)
         return VM_OK;
@@ -2003,7 +2095,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             if (face_free(&C, (int32_t)t, k))
                 for (int j = 1; j < 4; j++)
                     C.bnd[tet(&C, (int32_t)t)[(k + j) & 3]] = 1;
-    /* the border planes each vertex lies on */
+    /* vertices on the volume's border planes stay */
     for (size_t v = 0; v < C.nv; v++) {
         double w[3], ijk[3];
         for (int r = 0; r < 3; r++)
@@ -2011,8 +2103,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
         for (int r = 0; r < 3; r++) {
             ijk[r] = C.inv[r][0] * w[0] + C.inv[r][1] * w[1] + C.inv[r][2] * w[2];
             double tol = 1e-6;
-            if (ijk[r] < tol) C.fix[v] |= (unsigned char)(1u << (2 * r));
-            if (ijk[r] > (double)(f->n[r] - 1) - tol) C.fix[v] |= (unsigned char)(2u << (2 * r));
+            if (ijk[r] < tol || ijk[r] > (double)(f->n[r] - 1) - tol) C.fix[v] = 1;
         }
     }
     if (C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
@@ -2054,7 +2145,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             TP = NULL;
         }
     }
-    size_t nf = 0, fcap = 0;
+    size_t nf = 0, fcap = 0, ne_last = 0;
     set *sets = malloc(3 * sizeof *sets);
     plan *P = malloc(2 * sizeof *P);
     if (!s && (!sets || !P))
@@ -2092,6 +2183,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
                 }
             }
             keyed_sort(E, Etmp, ne);
+            ne_last = ne;
             if (!F) {
                 fcap = ne;
                 F = malloc(fcap * sizeof *F + 1);
@@ -2163,6 +2255,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             if ((double)(*removed - before) < 0.005 * (double)C.nv) break;
         }
         if ((target && C.live <= target) || (round > 0 && *removed == r0)) break;
+        if (E && merge) merge_sweep(&C, E, ne_last, target, P, sets, removed);
         for (int k = 0; k < 2 && !C.nomem; k++)
             move_sweep(&C, &P[0]);
     }

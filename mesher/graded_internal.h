@@ -202,11 +202,14 @@ vm_status vm__gr_topology_misfits(const gr_field *f, const vm_mesh *m, double **
 
 /* Coarsens the stuffed mesh by edge collapse (graded_coarsen.c), keeping its topology, the
  * dihedral angles of the changed tets within the stuffing's, the edge bound and the size
- * field, and the distance bound both ways; stops at `target` tets when nonzero. pm (may be
- * NULL) is polled for cancellation (VM_ERR_CANCELLED; the mesh is then left valid but
- * partly coarsened). [out] *removed: vertices removed. */
+ * field, and the distance bound both ways; stops at `target` tets when nonzero. With `merge`,
+ * interior edges whose collapse fails both ways are merged at a point between (the interior
+ * then as coarse as the angles allow: off for --grading below 2, which keeps the octree's
+ * grading). pm (may be NULL) is polled for cancellation (VM_ERR_CANCELLED; the mesh is then
+ * left valid but partly coarsened). [out] *removed: vertices removed. */
 struct vm__meter;
 vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double max_edge,
-                         size_t target, struct vm__meter *pm, size_t *removed, vm_error *err);
+                         size_t target, int merge, struct vm__meter *pm, size_t *removed,
+                         vm_error *err);
 
 #endif
