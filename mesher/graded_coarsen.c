@@ -1679,8 +1679,9 @@ static int star_holds_at(const co *C, int32_t a, int32_t b, const double x[3]) {
 }
 
 /* Interior edge ab merged at x: b moves there and a collapses onto it, when every condition
- * of a collapse holds for both stars, every changed tet within the targets themselves. A collapse onto an end often inverts a tet of the
- * other's star that a point between them keeps positive. Returns 1 when merged. */
+ * of a collapse holds for both stars, every changed tet within the targets themselves. A
+ * collapse onto an end often inverts a tet of the other's star that a point between them
+ * keeps positive. Returns 1 when merged. */
 static int merge_at(co *C, int32_t a, int32_t b, const double x[3], plan *P, set *sets) {
     if (!star_holds_at(C, a, b, x)) return 0;
     double *pb = C->m->points + 3 * (size_t)b, old[3];
