@@ -341,6 +341,7 @@ int vm_cli_mesh_labels(const vm_volume *v, const char *in, const char *out, cons
         vm_improve_options_default(&io);
         io.progress = lo->progress;
         io.progress_user = lo->progress_user;
+        io.max_edge = lo->max_edge;
         s = vm_mesh_improve(&m, NULL, &io, &ir, &err);
         if (s) {
             vm_label_stats_free(&st);

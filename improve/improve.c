@@ -25,6 +25,7 @@ static const vm_improve_options improve_defaults = {
     .target_min_dihedral = 15.0,
     .target_max_dihedral = 150.0,
     .target_volume_measure = 0.03,
+    .max_edge = 0.0,
     .max_passes = 12,
     .contract = 1,
     .flip = 1,

@@ -64,6 +64,7 @@ typedef struct vm__imp {
     /* quality scales: q = min(min_dih/s_min, (180-max_dih)/s_max, vm/s_vm) */
     double s_min, s_max, s_vm;
     double s_fmin, s_fmax; /* and min(face angle)/s_fmin, (180-max face angle)/s_fmax */
+    double max_edge2;      /* o->max_edge squared (INFINITY: none): a longer edge makes q 0 */
     const vm_improve_options *o;
     /* counters */
     size_t collapses, flips23, flips32, edge_removals, moves, perturbations, peels,

@@ -127,6 +127,7 @@ double vm__imp_quality(const vm__imp *w, const double p[4][3]) {
     vm__cross3(b, c, bc);
     double vol6 = vm__dot3(a, bc);
     if (!isfinite(vol6) || !(vol6 > 1e-12 * lmax2 * sqrt(lmax2))) return -1.0;
+    if (lmax2 > w->max_edge2) return 0.0; /* an edge over o->max_edge: below any bar */
     double n[4][3], len[4];
     for (int f = 0; f < 4; f++) {
         vm__cross3(e[qnorm[f][0]], e[qnorm[f][1]], n[f]);
@@ -203,7 +204,7 @@ int vm__imp_cos_side(double c, double l) {
 }
 
 int vm__imp_quality_above(const vm__imp *w, const double p[4][3], const vm__imp_bar *b) {
-    if (!b->fast) return vm__imp_quality(w, p) > b->f;
+    if (!b->fast || w->max_edge2 < INFINITY) return vm__imp_quality(w, p) > b->f;
     qcos c;
     if (!dihedral_cosines(p, &c)) return 0; /* quality -1 */
     /* q > f when every term is: min dihedral > f s_min (its cosine below the limit's), max

@@ -217,6 +217,7 @@ void vm__imp_scales(vm__imp *w, const vm_improve_options *o) {
     w->s_vm = o->target_volume_measure;
     w->s_fmin = FACE_ANGLE_SCALE_MIN;
     w->s_fmax = FACE_ANGLE_SCALE_MAX;
+    w->max_edge2 = o->max_edge > 0.0 ? o->max_edge * o->max_edge : INFINITY;
 }
 
 /* Copies the options into w and allocates its per-tet and per-vertex arrays; fills the tets,

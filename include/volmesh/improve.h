@@ -58,6 +58,9 @@ typedef struct vm_improve_options {
      * dihedral <= target_max_dihedral (default 150) and ABAQUS volume measure >=
      * target_volume_measure (default 0.03). Tets below these are worked on. */
     double target_min_dihedral, target_max_dihedral, target_volume_measure;
+    /* No operation makes an edge longer than this (world units; 0, the default: no bound):
+     * the mesher's --max-edge, which flips, contractions and moves would otherwise exceed. */
+    double max_edge;
     int max_passes;          /* rounds of contract + flip + smooth; default 12 */
     int contract, flip, smooth, perturb; /* enable each operation (all 1 by default) */
     unsigned seed;           /* random perturbations are reproducible for a given seed */

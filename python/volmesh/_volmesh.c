@@ -549,6 +549,7 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
         vm_improve_options io;
         vm_improve_options_default(&io);
         SET_PROGRESS(io, fn, p);
+        io.max_edge = lo.max_edge;
         vm_improve_report ir;
         s = vm_mesh_improve(m, NULL, &io, &ir, err);
         if (s) vm_mesh_free(m);
@@ -591,6 +592,7 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
         vm_improve_options_default(&io);
         SET_BOUNDS(io, r);
         SET_PROGRESS(io, fn, p);
+        io.max_edge = o.max_edge;
         vm_improve_report ir;
         s = o.graded ? vm_mesh_improve_graded(m, v, &io, &ir, err)
                      : vm_mesh_improve(m, v, &io, &ir, err);
