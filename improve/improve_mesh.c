@@ -204,7 +204,14 @@ int vm__imp_cos_side(double c, double l) {
 }
 
 int vm__imp_quality_above(const vm__imp *w, const double p[4][3], const vm__imp_bar *b) {
-    if (!b->fast || w->max_edge2 < INFINITY) return vm__imp_quality(w, p) > b->f;
+    if (!b->fast) return vm__imp_quality(w, p) > b->f;
+    if (w->max_edge2 < INFINITY) { /* an edge over o->max_edge: q is 0 (or -1), not > f > 0 */
+        for (int k = 0; k < 6; k++) {
+            double e[3];
+            vm__sub3(p[qe[k][1]], p[qe[k][0]], e);
+            if (vm__dot3(e, e) > w->max_edge2) return 0;
+        }
+    }
     qcos c;
     if (!dihedral_cosines(p, &c)) return 0; /* quality -1 */
     /* q > f when every term is: min dihedral > f s_min (its cosine below the limit's), max
