@@ -13,11 +13,13 @@
  *   faces the way the field's gradient does; every sample of the isosurface (the crossings of
  *   the voxel edges, as marching cubes places its vertices) stays within the bound of the
  *   boundary (or within its distance on the stuffed mesh, when that was already over).
- * A vertex is moved onto the other end of the edge (a collapse moves no vertex); an interior
- * edge whose collapse fails both ways may be merged at a point between (merge_sweep). Between
- * rounds of collapses, vertices move under the same checks (boundary ones along their normal
- * so that chords straddle the surface, interior ones to their neighbours' mean), and tets
- * beyond 15..150 degrees are repaired by moves, collapses and peels. Vertices on the
+ * A vertex is moved onto the other end of the edge (a collapse moves no vertex); an edge
+ * whose collapse fails both ways may be merged at a point between (merge_sweep: an interior
+ * edge's midpoint or its stars' mean; a boundary edge's midpoint taken onto the isosurface).
+ * Between rounds of collapses, vertices move under the same checks (boundary ones along their
+ * normal so that chords straddle the surface, interior ones to their neighbours' mean) and
+ * poorly shaped tets are flipped (2-3 and 3-2) where that betters them; after the rounds,
+ * tets beyond 15..150 degrees are repaired by moves, collapses and peels. Vertices on the
  * volume's border planes stay. */
 #include "../core/core.h"
 #include "../quality/tet_internal.h"
@@ -37,8 +39,12 @@
 #define GR_CO_NORMAL_COS 0.5
 /* Passes over the edges; the work stops early when a pass removes under 0.5% of vertices. */
 #define GR_CO_PASSES 12
-/* Rounds of collapse passes and vertex moves. */
-#define GR_CO_ROUNDS 3
+/* Rounds of collapse passes, merges, vertex moves and flips. */
+#define GR_CO_ROUNDS 6
+/* Between rounds, tets graded below this (minimum dihedral angle under 45 degrees or maximum
+ * over 90: grade()) are flipped where that betters them, in up to this many sweeps. */
+#define GR_CO_FLIP_BAR 3.0
+#define GR_CO_FLIP_SWEEPS 3
 /* A boundary collapse changes the volume by at most this times D times the new area. */
 #define GR_CO_VOLUME 0.2
 /* ... and the whole mesh's volume by at most this fraction (net). */
@@ -1555,6 +1561,7 @@ static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32
         }
         after = fmin(after, grade_of(C, pt(C, nt[i][0]), pt(C, nt[i][1]), pt(C, nt[i][2]),
                                      pt(C, nt[i][3])));
+        if (!(after > before + 1e-3)) return 0; /* (the rest cannot raise the minimum) */
     }
     if (!(after > before + 1e-3)) return 0;
     int32_t slot[3];
@@ -1701,6 +1708,59 @@ static int merge_at(co *C, int32_t a, int32_t b, const double x[3], plan *P, set
     return 1;
 }
 
+/* x moved onto the isosurface by Newton steps (at most 8); 0 when they fail. */
+static int onto_surface(const co *C, double x[3]) {
+    for (int it = 0; it < 8; it++) {
+        double f, g[3];
+        if (!phi_grad(C, x, &f, g)) return 0;
+        double g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+        if (!(g2 > 0)) return 0;
+        if (fabs(f) <= 1e-3 * C->D * sqrt(g2)) return 1;
+        for (int d = 0; d < 3; d++)
+            x[d] -= f / g2 * g[d];
+    }
+    return 0;
+}
+
+/* Boundary edge ab whose collapse failed both ways, merged: one end (not on a border plane)
+ * moves to the edge's midpoint taken onto the isosurface, under every check of a move
+ * (try_move), and the other collapses onto it with every changed tet within the targets;
+ * the move is undone when the collapse fails. Returns 1 when merged. */
+static int bmerge(co *C, int32_t a, int32_t b, plan *P, set *sets) {
+    if (check(C, &C->w, a, b, P, &sets[0], &sets[1], &sets[2])) {
+        apply(C, a, b, P);
+        return 1;
+    }
+    if (check(C, &C->w, b, a, P, &sets[0], &sets[1], &sets[2])) {
+        apply(C, b, a, P);
+        return 1;
+    }
+    double x[3];
+    for (int d = 0; d < 3; d++)
+        x[d] = 0.5 * (pt(C, a)[d] + pt(C, b)[d]);
+    if (!onto_surface(C, x)) return 0;
+    for (int e = 0; e < 2; e++) {
+        int32_t u = e ? a : b, w = e ? b : a; /* u moves, w collapses onto it */
+        if (C->fix[u] || C->fix[w]) continue;
+        double *pu = C->m->points + 3 * (size_t)u, old[3], dvol = C->dvol;
+        memcpy(old, pu, sizeof old);
+        if (!try_move(C, u, x, 0, P)) continue;
+        C->merging = 1;
+        int ok = check(C, &C->w, w, u, P, &sets[0], &sets[1], &sets[2]);
+        C->merging = 0;
+        if (ok) {
+            apply(C, w, u, P);
+            return 1;
+        }
+        memcpy(pu, old, sizeof old);
+        C->dvol = dvol;
+        const ilist *l = &C->vt[u];
+        for (int32_t i = 0; i < l->n; i++)
+            measure(C, l->v[i]);
+    }
+    return 0;
+}
+
 /* A sweep over the interior edges, shortest first (E, ne: the pass's sorted edges): those
  * whose collapse fails both ways are merged at their midpoint, or at the mean of the two
  * stars' other vertices; it stops at `target` tets when nonzero. [out] *removed counts the
@@ -1710,7 +1770,11 @@ static void merge_sweep(co *C, const keyed *E, size_t ne, size_t target, plan *P
     for (size_t i = 0; i < ne && !C->nomem && !stopped(C) && !(target && C->live <= target);
          i++) {
         int32_t a = E[i].a, b = E[i].b;
-        if (C->dead_v[a] || C->dead_v[b] || C->bnd[a] || C->bnd[b]) continue;
+        if (C->dead_v[a] || C->dead_v[b]) continue;
+        if (C->bnd[a] || C->bnd[b]) {
+            if (C->bnd[a] && C->bnd[b] && bmerge(C, a, b, P, sets)) ++*removed;
+            continue;
+        }
         /* (the edge may be gone: a and b no longer share a tet) */
         const ilist *ta = &C->vt[a];
         int shared = 0;
@@ -1747,6 +1811,20 @@ static void merge_sweep(co *C, const keyed *E, size_t ne, size_t target, plan *P
                 ++*removed;
                 break;
             }
+    }
+}
+
+/* Sweeps (up to GR_CO_FLIP_SWEEPS, while any flips) over the live tets graded below
+ * GR_CO_FLIP_BAR, each flipped where that betters the worst of the tets it replaces: between
+ * rounds, so that the collapses and merges of the next find better-shaped stars. */
+static void flip_sweep(co *C) {
+    for (int sweep = 0; sweep < GR_CO_FLIP_SWEEPS && !C->nomem && !stopped(C); sweep++) {
+        size_t flips = 0;
+        for (size_t t = 0; t < C->nt && !C->nomem; t++)
+            if (!C->dead_t[t] && tet_grade(C, (int32_t)t) < GR_CO_FLIP_BAR &&
+                flip_tet(C, (int32_t)t))
+                flips++;
+        if (!flips) break;
     }
 }
 
@@ -2259,6 +2337,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
         if (E && merge) merge_sweep(&C, E, ne_last, target, P, sets, removed);
         for (int k = 0; k < 2 && !C.nomem; k++)
             move_sweep(&C, &P[0]);
+        if (merge) flip_sweep(&C);
     }
     for (int k = 0; k < 3 && !s && !C.nomem && !C.stop; k++)
         if (!repair(&C, P, sets, removed)) break;
