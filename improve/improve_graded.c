@@ -6,9 +6,9 @@
  * fixed (its boundary stays as it is); where that is not enough, or there are many, a pass
  * that neither contracts edges nor lets surface vertices slide more than a fifth of a voxel
  * runs on the mesh as it came; only where tets stay below the targets does a last pass run
- * with the caller's options (docs/SIZING.md). A mesh that meets the targets already (the coarsening's repair
- * leaves most so) is not touched at all: the pass would still move vertices around its
- * nearly-bad tets, and each boundary move costs distance. */
+ * with the caller's options (docs/SIZING.md). A mesh that meets the targets already (the
+ * coarsening's repair leaves most so) is not touched at all: the pass would still move
+ * vertices around its nearly-bad tets, and each boundary move costs distance. */
 #include "improve_internal.h"
 #include "volmesh/improve.h"
 #include "volmesh/quality.h"
