@@ -25,6 +25,8 @@
  * 64,881, where it took 8 s and failed). */
 #define VM_GRADED_FIXED_PASSES 1
 #define VM_GRADED_FIXED_SHARE 100
+/* The full pass again, with other seeds for its random moves, while tets stay below. */
+#define VM_GRADED_RETRIES 2
 
 /* The report of a pass that had nothing to do: the figures of m, before and after. [out] r.
  * Returns whether every tet meets o's targets and ABAQUS's check (one sweep of the pass's
@@ -165,13 +167,14 @@ vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improv
     /* Then surface vertices slide at most VM_GRADED_SURFACE_MOVE; then the caller's options
      * (contraction, slides of up to max_surface_move) where tets are still below */
     vm_improve_report sum = {0}, one;
-    for (int tier = 0; tier < 2; tier++) {
+    for (int tier = 0; tier < 2 + VM_GRADED_RETRIES; tier++) {
         vm_improve_options t = io;
         if (!tier) {
             t.contract = 0;
             if (t.max_surface_move > VM_GRADED_SURFACE_MOVE)
                 t.max_surface_move = VM_GRADED_SURFACE_MOVE;
         }
+        if (tier > 1) t.seed = io.seed + (unsigned)tier - 1;
         vm_status s = vm_mesh_improve(m, v, &t, &one, err);
         if (s) {
             if (r && tier) *r = sum;
