@@ -138,12 +138,15 @@ void vm_improve_options_default(vm_improve_options *o);
 vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                           vm_improve_report *r, vm_error *err);
 
-/* vm_mesh_improve for a mesh of the graded mesher (vm_mesh_options.graded): a first pass that
- * neither contracts edges nor slides surface vertices over 0.2 voxel (the mesher's boundary
- * already meets the distance bound both ways, which the pass's surface moves would loosen),
- * then, only if tets are still below the targets, a second pass with o. r sums both (its
- * *_before figures are the input's). Arguments and errors as vm_mesh_improve; v must be
- * given for the bound to mean anything. */
+/* vm_mesh_improve for a mesh of the graded mesher (vm_mesh_options.graded), whose boundary
+ * already meets the distance bound both ways (the pass's surface moves would loosen it): a
+ * mesh meeting the targets is left as it is; one with at most 1% of its tets (plus 8) outside
+ * the dihedral targets first gets one round with every surface vertex fixed and no
+ * contraction, kept when it meets the targets; otherwise, on the mesh as it came, a pass that
+ * neither contracts edges nor slides surface vertices over 0.2 voxel, then, only if tets are
+ * still below the targets, a pass with o, repeated up to twice with other seeds while they
+ * are. r sums the passes kept (its *_before figures are the input's). Arguments and errors as
+ * vm_mesh_improve; v must be given for the bound to mean anything. */
 vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                                  vm_improve_report *r, vm_error *err);
 
