@@ -180,7 +180,7 @@ vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improv
             if (r && tier) *r = sum;
             return s;
         }
-        if (tier) { /* one report: the input's figures, the output's, and the work of both */
+        if (tier) { /* one report: the input's figures, the output's, the work of all */
             one.tets_before = sum.tets_before;
             one.points_before = sum.points_before;
             one.min_dihedral_before = sum.min_dihedral_before;
