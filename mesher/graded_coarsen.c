@@ -316,27 +316,34 @@ static int star_fails_abaqus(const co *C, int32_t v) {
     return 0;
 }
 
-/* The distance from x (phi and its gradient g there) to the isosurface, bounded from above
- * by the path of Newton steps x -= phi g / |g|^2 onto it: [out] *e, signed as phi. Returns 0
- * when the steps leave the volume, meet no gradient or do not converge. */
-static int newton_distance(const co *C, const double x[3], double phi, const double g[3],
-                           double *e) {
-    double y[3] = {x[0], x[1], x[2]}, h[3] = {g[0], g[1], g[2]}, f = phi, len = 0;
-    for (int it = 0; it < 8; it++) {
+/* Newton steps y -= f h / |h|^2 from y (f: phi there, h: its gradient; both updated), at
+ * most `steps`, until |f| is within 1e-3 D of |h|: [out] *len, the length of the path.
+ * Returns 0 when they leave the volume, meet no gradient or do not converge. */
+static int newton_walk(const co *C, double y[3], double f, double h[3], int steps, double *len) {
+    *len = 0;
+    for (int it = 0; it < steps; it++) {
         double h2 = h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
         if (!(h2 > 0)) return 0;
         double s = f / h2;
         for (int d = 0; d < 3; d++)
             y[d] -= s * h[d];
-        len += fabs(s) * sqrt(h2);
+        *len += fabs(s) * sqrt(h2);
         if (!phi_grad(C, y, &f, h)) return 0;
         double hn = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
-        if (hn > 0 && fabs(f) <= 1e-3 * C->D * hn) {
-            *e = phi >= 0 ? len : -len;
-            return 1;
-        }
+        if (hn > 0 && fabs(f) <= 1e-3 * C->D * hn) return 1;
     }
     return 0;
+}
+
+/* The distance from x (phi and its gradient g there) to the isosurface, bounded from above
+ * by the path of Newton steps x -= phi g / |g|^2 onto it: [out] *e, signed as phi. Returns 0
+ * when the steps leave the volume, meet no gradient or do not converge. */
+static int newton_distance(const co *C, const double x[3], double phi, const double g[3],
+                           double *e) {
+    double y[3] = {x[0], x[1], x[2]}, h[3] = {g[0], g[1], g[2]}, len;
+    if (!newton_walk(C, y, phi, h, 8, &len)) return 0;
+    *e = phi >= 0 ? len : -len;
+    return 1;
 }
 
 /* The signed first-order distance phi / |grad phi| (positive inside) over the triangle
@@ -1563,7 +1570,6 @@ static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32
                                      pt(C, nt[i][3])));
         if (!(after > before + 1e-3)) return 0; /* (the rest cannot raise the minimum) */
     }
-    if (!(after > before + 1e-3)) return 0;
     int32_t slot[3];
     for (int i = 0; i < nold; i++)
         slot[i] = old[i];
@@ -1708,18 +1714,15 @@ static int merge_at(co *C, int32_t a, int32_t b, const double x[3], plan *P, set
     return 1;
 }
 
-/* x moved onto the isosurface by Newton steps (at most 8); 0 when they fail. */
+/* x moved onto the isosurface: where it is already, or after at most 7 Newton steps
+ * (newton_walk); 0 when they fail. */
 static int onto_surface(const co *C, double x[3]) {
-    for (int it = 0; it < 8; it++) {
-        double f, g[3];
-        if (!phi_grad(C, x, &f, g)) return 0;
-        double g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
-        if (!(g2 > 0)) return 0;
-        if (fabs(f) <= 1e-3 * C->D * sqrt(g2)) return 1;
-        for (int d = 0; d < 3; d++)
-            x[d] -= f / g2 * g[d];
-    }
-    return 0;
+    double f, g[3], len;
+    if (!phi_grad(C, x, &f, g)) return 0;
+    double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    if (!(gn > 0)) return 0;
+    if (fabs(f) <= 1e-3 * C->D * gn) return 1;
+    return newton_walk(C, x, f, g, 7, &len);
 }
 
 /* Boundary edge ab whose collapse failed both ways, merged: one end (not on a border plane)
