@@ -1,14 +1,18 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* improve/improve_graded.c — the quality pass for the graded mesher's meshes: their boundary
  * already has the fewest vertices the distance bound allows (mesher/graded_coarsen.c keeps
- * the distance both ways), and the pass's own surface operations keep it one way only. So a
- * mesh with only a few tets below the targets first gets a pass with every surface vertex
- * fixed (its boundary stays as it is); where that is not enough, or there are many, a pass
- * that neither contracts edges nor lets surface vertices slide more than a fifth of a voxel
- * runs on the mesh as it came; only where tets stay below the targets does a last pass run
- * with the caller's options (docs/SIZING.md). A mesh that meets the targets already (the
- * coarsening's repair leaves most so) is not touched at all: the pass would still move
- * vertices around its nearly-bad tets, and each boundary move costs distance. */
+ * the distance both ways). So a mesh with only a few tets below the targets first gets a pass
+ * with every surface vertex fixed (its boundary stays as it is); where that is not enough, or
+ * there are many, a pass that neither contracts edges nor lets surface vertices slide more
+ * than a fifth of a voxel runs on the mesh as it came; only where tets stay below the targets
+ * do passes with the caller's options run. These passes first keep the boundary triangles
+ * near the isosurface between their vertices too (surface_chords: the pass's own bound is at
+ * the vertices, one way), so that the distance holds both ways; where they end below the
+ * targets, the full passes run again without that check from the slide pass's mesh, and as
+ * a last resort the whole sequence without it from the input (docs/SIZING.md). A mesh that
+ * meets the targets already (the coarsening's repair leaves most so) is not touched at all:
+ * the pass would still move vertices around its nearly-bad tets, and each boundary move
+ * costs distance. */
 #include "improve_internal.h"
 #include "volmesh/improve.h"
 #include "volmesh/quality.h"
@@ -25,7 +29,9 @@
  * 64,881, where it took 8 s and failed). */
 #define VM_GRADED_FIXED_PASSES 1
 #define VM_GRADED_FIXED_SHARE 100
-/* The full pass again, with other seeds for its random moves, while tets stay below. */
+/* The full pass again, with other seeds for its random moves, while tets stay below: with
+ * the boundary triangles' check, and without it. */
+#define VM_GRADED_CHORD_RETRIES 1
 #define VM_GRADED_RETRIES 2
 
 /* The report of a pass that had nothing to do: the figures of m, before and after. [out] r.
@@ -116,6 +122,72 @@ static int below_targets(const vm_improve_options *o, const vm_improve_report *r
            r->max_dihedral_after > o->target_max_dihedral;
 }
 
+/* Runs the pass on m with options t and folds its report into *sum: the input's figures of
+ * the first run, the output's of this one, the work of all (*runs counts them). */
+static vm_status run_pass(vm_mesh *m, const vm_volume *v, const vm_improve_options *t,
+                          vm_improve_report *sum, int *runs, vm_error *err) {
+    vm_improve_report one;
+    vm_status s = vm_mesh_improve(m, v, t, &one, err);
+    if (s) return s;
+    if (*runs) {
+        one.tets_before = sum->tets_before;
+        one.points_before = sum->points_before;
+        one.min_dihedral_before = sum->min_dihedral_before;
+        one.max_dihedral_before = sum->max_dihedral_before;
+        one.slivers_5_before = sum->slivers_5_before;
+        one.slivers_10_before = sum->slivers_10_before;
+        one.abaqus_before = sum->abaqus_before;
+        one.volume_before = sum->volume_before;
+        one.max_surface_move += sum->max_surface_move;
+        if (sum->max_interface_move > one.max_interface_move)
+            one.max_interface_move = sum->max_interface_move;
+        one.collapses += sum->collapses;
+        one.flips23 += sum->flips23;
+        one.flips32 += sum->flips32;
+        one.edge_removals += sum->edge_removals;
+        one.moves += sum->moves;
+        one.perturbations += sum->perturbations;
+        one.peels += sum->peels;
+        one.boundary_flips += sum->boundary_flips;
+        one.passes += sum->passes;
+        one.seconds += sum->seconds;
+    }
+    *sum = one;
+    (*runs)++;
+    return VM_OK;
+}
+
+/* The pass without contraction, surface vertices sliding at most VM_GRADED_SURFACE_MOVE,
+ * with the boundary triangles' check or not; *below: tets are still below io's targets. */
+static vm_status slide_pass(vm_mesh *m, const vm_volume *v, const vm_improve_options *io,
+                            int chords, vm_improve_report *sum, int *runs, int *below,
+                            vm_error *err) {
+    vm_improve_options t = *io;
+    t.contract = 0;
+    t.surface_chords = chords;
+    if (t.max_surface_move > VM_GRADED_SURFACE_MOVE) t.max_surface_move = VM_GRADED_SURFACE_MOVE;
+    vm_status s = run_pass(m, v, &t, sum, runs, err);
+    *below = !s && below_targets(io, sum);
+    return s;
+}
+
+/* The pass with io's options (the check or not), up to n times with seeds io->seed + k while
+ * tets stay below the targets (*below). */
+static vm_status full_passes(vm_mesh *m, const vm_volume *v, const vm_improve_options *io,
+                             int chords, int n, vm_improve_report *sum, int *runs, int *below,
+                             vm_error *err) {
+    vm_status s = VM_OK;
+    for (int k = 0; k < n && !s; k++) {
+        vm_improve_options t = *io;
+        t.surface_chords = chords;
+        t.seed = io->seed + (unsigned)k;
+        s = run_pass(m, v, &t, sum, runs, err);
+        *below = !s && below_targets(io, sum);
+        if (!*below) break;
+    }
+    return s;
+}
+
 vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                                  vm_improve_report *r, vm_error *err) {
     vm_improve_options io;
@@ -144,68 +216,50 @@ vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improv
     /* First with every surface vertex where it is (no contraction either): the boundary,
      * and so the distance both ways, stays as coarsening left it. Where that is not enough
      * the mesh goes back to what it was (its points, tets and regions: the graded mesh has
-     * no fields yet) and the tiers below run on it: the first pass's moves would otherwise
-     * leave them a different mesh to work on (on the CT head, tets the later passes fail). */
-    snapshot snap = {0};
-    if (!m->npoint_fields && !m->ncell_fields &&
-        count_below(m, &io) <= m->ncells / VM_GRADED_FIXED_SHARE + 8 && take(&snap, m)) {
+     * no fields yet) and the rungs below run on it: the first pass's moves would otherwise
+     * leave them a different mesh to work on (on the CT head, tets the later passes fail).
+     * A mesh with fields, or no memory for the copy, gets the last rung alone. */
+    snapshot in = {0}, mid = {0};
+    int snaps = !m->npoint_fields && !m->ncell_fields && take(&in, m);
+    vm_status s = VM_OK;
+    if (snaps && count_below(m, &io) <= m->ncells / VM_GRADED_FIXED_SHARE + 8) {
         vm_improve_options t = io;
         t.contract = 0;
         t.max_surface_move = 0;
         if (t.max_passes > VM_GRADED_FIXED_PASSES) t.max_passes = VM_GRADED_FIXED_PASSES;
         vm_improve_report r0;
-        vm_status s = vm_mesh_improve(m, v, &t, &r0, err);
+        s = vm_mesh_improve(m, v, &t, &r0, err);
         if (s || !below_targets(&io, &r0)) {
-            snap_free(&snap);
+            snap_free(&in);
             if (r && !s) *r = r0;
             return s;
         }
-        s = restore(&snap, m, err);
-        snap_free(&snap);
-        if (s) return s;
+        s = restore(&in, m, err);
     }
-    /* Then surface vertices slide at most VM_GRADED_SURFACE_MOVE; then the caller's options
-     * (contraction, slides of up to max_surface_move) where tets are still below */
-    vm_improve_report sum = {0}, one;
-    for (int tier = 0; tier < 2 + VM_GRADED_RETRIES; tier++) {
-        vm_improve_options t = io;
-        if (!tier) {
-            t.contract = 0;
-            if (t.max_surface_move > VM_GRADED_SURFACE_MOVE)
-                t.max_surface_move = VM_GRADED_SURFACE_MOVE;
+    /* Then the rungs, each only while tets are below the targets: the slide pass and the
+     * full passes with the boundary triangles' check; the full passes without it, from the
+     * slide pass's mesh; and, from the input, both without it (what the pass was before the
+     * check: the last resort keeps every mesh that it brought to the targets there). */
+    vm_improve_report sum = {0};
+    int runs = 0, below = 1;
+    if (!s && snaps) {
+        s = slide_pass(m, v, &io, 1, &sum, &runs, &below, err);
+        if (!s && below) {
+            int have_mid = take(&mid, m);
+            s = full_passes(m, v, &io, 1, 1 + VM_GRADED_CHORD_RETRIES, &sum, &runs, &below, err);
+            if (!s && below && have_mid) {
+                s = restore(&mid, m, err);
+                if (!s) s = full_passes(m, v, &io, 0, 1 + VM_GRADED_RETRIES, &sum, &runs, &below, err);
+            }
+            snap_free(&mid);
         }
-        if (tier > 1) t.seed = io.seed + (unsigned)tier - 1;
-        vm_status s = vm_mesh_improve(m, v, &t, &one, err);
-        if (s) {
-            if (r && tier) *r = sum;
-            return s;
-        }
-        if (tier) { /* one report: the input's figures, the output's, the work of all */
-            one.tets_before = sum.tets_before;
-            one.points_before = sum.points_before;
-            one.min_dihedral_before = sum.min_dihedral_before;
-            one.max_dihedral_before = sum.max_dihedral_before;
-            one.slivers_5_before = sum.slivers_5_before;
-            one.slivers_10_before = sum.slivers_10_before;
-            one.abaqus_before = sum.abaqus_before;
-            one.volume_before = sum.volume_before;
-            one.max_surface_move += sum.max_surface_move;
-            if (sum.max_interface_move > one.max_interface_move)
-                one.max_interface_move = sum.max_interface_move;
-            one.collapses += sum.collapses;
-            one.flips23 += sum.flips23;
-            one.flips32 += sum.flips32;
-            one.edge_removals += sum.edge_removals;
-            one.moves += sum.moves;
-            one.perturbations += sum.perturbations;
-            one.peels += sum.peels;
-            one.boundary_flips += sum.boundary_flips;
-            one.passes += sum.passes;
-            one.seconds += sum.seconds;
-        }
-        sum = one;
-        if (!below_targets(&io, &one)) break;
+        if (!s && below) s = restore(&in, m, err);
     }
-    if (r) *r = sum;
-    return VM_OK;
+    if (!s && below) {
+        s = slide_pass(m, v, &io, 0, &sum, &runs, &below, err);
+        if (!s && below) s = full_passes(m, v, &io, 0, 1 + VM_GRADED_RETRIES, &sum, &runs, &below, err);
+    }
+    snap_free(&in);
+    if (r && runs) *r = sum;
+    return s;
 }

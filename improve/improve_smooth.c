@@ -123,6 +123,7 @@ static int try_move(vm__imp *w, vm_index a, double x[3], vm_index *ids, int32_t 
                     double *cur, vm__imp_bar *b) {
     if (!vm__imp_constrain(w, a, x)) return 0;
     if (!star_above(w, ids, n, a, x, b) || !vm__imp_guard_move_ok(w, a, x)) return 0;
+    if (!vm__imp_chord_ok(w, a, -1, x)) return 0;
     move_vertex(w, a, x, ids + n, w->qbuf, n);
     double m = INFINITY;
     for (int32_t i = 0; i < n; i++)

@@ -54,6 +54,14 @@ typedef struct vm_improve_options {
      * peeled tets may move the surface by the rest, surface_tolerance - surface_band. */
     double surface_tolerance;
     double surface_band;
+    /* With a volume, 1: a surface vertex's move and an edge contraction also keep the
+     * boundary triangles around the vertex within 0.8 surface_tolerance of the isosurface at
+     * their edge midpoints and centres (the same first-order distance), or no farther than
+     * they were. On a coarse boundary the triangles' interiors are what lies far from the
+     * surface (a chord under a curved cap), so this keeps the isosurface near the boundary
+     * too: the distance both ways. vm_mesh_improve_graded sets it. Default 0. (With or
+     * without it, no surface vertex ends farther outside the volume's box than it began.) */
+    int surface_chords;
     /* What counts as "good": min dihedral >= target_min_dihedral (default 15 degrees), max
      * dihedral <= target_max_dihedral (default 150) and ABAQUS volume measure >=
      * target_volume_measure (default 0.03). Tets below these are worked on. */
@@ -144,8 +152,11 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
  * the dihedral targets first gets one round with every surface vertex fixed and no
  * contraction, kept when it meets the targets; otherwise, on the mesh as it came, a pass that
  * neither contracts edges nor slides surface vertices over 0.2 voxel, then, only if tets are
- * still below the targets, a pass with o, repeated up to twice with other seeds while they
- * are. r sums the passes kept (its *_before figures are the input's). Arguments and errors as
+ * still below the targets, a pass with o, once more with another seed while they are; these
+ * with surface_chords set (the boundary triangles bounded too). Should tets stay below, the
+ * mesh goes back to what the first of those passes made and the pass with o runs without
+ * surface_chords, up to three times with other seeds. r sums every pass run (its *_before
+ * figures are the input's, its *_after ones the last pass's). Arguments and errors as
  * vm_mesh_improve; v must be given for the bound to mean anything. */
 vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                                  vm_improve_report *r, vm_error *err);
