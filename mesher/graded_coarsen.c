@@ -885,13 +885,25 @@ static void measure(co *C, int32_t t) {
     C->qhi[t] = (float)hi;
 }
 
-/* Applies a checked collapse of a onto b. */
-static void apply(co *C, int32_t a, int32_t b, const plan *P) {
-    ilist *ta = &C->vt[a];
-    /* What a check of edge xy reads (the tets of x and y, their vertices' tet lists, the
-     * samples near their triangles) changes here only where x or y is in a's star or next to
-     * it, and the first part of it (x's tets) only where x is in the star: such checks are
-     * to be made again (the memo of vm__gr_coarsen's passes). */
+/* Marks vertex x as in a changed tet (star) and its neighbours as next to one (near), for
+ * the memo of vm__gr_coarsen's passes (C->applied bumped by the caller). */
+static void mark_vertex(co *C, int32_t x) {
+    C->star[x] = C->applied;
+    const ilist *l = &C->vt[x];
+    for (int32_t j = 0; j < l->n; j++) {
+        const vm_index *q = tet(C, l->v[j]);
+        for (int r = 0; r < 4; r++)
+            C->near[q[r]] = C->applied;
+    }
+}
+
+/* What a check of edge xy reads (the tets of x and y, their vertices' tet lists, the samples
+ * near their triangles) changes, when the tets around v change (a collapse of v, a move of
+ * v), only where x or y is in v's star or next to it, and the first part of it (x's tets)
+ * only where x is in the star: such checks are to be made again (the memo of
+ * vm__gr_coarsen's passes). */
+static void mark_around(co *C, int32_t v) {
+    const ilist *ta = &C->vt[v];
     C->applied++;
     stamp_next(&C->w, C->nv);
     for (int32_t i = 0; i < ta->n; i++) {
@@ -899,15 +911,15 @@ static void apply(co *C, int32_t a, int32_t b, const plan *P) {
         for (int k = 0; k < 4; k++) {
             if (C->w.vmark[c[k]] == C->w.vstamp) continue;
             C->w.vmark[c[k]] = C->w.vstamp;
-            C->star[c[k]] = C->applied;
-            const ilist *l = &C->vt[c[k]];
-            for (int32_t j = 0; j < l->n; j++) {
-                const vm_index *q = tet(C, l->v[j]);
-                for (int r = 0; r < 4; r++)
-                    C->near[q[r]] = C->applied;
-            }
+            mark_vertex(C, (int32_t)c[k]);
         }
     }
+}
+
+/* Applies a checked collapse of a onto b. */
+static void apply(co *C, int32_t a, int32_t b, const plan *P) {
+    ilist *ta = &C->vt[a];
+    mark_around(C, a);
     for (int32_t i = 0; i < ta->n; i++) {
         int32_t t = ta->v[i];
         vm_index *c = C->m->cells + 4 * (size_t)t;
@@ -1316,6 +1328,7 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
     for (int32_t i = 0; i < l->n; i++)
         measure(C, l->v[i]);
     C->dvol += dv;
+    mark_around(C, v);
     return 1;
 }
 
@@ -1602,6 +1615,11 @@ static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32
     /* the new tets' outer faces are the old ones' (their neighbours are unchanged) */
     for (int i = 0; i < nnew; i++)
         refresh_faces(C, slot[i]);
+    C->applied++;
+    for (int i = 0; i < 3; i++)
+        mark_vertex(C, abc[i]);
+    mark_vertex(C, d);
+    mark_vertex(C, e);
     return 1;
 }
 
@@ -1711,6 +1729,7 @@ static int merge_at(co *C, int32_t a, int32_t b, const double x[3], plan *P, set
     const ilist *l = &C->vt[b];
     for (int32_t i = 0; i < l->n; i++)
         measure(C, l->v[i]);
+    mark_around(C, b); /* b moved: its tets off the edge changed too */
     return 1;
 }
 
@@ -2193,9 +2212,11 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     if (!s) s = assign_samples(&C, err);
     keyed *E = NULL, *Etmp = NULL;
     /* The memo: the edges whose checks failed both ways in the last pass (in E's order),
-     * with `applied` then and which ways failed late; a check fails again while no collapse
-     * has changed what it read since (apply marks the vertices), as long as no vertex moved
-     * (the memo lasts one round). */
+     * with `applied` then and which ways failed late; a check fails again while nothing has
+     * changed what it read since: collapses, merges, moves and flips mark the vertices
+     * (mark_around, mark_vertex), and an edge whose end moved has another length, so another
+     * key. It lasts across rounds: a round's first pass rechecks only the edges near what
+     * the merges, moves and flips between rounds changed. */
     memo *F = NULL, *Fn = NULL;
     /* checks ahead on threads (none on one) */
     int nthreads = 1;
@@ -2235,7 +2256,6 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     /* rounds of collapses, then moves (which open room for more collapses) */
     for (int round = 0; round < GR_CO_ROUNDS && !s && !C.nomem && !C.stop; round++) {
         size_t r0 = *removed;
-        nf = 0;
         for (int pass = 0; pass < GR_CO_PASSES && !s && !C.nomem && !C.stop; pass++) {
             /* the live edges, shortest first */
             size_t ne = 0;
