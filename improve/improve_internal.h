@@ -204,13 +204,11 @@ int vm__imp_project(const vm__imp *w, vm_index a, double x[3]);
 void vm__imp_normal(const vm__imp *w, vm_index a, double n[3]);
 int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]);
 
-/* The surface_chords check. vm__imp_chord_error: the largest first-order distance (index
- * voxels) from the isosurface of the edge midpoints and centres of the boundary faces around
- * surface vertices a and b (b < 0: none) with both at x, the faces with both or with a vertex
- * on a border plane left out; infinity when out of memory. vm__imp_chord_ok: 1 when that is
- * within CHORD_SHARE of surface_tolerance or no more than the faces have now, or when the
- * check is off. */
-double vm__imp_chord_error(vm__imp *w, vm_index a, vm_index b, const double x[3]);
+/* The surface_chords check: 1 when, with surface vertex a (and b, b < 0: none, merged into
+ * it) at x, the edge midpoints and centres of the boundary faces around them (those with a
+ * vertex on a border plane left out) lie within CHORD_SHARE of surface_tolerance of the
+ * isosurface (first-order distance, index voxels) or no farther than the farthest of them
+ * now; 1 as well when the check is off or neither is a surface vertex. */
 int vm__imp_chord_ok(vm__imp *w, vm_index a, vm_index b, const double x[3]);
 
 /* The boundary guard: no operation may make two boundary triangles cross. */

@@ -514,7 +514,8 @@ static int band_constrain(const vm__imp *w, vm_index a, double x[3]) {
         if (gl > GRAD_MIN && isfinite(f) && fabs(f) <= band * gl) {
             vm__imp_to_index(w, vm__imp_p0(w, a), ijk0);
             vm__sub3(ijk, ijk0, d);
-            return vm__dot3(d, d) <= vm__imp_bound(w, a) * vm__imp_bound(w, a);
+            return vm__dot3(d, d) <= vm__imp_bound(w, a) * vm__imp_bound(w, a) &&
+                   box_ok(w, a, x);
         }
     }
     return vm__imp_project(w, a, x);
@@ -530,11 +531,13 @@ static double iso_distance(const vm__imp *w, double iso, const double x[3]) {
     return fabs(f) / gl;
 }
 
-/* The largest iso_distance at the samples of the boundary faces around u with u at x,
- * less those with vertex skip or with a vertex on a border plane (their faces there lie on
- * the plane, not the isosurface), into *worst; 0 when out of memory. */
-static int chord_faces(vm__imp *w, vm_index u, vm_index skip, const double x[3], double iso,
+/* The largest iso_distance from u's isosurface at the samples (edge midpoints and centres)
+ * of the boundary faces around surface vertex u with u at x, less those with vertex skip or
+ * with a vertex on a border plane (their faces there lie on the plane, not the isosurface),
+ * into *worst; 0 when out of memory. */
+static int chord_faces(vm__imp *w, vm_index u, vm_index skip, const double x[3],
                        double *worst) {
+    double iso = w->iso_hi[u] ? w->hi : w->lo;
     const vm_index *e;
     int nf = vm__imp_guard_faces(w, u, &e);
     if (nf < 0) return 0;
@@ -557,10 +560,12 @@ static int chord_faces(vm__imp *w, vm_index u, vm_index skip, const double x[3],
     return 1;
 }
 
-double vm__imp_chord_error(vm__imp *w, vm_index a, vm_index b, const double x[3]) {
-    double iso = w->iso_hi[a] ? w->hi : w->lo, worst = 0;
-    if (w->cls[a] == VM__IMP_SURF && !chord_faces(w, a, b, x, iso, &worst)) return INFINITY;
-    if (b >= 0 && w->cls[b] == VM__IMP_SURF && !chord_faces(w, b, a, x, iso, &worst))
+/* The largest of chord_faces over surface vertices a and b (b < 0: none), both at x, each
+ * without the faces holding the other; infinity when out of memory. */
+static double chord_error(vm__imp *w, vm_index a, vm_index b, const double x[3]) {
+    double worst = 0;
+    if (w->cls[a] == VM__IMP_SURF && !chord_faces(w, a, b, x, &worst)) return INFINITY;
+    if (b >= 0 && w->cls[b] == VM__IMP_SURF && !chord_faces(w, b, a, x, &worst))
         return INFINITY;
     return worst;
 }
@@ -568,14 +573,14 @@ double vm__imp_chord_error(vm__imp *w, vm_index a, vm_index b, const double x[3]
 int vm__imp_chord_ok(vm__imp *w, vm_index a, vm_index b, const double x[3]) {
     if (!w->o->surface_chords || !w->v) return 1;
     if (w->cls[a] != VM__IMP_SURF && (b < 0 || w->cls[b] != VM__IMP_SURF)) return 1;
-    double after = vm__imp_chord_error(w, a, b, x);
+    double after = chord_error(w, a, b, x);
     if (after <= CHORD_SHARE * w->o->surface_tolerance) return 1;
-    /* before: the faces as they are (a's and b's, with b's own position for its faces) */
-    double iso = w->iso_hi[a] ? w->hi : w->lo, before = 0;
-    if (w->cls[a] == VM__IMP_SURF && !chord_faces(w, a, -1, w->p + 3 * (size_t)a, iso, &before))
+    /* before: every face around a and b as it is now */
+    double before = 0;
+    if (w->cls[a] == VM__IMP_SURF && !chord_faces(w, a, -1, w->p + 3 * (size_t)a, &before))
         return 0;
     if (b >= 0 && w->cls[b] == VM__IMP_SURF &&
-        !chord_faces(w, b, -1, w->p + 3 * (size_t)b, iso, &before))
+        !chord_faces(w, b, -1, w->p + 3 * (size_t)b, &before))
         return 0;
     return after <= before;
 }
@@ -595,7 +600,7 @@ int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]) {
         return 1;
     case VM__IMP_SURF:
     case VM__IMP_IFACE:
-        if (w->v && w->cls[a] == VM__IMP_SURF) return band_constrain(w, a, x) && box_ok(w, a, x);
+        if (w->v && w->cls[a] == VM__IMP_SURF) return band_constrain(w, a, x);
         vm__sub3(x, p0, d);
         {
             double s = vm__dot3(d, n);
