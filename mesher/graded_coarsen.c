@@ -20,7 +20,7 @@
  * normal so that chords straddle the surface, interior ones to their neighbours' mean) and
  * poorly shaped tets are flipped (2-3 and 3-2) where that betters them; after the rounds,
  * tets beyond 15..150 degrees are repaired by moves, collapses and peels. Vertices on the
- * volume's border planes stay. */
+ * volume's border planes move only by collapses within their plane (plane_ok). */
 #include "../core/core.h"
 #include "../quality/tet_internal.h"
 #include "graded_internal.h"
@@ -84,7 +84,7 @@ typedef struct co {
     ilist *vt;          /* vertex -> live tets */
     ilist *vs;          /* vertex -> samples whose triangle may hold it (lazily pruned) */
     unsigned char *bnd; /* vertex on the boundary */
-    unsigned char *fix; /* vertex that stays (on a border plane of the volume) */
+    unsigned char *fix; /* the volume's border planes a vertex lies on (bit 2 r + side) */
     unsigned char *dead_v, *dead_t;
     unsigned char *free_faces; /* per tet: bit k when no other live tet has its face k */
     double (*sp)[3];   /* isosurface samples (world) */
@@ -641,13 +641,65 @@ static void stamp_next(scratch *W, size_t nv) {
     W->vstamp += 2;
 }
 
+/* Whether a boundary face with corners x, y, z lies in border plane bit `pl`. */
+static int in_plane(const co *C, int64_t x, int64_t y, int64_t z, unsigned pl) {
+    return (C->fix[x] & C->fix[y] & C->fix[z] & pl) != 0;
+}
+
+/* A vertex a on one border plane may collapse onto b on the same plane: inside the flat
+ * face where the material meets the plane (all of a's boundary faces in the plane: the
+ * face's outline stays), or along its rim (a's boundary faces in the plane and off it meet
+ * in exactly two edges of a, and ab is one of them: the rim's new chord is an edge of a
+ * face off the plane, which check() holds to the distance bound). A vertex on two planes
+ * stays. */
+static int plane_ok(const co *C, int32_t a, int32_t b) {
+    unsigned pa = C->fix[a];
+    if ((pa & (pa - 1)) || !(C->fix[b] & pa)) return 0;
+    enum { RIM_MAX = 64 };
+    int32_t other[RIM_MAX];
+    unsigned char kind[RIM_MAX]; /* bit 0: in a face in the plane; bit 1: in one off it */
+    int n = 0, off = 0;
+    const ilist *ta = &C->vt[a];
+    for (int32_t i = 0; i < ta->n; i++) {
+        const vm_index *c = tet(C, ta->v[i]);
+        for (int k = 0; k < 4; k++) {
+            if (c[k] == a || !face_free(C, ta->v[i], k)) continue;
+            int64_t q[2];
+            int nq = 0;
+            for (int j = 1; j < 4; j++)
+                if (c[(k + j) & 3] != a) q[nq++] = c[(k + j) & 3];
+            unsigned bit = in_plane(C, a, q[0], q[1], pa) ? 1u : 2u;
+            if (bit == 2) off = 1;
+            for (int j = 0; j < 2; j++) {
+                int e = 0;
+                while (e < n && other[e] != q[j])
+                    e++;
+                if (e == n) {
+                    if (n == RIM_MAX) return 0;
+                    other[n] = (int32_t)q[j];
+                    kind[n++] = 0;
+                }
+                kind[e] |= (unsigned char)bit;
+            }
+        }
+    }
+    if (!off) return 1;
+    int rim = 0, ab = 0;
+    for (int e = 0; e < n; e++)
+        if (kind[e] == 3) {
+            rim++;
+            if (other[e] == b) ab = 1;
+        }
+    return rim == 2 && ab;
+}
+
 /* Whether collapsing a onto b keeps every condition; fills the plan (b's boundary star after
  * the collapse). */
 static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1, set *s2,
                  set *s3) {
     W->late = 0;
     W->reached = 0;
-    if (C->fix[a] || (C->bnd[a] && !C->bnd[b])) return 0;
+    if ((C->bnd[a] && !C->bnd[b]) || (C->fix[a] && !plane_ok(C, a, b))) return 0;
     const ilist *ta = &C->vt[a], *tb = &C->vt[b];
     /* the changed tets first (cheap, and most collapses fail here): positive, within the
      * angle limits or no worse than the worst tet around a now, new edges within bounds */
@@ -825,7 +877,10 @@ static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1
                          *pz = pt(C, c[z] == a ? b : c[z]), *pk = pt(C, c[k]);
             double n[3];
             out_normal(px, py, pz, pk, n);
-            if (!tri_near(C, px, py, pz, n)) return 0;
+            /* (a face in a's border plane closes the material there: no isosurface) */
+            int flat = C->fix[a] && in_plane(C, c[x] == a ? b : c[x], c[y] == a ? b : c[y],
+                                             c[z] == a ? b : c[z], C->fix[a]);
+            if (!flat && !tri_near(C, px, py, pz, n)) return 0;
             area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
             if (P->ntri == SET_MAX) return 0;
             int32_t *T = P->tri[P->ntri++];
@@ -2196,7 +2251,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             if (face_free(&C, (int32_t)t, k))
                 for (int j = 1; j < 4; j++)
                     C.bnd[tet(&C, (int32_t)t)[(k + j) & 3]] = 1;
-    /* vertices on the volume's border planes stay */
+    /* the border planes each vertex lies on */
     for (size_t v = 0; v < C.nv; v++) {
         double w[3], ijk[3];
         for (int r = 0; r < 3; r++)
@@ -2204,7 +2259,8 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
         for (int r = 0; r < 3; r++) {
             ijk[r] = C.inv[r][0] * w[0] + C.inv[r][1] * w[1] + C.inv[r][2] * w[2];
             double tol = 1e-6;
-            if (ijk[r] < tol || ijk[r] > (double)(f->n[r] - 1) - tol) C.fix[v] = 1;
+            if (ijk[r] < tol) C.fix[v] |= (unsigned char)(1u << (2 * r));
+            if (ijk[r] > (double)(f->n[r] - 1) - tol) C.fix[v] |= (unsigned char)(2u << (2 * r));
         }
     }
     if (C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
