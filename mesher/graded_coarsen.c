@@ -10,7 +10,9 @@
  * - the distance both ways: every new boundary triangle, sampled at half a voxel, lies
  *   within the bound of the isosurface (|phi| / |grad phi|, the first-order distance, or
  *   near the bound the length of Newton steps onto the surface) and
- *   faces the way the field's gradient does; every sample of the isosurface (the crossings of
+ *   faces the way the field's gradient does (or, within the bound of a border plane and
+ *   facing out of it, lies in the material's section of the plane or near its rim:
+ *   near_plane); every sample of the isosurface (the crossings of
  *   the voxel edges, as marching cubes places its vertices) stays within the bound of the
  *   boundary (or within its distance on the stuffed mesh, when that was already over).
  * A vertex is moved onto the other end of the edge (a collapse moves no vertex); an edge
@@ -388,6 +390,73 @@ static int tri_near(const co *C, const double *p0, const double *p1, const doubl
                     const double n[3]) {
     double lo, hi;
     return tri_errors(C, p0, p1, p2, n, &lo, &hi) && -lo <= C->D && hi <= C->D;
+}
+
+/* Whether a boundary triangle in a border plane (it closes the material where the material
+ * meets the border) lies in the material's section of the plane, or within the distance
+ * bound of the section's rim: sampled every half voxel, by the first-order distance (the
+ * length of Newton steps onto the surface near the bound). */
+static int flat_near(const co *C, const double *p0, const double *p1, const double *p2) {
+    double l = sqrt(fmax(dist2(p0, p1), fmax(dist2(p1, p2), dist2(p0, p2))));
+    int k = (int)ceil(l / (0.5 * C->voxel));
+    if (k < 2) k = 2;
+    if (k > 256) return 0;
+    for (int i = 0; i <= k; i++)
+        for (int j = 0; i + j <= k; j++) {
+            double a = (double)i / k, b = (double)j / k, x[3], phi, g[3];
+            for (int d = 0; d < 3; d++)
+                x[d] = p0[d] + a * (p1[d] - p0[d]) + b * (p2[d] - p0[d]);
+            if (!phi_grad(C, x, &phi, g)) return 0;
+            if (phi >= 0) continue;
+            double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+            if (!(gn > 0)) return 0;
+            double e = phi / gn;
+            if (-e > 0.5 * C->D && !newton_distance(C, x, phi, g, &e)) return 0;
+            if (-e > C->D) return 0;
+        }
+    return 1;
+}
+
+/* Whether a boundary triangle lies within the distance bound of a border plane where the
+ * material meets it, facing out of the volume (within 60 degrees): the flat faces closing
+ * the material there, and the faces a hair off the plane that the stuffing leaves beside
+ * their rim, held by flat_near instead of tri_near. */
+static int near_plane(const co *C, const double *p0, const double *p1, const double *p2,
+                      const double n[3]) {
+    const gr_field *f = C->f;
+    const double *p[3] = {p0, p1, p2};
+    double u[3][3];
+    for (int v = 0; v < 3; v++)
+        for (int r = 0; r < 3; r++) {
+            u[v][r] = 0;
+            for (int d = 0; d < 3; d++)
+                u[v][r] += C->inv[r][d] * (p[v][d] - f->v->origin[d]);
+        }
+    double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    for (int r = 0; r < 3; r++) {
+        /* |grad ijk[r]|: index units per world unit across the plane */
+        double gr = sqrt(C->inv[r][0] * C->inv[r][0] + C->inv[r][1] * C->inv[r][1] +
+                         C->inv[r][2] * C->inv[r][2]);
+        for (int side = 0; side < 2; side++) {
+            double plane = side ? (double)(f->n[r] - 1) : 0;
+            int near = 1;
+            for (int v = 0; v < 3 && near; v++)
+                near = fabs(u[v][r] - plane) <= C->D * gr;
+            if (!near) continue;
+            double out = (C->inv[r][0] * n[0] + C->inv[r][1] * n[1] + C->inv[r][2] * n[2]) *
+                         (side ? 1 : -1);
+            if (out >= GR_CO_NORMAL_COS * gr * nn) return flat_near(C, p0, p1, p2);
+        }
+    }
+    return 0;
+}
+
+/* A collapse's new boundary triangle near the isosurface (tri_near) or a border plane
+ * (near_plane; moves and peels keep to tri_near: with it there too the CT head's
+ * isosurface-to-boundary distance grew from 0.774 to 0.796 voxel for 0.5% fewer tets). */
+static int tri_fits(const co *C, const double *p0, const double *p1, const double *p2,
+                    const double n[3]) {
+    return tri_near(C, p0, p1, p2, n) || near_plane(C, p0, p1, p2, n);
 }
 
 /* Squared distance from x to the triangle (a, b, c): the nearest point by the triangle's
@@ -877,10 +946,7 @@ static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1
                          *pz = pt(C, c[z] == a ? b : c[z]), *pk = pt(C, c[k]);
             double n[3];
             out_normal(px, py, pz, pk, n);
-            /* (a face in a's border plane closes the material there: no isosurface) */
-            int flat = C->fix[a] && in_plane(C, c[x] == a ? b : c[x], c[y] == a ? b : c[y],
-                                             c[z] == a ? b : c[z], C->fix[a]);
-            if (!flat && !tri_near(C, px, py, pz, n)) return 0;
+            if (!tri_fits(C, px, py, pz, n)) return 0;
             area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
             if (P->ntri == SET_MAX) return 0;
             int32_t *T = P->tri[P->ntri++];
