@@ -348,25 +348,37 @@ static int newton_distance(const co *C, const double x[3], double phi, const dou
     return 1;
 }
 
+/* Steps per side of a triangle's samples, every half voxel (at least 2); 0 past 256. */
+static int tri_steps(const co *C, const double *p0, const double *p1, const double *p2) {
+    double l = sqrt(fmax(dist2(p0, p1), fmax(dist2(p1, p2), dist2(p0, p2))));
+    int k = (int)ceil(l / (0.5 * C->voxel));
+    if (k < 2) k = 2;
+    return k > 256 ? 0 : k;
+}
+
+/* The triangle's point p0 + a (p1 - p0) + b (p2 - p0) into x. */
+static void tri_at(const double *p0, const double *p1, const double *p2, double a, double b,
+                   double x[3]) {
+    for (int d = 0; d < 3; d++)
+        x[d] = p0[d] + a * (p1[d] - p0[d]) + b * (p2[d] - p0[d]);
+}
+
 /* The signed first-order distance phi / |grad phi| (positive inside) over the triangle
  * (world points), sampled every half voxel, corners included: its range [*lo, *hi]. 0 when a
  * sample has no gradient, lies beyond the volume, or where the triangle's outward normal n
  * (any length) is off -grad phi by over 60 degrees. */
 static int tri_errors(const co *C, const double *p0, const double *p1, const double *p2,
                       const double n[3], double *lo, double *hi) {
-    double l = sqrt(fmax(dist2(p0, p1), fmax(dist2(p1, p2), dist2(p0, p2))));
-    int k = (int)ceil(l / (0.5 * C->voxel));
-    if (k < 2) k = 2;
-    if (k > 256) return 0;
+    int k = tri_steps(C, p0, p1, p2);
+    if (!k) return 0;
     double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     if (!(nn > 0)) return 0;
     *lo = INFINITY;
     *hi = -INFINITY;
     for (int i = 0; i <= k; i++)
         for (int j = 0; i + j <= k; j++) {
-            double a = (double)i / k, b = (double)j / k, x[3], phi, g[3];
-            for (int d = 0; d < 3; d++)
-                x[d] = p0[d] + a * (p1[d] - p0[d]) + b * (p2[d] - p0[d]);
+            double x[3], phi, g[3];
+            tri_at(p0, p1, p2, (double)i / k, (double)j / k, x);
             if (!phi_grad(C, x, &phi, g)) return 0;
             double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
             if (!(gn > 0)) return 0;
@@ -397,15 +409,12 @@ static int tri_near(const co *C, const double *p0, const double *p1, const doubl
  * bound of the section's rim: sampled every half voxel, by the first-order distance (the
  * length of Newton steps onto the surface near the bound). */
 static int flat_near(const co *C, const double *p0, const double *p1, const double *p2) {
-    double l = sqrt(fmax(dist2(p0, p1), fmax(dist2(p1, p2), dist2(p0, p2))));
-    int k = (int)ceil(l / (0.5 * C->voxel));
-    if (k < 2) k = 2;
-    if (k > 256) return 0;
+    int k = tri_steps(C, p0, p1, p2);
+    if (!k) return 0;
     for (int i = 0; i <= k; i++)
         for (int j = 0; i + j <= k; j++) {
-            double a = (double)i / k, b = (double)j / k, x[3], phi, g[3];
-            for (int d = 0; d < 3; d++)
-                x[d] = p0[d] + a * (p1[d] - p0[d]) + b * (p2[d] - p0[d]);
+            double x[3], phi, g[3];
+            tri_at(p0, p1, p2, (double)i / k, (double)j / k, x);
             if (!phi_grad(C, x, &phi, g)) return 0;
             if (phi >= 0) continue;
             double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
