@@ -157,14 +157,20 @@ static double vol6(const double *a, const double *b, const double *c, const doub
            u[2] * (v[0] * w[1] - v[1] * w[0]);
 }
 
+/* The index point of world point x. */
+static void to_index(const co *C, const double x[3], double ijk[3]) {
+    double w[3];
+    for (int r = 0; r < 3; r++)
+        w[r] = x[r] - C->f->v->origin[r];
+    for (int r = 0; r < 3; r++)
+        ijk[r] = C->inv[r][0] * w[0] + C->inv[r][1] * w[1] + C->inv[r][2] * w[2];
+}
+
 /* phi and its gradient (world) at world point x; 0 when x is beyond the volume. */
 static int phi_grad(const co *C, const double x[3], double *phi, double g[3]) {
     const gr_field *f = C->f;
-    double w[3], ijk[3];
-    for (int r = 0; r < 3; r++)
-        w[r] = x[r] - f->v->origin[r];
-    for (int r = 0; r < 3; r++)
-        ijk[r] = C->inv[r][0] * w[0] + C->inv[r][1] * w[1] + C->inv[r][2] * w[2];
+    double ijk[3];
+    to_index(C, x, ijk);
     int64_t c[3];
     double t[3];
     for (int d = 0; d < 3; d++) {
@@ -433,14 +439,10 @@ static int flat_near(const co *C, const double *p0, const double *p1, const doub
 static int near_plane(const co *C, const double *p0, const double *p1, const double *p2,
                       const double n[3]) {
     const gr_field *f = C->f;
-    const double *p[3] = {p0, p1, p2};
     double u[3][3];
-    for (int v = 0; v < 3; v++)
-        for (int r = 0; r < 3; r++) {
-            u[v][r] = 0;
-            for (int d = 0; d < 3; d++)
-                u[v][r] += C->inv[r][d] * (p[v][d] - f->v->origin[d]);
-        }
+    to_index(C, p0, u[0]);
+    to_index(C, p1, u[1]);
+    to_index(C, p2, u[2]);
     double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     for (int r = 0; r < 3; r++) {
         /* |grad ijk[r]|: index units per world unit across the plane */
@@ -528,15 +530,11 @@ static int edge_ok(const co *C, const double *p, const double *q) {
     double l2 = dist2(p, q);
     if (l2 > C->max_edge * C->max_edge) return 0;
     if (!C->f->bsize) return 1;
-    double lo3[3], hi3[3];
+    double lo3[3], hi3[3], up[3], uq[3];
+    to_index(C, p, up);
+    to_index(C, q, uq);
     for (int r = 0; r < 3; r++) {
-        double u0 = 0, u1 = 0;
-        for (int d = 0; d < 3; d++) {
-            u0 += C->inv[r][d] * (p[d] - C->f->v->origin[d]);
-            u1 += C->inv[r][d] * (q[d] - C->f->v->origin[d]);
-        }
-        u0 *= C->f->sp[r];
-        u1 *= C->f->sp[r];
+        double u0 = up[r] * C->f->sp[r], u1 = uq[r] * C->f->sp[r];
         lo3[r] = fmin(u0, u1);
         hi3[r] = fmax(u0, u1);
     }
@@ -2328,11 +2326,9 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
                     C.bnd[tet(&C, (int32_t)t)[(k + j) & 3]] = 1;
     /* the border planes each vertex lies on */
     for (size_t v = 0; v < C.nv; v++) {
-        double w[3], ijk[3];
-        for (int r = 0; r < 3; r++)
-            w[r] = pt(&C, (int64_t)v)[r] - f->v->origin[r];
+        double ijk[3];
+        to_index(&C, pt(&C, (int64_t)v), ijk);
         for (int r = 0; r < 3; r++) {
-            ijk[r] = C.inv[r][0] * w[0] + C.inv[r][1] * w[1] + C.inv[r][2] * w[2];
             double tol = 1e-6;
             if (ijk[r] < tol) C.fix[v] |= (unsigned char)(1u << (2 * r));
             if (ijk[r] > (double)(f->n[r] - 1) - tol) C.fix[v] |= (unsigned char)(2u << (2 * r));
