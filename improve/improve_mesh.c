@@ -574,7 +574,7 @@ int vm__imp_chord_ok(vm__imp *w, vm_index a, vm_index b, const double x[3]) {
     if (!w->o->surface_chords || !w->v) return 1;
     if (w->cls[a] != VM__IMP_SURF && (b < 0 || w->cls[b] != VM__IMP_SURF)) return 1;
     double after = chord_error(w, a, b, x);
-    if (after <= CHORD_SHARE * w->o->surface_tolerance) return 1;
+    if (after <= CHORD_SHARE * w->o->surface_chords * w->o->surface_tolerance) return 1;
     /* before: every face around a and b as it is now */
     double before = 0;
     if (w->cls[a] == VM__IMP_SURF && !chord_faces(w, a, -1, w->p + 3 * (size_t)a, &before))

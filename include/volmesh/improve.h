@@ -57,7 +57,8 @@ typedef struct vm_improve_options {
     /* With a volume, 1: a surface vertex's move and an edge contraction also keep the
      * boundary triangles around the vertex within 0.8 surface_tolerance of the isosurface at
      * their edge midpoints and centres (the same first-order distance), or no farther than
-     * they were. On a coarse boundary the triangles' interiors are what lies far from the
+     * they were; k > 1: within 0.8 k surface_tolerance (a looser check, which
+     * vm_mesh_improve_graded tries with 2 before none at all; negative: VM_ERR_ARG). On a coarse boundary the triangles' interiors are what lies far from the
      * surface (a chord under a curved cap), so this keeps the isosurface near the boundary
      * too: the distance both ways. vm_mesh_improve_graded sets it. Default 0. (With or
      * without it, no surface vertex ends farther outside the volume's box than it began.) */
@@ -154,8 +155,10 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
  * neither contracts edges nor slides surface vertices over 0.2 voxel, then, only if tets are
  * still below the targets, a pass with o, once more with another seed while they are; these
  * with surface_chords set (the boundary triangles bounded too). Should tets stay below, the
- * mesh goes back to what the first of those passes made and the pass with o runs without
- * surface_chords, up to three times with other seeds. r sums every pass run (its *_before
+ * same with surface_chords 2 (the looser bound): the pass with o twice from what the first
+ * of those passes made, then both from the input; then the pass with o without
+ * surface_chords from what the first pass made, up to three times with other seeds, and
+ * last the whole sequence without it from the input. r sums every pass run (its *_before
  * figures are the input's, its *_after ones the last pass's). Arguments and errors as
  * vm_mesh_improve; v must be given for the bound to mean anything. */
 vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,

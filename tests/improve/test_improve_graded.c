@@ -96,9 +96,36 @@ static void thePassKeepsTheDistanceBothWays(void) {
         if (cut) { /* the plain pass, which slides surface vertices 0.8 voxel */
             check(&v, &info, 1, 0, 0);
             check(&v, &info, 1, 1, 0);
+            check(&v, &info, 1, 2, 0); /* the looser check the graded pass tries before none */
         }
         vm_volume_free(&v);
     }
 }
 
-TEST_MAIN(T(thePassKeepsTheDistanceBothWays))
+/* A negative surface_chords is refused before any work, and the mesh is left as it was. */
+static void aNegativeChordCheckIsRefused(void) {
+    vm_volume v;
+    vm_phantom_info info;
+    vm_error err;
+    vm_status s = vm_phantom_make(VM_PHANTOM_SPHERE, 24, 0.0, 1u, &v, &info, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return;
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.graded = 1;
+    vm_mesh m;
+    s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK_OK(s, &err);
+    if (s == VM_OK) {
+        vm_improve_options io;
+        vm_improve_options_default(&io);
+        io.surface_chords = -1;
+        size_t nc = m.ncells;
+        s = vm_mesh_improve(&m, &v, &io, NULL, &err);
+        CHECK_MSG(s == VM_ERR_ARG && m.ncells == nc, "surface_chords -1: status %d", (int)s);
+        vm_mesh_free(&m);
+    }
+    vm_volume_free(&v);
+}
+
+TEST_MAIN(T(thePassKeepsTheDistanceBothWays), T(aNegativeChordCheckIsRefused))
