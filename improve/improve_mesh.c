@@ -543,7 +543,8 @@ static int chord_faces(vm__imp *w, vm_index u, vm_index skip, const double x[3],
     if (nf < 0) return 0;
     for (int i = 0; i < nf; i++) {
         vm_index c = e[2 * i], d = e[2 * i + 1];
-        if (c == skip || d == skip || w->cls[c] == VM__IMP_FLAT || w->cls[d] == VM__IMP_FLAT)
+        if (c == skip || d == skip || w->cls[c] == VM__IMP_FLAT || w->cls[d] == VM__IMP_FLAT ||
+            (w->planes[u] & w->planes[c] & w->planes[d]))
             continue;
         const double *pc = w->p + 3 * (size_t)c, *pd = w->p + 3 * (size_t)d;
         double s[3][3];
@@ -562,25 +563,29 @@ static int chord_faces(vm__imp *w, vm_index u, vm_index skip, const double x[3],
 
 /* The largest of chord_faces over surface vertices a and b (b < 0: none), both at x, each
  * without the faces holding the other; infinity when out of memory. */
+/* Whether the boundary faces around vertex i are bounded: an isosurface vertex, or one on
+ * the rim of a border plane (fixed there, but a contraction may merge it into a neighbour on
+ * the plane, and its faces off the plane are the isosurface's). */
+static int chorded(const vm__imp *w, vm_index i) {
+    return w->cls[i] == VM__IMP_SURF || (w->cls[i] == VM__IMP_FIXED && w->planes[i]);
+}
+
 static double chord_error(vm__imp *w, vm_index a, vm_index b, const double x[3]) {
     double worst = 0;
-    if (w->cls[a] == VM__IMP_SURF && !chord_faces(w, a, b, x, &worst)) return INFINITY;
-    if (b >= 0 && w->cls[b] == VM__IMP_SURF && !chord_faces(w, b, a, x, &worst))
-        return INFINITY;
+    if (chorded(w, a) && !chord_faces(w, a, b, x, &worst)) return INFINITY;
+    if (b >= 0 && chorded(w, b) && !chord_faces(w, b, a, x, &worst)) return INFINITY;
     return worst;
 }
 
 int vm__imp_chord_ok(vm__imp *w, vm_index a, vm_index b, const double x[3]) {
     if (!w->o->surface_chords || !w->v) return 1;
-    if (w->cls[a] != VM__IMP_SURF && (b < 0 || w->cls[b] != VM__IMP_SURF)) return 1;
+    if (!chorded(w, a) && (b < 0 || !chorded(w, b))) return 1;
     double after = chord_error(w, a, b, x);
     if (after <= CHORD_SHARE * w->o->surface_chords * w->o->surface_tolerance) return 1;
     /* before: every face around a and b as it is now */
     double before = 0;
-    if (w->cls[a] == VM__IMP_SURF && !chord_faces(w, a, -1, w->p + 3 * (size_t)a, &before))
-        return 0;
-    if (b >= 0 && w->cls[b] == VM__IMP_SURF &&
-        !chord_faces(w, b, -1, w->p + 3 * (size_t)b, &before))
+    if (chorded(w, a) && !chord_faces(w, a, -1, w->p + 3 * (size_t)a, &before)) return 0;
+    if (b >= 0 && chorded(w, b) && !chord_faces(w, b, -1, w->p + 3 * (size_t)b, &before))
         return 0;
     return after <= before;
 }

@@ -451,14 +451,17 @@ static void imp_classify(vm__imp *w, size_t i, const uint8_t *bnd, const uint8_t
     else w->cls[i] = VM__IMP_FIXED;
     if (w->cls[i] == VM__IMP_IFACE)
         w->bound[w->ci[i]] = o->max_interface_move * shortest_edge(w, i);
-    if (w->cls[i] != VM__IMP_SURF) return;
+    /* a rim vertex of a border plane: which isosurface its faces off the plane follow (the
+     * boundary triangles' check, vm__imp_chord_ok) */
+    int rim = w->cls[i] == VM__IMP_FIXED && w->planes[i] && bnd[i];
+    if (w->cls[i] != VM__IMP_SURF && !rim) return;
     if (w->v) {
         double ijk[3];
         vm__imp_to_index(w, w->p + 3 * i, ijk);
         double f = field_at(w, ijk);
         w->iso_hi[i] = w->has_hi && (!w->has_lo || fabs(f - w->hi) < fabs(f - w->lo));
-        w->bound[w->ci[i]] = o->max_surface_move;
-    } else {
+        if (!rim) w->bound[w->ci[i]] = o->max_surface_move;
+    } else if (!rim) {
         double L = shortest_edge(w, i);
         w->bound[w->ci[i]] = L > 0.0 ? o->max_surface_move_free * L : 0.0;
     }
