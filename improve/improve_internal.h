@@ -206,9 +206,10 @@ int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]);
 
 /* The surface_chords check: 1 when, with surface vertex a (and b, b < 0: none, merged into
  * it) at x, the edge midpoints and centres of the boundary faces around them (those with a
- * vertex on a border plane left out) lie within CHORD_SHARE of surface_tolerance of the
- * isosurface (first-order distance, index voxels) or no farther than the farthest of them
- * now; 1 as well when the check is off or neither is a surface vertex. */
+ * vertex inside a flat border face, or lying in a border plane, left out) lie within
+ * CHORD_SHARE times surface_chords of surface_tolerance of the isosurface (first-order
+ * distance, index voxels) or no farther than the farthest of them now; 1 as well when the
+ * check is off or neither is a surface vertex nor a border plane's rim vertex. */
 int vm__imp_chord_ok(vm__imp *w, vm_index a, vm_index b, const double x[3]);
 
 /* The boundary guard: no operation may make two boundary triangles cross. */

@@ -532,9 +532,9 @@ static double iso_distance(const vm__imp *w, double iso, const double x[3]) {
 }
 
 /* The largest iso_distance from u's isosurface at the samples (edge midpoints and centres)
- * of the boundary faces around surface vertex u with u at x, less those with vertex skip or
- * with a vertex on a border plane (their faces there lie on the plane, not the isosurface),
- * into *worst; 0 when out of memory. */
+ * of the boundary faces around vertex u with u at x, less those with vertex skip, with a
+ * vertex inside a flat border face, or lying in a border plane (those lie on the plane, not
+ * the isosurface), into *worst; 0 when out of memory. */
 static int chord_faces(vm__imp *w, vm_index u, vm_index skip, const double x[3],
                        double *worst) {
     double iso = w->iso_hi[u] ? w->hi : w->lo;
