@@ -49,13 +49,16 @@ static const char *mesh_help =
 ;
 static const char *mesh_help_sizing =
     "  --graded                graded octree sized in world units (isosurface stuffing; also\n"
-    "                          set by any of the six below; docs/SIZING.md)\n"
+    "                          set by any of the seven below; docs/SIZING.md)\n"
     "  --max-edge L            no element edge longer than L (world units, e.g. mm; with\n"
     "                          --labels: interior cells of at most L, boundaries uniform)\n"
     "  --min-edge L            smallest cell edge (default: one voxel)\n"
     "  --distance D            boundary within D of the isosurface (default: half a voxel)\n"
     "  --size-field FILE       an image (any readable format, its own geometry) giving the\n"
     "                          largest edge at each point, in world units\n"
+    "  --min-layers N          thin parts at least N elements thick: no edge longer than\n"
+    "                          the local thickness over N (1..100; parts over 16 voxels\n"
+    "                          thick unbounded; --min-edge below a voxel for thinner)\n"
     "  --grading R             sizes grow by R per cell on average (1.1 <= R < 2; default\n"
     "                          2: neighbouring cells differ by 2x at most)\n"
     "  --tets N                about N tets: the sizes above scaled together (graded; the\n"
@@ -372,7 +375,8 @@ static const char *const mesh_valued[] = {
     "--deck",     "--order",        "--labels",     "--min-island",     "--max-memory",
     "--method",   "--error",        "--slabs",      "--size-per-label", "--improve-parts",
     "--materials", "--modulus",   "--material-bins", "--max-edge", "--min-edge",
-    "--distance", "--size-field", "--tets", "--grading", "--compress", "--label-edge"};
+    "--distance", "--size-field", "--tets", "--grading", "--compress", "--label-edge",
+    "--min-layers"};
 
 /* 1 when option a takes a value. */
 static int mesh_takes_value(const char *a) {
@@ -464,6 +468,11 @@ static int shape_option(mesh_args *m, char **argv, int *i, int *taken) {
         m->o.graded = 1;
     } else if (vm_cli_is(a, "--size-field", NULL)) {
         m->size_field_path = argv[++*i];
+        m->o.graded = 1;
+    } else if (vm_cli_is(a, "--min-layers", NULL)) {
+        long n = 0;
+        if (vm_cli_int(a, argv[++*i], 1, 100, &n)) return VM_EXIT_INPUT;
+        m->o.min_layers = (int)n;
         m->o.graded = 1;
     } else if (vm_cli_is(a, "--no-coarsen", NULL)) {
         m->o.no_coarsen = 1;
@@ -651,17 +660,18 @@ static int option_conflicts(const mesh_args *m) {
         return vm_cli_fail("mesh: --modulus needs the whole volume and gives the materials: "
                            "not with --labels, --elements tri|quad, --slabs or --materials");
     if (m->o.graded && (m->have_slabs || m->surface_elements || o->adaptive))
-        return vm_cli_fail("mesh: --graded, --min-edge, --distance, --size-field, --grading and --tets mesh "
+        return vm_cli_fail("mesh: --graded, --min-edge, --distance, --size-field, --min-layers, --grading and "
+                           "--tets mesh "
                            "tetrahedra of the whole volume: not with --slabs, --adaptive or "
                            "--elements tri|quad");
     if (m->have_labels && o->graded && !(o->max_edge > 0))
         return vm_cli_fail("mesh: --graded meshes one material (--iso or --range); with "
                            "--labels, --max-edge L sizes the cells");
     if (m->have_labels && (o->min_edge > 0 || o->distance > 0 || m->size_field_path ||
-                           o->tets > 0 || o->grading > 0))
+                           o->tets > 0 || o->grading > 0 || o->min_layers > 0))
         return vm_cli_fail("mesh: with --labels, --max-edge sizes the cells; --min-edge, "
-                           "--distance, --size-field, --grading and --tets mesh one material "
-                           "(--iso or --range)");
+                           "--distance, --size-field, --min-layers, --grading and --tets mesh "
+                           "one material (--iso or --range)");
     if (m->have_slabs &&
         (m->have_labels || m->denoise || m->surface_elements || o->elements != VM_TET4))
         return vm_cli_fail("mesh: --slabs meshes tetrahedra: not with --labels, --denoise or "

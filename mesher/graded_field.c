@@ -102,6 +102,17 @@ vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_optio
             return s;
         }
     }
+    if (o->min_layers > 0) {
+        /* thicknesses up to 16 voxels (of the largest spacing) count, and none where the
+         * bound would be above --max-edge */
+        double smax = fmax(f->sp[0], fmax(f->sp[1], f->sp[2])), cap = 8 * smax;
+        if (o->max_edge > 0) cap = fmin(cap, 0.5 * o->min_layers * o->max_edge);
+        vm_status s = vm__gr_thickness_blocks(f, o->min_layers, cap, err);
+        if (s) {
+            vm__gr_field_free(f);
+            return s;
+        }
+    }
     return VM_OK;
 }
 

@@ -56,6 +56,11 @@ double vm__gr_phi(const gr_field *f, const double u[3]);
  * frame); INFINITY without a size field. */
 double vm__gr_size_min(const gr_field *f, const double lo[3], const double hi[3]);
 
+/* Joins the local thickness over `layers` to the per-block sizes (bsize, made when there is
+ * no size field): mesher/graded_thickness.c. Balls of radius over cap (world) are not
+ * painted. VM_ERR_NOMEM. */
+vm_status vm__gr_thickness_blocks(gr_field *f, int layers, double cap, vm_error *err);
+
 vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_options *o,
                             vm_error *err);
 void vm__gr_field_free(gr_field *f);

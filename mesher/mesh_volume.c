@@ -178,6 +178,10 @@ vm_status vm__mesh_options_check(const vm_mesh_options *o, vm_error *err) {
                             "mesh: --max-edge, --min-edge and --distance must be >= 0 and finite");
     if (o->grading != 0 && !(o->grading >= 1.1 && o->grading <= 1e30))
         return vm_error_set(err, VM_ERR_ARG, "mesh: --grading %g must be >= 1.1", o->grading);
+    if (o->min_layers != 0 && (!o->graded || o->min_layers < 1 || o->min_layers > 100))
+        return vm_error_set(err, VM_ERR_ARG,
+                            "mesh: --min-layers %d needs graded sizing and 1..100 layers",
+                            o->min_layers);
     if (o->tets > 0 && !o->graded)
         return vm_error_set(err, VM_ERR_ARG, "mesh: a tet target needs graded sizing");
     if (o->size_field && (!o->graded || !o->size_field->data))

@@ -42,6 +42,12 @@ typedef struct vm_mesh_options {
      * are scaled together until the octree gives it; the distance is then not refined.
      * vm_mesh_stats.size_scale says the scale used. 0: none. */
     size_t tets;
+    /* Graded: thin parts at least this many elements thick: no edge longer than the local
+     * thickness of the material over N (the diameter of the largest ball of inside voxels
+     * holding the point, measured between voxel centres; parts over 16 voxels thick, or
+     * over N times --max-edge, get no bound). Sizes below the base cell are met by base
+     * cells (--min-edge lowers them). 0 (the default): none. */
+    int min_layers;
     /* Graded: 1 keeps the stuffed mesh as it is; 0 (the default) coarsens it by edge
      * collapse within the same bounds (vm_mesh_stats.coarsened counts the vertices it
      * removes). */

@@ -173,7 +173,8 @@ def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=Fa
          spacing=None, origin=None, direction=None, adaptive=False, size=1, error=0.5,
          max_level=4, method=None, improve=True, min_island=1, smooth=True, threads=None,
          progress=None, label_edge=None, graded=False, max_edge=None, min_edge=None,
-         distance=None, size_field=None, grading=None, tets=None, coarsen=True):
+         distance=None, size_field=None, grading=None, tets=None, coarsen=True,
+         min_layers=None):
     """Meshes the material of source (a Volume, or a 3-D numpy array indexed [z, y, x]).
 
     The material: iso=V (f >= V; invert=True: f <= V), range=(lo, hi) with None for an open
@@ -185,8 +186,9 @@ def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=Fa
     that label's interior, as `volmesh mesh --label-edge` (docs/SIZING.md).
     Graded sizing in world units (tets; docs/SIZING.md), as `volmesh mesh --graded` and its
     options: max_edge, min_edge, distance (lengths), size_field (a Volume or a path: the
-    largest edge at each point), grading (ratio >= 1.1), tets (a target count), coarsen
-    (False keeps the stuffed mesh, --no-coarsen). Any of them sets graded=True; max_edge also
+    largest edge at each point), grading (ratio >= 1.1), tets (a target count), min_layers
+    (thin parts at least N elements thick, --min-layers), coarsen (False keeps the stuffed
+    mesh, --no-coarsen). Any of them sets graded=True; max_edge also
     sizes label meshes.
     improve runs the quality pass. threads sets the thread count for this call. progress:
     a callable(stage, done, total), called from the calling thread with the GIL held, at most
@@ -254,6 +256,11 @@ def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=Fa
         if not isinstance(tets, (int, _np.integer)) or isinstance(tets, bool) or tets < 1:
             raise ValueError(f"tets must be a whole number >= 1, not {tets!r}")
         req["tets"] = int(tets)
+    if min_layers is not None:
+        if not isinstance(min_layers, (int, _np.integer)) or isinstance(min_layers, bool) or \
+                not 1 <= min_layers <= 100:
+            raise ValueError(f"min_layers must be a whole number from 1 to 100, not {min_layers!r}")
+        req["min_layers"] = int(min_layers)
     if size_field is not None:
         sf = size_field if isinstance(size_field, Volume) else read(size_field)
         sfa = _np.ascontiguousarray(sf.array, dtype=_np.float32)
@@ -266,12 +273,12 @@ def mesh(source, *, iso=None, range=None, labels=None, elements="tet", invert=Fa
     if not coarsen:
         req["coarsen"] = False
     graded = bool(graded) or any(k in req for k in ("min_edge", "distance", "grading", "tets",
-                                                    "size_field", "coarsen")) or \
+                                                    "size_field", "coarsen", "min_layers")) or \
         ("max_edge" in req and labels is None)
     if graded:
         if labels is not None:
             raise ValueError("graded sizing (distance, min_edge, grading, tets, size_field, "
-                             "coarsen) does not go with labels=; max_edge does")
+                             "min_layers, coarsen) does not go with labels=; max_edge does")
         req["graded"] = True
     if elements not in _ELEMENTS:
         raise ValueError(f"elements must be one of {sorted(_ELEMENTS)}, not {elements!r}")

@@ -407,6 +407,7 @@ typedef struct {
     int graded, coarsen;
     double max_edge, min_edge, distance, grading;
     Py_ssize_t tets;
+    int min_layers;
     PyObject *size_field; /* (data, (nx, ny, nz), spacing, origin, direction9) or NULL */
     vm_volume sf;         /* its view while meshing */
 } mesh_request;
@@ -452,7 +453,7 @@ static int request_parse(PyObject *kw, mesh_request *r) {
                             "elements", "method", "size",       "adaptive", "error",
                             "max_level", "improve", "min_island", "smooth", "label_edge",
                             "graded", "coarsen", "max_edge", "min_edge", "distance",
-                            "grading", "tets", "size_field", NULL};
+                            "grading", "tets", "size_field", "min_layers", NULL};
     Py_ssize_t min_island = 1;
     r->size = 1;
     r->error = 0.5;
@@ -463,10 +464,10 @@ static int request_parse(PyObject *kw, mesh_request *r) {
     PyObject *empty = PyTuple_New(0);
     if (!empty) return -1;
     int ok = PyArg_ParseTupleAndKeywords(
-        empty, kw, "|pdpdOsOipdipnpOppddddnO", names, &r->has_lo, &r->lo, &r->has_hi, &r->hi,
+        empty, kw, "|pdpdOsOipdipnpOppddddnOi", names, &r->has_lo, &r->lo, &r->has_hi, &r->hi,
         &labels, &elements, &method, &r->size, &r->adaptive, &r->error, &r->max_level,
         &r->improve, &min_island, &r->smooth, &edges, &r->graded, &r->coarsen, &r->max_edge,
-        &r->min_edge, &r->distance, &r->grading, &r->tets, &r->size_field);
+        &r->min_edge, &r->distance, &r->grading, &r->tets, &r->size_field, &r->min_layers);
     Py_DECREF(empty);
     if (!ok) return -1;
     r->min_island = (size_t)(min_island < 1 ? 1 : min_island);
@@ -583,6 +584,7 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
     o.distance = r->distance;
     o.grading = r->grading;
     o.tets = (size_t)r->tets;
+    o.min_layers = r->min_layers;
     o.size_field = r->size_field ? &r->sf : NULL;
     SET_PROGRESS(o, fn, p);
     s = vm_mesh_volume(v, &o, m, NULL, err);

@@ -102,6 +102,8 @@ refuse "distance with labels" "--labels" mesh labels.mha --labels all --distance
 refuse "tets with labels" "--labels" mesh labels.mha --labels all --tets 1000 -o out.vtu
 refuse "tets of 0" "--tets" mesh ball.mha --iso 0 --tets 0 -o out.vtu
 refuse "graded with labels" "--labels" mesh labels.mha --labels all --graded -o out.vtu
+refuse "no layers" "--min-layers" mesh ball.mha --iso 0 --min-layers 0 -o out.vtu
+refuse "layers with labels" "--labels" mesh labels.mha --labels all --max-edge 8 --min-layers 2 -o out.vtu
 refuse "graded with hexes" "tetrahedra" mesh ball.mha --iso 0 --max-edge 4 --elements hex -o out.vtu
 refuse "graded with slabs" "slabs" mesh ball.mha --iso 0 --max-edge 4 --slabs 2 -o out.vtu
 

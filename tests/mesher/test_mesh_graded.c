@@ -5,6 +5,7 @@
  * for (--max-edge, --distance, anisotropic voxels) are met. */
 #include "test.h"
 #include "mesher/graded_internal.h"
+#include "volmesh/improve.h"
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -580,7 +581,97 @@ static void topologyMisfitsAreFound(void) {
     vm_volume_free(&part[1]);
 }
 
+/* Tets of m away from the ball (centroid over 10 voxels from the axis x = y = 20) spanning the
+ * plate (z extent of 0.9 of its thickness 3 or more); *inner: tets with centroid within 5 of
+ * the centre. */
+static size_t plate_spans(const vm_mesh *m, size_t *inner) {
+    size_t n = 0;
+    *inner = 0;
+    for (size_t c = 0; c < m->ncells; c++) {
+        double lo = INFINITY, hi = -INFINITY, cx = 0, cy = 0, cz = 0;
+        for (int k = 0; k < 4; k++) {
+            const double *p = m->points + 3 * (size_t)m->cells[4 * c + (size_t)k];
+            lo = fmin(lo, p[2]);
+            hi = fmax(hi, p[2]);
+            cx += 0.25 * p[0], cy += 0.25 * p[1], cz += 0.25 * p[2];
+        }
+        double r = hypot(cx - 20, cy - 20);
+        if (r > 10 && hi - lo >= 0.9 * 3.0) n++;
+        if (r * r + (cz - 20) * (cz - 20) < 25) ++*inner;
+    }
+    return n;
+}
+
+/* --min-layers: a plate 3 voxels thick round a ball of radius 8. Coarsened as usual, tets
+ * span the plate; with 2 layers none does, before and after the quality pass, the topology
+ * stays, and the ball's inside (16 voxels across, the cap of thickness that counts) stays
+ * coarser than with the plate's bound (thickness 4 between voxel centres over 2) everywhere. */
+static void minLayersKeepThinPartsLayered(void) {
+    vm_volume v;
+    if (!make_volume(&v, 40, 40, 40, 0.0f)) return;
+    for (int64_t k = 0; k < 40; k++)
+        for (int64_t j = 0; j < 40; j++)
+            for (int64_t i = 0; i < 40; i++) {
+                double x = (double)i - 20, y = (double)j - 20, z = (double)k - 20;
+                double plate = fmin(1.5 - fabs(z), 14 - hypot(x, y));
+                double ball = 8 - sqrt(x * x + y * y + z * z);
+                v.data[i + 40 * (j + 40 * k)] = (float)fmax(plate, ball);
+            }
+    vm_mesh_options o;
+    graded_options(&o);
+    vm_mesh m;
+    vm_error err;
+    size_t spans[3] = {0, 0, 0}, inner[3] = {0, 0, 0}, tets[3] = {0, 0, 0};
+    for (int layered = 0; layered < 3; layered++) {
+        o.min_layers = layered == 1 ? 2 : 0;
+        o.max_edge = layered == 2 ? 2.0 : 0;
+        vm_status s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+        CHECK_OK(s, &err);
+        if (s != VM_OK) continue;
+        spans[layered] = plate_spans(&m, &inner[layered]);
+        tets[layered] = m.ncells;
+        vm_mesh_report r;
+        if (vm_mesh_check(&m, &r, &err) == VM_OK)
+            CHECK_MSG(r.boundary_euler == 2 && r.components == 1 && r.inverted == 0,
+                      "min layers %d: Euler %ld, %zu components, %zu inverted", o.min_layers,
+                      (long)r.boundary_euler, r.components, r.inverted);
+        if (layered == 1) {
+            vm_improve_options io;
+            vm_improve_options_default(&io);
+            io.has_lo = 1;
+            io.lo = 0;
+            s = vm_mesh_improve_graded(&m, &v, &io, NULL, &err);
+            CHECK_OK(s, &err);
+            size_t in2;
+            size_t after = plate_spans(&m, &in2);
+            CHECK_MSG(after == 0, "min layers 2: %zu tets span the plate after the pass", after);
+        }
+        vm_mesh_free(&m);
+    }
+    printf("    plate: %zu tets, %zu spanning, %zu in the ball's core; --min-layers 2: %zu tets, "
+           "%zu spanning, %zu in the core; --max-edge 2: %zu tets, %zu in the core\n",
+           tets[0], spans[0], inner[0], tets[1], spans[1], inner[1], tets[2], inner[2]);
+    CHECK_MSG(spans[0] > 0, "without --min-layers no tet spans the plate: the test proves nothing");
+    CHECK_MSG(spans[1] == 0, "min layers 2: %zu tets span the plate", spans[1]);
+    /* the bound is the plate's: the ball's core is coarser than under the same bound
+     * everywhere */
+    CHECK_MSG(2 * inner[1] <= inner[2], "min layers 2: %zu tets in the ball's core, %zu with "
+              "--max-edge 2", inner[1], inner[2]);
+    o.max_edge = 0;
+    o.min_layers = 101;
+    vm_status s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK_MSG(s == VM_ERR_ARG, "101 layers: %d", (int)s);
+    if (s == VM_OK) vm_mesh_free(&m);
+    o.min_layers = 2;
+    o.graded = 0;
+    s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK_MSG(s == VM_ERR_ARG, "layers without graded sizing: %d", (int)s);
+    if (s == VM_OK) vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
 TEST_MAIN(T(everyCubePatternKeepsTheCubicalTopology), T(coarseningHalvesTheStuffedMesh), T(randomVolumesKeepTheCubicalTopology),
           T(noisyPhantomsKeepTheCubicalTopology), T(gradedPhantomsAreSmallAndFaithful),
           T(sizesAreMet), T(sizeFieldSetsTheDensity), T(tetTargetIsMet), T(gradingSpreadsLevelChanges),
-          T(anisotropicVoxelsKeepVolumeThroughThePass), T(topologyMisfitsAreFound))
+          T(anisotropicVoxelsKeepVolumeThroughThePass), T(topologyMisfitsAreFound),
+          T(minLayersKeepThinPartsLayered))

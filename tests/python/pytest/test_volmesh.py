@@ -438,5 +438,21 @@ def test_gradedSizingKeywordsAreTheProgramsOptions():
         volmesh.mesh(a, iso=0.0, distance=0)
     with pytest.raises(ValueError):
         volmesh.mesh(a, iso=0.0, grading=1.0)
+    # a plate 3 voxels thick round a ball (tests/mesher/test_mesh_graded.c): with
+    # min_layers=2 no tet away from the ball spans it (z extent 0.9 of the thickness), where
+    # the default mesh's tets do
+    z, y, x = np.mgrid[0:40, 0:40, 0:40].astype(np.float32) - 20.0
+    plate = np.maximum(np.minimum(1.5 - np.abs(z), 14.0 - np.hypot(x, y)),
+                       8.0 - np.sqrt(x * x + y * y + z * z))
+    thin = volmesh.mesh(plate, iso=0.0, graded=True)
+    layered = volmesh.mesh(plate, iso=0.0, min_layers=2)
+    assert volmesh.quality(layered)["boundary_euler"] == 2
+    def span(m):
+        p = m.points[m.cells["tetra"]]
+        away = np.hypot(p[:, :, 0].mean(axis=1) - 20, p[:, :, 1].mean(axis=1) - 20) > 10
+        return (p[away, :, 2].max(axis=1) - p[away, :, 2].min(axis=1)).max()
+    assert span(layered) < 0.9 * 3.0 <= span(thin)
+    with pytest.raises(ValueError):
+        volmesh.mesh(plate, iso=0.0, min_layers=0)
     with pytest.raises(ValueError):
         volmesh.mesh(two_blocks(), labels="all", distance=1.0)
