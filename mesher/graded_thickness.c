@@ -60,6 +60,21 @@ static void edt_line(float *d, int64_t n, int64_t st, double s, int64_t *v, doub
     }
 }
 
+/* The squared distance transform of a whole grid of f's dims and spacing, in place: the three
+ * axes' lines in turn (the transform is separable). */
+static void edt(const gr_field *f, float *d, int64_t *v, double *z, double *g) {
+    const int64_t *n = f->n;
+    for (int64_t k = 0; k < n[2]; k++)
+        for (int64_t j = 0; j < n[1]; j++)
+            edt_line(d + n[0] * (j + n[1] * k), n[0], 1, f->sp[0], v, z, g);
+    for (int64_t k = 0; k < n[2]; k++)
+        for (int64_t i = 0; i < n[0]; i++)
+            edt_line(d + i + n[0] * n[1] * k, n[1], n[0], f->sp[1], v, z, g);
+    for (int64_t j = 0; j < n[1]; j++)
+        for (int64_t i = 0; i < n[0]; i++)
+            edt_line(d + i + n[0] * j, n[2], n[0] * n[1], f->sp[2], v, z, g);
+}
+
 vm_status vm__gr_thickness_blocks(gr_field *f, int layers, double cap, vm_error *err) {
     const int64_t *n = f->n;
     size_t nv = (size_t)(n[0] * n[1] * n[2]);
@@ -83,30 +98,14 @@ vm_status vm__gr_thickness_blocks(gr_field *f, int layers, double cap, vm_error 
     for (size_t i = 0; i < nv; i++) {
         d[i] = vm__gr_phi_value(f, f->v->data[i]) >= 0 ? INFINITY : 0.0f;
     }
-    for (int64_t k = 0; k < n[2]; k++)
-        for (int64_t j = 0; j < n[1]; j++)
-            edt_line(d + n[0] * (j + n[1] * k), n[0], 1, f->sp[0], v, z, g);
-    for (int64_t k = 0; k < n[2]; k++)
-        for (int64_t i = 0; i < n[0]; i++)
-            edt_line(d + i + n[0] * n[1] * k, n[1], n[0], f->sp[1], v, z, g);
-    for (int64_t j = 0; j < n[1]; j++)
-        for (int64_t i = 0; i < n[0]; i++)
-            edt_line(d + i + n[0] * j, n[2], n[0] * n[1], f->sp[2], v, z, g);
+    edt(f, d, v, z, g);
     double smin = fmin(f->sp[0], fmin(f->sp[1], f->sp[2]));
     /* the voxels of balls wider than the cap: those within cap of a voxel at least cap deep
      * (the opening of the material by a ball of radius cap), marked -INFINITY in t (a
      * diameter beyond any bound) */
     for (size_t i = 0; i < nv; i++)
         t[i] = d[i] >= cap * cap && isfinite(d[i]) ? 0.0f : INFINITY;
-    for (int64_t k = 0; k < n[2]; k++)
-        for (int64_t j = 0; j < n[1]; j++)
-            edt_line(t + n[0] * (j + n[1] * k), n[0], 1, f->sp[0], v, z, g);
-    for (int64_t k = 0; k < n[2]; k++)
-        for (int64_t i = 0; i < n[0]; i++)
-            edt_line(t + i + n[0] * n[1] * k, n[1], n[0], f->sp[1], v, z, g);
-    for (int64_t j = 0; j < n[1]; j++)
-        for (int64_t i = 0; i < n[0]; i++)
-            edt_line(t + i + n[0] * j, n[2], n[0] * n[1], f->sp[2], v, z, g);
+    edt(f, t, v, z, g);
     double reach = cap + 0.5 * smin;
     for (size_t i = 0; i < nv; i++)
         t[i] = d[i] > 0 && t[i] <= reach * reach ? -INFINITY : INFINITY;
