@@ -561,8 +561,6 @@ static int chord_faces(vm__imp *w, vm_index u, vm_index skip, const double x[3],
     return 1;
 }
 
-/* The largest of chord_faces over surface vertices a and b (b < 0: none), both at x, each
- * without the faces holding the other; infinity when out of memory. */
 /* Whether the boundary faces around vertex i are bounded: an isosurface vertex, or one on
  * the rim of a border plane (fixed there, but a contraction may merge it into a neighbour on
  * the plane, and its faces off the plane are the isosurface's). */
@@ -570,6 +568,9 @@ static int chorded(const vm__imp *w, vm_index i) {
     return w->cls[i] == VM__IMP_SURF || (w->cls[i] == VM__IMP_FIXED && w->planes[i]);
 }
 
+/* The largest of chord_faces over the bounded vertices (chorded) among a and b (b < 0:
+ * none), both at x, each without the faces holding the other; infinity when out of
+ * memory. */
 static double chord_error(vm__imp *w, vm_index a, vm_index b, const double x[3]) {
     double worst = 0;
     if (chorded(w, a) && !chord_faces(w, a, b, x, &worst)) return INFINITY;
