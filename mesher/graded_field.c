@@ -71,12 +71,8 @@ vm_status vm__gr_field_init(gr_field *f, const vm_volume *v, const vm_mesh_optio
         for (int64_t by = 0; by < f->nb[1]; by++)
             for (int64_t bx = 0; bx < f->nb[0]; bx++) {
                 float mn = INFINITY, mx = -INFINITY;
-                int64_t b[3] = {bx, by, bz}, lo[3], hi[3];
-                for (int d = 0; d < 3; d++) {
-                    lo[d] = b[d] * GR_BLOCK;
-                    hi[d] = lo[d] + GR_BLOCK;
-                    if (hi[d] > f->n[d] - 1) hi[d] = f->n[d] - 1;
-                }
+                int64_t lo[3], hi[3];
+                vm__gr_block_range(f, bx, by, bz, lo, hi);
                 for (int64_t k = lo[2]; k <= hi[2]; k++)
                     for (int64_t j = lo[1]; j <= hi[1]; j++) {
                         const float *row = v->data + f->n[0] * (j + f->n[1] * k);
@@ -173,12 +169,8 @@ static vm_status size_blocks(gr_field *f, const vm_volume *sf, vm_error *err) {
     for (int64_t bz = 0; bz < f->nb[2]; bz++)
         for (int64_t by = 0; by < f->nb[1]; by++)
             for (int64_t bx = 0; bx < f->nb[0]; bx++) {
-                int64_t b[3] = {bx, by, bz}, lo[3], hi[3];
-                for (int d = 0; d < 3; d++) {
-                    lo[d] = b[d] * GR_BLOCK;
-                    hi[d] = lo[d] + GR_BLOCK;
-                    if (hi[d] > f->n[d] - 1) hi[d] = f->n[d] - 1;
-                }
+                int64_t lo[3], hi[3];
+                vm__gr_block_range(f, bx, by, bz, lo, hi);
                 double mn = INFINITY;
                 for (int64_t k = lo[2]; k <= hi[2]; k++)
                     for (int64_t j = lo[1]; j <= hi[1]; j++)

@@ -29,6 +29,18 @@ typedef struct gr_field {
 
 enum { GR_BLOCK = 4 };
 
+/* The voxels of block (bx, by, bz): lo..hi per axis, inclusive (a block shares its last plane
+ * with the next, so that every trilinear cell lies in one block). */
+static inline void vm__gr_block_range(const gr_field *f, int64_t bx, int64_t by, int64_t bz,
+                                      int64_t lo[3], int64_t hi[3]) {
+    int64_t b[3] = {bx, by, bz};
+    for (int d = 0; d < 3; d++) {
+        lo[d] = b[d] * GR_BLOCK;
+        hi[d] = lo[d] + GR_BLOCK;
+        if (hi[d] > f->n[d] - 1) hi[d] = f->n[d] - 1;
+    }
+}
+
 /* Union-find root of x in parent (halving the path), for the small local sets of the
  * configuration table and the stuffing's link and fan tests. */
 static inline int vm__gr_root(int *parent, int x) {

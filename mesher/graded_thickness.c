@@ -155,12 +155,8 @@ vm_status vm__gr_thickness_blocks(gr_field *f, int layers, double cap, vm_error 
     for (int64_t bz = 0; bz < f->nb[2]; bz++)
         for (int64_t by = 0; by < f->nb[1]; by++)
             for (int64_t bx = 0; bx < f->nb[0]; bx++) {
-                int64_t b[3] = {bx, by, bz}, lo[3], hi[3];
-                for (int a = 0; a < 3; a++) {
-                    lo[a] = b[a] * GR_BLOCK;
-                    hi[a] = lo[a] + GR_BLOCK;
-                    if (hi[a] > n[a] - 1) hi[a] = n[a] - 1;
-                }
+                int64_t lo[3], hi[3];
+                vm__gr_block_range(f, bx, by, bz, lo, hi);
                 double mn = INFINITY;
                 for (int64_t w = lo[2]; w <= hi[2]; w++)
                     for (int64_t y = lo[1]; y <= hi[1]; y++)
