@@ -27,6 +27,11 @@ vm_status vm__check_dims(const int64_t dims[3], size_t elem_size, const char *wh
 
 /* Grows *buf (elements of elem bytes) so that it holds at least need elements. */
 vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *err);
+/* qsort's order (elements that compare equal in some order) on vm_threads() threads: runs
+ * sorted on the threads, then merged; the library's qsort alone below 2^15 elements a run,
+ * or when the merge's buffer (n * size bytes) cannot be had. Returns 0 in that last case
+ * only (the array is sorted all the same). */
+int vm__psort(void *base, size_t n, size_t size, int (*cmp)(const void *, const void *));
 
 /* Checks that every coordinate of m is finite and within +-VM_COORD_MAX ("WHAT: point P,
  * coordinate y, is inf (coordinates must be finite, within +-1e+30)"), and that every node
