@@ -634,6 +634,93 @@ static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
     return s;
 }
 
+/* Appends the batch sl[0..count) in order, as append_slab one by one would: the arrays
+ * grown once, the list widened first if a slab's ids need it, then each slab copied to its
+ * place on the threads. A batch with a failed slab goes through append_slab (its error). */
+static vm_status append_slabs(dc *d, edge_slab *sl, int64_t count, vm_error *err) {
+    size_t nt = 0, nc = 0;
+    int failed = 0;
+    for (int64_t q = 0; q < count; q++) {
+        failed |= sl[q].status != VM_OK;
+        nt += sl[q].ntets;
+        nc += sl[q].ncentre;
+    }
+    vm_status s = VM_OK;
+    if (!failed) {
+        s = vm__grow(&d->tets, &d->tet_cap, d->ntets + nt, tet_bytes(d), err);
+        if (!s) s = vm__grow(&d->src, &d->src_cap, d->ntets + nt, src_bytes(d), err);
+        if (!s)
+            s = vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + nc,
+                         3 * sizeof(double), err);
+    }
+    if (failed || s) {
+        for (int64_t q = 0; q < count; q++) {
+            vm_status t = append_slab(d, &sl[q], s ? NULL : err);
+            if (!s) s = t;
+        }
+        return s;
+    }
+    int64_t first = vm__dc_npoints_real(d) + (int64_t)d->nreps;
+    size_t t0[64], c0[64]; /* each slab's first tet and centre (count <= 64: see below) */
+    for (int64_t q = 0, tq = (int64_t)d->ntets, cq = (int64_t)d->ncentre; q < count; q++) {
+        t0[q] = (size_t)tq;
+        c0[q] = (size_t)cq;
+        tq += (int64_t)sl[q].ntets;
+        cq += (int64_t)sl[q].ncentre;
+    }
+    /* 64-bit ids from the start if a shifted id needs them: a slab's ids are below first
+     * plus its centres, so only a batch whose centres reach the limit is looked through */
+    int need = 0;
+    if (!d->wide && first + (int64_t)(d->ncentre + nc) > d->id_limit)
+        for (int64_t q = 0; q < count && !need; q++) {
+            const dc from = {.tets = sl[q].tets, .wide = sl[q].wide};
+            int64_t shift = (int64_t)c0[q];
+            for (size_t t = 0; t < sl[q].ntets && !need; t++) {
+                int64_t v[4];
+                tet_get(&from, t, v);
+                for (int k = 0; k < 4; k++)
+                    if ((v[k] >= first ? v[k] + shift : v[k]) >= d->id_limit) need = 1;
+            }
+        }
+    if (need && (s = widen(d, err))) return s;
+    const dc *cd = d;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+    for (int64_t q = 0; q < count; q++) {
+        edge_slab *x = &sl[q];
+        if (x->ntets) memcpy((char *)cd->src + src_bytes(cd) * t0[q], x->src, x->ntets * src_bytes(cd));
+        const dc from = {.tets = x->tets, .wide = x->wide};
+        int64_t shift = (int64_t)c0[q];
+        for (size_t t = 0; t < x->ntets; t++) {
+            int64_t v[4];
+            tet_get(&from, t, v);
+            for (int k = 0; k < 4; k++)
+                if (v[k] >= first) v[k] += shift;
+            size_t at = t0[q] + t;
+            if (cd->wide) {
+                memcpy((int64_t *)cd->tets + 4 * at, v, 4 * sizeof(int64_t));
+            } else {
+                uint32_t *p = (uint32_t *)cd->tets + 4 * at;
+                for (int k = 0; k < 4; k++)
+                    p[k] = (uint32_t)v[k];
+            }
+        }
+        if (x->ncentre) memcpy(cd->centre + 3 * c0[q], x->centre, 3 * x->ncentre * sizeof(double));
+    }
+    for (int64_t q = 0; q < count; q++) {
+        free(sl[q].tets);
+        free(sl[q].src);
+        free(sl[q].centre);
+        sl[q].tets = NULL;
+        sl[q].src = NULL;
+        sl[q].centre = NULL;
+    }
+    d->ntets += nt;
+    d->ncentre += nc;
+    return VM_OK;
+}
+
 /* The elements of every grid edge, axis by axis (interior: of the interior cells), in slabs
  * of z layers run in parallel and appended in order. */
 static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
@@ -641,7 +728,7 @@ static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
      * threads busy without holding a large part of the mesh twice (the order, and so the
      * mesh, is the same for any batch). */
     enum { LAYERS = 4 };
-    const int64_t batch = 4 * (int64_t)vm_threads();
+    const int64_t batch = vm_threads() < 16 ? 4 * (int64_t)vm_threads() : 64;
     int64_t per_axis = (d->n[2] + LAYERS - 1) / LAYERS, total = (interior ? 1 : 3) * per_axis;
     edge_slab *sl = calloc((size_t)batch, sizeof *sl);
     vm_status s = sl ? VM_OK : vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
@@ -661,10 +748,7 @@ static vm_status emit_slabs(dc *d, int interior, vm_error *err) {
             memcpy(x->hi, hi, sizeof hi);
             emit_slab(d, x);
         }
-        for (int64_t q = 0; q < count; q++) {
-            vm_status t = append_slab(d, &sl[q], s ? NULL : err);
-            if (!s) s = t;
-        }
+        s = append_slabs(d, sl, count, err);
         if (!s) s = vm__dc_check(d, err);
     }
     free(sl);
@@ -1033,15 +1117,39 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
     }
     size_t bad = 0;
+    uint8_t *flat = NULL; /* per tet: not clearly positive with the round's first positions */
     for (int round = 0; round < RELAX_ROUNDS; round++) {
         bad = 0;
         memset(now, 0, d->nreps);
         vm_status s = VM_OK;
+        /* The volumes on the threads first; the loop below takes them for the tets none of
+         * whose corners has moved yet in this round, and measures the others again: so it
+         * reads what the serial loop would (the same mesh for any thread count). */
+        uint8_t *fl = realloc(flat, d->ntets + 1);
+        if (!fl) {
+            free(flat);
+            free(touched);
+            free(now);
+            return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+        }
+        flat = fl;
+        const ptrdiff_t pnt = (ptrdiff_t)d->ntets;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+        for (ptrdiff_t t = 0; t < pnt; t++) {
+            int64_t v[4];
+            tet_get(d, (size_t)t, v);
+            flat[t] = !(tet_volume(d, v, 0) > eps);
+        }
         for (size_t t = 0; t < d->ntets && !s; t++) {
             int64_t v[4];
             if ((t & 0xfffff) == 0) s = vm__dc_check(d, err);
             tet_get(d, t, v);
-            if (tet_volume(d, v, 0) > eps) continue;
+            int moved = 0;
+            for (int k = 0; k < 4; k++)
+                if (v[k] >= N && (size_t)(v[k] - N) < d->nreps && now[v[k] - N]) moved = 1;
+            if (moved ? tet_volume(d, v, 0) > eps : !flat[t]) continue;
             bad++;
             for (int k = 0; k < 4; k++)
                 if (v[k] >= N && (size_t)(v[k] - N) < d->nreps) {
@@ -1058,11 +1166,13 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
         if (!s && !bad) break;
         if (!s) s = emit_local(d, now, err);
         if (s) {
+            free(flat);
             free(touched);
             free(now);
             return s;
         }
     }
+    free(flat);
     size_t nt = 0;
     for (size_t r = 0; r < d->nreps; r++)
         nt += touched[r];
@@ -1190,7 +1300,8 @@ static vm_status boundary_faces(const dc *d, bface **out, size_t *nb_out, vm_err
     }
     free(at);
     free(fm);
-    if (nf) qsort(f, nf, sizeof *f, bface_cmp);
+    /* (faces with the same key are dropped together, so their order does not matter) */
+    vm__psort(f, nf, sizeof *f, bface_cmp);
     for (size_t i = 0; i < nf;) { /* keep the faces that occur once, in place */
         size_t j = i + 1;
         while (j < nf && bface_cmp(&f[i], &f[j]) == 0)
@@ -1441,23 +1552,31 @@ static vm_status boundary_crossings(const dc *d, uint8_t *mark, size_t *pairs, x
     for (size_t i = 0; i < nb; i++)
         for (int k = 0; k < 3; k++)
             ids[3 * i + (size_t)k] = bface_v(&f[i], k);
-    qsort(ids, 3 * nb, sizeof *ids, id_cmp);
+    vm__psort(ids, 3 * nb, sizeof *ids, id_cmp);
     for (size_t i = 0; i < 3 * nb; i++)
         if (nv == 0 || ids[nv - 1] != ids[i]) ids[nv++] = ids[i];
     int64_t *distinct = realloc(ids, nv * sizeof *ids);
     if (distinct) ids = distinct;
-    for (size_t i = 0; i < nb; i++)
+    const ptrdiff_t pnb = (ptrdiff_t)nb;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t i = 0; i < pnb; i++)
         for (int k = 0; k < 3; k++) {
             int64_t id = bface_v(&f[i], k);
             const int64_t *hit = bsearch(&id, ids, nv, sizeof *ids, id_cmp);
-            tri[3 * i + (size_t)k] = (vm_index)(hit - ids);
+            tri[3 * (size_t)i + (size_t)k] = (vm_index)(hit - ids);
         }
     pos = malloc(3 * nv * sizeof *pos);
     isq = calloc(nb, 1);
     q = malloc(nb * sizeof *q);
     if (!pos || !isq || !q) goto nomem;
-    for (size_t i = 0; i < nv; i++)
-        vm__dc_vertex_pos(d, ids[i], 0, pos + 3 * i);
+    const ptrdiff_t pnv = (ptrdiff_t)nv;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t i = 0; i < pnv; i++)
+        vm__dc_vertex_pos(d, ids[i], 0, pos + 3 * (size_t)i);
     /* Which faces are new or moved: a vertex moved when its position differs from the last
      * round's (bit for bit); the faces of both rounds are sorted, so they pair up in one
      * walk, which also maps the last round's faces to this round's (SIZE_MAX: gone or
