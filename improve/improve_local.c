@@ -270,6 +270,10 @@ typedef struct ljob {
     slist seeds;
     slist pts;
     int scan_ok;
+    /* local_update's results for local_commit: the tets to list in the grid and in P->bad,
+     * in order, and its status (1 ok, 0 out of memory, -1 a tet with a point not J's) */
+    slist grid, bad;
+    int update;
 } ljob;
 
 static int slot_live(const pstate *S, size_t t) {
@@ -552,8 +556,9 @@ static int boxes_meet(const job *A, const job *B) {
 /* After J ran and its extra tets were appended: the stars of its points, the grid and the
  * list of bad tets follow what it wrote. 0 on nomem, -1 when a tet it wrote has a point
  * outside its free tets (it cannot). */
-static int local_update(lpass *P, const job *J, const ljob *X) {
+static int local_update(lpass *P, const job *J, ljob *X) {
     pstate *S = &P->S;
+    X->grid.n = X->bad.n = 0;
     const uint32_t *pts = X->pts.a;
     size_t np = X->pts.n, nout = 0;
     /* the slots J wrote: its own, live, then its extra ones */
@@ -617,7 +622,8 @@ static int local_update(lpass *P, const job *J, const ljob *X) {
      * neighbour may have changed), measured again on the stars as they are now: no other job
      * of the batch holds a point of theirs. The grid lists every tet with a boundary face
      * (with its box as it is now): the written ones that have one, and the locked ones that
-     * had none before (the others are listed already, and a locked tet does not move). */
+     * had none before (the others are listed already, and a locked tet does not move); X
+     * takes them for local_commit. */
     for (size_t i = 0; i < nout; i++)
         P->bflag[out.a[i]] = BF_UNKNOWN;
     for (size_t i = 0; i < J->nls; i++) {
@@ -627,12 +633,12 @@ static int local_update(lpass *P, const job *J, const ljob *X) {
             int was_inside = P->bflag[J->ls[i]] == BF_NO;
             P->bflag[J->ls[i]] = BF_UNKNOWN;
             if (ok && !bad_point && on_boundary(P, J->ls[i]) && was_inside)
-                ok = grid_add(S, &P->G, J->ls[i]);
+                ok = sl_push(&X->grid, J->ls[i]);
         }
     }
     for (size_t i = 0; i < nout && ok && !bad_point; i++) {
-        if (on_boundary(P, out.a[i])) ok = grid_add(S, &P->G, out.a[i]);
-        if (ok && S->below[out.a[i]]) ok = sl_push(&P->bad, out.a[i]);
+        if (on_boundary(P, out.a[i])) ok = sl_push(&X->grid, out.a[i]);
+        if (ok && S->below[out.a[i]]) ok = sl_push(&X->bad, out.a[i]);
     }
     for (size_t j = 0; j < np; j++)
         pidx[pts[j]] = UINT32_MAX;
@@ -642,9 +648,22 @@ static int local_update(lpass *P, const job *J, const ljob *X) {
     return bad_point ? -1 : ok;
 }
 
+/* What local_update left in X: its tets into the grid and P->bad, in order (serial: every
+ * job's the same as the loop of one thread). Returns local_update's status. */
+static int local_commit(lpass *P, const ljob *X) {
+    int ok = X->update;
+    for (size_t i = 0; i < X->grid.n && ok > 0; i++)
+        ok = grid_add(&P->S, &P->G, X->grid.a[i]);
+    for (size_t i = 0; i < X->bad.n && ok > 0; i++)
+        ok = sl_push(&P->bad, X->bad.a[i]);
+    return ok;
+}
+
 static void ljob_free(ljob *X) {
     free(X->seeds.a);
     free(X->pts.a);
+    free(X->grid.a);
+    free(X->bad.a);
     memset(X, 0, sizeof *X);
 }
 
@@ -787,8 +806,19 @@ static vm_status run_batch(lpass *P, job *jobs, ljob *X, size_t n, vm_error *err
                 P->mark_cap = P->S.nt + P->S.nt / 4 + 1;
             }
         }
+        /* each job's stars and boundary flags on the threads (the jobs of a batch share no
+         * point, and each writes only its own points' stars and its tets' flags), then the
+         * grid and the list of bad tets in order */
+        if (s == VM_OK) {
+            const ptrdiff_t pnt = (ptrdiff_t)ntake;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+            for (ptrdiff_t i = 0; i < pnt; i++)
+                X[take[i]].update = local_update(P, &jobs[take[i]], &X[take[i]]);
+        }
         for (size_t i = 0; i < ntake && s == VM_OK; i++) {
-            int u = local_update(P, &jobs[take[i]], &X[take[i]]);
+            int u = local_commit(P, &X[take[i]]);
             if (u < 0)
                 s = vm_error_set(err, VM_ERR_INTERNAL,
                                  "improve: a part wrote a tet "
