@@ -1122,18 +1122,19 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
         bad = 0;
         memset(now, 0, d->nreps);
         vm_status s = VM_OK;
-        /* The volumes on the threads first; the loop below takes them for the tets none of
+        /* On threads, the volumes first; the loop below takes them for the tets none of
          * whose corners has moved yet in this round, and measures the others again: so it
          * reads what the serial loop would (the same mesh for any thread count). */
-        uint8_t *fl = realloc(flat, d->ntets + 1);
-        if (!fl) {
+        int ahead = vm_threads() > 1;
+        uint8_t *fl = ahead ? realloc(flat, d->ntets + 1) : flat;
+        if (ahead && !fl) {
             free(flat);
             free(touched);
             free(now);
             return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
         }
         flat = fl;
-        const ptrdiff_t pnt = (ptrdiff_t)d->ntets;
+        const ptrdiff_t pnt = ahead ? (ptrdiff_t)d->ntets : 0;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(static, 4096)
 #endif
@@ -1146,10 +1147,10 @@ static vm_status make_positive(dc *d, size_t *bad_left, size_t *relaxed, vm_erro
             int64_t v[4];
             if ((t & 0xfffff) == 0) s = vm__dc_check(d, err);
             tet_get(d, t, v);
-            int moved = 0;
-            for (int k = 0; k < 4; k++)
-                if (v[k] >= N && (size_t)(v[k] - N) < d->nreps && now[v[k] - N]) moved = 1;
-            if (moved ? tet_volume(d, v, 0) > eps : !flat[t]) continue;
+            int measure = !ahead; /* (one thread: every tet measured here) */
+            for (int k = 0; k < 4 && !measure; k++)
+                if (v[k] >= N && (size_t)(v[k] - N) < d->nreps && now[v[k] - N]) measure = 1;
+            if (measure ? tet_volume(d, v, 0) > eps : !flat[t]) continue;
             bad++;
             for (int k = 0; k < 4; k++)
                 if (v[k] >= N && (size_t)(v[k] - N) < d->nreps) {
