@@ -48,6 +48,21 @@ static void merge_runs(const char *a, size_t na, const char *b, size_t nb, char 
     memcpy(out, b + j * size, (nb - j) * size);
 }
 
+/* How many of the first k elements of the merge of a[0..na) and b[0..nb) (a's first on
+ * ties) come from a: the merge path's split, by bisection. */
+static size_t merge_split(const char *a, size_t na, const char *b, size_t nb, size_t k,
+                          size_t size, int (*cmp)(const void *, const void *)) {
+    size_t lo = k > nb ? k - nb : 0, hi = k < na ? k : na;
+    while (lo < hi) {
+        size_t i = lo + (hi - lo) / 2; /* (k - i >= 1: i < hi <= k) */
+        if (cmp(a + i * size, b + (k - i - 1) * size) <= 0)
+            lo = i + 1; /* a[i] comes before b[k - i - 1]: among the first k */
+        else
+            hi = i;
+    }
+    return lo;
+}
+
 int vm__psort(void *base, size_t n, size_t size, int (*cmp)(const void *, const void *)) {
     enum { RUNS = 16, SMALL = 1 << 15 };
     int nthreads = vm_threads();
@@ -72,16 +87,27 @@ int vm__psort(void *base, size_t n, size_t size, int (*cmp)(const void *, const 
     for (ptrdiff_t k = 0; k < pr; k++)
         qsort(src + at[k] * size, at[k + 1] - at[k], size, cmp);
     for (size_t width = 1; width < runs; width *= 2) {
-        const ptrdiff_t np = (ptrdiff_t)((runs + 2 * width - 1) / (2 * width));
+        /* each pair of runs merged in `pieces` parts of its output (split on the merge path),
+         * so that the last levels, with fewer pairs than threads, keep the threads busy */
+        size_t npair = (runs + 2 * width - 1) / (2 * width);
+        size_t pieces = (size_t)nthreads / npair < 1 ? 1 : (size_t)nthreads / npair;
+        if (pieces > RUNS) pieces = RUNS;
+        const ptrdiff_t nw = (ptrdiff_t)(npair * pieces);
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1)
 #endif
-        for (ptrdiff_t p = 0; p < np; p++) {
-            size_t lo = (size_t)p * 2 * width, mid = lo + width, hi = mid + width;
+        for (ptrdiff_t w = 0; w < nw; w++) {
+            size_t p = (size_t)w / pieces, q = (size_t)w % pieces;
+            size_t lo = p * 2 * width, mid = lo + width, hi = mid + width;
             if (mid > runs) mid = runs;
             if (hi > runs) hi = runs;
-            merge_runs(src + at[lo] * size, at[mid] - at[lo], src + at[mid] * size,
-                       at[hi] - at[mid], dst + at[lo] * size, size, cmp);
+            const char *a = src + at[lo] * size, *b = src + at[mid] * size;
+            size_t na = at[mid] - at[lo], nb = at[hi] - at[mid];
+            size_t k0 = q * (na + nb) / pieces, k1 = (q + 1) * (na + nb) / pieces;
+            size_t i0 = merge_split(a, na, b, nb, k0, size, cmp);
+            size_t i1 = merge_split(a, na, b, nb, k1, size, cmp);
+            merge_runs(a + i0 * size, i1 - i0, b + (k0 - i0) * size, (k1 - i1) - (k0 - i0),
+                       dst + (at[lo] + k0) * size, size, cmp);
         }
         char *q = src;
         src = dst;
