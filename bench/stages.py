@@ -6,7 +6,8 @@
         [--threads 1,2] [--work DIR] [--from-json DIR/stages.json]
 
 Per stage (`volmesh --verbose`: read, mesh, improve, write, check) the CT head at iso 500 on
-each thread count, the median of --reps runs; then a gyroid of n³ voxels (sin x cos y +
+each thread count, the median of --reps runs (the thread counts taken in turn, run by run);
+then a gyroid of n³ voxels (sin x cos y +
 sin y cos z + sin z cos x >= 0, four periods across the box, float NRRD written by numpy slab
 by slab) meshed end to end on the most threads: tets/s and bytes per tet (GNU `time -v`'s
 peak resident set over the tets, with and without the float volume). With --markdown it
@@ -189,22 +190,26 @@ def main():
     threads = [t.strip() for t in args.threads.split(",") if t.strip()]
     res = {}
     if os.path.exists(args.head):
-        res["head"] = {}
-        for t in threads:
-            print(f"stages.py: CT head, {t} thread(s)", file=sys.stderr, flush=True)
-            rows = [mesh_once(cli, args.head, 500, t, work, args.timeout)
-                    for _ in range(args.reps)]
-            res["head"][t] = median_row(rows)
-            print(json.dumps(res["head"][t]), flush=True)
-        if len(threads) > 1:
-            t = threads[-1]
-            print(f"stages.py: CT head, {t} threads, passive wait", file=sys.stderr, flush=True)
-            os.environ["OMP_WAIT_POLICY"] = "passive"
-            rows = [mesh_once(cli, args.head, 500, t, work, args.timeout)
-                    for _ in range(args.reps)]
-            del os.environ["OMP_WAIT_POLICY"]
-            res["head"][t + "p"] = median_row(rows)
-            print(json.dumps(res["head"][t + "p"]), flush=True)
+        # the thread counts interleaved, rep by rep: a machine whose speed drifts during the
+        # run (a shared one) then weighs on every column alike
+        cols = threads + ([threads[-1] + "p"] if len(threads) > 1 else [])
+        rows = {c: [] for c in cols}
+        saved = os.environ.get("OMP_WAIT_POLICY")
+        for rep in range(args.reps):
+            for c in cols:
+                t = c.rstrip("p")
+                print(f"stages.py: CT head, {t} thread(s){', passive wait' if c != t else ''}"
+                      f", run {rep + 1} of {args.reps}", file=sys.stderr, flush=True)
+                if c != t:
+                    os.environ["OMP_WAIT_POLICY"] = "passive"
+                rows[c].append(mesh_once(cli, args.head, 500, t, work, args.timeout))
+                if saved is None:
+                    os.environ.pop("OMP_WAIT_POLICY", None)
+                else:
+                    os.environ["OMP_WAIT_POLICY"] = saved
+        res["head"] = {c: median_row(rows[c]) for c in cols}
+        for c in cols:
+            print(json.dumps(res["head"][c]), flush=True)
     if args.gyroid:
         n = args.gyroid
         vol = os.path.join(work, f"gyroid-{n}.nrrd")
