@@ -97,13 +97,8 @@ static vm_status widen(dc *d, vm_error *err) {
     return VM_OK;
 }
 
-/* Stores v as tet t (< tet_cap), widening the list first when an id needs it. */
-static vm_status tet_set(dc *d, size_t t, const int64_t v[4], vm_error *err) {
-    if (!d->wide && (v[0] >= d->id_limit || v[1] >= d->id_limit || v[2] >= d->id_limit ||
-                     v[3] >= d->id_limit)) {
-        vm_status s = widen(d, err);
-        if (s) return s;
-    }
+/* Stores v as tet t (< tet_cap) in the list as wide as it is. */
+static void tet_store(const dc *d, size_t t, const int64_t v[4]) {
     if (d->wide) {
         memcpy((int64_t *)d->tets + 4 * t, v, 4 * sizeof(int64_t));
     } else {
@@ -111,6 +106,16 @@ static vm_status tet_set(dc *d, size_t t, const int64_t v[4], vm_error *err) {
         for (int k = 0; k < 4; k++)
             p[k] = (uint32_t)v[k];
     }
+}
+
+/* Stores v as tet t (< tet_cap), widening the list first when an id needs it. */
+static vm_status tet_set(dc *d, size_t t, const int64_t v[4], vm_error *err) {
+    if (!d->wide && (v[0] >= d->id_limit || v[1] >= d->id_limit || v[2] >= d->id_limit ||
+                     v[3] >= d->id_limit)) {
+        vm_status s = widen(d, err);
+        if (s) return s;
+    }
+    tet_store(d, t, v);
     return VM_OK;
 }
 
@@ -697,14 +702,7 @@ static vm_status append_slabs(dc *d, edge_slab *sl, int64_t count, vm_error *err
             tet_get(&from, t, v);
             for (int k = 0; k < 4; k++)
                 if (v[k] >= first) v[k] += shift;
-            size_t at = t0[q] + t;
-            if (cd->wide) {
-                memcpy((int64_t *)cd->tets + 4 * at, v, 4 * sizeof(int64_t));
-            } else {
-                uint32_t *p = (uint32_t *)cd->tets + 4 * at;
-                for (int k = 0; k < 4; k++)
-                    p[k] = (uint32_t)v[k];
-            }
+            tet_store(cd, t0[q] + t, v);
         }
         if (x->ncentre) memcpy(cd->centre + 3 * c0[q], x->centre, 3 * x->ncentre * sizeof(double));
     }
