@@ -601,47 +601,20 @@ static void emit_slab(const dc *d, edge_slab *sl) {
     sl->ncentre = local.ncentre;
 }
 
-static vm_status append_slab(dc *d, edge_slab *sl, vm_error *err) {
-    vm_status s = sl->status;
-    if (s) {
-        if (err) *err = sl->err;
-    } else {
-        s = vm__grow(&d->tets, &d->tet_cap, d->ntets + sl->ntets, tet_bytes(d), err);
-        if (!s)
-            s = vm__grow(&d->src, &d->src_cap, d->ntets + sl->ntets, src_bytes(d), err);
-        if (!s)
-            s = vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + sl->ncentre,
-                         3 * sizeof(double), err);
-    }
-    if (!s) {
-        int64_t first = vm__dc_npoints_real(d) + (int64_t)d->nreps, shift = (int64_t)d->ncentre;
-        if (sl->ntets) /* (d->src may still be NULL otherwise) */
-            memcpy((char *)d->src + src_bytes(d) * d->ntets, sl->src, sl->ntets * src_bytes(d));
-        const dc from = {.tets = sl->tets, .wide = sl->wide};
-        for (size_t t = 0; t < sl->ntets && !s; t++) {
-            int64_t v[4];
-            tet_get(&from, t, v);
-            for (int k = 0; k < 4; k++)
-                if (v[k] >= first) v[k] += shift;
-            s = tet_set(d, d->ntets, v, err);
-            if (!s) d->ntets++;
-        }
-        if (sl->ncentre)
-            memcpy(d->centre + 3 * d->ncentre, sl->centre, 3 * sl->ncentre * sizeof(double));
-        d->ncentre += sl->ncentre;
-    }
+/* Frees what a slab emitted (appended or not). */
+static void slab_free(edge_slab *sl) {
     free(sl->tets);
     free(sl->src);
     free(sl->centre);
     sl->tets = NULL;
     sl->src = NULL;
     sl->centre = NULL;
-    return s;
 }
 
-/* Appends the batch sl[0..count) in order, as append_slab one by one would: the arrays
- * grown once, the list widened first if a slab's ids need it, then each slab copied to its
- * place on the threads. A batch with a failed slab goes through append_slab (its error). */
+/* Appends the batch sl[0..count) in order: the arrays grown once, the list widened first if
+ * a shifted id needs it, then each slab copied to its place on the threads (its centres'
+ * ids shifted past the centres before it). A batch with a failed slab returns the first
+ * failure's error. The slabs' buffers are freed either way. */
 static vm_status append_slabs(dc *d, edge_slab *sl, int64_t count, vm_error *err) {
     size_t nt = 0, nc = 0;
     int failed = 0;
@@ -651,18 +624,16 @@ static vm_status append_slabs(dc *d, edge_slab *sl, int64_t count, vm_error *err
         nc += sl[q].ncentre;
     }
     vm_status s = VM_OK;
-    if (!failed) {
-        s = vm__grow(&d->tets, &d->tet_cap, d->ntets + nt, tet_bytes(d), err);
-        if (!s) s = vm__grow(&d->src, &d->src_cap, d->ntets + nt, src_bytes(d), err);
-        if (!s)
-            s = vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + nc,
-                         3 * sizeof(double), err);
-    }
-    if (failed || s) {
-        for (int64_t q = 0; q < count; q++) {
-            vm_status t = append_slab(d, &sl[q], s ? NULL : err);
-            if (!s) s = t;
-        }
+    for (int64_t q = 0; q < count && failed && !s; q++)
+        if ((s = sl[q].status) && err) *err = sl[q].err;
+    if (!s) s = vm__grow(&d->tets, &d->tet_cap, d->ntets + nt, tet_bytes(d), err);
+    if (!s) s = vm__grow(&d->src, &d->src_cap, d->ntets + nt, src_bytes(d), err);
+    if (!s)
+        s = vm__grow((void **)&d->centre, &d->centre_cap, d->ncentre + nc, 3 * sizeof(double),
+                     err);
+    if (s) {
+        for (int64_t q = 0; q < count; q++)
+            slab_free(&sl[q]);
         return s;
     }
     int64_t first = vm__dc_npoints_real(d) + (int64_t)d->nreps;
@@ -687,7 +658,11 @@ static vm_status append_slabs(dc *d, edge_slab *sl, int64_t count, vm_error *err
                     if ((v[k] >= first ? v[k] + shift : v[k]) >= d->id_limit) need = 1;
             }
         }
-    if (need && (s = widen(d, err))) return s;
+    if (need && (s = widen(d, err))) {
+        for (int64_t q = 0; q < count; q++)
+            slab_free(&sl[q]);
+        return s;
+    }
     const dc *cd = d;
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for schedule(dynamic, 1)
@@ -706,14 +681,8 @@ static vm_status append_slabs(dc *d, edge_slab *sl, int64_t count, vm_error *err
         }
         if (x->ncentre) memcpy(cd->centre + 3 * c0[q], x->centre, 3 * x->ncentre * sizeof(double));
     }
-    for (int64_t q = 0; q < count; q++) {
-        free(sl[q].tets);
-        free(sl[q].src);
-        free(sl[q].centre);
-        sl[q].tets = NULL;
-        sl[q].src = NULL;
-        sl[q].centre = NULL;
-    }
+    for (int64_t q = 0; q < count; q++)
+        slab_free(&sl[q]);
     d->ntets += nt;
     d->ncentre += nc;
     return VM_OK;
