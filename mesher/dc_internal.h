@@ -149,10 +149,30 @@ static inline int64_t vm__dc_lattice_id(const dc *d, const int64_t p[3]) {
     return p[0] + d->n[0] * (p[1] + d->n[1] * p[2]);
 }
 
+/* The 4 vertex ids of tet t of the list (either width). */
+static inline void vm__dc_tet_get(const dc *d, size_t t, int64_t v[4]) {
+    if (d->wide) {
+        const int64_t *p = (const int64_t *)d->tets + 4 * t;
+        for (int k = 0; k < 4; k++)
+            v[k] = p[k];
+    } else {
+        const uint32_t *p = (const uint32_t *)d->tets + 4 * t;
+        for (int k = 0; k < 4; k++)
+            v[k] = (int64_t)p[k];
+    }
+}
+
 /* Classifies the grid, finds and analyses the boundary cells, builds the interior octree
  * when g->max_level > 0, and places every patch vertex. [out] d (free with vm__dc_free). */
 vm_status vm__dc_setup(dc *d, const vm__grid *g, vm_mesh_stats *st, vm_error *err);
 void vm__dc_free(dc *d);
+
+/* Quality by construction (dc_lift.c): moves the inner grid points at the corners of tets
+ * below the quality targets within their stars, measuring in the world frame M (index to
+ * world, linear part, row-major). [out] the moved points' ids (increasing) and index
+ * positions (whole-grid frame, as the representatives'); *n 0 and NULL arrays when none. */
+vm_status vm__dc_lift(const dc *d, const double M[9], size_t *n, int64_t **ids, double **pos,
+                      vm_error *err);
 
 /* Hexahedra need every cell's inside components to meet one patch each and no face to join
  * two cells twice: flips outside grid points inside until that holds. [out] *flipped. */

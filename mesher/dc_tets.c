@@ -75,13 +75,7 @@ static size_t tet_bytes(const dc *d) {
 }
 
 static void tet_get(const dc *d, size_t t, int64_t v[4]) {
-    if (d->wide) {
-        memcpy(v, (const int64_t *)d->tets + 4 * t, 4 * sizeof(int64_t));
-    } else {
-        const uint32_t *p = (const uint32_t *)d->tets + 4 * t;
-        for (int k = 0; k < 4; k++)
-            v[k] = (int64_t)p[k];
-    }
+    vm__dc_tet_get(d, t, v);
 }
 
 /* Makes the list 64-bit, keeping its capacity. */
@@ -1691,6 +1685,10 @@ vm_status vm__dual_contour_tets(const vm__grid *g, vm__tet_soup *out, vm_mesh_st
     if (!s && bad)
         s = vm_error_set(err, VM_ERR_INTERNAL,
                          "mesh: %zu tetrahedra stay flat or inverted after relaxation", bad);
+    if (!s && g->lift) {
+        s = vm__dc_lift(&d, g->frame, &out->nlift, &out->lift_id, &out->lift_pos, err);
+        st->lifted_vertices = out->nlift;
+    }
     if (!s && g->progress && g->progress("contour", 4, 4, g->progress_user))
         s = vm__cancelled(err, "mesh");
     if (s) {

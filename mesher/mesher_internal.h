@@ -19,6 +19,8 @@ typedef struct vm__grid {
     double error;           /* adaptive: boundary cells merge below this error (voxels) */
     int64_t id_limit;       /* tets: soup ids below it are kept in 32 bits (0: 2^32; tests
                                set less to take the 64-bit path) */
+    int lift;               /* tets: move the grid points of bad tets (dc_lift.c) in frame */
+    double frame[9]; /* index to world, linear part (row-major), for the lift's measures */
     vm_progress_fn progress;
     void *progress_user;
 } vm__grid;
@@ -36,6 +38,9 @@ typedef struct vm__tet_soup {
     int64_t nlattice;
     size_t nreps;
     double *rep_pos;
+    size_t nlift;     /* grid points that do not sit on their grid position: */
+    int64_t *lift_id; /* their ids, increasing */
+    double *lift_pos; /* their positions (grid index coordinates, as rep_pos) */
 } vm__tet_soup;
 
 /* Octree of interior cells over the real grid cells (nc = n - 1 per axis), one 4-bit code

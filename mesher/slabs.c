@@ -11,7 +11,9 @@
 #include <string.h>
 
 int64_t vm_slab_default_ghost(const vm_mesh_options *o) {
-    return 6 + (o->adaptive ? (int64_t)2 << o->max_level : 0);
+    /* + 8: a lifted grid point's position depends on those of its 7 colours before it
+     * (dc_lift.c), a chain of up to 7 neighbours, one cell each */
+    return 14 + (o->adaptive ? ((int64_t)2 << o->max_level) + 8 : 0);
 }
 
 void vm_slab_grid_init(int64_t nz, const vm_mesh_options *o, int64_t ghost, vm_slab_grid *g) {
@@ -203,6 +205,7 @@ static void add_stats(vm_mesh_stats *sum, const vm_mesh_stats *a) {
     sum->surface_vertices += a->surface_vertices;
     sum->relaxed_vertices += a->relaxed_vertices;
     sum->untangled_vertices += a->untangled_vertices;
+    sum->lifted_vertices += a->lifted_vertices;
     sum->boundary_crossings += a->boundary_crossings;
     sum->repaired_points += a->repaired_points;
     sum->inverted_cells += a->inverted_cells;
@@ -230,6 +233,10 @@ vm_status vm_mesh_volume_slabs(const vm_volume *info, const vm_mesh_options *o,
                 (long long)info->dims[a], a);
     vm_slab_grid g;
     vm_slab_grid_init(info->dims[2], o, so->ghost, &g);
+    double frame[9]; /* the whole volume's frame, in which the mesher measures (the lift) */
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            frame[3 * r + c] = info->direction[r][c] * info->spacing[c];
     int n = so->slabs;
     /* one buffer for the planes of the thickest slab, reused slab after slab */
     int64_t bd[3] = {info->dims[0], info->dims[1], vm_slab_planes_held(&g, n)};
@@ -301,6 +308,7 @@ vm_status vm_mesh_volume_slabs(const vm_volume *info, const vm_mesh_options *o,
         }
         vm_mesh_options mo = *o;
         vm_slab_crop_options(&g, &s, &mo);
+        mo.crop_frame = frame;
         mo.progress = NULL;
         vm_mesh part;
         vm_mesh_stats ps;

@@ -105,6 +105,14 @@ static void write_vertices(const vm__tet_soup *soup, const vnumber *N, const vm_
         vm_volume_index_to_world(v, ijk,
                                  mesh->points + 3 * (size_t)N->map[N->nused_lattice + r]);
     }
+    for (size_t k = 0; k < soup->nlift; k++) { /* grid points moved off the grid */
+        int64_t id = soup->lift_id[k];
+        if ((size_t)id >= N->nl || !((N->used_bits[id >> 6] >> (id & 63)) & 1)) continue;
+        double ijk[3];
+        for (int a = 0; a < 3; a++)
+            ijk[a] = soup->lift_pos[3 * k + a] * step[a];
+        vm_volume_index_to_world(v, ijk, mesh->points + 3 * (size_t)N->map[map_slot(N, id)]);
+    }
 }
 
 /* The cells take over the soup's buffer, each id replaced by its number in place (the soup
@@ -165,6 +173,10 @@ vm_status vm__soup_to_mesh(vm__tet_soup *soup, const vm_volume *v, const int64_t
     vnumber_free(&N);
     free(soup->rep_pos);
     soup->rep_pos = NULL;
+    free(soup->lift_id);
+    free(soup->lift_pos);
+    soup->lift_id = NULL;
+    soup->lift_pos = NULL;
     if (!s) {
         mesh->region = malloc((soup->ntets ? soup->ntets : 1) * sizeof *mesh->region);
         if (!mesh->region)

@@ -41,8 +41,8 @@ static const char *help =
     "  --adaptive              octree cells (slab cuts fall on the coarsest block size)\n"
     "  --error E               adaptive: boundary error in voxels (default 0.5)\n"
     "  --max-level L           adaptive: largest cell 2^L cells (default 4)\n"
-    "  --ghost G               ghost band in cells on each side of a slab (default 6, or\n"
-    "                          2*2^L + 6 when adaptive)\n"
+    "  --ghost G               ghost band in cells on each side of a slab (default 14, or\n"
+    "                          2*2^L + 22 when adaptive)\n"
     "  --improve               the quality pass: on each slab with the vertices it shares\n"
     "                          held fixed, then across each cut on the lower rank; the\n"
     "                          pieces still conform, but are not tet for tet what the\n"
@@ -942,6 +942,11 @@ static vm_status slab_mesh(const args *A, vm_volume *v, int64_t nz, vm_mesh *m, 
     if (sl.cell1 <= sl.cell0) return VM_ERR_EMPTY; /* more ranks than blocks */
     vm_mesh_options mo = A->mo;
     vm_slab_crop_options(&g, &sl, &mo); /* v holds the slab's planes */
+    double frame[9]; /* the file's frame, in which the mesher measures (the lift) */
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            frame[3 * r + c] = v->direction[r][c] * v->spacing[c];
+    mo.crop_frame = frame;
     for (int a = 0; a < 3; a++) {
         v->origin[a] = 0;
         v->spacing[a] = 1;

@@ -62,6 +62,13 @@ typedef struct vm_mesh_options {
      * adaptive meshes leave out the first few planes of the crop to align on its octree
      * blocks). A crop of material far enough inside its planes is meshed exactly. */
     int64_t z_offset, full_nz;
+    /* The frame in which the mesher measures its elements' quality (the lift of
+     * docs/ALGORITHMS.md moves grid points by those measures), as direction times spacing
+     * (row r, column c: direction[r][c] * spacing[c]). For a volume given in another frame
+     * than the one it will be shown in: the slab drivers mesh their crops in index space
+     * and give the whole volume's frame here, so that a crop's tets are the whole run's.
+     * NULL (the default): v's own frame. */
+    const double *crop_frame;
     vm_progress_fn progress;
     void *progress_user;
 } vm_mesh_options;
@@ -75,6 +82,8 @@ typedef struct vm_mesh_stats {
     size_t untangled_vertices; /* tets: vertices pulled back where the boundary crossed itself */
     size_t boundary_crossings; /* tets: pairs of boundary triangles still crossing after that
                                   (0 on every volume tested; see vm_mesh_check) */
+    size_t lifted_vertices;    /* tets: grid points moved off the grid to mend tets below
+                                  the quality targets (docs/ALGORITHMS.md, "The lift") */
     size_t repaired_points;    /* hexes: outside grid points taken in (see docs) */
     size_t inverted_cells;     /* hexes left inverted (vm_mesh_improve_hexes untangles them) */
     size_t octree_leaves;      /* graded: leaves of the sizing octree */

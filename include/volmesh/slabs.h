@@ -34,9 +34,10 @@ typedef struct vm_slab_grid {
     int64_t ghost;  /* ghost band in cells on each side of a slab */
 } vm_slab_grid;
 
-/* The default ghost band for o: 6 cells, 2 * 2^max_level + 6 when adaptive (the tets near
- * a cut are exact from 2 cells uniform and 4 adaptive at level 4 on the phantoms tested;
- * the rest is margin, docs/MPI.md). */
+/* The default ghost band for o: 14 cells, 2 * 2^max_level + 22 when adaptive (the tets near
+ * a cut are exact from 2 cells uniform and 4 adaptive at level 4 on the phantoms tested
+ * before the lift; the lift's moves depend on up to 7 neighbours' in a chain, 8 cells
+ * more; the rest is margin, docs/MPI.md). */
 int64_t vm_slab_default_ghost(const vm_mesh_options *o);
 
 /* [out] g for a volume of nz >= 2 planes meshed with o; ghost <= 0: the default. */

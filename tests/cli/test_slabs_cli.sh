@@ -67,11 +67,11 @@ wvol=$(json "['volume']" <w.json)
 mkdir s && (cd s && "$VM_CLI" demo --shape sphere --size 96 >/dev/null) && mv s/phantom.nrrd sphere.nrrd ||
     bad "demo 96"
 "$VM_CLI" mesh sphere.nrrd --iso 0 --no-improve --size 2 -o whole.vtu --quiet >/dev/null
-err=$("$VM_CLI" mesh sphere.nrrd --iso 0 --no-improve --size 2 --slabs auto --max-memory 8M \
-    -o auto.vtu --quiet --verbose 2>&1 >/dev/null) || bad "--slabs auto --max-memory 8M: $err"
+err=$("$VM_CLI" mesh sphere.nrrd --iso 0 --no-improve --size 2 --slabs auto --max-memory 12M \
+    -o auto.vtu --quiet --verbose 2>&1 >/dev/null) || bad "--slabs auto --max-memory 12M: $err"
 k=$(printf '%s\n' "$err" | sed -n 's/^volmesh: --slabs auto: \([0-9]*\) slabs of at most \([0-9]*\) planes$/\1 \2/p')
 set -- $k
-[ "${1:-0}" -ge 2 ] && [ "${2:-999}" -le 56 ] && ok || bad "--slabs auto at 8M: '$err'"
+[ "${1:-0}" -ge 2 ] && [ "${2:-999}" -le 85 ] && ok || bad "--slabs auto at 12M: '$err'"
 res=$(same whole.vtu auto.vtu 2>&1) && ok || bad "--slabs auto: $res"
 
 # Refusals: one line, exit 2, no output file.

@@ -7,12 +7,12 @@
 #include <string.h>
 #include "test.h"
 
-static int mesh_sphere(int n, vm_volume *v, vm_mesh *m) {
+static int mesh_phantom(vm_phantom_kind kind, int n, vm_volume *v, vm_mesh *m) {
     vm_error err;
     vm_mesh_options o;
     vm_mesh_options_default(&o);
     vm_mesh_init(m, VM_TET4);
-    CHECK_OK(vm_phantom_make(VM_PHANTOM_SPHERE, n, 0.0, 1, v, NULL, &err), &err);
+    CHECK_OK(vm_phantom_make(kind, n, 0.0, 1, v, NULL, &err), &err);
     if (!v->data) return 0;
     vm_status s = vm_mesh_volume(v, &o, m, NULL, &err);
     CHECK_OK(s, &err);
@@ -50,7 +50,7 @@ static void improve(vm_mesh *m, const vm_volume *v, const unsigned char *frozen,
 static void everyTetFrozenLeavesTheMeshAsItWas(void) {
     vm_volume v;
     vm_mesh m, a, b;
-    if (!mesh_sphere(24, &v, &m)) return;
+    if (!mesh_phantom(VM_PHANTOM_SPHERE, 24, &v, &m)) return;
     unsigned char *all = malloc(m.ncells), *none = calloc(m.ncells, 1);
     CHECK(all && none && copy_mesh(&m, &a) && copy_mesh(&m, &b));
     if (all && none) {
@@ -89,7 +89,8 @@ static void count_slivers(const vm_mesh *m, size_t n[2]) {
 static void halfFrozenImprovesTheOtherHalf(void) {
     vm_volume v;
     vm_mesh m;
-    if (!mesh_sphere(32, &v, &m)) return;
+    /* (the genus-3 solid: the sphere comes out of the mesher with no tet under 10 degrees) */
+    if (!mesh_phantom(VM_PHANTOM_GENUS3, 32, &v, &m)) return;
     double mid = 0.5 * (double)(v.dims[2] - 1);
     unsigned char *fz = malloc(m.ncells);
     CHECK(fz != NULL);
@@ -119,7 +120,7 @@ static void halfFrozenImprovesTheOtherHalf(void) {
         vm_mesh_report c;
         CHECK_OK(vm_mesh_check(&m, &c, &err), &err);
         CHECK(c.inverted == 0 && c.overshared_faces == 0 && c.boundary_closed &&
-              c.boundary_euler == 2);
+              c.boundary_euler == -4); /* genus 3 */
     }
     free(fz);
     vm_mesh_free(&m);

@@ -69,6 +69,9 @@ node_fields() {
 import struct
 n, r = 64, 0.7
 h = 2.0 / (n - 1)
+# an origin one unit in the last place below -1: the grid points of the plane through the
+# centre are then about 2e-16 from 0, interior points that no stage moves
+o = -1.0 - 2.0 ** -52
 vals = []
 for k in range(n):
     for j in range(n):
@@ -77,7 +80,7 @@ for k in range(n):
             vals.append((x * x + y * y + z * z) ** 0.5 - r)
 head = ("NRRD0004\ntype: float\ndimension: 3\nsizes: %d %d %d\n"
         "space: right-anterior-superior\nspace directions: (%r,0,0) (0,%r,0) (0,0,%r)\n"
-        "space origin: (-1,-1,-1)\nencoding: raw\nendian: little\n\n") % (n, n, n, h, h, h)
+        "space origin: (%r,%r,%r)\nencoding: raw\nendian: little\n\n") % (n, n, n, h, h, h, o, o, o)
 with open("sphere.nrrd", "wb") as f:
     f.write(head.encode() + struct.pack("<%df" % len(vals), *vals))
 PY

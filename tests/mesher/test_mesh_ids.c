@@ -66,6 +66,10 @@ static void ids_case(vm_phantom_kind kind, int n, int L, double vol_tol) {
     g.has_lo = 1;
     g.max_level = L;
     g.error = o.error;
+    g.lift = 1; /* as vm_mesh_volume: in v's frame */
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            g.frame[3 * r + c] = v.direction[r][c] * v.spacing[c];
     int64_t N = g.n[0] * g.n[1] * g.n[2], top = 0;
     int64_t limits[4] = {0, 0, 0, 1}; /* the middle two once the 32-bit run tells the ids */
     const char *what[4] = {"32-bit ids", "64-bit from a quarter of the surface vertices",
@@ -97,11 +101,16 @@ static void ids_case(vm_phantom_kind kind, int n, int L, double vol_tol) {
         size_t diff = soup.ntets == ref.ntets ? 0 : 1;
         for (size_t q = 0; !diff && q < 4 * soup.ntets; q++)
             diff += soup_id(&soup, q) != soup_id(&ref, q);
-        CHECK_MSG(!diff && soup.nreps == ref.nreps && soup.nlattice == ref.nlattice &&
-                      memcmp(soup.rep_pos, ref.rep_pos, 3 * soup.nreps * sizeof(double)) == 0,
-                  "%s: %zu tets and %zu vertices, not the 32-bit run's %zu and %zu (%zu ids "
-                  "differ)",
-                  label, soup.ntets, soup.nreps, ref.ntets, ref.nreps, diff);
+        CHECK_MSG(
+            !diff && soup.nreps == ref.nreps && soup.nlattice == ref.nlattice &&
+                memcmp(soup.rep_pos, ref.rep_pos, 3 * soup.nreps * sizeof(double)) == 0 &&
+                soup.nlift == ref.nlift &&
+                (!soup.nlift ||
+                 (memcmp(soup.lift_id, ref.lift_id, soup.nlift * sizeof(int64_t)) == 0 &&
+                  memcmp(soup.lift_pos, ref.lift_pos, 3 * soup.nlift * sizeof(double)) == 0)),
+            "%s: %zu tets and %zu vertices, not the 32-bit run's %zu and %zu (%zu ids "
+            "differ)",
+            label, soup.ntets, soup.nreps, ref.ntets, ref.nreps, diff);
         vm_mesh m;
         vm_mesh_init(&m, VM_TET4);
         const double step[3] = {1, 1, 1};
