@@ -9,6 +9,7 @@
  * moved are interior vertices and the patch vertices stay where untangling left them. */
 #include "../core/core.h"
 #include "../core/vec3.h"
+#include "../quality/tet_internal.h"
 #include "dc_internal.h"
 #include <math.h>
 #include <stdlib.h>
@@ -75,44 +76,9 @@ static void to_world(const lift *L, const double x[3], double out[3]) {
  * -1 when it is not clearly positive. A tet that meets the targets is told on the cosines
  * alone; only the others take inverse cosines. */
 static double tet_score(const double p[4][3]) {
-    /* edges k = (i, j): 01 02 03 12 13 23; the faces, opposite node f, as edge triples */
-    static const int fo[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-    static const int eid[4][4] = {{-1, 0, 1, 2}, {0, -1, 3, 4}, {1, 3, -1, 5}, {2, 4, 5, -1}};
-    static const int ei[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-    double e[6][3], len[6], lmax2 = 0;
-    for (int k = 0; k < 6; k++) {
-        vm__sub3(p[ei[k][1]], p[ei[k][0]], e[k]);
-        double l2 = vm__dot3(e[k], e[k]);
-        if (l2 > lmax2) lmax2 = l2;
-        len[k] = sqrt(l2);
-    }
-    double c[3];
-    vm__cross3(e[1], e[2], c);
-    double vol6 = vm__dot3(e[0], c);
-    if (!isfinite(vol6) || !(vol6 > 1e-12 * lmax2 * sqrt(lmax2))) return -1.0;
-    double nrm[4][3], nl[4], fcmax = -1, fcmin = 1;
-    for (int f = 0; f < 4; f++) {
-        for (int k = 0; k < 3; k++) { /* the face's angle at its node k */
-            int o = fo[f][k], u = fo[f][(k + 1) % 3], w = fo[f][(k + 2) % 3];
-            int eu = eid[o][u], ew = eid[o][w];
-            double su = o < u ? 1 : -1, sw = o < w ? 1 : -1;
-            double cs = su * sw * vm__dot3(e[eu], e[ew]) / (len[eu] * len[ew]);
-            if (cs > fcmax) fcmax = cs;
-            if (cs < fcmin) fcmin = cs;
-        }
-        double u[3], v[3];
-        vm__sub3(p[fo[f][1]], p[fo[f][0]], u);
-        vm__sub3(p[fo[f][2]], p[fo[f][0]], v);
-        vm__cross3(u, v, nrm[f]); /* outward for a positive tet */
-        nl[f] = sqrt(vm__dot3(nrm[f], nrm[f]));
-    }
-    double dcmax = -1, dcmin = 1;
-    for (int i = 0; i < 4; i++)
-        for (int j = i + 1; j < 4; j++) {
-            double cd = -vm__dot3(nrm[i], nrm[j]) / (nl[i] * nl[j]);
-            if (cd > dcmax) dcmax = cd;
-            if (cd < dcmin) dcmin = cd;
-        }
+    double dcmax, dcmin, fc[12], fcmax, fcmin;
+    if (!vm__tet_dihedral_cosines(p, &dcmax, &dcmin)) return -1.0;
+    vm__tet_face_cosines(p, fc, &fcmax, &fcmin);
     if (dcmax <= cos_min && dcmin >= cos_max && fcmax <= cos_min && fcmin >= cos_max)
         return 1.0;
     double q = 1.0, t;
