@@ -48,6 +48,11 @@ vm_status vm__check_geometry(const vm_volume *v, const char *what, vm_error *err
 double vm__now(void);
 
 struct vm_volume;
+/* v's index-to-world matrix M = D diag(spacing): m[r][c] = direction[r][c] * spacing[c]. */
+void vm__volume_frame(const struct vm_volume *v, double m[3][3]);
+/* The determinant of m, and its inverse by cofactors over det (its determinant, non-zero). */
+double vm__mat3_det(const double m[3][3]);
+void vm__mat3_inverse(const double m[3][3], double det, double inv[3][3]);
 /* The inverse (inv) of v's index-to-world matrix M = D diag(spacing), and its determinant
  * (*det); VM_ERR_ARG, its message starting with who (the caller's name), when M is
  * singular. Defined in volume.c. */

@@ -71,13 +71,29 @@ void vm_volume_index_to_world(const vm_volume *v, const double ijk[3], double xy
     }
 }
 
-double vm_volume_frame_determinant(const vm_volume *v) {
-    double m[3][3];
+void vm__volume_frame(const vm_volume *v, double m[3][3]) {
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++) m[r][c] = v->direction[r][c] * v->spacing[c];
+}
+
+double vm__mat3_det(const double m[3][3]) {
     return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
            m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
            m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+void vm__mat3_inverse(const double m[3][3], double det, double inv[3][3]) {
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) {
+            int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
+            inv[r][c] = (m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]) / det;
+        }
+}
+
+double vm_volume_frame_determinant(const vm_volume *v) {
+    double m[3][3];
+    vm__volume_frame(v, m);
+    return vm__mat3_det((const double(*)[3])m);
 }
 
 size_t vm_volume_stats(const vm_volume *v, double *min, double *max, double *mean) {
@@ -160,16 +176,11 @@ int vm_scalar_type_parse(const char *name, vm_scalar_type *t) {
 vm_status vm__frame_inverse(const vm_volume *v, const char *who, double inv[3][3], double *det,
                             vm_error *err) {
     double m[3][3];
-    for (int r = 0; r < 3; r++)
-        for (int c = 0; c < 3; c++) m[r][c] = v->direction[r][c] * v->spacing[c];
-    *det = vm_volume_frame_determinant(v);
+    vm__volume_frame(v, m);
+    *det = vm__mat3_det((const double(*)[3])m);
     if (!(fabs(*det) > 0) || !isfinite(*det))
         return vm_error_set(err, VM_ERR_ARG,
                             "%s: the volume's index-to-world frame is degenerate", who);
-    for (int r = 0; r < 3; r++)
-        for (int c = 0; c < 3; c++) {
-            int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
-            inv[r][c] = (m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]) / *det;
-        }
+    vm__mat3_inverse((const double(*)[3])m, *det, inv);
     return VM_OK;
 }

@@ -260,22 +260,6 @@ static int lift_free(const lift *L, size_t c) {
     return 1;
 }
 
-static int invert3(const double m[9], double o[9]) {
-    double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
-                 m[2] * (m[3] * m[7] - m[4] * m[6]);
-    if (!(fabs(det) > 0) || !isfinite(det)) return 0;
-    o[0] = (m[4] * m[8] - m[5] * m[7]) / det;
-    o[1] = (m[2] * m[7] - m[1] * m[8]) / det;
-    o[2] = (m[1] * m[5] - m[2] * m[4]) / det;
-    o[3] = (m[5] * m[6] - m[3] * m[8]) / det;
-    o[4] = (m[0] * m[8] - m[2] * m[6]) / det;
-    o[5] = (m[2] * m[3] - m[0] * m[5]) / det;
-    o[6] = (m[3] * m[7] - m[4] * m[6]) / det;
-    o[7] = (m[1] * m[6] - m[0] * m[7]) / det;
-    o[8] = (m[0] * m[4] - m[1] * m[3]) / det;
-    return 1;
-}
-
 static void lift_free_all(lift *L) {
     free(L->bit);
     free(L->rank);
@@ -323,7 +307,9 @@ vm_status vm__dc_lift(const dc *d, const double M[9], size_t *nout, int64_t **id
     memset(&L, 0, sizeof L);
     L.d = d;
     memcpy(L.M, M, sizeof L.M);
-    if (!invert3(L.M, L.Mi)) return VM_OK;
+    double det = vm__mat3_det((const double(*)[3])L.M);
+    if (!(fabs(det) > 0) || !isfinite(det)) return VM_OK;
+    vm__mat3_inverse((const double(*)[3])L.M, det, (double(*)[3])L.Mi);
     L.h = 1e300;
     for (int a = 0; a < 3; a++) {
         double l = sqrt(M[a] * M[a] + M[3 + a] * M[3 + a] + M[6 + a] * M[6 + a]);

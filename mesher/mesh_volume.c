@@ -239,11 +239,12 @@ vm_status vm_mesh_volume(const vm_volume *v, const vm_mesh_options *o, vm_mesh *
     g.error = o->error;
     /* the lift's frame: index to world, linear part, with the sampling step */
     g.lift = !g.hexes;
+    double vf[3][3];
+    vm__volume_frame(v, vf);
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++)
-            g.frame[3 * r + c] = (o->crop_frame ? o->crop_frame[3 * r + c]
-                                                : v->direction[r][c] * v->spacing[c]) *
-                                 step[c];
+            g.frame[3 * r + c] =
+                (o->crop_frame ? o->crop_frame[3 * r + c] : vf[r][c]) * step[c];
     /* the caller's progress, forwarded through a meter that the stages below poll */
     vm__meter pm;
     vm__meter_wrap(&pm, o->progress, o->progress_user, "contour", 4.0);

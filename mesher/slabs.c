@@ -233,10 +233,8 @@ vm_status vm_mesh_volume_slabs(const vm_volume *info, const vm_mesh_options *o,
                 (long long)info->dims[a], a);
     vm_slab_grid g;
     vm_slab_grid_init(info->dims[2], o, so->ghost, &g);
-    double frame[9]; /* the whole volume's frame, in which the mesher measures (the lift) */
-    for (int r = 0; r < 3; r++)
-        for (int c = 0; c < 3; c++)
-            frame[3 * r + c] = info->direction[r][c] * info->spacing[c];
+    double frame[3][3]; /* the whole volume's frame, in which the mesher measures (the lift) */
+    vm__volume_frame(info, frame);
     int n = so->slabs;
     /* one buffer for the planes of the thickest slab, reused slab after slab */
     int64_t bd[3] = {info->dims[0], info->dims[1], vm_slab_planes_held(&g, n)};
@@ -308,7 +306,7 @@ vm_status vm_mesh_volume_slabs(const vm_volume *info, const vm_mesh_options *o,
         }
         vm_mesh_options mo = *o;
         vm_slab_crop_options(&g, &s, &mo);
-        mo.crop_frame = frame;
+        mo.crop_frame = &frame[0][0];
         mo.progress = NULL;
         vm_mesh part;
         vm_mesh_stats ps;
