@@ -210,16 +210,16 @@ typedef struct tri_grid {
     size_t *start, *ent;
 } tri_grid;
 
-/* The bounding boxes of the nt triangles into bx, the box of them all into glo..ghi;
- * returns the sum over the triangles of their largest box side. */
-static double tri_boxes(const double *pts, const vm_index *tri, size_t nt, box3 *bx,
-                        double glo[3], double ghi[3]) {
+/* Triangles per chunk of tri_boxes: the chunks' sums of largest sides are added in chunk
+ * order, so the grid is the same for any thread count. */
+#define BOX_CHUNK 65536
+
+/* The bounding boxes of triangles [t0, t1) into bx, their box into lo..hi (widened);
+ * returns the sum of their largest box sides. */
+static double chunk_boxes(const double *pts, const vm_index *tri, size_t t0, size_t t1,
+                          box3 *bx, double lo3[3], double hi3[3]) {
     double ext = 0.0;
-    for (int a = 0; a < 3; a++) {
-        glo[a] = INFINITY;
-        ghi[a] = -INFINITY;
-    }
-    for (size_t t = 0; t < nt; t++) {
+    for (size_t t = t0; t < t1; t++) {
         double big = 0.0;
         for (int a = 0; a < 3; a++) {
             double lo = INFINITY, hi = -INFINITY;
@@ -230,12 +230,50 @@ static double tri_boxes(const double *pts, const vm_index *tri, size_t nt, box3 
             }
             bx[t].lo[a] = lo;
             bx[t].hi[a] = hi;
-            glo[a] = fmin(glo[a], lo);
-            ghi[a] = fmax(ghi[a], hi);
+            lo3[a] = fmin(lo3[a], lo);
+            hi3[a] = fmax(hi3[a], hi);
             big = fmax(big, hi - lo);
         }
         ext += big;
     }
+    return ext;
+}
+
+/* The bounding boxes of the nt triangles into bx, the box of them all into glo..ghi;
+ * returns the sum over the triangles of their largest box side. Chunks on the threads when
+ * there is room for their figures (else in one go: the same boxes, a sum in another
+ * order). */
+static double tri_boxes(const double *pts, const vm_index *tri, size_t nt, box3 *bx,
+                        double glo[3], double ghi[3]) {
+    for (int a = 0; a < 3; a++) {
+        glo[a] = INFINITY;
+        ghi[a] = -INFINITY;
+    }
+    size_t nch = (nt + BOX_CHUNK - 1) / BOX_CHUNK;
+    double *part = nch > 1 ? malloc(nch * 7 * sizeof *part) : NULL;
+    if (!part) return chunk_boxes(pts, tri, 0, nt, bx, glo, ghi);
+    const ptrdiff_t pn = (ptrdiff_t)nch;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+    for (ptrdiff_t c = 0; c < pn; c++) {
+        double *f = part + 7 * c;
+        size_t t0 = (size_t)c * BOX_CHUNK, t1 = t0 + BOX_CHUNK < nt ? t0 + BOX_CHUNK : nt;
+        for (int a = 0; a < 3; a++) {
+            f[1 + a] = INFINITY;
+            f[4 + a] = -INFINITY;
+        }
+        f[0] = chunk_boxes(pts, tri, t0, t1, bx, f + 1, f + 4);
+    }
+    double ext = 0.0;
+    for (size_t c = 0; c < nch; c++) {
+        ext += part[7 * c];
+        for (int a = 0; a < 3; a++) {
+            glo[a] = fmin(glo[a], part[7 * c + 1 + (size_t)a]);
+            ghi[a] = fmax(ghi[a], part[7 * c + 4 + (size_t)a]);
+        }
+    }
+    free(part);
     return ext;
 }
 
@@ -272,19 +310,46 @@ static void box_cells(const tri_grid *g, const box3 *b, size_t c0[3], size_t c1[
     }
 }
 
-/* Bins the nt boxes into the cells of g (g->start, g->ent; a counting sort). */
+/* Sorts the entries e[0..n) of one cell (few: insertion). */
+static void sort_entries(size_t *e, size_t n) {
+    for (size_t i = 1; i < n; i++) {
+        size_t x = e[i], j = i;
+        for (; j > 0 && e[j - 1] > x; j--)
+            e[j] = e[j - 1];
+        e[j] = x;
+    }
+}
+
+static int size_cmp(const void *a, const void *b) {
+    size_t x = *(const size_t *)a, y = *(const size_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* A cell with more entries than this is sorted by qsort. */
+#define SORT_INSERTION_MAX 32
+
+/* Bins the nt boxes into the cells of g (g->start, g->ent; a counting sort): counted and
+ * placed on the threads, then each cell's entries sorted, so every cell lists its
+ * triangles in ascending order for any thread count. */
 static vm_status grid_fill(tri_grid *g, const box3 *bx, size_t nt, vm_error *err) {
-    const size_t *n = g->n;
+    const size_t n0 = g->n[0], n1 = g->n[1];
     g->start = calloc(g->ncell + 1, sizeof *g->start);
     if (!g->start) return vm_error_set(err, VM_ERR_NOMEM, "self-intersection: out of memory");
     size_t *start = g->start, total = 0, bytes;
-    for (size_t t = 0; t < nt; t++) {
+    const ptrdiff_t pnt = (ptrdiff_t)nt;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096) reduction(+ : total)
+#endif
+    for (ptrdiff_t t = 0; t < pnt; t++) {
         size_t c0[3], c1[3];
         box_cells(g, &bx[t], c0, c1);
         for (size_t z = c0[2]; z <= c1[2]; z++)
             for (size_t y = c0[1]; y <= c1[1]; y++)
                 for (size_t x = c0[0]; x <= c1[0]; x++) {
-                    start[x + n[0] * (y + n[1] * z) + 1]++;
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic
+#endif
+                    start[x + n0 * (y + n1 * z) + 1]++;
                     total++;
                 }
     }
@@ -294,17 +359,38 @@ static vm_status grid_fill(tri_grid *g, const box3 *bx, size_t nt, vm_error *err
                             "self-intersection: out of memory for %zu entries", total);
     for (size_t c = 0; c < g->ncell; c++)
         start[c + 1] += start[c];
-    for (size_t t = 0; t < nt; t++) { /* start[c] runs ahead while filling */
+    size_t *ent = g->ent;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t t = 0; t < pnt; t++) { /* start[c] runs ahead while filling */
         size_t c0[3], c1[3];
         box_cells(g, &bx[t], c0, c1);
         for (size_t z = c0[2]; z <= c1[2]; z++)
             for (size_t y = c0[1]; y <= c1[1]; y++)
-                for (size_t x = c0[0]; x <= c1[0]; x++)
-                    g->ent[start[x + n[0] * (y + n[1] * z)]++] = t;
+                for (size_t x = c0[0]; x <= c1[0]; x++) {
+                    size_t at;
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic capture
+#endif
+                    at = start[x + n0 * (y + n1 * z)]++;
+                    ent[at] = (size_t)t;
+                }
     }
     for (size_t c = g->ncell; c > 0; c--) /* shift back: start[c] is the cell's first entry */
         start[c] = start[c - 1];
     start[0] = 0;
+    const ptrdiff_t pnc = (ptrdiff_t)g->ncell;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t c = 0; c < pnc; c++) {
+        size_t k = start[c + 1] - start[c];
+        if (k > SORT_INSERTION_MAX)
+            qsort(ent + start[c], k, sizeof *ent, size_cmp);
+        else
+            sort_entries(ent + start[c], k);
+    }
     return VM_OK;
 }
 

@@ -1,11 +1,10 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* quality/mesh_check.c — whole-mesh invariants: inverted cells, face conformity, boundary
  * closedness and manifoldness, Euler characteristic, components, volume and element quality.
- * Faces are matched within buckets of their smallest node (a counting sort), edges by hashing
- * their sorted node pairs (open addressing with linear probing); connectivity uses
- * union-find with path halving. Everything is O(n). */
+ * Faces are matched within buckets of their smallest node (a counting sort), and boundary
+ * edges within buckets of their lower node; connectivity uses a union-find that the threads
+ * share. Everything is O(n), and on the threads with the same report for any count. */
 #include "../core/core.h"
-#include "../core/hash.h"
 #include "volmesh/quality.h"
 #include "../core/self_intersect.h"
 #include "tet_internal.h"
@@ -70,17 +69,6 @@ static void *alloc_array(size_t n, size_t elem, int zeroed, const char *what, vm
     void *p = zeroed ? calloc(bytes ? bytes : 1, 1) : malloc(bytes ? bytes : 1);
     if (!p) *st = vm_error_set(err, VM_ERR_NOMEM, "mesh check: out of memory for %s", what);
     return p;
-}
-
-/* Smallest power of two >= n*3/2 (at least 16), or 0 on overflow. */
-static size_t table_size(size_t n) {
-    size_t want = n + n / 2, cap = 16;
-    if (want < n) return 0;
-    while (cap < want) {
-        if (cap > SIZE_MAX / 2) return 0;
-        cap *= 2;
-    }
-    return cap;
 }
 
 /* --- a union-find that threads share ---------------------------------------------------- */
@@ -383,12 +371,6 @@ done:
 
 /* --- surface analysis -------------------------------------------------------------------- */
 
-typedef struct edge_slot {
-    uint64_t c1, c2; /* first and second edge instance + 1 */
-    uint32_t count;
-    uint32_t tag;
-} edge_slot;
-
 /* Node a of edge instance i of faces (k nodes each) and node b, the next one around the
  * face. */
 static void edge_ends(const vm_index *faces, int k, size_t i, int64_t *a, int64_t *b) {
@@ -397,132 +379,208 @@ static void edge_ends(const vm_index *faces, int k, size_t i, int64_t *a, int64_
     *b = faces[f * (size_t)k + (j + 1) % (size_t)k];
 }
 
-/* Enters every edge instance of the faces into tab (mask + 1 slots, open addressing):
- * each edge keeps its first two instances and its count; faces sharing an edge are united
- * in fparent; vflag bit 1 marks the used vertices. */
-static void hash_edges(const vm_index *faces, size_t ninst, int k, edge_slot *tab,
-                       size_t mask, size_t *fparent, unsigned char *vflag) {
-    for (size_t i = 0; i < ninst; i++) {
-        size_t f = i / (size_t)k;
-        int64_t a, b;
-        edge_ends(faces, k, i, &a, &b);
-        vflag[a] |= 1;
-        int64_t key[2] = {a < b ? a : b, a < b ? b : a};
-        uint64_t h = vm__hash_add(vm__hash_add(0, (uint64_t)key[0]), (uint64_t)key[1]);
-        uint32_t tag = (uint32_t)(h >> 32);
-        size_t pos = (size_t)h & mask;
-        for (;;) {
-            edge_slot *s = &tab[pos];
-            if (s->c1 == 0) {
-                s->c1 = (uint64_t)i + 1;
-                s->count = 1;
-                s->tag = tag;
-                break;
-            }
-            if (s->tag == tag) {
-                int64_t a1, b1;
-                edge_ends(faces, k, (size_t)(s->c1 - 1), &a1, &b1);
-                if ((a1 < b1 ? a1 : b1) == key[0] && (a1 < b1 ? b1 : a1) == key[1]) {
-                    if (s->count == 1) s->c2 = (uint64_t)i + 1;
-                    if (s->count < UINT32_MAX) s->count++;
-                    vm__uf_union(fparent, (size_t)(s->c1 - 1) / (size_t)k, f);
-                    break;
-                }
-            }
-            pos = (pos + 1) & mask;
+/* The higher node of edge instance i (its bucket is the lower one). */
+static int64_t edge_other(const vm_index *faces, int k, size_t i) {
+    int64_t a, b;
+    edge_ends(faces, k, i, &a, &b);
+    return a > b ? a : b;
+}
+
+/* An edge instance and its higher node, for sorting a large bucket. */
+typedef struct edge_key {
+    int64_t other;
+    size_t inst;
+} edge_key;
+
+static int edge_key_cmp(const void *pa, const void *pb) {
+    const edge_key *a = pa, *b = pb;
+    if (a->other != b->other) return a->other < b->other ? -1 : 1;
+    return a->inst < b->inst ? -1 : a->inst > b->inst;
+}
+
+/* A bucket with more instances than this is sorted by qsort. */
+#define EDGE_INSERTION_MAX 32
+
+/* Sorts the n edge instances e[] of one bucket by their higher node, then by instance:
+ * the instances of one edge then stand together, in instance order. */
+static void sort_edge_bucket(const vm_index *faces, int k, size_t *e, size_t n) {
+    edge_key *t = n > EDGE_INSERTION_MAX ? malloc(n * sizeof *t) : NULL;
+    if (t) {
+        for (size_t q = 0; q < n; q++)
+            t[q] = (edge_key){edge_other(faces, k, e[q]), e[q]};
+        qsort(t, n, sizeof *t, edge_key_cmp);
+        for (size_t q = 0; q < n; q++)
+            e[q] = t[q].inst;
+        free(t);
+        return;
+    }
+    for (size_t q = 1; q < n; q++) { /* few (a vertex's edges), or no memory for the keys */
+        size_t x = e[q], j = q;
+        int64_t ox = edge_other(faces, k, x);
+        for (; j > 0; j--) {
+            int64_t oy = edge_other(faces, k, e[j - 1]);
+            if (oy < ox || (oy == ox && e[j - 1] < x)) break;
+            e[j] = e[j - 1];
         }
+        e[j] = x;
     }
 }
 
-/* Counts the edges of tab (cap slots) and the open and non-manifold ones into r (their
- * vertices get vflag bit 2); at a manifold edge the corners of the two faces at each end
- * are united in cparent, into one fan. Returns the number of edges. */
-static size_t edge_fans(const edge_slot *tab, size_t cap, const vm_index *faces, int k,
-                        size_t *cparent, unsigned char *vflag, vm_mesh_report *r) {
+/* The edges of one bucket (its instances e[0..n), sorted): each counted, an open or
+ * non-manifold one flagged at both ends (vflag bit 2) and counted in r's two figures (the
+ * caller's *open and *nonmanifold), the faces of its instances united in fparent and, at a
+ * manifold edge, the corners of its two faces at each end united in cparent, into one fan.
+ * Returns the number of edges. */
+static size_t bucket_edges(const vm_index *faces, int k, const size_t *e, size_t n,
+                           size_t *fparent, size_t *cparent, unsigned char *vflag, size_t *open,
+                           size_t *nonmanifold) {
     size_t nedges = 0;
-    for (size_t s = 0; s < cap; s++) {
-        if (tab[s].c1 == 0) continue;
+    for (size_t q0 = 0, q1; q0 < n; q0 = q1) {
+        int64_t other = edge_other(faces, k, e[q0]);
+        q1 = q0 + 1;
+        while (q1 < n && edge_other(faces, k, e[q1]) == other)
+            q1++;
         nedges++;
-        size_t i1 = (size_t)(tab[s].c1 - 1), f1 = i1 / (size_t)k, j1 = i1 % (size_t)k;
+        size_t i1 = e[q0], f1 = i1 / (size_t)k, j1 = i1 % (size_t)k;
+        for (size_t q = q0 + 1; q < q1; q++)
+            shared_union(fparent, f1, e[q] / (size_t)k);
         size_t i1n = f1 * (size_t)k + (j1 + 1) % (size_t)k;
         int64_t a = faces[i1], b = faces[i1n];
-        if (tab[s].count != 2) {
-            if (tab[s].count == 1)
-                r->boundary_open_edges++;
+        if (q1 - q0 != 2) {
+            if (q1 - q0 == 1)
+                (*open)++;
             else
-                r->boundary_nonmanifold_edges++;
-            vflag[a] |= 2;
-            vflag[b] |= 2;
+                (*nonmanifold)++;
+            __atomic_fetch_or(&vflag[a], 2, __ATOMIC_RELAXED);
+            __atomic_fetch_or(&vflag[b], 2, __ATOMIC_RELAXED);
             continue;
         }
         /* Two faces meet here: join their corners at each end of the edge into one fan. */
-        size_t i2 = (size_t)(tab[s].c2 - 1), f2 = i2 / (size_t)k, j2 = i2 % (size_t)k;
+        size_t i2 = e[q0 + 1], f2 = i2 / (size_t)k, j2 = i2 % (size_t)k;
         size_t i2n = f2 * (size_t)k + (j2 + 1) % (size_t)k;
         if (faces[i2] == a) {
-            vm__uf_union(cparent, i1, i2);
-            vm__uf_union(cparent, i1n, i2n);
+            shared_union(cparent, i1, i2);
+            shared_union(cparent, i1n, i2n);
         } else {
-            vm__uf_union(cparent, i1, i2n);
-            vm__uf_union(cparent, i1n, i2);
+            shared_union(cparent, i1, i2n);
+            shared_union(cparent, i1n, i2);
         }
     }
     return nedges;
 }
 
 /* Analyses a surface of nf faces with k nodes each (faces[f*k + j]): closedness, manifold
- * edges and vertices, Euler characteristic and edge-connected components. */
+ * edges and vertices, Euler characteristic and edge-connected components. On the threads:
+ * the edge instances are binned by their lower node (a counting sort, each bin then sorted,
+ * so the bins are the same for any thread count), the bins' edges counted and their faces
+ * and corners united in shared union-finds, whose sets, and so every figure, do not depend
+ * on the order of the unions. */
 static vm_status analyse_surface(const vm_index *faces, size_t nf, int k, size_t npoints,
                                  vm_mesh_report *r, vm_error *err) {
     vm_status st = VM_OK;
     size_t ninst;
-    if (vm__mul_overflows(nf, (size_t)k, &ninst))
+    if (vm__mul_overflows(nf, (size_t)k, &ninst) || npoints == SIZE_MAX)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh check: %zu faces overflow", nf);
-    size_t cap = table_size(ninst);
-    if (!cap) return vm_error_set(err, VM_ERR_NOMEM, "mesh check: edge table overflows");
-    edge_slot *tab = NULL;
-    size_t *fparent = NULL, *cparent = NULL, *first_root = NULL;
+    size_t *start = NULL, *ent = NULL, *fparent = NULL, *cparent = NULL, *first_root = NULL;
     unsigned char *vflag = NULL; /* bit 1: used, bit 2: bad */
-    if (!(tab = alloc_array(cap, sizeof *tab, 1, "edge table", &st, err))) goto done;
+    if (!(start = alloc_array(npoints + 1, sizeof *start, 1, "edge buckets", &st, err)))
+        goto done;
+    if (!(ent = alloc_array(ninst, sizeof *ent, 0, "edge order", &st, err))) goto done;
     if (!(fparent = alloc_array(nf, sizeof *fparent, 0, "face components", &st, err)))
         goto done;
     if (!(cparent = alloc_array(ninst, sizeof *cparent, 0, "face corners", &st, err)))
         goto done;
     if (!(first_root = alloc_array(npoints, sizeof *first_root, 0, "vertex fans", &st, err)))
         goto done;
-    if (!(vflag = alloc_array(npoints, 1, 0, "vertex flags", &st, err))) goto done;
-    memset(vflag, 0, npoints);
-    for (size_t f = 0; f < nf; f++)
-        fparent[f] = f;
-    for (size_t c = 0; c < ninst; c++)
-        cparent[c] = c;
-    for (size_t v = 0; v < npoints; v++)
-        first_root[v] = SIZE_MAX;
-
-    hash_edges(faces, ninst, k, tab, cap - 1, fparent, vflag);
-    size_t nedges = edge_fans(tab, cap, faces, k, cparent, vflag, r);
-    /* A vertex is manifold when all its corners form one fan and none of its edges is open
-     * or non-manifold (a fan that closes into a single cycle). */
-    for (size_t c = 0; c < ninst; c++) {
-        size_t v = (size_t)faces[c], root = vm__uf_find(cparent, c);
-        if (first_root[v] == SIZE_MAX)
-            first_root[v] = root;
-        else if (first_root[v] != root)
-            vflag[v] |= 2;
+    if (!(vflag = alloc_array(npoints, 1, 1, "vertex flags", &st, err))) goto done;
+    const ptrdiff_t pf = (ptrdiff_t)nf, pi = (ptrdiff_t)ninst, pv = (ptrdiff_t)npoints;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel
+#endif
+    {
+#ifdef VM_HAVE_OPENMP
+#pragma omp for schedule(static) nowait
+#endif
+        for (ptrdiff_t f = 0; f < pf; f++)
+            fparent[f] = (size_t)f;
+#ifdef VM_HAVE_OPENMP
+#pragma omp for schedule(static) nowait
+#endif
+        for (ptrdiff_t v = 0; v < pv; v++)
+            first_root[v] = SIZE_MAX;
+#ifdef VM_HAVE_OPENMP
+#pragma omp for schedule(static)
+#endif
+        for (ptrdiff_t c = 0; c < pi; c++) {
+            cparent[c] = (size_t)c;
+            int64_t a, b;
+            edge_ends(faces, k, (size_t)c, &a, &b);
+            __atomic_fetch_or(&vflag[a], 1, __ATOMIC_RELAXED);
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic
+#endif
+            start[(a < b ? a : b) + 1]++;
+        }
     }
-    size_t nverts = 0;
-    for (size_t v = 0; v < npoints; v++) {
+    for (size_t v = 0; v < npoints; v++)
+        start[v + 1] += start[v];
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (ptrdiff_t c = 0; c < pi; c++) { /* start[v] runs ahead while filling */
+        int64_t a, b;
+        edge_ends(faces, k, (size_t)c, &a, &b);
+        size_t at;
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic capture
+#endif
+        at = start[a < b ? a : b]++;
+        ent[at] = (size_t)c;
+    }
+    for (size_t v = npoints; v > 0; v--) /* shift back: start[v] is the bucket's first */
+        start[v] = start[v - 1];
+    start[0] = 0;
+    size_t nedges = 0, open = 0, nonmanifold = 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1024) reduction(+ : nedges, open, nonmanifold)
+#endif
+    for (ptrdiff_t v = 0; v < pv; v++) {
+        size_t *e = ent + start[v], n = start[v + 1] - start[v];
+        if (!n) continue;
+        sort_edge_bucket(faces, k, e, n);
+        nedges += bucket_edges(faces, k, e, n, fparent, cparent, vflag, &open, &nonmanifold);
+    }
+    r->boundary_open_edges += open;
+    r->boundary_nonmanifold_edges += nonmanifold;
+    /* A vertex is manifold when all its corners form one fan and none of its edges is open
+     * or non-manifold (a fan that closes into a single cycle). A set's root is its smallest
+     * corner, whichever thread finds it. */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static)
+#endif
+    for (ptrdiff_t c = 0; c < pi; c++) {
+        size_t v = (size_t)faces[c], root = shared_find(cparent, (size_t)c), none = SIZE_MAX;
+        if (!__atomic_compare_exchange_n(&first_root[v], &none, root, 0, __ATOMIC_RELAXED,
+                                         __ATOMIC_RELAXED) &&
+            none != root)
+            __atomic_fetch_or(&vflag[v], 2, __ATOMIC_RELAXED);
+    }
+    size_t nverts = 0, badv = 0;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static) reduction(+ : nverts, badv)
+#endif
+    for (ptrdiff_t v = 0; v < pv; v++) {
         if (!(vflag[v] & 1)) continue;
         nverts++;
-        if (vflag[v] & 2) r->boundary_nonmanifold_vertices++;
+        if (vflag[v] & 2) badv++;
     }
-    size_t ncomp = 0;
-    for (size_t f = 0; f < nf; f++)
-        if (vm__uf_find(fparent, f) == f) ncomp++;
-    r->boundary_components = ncomp;
+    r->boundary_nonmanifold_vertices += badv;
+    r->boundary_components = shared_roots(fparent, nf);
     r->boundary_closed = r->boundary_open_edges == 0 && r->boundary_nonmanifold_edges == 0;
     r->boundary_euler = (long)nverts - (long)nedges + (long)nf;
 done:
-    free(tab);
+    free(start);
+    free(ent);
     free(fparent);
     free(cparent);
     free(first_root);

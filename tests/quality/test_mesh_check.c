@@ -722,6 +722,66 @@ static void build_defective_block(vm_mesh *m, int n, int as_hex) {
     }
 }
 
+/* A double cone of n triangles a side round the z axis, apexes at z = +-1 (points 0 and 1,
+ * so every edge at an apex has it as its lower node: buckets of 2n edge instances), closed
+ * and outward; with `book`, one more triangle on the edge from the top apex to rim point 0
+ * (a third face there: a non-manifold edge). The apexes' grid cells hold all n triangles
+ * round them. */
+static void build_double_cone(vm_mesh *m, int n, int book) {
+    vm_mesh_init(m, VM_TRI3);
+    add_pt(m, 0, 0, 1);
+    add_pt(m, 0, 0, -1);
+    for (int i = 0; i < n; i++) {
+        double a = 2.0 * 3.14159265358979323846 * i / n;
+        add_pt(m, cos(a), sin(a), 0);
+    }
+    for (int i = 0; i < n; i++) {
+        vm_index r0 = 2 + i, r1 = 2 + (i + 1) % n;
+        const vm_index top[3] = {0, r0, r1}, bottom[3] = {1, r1, r0};
+        add_cell(m, top);
+        add_cell(m, bottom);
+    }
+    if (book) {
+        vm_index x = add_pt(m, 2, 0, 2);
+        const vm_index page[3] = {0, 2, x};
+        add_cell(m, page);
+    }
+}
+
+/* Vertices with hundreds of edges and grid cells with hundreds of triangles (the check
+ * sorts those lists another way than the short ones) get the known report on 1 to 3
+ * threads. */
+static void highValenceFansGetTheKnownReportOnAnyThreadCount(void) {
+    int before = vm_threads();
+    for (int book = 0; book < 2; book++) {
+        vm_mesh m;
+        build_double_cone(&m, 300, book);
+        for (int t = 1; t <= 3; t++) {
+            vm_set_threads(t);
+            vm_mesh_report r;
+            vm_error err;
+            CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
+            CHECK_MSG(r.boundary_faces == 600 + (size_t)book, "book %d, %d threads", book, t);
+            CHECK_MSG(r.boundary_open_edges == (size_t)(2 * book),
+                      "book %d, %d threads: %zu open", book, t, r.boundary_open_edges);
+            CHECK_MSG(r.boundary_nonmanifold_edges == (size_t)book, "book %d, %d threads", book,
+                      t);
+            /* the page's far point, and the two ends of the three-face edge */
+            CHECK_MSG(r.boundary_nonmanifold_vertices == (size_t)(3 * book),
+                      "book %d, %d threads: %zu", book, t, r.boundary_nonmanifold_vertices);
+            CHECK(r.boundary_closed == !book);
+            /* V - E + F: 302 - 900 + 600, and the page adds a point, two edges and a face */
+            CHECK_MSG(r.boundary_euler == 2, "book %d, %d threads: euler %ld", book, t,
+                      r.boundary_euler);
+            CHECK(r.boundary_components == 1);
+            CHECK_MSG(r.boundary_self_intersections == 0, "book %d, %d threads: %zu", book, t,
+                      r.boundary_self_intersections);
+        }
+        vm_mesh_free(&m);
+    }
+    vm_set_threads(before);
+}
+
 #define SAME(field)                                                                            \
     CHECK_MSG(a.field == b.field, "%s, %d threads: " #field " differs from 1 thread's", what, t)
 
@@ -769,14 +829,13 @@ static void checkReportsAreTheSameForAnyThreadCount(void) {
     vm_set_threads(before);
 }
 
-TEST_MAIN(T(everyGoldenMeshGetsItsKnownReport),
-          T(checkReportsAreTheSameForAnyThreadCount),
+TEST_MAIN(T(everyGoldenMeshGetsItsKnownReport), T(checkReportsAreTheSameForAnyThreadCount),
+          T(highValenceFansGetTheKnownReportOnAnyThreadCount),
           T(trianglesRepeatingANodeAreCountedNotACrash),
           T(tetMetricsMatchVerdictOnRegularFlatAndDegenerateTets),
           T(hexScaledJacobianIsOneForABoxAndFallsForAShearedHex),
           T(boundaryOfATetBlockIsAnOutwardClosedSurface),
-          T(boundaryOfAHexBlockIsQuadsPointingOutward),
-          T(boundaryOfASurfaceMeshIsRefused),
+          T(boundaryOfAHexBlockIsQuadsPointingOutward), T(boundaryOfASurfaceMeshIsRefused),
           T(outOfRangeNodesAreAnErrorNotACrash), T(anEmptyMeshReportsZeros),
           T(aVoxelBlockWithAHoleHasTwoBoundaryComponents),
           T(boundarySelfIntersectionsCountCrossingNotTouchingNeighbours),
