@@ -33,6 +33,14 @@ vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *
  * only (the array is sorted all the same). */
 int vm__psort(void *base, size_t n, size_t size, int (*cmp)(const void *, const void *));
 
+/* Stable compaction on vm_threads() threads: keeps the items i of [0, n) for which
+ * keep(i, user) is non-zero, in their order, moved down by move(to, from, count, user) (count
+ * items from `from` to `to` < from; the ranges may overlap, as with memmove). keep(i) may
+ * read item i only. Each block of items is compacted on its own, then the blocks are moved
+ * down in order. Returns the number kept. */
+size_t vm__compact(size_t n, int (*keep)(size_t i, void *user),
+                   void (*move)(size_t to, size_t from, size_t count, void *user), void *user);
+
 /* Checks that every coordinate of m is finite and within +-VM_COORD_MAX ("WHAT: point P,
  * coordinate y, is inf (coordinates must be finite, within +-1e+30)"), and that every node
  * of every cell of m is a point of m (0 .. npoints-1). On failure returns code, with the

@@ -117,3 +117,41 @@ int vm__psort(void *base, size_t n, size_t size, int (*cmp)(const void *, const 
     free(tmp);
     return 1;
 }
+
+/* Items per block of vm__compact. */
+#define COMPACT_BLOCK ((size_t)1 << 16)
+
+/* Compacts items [a, b) within themselves; returns how many were kept. */
+static size_t compact_block(size_t a, size_t b, int (*keep)(size_t, void *),
+                            void (*move)(size_t, size_t, size_t, void *), void *user) {
+    size_t c = a;
+    for (size_t i = a; i < b; i++) {
+        if (!keep(i, user)) continue;
+        if (c != i) move(c, i, 1, user);
+        c++;
+    }
+    return c - a;
+}
+
+size_t vm__compact(size_t n, int (*keep)(size_t i, void *user),
+                   void (*move)(size_t to, size_t from, size_t count, void *user), void *user) {
+    size_t nb = (n + COMPACT_BLOCK - 1) / COMPACT_BLOCK;
+    size_t *cnt = nb > 1 && vm_threads() > 1 ? malloc(nb * sizeof *cnt) : NULL;
+    if (!cnt) return compact_block(0, n, keep, move, user);
+    const ptrdiff_t pnb = (ptrdiff_t)nb;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+    for (ptrdiff_t b = 0; b < pnb; b++) {
+        size_t a = (size_t)b * COMPACT_BLOCK, e = a + COMPACT_BLOCK < n ? a + COMPACT_BLOCK : n;
+        cnt[b] = compact_block(a, e, keep, move, user);
+    }
+    size_t kept = 0;
+    for (size_t b = 0; b < nb; b++) {
+        size_t a = b * COMPACT_BLOCK;
+        if (kept != a && cnt[b]) move(kept, a, cnt[b], user);
+        kept += cnt[b];
+    }
+    free(cnt);
+    return kept;
+}

@@ -609,20 +609,22 @@ void vm__imp_job_reset(job *J) {
     J->nps = J->nls = J->nx = 0;
 }
 
-/* Drops the dead slots, keeping the order of the others. */
+static int slot_keep(size_t t, void *user) {
+    return !slot_dead(user, t);
+}
+
+/* Moves count slots (cells, regions, parents and below flags) from `from` down to `to`. */
+static void slot_move(size_t to, size_t from, size_t count, void *user) {
+    pstate *S = user;
+    memmove(S->m->cells + 4 * to, S->m->cells + 4 * from, 4 * count * sizeof *S->m->cells);
+    memmove(S->m->region + to, S->m->region + from, count * sizeof *S->m->region);
+    if (S->par) memmove(S->par + to, S->par + from, count * sizeof *S->par);
+    memmove(S->below + to, S->below + from, count * sizeof *S->below);
+}
+
+/* Drops the dead slots, keeping the order of the others (on the threads). */
 static void compact_slots(pstate *S) {
-    size_t c = 0;
-    for (size_t t = 0; t < S->nt; t++) {
-        if (slot_dead(S, t)) continue;
-        if (c != t) {
-            memcpy(S->m->cells + 4 * c, S->m->cells + 4 * t, 4 * sizeof *S->m->cells);
-            S->m->region[c] = S->m->region[t];
-            if (S->par) S->par[c] = S->par[t];
-            S->below[c] = S->below[t];
-        }
-        c++;
-    }
-    S->nt = S->m->ncells = c;
+    S->nt = S->m->ncells = vm__compact(S->nt, slot_keep, slot_move, S);
 }
 
 /* done (0..0.9) within what vm_mesh_improve has shown before (its first checks) and after */

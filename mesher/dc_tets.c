@@ -1007,26 +1007,60 @@ static vm_status emit_all(dc *d, vm_error *err) {
     return s;
 }
 
+/* What emit_local's compaction reads: the sources to drop (sorted, unique). */
+typedef struct redo_set {
+    dc *d;
+    const int64_t *src;
+    size_t n, tb;
+} redo_set;
+
+/* Tet t stays unless its element is to be emitted again. */
+static int redo_keep(size_t t, void *user) {
+    const redo_set *R = user;
+    int64_t src = src_get(R->d, t);
+    return SRC_KIND(src) == SRC_NONE || !bsearch(&src, R->src, R->n, sizeof *R->src, id_cmp);
+}
+
+/* Moves count tets (and their sources) from `from` down to `to`. */
+static void redo_move(size_t to, size_t from, size_t count, void *user) {
+    const redo_set *R = user;
+    dc *d = R->d;
+    size_t sb = d->src_wide ? sizeof(int64_t) : sizeof(uint32_t);
+    memmove((char *)d->tets + R->tb * to, (char *)d->tets + R->tb * from, R->tb * count);
+    memmove((char *)d->src + sb * to, (char *)d->src + sb * from, sb * count);
+}
+
 /* Re-emits only the elements with a tet on a representative flagged in moved[]: their tets
  * are removed and they are emitted again at the end of the list (their splits may change).
- * Interior elements use no representative and stay. */
+ * Interior elements use no representative and stay. The tets are flagged and compacted on
+ * the threads. */
 static vm_status emit_local(dc *d, const uint8_t *moved, vm_error *err) {
     int64_t N = vm__dc_npoints_real(d);
     int64_t *redo = NULL;
     size_t nredo = 0, cap = 0;
     vm_status s = VM_OK;
-    for (size_t t = 0; t < d->ntets && !s; t++) {
+    uint8_t *hit = malloc(d->ntets + 1);
+    if (!hit) return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
+    const ptrdiff_t pnt = (ptrdiff_t)d->ntets;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t t = 0; t < pnt; t++) {
         int64_t v[4];
-        tet_get(d, t, v);
-        int hit = 0;
+        tet_get(d, (size_t)t, v);
+        uint8_t h = 0;
         for (int k = 0; k < 4; k++)
-            if (v[k] >= N && (size_t)(v[k] - N) < d->nreps && moved[v[k] - N]) hit = 1;
+            if (v[k] >= N && (size_t)(v[k] - N) < d->nreps && moved[v[k] - N]) h = 1;
+        hit[t] = h && SRC_KIND(src_get(d, (size_t)t)) != SRC_NONE;
+    }
+    for (size_t t = 0; t < d->ntets && !s; t++) {
+        if (!hit[t]) continue;
         int64_t src = src_get(d, t);
-        if (!hit || SRC_KIND(src) == SRC_NONE) continue;
         if (nredo && redo[nredo - 1] == src) continue;
         s = vm__grow((void **)&redo, &cap, nredo + 1, sizeof *redo, err);
         if (!s) redo[nredo++] = src;
     }
+    free(hit);
     if (s || !nredo) {
         free(redo);
         return s;
@@ -1036,15 +1070,8 @@ static vm_status emit_local(dc *d, const uint8_t *moved, vm_error *err) {
     for (size_t i = 0; i < nredo; i++)
         if (u == 0 || redo[u - 1] != redo[i]) redo[u++] = redo[i];
     nredo = u;
-    size_t kept = 0, tb = tet_bytes(d);
-    for (size_t t = 0; t < d->ntets; t++) {
-        int64_t src = src_get(d, t);
-        if (SRC_KIND(src) != SRC_NONE && bsearch(&src, redo, nredo, sizeof *redo, id_cmp))
-            continue;
-        memmove((char *)d->tets + tb * kept, (char *)d->tets + tb * t, tb);
-        src_set(d, kept++, src);
-    }
-    d->ntets = kept;
+    redo_set R = {d, redo, nredo, tet_bytes(d)};
+    d->ntets = vm__compact(d->ntets, redo_keep, redo_move, &R);
     for (size_t i = 0; i < nredo && !s; i++) {
         int64_t pl = SRC_PAYLOAD(redo[i]);
         switch (SRC_KIND(redo[i])) {

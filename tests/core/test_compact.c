@@ -1,0 +1,90 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+/* tests/core/test_compact.c — vm__compact (core/threads.c), the stable compaction the
+ * mesher's re-emission and the quality pass's slot list run on the threads: on 1 to 4
+ * threads, sizes from 0 past several blocks (65,536 items each) and keep patterns from
+ * none to all, it keeps exactly the items a serial filter keeps, in their order, and reads
+ * each item's keep flag from the item itself (the items it moves carry their flags). */
+#include "core/core.h"
+#include "test.h"
+#include <stdint.h>
+#include <string.h>
+
+/* An item: its original index and whether it is to be kept, moved as a pair. */
+typedef struct items {
+    uint64_t *id;
+    uint8_t *keep;
+    size_t moves; /* calls of move with count > 1 (the blocks' moves) */
+} items;
+
+static int keep_item(size_t i, void *user) {
+    return ((const items *)user)->keep[i];
+}
+
+static void move_items(size_t to, size_t from, size_t count, void *user) {
+    items *a = user;
+    CHECK(to < from);
+    memmove(a->id + to, a->id + from, count * sizeof *a->id);
+    memmove(a->keep + to, a->keep + from, count * sizeof *a->keep);
+    if (count > 1) {
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic
+#endif
+        a->moves++;
+    }
+}
+
+static void keepsWhatASerialFilterKeepsInOrderOnAnyThreadCount(void) {
+    static const size_t sizes[] = {0, 1, 2, 1000, 65536, 65537, 3 * 65536 + 17, 400000};
+    /* keep patterns: none, all, every third, random halves, only the last, a long gap */
+    const int npat = 6;
+    int before = vm_threads();
+    uint64_t st = 7;
+    for (size_t si = 0; si < sizeof sizes / sizeof sizes[0]; si++) {
+        size_t n = sizes[si];
+        uint8_t *pat = malloc(n + 1);
+        uint64_t *want = malloc((n + 1) * sizeof *want);
+        items a = {malloc((n + 1) * sizeof *a.id), malloc(n + 1), 0};
+        CHECK(pat && want && a.id && a.keep);
+        if (!pat || !want || !a.id || !a.keep) break;
+        for (int p = 0; p < npat; p++) {
+            for (size_t i = 0; i < n; i++)
+                pat[i] = p == 0   ? 0
+                         : p == 1 ? 1
+                         : p == 2 ? i % 3 == 0
+                         : p == 3 ? vm_test_uniform(&st) < 0.5
+                         : p == 4 ? i + 1 == n
+                                  : i < n / 5 || i > n - n / 5;
+            size_t nw = 0;
+            for (size_t i = 0; i < n; i++)
+                if (pat[i]) want[nw++] = i;
+            for (int t = 1; t <= 4; t++) {
+                vm_set_threads(t);
+                for (size_t i = 0; i < n; i++)
+                    a.id[i] = i;
+                memcpy(a.keep, pat, n);
+                a.moves = 0;
+                size_t kept = vm__compact(n, keep_item, move_items, &a);
+                CHECK_MSG(kept == nw, "n %zu, pattern %d, %d threads: kept %zu of %zu", n, p, t,
+                          kept, nw);
+                CHECK_MSG(kept != nw || nw == 0 || memcmp(a.id, want, nw * sizeof *want) == 0,
+                          "n %zu, pattern %d, %d threads: not the serial filter's items", n, p,
+                          t);
+                size_t flagged = 0;
+                for (size_t i = 0; i < kept && i < n; i++)
+                    flagged += a.keep[i];
+                CHECK_MSG(flagged == kept, "n %zu, pattern %d, %d threads: flags not moved", n,
+                          p, t);
+                /* several blocks on several threads: the blocks were moved as ranges */
+                if (t > 1 && n > 2 * 65536 && p == 1) CHECK(a.moves == 0);
+                if (t > 1 && n > 2 * 65536 && p == 2) CHECK(a.moves > 0);
+            }
+        }
+        free(pat);
+        free(want);
+        free(a.id);
+        free(a.keep);
+    }
+    vm_set_threads(before);
+}
+
+TEST_MAIN(T(keepsWhatASerialFilterKeepsInOrderOnAnyThreadCount))
