@@ -33,6 +33,11 @@ vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *
  * only (the array is sorted all the same). */
 int vm__psort(void *base, size_t n, size_t size, int (*cmp)(const void *, const void *));
 
+/* Sort short lists in ascending order: insertion up to 32 elements, qsort beyond (the
+ * buckets of the counting sorts filled on the threads, put back in item order). */
+void vm__sort_u32(uint32_t *a, size_t n);
+void vm__sort_size(size_t *a, size_t n);
+
 /* Stable compaction on vm_threads() threads: keeps the items i of [0, n) for which
  * keep(i, user) is non-zero, in their order, moved down by move(to, from, count, user) (count
  * items from `from` to `to` < from; the ranges may overlap, as with memmove). keep(i) may

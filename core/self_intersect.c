@@ -310,24 +310,6 @@ static void box_cells(const tri_grid *g, const box3 *b, size_t c0[3], size_t c1[
     }
 }
 
-/* Sorts the entries e[0..n) of one cell (few: insertion). */
-static void sort_entries(size_t *e, size_t n) {
-    for (size_t i = 1; i < n; i++) {
-        size_t x = e[i], j = i;
-        for (; j > 0 && e[j - 1] > x; j--)
-            e[j] = e[j - 1];
-        e[j] = x;
-    }
-}
-
-static int size_cmp(const void *a, const void *b) {
-    size_t x = *(const size_t *)a, y = *(const size_t *)b;
-    return x < y ? -1 : x > y;
-}
-
-/* A cell with more entries than this is sorted by qsort. */
-#define SORT_INSERTION_MAX 32
-
 /* Bins the nt boxes into the cells of g (g->start, g->ent; a counting sort): counted and
  * placed on the threads, then each cell's entries sorted, so every cell lists its
  * triangles in ascending order for any thread count. */
@@ -385,11 +367,7 @@ static vm_status grid_fill(tri_grid *g, const box3 *bx, size_t nt, vm_error *err
 #pragma omp parallel for schedule(static, 4096)
 #endif
     for (ptrdiff_t c = 0; c < pnc; c++) {
-        size_t k = start[c + 1] - start[c];
-        if (k > SORT_INSERTION_MAX)
-            qsort(ent + start[c], k, sizeof *ent, size_cmp);
-        else
-            sort_entries(ent + start[c], k);
+        vm__sort_size(ent + start[c], start[c + 1] - start[c]);
     }
     return VM_OK;
 }

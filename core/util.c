@@ -193,3 +193,44 @@ void vm__uf_union(size_t *parent, size_t a, size_t b) {
     else if (b < a)
         parent[a] = b;
 }
+
+/* Lists longer than this are sorted by qsort. */
+#define SORT_INSERTION_MAX 32
+
+static int u32_cmp(const void *a, const void *b) {
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+static int size_cmp(const void *a, const void *b) {
+    size_t x = *(const size_t *)a, y = *(const size_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+void vm__sort_u32(uint32_t *a, size_t n) {
+    if (n > SORT_INSERTION_MAX) {
+        qsort(a, n, sizeof *a, u32_cmp);
+        return;
+    }
+    for (size_t i = 1; i < n; i++) {
+        uint32_t x = a[i];
+        size_t j = i;
+        for (; j > 0 && a[j - 1] > x; j--)
+            a[j] = a[j - 1];
+        a[j] = x;
+    }
+}
+
+void vm__sort_size(size_t *a, size_t n) {
+    if (n > SORT_INSERTION_MAX) {
+        qsort(a, n, sizeof *a, size_cmp);
+        return;
+    }
+    for (size_t i = 1; i < n; i++) {
+        size_t x = a[i];
+        size_t j = i;
+        for (; j > 0 && a[j - 1] > x; j--)
+            a[j] = a[j - 1];
+        a[j] = x;
+    }
+}

@@ -90,16 +90,42 @@ static int stars_build(const pstate *S, lstars *T) {
         stars_free(T);
         return 0;
     }
-    for (size_t t = 0; t < nt; t++)
+    /* a counting sort on the threads, each star then sorted: the same lists for any
+     * thread count */
+    const ptrdiff_t pnt = (ptrdiff_t)nt, pnp = (ptrdiff_t)np;
+    size_t *start = T->start;
+    uint32_t *list = T->list;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t t = 0; t < pnt; t++)
         if (c[4 * t] != DEAD)
-            for (int k = 0; k < 4; k++)
-                T->start[(size_t)c[4 * t + k] + 2]++;
+            for (int k = 0; k < 4; k++) {
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic
+#endif
+                start[(size_t)c[4 * t + k] + 2]++;
+            }
     for (size_t v = 0; v < np; v++)
-        T->start[v + 2] += T->start[v + 1];
-    for (size_t t = 0; t < nt; t++)
+        start[v + 2] += start[v + 1];
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t t = 0; t < pnt; t++)
         if (c[4 * t] != DEAD)
-            for (int k = 0; k < 4; k++)
-                T->list[T->start[(size_t)c[4 * t + k] + 1]++] = (uint32_t)t;
+            for (int k = 0; k < 4; k++) {
+                size_t at;
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic capture
+#endif
+                at = start[(size_t)c[4 * t + k] + 1]++;
+                list[at] = (uint32_t)t;
+            }
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t v = 0; v < pnp; v++)
+        vm__sort_u32(list + start[v], start[v + 1] - start[v]);
     return 1;
 }
 
@@ -166,9 +192,17 @@ static int grid_build(const pstate *S, double h, const uint8_t *bflag, lgrid *G)
         grid_free(G);
         return 0;
     }
-    /* twice over the tets: count, then fill */
+    /* twice over the tets on the threads: count, then fill; then each cell's list sorted
+     * (the same lists for any thread count) */
+    const ptrdiff_t pnt = (ptrdiff_t)S->nt;
     for (int pass = 0; pass < 2; pass++) {
-        for (size_t t = 0; t < S->nt; t++) {
+        size_t *start = G->start;
+        uint32_t *list = G->list;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+        for (ptrdiff_t pt = 0; pt < pnt; pt++) {
+            size_t t = (size_t)pt;
             if (S->m->cells[4 * t] == DEAD || bflag[t] == VM__IMP_BF_INSIDE) continue;
             double a[3], b[3];
             size_t c0[3], c1[3];
@@ -178,10 +212,19 @@ static int grid_build(const pstate *S, double h, const uint8_t *bflag, lgrid *G)
                 for (size_t y = c0[1]; y <= c1[1]; y++)
                     for (size_t x = c0[0]; x <= c1[0]; x++) {
                         size_t i = (z * G->gd[1] + y) * G->gd[0] + x;
-                        if (pass == 0)
-                            G->start[i + 2]++;
-                        else
-                            G->list[G->start[i + 1]++] = (uint32_t)t;
+                        if (pass == 0) {
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic
+#endif
+                            start[i + 2]++;
+                        } else {
+                            size_t at;
+#ifdef VM_HAVE_OPENMP
+#pragma omp atomic capture
+#endif
+                            at = start[i + 1]++;
+                            list[at] = (uint32_t)t;
+                        }
                     }
         }
         if (pass == 0) {
@@ -194,6 +237,12 @@ static int grid_build(const pstate *S, double h, const uint8_t *bflag, lgrid *G)
             }
         }
     }
+    const ptrdiff_t pnc = (ptrdiff_t)nc;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t i = 0; i < pnc; i++)
+        vm__sort_u32(G->list + G->start[i], G->start[i + 1] - G->start[i]);
     return 1;
 }
 

@@ -61,9 +61,18 @@ static vm_status number_vertices(const vm__tet_soup *soup, vnumber *N, size_t *u
     N->used_rank = malloc(N->nw * sizeof *N->used_rank);
     if (!N->used_bits || !N->used_rank)
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory");
-    for (size_t q = 0; q < nid; q++) {
-        int64_t id = soup_id(soup, q);
-        if ((size_t)id < N->nl) N->used_bits[id >> 6] |= (uint64_t)1 << (id & 63);
+    /* (most ids repeat: a bit already set is only read) */
+    const ptrdiff_t pid = (ptrdiff_t)nid;
+    uint64_t *bits = N->used_bits;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 65536)
+#endif
+    for (ptrdiff_t q = 0; q < pid; q++) {
+        int64_t id = soup_id(soup, (size_t)q);
+        if ((size_t)id >= N->nl) continue;
+        uint64_t bit = (uint64_t)1 << (id & 63);
+        if (!(__atomic_load_n(&bits[id >> 6], __ATOMIC_RELAXED) & bit))
+            __atomic_fetch_or(&bits[id >> 6], bit, __ATOMIC_RELAXED);
     }
     N->nused_lattice = 0;
     for (size_t w = 0; w < N->nw; w++) {
@@ -83,11 +92,17 @@ static vm_status number_vertices(const vm__tet_soup *soup, vnumber *N, size_t *u
 }
 
 /* Writes the used vertices' world positions (index position id * step, see
- * vm__soup_to_mesh) into mesh->points. */
+ * vm__soup_to_mesh) into mesh->points, on the threads (each vertex has its own slot). */
 static void write_vertices(const vm__tet_soup *soup, const vnumber *N, const vm_volume *v,
                            const int64_t n[3], int64_t z_off, const double step[3],
                            vm_mesh *mesh) {
-    for (size_t w = 0; w < N->nw; w++)
+    const ptrdiff_t pw = (ptrdiff_t)N->nw, pr = (ptrdiff_t)soup->nreps,
+                    pl = (ptrdiff_t)soup->nlift;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 1024)
+#endif
+    for (ptrdiff_t pw_i = 0; pw_i < pw; pw_i++) {
+        size_t w = (size_t)pw_i;
         for (uint64_t bits = N->used_bits[w]; bits; bits &= bits - 1) {
             size_t id = 64 * w + (size_t)__builtin_ctzll(bits);
             double ijk[3];
@@ -97,7 +112,12 @@ static void write_vertices(const vm__tet_soup *soup, const vnumber *N, const vm_
             vm_volume_index_to_world(
                 v, ijk, mesh->points + 3 * (size_t)N->map[map_slot(N, (int64_t)id)]);
         }
-    for (size_t r = 0; r < soup->nreps; r++) {
+    }
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t pr_i = 0; pr_i < pr; pr_i++) {
+        size_t r = (size_t)pr_i;
         if (N->map[N->nused_lattice + r] < 0) continue;
         double ijk[3];
         for (int a = 0; a < 3; a++)
@@ -105,7 +125,12 @@ static void write_vertices(const vm__tet_soup *soup, const vnumber *N, const vm_
         vm_volume_index_to_world(v, ijk,
                                  mesh->points + 3 * (size_t)N->map[N->nused_lattice + r]);
     }
-    for (size_t k = 0; k < soup->nlift; k++) { /* grid points moved off the grid */
+    /* grid points moved off the grid (each once) */
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 4096)
+#endif
+    for (ptrdiff_t pl_i = 0; pl_i < pl; pl_i++) {
+        size_t k = (size_t)pl_i;
         int64_t id = soup->lift_id[k];
         if ((size_t)id >= N->nl || !((N->used_bits[id >> 6] >> (id & 63)) & 1)) continue;
         double ijk[3];
@@ -137,6 +162,25 @@ static vm_status take_cells(vm__tet_soup *soup, const vnumber *N, vm_mesh *mesh,
     }
     mesh->cells = (vm_index *)buf;
     mesh->cell_cap = soup->ntets;
+    if (osz == isz) { /* each id in its own place: on the threads */
+        const ptrdiff_t pid = (ptrdiff_t)nid;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 65536)
+#endif
+        for (ptrdiff_t k = 0; k < pid; k++) {
+            int64_t id;
+            if (isz == sizeof(uint32_t)) {
+                uint32_t x;
+                memcpy(&x, buf + isz * (size_t)k, sizeof x);
+                id = (int64_t)x;
+            } else {
+                memcpy(&id, buf + isz * (size_t)k, sizeof id);
+            }
+            vm_index c = (vm_index)N->map[map_slot(N, id)];
+            memcpy(buf + osz * (size_t)k, &c, sizeof c);
+        }
+        return VM_OK;
+    }
     for (size_t k = 0; k < nid; k++) {
         size_t q = osz <= isz ? k : nid - 1 - k;
         int64_t id;
@@ -186,8 +230,12 @@ vm_status vm__soup_to_mesh(vm__tet_soup *soup, const vm_volume *v, const int64_t
     if (!s) {
         /* A left-handed frame mirrors every element: swap nodes so volumes stay positive. */
         int flip = vm_volume_frame_determinant(v) < 0;
-        for (size_t t = 0; t < soup->ntets; t++) {
-            if (flip) vm__mirror_cell(mesh->cells + nn * t, (int)nn);
+        const ptrdiff_t pt = (ptrdiff_t)soup->ntets;
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for schedule(static, 65536)
+#endif
+        for (ptrdiff_t t = 0; t < pt; t++) {
+            if (flip) vm__mirror_cell(mesh->cells + nn * (size_t)t, (int)nn);
             mesh->region[t] = 1;
         }
         mesh->ncells = soup->ntets;
