@@ -1,5 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-/* tests/core/test_compact.c — vm__compact (core/threads.c), the stable compaction the
+/* tests/core/test_compact.c — vm__sort_u32 and vm__sort_size (core/util.c), which put the
+ * buckets of counting sorts filled on the threads back in order, and vm__compact
+ * (core/threads.c), the stable compaction the
  * mesher's re-emission and the quality pass's slot list run on the threads: on 1 to 4
  * threads, sizes from 0 past several blocks (65,536 items each) and keep patterns from
  * none to all, it keeps exactly the items a serial filter keeps, in their order, and reads
@@ -87,4 +89,31 @@ static void keepsWhatASerialFilterKeepsInOrderOnAnyThreadCount(void) {
     vm_set_threads(before);
 }
 
-TEST_MAIN(T(keepsWhatASerialFilterKeepsInOrderOnAnyThreadCount))
+static int u32_order(const void *a, const void *b) {
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Lists of 0 to 100 elements (insertion below 33, qsort beyond), with repeats, come out
+ * as qsort sorts them. */
+static void shortAndLongListsAreSortedAscending(void) {
+    uint64_t st = 11;
+    for (size_t n = 0; n <= 100; n++) {
+        uint32_t a[100], want[100];
+        size_t b[100];
+        for (size_t i = 0; i < n; i++) {
+            want[i] = a[i] = (uint32_t)(vm_test_uniform(&st) * (n / 2 + 1));
+            b[i] = (size_t)a[i] * 1000003u;
+        }
+        qsort(want, n, sizeof *want, u32_order);
+        vm__sort_u32(a, n);
+        vm__sort_size(b, n);
+        int same = 1;
+        for (size_t i = 0; i < n; i++)
+            same &= a[i] == want[i] && b[i] == (size_t)want[i] * 1000003u;
+        CHECK_MSG(same, "n %zu: not in qsort's order", n);
+    }
+}
+
+TEST_MAIN(T(shortAndLongListsAreSortedAscending),
+          T(keepsWhatASerialFilterKeepsInOrderOnAnyThreadCount))
