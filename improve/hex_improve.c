@@ -1086,7 +1086,7 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
     size_t first = 0;
     memcpy(x, w->p + 3 * i, sizeof x);
     local_q(&S, x, pen, &cur, &no_stop, 0, &first);
-    int moved = 0;
+    int moved = 0, d0 = 0; /* the directions are tried from the last one taken */
     double L = edge_scale(w, i);
     int mode = untangle == 3 ? 0 : untangle;
     for (double h = STEP_FIRST * L; h > STEP_LAST * L; h *= 0.5) {
@@ -1096,8 +1096,9 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
             lq bq = cur;
             size_t bfirst = first;
             int slide = untangle == 3 && w->cls[i] == CLS_ISO;
-            for (int d = 0; d < (untangle >= 2 ? 26 : 14); d++)
-                for (int v = 0; v <= slide; v++) {
+            int nd = untangle >= 2 ? 26 : 14;
+            for (int dd = 0; dd < nd; dd++)
+                for (int v = 0, d = (dd + d0) % nd; v <= slide; v++) {
                     double y[3];
                     lq n;
                     for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
@@ -1125,6 +1126,7 @@ static int optimise(hx *w, size_t i, double floor, int untangle) {
                     }
                 }
             if (best < 0) break;
+            d0 = best;
             memcpy(x, bx, sizeof x);
             cur = bq;
             first = bfirst;
