@@ -141,6 +141,8 @@ def main():
     ap.add_argument("--work", required=True)
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--size", type=int, default=256)
+    ap.add_argument("--shape", default="sphere",
+                    help="the phantom (volmesh demo --shape): sphere, torus, genus3, ...")
     ap.add_argument("--timeout", type=int, default=900)
     ap.add_argument("--markdown")
     ap.add_argument("--json")
@@ -161,14 +163,14 @@ def main():
     os.makedirs(args.work, exist_ok=True)
 
     cases = []
-    pdir = os.path.join(args.work, f"sphere-{args.size}")
+    pdir = os.path.join(args.work, f"{args.shape}-{args.size}")
     os.makedirs(pdir, exist_ok=True)
     if not os.path.exists(os.path.join(pdir, "phantom.nrrd")):
-        subprocess.run([args.cli, "demo", "--shape", "sphere", "--size", str(args.size)],
+        subprocess.run([args.cli, "demo", "--shape", args.shape, "--size", str(args.size)],
                        cwd=pdir, check=True, stdout=subprocess.DEVNULL)
         for f in ("demo.vtu", "demo-surface.vtu"):
             os.remove(os.path.join(pdir, f))
-    cases.append((f"sphere-{args.size}", os.path.join(pdir, "phantom.nrrd"), 0.0))
+    cases.append((f"{args.shape}-{args.size}", os.path.join(pdir, "phantom.nrrd"), 0.0))
     for name, fname, iso in REF.SHARED:
         cases.append((name, os.path.join(args.data, fname), iso))
     if wanted:
