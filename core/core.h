@@ -37,6 +37,7 @@ int vm__psort(void *base, size_t n, size_t size, int (*cmp)(const void *, const 
  * buckets of the counting sorts filled on the threads, put back in item order). */
 void vm__sort_u32(uint32_t *a, size_t n);
 void vm__sort_size(size_t *a, size_t n);
+void vm__sort_u64(uint64_t *a, size_t n);
 
 /* Stable compaction on vm_threads() threads: keeps the items i of [0, n) for which
  * keep(i, user) is non-zero, in their order, moved down by move(to, from, count, user) (count

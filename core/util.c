@@ -207,30 +207,27 @@ static int size_cmp(const void *a, const void *b) {
     return x < y ? -1 : x > y;
 }
 
-void vm__sort_u32(uint32_t *a, size_t n) {
-    if (n > SORT_INSERTION_MAX) {
-        qsort(a, n, sizeof *a, u32_cmp);
-        return;
-    }
-    for (size_t i = 1; i < n; i++) {
-        uint32_t x = a[i];
-        size_t j = i;
-        for (; j > 0 && a[j - 1] > x; j--)
-            a[j] = a[j - 1];
-        a[j] = x;
-    }
+static int u64_cmp(const void *a, const void *b) {
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
 }
 
-void vm__sort_size(size_t *a, size_t n) {
-    if (n > SORT_INSERTION_MAX) {
-        qsort(a, n, sizeof *a, size_cmp);
-        return;
+/* The short-list sort of one element type (core.h). */
+#define SHORT_SORT(name, type, cmp)                                                            \
+    void name(type *a, size_t n) {                                                             \
+        if (n > SORT_INSERTION_MAX) {                                                          \
+            qsort(a, n, sizeof *a, cmp);                                                       \
+            return;                                                                            \
+        }                                                                                      \
+        for (size_t i = 1; i < n; i++) {                                                       \
+            type x = a[i];                                                                     \
+            size_t j = i;                                                                      \
+            for (; j > 0 && a[j - 1] > x; j--)                                                 \
+                a[j] = a[j - 1];                                                               \
+            a[j] = x;                                                                          \
+        }                                                                                      \
     }
-    for (size_t i = 1; i < n; i++) {
-        size_t x = a[i];
-        size_t j = i;
-        for (; j > 0 && a[j - 1] > x; j--)
-            a[j] = a[j - 1];
-        a[j] = x;
-    }
-}
+
+SHORT_SORT(vm__sort_u32, uint32_t, u32_cmp)
+SHORT_SORT(vm__sort_size, size_t, size_cmp)
+SHORT_SORT(vm__sort_u64, uint64_t, u64_cmp)

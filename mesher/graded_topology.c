@@ -139,17 +139,6 @@ static face_key sorted3(uint32_t a, uint32_t b, uint32_t c) {
     return (face_key){a, b, c};
 }
 
-/* Sorts x[0..n) ascending (the small groups of one lowest vertex). */
-static void sort_u64(uint64_t *x, size_t n) {
-    for (size_t i = 1; i < n; i++) {
-        uint64_t v = x[i];
-        size_t j = i;
-        for (; j > 0 && x[j - 1] > v; j--)
-            x[j] = x[j - 1];
-        x[j] = v;
-    }
-}
-
 /* Groups pairs (lo, rest) by lo with a counting sort: start[lo] .. start[lo + 1] index the
  * rests of lo in out, sorted. [out] *start (npoints + 1 entries) and *out (n), freed by the
  * caller; 0 when out of memory. The groups are small (the faces or edges at one vertex), so
@@ -167,7 +156,7 @@ static int group(size_t npoints, size_t n, const uint32_t *lo, const uint64_t *r
     for (size_t i = 0; i < n; i++)
         (*out)[st[lo[i] + 1]++] = rest[i];
     for (size_t v = 0; v < npoints; v++)
-        sort_u64(*out + st[v], st[v + 1] - st[v]);
+        vm__sort_u64(*out + st[v], st[v + 1] - st[v]);
     return 1;
 }
 

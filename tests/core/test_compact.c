@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-/* tests/core/test_compact.c — vm__sort_u32 and vm__sort_size (core/util.c), which put the
- * buckets of counting sorts filled on the threads back in order, and vm__compact
+/* tests/core/test_compact.c — vm__sort_u32, vm__sort_size and vm__sort_u64 (core/util.c), which
+ * put the buckets of counting sorts filled on the threads back in order, and vm__compact
  * (core/threads.c), the stable compaction the
  * mesher's re-emission and the quality pass's slot list run on the threads: on 1 to 4
  * threads, sizes from 0 past several blocks (65,536 items each) and keep patterns from
@@ -101,16 +101,20 @@ static void shortAndLongListsAreSortedAscending(void) {
     for (size_t n = 0; n <= 100; n++) {
         uint32_t a[100], want[100];
         size_t b[100];
+        uint64_t c[100];
         for (size_t i = 0; i < n; i++) {
             want[i] = a[i] = (uint32_t)(vm_test_uniform(&st) * (n / 2 + 1));
             b[i] = (size_t)a[i] * 1000003u;
+            c[i] = (uint64_t)a[i] << 33 | 5u;
         }
         qsort(want, n, sizeof *want, u32_order);
         vm__sort_u32(a, n);
         vm__sort_size(b, n);
+        vm__sort_u64(c, n);
         int same = 1;
         for (size_t i = 0; i < n; i++)
-            same &= a[i] == want[i] && b[i] == (size_t)want[i] * 1000003u;
+            same &= a[i] == want[i] && b[i] == (size_t)want[i] * 1000003u &&
+                    c[i] == ((uint64_t)want[i] << 33 | 5u);
         CHECK_MSG(same, "n %zu: not in qsort's order", n);
     }
 }
