@@ -1,11 +1,11 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-/* tests/core/test_compact.c — vm__sort_u32, vm__sort_size and vm__sort_u64 (core/util.c), which
- * put the buckets of counting sorts filled on the threads back in order, and vm__compact
- * (core/threads.c), the stable compaction the
- * mesher's re-emission and the quality pass's slot list run on the threads: on 1 to 4
- * threads, sizes from 0 past several blocks (65,536 items each) and keep patterns from
- * none to all, it keeps exactly the items a serial filter keeps, in their order, and reads
- * each item's keep flag from the item itself (the items it moves carry their flags). */
+/* tests/core/test_compact.c — vm__sort_u32, vm__sort_size and vm__sort_u64 (core/util.c),
+ * which put the buckets of counting sorts filled on the threads back in order, and
+ * vm__compact (core/threads.c), the stable compaction the mesher's re-emission and the
+ * quality pass's slot list run on the threads: on 1 to 4 threads, sizes from 0 past several
+ * blocks (65,536 items each) and keep patterns from none to all, it keeps exactly the items
+ * a serial filter keeps, in their order, and reads each item's keep flag from the item
+ * itself (the items it moves carry their flags). */
 #include "core/core.h"
 #include "test.h"
 #include <stdint.h>
