@@ -887,11 +887,6 @@ static vm_status run_batch(lpass *P, job *jobs, ljob *X, size_t n, vm_error *err
     return s;
 }
 
-static int key_cmp(const void *pa, const void *pb) {
-    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
-    return a < b ? -1 : a > b;
-}
-
 /* One colour of one round: a job for each block of that colour holding bad tets, its seeds
  * the bad tets whose centroid is in it. */
 static vm_status run_colour(lpass *P, int round, int colour, vm_error *err) {
@@ -906,7 +901,7 @@ static vm_status run_colour(lpass *P, int round, int colour, vm_error *err) {
         size_t b = block_of(P, P->bad.a[i], &c);
         if (c == colour) key[nk++] = (uint64_t)b << 32 | P->bad.a[i];
     }
-    qsort(key, nk, sizeof *key, key_cmp);
+    vm__sort_u64(key, nk);
     for (size_t i = 0; i < nk; i++)
         nj += i == 0 || key[i] >> 32 != key[i - 1] >> 32;
     job *jobs = calloc(nj + 1, sizeof *jobs);
