@@ -80,7 +80,7 @@ static vm_status refine_far(gr_tree *t, const gr_field *f, const vm_mesh_options
     if (!s && *since) s = changed_region(t, f, *since, sz->distance, &region, err);
     if (!s)
         s = vm__surface_distance_region(mesh, f->v, o->lo, o->has_lo, o->hi, o->has_hi,
-                                        sz->distance, *since ? &region : NULL, cache, &d,
+                                        sz->distance, 0, *since ? &region : NULL, cache, &d,
                                         &pts, &np, err);
     free((void *)region.mask);
     *since = t->n;

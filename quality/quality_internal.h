@@ -42,10 +42,14 @@ void vm__sd_cache_free(vm__sd_cache *c);
 /* vm__surface_distance_points counting only the samples (of the boundary and of the
  * isosurface) in region r (NULL: all): the counts, means and maxima are the region's; with
  * cache (may be NULL), the isosurface is sampled once for all the calls that share it. The
- * graded mesher measures again only where its refinement changed the mesh. */
+ * graded mesher measures again only where its refinement changed the mesh. sections: 1 to
+ * measure a boundary point against the material's sections of the box planes too (the
+ * flat faces that close material touching the border, as vm_mesh_surface_distance does);
+ * 0 against the isosurface alone (stricter near the border: the graded mesher's refinement,
+ * which so splits the cells along the section's outline down to base cells). */
 vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, double lo,
                                       int has_lo, double hi, int has_hi, double limit,
-                                      const vm__sd_region *r, vm__sd_cache *cache,
+                                      int sections, const vm__sd_region *r, vm__sd_cache *cache,
                                       vm_surface_distance *out, double **points,
                                       size_t *npoints, vm_error *err);
 

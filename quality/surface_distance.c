@@ -912,7 +912,10 @@ static int on_border(const field *F, const double *pts, const vm_index *c, int n
     return 0;
 }
 
-static vm_status boundary_triangles(const vm_mesh *m, const field *F, tris *T, vm_error *err) {
+/* The boundary's triangles (quads split in two); skip_border leaves out the faces lying on a
+ * box plane. */
+static vm_status boundary_triangles(const vm_mesh *m, const field *F, int skip_border, tris *T,
+                                    vm_error *err) {
     memset(T, 0, sizeof *T);
     const vm_mesh *s = m;
     if (m->kind == VM_TET4 || m->kind == VM_HEX8) {
@@ -936,7 +939,7 @@ static vm_status boundary_triangles(const vm_mesh *m, const field *F, tris *T, v
     T->pts = s->points;
     for (size_t c = 0; c < s->ncells; c++) {
         const vm_index *cn = s->cells + (size_t)nc * c;
-        if (on_border(F, s->points, cn, nc)) continue;
+        if (skip_border && on_border(F, s->points, cn, nc)) continue;
         size_t *t = T->t + 3 * T->n;
         t[0] = (size_t)cn[0];
         t[1] = (size_t)cn[1];
@@ -1035,6 +1038,7 @@ typedef struct ctx {
     int collect;
     double limit;
     const vm__sd_region *region; /* NULL: everywhere */
+    int sections;                /* measure against the box planes' sections too */
 } ctx;
 
 /* Whether world point p lies in the region measured. */
@@ -1051,8 +1055,31 @@ static int wanted(const ctx *x, const double p[3]) {
     return r->mask[b[0] + r->nb[0] * (b[1] + r->nb[1] * b[2])];
 }
 
-/* Distance from mesh point p to the isosurface; *hint: the nearest sample of the previous
- * point (see nearest), updated. */
+/* Distance from world point p to the flat faces that close the material on the box: for
+ * each box plane, to p's foot on it (in index space, inside the box) where the field there
+ * is material; INFINITY when none is. The mesher closes material touching the border with
+ * faces on those planes and keeps boundary faces near them within the distance bound, so a
+ * boundary point is measured against the isosurface together with these faces. */
+static double section_distance(const field *F, const double p[3]) {
+    double u[3], best = INFINITY;
+    to_index(F, p, u);
+    for (int a = 0; a < 3; a++)
+        for (int sd = 0; sd < 2; sd++) {
+            double q[3], y[3], val, g[3];
+            for (int b = 0; b < 3; b++) {
+                double top = (double)(F->n[b] - 1);
+                q[b] = u[b] < 0 ? 0 : u[b] > top ? top : u[b];
+            }
+            q[a] = sd ? (double)(F->n[a] - 1) : 0.0;
+            to_world(F, q, y);
+            if (eval(F, y, &val, g) && inside(F, val)) best = fmin(best, sqrt(dist2(p, y)));
+        }
+    return best;
+}
+
+/* Distance from mesh point p to the isosurface, or to the material's section of a box plane
+ * where that is nearer (section_distance); *hint: the nearest sample of the previous point
+ * (see nearest), updated. */
 static double mesh_point_distance(const ctx *x, const double p[3], size_t *hint) {
     size_t id = *hint;
     double d0 = sqrt(nearest(x->sg, x->sb, x->F, p, &id));
@@ -1071,7 +1098,8 @@ static double mesh_point_distance(const ctx *x, const double p[3], size_t *hint)
      * the creases (only then: that costs more). */
     if (!c1) d = fmin(d, foot_point(x->F, level, p, s, 1, &c1));
     if (onto && !c2) d = fmin(d, foot_point(x->F, level, p, y, 1, &c2));
-    return d < d0 ? d : d0;
+    d = fmin(d, d0);
+    return x->sections ? fmin(d, section_distance(x->F, p)) : d;
 }
 
 static vm_status measure_mesh(const ctx *x, side_acc *sd, vm_error *err) {
@@ -1256,7 +1284,7 @@ vm_status vm__surface_distance_points(const vm_mesh *m, const vm_volume *v, doub
                                       int has_lo, double hi, int has_hi, double limit,
                                       vm_surface_distance *out, double **points,
                                       size_t *npoints, vm_error *err) {
-    return vm__surface_distance_region(m, v, lo, has_lo, hi, has_hi, limit, NULL, NULL, out,
+    return vm__surface_distance_region(m, v, lo, has_lo, hi, has_hi, limit, 1, NULL, NULL, out,
                                        points, npoints, err);
 }
 
@@ -1268,7 +1296,7 @@ void vm__sd_cache_free(vm__sd_cache *c) {
 
 vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, double lo,
                                       int has_lo, double hi, int has_hi, double limit,
-                                      const vm__sd_region *r, vm__sd_cache *cache,
+                                      int sections, const vm__sd_region *r, vm__sd_cache *cache,
                                       vm_surface_distance *out, double **points,
                                       size_t *npoints, vm_error *err) {
     memset(out, 0, sizeof *out);
@@ -1281,7 +1309,7 @@ vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, doub
     vm_status st = setup_field(v, lo, has_lo, hi, has_hi, &F, err);
     if (st) return st;
     tris T;
-    st = boundary_triangles(m, &F, &T, err);
+    st = boundary_triangles(m, &F, !sections, &T, err);
     if (st) return st;
     samples S;
     if (cache && cache->filled) {
@@ -1309,7 +1337,7 @@ vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, doub
     memset(&sg, 0, sizeof sg);
     memset(&tg, 0, sizeof tg);
     side_acc ms = {0, 0, 0, NULL, 0}, ss = {0, 0, 0, NULL, 0};
-    ctx x = {&F, &S, &sb, &sg, &T, &tb, &tg, points != NULL, limit, r};
+    ctx x = {&F, &S, &sb, &sg, &T, &tb, &tg, points != NULL, limit, r, sections};
     if (T.n && S.n) {
         st = grid_build(&sg, &F, S.p, NULL, S.n, err);
         if (!st) st = grid_build(&tg, &F, T.pts, T.t, T.n, err);

@@ -286,9 +286,11 @@ typedef struct vm_surface_distance {
  * one element; tri3 or quad4: the surface itself) and the isosurface of v's trilinear field
  * bounding the material {lo <= f <= hi} (either bound open), in v's world frame (spacing,
  * origin and direction applied, as vm_mesh_volume places its points).
- * - Boundary faces lying on v's box (index 0 or dims-1 along one axis: the flat faces that
- *   close material touching the border) are left out both ways, and the isosurface is
- *   sampled only inside the box.
+ * - The reference surface is the isosurface together with the material's sections of v's
+ *   box planes (index 0 or dims-1 along one axis), where meshes close material touching the
+ *   border with flat faces: a mesh point's distance is the smaller of its distance to the
+ *   isosurface and to its foot on each box plane where the field there is material. The
+ *   isosurface is sampled only inside the box.
  * - Surface samples: the exact crossings of the trilinear field on every voxel edge whose
  *   ends differ in material (marching-cubes vertices), plus the crossings on the half-edges
  *   of a 2x finer lattice in every cell and face with mixed corners (the trilinear field is

@@ -43,7 +43,9 @@ static void planeAtKnownOffsetGivesThatDistanceBothWays(void) {
     vm_error err;
     CHECK_OK(vm_mesh_surface_distance(&m, &v, 3.3, 1, 0, 0, &d, &err), &err);
     CHECK_NEAR(d.mesh_to_surface_max, 0.7, 1e-6);
-    CHECK_NEAR(d.mesh_to_surface_mean, 0.7, 1e-6);
+    /* the square's sides lie on the box planes y, z = 0 and 8, in the material's sections
+     * there (the flat faces that close it): their samples are at 0 */
+    CHECK(d.mesh_to_surface_mean > 0.5 && d.mesh_to_surface_mean < 0.7);
     CHECK_NEAR(d.surface_to_mesh_max, 0.7, 1e-6);
     CHECK_NEAR(d.surface_to_mesh_mean, 0.7, 1e-6);
     CHECK_NEAR(d.hausdorff, 0.7, 1e-6);
@@ -64,18 +66,27 @@ static void planeAtKnownOffsetGivesThatDistanceBothWays(void) {
 }
 
 static void farMeshGivesTheExactOffsetAndBadInputIsRefused(void) {
-    /* 50 voxels off: beyond the grid's rings, the hierarchy answers */
+    /* 50 voxels off: beyond the grid's rings, the hierarchy answers (on the side where no
+     * material touches the box, so the isosurface is the nearest reference) */
     vm_volume v;
     ramp_volume(&v, 9);
     vm_mesh m;
-    square_mesh(&m, 54.0, 0.0, 8.0);
+    square_mesh(&m, -50.0, 0.0, 8.0);
     vm_surface_distance d;
     vm_error err;
     CHECK_OK(vm_mesh_surface_distance(&m, &v, 3.3, 1, 0, 0, &d, &err), &err);
-    CHECK_NEAR(d.mesh_to_surface_max, 50.7, 1e-6);
-    CHECK_NEAR(d.mesh_to_surface_mean, 50.7, 1e-6);
+    CHECK_NEAR(d.mesh_to_surface_max, 53.3, 1e-6);
+    CHECK_NEAR(d.mesh_to_surface_mean, 53.3, 1e-6);
+    CHECK_NEAR(d.surface_to_mesh_max, 53.3, 1e-6);
+    CHECK_NEAR(d.surface_to_mesh_mean, 53.3, 1e-6);
+    /* beyond the plane x = 8, where the material meets the box: the flat face closing it
+     * there is the nearest reference, 46 away; the isosurface is 50.7 away */
+    vm_mesh_free(&m);
+    square_mesh(&m, 54.0, 0.0, 8.0);
+    CHECK_OK(vm_mesh_surface_distance(&m, &v, 3.3, 1, 0, 0, &d, &err), &err);
+    CHECK_NEAR(d.mesh_to_surface_max, 46.0, 1e-6);
     CHECK_NEAR(d.surface_to_mesh_max, 50.7, 1e-6);
-    CHECK_NEAR(d.surface_to_mesh_mean, 50.7, 1e-6);
+    m.points[0] = -50.0;
     /* non-finite coordinates and values are refused, with a message */
     m.points[0] = NAN;
     CHECK(vm_mesh_surface_distance(&m, &v, 3.3, 1, 0, 0, &d, &err) == VM_ERR_ARG);
@@ -88,7 +99,7 @@ static void farMeshGivesTheExactOffsetAndBadInputIsRefused(void) {
     vm_volume_free(&v);
 }
 
-static void facesOnTheVolumeBorderAreLeftOut(void) {
+static void facesOnTheVolumeBorderCountWithinTheSection(void) {
     vm_volume v;
     ramp_volume(&v, 9);
     vm_mesh m;
@@ -103,6 +114,20 @@ static void facesOnTheVolumeBorderAreLeftOut(void) {
     vm_error err;
     CHECK_OK(vm_mesh_surface_distance(&m, &v, 3.3, 1, 0, 0, &d, &err), &err);
     CHECK(d.hausdorff < 1e-6);
+    /* the flat face overreaching the section (x from 0, where f < 3.3): measured against
+     * the isosurface there, 3.3 at x = 0 */
+    m.points[3 * (size_t)base] = 0;
+    m.points[3 * (size_t)(base + 3)] = 0;
+    CHECK_OK(vm_mesh_surface_distance(&m, &v, 3.3, 1, 0, 0, &d, &err), &err);
+    CHECK_NEAR(d.mesh_to_surface_max, 3.3, 1e-6);
+    CHECK(d.surface_to_mesh_max < 1e-6);
+    /* a face a hair off the plane, within the section, is as near as that hair */
+    for (int i = 0; i < 4; i++)
+        m.points[3 * (size_t)(base + (vm_index)i) + 1] = 0.01;
+    m.points[3 * (size_t)base] = 3.3;
+    m.points[3 * (size_t)(base + 3)] = 3.3;
+    CHECK_OK(vm_mesh_surface_distance(&m, &v, 3.3, 1, 0, 0, &d, &err), &err);
+    CHECK_NEAR(d.mesh_to_surface_max, 0.01, 1e-6);
     vm_mesh_free(&m);
     vm_volume_free(&v);
 }
@@ -353,13 +378,15 @@ static void aRegionCountsOnlyItsSamples(void) {
     CHECK_OK(vm__surface_distance_points(&m, &v, 3.3, 1, 0, 0, 1.0, &all, NULL, NULL, &err),
              &err);
     memset(mask, 1, sizeof mask);
-    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, NULL, &d, NULL, NULL, &err),
+    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, 1, &r, NULL, &d, NULL, NULL,
+                                         &err),
              &err);
     CHECK(memcmp(&all, &d, sizeof d) == 0);
     memset(mask, 0, sizeof mask);
     for (int x = 0; x < 3; x++)
         mask[x] = 1; /* y and z blocks 0: y, z in [0, 4) */
-    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, NULL, &d, &pts, &np, &err),
+    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, 1, &r, NULL, &d, &pts, &np,
+                                         &err),
              &err);
     CHECK(np == 0 && pts == NULL);
     CHECK(d.surface_samples > 0 && d.surface_samples < all.surface_samples);
@@ -367,7 +394,8 @@ static void aRegionCountsOnlyItsSamples(void) {
     CHECK_NEAR(d.surface_to_mesh_max, 0.7, 1e-6);
     CHECK(all.surface_to_mesh_max > 4);
     memset(mask, 0, sizeof mask);
-    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, &r, NULL, &d, &pts, &np, &err),
+    CHECK_OK(vm__surface_distance_region(&m, &v, 3.3, 1, 0, 0, 1.0, 1, &r, NULL, &d, &pts, &np,
+                                         &err),
              &err);
     CHECK(d.surface_samples == 0 && d.mesh_samples == 0 && np == 0);
     vm_mesh_free(&m);
@@ -376,14 +404,18 @@ static void aRegionCountsOnlyItsSamples(void) {
 
 int main(void) {
     static const vm_test_case cases[] = {
-        {"planeAtKnownOffsetGivesThatDistanceBothWays", planeAtKnownOffsetGivesThatDistanceBothWays},
-        {"facesOnTheVolumeBorderAreLeftOut", facesOnTheVolumeBorderAreLeftOut},
+        {"planeAtKnownOffsetGivesThatDistanceBothWays",
+         planeAtKnownOffsetGivesThatDistanceBothWays},
+        {"facesOnTheVolumeBorderCountWithinTheSection",
+         facesOnTheVolumeBorderCountWithinTheSection},
         {"farMeshGivesTheExactOffsetAndBadInputIsRefused",
          farMeshGivesTheExactOffsetAndBadInputIsRefused},
         {"sphereMeshIsWithinHalfAVoxelBothWays", sphereMeshIsWithinHalfAVoxelBothWays},
         {"hexMeshOfATorusIsWithinHalfAVoxel", hexMeshOfATorusIsWithinHalfAVoxel},
-        {"movedAndScaledMeshesGiveTheExpectedDistance", movedAndScaledMeshesGiveTheExpectedDistance},
-        {"aMissingComponentShowsOnlyFromTheSurfaceSide", aMissingComponentShowsOnlyFromTheSurfaceSide},
+        {"movedAndScaledMeshesGiveTheExpectedDistance",
+         movedAndScaledMeshesGiveTheExpectedDistance},
+        {"aMissingComponentShowsOnlyFromTheSurfaceSide",
+         aMissingComponentShowsOnlyFromTheSurfaceSide},
         {"worldFrameIsApplied", worldFrameIsApplied},
         {"resultDoesNotDependOnThreads", resultDoesNotDependOnThreads},
         {"pointsOverTheLimitAreReturned", pointsOverTheLimitAreReturned},
