@@ -79,7 +79,8 @@ static const char *mesh_help_sizing =
     "                          from the data; see volmesh denoise for control)\n"
     ;
 static const char *mesh_help2 =
-    "  --no-improve            skip the quality pass (tets: edge contraction, flips, smoothing;\n"
+    "  --no-improve            skip the quality pass (tets: edge contraction, flips, "
+    "smoothing;\n"
     "                          hexes: boundary pillow layer, untangling, smoothing;\n"
     "                          tri --method cover: the pass over the kept-fine triangles)\n"
     "  --quality-fields        add per-cell quality arrays (min_dihedral, radius_ratio, ...)\n"
@@ -88,8 +89,9 @@ static const char *mesh_help2 =
     "                          the isosurface both ways (not with --slabs)\n"
     "  --distance-check        measure the distance between the boundary and the isosurface\n"
     "                          of the trilinear field, both ways (Hausdorff, world units;\n"
-    "                          docs/QUALITY.md), and print it with the summary (tets and\n"
-    "                          hexes of --iso/--range; not with --slabs)\n"
+    "                          docs/QUALITY.md), and print it with the summary, with the\n"
+    "                          voxels where the two maxima are (tets and hexes of\n"
+    "                          --iso/--range; not with --slabs)\n"
     "  --compress fast|best|none  VTU arrays: zlib level 1 (fast, the default), level 6\n"
     "                          (best: ~5% smaller, ~4x slower) or raw (none; also\n"
     "                          --no-compress); blocks compressed on --threads threads,\n"
@@ -108,7 +110,8 @@ static const char *mesh_help2 =
     "  --modulus EXPR          each element's Young's modulus from the image: a formula in\n"
     "                          v, the mean of the voxels in the element (numbers, v, + - * /\n"
     "                          ^, parentheses; e.g. '6850*(0.0008*v)^1.49'), nu 0.3; written\n"
-    "                          as materials (-o X.inp .bdf .k .feb) and cell data \"modulus\",\n"
+    "                          as materials (-o X.inp .bdf .k .feb) and cell data "
+    "\"modulus\",\n"
     "                          \"image_mean\" (.vtu .xdmf); regions become the materials\n"
     "  --material-bins N       with --modulus: at most N materials (default 32; equal-width\n"
     "                          bins of E, each the mean E of its elements)\n"
@@ -124,8 +127,7 @@ static const char *mesh_help2 =
     "  --quiet                 no progress bar (nor the status line of writing and checking)\n"
     "  --verbose               print the time of each stage (read, denoise, mesh, improve,\n"
     "                          write, check, distance, report) on stderr, and of the\n"
-    "                          graded mesher's steps (docs/SIZING.md)\n"
-    ;
+    "                          graded mesher's steps (docs/SIZING.md)\n";
 static const char *mesh_help3 =
     "  raw input: --raw-dims NXxNYxNZ --raw-type T [--raw-endian E] [--raw-spacing S]\n"
     "             [--raw-origin O] [--raw-header N]   (see volmesh info --help)\n"
@@ -167,14 +169,24 @@ int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
     const vm_mesh_report r = *checked;
     if (json) {
         vm_cli_json_summary_open(out);
-        if (dist)
+        if (dist) {
             printf("\"surface_distance\": {\"hausdorff\": %.9g, \"mesh_to_surface_max\": %.9g, "
                    "\"mesh_to_surface_mean\": %.9g, \"surface_to_mesh_max\": %.9g, "
                    "\"surface_to_mesh_mean\": %.9g, \"mesh_samples\": %zu, "
-                   "\"surface_samples\": %zu}, ",
+                   "\"surface_samples\": %zu",
                    dist->hausdorff, dist->mesh_to_surface_max, dist->mesh_to_surface_mean,
                    dist->surface_to_mesh_max, dist->surface_to_mesh_mean, dist->mesh_samples,
                    dist->surface_samples);
+            const char *key[2] = {"mesh_to_surface_ijk", "surface_to_mesh_ijk"};
+            const double *ijk[2] = {dist->mesh_to_surface_ijk, dist->surface_to_mesh_ijk};
+            for (int k = 0; k < 2; k++)
+                if (isfinite(ijk[k][0]))
+                    printf(", \"%s\": [%.9g, %.9g, %.9g]", key[k], ijk[k][0], ijk[k][1],
+                           ijk[k][2]);
+                else
+                    printf(", \"%s\": null", key[k]);
+            printf("}, ");
+        }
         printf("\"elements\": %zu, \"points\": %zu, \"inverted\": %zu, "
                "\"boundary_faces\": %zu, \"boundary_closed\": %s, \"boundary_euler\": %ld, "
                "\"boundary_self_intersections\": %zu, \"components\": %zu, "
@@ -201,11 +213,18 @@ int vm_cli_report_checked(const vm_mesh *m, const vm_mesh_report *checked,
                r.min_dihedral, r.max_dihedral, r.slivers_5, r.slivers_10,
                st ? st->seconds : 0.0);
     }
-    if (dist && !json)
+    if (dist && !json) {
         printf("distance to the isosurface: Hausdorff %.4g (boundary -> surface max %.4g mean "
                "%.4g; surface -> boundary max %.4g mean %.4g; world units)\n",
                dist->hausdorff, dist->mesh_to_surface_max, dist->mesh_to_surface_mean,
                dist->surface_to_mesh_max, dist->surface_to_mesh_mean);
+        if (isfinite(dist->mesh_to_surface_ijk[0]) && isfinite(dist->surface_to_mesh_ijk[0]))
+            printf("farthest: boundary point at voxel (%.2f, %.2f, %.2f), isosurface point at "
+                   "voxel (%.2f, %.2f, %.2f)\n",
+                   dist->mesh_to_surface_ijk[0], dist->mesh_to_surface_ijk[1],
+                   dist->mesh_to_surface_ijk[2], dist->surface_to_mesh_ijk[0],
+                   dist->surface_to_mesh_ijk[1], dist->surface_to_mesh_ijk[2]);
+    }
     if (r.inverted) {
         /* Written so it can be inspected, but not fit for a solver: say so and exit 1. */
         fprintf(stderr, "volmesh: %s: warning: %zu inverted element%s (without --no-improve "

@@ -653,6 +653,14 @@ vm_status vm_quality_write_text(FILE *out, const char *name, const vm_quality_su
                     d->voxel, d->hausdorff / d->voxel, d->mesh_to_surface_max / d->voxel,
                     d->mesh_to_surface_mean / d->voxel, d->surface_to_mesh_max / d->voxel,
                     d->surface_to_mesh_mean / d->voxel);
+        if (isfinite(d->mesh_to_surface_ijk[0]))
+            fprintf(out, "             farthest boundary point at voxel (%.2f, %.2f, %.2f)\n",
+                    d->mesh_to_surface_ijk[0], d->mesh_to_surface_ijk[1],
+                    d->mesh_to_surface_ijk[2]);
+        if (isfinite(d->surface_to_mesh_ijk[0]))
+            fprintf(out, "             farthest isosurface point at voxel (%.2f, %.2f, %.2f)\n",
+                    d->surface_to_mesh_ijk[0], d->surface_to_mesh_ijk[1],
+                    d->surface_to_mesh_ijk[2]);
     }
     if (q->nregions >= 2 || q->nexpected_regions) {
         size_t shown = q->nregions < VM_QUALITY_MAX_REGIONS ? q->nregions : VM_QUALITY_MAX_REGIONS;
@@ -830,8 +838,25 @@ vm_status vm_quality_write_json(FILE *out, const char *name, const vm_quality_su
         json_num(out, d->surface_to_mesh_max);
         fputs(", \"surface_to_mesh_mean\": ", out);
         json_num(out, d->surface_to_mesh_mean);
-        fprintf(out, ", \"mesh_samples\": %zu, \"surface_samples\": %zu, \"voxel\": ",
-                d->mesh_samples, d->surface_samples);
+        fprintf(out, ", \"mesh_samples\": %zu, \"surface_samples\": %zu", d->mesh_samples,
+                d->surface_samples);
+        const char *key[4] = {"mesh_to_surface_at", "mesh_to_surface_ijk", "surface_to_mesh_at",
+                              "surface_to_mesh_ijk"};
+        const double *val[4] = {d->mesh_to_surface_at, d->mesh_to_surface_ijk,
+                                d->surface_to_mesh_at, d->surface_to_mesh_ijk};
+        for (int k = 0; k < 4; k++) {
+            fprintf(out, ", \"%s\": ", key[k]);
+            if (!isfinite(val[k][0])) {
+                fputs("null", out);
+                continue;
+            }
+            for (int a = 0; a < 3; a++) {
+                fputs(a ? ", " : "[", out);
+                json_num(out, val[k][a]);
+            }
+            fputc(']', out);
+        }
+        fputs(", \"voxel\": ", out);
         if (d->voxel > 0) {
             json_num(out, d->voxel);
             fputs(", \"voxels\": {\"hausdorff\": ", out);

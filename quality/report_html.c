@@ -112,13 +112,15 @@ static void distance_row(FILE *fp, const char *what, double max, double mean, si
 static void put_distance(FILE *fp, const vm_quality_summary *q) {
     if (!q->has_distance) return;
     const vm_surface_distance *d = &q->distance;
-    fprintf(fp, "<h2>Distance to the isosurface</h2>\n<p>Two-sided (Hausdorff) distance "
-                "between the mesh boundary and the isosurface of the volume's trilinear field, "
-                "measured by volmesh, in world units and in voxels (one voxel: %.6g, the edge "
-                "of a cube of one voxel's volume; faces on the volume's border left out; "
-                "docs/QUALITY.md).</p><table>\n"
-                "<tr><th></th><th>max</th><th>mean</th><th>max (voxels)</th>"
-                "<th>mean (voxels)</th><th>samples</th></tr>\n",
+    fprintf(fp,
+            "<h2>Distance to the isosurface</h2>\n<p>Two-sided (Hausdorff) distance "
+            "between the mesh boundary and the isosurface of the volume's trilinear field, "
+            "measured by volmesh, in world units and in voxels (one voxel: %.6g, the edge "
+            "of a cube of one voxel's volume; the flat faces that close material on the "
+            "volume's border count within its sections of the box planes; "
+            "docs/QUALITY.md).</p><table>\n"
+            "<tr><th></th><th>max</th><th>mean</th><th>max (voxels)</th>"
+            "<th>mean (voxels)</th><th>samples</th></tr>\n",
             d->voxel);
     distance_row(fp, "boundary &rarr; isosurface", d->mesh_to_surface_max,
                  d->mesh_to_surface_mean, d->mesh_samples, d->voxel);
@@ -126,6 +128,18 @@ static void put_distance(FILE *fp, const vm_quality_summary *q) {
                  d->surface_to_mesh_mean, d->surface_samples, d->voxel);
     distance_row(fp, "Hausdorff (the larger max)", d->hausdorff, NAN, 0, d->voxel);
     fprintf(fp, "</table>\n");
+    if (isfinite(d->mesh_to_surface_ijk[0]) || isfinite(d->surface_to_mesh_ijk[0])) {
+        fputs("<p>Where the maxima are (voxel index i, j, k):", fp);
+        if (isfinite(d->mesh_to_surface_ijk[0]))
+            fprintf(fp, " the farthest boundary point at (%.2f, %.2f, %.2f);",
+                    d->mesh_to_surface_ijk[0], d->mesh_to_surface_ijk[1],
+                    d->mesh_to_surface_ijk[2]);
+        if (isfinite(d->surface_to_mesh_ijk[0]))
+            fprintf(fp, " the farthest isosurface point at (%.2f, %.2f, %.2f).",
+                    d->surface_to_mesh_ijk[0], d->surface_to_mesh_ijk[1],
+                    d->surface_to_mesh_ijk[2]);
+        fputs("</p>\n", fp);
+    }
 }
 
 /* The edge-length histogram as a table (the picture below draws it too). */

@@ -681,10 +681,14 @@ typedef struct acc {
     double *pts; /* collected points above the limit */
     size_t npts, cap;
     int nomem;
+    double at[3]; /* where max was first reached */
 } acc;
 
 static void acc_add(acc *c, double d, const double p[3], int collect, double limit) {
-    if (d > c->max) c->max = d;
+    if (d > c->max) {
+        c->max = d;
+        memcpy(c->at, p, sizeof c->at);
+    }
     c->sum += d;
     c->count++;
     if (!collect || !(d > limit)) return;
@@ -708,13 +712,17 @@ typedef struct side_acc {
     size_t count;
     double *pts;
     size_t npts;
+    double at[3]; /* where max was first reached (in chunk order) */
 } side_acc;
 
 static int merge_chunks(acc *c, size_t nchunks, side_acc *s) {
     int nomem = 0;
     size_t total = s->npts;
     for (size_t i = 0; i < nchunks; i++) {
-        if (c[i].max > s->max) s->max = c[i].max;
+        if (c[i].max > s->max) {
+            s->max = c[i].max;
+            memcpy(s->at, c[i].at, sizeof s->at);
+        }
         s->sum += c[i].sum;
         s->count += c[i].count;
         total += c[i].npts;
@@ -1336,7 +1344,7 @@ vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, doub
     tb.n = T.n;
     memset(&sg, 0, sizeof sg);
     memset(&tg, 0, sizeof tg);
-    side_acc ms = {0, 0, 0, NULL, 0}, ss = {0, 0, 0, NULL, 0};
+    side_acc ms = {0, 0, 0, NULL, 0, {NAN, NAN, NAN}}, ss = {0, 0, 0, NULL, 0, {NAN, NAN, NAN}};
     ctx x = {&F, &S, &sb, &sg, &T, &tb, &tg, points != NULL, limit, r, sections};
     if (T.n && S.n) {
         st = grid_build(&sg, &F, S.p, NULL, S.n, err);
@@ -1358,6 +1366,16 @@ vm_status vm__surface_distance_region(const vm_mesh *m, const vm_volume *v, doub
             out->surface_to_mesh_max = out->surface_to_mesh_mean = INFINITY;
         }
         out->hausdorff = fmax(out->mesh_to_surface_max, out->surface_to_mesh_max);
+        memcpy(out->mesh_to_surface_at, ms.at, sizeof ms.at);
+        memcpy(out->surface_to_mesh_at, ss.at, sizeof ss.at);
+        if (!(ms.max > 0 && isfinite(ms.max)))
+            for (int a = 0; a < 3; a++)
+                out->mesh_to_surface_at[a] = NAN;
+        if (!(ss.max > 0 && isfinite(ss.max)))
+            for (int a = 0; a < 3; a++)
+                out->surface_to_mesh_at[a] = NAN;
+        to_index(&F, out->mesh_to_surface_at, out->mesh_to_surface_ijk);
+        to_index(&F, out->surface_to_mesh_at, out->surface_to_mesh_ijk);
         /* the edge of a cube of one voxel's volume; a cube voxel's own edge, exactly */
         out->voxel = cbrt(fabs(vm_volume_frame_determinant(v)));
         if (v->spacing[0] == v->spacing[1] && v->spacing[1] == v->spacing[2] &&

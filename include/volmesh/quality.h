@@ -278,6 +278,13 @@ typedef struct vm_surface_distance {
     size_t mesh_samples, surface_samples;
     double voxel; /* the volume's voxel length: the edge of a cube of one voxel's volume (the
                      unit of --distance's default); each distance / voxel is in voxels */
+    /* Where each maximum is reached: the farthest boundary sample (mesh_to_surface_at) and
+     * the farthest isosurface sample (surface_to_mesh_at), in world coordinates and in the
+     * volume's index coordinates (_ijk, voxel i, j, k); the first in sample order among equal
+     * distances, so the same on any thread count. NAN when that side's maximum is 0 or
+     * there are no samples. */
+    double mesh_to_surface_at[3], surface_to_mesh_at[3];
+    double mesh_to_surface_ijk[3], surface_to_mesh_ijk[3];
 } vm_surface_distance;
 
 /* Measures both ways; lo/hi/has_lo/has_hi as in vm_mesh_options.

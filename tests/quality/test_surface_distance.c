@@ -79,6 +79,9 @@ static void farMeshGivesTheExactOffsetAndBadInputIsRefused(void) {
     CHECK_NEAR(d.mesh_to_surface_mean, 53.3, 1e-6);
     CHECK_NEAR(d.surface_to_mesh_max, 53.3, 1e-6);
     CHECK_NEAR(d.surface_to_mesh_mean, 53.3, 1e-6);
+    /* the maxima's places: a point of the square, a point of the isosurface x = 3.3 */
+    CHECK_NEAR(d.mesh_to_surface_ijk[0], -50.0, 1e-9);
+    CHECK_NEAR(d.surface_to_mesh_ijk[0], 3.3, 1e-9);
     /* beyond the plane x = 8, where the material meets the box: the flat face closing it
      * there is the nearest reference, 46 away; the isosurface is 50.7 away */
     vm_mesh_free(&m);
@@ -259,6 +262,12 @@ static void aMissingComponentShowsOnlyFromTheSurfaceSide(void) {
     double gap = 2 * (0.25 + 0.2) * (n - 1) - 2 * 0.2 * (n - 1);
     CHECK(d.surface_to_mesh_max > gap - 1);
     CHECK(d.hausdorff == d.surface_to_mesh_max);
+    /* the farthest isosurface point is on the far side of the dropped sphere, the farthest
+     * boundary point on the kept one */
+    CHECK_MSG(d.surface_to_mesh_ijk[axis] < c - gap / 2, "farthest isosurface point %g",
+              d.surface_to_mesh_ijk[axis]);
+    CHECK_MSG(d.mesh_to_surface_ijk[axis] > c - 2, "farthest boundary point %g",
+              d.mesh_to_surface_ijk[axis]);
     vm_mesh_free(&m);
     vm_volume_free(&v);
 }
@@ -287,6 +296,17 @@ static void worldFrameIsApplied(void) {
     print_distance("sphere 40, spacing 0.5 0.8 1.5, rotated", &d);
     CHECK(d.hausdorff <= 0.5 * 1.5);
     CHECK(d.mesh_to_surface_mean < 0.1 && d.surface_to_mesh_mean < 0.1);
+    /* where the maxima are: world = origin + direction (spacing ijk), within the volume */
+    const double *at[2] = {d.mesh_to_surface_at, d.surface_to_mesh_at},
+                 *ijk[2] = {d.mesh_to_surface_ijk, d.surface_to_mesh_ijk};
+    for (int k = 0; k < 2; k++)
+        for (int r = 0; r < 3; r++) {
+            double x = v.origin[r];
+            for (int a = 0; a < 3; a++)
+                x += v.direction[r][a] * v.spacing[a] * ijk[k][a];
+            CHECK_NEAR(at[k][r], x, 1e-9);
+            CHECK(ijk[k][r] >= -0.5 && ijk[k][r] <= (double)v.dims[r] - 0.5);
+        }
     /* the same mesh against the volume with identity frame is far off */
     vm_surface_distance d2;
     vm_volume w = v;
