@@ -13,6 +13,7 @@
  * meets the targets already (the coarsening's repair leaves most so) is not touched at all:
  * the pass would still move vertices around its nearly-bad tets, and each boundary move
  * costs distance. */
+#include "../mesher/graded_internal.h"
 #include "improve_internal.h"
 #include "volmesh/improve.h"
 #include "volmesh/quality.h"
@@ -191,8 +192,8 @@ static vm_status full_passes(vm_mesh *m, const vm_volume *v, const vm_improve_op
     return s;
 }
 
-vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
-                                 vm_improve_report *r, vm_error *err) {
+static vm_status graded_pass(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
+                             vm_improve_report *r, vm_error *err) {
     vm_improve_options io;
     if (o)
         io = *o;
@@ -282,5 +283,39 @@ vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improv
     }
     snap_free(&in);
     if (r && runs) *r = sum;
+    return s;
+}
+
+vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
+                                 vm_improve_report *r, vm_error *err) {
+    vm_improve_report rr;
+    if (r)
+        rr = *r;
+    else
+        memset(&rr, 0, sizeof rr);
+    vm_status s = graded_pass(m, v, o, &rr, err);
+    /* Then the coarsening's mean sweeps over the interior vertices (the boundary stays where
+     * the pass left it): the mean of each tet's smallest dihedral angle rises, no tet falls
+     * below its star's worst or leaves 15..150 degrees, no star's longest edge grows. */
+    vm_improve_options io;
+    if (o)
+        io = *o;
+    else
+        vm_improve_options_default(&io);
+    size_t moved = 0;
+    if (!s && v && m->kind == VM_TET4 && m->ncells && (io.has_lo || io.has_hi) &&
+        !m->npoint_fields && !m->ncell_fields)
+        s = vm__gr_mean_smooth(m, v, io.lo, io.has_lo, io.hi, io.has_hi, io.max_edge, &moved,
+                               err);
+    if (!s && moved) {
+        vm__imp_figures f;
+        s = vm__imp_mesh_figures(m->points, m->cells, m->ncells, io.target_volume_measure, &f);
+        if (s) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        rr.min_dihedral_after = f.dmin;
+        rr.max_dihedral_after = f.dmax;
+        rr.volume_after = f.volume;
+        rr.moves += moved;
+    }
+    if (r && !s) *r = rr;
     return s;
 }

@@ -1377,6 +1377,7 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
     const ilist *l = &C->vt[v];
     double old[3], olo = 180, ohi = 0, vol0 = 0, vol1 = 0, nlo = 180, nhi = 0;
     double osum = 0, nsum = 0; /* the star's smallest dihedral angles, summed */
+    double oedge = 0, nedge = 0; /* the star's longest edge at v, squared, before and after */
     int nab = 0; /* a moved tet fails the ABAQUS check */
     double *pv = C->m->points + 3 * (size_t)v;
     memcpy(old, pv, sizeof old);
@@ -1386,6 +1387,8 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
         olo = fmin(olo, C->qlo[t]);
         ohi = fmax(ohi, C->qhi[t]);
         osum += C->qlo[t];
+        for (int k = 0; k < 4; k++)
+            if (c[k] != v) oedge = fmax(oedge, dist2(pt(C, c[k]), pt(C, v)));
         vol0 += C->sign * vol6(pt(C, c[0]), pt(C, c[1]), pt(C, c[2]), pt(C, c[3]));
     }
     memcpy(pv, x, sizeof old);
@@ -1402,7 +1405,10 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
         }
         vol1 += v6;
         for (int k = 0; k < 4 && ok; k++)
-            if (c[k] != v && !edge_ok(C, p[k], x)) ok = 0;
+            if (c[k] != v) {
+                if (!edge_ok(C, p[k], x)) ok = 0;
+                nedge = fmax(nedge, dist2(p[k], x));
+            }
         if (!ok) break;
         double cmax, cmin;
         if (!dihedral_cosines((const double(*)[3])p, &cmax, &cmin)) {
@@ -1422,6 +1428,11 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
     if (ok && better == 1 && !(nlo > olo + 0.01)) ok = 0;
     /* (2: the mean sweep, the sum of the smallest angles up, the worst no lower) */
     if (ok && better == 2 && !(nsum > osum + GR_CO_MEAN_GAIN * l->n && nlo >= olo)) ok = 0;
+    /* (3: the same after the quality pass, where the size bounds are not known here: the
+     * star's longest edge does not grow either) */
+    if (ok && better == 3 &&
+        !(nsum > osum + GR_CO_MEAN_GAIN * l->n && nlo >= olo && nedge <= oedge))
+        ok = 0;
     double dv = (vol1 - vol0) / 6;
     if (ok && (C->dvol + dv < -C->vol_budget || C->dvol + dv > C->vol_gain)) ok = 0;
     P->ntri = 0;
@@ -2071,11 +2082,12 @@ static int optimize_vertex(co *C, int32_t v, plan *P) {
  * every check of a move (try_move: 15..150 degrees and ABAQUS's check, the volume, the
  * distance both ways). The collapses leave any tet of 15 degrees or more; this raises the
  * mean of each tet's smallest angle (issue 32) without touching the worst. [out] moved. */
-static size_t mean_sweep(co *C, plan *P) {
+static size_t mean_sweep(co *C, plan *P, int interior_only) {
     size_t moved = 0;
     for (size_t vv = 0; vv < C->nv && !stopped(C); vv++) {
         int32_t v = (int32_t)vv;
-        if (C->dead_v[v] || C->fix[v] || C->vt[v].n == 0) continue;
+        if (C->dead_v[v] || C->fix[v] || C->vt[v].n == 0 || (interior_only && C->bnd[v]))
+            continue;
         const ilist *l = &C->vt[v];
         double s[3] = {0, 0, 0}, x[3];
         int n = 0;
@@ -2100,16 +2112,42 @@ static size_t mean_sweep(co *C, plan *P) {
         for (int d = 0; d < 3; d++)
             x[d] = s[d] / n;
         if (C->bnd[v] && !onto_surface(C, x)) continue;
-        double o[3], y[3];
-        memcpy(o, pt(C, v), sizeof o);
-        for (double w = 1; w > 0.2; w *= 0.5) {
-            for (int d = 0; d < 3; d++)
-                y[d] = o[d] + w * (x[d] - o[d]);
-            if (try_move(C, v, y, 2, P)) {
-                moved++;
+        /* an interior vertex tries the centre of its tets' circumcentres weighted by their
+         * volumes too (the optimal Delaunay triangulation's move, Chen and Xu 2004) */
+        double cand[2][3], wsum = 0, cs[3] = {0, 0, 0};
+        int nc = 1;
+        memcpy(cand[0], x, sizeof x);
+        for (int32_t i = 0; i < l->n && !C->bnd[v]; i++) {
+            const vm_index *c = tet(C, l->v[i]);
+            double p[4][3], a[3], bc[3], w[3];
+            for (int k = 0; k < 4; k++)
+                memcpy(p[k], pt(C, c[k]), sizeof p[k]);
+            vm__tet_circum_vector((const double(*)[3])p, a, bc, w);
+            double v6 = a[0] * bc[0] + a[1] * bc[1] + a[2] * bc[2];
+            if (!(fabs(v6) > 0)) {
+                wsum = 0;
                 break;
             }
+            /* circumcentre p0 + w / (2 v6); weight |v6| */
+            for (int d = 0; d < 3; d++)
+                cs[d] += fabs(v6) * p[0][d] + 0.5 * w[d] * (v6 > 0 ? 1 : -1);
+            wsum += fabs(v6);
         }
+        if (wsum > 0) {
+            for (int d = 0; d < 3; d++)
+                cand[1][d] = cs[d] / wsum;
+            nc = 2;
+        }
+        double o[3], y[3];
+        memcpy(o, pt(C, v), sizeof o);
+        int done = 0;
+        for (int j = 0; j < nc && !done; j++)
+            for (double w = 1; w > 0.2 && !done; w *= 0.5) {
+                for (int d = 0; d < 3; d++)
+                    y[d] = o[d] + w * (cand[j][d] - o[d]);
+                done = try_move(C, v, y, interior_only ? 3 : 2, P);
+            }
+        moved += (size_t)done;
     }
     return moved;
 }
@@ -2323,12 +2361,10 @@ static void speculate(const co *C, const keyed *E, size_t ne, size_t i0, const m
     (void)nthreads;
 }
 
-vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double max_edge,
-                         size_t target, int merge, vm__meter *pm, size_t *removed,
-                         vm_error *err) {
-    *removed = 0;
-    if (m->ncells == 0 || m->npoints >= (size_t)INT32_MAX || m->ncells >= (size_t)INT32_MAX / 4)
-        return VM_OK;
+/* The coarsening's state over mesh m (its tets, stars, qualities, boundary and border
+ * planes), without the isosurface's samples. */
+static vm_status co_setup(co *Cp, vm_mesh *m, const gr_field *f, double distance,
+                          double max_edge, vm__meter *pm, vm_error *err) {
     co C;
     memset(&C, 0, sizeof C);
     C.m = m;
@@ -2392,6 +2428,23 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             if (ijk[r] > (double)(f->n[r] - 1) - tol) C.fix[v] |= (unsigned char)(2u << (2 * r));
         }
     }
+    *Cp = C;
+    if (C.nomem) {
+        co_free(Cp);
+        return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
+    }
+    return s;
+}
+
+vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double max_edge,
+                         size_t target, int merge, vm__meter *pm, size_t *removed,
+                         vm_error *err) {
+    *removed = 0;
+    if (m->ncells == 0 || m->npoints >= (size_t)INT32_MAX || m->ncells >= (size_t)INT32_MAX / 4)
+        return VM_OK;
+    co C;
+    vm_status s = co_setup(&C, m, f, distance, max_edge, pm, err);
+    if (s) return s;
     if (C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
     if (!s) s = samples(&C, err);
     if (!s) s = assign_samples(&C, err);
@@ -2550,7 +2603,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     for (int k = 0; k < 3 && !s && !C.nomem && !C.stop; k++)
         if (!repair(&C, P, sets, removed)) break;
     for (int k = 0; k < GR_CO_MEAN_SWEEPS && !s && !C.nomem && !C.stop; k++)
-        if (!mean_sweep(&C, &P[0])) break;
+        if (!mean_sweep(&C, &P[0], 0)) break;
     for (int t = 0; TW && t < nthreads; t++)
         free(TW[t].vmark);
     free(S);
@@ -2567,5 +2620,40 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     if (!s && C.stop) s = vm__cancelled(err, "mesh");
     if (!s) s = compact(&C, err);
     co_free(&C);
+    return s;
+}
+
+vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi,
+                             int has_hi, double max_edge, size_t *moved, vm_error *err) {
+    *moved = 0;
+    if (m->kind != VM_TET4 || m->ncells == 0 || m->npoints >= (size_t)INT32_MAX ||
+        m->ncells >= (size_t)INT32_MAX / 4)
+        return VM_OK;
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.graded = 1;
+    o.lo = lo;
+    o.hi = hi;
+    o.has_lo = has_lo;
+    o.has_hi = has_hi;
+    gr_field f;
+    vm_status s = vm__gr_field_init(&f, v, &o, err);
+    if (s) return s;
+    co C;
+    s = co_setup(&C, m, &f, 0.0, max_edge, NULL, err);
+    if (!s) {
+        plan *P = malloc(sizeof *P);
+        if (!P) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for smoothing");
+        for (int k = 0; !s && k < GR_CO_MEAN_SWEEPS; k++) {
+            size_t n = mean_sweep(&C, P, 1);
+            *moved += n;
+            if (!n) break;
+        }
+        free(P);
+        if (!s && C.nomem)
+            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for smoothing");
+        co_free(&C);
+    }
+    vm__gr_field_free(&f);
     return s;
 }

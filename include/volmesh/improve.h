@@ -158,9 +158,15 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
  * same with surface_chords 2 (the looser bound): the pass with o twice from what the first
  * of those passes made, then both from the input; then the pass with o without
  * surface_chords from what the first pass made, up to three times with other seeds, and
- * last the whole sequence without it from the input. r sums every pass run (its *_before
- * figures are the input's, its *_after ones the last pass's). Arguments and errors as
- * vm_mesh_improve; v must be given for the bound to mean anything. */
+ * last the whole sequence without it from the input. Then, with v and a bound, up to three
+ * sweeps over the interior vertices raise the mean of each tet's smallest dihedral angle:
+ * each goes towards the mean of its neighbours or the volume-weighted centre of its tets'
+ * circumcentres where that raises the sum of its tets' smallest angles, no tet of its star
+ * falling below the star's worst or leaving 15..150 degrees and ABAQUS's check, no edge
+ * over o->max_edge and the star's longest edge not growing (the boundary does not move;
+ * skipped on a mesh with fields). r sums every pass run (its *_before figures are the
+ * input's, its *_after ones the mesh's at the end; moves counts the sweeps' too). Arguments
+ * and errors as vm_mesh_improve; v must be given for the bound to mean anything. */
 vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improve_options *o,
                                  vm_improve_report *r, vm_error *err);
 
