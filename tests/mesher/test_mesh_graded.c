@@ -140,6 +140,22 @@ static void noisyPhantomsKeepTheCubicalTopology(void) {
         }
 }
 
+/* The longest edge of a tet mesh. */
+static double longest_edge(const vm_mesh *m) {
+    double e = 0;
+    for (size_t t = 0; t < m->ncells; t++)
+        for (int a = 0; a < 4; a++)
+            for (int c = a + 1; c < 4; c++) {
+                const double *p = m->points + 3 * (size_t)m->cells[4 * t + (size_t)a],
+                             *q = m->points + 3 * (size_t)m->cells[4 * t + (size_t)c];
+                double d2 = 0;
+                for (int k = 0; k < 3; k++)
+                    d2 += (p[k] - q[k]) * (p[k] - q[k]);
+                e = fmax(e, sqrt(d2));
+            }
+    return e;
+}
+
 /* The mean of each tet's smallest dihedral angle over a mesh. */
 static double mean_min_dihedral(const vm_mesh *m) {
     vm_quality_summary q;
@@ -197,17 +213,7 @@ static void meanSweepsRaiseTheMeanInside(void) {
         else
             pushed++;
     }
-    double edge_max = 0;
-    for (size_t t = 0; t < m.ncells; t++)
-        for (int a = 0; a < 4; a++)
-            for (int c = a + 1; c < 4; c++) {
-                const double *p = m.points + 3 * (size_t)m.cells[4 * t + (size_t)a],
-                             *q = m.points + 3 * (size_t)m.cells[4 * t + (size_t)c];
-                double d2 = 0;
-                for (int k = 0; k < 3; k++)
-                    d2 += (p[k] - q[k]) * (p[k] - q[k]);
-                edge_max = fmax(edge_max, sqrt(d2));
-            }
+    double edge_max = longest_edge(&m);
     vm_mesh_report r0, r1;
     CHECK_OK(vm_mesh_check(&m, &r0, &err), &err);
     double mean0 = mean_min_dihedral(&m);
@@ -230,16 +236,7 @@ static void meanSweepsRaiseTheMeanInside(void) {
     for (size_t i = 0; i < m.npoints; i++)
         if (bnd[i] && memcmp(before + 3 * i, m.points + 3 * i, 3 * sizeof(double))) bmoved++;
     CHECK(bmoved == 0);
-    for (size_t t = 0; t < m.ncells; t++)
-        for (int a = 0; a < 4; a++)
-            for (int c = a + 1; c < 4; c++) {
-                const double *p = m.points + 3 * (size_t)m.cells[4 * t + (size_t)a],
-                             *q = m.points + 3 * (size_t)m.cells[4 * t + (size_t)c];
-                double d2 = 0;
-                for (int k = 0; k < 3; k++)
-                    d2 += (p[k] - q[k]) * (p[k] - q[k]);
-                CHECK(sqrt(d2) <= edge_max + 1e-9);
-            }
+    CHECK(longest_edge(&m) <= edge_max + 1e-9);
     free(before);
     free(bnd);
     vm_mesh_free(&b);
