@@ -310,11 +310,14 @@ vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improv
     if (!s && moved) {
         vm__imp_figures f;
         s = vm__imp_mesh_figures(m->points, m->cells, m->ncells, io.target_volume_measure, &f);
-        if (s) s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
-        rr.min_dihedral_after = f.dmin;
-        rr.max_dihedral_after = f.dmax;
-        rr.volume_after = f.volume;
-        rr.moves += moved;
+        if (s) {
+            s = vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+        } else {
+            rr.min_dihedral_after = f.dmin;
+            rr.max_dihedral_after = f.dmax;
+            rr.volume_after = f.volume;
+            rr.moves += moved;
+        }
     }
     if (r && !s) *r = rr;
     return s;

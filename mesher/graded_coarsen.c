@@ -2101,7 +2101,7 @@ static size_t mean_sweep(co *C, plan *P, int interior_only) {
                     int on = 0;
                     for (int f = 0; f < 4 && !on; f++)
                         on = f != k && c[f] != (vm_index)v && face_free(C, t, f);
-                    if (!on || !C->bnd[c[k]]) continue;
+                    if (!on) continue;
                 }
                 for (int d = 0; d < 3; d++)
                     s[d] += pt(C, c[k])[d];
