@@ -39,6 +39,20 @@ void vm__sort_u32(uint32_t *a, size_t n);
 void vm__sort_size(size_t *a, size_t n);
 void vm__sort_u64(uint64_t *a, size_t n);
 
+/* Edge removal's ring polygon (core/ring.c): the best triangulation of a polygon of np
+ * vertices (3 <= np <= VM__RING_MAX, in order around the edge) by the worst grade of its
+ * triangles, Klincsek's dynamic programme over the sub-chains. grade(user, i, k, j, bar) is
+ * the grade of triangle (i, k, j), i < k < j (its two tets, one to each end of the edge); it
+ * may return any value <= bar once it knows the grade is no more than bar. chord (NULL: every
+ * chord) says which chords ij (i < j, not polygon sides) may be made. Triangles above the
+ * floor only: returns the best worst grade, with the np - 2 triangles in tri (the whole
+ * polygon's first, each chain's after, last in first out), or -INFINITY when no
+ * triangulation beats the floor. */
+#define VM__RING_MAX 9
+typedef double (*vm__ring_grade_fn)(void *user, int i, int k, int j, double bar);
+double vm__ring_triangulate(int np, double floor, vm__ring_grade_fn grade, void *user,
+                            const unsigned char (*chord)[VM__RING_MAX], int (*tri)[3]);
+
 /* Stable compaction on vm_threads() threads: keeps the items i of [0, n) for which
  * keep(i, user) is non-zero, in their order, moved down by move(to, from, count, user) (count
  * items from `from` to `to` < from; the ranges may overlap, as with memmove). keep(i) may

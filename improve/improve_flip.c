@@ -148,6 +148,23 @@ static int boundary_flip_ok(const vm__imp *w, vm_index d, vm_index e, vm_index a
            vm__dot3(m1, n2) > 0.0 && vm__dot3(m2, n1) > 0.0 && vm__dot3(m2, n2) > 0.0;
 }
 
+/* The grade of triangle (a[i], a[k], a[j]) of an edge removal's ring: the worse quality of
+ * its tets to d and to e (the second not measured once the first is at or below bar). */
+typedef struct ring_ctx {
+    vm__imp *w;
+    const vm_index *a;
+    vm_index d, e;
+} ring_ctx;
+static double ring_grade(void *user, int i, int k, int j, double bar) {
+    const ring_ctx *c = user;
+    vm_index t1[4] = {c->a[i], c->a[k], c->a[j], c->d},
+             t2[4] = {c->a[k], c->a[i], c->a[j], c->e};
+    double q1 = quality_of(c->w, t1);
+    if (q1 <= bar) return q1;
+    double q2 = quality_of(c->w, t2);
+    return q2 < q1 ? q2 : q1;
+}
+
 /* Edge removal (Shewchuk 2002, "Two discrete optimization algorithms for the topological
  * improvement of tetrahedral meshes"): the n tets around interior edge de (3 <= n <= 8) are
  * replaced by 2(n-2) tets over the best triangulation of their ring, found by dynamic
@@ -219,34 +236,11 @@ static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
         if (adjacent(w, a[0], a[n])) return 0;
         if (boundary_valence(w, d) < 4 || boundary_valence(w, e) < 4) return 0;
     }
-    /* best[i][j]: best worst quality triangulating the sub-polygon a[i..j]; cut[i][j] the apex. */
-    double best[RING_MAX + 1][RING_MAX + 1];
-    int cut[RING_MAX + 1][RING_MAX + 1];
-    for (int len = 2; len < np; len++)
-        for (int i = 0; i + len < np; i++) {
-            int j = i + len;
-            best[i][j] = -INFINITY;
-            cut[i][j] = -1;
-            for (int k = i + 1; k < j; k++) {
-                double m = INFINITY;
-                if (k - i >= 2 && best[i][k] < m) m = best[i][k];
-                if (j - k >= 2 && best[k][j] < m) m = best[k][j];
-                if (m <= best[i][j] || m <= old) continue;
-                vm_index t1[4] = {a[i], a[k], a[j], d}, t2[4] = {a[k], a[i], a[j], e};
-                double q1 = quality_of(w, t1);
-                if (q1 < m) m = q1;
-                if (m <= best[i][j]) continue;
-                double q2 = quality_of(w, t2);
-                if (q2 < m) m = q2;
-                if (m > best[i][j]) {
-                    best[i][j] = m;
-                    cut[i][j] = k;
-                }
-            }
-        }
-    if (!(best[0][np - 1] > old + VM__IMP_GAIN)) return 0;
-    if (open && !boundary_flip_ok(w, d, e, a[0], a[n], a[1], a[n - 1], a[cut[0][n]]))
-        return 0;
+    ring_ctx rc = {w, a, d, e};
+    int tri[RING_MAX][3];
+    double q = vm__ring_triangulate(np, old, ring_grade, &rc, NULL, tri);
+    if (!(q > old + VM__IMP_GAIN)) return 0;
+    if (open && !boundary_flip_ok(w, d, e, a[0], a[n], a[1], a[n - 1], a[tri[0][1]])) return 0;
     if (open) {
         /* Faces a0-an-d and a0-an-e replace a0-d-e and an-d-e. */
         vm_index nf[2][3] = {{a[0], a[n], d}, {a[0], a[n], e}};
@@ -255,30 +249,15 @@ static int edge_remove(vm__imp *w, size_t t, vm_index d, vm_index e) {
                               (const vm_index(*)[3])rf, 2))
             return 0;
     }
-    /* Collect the triangles; chords must not be edges of the mesh already. */
+    /* The tets over the triangles; chords must not be edges of the mesh already. */
     vm_index nw[2 * RING_MAX][4];
-    int nn = 0, stack[RING_MAX + 1][2], sp = 0;
-    stack[sp][0] = 0;
-    stack[sp][1] = np - 1;
-    sp++;
-    while (sp > 0) {
-        sp--;
-        int i = stack[sp][0], j = stack[sp][1], k = cut[i][j];
-        if (k < 0) return 0;
+    int nn = 0;
+    for (int r = 0; r < np - 2; r++) {
+        int i = tri[r][0], k = tri[r][1], j = tri[r][2];
         if (j - i >= 2 && (i != 0 || j != np - 1) && adjacent(w, a[i], a[j])) return 0;
         vm_index t1[4] = {a[i], a[k], a[j], d}, t2[4] = {a[k], a[i], a[j], e};
         memcpy(nw[nn++], t1, sizeof t1);
         memcpy(nw[nn++], t2, sizeof t2);
-        if (k - i >= 2) {
-            stack[sp][0] = i;
-            stack[sp][1] = k;
-            sp++;
-        }
-        if (j - k >= 2) {
-            stack[sp][0] = k;
-            stack[sp][1] = j;
-            sp++;
-        }
     }
     if (!replace(w, ring, n, nw, nn)) return 0;
     if (open) w->boundary_flips++;
