@@ -632,7 +632,7 @@ static int try_edge(vm__imp *w, vm_index a, vm_index b) {
     }
     for (int i = 0; i < nc && choice < 0; i++) {
         int opt = cand[i];
-        if (!vm__imp_chord_ok(w, a, b, cx[opt]) ||
+        if (!vm__imp_chord_ok(w, a, b, cx[opt]) || !vm__imp_kept_near(w, a, b, cx[opt]) ||
             !contract_guard_ok(w, a, b, opt == 1 ? b : a, opt == 1 ? a : b, cx[opt]))
             continue;
         choice = opt;

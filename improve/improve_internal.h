@@ -212,6 +212,12 @@ int vm__imp_constrain(const vm__imp *w, vm_index a, double x[3]);
  * check is off or neither is a surface vertex nor a border plane's rim vertex. */
 int vm__imp_chord_ok(vm__imp *w, vm_index a, vm_index b, const double x[3]);
 
+/* 1 when the surface vertices and border rim vertices among a and b that a
+ * contraction moves to x stay within CHORD_SHARE times surface_chords (at least 1) of
+ * surface_tolerance of the boundary faces around the merged vertex (index voxels): the
+ * isosurface they stood on stays near the boundary (no vertex at a bulge's tip goes). */
+int vm__imp_kept_near(vm__imp *w, vm_index a, vm_index b, const double x[3]);
+
 /* The boundary guard: no operation may make two boundary triangles cross. */
 int vm__imp_guard_init(vm__imp *w);           /* 0 on out-of-memory */
 void vm__imp_guard_free(vm__imp *w);

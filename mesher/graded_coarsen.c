@@ -105,6 +105,7 @@ typedef struct co {
     double vol_gain;         /* ... and the most it may gain */
     int strict;              /* repairing: a collapse must better the worst angle */
     int merging;             /* merging: changed tets meet the angle limits themselves */
+    size_t removals;         /* edge removals made (edge_remove) */
     size_t slot;             /* dead tets below this index are all reused (flips) */
     /* per vertex: `applied` when a collapse last changed its star (star), or what its checks
      * read (near: its star or a neighbour's) */
@@ -1687,6 +1688,64 @@ static int held(const co *C, const int32_t *w, int n, const int32_t *skip, int n
     return 0;
 }
 
+/* k dead tet slots for a flip's new tets, the first dead ones from C->slot on (dead tets
+ * below it are all reused), the tet arrays grown when there are too few: slot[0..k) are
+ * then live, of region `region`. 0 on out-of-memory. */
+static int take_slots(co *C, int k, int32_t region, int32_t *slot) {
+    size_t at = C->slot;
+    int got = 0;
+    while (got < k) {
+        while (at < C->nt && !C->dead_t[at])
+            at++;
+        if (at < C->nt) {
+            slot[got++] = (int32_t)at++;
+            continue;
+        }
+        size_t nt = C->nt + (size_t)k + C->nt / 8 + 16;
+        vm_error e;
+        if (nt >= (size_t)INT32_MAX || vm_mesh_reserve(C->m, C->m->npoints, nt, &e)) {
+            C->nomem = 1;
+            return 0;
+        }
+        unsigned char *dt = realloc(C->dead_t, nt),
+                      *ff = dt ? realloc(C->free_faces, nt) : NULL;
+        if (dt) C->dead_t = dt;
+        if (ff) C->free_faces = ff;
+        float *q[3] = {C->qlo, C->qhi, C->qab};
+        int ok = dt && ff;
+        for (int i = 0; i < 3 && ok; i++) {
+            float *n = realloc(q[i], nt * sizeof *n);
+            if (!n)
+                ok = 0;
+            else
+                q[i] = n;
+        }
+        C->qlo = q[0];
+        C->qhi = q[1];
+        C->qab = q[2];
+        if (!ok) {
+            C->nomem = 1;
+            return 0;
+        }
+        memset(C->dead_t + C->nt, 1, nt - C->nt);
+        memset(C->free_faces + C->nt, 0, nt - C->nt);
+        memset(C->m->cells + 4 * C->nt, 0, 4 * (nt - C->nt) * sizeof *C->m->cells);
+        for (size_t t = C->nt; t < nt; t++) {
+            C->qlo[t] = C->qhi[t] = C->qab[t] = 0;
+            C->m->region[t] = 0;
+        }
+        C->m->ncells = nt;
+        C->nt = nt;
+    }
+    for (int i = 0; i < k; i++) {
+        C->dead_t[slot[i]] = 0;
+        C->m->region[slot[i]] = region;
+        C->live++;
+        C->slot = (size_t)slot[i];
+    }
+    return 1;
+}
+
 /* The flip between the triangle abc and the edge de (Joe 1989): the tets `old` (the two on
  * abc, or the three around de) become those on the other side (three around de, or two on
  * abc), when de crosses abc (the tets (a,b,d,e), (b,c,d,e), (c,a,d,e) turn the same way),
@@ -1734,15 +1793,7 @@ static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32
     int32_t slot[3];
     for (int i = 0; i < nold; i++)
         slot[i] = old[i];
-    if (nnew > nold) {
-        while (C->slot < C->nt && !C->dead_t[C->slot])
-            C->slot++;
-        if (C->slot == C->nt) return 0;
-        slot[nold] = (int32_t)C->slot;
-        C->dead_t[C->slot] = 0;
-        C->m->region[C->slot] = C->m->region[old[0]];
-        C->live++;
-    }
+    if (nnew > nold && !take_slots(C, 1, C->m->region[old[0]], slot + nold)) return 0;
     for (int i = 0; i < nold; i++) {
         const vm_index *c = tet(C, old[i]);
         for (int k = 0; k < 4; k++)
@@ -1768,6 +1819,153 @@ static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32
         mark_vertex(C, abc[i]);
     mark_vertex(C, d);
     mark_vertex(C, e);
+    return 1;
+}
+
+/* Edge removal (Shewchuk, "Two discrete optimization algorithms for the topological
+ * improvement of tetrahedral meshes", 2002) takes rings of this many tets at most. */
+#define GR_CO_RING 7
+
+/* The closed ring of tets around edge de: ring vertices w[0..n) and tets ts[i] = (w[i],
+ * w[i+1], d, e) (indices mod n), every one positive as ordered, d and e swapped where that
+ * orders them so. n, or 0 when de's tets are not one closed ring of 3..GR_CO_RING. */
+static int edge_ring(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *ts) {
+    int32_t old[GR_CO_RING], a[GR_CO_RING], b[GR_CO_RING];
+    int n = 0;
+    const ilist *l = &C->vt[*d];
+    for (int32_t r = 0; r < l->n; r++) {
+        const vm_index *q = tet(C, l->v[r]);
+        if (q[0] != (vm_index)*e && q[1] != (vm_index)*e && q[2] != (vm_index)*e &&
+            q[3] != (vm_index)*e)
+            continue;
+        if (n == GR_CO_RING) return 0;
+        int32_t o[2];
+        int no = 0;
+        for (int k = 0; k < 4; k++)
+            if (q[k] != (vm_index)*d && q[k] != (vm_index)*e) o[no++ & 1] = (int32_t)q[k];
+        if (no != 2) return 0;
+        old[n] = l->v[r];
+        a[n] = o[0];
+        b[n] = o[1];
+        n++;
+    }
+    if (n < 3) return 0;
+    /* the chain: each next tet is the one other tet holding the last ring vertex */
+    int used[GR_CO_RING] = {0};
+    w[0] = a[0];
+    w[1] = b[0];
+    ts[0] = old[0];
+    used[0] = 1;
+    for (int i = 1; i < n; i++) {
+        int found = -1;
+        for (int j = 0; j < n; j++)
+            if (!used[j] && (a[j] == w[i] || b[j] == w[i])) {
+                if (found >= 0) return 0;
+                found = j;
+            }
+        if (found < 0) return 0;
+        used[found] = 1;
+        ts[i] = old[found];
+        int32_t next = a[found] == w[i] ? b[found] : a[found];
+        if (i + 1 < n)
+            w[i + 1] = next;
+        else if (next != w[0])
+            return 0;
+    }
+    for (int i = 0; i < n; i++)
+        for (int j = i + 1; j < n; j++)
+            if (w[i] == w[j]) return 0;
+    if (C->sign * vol6(pt(C, w[0]), pt(C, w[1]), pt(C, *d), pt(C, *e)) < 0) {
+        int32_t q = *d;
+        *d = *e;
+        *e = q;
+    }
+    for (int i = 0; i < n; i++)
+        if (!(C->sign * vol6(pt(C, w[i]), pt(C, w[(i + 1) % n]), pt(C, *d), pt(C, *e)) > 0))
+            return 0;
+    return n;
+}
+
+/* The grade of triangle (w[i], w[k], w[j]) (i < k < j in ring order) of an edge removal's
+ * ring: the worse of its tets (w[i], w[k], w[j], e) and (w[k], w[i], w[j], d) (the second not
+ * measured once the first is at or below bar). */
+typedef struct ring_ctx {
+    const co *C;
+    const int32_t *w;
+    int32_t d, e;
+} ring_ctx;
+static double ring_grade(void *user, int i, int k, int j, double bar) {
+    const ring_ctx *r = user;
+    const co *C = r->C;
+    const double *pi = pt(C, r->w[i]), *pk = pt(C, r->w[k]), *pj = pt(C, r->w[j]);
+    double g = grade_of(C, pi, pk, pj, pt(C, r->e));
+    if (!(g > bar)) return g;
+    return fmin(g, grade_of(C, pk, pi, pj, pt(C, r->d)));
+}
+
+/* Edge removal: the n = 4..GR_CO_RING tets around interior edge de become the 2n - 4 tets of
+ * the ring polygon's triangulation joined to d and to e, the triangulation whose worst tet is
+ * best (Klincsek's dynamic programme over the polygon's sub-chains), when that worst beats
+ * the ring's worst, every tet is of one region, no new edge exists yet or breaks the size
+ * bounds. The ring's outer faces stay: the boundary, the distance and the volume do too (the
+ * new tets, positive in the ring's turn, tile what the old ones did). 1 when removed. */
+static int edge_remove(co *C, int32_t d, int32_t e) {
+    int32_t w[GR_CO_RING], ts[GR_CO_RING];
+    int n = edge_ring(C, &d, &e, w, ts);
+    if (n < 4) return 0;
+    double before = INFINITY;
+    for (int i = 0; i < n; i++) {
+        if (C->m->region[ts[i]] != C->m->region[ts[0]]) return 0;
+        before = fmin(before, tet_grade(C, ts[i]));
+    }
+    /* chord[i][j]: the chord w[i] w[j] may be made */
+    unsigned char chord[VM__RING_MAX][VM__RING_MAX];
+    for (int i = 0; i < n; i++)
+        for (int j = i + 2; j < n; j++) {
+            int32_t ij[2] = {w[i], w[j]};
+            chord[i][j] = (i == 0 && j == n - 1) ||
+                          (edge_ok(C, pt(C, w[i]), pt(C, w[j])) && !held(C, ij, 2, NULL, 0));
+        }
+    ring_ctx rc = {C, w, d, e};
+    int tri[VM__RING_MAX][3];
+    if (!(vm__ring_triangulate(n, before + 1e-3, ring_grade, &rc,
+                               (const unsigned char(*)[VM__RING_MAX])chord,
+                               tri) > before + 1e-3))
+        return 0;
+    int nt = 0;
+    int32_t nt4[2 * GR_CO_RING][4];
+    for (int r = 0; r < n - 2; r++) {
+        int i = tri[r][0], k = tri[r][1], j = tri[r][2];
+        int32_t te[4] = {w[i], w[k], w[j], e}, td[4] = {w[k], w[i], w[j], d};
+        memcpy(nt4[nt++], te, sizeof te);
+        memcpy(nt4[nt++], td, sizeof td);
+    }
+    /* slots: the ring's, then dead ones past C->slot */
+    int32_t slot[2 * GR_CO_RING];
+    for (int i = 0; i < n; i++)
+        slot[i] = ts[i];
+    if (nt > n && !take_slots(C, nt - n, C->m->region[ts[0]], slot + n)) return 0;
+    for (int i = 0; i < n; i++) {
+        const vm_index *c = tet(C, ts[i]);
+        for (int k = 0; k < 4; k++)
+            drop(&C->vt[c[k]], ts[i]);
+    }
+    for (int i = 0; i < nt; i++) {
+        vm_index *c = C->m->cells + 4 * (size_t)slot[i];
+        for (int k = 0; k < 4; k++) {
+            c[k] = (vm_index)nt4[i][k];
+            if (!push(&C->vt[nt4[i][k]], slot[i])) C->nomem = 1;
+        }
+        measure(C, slot[i]);
+    }
+    for (int i = 0; i < nt; i++)
+        refresh_faces(C, slot[i]);
+    C->applied++;
+    for (int i = 0; i < n; i++)
+        mark_vertex(C, w[i]);
+    mark_vertex(C, d);
+    mark_vertex(C, e);
+    C->removals++;
     return 1;
 }
 
@@ -1828,6 +2026,9 @@ static int flip_tet(co *C, int32_t t) {
             if (!ok || na != 3) continue;
             if (flip(C, old, 3, abc, d, e)) return 1;
         }
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++)
+            if (edge_remove(C, (int32_t)c[i], (int32_t)c[j])) return 1;
     return 0;
 }
 
@@ -1985,17 +2186,21 @@ static void merge_sweep(co *C, const keyed *E, size_t ne, size_t target, plan *P
 }
 
 /* Sweeps (up to GR_CO_FLIP_SWEEPS, while any flips) over the live tets graded below
- * GR_CO_FLIP_BAR, each flipped where that betters the worst of the tets it replaces: between
- * rounds, so that the collapses and merges of the next find better-shaped stars. */
-static void flip_sweep(co *C) {
+ * GR_CO_FLIP_BAR, each flipped (2-3, 3-2, edge removal) where that betters the worst of the
+ * tets it replaces: between rounds, so that the collapses and merges of the next find
+ * better-shaped stars. Returns the flips made. */
+static size_t flip_sweep(co *C) {
+    size_t all = 0;
     for (int sweep = 0; sweep < GR_CO_FLIP_SWEEPS && !C->nomem && !stopped(C); sweep++) {
         size_t flips = 0;
         for (size_t t = 0; t < C->nt && !C->nomem; t++)
             if (!C->dead_t[t] && tet_grade(C, (int32_t)t) < GR_CO_FLIP_BAR &&
                 flip_tet(C, (int32_t)t))
                 flips++;
+        all += flips;
         if (!flips) break;
     }
+    return all;
 }
 
 /* Moves vertex v to where the worst grade of its tets is highest, by a pattern search
@@ -2623,12 +2828,16 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
     return s;
 }
 
-vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi,
-                             int has_hi, double max_edge, size_t *moved, vm_error *err) {
-    *moved = 0;
+/* What vm__gr_mean_smooth and vm__gr_flips run on a finished mesh: the field of v's material
+ * {lo <= f <= hi} and the coarsening's state over m (no distance bound: neither moves the
+ * boundary off its place). 1 when set up (free both after), 0 when there is nothing to do
+ * (*s VM_OK) or on an error (*s set). */
+static int co_open(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi, int has_hi,
+                   double max_edge, gr_field *f, co *C, vm_status *s, vm_error *err) {
+    *s = VM_OK;
     if (m->kind != VM_TET4 || m->ncells == 0 || m->npoints >= (size_t)INT32_MAX ||
         m->ncells >= (size_t)INT32_MAX / 4)
-        return VM_OK;
+        return 0;
     vm_mesh_options o;
     vm_mesh_options_default(&o);
     o.graded = 1;
@@ -2636,24 +2845,48 @@ vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_
     o.hi = hi;
     o.has_lo = has_lo;
     o.has_hi = has_hi;
-    gr_field f;
-    vm_status s = vm__gr_field_init(&f, v, &o, err);
-    if (s) return s;
-    co C;
-    s = co_setup(&C, m, &f, 0.0, max_edge, NULL, err);
-    if (!s) {
-        plan *P = malloc(sizeof *P);
-        if (!P) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for smoothing");
-        for (int k = 0; !s && k < GR_CO_MEAN_SWEEPS; k++) {
-            size_t n = mean_sweep(&C, P, 1);
-            *moved += n;
-            if (!n) break;
-        }
-        free(P);
-        if (!s && C.nomem)
-            s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for smoothing");
-        co_free(&C);
+    if ((*s = vm__gr_field_init(f, v, &o, err))) return 0;
+    if ((*s = co_setup(C, m, f, 0.0, max_edge, NULL, err))) {
+        vm__gr_field_free(f);
+        return 0;
     }
+    return 1;
+}
+
+vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi,
+                             int has_hi, double max_edge, size_t *moved, vm_error *err) {
+    *moved = 0;
+    gr_field f;
+    co C;
+    vm_status s;
+    if (!co_open(m, v, lo, has_lo, hi, has_hi, max_edge, &f, &C, &s, err)) return s;
+    plan *P = malloc(sizeof *P);
+    if (!P) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for smoothing");
+    for (int k = 0; !s && k < GR_CO_MEAN_SWEEPS; k++) {
+        size_t n = mean_sweep(&C, P, 1);
+        *moved += n;
+        if (!n) break;
+    }
+    free(P);
+    if (!s && C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for smoothing");
+    co_free(&C);
+    vm__gr_field_free(&f);
+    return s;
+}
+
+vm_status vm__gr_flips(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi,
+                       int has_hi, double max_edge, size_t *flips, size_t *removals,
+                       vm_error *err) {
+    *flips = *removals = 0;
+    gr_field f;
+    co C;
+    vm_status s;
+    if (!co_open(m, v, lo, has_lo, hi, has_hi, max_edge, &f, &C, &s, err)) return s;
+    *flips = flip_sweep(&C);
+    *removals = C.removals;
+    if (C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for flips");
+    if (!s) s = compact(&C, err);
+    co_free(&C);
     vm__gr_field_free(&f);
     return s;
 }

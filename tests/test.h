@@ -121,6 +121,12 @@ void vm_test_digital_topology(const vm_volume *v, int has_lo, double lo, int has
  * noise for the tests. */
 double vm_test_uniform(uint64_t *state);
 
+/* Pushes each interior vertex of tet mesh m (on no boundary face) dist along a pseudo-random
+ * direction (the sequence from seed), kept where the mesh stays uninverted within 15..150
+ * degrees and, max_edge > 0, with no edge longer: work for the sweeps that raise the mean
+ * angle. Returns the vertices pushed. */
+size_t vm_test_push_interior(vm_mesh *m, double dist, unsigned seed, double max_edge);
+
 /* Sorts count rows of width doubles (width <= 16) in lexicographic order, comparing the
  * values exactly: meshes compared as lists of points or of tets' corners. */
 void vm_test_sort_rows(double *rows, size_t count, int width);

@@ -434,3 +434,44 @@ int vm_test_progress(const char *stage, double done, double total, void *user) {
     l->ended = done == total;
     return 0;
 }
+
+size_t vm_test_push_interior(vm_mesh *m, double dist, unsigned seed, double max_edge) {
+    vm_error err;
+    vm_mesh b;
+    if (vm_mesh_boundary(m, &b, &err) != VM_OK) {
+        CHECK_MSG(0, "push: %s", err.message);
+        return 0;
+    }
+    unsigned char *bnd = calloc(m->npoints + 1, 1);
+    for (size_t i = 0; bnd && i < b.npoints; i++)
+        for (size_t j = 0; j < m->npoints; j++)
+            if (!memcmp(b.points + 3 * i, m->points + 3 * j, 3 * sizeof(double))) bnd[j] = 1;
+    vm_mesh_free(&b);
+    CHECK(bnd != NULL);
+    size_t pushed = 0;
+    unsigned rng = seed;
+    for (size_t i = 0; bnd && i < m->npoints; i++) {
+        if (bnd[i]) continue;
+        double old[3], dir[3], n2 = 0;
+        memcpy(old, m->points + 3 * i, sizeof old);
+        for (int k = 0; k < 3; k++) {
+            rng = rng * 1103515245u + 12345u;
+            dir[k] = (double)(rng >> 8) / (double)(1u << 24) - 0.5;
+            n2 += dir[k] * dir[k];
+        }
+        for (int k = 0; k < 3; k++)
+            m->points[3 * i + (size_t)k] += dist * dir[k] / sqrt(n2);
+        vm_mesh_report r;
+        vm_quality_summary q;
+        int ok = vm_mesh_check(m, &r, &err) == VM_OK && !r.inverted && r.min_dihedral >= 15 &&
+                 r.max_dihedral <= 150;
+        if (ok && max_edge > 0)
+            ok = vm_quality_report(m, &q, &err) == VM_OK && q.edges.max <= max_edge;
+        if (ok)
+            pushed++;
+        else
+            memcpy(m->points + 3 * i, old, sizeof old);
+    }
+    free(bnd);
+    return pushed;
+}

@@ -152,7 +152,7 @@ vm_status vm_mesh_improve(vm_mesh *m, const vm_volume *v, const vm_improve_optio
  * mesh meeting the targets is left as it is; one with at most 1% of its tets (plus 8) outside
  * the dihedral targets first gets one round with every surface vertex fixed and no
  * contraction, kept when it meets the targets; otherwise, on the mesh as it came, a pass that
- * neither contracts edges nor slides surface vertices over 0.2 voxel, then, only if tets are
+ * neither contracts edges nor slides surface vertices over 0.1 voxel, then, only if tets are
  * still below the targets, a pass with o, once more with another seed while they are; these
  * with surface_chords set (the boundary triangles bounded too). Should tets stay below, the
  * same with surface_chords 2 (the looser bound): the pass with o twice from what the first

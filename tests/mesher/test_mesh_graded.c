@@ -166,8 +166,109 @@ static double mean_min_dihedral(const vm_mesh *m) {
     return mean;
 }
 
-/* vm__gr_mean_smooth (the graded pass's last step): on a graded genus 3 whose interior
- * vertices were pushed off their places (each 0.3 voxel along a fixed
+/* Boundary triangles of a tet mesh, each sorted, the list sorted: for comparing boundaries. */
+static size_t sorted_boundary(const vm_mesh *m, vm_index (*out)[3], size_t cap) {
+    static const int fo[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+    size_t n = 0, nf = 4 * m->ncells;
+    vm_index(*f)[3] = malloc((nf + 1) * sizeof *f);
+    for (size_t t = 0; t < m->ncells; t++)
+        for (int k = 0; k < 4; k++) {
+            vm_index *q = f[4 * t + (size_t)k];
+            for (int j = 0; j < 3; j++)
+                q[j] = m->cells[4 * t + (size_t)fo[k][j]];
+            for (int a = 0; a < 3; a++)
+                for (int b = a + 1; b < 3; b++)
+                    if (q[b] < q[a]) {
+                        vm_index x = q[a];
+                        q[a] = q[b];
+                        q[b] = x;
+                    }
+        }
+    for (size_t i = 0; i < nf; i++) {
+        int shared = 0;
+        for (size_t j = 0; j < nf && !shared; j++)
+            shared = j != i && !memcmp(f[i], f[j], sizeof f[i]);
+        if (!shared && n < cap) memcpy(out[n++], f[i], sizeof f[i]);
+    }
+    free(f);
+    for (size_t i = 1; i < n; i++)
+        for (size_t j = i; j > 0 && memcmp(out[j], out[j - 1], sizeof out[j]) < 0; j--) {
+            vm_index x[3];
+            memcpy(x, out[j], sizeof x);
+            memcpy(out[j], out[j - 1], sizeof x);
+            memcpy(out[j - 1], x, sizeof x);
+        }
+    return n;
+}
+
+/* Edge removal (vm__gr_flips): a tall bipyramid over a regular n-gon (n = 4..7, apexes 3
+ * radii above and below) is a ring of n tets around its axis with dihedral angles up to 147
+ * to 154 degrees. The flips take the axis out (no tet keeps both apexes), leave the boundary
+ * and the volume as they were and better the worst angles; at n = 4 and 5 by edge removal
+ * alone, into the 2n - 4 tets of a triangulated n-gon. */
+static void edgeRemovalMendsTallBipyramids(void) {
+    vm_volume v;
+    if (!make_volume(&v, 9, 9, 9, 1.0f)) return;
+    for (int n = 4; n <= 7; n++) {
+        vm_mesh m;
+        vm_error err;
+        vm_mesh_init(&m, VM_TET4);
+        const double c[3] = {4.0, 4.0, 4.0}, h = 3.0;
+        for (int i = 0; i < n; i++) {
+            double a = 2.0 * 3.14159265358979323846 * i / n;
+            double p[3] = {c[0] + cos(a), c[1] + sin(a), c[2]};
+            CHECK(vm_mesh_add_point(&m, p, &err) == i);
+        }
+        double pd[3] = {c[0], c[1], c[2] - h}, pe[3] = {c[0], c[1], c[2] + h};
+        vm_index d = vm_mesh_add_point(&m, pd, &err), e = vm_mesh_add_point(&m, pe, &err);
+        for (int i = 0; i < n; i++) {
+            vm_index q[4] = {i, (i + 1) % n, d, e};
+            CHECK_OK(vm_mesh_add_cell(&m, q, 0, &err), &err);
+        }
+        vm_mesh_report r0, r1;
+        CHECK_OK(vm_mesh_check(&m, &r0, &err), &err);
+        if (r0.inverted) { /* the other turn */
+            for (size_t t = 0; t < m.ncells; t++) {
+                vm_index x = m.cells[4 * t];
+                m.cells[4 * t] = m.cells[4 * t + 1];
+                m.cells[4 * t + 1] = x;
+            }
+            CHECK_OK(vm_mesh_check(&m, &r0, &err), &err);
+        }
+        vm_index b0[32][3], b1[32][3];
+        size_t nb0 = sorted_boundary(&m, b0, 32);
+        size_t flips = 0, removals = 0;
+        CHECK_OK(vm__gr_flips(&m, &v, 0.0, 1, 0.0, 0, 0.0, &flips, &removals, &err), &err);
+        CHECK_OK(vm_mesh_check(&m, &r1, &err), &err);
+        size_t nb1 = sorted_boundary(&m, b1, 32);
+        size_t axis = 0;
+        for (size_t t = 0; t < m.ncells; t++) {
+            int hd = 0, he = 0;
+            for (int k = 0; k < 4; k++) {
+                hd |= m.cells[4 * t + (size_t)k] == d;
+                he |= m.cells[4 * t + (size_t)k] == e;
+            }
+            axis += hd && he;
+        }
+        printf("    bipyramid n = %d: %zu flips (%zu edge removals), %zu -> %zu tets, "
+               "dihedral %.1f..%.1f -> %.1f..%.1f\n",
+               n, flips, removals, (size_t)n, m.ncells, r0.min_dihedral, r0.max_dihedral,
+               r1.min_dihedral, r1.max_dihedral);
+        CHECK(flips >= 1 && removals >= 1 && axis == 0);
+        if (n <= 5) CHECK(flips == removals && m.ncells == (size_t)(2 * n - 4));
+        CHECK(r1.inverted == 0 && r1.degenerate == 0 && r1.overshared_faces == 0 &&
+              r1.boundary_closed == 1 && r1.boundary_euler == 2 && r1.components == 1);
+        CHECK(fabs(r1.volume - r0.volume) <= 1e-12 * r0.volume);
+        CHECK(nb0 == 2 * (size_t)n && nb1 == nb0 && !memcmp(b0, b1, nb0 * sizeof b0[0]));
+        CHECK_MSG(r1.max_dihedral < r0.max_dihedral - 10.0, "max %.2f -> %.2f", r0.max_dihedral,
+                  r1.max_dihedral);
+        vm_mesh_free(&m);
+    }
+    vm_volume_free(&v);
+}
+
+/* vm__gr_mean_smooth (the graded pass's last step): on a graded genus 3 (after its quality
+ * pass) whose interior vertices were pushed off their places (each 0.3 voxel along a fixed
  * pseudo-random direction, kept only where its tets stay within 15..150 degrees), the
  * sweeps win back most of the mean of the smallest dihedral angles that the pushes cost,
  * move no boundary vertex, lower no worst angle and lengthen no edge past max_edge. */
@@ -185,6 +286,12 @@ static void meanSweepsRaiseTheMeanInside(void) {
         vm_volume_free(&v);
         return;
     }
+    /* with its quality pass: every tet within 15..150 degrees before the pushes */
+    vm_improve_options io;
+    vm_improve_options_default(&io);
+    io.lo = 0.0;
+    io.has_lo = 1;
+    CHECK_OK(vm_mesh_improve_graded(&m, &v, &io, NULL, &err), &err);
     /* boundary vertices: the corners of faces of one tet */
     vm_mesh b;
     CHECK_OK(vm_mesh_boundary(&m, &b, &err), &err);
@@ -193,26 +300,7 @@ static void meanSweepsRaiseTheMeanInside(void) {
         for (size_t j = 0; j < m.npoints; j++)
             if (!memcmp(b.points + 3 * i, m.points + 3 * j, 3 * sizeof(double))) bnd[j] = 1;
     double mean_in = mean_min_dihedral(&m);
-    size_t pushed = 0;
-    unsigned rng = 12345u;
-    for (size_t i = 0; i < m.npoints; i++) {
-        if (bnd[i]) continue;
-        double old[3], dir[3], n2 = 0;
-        memcpy(old, m.points + 3 * i, sizeof old);
-        for (int k = 0; k < 3; k++) {
-            rng = rng * 1103515245u + 12345u;
-            dir[k] = (double)(rng >> 8) / (double)(1u << 24) - 0.5;
-            n2 += dir[k] * dir[k];
-        }
-        for (int k = 0; k < 3; k++)
-            m.points[3 * i + (size_t)k] += 0.3 * dir[k] / sqrt(n2);
-        vm_mesh_report r;
-        CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
-        if (r.inverted || r.min_dihedral < 15 || r.max_dihedral > 150)
-            memcpy(m.points + 3 * i, old, sizeof old);
-        else
-            pushed++;
-    }
+    size_t pushed = vm_test_push_interior(&m, 0.3, 12345u, 0.0);
     double edge_max = longest_edge(&m);
     vm_mesh_report r0, r1;
     CHECK_OK(vm_mesh_check(&m, &r0, &err), &err);
@@ -226,7 +314,7 @@ static void meanSweepsRaiseTheMeanInside(void) {
     printf("    genus3 48^3: mean smallest dihedral %.2f, %zu interior vertices pushed %.2f, "
            "swept %.2f; worst %.2f -> %.2f, %zu moved\n",
            mean_in, pushed, mean0, mean1, r0.min_dihedral, r1.min_dihedral, moved);
-    CHECK(pushed > 20 && moved > 0);
+    CHECK(pushed > 10 && moved > 0);
     /* they win back at least half of what the pushes cost (85% here) */
     CHECK_MSG(mean0 < mean_in && mean1 >= mean0 + 0.5 * (mean_in - mean0),
               "mean %.3f, pushed %.3f, swept %.3f", mean_in, mean0, mean1);
@@ -267,7 +355,7 @@ typedef struct graded_case {
 static void gradedPhantomsAreSmallAndFaithful(void) {
     static const graded_case cases[] = {
         {VM_PHANTOM_SPHERE, 400, 1.05, 38.8}, {VM_PHANTOM_TORUS, 150, 1.05, 36.8},
-        {VM_PHANTOM_GENUS3, 25, 1.05, 39.3},  {VM_PHANTOM_TWO_SPHERES, 120, 1.05, 0},
+        {VM_PHANTOM_GENUS3, 25, 1.05, 38.2},  {VM_PHANTOM_TWO_SPHERES, 120, 1.05, 0},
         {VM_PHANTOM_PLATE, 1 / 1.2, 1.05, 0}, {VM_PHANTOM_CUT_SPHERE, 150, 1.05, 0}};
     for (size_t t = 0; t < sizeof cases / sizeof cases[0]; t++) {
         vm_volume v;
@@ -787,7 +875,8 @@ static void minLayersKeepThinPartsLayered(void) {
 
 TEST_MAIN(T(everyCubePatternKeepsTheCubicalTopology), T(coarseningHalvesTheStuffedMesh),
           T(randomVolumesKeepTheCubicalTopology), T(noisyPhantomsKeepTheCubicalTopology),
-          T(gradedPhantomsAreSmallAndFaithful), T(meanSweepsRaiseTheMeanInside), T(sizesAreMet),
-          T(sizeFieldSetsTheDensity), T(tetTargetIsMet), T(gradingSpreadsLevelChanges),
+          T(gradedPhantomsAreSmallAndFaithful), T(meanSweepsRaiseTheMeanInside),
+          T(edgeRemovalMendsTallBipyramids), T(sizesAreMet), T(sizeFieldSetsTheDensity),
+          T(tetTargetIsMet), T(gradingSpreadsLevelChanges),
           T(anisotropicVoxelsKeepVolumeThroughThePass), T(topologyMisfitsAreFound),
           T(minLayersKeepThinPartsLayered))
