@@ -39,6 +39,11 @@ void vm__sort_u32(uint32_t *a, size_t n);
 void vm__sort_size(size_t *a, size_t n);
 void vm__sort_u64(uint64_t *a, size_t n);
 
+/* Squared distance from p to triangle (a, b, c) (core/util.c; Ericson 5.1.5, the closest
+ * point by Voronoi regions), a degenerate triangle's nearest corner where the regions fail. */
+double vm__point_triangle_dist2(const double p[3], const double a[3], const double b[3],
+                                const double c[3]);
+
 /* Edge removal's ring polygon (core/ring.c): the best triangulation of a polygon of np
  * vertices (3 <= np <= VM__RING_MAX, in order around the edge) by the worst grade of its
  * triangles, Klincsek's dynamic programme over the sub-chains. grade(user, i, k, j, bar) is

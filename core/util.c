@@ -1,11 +1,12 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 /* core/util.c — checked sizes, the memory limit, growable arrays, clock. */
 #define _POSIX_C_SOURCE 200809L
+#include "core.h"
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
-#include "core.h"
 #ifdef VM_HAVE_OPENMP
 #include <omp.h>
 #endif
@@ -231,3 +232,62 @@ static int u64_cmp(const void *a, const void *b) {
 SHORT_SORT(vm__sort_u32, uint32_t, u32_cmp)
 SHORT_SORT(vm__sort_size, size_t, size_cmp)
 SHORT_SORT(vm__sort_u64, uint64_t, u64_cmp)
+
+/* Squared distance between points p and q. */
+static double tri_pd2(const double a[3], const double b[3]) {
+    double d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
+    return d0 * d0 + d1 * d1 + d2 * d2;
+}
+
+/* Squared distance from p to triangle (a, b, c) (Ericson 5.1.5, closest point on triangle,
+ * by Voronoi regions), guarded against degenerate triangles. */
+double vm__point_triangle_dist2(const double p[3], const double a[3], const double b[3],
+                                const double c[3]) {
+    double ab[3], ac[3], ap[3], bp[3], cp[3], q[3];
+    for (int k = 0; k < 3; k++) {
+        ab[k] = b[k] - a[k];
+        ac[k] = c[k] - a[k];
+        ap[k] = p[k] - a[k];
+        bp[k] = p[k] - b[k];
+        cp[k] = p[k] - c[k];
+    }
+#define DOT(u, w) ((u)[0] * (w)[0] + (u)[1] * (w)[1] + (u)[2] * (w)[2])
+    double d1 = DOT(ab, ap), d2 = DOT(ac, ap);
+    if (d1 <= 0 && d2 <= 0) return tri_pd2(p, a);
+    double d3 = DOT(ab, bp), d4 = DOT(ac, bp);
+    if (d3 >= 0 && d4 <= d3) return tri_pd2(p, b);
+    double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+        double v = d1 - d3 > 0 ? d1 / (d1 - d3) : 0;
+        for (int k = 0; k < 3; k++)
+            q[k] = a[k] + v * ab[k];
+        return tri_pd2(p, q);
+    }
+    double d5 = DOT(ab, cp), d6 = DOT(ac, cp);
+    if (d6 >= 0 && d5 <= d6) return tri_pd2(p, c);
+    double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+        double w = d2 - d6 > 0 ? d2 / (d2 - d6) : 0;
+        for (int k = 0; k < 3; k++)
+            q[k] = a[k] + w * ac[k];
+        return tri_pd2(p, q);
+    }
+    double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+        double den = (d4 - d3) + (d5 - d6);
+        double w = den > 0 ? (d4 - d3) / den : 0;
+        for (int k = 0; k < 3; k++)
+            q[k] = b[k] + w * (c[k] - b[k]);
+        return tri_pd2(p, q);
+    }
+#undef DOT
+    double den = va + vb + vc;
+    if (!(den > 0)) { /* degenerate: the nearest of the three edges */
+        double e = fmin(tri_pd2(p, a), fmin(tri_pd2(p, b), tri_pd2(p, c)));
+        return e;
+    }
+    double v = vb / den, w = vc / den;
+    for (int k = 0; k < 3; k++)
+        q[k] = a[k] + ab[k] * v + ac[k] * w;
+    return tri_pd2(p, q);
+}

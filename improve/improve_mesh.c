@@ -591,53 +591,6 @@ int vm__imp_chord_ok(vm__imp *w, vm_index a, vm_index b, const double x[3]) {
     return after <= before;
 }
 
-/* Squared distance from x to the triangle abc (the nearest point by its region of the
- * triangle's plane: a vertex, an edge or the inside). */
-static double point_tri_d2(const double x[3], const double a[3], const double b[3],
-                           const double c[3]) {
-    double ab[3], ac[3], ax[3];
-    vm__sub3(b, a, ab);
-    vm__sub3(c, a, ac);
-    vm__sub3(x, a, ax);
-    double d1 = vm__dot3(ab, ax), d2 = vm__dot3(ac, ax), q[3];
-    if (d1 <= 0 && d2 <= 0) {
-        memcpy(q, a, sizeof q);
-    } else {
-        double bx[3], cx[3];
-        vm__sub3(x, b, bx);
-        vm__sub3(x, c, cx);
-        double d3 = vm__dot3(ab, bx), d4 = vm__dot3(ac, bx);
-        double d5 = vm__dot3(ab, cx), d6 = vm__dot3(ac, cx);
-        double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
-        if (d3 >= 0 && d4 <= d3) {
-            memcpy(q, b, sizeof q);
-        } else if (d6 >= 0 && d5 <= d6) {
-            memcpy(q, c, sizeof q);
-        } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-            double t = d1 / (d1 - d3);
-            for (int k = 0; k < 3; k++)
-                q[k] = a[k] + t * ab[k];
-        } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-            double t = d2 / (d2 - d6);
-            for (int k = 0; k < 3; k++)
-                q[k] = a[k] + t * ac[k];
-        } else if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
-            double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-            for (int k = 0; k < 3; k++)
-                q[k] = b[k] + t * (c[k] - b[k]);
-        } else {
-            double den = va + vb + vc;
-            if (!(den > 0)) return INFINITY;
-            double v = vb / den, u = vc / den;
-            for (int k = 0; k < 3; k++)
-                q[k] = a[k] + v * ab[k] + u * ac[k];
-        }
-    }
-    double d[3];
-    vm__sub3(x, q, d);
-    return vm__dot3(d, d);
-}
-
 int vm__imp_kept_near(vm__imp *w, vm_index a, vm_index b, const double x[3]) {
     if (!w->v) return 1;
     int chords = w->o->surface_chords > 1 ? w->o->surface_chords : 1;
@@ -660,7 +613,7 @@ int vm__imp_kept_near(vm__imp *w, vm_index a, vm_index b, const double x[3]) {
                 double ci[3], di[3];
                 vm__imp_to_index(w, w->p + 3 * (size_t)c, ci);
                 vm__imp_to_index(w, w->p + 3 * (size_t)d, di);
-                double d2 = point_tri_d2(g, xi, ci, di);
+                double d2 = vm__point_triangle_dist2(g, xi, ci, di);
                 if (d2 < best) best = d2;
             }
         }

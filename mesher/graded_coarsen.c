@@ -1746,6 +1746,33 @@ static int take_slots(co *C, int k, int32_t region, int32_t *slot) {
     return 1;
 }
 
+/* A flip's change: the nold tets `old` give way to the nnew tets nt (nnew >= 2), put in the
+ * slots `slot` (old's first, then those take_slots gave), old's slots past nnew dying. The
+ * new tets' outer faces are the old ones' (their neighbours are unchanged). */
+static void put_tets(co *C, const int32_t *old, int nold, const int32_t *slot,
+                     const int32_t (*nt)[4], int nnew) {
+    for (int i = 0; i < nold; i++) {
+        const vm_index *c = tet(C, old[i]);
+        for (int k = 0; k < 4; k++)
+            drop(&C->vt[c[k]], old[i]);
+    }
+    for (int i = 0; i < nnew; i++) {
+        vm_index *c = C->m->cells + 4 * (size_t)slot[i];
+        for (int k = 0; k < 4; k++) {
+            c[k] = (vm_index)nt[i][k];
+            if (!push(&C->vt[nt[i][k]], slot[i])) C->nomem = 1;
+        }
+        measure(C, slot[i]);
+    }
+    for (int i = nnew; i < nold; i++) {
+        C->dead_t[old[i]] = 1;
+        C->live--;
+    }
+    for (int i = 0; i < nnew; i++)
+        refresh_faces(C, slot[i]);
+    C->applied++;
+}
+
 /* The flip between the triangle abc and the edge de (Joe 1989): the tets `old` (the two on
  * abc, or the three around de) become those on the other side (three around de, or two on
  * abc), when de crosses abc (the tets (a,b,d,e), (b,c,d,e), (c,a,d,e) turn the same way),
@@ -1794,27 +1821,7 @@ static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32
     for (int i = 0; i < nold; i++)
         slot[i] = old[i];
     if (nnew > nold && !take_slots(C, 1, C->m->region[old[0]], slot + nold)) return 0;
-    for (int i = 0; i < nold; i++) {
-        const vm_index *c = tet(C, old[i]);
-        for (int k = 0; k < 4; k++)
-            drop(&C->vt[c[k]], old[i]);
-    }
-    for (int i = 0; i < nnew; i++) {
-        vm_index *c = C->m->cells + 4 * (size_t)slot[i];
-        for (int k = 0; k < 4; k++) {
-            c[k] = (vm_index)nt[i][k];
-            if (!push(&C->vt[nt[i][k]], slot[i])) C->nomem = 1;
-        }
-        measure(C, slot[i]);
-    }
-    if (nold > nnew) {
-        C->dead_t[old[2]] = 1;
-        C->live--;
-    }
-    /* the new tets' outer faces are the old ones' (their neighbours are unchanged) */
-    for (int i = 0; i < nnew; i++)
-        refresh_faces(C, slot[i]);
-    C->applied++;
+    put_tets(C, old, nold, slot, (const int32_t(*)[4])nt, nnew);
     for (int i = 0; i < 3; i++)
         mark_vertex(C, abc[i]);
     mark_vertex(C, d);
@@ -1945,22 +1952,7 @@ static int edge_remove(co *C, int32_t d, int32_t e) {
     for (int i = 0; i < n; i++)
         slot[i] = ts[i];
     if (nt > n && !take_slots(C, nt - n, C->m->region[ts[0]], slot + n)) return 0;
-    for (int i = 0; i < n; i++) {
-        const vm_index *c = tet(C, ts[i]);
-        for (int k = 0; k < 4; k++)
-            drop(&C->vt[c[k]], ts[i]);
-    }
-    for (int i = 0; i < nt; i++) {
-        vm_index *c = C->m->cells + 4 * (size_t)slot[i];
-        for (int k = 0; k < 4; k++) {
-            c[k] = (vm_index)nt4[i][k];
-            if (!push(&C->vt[nt4[i][k]], slot[i])) C->nomem = 1;
-        }
-        measure(C, slot[i]);
-    }
-    for (int i = 0; i < nt; i++)
-        refresh_faces(C, slot[i]);
-    C->applied++;
+    put_tets(C, ts, n, slot, (const int32_t(*)[4])nt4, nt);
     for (int i = 0; i < n; i++)
         mark_vertex(C, w[i]);
     mark_vertex(C, d);

@@ -399,60 +399,11 @@ static double box_dist2(const bnode *nd, const double p[3]) {
     return s;
 }
 
-/* Squared distance from p to triangle (a, b, c) (Ericson 5.1.5, closest point on triangle,
- * by Voronoi regions), guarded against degenerate triangles. */
-static double point_triangle_dist2(const double p[3], const double a[3], const double b[3],
-                                   const double c[3]) {
-    double ab[3], ac[3], ap[3], bp[3], cp[3], q[3];
-    for (int k = 0; k < 3; k++) {
-        ab[k] = b[k] - a[k];
-        ac[k] = c[k] - a[k];
-        ap[k] = p[k] - a[k];
-        bp[k] = p[k] - b[k];
-        cp[k] = p[k] - c[k];
-    }
-#define DOT(u, w) ((u)[0] * (w)[0] + (u)[1] * (w)[1] + (u)[2] * (w)[2])
-    double d1 = DOT(ab, ap), d2 = DOT(ac, ap);
-    if (d1 <= 0 && d2 <= 0) return dist2(p, a);
-    double d3 = DOT(ab, bp), d4 = DOT(ac, bp);
-    if (d3 >= 0 && d4 <= d3) return dist2(p, b);
-    double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-        double v = d1 - d3 > 0 ? d1 / (d1 - d3) : 0;
-        for (int k = 0; k < 3; k++) q[k] = a[k] + v * ab[k];
-        return dist2(p, q);
-    }
-    double d5 = DOT(ab, cp), d6 = DOT(ac, cp);
-    if (d6 >= 0 && d5 <= d6) return dist2(p, c);
-    double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-        double w = d2 - d6 > 0 ? d2 / (d2 - d6) : 0;
-        for (int k = 0; k < 3; k++) q[k] = a[k] + w * ac[k];
-        return dist2(p, q);
-    }
-    double va = d3 * d6 - d5 * d4;
-    if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
-        double den = (d4 - d3) + (d5 - d6);
-        double w = den > 0 ? (d4 - d3) / den : 0;
-        for (int k = 0; k < 3; k++) q[k] = b[k] + w * (c[k] - b[k]);
-        return dist2(p, q);
-    }
-#undef DOT
-    double den = va + vb + vc;
-    if (!(den > 0)) { /* degenerate: the nearest of the three edges */
-        double e = fmin(dist2(p, a), fmin(dist2(p, b), dist2(p, c)));
-        return e;
-    }
-    double v = vb / den, w = vc / den;
-    for (int k = 0; k < 3; k++) q[k] = a[k] + ab[k] * v + ac[k] * w;
-    return dist2(p, q);
-}
-
 /* Squared distance from p to item id: a point (tri == NULL) or a triangle. */
 static double item_dist2(const double *pts, const size_t *tri, size_t id, const double p[3]) {
     if (!tri) return dist2(p, pts + 3 * id);
-    return point_triangle_dist2(p, pts + 3 * tri[3 * id], pts + 3 * tri[3 * id + 1],
-                                pts + 3 * tri[3 * id + 2]);
+    return vm__point_triangle_dist2(p, pts + 3 * tri[3 * id], pts + 3 * tri[3 * id + 1],
+                                    pts + 3 * tri[3 * id + 2]);
 }
 
 /* Keeps the nearer of (d, id) and (*best, *bid); equal distances keep the lower id, so the
