@@ -48,15 +48,17 @@ double vm__point_triangle_dist2(const double p[3], const double a[3], const doub
  * vertices (3 <= np <= VM__RING_MAX, in order around the edge) by the worst grade of its
  * triangles, Klincsek's dynamic programme over the sub-chains. grade(user, i, k, j, bar) is
  * the grade of triangle (i, k, j), i < k < j (its two tets, one to each end of the edge); it
- * may return any value <= bar once it knows the grade is no more than bar. chord (NULL: every
- * chord) says which chords ij (i < j, not polygon sides) may be made. Triangles above the
- * floor only: returns the best worst grade, with the np - 2 triangles in tri (the whole
- * polygon's first, each chain's after, last in first out), or -INFINITY when no
+ * may return any value <= bar once it knows the grade is no more than bar. chord(user, i, j)
+ * (NULL: every chord) says whether chord ij (i < j, not a polygon side) may be made; it is
+ * asked at most once per chord, and only for chords a triangle above the floor could use.
+ * Triangles above the floor only: returns the best worst grade, with the np - 2 triangles in
+ * tri (the whole polygon's first, each chain's after, last in first out), or -INFINITY when no
  * triangulation beats the floor. */
 #define VM__RING_MAX 9
 typedef double (*vm__ring_grade_fn)(void *user, int i, int k, int j, double bar);
+typedef int (*vm__ring_chord_fn)(void *user, int i, int j);
 double vm__ring_triangulate(int np, double floor, vm__ring_grade_fn grade, void *user,
-                            const unsigned char (*chord)[VM__RING_MAX], int (*tri)[3]);
+                            vm__ring_chord_fn chord, int (*tri)[3]);
 
 /* Stable compaction on vm_threads() threads: keeps the items i of [0, n) for which
  * keep(i, user) is non-zero, in their order, moved down by move(to, from, count, user) (count

@@ -8,7 +8,7 @@
 #include <math.h>
 
 double vm__ring_triangulate(int np, double floor, vm__ring_grade_fn grade, void *user,
-                            const unsigned char (*chord)[VM__RING_MAX], int (*tri)[3]) {
+                            vm__ring_chord_fn chord, int (*tri)[3]) {
     if (np < 3 || np > VM__RING_MAX) return -INFINITY;
     /* best[i][j]: the best worst grade over the chain i..j closed by the chord ij; cut[i][j]
      * its apex (-1: none above the floor) */
@@ -19,13 +19,19 @@ double vm__ring_triangulate(int np, double floor, vm__ring_grade_fn grade, void 
             int j = i + len;
             best[i][j] = -INFINITY;
             cut[i][j] = -1;
-            if (chord && (i != 0 || j != np - 1) && !chord[i][j]) continue;
+            /* the chord is asked for once a triangle on it could count */
+            int asked = !chord || (i == 0 && j == np - 1);
             for (int k = i + 1; k < j; k++) {
                 double m = INFINITY;
                 if (k - i >= 2 && best[i][k] < m) m = best[i][k];
                 if (j - k >= 2 && best[k][j] < m) m = best[k][j];
                 if (m <= best[i][j] || m <= floor) continue;
-                double g = grade(user, i, k, j, best[i][j]);
+                if (!asked) {
+                    if (!chord(user, i, j)) break;
+                    asked = 1;
+                }
+                /* (a grade at or below the floor is of no use: known as soon as that) */
+                double g = grade(user, i, k, j, best[i][j] > floor ? best[i][j] : floor);
                 if (g < m) m = g;
                 if (m > best[i][j]) {
                     best[i][j] = m;

@@ -111,6 +111,9 @@ typedef struct co {
      * read (near: its star or a neighbour's) */
     uint32_t *star, *near;
     uint32_t applied; /* collapses made, plus one */
+    /* per tet: 0, or `applied` plus one when flip_tet last found no flip for it (the flip
+     * sweeps try it again only once the near mark of one of its corners has passed that) */
+    uint32_t *flipless;
     vm__meter *pm;           /* polled for cancellation (may be NULL) */
     unsigned polls;
     int stop;                /* cancelled */
@@ -1016,6 +1019,7 @@ static void measure(co *C, int32_t t) {
     C->qab[t] = (float)tet_angles((const double(*)[3])p, &lo, &hi);
     C->qlo[t] = (float)lo;
     C->qhi[t] = (float)hi;
+    C->flipless[t] = 0;
 }
 
 /* Marks vertex x as in a changed tet (star) and its neighbours as next to one (near), for
@@ -1337,6 +1341,7 @@ static void co_free(co *C) {
     free(C->qlo);
     free(C->qhi);
     free(C->qab);
+    free(C->flipless);
     free(C->star);
     free(C->near);
 }
@@ -1630,8 +1635,11 @@ static int peel(co *C, int32_t t) {
     C->dead_t[t] = 1;
     C->live--;
     C->dvol -= v6 / 6;
-    for (int k = 0; k < 4; k++) /* t's neighbours across its faces hold 3 of its corners */
+    C->applied++;
+    for (int k = 0; k < 4; k++) { /* t's neighbours across its faces hold 3 of its corners */
         refresh_star(C, (int32_t)c[k], 0);
+        mark_vertex(C, (int32_t)c[k]);
+    }
     return 1;
 }
 
@@ -1712,7 +1720,9 @@ static int take_slots(co *C, int k, int32_t region, int32_t *slot) {
         if (dt) C->dead_t = dt;
         if (ff) C->free_faces = ff;
         float *q[3] = {C->qlo, C->qhi, C->qab};
-        int ok = dt && ff;
+        uint32_t *fl = realloc(C->flipless, nt * sizeof *fl);
+        if (fl) C->flipless = fl;
+        int ok = dt && ff && fl;
         for (int i = 0; i < 3 && ok; i++) {
             float *n = realloc(q[i], nt * sizeof *n);
             if (!n)
@@ -1732,6 +1742,7 @@ static int take_slots(co *C, int k, int32_t region, int32_t *slot) {
         memset(C->m->cells + 4 * C->nt, 0, 4 * (nt - C->nt) * sizeof *C->m->cells);
         for (size_t t = C->nt; t < nt; t++) {
             C->qlo[t] = C->qhi[t] = C->qab[t] = 0;
+            C->flipless[t] = 0;
             C->m->region[t] = 0;
         }
         C->m->ncells = nt;
@@ -1901,6 +1912,13 @@ typedef struct ring_ctx {
     const int32_t *w;
     int32_t d, e;
 } ring_ctx;
+/* Whether the ring's chord w[i] w[j] may be made: it keeps the size bounds and is no edge
+ * yet. */
+static int ring_chord(void *user, int i, int j) {
+    const ring_ctx *r = user;
+    int32_t ij[2] = {r->w[i], r->w[j]};
+    return edge_ok(r->C, pt(r->C, ij[0]), pt(r->C, ij[1])) && !held(r->C, ij, 2, NULL, 0);
+}
 static double ring_grade(void *user, int i, int k, int j, double bar) {
     const ring_ctx *r = user;
     const co *C = r->C;
@@ -1925,19 +1943,10 @@ static int edge_remove(co *C, int32_t d, int32_t e) {
         if (C->m->region[ts[i]] != C->m->region[ts[0]]) return 0;
         before = fmin(before, tet_grade(C, ts[i]));
     }
-    /* chord[i][j]: the chord w[i] w[j] may be made */
-    unsigned char chord[VM__RING_MAX][VM__RING_MAX];
-    for (int i = 0; i < n; i++)
-        for (int j = i + 2; j < n; j++) {
-            int32_t ij[2] = {w[i], w[j]};
-            chord[i][j] = (i == 0 && j == n - 1) ||
-                          (edge_ok(C, pt(C, w[i]), pt(C, w[j])) && !held(C, ij, 2, NULL, 0));
-        }
     ring_ctx rc = {C, w, d, e};
     int tri[VM__RING_MAX][3];
-    if (!(vm__ring_triangulate(n, before + 1e-3, ring_grade, &rc,
-                               (const unsigned char(*)[VM__RING_MAX])chord,
-                               tri) > before + 1e-3))
+    if (!(vm__ring_triangulate(n, before + 1e-3, ring_grade, &rc, ring_chord, tri) >
+          before + 1e-3))
         return 0;
     int nt = 0;
     int32_t nt4[2 * GR_CO_RING][4];
@@ -2177,18 +2186,37 @@ static void merge_sweep(co *C, const keyed *E, size_t ne, size_t target, plan *P
     }
 }
 
+/* Whether flip_tet surely finds no flip for tet t: it found none last time, and nothing it
+ * reads has changed since: the tets around t's corners, their places, and the edges of the
+ * corners' neighbours (a ring's chords), all of which the near marks of t's corners follow.
+ * (Every change of tets marks their corners: apply, try_move, flip, edge_remove, peel.) */
+static int flip_settled(const co *C, int32_t t) {
+    uint32_t w = C->flipless[t];
+    if (!w) return 0;
+    const vm_index *c = tet(C, t);
+    for (int k = 0; k < 4; k++)
+        if (C->near[c[k]] >= w) return 0;
+    return 1;
+}
+
 /* Sweeps (up to GR_CO_FLIP_SWEEPS, while any flips) over the live tets graded below
  * GR_CO_FLIP_BAR, each flipped (2-3, 3-2, edge removal) where that betters the worst of the
  * tets it replaces: between rounds, so that the collapses and merges of the next find
- * better-shaped stars. Returns the flips made. */
+ * better-shaped stars. A tet that found no flip is tried again only once something near it
+ * has changed (flip_settled). Returns the flips made. */
 static size_t flip_sweep(co *C) {
     size_t all = 0;
     for (int sweep = 0; sweep < GR_CO_FLIP_SWEEPS && !C->nomem && !stopped(C); sweep++) {
         size_t flips = 0;
-        for (size_t t = 0; t < C->nt && !C->nomem; t++)
-            if (!C->dead_t[t] && tet_grade(C, (int32_t)t) < GR_CO_FLIP_BAR &&
-                flip_tet(C, (int32_t)t))
+        for (size_t t = 0; t < C->nt && !C->nomem; t++) {
+            if (C->dead_t[t] || !(tet_grade(C, (int32_t)t) < GR_CO_FLIP_BAR) ||
+                flip_settled(C, (int32_t)t))
+                continue;
+            if (flip_tet(C, (int32_t)t))
                 flips++;
+            else
+                C->flipless[t] = C->applied + 1;
+        }
         all += flips;
         if (!flips) break;
     }
@@ -2587,11 +2615,12 @@ static vm_status co_setup(co *Cp, vm_mesh *m, const gr_field *f, double distance
     C.qlo = malloc(C.nt * sizeof *C.qlo);
     C.qhi = malloc(C.nt * sizeof *C.qhi);
     C.qab = malloc(C.nt * sizeof *C.qab);
+    C.flipless = calloc(C.nt, sizeof *C.flipless);
     C.star = calloc(C.nv, sizeof *C.star);
     C.near = calloc(C.nv, sizeof *C.near);
     C.applied = 1;
     if (!C.vt || !C.vs || !C.bnd || !C.fix || !C.dead_v || !C.dead_t || !C.free_faces ||
-        !C.w.vmark || !C.qlo || !C.qhi || !C.qab || !C.star || !C.near) {
+        !C.w.vmark || !C.qlo || !C.qhi || !C.qab || !C.flipless || !C.star || !C.near) {
         co_free(&C);
         return vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for coarsening");
     }

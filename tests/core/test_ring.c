@@ -4,7 +4,8 @@
  * 9 vertices with pseudo-random triangle grades and chord masks, it finds the best worst grade
  * that trying every triangulation finds, returns triangles that triangulate the polygon with
  * allowed chords only and that worst grade, refuses when nothing beats the floor, and gives
- * the same answer when the grade function cuts its work short at the bar. */
+ * the same answer when the grade function cuts its work short at the bar; it asks for each
+ * chord at most once, never for a polygon side. */
 #include "core/core.h"
 #include "test.h"
 #include <math.h>
@@ -14,7 +15,15 @@ typedef struct grades {
     double g[VM__RING_MAX][VM__RING_MAX][VM__RING_MAX];
     int lazy; /* return a value at or below bar once the grade is at most bar */
     size_t calls;
+    const unsigned char (*chord)[VM__RING_MAX]; /* the chords allowed */
+    int asked[VM__RING_MAX][VM__RING_MAX];      /* how often each chord was asked for */
 } grades;
+
+static int chord_allowed(void *user, int i, int j) {
+    grades *G = user;
+    G->asked[i][j]++;
+    return G->chord[i][j];
+}
 
 static double grade(void *user, int i, int k, int j, double bar) {
     grades *G = user;
@@ -65,9 +74,15 @@ static void findsTheBestWorstTriangulation(void) {
             double want = brute(&G, cm, np, 0, np - 1);
             for (int lazy = 0; lazy < 2; lazy++) {
                 G.lazy = lazy;
+                G.chord = cm;
+                memset(G.asked, 0, sizeof G.asked);
                 int tri[VM__RING_MAX][3];
-                double got = vm__ring_triangulate(np, floor, grade, &G, cm, tri);
+                double got =
+                    vm__ring_triangulate(np, floor, grade, &G, cm ? chord_allowed : NULL, tri);
                 cases++;
+                for (int i = 0; i < np; i++)
+                    for (int j = i + 1; j < np; j++)
+                        CHECK(G.asked[i][j] <= (j == i + 1 || (i == 0 && j == np - 1) ? 0 : 1));
                 if (!(want > floor)) {
                     CHECK_MSG(got == -INFINITY, "np %d: %g beats no floor %g", np, got, floor);
                     refused++;
