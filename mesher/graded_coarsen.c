@@ -106,6 +106,7 @@ typedef struct co {
     int strict;              /* repairing: a collapse must better the worst angle */
     int merging;             /* merging: changed tets meet the angle limits themselves */
     size_t removals;         /* edge removals made (edge_remove) */
+    size_t bremovals;        /* boundary edge removals made (bedge_remove) */
     size_t slot;             /* dead tets below this index are all reused (flips) */
     /* per vertex: `applied` when a collapse last changed its star (star), or what its checks
      * read (near: its star or a neighbour's) */
@@ -1970,6 +1971,163 @@ static int edge_remove(co *C, int32_t d, int32_t e) {
     return 1;
 }
 
+/* The open chain of tets around boundary edge de, whose two end faces (d, e, w[0]) and (d,
+ * e, w[m]) are on the boundary: ring vertices w[0..m] and tets ts[i] = (w[i], w[i+1], d, e),
+ * every one positive as ordered, d and e swapped where that orders them so. m, or 0 when
+ * de's tets are not one open chain of 2..GR_CO_RING - 1. */
+static int edge_chain(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *ts) {
+    int32_t old[GR_CO_RING], a[GR_CO_RING], b[GR_CO_RING];
+    int n = 0;
+    const ilist *l = &C->vt[*d];
+    for (int32_t r = 0; r < l->n; r++) {
+        const vm_index *q = tet(C, l->v[r]);
+        if (q[0] != (vm_index)*e && q[1] != (vm_index)*e && q[2] != (vm_index)*e &&
+            q[3] != (vm_index)*e)
+            continue;
+        if (n == GR_CO_RING - 1) return 0;
+        int32_t o[2];
+        int no = 0;
+        for (int k = 0; k < 4; k++)
+            if (q[k] != (vm_index)*d && q[k] != (vm_index)*e) o[no++ & 1] = (int32_t)q[k];
+        if (no != 2) return 0;
+        old[n] = l->v[r];
+        a[n] = o[0];
+        b[n] = o[1];
+        n++;
+    }
+    if (n < 2) return 0;
+    /* the ends: the two ring vertices in one tet each (every other one is in two) */
+    int32_t end[2];
+    int nend = 0;
+    for (int j = 0; j < 2 * n; j++) {
+        int32_t x = j & 1 ? b[j / 2] : a[j / 2];
+        int cnt = 0;
+        for (int i = 0; i < n; i++)
+            cnt += (a[i] == x) + (b[i] == x);
+        if (cnt > 2) return 0;
+        if (cnt == 1) {
+            if (nend == 2) return 0;
+            end[nend++] = x;
+        }
+    }
+    if (nend != 2) return 0;
+    /* from the lower end, each next tet the one other holding the last ring vertex */
+    int used[GR_CO_RING] = {0};
+    w[0] = end[0] < end[1] ? end[0] : end[1];
+    for (int i = 0; i < n; i++) {
+        int found = -1;
+        for (int j = 0; j < n; j++)
+            if (!used[j] && (a[j] == w[i] || b[j] == w[i])) {
+                if (found >= 0) return 0;
+                found = j;
+            }
+        if (found < 0) return 0;
+        used[found] = 1;
+        ts[i] = old[found];
+        w[i + 1] = a[found] == w[i] ? b[found] : a[found];
+    }
+    for (int i = 0; i <= n; i++)
+        for (int j = i + 1; j <= n; j++)
+            if (w[i] == w[j]) return 0;
+    if (C->sign * vol6(pt(C, w[0]), pt(C, w[1]), pt(C, *d), pt(C, *e)) < 0) {
+        int32_t q = *d;
+        *d = *e;
+        *e = q;
+    }
+    for (int i = 0; i < n; i++)
+        if (!(C->sign * vol6(pt(C, w[i]), pt(C, w[i + 1]), pt(C, *d), pt(C, *e)) > 0))
+            return 0;
+    return n;
+}
+
+/* Boundary edge removal: the m = 2..GR_CO_RING - 1 tets around boundary edge de (an open
+ * chain from w[0] to w[m]) become the 2m - 2 tets of the best triangulation of the polygon
+ * w[0..m] joined to d and to e, as edge_remove does; the boundary triangles (d, e, w[0]) and
+ * (d, e, w[m]) become (w[0], w[m], d) and (w[0], w[m], e), an edge flip of the boundary. It
+ * holds every check of a collapse's boundary: the new triangles within the distance bound and
+ * facing out (tri_near), the samples of the old ones near the new ones, the volume budget;
+ * none of the four corners on a border plane, the new edge w[0] w[m] new and within the size
+ * bounds, one region, and the ring's worst grade bettered. 1 when removed. */
+static int bedge_remove(co *C, int32_t d, int32_t e) {
+    if (!C->bnd[d] || !C->bnd[e]) return 0;
+    int32_t w[GR_CO_RING], ts[GR_CO_RING];
+    int m = edge_chain(C, &d, &e, w, ts);
+    if (m < 2) return 0;
+    int32_t w0 = w[0], wm = w[m];
+    if (C->fix[d] | C->fix[e] | C->fix[w0] | C->fix[wm]) return 0;
+    /* the ends' faces are boundary faces (no tet beyond them) */
+    int32_t f0[3] = {d, e, w0}, f1[3] = {d, e, wm};
+    if (held(C, f0, 3, ts, m) || held(C, f1, 3, ts, m)) return 0;
+    double before = INFINITY, vold = 0;
+    for (int i = 0; i < m; i++) {
+        if (C->m->region[ts[i]] != C->m->region[ts[0]]) return 0;
+        before = fmin(before, tet_grade(C, ts[i]));
+        const vm_index *c = tet(C, ts[i]);
+        vold += C->sign * vol6(pt(C, c[0]), pt(C, c[1]), pt(C, c[2]), pt(C, c[3]));
+    }
+    int32_t cd[2] = {w0, wm};
+    if (!edge_ok(C, pt(C, w0), pt(C, wm)) || held(C, cd, 2, NULL, 0)) return 0;
+    ring_ctx rc = {C, w, d, e};
+    int tri[VM__RING_MAX][3];
+    if (!(vm__ring_triangulate(m + 1, before + 1e-3, ring_grade, &rc, ring_chord, tri) >
+          before + 1e-3))
+        return 0;
+    int nt = 0;
+    int32_t nt4[2 * GR_CO_RING][4];
+    double vnew = 0;
+    for (int r = 0; r < m - 1; r++) {
+        int i = tri[r][0], k = tri[r][1], j = tri[r][2];
+        int32_t te[4] = {w[i], w[k], w[j], e}, td[4] = {w[k], w[i], w[j], d};
+        memcpy(nt4[nt++], te, sizeof te);
+        memcpy(nt4[nt++], td, sizeof td);
+        vnew += C->sign * vol6(pt(C, w[i]), pt(C, w[k]), pt(C, w[j]), pt(C, e));
+        vnew += C->sign * vol6(pt(C, w[k]), pt(C, w[i]), pt(C, w[j]), pt(C, d));
+    }
+    double dv = (vnew - vold) / 6;
+    if (C->dvol + dv < -C->vol_budget || C->dvol + dv > C->vol_gain) return 0;
+    /* the new boundary triangles, over the whole polygon's triangle (0, k, m) */
+    int32_t nf[2][3] = {{w0, wm, d}, {w0, wm, e}}, of[2][3] = {{d, e, w0}, {d, e, wm}};
+    const double *pk = pt(C, w[tri[0][1]]);
+    for (int f = 0; f < 2; f++) {
+        double n[3];
+        out_normal(pt(C, nf[f][0]), pt(C, nf[f][1]), pt(C, nf[f][2]), pk, n);
+        if (!tri_near(C, pt(C, nf[f][0]), pt(C, nf[f][1]), pt(C, nf[f][2]), n)) return 0;
+    }
+    /* the samples on the old triangles (both hold d) near the new ones */
+    const ilist *ls = &C->vs[d];
+    for (int32_t i = 0; i < ls->n; i++) {
+        int32_t q = ls->v[i];
+        if (!on_faces(C->st[q], of)) continue;
+        double best = INFINITY;
+        for (int f = 0; f < 2; f++)
+            best = fmin(best, tri_dist2(C->sp[q], pt(C, nf[f][0]), pt(C, nf[f][1]),
+                                        pt(C, nf[f][2])));
+        if (best > C->tol[q] * C->tol[q]) return 0;
+    }
+    int32_t slot[2 * GR_CO_RING];
+    for (int i = 0; i < m; i++)
+        slot[i] = ts[i];
+    if (nt > m && !take_slots(C, nt - m, C->m->region[ts[0]], slot + m)) return 0;
+    put_tets(C, ts, m, slot, (const int32_t(*)[4])nt4, nt);
+    C->dvol += dv;
+    for (int32_t i = 0; i < ls->n; i++) {
+        int32_t q = ls->v[i];
+        int32_t *T = C->st[q];
+        if (!on_faces(T, of)) continue;
+        double d0 = tri_dist2(C->sp[q], pt(C, nf[0][0]), pt(C, nf[0][1]), pt(C, nf[0][2]));
+        double d1 = tri_dist2(C->sp[q], pt(C, nf[1][0]), pt(C, nf[1][1]), pt(C, nf[1][2]));
+        memcpy(T, nf[d1 < d0], 3 * sizeof *T);
+        for (int j = 0; j < 3; j++)
+            if (!push(&C->vs[T[j]], q)) C->nomem = 1;
+    }
+    for (int i = 0; i <= m; i++)
+        mark_vertex(C, w[i]);
+    mark_vertex(C, d);
+    mark_vertex(C, e);
+    C->bremovals++;
+    return 1;
+}
+
 /* Flips that better tet t: across each of its inner faces (two tets to three), and around
  * each of its edges held by exactly three tets in a closed ring (three to two). */
 static int flip_tet(co *C, int32_t t) {
@@ -2029,7 +2187,9 @@ static int flip_tet(co *C, int32_t t) {
         }
     for (int i = 0; i < 4; i++)
         for (int j = i + 1; j < 4; j++)
-            if (edge_remove(C, (int32_t)c[i], (int32_t)c[j])) return 1;
+            if (edge_remove(C, (int32_t)c[i], (int32_t)c[j]) ||
+                bedge_remove(C, (int32_t)c[i], (int32_t)c[j]))
+                return 1;
     return 0;
 }
 
@@ -2850,11 +3010,13 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
 }
 
 /* What vm__gr_mean_smooth and vm__gr_flips run on a finished mesh: the field of v's material
- * {lo <= f <= hi} and the coarsening's state over m (no distance bound: neither moves the
- * boundary off its place). 1 when set up (free both after), 0 when there is nothing to do
- * (*s VM_OK) or on an error (*s set). */
+ * {lo <= f <= hi} and the coarsening's state over m, with the distance bound (world units)
+ * and the isosurface samples when distance > 0 (else none: nothing moves the boundary off
+ * its place). 1 when set up (free both after), 0 when there is nothing to do (*s VM_OK) or
+ * on an error (*s set). */
 static int co_open(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi, int has_hi,
-                   double max_edge, gr_field *f, co *C, vm_status *s, vm_error *err) {
+                   double max_edge, double distance, gr_field *f, co *C, vm_status *s,
+                   vm_error *err) {
     *s = VM_OK;
     if (m->kind != VM_TET4 || m->ncells == 0 || m->npoints >= (size_t)INT32_MAX ||
         m->ncells >= (size_t)INT32_MAX / 4)
@@ -2867,9 +3029,18 @@ static int co_open(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double
     o.has_lo = has_lo;
     o.has_hi = has_hi;
     if ((*s = vm__gr_field_init(f, v, &o, err))) return 0;
-    if ((*s = co_setup(C, m, f, 0.0, max_edge, NULL, err))) {
+    if ((*s = co_setup(C, m, f, distance, max_edge, NULL, err))) {
         vm__gr_field_free(f);
         return 0;
+    }
+    if (distance > 0) {
+        *s = samples(C, err);
+        if (!*s) *s = assign_samples(C, err);
+        if (*s) {
+            co_free(C);
+            vm__gr_field_free(f);
+            return 0;
+        }
     }
     return 1;
 }
@@ -2880,7 +3051,7 @@ vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_
     gr_field f;
     co C;
     vm_status s;
-    if (!co_open(m, v, lo, has_lo, hi, has_hi, max_edge, &f, &C, &s, err)) return s;
+    if (!co_open(m, v, lo, has_lo, hi, has_hi, max_edge, 0.0, &f, &C, &s, err)) return s;
     plan *P = malloc(sizeof *P);
     if (!P) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for smoothing");
     for (int k = 0; !s && k < GR_CO_MEAN_SWEEPS; k++) {
@@ -2896,15 +3067,16 @@ vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_
 }
 
 vm_status vm__gr_flips(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi,
-                       int has_hi, double max_edge, size_t *flips, size_t *removals,
-                       vm_error *err) {
-    *flips = *removals = 0;
+                       int has_hi, double max_edge, double distance, size_t *flips,
+                       size_t *removals, size_t *bremovals, vm_error *err) {
+    *flips = *removals = *bremovals = 0;
     gr_field f;
     co C;
     vm_status s;
-    if (!co_open(m, v, lo, has_lo, hi, has_hi, max_edge, &f, &C, &s, err)) return s;
+    if (!co_open(m, v, lo, has_lo, hi, has_hi, max_edge, distance, &f, &C, &s, err)) return s;
     *flips = flip_sweep(&C);
     *removals = C.removals;
+    *bremovals = C.bremovals;
     if (C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for flips");
     if (!s) s = compact(&C, err);
     co_free(&C);

@@ -238,12 +238,15 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
 vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi,
                              int has_hi, double max_edge, size_t *moved, vm_error *err);
 
-/* The coarsening's flip sweeps (graded_coarsen.c, flip_sweep: 2-3 and 3-2 flips and edge
- * removal, each where it betters the worst tet it replaces; the boundary stays) over the
- * tets of m graded below GR_CO_FLIP_BAR; for tests. [out] *flips: flips made, *removals:
- * how many of them were edge removals. The mesh comes back compacted. */
+/* The coarsening's flip sweeps (graded_coarsen.c, flip_sweep: 2-3 and 3-2 flips, edge
+ * removal and boundary edge removal, each where it betters the worst tet it replaces) over
+ * the tets of m graded below GR_CO_FLIP_BAR; for tests. The boundary stays where distance
+ * is 0; else its edges flip where the new triangles keep within distance (world units) of
+ * the isosurface, as the coarsening's do. [out] *flips: flips made, *removals: how many of
+ * them were edge removals, *bremovals: boundary edge removals. The mesh comes back
+ * compacted. */
 vm_status vm__gr_flips(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi,
-                       int has_hi, double max_edge, size_t *flips, size_t *removals,
-                       vm_error *err);
+                       int has_hi, double max_edge, double distance, size_t *flips,
+                       size_t *removals, size_t *bremovals, vm_error *err);
 
 #endif

@@ -465,8 +465,16 @@ size_t vm_test_push_interior(vm_mesh *m, double dist, unsigned seed, double max_
         vm_quality_summary q;
         int ok = vm_mesh_check(m, &r, &err) == VM_OK && !r.inverted && r.min_dihedral >= 15 &&
                  r.max_dihedral <= 150;
-        if (ok && max_edge > 0)
-            ok = vm_quality_report(m, &q, &err) == VM_OK && q.edges.max <= max_edge;
+        /* ABAQUS's check, and the quality pass's volume measure target (0.03) */
+        if (ok)
+            ok = vm_quality_report(m, &q, &err) == VM_OK && q.abaqus_failures == 0 &&
+                 (max_edge <= 0 || q.edges.max <= max_edge);
+        for (size_t t = 0; ok && t < m->ncells; t++) {
+            double p[4][3];
+            for (int k = 0; k < 4; k++)
+                memcpy(p[k], m->points + 3 * (size_t)m->cells[4 * t + (size_t)k], sizeof p[k]);
+            ok = vm_tet_volume_measure((const double(*)[3])p) >= 0.03;
+        }
         if (ok)
             pushed++;
         else

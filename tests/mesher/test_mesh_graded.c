@@ -237,8 +237,11 @@ static void edgeRemovalMendsTallBipyramids(void) {
         }
         vm_index b0[32][3], b1[32][3];
         size_t nb0 = sorted_boundary(&m, b0, 32);
-        size_t flips = 0, removals = 0;
-        CHECK_OK(vm__gr_flips(&m, &v, 0.0, 1, 0.0, 0, 0.0, &flips, &removals, &err), &err);
+        size_t flips = 0, removals = 0, bremovals = 0;
+        CHECK_OK(vm__gr_flips(&m, &v, 0.0, 1, 0.0, 0, 0.0, 0.0, &flips, &removals, &bremovals,
+                              &err),
+                 &err);
+        CHECK(bremovals == 0);
         CHECK_OK(vm_mesh_check(&m, &r1, &err), &err);
         size_t nb1 = sorted_boundary(&m, b1, 32);
         size_t axis = 0;
@@ -264,6 +267,102 @@ static void edgeRemovalMendsTallBipyramids(void) {
                   r1.max_dihedral);
         vm_mesh_free(&m);
     }
+    vm_volume_free(&v);
+}
+
+static int tri_cmp(const void *x, const void *y) {
+    return memcmp(x, y, 3 * sizeof(vm_index));
+}
+
+/* The boundary triangles of a tet mesh, each sorted, the list sorted (qsort: for big
+ * meshes). [out] *n. Free the list. */
+static vm_index (*boundary_list(const vm_mesh *m, size_t *n))[3] {
+    static const int fo[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+    size_t nf = 4 * m->ncells;
+    vm_index(*f)[3] = malloc((nf + 1) * sizeof *f);
+    *n = 0;
+    if (!f) return NULL;
+    for (size_t t = 0; t < m->ncells; t++)
+        for (int k = 0; k < 4; k++) {
+            vm_index *q = f[4 * t + (size_t)k];
+            for (int j = 0; j < 3; j++)
+                q[j] = m->cells[4 * t + (size_t)fo[k][j]];
+            for (int a = 0; a < 3; a++)
+                for (int b = a + 1; b < 3; b++)
+                    if (q[b] < q[a]) {
+                        vm_index x = q[a];
+                        q[a] = q[b];
+                        q[b] = x;
+                    }
+        }
+    qsort(f, nf, sizeof *f, tri_cmp);
+    for (size_t i = 0; i < nf;) {
+        size_t j = i + 1;
+        while (j < nf && !tri_cmp(f[i], f[j]))
+            j++;
+        if (j == i + 1) memmove(f[(*n)++], f[i], sizeof f[i]);
+        i = j;
+    }
+    return f;
+}
+
+/* Boundary edge removal (vm__gr_flips with a distance bound, as the coarsening's flips run):
+ * on a stuffed torus (48^3, no coarsening) it turns boundary edges (the boundary keeps its
+ * triangle count, but not its triangles), and the mesh stays valid, closed, of the same
+ * Euler characteristic and components, its volume within 1%, its boundary within the bound
+ * of the isosurface both ways (half a voxel, or where the stuffed mesh was). */
+static void boundaryEdgesFlipWithinTheBound(void) {
+    vm_volume v;
+    vm_phantom_info info;
+    vm_error err;
+    if (phantom(VM_PHANTOM_TORUS, 48, &v, &info, &err) != VM_OK) return;
+    vm_mesh_options o;
+    graded_options(&o);
+    o.no_coarsen = 1;
+    vm_mesh m;
+    vm_status s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) {
+        vm_volume_free(&v);
+        return;
+    }
+    const double D = 0.5;
+    vm_mesh_report r0, r1;
+    vm_surface_distance d0, d1;
+    CHECK_OK(vm_mesh_check(&m, &r0, &err), &err);
+    CHECK_OK(vm_mesh_surface_distance(&m, &v, 0.0, 1, 0.0, 0, &d0, &err), &err);
+    size_t nb0 = 0, nb1 = 0;
+    vm_index(*b0)[3] = boundary_list(&m, &nb0);
+    size_t flips = 0, removals = 0, bremovals = 0;
+    CHECK_OK(vm__gr_flips(&m, &v, 0.0, 1, 0.0, 0, 0.0, D, &flips, &removals, &bremovals, &err),
+             &err);
+    CHECK_OK(vm_mesh_check(&m, &r1, &err), &err);
+    CHECK_OK(vm_mesh_surface_distance(&m, &v, 0.0, 1, 0.0, 0, &d1, &err), &err);
+    vm_index(*b1)[3] = boundary_list(&m, &nb1);
+    size_t same = 0;
+    for (size_t i = 0, j = 0; b0 && b1 && i < nb0 && j < nb1;) {
+        int c = tri_cmp(b0[i], b1[j]);
+        if (!c) same++;
+        if (c <= 0) i++;
+        if (c >= 0) j++;
+    }
+    printf("    torus 48^3 stuffed: %zu flips (%zu edge removals, %zu boundary edge removals), "
+           "%zu -> "
+           "%zu tets, %zu of %zu boundary triangles kept, distance %.3f / %.3f -> %.3f / "
+           "%.3f\n",
+           flips, removals, bremovals, r0.cells, r1.cells, same, nb0, d0.mesh_to_surface_max,
+           d0.surface_to_mesh_max, d1.mesh_to_surface_max, d1.surface_to_mesh_max);
+    CHECK(bremovals > 0 && nb1 == nb0 && same < nb0);
+    CHECK(r1.inverted == 0 && r1.degenerate == 0 && r1.overshared_faces == 0 &&
+          r1.boundary_closed == 1 && r1.boundary_nonmanifold_vertices == 0 &&
+          r1.boundary_euler == r0.boundary_euler && r1.components == r0.components);
+    CHECK_MSG(fabs(r1.volume - r0.volume) <= 0.01 * r0.volume, "volume %.6g -> %.6g",
+              r0.volume, r1.volume);
+    CHECK(d1.mesh_to_surface_max <= 1.05 * fmax(D, d0.mesh_to_surface_max) &&
+          d1.surface_to_mesh_max <= 1.05 * fmax(D, d0.surface_to_mesh_max));
+    free(b0);
+    free(b1);
+    vm_mesh_free(&m);
     vm_volume_free(&v);
 }
 
@@ -878,7 +977,7 @@ static void minLayersKeepThinPartsLayered(void) {
 TEST_MAIN(T(everyCubePatternKeepsTheCubicalTopology), T(coarseningHalvesTheStuffedMesh),
           T(randomVolumesKeepTheCubicalTopology), T(noisyPhantomsKeepTheCubicalTopology),
           T(gradedPhantomsAreSmallAndFaithful), T(meanSweepsRaiseTheMeanInside),
-          T(edgeRemovalMendsTallBipyramids), T(sizesAreMet), T(sizeFieldSetsTheDensity),
+          T(edgeRemovalMendsTallBipyramids), T(boundaryEdgesFlipWithinTheBound), T(sizesAreMet), T(sizeFieldSetsTheDensity),
           T(tetTargetIsMet), T(gradingSpreadsLevelChanges),
           T(anisotropicVoxelsKeepVolumeThroughThePass), T(topologyMisfitsAreFound),
           T(minLayersKeepThinPartsLayered))
