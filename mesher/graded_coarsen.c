@@ -1845,10 +1845,14 @@ static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32
  * improvement of tetrahedral meshes", 2002) takes rings of this many tets at most. */
 #define GR_CO_RING 7
 
-/* The closed ring of tets around edge de: ring vertices w[0..n) and tets ts[i] = (w[i],
- * w[i+1], d, e) (indices mod n), every one positive as ordered, d and e swapped where that
- * orders them so. n, or 0 when de's tets are not one closed ring of 3..GR_CO_RING. */
-static int edge_ring(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *ts) {
+/* The tets around edge de as a closed ring (open 0) or an open chain (open 1): ring vertices
+ * w[0..nw) and tets ts[i] = (w[i], w[i+1], d, e) (indices mod nw when closed, where nw = n;
+ * open, nw = n + 1, the chain running from its lower end w[0] to w[n]: the end faces (d, e,
+ * w[0]) and (d, e, w[n]) are then boundary faces, since any tet on them holds de and would be
+ * in the chain), every one positive as ordered, d and e swapped
+ * where that orders them so. n, or 0 when de's tets are not one such ring of 3..GR_CO_RING
+ * tets (closed) or chain of 2..GR_CO_RING - 1 (open). */
+static int edge_around(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *ts, int open) {
     int32_t old[GR_CO_RING], a[GR_CO_RING], b[GR_CO_RING];
     int n = 0;
     const ilist *l = &C->vt[*d];
@@ -1857,7 +1861,7 @@ static int edge_ring(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *t
         if (q[0] != (vm_index)*e && q[1] != (vm_index)*e && q[2] != (vm_index)*e &&
             q[3] != (vm_index)*e)
             continue;
-        if (n == GR_CO_RING) return 0;
+        if (n == GR_CO_RING - open) return 0;
         int32_t o[2];
         int no = 0;
         for (int k = 0; k < 4; k++)
@@ -1868,14 +1872,28 @@ static int edge_ring(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *t
         b[n] = o[1];
         n++;
     }
-    if (n < 3) return 0;
-    /* the chain: each next tet is the one other tet holding the last ring vertex */
-    int used[GR_CO_RING] = {0};
-    w[0] = a[0];
-    w[1] = b[0];
-    ts[0] = old[0];
-    used[0] = 1;
-    for (int i = 1; i < n; i++) {
+    if (n < 3 - open) return 0;
+    int used[GR_CO_RING] = {0}, i0 = 0;
+    if (open) { /* from the lower end: the ends are the ring vertices in one tet each */
+        int nend = 0;
+        for (int j = 0; j < 2 * n; j++) {
+            int32_t x = j & 1 ? b[j / 2] : a[j / 2];
+            int cnt = 0;
+            for (int k = 0; k < n; k++)
+                cnt += (a[k] == x) + (b[k] == x);
+            if (cnt > 2) return 0;
+            if (cnt == 1 && (nend++ == 0 || x < w[0])) w[0] = x;
+        }
+        if (nend != 2) return 0;
+    } else {
+        w[0] = a[0];
+        w[1] = b[0];
+        ts[0] = old[0];
+        used[0] = 1;
+        i0 = 1;
+    }
+    /* each next tet is the one other tet holding the last ring vertex */
+    for (int i = i0; i < n; i++) {
         int found = -1;
         for (int j = 0; j < n; j++)
             if (!used[j] && (a[j] == w[i] || b[j] == w[i])) {
@@ -1886,13 +1904,14 @@ static int edge_ring(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *t
         used[found] = 1;
         ts[i] = old[found];
         int32_t next = a[found] == w[i] ? b[found] : a[found];
-        if (i + 1 < n)
+        if (open || i + 1 < n)
             w[i + 1] = next;
         else if (next != w[0])
             return 0;
     }
-    for (int i = 0; i < n; i++)
-        for (int j = i + 1; j < n; j++)
+    int nw = n + open;
+    for (int i = 0; i < nw; i++)
+        for (int j = i + 1; j < nw; j++)
             if (w[i] == w[j]) return 0;
     if (C->sign * vol6(pt(C, w[0]), pt(C, w[1]), pt(C, *d), pt(C, *e)) < 0) {
         int32_t q = *d;
@@ -1900,7 +1919,7 @@ static int edge_ring(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *t
         *e = q;
     }
     for (int i = 0; i < n; i++)
-        if (!(C->sign * vol6(pt(C, w[i]), pt(C, w[(i + 1) % n]), pt(C, *d), pt(C, *e)) > 0))
+        if (!(C->sign * vol6(pt(C, w[i]), pt(C, w[(i + 1) % nw]), pt(C, *d), pt(C, *e)) > 0))
             return 0;
     return n;
 }
@@ -1937,7 +1956,7 @@ static double ring_grade(void *user, int i, int k, int j, double bar) {
  * new tets, positive in the ring's turn, tile what the old ones did). 1 when removed. */
 static int edge_remove(co *C, int32_t d, int32_t e) {
     int32_t w[GR_CO_RING], ts[GR_CO_RING];
-    int n = edge_ring(C, &d, &e, w, ts);
+    int n = edge_around(C, &d, &e, w, ts, 0);
     if (n < 4) return 0;
     double before = INFINITY;
     for (int i = 0; i < n; i++) {
@@ -1971,74 +1990,6 @@ static int edge_remove(co *C, int32_t d, int32_t e) {
     return 1;
 }
 
-/* The open chain of tets around boundary edge de, whose two end faces (d, e, w[0]) and (d,
- * e, w[m]) are on the boundary: ring vertices w[0..m] and tets ts[i] = (w[i], w[i+1], d, e),
- * every one positive as ordered, d and e swapped where that orders them so. m, or 0 when
- * de's tets are not one open chain of 2..GR_CO_RING - 1. */
-static int edge_chain(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *ts) {
-    int32_t old[GR_CO_RING], a[GR_CO_RING], b[GR_CO_RING];
-    int n = 0;
-    const ilist *l = &C->vt[*d];
-    for (int32_t r = 0; r < l->n; r++) {
-        const vm_index *q = tet(C, l->v[r]);
-        if (q[0] != (vm_index)*e && q[1] != (vm_index)*e && q[2] != (vm_index)*e &&
-            q[3] != (vm_index)*e)
-            continue;
-        if (n == GR_CO_RING - 1) return 0;
-        int32_t o[2];
-        int no = 0;
-        for (int k = 0; k < 4; k++)
-            if (q[k] != (vm_index)*d && q[k] != (vm_index)*e) o[no++ & 1] = (int32_t)q[k];
-        if (no != 2) return 0;
-        old[n] = l->v[r];
-        a[n] = o[0];
-        b[n] = o[1];
-        n++;
-    }
-    if (n < 2) return 0;
-    /* the ends: the two ring vertices in one tet each (every other one is in two) */
-    int32_t end[2];
-    int nend = 0;
-    for (int j = 0; j < 2 * n; j++) {
-        int32_t x = j & 1 ? b[j / 2] : a[j / 2];
-        int cnt = 0;
-        for (int i = 0; i < n; i++)
-            cnt += (a[i] == x) + (b[i] == x);
-        if (cnt > 2) return 0;
-        if (cnt == 1) {
-            if (nend == 2) return 0;
-            end[nend++] = x;
-        }
-    }
-    if (nend != 2) return 0;
-    /* from the lower end, each next tet the one other holding the last ring vertex */
-    int used[GR_CO_RING] = {0};
-    w[0] = end[0] < end[1] ? end[0] : end[1];
-    for (int i = 0; i < n; i++) {
-        int found = -1;
-        for (int j = 0; j < n; j++)
-            if (!used[j] && (a[j] == w[i] || b[j] == w[i])) {
-                if (found >= 0) return 0;
-                found = j;
-            }
-        if (found < 0) return 0;
-        used[found] = 1;
-        ts[i] = old[found];
-        w[i + 1] = a[found] == w[i] ? b[found] : a[found];
-    }
-    for (int i = 0; i <= n; i++)
-        for (int j = i + 1; j <= n; j++)
-            if (w[i] == w[j]) return 0;
-    if (C->sign * vol6(pt(C, w[0]), pt(C, w[1]), pt(C, *d), pt(C, *e)) < 0) {
-        int32_t q = *d;
-        *d = *e;
-        *e = q;
-    }
-    for (int i = 0; i < n; i++)
-        if (!(C->sign * vol6(pt(C, w[i]), pt(C, w[i + 1]), pt(C, *d), pt(C, *e)) > 0))
-            return 0;
-    return n;
-}
 
 /* Boundary edge removal: the m = 2..GR_CO_RING - 1 tets around boundary edge de (an open
  * chain from w[0] to w[m]) become the 2m - 2 tets of the best triangulation of the polygon
@@ -2051,13 +2002,10 @@ static int edge_chain(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *
 static int bedge_remove(co *C, int32_t d, int32_t e) {
     if (!C->bnd[d] || !C->bnd[e]) return 0;
     int32_t w[GR_CO_RING], ts[GR_CO_RING];
-    int m = edge_chain(C, &d, &e, w, ts);
+    int m = edge_around(C, &d, &e, w, ts, 1);
     if (m < 2) return 0;
     int32_t w0 = w[0], wm = w[m];
     if (C->fix[d] | C->fix[e] | C->fix[w0] | C->fix[wm]) return 0;
-    /* the ends' faces are boundary faces (no tet beyond them) */
-    int32_t f0[3] = {d, e, w0}, f1[3] = {d, e, wm};
-    if (held(C, f0, 3, ts, m) || held(C, f1, 3, ts, m)) return 0;
     double before = INFINITY, vold = 0;
     for (int i = 0; i < m; i++) {
         if (C->m->region[ts[i]] != C->m->region[ts[0]]) return 0;
