@@ -1562,6 +1562,36 @@ static int on_faces(const int32_t T[3], int32_t (*f)[3]) {
     return 0;
 }
 
+/* Whether the samples in list ls whose triangle is one of the two faces of lie within their
+ * bound of one of the two triangles nf (a peel's or a boundary flip's new faces). */
+static int samples_near(const co *C, const ilist *ls, int32_t (*of)[3], int32_t (*nf)[3]) {
+    for (int32_t i = 0; i < ls->n; i++) {
+        int32_t q = ls->v[i];
+        if (!on_faces(C->st[q], of)) continue;
+        double best = INFINITY;
+        for (int g = 0; g < 2; g++)
+            best = fmin(best, tri_dist2(C->sp[q], pt(C, nf[g][0]), pt(C, nf[g][1]),
+                                        pt(C, nf[g][2])));
+        if (best > C->tol[q] * C->tol[q]) return 0;
+    }
+    return 1;
+}
+
+/* The samples in list ls whose triangle is one of the two faces of go to the nearer of the
+ * two triangles nf (and onto their corners' lists). */
+static void samples_move(co *C, const ilist *ls, int32_t (*of)[3], int32_t (*nf)[3]) {
+    for (int32_t i = 0; i < ls->n; i++) {
+        int32_t q = ls->v[i];
+        int32_t *T = C->st[q];
+        if (!on_faces(T, of)) continue;
+        double d0 = tri_dist2(C->sp[q], pt(C, nf[0][0]), pt(C, nf[0][1]), pt(C, nf[0][2]));
+        double d1 = tri_dist2(C->sp[q], pt(C, nf[1][0]), pt(C, nf[1][1]), pt(C, nf[1][2]));
+        memcpy(T, nf[d1 < d0], 3 * sizeof *T);
+        for (int j = 0; j < 3; j++)
+            if (!push(&C->vs[T[j]], q)) C->nomem = 1;
+    }
+}
+
 /* Takes out tet t when two of its faces are on the boundary (a flat cap), the edge between
  * its two other corners is not on the boundary yet (so the boundary stays a manifold), its
  * two other faces lie within the distance bound facing out, the samples of the two faces it
@@ -1603,34 +1633,12 @@ static int peel(co *C, int32_t t) {
     }
     /* samples on the dropped faces */
     for (int f = 0; f < 2; f++)
-        for (int r = 0; r < 3; r++) {
-            const ilist *ls = &C->vs[of[f][r]];
-            for (int32_t i = 0; i < ls->n; i++) {
-                int32_t q = ls->v[i];
-                const int32_t *T = C->st[q];
-                if (!on_faces(T, of)) continue;
-                double best = INFINITY;
-                for (int g = 0; g < 2; g++)
-                    best = fmin(best, tri_dist2(C->sp[q], pt(C, nf[g][0]), pt(C, nf[g][1]),
-                                                pt(C, nf[g][2])));
-                if (best > C->tol[q] * C->tol[q]) return 0;
-            }
-        }
+        for (int r = 0; r < 3; r++)
+            if (!samples_near(C, &C->vs[of[f][r]], of, nf)) return 0;
     /* apply */
     for (int f = 0; f < 2; f++)
-        for (int r = 0; r < 3; r++) {
-            const ilist *ls = &C->vs[of[f][r]];
-            for (int32_t i = 0; i < ls->n; i++) {
-                int32_t q = ls->v[i];
-                int32_t *T = C->st[q];
-                if (!on_faces(T, of)) continue;
-                double d0 = tri_dist2(C->sp[q], pt(C, nf[0][0]), pt(C, nf[0][1]), pt(C, nf[0][2]));
-                double d1 = tri_dist2(C->sp[q], pt(C, nf[1][0]), pt(C, nf[1][1]), pt(C, nf[1][2]));
-                memcpy(T, nf[d1 < d0], 3 * sizeof *T);
-                for (int j = 0; j < 3; j++)
-                    if (!push(&C->vs[T[j]], q)) C->nomem = 1;
-            }
-        }
+        for (int r = 0; r < 3; r++)
+            samples_move(C, &C->vs[of[f][r]], of, nf);
     for (int k = 0; k < 4; k++)
         drop(&C->vt[c[k]], t);
     C->dead_t[t] = 1;
@@ -2042,32 +2050,14 @@ static int bedge_remove(co *C, int32_t d, int32_t e) {
         if (!tri_near(C, pt(C, nf[f][0]), pt(C, nf[f][1]), pt(C, nf[f][2]), n)) return 0;
     }
     /* the samples on the old triangles (both hold d) near the new ones */
-    const ilist *ls = &C->vs[d];
-    for (int32_t i = 0; i < ls->n; i++) {
-        int32_t q = ls->v[i];
-        if (!on_faces(C->st[q], of)) continue;
-        double best = INFINITY;
-        for (int f = 0; f < 2; f++)
-            best = fmin(best, tri_dist2(C->sp[q], pt(C, nf[f][0]), pt(C, nf[f][1]),
-                                        pt(C, nf[f][2])));
-        if (best > C->tol[q] * C->tol[q]) return 0;
-    }
+    if (!samples_near(C, &C->vs[d], of, nf)) return 0;
     int32_t slot[2 * GR_CO_RING];
     for (int i = 0; i < m; i++)
         slot[i] = ts[i];
     if (nt > m && !take_slots(C, nt - m, C->m->region[ts[0]], slot + m)) return 0;
     put_tets(C, ts, m, slot, (const int32_t(*)[4])nt4, nt);
     C->dvol += dv;
-    for (int32_t i = 0; i < ls->n; i++) {
-        int32_t q = ls->v[i];
-        int32_t *T = C->st[q];
-        if (!on_faces(T, of)) continue;
-        double d0 = tri_dist2(C->sp[q], pt(C, nf[0][0]), pt(C, nf[0][1]), pt(C, nf[0][2]));
-        double d1 = tri_dist2(C->sp[q], pt(C, nf[1][0]), pt(C, nf[1][1]), pt(C, nf[1][2]));
-        memcpy(T, nf[d1 < d0], 3 * sizeof *T);
-        for (int j = 0; j < 3; j++)
-            if (!push(&C->vs[T[j]], q)) C->nomem = 1;
-    }
+    samples_move(C, &C->vs[d], of, nf);
     for (int i = 0; i <= m; i++)
         mark_vertex(C, w[i]);
     mark_vertex(C, d);
