@@ -2195,13 +2195,14 @@ static int onto_surface(const co *C, double x[3]) {
 /* Boundary edge ab whose collapse failed both ways, merged: one end (not on a border plane)
  * moves to the edge's midpoint taken onto the isosurface, under every check of a move
  * (try_move), and the other collapses onto it with every changed tet within the targets;
- * the move is undone when the collapse fails. Returns 1 when merged. */
-static int bmerge(co *C, int32_t a, int32_t b, plan *P, set *sets) {
-    if (check(C, &C->w, a, b, P, &sets[0], &sets[1], &sets[2])) {
+ * the move is undone when the collapse fails. The collapse is tried again first unless
+ * `failed` (the memo says it fails). Returns 1 when merged. */
+static int bmerge(co *C, int32_t a, int32_t b, plan *P, set *sets, int failed) {
+    if (!failed && check(C, &C->w, a, b, P, &sets[0], &sets[1], &sets[2])) {
         apply(C, a, b, P);
         return 1;
     }
-    if (check(C, &C->w, b, a, P, &sets[0], &sets[1], &sets[2])) {
+    if (!failed && check(C, &C->w, b, a, P, &sets[0], &sets[1], &sets[2])) {
         apply(C, b, a, P);
         return 1;
     }
@@ -2231,18 +2232,28 @@ static int bmerge(co *C, int32_t a, int32_t b, plan *P, set *sets) {
     return 0;
 }
 
+static int memo_holds(const co *C, const memo *F, int32_t x, int32_t y);
+
 /* A sweep over the interior edges, shortest first (E, ne: the pass's sorted edges): those
  * whose collapse fails both ways are merged at their midpoint, or at the mean of the two
- * stars' other vertices; it stops at `target` tets when nonzero. [out] *removed counts the
+ * stars' other vertices; it stops at `target` tets when nonzero. The collapse is not tried
+ * again where the pass's memo (F, nf, in E's order) says it fails. [out] *removed counts the
  * merges. */
-static void merge_sweep(co *C, const keyed *E, size_t ne, size_t target, plan *P, set *sets,
-                        size_t *removed) {
+static void merge_sweep(co *C, const keyed *E, size_t ne, const memo *F, size_t nf,
+                        size_t target, plan *P, set *sets, size_t *removed) {
+    size_t j = 0;
     for (size_t i = 0; i < ne && !C->nomem && !stopped(C) && !(target && C->live <= target);
          i++) {
         int32_t a = E[i].a, b = E[i].b;
         if (C->dead_v[a] || C->dead_v[b]) continue;
+        /* the last pass's memo (in E's order): the collapse fails again both ways when it
+         * holds (a and b in the pass's order: both on the boundary or neither) */
+        while (j < nf && keyed_cmp(&F[j].e, &E[i]) < 0)
+            j++;
+        int failed = C->bnd[a] == C->bnd[b] && j < nf && keyed_cmp(&F[j].e, &E[i]) == 0 &&
+                     memo_holds(C, &F[j], a, b);
         if (C->bnd[a] || C->bnd[b]) {
-            if (C->bnd[a] && C->bnd[b] && bmerge(C, a, b, P, sets)) ++*removed;
+            if (C->bnd[a] && C->bnd[b] && bmerge(C, a, b, P, sets, failed)) ++*removed;
             continue;
         }
         /* (the edge may be gone: a and b no longer share a tet) */
@@ -2253,7 +2264,7 @@ static void merge_sweep(co *C, const keyed *E, size_t ne, size_t target, plan *P
             shared = c[0] == b || c[1] == b || c[2] == b || c[3] == b;
         }
         if (!shared) continue;
-        if (check(C, &C->w, a, b, P, &sets[0], &sets[1], &sets[2])) {
+        if (!failed && check(C, &C->w, a, b, P, &sets[0], &sets[1], &sets[2])) {
             apply(C, a, b, P);
             ++*removed;
             continue;
@@ -2919,7 +2930,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
             if ((double)(*removed - before) < 0.005 * (double)C.nv) break;
         }
         if ((target && C.live <= target) || (round > 0 && *removed == r0)) break;
-        if (E && merge) merge_sweep(&C, E, ne_last, target, P, sets, removed);
+        if (E && merge) merge_sweep(&C, E, ne_last, F, nf, target, P, sets, removed);
         for (int k = 0; k < 2 && !C.nomem; k++)
             move_sweep(&C, &P[0]);
         if (merge) flip_sweep(&C);
