@@ -115,6 +115,7 @@ typedef struct co {
     /* per tet: 0, or `applied` plus one when flip_tet last found no flip for it (the flip
      * sweeps try it again only once the near mark of one of its corners has passed that) */
     uint32_t *flipless;
+    int flip_budget; /* a boundary edge removal was refused for the volume budget alone */
     vm__meter *pm;           /* polled for cancellation (may be NULL) */
     unsigned polls;
     int stop;                /* cancelled */
@@ -1857,9 +1858,9 @@ static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32
  * w[0..nw) and tets ts[i] = (w[i], w[i+1], d, e) (indices mod nw when closed, where nw = n;
  * open, nw = n + 1, the chain running from its lower end w[0] to w[n]: the end faces (d, e,
  * w[0]) and (d, e, w[n]) are then boundary faces, since any tet on them holds de and would be
- * in the chain), every one positive as ordered, d and e swapped
- * where that orders them so. n, or 0 when de's tets are not one such ring of 3..GR_CO_RING
- * tets (closed) or chain of 2..GR_CO_RING - 1 (open). */
+ * in the chain), every one positive as ordered, d and e swapped where that orders them so.
+ * n, or 0 when de's tets are not one such ring of 3..GR_CO_RING tets (closed) or chain of
+ * 2..GR_CO_RING - 1 (open). */
 static int edge_around(const co *C, int32_t *d, int32_t *e, int32_t *w, int32_t *ts, int open) {
     int32_t old[GR_CO_RING], a[GR_CO_RING], b[GR_CO_RING];
     int n = 0;
@@ -2040,7 +2041,10 @@ static int bedge_remove(co *C, int32_t d, int32_t e) {
         vnew += C->sign * vol6(pt(C, w[k]), pt(C, w[i]), pt(C, w[j]), pt(C, d));
     }
     double dv = (vnew - vold) / 6;
-    if (C->dvol + dv < -C->vol_budget || C->dvol + dv > C->vol_gain) return 0;
+    if (C->dvol + dv < -C->vol_budget || C->dvol + dv > C->vol_gain) {
+        C->flip_budget = 1; /* (the budget moves with every change anywhere) */
+        return 0;
+    }
     /* the new boundary triangles, over the whole polygon's triangle (0, k, m) */
     int32_t nf[2][3] = {{w0, wm, d}, {w0, wm, e}}, of[2][3] = {{d, e, w0}, {d, e, wm}};
     const double *pk = pt(C, w[tri[0][1]]);
@@ -2295,10 +2299,12 @@ static void merge_sweep(co *C, const keyed *E, size_t ne, const memo *F, size_t 
     }
 }
 
-/* Whether flip_tet surely finds no flip for tet t: it found none last time, and nothing it
- * reads has changed since: the tets around t's corners, their places, and the edges of the
- * corners' neighbours (a ring's chords), all of which the near marks of t's corners follow.
- * (Every change of tets marks their corners: apply, try_move, flip, edge_remove, peel.) */
+/* Whether flip_tet surely finds no flip for tet t: it found none last time (and no boundary
+ * edge removal was refused for the volume budget then, which every change anywhere moves),
+ * and nothing it reads has changed since: the tets around t's corners, their places, the
+ * edges of the corners' neighbours (a ring's chords) and the isosurface samples near their
+ * boundary triangles, all of which the near marks of t's corners follow. (Every change of
+ * tets marks their corners: apply, try_move, flip, edge_remove, bedge_remove, peel.) */
 static int flip_settled(const co *C, int32_t t) {
     uint32_t w = C->flipless[t];
     if (!w) return 0;
@@ -2321,9 +2327,10 @@ static size_t flip_sweep(co *C) {
             if (C->dead_t[t] || !(tet_grade(C, (int32_t)t) < GR_CO_FLIP_BAR) ||
                 flip_settled(C, (int32_t)t))
                 continue;
+            C->flip_budget = 0;
             if (flip_tet(C, (int32_t)t))
                 flips++;
-            else
+            else if (!C->flip_budget)
                 C->flipless[t] = C->applied + 1;
         }
         all += flips;
