@@ -480,54 +480,6 @@ static int tri_fits(const co *C, const double *p0, const double *p1, const doubl
     return tri_near(C, p0, p1, p2, n) || near_plane(C, p0, p1, p2, n);
 }
 
-/* Squared distance from x to the triangle (a, b, c): the nearest point by the triangle's
- * regions (vertices, edges, inside), from the barycentric conditions. */
-static double tri_dist2(const double *x, const double *a, const double *b, const double *c) {
-    double ab[3], ac[3], ax[3];
-    for (int d = 0; d < 3; d++) {
-        ab[d] = b[d] - a[d];
-        ac[d] = c[d] - a[d];
-        ax[d] = x[d] - a[d];
-    }
-    double d1 = ab[0] * ax[0] + ab[1] * ax[1] + ab[2] * ax[2];
-    double d2 = ac[0] * ax[0] + ac[1] * ax[1] + ac[2] * ax[2];
-    if (d1 <= 0 && d2 <= 0) return dist2(x, a);
-    double bx[3], cx[3];
-    for (int d = 0; d < 3; d++) {
-        bx[d] = x[d] - b[d];
-        cx[d] = x[d] - c[d];
-    }
-    double d3 = ab[0] * bx[0] + ab[1] * bx[1] + ab[2] * bx[2];
-    double d4 = ac[0] * bx[0] + ac[1] * bx[1] + ac[2] * bx[2];
-    if (d3 >= 0 && d4 <= d3) return dist2(x, b);
-    double d5 = ab[0] * cx[0] + ab[1] * cx[1] + ab[2] * cx[2];
-    double d6 = ac[0] * cx[0] + ac[1] * cx[1] + ac[2] * cx[2];
-    if (d6 >= 0 && d5 <= d6) return dist2(x, c);
-    double q[3], vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
-    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-        double s = d1 / (d1 - d3);
-        for (int d = 0; d < 3; d++)
-            q[d] = a[d] + s * ab[d];
-        return dist2(x, q);
-    }
-    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-        double s = d2 / (d2 - d6);
-        for (int d = 0; d < 3; d++)
-            q[d] = a[d] + s * ac[d];
-        return dist2(x, q);
-    }
-    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-        double s = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        for (int d = 0; d < 3; d++)
-            q[d] = b[d] + s * (c[d] - b[d]);
-        return dist2(x, q);
-    }
-    double den = 1 / (va + vb + vc), v = vb * den, w = vc * den;
-    for (int d = 0; d < 3; d++)
-        q[d] = a[d] + v * ab[d] + w * ac[d];
-    return dist2(x, q);
-}
-
 /* Every 1024th call polls the caller's meter; 1 once cancelled. */
 static int stopped(co *C) {
     if (C->stop) return 1;
@@ -1003,7 +955,8 @@ static int check(const co *C, scratch *W, int32_t a, int32_t b, plan *P, set *s1
         double best = INFINITY, t2 = C->tol[q] * C->tol[q];
         for (int j = 0; j < P->ntri && best > t2; j++) {
             const int32_t *U = P->tri[j];
-            double d2 = tri_dist2(C->sp[q], pt(C, U[0]), pt(C, U[1]), pt(C, U[2]));
+            double d2 =
+                vm__point_triangle_dist2(C->sp[q], pt(C, U[0]), pt(C, U[1]), pt(C, U[2]));
             if (d2 < best) best = d2;
         }
         if (best > t2) return 0;
@@ -1093,7 +1046,8 @@ static void apply(co *C, int32_t a, int32_t b, const plan *P) {
         int bj = 0;
         for (int j = 0; j < P->ntri; j++) {
             const int32_t *U = P->tri[j];
-            double d2 = tri_dist2(C->sp[s], pt(C, U[0]), pt(C, U[1]), pt(C, U[2]));
+            double d2 =
+                vm__point_triangle_dist2(C->sp[s], pt(C, U[0]), pt(C, U[1]), pt(C, U[2]));
             if (d2 < best) best = d2, bj = j;
         }
         memcpy(T, P->tri[bj], 3 * sizeof *T);
@@ -1212,7 +1166,7 @@ static void nearest_face(const co *C, const double *x, int32_t v, int32_t T[3], 
         for (int k = 0; k < 4; k++) {
             if (c[k] == v || !face_free(C, l->v[j], k)) continue;
             int64_t a = c[(k + 1) & 3], b = c[(k + 2) & 3], d = c[(k + 3) & 3];
-            double d2 = tri_dist2(x, pt(C, a), pt(C, b), pt(C, d));
+            double d2 = vm__point_triangle_dist2(x, pt(C, a), pt(C, b), pt(C, d));
             if (d2 < *bt) *bt = d2, T[0] = (int32_t)a, T[1] = (int32_t)b, T[2] = (int32_t)d;
         }
     }
@@ -1471,7 +1425,8 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
             double best = INFINITY, t2 = C->tol[q] * C->tol[q];
             for (int j = 0; j < P->ntri && best > t2; j++) {
                 const int32_t *U = P->tri[j];
-                double d2 = tri_dist2(C->sp[q], pt(C, U[0]), pt(C, U[1]), pt(C, U[2]));
+                double d2 =
+                    vm__point_triangle_dist2(C->sp[q], pt(C, U[0]), pt(C, U[1]), pt(C, U[2]));
                 if (d2 < best) best = d2;
             }
             if (best > t2) ok = 0;
@@ -1571,8 +1526,8 @@ static int samples_near(const co *C, const ilist *ls, int32_t (*of)[3], int32_t 
         if (!on_faces(C->st[q], of)) continue;
         double best = INFINITY;
         for (int g = 0; g < 2; g++)
-            best = fmin(best, tri_dist2(C->sp[q], pt(C, nf[g][0]), pt(C, nf[g][1]),
-                                        pt(C, nf[g][2])));
+            best = fmin(best, vm__point_triangle_dist2(C->sp[q], pt(C, nf[g][0]),
+                                                       pt(C, nf[g][1]), pt(C, nf[g][2])));
         if (best > C->tol[q] * C->tol[q]) return 0;
     }
     return 1;
@@ -1585,8 +1540,10 @@ static void samples_move(co *C, const ilist *ls, int32_t (*of)[3], int32_t (*nf)
         int32_t q = ls->v[i];
         int32_t *T = C->st[q];
         if (!on_faces(T, of)) continue;
-        double d0 = tri_dist2(C->sp[q], pt(C, nf[0][0]), pt(C, nf[0][1]), pt(C, nf[0][2]));
-        double d1 = tri_dist2(C->sp[q], pt(C, nf[1][0]), pt(C, nf[1][1]), pt(C, nf[1][2]));
+        double d0 = vm__point_triangle_dist2(C->sp[q], pt(C, nf[0][0]), pt(C, nf[0][1]),
+                                             pt(C, nf[0][2]));
+        double d1 = vm__point_triangle_dist2(C->sp[q], pt(C, nf[1][0]), pt(C, nf[1][1]),
+                                             pt(C, nf[1][2]));
         memcpy(T, nf[d1 < d0], 3 * sizeof *T);
         for (int j = 0; j < 3; j++)
             if (!push(&C->vs[T[j]], q)) C->nomem = 1;
