@@ -282,7 +282,7 @@ double vm__point_triangle_dist2(const double p[3], const double a[3], const doub
     }
 #undef DOT
     double den = va + vb + vc;
-    if (!(den > 0)) { /* degenerate: the nearest of the three edges */
+    if (!(den > 0)) { /* degenerate: the nearest of the three corners */
         double e = fmin(tri_pd2(p, a), fmin(tri_pd2(p, b), tri_pd2(p, c)));
         return e;
     }
