@@ -602,40 +602,7 @@ static vm_status dual(cover *c, size_t *nbad, vm_error *err) {
 
 /* Distance from p to triangle (a, b, c) (closest point by Voronoi regions of the triangle). */
 static double point_tri(const double *p, const double *a, const double *b, const double *c) {
-    double ab[3], ac[3], ap[3], q[3];
-    for (int k = 0; k < 3; k++) ab[k] = b[k] - a[k], ac[k] = c[k] - a[k], ap[k] = p[k] - a[k];
-#define DOT(u, v) ((u)[0] * (v)[0] + (u)[1] * (v)[1] + (u)[2] * (v)[2])
-    double d1 = DOT(ab, ap), d2 = DOT(ac, ap);
-    if (d1 <= 0 && d2 <= 0) {
-        memcpy(q, a, sizeof q);
-    } else {
-        double bp[3], cp[3];
-        for (int k = 0; k < 3; k++) bp[k] = p[k] - b[k], cp[k] = p[k] - c[k];
-        double d3 = DOT(ab, bp), d4 = DOT(ac, bp), d5 = DOT(ab, cp), d6 = DOT(ac, cp);
-        double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
-        if (d3 >= 0 && d4 <= d3) {
-            memcpy(q, b, sizeof q);
-        } else if (d6 >= 0 && d5 <= d6) {
-            memcpy(q, c, sizeof q);
-        } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-            double v = d1 / (d1 - d3);
-            for (int k = 0; k < 3; k++) q[k] = a[k] + v * ab[k];
-        } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-            double w = d2 / (d2 - d6);
-            for (int k = 0; k < 3; k++) q[k] = a[k] + w * ac[k];
-        } else if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-            double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-            for (int k = 0; k < 3; k++) q[k] = b[k] + w * (c[k] - b[k]);
-        } else {
-            double den = va + vb + vc;
-            double v = den != 0 ? vb / den : 0, w = den != 0 ? vc / den : 0;
-            for (int k = 0; k < 3; k++) q[k] = a[k] + v * ab[k] + w * ac[k];
-        }
-    }
-#undef DOT
-    double d2s = 0;
-    for (int k = 0; k < 3; k++) d2s += (p[k] - q[k]) * (p[k] - q[k]);
-    return sqrt(d2s);
+    return sqrt(vm__point_triangle_dist2(p, a, b, c));
 }
 
 /* Fine faces of every Voronoi neighbourhood (by the label of their first corner):
