@@ -36,6 +36,11 @@ double vm__gr_phi(const gr_field *f, const double u[3]) {
         if (x[d] < -tol || x[d] > (double)(f->n[d] - 1) + tol) return f->out;
         if (x[d] < 0) x[d] = 0;
         if (x[d] > (double)(f->n[d] - 1)) x[d] = (double)(f->n[d] - 1);
+        /* A point on a voxel plane up to rounding (lattice points, computed in world units)
+         * reads the voxels' values exactly: a voxel at the bound is inside, as the voxels'
+         * topology counts it, where a rounding error of 1e-13 would read it outside. */
+        double r = nearbyint(x[d]);
+        if (fabs(x[d] - r) <= 1e-9 * (1 + r)) x[d] = r;
     }
     return vm__gr_phi_value(f, trilinear(f, x[0], x[1], x[2]));
 }
