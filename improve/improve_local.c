@@ -430,6 +430,19 @@ static int local_scan(const lpass *P, job *J, ljob *X, scratch *W) {
         sm[t] = M_FREE;
         ok = sl_push(&F, t);
     }
+    if (ok && F.n == 0) {
+        /* nothing left to mend (a job before mended its seeds): no tets and an empty box.
+         * (The box of no tets came out infinite, and its grid's size from it an allocation
+         * that failed: the pass ended "out of memory" on the CT head at --distance 1.242893.)
+         */
+        for (int k = 0; k < 3; k++) {
+            J->lo[k] = INFINITY;
+            J->hi[k] = -INFINITY;
+        }
+        J->ps = J->ls = NULL;
+        J->nps = J->nls = 0;
+        return 1;
+    }
     /* rings: the tets around the points of the tets taken so far; then the points of the
      * last ring */
     size_t done = 0;

@@ -224,6 +224,14 @@ for ijk in ((33, 41.65, 26), (32.71, 42, 23), (33, 46.62, 32), (25.98, 45, 64), 
 sys.exit(worst > 0.55)
 PY
     then ok; else bad "CT head --graded: cavities and thin bone beyond D + 5% $(cat head.txt err.txt)"; fi
+    # 8. a job of the quality pass whose bad tets a job before it mended (none left to work
+    # on) is skipped: on this mesh the pass ended "improve: out of memory" (2026-12-07)
+    if "$VM_CLI" mesh "$ct" --iso 500 --graded --distance 1.242893 -o d.vtu >d.txt 2>err.txt &&
+        grep -q "15\.[0-9]*\.\.1[0-4][0-9]\.[0-9]* deg\|15\.[0-9]*\.\.150\.00 deg" d.txt; then
+        ok
+    else
+        bad "CT head --distance 1.242893: $(cat d.txt err.txt)"
+    fi
 else
     echo "note: ../shared/data/ct_head_quarter.nrrd missing: the CT head case skipped"
 fi
