@@ -975,16 +975,16 @@ static void voxelsAtTheBoundReadExactly(void) {
         vm_error err;
         CHECK_OK(vm__gr_field_init(&f, &v, &o, &err), &err);
         size_t off = 0;
+        gr_tree t; /* base cells of a voxel, one cell of margin (as vm__gr_tree_build) */
+        memset(&t, 0, sizeof t);
+        for (int d = 0; d < 3; d++) {
+            t.h0[d] = v.spacing[d];
+            t.u0[d] = -v.spacing[d];
+        }
         for (int k = 0; k < n; k++)
             for (int j = 0; j < n; j++)
                 for (int i = 0; i < n; i++) {
-                    gr_tree t;
-                    memset(&t, 0, sizeof t);
                     int64_t p[3] = {2 * (i + 1), 2 * (j + 1), 2 * (k + 1)};
-                    for (int d = 0; d < 3; d++) {
-                        t.h0[d] = v.spacing[d];
-                        t.u0[d] = -v.spacing[d];
-                    }
                     double u[3];
                     vm__gr_lattice_pos(&t, p, u);
                     off += vm__gr_phi(&f, u) != vm__gr_phi_point(&f, i, j, k);
@@ -1003,6 +1003,14 @@ static void voxelsAtTheBoundReadExactly(void) {
         if (s == VM_OK) {
             CHECK_MSG(st.topology_rounds == 0, "spacing %g %g %g: %zu topology rounds",
                       spacings[c][0], spacings[c][1], spacings[c][2], st.topology_rounds);
+            vm_mesh_report r;
+            CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
+            CHECK_MSG(r.inverted == 0 && r.boundary_closed == 1 && r.boundary_euler == euler &&
+                          r.components == comps,
+                      "spacing %g %g %g: inverted %zu closed %d euler %ld (voxels %ld) "
+                      "components %zu (voxels %zu)",
+                      spacings[c][0], spacings[c][1], spacings[c][2], r.inverted,
+                      r.boundary_closed, r.boundary_euler, euler, r.components, comps);
             vm_mesh_free(&m);
         }
         vm_volume_free(&v);
