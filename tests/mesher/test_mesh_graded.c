@@ -39,12 +39,13 @@ static void graded_options(vm_mesh_options *o) {
 }
 
 /* Meshes v and checks validity and, when euler/comps are given (comps > 0), the topology.
- * [out] r. Returns 0 when meshing failed. */
-static int mesh_and_check(const char *label, const vm_volume *v, const vm_mesh_options *o,
-                          long euler, size_t comps, int quiet, vm_mesh_report *r) {
+ * [out] r, and the run's counters in *st (may be NULL). Returns 0 when meshing failed. */
+static int mesh_and_check_stats(const char *label, const vm_volume *v, const vm_mesh_options *o,
+                                long euler, size_t comps, int quiet, vm_mesh_report *r,
+                                vm_mesh_stats *st) {
     vm_mesh m;
     vm_error err;
-    vm_status s = vm_mesh_volume(v, o, &m, NULL, &err);
+    vm_status s = vm_mesh_volume(v, o, &m, st, &err);
     CHECK_MSG(s == VM_OK, "%s: %s", label, err.message);
     if (s != VM_OK) return 0;
     s = vm_mesh_check(&m, r, &err);
@@ -65,6 +66,11 @@ static int mesh_and_check(const char *label, const vm_volume *v, const vm_mesh_o
                label, r->cells, r->boundary_euler, r->components, r->volume, r->min_dihedral,
                r->max_dihedral);
     return 1;
+}
+
+static int mesh_and_check(const char *label, const vm_volume *v, const vm_mesh_options *o,
+                          long euler, size_t comps, int quiet, vm_mesh_report *r) {
+    return mesh_and_check_stats(label, v, o, euler, comps, quiet, r, NULL);
 }
 
 static void everyCubePatternKeepsTheCubicalTopology(void) {
@@ -970,6 +976,9 @@ static void voxelsAtTheBoundReadExactly(void) {
                 }
         vm_mesh_options o;
         graded_options(&o);
+        char label[64];
+        snprintf(label, sizeof label, "spacing %g %g %g", spacings[c][0], spacings[c][1],
+                 spacings[c][2]);
         /* the field at every voxel point reached as a lattice point */
         gr_field f;
         vm_error err;
@@ -989,30 +998,17 @@ static void voxelsAtTheBoundReadExactly(void) {
                     vm__gr_lattice_pos(&t, p, u);
                     off += vm__gr_phi(&f, u) != vm__gr_phi_point(&f, i, j, k);
                 }
-        CHECK_MSG(off == 0, "spacing %g %g %g: %zu voxel points read off their values",
-                  spacings[c][0], spacings[c][1], spacings[c][2], off);
+        CHECK_MSG(off == 0, "%s: %zu voxel points read off their values", label, off);
         vm__gr_field_free(&f);
         /* and the first mesh has the voxels' topology, with no round to mend it */
         long euler;
         size_t comps;
         vm_test_digital_topology(&v, 1, 0.0, 0, 0.0, &euler, &comps);
-        vm_mesh m;
+        vm_mesh_report r;
         vm_mesh_stats st;
-        vm_status s = vm_mesh_volume(&v, &o, &m, &st, &err);
-        CHECK_OK(s, &err);
-        if (s == VM_OK) {
-            CHECK_MSG(st.topology_rounds == 0, "spacing %g %g %g: %zu topology rounds",
-                      spacings[c][0], spacings[c][1], spacings[c][2], st.topology_rounds);
-            vm_mesh_report r;
-            CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
-            CHECK_MSG(r.inverted == 0 && r.boundary_closed == 1 && r.boundary_euler == euler &&
-                          r.components == comps,
-                      "spacing %g %g %g: inverted %zu closed %d euler %ld (voxels %ld) "
-                      "components %zu (voxels %zu)",
-                      spacings[c][0], spacings[c][1], spacings[c][2], r.inverted,
-                      r.boundary_closed, r.boundary_euler, euler, r.components, comps);
-            vm_mesh_free(&m);
-        }
+        if (mesh_and_check_stats(label, &v, &o, euler, comps, 1, &r, &st))
+            CHECK_MSG(st.topology_rounds == 0, "%s: %zu topology rounds", label,
+                      st.topology_rounds);
         vm_volume_free(&v);
     }
 }
