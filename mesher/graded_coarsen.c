@@ -22,7 +22,8 @@
  * normal so that chords straddle the surface, interior ones to their neighbours' mean) and
  * poorly shaped tets are flipped (2-3 and 3-2) where that betters them; after the rounds,
  * tets beyond 15..150 degrees are repaired by moves, collapses and peels. Vertices on the
- * volume's border planes move only by collapses within their plane (plane_ok). */
+ * volume's border planes move only by collapses within their plane (plane_ok); their
+ * boundary edges flip within it (bedge_remove). */
 #include "../core/core.h"
 #include "../quality/tet_internal.h"
 #include "graded_internal.h"
@@ -427,17 +428,32 @@ static int tri_near(const co *C, const double *p0, const double *p1, const doubl
 static int flat_near(const co *C, const double *p0, const double *p1, const double *p2) {
     int k = tri_steps(C, p0, p1, p2);
     if (!k) return 0;
+    double m[3][3];
+    vm__volume_frame(C->f->v, m);
     for (int i = 0; i <= k; i++)
         for (int j = 0; i + j <= k; j++) {
             double x[3], phi, g[3];
             tri_at(p0, p1, p2, (double)i / k, (double)j / k, x);
-            if (!phi_grad(C, x, &phi, g)) return 0;
+            /* a sample beyond the box is read on it, at its offset's cost: the stuffing
+             * holds a cut across the border a hair beyond it where the vertex on the plane
+             * has to stay inside (graded_stuff.c, GR_CUT_BORDER), and such points, read
+             * beyond the volume, were never collapsed (a 0.6 degree tet on the CT head) */
+            double ijk[3], x0[3] = {x[0], x[1], x[2]};
+            to_index(C, x, ijk);
+            for (int r = 0; r < 3; r++) {
+                double top = (double)(C->f->n[r] - 1);
+                double dr = ijk[r] < 0 ? -ijk[r] : ijk[r] > top ? top - ijk[r] : 0;
+                for (int d = 0; d < 3; d++)
+                    x[d] += m[d][r] * dr;
+            }
+            double off = sqrt(dist2(x, x0));
+            if (off > C->D || !phi_grad(C, x, &phi, g)) return 0;
             if (phi >= 0) continue;
             double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
             if (!(gn > 0)) return 0;
             double e = phi / gn;
             if (-e > 0.5 * C->D && !newton_distance(C, x, phi, g, &e)) return 0;
-            if (-e > C->D) return 0;
+            if (off - e > C->D) return 0;
         }
     return 1;
 }
@@ -1956,22 +1972,25 @@ static int edge_remove(co *C, int32_t d, int32_t e) {
     return 1;
 }
 
-
 /* Boundary edge removal: the m = 2..GR_CO_RING - 1 tets around boundary edge de (an open
  * chain from w[0] to w[m]) become the 2m - 2 tets of the best triangulation of the polygon
  * w[0..m] joined to d and to e, as edge_remove does; the boundary triangles (d, e, w[0]) and
  * (d, e, w[m]) become (w[0], w[m], d) and (w[0], w[m], e), an edge flip of the boundary. It
  * holds every check of a collapse's boundary: the new triangles within the distance bound and
  * facing out (tri_near), the samples of the old ones near the new ones, the volume budget;
- * none of the four corners on a border plane, the new edge w[0] w[m] new and within the size
- * bounds, one region, and the ring's worst grade bettered. 1 when removed. */
+ * none of the four corners on a border plane, or all four in one (the flip then keeps the
+ * boundary's place, and only the samples are checked), the new edge w[0] w[m] new and within
+ * the size bounds, one region, and the ring's worst grade bettered. 1 when removed. */
 static int bedge_remove(co *C, int32_t d, int32_t e) {
     if (!C->bnd[d] || !C->bnd[e]) return 0;
     int32_t w[GR_CO_RING], ts[GR_CO_RING];
     int m = edge_around(C, &d, &e, w, ts, 1);
     if (m < 2) return 0;
     int32_t w0 = w[0], wm = w[m];
-    if (C->fix[d] | C->fix[e] | C->fix[w0] | C->fix[wm]) return 0;
+    /* all four in one border plane: the flip keeps the boundary where it is (the two
+     * triangles of a convex quad in the plane trade their diagonal) */
+    int flat = (C->fix[d] & C->fix[e] & C->fix[w0] & C->fix[wm]) != 0;
+    if (!flat && (C->fix[d] | C->fix[e] | C->fix[w0] | C->fix[wm])) return 0;
     double before = INFINITY, vold = 0;
     for (int i = 0; i < m; i++) {
         if (C->m->region[ts[i]] != C->m->region[ts[0]]) return 0;
@@ -2005,7 +2024,7 @@ static int bedge_remove(co *C, int32_t d, int32_t e) {
     /* the new boundary triangles, over the whole polygon's triangle (0, k, m) */
     int32_t nf[2][3] = {{w0, wm, d}, {w0, wm, e}}, of[2][3] = {{d, e, w0}, {d, e, wm}};
     const double *pk = pt(C, w[tri[0][1]]);
-    for (int f = 0; f < 2; f++) {
+    for (int f = 0; f < 2 && !flat; f++) {
         double n[3];
         out_normal(pt(C, nf[f][0]), pt(C, nf[f][1]), pt(C, nf[f][2]), pk, n);
         if (!tri_near(C, pt(C, nf[f][0]), pt(C, nf[f][1]), pt(C, nf[f][2]), n)) return 0;

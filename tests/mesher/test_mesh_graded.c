@@ -340,6 +340,118 @@ static void boundaryEdgesFlipWithinTheBound(void) {
     vm_volume_free(&v);
 }
 
+/* Boundary edge removal in a border plane (vm__gr_flips): a tent over a thin rhombus on
+ * the volume's bottom plane, two tets round its long diagonal (dihedral angles 19.5 to 152.7
+ * degrees), is flipped onto the short diagonal. Its four corners lie in the plane, so the flip
+ * keeps the boundary's place though the isosurface checks cannot read it (the field is
+ * constant): the coarsening's repair left such a tet at 13.05 degrees on the CT head
+ * (--distance 1.45). */
+static void flatBorderEdgesFlip(void) {
+    vm_volume v;
+    if (!make_volume(&v, 9, 9, 9, 1.0f)) return;
+    vm_mesh m;
+    vm_error err;
+    vm_mesh_init(&m, VM_TET4);
+    const double p[5][3] = {{2, 4, 0}, {6, 4, 0}, {4, 3.5, 0}, {4, 4, 2}, {4, 4.5, 0}};
+    for (int i = 0; i < 5; i++)
+        CHECK(vm_mesh_add_point(&m, p[i], &err) == (vm_index)i);
+    const vm_index q[2][4] = {{0, 1, 2, 3}, {0, 1, 3, 4}};
+    for (int t = 0; t < 2; t++)
+        CHECK_OK(vm_mesh_add_cell(&m, q[t], 0, &err), &err);
+    vm_mesh_report r0, r1;
+    CHECK_OK(vm_mesh_check(&m, &r0, &err), &err);
+    if (r0.inverted) { /* the other turn */
+        for (size_t t = 0; t < m.ncells; t++) {
+            vm_index x = m.cells[4 * t];
+            m.cells[4 * t] = m.cells[4 * t + 1];
+            m.cells[4 * t + 1] = x;
+        }
+        CHECK_OK(vm_mesh_check(&m, &r0, &err), &err);
+    }
+    size_t flips = 0, removals = 0, bremovals = 0;
+    CHECK_OK(
+        vm__gr_flips(&m, &v, 0.0, 1, 0.0, 0, 0.0, 0.5, &flips, &removals, &bremovals, &err),
+        &err);
+    CHECK_OK(vm_mesh_check(&m, &r1, &err), &err);
+    printf("    tent on the border plane: %zu boundary edge removals, dihedral %.1f..%.1f -> "
+           "%.1f..%.1f\n",
+           bremovals, r0.min_dihedral, r0.max_dihedral, r1.min_dihedral, r1.max_dihedral);
+    CHECK(bremovals == 1 && m.ncells == 2 && m.npoints == 5);
+    /* no tet holds the long diagonal; both hold the short one */
+    for (size_t t = 0; t < m.ncells; t++) {
+        int h[5] = {0};
+        for (int k = 0; k < 4; k++)
+            h[m.cells[4 * t + (size_t)k]] = 1;
+        CHECK(!(h[0] && h[1]) && h[2] && h[4]);
+    }
+    CHECK(r1.inverted == 0 && r1.degenerate == 0 && r1.boundary_closed == 1 &&
+          r1.boundary_euler == 2 && r1.components == 1);
+    CHECK(fabs(r1.volume - r0.volume) <= 1e-12 * r0.volume);
+    CHECK_MSG(r1.min_dihedral > r0.min_dihedral + 10.0, "min %.2f -> %.2f", r0.min_dihedral,
+              r1.min_dihedral);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
+/* Coarsening near the volume's border (vm__gr_coarsen): the stuffing holds a cut across the
+ * border a hair off the plane (GR_CUT_BORDER of its edge) where the vertex on the plane
+ * cannot go on the surface; the CT head (--distance 1.15) kept such points 0.03 mm apart in a
+ * 0.6 degree tet, as the checks read their triangles beyond the volume and refused every
+ * collapse. Here a ball cut by the top plane is stuffed, its points on that plane lifted a
+ * hundredth of a voxel beyond it, and coarsened: most of the lifted points go, the
+ * boundary stays closed with the ball's topology. */
+static void hairBeyondTheBorderCoarsens(void) {
+    const int n = 16;
+    vm_volume v;
+    if (!make_volume(&v, n, n, n, 0.0f)) return;
+    for (int k = 0; k < n; k++)
+        for (int j = 0; j < n; j++)
+            for (int i = 0; i < n; i++) {
+                double r = sqrt((i - 7.3) * (i - 7.3) + (j - 7.6) * (j - 7.6) +
+                                (k - 17.0) * (k - 17.0));
+                v.data[i + n * (j + n * k)] = (float)(9.0 - r);
+            }
+    vm_mesh_options o;
+    graded_options(&o);
+    o.no_coarsen = 1;
+    vm_mesh m;
+    vm_error err;
+    vm_status s = vm_mesh_volume(&v, &o, &m, NULL, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) {
+        vm_volume_free(&v);
+        return;
+    }
+    const double top = n - 1;
+    size_t lifted = 0, left = 0;
+    for (size_t i = 0; i < m.npoints; i++) {
+        double *p = m.points + 3 * i;
+        int side = p[0] <= 0 || p[0] >= top || p[1] <= 0 || p[1] >= top;
+        if (p[2] == top && !side) {
+            p[2] += 0.01;
+            lifted++;
+        }
+    }
+    gr_field f;
+    CHECK_OK(vm__gr_field_init(&f, &v, &o, &err), &err);
+    size_t removed = 0;
+    CHECK_OK(vm__gr_coarsen(&m, &f, 0.5, 0.0, 0, 1, NULL, &removed, &err), &err);
+    vm__gr_field_free(&f);
+    for (size_t i = 0; i < m.npoints; i++)
+        left += m.points[3 * i + 2] > top;
+    vm_mesh_report r;
+    CHECK_OK(vm_mesh_check(&m, &r, &err), &err);
+    printf("    ball cut by the top plane: %zu points lifted beyond it, %zu left after "
+           "coarsening (%zu vertices removed), dihedral %.1f..%.1f\n",
+           lifted, left, removed, r.min_dihedral, r.max_dihedral);
+    CHECK(lifted >= 20);
+    CHECK_MSG(left * 4 <= lifted, "%zu of %zu lifted points left", left, lifted);
+    CHECK(r.inverted == 0 && r.degenerate == 0 && r.boundary_closed == 1 &&
+          r.boundary_euler == 2 && r.components == 1);
+    vm_mesh_free(&m);
+    vm_volume_free(&v);
+}
+
 /* vm__gr_mean_smooth (the graded pass's last step): on a graded genus 3 (after its quality
  * pass) whose interior vertices were pushed off their places (each 0.3 voxel along a fixed
  * pseudo-random direction, kept only where its tets stay within 15..150 degrees), the
@@ -1017,7 +1129,8 @@ TEST_MAIN(T(everyCubePatternKeepsTheCubicalTopology), T(voxelsAtTheBoundReadExac
           T(coarseningHalvesTheStuffedMesh), T(randomVolumesKeepTheCubicalTopology),
           T(noisyPhantomsKeepTheCubicalTopology), T(gradedPhantomsAreSmallAndFaithful),
           T(meanSweepsRaiseTheMeanInside), T(edgeRemovalMendsTallBipyramids),
-          T(boundaryEdgesFlipWithinTheBound), T(sizesAreMet), T(sizeFieldSetsTheDensity),
+          T(boundaryEdgesFlipWithinTheBound), T(flatBorderEdgesFlip),
+          T(hairBeyondTheBorderCoarsens), T(sizesAreMet), T(sizeFieldSetsTheDensity),
           T(tetTargetIsMet), T(gradingSpreadsLevelChanges),
           T(anisotropicVoxelsKeepVolumeThroughThePass), T(topologyMisfitsAreFound),
           T(minLayersKeepThinPartsLayered))
