@@ -54,6 +54,10 @@ enum { CLS_FREE = 0, CLS_ISO = 1, CLS_PLANE = 2, CLS_FIXED = 3 };
 /* A surface point's move keeps the centres and edge midpoints of its boundary quads within
  * this of the isosurface (or no farther than they were). */
 #define ISO_QUAD_MAX 0.45
+/* Isosurface samples: each boundary quad off the box planes keeps the isosurface points its
+ * bilinear samples at (u, v) in ISO_UV^2 project onto where the run starts; a move keeps each
+ * within ISO_QUAD_MAX of the quads round the point (or no farther than it was). */
+#define ISO_SAMPLES 9
 /* MOVE_LOOSE lets a surface point go anywhere within this of the isosurface. */
 #define ISO_LOOSE_MAX 0.4
 /* A box-plane point moves at most this far (it need not follow the isosurface), one on the
@@ -117,8 +121,12 @@ typedef struct hx {
      * sqrt(dy^T M dy) long with M = A^T A / cbrt(|det A|)^2, and G = M^-1 turns index-space
      * gradients into steepest-descent steps. aniso 0: M is the identity (a cube voxel),
      * where the index-space formulas are used as they are. */
-    double G[3][3];
+    double G[3][3], M[3][3];
     int aniso;
+    double mscale; /* cbrt(|det A|): world distances over it are the metric's */
+    /* isosurface samples, ISO_SAMPLES per boundary quad (3 coordinates each, in the
+     * distance's frame: see dist_frame), NaN where a quad has none; NULL when unbounded */
+    double *isp;
     double lo, hi;
     int has_lo, has_hi;
     double max_move;
@@ -474,24 +482,31 @@ static double grad_metric(const hx *w, const double g[3], double dir[3]) {
     return q > 0.0 ? sqrt(q) : 0.0;
 }
 
-/* Distance of index position x from the isosurface, in voxels (the cube root of a voxel's
- * volume, world): the first crossing on the gradient line toward it (within 2 voxels), else
- * the first-order estimate |f - iso| / |grad f|. */
-static double iso_distance(const hx *w, const double x[3]) {
-    double g[3], dir[3];
-    double f = field(w->v, x, g);
-    double iso = iso_for(w, f);
-    double gn = grad_metric(w, g, dir);
-    double d = fabs(f - iso);
-    double est = gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
-    if (est < ISO_EXACT_BELOW || !(gn > 0.0)) return est;
-    double sgn = f > iso ? -1.0 : 1.0;
+#define R3 0.57735026918962576 /* 1 / sqrt(3) */
+#define R2 0.70710678118654752 /* 1 / sqrt(2) */
+/* 6 axis and 8 diagonal directions (unit length), then 12 face diagonals: smoothing uses the
+ * first 14, untangling all 26 (its penalty is piecewise linear, and a descent direction
+ * at a kink can lie in a narrow cone). */
+static const double dirs[26][3] = {
+    {1, 0, 0},     {-1, 0, 0},     {0, 1, 0},      {0, -1, 0},      {0, 0, 1},
+    {0, 0, -1},    {R3, R3, R3},   {-R3, R3, R3},  {R3, -R3, R3},   {-R3, -R3, R3},
+    {R3, R3, -R3}, {-R3, R3, -R3}, {R3, -R3, -R3}, {-R3, -R3, -R3}, {R2, R2, 0},
+    {-R2, R2, 0},  {R2, -R2, 0},   {-R2, -R2, 0},  {R2, 0, R2},     {-R2, 0, R2},
+    {R2, 0, -R2},  {-R2, 0, -R2},  {0, R2, R2},    {0, -R2, R2},    {0, R2, -R2},
+    {0, -R2, -R2}};
+
+/* The first crossing of the isosurface (value f at x, bound iso) on the ray from index
+ * position x along index-space step u (one voxel long in the distance's metric), in steps of
+ * ISO_WALK_STEP up to tmax; INFINITY when there is none. */
+static double iso_walk(const hx *w, const double x[3], double f, double iso, const double u[3],
+                       double tmax) {
     /* the steps in a cell the field does not cross iso in are skipped: most of a walk */
     int64_t safe[3] = {-1, -1, -1};
-    for (double t = ISO_WALK_STEP; t <= ISO_WALK_MAX; t += ISO_WALK_STEP) {
+    for (double t = ISO_WALK_STEP; t <= tmax; t += ISO_WALK_STEP) {
         double y[3], fr[3];
         int64_t c[3];
-        for (int a = 0; a < 3; a++) y[a] = x[a] + sgn * t * dir[a] / gn;
+        for (int a = 0; a < 3; a++)
+            y[a] = x[a] + t * u[a];
         field_cell(w->v, y, c, fr);
         if (c[0] == safe[0] && c[1] == safe[1] && c[2] == safe[2]) continue;
         if (cell_one_side(w->v, c, iso, f > iso)) {
@@ -501,7 +516,42 @@ static double iso_distance(const hx *w, const double x[3]) {
         double fy = field_value(w->v, c, fr);
         if ((fy - iso) * (f - iso) <= 0.0) return t;
     }
-    return est;
+    return INFINITY;
+}
+
+/* Distance of index position x from the isosurface, in voxels (the cube root of a voxel's
+ * volume, world): the first crossing on the gradient line toward it (within 2 voxels); where
+ * that line finds none (it runs along a ridge or into a saddle: ironProt, 0.40 by the
+ * estimate, 0.52 in fact), on a mesh that came out of the mesher valid, the nearest
+ * crossing along the 26 compass directions within as far (a folded mesh's far points, the CT
+ * head's, made that search cost 1.7 times the pass), else the first-order estimate
+ * |f - iso| / |grad f|, which is also the answer near the isosurface. */
+static double iso_distance(const hx *w, const double x[3]) {
+    double g[3], dir[3];
+    double f = field(w->v, x, g);
+    double iso = iso_for(w, f);
+    double gn = grad_metric(w, g, dir);
+    double d = fabs(f - iso);
+    double est = gn > 0.0 ? d / gn : (d > 0.0 ? INFINITY : 0.0);
+    if (est < ISO_EXACT_BELOW) return est;
+    double sgn = f > iso ? -1.0 : 1.0, u[3], best = INFINITY;
+    if (gn > 0.0) {
+        for (int a = 0; a < 3; a++)
+            u[a] = sgn * dir[a] / gn;
+        best = iso_walk(w, x, f, iso, u, ISO_WALK_MAX);
+        if (best < INFINITY || !w->fit) return best < INFINITY ? best : est;
+    }
+    for (int k = 0; k < 26 && w->fit; k++) {
+        double l2 = 0.0;
+        for (int a = 0; a < 3; a++)
+            for (int c = 0; c < 3; c++)
+                l2 += dirs[k][a] * (metric_on(w) ? w->M[a][c] : (double)(a == c)) * dirs[k][c];
+        for (int a = 0; a < 3; a++)
+            u[a] = dirs[k][a] / sqrt(l2);
+        double t = iso_walk(w, x, f, iso, u, fmin(best, ISO_WALK_MAX));
+        if (t < best) best = t;
+    }
+    return best < INFINITY ? best : est;
 }
 
 /* First-order distance |f - iso| / |grad f| of index position y from the isosurface
@@ -536,16 +586,16 @@ static int project_iso(const hx *w, double y[3]) {
 
 enum { MOVE_TANGENT, MOVE_LOOSE, MOVE_PROJECT };
 
-/* Distance (voxels) from the isosurface of the bilinear sample (u, v) of boundary quad q
- * with point i at world position x: a quad's bilinear surface bulges or sags between its
- * points, and the report samples it there. */
-static double quad_sample_distance(const hx *w, size_t q, size_t i, const double x[3], double u,
-                                   double v) {
-    double wt[4] = {(1.0 - u) * (1.0 - v), u * (1.0 - v), u * v, (1.0 - u) * v}, c[3] = {0, 0, 0};
-    for (int j = 0; j < 4; j++) {
-        size_t k = (size_t)w->bq[4 * q + (size_t)j];
-        const double *pk = k == i ? x : w->p + 3 * k;
-        for (int a = 0; a < 3; a++) c[a] += wt[j] * pk[a];
+/* Distance (voxels) from the isosurface of the sample of boundary quad q whose weights on
+ * its points, from corner j on, are wt, with point i at world position x. */
+static double quad_sample_distance(const hx *w, size_t q, int j, size_t i, const double x[3],
+                                   const double wt[4]) {
+    double c[3] = {0, 0, 0};
+    for (int k = 0; k < 4; k++) {
+        size_t pk = (size_t)w->bq[4 * q + (size_t)((j + k) % 4)];
+        const double *xk = pk == i ? x : w->p + 3 * pk;
+        for (int a = 0; a < 3; a++)
+            c[a] += wt[k] * xk[a];
     }
     double y[3];
     to_index(w, c, y);
@@ -553,25 +603,97 @@ static double quad_sample_distance(const hx *w, size_t q, size_t i, const double
     return iso_distance(w, y);
 }
 
+/* The samples of a boundary quad that a move of its corner a moves, as weights on the points
+ * a, b, c, d in the quad's order from a: on the bilinear face (its centre, the midpoints and
+ * quarter points of the edges at a, the quarter point at a), and on the triangles either
+ * diagonal splits it into (a writer, the report and VTK draw a quad as two of them): the
+ * diagonal from a's midpoint and quarter point, and the three triangles' centroids at a. */
+#define QUAD_SAMPLES 11
+static const double quad_wt[QUAD_SAMPLES][4] = {{0.25, 0.25, 0.25, 0.25},
+                                                {0.5, 0.5, 0.0, 0.0},
+                                                {0.5, 0.0, 0.0, 0.5},
+                                                {0.75, 0.25, 0.0, 0.0},
+                                                {0.75, 0.0, 0.0, 0.25},
+                                                {0.5625, 0.1875, 0.0625, 0.1875},
+                                                {0.5, 0.0, 0.5, 0.0},
+                                                {0.75, 0.0, 0.25, 0.0},
+                                                {1.0 / 3, 1.0 / 3, 0.0, 1.0 / 3},
+                                                {1.0 / 3, 1.0 / 3, 1.0 / 3, 0.0},
+                                                {1.0 / 3, 0.0, 1.0 / 3, 1.0 / 3}};
+
 /* Whether point i (a surface point) may move to world position x as far as its boundary
- * quads say: each quad's centre and the midpoints of its two edges at i stay within
- * ISO_QUAD_MAX of the isosurface, or no farther from it than with i where it is. */
+ * quads say: each quad's samples that the move moves (quad_wt) stay within ISO_QUAD_MAX of
+ * the isosurface, or no farther from it than with i where it is. */
 static int quads_near(const hx *w, size_t i, const double x[3]) {
-    /* (u, v) of the samples next to each corner j: the centre, then the edges j-(j+1) and
-     * j-(j+3) */
-    static const double mid[4][2][2] = {{{0.5, 0.0}, {0.0, 0.5}},
-                                        {{0.5, 0.0}, {1.0, 0.5}},
-                                        {{1.0, 0.5}, {0.5, 1.0}},
-                                        {{0.5, 1.0}, {0.0, 0.5}}};
     for (size_t e = w->bqs[i]; e < w->bqs[i + 1]; e++) {
         size_t q = w->bqi[e] / 4;
         int j = (int)(w->bqi[e] % 4);
-        double uv[3][2] = {{0.5, 0.5}, {mid[j][0][0], mid[j][0][1]}, {mid[j][1][0], mid[j][1][1]}};
-        for (int s = 0; s < 3; s++) {
-            double d = quad_sample_distance(w, q, i, x, uv[s][0], uv[s][1]);
+        for (int k = 0; k < QUAD_SAMPLES; k++) {
+            double d = quad_sample_distance(w, q, j, i, x, quad_wt[k]);
             if (d > ISO_QUAD_MAX &&
-                d > quad_sample_distance(w, q, i, w->p + 3 * i, uv[s][0], uv[s][1]))
+                d > quad_sample_distance(w, q, j, i, w->p + 3 * i, quad_wt[k]))
                 return 0;
+        }
+    }
+    return 1;
+}
+
+/* The frame distances are measured in: the world over mscale where the metric is on (see
+ * hx), index space elsewhere. */
+static void dist_frame(const hx *w, const double x[3], double f[3]) {
+    if (!metric_on(w)) {
+        to_index(w, x, f);
+        return;
+    }
+    for (int a = 0; a < 3; a++)
+        f[a] = x[a] / w->mscale;
+}
+
+/* Squared distance of s (distance frame) from boundary quad q, with point i at world position
+ * x: the four triangles round the quad's centre. */
+static double quad_dist2(const hx *w, size_t q, size_t i, const double x[3],
+                         const double s[3]) {
+    double c[4][3], m[3] = {0, 0, 0}, best = INFINITY;
+    for (int j = 0; j < 4; j++) {
+        size_t k = (size_t)w->bq[4 * q + (size_t)j];
+        dist_frame(w, k == i ? x : w->p + 3 * k, c[j]);
+        for (int a = 0; a < 3; a++)
+            m[a] += 0.25 * c[j][a];
+    }
+    for (int j = 0; j < 4; j++) {
+        double d2 = vm__point_triangle_dist2(s, c[j], c[(j + 1) % 4], m);
+        if (d2 < best) best = d2;
+    }
+    return best;
+}
+
+/* Distance (voxels) of sample s (distance frame) of quad q0 from the boundary quads of point
+ * i, with i at world position x, q0 first; stops early once it is within enough. */
+static double quads_distance(const hx *w, size_t i, const double x[3], const double s[3],
+                             size_t q0, double enough) {
+    double e2 = enough * enough, best = quad_dist2(w, q0, i, x, s);
+    for (size_t e = w->bqs[i]; e < w->bqs[i + 1] && best > e2; e++) {
+        size_t q = w->bqi[e] / 4;
+        if (q == q0) continue;
+        double d2 = quad_dist2(w, q, i, x, s);
+        if (d2 < best) best = d2;
+    }
+    return sqrt(best);
+}
+
+/* Whether point i may move to world position x as far as the isosurface samples of its
+ * boundary quads say: each stays within ISO_QUAD_MAX of those quads, or no farther from
+ * them than with i where it is. */
+static int samples_near(const hx *w, size_t i, const double x[3]) {
+    if (!w->isp) return 1;
+    for (size_t e = w->bqs[i]; e < w->bqs[i + 1]; e++) {
+        size_t q = w->bqi[e] / 4;
+        const double *sq = w->isp + 3 * ISO_SAMPLES * q;
+        for (int k = 0; k < ISO_SAMPLES; k++) {
+            const double *s = sq + 3 * k;
+            if (isnan(s[0])) continue;
+            double d = quads_distance(w, i, x, s, q, ISO_QUAD_MAX);
+            if (d > ISO_QUAD_MAX && d > quads_distance(w, i, w->p + 3 * i, s, q, 0.0)) return 0;
         }
     }
     return 1;
@@ -630,16 +752,14 @@ static int constrain(const hx *w, size_t i, double x[3], int mode) {
 }
 
 /* Whether a move of point i to x (constrained in mode) keeps its boundary quads near the
- * isosurface where the pass bounds them: surface points' tangent and loose moves on a mesh
- * that came out of the mesher valid (docs/ALGORITHMS.md, hex section, step 4, "Quads"). */
+ * isosurface where the pass bounds them, on a mesh that came out of the mesher valid
+ * (docs/ALGORITHMS.md, hex section, step 4, "Quads"): a surface point's quad samples near
+ * the isosurface (quads_near), and the isosurface samples near the quads (samples_near)
+ * for surface and box-plane points alike. */
 static int quads_ok(const hx *w, size_t i, const double x[3], int mode) {
-    if (!w->fit || w->cls[i] != CLS_ISO || mode == MOVE_PROJECT) return 1;
-    return quads_near(w, i, x);
-}
-
-/* constrain, then quads_ok. */
-static int constrain_q(const hx *w, size_t i, double x[3], int mode) {
-    return constrain(w, i, x, mode) && quads_ok(w, i, x, mode);
+    if (!w->fit || mode == MOVE_PROJECT || w->cls[i] == CLS_FREE) return 1;
+    if (w->cls[i] == CLS_ISO && !quads_near(w, i, x)) return 0;
+    return samples_near(w, i, x);
 }
 
 /* ---- connectivity ---- */
@@ -811,6 +931,42 @@ static vm_status classify(hx *w, vm_error *err) {
             if (w->planes[c[fc[j]]] & 0x3fu) w->planes[c[fc[j]]] |= PLANE_RIM;
     }
     free(bf);
+    return VM_OK;
+}
+
+/* Where the run starts: the isosurface samples of the boundary quads (see hx->isp) on a mesh
+ * that came out of the mesher valid (the distances are bounded there only). A quad on one box
+ * plane has none (the isosurface does not close the box). */
+static vm_status iso_samples(hx *w, vm_error *err) {
+    static const double uv[3] = {1.0 / 6.0, 0.5, 5.0 / 6.0};
+    free(w->isp);
+    w->isp = NULL;
+    if (!w->fit || !w->v || !w->nq) return VM_OK;
+    w->isp = malloc(3 * ISO_SAMPLES * w->nq * sizeof *w->isp);
+    if (!w->isp) return vm_error_set(err, VM_ERR_NOMEM, "improve: out of memory");
+    for (size_t q = 0; q < w->nq; q++) {
+        double *sq = w->isp + 3 * ISO_SAMPLES * q;
+        unsigned common = 0x3fu;
+        for (int j = 0; j < 4; j++)
+            common &= w->planes[w->bq[4 * q + (size_t)j]];
+        for (int k = 0; k < ISO_SAMPLES; k++) {
+            double u = uv[k % 3], v = uv[k / 3], y[3], c[3] = {0, 0, 0};
+            double wt[4] = {(1.0 - u) * (1.0 - v), u * (1.0 - v), u * v, (1.0 - u) * v};
+            for (int j = 0; j < 4; j++) {
+                const double *pk = w->p + 3 * (size_t)w->bq[4 * q + (size_t)j];
+                for (int a = 0; a < 3; a++)
+                    c[a] += wt[j] * pk[a];
+            }
+            to_index(w, c, y);
+            if ((common & 0x3fu) || !project_iso(w, y)) {
+                for (int a = 0; a < 3; a++)
+                    sq[3 * k + a] = NAN;
+                continue;
+            }
+            to_world(w, y, c);
+            dist_frame(w, c, sq + 3 * k);
+        }
+    }
     return VM_OK;
 }
 
@@ -1027,19 +1183,6 @@ done:
 }
 
 /* ---- vertex moves ---- */
-
-#define R3 0.57735026918962576 /* 1 / sqrt(3) */
-#define R2 0.70710678118654752 /* 1 / sqrt(2) */
-/* 6 axis and 8 diagonal directions (unit length), then 12 face diagonals: smoothing uses the
- * first 14, untangling all 26 (its penalty is piecewise linear, and a descent direction
- * at a kink can lie in a narrow cone). */
-static const double dirs[26][3] = {
-    {1, 0, 0},     {-1, 0, 0},     {0, 1, 0},      {0, -1, 0},      {0, 0, 1},
-    {0, 0, -1},    {R3, R3, R3},   {-R3, R3, R3},  {R3, -R3, R3},   {-R3, -R3, R3},
-    {R3, R3, -R3}, {-R3, R3, -R3}, {R3, -R3, -R3}, {-R3, -R3, -R3}, {R2, R2, 0},
-    {-R2, R2, 0},  {R2, -R2, 0},   {-R2, -R2, 0},  {R2, 0, R2},     {-R2, 0, R2},
-    {R2, 0, -R2},  {-R2, 0, -R2},  {0, R2, R2},    {0, -R2, R2},    {0, R2, -R2},
-    {0, -R2, -R2}};
 
 /* Mean length of the edges at point i. */
 static double edge_scale(const hx *w, size_t i) {
@@ -1568,6 +1711,7 @@ static vm_status start(hx *w, const vm_mesh *m, const vm_hex_improve_options *o,
     }
     if (!s) s = build_incidence(w, err);
     if (!s) s = classify(w, err);
+    if (!s) s = iso_samples(w, err);
     if (s) return s;
     *q = malloc((w->nh + 1) * sizeof **q);
     *active = malloc(2 * w->np + 1);
@@ -1606,6 +1750,8 @@ static void hx_free(hx *w) {
     free(w->bq);
     free(w->bqs);
     free(w->bqi);
+    free(w->isp);
+    w->isp = NULL;
     w->bq = NULL;
     w->bqs = w->bqi = NULL;
     w->nq = 0;
@@ -1760,9 +1906,11 @@ static int patch_move(hx *w, size_t i, double bar, double floor) {
                     double y[3], m2;
                     for (int a = 0; a < 3; a++) y[a] = x[a] + h * dirs[d][a];
                     int mode = v == 2 ? MOVE_LOOSE : v ? MOVE_PROJECT : MOVE_TANGENT;
-                    if (!constrain_q(w, i, y, mode)) continue;
+                    if (!constrain(w, i, y, mode)) continue;
                     double ne = patch_energy(&S, y, bar, &m2, be - ENERGY_MARGIN, keep);
-                    if (ne < be - ENERGY_MARGIN && m2 >= keep) {
+                    /* the quads' bound only for a candidate that would be kept (as in
+                     * optimise) */
+                    if (ne < be - ENERGY_MARGIN && m2 >= keep && quads_ok(w, i, y, mode)) {
                         best = d;
                         be = ne;
                         memcpy(bx, y, sizeof bx);
@@ -1813,18 +1961,29 @@ static int group_move(hx *w, const size_t *pts, int n) {
             double bq = cur, bs = sum, bp[8][3];
             for (int d = 0; d < 26; d++)
                 for (int v = 0; v < 3; v++) {
-                    int ok = 1;
+                    int ok = 1, modes[8];
                     for (int j = 0; j < n && ok; j++) {
                         double y[3];
                         for (int a = 0; a < 3; a++) y[a] = base[j][a] + h * dirs[d][a];
                         int mode = w->cls[pts[j]] != CLS_ISO || !v ? MOVE_TANGENT
                                    : v == 2                         ? MOVE_LOOSE
                                                                     : MOVE_PROJECT;
-                        ok = constrain_q(w, pts[j], y, mode);
+                        ok = constrain(w, pts[j], y, mode);
                         if (ok) memcpy(w->p + 3 * pts[j], y, sizeof y);
+                        modes[j] = mode;
                     }
                     double s2, q2 = ok ? group_q(w, pts, n, &s2) : -INFINITY;
-                    if (ok && (q2 > bq + SJ_MARGIN || (q2 >= bq && s2 > bs + SUM_MARGIN))) {
+                    ok = ok && (q2 > bq + SJ_MARGIN || (q2 >= bq && s2 > bs + SUM_MARGIN));
+                    /* the quads' bound, with the whole group moved, for a candidate that
+                     * would be kept: each point's move as from the others' new places */
+                    for (int j = 0; j < n && ok; j++) {
+                        double y[3];
+                        memcpy(y, w->p + 3 * pts[j], sizeof y);
+                        memcpy(w->p + 3 * pts[j], base[j], sizeof y);
+                        ok = quads_ok(w, pts[j], y, modes[j]);
+                        memcpy(w->p + 3 * pts[j], y, sizeof y);
+                    }
+                    if (ok) {
                         best = d;
                         bq = q2;
                         bs = s2;
@@ -1997,6 +2156,7 @@ static void metric_setup(hx *w) {
     double M[3][3], A[3][3];
     memcpy(A, w->A, sizeof A);
     double h2 = pow(fabs(det3(A)), 2.0 / 3.0);
+    w->mscale = sqrt(h2);
     int unit = 1;
     for (int a = 0; a < 3; a++)
         for (int c = 0; c < 3; c++) {
@@ -2004,6 +2164,7 @@ static void metric_setup(hx *w) {
             M[a][c] = dot / h2;
             if (fabs(M[a][c] - (a == c ? 1.0 : 0.0)) > METRIC_UNIT_TOL) unit = 0;
         }
+    memcpy(w->M, M, sizeof M);
     w->aniso = !unit && invert3(M, w->G);
 }
 
