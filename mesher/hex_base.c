@@ -150,11 +150,15 @@ static int base_topology(const vm_mesh_report *r, const vm_mesh_report *t) {
 
 /* 1 when a trial after the pass (d: its report, dist) keeps the shape of the
  * full-resolution raw mesh r: its topology, no inverted hex, min scaled Jacobian at least
- * base_min_sj, volume within base_volume_tol, boundary within base_distance_tol. */
+ * base_min_sj, volume within base_volume_tol, boundary within base_distance_tol; and saves
+ * hexes: fewer than r has (a plate 1.2 voxels thick at 64^3 kept its shape at step 1.4 in
+ * 1 024 raw hexes, but only with the pass's pillow layer round all of them: 3 200 hexes
+ * against 1 936 uniform, which need no layer). */
 static int base_keeps(const vm_mesh_report *r, const vm_mesh_report *d,
                       const vm_surface_distance *dist) {
     if (!base_topology(r, d) || d->inverted || !(d->min_scaled_jacobian >= base_min_sj))
         return 0;
+    if (d->cells >= r->cells) return 0;
     if (!(fabs(d->volume - r->volume) <= base_volume_tol * fabs(r->volume))) return 0;
     double vox = dist->voxel > 0 ? dist->voxel : 1;
     return dist->hausdorff / vox <= base_distance_tol;
