@@ -55,8 +55,9 @@ enum { CLS_FREE = 0, CLS_ISO = 1, CLS_PLANE = 2, CLS_FIXED = 3 };
  * this of the isosurface (or no farther than they were). */
 #define ISO_QUAD_MAX 0.45
 /* Isosurface samples: each boundary quad off the box planes keeps the isosurface points its
- * bilinear samples at (u, v) in ISO_UV^2 project onto where the run starts; a move keeps each
- * within ISO_QUAD_MAX of the quads round the point (or no farther than it was). */
+ * bilinear samples at (u, v) in {1/6, 1/2, 5/6}^2 project onto where the run starts
+ * (iso_samples); a move keeps each within ISO_QUAD_MAX of the quads round the point (or no
+ * farther than it was). */
 #define ISO_SAMPLES 9
 /* MOVE_LOOSE lets a surface point go anywhere within this of the isosurface. */
 #define ISO_LOOSE_MAX 0.4
