@@ -1004,6 +1004,7 @@ static int improve_mesh(mesh_args *m, mesh_job *j) {
         vm_improve_options_default(&io);
         COPY_BOUNDS(io, m->o);
         io.max_edge = m->o.max_edge;
+        if (m->o.graded) io.distance = j->st.distance;
         io.parts = m->improve_parts;
         io.progress = vm_cli_progress;
         io.progress_user = &m->quiet;

@@ -373,7 +373,7 @@ static vm_status check_args(const vm_mesh *m, const vm_volume *v, const vm_impro
     if (!(o->target_min_dihedral > 0.0) || !(o->target_max_dihedral < 180.0) ||
         !(o->target_volume_measure > 0.0) || !(o->max_surface_move >= 0.0) ||
         !(o->max_surface_move_free >= 0.0) || !(o->max_interface_move >= 0.0) ||
-        !(o->surface_band >= 0.0) || o->surface_chords < 0 ||
+        !(o->surface_band >= 0.0) || o->surface_chords < 0 || !(o->distance >= 0.0) ||
         !(o->surface_tolerance >= o->surface_band))
         return vm_error_set(err, VM_ERR_ARG, "improve: targets and bounds must be positive");
     if (v && !o->has_lo && !o->has_hi)

@@ -381,6 +381,7 @@ vm_status vm__mesh_graded(const vm_volume *v, const vm_mesh_options *o, vm_mesh 
     lap(&clk, &st->graded_coarsen_s);
     if (!s && tick(&pm, &ticks)) s = vm__cancelled(err, "mesh");
     st->size_scale = sz.distance / d0;
+    st->distance = sz.distance;
     st->octree_leaves = t.leaves;
     st->warped_vertices = ss.warped;
     st->surface_vertices = ss.cut_vertices + ss.warped;

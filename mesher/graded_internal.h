@@ -229,14 +229,19 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
                          size_t target, int merge, struct vm__meter *pm, size_t *removed,
                          vm_error *err);
 
-/* The coarsening's mean sweeps (graded_coarsen.c, mean_sweep) over the interior vertices of
- * a graded mesh after its quality pass: each goes towards the mean of its neighbours where
- * that raises the sum of its tets' smallest dihedral angles and lowers none below the star's
- * worst, every changed tet within 15..150 degrees (or no worse than the star was) and
- * ABAQUS's check, no edge over max_edge (0: none). The boundary does not move. The material
- * is {lo <= f <= hi} of v (its border planes). [out] *moved: vertices moved. */
+/* The coarsening's mean sweeps (graded_coarsen.c, mean_sweep) over a graded mesh after its
+ * quality pass: each vertex goes towards the mean of its neighbours where that raises the
+ * sum of its tets' smallest dihedral angles and lowers none below the star's worst, every
+ * changed tet within 15..150 degrees (or no worse than the star was) and ABAQUS's check, no
+ * edge over max_edge (0: none) nor longer than the star's longest. With distance > 0 (world
+ * units) boundary vertices move too, and each sweep follows flip sweeps (flip_sweep:
+ * 2-3, 3-2, edge removals, boundary edge removals), both keeping the distance both ways as
+ * the coarsening does; with 0 only interior vertices move and nothing flips. The material
+ * is {lo <= f <= hi} of v (its border planes). [out] *moved: vertex moves, *flips: flips
+ * made (the mesh comes back compacted when there are any). */
 vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi,
-                             int has_hi, double max_edge, size_t *moved, vm_error *err);
+                             int has_hi, double max_edge, double distance, size_t *moved,
+                             size_t *flips, vm_error *err);
 
 /* The coarsening's flip sweeps (graded_coarsen.c, flip_sweep: 2-3 and 3-2 flips, edge
  * removal and boundary edge removal, each where it betters the worst tet it replaces) over

@@ -70,6 +70,13 @@ typedef struct vm_improve_options {
     /* No operation makes an edge longer than this (world units; 0, the default: no bound):
      * the mesher's --max-edge, which flips, contractions and moves would otherwise exceed. */
     double max_edge;
+    /* vm_mesh_improve_graded: the graded mesher's distance bound (world units). After the
+     * pass, flips and mean sweeps raise the mean of each tet's smallest dihedral angle; they
+     * move boundary vertices and flip boundary edges only where the boundary triangles stay
+     * within it of the isosurface and each isosurface sample within it of the boundary (or
+     * no farther than it was). 0, the default: they leave the boundary as the pass left it
+     * (interior vertices move, nothing flips); negative: VM_ERR_ARG. */
+    double distance;
     int max_passes;          /* rounds of contract + flip + smooth; default 12 */
     int contract, flip, smooth, perturb; /* enable each operation (all 1 by default) */
     unsigned seed;           /* random perturbations are reproducible for a given seed */

@@ -91,6 +91,8 @@ typedef struct vm_mesh_stats {
     size_t refine_rounds;      /* graded: rounds of refining where the distance was over */
     size_t topology_rounds;    /* graded: rounds of refining where the topology differed */
     double size_scale;         /* graded with a tet target: the sizes' scale found (else 1) */
+    double distance;           /* graded: the distance bound the boundary was coarsened to
+                                  (world units, with size_scale; vm_improve_options.distance) */
     size_t coarsened;          /* graded: vertices removed by coarsening */
     int refine_undone;         /* graded: the last distance refinement changed the topology
                                   and was undone (the distance may be over the bound) */

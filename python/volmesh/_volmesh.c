@@ -587,7 +587,9 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
     o.min_layers = r->min_layers;
     o.size_field = r->size_field ? &r->sf : NULL;
     SET_PROGRESS(o, fn, p);
-    s = vm_mesh_volume(v, &o, m, NULL, err);
+    vm_mesh_stats st;
+    memset(&st, 0, sizeof st);
+    s = vm_mesh_volume(v, &o, m, &st, err);
     if (s || !r->improve) return s;
     if (m->kind == VM_TET4) {
         vm_improve_options io;
@@ -595,6 +597,7 @@ static vm_status run_mesh(const vm_volume *v, const mesh_request *r, progress_ct
         SET_BOUNDS(io, r);
         SET_PROGRESS(io, fn, p);
         io.max_edge = o.max_edge;
+        if (o.graded) io.distance = st.distance;
         vm_improve_report ir;
         s = o.graded ? vm_mesh_improve_graded(m, v, &io, &ir, err)
                      : vm_mesh_improve(m, v, &io, &ir, err);
