@@ -496,14 +496,88 @@ static const double dirs[26][3] = {
     {R2, 0, -R2},  {-R2, 0, -R2},  {0, R2, R2},    {0, -R2, R2},    {0, R2, -R2},
     {0, -R2, -R2}};
 
+/* The trilinear field of cell i0 along the ray x + t u (index space, no clamping) as the
+ * cubic k[0] + k[1] t + k[2] t^2 + k[3] t^3, and [out] *margin, more than the round-off
+ * between it and field_value's sum within the cell (1e-9 of the largest magnitude of its
+ * values; the cubic's coefficients carry a few ulps of it). 0 when the terms are not finite. */
+static int ray_cubic(const vm_volume *v, const int64_t i0[3], const double x[3],
+                     const double u[3], double k[4], double *margin) {
+    double p[3], big = 0.0;
+    for (int a = 0; a < 3; a++)
+        p[a] = x[a] - (double)i0[a];
+    /* along x: e[dy + 2 dz] = e0 + e1 t; along y: q[dz] quadratic; along z: the cubic */
+    double e[4][2], q[2][3];
+    for (int j = 0; j < 4; j++) {
+        int dy = j & 1, dz = j >> 1;
+        size_t base = (size_t)(i0[0] + v->dims[0] * ((i0[1] + dy) + v->dims[1] * (i0[2] + dz)));
+        double s0 = v->data[base], s1 = v->data[base + 1];
+        if (fabs(s0) > big) big = fabs(s0);
+        if (fabs(s1) > big) big = fabs(s1);
+        e[j][0] = s0 + (s1 - s0) * p[0];
+        e[j][1] = (s1 - s0) * u[0];
+    }
+    for (int dz = 0; dz < 2; dz++) {
+        const double *a0 = e[2 * dz], *a1 = e[2 * dz + 1];
+        double d0 = a1[0] - a0[0], d1 = a1[1] - a0[1]; /* a0 + (a1 - a0) (p1 + u1 t) */
+        q[dz][0] = a0[0] + d0 * p[1];
+        q[dz][1] = a0[1] + d0 * u[1] + d1 * p[1];
+        q[dz][2] = d1 * u[1];
+    }
+    double d[3] = {q[1][0] - q[0][0], q[1][1] - q[0][1], q[1][2] - q[0][2]};
+    k[0] = q[0][0] + d[0] * p[2];
+    k[1] = q[0][1] + d[0] * u[2] + d[1] * p[2];
+    k[2] = q[0][2] + d[1] * u[2] + d[2] * p[2];
+    k[3] = d[2] * u[2];
+    *margin = 1e-9 * big;
+    return isfinite(k[0]) && isfinite(k[1]) && isfinite(k[2]) && isfinite(k[3]) && big > 0.0;
+}
+
+/* How far (t) the ray x + t u stays in cell i0 as field_cell finds it: a point of the ray
+ * before the returned t lies at least CELL_STAY_MARGIN voxels inside the cell's planes that
+ * the ray heads for (field_cell clamps beyond the box, so the outer cells reach on to
+ * infinity), which round-off of x + t u cannot cross; the ray's coordinates run
+ * monotonically, so the planes behind it are not crossed either. */
+#define CELL_STAY_MARGIN 1e-9
+static double cell_stay(const vm_volume *v, const int64_t i0[3], const double x[3],
+                        const double u[3], const double y[3], int strict) {
+    double t = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        double b;
+        if (u[a] > 0.0 && (strict || i0[a] < v->dims[a] - 2))
+            b = ((double)i0[a] + 1.0 - CELL_STAY_MARGIN - x[a]) / u[a];
+        else if (u[a] < 0.0 && (strict || i0[a] > 0))
+            b = ((double)i0[a] + CELL_STAY_MARGIN - x[a]) / u[a];
+        else
+            continue;
+        if (b < t) t = b;
+    }
+    /* strict: y, the ray's point now, must be in the cell too (beyond the box field_cell
+     * clamps, and ray_cubic's cubic does not) */
+    if (strict)
+        for (int a = 0; a < 3; a++)
+            if (!(y[a] >= (double)i0[a] && y[a] <= (double)i0[a] + 1.0)) return -INFINITY;
+    return t;
+}
+
 /* The first crossing of the isosurface (value f at x, bound iso) on the ray from index
  * position x along index-space step u (one voxel long in the distance's metric), in steps of
  * ISO_WALK_STEP up to tmax; INFINITY when there is none. */
 static double iso_walk(const hx *w, const double x[3], double f, double iso, const double u[3],
                        double tmax) {
-    /* the steps in a cell the field does not cross iso in are skipped: most of a walk */
+    /* the steps in a cell the field does not cross iso in are skipped: most of a walk; the
+     * steps before the ray surely leaves such a cell (safe_until) are not even placed. In a
+     * cell it crosses iso in, the field along the ray is a cubic in t (ray_cubic): until the
+     * ray surely leaves that cell (cub_until), a step where the cubic is clearly on f's side
+     * is passed without placing it (151 million steps in 5.6 million walks on ironProt's
+     * hexes, 1.4 million of them measured) */
     int64_t safe[3] = {-1, -1, -1};
+    double safe_until = -INFINITY, cub_until = -INFINITY, k[4] = {0, 0, 0, 0}, margin = 0.0;
     for (double t = ISO_WALK_STEP; t <= tmax; t += ISO_WALK_STEP) {
+        if (t < safe_until) continue;
+        if (t < cub_until) {
+            double e = ((k[3] * t + k[2]) * t + k[1]) * t + k[0] - iso;
+            if (f > iso ? e > margin : e < -margin) continue;
+        }
         double y[3], fr[3];
         int64_t c[3];
         for (int a = 0; a < 3; a++)
@@ -512,7 +586,17 @@ static double iso_walk(const hx *w, const double x[3], double f, double iso, con
         if (c[0] == safe[0] && c[1] == safe[1] && c[2] == safe[2]) continue;
         if (cell_one_side(w->v, c, iso, f > iso)) {
             memcpy(safe, c, sizeof safe);
+            safe_until = cell_stay(w->v, c, x, u, y, 0);
             continue;
+        }
+        if (!(t < cub_until) && f != iso) { /* (f on iso: every step measured, as it was) */
+            cub_until = ray_cubic(w->v, c, x, u, k, &margin) ? cell_stay(w->v, c, x, u, y, 1)
+                                                             : -INFINITY;
+            /* (the step itself, as any: clearly on f's side, or measured) */
+            if (t < cub_until) {
+                double e = ((k[3] * t + k[2]) * t + k[1]) * t + k[0] - iso;
+                if (f > iso ? e > margin : e < -margin) continue;
+            }
         }
         double fy = field_value(w->v, c, fr);
         if ((fy - iso) * (f - iso) <= 0.0) return t;
@@ -650,33 +734,40 @@ static void dist_frame(const hx *w, const double x[3], double f[3]) {
         f[a] = x[a] / w->mscale;
 }
 
-/* Squared distance of s (distance frame) from boundary quad q, with point i at world position
- * x: the four triangles round the quad's centre. */
-static double quad_dist2(const hx *w, size_t q, size_t i, const double x[3],
-                         const double s[3]) {
-    double c[4][3], m[3] = {0, 0, 0}, best = INFINITY;
+/* Boundary quad q with point i at world position x, in the distance frame: its corners and
+ * their mean (the four triangles round the centre that quad_dist2 measures). */
+typedef struct quad_frame {
+    double c[4][3], m[3];
+} quad_frame;
+
+static void quad_frame_of(const hx *w, size_t q, size_t i, const double x[3], quad_frame *F) {
+    F->m[0] = F->m[1] = F->m[2] = 0;
     for (int j = 0; j < 4; j++) {
         size_t k = (size_t)w->bq[4 * q + (size_t)j];
-        dist_frame(w, k == i ? x : w->p + 3 * k, c[j]);
+        dist_frame(w, k == i ? x : w->p + 3 * k, F->c[j]);
         for (int a = 0; a < 3; a++)
-            m[a] += 0.25 * c[j][a];
+            F->m[a] += 0.25 * F->c[j][a];
     }
+}
+
+/* Squared distance of s (distance frame) from the quad F. */
+static double quad_dist2(const quad_frame *F, const double s[3]) {
+    double best = INFINITY;
     for (int j = 0; j < 4; j++) {
-        double d2 = vm__point_triangle_dist2(s, c[j], c[(j + 1) % 4], m);
+        double d2 = vm__point_triangle_dist2(s, F->c[j], F->c[(j + 1) % 4], F->m);
         if (d2 < best) best = d2;
     }
     return best;
 }
 
-/* Distance (voxels) of sample s (distance frame) of quad q0 from the boundary quads of point
- * i, with i at world position x, q0 first; stops early once it is within enough. */
-static double quads_distance(const hx *w, size_t i, const double x[3], const double s[3],
-                             size_t q0, double enough) {
-    double e2 = enough * enough, best = quad_dist2(w, q0, i, x, s);
-    for (size_t e = w->bqs[i]; e < w->bqs[i + 1] && best > e2; e++) {
-        size_t q = w->bqi[e] / 4;
-        if (q == q0) continue;
-        double d2 = quad_dist2(w, q, i, x, s);
+/* Distance (voxels) of sample s (distance frame) of quad F[q0] from the quads F[0..n) (the
+ * boundary quads of a point, as placed), F[q0] first; stops early once it is within enough. */
+static double quads_distance(const quad_frame *F, size_t n, const double s[3], size_t q0,
+                             double enough) {
+    double e2 = enough * enough, best = quad_dist2(&F[q0], s);
+    for (size_t e = 0; e < n && best > e2; e++) {
+        if (e == q0) continue;
+        double d2 = quad_dist2(&F[e], s);
         if (d2 < best) best = d2;
     }
     return sqrt(best);
@@ -684,20 +775,36 @@ static double quads_distance(const hx *w, size_t i, const double x[3], const dou
 
 /* Whether point i may move to world position x as far as the isosurface samples of its
  * boundary quads say: each stays within ISO_QUAD_MAX of those quads, or no farther from
- * them than with i where it is. */
+ * them than with i where it is. The quads are placed once for x and, when a sample needs
+ * it, once for where i is. */
 static int samples_near(const hx *w, size_t i, const double x[3]) {
     if (!w->isp) return 1;
-    for (size_t e = w->bqs[i]; e < w->bqs[i + 1]; e++) {
-        size_t q = w->bqi[e] / 4;
+    enum { QF_HERE = 32 };
+    quad_frame here[2 * QF_HERE], *F = here;
+    size_t n = w->bqs[i + 1] - w->bqs[i];
+    if (n > QF_HERE && !(F = malloc(2 * n * sizeof *F))) return 0;
+    quad_frame *G = F + n; /* i where it is, placed on first need */
+    int placed = 0, ok = 1;
+    for (size_t e = 0; e < n; e++)
+        quad_frame_of(w, w->bqi[w->bqs[i] + e] / 4, i, x, &F[e]);
+    for (size_t e = 0; e < n && ok; e++) {
+        size_t q = w->bqi[w->bqs[i] + e] / 4;
         const double *sq = w->isp + 3 * ISO_SAMPLES * q;
-        for (int k = 0; k < ISO_SAMPLES; k++) {
+        for (int k = 0; k < ISO_SAMPLES && ok; k++) {
             const double *s = sq + 3 * k;
             if (isnan(s[0])) continue;
-            double d = quads_distance(w, i, x, s, q, ISO_QUAD_MAX);
-            if (d > ISO_QUAD_MAX && d > quads_distance(w, i, w->p + 3 * i, s, q, 0.0)) return 0;
+            double d = quads_distance(F, n, s, e, ISO_QUAD_MAX);
+            if (!(d > ISO_QUAD_MAX)) continue;
+            if (!placed) {
+                for (size_t g = 0; g < n; g++)
+                    quad_frame_of(w, w->bqi[w->bqs[i] + g] / 4, i, w->p + 3 * i, &G[g]);
+                placed = 1;
+            }
+            if (d > quads_distance(G, n, s, e, 0.0)) ok = 0;
         }
     }
-    return 1;
+    if (F != here) free(F);
+    return ok;
 }
 
 /* Moves a trial position x of point i onto its constraint; 0 when that fails or takes it more
