@@ -50,7 +50,9 @@ def measure(vol, iso, points, tets):
     tris = R.boundary_triangles(tets)
     out, inn = R.hausdorff(vol, iso, points, tris)
     return {"tets": int(st["elements"]), "min_dihedral": float(st["min_dihedral"]),
-            "max_dihedral": float(st["max_dihedral"]), "euler": int(st["boundary_euler"]),
+            "max_dihedral": float(st["max_dihedral"]),
+            "mean_min_dihedral": float(st["mean_min_dihedral"]),
+            "euler": int(st["boundary_euler"]),
             "closed": bool(st["boundary_closed"]), "components": int(st["components"]),
             "to_surface": out, "from_surface": inn}
 
@@ -88,9 +90,10 @@ def block(rows, meta):
              "its quality pass, CGAL Mesh_3 with facet distance D, facet angle 25, radius-edge 3 "
              "and no size bound on the thresholded image; both measured by "
              "tests/reference/refstats.py (distances at the vertices, in voxels).", "",
-             "| case | mesher | tets | uniform ÷ tets | wall s | dihedral ° | boundary Euler, "
-             "closed | components | boundary→surface | surface→boundary |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "| case | mesher | tets | uniform ÷ tets | wall s | dihedral ° | mean of each tet's "
+             "min dihedral ° | boundary Euler, closed | components | boundary→surface | "
+             "surface→boundary |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         for who in ("volmesh", "cgal"):
             m = r.get(who)
@@ -101,7 +104,8 @@ def block(rows, meta):
                 f"| {r['case']} | {'volmesh graded' if who == 'volmesh' else 'CGAL Mesh_3'} | "
                 f"{m['tets']:,} | {r['uniform']['tets'] / max(m['tets'], 1):.1f} | "
                 f"{m['seconds']:.2f} | {m['min_dihedral']:.1f}..{m['max_dihedral']:.1f} | "
-                f"{m['euler']}, {'yes' if m['closed'] else 'no'} | {m['components']} | "
+                f"{m['mean_min_dihedral']:.1f} | {m['euler']}, {'yes' if m['closed'] else 'no'} | "
+                f"{m['components']} | "
                 f"{m['to_surface'] / vx:.2f} | {m['from_surface'] / vx:.2f} |")
     parts += ["", "The uniform column is the dual-contouring mesh's count (`--no-improve`). "
               "CGAL sees only the thresholded voxels: where its boundary misses thin parts and "

@@ -396,6 +396,7 @@ def mesh_stats(points, tets, strict_orientation=False):
         "inverted": int(np.sum(volume <= 0)),
         "min_dihedral": float(dmin.min()),
         "max_dihedral": float(dmax.max()),
+        "mean_min_dihedral": float(dmin.mean()),
         "slivers_5": int(np.sum(dmin < 5.0)),
         "slivers_10": int(np.sum(dmin < 10.0)),
         "rr_min": float(ratio.min()),
