@@ -103,6 +103,27 @@ static void thePassKeepsTheDistanceBothWays(void) {
     }
 }
 
+/* The phantom `kind` at n^3 ([out] v, info) and its graded mesh at max_edge (0: none) in m,
+ * its stats in st (NULL: not wanted); 0, with nothing to free, when either fails. */
+static int graded_phantom(vm_phantom_kind kind, int n, double max_edge, vm_volume *v,
+                          vm_phantom_info *info, vm_mesh *m, vm_mesh_stats *st) {
+    vm_error err;
+    vm_status s = vm_phantom_make(kind, n, 0.0, 1u, v, info, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) return 0;
+    vm_mesh_options o;
+    vm_mesh_options_default(&o);
+    o.graded = 1;
+    o.max_edge = max_edge;
+    s = vm_mesh_volume(v, &o, m, st, &err);
+    CHECK_OK(s, &err);
+    if (s != VM_OK) {
+        vm_volume_free(v);
+        return 0;
+    }
+    return 1;
+}
+
 /* The pass's last step, the interior sweeps for the mean angle (vm__gr_mean_smooth; their
  * gain is tested in tests/mesher/test_mesh_graded.c): on meshes that the pass leaves as they
  * are (a pass's output, its interior vertices pushed), the boundary stays put to the bit, the
@@ -114,20 +135,8 @@ static void theFinalSweepsKeepTheBoundaryAndTheWorst(void) {
         vm_volume v;
         vm_phantom_info info;
         vm_error err;
-        vm_status s = vm_phantom_make(kinds[k], 48, 0.0, 1u, &v, &info, &err);
-        CHECK_OK(s, &err);
-        if (s != VM_OK) continue;
-        vm_mesh_options o;
-        vm_mesh_options_default(&o);
-        o.graded = 1;
-        o.max_edge = 9.0;
         vm_mesh m;
-        s = vm_mesh_volume(&v, &o, &m, NULL, &err);
-        CHECK_OK(s, &err);
-        if (s != VM_OK) {
-            vm_volume_free(&v);
-            continue;
-        }
+        if (!graded_phantom(kinds[k], 48, 9.0, &v, &info, &m, NULL)) continue;
         vm_improve_options io;
         vm_improve_options_default(&io);
         io.lo = 0.0;
@@ -187,31 +196,21 @@ static void theDistanceLetsTheSweepsRaiseTheMean(void) {
     static const vm_phantom_kind kinds[] = {VM_PHANTOM_SPHERE, VM_PHANTOM_TORUS,
                                             VM_PHANTOM_GENUS3};
     for (size_t k = 0; k < sizeof kinds / sizeof kinds[0]; k++) {
-        vm_volume v;
+        vm_volume v, v1;
         vm_phantom_info info;
         vm_error err;
-        vm_status s = vm_phantom_make(kinds[k], 64, 0.0, 1u, &v, &info, &err);
-        CHECK_OK(s, &err);
-        if (s != VM_OK) continue;
-        vm_mesh_options o;
-        vm_mesh_options_default(&o);
-        o.graded = 1;
         vm_mesh m[2];
         vm_mesh_stats st;
-        s = vm_mesh_volume(&v, &o, &m[0], &st, &err);
-        CHECK_OK(s, &err);
-        if (s != VM_OK) {
-            vm_volume_free(&v);
-            continue;
-        }
-        CHECK_NEAR(st.distance, 0.5, 1e-12);           /* half a voxel of spacing 1 */
-        s = vm_mesh_volume(&v, &o, &m[1], NULL, &err); /* the same mesh again */
-        CHECK_OK(s, &err);
-        if (s != VM_OK) {
+        if (!graded_phantom(kinds[k], 64, 0.0, &v, &info, &m[0], &st)) continue;
+        CHECK_NEAR(st.distance, 0.5, 1e-12); /* half a voxel of spacing 1 */
+        /* the same mesh again, for the pass without the distance */
+        if (!graded_phantom(kinds[k], 64, 0.0, &v1, &info, &m[1], NULL)) {
             vm_mesh_free(&m[0]);
             vm_volume_free(&v);
             continue;
         }
+        vm_volume_free(&v1);
+        vm_status s;
         double mean[2] = {0, 0};
         for (int i = 0; i < 2; i++) {
             vm_improve_options io;
