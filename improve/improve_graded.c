@@ -310,12 +310,12 @@ vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improv
         io = *o;
     else
         vm_improve_options_default(&io);
-    size_t moved = 0, flips = 0;
+    size_t moved = 0, flips[4] = {0, 0, 0, 0};
     if (!s && v && m->kind == VM_TET4 && m->ncells && (io.has_lo || io.has_hi) &&
         !m->npoint_fields && !m->ncell_fields)
         s = vm__gr_mean_smooth(m, v, io.lo, io.has_lo, io.hi, io.has_hi, io.max_edge,
-                               VM_GRADED_POLISH_SHARE * io.distance, &moved, &flips, err);
-    if (!s && (moved || flips)) {
+                               VM_GRADED_POLISH_SHARE * io.distance, &moved, flips, err);
+    if (!s && (moved || flips[0] || flips[1] || flips[2] || flips[3])) {
         vm__imp_figures f;
         s = vm__imp_mesh_figures(m->points, m->cells, m->ncells, io.target_volume_measure, &f);
         if (s) {
@@ -327,7 +327,10 @@ vm_status vm_mesh_improve_graded(vm_mesh *m, const vm_volume *v, const vm_improv
             rr.tets_after = m->ncells;
             rr.points_after = m->npoints;
             rr.moves += moved;
-            rr.flips23 += flips;
+            rr.flips23 += flips[0];
+            rr.flips32 += flips[1];
+            rr.edge_removals += flips[2];
+            rr.boundary_flips += flips[3];
         }
     }
     if (r && !s) *r = rr;

@@ -113,6 +113,7 @@ typedef struct co {
     int merging;             /* merging: changed tets meet the angle limits themselves */
     size_t removals;         /* edge removals made (edge_remove) */
     size_t bremovals;        /* boundary edge removals made (bedge_remove) */
+    size_t flips23, flips32; /* flips made (flip) */
     size_t slot;             /* dead tets below this index are all reused (flips) */
     /* per vertex: `applied` when a collapse last changed its star (star), or what its checks
      * read (near: its star or a neighbour's) */
@@ -1822,6 +1823,10 @@ static int flip(co *C, const int32_t *old, int nold, const int32_t abc[3], int32
         slot[i] = old[i];
     if (nnew > nold && !take_slots(C, 1, C->m->region[old[0]], slot + nold)) return 0;
     put_tets(C, old, nold, slot, (const int32_t(*)[4])nt, nnew);
+    if (nold == 2)
+        C->flips23++;
+    else
+        C->flips32++;
     for (int i = 0; i < 3; i++)
         mark_vertex(C, abc[i]);
     mark_vertex(C, d);
@@ -3068,8 +3073,9 @@ static int co_open(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double
 
 vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi,
                              int has_hi, double max_edge, double distance, size_t *moved,
-                             size_t *flips, vm_error *err) {
-    *moved = *flips = 0;
+                             size_t flips[4], vm_error *err) {
+    *moved = 0;
+    flips[0] = flips[1] = flips[2] = flips[3] = 0;
     gr_field f;
     co C;
     vm_status s;
@@ -3082,12 +3088,15 @@ vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_
         size_t nf = bnd ? flip_sweep(&C) : 0;
         size_t n = mean_sweep(&C, P, !bnd, 3);
         *moved += n;
-        *flips += nf;
         if (!n && !nf) break;
     }
+    flips[0] = C.flips23;
+    flips[1] = C.flips32;
+    flips[2] = C.removals;
+    flips[3] = C.bremovals;
     free(P);
     if (!s && C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for smoothing");
-    if (!s && *flips) s = compact(&C, err);
+    if (!s && (flips[0] || flips[1] || flips[2] || flips[3])) s = compact(&C, err);
     co_free(&C);
     vm__gr_field_free(&f);
     return s;

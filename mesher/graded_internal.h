@@ -237,11 +237,12 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
  * units) boundary vertices move too, and each sweep follows flip sweeps (flip_sweep:
  * 2-3, 3-2, edge removals, boundary edge removals), both keeping the distance both ways as
  * the coarsening does; with 0 only interior vertices move and nothing flips. The material
- * is {lo <= f <= hi} of v (its border planes). [out] *moved: vertex moves, *flips: flips
- * made (the mesh comes back compacted when there are any). */
+ * is {lo <= f <= hi} of v (its border planes). [out] *moved: vertex moves; flips: the 2-3
+ * flips, 3-2 flips, edge removals and boundary edge removals made (the mesh comes back
+ * compacted when there are any). */
 vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_lo, double hi,
                              int has_hi, double max_edge, double distance, size_t *moved,
-                             size_t *flips, vm_error *err);
+                             size_t flips[4], vm_error *err);
 
 /* The coarsening's flip sweeps (graded_coarsen.c, flip_sweep: 2-3 and 3-2 flips, edge
  * removal and boundary edge removal, each where it betters the worst tet it replaces) over

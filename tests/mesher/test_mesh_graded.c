@@ -490,8 +490,8 @@ static void meanSweepsRaiseTheMeanInside(void) {
     double mean0 = mean_min_dihedral(&m);
     double *before = malloc(3 * m.npoints * sizeof *before);
     memcpy(before, m.points, 3 * m.npoints * sizeof *before);
-    size_t moved = 0, flips = 0;
-    CHECK_OK(vm__gr_mean_smooth(&m, &v, 0.0, 1, 0.0, 0, edge_max, 0.0, &moved, &flips, &err),
+    size_t moved = 0, flips[4];
+    CHECK_OK(vm__gr_mean_smooth(&m, &v, 0.0, 1, 0.0, 0, edge_max, 0.0, &moved, flips, &err),
              &err);
     CHECK_OK(vm_mesh_check(&m, &r1, &err), &err);
     double mean1 = mean_min_dihedral(&m);
