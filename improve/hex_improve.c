@@ -532,6 +532,13 @@ static int ray_cubic(const vm_volume *v, const int64_t i0[3], const double x[3],
     return isfinite(k[0]) && isfinite(k[1]) && isfinite(k[2]) && isfinite(k[3]) && big > 0.0;
 }
 
+/* Whether ray_cubic's cubic k at t is clearly (by margin) on the side of iso that f is on. */
+static inline int cubic_clear(const double k[4], double t, double f, double iso,
+                              double margin) {
+    double e = ((k[3] * t + k[2]) * t + k[1]) * t + k[0] - iso;
+    return f > iso ? e > margin : e < -margin;
+}
+
 /* How far (t) the ray x + t u stays in cell i0 as field_cell finds it: a point of the ray
  * before the returned t lies at least CELL_STAY_MARGIN voxels inside the cell's planes that
  * the ray heads for (field_cell clamps beyond the box, so the outer cells reach on to
@@ -575,8 +582,7 @@ static double iso_walk(const hx *w, const double x[3], double f, double iso, con
     for (double t = ISO_WALK_STEP; t <= tmax; t += ISO_WALK_STEP) {
         if (t < safe_until) continue;
         if (t < cub_until) {
-            double e = ((k[3] * t + k[2]) * t + k[1]) * t + k[0] - iso;
-            if (f > iso ? e > margin : e < -margin) continue;
+            if (cubic_clear(k, t, f, iso, margin)) continue;
         }
         double y[3], fr[3];
         int64_t c[3];
@@ -594,8 +600,7 @@ static double iso_walk(const hx *w, const double x[3], double f, double iso, con
                                                              : -INFINITY;
             /* (the step itself, as any: clearly on f's side, or measured) */
             if (t < cub_until) {
-                double e = ((k[3] * t + k[2]) * t + k[1]) * t + k[0] - iso;
-                if (f > iso ? e > margin : e < -margin) continue;
+                if (cubic_clear(k, t, f, iso, margin)) continue;
             }
         }
         double fy = field_value(w->v, c, fr);

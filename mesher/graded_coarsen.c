@@ -2331,14 +2331,16 @@ static size_t flip_sweep(co *C) {
     return all;
 }
 
+/* The pattern searches' 14 directions (optimize_vertex, sum_search): the axes, then the
+ * diagonals (the callers scale these by 1 / sqrt 3). */
+static const double search_dir[14][3] = {
+    {1, 0, 0},  {-1, 0, 0}, {0, 1, 0},   {0, -1, 0}, {0, 0, 1},   {0, 0, -1},  {1, 1, 1},
+    {1, 1, -1}, {1, -1, 1}, {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1}, {-1, -1, 1}, {-1, -1, -1}};
+
 /* Moves vertex v to where the worst grade of its tets is highest, by a pattern search
  * (14 directions, steps from a third of its mean edge down), then through try_move (every
  * bound of a collapse), halving the move when that refuses. */
 static int optimize_vertex(co *C, int32_t v, plan *P) {
-    static const double dir[14][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},   {0, -1, 0},
-                                      {0, 0, 1},  {0, 0, -1}, {1, 1, 1},   {1, 1, -1},
-                                      {1, -1, 1}, {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1},
-                                      {-1, -1, 1}, {-1, -1, -1}};
     const ilist *l = &C->vt[v];
     if (C->fix[v] || l->n == 0) return 0;
     double L = 0, base = INFINITY;
@@ -2371,7 +2373,7 @@ static int optimize_vertex(co *C, int32_t v, plan *P) {
             for (int d = 0; d < 14; d++) {
                 double y[3], g = INFINITY, s = d < 6 ? step : step / sqrt(3.0);
                 for (int r = 0; r < 3; r++)
-                    y[r] = x[r] + s * dir[d][r];
+                    y[r] = x[r] + s * search_dir[d][r];
                 /* a tet whose dihedral cosines put its grade clearly at or below bg rules
                  * the step out without its arc cosines and ABAQUS measures */
                 double ca = 15 * bg, cb = 180 - 30 * bg;
@@ -2393,7 +2395,7 @@ static int optimize_vertex(co *C, int32_t v, plan *P) {
             if (bd < 0) break;
             double s = bd < 6 ? step : step / sqrt(3.0);
             for (int r = 0; r < 3; r++)
-                x[r] += s * dir[bd][r];
+                x[r] += s * search_dir[bd][r];
             best = bg;
         }
     if (ord != ord_here) free(ord);
@@ -2433,10 +2435,6 @@ static double star_sum(const co *C, int32_t v, const double y[3], double lo, dou
  * plane, then onto the isosurface), no tet's smallest angle below the star's worst nor its
  * largest above the targets or the star's largest. [out] x. 1 when it found a better place. */
 static int sum_search(const co *C, int32_t v, double x[3]) {
-    static const double dir[14][3] = {{1, 0, 0},   {-1, 0, 0},  {0, 1, 0},  {0, -1, 0},
-                                      {0, 0, 1},   {0, 0, -1},  {1, 1, 1},  {1, 1, -1},
-                                      {1, -1, 1},  {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1},
-                                      {-1, -1, 1}, {-1, -1, -1}};
     const ilist *l = &C->vt[v];
     double L = 0, lo = 180, hi = 0, nrm[3] = {0, 0, 0};
     int ne = 0;
@@ -2467,7 +2465,7 @@ static int sum_search(const co *C, int32_t v, double x[3]) {
             for (int d = 0; d < 14; d++) {
                 double y[3], e[3], s = d < 6 ? step : step / sqrt(3.0);
                 for (int r = 0; r < 3; r++)
-                    e[r] = s * dir[d][r];
+                    e[r] = s * search_dir[d][r];
                 if (C->bnd[v]) {
                     double en = e[0] * nrm[0] + e[1] * nrm[1] + e[2] * nrm[2];
                     for (int r = 0; r < 3; r++)
