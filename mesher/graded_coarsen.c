@@ -200,18 +200,22 @@ static int phi_grad(const co *C, const double x[3], double *phi, double g[3]) {
         double hi = (double)(f->n[d] - 1), tol = 1e-9 * (double)f->n[d];
         if (ijk[d] < -tol || ijk[d] > hi + tol || f->n[d] < 2) return 0;
         double q = ijk[d] < 0 ? 0 : ijk[d] > hi ? hi : ijk[d];
-        c[d] = (int64_t)floor(q);
+        c[d] = (int64_t)q; /* q >= 0: its floor (floor() is a library call) */
         if (c[d] > f->n[d] - 2) c[d] = f->n[d] - 2;
         t[d] = q - (double)c[d];
     }
+    /* the cell's corners, x fastest (vm__gr_phi_point of each) */
+    const float *s0 = f->v->data + c[0] + f->n[0] * (c[1] + f->n[1] * c[2]);
+    int64_t sy0 = f->n[0], sz0 = f->n[0] * f->n[1];
+    const int64_t off[8] = {0, 1, sy0, sy0 + 1, sz0, sz0 + 1, sz0 + sy0, sz0 + sy0 + 1};
     double v[8];
     for (int k = 0; k < 8; k++)
-        v[k] = vm__gr_phi_point(f, c[0] + (k & 1), c[1] + (k >> 1 & 1), c[2] + (k >> 2));
+        v[k] = vm__gr_phi_value(f, s0[off[k]]);
     /* trilinear value and its derivatives in index space */
+    const double tw[3][2] = {{1 - t[0], t[0]}, {1 - t[1], t[1]}, {1 - t[2], t[2]}};
     double val = 0, gi[3] = {0, 0, 0};
     for (int k = 0; k < 8; k++) {
-        double wx = (k & 1) ? t[0] : 1 - t[0], wy = (k >> 1 & 1) ? t[1] : 1 - t[1],
-               wz = (k >> 2) ? t[2] : 1 - t[2];
+        double wx = tw[0][k & 1], wy = tw[1][k >> 1 & 1], wz = tw[2][k >> 2];
         double sx = (k & 1) ? 1 : -1, sy = (k >> 1 & 1) ? 1 : -1, sz = (k >> 2) ? 1 : -1;
         val += v[k] * wx * wy * wz;
         gi[0] += v[k] * sx * wy * wz;
@@ -1383,6 +1387,12 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
     }
     memcpy(pv, x, sizeof old);
     int ok = 1;
+    /* the worst angles each moved tet must keep (the tests after the loop, made per tet: a
+     * tet past one rules the move out without measuring the rest), and whether a tet may
+     * fail ABAQUS's check (-1: not known yet) */
+    double lo_min = fmin(GR_CO_MIN, olo), hi_max = fmax(GR_CO_MAX, ohi);
+    if (better >= 2) lo_min = fmax(lo_min, olo);
+    int may_fail = -1;
     for (int32_t i = 0; i < l->n && ok; i++) {
         const vm_index *c = tet(C, l->v[i]);
         double p[4][3], lo, hi;
@@ -1407,7 +1417,18 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
         }
         lo = acos(cmax) * GR_CO_DEG;
         hi = acos(cmin) * GR_CO_DEG;
-        if (!abaqus_ok((const double(*)[3])p)) nab = 1;
+        if (lo < lo_min || hi > hi_max || (better == 1 && !(lo > olo + 0.01))) {
+            ok = 0;
+            break;
+        }
+        if (!abaqus_ok((const double(*)[3])p)) {
+            if (may_fail < 0) may_fail = star_fails_abaqus(C, v);
+            if (!may_fail) {
+                ok = 0;
+                break;
+            }
+            nab = 1;
+        }
         nlo = fmin(nlo, lo);
         nhi = fmax(nhi, hi);
         nsum += lo;
@@ -1643,29 +1664,38 @@ static double grade(double lo, double hi) {
     return fmin(lo / 15.0, (180.0 - hi) / 30.0);
 }
 
-/* The grade of the tet (a, b, c, d) as positioned, or -1 when it is not positive. */
-static double grade_of(const co *C, const double *a, const double *b, const double *c,
-                       const double *d) {
+/* The cosines ([out] *ca, *cb) that a tet's smallest and largest dihedral angles are past
+ * (its largest cosine above ca, or its smallest below cb) only when its grade is surely at or
+ * below bar: the angles 15 bar and 180 - 30 bar, with a margin for round-off (2 and -2: never).
+ */
+static void bar_cosines(double bar, double *ca, double *cb) {
+    double a = 15 * bar, b = 180 - 30 * bar;
+    *ca = a > 0 && a < 180 ? cos(a / GR_CO_DEG) + 1e-9 : 2;
+    *cb = b > 0 && b < 180 ? cos(b / GR_CO_DEG) - 1e-9 : -2;
+}
+
+/* The grade of the tet (a, b, c, d) as positioned, or -1 when it is not positive; bar when
+ * its dihedral cosines are past ca or cb (bar_cosines: the grade is then at or below bar, and
+ * the arc cosines and ABAQUS's measures are not needed). */
+static double grade_cut(const co *C, const double *a, const double *b, const double *c,
+                        const double *d, double bar, double ca, double cb) {
     if (!(C->sign * vol6(a, b, c, d) > 0)) return -1;
-    double p[4][3], lo, hi;
+    double p[4][3], cmax, cmin;
     memcpy(p[0], a, sizeof p[0]);
     memcpy(p[1], b, sizeof p[1]);
     memcpy(p[2], c, sizeof p[2]);
     memcpy(p[3], d, sizeof p[3]);
-    double ab = tet_angles((const double(*)[3])p, &lo, &hi);
-    return fmin(grade(lo, hi), ab);
+    if (!dihedral_cosines((const double(*)[3])p, &cmax, &cmin))
+        return -1; /* (as tet_angles: a degenerate tet) */
+    if (cmax > ca || cmin < cb) return bar;
+    double lo = acos(cmax) * GR_CO_DEG, hi = acos(cmin) * GR_CO_DEG;
+    return fmin(grade(lo, hi), abaqus_grade((const double(*)[3])p));
 }
 
-/* Whether the positive tet q surely has a grade at or below the bar whose cosines are ca
- * (the smallest dihedral angle's) and cb (the largest's): its dihedral cosines are past one
- * of them. 0 when not sure (then grade_of decides). */
-static int grade_at_most(const co *C, const double *const q[4], double ca, double cb) {
-    if (!(C->sign * vol6(q[0], q[1], q[2], q[3]) > 0)) return 0;
-    double p[4][3], cmax, cmin;
-    for (int k = 0; k < 4; k++)
-        memcpy(p[k], q[k], sizeof p[k]);
-    if (!dihedral_cosines((const double(*)[3])p, &cmax, &cmin)) return 0;
-    return cmax > ca || cmin < cb;
+/* The grade of the tet (a, b, c, d) as positioned, or -1 when it is not positive. */
+static double grade_of(const co *C, const double *a, const double *b, const double *c,
+                       const double *d) {
+    return grade_cut(C, a, b, c, d, 0, 2, -2);
 }
 
 /* The grade of live tet t, from the caches. */
@@ -1929,6 +1959,7 @@ typedef struct ring_ctx {
     const co *C;
     const int32_t *w;
     int32_t d, e;
+    double bar, ca, cb; /* the last bar asked and its bar_cosines */
 } ring_ctx;
 /* Whether the ring's chord w[i] w[j] may be made: it keeps the size bounds and is no edge
  * yet. */
@@ -1938,12 +1969,16 @@ static int ring_chord(void *user, int i, int j) {
     return edge_ok(r->C, pt(r->C, ij[0]), pt(r->C, ij[1])) && !held(r->C, ij, 2, NULL, 0);
 }
 static double ring_grade(void *user, int i, int k, int j, double bar) {
-    const ring_ctx *r = user;
+    ring_ctx *r = user;
     const co *C = r->C;
     const double *pi = pt(C, r->w[i]), *pk = pt(C, r->w[k]), *pj = pt(C, r->w[j]);
-    double g = grade_of(C, pi, pk, pj, pt(C, r->e));
+    if (bar != r->bar) { /* (the programme takes any grade at or below bar as bar) */
+        r->bar = bar;
+        bar_cosines(bar, &r->ca, &r->cb);
+    }
+    double g = grade_cut(C, pi, pk, pj, pt(C, r->e), bar, r->ca, r->cb);
     if (!(g > bar)) return g;
-    return fmin(g, grade_of(C, pk, pi, pj, pt(C, r->d)));
+    return fmin(g, grade_cut(C, pk, pi, pj, pt(C, r->d), bar, r->ca, r->cb));
 }
 
 /* Edge removal: the n = 4..GR_CO_RING tets around interior edge de become the 2n - 4 tets of
@@ -1961,7 +1996,7 @@ static int edge_remove(co *C, int32_t d, int32_t e) {
         if (C->m->region[ts[i]] != C->m->region[ts[0]]) return 0;
         before = fmin(before, tet_grade(C, ts[i]));
     }
-    ring_ctx rc = {C, w, d, e};
+    ring_ctx rc = {C, w, d, e, NAN, 2, -2};
     int tri[VM__RING_MAX][3];
     if (!(vm__ring_triangulate(n, before + 1e-3, ring_grade, &rc, ring_chord, tri) >
           before + 1e-3))
@@ -2016,7 +2051,7 @@ static int bedge_remove(co *C, int32_t d, int32_t e) {
     }
     int32_t cd[2] = {w0, wm};
     if (!edge_ok(C, pt(C, w0), pt(C, wm)) || held(C, cd, 2, NULL, 0)) return 0;
-    ring_ctx rc = {C, w, d, e};
+    ring_ctx rc = {C, w, d, e, NAN, 2, -2};
     int tri[VM__RING_MAX][3];
     if (!(vm__ring_triangulate(m + 1, before + 1e-3, ring_grade, &rc, ring_chord, tri) >
           before + 1e-3))
@@ -2376,19 +2411,14 @@ static int optimize_vertex(co *C, int32_t v, plan *P) {
                     y[r] = x[r] + s * search_dir[d][r];
                 /* a tet whose dihedral cosines put its grade clearly at or below bg rules
                  * the step out without its arc cosines and ABAQUS measures */
-                double ca = 15 * bg, cb = 180 - 30 * bg;
-                ca = ca > 0 && ca < 180 ? cos(ca / GR_CO_DEG) + 1e-9 : 2;
-                cb = cb > 0 && cb < 180 ? cos(cb / GR_CO_DEG) - 1e-9 : -2;
+                double ca, cb;
+                bar_cosines(bg, &ca, &cb);
                 for (int32_t i = 0; i < l->n && g > bg; i++) {
                     const vm_index *c = tet(C, ord[i]);
                     const double *q[4];
                     for (int k = 0; k < 4; k++)
                         q[k] = c[k] == (vm_index)v ? y : pt(C, c[k]);
-                    if (grade_at_most(C, q, ca, cb)) {
-                        g = bg;
-                        break;
-                    }
-                    g = fmin(g, grade_of(C, q[0], q[1], q[2], q[3]));
+                    g = fmin(g, grade_cut(C, q[0], q[1], q[2], q[3], bg, ca, cb));
                 }
                 if (g > bg) bg = g, bd = d;
             }

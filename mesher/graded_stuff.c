@@ -666,7 +666,7 @@ static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_erro
                     }
             r->piece = p;
         }
-    qsort(f, nf, sizeof *f, face_cmp);
+    (void)vm__psort(f, nf, sizeof *f, face_cmp); /* (equal faces are dropped together) */
     for (size_t i = 0; i < nf;) {
         size_t j = i + 1;
         while (j < nf && face_cmp(&f[i], &f[j]) == 0)
@@ -684,7 +684,7 @@ static vm_status undo_pinches(stuff *S, gr_stuff_stats *st, size_t *bad, vm_erro
             for (int o = 0; o < 3; o++)
                 if (o != k) in[ni++] = (inc_rec){f[b].v[k], f[b].v[o], b};
     }
-    qsort(in, ni, sizeof *in, inc_cmp);
+    (void)vm__psort(in, ni, sizeof *in, inc_cmp); /* (a total order) */
     for (size_t i = 0; i < ni;) {
         size_t j = i;
         while (j < ni && in[j].v == in[i].v)

@@ -66,7 +66,7 @@ static int eval(const field *F, const double x[3], double *val, double gw[3]) {
     to_index(F, x, u);
     for (int a = 0; a < 3; a++) {
         if (!(u[a] >= -1e-9 && u[a] <= (double)(F->n[a] - 1) + 1e-9)) return 0;
-        c[a] = (int64_t)floor(u[a]);
+        c[a] = (int64_t)u[a]; /* the floor, or 0 for u in [-1e-9, 0): clamped to 0 below */
         if (c[a] > F->n[a] - 2) c[a] = F->n[a] - 2;
         if (c[a] < 0) c[a] = 0;
         t[a] = u[a] - (double)c[a];
