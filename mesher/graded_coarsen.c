@@ -330,6 +330,13 @@ static double abaqus_measures(const double p[4][3], double *chi, double *clo) {
     return vm;
 }
 
+/* tet_angles from the tet's dihedral cosines cmax and cmin (dihedral_cosines). */
+static double tet_angles_of(const double p[4][3], double cmax, double cmin, double *lo,
+                            double *hi) {
+    *lo = acos(cmax) * GR_CO_DEG;
+    *hi = acos(cmin) * GR_CO_DEG;
+    return abaqus_grade(p);
+}
 /* A tet's dihedral range [*lo, *hi] (degrees) and its abaqus_grade; -1 (and 0..180) for a
  * degenerate tet. */
 static double tet_angles(const double p[4][3], double *lo, double *hi) {
@@ -337,9 +344,7 @@ static double tet_angles(const double p[4][3], double *lo, double *hi) {
     *lo = 0;
     *hi = 180;
     if (!dihedral_cosines(p, &cmax, &cmin)) return -1;
-    *lo = acos(cmax) * GR_CO_DEG;
-    *hi = acos(cmin) * GR_CO_DEG;
-    return abaqus_grade(p);
+    return tet_angles_of(p, cmax, cmin, lo, hi);
 }
 
 /* Whether a live tet around v already fails the ABAQUS check (then changes there need not
@@ -1379,7 +1384,6 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
     double old[3], olo = 180, ohi = 0, vol0 = 0, vol1 = 0, nlo = 180, nhi = 0;
     double osum = 0, nsum = 0; /* the star's smallest dihedral angles, summed */
     double oedge = 0, nedge = 0; /* the star's longest edge at v, squared, before and after */
-    int nab = 0; /* a moved tet fails the ABAQUS check */
     double *pv = C->m->points + 3 * (size_t)v;
     memcpy(old, pv, sizeof old);
     for (int32_t i = 0; i < l->n; i++) {
@@ -1429,19 +1433,17 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
             break;
         }
         if (!abaqus_ok((const double(*)[3])p)) {
+            /* (the star's cached grades are still those of v's old place) */
             if (may_fail < 0) may_fail = star_fails_abaqus(C, v);
             if (!may_fail) {
                 ok = 0;
                 break;
             }
-            nab = 1;
         }
         nlo = fmin(nlo, lo);
         nhi = fmax(nhi, hi);
         nsum += lo;
     }
-    /* (the star's cached grades are still those of v's old place) */
-    if (ok && nab && !star_fails_abaqus(C, v)) ok = 0;
     if (ok && (nlo < fmin(GR_CO_MIN, olo) || nhi > fmax(GR_CO_MAX, ohi))) ok = 0;
     if (ok && better == 1 && !(nlo > olo + 0.01)) ok = 0;
     /* (2: the mean sweep, the sum of the smallest angles up, the worst no lower) */
@@ -1695,8 +1697,8 @@ static double grade_cut(const co *C, const double *a, const double *b, const dou
     if (!dihedral_cosines((const double(*)[3])p, &cmax, &cmin))
         return -1; /* (as tet_angles: a degenerate tet) */
     if (cmax > ca || cmin < cb) return bar;
-    double lo = acos(cmax) * GR_CO_DEG, hi = acos(cmin) * GR_CO_DEG;
-    return fmin(grade(lo, hi), abaqus_grade((const double(*)[3])p));
+    double lo, hi, ab = tet_angles_of((const double(*)[3])p, cmax, cmin, &lo, &hi);
+    return fmin(grade(lo, hi), ab);
 }
 
 /* The grade of the tet (a, b, c, d) as positioned, or -1 when it is not positive. */
