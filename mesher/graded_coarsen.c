@@ -1381,7 +1381,7 @@ static vm_status compact(co *C, vm_error *err) {
  * volume budget); with `better`, only when the worst min dihedral around v grows. */
 static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
     const ilist *l = &C->vt[v];
-    double old[3], olo = 180, ohi = 0, vol0 = 0, vol1 = 0, nlo = 180, nhi = 0;
+    double old[3], olo = 180, ohi = 0, vol0 = 0, vol1 = 0;
     double osum = 0, nsum = 0; /* the star's smallest dihedral angles, summed */
     double oedge = 0, nedge = 0; /* the star's longest edge at v, squared, before and after */
     double *pv = C->m->points + 3 * (size_t)v;
@@ -1398,8 +1398,9 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
     }
     memcpy(pv, x, sizeof old);
     int ok = 1;
-    /* the worst angles each moved tet must keep (the tests after the loop, made per tet: a
-     * tet past one rules the move out without measuring the rest), and whether a tet may
+    /* the worst angles each moved tet must keep, tested per tet (one past them rules the
+     * move out without measuring the rest): within the targets or no worse than the star's
+     * worst; better 1: above that worst, 2 and 3: no lower than it. And whether a tet may
      * fail ABAQUS's check (-1: not known yet) */
     double lo_min = fmin(GR_CO_MIN, olo), hi_max = fmax(GR_CO_MAX, ohi);
     if (better >= 2) lo_min = fmax(lo_min, olo);
@@ -1440,19 +1441,13 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
                 break;
             }
         }
-        nlo = fmin(nlo, lo);
-        nhi = fmax(nhi, hi);
         nsum += lo;
     }
-    if (ok && (nlo < fmin(GR_CO_MIN, olo) || nhi > fmax(GR_CO_MAX, ohi))) ok = 0;
-    if (ok && better == 1 && !(nlo > olo + 0.01)) ok = 0;
-    /* (2: the mean sweep, the sum of the smallest angles up, the worst no lower) */
-    if (ok && better == 2 && !(nsum > osum + GR_CO_MEAN_GAIN * l->n && nlo >= olo)) ok = 0;
+    /* (2: the mean sweep, the sum of the smallest angles up, the worst no lower (above)) */
+    if (ok && better == 2 && !(nsum > osum + GR_CO_MEAN_GAIN * l->n)) ok = 0;
     /* (3: the same after the quality pass, where the size bounds are not known here: the
      * star's longest edge does not grow either) */
-    if (ok && better == 3 &&
-        !(nsum > osum + GR_CO_MEAN_GAIN * l->n && nlo >= olo && nedge <= oedge))
-        ok = 0;
+    if (ok && better == 3 && !(nsum > osum + GR_CO_MEAN_GAIN * l->n && nedge <= oedge)) ok = 0;
     double dv = (vol1 - vol0) / 6;
     if (ok && (C->dvol + dv < -C->vol_budget || C->dvol + dv > C->vol_gain)) ok = 0;
     P->ntri = 0;
