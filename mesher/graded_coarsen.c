@@ -1376,16 +1376,27 @@ static vm_status compact(co *C, vm_error *err) {
     return VM_OK;
 }
 
-/* Moves vertex v to x when every condition of a collapse holds for its tets (positive,
- * the angle rule, the distance both ways for its boundary faces and their samples, the
- * volume budget); with `better`, only when the worst min dihedral around v grows. */
-static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
+/* The place of vertex u, where vertex v is at x. */
+static const double *pt_at(const co *C, int64_t u, int32_t v, const double *x) {
+    return u == v ? x : pt(C, u);
+}
+
+/* Whether a change of volume dv keeps the net volume budget. */
+static int budget_ok(const co *C, double dv) {
+    return !(C->dvol + dv < -C->vol_budget || C->dvol + dv > C->vol_gain);
+}
+
+/* Whether vertex v may move to x: every condition of a collapse holds for its tets
+ * (positive, the angle rule, the distance both ways for its boundary faces and their
+ * samples, and with `budget` the net volume budget); with `better`, only when the worst min
+ * dihedral around v grows. [out] *dv, the change of volume; P, v's boundary triangles. It
+ * reads the mesh only (the move sweeps check vertices of one colour on threads). */
+static int move_holds(const co *C, int32_t v, const double x[3], int better, int budget,
+                      plan *P, double *dv) {
     const ilist *l = &C->vt[v];
-    double old[3], olo = 180, ohi = 0, vol0 = 0, vol1 = 0;
+    double olo = 180, ohi = 0, vol0 = 0, vol1 = 0;
     double osum = 0, nsum = 0; /* the star's smallest dihedral angles, summed */
     double oedge = 0, nedge = 0; /* the star's longest edge at v, squared, before and after */
-    double *pv = C->m->points + 3 * (size_t)v;
-    memcpy(old, pv, sizeof old);
     for (int32_t i = 0; i < l->n; i++) {
         int32_t t = l->v[i];
         const vm_index *c = tet(C, t);
@@ -1396,7 +1407,6 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
             if (c[k] != v) oedge = fmax(oedge, dist2(pt(C, c[k]), pt(C, v)));
         vol0 += C->sign * vol6(pt(C, c[0]), pt(C, c[1]), pt(C, c[2]), pt(C, c[3]));
     }
-    memcpy(pv, x, sizeof old);
     int ok = 1;
     /* the worst angles each moved tet must keep, tested per tet (one past them rules the
      * move out without measuring the rest): within the targets or no worse than the star's
@@ -1409,7 +1419,7 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
         const vm_index *c = tet(C, l->v[i]);
         double p[4][3], lo, hi;
         for (int k = 0; k < 4; k++)
-            memcpy(p[k], pt(C, c[k]), sizeof p[k]);
+            memcpy(p[k], pt_at(C, c[k], v, x), sizeof p[k]);
         double v6 = C->sign * vol6(p[0], p[1], p[2], p[3]);
         if (v6 <= 0) {
             ok = 0;
@@ -1434,7 +1444,7 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
             break;
         }
         if (!abaqus_ok((const double(*)[3])p)) {
-            /* (the star's cached grades are still those of v's old place) */
+            /* (the star's cached grades are those of v's place) */
             if (may_fail < 0) may_fail = star_fails_abaqus(C, v);
             if (!may_fail) {
                 ok = 0;
@@ -1448,8 +1458,8 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
     /* (3: the same after the quality pass, where the size bounds are not known here: the
      * star's longest edge does not grow either) */
     if (ok && better == 3 && !(nsum > osum + GR_CO_MEAN_GAIN * l->n && nedge <= oedge)) ok = 0;
-    double dv = (vol1 - vol0) / 6;
-    if (ok && (C->dvol + dv < -C->vol_budget || C->dvol + dv > C->vol_gain)) ok = 0;
+    *dv = (vol1 - vol0) / 6;
+    if (ok && budget && !budget_ok(C, *dv)) ok = 0;
     P->ntri = 0;
     if (ok && C->bnd[v]) {
         for (int32_t i = 0; i < l->n && ok; i++) {
@@ -1458,10 +1468,11 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
             for (int k = 0; k < 4 && ok; k++) {
                 if (c[k] == v || !face_free(C, t, k)) continue;
                 double n[3];
-                face_out(C, c, k, n);
-                if (!tri_near(C, pt(C, c[(k + 1) & 3]), pt(C, c[(k + 2) & 3]),
-                              pt(C, c[(k + 3) & 3]), n) ||
-                    P->ntri == SET_MAX) {
+                const double *q[3];
+                for (int j = 0; j < 3; j++)
+                    q[j] = pt_at(C, c[(k + 1 + j) & 3], v, x);
+                out_normal(q[0], q[1], q[2], pt_at(C, c[k], v, x), n);
+                if (!tri_near(C, q[0], q[1], q[2], n) || P->ntri == SET_MAX) {
                     ok = 0;
                     break;
                 }
@@ -1478,84 +1489,228 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
             double best = INFINITY, t2 = C->tol[q] * C->tol[q];
             for (int j = 0; j < P->ntri && best > t2; j++) {
                 const int32_t *U = P->tri[j];
-                double d2 =
-                    vm__point_triangle_dist2(C->sp[q], pt(C, U[0]), pt(C, U[1]), pt(C, U[2]));
+                double d2 = vm__point_triangle_dist2(
+                    C->sp[q], pt_at(C, U[0], v, x), pt_at(C, U[1], v, x), pt_at(C, U[2], v, x));
                 if (d2 < best) best = d2;
             }
             if (best > t2) ok = 0;
         }
     }
-    if (!ok) {
-        memcpy(pv, old, sizeof old);
-        return 0;
-    }
+    return ok;
+}
+
+/* Moves vertex v to x, a change of volume dv (move_holds said it may). */
+static void move_to(co *C, int32_t v, const double x[3], double dv) {
+    const ilist *l = &C->vt[v];
+    memcpy(C->m->points + 3 * (size_t)v, x, 3 * sizeof *x);
     for (int32_t i = 0; i < l->n; i++)
         measure(C, l->v[i]);
     C->dvol += dv;
     mark_around(C, v);
+}
+
+/* Moves vertex v to x when move_holds, with the budget, says it may. */
+static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
+    double dv;
+    if (!move_holds(C, v, x, better, 1, P, &dv)) return 0;
+    move_to(C, v, x, dv);
     return 1;
 }
 
-/* One sweep of moves: a boundary vertex goes along its outward normal by the middle of the
- * signed distance range of its faces (so that chords of a convex surface straddle it instead
- * of lying inside: the same bound then holds with longer edges, and the volume comes back);
- * an interior vertex goes to the mean of its neighbours when that raises its worst angle.
- * [out] moved. */
-static size_t move_sweep(co *C, plan *P) {
-    size_t moved = 0;
-    for (size_t vv = 0; vv < C->nv && !stopped(C); vv++) {
-        int32_t v = (int32_t)vv;
-        if (C->dead_v[v] || C->fix[v] || C->vt[v].n == 0) continue;
-        const ilist *l = &C->vt[v];
-        double x[3];
-        if (!C->bnd[v]) {
-            double s[3] = {0, 0, 0};
-            int n = 0;
-            for (int32_t i = 0; i < l->n; i++) {
-                const vm_index *c = tet(C, l->v[i]);
-                for (int k = 0; k < 4; k++)
-                    if (c[k] != v) {
-                        for (int d = 0; d < 3; d++)
-                            s[d] += pt(C, c[k])[d];
-                        n++;
-                    }
-            }
-            for (int d = 0; d < 3; d++)
-                x[d] = s[d] / n;
-            if (try_move(C, v, x, 1, P)) moved++;
-            continue;
+/* The places a move sweep tries for vertex v, in order, into x (how many: 0 to 2), and
+ * `better` for try_move: a boundary vertex goes along its outward normal by the middle of
+ * the signed distance range of its faces (so that chords of a convex surface straddle it
+ * instead of lying inside: the same bound then holds with longer edges, and the volume comes
+ * back), then half as far; an interior vertex goes to the mean of its neighbours when that
+ * raises its worst angle. */
+static int move_tries(const co *C, int32_t v, double x[][3], int *better) {
+    const ilist *l = &C->vt[v];
+    if (!C->bnd[v]) {
+        double s[3] = {0, 0, 0};
+        int n = 0;
+        for (int32_t i = 0; i < l->n; i++) {
+            const vm_index *c = tet(C, l->v[i]);
+            for (int k = 0; k < 4; k++)
+                if (c[k] != v) {
+                    for (int d = 0; d < 3; d++)
+                        s[d] += pt(C, c[k])[d];
+                    n++;
+                }
         }
-        double lo = INFINITY, hi = -INFINITY, phi, g[3];
-        int ok = phi_grad(C, pt(C, v), &phi, g);
-        for (int32_t i = 0; i < l->n && ok; i++) {
-            int32_t t = l->v[i];
-            const vm_index *c = tet(C, t);
-            for (int k = 0; k < 4 && ok; k++) {
-                if (c[k] == v || !face_free(C, t, k)) continue;
-                double n[3], a, b;
-                face_out(C, c, k, n);
-                ok = tri_errors(C, pt(C, c[(k + 1) & 3]), pt(C, c[(k + 2) & 3]),
-                                pt(C, c[(k + 3) & 3]), n, INFINITY, &a, &b);
-                lo = fmin(lo, a);
-                hi = fmax(hi, b);
-            }
-        }
-        double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-        if (!ok || !(gn > 0) || !(hi > lo)) continue;
-        /* e > 0 inside: moving outward (along -grad) by s lowers e by about s */
-        double step = 0.5 * (lo + hi);
-        if (step > 0.5 * C->D) step = 0.5 * C->D;
-        if (step < -0.5 * C->D) step = -0.5 * C->D;
-        if (fabs(step) < 0.02 * C->D) continue;
-        for (int tries = 0; tries < 2; tries++, step *= 0.5) {
-            for (int d = 0; d < 3; d++)
-                x[d] = pt(C, v)[d] - step * g[d] / gn;
-            if (try_move(C, v, x, 0, P)) {
-                moved++;
-                break;
-            }
+        for (int d = 0; d < 3; d++)
+            x[0][d] = s[d] / n;
+        *better = 1;
+        return 1;
+    }
+    *better = 0;
+    double lo = INFINITY, hi = -INFINITY, phi, g[3];
+    int ok = phi_grad(C, pt(C, v), &phi, g);
+    for (int32_t i = 0; i < l->n && ok; i++) {
+        int32_t t = l->v[i];
+        const vm_index *c = tet(C, t);
+        for (int k = 0; k < 4 && ok; k++) {
+            if (c[k] == v || !face_free(C, t, k)) continue;
+            double n[3], a, b;
+            face_out(C, c, k, n);
+            ok = tri_errors(C, pt(C, c[(k + 1) & 3]), pt(C, c[(k + 2) & 3]),
+                            pt(C, c[(k + 3) & 3]), n, INFINITY, &a, &b);
+            lo = fmin(lo, a);
+            hi = fmax(hi, b);
         }
     }
+    double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    if (!ok || !(gn > 0) || !(hi > lo)) return 0;
+    /* e > 0 inside: moving outward (along -grad) by s lowers e by about s */
+    double step = 0.5 * (lo + hi);
+    if (step > 0.5 * C->D) step = 0.5 * C->D;
+    if (step < -0.5 * C->D) step = -0.5 * C->D;
+    if (fabs(step) < 0.02 * C->D) return 0;
+    for (int k = 0; k < 2; k++, step *= 0.5)
+        for (int d = 0; d < 3; d++)
+            x[k][d] = pt(C, v)[d] - step * g[d] / gn;
+    return 2;
+}
+
+/* The most places a sweep tries for one vertex (mean_tries). */
+enum { GR_CO_TRIES = 9 };
+
+/* A sweep's vertex, checked on a thread: its tries, the first that held without the volume
+ * budget (-1: none) and its change of volume. */
+typedef struct move_plan {
+    double x[GR_CO_TRIES][3], dv;
+    int n, held, better;
+} move_plan;
+
+/* What a sweep tries at each vertex: move_tries, or (mean) mean_tries with interior_only
+ * and better. */
+typedef struct sweep_kind {
+    int mean, interior_only, better;
+} sweep_kind;
+
+static int mean_tries(const co *C, int32_t v, int interior_only, int better, double x[][3],
+                      int *better_out);
+
+static int sweep_tries(const co *C, int32_t v, const sweep_kind *K, double x[][3],
+                       int *better) {
+    if (K->mean) return mean_tries(C, v, K->interior_only, K->better, x, better);
+    return move_tries(C, v, x, better);
+}
+
+enum { GR_CO_COLOURS = 64, GR_CO_UNCOLOURED = 255 };
+
+/* Colours the vertices that a sweep moves (live, off the border planes, in tets; with
+ * interior_only, not on the boundary), no
+ * two neighbours alike, each the lowest colour its neighbours before it leave free
+ * (GR_CO_COLOURS, or GR_CO_COLOURS itself where all are taken); the others get
+ * GR_CO_UNCOLOURED. */
+static void colour(const co *C, int interior_only, unsigned char *col) {
+    memset(col, GR_CO_UNCOLOURED, C->nv);
+    for (size_t vv = 0; vv < C->nv; vv++) {
+        int32_t v = (int32_t)vv;
+        if (C->dead_v[v] || C->fix[v] || C->vt[v].n == 0 || (interior_only && C->bnd[v]))
+            continue;
+        const ilist *l = &C->vt[v];
+        uint64_t used = 0;
+        for (int32_t i = 0; i < l->n; i++) {
+            const vm_index *c = tet(C, l->v[i]);
+            for (int k = 0; k < 4; k++)
+                if (col[c[k]] < GR_CO_COLOURS) used |= (uint64_t)1 << col[c[k]];
+        }
+        int k = 0;
+        while (k < GR_CO_COLOURS && (used >> k & 1))
+            k++;
+        col[v] = (unsigned char)k;
+    }
+}
+
+/* The threads the sweeps may use. */
+static int co_threads(void) {
+#ifdef VM_HAVE_OPENMP
+    return omp_get_max_threads();
+#else
+    return 1;
+#endif
+}
+
+/* One sweep of moves (sweep_tries), colour by colour: the vertices of one colour share no
+ * tet, so each is checked against the mesh as its colour began, on threads, and moved in
+ * order when its check held and the volume budget still does (else the tries after it are
+ * made in order); the last colour's vertices one by one. The same moves on any number of
+ * threads. [out] moved. */
+static size_t colour_sweep(co *C, const sweep_kind *K, int nthreads) {
+    size_t moved = 0, nv = C->nv;
+    unsigned char *col = malloc(nv + 1);
+    int32_t *ord = malloc(nv * sizeof *ord + 1);
+    plan *TP = malloc((size_t)nthreads * sizeof *TP);
+    size_t start[GR_CO_COLOURS + 2] = {0};
+    move_plan *M = NULL;
+    if (col && ord && TP) {
+        colour(C, K->interior_only, col);
+        for (size_t v = 0; v < nv; v++)
+            if (col[v] != GR_CO_UNCOLOURED) start[col[v] + 1]++;
+        size_t most = 0;
+        for (int k = 0; k <= GR_CO_COLOURS; k++) {
+            if (start[k + 1] > most) most = start[k + 1];
+            start[k + 1] += start[k];
+        }
+        size_t fill[GR_CO_COLOURS + 1];
+        memcpy(fill, start, sizeof fill);
+        for (size_t v = 0; v < nv; v++)
+            if (col[v] != GR_CO_UNCOLOURED) ord[fill[col[v]]++] = (int32_t)v;
+        M = malloc(most * sizeof *M + 1);
+    }
+    if (!M) {
+        C->nomem = 1;
+        free(col);
+        free(ord);
+        free(TP);
+        return 0;
+    }
+    for (int k = 0; k <= GR_CO_COLOURS && !C->stop; k++) {
+        size_t i0 = start[k], n = start[k + 1] - i0;
+        if (k < GR_CO_COLOURS) {
+#ifdef VM_HAVE_OPENMP
+#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 16)
+#endif
+            for (long long i = 0; i < (long long)n; i++) {
+                int t = 0;
+#ifdef VM_HAVE_OPENMP
+                t = omp_get_thread_num();
+#endif
+                move_plan *q = &M[i];
+                int32_t v = ord[i0 + (size_t)i];
+                q->n = sweep_tries(C, v, K, q->x, &q->better);
+                q->held = -1;
+                for (int j = 0; j < q->n && q->held < 0; j++)
+                    if (move_holds(C, v, q->x[j], q->better, 0, &TP[t], &q->dv)) q->held = j;
+            }
+        }
+        for (size_t i = 0; i < n && !stopped(C); i++) {
+            int32_t v = ord[i0 + i];
+            move_plan *q = &M[i];
+            int from = 0;
+            if (k < GR_CO_COLOURS) {
+                if (q->held < 0) continue;
+                if (budget_ok(C, q->dv)) {
+                    move_to(C, v, q->x[q->held], q->dv);
+                    moved++;
+                    continue;
+                }
+                from = q->held + 1;
+            } else
+                q->n = sweep_tries(C, v, K, q->x, &q->better);
+            for (int j = from; j < q->n; j++)
+                if (try_move(C, v, q->x[j], q->better, &TP[0])) {
+                    moved++;
+                    break;
+                }
+        }
+    }
+    (void)nthreads;
+    free(col);
+    free(ord);
+    free(TP);
+    free(M);
     return moved;
 }
 
@@ -2528,76 +2683,77 @@ static int sum_search(const co *C, int32_t v, double x[3]) {
  * every check of a move (try_move with `better` 2 or 3: 15..150 degrees and ABAQUS's check,
  * the volume, the distance both ways). With C->search, sum_search's place is tried first.
  * The collapses leave any tet of 15 degrees or more; this raises the mean of each tet's
- * smallest angle (issue 32) without touching the worst. [out] moved. */
-static size_t mean_sweep(co *C, plan *P, int interior_only, int better) {
-    size_t moved = 0;
-    for (size_t vv = 0; vv < C->nv && !stopped(C); vv++) {
-        int32_t v = (int32_t)vv;
-        if (C->dead_v[v] || C->fix[v] || C->vt[v].n == 0 || (interior_only && C->bnd[v]))
-            continue;
-        const ilist *l = &C->vt[v];
-        double s[3] = {0, 0, 0}, x[3];
-        int n = 0;
-        for (int32_t i = 0; i < l->n; i++) {
-            int32_t t = l->v[i];
-            const vm_index *c = tet(C, t);
-            for (int k = 0; k < 4; k++) {
-                if (c[k] == (vm_index)v) continue;
-                /* a boundary vertex: the other corners of its boundary faces */
-                if (C->bnd[v]) {
-                    int on = 0;
-                    for (int f = 0; f < 4 && !on; f++)
-                        on = f != k && c[f] != (vm_index)v && face_free(C, t, f);
-                    if (!on) continue;
-                }
-                for (int d = 0; d < 3; d++)
-                    s[d] += pt(C, c[k])[d];
-                n++;
+ * smallest angle (issue 32) without touching the worst. The places it tries for vertex v,
+ * in order, into x (how many: 0 to GR_CO_TRIES), and `better` for try_move. */
+static int mean_tries(const co *C, int32_t v, int interior_only, int better, double x[][3],
+                      int *better_out) {
+    *better_out = better;
+    if (interior_only && C->bnd[v]) return 0;
+    const ilist *l = &C->vt[v];
+    double s[3] = {0, 0, 0}, m[3];
+    int n = 0;
+    for (int32_t i = 0; i < l->n; i++) {
+        int32_t t = l->v[i];
+        const vm_index *c = tet(C, t);
+        for (int k = 0; k < 4; k++) {
+            if (c[k] == (vm_index)v) continue;
+            /* a boundary vertex: the other corners of its boundary faces */
+            if (C->bnd[v]) {
+                int on = 0;
+                for (int f = 0; f < 4 && !on; f++)
+                    on = f != k && c[f] != (vm_index)v && face_free(C, t, f);
+                if (!on) continue;
             }
-        }
-        if (!n) continue;
-        for (int d = 0; d < 3; d++)
-            x[d] = s[d] / n;
-        int lap = !C->bnd[v] || onto_surface(C, x);
-        /* an interior vertex tries the centre of its tets' circumcentres weighted by their
-         * volumes too (the optimal Delaunay triangulation's move, Chen and Xu 2004) */
-        double cand[3][3], wsum = 0, cs[3] = {0, 0, 0};
-        int nc = 0;
-        if (C->search && sum_search(C, v, cand[0])) nc++;
-        if (lap) memcpy(cand[nc++], x, sizeof x);
-        for (int32_t i = 0; i < l->n && !C->bnd[v]; i++) {
-            const vm_index *c = tet(C, l->v[i]);
-            double p[4][3], a[3], bc[3], w[3];
-            for (int k = 0; k < 4; k++)
-                memcpy(p[k], pt(C, c[k]), sizeof p[k]);
-            vm__tet_circum_vector((const double(*)[3])p, a, bc, w);
-            double v6 = a[0] * bc[0] + a[1] * bc[1] + a[2] * bc[2];
-            if (!(fabs(v6) > 0)) {
-                wsum = 0;
-                break;
-            }
-            /* circumcentre p0 + w / (2 v6); weight |v6| */
             for (int d = 0; d < 3; d++)
-                cs[d] += fabs(v6) * p[0][d] + 0.5 * w[d] * (v6 > 0 ? 1 : -1);
-            wsum += fabs(v6);
+                s[d] += pt(C, c[k])[d];
+            n++;
         }
-        if (wsum > 0) {
-            for (int d = 0; d < 3; d++)
-                cand[nc][d] = cs[d] / wsum;
-            nc++;
-        }
-        double o[3], y[3];
-        memcpy(o, pt(C, v), sizeof o);
-        int done = 0;
-        for (int j = 0; j < nc && !done; j++)
-            for (double w = 1; w > 0.2 && !done; w *= 0.5) {
-                for (int d = 0; d < 3; d++)
-                    y[d] = o[d] + w * (cand[j][d] - o[d]);
-                done = try_move(C, v, y, better, P);
-            }
-        moved += (size_t)done;
     }
-    return moved;
+    if (!n) return 0;
+    for (int d = 0; d < 3; d++)
+        m[d] = s[d] / n;
+    int lap = !C->bnd[v] || onto_surface(C, m);
+    /* an interior vertex tries the centre of its tets' circumcentres weighted by their
+     * volumes too (the optimal Delaunay triangulation's move, Chen and Xu 2004) */
+    double cand[3][3], wsum = 0, cs[3] = {0, 0, 0};
+    int nc = 0;
+    if (C->search && sum_search(C, v, cand[0])) nc++;
+    if (lap) memcpy(cand[nc++], m, sizeof m);
+    for (int32_t i = 0; i < l->n && !C->bnd[v]; i++) {
+        const vm_index *c = tet(C, l->v[i]);
+        double p[4][3], a[3], bc[3], w[3];
+        for (int k = 0; k < 4; k++)
+            memcpy(p[k], pt(C, c[k]), sizeof p[k]);
+        vm__tet_circum_vector((const double(*)[3])p, a, bc, w);
+        double v6 = a[0] * bc[0] + a[1] * bc[1] + a[2] * bc[2];
+        if (!(fabs(v6) > 0)) {
+            wsum = 0;
+            break;
+        }
+        /* circumcentre p0 + w / (2 v6); weight |v6| */
+        for (int d = 0; d < 3; d++)
+            cs[d] += fabs(v6) * p[0][d] + 0.5 * w[d] * (v6 > 0 ? 1 : -1);
+        wsum += fabs(v6);
+    }
+    if (wsum > 0) {
+        for (int d = 0; d < 3; d++)
+            cand[nc][d] = cs[d] / wsum;
+        nc++;
+    }
+    /* each candidate, then halfway and a quarter of the way there */
+    const double *o = pt(C, v);
+    int nt = 0;
+    for (int j = 0; j < nc; j++)
+        for (double w = 1; w > 0.2; w *= 0.5, nt++)
+            for (int d = 0; d < 3; d++)
+                x[nt][d] = o[d] + w * (cand[j][d] - o[d]);
+    return nt;
+}
+
+/* The sweep for the mean angle (mean_tries), colour by colour (colour_sweep). [out] moved. */
+static size_t mean_sweep(co *C, int interior_only, int better) {
+    sweep_kind K = {1, interior_only, better};
+    return colour_sweep(C, &K, co_threads());
 }
 
 /* Repair: each tet beyond 15..150 degrees has its vertices moved where that raises the worst
@@ -2906,10 +3062,7 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
      * the merges, moves and flips between rounds changed. */
     memo *F = NULL, *Fn = NULL;
     /* checks ahead on threads (none on one) */
-    int nthreads = 1;
-#ifdef VM_HAVE_OPENMP
-    nthreads = omp_get_max_threads();
-#endif
+    int nthreads = co_threads();
     spec *S = NULL;
     scratch *TW = NULL;
     set *TS = NULL;
@@ -3045,14 +3198,15 @@ vm_status vm__gr_coarsen(vm_mesh *m, const gr_field *f, double distance, double 
         }
         if ((target && C.live <= target) || (round > 0 && *removed == r0)) break;
         if (E && merge) merge_sweep(&C, E, ne_last, F, nf, target, P, sets, removed);
+        static const sweep_kind moves = {0, 0, 0};
         for (int k = 0; k < 2 && !C.nomem; k++)
-            move_sweep(&C, &P[0]);
+            colour_sweep(&C, &moves, nthreads);
         if (merge) flip_sweep(&C);
     }
     for (int k = 0; k < 3 && !s && !C.nomem && !C.stop; k++)
         if (!repair(&C, P, sets, removed)) break;
     for (int k = 0; k < GR_CO_MEAN_SWEEPS && !s && !C.nomem && !C.stop; k++)
-        if (!mean_sweep(&C, &P[0], 0, 2)) break;
+        if (!mean_sweep(&C, 0, 2)) break;
     for (int t = 0; TW && t < nthreads; t++)
         free(TW[t].vmark);
     free(S);
@@ -3125,7 +3279,7 @@ vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_
     C.vol_gain *= GR_CO_POLISH_VOLUME / GR_CO_NET_VOLUME;
     for (int k = 0; !s && !C.nomem && k < GR_CO_POLISH_ROUNDS; k++) {
         size_t nf = bnd ? flip_sweep(&C) : 0;
-        size_t n = mean_sweep(&C, P, !bnd, 3);
+        size_t n = mean_sweep(&C, !bnd, 3);
         *moved += n;
         if (!n && !nf) break;
     }

@@ -535,12 +535,16 @@ typedef struct graded_case {
     double min_mean;        /* mean of each tet's smallest dihedral angle at least (degrees;
                                the coarsening's mean sweeps: 38.1, 35.9 and 37.3 without;
                                genus 3 fell below the old floor, 39.3, to 38.5 with edge
-                               removal: 30% fewer tets for the same shape) */
+                               removal: 30% fewer tets for the same shape; the torus went
+                               from 38.6 to 36.2 when the move sweeps went colour by colour,
+                               in 495 tets instead of 561: over the five phantoms at 48, 64
+                               and 80, the mean angle moved 40.8 -> 40.5 and the tets +2.5%,
+                               each shape up at one size and down at another) */
 } graded_case;
 
 static void gradedPhantomsAreSmallAndFaithful(void) {
     static const graded_case cases[] = {
-        {VM_PHANTOM_SPHERE, 400, 1.05, 38.8}, {VM_PHANTOM_TORUS, 150, 1.05, 36.8},
+        {VM_PHANTOM_SPHERE, 400, 1.05, 38.8}, {VM_PHANTOM_TORUS, 150, 1.05, 35.8},
         {VM_PHANTOM_GENUS3, 25, 1.05, 38.2},  {VM_PHANTOM_TWO_SPHERES, 120, 1.05, 0},
         {VM_PHANTOM_PLATE, 1 / 1.2, 1.05, 0}, {VM_PHANTOM_CUT_SPHERE, 150, 1.05, 0}};
     for (size_t t = 0; t < sizeof cases / sizeof cases[0]; t++) {
