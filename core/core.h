@@ -33,11 +33,13 @@ vm_status vm__grow(void **buf, size_t *cap, size_t need, size_t elem, vm_error *
  * only (the array is sorted all the same). */
 int vm__psort(void *base, size_t n, size_t size, int (*cmp)(const void *, const void *));
 
-/* Sort short lists in ascending order: insertion up to 32 elements, qsort beyond (the
- * buckets of the counting sorts filled on the threads, put back in item order). */
+/* Sort lists of integers in ascending order: insertion up to 32 elements, a quicksort beyond
+ * (the buckets of the counting sorts filled on the threads, put back in item order; the
+ * coarsening's sets of packed ids). */
 void vm__sort_u32(uint32_t *a, size_t n);
 void vm__sort_size(size_t *a, size_t n);
 void vm__sort_u64(uint64_t *a, size_t n);
+void vm__sort_i64(int64_t *a, size_t n);
 
 /* Squared distance from p to triangle (a, b, c) (core/util.c; Ericson 5.1.5, the closest
  * point by Voronoi regions), a degenerate triangle's nearest corner where the regions fail. */

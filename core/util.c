@@ -208,17 +208,51 @@ static int size_cmp(const void *a, const void *b) {
     return x < y ? -1 : x > y;
 }
 
+static int i64_cmp(const void *a, const void *b) {
+    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
 static int u64_cmp(const void *a, const void *b) {
     uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
     return x < y ? -1 : x > y;
 }
 
-/* The short-list sort of one element type (core.h). */
+/* The short-list sort of one element type (core.h): a quicksort with the median of three
+ * as pivot, the smaller part first by recursion and the larger by the loop, insertion sort
+ * below SORT_INSERTION_MAX, and qsort for what is left once the depth passes twice the
+ * list's log2 (a run of bad pivots: the sort stays n log n). The values are integers, so any
+ * correct sort gives the same array. */
 #define SHORT_SORT(name, type, cmp)                                                            \
-    void name(type *a, size_t n) {                                                             \
-        if (n > SORT_INSERTION_MAX) {                                                          \
-            qsort(a, n, sizeof *a, cmp);                                                       \
-            return;                                                                            \
+    static void name##_at(type *a, size_t n, int depth) {                                      \
+        while (n > SORT_INSERTION_MAX) {                                                       \
+            if (depth-- == 0) {                                                                \
+                qsort(a, n, sizeof *a, cmp);                                                   \
+                return;                                                                        \
+            }                                                                                  \
+            type x = a[0], y = a[n / 2], z = a[n - 1], t;                                      \
+            type pv = x < y ? (y < z ? y : (x < z ? z : x)) : (x < z ? x : (y < z ? z : y));   \
+            size_t i = 0, j = n - 1;                                                           \
+            for (;;) {                                                                         \
+                while (a[i] < pv)                                                              \
+                    i++;                                                                       \
+                while (pv < a[j])                                                              \
+                    j--;                                                                       \
+                if (i >= j) break;                                                             \
+                t = a[i];                                                                      \
+                a[i++] = a[j];                                                                 \
+                a[j--] = t;                                                                    \
+            }                                                                                  \
+            /* a[0..j] <= pv <= a[j+1..n) */                                                   \
+            size_t nl = j + 1, nr = n - nl;                                                    \
+            if (nl < nr) {                                                                     \
+                name##_at(a, nl, depth);                                                       \
+                a += nl;                                                                       \
+                n = nr;                                                                        \
+            } else {                                                                           \
+                name##_at(a + nl, nr, depth);                                                  \
+                n = nl;                                                                        \
+            }                                                                                  \
         }                                                                                      \
         for (size_t i = 1; i < n; i++) {                                                       \
             type x = a[i];                                                                     \
@@ -227,11 +261,18 @@ static int u64_cmp(const void *a, const void *b) {
                 a[j] = a[j - 1];                                                               \
             a[j] = x;                                                                          \
         }                                                                                      \
+    }                                                                                          \
+    void name(type *a, size_t n) {                                                             \
+        int depth = 0;                                                                         \
+        for (size_t k = n; k > 1; k >>= 1)                                                     \
+            depth += 2;                                                                        \
+        name##_at(a, n, depth);                                                                \
     }
 
 SHORT_SORT(vm__sort_u32, uint32_t, u32_cmp)
 SHORT_SORT(vm__sort_size, size_t, size_cmp)
 SHORT_SORT(vm__sort_u64, uint64_t, u64_cmp)
+SHORT_SORT(vm__sort_i64, int64_t, i64_cmp)
 
 /* Squared distance between points p and q. */
 static double tri_pd2(const double a[3], const double b[3]) {

@@ -675,12 +675,8 @@ static void set_add(set *s, int64_t x) {
     else
         s->v[s->n++] = x;
 }
-static int i64_cmp(const void *x, const void *y) {
-    int64_t p = *(const int64_t *)x, q = *(const int64_t *)y;
-    return (p > q) - (p < q);
-}
 static void set_sort(set *s) {
-    qsort(s->v, (size_t)s->n, sizeof *s->v, i64_cmp);
+    vm__sort_i64(s->v, (size_t)s->n);
 }
 static int set_has(const set *s, int64_t x) {
     int lo = 0, hi = s->n;

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-/* tests/core/test_compact.c — vm__sort_u32, vm__sort_size and vm__sort_u64 (core/util.c),
+/* tests/core/test_compact.c — vm__sort_u32, vm__sort_size, vm__sort_u64 and vm__sort_i64
+ * (core/util.c),
  * which put the buckets of counting sorts filled on the threads back in order, and
  * vm__compact (core/threads.c), the stable compaction the mesher's re-emission and the
  * quality pass's slot list run on the threads: on 1 to 4 threads, sizes from 0 past several
@@ -9,6 +10,7 @@
 #include "core/core.h"
 #include "test.h"
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* An item: its original index and whether it is to be kept, moved as a pair. */
@@ -119,5 +121,55 @@ static void shortAndLongListsAreSortedAscending(void) {
     }
 }
 
-TEST_MAIN(T(shortAndLongListsAreSortedAscending),
+static int i64_order(const void *a, const void *b) {
+    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Longer lists (the quicksort's partitions, down to insertion) in the orders that trouble a
+ * quicksort: random with and without repeats, sorted, reversed, all equal, organ pipe, saw
+ * tooth; signed values (the coarsening's hashed faces are negative as often as not). Each
+ * comes out as qsort sorts it. */
+static void longListsInAwkwardOrdersAreSortedAscending(void) {
+    static const size_t sizes[] = {33, 34, 65, 100, 257, 1000, 2048, 4099};
+    uint64_t st = 5;
+    for (size_t si = 0; si < sizeof sizes / sizeof sizes[0]; si++) {
+        size_t n = sizes[si];
+        int64_t *a = malloc(n * sizeof *a), *want = malloc(n * sizeof *want);
+        uint64_t *u = malloc(n * sizeof *u);
+        CHECK(a && want && u);
+        if (!a || !want || !u) {
+            free(a);
+            free(want);
+            free(u);
+            return;
+        }
+        for (int pat = 0; pat < 7; pat++) {
+            for (size_t i = 0; i < n; i++) {
+                double r = vm_test_uniform(&st);
+                int64_t x = pat == 0   ? (int64_t)(r * 1e15) - (int64_t)5e14
+                            : pat == 1 ? (int64_t)(r * 7) - 3
+                            : pat == 2 ? (int64_t)i
+                            : pat == 3 ? (int64_t)(n - i)
+                            : pat == 4 ? 42
+                            : pat == 5 ? (int64_t)(i < n / 2 ? i : n - i)
+                                       : (int64_t)(i % 17) * (i % 2 ? -1 : 1);
+                a[i] = want[i] = x;
+                u[i] = (uint64_t)x ^ 0x8000000000000000ull; /* the same order, unsigned */
+            }
+            qsort(want, n, sizeof *want, i64_order);
+            vm__sort_i64(a, n);
+            vm__sort_u64(u, n);
+            int same = 1;
+            for (size_t i = 0; i < n; i++)
+                same &= a[i] == want[i] && u[i] == ((uint64_t)want[i] ^ 0x8000000000000000ull);
+            CHECK_MSG(same, "n %zu, pattern %d: not in qsort's order", n, pat);
+        }
+        free(a);
+        free(want);
+        free(u);
+    }
+}
+
+TEST_MAIN(T(shortAndLongListsAreSortedAscending), T(longListsInAwkwardOrdersAreSortedAscending),
           T(keepsWhatASerialFilterKeepsInOrderOnAnyThreadCount))
