@@ -1592,7 +1592,8 @@ static int sweep_tries(const co *C, int32_t v, const sweep_kind *K, double x[][3
     return move_tries(C, v, x, better);
 }
 
-enum { GR_CO_COLOURS = 64, GR_CO_UNCOLOURED = 255 };
+/* GR_CO_CHUNK: the vertices of a colour checked at a time (the plans' memory) */
+enum { GR_CO_COLOURS = 64, GR_CO_UNCOLOURED = 255, GR_CO_CHUNK = 16384 };
 
 /* Colours the vertices that a sweep moves (live, off the border planes, in tets; with
  * interior_only, not on the boundary), no
@@ -1629,7 +1630,8 @@ static int co_threads(void) {
 }
 
 /* One sweep of moves (sweep_tries), colour by colour: the vertices of one colour share no
- * tet, so each is checked against the mesh as its colour began, on threads, and moved in
+ * tet, so each is checked against the mesh as its colour began, on threads (GR_CO_CHUNK at a
+ * time: the moves of one colour change nothing another's check reads), and moved in
  * order when its check held and the volume budget still does (else the tries after it are
  * made in order); the last colour's vertices one by one. The same moves on any number of
  * threads. [out] moved. */
@@ -1653,7 +1655,7 @@ static size_t colour_sweep(co *C, const sweep_kind *K, int nthreads) {
         memcpy(fill, start, sizeof fill);
         for (size_t v = 0; v < nv; v++)
             if (col[v] != GR_CO_UNCOLOURED) ord[fill[col[v]]++] = (int32_t)v;
-        M = malloc(most * sizeof *M + 1);
+        M = malloc((most < GR_CO_CHUNK ? most : GR_CO_CHUNK) * sizeof *M + 1);
     }
     if (!M) {
         C->nomem = 1;
@@ -1662,46 +1664,48 @@ static size_t colour_sweep(co *C, const sweep_kind *K, int nthreads) {
         free(TP);
         return 0;
     }
-    for (int k = 0; k <= GR_CO_COLOURS && !C->stop; k++) {
-        size_t i0 = start[k], n = start[k + 1] - i0;
-        if (k < GR_CO_COLOURS) {
+    for (int k = 0; k <= GR_CO_COLOURS && !C->stop; k++)
+        for (size_t i0 = start[k]; i0 < start[k + 1] && !C->stop; i0 += GR_CO_CHUNK) {
+            size_t n = start[k + 1] - i0 < GR_CO_CHUNK ? start[k + 1] - i0 : GR_CO_CHUNK;
+            if (k < GR_CO_COLOURS) {
 #ifdef VM_HAVE_OPENMP
 #pragma omp parallel for num_threads(nthreads) schedule(dynamic, 16)
 #endif
-            for (long long i = 0; i < (long long)n; i++) {
-                int t = 0;
+                for (long long i = 0; i < (long long)n; i++) {
+                    int t = 0;
 #ifdef VM_HAVE_OPENMP
-                t = omp_get_thread_num();
+                    t = omp_get_thread_num();
 #endif
+                    move_plan *q = &M[i];
+                    int32_t v = ord[i0 + (size_t)i];
+                    q->n = sweep_tries(C, v, K, q->x, &q->better);
+                    q->held = -1;
+                    for (int j = 0; j < q->n && q->held < 0; j++)
+                        if (move_holds(C, v, q->x[j], q->better, 0, &TP[t], &q->dv))
+                            q->held = j;
+                }
+            }
+            for (size_t i = 0; i < n && !stopped(C); i++) {
+                int32_t v = ord[i0 + i];
                 move_plan *q = &M[i];
-                int32_t v = ord[i0 + (size_t)i];
-                q->n = sweep_tries(C, v, K, q->x, &q->better);
-                q->held = -1;
-                for (int j = 0; j < q->n && q->held < 0; j++)
-                    if (move_holds(C, v, q->x[j], q->better, 0, &TP[t], &q->dv)) q->held = j;
+                int from = 0;
+                if (k < GR_CO_COLOURS) {
+                    if (q->held < 0) continue;
+                    if (budget_ok(C, q->dv)) {
+                        move_to(C, v, q->x[q->held], q->dv);
+                        moved++;
+                        continue;
+                    }
+                    from = q->held + 1;
+                } else
+                    q->n = sweep_tries(C, v, K, q->x, &q->better);
+                for (int j = from; j < q->n; j++)
+                    if (try_move(C, v, q->x[j], q->better, &TP[0])) {
+                        moved++;
+                        break;
+                    }
             }
         }
-        for (size_t i = 0; i < n && !stopped(C); i++) {
-            int32_t v = ord[i0 + i];
-            move_plan *q = &M[i];
-            int from = 0;
-            if (k < GR_CO_COLOURS) {
-                if (q->held < 0) continue;
-                if (budget_ok(C, q->dv)) {
-                    move_to(C, v, q->x[q->held], q->dv);
-                    moved++;
-                    continue;
-                }
-                from = q->held + 1;
-            } else
-                q->n = sweep_tries(C, v, K, q->x, &q->better);
-            for (int j = from; j < q->n; j++)
-                if (try_move(C, v, q->x[j], q->better, &TP[0])) {
-                    moved++;
-                    break;
-                }
-        }
-    }
     (void)nthreads;
     free(col);
     free(ord);
@@ -3267,8 +3271,6 @@ vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_
     co C;
     vm_status s;
     if (!co_open(m, v, lo, has_lo, hi, has_hi, max_edge, distance, &f, &C, &s, err)) return s;
-    plan *P = malloc(sizeof *P);
-    if (!P) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for smoothing");
     int bnd = distance > 0;
     C.search = 1;
     C.vol_budget *= GR_CO_POLISH_VOLUME / GR_CO_NET_VOLUME;
@@ -3283,7 +3285,6 @@ vm_status vm__gr_mean_smooth(vm_mesh *m, const vm_volume *v, double lo, int has_
     flips[1] = C.flips32;
     flips[2] = C.removals;
     flips[3] = C.bremovals;
-    free(P);
     if (!s && C.nomem) s = vm_error_set(err, VM_ERR_NOMEM, "mesh: out of memory for smoothing");
     if (!s && (flips[0] || flips[1] || flips[2] || flips[3])) s = compact(&C, err);
     co_free(&C);
