@@ -1513,6 +1513,33 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
     return 1;
 }
 
+/* The mean of vertex v's neighbours, each once per tet that holds both (a boundary vertex:
+ * the other corners of its boundary faces) into m; how many were summed. */
+static int neighbour_mean(const co *C, int32_t v, double m[3]) {
+    const ilist *l = &C->vt[v];
+    double s[3] = {0, 0, 0};
+    int n = 0;
+    for (int32_t i = 0; i < l->n; i++) {
+        int32_t t = l->v[i];
+        const vm_index *c = tet(C, t);
+        for (int k = 0; k < 4; k++) {
+            if (c[k] == (vm_index)v) continue;
+            if (C->bnd[v]) {
+                int on = 0;
+                for (int f = 0; f < 4 && !on; f++)
+                    on = f != k && c[f] != (vm_index)v && face_free(C, t, f);
+                if (!on) continue;
+            }
+            for (int d = 0; d < 3; d++)
+                s[d] += pt(C, c[k])[d];
+            n++;
+        }
+    }
+    for (int d = 0; d < 3 && n; d++)
+        m[d] = s[d] / n;
+    return n;
+}
+
 /* The places a move sweep tries for vertex v, in order, into x (how many: 0 to 2), and
  * `better` for try_move: a boundary vertex goes along its outward normal by the middle of
  * the signed distance range of its faces (so that chords of a convex surface straddle it
@@ -1522,19 +1549,7 @@ static int try_move(co *C, int32_t v, const double x[3], int better, plan *P) {
 static int move_tries(const co *C, int32_t v, double x[][3], int *better) {
     const ilist *l = &C->vt[v];
     if (!C->bnd[v]) {
-        double s[3] = {0, 0, 0};
-        int n = 0;
-        for (int32_t i = 0; i < l->n; i++) {
-            const vm_index *c = tet(C, l->v[i]);
-            for (int k = 0; k < 4; k++)
-                if (c[k] != v) {
-                    for (int d = 0; d < 3; d++)
-                        s[d] += pt(C, c[k])[d];
-                    n++;
-                }
-        }
-        for (int d = 0; d < 3; d++)
-            x[0][d] = s[d] / n;
+        neighbour_mean(C, v, x[0]);
         *better = 1;
         return 1;
     }
@@ -1577,18 +1592,17 @@ typedef struct move_plan {
     int n, held, better;
 } move_plan;
 
-/* What a sweep tries at each vertex: move_tries, or (mean) mean_tries with interior_only
- * and better. */
+/* What a sweep tries at each vertex: move_tries, or (mean) mean_tries with better; which
+ * vertices: with interior_only, none on the boundary (colour). */
 typedef struct sweep_kind {
     int mean, interior_only, better;
 } sweep_kind;
 
-static int mean_tries(const co *C, int32_t v, int interior_only, int better, double x[][3],
-                      int *better_out);
+static int mean_tries(const co *C, int32_t v, int better, double x[][3], int *better_out);
 
 static int sweep_tries(const co *C, int32_t v, const sweep_kind *K, double x[][3],
                        int *better) {
-    if (K->mean) return mean_tries(C, v, K->interior_only, K->better, x, better);
+    if (K->mean) return mean_tries(C, v, K->better, x, better);
     return move_tries(C, v, x, better);
 }
 
@@ -1596,10 +1610,9 @@ static int sweep_tries(const co *C, int32_t v, const sweep_kind *K, double x[][3
 enum { GR_CO_COLOURS = 64, GR_CO_UNCOLOURED = 255, GR_CO_CHUNK = 16384 };
 
 /* Colours the vertices that a sweep moves (live, off the border planes, in tets; with
- * interior_only, not on the boundary), no
- * two neighbours alike, each the lowest colour its neighbours before it leave free
- * (GR_CO_COLOURS, or GR_CO_COLOURS itself where all are taken); the others get
- * GR_CO_UNCOLOURED. */
+ * interior_only, not on the boundary), no two neighbours alike: each gets the lowest colour
+ * below GR_CO_COLOURS that its neighbours before it leave free (GR_CO_COLOURS itself where
+ * they take all); the others get GR_CO_UNCOLOURED. */
 static void colour(const co *C, int interior_only, unsigned char *col) {
     memset(col, GR_CO_UNCOLOURED, C->nv);
     for (size_t vv = 0; vv < C->nv; vv++) {
@@ -2685,33 +2698,11 @@ static int sum_search(const co *C, int32_t v, double x[3]) {
  * The collapses leave any tet of 15 degrees or more; this raises the mean of each tet's
  * smallest angle (issue 32) without touching the worst. The places it tries for vertex v,
  * in order, into x (how many: 0 to GR_CO_TRIES), and `better` for try_move. */
-static int mean_tries(const co *C, int32_t v, int interior_only, int better, double x[][3],
-                      int *better_out) {
+static int mean_tries(const co *C, int32_t v, int better, double x[][3], int *better_out) {
     *better_out = better;
-    if (interior_only && C->bnd[v]) return 0;
     const ilist *l = &C->vt[v];
-    double s[3] = {0, 0, 0}, m[3];
-    int n = 0;
-    for (int32_t i = 0; i < l->n; i++) {
-        int32_t t = l->v[i];
-        const vm_index *c = tet(C, t);
-        for (int k = 0; k < 4; k++) {
-            if (c[k] == (vm_index)v) continue;
-            /* a boundary vertex: the other corners of its boundary faces */
-            if (C->bnd[v]) {
-                int on = 0;
-                for (int f = 0; f < 4 && !on; f++)
-                    on = f != k && c[f] != (vm_index)v && face_free(C, t, f);
-                if (!on) continue;
-            }
-            for (int d = 0; d < 3; d++)
-                s[d] += pt(C, c[k])[d];
-            n++;
-        }
-    }
-    if (!n) return 0;
-    for (int d = 0; d < 3; d++)
-        m[d] = s[d] / n;
+    double m[3];
+    if (!neighbour_mean(C, v, m)) return 0;
     int lap = !C->bnd[v] || onto_surface(C, m);
     /* an interior vertex tries the centre of its tets' circumcentres weighted by their
      * volumes too (the optimal Delaunay triangulation's move, Chen and Xu 2004) */
